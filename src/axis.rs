@@ -1,0 +1,127 @@
+//! Machine axes as the controllers name them. isel has up to four (X, Y, Z, A),
+//! EMCU three (X, Y, Z); an EMP link has one axis per drive, mapped onto these
+//! names by the machine profile.
+
+use std::fmt;
+
+use serde::{Deserialize, Serialize};
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+pub enum Axis {
+    X,
+    Y,
+    Z,
+    A,
+}
+
+impl Axis {
+    pub const ALL: [Axis; 4] = [Axis::X, Axis::Y, Axis::Z, Axis::A];
+
+    /// Position in the X, Y, Z, A order that every reply and parameter list uses.
+    pub fn index(self) -> usize {
+        self as usize
+    }
+
+    pub fn from_index(index: usize) -> Option<Axis> {
+        Self::ALL.get(index).copied()
+    }
+
+    /// Bit in an isel axis mask (`@0R`, `@0n`, `@0N`): bit0 X, bit1 Y, bit2 Z, bit3 A.
+    pub fn mask_bit(self) -> u8 {
+        1 << self.index()
+    }
+
+    pub fn letter(self) -> char {
+        match self {
+            Axis::X => 'X',
+            Axis::Y => 'Y',
+            Axis::Z => 'Z',
+            Axis::A => 'A',
+        }
+    }
+
+    pub fn from_letter(c: char) -> Option<Axis> {
+        match c.to_ascii_uppercase() {
+            'X' => Some(Axis::X),
+            'Y' => Some(Axis::Y),
+            'Z' => Some(Axis::Z),
+            'A' => Some(Axis::A),
+            _ => None,
+        }
+    }
+}
+
+impl fmt::Display for Axis {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}", self.letter())
+    }
+}
+
+/// A set of axes, stored as the isel bit mask (bit0 X … bit3 A).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+pub struct AxisSet(u8);
+
+impl AxisSet {
+    pub const EMPTY: AxisSet = AxisSet(0);
+    pub const XYZ: AxisSet = AxisSet(0b0111);
+    pub const XYZA: AxisSet = AxisSet(0b1111);
+
+    /// The set for a mask; bits above A are dropped.
+    pub fn from_mask(mask: u8) -> AxisSet {
+        AxisSet(mask & 0b1111)
+    }
+
+    pub fn mask(self) -> u8 {
+        self.0
+    }
+
+    pub fn with(self, axis: Axis) -> AxisSet {
+        AxisSet(self.0 | axis.mask_bit())
+    }
+
+    pub fn contains(self, axis: Axis) -> bool {
+        self.0 & axis.mask_bit() != 0
+    }
+
+    pub fn is_empty(self) -> bool {
+        self.0 == 0
+    }
+
+    pub fn len(self) -> usize {
+        self.0.count_ones() as usize
+    }
+
+    pub fn iter(self) -> impl Iterator<Item = Axis> {
+        Axis::ALL.into_iter().filter(move |a| self.contains(*a))
+    }
+}
+
+impl FromIterator<Axis> for AxisSet {
+    fn from_iter<I: IntoIterator<Item = Axis>>(iter: I) -> Self {
+        iter.into_iter().fold(AxisSet::EMPTY, AxisSet::with)
+    }
+}
+
+impl fmt::Display for AxisSet {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        for axis in self.iter() {
+            write!(f, "{axis}")?;
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn masks_follow_the_isel_bit_order() {
+        assert_eq!(AxisSet::from_iter([Axis::X, Axis::Z]).mask(), 5);
+        assert_eq!(
+            AxisSet::from_mask(8).iter().collect::<Vec<_>>(),
+            vec![Axis::A]
+        );
+        assert_eq!(AxisSet::XYZ.to_string(), "XYZ");
+    }
+}

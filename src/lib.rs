@@ -1,0 +1,16 @@
+//! jogterm: a keyboard-only terminal console for stepper and servo machines on
+//! isel, EMCU and EMP serial motion controllers.
+//!
+//! Layers, from the wire up (see `docs/architecture.md`):
+//! - [`proto`]: sans-IO protocol cores, one per controller family.
+//! - [`sim`]: built-in simulators of the three controllers.
+//! - [`transport`]: serial port, pseudo-terminal, in-process socket pair.
+//! - [`wire`], [`motion`], [`axis`], [`traffic`]: shared arithmetic and types.
+
+pub mod axis;
+pub mod motion;
+pub mod proto;
+pub mod sim;
+pub mod traffic;
+pub mod transport;
+pub mod wire;

@@ -1,0 +1,62 @@
+//! Built-in controller simulators.
+//!
+//! A simulator is split the same way as the rest of jogterm:
+//! - a **device model** per family (`SimDevice`): a sans-IO state machine that is
+//!   told when each byte has arrived and what time it is, and hands back whole
+//!   messages to transmit. It models the controller (axes, ramps, ports, program
+//!   memory), not a reply table.
+//! - one **shell** for all families (`shell`): owns the line, models wire timing in
+//!   both directions at the device's baud rate, applies injected faults to the
+//!   messages on their way out, and feeds operator controls (flip an input,
+//!   press a button) to the device. It serves a pseudo-terminal, or any byte
+//!   stream, on its own threads with precise sleeps (tokio's timer has 1 ms
+//!   granularity, a byte at 19200 baud takes 0.52 ms).
+
+use std::time::Instant;
+
+use crate::wire::LineSettings;
+
+/// An operator action on the simulated machine's inputs, as typed on the
+/// simulator's stdin (see `docs/simulator.md` for the control language).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum InputControl {
+    /// Set a named input to a level: `true` = the bit reads 1 (active-high as
+    /// read, `../shared/protocols.md` isel 7). For safety circuits and the hood
+    /// `closed` means 1 (healthy), `open` means 0 (tripped / opened).
+    Set { name: String, level: bool },
+    /// Press and release a momentary button (start, stop).
+    Press { name: String },
+}
+
+/// A controller model driven by the simulator shell.
+///
+/// Time is always passed in; a model never reads a clock, sleeps or does I/O, so
+/// it can be tested with synthetic instants.
+pub trait SimDevice: Send + 'static {
+    /// The line the device talks on; the shell paces both directions to it.
+    fn line(&self) -> LineSettings;
+
+    /// One byte has completely arrived over the wire at `now`.
+    fn on_byte(&mut self, byte: u8, now: Instant);
+
+    /// Bring the model up to `now`: motion, dwells, ramps, delayed replies.
+    fn advance(&mut self, now: Instant);
+
+    /// When the model next needs `advance` without any input (a move ends, a
+    /// processing delay is over); `None` while nothing is pending.
+    fn next_deadline(&self) -> Option<Instant>;
+
+    /// The next complete message to put on the wire (a reply, an unsolicited
+    /// frame). The shell transmits messages in order, byte by byte at line speed.
+    fn poll_output(&mut self) -> Option<Vec<u8>>;
+
+    /// Apply an operator action. `Err` says what was wrong (unknown input name
+    /// for this family, with the names that exist).
+    fn control(&mut self, control: &InputControl, now: Instant) -> Result<(), String>;
+
+    /// The names `control` understands, for the simulator's `help`.
+    fn input_names(&self) -> Vec<&'static str>;
+
+    /// One line of state (positions, ports, flags) for the simulator's `show`.
+    fn describe(&self, now: Instant) -> String;
+}
