@@ -6,7 +6,8 @@ use std::fmt;
 
 use serde::{Deserialize, Serialize};
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+/// Serialized as its letter (`"X"`), which is how profiles and JSON output name it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Axis {
     X,
     Y,
@@ -48,6 +49,26 @@ impl Axis {
             'A' => Some(Axis::A),
             _ => None,
         }
+    }
+}
+
+impl Serialize for Axis {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_char(self.letter())
+    }
+}
+
+impl<'de> Deserialize<'de> for Axis {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let text = String::deserialize(d)?;
+        let mut chars = text.chars();
+        match (chars.next(), chars.next()) {
+            (Some(c), None) if c.is_ascii_uppercase() => Axis::from_letter(c),
+            _ => None,
+        }
+        .ok_or_else(|| {
+            serde::de::Error::custom(format!("`{text}` is not an axis: expected X, Y, Z or A"))
+        })
     }
 }
 

@@ -8,6 +8,7 @@
 //! - [`wire`], [`motion`], [`axis`], [`traffic`]: shared arithmetic and types.
 
 pub mod axis;
+pub mod config;
 pub mod motion;
 pub mod proto;
 pub mod sim;

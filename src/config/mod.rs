@@ -1,0 +1,234 @@
+//! Machine profiles (`config/`) and themes (`themes/`), embedded in the binary
+//! and patched field by field by the user's own files.
+//!
+//! Resolving a name (`--profile NAME`, `--theme NAME`):
+//! 1. a path when it contains `/` or ends in `.toml`;
+//! 2. otherwise `<config dir>/profiles/NAME.toml` (`themes/NAME.toml`) if it exists,
+//!    the config dir being `$JOGTERM_CONFIG_DIR` or `~/.config/jogterm`;
+//! 3. otherwise the shipped profile (theme) of that name.
+//!
+//! Every file patches another: the one named by its `base` key, else the shipped
+//! `default` profile (`dark` theme). A broken file stops jogterm before anything
+//! starts, with the file, line and what was expected.
+
+pub mod profile;
+pub mod source;
+pub mod theme;
+
+use std::path::{Path, PathBuf};
+
+use serde::de::DeserializeOwned;
+
+pub use profile::Profile;
+pub use source::{ConfigError, Origin, Source};
+pub use theme::Theme;
+
+/// Shipped profiles: name and TOML text.
+pub const BUILTIN_PROFILES: &[(&str, &str)] = &[
+    ("default", include_str!("../../config/default.toml")),
+    ("isel", include_str!("../../config/isel.toml")),
+    ("emcu", include_str!("../../config/emcu.toml")),
+    ("emp", include_str!("../../config/emp.toml")),
+];
+
+/// Shipped themes: name and TOML text.
+pub const BUILTIN_THEMES: &[(&str, &str)] = &[
+    ("dark", include_str!("../../themes/dark.toml")),
+    ("light", include_str!("../../themes/light.toml")),
+    ("mono16", include_str!("../../themes/mono16.toml")),
+];
+
+/// Where user configuration lives.
+#[derive(Debug, Clone, Default)]
+pub struct ConfigDirs {
+    pub user: Option<PathBuf>,
+}
+
+impl ConfigDirs {
+    /// `$JOGTERM_CONFIG_DIR`, else the platform config dir (`~/.config/jogterm`).
+    pub fn from_env() -> Self {
+        let user = std::env::var_os("JOGTERM_CONFIG_DIR")
+            .map(PathBuf::from)
+            .or_else(|| {
+                directories::ProjectDirs::from("", "", "jogterm")
+                    .map(|d| d.config_dir().to_path_buf())
+            });
+        Self { user }
+    }
+
+    /// Only the shipped files (tests, `--no-user-config`).
+    pub fn builtin_only() -> Self {
+        Self { user: None }
+    }
+}
+
+struct Kind {
+    what: &'static str,
+    subdir: &'static str,
+    builtin: &'static [(&'static str, &'static str)],
+    root: &'static str,
+}
+
+const PROFILES: Kind = Kind {
+    what: "profile",
+    subdir: "profiles",
+    builtin: BUILTIN_PROFILES,
+    root: "default",
+};
+const THEMES: Kind = Kind {
+    what: "theme",
+    subdir: "themes",
+    builtin: BUILTIN_THEMES,
+    root: "dark",
+};
+
+/// Load a profile by name or path, validated.
+pub fn load_profile(spec: &str, dirs: &ConfigDirs) -> Result<Profile, ConfigError> {
+    let (mut profile, sources) = load_layered::<Profile>(spec, &PROFILES, dirs)?;
+    let refs: Vec<&Source> = sources.iter().collect();
+    if let Some(problem) = profile.validate().into_iter().next() {
+        return Err(source::error_for_key(&refs, &problem.key, problem.message));
+    }
+    profile.retain_listed_axes();
+    Ok(profile)
+}
+
+/// Load a theme by name or path.
+pub fn load_theme(spec: &str, dirs: &ConfigDirs) -> Result<Theme, ConfigError> {
+    load_layered::<Theme>(spec, &THEMES, dirs).map(|(theme, _)| theme)
+}
+
+/// Names of shipped and user profiles (for `--help` texts and error messages).
+pub fn profile_names(dirs: &ConfigDirs) -> Vec<String> {
+    names(&PROFILES, dirs)
+}
+
+pub fn theme_names(dirs: &ConfigDirs) -> Vec<String> {
+    names(&THEMES, dirs)
+}
+
+fn names(kind: &Kind, dirs: &ConfigDirs) -> Vec<String> {
+    let mut out: Vec<String> = kind.builtin.iter().map(|(n, _)| n.to_string()).collect();
+    if let Some(dir) = dirs.user.as_ref().map(|d| d.join(kind.subdir))
+        && let Ok(entries) = std::fs::read_dir(dir)
+    {
+        for entry in entries.flatten() {
+            let path = entry.path();
+            if path.extension().is_some_and(|e| e == "toml")
+                && let Some(stem) = path.file_stem().and_then(|s| s.to_str())
+                && !out.iter().any(|n| n == stem)
+            {
+                out.push(stem.to_string());
+            }
+        }
+    }
+    out
+}
+
+/// Read `spec` and the chain of files it patches, most specific first, merge
+/// them onto the root and deserialize.
+fn load_layered<T: DeserializeOwned>(
+    spec: &str,
+    kind: &Kind,
+    dirs: &ConfigDirs,
+) -> Result<(T, Vec<Source>), ConfigError> {
+    const MAX_DEPTH: usize = 8;
+    let mut chain: Vec<(Source, toml::Table)> = Vec::new();
+    let mut next = Some(spec.to_string());
+    while let Some(name) = next.take() {
+        let src = resolve(&name, kind, dirs, chain.last().map(|(s, _)| s))?;
+        if chain.iter().any(|(s, _)| s.origin == src.origin) {
+            return Err(ConfigError::new(
+                src.origin,
+                format!("`base` chain loops back to this {}", kind.what),
+            ));
+        }
+        if chain.len() >= MAX_DEPTH {
+            return Err(ConfigError::new(
+                src.origin,
+                format!("`base` chain is deeper than {MAX_DEPTH} files"),
+            ));
+        }
+        let table = source::parse_table(&src)?;
+        let base = match table.get("base") {
+            Some(toml::Value::String(b)) => Some(b.clone()),
+            Some(_) => {
+                return Err(ConfigError::at_key(
+                    &src,
+                    &["base".into()],
+                    "`base` must be the name of another file",
+                ));
+            }
+            None if src.origin == Origin::Embedded(kind.root) => None,
+            None => Some(kind.root.to_string()),
+        };
+        chain.push((src, table));
+        next = base;
+    }
+    let mut merged = toml::Table::new();
+    let mut sources = Vec::with_capacity(chain.len());
+    for (src, table) in chain.into_iter().rev() {
+        source::merge(&mut merged, table);
+        sources.push(src);
+    }
+    sources.reverse();
+    let refs: Vec<&Source> = sources.iter().collect();
+    let value = source::deserialize::<T>(merged, &refs)?;
+    Ok((value, sources))
+}
+
+fn resolve(
+    name: &str,
+    kind: &Kind,
+    dirs: &ConfigDirs,
+    referrer: Option<&Source>,
+) -> Result<Source, ConfigError> {
+    let read = |path: &Path| -> Result<Source, ConfigError> {
+        std::fs::read_to_string(path)
+            .map(|text| Source {
+                origin: Origin::File(path.to_path_buf()),
+                text,
+            })
+            .map_err(|e| {
+                ConfigError::new(
+                    Origin::File(path.to_path_buf()),
+                    format!("cannot read {} file: {e}", kind.what),
+                )
+            })
+    };
+    if name.contains('/') || name.ends_with(".toml") {
+        return read(Path::new(name));
+    }
+    // A user file may patch the shipped file of the same name: `base = "dark"`
+    // in ~/.config/jogterm/themes/dark.toml must reach the embedded one.
+    let from_user_file = matches!(referrer.map(|s| &s.origin), Some(Origin::File(_)));
+    if let Some(path) = dirs
+        .user
+        .as_ref()
+        .map(|d| d.join(kind.subdir).join(format!("{name}.toml")))
+        && path.is_file()
+        && !(from_user_file && referrer.map(|s| &s.origin) == Some(&Origin::File(path.clone())))
+    {
+        return read(&path);
+    }
+    kind.builtin
+        .iter()
+        .find(|(n, _)| *n == name)
+        .map(|(n, text)| Source {
+            origin: Origin::Embedded(n),
+            text: text.to_string(),
+        })
+        .ok_or_else(|| {
+            let known = names(kind, dirs).join(", ");
+            let origin = referrer
+                .map(|s| s.origin.clone())
+                .unwrap_or(Origin::File(PathBuf::from(name)));
+            ConfigError::new(
+                origin,
+                format!("no {} named `{name}` (known: {known})", kind.what),
+            )
+        })
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,501 @@
+//! Machine profiles: how to reach the controller, the machine's axes in real
+//! units, how to jog it, how fast to poll it. Every field has a shipped default
+//! (`config/default.toml`); a user's profile patches it field by field.
+
+use std::collections::BTreeMap;
+
+use serde::{Deserialize, Serialize};
+
+use crate::axis::{Axis, AxisSet};
+use crate::proto::Protocol;
+use crate::wire::LineSettings;
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Profile {
+    /// Which shipped profile this one patches; `default` when absent.
+    #[serde(default)]
+    pub base: Option<String>,
+    pub name: String,
+    pub description: String,
+    pub connection: Connection,
+    pub machine: Machine,
+    /// Axis definitions, keyed `X`, `Y`, `Z`, `A`. After loading, only the axes
+    /// listed in `machine.axes` remain.
+    pub axes: BTreeMap<Axis, AxisProfile>,
+    pub jog: JogProfile,
+    pub poll: PollProfile,
+    pub isel: IselProfile,
+    pub emcu: EmcuProfile,
+    pub emp: EmpProfile,
+    pub sim: SimProfile,
+    /// Keymap overrides: mode -> key -> action (validated by the UI's keymap).
+    #[serde(default)]
+    pub keys: BTreeMap<String, BTreeMap<String, String>>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Connection {
+    pub protocol: Protocol,
+    /// `sim` for the built-in simulator, otherwise a serial device path.
+    pub port: String,
+    /// Baud rate; the family's default when absent (isel, EMCU 19200; EMP 38400).
+    #[serde(default)]
+    pub baud: Option<u32>,
+}
+
+impl Connection {
+    pub const SIMULATOR: &'static str = "sim";
+
+    pub fn is_simulator(&self) -> bool {
+        self.port == Self::SIMULATOR
+    }
+
+    pub fn line(&self) -> LineSettings {
+        self.baud
+            .map(LineSettings::new)
+            .unwrap_or_else(|| self.protocol.default_line())
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Machine {
+    /// The axes the machine has, e.g. `"XYZ"`; each needs an `[axes.<letter>]` table.
+    pub axes: String,
+}
+
+impl Machine {
+    pub fn axis_set(&self) -> Result<AxisSet, String> {
+        let mut set = AxisSet::EMPTY;
+        for c in self.axes.chars() {
+            let axis = Axis::from_letter(c)
+                .filter(|_| c.is_ascii_uppercase())
+                .ok_or_else(|| format!("`{c}` is not an axis: expected letters from X, Y, Z, A"))?;
+            if set.contains(axis) {
+                return Err(format!("axis {axis} is listed twice"));
+            }
+            set = set.with(axis);
+        }
+        Ok(set)
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Unit {
+    Mm,
+    Deg,
+    Steps,
+}
+
+impl Unit {
+    pub fn symbol(self) -> &'static str {
+        match self {
+            Unit::Mm => "mm",
+            Unit::Deg => "°",
+            Unit::Steps => "st",
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AxisProfile {
+    /// Motor steps (or encoder increments) per unit.
+    pub steps_per_unit: f64,
+    pub unit: Unit,
+    /// Soft limits in units, machine coordinates (from the reference point).
+    pub min: f64,
+    pub max: f64,
+    /// Highest speed any move of this axis may be given, units per second.
+    pub max_speed: f64,
+    /// EMP drive address (DS byte, e.g. `11`) driving this axis.
+    #[serde(default)]
+    pub drive: Option<String>,
+}
+
+impl AxisProfile {
+    pub fn to_steps(&self, units: f64) -> i64 {
+        (units * self.steps_per_unit).round() as i64
+    }
+
+    pub fn to_units(&self, steps: i64) -> f64 {
+        steps as f64 / self.steps_per_unit
+    }
+
+    /// A speed in units per second as a step frequency.
+    pub fn speed_hz(&self, units_per_second: f64) -> f64 {
+        units_per_second * self.steps_per_unit
+    }
+
+    pub fn min_steps(&self) -> i64 {
+        self.to_steps(self.min)
+    }
+
+    pub fn max_steps(&self) -> i64 {
+        self.to_steps(self.max)
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum JogMode {
+    /// Moves while the key is held (release or dead-man stops it).
+    Hold,
+    /// Opt-in: a press starts, any key stops.
+    Toggle,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct JogProfile {
+    /// Step-jog distances in units, smallest first.
+    pub steps: Vec<f64>,
+    /// Continuous-jog speeds in units per second, slowest first.
+    pub speeds: Vec<f64>,
+    /// Index into `steps` selected at start.
+    pub step: usize,
+    /// Index into `speeds` selected at start.
+    pub speed: usize,
+    pub mode: JogMode,
+    /// Dead-man grace before the first key repeat arrives (terminals wait
+    /// 250-660 ms before repeating).
+    pub first_repeat_grace_ms: u64,
+    /// Dead-man timeout once repeats flow: the jog stops when the next repeat
+    /// is later than this.
+    pub repeat_timeout_ms: u64,
+    /// Largest distance (units) an axis may travel after the operator lets go:
+    /// one dead-man timeout at jog speed plus braking. Jog speeds are capped to it.
+    pub max_overrun: f64,
+    /// Step-jog presses remembered while a step runs; more are dropped.
+    pub step_queue: usize,
+    /// Allow jogging axes that have not been referenced.
+    pub allow_unreferenced: bool,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PollProfile {
+    /// Position polls per second; 0 = as fast as the line allows.
+    pub rate_hz: f64,
+    /// Read the port/status bits every Nth poll cycle.
+    pub ports_every: u32,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct IselProfile {
+    /// Device number 0-9 (the digit after `@`).
+    pub device: u8,
+    /// Start-stop frequency (Hz) jogterm sets with `@0j` after initialising.
+    pub start_stop_hz: u32,
+    /// Acceleration (Hz/ms) jogterm sets with `@0J` after initialising.
+    pub accel_hz_per_ms: u32,
+    /// Reference-run speed (Hz) per axis for `@0d`.
+    pub reference_speed_hz: u32,
+    /// Allow switching on test mode (`@0T1`): moves without reference run and
+    /// over limit switches, to free an axis standing in a switch.
+    pub test_mode: bool,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EmcuProfile {
+    /// Start speed (Hz), `#S`; also the reference-run speed.
+    pub start_speed_hz: u32,
+    /// Ramp length (ms), `#R`.
+    pub ramp_ms: u32,
+    /// End-speed slot (`#E<n>`) jogterm uses for jog and go-to moves.
+    pub move_slot: u8,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum EmpStop {
+    /// `08`: hold the position actively.
+    Hold,
+    /// `2A 03`: brake as fast as possible, motor currentless afterwards.
+    Fast,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum EmpJog {
+    /// IV velocity mode with a signed velocity byte.
+    Velocity,
+    /// TPWM positioning towards the soft limit.
+    Position,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EmpProfile {
+    pub stop: EmpStop,
+    pub jog: EmpJog,
+    /// Homing speeds (velocity bytes) for `26`.
+    pub home_fast: u8,
+    pub home_slow: u8,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SimProfile {
+    /// Where the simulated machine's hard limit switches sit beyond the soft
+    /// limits, in units.
+    pub limit_margin: f64,
+    /// Position (units, machine coordinates) the simulated axes stand at when
+    /// the simulator starts, before any reference run.
+    pub start_position: f64,
+}
+
+/// A profile problem found after parsing: the key path and what is wrong.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Invalid {
+    pub key: Vec<String>,
+    pub message: String,
+}
+
+impl Invalid {
+    fn new(key: &[&str], message: impl Into<String>) -> Self {
+        Self {
+            key: key.iter().map(|s| s.to_string()).collect(),
+            message: message.into(),
+        }
+    }
+}
+
+impl Profile {
+    pub fn axis_set(&self) -> AxisSet {
+        self.axes.keys().copied().collect()
+    }
+
+    pub fn axis(&self, axis: Axis) -> Option<&AxisProfile> {
+        self.axes.get(&axis)
+    }
+
+    /// Keep only the axes `machine.axes` lists (after a successful `validate`).
+    pub fn retain_listed_axes(&mut self) {
+        if let Ok(listed) = self.machine.axis_set() {
+            self.axes.retain(|axis, _| listed.contains(*axis));
+        }
+    }
+
+    /// Checks that serde cannot make: ranges, combinations, what a controller
+    /// family supports. Looks only at the axes `machine.axes` lists.
+    pub fn validate(&self) -> Vec<Invalid> {
+        let mut out = Vec::new();
+        let axes = match self.machine.axis_set() {
+            Ok(set) => set,
+            Err(msg) => return vec![Invalid::new(&["machine", "axes"], msg)],
+        };
+        if axes.is_empty() {
+            out.push(Invalid::new(
+                &["machine", "axes"],
+                "at least one axis is needed",
+            ));
+        }
+        for axis in axes.iter() {
+            if !self.axes.contains_key(&axis) {
+                out.push(Invalid::new(
+                    &["machine", "axes"],
+                    format!("axis {axis} is listed but has no [axes.{axis}] table"),
+                ));
+            }
+        }
+        match self.connection.protocol {
+            // isel manual 2.2.1: X, XY, XYZ, and A only on top of XYZ.
+            Protocol::Isel => {
+                let ok = [0b0001, 0b0011, 0b0111, 0b1111].contains(&axes.mask());
+                if !axes.is_empty() && !ok {
+                    out.push(Invalid::new(
+                        &["machine", "axes"],
+                        format!("isel controllers drive X, XY, XYZ or XYZA, not {axes}"),
+                    ));
+                }
+            }
+            Protocol::Emcu => {
+                if axes.contains(Axis::A) {
+                    out.push(Invalid::new(
+                        &["machine", "axes"],
+                        "EMCU drives only X, Y and Z",
+                    ));
+                }
+            }
+            Protocol::Emp => {
+                let mut seen = BTreeMap::new();
+                for (axis, p) in self.axes.iter().filter(|(a, _)| axes.contains(**a)) {
+                    let key = ["axes", axis_key(*axis), "drive"];
+                    match p.drive.as_deref().map(parse_drive_address) {
+                        None => out.push(Invalid::new(
+                            &key,
+                            "EMP axes need a drive address such as \"11\"",
+                        )),
+                        Some(Err(msg)) => out.push(Invalid::new(&key, msg)),
+                        Some(Ok(ds)) => {
+                            if let Some(other) = seen.insert(ds, *axis) {
+                                out.push(Invalid::new(
+                                    &key,
+                                    format!("drive {ds:02X} is already axis {other}"),
+                                ));
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        for (axis, p) in self.axes.iter().filter(|(a, _)| axes.contains(**a)) {
+            let k = axis_key(*axis);
+            if !(p.steps_per_unit.is_finite() && p.steps_per_unit > 0.0) {
+                out.push(Invalid::new(
+                    &["axes", k, "steps_per_unit"],
+                    "must be a positive number",
+                ));
+            }
+            if !(p.min.is_finite() && p.max.is_finite() && p.min < p.max) {
+                out.push(Invalid::new(
+                    &["axes", k, "max"],
+                    format!("soft limits need min < max (min {}, max {})", p.min, p.max),
+                ));
+            }
+            if !(p.max_speed.is_finite() && p.max_speed > 0.0) {
+                out.push(Invalid::new(
+                    &["axes", k, "max_speed"],
+                    "must be a positive number",
+                ));
+            }
+        }
+        let jog = &self.jog;
+        if jog.steps.is_empty() || jog.steps.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
+            out.push(Invalid::new(
+                &["jog", "steps"],
+                "needs at least one positive step size",
+            ));
+        }
+        if jog.speeds.is_empty() || jog.speeds.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
+            out.push(Invalid::new(
+                &["jog", "speeds"],
+                "needs at least one positive speed",
+            ));
+        }
+        if jog.step >= jog.steps.len().max(1) {
+            out.push(Invalid::new(
+                &["jog", "step"],
+                format!(
+                    "index {} is outside `steps` (0..{})",
+                    jog.step,
+                    jog.steps.len()
+                ),
+            ));
+        }
+        if jog.speed >= jog.speeds.len().max(1) {
+            out.push(Invalid::new(
+                &["jog", "speed"],
+                format!(
+                    "index {} is outside `speeds` (0..{})",
+                    jog.speed,
+                    jog.speeds.len()
+                ),
+            ));
+        }
+        if !(50..=1000).contains(&jog.repeat_timeout_ms) {
+            out.push(Invalid::new(
+                &["jog", "repeat_timeout_ms"],
+                "must be between 50 and 1000 ms",
+            ));
+        }
+        if jog.first_repeat_grace_ms < jog.repeat_timeout_ms || jog.first_repeat_grace_ms > 2000 {
+            out.push(Invalid::new(
+                &["jog", "first_repeat_grace_ms"],
+                "must be at least repeat_timeout_ms and at most 2000 ms",
+            ));
+        }
+        if !(jog.max_overrun.is_finite() && jog.max_overrun > 0.0) {
+            out.push(Invalid::new(
+                &["jog", "max_overrun"],
+                "must be a positive distance",
+            ));
+        }
+        if jog.step_queue == 0 || jog.step_queue > 10 {
+            out.push(Invalid::new(
+                &["jog", "step_queue"],
+                "must be between 1 and 10",
+            ));
+        }
+        if !(self.poll.rate_hz.is_finite() && self.poll.rate_hz >= 0.0) {
+            out.push(Invalid::new(
+                &["poll", "rate_hz"],
+                "must be 0 (line speed) or a positive rate",
+            ));
+        }
+        if self.poll.ports_every == 0 {
+            out.push(Invalid::new(&["poll", "ports_every"], "must be at least 1"));
+        }
+        let isel = &self.isel;
+        if isel.device > 9 {
+            out.push(Invalid::new(
+                &["isel", "device"],
+                "isel device numbers are 0-9",
+            ));
+        }
+        // isel manual 2.2.15/2.2.16 and protocols.md isel 13.
+        if !(20..=4000).contains(&isel.start_stop_hz) {
+            out.push(Invalid::new(
+                &["isel", "start_stop_hz"],
+                "must be 20-4000 Hz",
+            ));
+        }
+        if !(1..=4000).contains(&isel.accel_hz_per_ms) {
+            out.push(Invalid::new(
+                &["isel", "accel_hz_per_ms"],
+                "must be 1-4000 Hz/ms",
+            ));
+        }
+        if !(1..=40000).contains(&isel.reference_speed_hz) {
+            out.push(Invalid::new(
+                &["isel", "reference_speed_hz"],
+                "must be 1-40000 Hz",
+            ));
+        }
+        if !(1..=9).contains(&self.emcu.move_slot) {
+            out.push(Invalid::new(
+                &["emcu", "move_slot"],
+                "EMCU end-speed slots are 1-9",
+            ));
+        }
+        if !(self.sim.limit_margin.is_finite() && self.sim.limit_margin >= 0.0) {
+            out.push(Invalid::new(
+                &["sim", "limit_margin"],
+                "must be zero or positive",
+            ));
+        }
+        out
+    }
+}
+
+fn axis_key(axis: Axis) -> &'static str {
+    match axis {
+        Axis::X => "X",
+        Axis::Y => "Y",
+        Axis::Z => "Z",
+        Axis::A => "A",
+    }
+}
+
+/// An EMP DS byte: module 1-F in the high nibble, drive 1-F in the low one
+/// (EMP document, command 02).
+pub fn parse_drive_address(text: &str) -> Result<u8, String> {
+    let byte = (text.len() == 2)
+        .then(|| u8::from_str_radix(text, 16).ok())
+        .flatten()
+        .ok_or_else(|| {
+            format!("`{text}` is not a drive address: expected two hex digits such as \"11\"")
+        })?;
+    if byte >> 4 == 0 || byte & 0x0F == 0 {
+        return Err(format!(
+            "`{text}`: module and drive numbers start at 1 (\"11\" … \"F1\")"
+        ));
+    }
+    Ok(byte)
+}

@@ -1,0 +1,235 @@
+//! Configuration files as TOML text with their origin, merged as patches over
+//! the embedded defaults, and errors that point at a file, line and column.
+//!
+//! A user file overrides the shipped defaults field by field (gitui's style
+//! patches): tables merge key by key, every other value (arrays included)
+//! replaces the default. The merged table is deserialized once; when a field is
+//! wrong, the failing key path is looked up in the user's own file so the error
+//! names the line the user wrote.
+
+use std::fmt;
+use std::path::PathBuf;
+
+use serde::de::DeserializeOwned;
+use toml::de::{DeTable, DeValue};
+
+/// Where a configuration text came from.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Origin {
+    /// Compiled into jogterm from `config/` or `themes/`.
+    Embedded(&'static str),
+    File(PathBuf),
+}
+
+impl fmt::Display for Origin {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Origin::Embedded(name) => write!(f, "<built-in {name}>"),
+            Origin::File(path) => write!(f, "{}", path.display()),
+        }
+    }
+}
+
+/// A configuration text and where it came from.
+#[derive(Debug, Clone)]
+pub struct Source {
+    pub origin: Origin,
+    pub text: String,
+}
+
+/// A configuration problem, located in the file that caused it.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{origin}{}: error: {message}{}", location(*.line, *.column), key_note(.key))]
+pub struct ConfigError {
+    pub origin: Origin,
+    /// 1-based line and column, when the problem has a place in the text.
+    pub line: Option<usize>,
+    pub column: Option<usize>,
+    /// Dotted key path of the offending field, e.g. `axes.X.steps_per_unit`.
+    pub key: Option<String>,
+    pub message: String,
+}
+
+fn location(line: Option<usize>, column: Option<usize>) -> String {
+    match (line, column) {
+        (Some(l), Some(c)) => format!(":{l}:{c}"),
+        (Some(l), None) => format!(":{l}"),
+        _ => String::new(),
+    }
+}
+
+fn key_note(key: &Option<String>) -> String {
+    key.as_ref()
+        .map(|k| format!(" (at `{k}`)"))
+        .unwrap_or_default()
+}
+
+impl ConfigError {
+    pub fn new(origin: Origin, message: impl Into<String>) -> Self {
+        Self {
+            origin,
+            line: None,
+            column: None,
+            key: None,
+            message: message.into(),
+        }
+    }
+
+    /// An error about the field at `key`, placed on its line in `source` when
+    /// the source sets it (otherwise on the file as a whole).
+    pub fn at_key(source: &Source, key: &[String], message: impl Into<String>) -> Self {
+        let mut err = ConfigError::new(source.origin.clone(), message);
+        err.key = Some(key.join("."));
+        if let Some(offset) = locate_key(&source.text, key) {
+            let (line, column) = line_column(&source.text, offset);
+            err.line = Some(line);
+            err.column = Some(column);
+        }
+        err
+    }
+
+    fn from_toml(source: &Source, err: &toml::de::Error) -> Self {
+        let mut out = ConfigError::new(source.origin.clone(), err.message().trim().to_string());
+        if let Some(span) = err.span() {
+            let (line, column) = line_column(&source.text, span.start);
+            out.line = Some(line);
+            out.column = Some(column);
+        }
+        out
+    }
+}
+
+/// 1-based line and column of a byte offset.
+fn line_column(text: &str, offset: usize) -> (usize, usize) {
+    let offset = offset.min(text.len());
+    let before = text.get(..offset).unwrap_or(text);
+    let line = before.matches('\n').count() + 1;
+    let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+    (line, column)
+}
+
+/// Byte offset of the value at `key` in `text`, or of the deepest table on the
+/// path that the text does contain.
+fn locate_key(text: &str, key: &[String]) -> Option<usize> {
+    let doc = DeTable::parse(text).ok()?;
+    let mut table = doc.get_ref();
+    let mut found = None;
+    for part in key {
+        let (_, value) = table
+            .iter()
+            .find(|(k, _)| k.get_ref().as_ref() == part.as_str())?;
+        found = Some(value.span().start);
+        match value.get_ref() {
+            DeValue::Table(inner) => table = inner,
+            _ => break,
+        }
+    }
+    found
+}
+
+/// Parse a source as a TOML table, with syntax errors located.
+pub fn parse_table(source: &Source) -> Result<toml::Table, ConfigError> {
+    toml::from_str::<toml::Table>(&source.text).map_err(|e| ConfigError::from_toml(source, &e))
+}
+
+/// Merge `patch` into `base`: tables key by key, anything else replaced.
+pub fn merge(base: &mut toml::Table, patch: toml::Table) {
+    for (key, value) in patch {
+        match (base.get_mut(&key), value) {
+            (Some(toml::Value::Table(b)), toml::Value::Table(p)) => merge(b, p),
+            (_, value) => {
+                base.insert(key, value);
+            }
+        }
+    }
+}
+
+/// Deserialize a merged table. A failing field is reported against the first
+/// source (the most specific one, usually the user's file) that sets it.
+pub fn deserialize<T: DeserializeOwned>(
+    table: toml::Table,
+    sources: &[&Source],
+) -> Result<T, ConfigError> {
+    let value = toml::Value::Table(table);
+    serde_path_to_error::deserialize::<_, T>(value).map_err(|err| {
+        let key: Vec<String> = err
+            .path()
+            .iter()
+            .filter_map(|seg| match seg {
+                serde_path_to_error::Segment::Map { key } => Some(key.clone()),
+                serde_path_to_error::Segment::Seq { index } => Some(index.to_string()),
+                _ => None,
+            })
+            .collect();
+        let message = err.inner().message().trim().to_string();
+        error_for_key(sources, &key, message)
+    })
+}
+
+/// An error for `key`, placed in the most specific source that mentions it.
+pub fn error_for_key(
+    sources: &[&Source],
+    key: &[String],
+    message: impl Into<String>,
+) -> ConfigError {
+    let message = message.into();
+    let chosen = sources
+        .iter()
+        .find(|s| locate_key(&s.text, key).is_some())
+        .or_else(|| sources.first())
+        .copied();
+    match chosen {
+        Some(source) => ConfigError::at_key(source, key, message),
+        None => ConfigError::new(Origin::Embedded("configuration"), message),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn source(text: &str) -> Source {
+        Source {
+            origin: Origin::File("user.toml".into()),
+            text: text.into(),
+        }
+    }
+
+    #[test]
+    fn merge_patches_field_by_field() {
+        let mut base: toml::Table =
+            toml::from_str("[a]\nx = 1\ny = 2\n[b]\nlist = [1, 2]").unwrap();
+        let patch: toml::Table = toml::from_str("[a]\ny = 3\n[b]\nlist = [9]").unwrap();
+        merge(&mut base, patch);
+        assert_eq!(base["a"]["x"].as_integer(), Some(1));
+        assert_eq!(base["a"]["y"].as_integer(), Some(3));
+        assert_eq!(base["b"]["list"].as_array().map(Vec::len), Some(1));
+    }
+
+    #[test]
+    fn syntax_errors_carry_line_and_column() {
+        let err = parse_table(&source("a = 1\nb = = 2\n")).unwrap_err();
+        assert_eq!(err.line, Some(2));
+        assert!(err.to_string().starts_with("user.toml:2:"), "{err}");
+    }
+
+    #[test]
+    fn type_errors_point_at_the_users_line() {
+        #[derive(serde::Deserialize, Debug)]
+        #[allow(dead_code)]
+        struct Inner {
+            steps: f64,
+        }
+        #[derive(serde::Deserialize, Debug)]
+        #[allow(dead_code)]
+        struct Outer {
+            axis: Inner,
+        }
+        let user = source("# comment\n[axis]\nsteps = \"many\"\n");
+        let table = parse_table(&user).unwrap();
+        let err = deserialize::<Outer>(table, &[&user]).unwrap_err();
+        assert_eq!(err.line, Some(3), "{err}");
+        assert_eq!(err.key.as_deref(), Some("axis.steps"));
+        assert!(err.message.contains("expected f64"), "{err}");
+    }
+}
