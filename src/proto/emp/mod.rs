@@ -16,17 +16,38 @@
 //! binding decisions are `../shared/protocols.md` (EMP) and jogterm's own are
 //! in `docs/protocols.md` (EMP).
 
+pub mod adc;
 pub mod address;
 pub mod decoder;
 pub mod error;
+pub mod feed;
 pub mod frame;
 pub mod ident;
+pub mod io;
+pub mod mode;
+pub mod reload;
+pub mod reply;
+pub mod request;
+pub mod rtc;
+pub mod values;
 
+#[cfg(test)]
+mod manual_examples;
+
+pub use adc::{AdcCode, AdcInput, AdcMode, AdcPolarity, AdcResolution, Gain, JoystickParameters};
 pub use address::DriveAddress;
 pub use decoder::{FrameDecoder, Incoming};
 pub use error::{ConversionError, FrameError, FrameFault, ReplyError, RequestError, ValueError};
+pub use feed::{FeedSetting, Mechanics, feed_setting, reload_for};
 pub use frame::{EOF, FRAME_HEX_LEN, FRAME_WIRE_LEN, Frame};
 pub use ident::IdentText;
+pub use io::{Inputs, Limits, Lines, Outputs};
+pub use mode::{JoystickChannel, OperatingMode, SubMode};
+pub use reload::ReloadValue;
+pub use reply::{ErrorCode, Info, Reply, ReplyBody};
+pub use request::{Command, IdentityQuery, OnScope, ParseRequestError, Request};
+pub use rtc::{RtcDate, RtcTime};
+pub use values::{Position, Speed, Velocity};
 
 use crate::wire::LineSettings;
 
