@@ -18,6 +18,7 @@
 
 pub mod adc;
 pub mod address;
+pub mod correlate;
 pub mod decoder;
 pub mod error;
 pub mod feed;
@@ -33,9 +34,12 @@ pub mod values;
 
 #[cfg(test)]
 mod manual_examples;
+#[cfg(test)]
+mod proptests;
 
 pub use adc::{AdcCode, AdcInput, AdcMode, AdcPolarity, AdcResolution, Gain, JoystickParameters};
 pub use address::DriveAddress;
+pub use correlate::{Correlator, Event, UnexpectedReason};
 pub use decoder::{FrameDecoder, Incoming};
 pub use error::{ConversionError, FrameError, FrameFault, ReplyError, RequestError, ValueError};
 pub use feed::{FeedSetting, Mechanics, feed_setting, reload_for};
