@@ -9,6 +9,7 @@
 
 pub mod axis;
 pub mod config;
+pub mod device;
 pub mod motion;
 pub mod proto;
 pub mod sim;

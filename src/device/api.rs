@@ -1,0 +1,498 @@
+//! What goes into the device task and what comes out of it. These types are
+//! the only contract between the port owner and its clients (TUI, CLI, tests),
+//! and they are the same for all three controller families: positions in
+//! steps, speeds in steps per second (Hz), axes by name.
+
+use std::fmt;
+use std::time::{Duration, Instant};
+
+use crate::axis::{Axis, AxisSet};
+use crate::traffic::TrafficRecord;
+
+/// A value per axis, in X, Y, Z, A order; `None` where the axis is absent.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
+pub struct PerAxis<T>(pub [Option<T>; 4]);
+
+impl<T: Copy> PerAxis<T> {
+    pub fn new() -> Self {
+        PerAxis([None; 4])
+    }
+
+    pub fn get(&self, axis: Axis) -> Option<T> {
+        self.0[axis.index()]
+    }
+
+    pub fn set(&mut self, axis: Axis, value: T) {
+        self.0[axis.index()] = Some(value);
+    }
+
+    pub fn with(mut self, axis: Axis, value: T) -> Self {
+        self.set(axis, value);
+        self
+    }
+
+    pub fn clear(&mut self, axis: Axis) {
+        self.0[axis.index()] = None;
+    }
+
+    pub fn axes(&self) -> AxisSet {
+        self.iter().map(|(a, _)| a).collect()
+    }
+
+    pub fn iter(&self) -> impl Iterator<Item = (Axis, T)> + '_ {
+        Axis::ALL
+            .into_iter()
+            .filter_map(|a| self.get(a).map(|v| (a, v)))
+    }
+
+    pub fn map<U: Copy>(&self, f: impl Fn(Axis, T) -> U) -> PerAxis<U> {
+        let mut out = PerAxis::new();
+        for (a, v) in self.iter() {
+            out.set(a, f(a, v));
+        }
+        out
+    }
+}
+
+impl<T: Copy> FromIterator<(Axis, T)> for PerAxis<T> {
+    fn from_iter<I: IntoIterator<Item = (Axis, T)>>(iter: I) -> Self {
+        let mut out = PerAxis::new();
+        for (a, v) in iter {
+            out.set(a, v);
+        }
+        out
+    }
+}
+
+/// Direction of travel along an axis.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Dir {
+    Minus,
+    Plus,
+}
+
+impl Dir {
+    pub fn sign(self) -> i64 {
+        match self {
+            Dir::Minus => -1,
+            Dir::Plus => 1,
+        }
+    }
+}
+
+/// Identifies one continuous jog, so a late renewal or release for an older
+/// jog can never keep a newer one alive or stop it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct JogId(pub u64);
+
+/// Identifies an output bit or byte of the controller, as listed in an
+/// `IoSnapshot`; clients echo it back in `Request::SetOutput`. Its meaning is
+/// the driver's own (isel: port number and bit; EMP: drive and output).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct OutputId {
+    pub group: u16,
+    /// The bit within the group, or `None` for a whole byte (isel port 0, analog port 4).
+    pub bit: Option<u8>,
+}
+
+/// Which coordinates a target is given in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Frame {
+    /// Steps from the reference point.
+    Machine,
+    /// Steps from the work zero set with `SetZero`.
+    Work,
+}
+
+/// Requests into the device task. A stop is not among them: it travels on its
+/// own channel and overtakes everything (`DeviceHandle::stop`).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Request {
+    /// Continuous jog on one or more axes (diagonal when several). Runs until
+    /// released, stopped, or its lease runs out without renewal (dead-man).
+    /// The driver never drives past the soft limits.
+    Jog {
+        id: JogId,
+        axes: Vec<(Axis, Dir)>,
+        speed_hz: PerAxis<f64>,
+        lease: Duration,
+    },
+    /// A key repeat arrived: keep jog `id` alive for `lease` from now.
+    JogRenew {
+        id: JogId,
+        lease: Duration,
+    },
+    /// The key was released (or any key in toggle mode): stop jog `id`.
+    JogRelease {
+        id: JogId,
+    },
+    /// A relative step. Steps requested while one runs are coalesced up to the
+    /// configured bound; beyond it they are dropped with `Event::Refused`.
+    Step {
+        delta: PerAxis<i64>,
+        speed_hz: PerAxis<f64>,
+    },
+    /// Go to a position; axes left out do not move.
+    MoveTo {
+        target: PerAxis<i64>,
+        frame: Frame,
+        speed_hz: PerAxis<f64>,
+    },
+    /// Reference run of these axes (isel in the order Z, Y, X, A).
+    Home {
+        axes: AxisSet,
+    },
+    /// Make the current position the work zero of these axes.
+    SetZero {
+        axes: AxisSet,
+    },
+    SetOutput {
+        output: OutputId,
+        value: u8,
+    },
+    /// A command line typed by the operator, validated by the family's parser
+    /// before it is sent.
+    Raw {
+        line: String,
+    },
+    /// Store a program in the controller (isel `@0i`…`9`, EMCU `@F`…0x01).
+    /// `lines` are the commands as the controller takes them (comments stripped).
+    Upload {
+        lines: Vec<String>,
+        erase_first: bool,
+    },
+    /// Start the stored program (isel `@0S`, EMCU `@J`).
+    RunProgram,
+    /// Bring the controller into a known, ready state (isel: axes and ramp
+    /// parameters; EMP: unit on and mode; EMCU: read status).
+    Initialise,
+    /// Reset the controller (isel 0xFE, EMCU `@R`); it needs initialising and
+    /// referencing afterwards.
+    Reset,
+    /// Change the polling rates at run time.
+    Poll {
+        rate_hz: Option<f64>,
+        ports_every: u32,
+    },
+    /// Stop all motion, flush, close the port and end the task.
+    Shutdown,
+}
+
+impl Request {
+    /// Whether the request can set an axis in motion (refused unless the
+    /// machine is in a state that allows it).
+    pub fn may_move(&self) -> bool {
+        matches!(
+            self,
+            Request::Jog { .. }
+                | Request::Step { .. }
+                | Request::MoveTo { .. }
+                | Request::Home { .. }
+                | Request::RunProgram
+                | Request::Raw { .. }
+        )
+    }
+}
+
+/// Whether a position was read from the controller or computed while it
+/// could not be asked (isel during a move).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum PositionSource {
+    Measured,
+    Estimated,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PositionSample {
+    pub at: Instant,
+    /// Machine coordinates, steps.
+    pub steps: PerAxis<i64>,
+    pub source: PositionSource,
+}
+
+/// The link to the controller.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum LinkState {
+    Connecting,
+    Connected,
+    /// The port vanished or went silent; `reason` in words.
+    Lost {
+        reason: String,
+    },
+    /// Waiting to try again (attempt number, counting from 1).
+    Reconnecting {
+        attempt: u32,
+        retry_in: Duration,
+    },
+    Closed,
+}
+
+/// What an operator must do before motion is possible again.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Recovery {
+    /// Nothing: the command was wrong, not the machine.
+    None,
+    /// Initialise the axes again, then reference (isel `2`/`9`, EMCU error flag).
+    ReinitialiseAndReference,
+    /// Reference run needed (isel `R`, EMCU position unknown).
+    Reference,
+    /// Close the hood.
+    CloseHood,
+    /// Clear the emergency stop / safety circuit, then re-initialise and reference.
+    ClearEmergencyStop,
+    /// A move was interrupted: resume (start) or discard it (stop).
+    ResumeOrDiscard,
+    /// The stored program is invalid or in the way: erase it.
+    EraseProgram,
+    /// The drive must be switched on / its mode set again (EMP).
+    SwitchOn,
+}
+
+impl Recovery {
+    /// What to do, in words for the status bar.
+    pub fn instruction(self) -> &'static str {
+        match self {
+            Recovery::None => "correct the command",
+            Recovery::ReinitialiseAndReference => "initialise (i) and reference (h) the axes",
+            Recovery::Reference => "reference the axes (h)",
+            Recovery::CloseHood => "close the hood",
+            Recovery::ClearEmergencyStop => {
+                "release the emergency stop, then initialise (i) and reference (h)"
+            }
+            Recovery::ResumeOrDiscard => "start to resume the move, or stop to discard it",
+            Recovery::EraseProgram => "erase the stored program",
+            Recovery::SwitchOn => "switch the drive on (i)",
+        }
+    }
+}
+
+/// An error the controller answered (not a link failure).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ControllerFault {
+    /// The command that was answered with the error, readable.
+    pub command: String,
+    /// The code as the controller sent it (isel `2`, EMP INFO `EE` …).
+    pub code: String,
+    pub meaning: String,
+    pub recovery: Recovery,
+}
+
+/// What the machine is doing.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum Activity {
+    #[default]
+    Idle,
+    Jogging,
+    Stepping,
+    Moving,
+    Homing,
+    RunningProgram,
+    Uploading,
+    Stopping,
+}
+
+/// Whether a program is stored in the controller.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum ProgramState {
+    #[default]
+    Unknown,
+    None,
+    Stored,
+    /// A broken or partial program is stored (isel: after a failed upload).
+    Invalid,
+}
+
+/// Everything the clients need to decide what is safe, tracked by the driver
+/// from replies and polls.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct MachineState {
+    pub link_up: bool,
+    /// Axes the controller has been told about (isel `@07`), or drives switched on (EMP).
+    pub initialised: AxisSet,
+    pub referenced: AxisSet,
+    pub activity: Activity,
+    /// An emergency-stop circuit is open (from ports or a `9` reply).
+    pub estop: bool,
+    /// A limit switch is active (from ports or a `2` reply).
+    pub limit: bool,
+    /// An error that blocks motion until its recovery is done.
+    pub fault: Option<ControllerFault>,
+    pub program: ProgramState,
+    pub test_mode: bool,
+    /// Work zero in machine steps, per axis.
+    pub work_zero: PerAxis<i64>,
+}
+
+/// Why a request was not carried out, and what to do about it.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Refusal {
+    NotConnected,
+    NotInitialised,
+    NotReferenced {
+        axes: AxisSet,
+    },
+    EmergencyStop,
+    LimitSwitch,
+    Fault {
+        recovery: Recovery,
+    },
+    Busy {
+        activity: Activity,
+    },
+    /// The target lies outside the soft limits.
+    SoftLimit {
+        axis: Axis,
+        target: i64,
+        min: i64,
+        max: i64,
+    },
+    /// Step presses beyond the coalescing bound.
+    StepQueueFull,
+    /// The request is invalid as such (bad raw command, wrong axis …).
+    Invalid {
+        reason: String,
+    },
+}
+
+impl fmt::Display for Refusal {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Refusal::NotConnected => {
+                write!(f, "not connected to the controller: wait for the link")
+            }
+            Refusal::NotInitialised => {
+                write!(f, "controller not initialised: initialise (i) first")
+            }
+            Refusal::NotReferenced { axes } => {
+                write!(f, "axes {axes} not referenced: reference them (h) first")
+            }
+            Refusal::EmergencyStop => write!(
+                f,
+                "emergency stop active: release it, then initialise (i) and reference (h)"
+            ),
+            Refusal::LimitSwitch => write!(
+                f,
+                "limit switch hit: initialise (i) and reference (h) the axes"
+            ),
+            Refusal::Fault { recovery } => {
+                write!(f, "controller error: {}", recovery.instruction())
+            }
+            Refusal::Busy { activity } => write!(f, "busy ({activity:?}): stop it first"),
+            Refusal::SoftLimit {
+                axis,
+                target,
+                min,
+                max,
+            } => {
+                write!(
+                    f,
+                    "{axis} target {target} is outside the soft limits {min}..{max} (steps)"
+                )
+            }
+            Refusal::StepQueueFull => write!(f, "step dropped: steps are still running"),
+            Refusal::Invalid { reason } => write!(f, "{reason}"),
+        }
+    }
+}
+
+/// One named bit of a port or status word.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct IoBit {
+    pub name: String,
+    pub value: bool,
+    /// Set for outputs the operator may switch.
+    pub output: Option<OutputId>,
+    /// Switching it moves or powers something (spindle, motor currents,
+    /// brake): the UI asks for confirmation.
+    pub hazardous: bool,
+}
+
+/// A port, status word or drive I/O block as read from the controller.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct IoGroup {
+    pub name: String,
+    /// The raw byte as read, shown in hex beside the bits.
+    pub raw: Option<u8>,
+    pub bits: Vec<IoBit>,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct IoSnapshot {
+    pub at: Instant,
+    pub groups: Vec<IoGroup>,
+}
+
+/// How a continuous jog ended.
+#[derive(Debug, Clone, PartialEq)]
+pub enum JogEnd {
+    Released,
+    /// Renewals stopped arriving in time.
+    DeadMan,
+    Stopped,
+    SoftLimit,
+    Refused(Refusal),
+    Fault(ControllerFault),
+    LinkLost,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub enum UploadEvent {
+    Started {
+        total: usize,
+    },
+    Progress {
+        done: usize,
+        total: usize,
+        lines_per_second: f64,
+    },
+    Finished {
+        total: usize,
+        elapsed: Duration,
+    },
+    /// The controller rejected `line` (0-based index into the uploaded lines).
+    Failed {
+        line: usize,
+        fault: ControllerFault,
+    },
+    /// Stopped by the operator or the link; the controller holds a partial program.
+    Aborted {
+        done: usize,
+        reason: String,
+    },
+}
+
+/// Poll statistics over the last second.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PollStats {
+    pub position_rate_hz: f64,
+    /// The rate the line would allow for the current poll cycle.
+    pub wire_limit_hz: f64,
+}
+
+/// Events out of the device task.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Event {
+    Link(LinkState),
+    Position(PositionSample),
+    Io(IoSnapshot),
+    State(MachineState),
+    Fault(ControllerFault),
+    Refused {
+        request: String,
+        reason: Refusal,
+    },
+    JogEnded {
+        id: JogId,
+        end: JogEnd,
+    },
+    Upload(UploadEvent),
+    Traffic(TrafficRecord),
+    /// The decoded answer to a `Raw` request.
+    Reply {
+        command: String,
+        text: String,
+    },
+    Stats(PollStats),
+    /// Something worth telling the operator that is none of the above.
+    Notice(String),
+}

@@ -1,0 +1,65 @@
+//! The sans-IO heart of the device layer: one `Driver` per controller family
+//! turns requests into bytes and bytes into events and machine state. The
+//! device task (`task.rs`) is the only thing that does I/O; it feeds a driver
+//! with what happens and carries out what the driver asks for.
+//!
+//! Every method takes the current time, so a driver can be tested against a
+//! simulator model in memory with synthetic time: bytes from
+//! `poll_transmit` go to `SimDevice::on_byte`, bytes from
+//! `SimDevice::poll_output` go to `received`.
+
+use std::time::Instant;
+
+use super::api::{Event, Request};
+
+/// A message for the paced writer.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Outgoing {
+    pub bytes: Vec<u8>,
+    /// Whether a stop may be written between two bytes of this message (isel:
+    /// the controller reads 0xFD/0xFE/0xFF in its receive routine, manual
+    /// 2.2.31). EMCU lines and EMP frames cannot be interleaved.
+    pub interruptible: bool,
+}
+
+pub trait Driver: Send {
+    /// The link is up (first open or after a reconnect): read the controller's
+    /// state back before anything else. Never resend a motion command.
+    fn connected(&mut self, now: Instant);
+
+    /// The link is gone: whatever was in flight is lost; motion state becomes
+    /// unknown until the controller has been read again.
+    fn disconnected(&mut self, reason: &str, now: Instant);
+
+    /// A client request. Refusals come back as `Event::Refused`.
+    fn request(&mut self, request: Request, now: Instant);
+
+    /// Stop all motion, now. Returns the bytes that go on the wire ahead of
+    /// everything queued; the driver drops its queued work (never resumes a
+    /// jog, never continues an upload) and expects the replies the stop causes.
+    fn stop(&mut self, now: Instant) -> Outgoing;
+
+    /// The stop sequence for the emergency handle (panic hook, hang-up path),
+    /// written without the driver's involvement. Harmless when nothing moves.
+    fn emergency_stop_bytes(&self) -> Vec<u8>;
+
+    /// Bytes read from the port.
+    fn received(&mut self, bytes: &[u8], now: Instant);
+
+    /// The writer has handed the last byte of the current message to the line
+    /// (reply timeouts are measured from here).
+    fn transmitted(&mut self, now: Instant);
+
+    /// The next message to write, if the protocol allows one now (isel: one
+    /// command at a time, after the previous reply).
+    fn poll_transmit(&mut self, now: Instant) -> Option<Outgoing>;
+
+    /// The next event for the clients.
+    fn poll_event(&mut self) -> Option<Event>;
+
+    /// When `handle_timeout` must be called: a reply deadline, the next poll, a
+    /// jog lease running out.
+    fn next_timeout(&self) -> Option<Instant>;
+
+    fn handle_timeout(&mut self, now: Instant);
+}

@@ -1,0 +1,8 @@
+//! The device layer: one task per connected controller owns the port; clients
+//! talk to it only through [`api::Request`]s in and [`api::Event`]s out.
+//!
+//! - [`api`]: requests, events, machine state, refusals (family-neutral).
+//! - [`driver`]: the sans-IO [`driver::Driver`] trait each family implements.
+
+pub mod api;
+pub mod driver;
