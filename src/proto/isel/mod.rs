@@ -63,10 +63,13 @@
 //!
 //! [`ports`] holds every input bit and output port as data (names, roles,
 //! which outputs need confirmation), the `@0DRp`/`@0DRn` bits and the `@0IE`
-//! word.
+//! word. [`circle()`] and [`helix`] compute the `f` and `y`/`w` parameters of
+//! manual 2.3; [`CircleParams::end_point`] and [`ArcGeometry`] say where a
+//! `y`/`w` leaves the tool.
 
 mod axes;
 mod check;
+mod circle;
 mod cnc;
 mod command;
 mod decode;
@@ -82,6 +85,10 @@ pub use check::{
     ACCELERATION_HZ_PER_MS, CheckError, LOOP_COUNT, REFERENCE_CLEAR_STEPS, Rejection, SPEED_HZ,
     START_STOP_HZ, STEPS, USER_INFO_MAX_CHARS, check, check_cnc, check_with, validate_cnc,
     validate_frame,
+};
+pub use circle::{
+    ArcEnd, ArcGeometry, CircleError, CircleMove, HelixMove, arc_end, circle, helix,
+    radius_from_parameters,
 };
 pub use cnc::{CncCommand, SyncChar};
 pub use command::{
