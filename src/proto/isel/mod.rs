@@ -80,6 +80,9 @@ mod parse;
 pub mod ports;
 mod reply;
 
+#[cfg(test)]
+mod tests;
+
 pub use axes::{AxisConfig, AxisSetting};
 pub use check::{
     ACCELERATION_HZ_PER_MS, CheckError, LOOP_COUNT, REFERENCE_CLEAR_STEPS, Rejection, SPEED_HZ,
