@@ -34,6 +34,23 @@ pub struct WireStats {
     pub garbage_bytes: u64,
 }
 
+/// When the shell should next call `run_until`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Wake {
+    pub at: Instant,
+    /// The wake-up hands out the last byte of a message: a client waiting for
+    /// the whole reply sees it at this moment, so it should be met as exactly
+    /// as the machine allows, not with the kernel's usual timer lateness.
+    pub exact: bool,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Outgoing {
+    byte: u8,
+    due: Instant,
+    ends_message: bool,
+}
+
 /// The device and its wire, advanced by the caller.
 pub struct Engine {
     device: Box<dyn SimDevice>,
@@ -43,7 +60,7 @@ pub struct Engine {
     last_arrival: Option<Instant>,
     incoming: VecDeque<(u8, Instant)>,
     /// Bytes on their way out, each with the time it is due at the receiver.
-    outgoing: VecDeque<(u8, Instant)>,
+    outgoing: VecDeque<Outgoing>,
     line_free: Option<Instant>,
     armed: ArmedFaults,
     /// A deadline the device kept reporting after it was served; ignored so a
@@ -98,15 +115,24 @@ impl Engine {
     }
 
     /// When `run_until` next has something to do; `None`: nothing pending.
-    pub fn next_wake(&self) -> Option<Instant> {
-        [
+    pub fn next_wake(&self) -> Option<Wake> {
+        let output = self.outgoing.front().map(|o| Wake {
+            at: o.due,
+            exact: o.ends_message,
+        });
+        let other = [
             self.incoming.front().map(|&(_, t)| t),
-            self.outgoing.front().map(|&(_, t)| t),
             self.pending_deadline(),
         ]
         .into_iter()
         .flatten()
         .min()
+        .map(|at| Wake { at, exact: false });
+        match (output, other) {
+            (Some(o), Some(x)) if x.at < o.at => Some(x),
+            (Some(o), _) => Some(o),
+            (None, x) => x,
+        }
     }
 
     /// Handle, in time order, every arrival and device deadline up to `now`,
@@ -135,11 +161,11 @@ impl Engine {
                 self.advance(t);
             }
         }
-        while let Some(&(b, due)) = self.outgoing.front() {
+        while let Some(&Outgoing { byte, due, .. }) = self.outgoing.front() {
             if due > now {
                 break;
             }
-            out.push(b);
+            out.push(byte);
             self.outgoing.pop_front();
             self.stats.bytes_sent += 1;
         }
@@ -166,7 +192,7 @@ impl Engine {
                 self.stats.garbage_bytes += bytes.len() as u64;
                 let t = self.clock.map_or(now, |c| c.max(now));
                 let timed = self.place_on_wire(&bytes, t, Duration::ZERO);
-                self.outgoing.extend(timed);
+                self.enqueue(timed);
             }
             Fault::Close { .. } => return Err("closing the line is up to the shell".to_owned()),
         }
@@ -217,9 +243,23 @@ impl Engine {
                 self.stats.bytes_dropped += 1;
             }
             faults.apply_to_bytes(&mut timed);
-            self.outgoing.extend(timed);
+            self.enqueue(timed);
             self.stats.messages_sent += 1;
         }
+    }
+
+    fn enqueue(&mut self, timed: Vec<(u8, Instant)>) {
+        let last = timed.len().saturating_sub(1);
+        self.outgoing.extend(
+            timed
+                .into_iter()
+                .enumerate()
+                .map(|(k, (byte, due))| Outgoing {
+                    byte,
+                    due,
+                    ends_message: k == last,
+                }),
+        );
     }
 
     /// Book the line for `bytes` after whatever is queued, starting no
@@ -247,7 +287,7 @@ mod tests {
         line: LineSettings,
         delay: Duration,
         reply: Vec<u8>,
-        seen: Arc<Mutex<Vec<(u8, Instant)>>>,
+        seen: Seen,
         pending: VecDeque<(Instant, Vec<u8>)>,
         ready: VecDeque<Vec<u8>>,
         replies_per_line: usize,
@@ -293,16 +333,15 @@ mod tests {
         }
     }
 
+    type Seen = Arc<Mutex<Vec<(u8, Instant)>>>;
+
     const REPLY: &[u8] = b"0000100002000FFFFFE";
 
-    fn engine(delay: Duration) -> (Engine, Arc<Mutex<Vec<(u8, Instant)>>>) {
+    fn engine(delay: Duration) -> (Engine, Seen) {
         engine_with(delay, 1)
     }
 
-    fn engine_with(
-        delay: Duration,
-        replies_per_line: usize,
-    ) -> (Engine, Arc<Mutex<Vec<(u8, Instant)>>>) {
+    fn engine_with(delay: Duration, replies_per_line: usize) -> (Engine, Seen) {
         let seen = Arc::new(Mutex::new(Vec::new()));
         let device = LineDevice {
             line: LineSettings::new(19200),
@@ -329,7 +368,7 @@ mod tests {
     /// byte was handed out.
     fn drive(e: &mut Engine, until: Instant) -> Vec<(u8, Instant)> {
         let mut got = Vec::new();
-        while let Some(t) = e.next_wake().filter(|&t| t <= until) {
+        while let Some(t) = e.next_wake().map(|w| w.at).filter(|&t| t <= until) {
             let mut out = Vec::new();
             e.run_until(t, &mut out);
             got.extend(out.into_iter().map(|b| (b, t)));
@@ -342,7 +381,7 @@ mod tests {
         let (mut e, seen) = engine(Duration::ZERO);
         let t0 = Instant::now();
         e.receive(b"@0P\r", t0);
-        assert_eq!(e.next_wake(), Some(t0 + bt(1)));
+        assert_eq!(e.next_wake().map(|w| w.at), Some(t0 + bt(1)));
         let mut out = Vec::new();
         e.run_until(t0 + bt(1) - Duration::from_nanos(1), &mut out);
         assert!(seen.lock().unwrap().is_empty(), "never before its arrival");
@@ -525,6 +564,27 @@ mod tests {
     }
 
     #[test]
+    fn only_the_last_byte_of_a_message_asks_for_an_exact_wake() {
+        let (mut e, _) = engine(Duration::ZERO);
+        let t0 = Instant::now();
+        e.fault(Fault::DropByte(ByteIndex::At(99)), t0)
+            .expect("armed");
+        e.receive(b"\r", t0);
+        let mut exact = Vec::new();
+        while let Some(w) = e.next_wake() {
+            let mut out = Vec::new();
+            e.run_until(w.at, &mut out);
+            if !out.is_empty() {
+                exact.push(w.exact);
+            }
+        }
+        // 19 bytes less the dropped last one: the 18th is now the last.
+        assert_eq!(exact.len(), REPLY.len() - 1);
+        assert_eq!(exact.iter().filter(|&&x| x).count(), 1);
+        assert_eq!(exact.last(), Some(&true));
+    }
+
+    #[test]
     fn close_is_not_the_engines() {
         let (mut e, _) = engine(Duration::ZERO);
         assert!(
@@ -576,7 +636,7 @@ mod tests {
     fn a_deadline_the_device_never_clears_does_not_make_the_shell_spin() {
         let t0 = Instant::now();
         let mut e = Engine::new(Box::new(StuckDeadline(t0)));
-        assert_eq!(e.next_wake(), Some(t0));
+        assert_eq!(e.next_wake().map(|w| w.at), Some(t0));
         e.run_until(t0 + Duration::from_millis(1), &mut Vec::new());
         assert_eq!(e.next_wake(), None);
     }

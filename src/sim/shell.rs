@@ -223,18 +223,34 @@ pub fn run_pty_simulator(
     device: Box<dyn SimDevice>,
     options: PtyOptions,
 ) -> Result<(), ShellError> {
+    let stdin = io::stdin();
+    let stdout = io::stdout();
+    run_pty_simulator_with(
+        device,
+        options,
+        stdin.lock(),
+        &mut stdout.lock(),
+        &mut io::stderr(),
+    )
+}
+
+/// [`run_pty_simulator`] on any input and outputs.
+pub fn run_pty_simulator_with(
+    device: Box<dyn SimDevice>,
+    options: PtyOptions,
+    input: impl io::BufRead,
+    out: &mut impl Write,
+    err: &mut impl Write,
+) -> Result<(), ShellError> {
     let shell = serve_pty(device, options)?;
     let path = shell.client_path().ok_or(ShellError::Stopped)?;
-    let stdout = io::stdout();
-    let mut out = stdout.lock();
     writeln!(out, "{}", path.display())
         .and_then(|()| out.flush())
         .map_err(|source| ShellError::Io {
-            action: "writing the device path to stdout",
+            action: "writing the device path",
             source,
         })?;
-    let stdin = io::stdin();
-    let result = run_control_loop(stdin.lock(), &mut out, &mut io::stderr(), &shell.control());
+    let result = run_control_loop(input, out, err, &shell.control());
     shell.shutdown();
     result.map_err(|source| ShellError::Io {
         action: "running the control loop",
@@ -286,6 +302,11 @@ fn spawn(
     })
 }
 
+/// How long before the last byte of a message the shell stops sleeping and
+/// spins. Covers the usual timer lateness; costs at most this much CPU per
+/// message.
+const EXACT_SPIN: std::time::Duration = std::time::Duration::from_micros(200);
+
 struct Worker {
     engine: Engine,
     line: Line,
@@ -323,7 +344,19 @@ impl Worker {
             }
             self.catch_up(now);
 
-            let deadline = [self.engine.next_wake(), self.line.timer()]
+            let wake = self.engine.next_wake();
+            // For the last byte of a message, wake early and spin the rest:
+            // the kernel's timer wakes a thread tens of µs late (75 µs is
+            // typical in a VM), and that lateness would add to every
+            // request/reply cycle a client measures.
+            let engine_deadline = wake.map(|w| {
+                if w.exact {
+                    w.at.checked_sub(EXACT_SPIN).unwrap_or(w.at)
+                } else {
+                    w.at
+                }
+            });
+            let deadline = [engine_deadline, self.line.timer()]
                 .into_iter()
                 .flatten()
                 .min();
@@ -331,9 +364,20 @@ impl Worker {
             if let Some(line_fd) = self.line.readable_fd() {
                 fds.push(fd::pollfd(line_fd, libc::POLLIN));
             }
-            if fd::poll_until(&mut fds, deadline).is_err() {
-                // Cannot wait (should not happen): do not spin at full speed.
-                thread::sleep(std::time::Duration::from_micros(200));
+            let ready = match fd::poll_until(&mut fds, deadline) {
+                Ok(n) => n,
+                Err(_) => {
+                    // Cannot wait (should not happen): do not spin at full speed.
+                    thread::sleep(std::time::Duration::from_micros(200));
+                    continue;
+                }
+            };
+            if ready == 0
+                && let Some(w) = wake.filter(|w| w.exact && Instant::now() + EXACT_SPIN >= w.at)
+            {
+                while Instant::now() < w.at {
+                    std::hint::spin_loop();
+                }
                 continue;
             }
             // The moment the bytes are known to be there: they arrive one
