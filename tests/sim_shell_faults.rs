@@ -88,20 +88,20 @@ fn delay_holds_the_next_reply_back_by_that_long() {
     let (shell, mut client) = socket_shell();
     shell
         .control()
-        .fault(Fault::Delay(Duration::from_millis(40)))
+        .fault(Fault::Delay(Duration::from_millis(200)))
         .expect("fault");
     let t = Instant::now();
     assert_eq!(cycle(&mut client, REQUEST, REPLY.len()), REPLY);
     let wire = LineSettings::new(19200).transfer_time(REQUEST.len() + REPLY.len());
     assert!(
-        t.elapsed() >= wire + Duration::from_millis(40),
+        t.elapsed() >= wire + Duration::from_millis(200),
         "{:?}",
         t.elapsed()
     );
     let t = Instant::now();
     cycle(&mut client, REQUEST, REPLY.len());
     assert!(
-        t.elapsed() < Duration::from_millis(40),
+        t.elapsed() < Duration::from_millis(200),
         "one-shot: {:?}",
         t.elapsed()
     );
@@ -333,8 +333,9 @@ fn the_pty_master_can_be_read_by_a_serialport_client_after_garbage() {
         .timeout(Duration::from_millis(20))
         .open_native()
         .expect("open");
-    // Give the shell its client-check interval to notice the client.
-    std::thread::sleep(Duration::from_millis(10));
+    // The shell checks for a client every few ms; garbage sent before it
+    // noticed would go nowhere.
+    sim_shell_support::wait_for_show(&shell.control(), "client connected");
     shell
         .control()
         .fault(Fault::Garbage(b"\x02\r".to_vec()))

@@ -15,7 +15,7 @@ use jogterm::sim::control::run_control_loop;
 use jogterm::sim::shell::{PtyOptions, run_pty_simulator_with, serve_pty, serve_socket};
 use jogterm::transport::{self, PortSpec, TransportError};
 use jogterm::wire::LineSettings;
-use sim_shell_support::{LineAnswerer, REPLY, REQUEST, cycle, read_for, serial};
+use sim_shell_support::{LineAnswerer, REPLY, REQUEST, cycle, read_for, serial, wait_for_show};
 
 fn open_client(path: &std::path::Path) -> serialport::TTYPort {
     serialport::new(path.to_string_lossy(), 19200)
@@ -53,14 +53,14 @@ fn what_the_device_sends_while_no_client_is_there_is_lost() {
         let mut client = open_client(&path);
         assert_eq!(cycle(&mut client, REQUEST, REPLY.len()), REPLY);
     }
-    // Give the shell a moment to see the client go, then make the device talk.
-    thread::sleep(Duration::from_millis(10));
+    // Once the shell has seen the client go, make the device talk.
+    wait_for_show(&control, "waiting for a client");
     control
         .input(InputControl::Press {
             name: "start".into(),
         })
         .expect("press");
-    thread::sleep(Duration::from_millis(10));
+    wait_for_show(&control, "lost without a client 2,");
     let mut client = open_client(&path);
     assert!(
         read_for(&mut client, Duration::from_millis(30)).is_empty(),

@@ -83,6 +83,14 @@ fn chunks_until_done(
     }
 }
 
+/// Wait until the writer has started on a message: its first chunk.
+fn first_chunk(events: &mut UnboundedReceiver<WriterEvent>) -> WrittenChunk {
+    match next_event(events) {
+        WriterEvent::Written(c) => c,
+        other => panic!("unexpected {other:?}"),
+    }
+}
+
 fn long_message(n: usize) -> Vec<u8> {
     (0..n).map(|i| b'a' + (i % 26) as u8).collect()
 }
@@ -93,15 +101,16 @@ fn a_stop_overtakes_an_interruptible_message_within_a_millisecond() {
     let PortParts {
         writer, mut events, ..
     } = parts;
-    let message = long_message(200); // 104 ms at 19200 baud
+    let message = long_message(400); // 208 ms at 19200 baud
     let peer = collect_peer(peer, message.len() + 1);
     let id = writer
         .send(message.clone(), Interleave::BetweenBytes)
         .expect("send");
-    thread::sleep(Duration::from_millis(20));
+    let mut chunks = vec![first_chunk(&mut events)];
+    thread::sleep(Duration::from_millis(10));
     let asked = Instant::now();
     let stop = writer.stop([0xFD]).expect("stop");
-    let chunks = chunks_until_done(&mut events, id);
+    chunks.extend(chunks_until_done(&mut events, id));
 
     let stop_at = chunks
         .iter()
@@ -144,7 +153,7 @@ fn a_stop_waits_for_a_whole_frame_and_goes_ahead_of_the_queue() {
     let PortParts {
         writer, mut events, ..
     } = parts;
-    let frame = long_message(60); // 31 ms
+    let frame = long_message(120); // 62 ms
     let queued = b"0211110000000000\x1a".to_vec();
     let peer = collect_peer(peer, frame.len() + 17 + 2 * queued.len());
     let first = writer
@@ -156,11 +165,11 @@ fn a_stop_waits_for_a_whole_frame_and_goes_ahead_of_the_queue() {
     let third = writer
         .send(queued.clone(), Interleave::WholeMessage)
         .expect("send");
-    thread::sleep(Duration::from_millis(10));
+    let mut chunks = vec![first_chunk(&mut events)];
     let stop_frame = b"2011000000000000\x1a".to_vec();
     let stop = writer.stop(stop_frame.clone()).expect("stop");
 
-    let chunks = chunks_until_done(&mut events, third);
+    chunks.extend(chunks_until_done(&mut events, third));
     let order: Vec<MessageId> = chunks.iter().map(|c| c.id).collect();
     let mut dedup = order.clone();
     dedup.dedup();
@@ -233,7 +242,7 @@ fn cancel_drops_the_queued_messages_and_finishes_the_one_on_the_wire() {
     let PortParts {
         writer, mut events, ..
     } = parts;
-    let first = long_message(40);
+    let first = long_message(200);
     let peer = collect_peer(peer, first.len());
     let a = writer
         .send(first.clone(), Interleave::BetweenBytes)
@@ -244,10 +253,11 @@ fn cancel_drops_the_queued_messages_and_finishes_the_one_on_the_wire() {
     let c = writer
         .send(b"@0P\r".to_vec(), Interleave::BetweenBytes)
         .expect("send");
-    thread::sleep(Duration::from_millis(5));
+    let started = first_chunk(&mut events);
+    assert_eq!(started.id, a);
     writer.cancel_queued().expect("cancel");
     let mut cancelled = Vec::new();
-    let mut done = false;
+    let mut done = started.done;
     while !(done && cancelled.len() == 2) {
         match next_event(&mut events) {
             WriterEvent::Written(chunk) => {
@@ -302,12 +312,12 @@ fn the_emergency_handle_writes_while_the_writer_is_busy_and_after_it_ended() {
         emergency,
         ..
     } = parts;
-    let message = long_message(100);
+    let message = long_message(300);
     let peer = collect_peer(peer, message.len() + 2);
     let id = writer
         .send(message.clone(), Interleave::BetweenBytes)
         .expect("send");
-    thread::sleep(Duration::from_millis(10));
+    first_chunk(&mut events);
     let from_other_thread = emergency.clone();
     thread::spawn(move || from_other_thread.write_now(&[0xFF]))
         .join()
@@ -375,4 +385,44 @@ fn handles_can_be_shared_between_threads() {
     send_sync_clone::<transport::EmergencyStop>();
     send_sync::<transport::PacedWriter>();
     send_sync::<transport::PortReader>();
+}
+
+#[test]
+fn the_emergency_handle_gives_up_in_bounded_time_when_nothing_drains() {
+    // A fast line so the bytes' own wire time does not dominate the bound.
+    let (ours, _peer_never_reads) = UnixStream::pair().expect("socketpair");
+    let port = transport::open(PortSpec::InProcess {
+        stream: ours,
+        line: LineSettings::new(4_000_000),
+        name: "stuck".into(),
+    })
+    .expect("open");
+    let parts = port.split(WriterConfig::default()).expect("split");
+    let emergency = parts
+        .emergency
+        .with_timeout(Duration::from_millis(20))
+        .expect("handle");
+    let chunk = vec![0xFFu8; 4096];
+    let started = Instant::now();
+    let err = loop {
+        let t = Instant::now();
+        match emergency.write_now(&chunk) {
+            Ok(()) => assert!(
+                started.elapsed() < Duration::from_secs(5),
+                "the buffer never filled"
+            ),
+            Err(e) => break (e, t.elapsed()),
+        }
+    };
+    let bound = Duration::from_millis(20) + LineSettings::new(4_000_000).transfer_time(4096);
+    assert!(
+        matches!(err.0, TransportError::DrainTimeout { .. }),
+        "{:?}",
+        err.0
+    );
+    assert!(
+        err.1 < bound + Duration::from_millis(500),
+        "gave up after {:?}",
+        err.1
+    );
 }

@@ -203,14 +203,16 @@ impl Line {
         if reopen_after.is_some() && matches!(self.kind, Kind::Socket) {
             return Err("reopening needs a pseudo-terminal line; this one is a socket".to_owned());
         }
-        if let Some(fd) = self.fd.take()
-            && matches!(self.kind, Kind::Socket)
-        {
-            // SAFETY: shutdown on a socket fd we own; the peer reads EOF.
+        let fd = self.fd.take();
+        if let (Some(fd), Kind::Socket) = (&fd, &self.kind) {
+            // SAFETY: shutdown on a socket fd we own; the peer reads EOF even
+            // if another copy of the fd were still open somewhere.
             unsafe {
-                libc::shutdown(std::os::fd::AsRawFd::as_raw_fd(&fd), libc::SHUT_RDWR);
+                libc::shutdown(std::os::fd::AsRawFd::as_raw_fd(fd), libc::SHUT_RDWR);
             }
         }
+        // Closing a pty master hangs the slave up: the client's reads end.
+        drop(fd);
         if let Kind::Pty(shared) = &self.kind {
             // Like an unplugged USB adapter: the device node and its link vanish.
             if let (Some(link), Some(slave)) = (&shared.link, shared.slave()) {

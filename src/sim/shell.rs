@@ -313,7 +313,7 @@ struct Worker {
     requests: mpsc::Receiver<Request>,
     wake: UnixStream,
     out: Vec<u8>,
-    /// The last line error (a failed reopen), for `show`.
+    /// The last line error (such as a failed reopen), for `show`.
     last_error: Option<String>,
 }
 
@@ -340,7 +340,7 @@ impl Worker {
             }
             let now = Instant::now();
             if let Err(e) = self.line.tick(now) {
-                self.last_error = Some(format!("reopening the line failed: {e}"));
+                self.last_error = Some(format!("the line: {e}"));
             }
             self.catch_up(now);
 
@@ -360,11 +360,17 @@ impl Worker {
                 .into_iter()
                 .flatten()
                 .min();
-            let mut fds = vec![fd::pollfd(self.wake.as_fd(), libc::POLLIN)];
-            if let Some(line_fd) = self.line.readable_fd() {
-                fds.push(fd::pollfd(line_fd, libc::POLLIN));
-            }
-            let ready = match fd::poll_until(&mut fds, deadline) {
+            let wake_fd = fd::pollfd(self.wake.as_fd(), libc::POLLIN);
+            let mut fds = match self.line.readable_fd() {
+                Some(line_fd) => [wake_fd, fd::pollfd(line_fd, libc::POLLIN)],
+                None => [wake_fd, wake_fd],
+            };
+            let watched = if self.line.readable_fd().is_some() {
+                2
+            } else {
+                1
+            };
+            let ready = match fd::poll_until(fds.get_mut(..watched).unwrap_or_default(), deadline) {
                 Ok(n) => n,
                 Err(_) => {
                     // Cannot wait (should not happen): do not spin at full speed.
@@ -387,7 +393,7 @@ impl Worker {
                 let mut sink = [0u8; 64];
                 while matches!((&self.wake).read(&mut sink), Ok(n) if n > 0) {}
             }
-            if fds.get(1).is_some_and(|p| p.revents != 0) {
+            if watched == 2 && fds.get(1).is_some_and(|p| p.revents != 0) {
                 while let ReadOutcome::Data(n) = self.line.read(&mut buf, read_at) {
                     self.engine
                         .receive(buf.get(..n).unwrap_or_default(), read_at);

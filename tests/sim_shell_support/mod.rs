@@ -177,3 +177,20 @@ pub fn serialised<F: std::future::Future>(body: F) -> F::Output {
         .expect("runtime")
         .block_on(body)
 }
+
+/// Wait until the shell's `show` output contains `needle` (the shell notices
+/// clients coming and going on its own schedule).
+pub fn wait_for_show(control: &jogterm::sim::shell::ShellControl, needle: &str) {
+    let deadline = Instant::now() + Duration::from_secs(3);
+    loop {
+        let shown = control.show().expect("show");
+        if shown.contains(needle) {
+            return;
+        }
+        assert!(
+            Instant::now() < deadline,
+            "`{needle}` never showed up in:\n{shown}"
+        );
+        std::thread::sleep(Duration::from_millis(1));
+    }
+}
