@@ -226,6 +226,11 @@ fn chunks_are_reported_in_order_and_add_up_to_the_stream() {
     // Paced: the last byte was not handed over before the wire could carry
     // the ones before it (minus the ~1 ms the OS buffer may hold).
     let wire = LineSettings::new(BAUD).transfer_time(total);
+    println!(
+        "paced {total} bytes in {:.3} ms (wire time {:.3} ms)",
+        elapsed.as_secs_f64() * 1e3,
+        wire.as_secs_f64() * 1e3
+    );
     assert!(
         elapsed + Duration::from_millis(2) >= wire,
         "{elapsed:?} for {wire:?} of bytes"

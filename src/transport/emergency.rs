@@ -83,7 +83,9 @@ impl EmergencyStop {
     ///
     /// The bytes go between whatever the paced writer has already handed to
     /// the OS and what it writes next: for isel's control bytes that is
-    /// exactly right (they may go between any two bytes of a command).
+    /// exactly right (they may go between any two bytes of a command). For
+    /// EMCU and EMP it may split a frame being written: this handle is for
+    /// when the writer can no longer be relied on, not for normal stops.
     pub fn write_now(&self, bytes: &[u8]) -> Result<(), TransportError> {
         let inner = &*self.inner;
         let deadline = Instant::now() + inner.timeout + inner.line.transfer_time(bytes.len());
