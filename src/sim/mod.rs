@@ -12,6 +12,13 @@
 //!   stream, on its own threads with precise sleeps (tokio's timer has 1 ms
 //!   granularity, a byte at 19200 baud takes 0.52 ms).
 
+pub mod control;
+pub mod engine;
+pub mod fault;
+mod line;
+pub mod pty;
+pub mod shell;
+
 use std::time::Instant;
 
 use crate::wire::LineSettings;

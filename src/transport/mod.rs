@@ -1,3 +1,172 @@
 //! Byte transports between jogterm and a controller: a real serial port, a
 //! pseudo-terminal, or an in-process socket pair to a built-in simulator. The
 //! protocol code above never knows which one it talks through.
+//!
+//! All of them are file descriptors, so there is one code path: [`open`] gives
+//! a [`Port`], and [`Port::split`] turns it into
+//! - a [`PortReader`] (async, tokio `AsyncFd`): a vanished port is
+//!   [`TransportError::LinkLost`], never data, never a panic;
+//! - a [`PacedWriter`] (std thread, own dup of the fd): writes at line speed
+//!   with at most about 1 ms in the OS buffer, a stop lane that overtakes the
+//!   queue, and reports of every chunk written ([`WriterEvent`]);
+//! - an [`EmergencyStop`] (own dup of the fd): synchronous, bounded
+//!   `write_now` for the panic hook and the hang-up path.
+//!
+//! Linux/unix only.
+
+mod emergency;
+mod error;
+pub(crate) mod fd;
+mod list;
+mod pacing;
+mod reader;
+mod writer;
+
+use std::os::fd::{AsFd, FromRawFd, IntoRawFd, OwnedFd};
+use std::os::unix::net::UnixStream;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+pub use emergency::EmergencyStop;
+pub use error::TransportError;
+pub use list::{PortInfo, list_ports};
+pub use pacing::Pacer;
+pub use reader::{PortReader, ReadChunk};
+pub use writer::{
+    Interleave, Lane, MessageId, PacedWriter, WriterConfig, WriterEvent, WrittenChunk,
+};
+
+use crate::wire::LineSettings;
+
+/// Where to find the controller.
+#[derive(Debug)]
+pub enum PortSpec {
+    /// A serial device (or a simulator's pseudo-terminal) by path, 8N1, no
+    /// flow control, opened exclusively.
+    Serial { path: PathBuf, line: LineSettings },
+    /// One end of a socket pair whose other end a built-in simulator serves
+    /// (`sim::shell::serve_socket`). `name` labels it in messages.
+    InProcess {
+        stream: UnixStream,
+        line: LineSettings,
+        name: String,
+    },
+}
+
+/// An open port, not yet split into its reading and writing parts.
+#[derive(Debug)]
+pub struct Port {
+    fd: OwnedFd,
+    name: String,
+    line: LineSettings,
+}
+
+/// The parts of an open port. Each owns its own dup of the fd: the port stays
+/// open until all of them are dropped.
+#[derive(Debug)]
+pub struct PortParts {
+    pub reader: PortReader,
+    pub writer: PacedWriter,
+    pub events: tokio::sync::mpsc::UnboundedReceiver<WriterEvent>,
+    pub emergency: EmergencyStop,
+}
+
+/// Open a port. No runtime needed; see [`Port::split`].
+pub fn open(spec: PortSpec) -> Result<Port, TransportError> {
+    match spec {
+        PortSpec::Serial { path, line } => open_serial(&path, line),
+        PortSpec::InProcess { stream, line, name } => {
+            let fd = OwnedFd::from(stream);
+            fd::set_nonblocking(fd.as_fd()).map_err(|source| TransportError::Io {
+                port: name.clone(),
+                action: "setting non-blocking mode",
+                source,
+            })?;
+            Ok(Port { fd, name, line })
+        }
+    }
+}
+
+impl Port {
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    pub fn line(&self) -> LineSettings {
+        self.line
+    }
+
+    /// Start the writer thread and hand out the parts.
+    pub fn split(self, config: WriterConfig) -> Result<PortParts, TransportError> {
+        let reader_fd = self.dup("duplicating the fd for reading")?;
+        let emergency_fd = self.dup("duplicating the fd for emergency stops")?;
+        let (writer, events) = PacedWriter::spawn(self.fd, self.name.clone(), self.line, config)?;
+        Ok(PortParts {
+            reader: PortReader::new(reader_fd, self.name.clone()),
+            writer,
+            events,
+            emergency: EmergencyStop::new(emergency_fd, self.name, self.line),
+        })
+    }
+
+    fn dup(&self, action: &'static str) -> Result<OwnedFd, TransportError> {
+        self.fd.try_clone().map_err(|source| TransportError::Io {
+            port: self.name.clone(),
+            action,
+            source,
+        })
+    }
+}
+
+fn open_serial(path: &Path, line: LineSettings) -> Result<Port, TransportError> {
+    let port = path.display().to_string();
+    let Some(path_str) = path.to_str() else {
+        return Err(TransportError::Open {
+            port,
+            message: "the path is not valid UTF-8".to_owned(),
+        });
+    };
+    let tty = serialport::new(path_str, line.baud)
+        .data_bits(serialport::DataBits::Eight)
+        .parity(serialport::Parity::None)
+        .stop_bits(serialport::StopBits::One)
+        .flow_control(serialport::FlowControl::None)
+        .timeout(Duration::ZERO)
+        .open_native()
+        .map_err(|e| open_error(&port, path, e))?;
+    // serialport's TTYPort closes its fd on drop; from here the fd is ours.
+    // SAFETY: into_raw_fd hands over sole ownership of an open descriptor.
+    let fd = unsafe { OwnedFd::from_raw_fd(tty.into_raw_fd()) };
+    // Bytes that arrived before the port was ours (or were garbled while its
+    // settings changed) belong to nobody: drop them.
+    // SAFETY: tcflush on a valid fd.
+    unsafe {
+        libc::tcflush(std::os::fd::AsRawFd::as_raw_fd(&fd), libc::TCIFLUSH);
+    }
+    fd::set_nonblocking(fd.as_fd()).map_err(|source| TransportError::Io {
+        port: port.clone(),
+        action: "setting non-blocking mode",
+        source,
+    })?;
+    Ok(Port {
+        fd,
+        name: port,
+        line,
+    })
+}
+
+fn open_error(port: &str, path: &Path, e: serialport::Error) -> TransportError {
+    use serialport::ErrorKind as K;
+    let port = port.to_owned();
+    match e.kind() {
+        // serialport reports EBUSY (TIOCEXCL) and a held flock as NoDevice.
+        K::NoDevice => TransportError::Busy { port },
+        K::Io(std::io::ErrorKind::NotFound) => TransportError::NotFound { port },
+        K::Io(std::io::ErrorKind::PermissionDenied) => TransportError::PermissionDenied { port },
+        _ if !path.exists() => TransportError::NotFound { port },
+        _ => TransportError::Open {
+            port,
+            message: e.to_string(),
+        },
+    }
+}

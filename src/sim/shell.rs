@@ -1,0 +1,468 @@
+//! The simulator shell: serves one [`SimDevice`] on one byte stream (a pty
+//! master or one end of a socket pair) on its own std thread.
+//!
+//! The thread waits with `ppoll` (nanosecond timeouts) on the line and a wake
+//! socket, and hands everything to the sans-IO [`Engine`], which models wire
+//! timing both ways and applies faults. Operators and tests reach it through
+//! a [`ShellControl`]; `docs/simulator.md` describes the behaviour.
+
+use std::io::{self, Read, Write};
+use std::os::fd::{AsFd, OwnedFd};
+use std::os::unix::net::UnixStream;
+use std::path::{Path, PathBuf};
+use std::sync::mpsc::{self, TryRecvError};
+use std::sync::{Arc, Mutex};
+use std::thread::{self, JoinHandle};
+use std::time::Instant;
+
+use super::control::run_control_loop;
+use super::engine::Engine;
+use super::fault::Fault;
+use super::line::{Line, PtyShared, ReadOutcome};
+use super::pty::{self, StableLink};
+use super::{InputControl, SimDevice};
+use crate::transport::fd;
+use crate::wire::LineSettings;
+
+/// Errors of the simulator shell.
+#[derive(Debug, thiserror::Error)]
+pub enum ShellError {
+    #[error("{action} failed: {source}")]
+    Io {
+        action: &'static str,
+        #[source]
+        source: io::Error,
+    },
+    #[error("{path}: cannot maintain the link: {source}")]
+    Link {
+        path: PathBuf,
+        #[source]
+        source: io::Error,
+    },
+    /// The device or the shell refused a control or a fault; says why.
+    #[error("{0}")]
+    Rejected(String),
+    /// The shell's thread has ended.
+    #[error("the simulator has stopped")]
+    Stopped,
+}
+
+/// How to serve on a pseudo-terminal.
+#[derive(Debug, Clone, Default)]
+pub struct PtyOptions {
+    /// Keep a symlink here that points at the current slave device. It is
+    /// removed while the line is closed and when the shell ends.
+    pub link: Option<PathBuf>,
+}
+
+type Reply<T> = mpsc::Sender<T>;
+
+enum Request {
+    Input(InputControl, Reply<Result<(), String>>),
+    Fault(Fault, Reply<Result<(), String>>),
+    Show(Reply<String>),
+    InputNames(Reply<Vec<&'static str>>),
+    Shutdown,
+}
+
+/// A cloneable, thread-safe way to operate a running shell.
+#[derive(Clone)]
+pub struct ShellControl {
+    requests: mpsc::Sender<Request>,
+    waker: Arc<UnixStream>,
+}
+
+impl std::fmt::Debug for ShellControl {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("ShellControl")
+    }
+}
+
+impl ShellControl {
+    /// Flip an input or press a button on the simulated machine.
+    pub fn input(&self, control: InputControl) -> Result<(), ShellError> {
+        self.ask(|reply| Request::Input(control, reply))?
+            .map_err(ShellError::Rejected)
+    }
+
+    /// Inject a fault (`docs/simulator.md`, "Faults").
+    pub fn fault(&self, fault: Fault) -> Result<(), ShellError> {
+        self.ask(|reply| Request::Fault(fault, reply))?
+            .map_err(ShellError::Rejected)
+    }
+
+    /// The device's state line and the shell's line and wire counters.
+    pub fn show(&self) -> Result<String, ShellError> {
+        self.ask(Request::Show)
+    }
+
+    /// The input names the device understands.
+    pub fn input_names(&self) -> Result<Vec<&'static str>, ShellError> {
+        self.ask(Request::InputNames)
+    }
+
+    fn ask<T>(&self, make: impl FnOnce(Reply<T>) -> Request) -> Result<T, ShellError> {
+        let (tx, rx) = mpsc::channel();
+        self.send(make(tx))?;
+        rx.recv().map_err(|_| ShellError::Stopped)
+    }
+
+    fn send(&self, request: Request) -> Result<(), ShellError> {
+        self.requests
+            .send(request)
+            .map_err(|_| ShellError::Stopped)?;
+        // A full wake socket already holds a wake-up; nothing else can fail
+        // that matters.
+        let _ = (&*self.waker).write(&[1]);
+        Ok(())
+    }
+}
+
+/// A running simulator shell. Dropping it (or [`Shell::shutdown`]) stops the
+/// thread and closes the line.
+#[derive(Debug)]
+pub struct Shell {
+    control: ShellControl,
+    line: LineSettings,
+    pty: Option<Arc<PtyShared>>,
+    thread: Option<JoinHandle<()>>,
+}
+
+impl Shell {
+    pub fn control(&self) -> ShellControl {
+        self.control.clone()
+    }
+
+    /// The line settings of the device served (for the client's port).
+    pub fn line(&self) -> LineSettings {
+        self.line
+    }
+
+    /// The current pty slave device, `None` for a socket or while closed.
+    pub fn slave_path(&self) -> Option<PathBuf> {
+        self.pty.as_ref().and_then(|p| p.slave())
+    }
+
+    /// The stable link, if one was asked for.
+    pub fn link_path(&self) -> Option<&Path> {
+        self.pty
+            .as_ref()
+            .and_then(|p| p.link.as_ref())
+            .map(|l| l.path())
+    }
+
+    /// The path a client should open: the link if there is one, else the slave.
+    pub fn client_path(&self) -> Option<PathBuf> {
+        self.link_path()
+            .map(Path::to_path_buf)
+            .or_else(|| self.slave_path())
+    }
+
+    /// Stop the thread, close the line, remove the link; waits for the thread.
+    pub fn shutdown(mut self) {
+        self.stop();
+    }
+
+    fn stop(&mut self) {
+        let _ = self.control.send(Request::Shutdown);
+        if let Some(thread) = self.thread.take() {
+            let _ = thread.join();
+        }
+    }
+}
+
+impl Drop for Shell {
+    fn drop(&mut self) {
+        self.stop();
+    }
+}
+
+/// Serve `device` in-process: returns the shell and the client's end of a
+/// socket pair (for `transport::PortSpec::InProcess`).
+pub fn serve_socket(device: Box<dyn SimDevice>) -> Result<(Shell, UnixStream), ShellError> {
+    let (ours, theirs) = UnixStream::pair().map_err(|source| ShellError::Io {
+        action: "creating a socket pair",
+        source,
+    })?;
+    let fd = OwnedFd::from(ours);
+    fd::set_nonblocking(fd.as_fd()).map_err(|source| ShellError::Io {
+        action: "setting the socket non-blocking",
+        source,
+    })?;
+    let shell = spawn(device, Line::socket(fd), None)?;
+    Ok((shell, theirs))
+}
+
+/// Serve `device` on a new pseudo-terminal. The client opens
+/// [`Shell::client_path`]; clients may close and reopen it at will.
+pub fn serve_pty(device: Box<dyn SimDevice>, options: PtyOptions) -> Result<Shell, ShellError> {
+    let master = pty::open_master().map_err(|source| ShellError::Io {
+        action: "creating a pseudo-terminal",
+        source,
+    })?;
+    let link = options.link.map(StableLink::new);
+    if let Some(link) = &link {
+        link.point_to(&master.slave_path)
+            .map_err(|source| ShellError::Link {
+                path: link.path().to_path_buf(),
+                source,
+            })?;
+    }
+    let shared = Arc::new(PtyShared {
+        slave: Mutex::new(Some(master.slave_path)),
+        link,
+    });
+    let line = Line::pty(master.fd, shared.clone(), Instant::now());
+    spawn(device, line, Some(shared))
+}
+
+/// What `jogterm sim --pty` runs: serve `device` on a new pty, print the path
+/// to open (the link if given, else the slave device) as the first line of
+/// stdout, then read control commands from stdin until it closes (or `quit`).
+pub fn run_pty_simulator(
+    device: Box<dyn SimDevice>,
+    options: PtyOptions,
+) -> Result<(), ShellError> {
+    let stdin = io::stdin();
+    let stdout = io::stdout();
+    run_pty_simulator_with(
+        device,
+        options,
+        stdin.lock(),
+        &mut stdout.lock(),
+        &mut io::stderr(),
+    )
+}
+
+/// [`run_pty_simulator`] on any input and outputs.
+pub fn run_pty_simulator_with(
+    device: Box<dyn SimDevice>,
+    options: PtyOptions,
+    input: impl io::BufRead,
+    out: &mut impl Write,
+    err: &mut impl Write,
+) -> Result<(), ShellError> {
+    let shell = serve_pty(device, options)?;
+    let path = shell.client_path().ok_or(ShellError::Stopped)?;
+    writeln!(out, "{}", path.display())
+        .and_then(|()| out.flush())
+        .map_err(|source| ShellError::Io {
+            action: "writing the device path",
+            source,
+        })?;
+    let result = run_control_loop(input, out, err, &shell.control());
+    shell.shutdown();
+    result.map_err(|source| ShellError::Io {
+        action: "running the control loop",
+        source,
+    })
+}
+
+fn spawn(
+    device: Box<dyn SimDevice>,
+    line: Line,
+    pty: Option<Arc<PtyShared>>,
+) -> Result<Shell, ShellError> {
+    let (wake_tx, wake_rx) = UnixStream::pair().map_err(|source| ShellError::Io {
+        action: "creating the wake socket",
+        source,
+    })?;
+    for s in [&wake_tx, &wake_rx] {
+        s.set_nonblocking(true).map_err(|source| ShellError::Io {
+            action: "setting the wake socket non-blocking",
+            source,
+        })?;
+    }
+    let (requests, request_rx) = mpsc::channel();
+    let engine = Engine::new(device);
+    let settings = engine.line();
+    let worker = Worker {
+        engine,
+        line,
+        requests: request_rx,
+        wake: wake_rx,
+        out: Vec::new(),
+        last_error: None,
+    };
+    let thread = thread::Builder::new()
+        .name("jogterm-sim".into())
+        .spawn(move || worker.run())
+        .map_err(|source| ShellError::Io {
+            action: "starting the simulator thread",
+            source,
+        })?;
+    Ok(Shell {
+        control: ShellControl {
+            requests,
+            waker: Arc::new(wake_tx),
+        },
+        line: settings,
+        pty,
+        thread: Some(thread),
+    })
+}
+
+/// How long before the last byte of a message the shell stops sleeping and
+/// spins. Covers the usual timer lateness; costs at most this much CPU per
+/// message.
+const EXACT_SPIN: std::time::Duration = std::time::Duration::from_micros(200);
+
+struct Worker {
+    engine: Engine,
+    line: Line,
+    requests: mpsc::Receiver<Request>,
+    wake: UnixStream,
+    out: Vec<u8>,
+    /// The last line error (such as a failed reopen), for `show`.
+    last_error: Option<String>,
+}
+
+enum Flow {
+    Continue,
+    Exit,
+}
+
+impl Worker {
+    fn run(mut self) {
+        fd::tighten_timer_slack();
+        let mut buf = [0u8; 1024];
+        loop {
+            loop {
+                match self.requests.try_recv() {
+                    Ok(request) => {
+                        if let Flow::Exit = self.handle(request) {
+                            return self.finish();
+                        }
+                    }
+                    Err(TryRecvError::Empty) => break,
+                    Err(TryRecvError::Disconnected) => return self.finish(),
+                }
+            }
+            let now = Instant::now();
+            if let Err(e) = self.line.tick(now) {
+                self.last_error = Some(format!("the line: {e}"));
+            }
+            self.catch_up(now);
+
+            let wake = self.engine.next_wake();
+            // For the last byte of a message, wake early and spin the rest:
+            // the kernel's timer wakes a thread tens of µs late (75 µs is
+            // typical in a VM), and that lateness would add to every
+            // request/reply cycle a client measures.
+            let engine_deadline = wake.map(|w| {
+                if w.exact {
+                    w.at.checked_sub(EXACT_SPIN).unwrap_or(w.at)
+                } else {
+                    w.at
+                }
+            });
+            let deadline = [engine_deadline, self.line.timer()]
+                .into_iter()
+                .flatten()
+                .min();
+            let wake_fd = fd::pollfd(self.wake.as_fd(), libc::POLLIN);
+            let mut fds = match self.line.readable_fd() {
+                Some(line_fd) => [wake_fd, fd::pollfd(line_fd, libc::POLLIN)],
+                None => [wake_fd, wake_fd],
+            };
+            let watched = if self.line.readable_fd().is_some() {
+                2
+            } else {
+                1
+            };
+            let ready = match fd::poll_until(fds.get_mut(..watched).unwrap_or_default(), deadline) {
+                Ok(n) => n,
+                Err(_) => {
+                    // Cannot wait (should not happen): do not spin at full speed.
+                    thread::sleep(std::time::Duration::from_micros(200));
+                    continue;
+                }
+            };
+            if ready == 0
+                && let Some(w) = wake.filter(|w| w.exact && Instant::now() + EXACT_SPIN >= w.at)
+            {
+                while Instant::now() < w.at {
+                    std::hint::spin_loop();
+                }
+                continue;
+            }
+            // The moment the bytes are known to be there: they arrive one
+            // byte time after this at the earliest.
+            let read_at = Instant::now();
+            if fds.first().is_some_and(|p| p.revents != 0) {
+                let mut sink = [0u8; 64];
+                while matches!((&self.wake).read(&mut sink), Ok(n) if n > 0) {}
+            }
+            if watched == 2 && fds.get(1).is_some_and(|p| p.revents != 0) {
+                while let ReadOutcome::Data(n) = self.line.read(&mut buf, read_at) {
+                    self.engine
+                        .receive(buf.get(..n).unwrap_or_default(), read_at);
+                }
+            }
+        }
+    }
+
+    /// Bring the model up to `now` and put every byte due on the line.
+    fn catch_up(&mut self, now: Instant) {
+        self.out.clear();
+        self.engine.run_until(now, &mut self.out);
+        if !self.out.is_empty() {
+            self.line.write(&self.out, now);
+        }
+    }
+
+    fn handle(&mut self, request: Request) -> Flow {
+        let now = Instant::now();
+        self.catch_up(now);
+        match request {
+            Request::Input(control, reply) => {
+                let _ = reply.send(self.engine.control(&control, now));
+            }
+            Request::Fault(Fault::Close { reopen_after }, reply) => {
+                let _ = reply.send(self.line.close(reopen_after, now));
+            }
+            Request::Fault(fault, reply) => {
+                let _ = reply.send(self.engine.fault(fault, now));
+            }
+            Request::Show(reply) => {
+                let _ = reply.send(self.show(now));
+            }
+            Request::InputNames(reply) => {
+                let _ = reply.send(self.engine.input_names());
+            }
+            Request::Shutdown => return Flow::Exit,
+        }
+        Flow::Continue
+    }
+
+    fn show(&mut self, now: Instant) -> String {
+        let s = self.engine.stats();
+        let mut text = format!(
+            "device: {}\nline: {} baud, {}\nwire: received {} bytes; sent {} bytes in {} messages; \
+             withheld {} messages; dropped {}, corrupted {}, garbage {} bytes; \
+             lost without a client {}, not taken by the client {} bytes\nfaults armed: {}",
+            self.engine.describe(now),
+            self.engine.line().baud,
+            self.line.status(now),
+            s.bytes_received,
+            s.bytes_sent,
+            s.messages_sent,
+            s.messages_withheld,
+            s.bytes_dropped,
+            s.bytes_corrupted,
+            s.garbage_bytes,
+            self.line.lost_bytes,
+            self.line.overrun_bytes,
+            self.engine.armed(),
+        );
+        if let Some(e) = &self.last_error {
+            text.push_str("\nlast error: ");
+            text.push_str(e);
+        }
+        text
+    }
+
+    fn finish(mut self) {
+        let _ = self.line.close(None, Instant::now());
+    }
+}

@@ -1,0 +1,134 @@
+//! The emergency stop handle: a reserved dup of the port's fd that writes stop
+//! bytes synchronously, past the paced writer's queue.
+//!
+//! It is meant for the panic hook and the hang-up path, where the async
+//! machinery and the writer thread may already be gone
+//! (`../shared/field-notes.md`, "Serial ports" and "Order on hang-up").
+//! So it never panics and never blocks longer than its bound.
+
+use std::os::fd::{AsFd, OwnedFd};
+use std::sync::{Arc, Mutex, TryLockError};
+use std::thread;
+use std::time::{Duration, Instant};
+
+use super::error::TransportError;
+use super::fd::{self, FdKind};
+use crate::wire::LineSettings;
+
+/// `Send + Sync + Clone`; every clone writes through the same reserved fd.
+#[derive(Debug, Clone)]
+pub struct EmergencyStop {
+    inner: Arc<Inner>,
+}
+
+#[derive(Debug)]
+struct Inner {
+    fd: OwnedFd,
+    kind: FdKind,
+    port: String,
+    line: LineSettings,
+    timeout: Duration,
+    /// Keeps two emergency writers from mixing their bytes.
+    busy: Mutex<()>,
+}
+
+impl EmergencyStop {
+    /// Default bound on one `write_now`, on top of the bytes' own wire time.
+    pub const DEFAULT_TIMEOUT: Duration = Duration::from_millis(200);
+
+    pub(crate) fn new(fd: OwnedFd, port: String, line: LineSettings) -> Self {
+        let kind = fd::kind_of(fd.as_fd());
+        Self {
+            inner: Arc::new(Inner {
+                fd,
+                kind,
+                port,
+                line,
+                timeout: Self::DEFAULT_TIMEOUT,
+                busy: Mutex::new(()),
+            }),
+        }
+    }
+
+    /// A handle with a different bound (shares nothing with `self` but the port).
+    pub fn with_timeout(&self, timeout: Duration) -> Result<Self, TransportError> {
+        let fd = self
+            .inner
+            .fd
+            .try_clone()
+            .map_err(|source| TransportError::Io {
+                port: self.inner.port.clone(),
+                action: "duplicating the emergency handle",
+                source,
+            })?;
+        Ok(Self {
+            inner: Arc::new(Inner {
+                fd,
+                kind: self.inner.kind,
+                port: self.inner.port.clone(),
+                line: self.inner.line,
+                timeout,
+                busy: Mutex::new(()),
+            }),
+        })
+    }
+
+    pub fn port(&self) -> &str {
+        &self.inner.port
+    }
+
+    /// Write `bytes` now (`write_all`), then wait until a terminal has sent
+    /// them (`tcdrain`). Gives up after the handle's timeout plus the bytes'
+    /// wire time; bytes may then still be in flight.
+    ///
+    /// The bytes go between whatever the paced writer has already handed to
+    /// the OS and what it writes next: for isel's control bytes that is
+    /// exactly right (they may go between any two bytes of a command). For
+    /// EMCU and EMP it may split a frame being written: this handle is for
+    /// when the writer can no longer be relied on, not for normal stops.
+    pub fn write_now(&self, bytes: &[u8]) -> Result<(), TransportError> {
+        let inner = &*self.inner;
+        let deadline = Instant::now() + inner.timeout + inner.line.transfer_time(bytes.len());
+        let _guard = lock_until(&inner.busy, deadline);
+        fd::write_all_until(inner.fd.as_fd(), inner.kind, bytes, deadline).map_err(|e| {
+            if e.kind() == std::io::ErrorKind::TimedOut {
+                TransportError::DrainTimeout {
+                    port: inner.port.clone(),
+                    waited: inner.timeout,
+                }
+            } else {
+                TransportError::from_io(&inner.port, "emergency write", e)
+            }
+        })?;
+        if inner.kind != FdKind::Tty {
+            return Ok(());
+        }
+        let left = deadline.saturating_duration_since(Instant::now());
+        match fd::drain_bounded(inner.fd.as_fd(), left) {
+            Ok(true) => Ok(()),
+            Ok(false) => Err(TransportError::DrainTimeout {
+                port: inner.port.clone(),
+                waited: inner.timeout,
+            }),
+            Err(e) => Err(TransportError::from_io(&inner.port, "tcdrain", e)),
+        }
+    }
+}
+
+/// Take the lock if it comes free before `deadline`; past it, go on without
+/// (a stop that interleaves with another stop beats no stop). A poisoned lock
+/// is still a lock.
+fn lock_until(lock: &Mutex<()>, deadline: Instant) -> Option<std::sync::MutexGuard<'_, ()>> {
+    loop {
+        match lock.try_lock() {
+            Ok(guard) => return Some(guard),
+            Err(TryLockError::Poisoned(p)) => return Some(p.into_inner()),
+            Err(TryLockError::WouldBlock) => {
+                if Instant::now() >= deadline {
+                    return None;
+                }
+                thread::sleep(Duration::from_micros(50));
+            }
+        }
+    }
+}

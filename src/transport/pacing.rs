@@ -1,0 +1,156 @@
+//! The paced writer's arithmetic, sans-IO: a model of when the bytes handed to
+//! the OS will have left the wire, and how many more may be handed over now
+//! without letting the OS buffer hold more than about a millisecond.
+//!
+//! Why: the kernel and a USB adapter accept kilobytes at once and then
+//! transmit them at line speed. A stop written behind a 1 kB upload line
+//! would leave the wire half a second later at 19200 baud. Keeping the OS
+//! buffer nearly empty keeps a stop within about a millisecond of the wire.
+
+use std::time::{Duration, Instant};
+
+use crate::wire::LineSettings;
+
+/// How many bytes ahead of the wire the writer may be.
+#[derive(Debug, Clone)]
+pub struct Pacer {
+    byte_time: Duration,
+    max_backlog: Duration,
+    wire_free: Option<Instant>,
+}
+
+impl Pacer {
+    /// `max_backlog` is raised to 1.5 byte times at slow rates (9600 baud: a
+    /// byte takes 1.04 ms) so that the next byte can always be handed over
+    /// while the previous one is still on the wire, and the line never idles
+    /// just because the writer thread woke a few microseconds late.
+    pub fn new(line: LineSettings, max_backlog: Duration) -> Self {
+        let byte_time = line.byte_time().max(Duration::from_nanos(1));
+        Self {
+            byte_time,
+            max_backlog: max_backlog.max(byte_time + byte_time / 2),
+            wire_free: None,
+        }
+    }
+
+    pub fn byte_time(&self) -> Duration {
+        self.byte_time
+    }
+
+    /// The backlog limit actually in force.
+    pub fn max_backlog(&self) -> Duration {
+        self.max_backlog
+    }
+
+    /// Time the bytes already handed over still need on the wire.
+    pub fn backlog(&self, now: Instant) -> Duration {
+        self.wire_free
+            .map_or(Duration::ZERO, |free| free.saturating_duration_since(now))
+    }
+
+    /// When everything handed over so far will have left the wire.
+    pub fn wire_free_at(&self, now: Instant) -> Instant {
+        self.wire_free.map_or(now, |free| free.max(now))
+    }
+
+    /// Bytes that may be handed over at `now`.
+    pub fn allowance(&self, now: Instant) -> usize {
+        let room = self.max_backlog.saturating_sub(self.backlog(now));
+        (room.as_nanos() / self.byte_time.as_nanos()) as usize
+    }
+
+    /// The earliest time at which at least one byte may be handed over.
+    pub fn ready_at(&self, now: Instant) -> Instant {
+        if self.allowance(now) > 0 {
+            return now;
+        }
+        let keep = self.max_backlog.saturating_sub(self.byte_time);
+        let free = self.wire_free_at(now);
+        free.checked_sub(keep).map_or(now, |t| t.max(now))
+    }
+
+    /// Record that `n` bytes were handed over at `now`; returns when their
+    /// first byte starts and their last byte ends on the wire (modelled).
+    pub fn wrote(&mut self, n: usize, now: Instant) -> (Instant, Instant) {
+        let start = self.wire_free_at(now);
+        let bits = n as u128 * self.byte_time.as_nanos();
+        let end = start + Duration::from_nanos(bits.min(u64::MAX as u128) as u64);
+        self.wire_free = Some(end);
+        (start, end)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn us(n: u64) -> Duration {
+        Duration::from_micros(n)
+    }
+
+    #[test]
+    fn at_19200_one_byte_goes_at_a_time_and_the_next_before_the_wire_idles() {
+        let t0 = Instant::now();
+        let mut p = Pacer::new(LineSettings::new(19200), Duration::from_millis(1));
+        assert_eq!(p.allowance(t0), 1, "1 ms holds one 0.52 ms byte");
+        let (start, end) = p.wrote(1, t0);
+        assert_eq!(start, t0);
+        assert_eq!(end - t0, us(520) + Duration::from_nanos(833));
+        assert_eq!(p.allowance(t0), 0);
+        // The next byte may go once 0.48 ms of backlog remain: the line stays
+        // busy back to back, yet the OS never holds more than 1 ms.
+        let ready = p.ready_at(t0);
+        assert!(ready > t0 && ready < end, "{:?}", ready - t0);
+        assert_eq!(p.allowance(ready), 1);
+        p.wrote(1, ready);
+        assert!(p.backlog(ready) <= Duration::from_millis(1));
+    }
+
+    #[test]
+    fn at_38400_three_bytes_fit_in_a_millisecond() {
+        let t0 = Instant::now();
+        let p = Pacer::new(LineSettings::new(38400), Duration::from_millis(1));
+        assert_eq!(p.allowance(t0), 3);
+    }
+
+    #[test]
+    fn at_9600_the_budget_grows_to_one_and_a_half_bytes() {
+        let t0 = Instant::now();
+        let mut p = Pacer::new(LineSettings::new(9600), Duration::from_millis(1));
+        assert_eq!(p.max_backlog(), us(1562) + Duration::from_nanos(499));
+        assert_eq!(p.allowance(t0), 1);
+        let (_, end) = p.wrote(1, t0);
+        let ready = p.ready_at(t0);
+        assert!(
+            ready < end,
+            "next byte is handed over before the line idles"
+        );
+    }
+
+    #[test]
+    fn a_late_writer_restarts_the_wire_at_now() {
+        let t0 = Instant::now();
+        let mut p = Pacer::new(LineSettings::new(19200), Duration::from_millis(1));
+        p.wrote(1, t0);
+        let later = t0 + Duration::from_millis(5);
+        assert_eq!(p.backlog(later), Duration::ZERO);
+        let (start, _) = p.wrote(1, later);
+        assert_eq!(start, later);
+    }
+
+    #[test]
+    fn backlog_never_exceeds_the_budget_when_following_allowance() {
+        let t0 = Instant::now();
+        let mut p = Pacer::new(LineSettings::new(19200), Duration::from_millis(1));
+        let mut now = t0;
+        for _ in 0..100 {
+            now = p.ready_at(now) + us(13);
+            let n = p.allowance(now);
+            assert!(n >= 1);
+            p.wrote(n, now);
+            assert!(p.backlog(now) <= p.max_backlog());
+        }
+        // 100+ bytes at 0.52 ms each: the wire was never idle.
+        assert!(p.wire_free_at(now) - t0 >= LineSettings::new(19200).transfer_time(100));
+    }
+}

@@ -1,0 +1,522 @@
+//! The paced writer: a std thread that owns a dup of the port's fd and writes
+//! queued messages no faster than the line carries them, with a priority lane
+//! for stop bytes.
+//!
+//! It runs on a std thread because the pacing is finer than tokio's 1 ms
+//! timer: a byte takes 0.52 ms at 19200 baud (`docs/architecture.md`,
+//! "Timing decisions"). Everything it does is reported back on a channel, so
+//! the device task knows when a command has left and the traffic console sees
+//! the bytes as they went out.
+
+use std::collections::VecDeque;
+use std::io;
+use std::os::fd::{AsFd, OwnedFd};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::mpsc::{self, RecvTimeoutError, TryRecvError};
+use std::thread::{self, JoinHandle};
+use std::time::{Duration, Instant, SystemTime};
+
+use tokio::sync::mpsc::{UnboundedReceiver, UnboundedSender, unbounded_channel};
+
+use super::error::TransportError;
+use super::fd::{self, FdKind};
+use super::pacing::Pacer;
+use crate::traffic::{Direction, TrafficRecord};
+use crate::wire::LineSettings;
+
+/// Identifies one message handed to the writer; reports carry it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct MessageId(pub u64);
+
+/// Where a stop may be put relative to a message being written.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Interleave {
+    /// A stop may go between any two bytes. isel: the controller reads the
+    /// control bytes 0xFD/0xFE/0xFF in its receive interrupt, also in the
+    /// middle of a command (`docs/architecture.md`, `../shared/protocols.md` isel).
+    BetweenBytes,
+    /// The message is a frame that must not be split (EMCU lines, EMP frames):
+    /// a stop waits until the frame has been handed over completely.
+    WholeMessage,
+}
+
+/// Which lane a chunk was written from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Lane {
+    Normal,
+    Stop,
+}
+
+/// Bytes actually handed to the port, in the order they were written.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct WrittenChunk {
+    pub id: MessageId,
+    pub lane: Lane,
+    pub bytes: Vec<u8>,
+    /// When the write returned.
+    pub at: Instant,
+    /// The same moment as wall-clock time, for the traffic console and logs.
+    pub wall: SystemTime,
+    /// Modelled: when the chunk's first byte starts on the wire (after what
+    /// the OS buffer already held).
+    pub wire_start: Instant,
+    /// Modelled: when the chunk's last byte has left the wire.
+    pub wire_end: Instant,
+    /// This chunk completes the message.
+    pub done: bool,
+}
+
+impl WrittenChunk {
+    pub fn traffic(&self) -> TrafficRecord {
+        TrafficRecord {
+            at: self.wall,
+            direction: Direction::Sent,
+            bytes: self.bytes.clone(),
+        }
+    }
+}
+
+/// What the writer thread reports.
+#[derive(Debug)]
+pub enum WriterEvent {
+    Written(WrittenChunk),
+    /// A queued message was dropped by [`PacedWriter::cancel_queued`] before
+    /// any byte of it was written.
+    Cancelled {
+        id: MessageId,
+    },
+    /// A stop was written but the port did not confirm within the bound that
+    /// it has left (`tcdrain`); the writer goes on.
+    DrainTimedOut {
+        id: MessageId,
+        waited: Duration,
+    },
+    /// Writing failed (usually [`TransportError::LinkLost`]); the thread has
+    /// ended and nothing more will be written.
+    Failed(TransportError),
+}
+
+/// Tuning of the paced writer.
+#[derive(Debug, Clone, Copy)]
+pub struct WriterConfig {
+    /// Most not-yet-transmitted time the OS buffer may hold (at slow rates at
+    /// least 1.5 byte times, see [`Pacer::new`]).
+    pub max_backlog: Duration,
+    /// Bound on waiting for stop bytes to drain from a terminal.
+    pub drain_timeout: Duration,
+}
+
+impl Default for WriterConfig {
+    fn default() -> Self {
+        Self {
+            max_backlog: Duration::from_millis(1),
+            drain_timeout: Duration::from_millis(250),
+        }
+    }
+}
+
+enum Command {
+    Send(Pending),
+    Stop(Pending),
+    Cancel,
+    Shutdown,
+}
+
+struct Pending {
+    id: MessageId,
+    bytes: Vec<u8>,
+    interleave: Interleave,
+}
+
+/// Handle to the writer thread. Dropping it ends the thread; messages not yet
+/// written are then dropped without reports.
+#[derive(Debug)]
+pub struct PacedWriter {
+    port: String,
+    commands: mpsc::Sender<Command>,
+    next_id: AtomicU64,
+    thread: Option<JoinHandle<()>>,
+}
+
+impl std::fmt::Debug for Command {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Command::Send(p) => write!(f, "Send({:?})", p.id),
+            Command::Stop(p) => write!(f, "Stop({:?})", p.id),
+            Command::Cancel => f.write_str("Cancel"),
+            Command::Shutdown => f.write_str("Shutdown"),
+        }
+    }
+}
+
+impl PacedWriter {
+    pub(crate) fn spawn(
+        fd: OwnedFd,
+        port: String,
+        line: LineSettings,
+        config: WriterConfig,
+    ) -> Result<(Self, UnboundedReceiver<WriterEvent>), TransportError> {
+        let kind = fd::kind_of(fd.as_fd());
+        let (commands, command_rx) = mpsc::channel();
+        let (events, event_rx) = unbounded_channel();
+        let worker = Worker {
+            fd,
+            kind,
+            port: port.clone(),
+            pacer: Pacer::new(line, config.max_backlog),
+            drain_timeout: config.drain_timeout,
+            queue: VecDeque::new(),
+            stops: VecDeque::new(),
+            current: None,
+            blocked_until: None,
+            commands: command_rx,
+            events,
+        };
+        let thread = thread::Builder::new()
+            .name(format!("jogterm-writer {port}"))
+            .spawn(move || worker.run())
+            .map_err(|source| TransportError::Io {
+                port: port.clone(),
+                action: "starting the writer thread",
+                source,
+            })?;
+        Ok((
+            Self {
+                port,
+                commands,
+                next_id: AtomicU64::new(1),
+                thread: Some(thread),
+            },
+            event_rx,
+        ))
+    }
+
+    /// Queue a message behind those already queued.
+    pub fn send(
+        &self,
+        bytes: impl Into<Vec<u8>>,
+        interleave: Interleave,
+    ) -> Result<MessageId, TransportError> {
+        let id = self.id();
+        self.command(Command::Send(Pending {
+            id,
+            bytes: bytes.into(),
+            interleave,
+        }))?;
+        Ok(id)
+    }
+
+    /// Write stop bytes ahead of everything queued: at once between two bytes
+    /// of a [`Interleave::BetweenBytes`] message, right after a
+    /// [`Interleave::WholeMessage`] message being written. Then the port is
+    /// drained (`tcdrain` on a terminal, bounded) before the report is sent.
+    pub fn stop(&self, bytes: impl Into<Vec<u8>>) -> Result<MessageId, TransportError> {
+        let id = self.id();
+        self.command(Command::Stop(Pending {
+            id,
+            bytes: bytes.into(),
+            interleave: Interleave::WholeMessage,
+        }))?;
+        Ok(id)
+    }
+
+    /// Drop every queued message that has not started; each is reported as
+    /// [`WriterEvent::Cancelled`]. A message already partly written is
+    /// finished, so the line never carries a truncated command or frame.
+    pub fn cancel_queued(&self) -> Result<(), TransportError> {
+        self.command(Command::Cancel)
+    }
+
+    /// End the thread now (queued messages are dropped) and wait for it.
+    pub fn close(mut self) {
+        self.shut_down();
+    }
+
+    fn id(&self) -> MessageId {
+        MessageId(self.next_id.fetch_add(1, Ordering::Relaxed))
+    }
+
+    fn command(&self, command: Command) -> Result<(), TransportError> {
+        self.commands
+            .send(command)
+            .map_err(|_| TransportError::WriterStopped {
+                port: self.port.clone(),
+            })
+    }
+
+    fn shut_down(&mut self) {
+        let _ = self.commands.send(Command::Shutdown);
+        if let Some(thread) = self.thread.take() {
+            let _ = thread.join();
+        }
+    }
+}
+
+impl Drop for PacedWriter {
+    fn drop(&mut self) {
+        self.shut_down();
+    }
+}
+
+struct Current {
+    pending: Pending,
+    written: usize,
+}
+
+struct Worker {
+    fd: OwnedFd,
+    kind: FdKind,
+    port: String,
+    pacer: Pacer,
+    drain_timeout: Duration,
+    queue: VecDeque<Pending>,
+    stops: VecDeque<Pending>,
+    current: Option<Current>,
+    /// The OS buffer was full (EAGAIN): try again no earlier than this.
+    blocked_until: Option<Instant>,
+    commands: mpsc::Receiver<Command>,
+    events: UnboundedSender<WriterEvent>,
+}
+
+enum Flow {
+    Continue,
+    Exit,
+}
+
+impl Worker {
+    fn run(mut self) {
+        fd::tighten_timer_slack();
+        loop {
+            loop {
+                match self.commands.try_recv() {
+                    Ok(command) => {
+                        if let Flow::Exit = self.accept(command) {
+                            return;
+                        }
+                    }
+                    Err(TryRecvError::Empty) => break,
+                    Err(TryRecvError::Disconnected) => return,
+                }
+            }
+            if let Err(e) = self.step() {
+                self.report(WriterEvent::Failed(e));
+                return;
+            }
+            let received = match self.wake_at() {
+                None => self
+                    .commands
+                    .recv()
+                    .map_err(|_| RecvTimeoutError::Disconnected),
+                Some(at) => self
+                    .commands
+                    .recv_timeout(at.saturating_duration_since(Instant::now())),
+            };
+            match received {
+                Ok(command) => {
+                    if let Flow::Exit = self.accept(command) {
+                        return;
+                    }
+                }
+                Err(RecvTimeoutError::Timeout) => {}
+                Err(RecvTimeoutError::Disconnected) => return,
+            }
+        }
+    }
+
+    fn accept(&mut self, command: Command) -> Flow {
+        match command {
+            Command::Send(p) => self.queue.push_back(p),
+            Command::Stop(p) => self.stops.push_back(p),
+            Command::Cancel => {
+                for p in std::mem::take(&mut self.queue) {
+                    self.report(WriterEvent::Cancelled { id: p.id });
+                }
+            }
+            Command::Shutdown => return Flow::Exit,
+        }
+        Flow::Continue
+    }
+
+    fn wake_at(&self) -> Option<Instant> {
+        if self.current.is_none() && self.queue.is_empty() && self.stops.is_empty() {
+            return None;
+        }
+        let now = Instant::now();
+        let ready = self.pacer.ready_at(now);
+        Some(self.blocked_until.map_or(ready, |b| b.max(ready)))
+    }
+
+    /// Write whatever may be written now.
+    fn step(&mut self) -> Result<(), TransportError> {
+        loop {
+            if !self.stops.is_empty() {
+                if self.current.as_ref().is_some_and(|c| c.written == 0) {
+                    // Nothing of it is on the way yet: the stop goes first.
+                    if let Some(cur) = self.current.take() {
+                        self.queue.push_front(cur.pending);
+                    }
+                }
+                let whole = self
+                    .current
+                    .as_ref()
+                    .is_some_and(|c| c.pending.interleave == Interleave::WholeMessage);
+                if whole {
+                    // The frame on its way must not be split: hand over its
+                    // rest at once, the stop follows directly behind it.
+                    self.finish_current_at_once()?;
+                }
+                while let Some(stop) = self.stops.pop_front() {
+                    self.write_stop(stop)?;
+                }
+            }
+            if self.current.is_none() {
+                match self.queue.pop_front() {
+                    Some(pending) => {
+                        self.current = Some(Current {
+                            pending,
+                            written: 0,
+                        })
+                    }
+                    None => return Ok(()),
+                }
+            }
+            if !self.write_paced()? {
+                return Ok(());
+            }
+        }
+    }
+
+    /// Hand over as many bytes of the current message as the pacer allows.
+    /// Returns true when the message was completed (the caller moves on).
+    fn write_paced(&mut self) -> Result<bool, TransportError> {
+        let now = Instant::now();
+        if self.blocked_until.is_some_and(|b| now < b) {
+            return Ok(false);
+        }
+        let Some(cur) = self.current.as_mut() else {
+            return Ok(false);
+        };
+        let rest = cur.pending.bytes.get(cur.written..).unwrap_or_default();
+        if rest.is_empty() {
+            // An empty message is complete as soon as it is its turn.
+            let id = cur.pending.id;
+            self.current = None;
+            self.report_chunk(id, Lane::Normal, Vec::new(), now, true);
+            return Ok(true);
+        }
+        let n = self.pacer.allowance(now).min(rest.len());
+        if n == 0 {
+            return Ok(false);
+        }
+        let chunk = rest.get(..n).unwrap_or_default();
+        match fd::write_some(self.fd.as_fd(), self.kind, chunk) {
+            Ok(0) => {
+                self.blocked_until = Some(now + self.pacer.byte_time());
+                Ok(false)
+            }
+            Ok(w) => {
+                self.blocked_until = None;
+                let bytes = chunk.get(..w).unwrap_or_default().to_vec();
+                let id = cur.pending.id;
+                cur.written += w;
+                let done = cur.written >= cur.pending.bytes.len();
+                if done {
+                    self.current = None;
+                }
+                let at = Instant::now();
+                let (wire_start, wire_end) = self.pacer.wrote(w, at);
+                self.send_chunk(id, Lane::Normal, bytes, at, wire_start, wire_end, done);
+                Ok(done)
+            }
+            Err(e) if e.kind() == io::ErrorKind::WouldBlock => {
+                self.blocked_until = Some(now + self.pacer.byte_time());
+                Ok(false)
+            }
+            Err(e) if e.kind() == io::ErrorKind::Interrupted => Ok(false),
+            Err(e) => Err(TransportError::from_io(&self.port, "write", e)),
+        }
+    }
+
+    fn finish_current_at_once(&mut self) -> Result<(), TransportError> {
+        let Some(cur) = self.current.take() else {
+            return Ok(());
+        };
+        let rest = cur.pending.bytes.get(cur.written..).unwrap_or_default();
+        self.write_whole(cur.pending.id, Lane::Normal, rest)
+    }
+
+    fn write_stop(&mut self, stop: Pending) -> Result<(), TransportError> {
+        self.write_whole(stop.id, Lane::Stop, &stop.bytes)?;
+        if self.kind == FdKind::Tty {
+            // To be sure a stop has left: write_all, then tcdrain
+            // (`../shared/field-notes.md`, "Serial ports").
+            match fd::drain_bounded(self.fd.as_fd(), self.drain_timeout) {
+                Ok(true) => {}
+                Ok(false) => self.report(WriterEvent::DrainTimedOut {
+                    id: stop.id,
+                    waited: self.drain_timeout,
+                }),
+                Err(e) => return Err(TransportError::from_io(&self.port, "tcdrain", e)),
+            }
+        }
+        Ok(())
+    }
+
+    /// `write_all` past the pacer: for stops and the rest of a frame ahead of
+    /// a stop. Bounded so a wedged port cannot hold the thread for ever.
+    fn write_whole(
+        &mut self,
+        id: MessageId,
+        lane: Lane,
+        bytes: &[u8],
+    ) -> Result<(), TransportError> {
+        let deadline = Instant::now() + self.drain_timeout;
+        fd::write_all_until(self.fd.as_fd(), self.kind, bytes, deadline).map_err(|e| {
+            if e.kind() == io::ErrorKind::TimedOut {
+                TransportError::DrainTimeout {
+                    port: self.port.clone(),
+                    waited: self.drain_timeout,
+                }
+            } else {
+                TransportError::from_io(&self.port, "write", e)
+            }
+        })?;
+        let at = Instant::now();
+        let (wire_start, wire_end) = self.pacer.wrote(bytes.len(), at);
+        self.send_chunk(id, lane, bytes.to_vec(), at, wire_start, wire_end, true);
+        Ok(())
+    }
+
+    fn report_chunk(&self, id: MessageId, lane: Lane, bytes: Vec<u8>, at: Instant, done: bool) {
+        let wire = self.pacer.wire_free_at(at);
+        self.send_chunk(id, lane, bytes, at, wire, wire, done);
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn send_chunk(
+        &self,
+        id: MessageId,
+        lane: Lane,
+        bytes: Vec<u8>,
+        at: Instant,
+        wire_start: Instant,
+        wire_end: Instant,
+        done: bool,
+    ) {
+        self.report(WriterEvent::Written(WrittenChunk {
+            id,
+            lane,
+            bytes,
+            at,
+            wall: SystemTime::now(),
+            wire_start,
+            wire_end,
+            done,
+        }));
+    }
+
+    fn report(&self, event: WriterEvent) {
+        // Nobody listening is not an error: the device task may be gone.
+        let _ = self.events.send(event);
+    }
+}
