@@ -6,6 +6,7 @@
 //! - [`sim`]: built-in simulators of the three controllers.
 //! - [`transport`]: serial port, pseudo-terminal, in-process socket pair.
 //! - [`wire`], [`motion`], [`axis`], [`traffic`]: shared arithmetic and types.
+//! - [`ui`]: the terminal UI (Elm architecture: model, update, view).
 
 pub mod axis;
 pub mod config;
@@ -15,4 +16,5 @@ pub mod proto;
 pub mod sim;
 pub mod traffic;
 pub mod transport;
+pub mod ui;
 pub mod wire;

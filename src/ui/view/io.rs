@@ -1,0 +1,179 @@
+//! The port bit panels, drawn from whatever the driver delivers
+//! (`IoSnapshot`: groups of named bits with raw bytes): each group starts a
+//! line with its name and raw hex, its bits flow after it as symbol + name,
+//! lit or unlit, a recent change highlighted. Names that share a leading
+//! word (`limit X1` … `limit A2`) are written once (`limit ●X1 ○X2 …`), so
+//! every bit keeps its manual name even at 80 columns. When the panel has
+//! focus, its last line tells the selected bit in full.
+
+use ratatui::buffer::Buffer;
+use ratatui::layout::Rect;
+use ratatui::style::Style;
+use ratatui::text::{Line, Span};
+use ratatui::widgets::Widget;
+
+use crate::ui::io::{BitState, GroupState, IoPanel, Selection};
+use crate::ui::model::{Model, PanelId};
+
+use super::flow::{Flowed, Item, fit, flow};
+use super::frame;
+
+pub struct IoView<'a>(pub &'a Model);
+
+/// The lines of the panel body at `width`, and the line holding the
+/// selected bit.
+fn body(model: &Model, width: usize) -> (Flowed<'static>, Option<usize>) {
+    let p = &model.palette;
+    let focused = model.focus == PanelId::Io && model.popup.is_none();
+    let mut items: Vec<Item<'static>> = Vec::new();
+    let mut selected_item = None;
+    for (gi, group) in model.io.groups.iter().enumerate() {
+        let mut head = vec![Span::styled(group.name.clone(), p.title)];
+        if let Some(raw) = group.raw {
+            head.push(Span::styled(format!(" {raw:02X}"), p.dim));
+        }
+        head.push(Span::styled(":", p.dim));
+        items.push(Item::new(head).on_new_line());
+        let prefix = common_prefix(group);
+        if let Some(prefix) = prefix {
+            items.push(Item::new(vec![Span::styled(prefix.to_string(), p.dim)]));
+        }
+        for (bi, bit) in group.bits.iter().enumerate() {
+            let label = prefix
+                .and_then(|pre| bit.bit.name.get(pre.len() + 1..))
+                .unwrap_or(&bit.bit.name);
+            let is_selected =
+                focused && model.io.selected == Some(Selection { group: gi, bit: bi });
+            if is_selected {
+                selected_item = Some(items.len());
+            }
+            items.push(Item::new(bit_spans(model, bit, label, is_selected)));
+        }
+    }
+    let flowed = flow(items, width, 2);
+    let selected_line = selected_item.and_then(|i| flowed.line_of.get(i).copied());
+    (flowed, selected_line)
+}
+
+fn bit_spans(model: &Model, bit: &BitState, label: &str, selected: bool) -> Vec<Span<'static>> {
+    let p = &model.palette;
+    let (sym, mut style): (&str, Style) = if bit.bit.value {
+        (p.symbols.lit, p.lit)
+    } else {
+        (p.symbols.unlit, p.unlit)
+    };
+    if IoPanel::highlighted(bit, model.now) {
+        style = style.patch(p.changed);
+    }
+    if selected {
+        style = style.patch(p.selected);
+    }
+    vec![Span::styled(format!("{sym}{label}"), style)]
+}
+
+/// A leading word (or words) every bit name of the group shares, when the
+/// group has at least three bits: written once before the bits.
+fn common_prefix(group: &GroupState) -> Option<&str> {
+    if group.bits.len() < 3 {
+        return None;
+    }
+    let first = group.bits.first()?.bit.name.as_str();
+    let mut best: Option<&str> = None;
+    for (i, c) in first.char_indices() {
+        if c != ' ' {
+            continue;
+        }
+        let candidate = first.get(..i)?;
+        let shared = group.bits.iter().all(|b| {
+            b.bit
+                .name
+                .get(..=i)
+                .is_some_and(|head| head == format!("{candidate} "))
+                && b.bit.name.len() > i + 1
+        });
+        if shared {
+            best = Some(candidate);
+        }
+    }
+    best
+}
+
+/// Rows the panel needs at `width` (title included).
+pub fn height(model: &Model, width: u16) -> u16 {
+    let (flowed, _) = body(model, usize::from(width));
+    let detail = u16::from(model.focus == PanelId::Io);
+    let lines = flowed.lines.len().max(1) as u16;
+    1 + lines + detail
+}
+
+impl Widget for IoView<'_> {
+    fn render(self, area: Rect, buf: &mut Buffer) {
+        let model = self.0;
+        let p = &model.palette;
+        let focused = model.focus == PanelId::Io && model.popup.is_none();
+        let (flowed, selected_line) = body(model, usize::from(area.width));
+        let detail_rows = u16::from(model.focus == PanelId::Io);
+        let rows = usize::from(area.height.saturating_sub(1 + detail_rows));
+        let total = flowed.lines.len();
+        // Keep the selected bit in view; otherwise show from the top.
+        let start = match selected_line {
+            Some(l) if l >= rows => (l + 1 - rows).min(total.saturating_sub(rows)),
+            _ => 0,
+        };
+        let mut extra = Vec::new();
+        if start > 0 {
+            extra.push(Span::styled("↑more ", p.dim));
+        }
+        if start + rows < total {
+            extra.push(Span::styled("↓more ", p.dim));
+        }
+        let inner = frame::panel("I/O", extra, focused, p, area, buf);
+        if model.io.groups.is_empty() {
+            Line::from(Span::styled(
+                fit("no port bits read yet", usize::from(inner.width)),
+                p.dim,
+            ))
+            .render(inner, buf);
+            return;
+        }
+        for (row, line) in flowed.lines.into_iter().skip(start).take(rows).enumerate() {
+            let y = inner.y + row as u16;
+            line.render(Rect::new(inner.x, y, inner.width, 1), buf);
+        }
+        if detail_rows > 0 && inner.height > 0 {
+            let y = inner.bottom() - 1;
+            fit_line(detail(model), usize::from(inner.width))
+                .render(Rect::new(inner.x, y, inner.width, 1), buf);
+        }
+    }
+}
+
+/// A line cut to `width` columns with an ellipsis.
+fn fit_line(line: Line<'static>, width: usize) -> Line<'static> {
+    let mut flowed = flow(vec![Item::new(line.spans)], width, 0);
+    flowed.lines.pop().unwrap_or_default()
+}
+
+/// The selected bit in full: group, name, value, what Enter does.
+fn detail(model: &Model) -> Line<'static> {
+    let p = &model.palette;
+    let Some((group, bit)) = model.io.selected_bit() else {
+        return Line::from(Span::styled("no bit selected", p.dim));
+    };
+    let what = match (bit.bit.output, bit.bit.hazardous) {
+        (Some(_), true) => "output, Enter switches (asks first)",
+        (Some(_), false) => "output, Enter switches",
+        (None, _) => "input",
+    };
+    let changes = if bit.changes > 0 {
+        format!(", changed {}x", bit.changes)
+    } else {
+        String::new()
+    };
+    Line::from(vec![
+        Span::styled("> ", p.key),
+        Span::styled(format!("{} {}", group.name, bit.bit.name), p.text),
+        Span::styled(format!(" = {}", u8::from(bit.bit.value)), p.title),
+        Span::styled(format!(" ({what}{changes})"), p.dim),
+    ])
+}
