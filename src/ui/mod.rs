@@ -9,8 +9,13 @@
 //! The state behind the panels lives in small modules of its own
 //! ([`position`], [`io`], [`traffic_log`], [`line_edit`], [`sim_panel`]);
 //! [`raw`] checks typed commands with each family's parser.
+//!
+//! Around it: [`terminal`] owns the terminal (restored on drop, error and
+//! panic), [`input`] reads keys on its own thread, [`runtime`] runs the loop
+//! that feeds `update` and carries out its effects.
 
 pub mod help;
+pub mod input;
 pub mod io;
 pub mod key;
 pub mod keymap;
@@ -20,8 +25,10 @@ pub mod msg;
 pub mod palette;
 pub mod position;
 pub mod raw;
+pub mod runtime;
 pub mod sim_panel;
 pub mod summary;
+pub mod terminal;
 pub mod traffic_log;
 pub mod update;
 pub mod view;
