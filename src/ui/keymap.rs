@@ -461,10 +461,15 @@ impl Keymap {
 
     /// The first key for `action` in `mode`, for hints (`Space stop`).
     pub fn key_for(&self, mode: Mode, action: Action) -> Option<KeyChord> {
-        // Prefer a plain key: it is what an operator types first.
+        // Prefer a plain key (what an operator types first), and among
+        // those one that is not a letter (`Down` over `j`, `?` over nothing).
         let keys = self.keys_for(mode, action);
+        let plain = |k: &&KeyChord| !k.ctrl && !k.alt;
+        let letter = |k: &&KeyChord| matches!(k.code, KeyCode::Char(c) if c.is_ascii_alphabetic());
         keys.iter()
-            .find(|k| !k.ctrl && !k.alt)
+            .filter(plain)
+            .find(|k| !letter(k))
+            .or_else(|| keys.iter().find(plain))
             .or(keys.first())
             .copied()
     }

@@ -460,8 +460,7 @@ pub fn find(buf: &Buffer, needle: &str) -> Vec<(u16, u16)> {
         for x in 0..buf.area.width {
             let matches = chars.iter().enumerate().all(|(i, c)| {
                 let xi = x as usize + i;
-                xi < buf.area.width as usize
-                    && buf[(xi as u16, y)].symbol().starts_with(*c)
+                xi < buf.area.width as usize && buf[(xi as u16, y)].symbol().starts_with(*c)
             });
             if matches {
                 hits.push((x, y));

@@ -79,7 +79,7 @@ impl Widget for ConsoleView<'_> {
         let polls = if log.show_polls {
             format!("polls shown{toggle} ")
         } else {
-            format!("{} polls hidden{toggle} ", log.poll_count)
+            format!("polls hidden: {}{toggle} ", log.poll_count)
         };
         let inner = frame::panel(
             "Traffic",
@@ -93,8 +93,19 @@ impl Widget for ConsoleView<'_> {
             return;
         }
         let width = usize::from(inner.width);
-        let error = model.command.error.as_ref();
-        let reserved = 1 + u16::from(error.is_some());
+        // The reason a command was refused, on up to two lines above it.
+        let error_lines: Vec<String> = model
+            .command
+            .error
+            .as_ref()
+            .map(|e| {
+                let mut lines = wrap(&e.message, width.saturating_sub(2), true);
+                lines.truncate(2);
+                lines
+            })
+            .unwrap_or_default();
+        let error_rows = (error_lines.len() as u16).min(inner.height.saturating_sub(1));
+        let reserved = 1 + error_rows;
         let rows = usize::from(inner.height.saturating_sub(reserved));
         // Wrap the newest lines until the rows are full.
         let mut shown: Vec<Line> = Vec::new();
@@ -124,12 +135,11 @@ impl Widget for ConsoleView<'_> {
             line.render(Rect::new(inner.x, top + i as u16, inner.width, 1), buf);
         }
         let input_y = inner.bottom() - 1;
-        if let Some(e) = error.filter(|_| inner.height >= 2) {
-            Line::from(Span::styled(
-                fit(&format!("^ {}", e.message), width),
-                p.danger,
-            ))
-            .render(Rect::new(inner.x, input_y - 1, inner.width, 1), buf);
+        for (i, text) in error_lines.iter().take(usize::from(error_rows)).enumerate() {
+            let lead = if i == 0 { "^ " } else { "  " };
+            let y = input_y - error_rows + i as u16;
+            Line::from(Span::styled(fit(&format!("{lead}{text}"), width), p.danger))
+                .render(Rect::new(inner.x, y, inner.width, 1), buf);
         }
         input_line(model, focused, width).render(Rect::new(inner.x, input_y, inner.width, 1), buf);
     }

@@ -122,10 +122,10 @@ impl Widget for IoView<'_> {
         };
         let mut extra = Vec::new();
         if start > 0 {
-            extra.push(Span::styled("↑more ", p.dim));
+            extra.push(Span::styled("more above ", p.dim));
         }
         if start + rows < total {
-            extra.push(Span::styled("↓more ", p.dim));
+            extra.push(Span::styled("more below ", p.dim));
         }
         let inner = frame::panel("I/O", extra, focused, p, area, buf);
         if model.io.groups.is_empty() {

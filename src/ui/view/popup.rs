@@ -94,7 +94,8 @@ impl Widget for ConfirmView<'_> {
         let width = area.width.clamp(20, 60);
         let text_w = usize::from(width.saturating_sub(2)).max(1);
         let text_rows = (c.question.chars().count().div_ceil(text_w) + 1) as u16;
-        let box_area = centred(area, width, text_rows + 4);
+        // Borders, the question, a blank line, the answer keys.
+        let box_area = centred(area, width, text_rows + 3);
         let inner = framed(model, &c.title, box_area, buf);
         let keys = |action| {
             model
