@@ -12,10 +12,11 @@
 //!   stream, on its own threads with precise sleeps (tokio's timer has 1 ms
 //!   granularity, a byte at 19200 baud takes 0.52 ms).
 
+mod line;
 pub mod control;
+pub mod emcu;
 pub mod engine;
 pub mod fault;
-mod line;
 pub mod pty;
 pub mod shell;
 
