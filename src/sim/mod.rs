@@ -12,6 +12,8 @@
 //!   stream, on its own threads with precise sleeps (tokio's timer has 1 ms
 //!   granularity, a byte at 19200 baud takes 0.52 ms).
 
+pub mod emp;
+
 use std::time::Instant;
 
 use crate::wire::LineSettings;
