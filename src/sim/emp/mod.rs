@@ -32,6 +32,8 @@ mod drive;
 mod kinematics;
 mod servo;
 
+#[cfg(test)]
+mod tests;
 
 use std::collections::VecDeque;
 use std::fmt::Write as _;
