@@ -15,6 +15,7 @@
 mod line;
 pub mod control;
 pub mod emcu;
+pub mod emp;
 pub mod engine;
 pub mod fault;
 pub mod pty;
