@@ -184,7 +184,7 @@ impl SimDevice for EmcuSim {
 
     fn control(&mut self, control: &InputControl, now: Instant) -> Result<(), String> {
         let now = self.run_until(now);
-        let (InputControl::Set { name, .. } | InputControl::Press { name }) = control;
+        let name = control.name();
         if !name.eq_ignore_ascii_case(INPUT_E1) {
             return Err(format!(
                 "the EMCU simulator has no input `{name}`: its only input is {INPUT_E1}"
@@ -197,6 +197,11 @@ impl SimDevice for EmcuSim {
             InputControl::Press { .. } => {
                 self.set_e1(true, now);
                 self.e1 = false;
+            }
+            InputControl::Value { .. } => {
+                return Err(format!(
+                    "{INPUT_E1} is a digital input: use `set {INPUT_E1} on|off`"
+                ));
             }
         }
         self.run_until(now);

@@ -4,9 +4,8 @@
 //! A name may carry the drive's address in front (`21.i3`); without one it
 //! means the first drive of the link (the lowest address).
 //!
-//! The shared control language has no value-carrying command yet, so a
-//! channel's voltage is set with `press`: `adc1=1234` sets 1234 mV,
-//! `adc1-up` / `adc1-down` step by 100 mV, `adc1-zero` returns to 0.
+//! A channel's voltage is set with `value adc1 1234` (mV); `press adc1-up` /
+//! `press adc1-down` step by 100 mV, `press adc1-zero` returns to 0.
 
 use super::analog::MAX_INPUT_MV;
 use crate::proto::emp::DriveAddress;
@@ -21,15 +20,15 @@ pub const INPUT_NAMES: &[&str] = &[
     "i2",
     "i3",
     "i4",
-    "adc1=<mV>",
+    "adc1",
     "adc1-up",
     "adc1-down",
     "adc1-zero",
-    "adc2=<mV>",
+    "adc2",
     "adc2-up",
     "adc2-down",
     "adc2-zero",
-    "adc3=<mV>",
+    "adc3",
     "adc3-up",
     "adc3-down",
     "adc3-zero",
@@ -62,9 +61,7 @@ fn names_hint() -> String {
 }
 
 fn split_drive(name: &str) -> Result<(Option<DriveAddress>, &str), String> {
-    // Only a dot before any `=` separates a drive: `adc1=0.5` has none.
-    let head = name.split('=').next().unwrap_or(name);
-    match head.split_once('.') {
+    match name.split_once('.') {
         None => Ok((None, name)),
         Some((ds, _)) => {
             let rest = name.get(ds.len() + 1..).unwrap_or("");
@@ -102,42 +99,33 @@ fn adc_channel(name: &str) -> Option<(usize, &str)> {
 }
 
 pub(crate) fn parse(control: &InputControl) -> Result<Parsed, String> {
-    let (name, press) = match control {
-        InputControl::Set { name, .. } => (name, false),
-        InputControl::Press { name } => (name, true),
-    };
+    let name = control.name();
     let (drive, local) = split_drive(name)?;
     let action = if let Some(n) = input_number(local) {
         match control {
             InputControl::Set { level, .. } => Action::Input(n, *level),
-            InputControl::Press { .. } => {
+            InputControl::Press { .. } | InputControl::Value { .. } => {
                 return Err(format!(
                     "`{name}` is an input that stays as set: use `set {name} on|off`"
                 ));
             }
         }
     } else if let Some((channel, rest)) = adc_channel(local) {
-        if !press {
-            return Err(format!(
-                "`{name}` is an analogue channel: use `press adc{channel}=<mV>`, `press adc{channel}-up|-down|-zero`"
-            ));
-        }
-        match rest.to_ascii_lowercase().as_str() {
-            "-up" => Action::AdcStep(channel, ADC_STEP_MV),
-            "-down" => Action::AdcStep(channel, -ADC_STEP_MV),
-            "-zero" => Action::AdcSet(channel, 0.0),
-            value => {
-                let mv = value
-                    .strip_prefix('=')
-                    .and_then(|v| v.parse::<f64>().ok())
-                    .filter(|v| v.is_finite() && v.abs() <= MAX_INPUT_MV)
-                    .ok_or_else(|| {
-                        format!(
-                            "`{name}`: expected adc{channel}=<mV> with a voltage from -{MAX_INPUT_MV} to {MAX_INPUT_MV}, or adc{channel}-up, -down, -zero"
-                        )
-                    })?;
-                Action::AdcSet(channel, mv)
+        let usage = || {
+            format!(
+                "`{name}` is an analogue channel: use `value adc{channel} <mV>` (-{MAX_INPUT_MV} to {MAX_INPUT_MV}) or `press adc{channel}-up|-down|-zero`"
+            )
+        };
+        match (control, rest.to_ascii_lowercase().as_str()) {
+            (InputControl::Value { value, .. }, "")
+                if value.is_finite() && value.abs() <= MAX_INPUT_MV =>
+            {
+                Action::AdcSet(channel, *value)
             }
+            (InputControl::Press { .. }, "-up") => Action::AdcStep(channel, ADC_STEP_MV),
+            (InputControl::Press { .. }, "-down") => Action::AdcStep(channel, -ADC_STEP_MV),
+            (InputControl::Press { .. }, "-zero") => Action::AdcSet(channel, 0.0),
+            _ => return Err(usage()),
         }
     } else {
         return Err(format!("unknown input `{name}`: {}", names_hint()));
@@ -160,6 +148,13 @@ mod tests {
         InputControl::Press { name: name.into() }
     }
 
+    fn value(name: &str, value: f64) -> InputControl {
+        InputControl::Value {
+            name: name.into(),
+            value,
+        }
+    }
+
     #[test]
     fn inputs_channels_and_drive_prefixes() {
         assert_eq!(
@@ -173,11 +168,11 @@ mod tests {
         assert_eq!(p.drive, Some(DriveAddress::module(2).unwrap()));
         assert_eq!(p.action, Action::Input(1, false));
         assert_eq!(
-            parse(&press("adc1=1234")).unwrap().action,
+            parse(&value("adc1", 1234.0)).unwrap().action,
             Action::AdcSet(1, 1234.0)
         );
         assert_eq!(
-            parse(&press("ADC2=-50.5")).unwrap().action,
+            parse(&value("ADC2", -50.5)).unwrap().action,
             Action::AdcSet(2, -50.5)
         );
         assert_eq!(
@@ -198,15 +193,15 @@ mod tests {
         assert!(
             parse(&set("adc1", true))
                 .unwrap_err()
-                .contains("press adc1=")
+                .contains("value adc1 <mV>")
         );
-        assert!(parse(&press("adc4=1")).is_err());
-        assert!(parse(&press("adc1=")).is_err());
-        assert!(parse(&press("adc1=1e9")).is_err());
-        assert!(parse(&press("adc1=nan")).is_err());
+        assert!(parse(&value("adc4", 1.0)).is_err());
+        assert!(parse(&press("adc1")).is_err());
+        assert!(parse(&value("adc1", 1e9)).is_err());
+        assert!(parse(&value("adc1", f64::NAN)).is_err());
         assert!(parse(&press("1.i1")).unwrap_err().contains("drive address"));
         assert_eq!(
-            parse(&press("21.adc1=0.5")).unwrap(),
+            parse(&value("21.adc1", 0.5)).unwrap(),
             Parsed {
                 drive: Some(DriveAddress::module(2).unwrap()),
                 action: Action::AdcSet(1, 0.5)

@@ -233,6 +233,15 @@ impl Conversation {
         self.sim.control(&c, self.now)
     }
 
+    /// An analogue input to a value (`value <name> <number>`).
+    pub fn value(&mut self, name: &str, value: f64) -> Result<(), String> {
+        let c = InputControl::Value {
+            name: name.into(),
+            value,
+        };
+        self.sim.control(&c, self.now)
+    }
+
     /// `02 11 11` and its answer.
     #[track_caller]
     pub fn switch_on(&mut self) {
