@@ -84,10 +84,8 @@ impl SimPanel {
 
     /// The simulator answered a control.
     pub fn done(&mut self, control: &InputControl, ok: bool) {
-        let name = match control {
-            InputControl::Set { name, .. } | InputControl::Press { name } => name,
-        };
-        if let Some(input) = self.inputs.iter_mut().find(|i| &i.name == name) {
+        let name = control.name();
+        if let Some(input) = self.inputs.iter_mut().find(|i| i.name == name) {
             input.pending = false;
             if let (true, InputControl::Set { level, .. }) = (ok, control) {
                 input.level = Some(*level);
