@@ -21,8 +21,8 @@ use ratatui::crossterm::event::{
 };
 use ratatui::crossterm::execute;
 use ratatui::crossterm::terminal::{
-    EnterAlternateScreen, LeaveAlternateScreen, disable_raw_mode, enable_raw_mode,
-    supports_keyboard_enhancement,
+    Clear, ClearType, EnterAlternateScreen, LeaveAlternateScreen, disable_raw_mode,
+    enable_raw_mode, supports_keyboard_enhancement,
 };
 
 /// The environment variable that skips the keyboard protocol query (it
@@ -85,8 +85,11 @@ impl TerminalGuard {
             )?;
             KEYBOARD_PUSHED.store(true, Ordering::SeqCst);
         }
-        let mut terminal = Terminal::new(CrosstermBackend::new(io::stdout()))?;
-        terminal.clear()?;
+        // A fresh screen, cleared directly: `Terminal::clear` would ask the
+        // terminal for the cursor position, a round trip over SSH that a
+        // terminal which does not answer turns into a 2 s wait and an error.
+        execute!(stdout, Clear(ClearType::All))?;
+        let terminal = Terminal::new(CrosstermBackend::new(io::stdout()))?;
         Ok((guard, terminal))
     }
 
