@@ -38,6 +38,8 @@ pub struct IoPanel {
     pub selected: Option<Selection>,
     /// When the last snapshot was read.
     pub at: Option<Instant>,
+    /// When the operator last moved the selection.
+    pub moved_at: Option<Instant>,
 }
 
 impl IoPanel {
@@ -143,8 +145,33 @@ impl IoPanel {
             .count()
     }
 
+    /// The bit a small panel keeps in view: one that changed a moment ago
+    /// (and after the operator last moved the selection), else the selection.
+    pub fn in_view(&self, now: Instant) -> Option<Selection> {
+        let latest_change = self
+            .groups
+            .iter()
+            .enumerate()
+            .flat_map(|(g, group)| {
+                group
+                    .bits
+                    .iter()
+                    .enumerate()
+                    .map(move |(b, bit)| (g, b, bit))
+            })
+            .filter(|(_, _, bit)| Self::highlighted(bit, now))
+            .filter(|(_, _, bit)| match (bit.changed_at, self.moved_at) {
+                (Some(c), Some(m)) => c > m,
+                _ => true,
+            })
+            .max_by_key(|(_, _, bit)| bit.changed_at)
+            .map(|(group, bit, _)| Selection { group, bit });
+        latest_change.or(self.selected)
+    }
+
     /// Move the selection by `delta` bits, across groups, wrapping.
-    pub fn step_bit(&mut self, delta: isize) {
+    pub fn step_bit(&mut self, delta: isize, now: Instant) {
+        self.moved_at = Some(now);
         let flat: Vec<Selection> = self
             .groups
             .iter()
@@ -168,7 +195,8 @@ impl IoPanel {
 
     /// Move to the previous or next group that has bits, keeping the bit
     /// index where the group is long enough.
-    pub fn step_group(&mut self, delta: isize) {
+    pub fn step_group(&mut self, delta: isize, now: Instant) {
+        self.moved_at = Some(now);
         let candidates: Vec<usize> = self
             .groups
             .iter()
@@ -288,6 +316,29 @@ mod tests {
     }
 
     #[test]
+    fn a_fresh_change_is_kept_in_view_until_the_operator_moves() {
+        let t0 = Instant::now();
+        let mut panel = IoPanel::default();
+        let groups = |x2: bool| {
+            vec![
+                ("p1", vec![bit("a", false)]),
+                ("p3", vec![bit("X1", false), bit("X2", x2)]),
+            ]
+        };
+        panel.apply(&snapshot(t0, groups(false)));
+        assert_eq!(panel.in_view(t0), Some(Selection { group: 0, bit: 0 }));
+        let t1 = t0 + Duration::from_millis(10);
+        panel.apply(&snapshot(t1, groups(true)));
+        assert_eq!(panel.in_view(t1), Some(Selection { group: 1, bit: 1 }));
+        panel.step_bit(1, t1 + Duration::from_millis(1));
+        assert_eq!(panel.in_view(t1), Some(Selection { group: 1, bit: 0 }));
+        assert_eq!(
+            panel.in_view(t1 + HIGHLIGHT),
+            Some(Selection { group: 1, bit: 0 })
+        );
+    }
+
+    #[test]
     fn selection_survives_new_snapshots_and_wraps() {
         let t = Instant::now();
         let mut panel = IoPanel::default();
@@ -299,14 +350,14 @@ mod tests {
         };
         panel.apply(&snapshot(t, groups()));
         assert_eq!(panel.selected, Some(Selection { group: 0, bit: 0 }));
-        panel.step_bit(-1);
+        panel.step_bit(-1, t);
         assert_eq!(panel.selected, Some(Selection { group: 1, bit: 0 }));
         panel.apply(&snapshot(t, groups()));
         assert_eq!(panel.selected, Some(Selection { group: 1, bit: 0 }));
-        panel.step_group(1);
+        panel.step_group(1, t);
         assert_eq!(panel.selected, Some(Selection { group: 0, bit: 0 }));
-        panel.step_bit(1);
-        panel.step_group(1);
+        panel.step_bit(1, t);
+        panel.step_group(1, t);
         assert_eq!(panel.selected, Some(Selection { group: 1, bit: 0 }));
     }
 
@@ -325,7 +376,7 @@ mod tests {
             vec![("in", vec![bit("X1", false)]), ("out", vec![spindle])],
         ));
         assert!(panel.toggle_selected().unwrap_err().contains("input"));
-        panel.step_bit(1);
+        panel.step_bit(1, t);
         let toggle = panel.toggle_selected().expect("output");
         assert_eq!((toggle.value, toggle.hazardous), (0, true));
     }

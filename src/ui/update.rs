@@ -240,10 +240,10 @@ fn panel_action(model: &mut Model, panel: PanelId, action: Action) -> Vec<Effect
 
 fn io_action(model: &mut Model, action: Action) -> Vec<Effect> {
     match action {
-        Action::SelectPrev => model.io.step_bit(-1),
-        Action::SelectNext => model.io.step_bit(1),
-        Action::GroupPrev => model.io.step_group(-1),
-        Action::GroupNext => model.io.step_group(1),
+        Action::SelectPrev => model.io.step_bit(-1, model.now),
+        Action::SelectNext => model.io.step_bit(1, model.now),
+        Action::GroupPrev => model.io.step_group(-1, model.now),
+        Action::GroupNext => model.io.step_group(1, model.now),
         Action::ToggleOutput => {
             return match model.io.toggle_selected() {
                 Ok(toggle) => toggle_output(model, toggle),

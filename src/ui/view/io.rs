@@ -20,13 +20,14 @@ use super::frame;
 
 pub struct IoView<'a>(pub &'a Model);
 
-/// The lines of the panel body at `width`, and the line holding the
-/// selected bit.
+/// The lines of the panel body at `width`, and the line to keep in view
+/// (`IoPanel::in_view`).
 fn body(model: &Model, width: usize) -> (Flowed<'static>, Option<usize>) {
     let p = &model.palette;
     let focused = model.focus == PanelId::Io && model.popup.is_none();
+    let in_view = model.io.in_view(model.now);
     let mut items: Vec<Item<'static>> = Vec::new();
-    let mut selected_item = None;
+    let mut view_item = None;
     for (gi, group) in model.io.groups.iter().enumerate() {
         let mut head = vec![Span::styled(group.name.clone(), p.title)];
         if let Some(raw) = group.raw {
@@ -42,17 +43,17 @@ fn body(model: &Model, width: usize) -> (Flowed<'static>, Option<usize>) {
             let label = prefix
                 .and_then(|pre| bit.bit.name.get(pre.len() + 1..))
                 .unwrap_or(&bit.bit.name);
-            let is_selected =
-                focused && model.io.selected == Some(Selection { group: gi, bit: bi });
-            if is_selected {
-                selected_item = Some(items.len());
+            let here = Some(Selection { group: gi, bit: bi });
+            let is_selected = focused && model.io.selected == here;
+            if in_view == here {
+                view_item = Some(items.len());
             }
             items.push(Item::new(bit_spans(model, bit, label, is_selected)));
         }
     }
     let flowed = flow(items, width, 2);
-    let selected_line = selected_item.and_then(|i| flowed.line_of.get(i).copied());
-    (flowed, selected_line)
+    let view_line = view_item.and_then(|i| flowed.line_of.get(i).copied());
+    (flowed, view_line)
 }
 
 fn bit_spans(model: &Model, bit: &BitState, label: &str, selected: bool) -> Vec<Span<'static>> {
@@ -115,7 +116,7 @@ impl Widget for IoView<'_> {
         let detail_rows = u16::from(model.focus == PanelId::Io);
         let rows = usize::from(area.height.saturating_sub(1 + detail_rows));
         let total = flowed.lines.len();
-        // Keep the selected bit in view; otherwise show from the top.
+        // Keep a fresh change or the selected bit in view; else the top.
         let start = match selected_line {
             Some(l) if l >= rows => (l + 1 - rows).min(total.saturating_sub(rows)),
             _ => 0,
