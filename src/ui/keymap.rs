@@ -697,6 +697,48 @@ mod tests {
         }
     }
 
+    /// `docs/ui.md` has a table of the default keys; it must match them
+    /// both ways.
+    #[test]
+    fn the_documented_key_table_is_the_default_keymap() {
+        let doc = include_str!("../../docs/ui.md");
+        let mut documented = Vec::new();
+        for row in doc.lines().filter(|l| l.starts_with("| ")) {
+            let cells: Vec<&str> = row.trim_matches('|').split(" | ").map(str::trim).collect();
+            let (Some(mode), Some(keys), Some(action)) = (
+                cells.first().and_then(|m| Mode::from_name(m)),
+                cells.get(1),
+                cells
+                    .get(2)
+                    .and_then(|a| Action::from_name(a.trim_matches('`'))),
+            ) else {
+                continue;
+            };
+            for key in keys.split(", ") {
+                documented.push((mode, key.to_string(), action));
+            }
+        }
+        let map = Keymap::default();
+        let mut actual = Vec::new();
+        for mode in Mode::ALL {
+            for (key, action) in map.bindings(mode) {
+                actual.push((mode, key.to_string(), action));
+            }
+        }
+        for binding in &actual {
+            assert!(
+                documented.contains(binding),
+                "not in docs/ui.md: {binding:?}"
+            );
+        }
+        for binding in &documented {
+            assert!(
+                actual.contains(binding),
+                "docs/ui.md lists a key that is not bound: {binding:?}"
+            );
+        }
+    }
+
     #[test]
     fn help_lists_every_binding() {
         let map = Keymap::default();
