@@ -9,6 +9,7 @@
 //! - [`ui`]: the terminal UI (Elm architecture: model, update, view).
 
 pub mod axis;
+pub mod cli;
 pub mod config;
 pub mod device;
 pub mod motion;
