@@ -1,6 +1,7 @@
-//! The state behind the port bit panels: the last I/O snapshot, when each bit
-//! last changed (so a change stays highlighted for a moment and a flickering
-//! switch can be seen), and the operator's selection.
+//! The state behind the port bit panels: the last I/O snapshot (without the
+//! bits the manual lists as "not used"), when each bit last changed (so a
+//! change stays highlighted for a moment and a flickering switch can be
+//! seen), and the operator's selection.
 
 use std::time::{Duration, Instant};
 
@@ -23,6 +24,12 @@ pub struct GroupState {
     pub name: String,
     pub raw: Option<u8>,
     pub bits: Vec<BitState>,
+}
+
+/// Bits the manual lists as "not used" carry nothing to look at or switch;
+/// they are left out of the panel (the raw byte still shows them).
+fn is_unused(bit: &IoBit) -> bool {
+    bit.name.eq_ignore_ascii_case("not used")
 }
 
 /// Which bit is selected: group and bit index.
@@ -65,6 +72,7 @@ impl IoPanel {
         let bits = group
             .bits
             .iter()
+            .filter(|bit| !is_unused(bit))
             .enumerate()
             .map(|(i, bit)| {
                 let before = old.and_then(|g| {
@@ -359,6 +367,17 @@ mod tests {
         panel.step_bit(1, t);
         panel.step_group(1, t);
         assert_eq!(panel.selected, Some(Selection { group: 1, bit: 0 }));
+    }
+
+    #[test]
+    fn unused_bits_are_left_out() {
+        let t = Instant::now();
+        let mut panel = IoPanel::default();
+        panel.apply(&snapshot(
+            t,
+            vec![("p1", vec![bit("probe", true), bit("not used", false)])],
+        ));
+        assert_eq!(panel.groups[0].bits.len(), 1);
     }
 
     #[test]

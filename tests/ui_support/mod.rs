@@ -16,7 +16,7 @@ use jogterm::device::api::{
 };
 use jogterm::proto::Protocol;
 use jogterm::proto::emcu::StatusFlag;
-use jogterm::proto::isel::ports::{INPUT_BITS, InputPort, InputRole, OUTPUT_PORTS, OutputValues};
+use jogterm::proto::isel::ports::{INPUT_BITS, InputPort, InputRole, OUTPUT_PORTS};
 use jogterm::traffic::{Direction, TrafficRecord};
 use jogterm::ui::keymap::Keymap;
 use jogterm::ui::palette::Palette;
@@ -123,13 +123,16 @@ pub fn io(protocol: Protocol, at: Instant, inputs: Inputs) -> IoSnapshot {
     IoSnapshot { at, groups }
 }
 
+/// Every input port with all eight bits ("not used" ones included), then
+/// every output port (manual 2.2.3, 2.2.4): on/off ports as one bit, ports
+/// 0, 100 and 101 bit by bit. Outputs show what was last written.
 fn isel_io(inputs: Inputs) -> Vec<IoGroup> {
     let mut groups = Vec::new();
     for port in InputPort::ALL {
         let mut raw = 0u8;
         let bits = INPUT_BITS
             .iter()
-            .filter(|b| b.port == port && b.role != InputRole::NotUsed)
+            .filter(|b| b.port == port)
             .map(|b| {
                 let value = match b.role {
                     InputRole::EmergencyStopCircuit => !(inputs.estop && b.bit == 0),
@@ -148,44 +151,57 @@ fn isel_io(inputs: Inputs) -> Vec<IoGroup> {
                 bit(b.name, value)
             })
             .collect();
+        let title = match port {
+            InputPort::User => "user inputs",
+            InputPort::Status1 => "safety and keys",
+            InputPort::Status2 => "spindle, power, hood",
+            InputPort::LimitSwitches => "limit switches",
+        };
         groups.push(IoGroup {
-            name: format!("in{}", port.number()),
+            name: format!("in {}: {title}", port.number()),
             raw: Some(raw),
             bits,
         });
     }
-    let user = OUTPUT_PORTS[0];
-    groups.push(IoGroup {
-        name: "out0".into(),
-        raw: Some(0),
-        bits: user
-            .bits
-            .iter()
-            .map(|b| output(b.name, false, 0, Some(b.bit), b.hazard.is_some()))
-            .collect(),
-    });
-    groups.push(IoGroup {
-        name: "out".into(),
-        raw: None,
-        bits: OUTPUT_PORTS
-            .iter()
-            .filter(|p| matches!(p.values, OutputValues::Switch { .. }))
-            .map(|p| {
-                let on = match p.name {
-                    "motor currents" => true,
-                    "spindle" => inputs.spindle,
-                    _ => false,
-                };
-                output(
-                    p.name,
-                    on,
-                    u16::from(p.port.number()),
-                    None,
-                    p.hazard.is_some(),
-                )
-            })
-            .collect(),
-    });
+    for info in OUTPUT_PORTS.iter() {
+        let number = info.port.number();
+        let written: Option<u8> = match info.name {
+            "motor currents" => Some(1),
+            "spindle" => Some(u8::from(inputs.spindle)),
+            _ => None,
+        };
+        let value = written.unwrap_or(0);
+        let group = u16::from(number);
+        let bits = if info.bits.is_empty() {
+            vec![output(
+                info.name,
+                value != 0,
+                group,
+                None,
+                info.hazard.is_some(),
+            )]
+        } else {
+            info.bits
+                .iter()
+                .map(|b| {
+                    let hazardous =
+                        b.hazard.is_some() || (info.hazard.is_some() && b.name != "not used");
+                    output(
+                        b.name,
+                        value & (1 << b.bit) != 0,
+                        group,
+                        Some(b.bit),
+                        hazardous,
+                    )
+                })
+                .collect()
+        };
+        groups.push(IoGroup {
+            name: format!("out {number}: {}", info.name),
+            raw: written,
+            bits,
+        });
+    }
     groups
 }
 

@@ -20,24 +20,64 @@ use super::frame;
 
 pub struct IoView<'a>(pub &'a Model);
 
+/// From this panel width on, groups are named in full (`in 3: limit
+/// switches`); narrower, by the part before the colon (`in 3`).
+pub const FULL_GROUP_NAMES: usize = 90;
+
+/// The short form of a group name: the part before `: `, if any.
+fn short_name(name: &str) -> &str {
+    name.split_once(": ").map_or(name, |(short, _)| short)
+}
+
 /// The lines of the panel body at `width`, and the line to keep in view
 /// (`IoPanel::in_view`).
+///
+/// A group with several bits starts a line: its name, the raw byte in hex,
+/// the bits. Groups of one bit (isel's on/off output ports) follow each other
+/// on a line. The name travels with the first bit, so it never ends a line
+/// alone.
 fn body(model: &Model, width: usize) -> (Flowed<'static>, Option<usize>) {
     let p = &model.palette;
     let focused = model.focus == PanelId::Io && model.popup.is_none();
     let in_view = model.io.in_view(model.now);
     let mut items: Vec<Item<'static>> = Vec::new();
     let mut view_item = None;
+    let mut previous_single = false;
     for (gi, group) in model.io.groups.iter().enumerate() {
-        let mut head = vec![Span::styled(group.name.clone(), p.title)];
-        if let Some(raw) = group.raw {
+        let single = group.bits.len() == 1;
+        // A one-bit group named after its bit (`out 2: spindle`) says it once.
+        let says_its_bit = single
+            && group.bits.first().is_some_and(|b| {
+                group.name.split_once(": ").map(|(_, long)| long) == Some(b.bit.name.as_str())
+            });
+        let name = if width >= FULL_GROUP_NAMES && !says_its_bit {
+            group.name.as_str()
+        } else {
+            short_name(&group.name)
+        };
+        let mut head = vec![Span::styled(name.to_string(), p.title)];
+        // The raw byte of a one-bit group is the bit itself.
+        if let Some(raw) = group.raw.filter(|_| !single) {
             head.push(Span::styled(format!(" {raw:02X}"), p.dim));
         }
-        head.push(Span::styled(":", p.dim));
-        items.push(Item::new(head).on_new_line());
+        head.push(Span::raw(" "));
+        let new_line = !(single && previous_single);
+        previous_single = single;
+        let mut head = Some(head);
+        let mut push = |items: &mut Vec<Item<'static>>, spans: Vec<Span<'static>>| {
+            let mut all = head.take().unwrap_or_default();
+            let first = !all.is_empty();
+            all.extend(spans);
+            let item = Item::new(all);
+            items.push(if first && new_line {
+                item.on_new_line()
+            } else {
+                item
+            });
+        };
         let prefix = common_prefix(group);
         if let Some(prefix) = prefix {
-            items.push(Item::new(vec![Span::styled(prefix.to_string(), p.dim)]));
+            push(&mut items, vec![Span::styled(prefix.to_string(), p.dim)]);
         }
         for (bi, bit) in group.bits.iter().enumerate() {
             let label = prefix
@@ -48,7 +88,10 @@ fn body(model: &Model, width: usize) -> (Flowed<'static>, Option<usize>) {
             if in_view == here {
                 view_item = Some(items.len());
             }
-            items.push(Item::new(bit_spans(model, bit, label, is_selected)));
+            push(&mut items, bit_spans(model, bit, label, is_selected));
+        }
+        if group.bits.is_empty() {
+            push(&mut items, Vec::new());
         }
     }
     let flowed = flow(items, width, 2);
