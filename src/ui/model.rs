@@ -224,11 +224,6 @@ impl Model {
             .filter(|m| self.now.saturating_duration_since(m.at) < MESSAGE_FRESH)
     }
 
-    /// The link is up and the driver has read the machine back.
-    pub fn link_up(&self) -> bool {
-        matches!(self.link, LinkState::Connected) && self.machine.link_up
-    }
-
     pub fn jog_step(&self) -> Option<f64> {
         self.setup.jog_steps.get(self.jog.step).copied()
     }

@@ -260,6 +260,114 @@ mod tests {
         assert!(model.quitting);
     }
 
+    /// A test backend that counts the frames written.
+    struct Frames {
+        inner: TestBackend,
+        flushes: usize,
+    }
+
+    impl Backend for Frames {
+        type Error = <TestBackend as Backend>::Error;
+
+        fn draw<'a, I>(&mut self, content: I) -> Result<(), Self::Error>
+        where
+            I: Iterator<Item = (u16, u16, &'a ratatui::buffer::Cell)>,
+        {
+            self.inner.draw(content)
+        }
+
+        fn hide_cursor(&mut self) -> Result<(), Self::Error> {
+            self.inner.hide_cursor()
+        }
+
+        fn show_cursor(&mut self) -> Result<(), Self::Error> {
+            self.inner.show_cursor()
+        }
+
+        fn get_cursor_position(&mut self) -> Result<ratatui::layout::Position, Self::Error> {
+            self.inner.get_cursor_position()
+        }
+
+        fn set_cursor_position<P: Into<ratatui::layout::Position>>(
+            &mut self,
+            position: P,
+        ) -> Result<(), Self::Error> {
+            self.inner.set_cursor_position(position)
+        }
+
+        fn clear(&mut self) -> Result<(), Self::Error> {
+            self.inner.clear()
+        }
+
+        fn clear_region(
+            &mut self,
+            clear_type: ratatui::backend::ClearType,
+        ) -> Result<(), Self::Error> {
+            self.inner.clear_region(clear_type)
+        }
+
+        fn size(&self) -> Result<ratatui::layout::Size, Self::Error> {
+            self.inner.size()
+        }
+
+        fn window_size(&mut self) -> Result<ratatui::backend::WindowSize, Self::Error> {
+            self.inner.window_size()
+        }
+
+        fn flush(&mut self) -> Result<(), Self::Error> {
+            self.flushes += 1;
+            self.inner.flush()
+        }
+    }
+
+    #[tokio::test]
+    async fn a_flood_of_events_is_drawn_at_the_frame_rate() {
+        let (events_tx, events) = mpsc::unbounded_channel();
+        let mut device = FakeDevice {
+            calls: Vec::new(),
+            events,
+            events_tx: events_tx.clone(),
+        };
+        for i in 0..500 {
+            let sample = crate::device::api::PositionSample {
+                at: Instant::now(),
+                steps: crate::device::api::PerAxis::new().with(crate::axis::Axis::X, i),
+                source: crate::device::api::PositionSource::Measured,
+            };
+            events_tx.send(Event::Position(sample)).expect("event");
+        }
+        let (tx, mut rx) = mpsc::unbounded_channel();
+        let quit_later = tokio::spawn(async move {
+            tokio::time::sleep(Duration::from_millis(300)).await;
+            let _ = tx.send(key('q'));
+            tx
+        });
+        let mut terminal = Terminal::new(Frames {
+            inner: TestBackend::new(80, 24),
+            flushes: 0,
+        })
+        .expect("terminal");
+        let started = Instant::now();
+        run(
+            &mut terminal,
+            &mut model(),
+            &mut device,
+            &mut rx,
+            None,
+            RunOptions::default(),
+        )
+        .await
+        .expect("run");
+        let _ = quit_later.await;
+        let frames = terminal.backend().flushes;
+        let allowed = started.elapsed().as_millis() as usize / 50 + 3;
+        assert!(frames >= 1, "drawn at least once");
+        assert!(
+            frames <= allowed,
+            "{frames} frames for 500 events (at most {allowed})"
+        );
+    }
+
     #[tokio::test]
     async fn a_closed_input_stops_and_leaves() {
         let (events_tx, events) = mpsc::unbounded_channel();
