@@ -15,8 +15,10 @@
 pub mod control;
 pub mod engine;
 pub mod fault;
+pub mod isel;
 mod line;
 pub mod pty;
+pub mod registry;
 pub mod shell;
 
 use std::time::Instant;

@@ -1,0 +1,1 @@
+//! Conversation tests of the isel simulator.
