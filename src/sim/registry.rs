@@ -12,7 +12,9 @@ use crate::proto::Protocol;
 pub enum RegistryError {
     #[error("there is no built-in {0} simulator yet")]
     NotAvailable(Protocol),
-    #[error("the profile does not describe a machine the {protocol} simulator can build: {message}")]
+    #[error(
+        "the profile does not describe a machine the {protocol} simulator can build: {message}"
+    )]
     Profile { protocol: Protocol, message: String },
 }
 

@@ -178,7 +178,10 @@ mod tests {
         // Switch at -800, closes again at -760, 760 steps on: machine 0.
         assert_eq!(x.clear_steps(), 760);
         assert_eq!(config.factory.clear_steps, [760, 760, 760, 0]);
-        assert!(config.axes[3].is_none(), "the default machine has no A axis");
+        assert!(
+            config.axes[3].is_none(),
+            "the default machine has no A axis"
+        );
         assert_eq!(config.flash.init, config.factory);
     }
 

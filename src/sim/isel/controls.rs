@@ -33,7 +33,11 @@ impl IselSim {
         let before = self.snapshot();
         match input {
             InputName::Limit { axis, input } => {
-                if let Some(f) = self.axes.get_mut(axis).and_then(|a| a.forced.get_mut(input)) {
+                if let Some(f) = self
+                    .axes
+                    .get_mut(axis)
+                    .and_then(|a| a.forced.get_mut(input))
+                {
                     *f = level;
                 }
             }
@@ -141,7 +145,12 @@ impl IselSim {
                 },
                 (Step::Erase { .. }, _) => "erasing the program",
                 (Step::Sync { .. }, _) => "program: waiting for a sync character",
-                (Step::Wait { stoppable: false, .. }, _) => "program: delay",
+                (
+                    Step::Wait {
+                        stoppable: false, ..
+                    },
+                    _,
+                ) => "program: delay",
                 (Step::Wait { .. }, _) => "program running",
             },
         });

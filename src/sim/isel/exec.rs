@@ -39,7 +39,7 @@ const REFERENCE_ORDER: [Axis; 4] = [Axis::Z, Axis::Y, Axis::X, Axis::A];
 
 impl IselSim {
     /// A complete line arrived while nothing runs.
-    pub(super) fn line(&mut self, line: &[u8], t: Instant) {
+    pub(super) fn received_line(&mut self, line: &[u8], t: Instant) {
         if self.storing {
             self.store(line);
             return;
@@ -187,7 +187,7 @@ impl IselSim {
                 };
                 let byte = input.map_or(0, |input| {
                     (0..4)
-                        .filter(|&axis| self.input_monitored(axis, input))
+                        .filter(|&axis| self.input_seen(axis, input))
                         .fold(0u8, |b, axis| b | 1 << axis)
                 });
                 Exec::Reply(Reply::Byte(byte))
@@ -288,9 +288,10 @@ impl IselSim {
     }
 
     /// Whether a command may move the axes now; the code it answers if not.
-    /// Order: machine fault `9`, hood `H`, reference `R`, a limit switch
-    /// that is already active `2` (chapter 5, decision 4).
-    pub(super) fn motion_gate(&mut self, needs_reference: bool) -> Result<(), ReplyCode> {
+    /// Order: machine fault `9`, hood `H`, and for moves (not for reference
+    /// runs and `@0F`, which start from inside a switch) reference `R` and a
+    /// limit switch that is already active `2` (chapter 5, decision 4).
+    pub(super) fn motion_gate(&mut self, is_move: bool) -> Result<(), ReplyCode> {
         if self.inputs.machine_fault() {
             return Err(ReplyCode::MachineFault);
         }
@@ -299,10 +300,10 @@ impl IselSim {
         }
         let all = self.axis_config.map_or(AxisSet::EMPTY, AxisConfig::axes);
         let referenced = all.iter().all(|a| self.referenced.contains(a));
-        if needs_reference && !self.test_mode && !referenced {
+        if is_move && !self.test_mode && !referenced {
             return Err(ReplyCode::ReferenceRequired);
         }
-        if !self.test_mode && self.monitored_byte() != 0 {
+        if is_move && !self.test_mode && self.monitored_byte() != 0 {
             self.lose_reference();
             return Err(ReplyCode::LimitSwitch);
         }
@@ -502,12 +503,7 @@ impl IselSim {
                     self.input_active(axis.index(), 0),
                     self.input_active(axis.index(), 1),
                 ],
-                settings: [1, 2].map(|n| {
-                    self.init
-                        .limit_switches
-                        .get(axis, n)
-                        .unwrap_or_default()
-                }),
+                settings: [1, 2].map(|n| self.init.limit_switches.get(axis, n).unwrap_or_default()),
             })
             .collect()
     }

@@ -173,9 +173,11 @@ mod tests {
         assert_eq!(v.baud(), 9600);
         assert!(v.apply(&InitCommand::LimitSwitches(57343)));
         assert_eq!(v.limit_switches.to_word(), 57343);
-        assert!(v.apply(&InitCommand::InvertReferenceDirections(
-            AxisSet::from_iter([Axis::Y])
-        )));
+        assert!(
+            v.apply(&InitCommand::InvertReferenceDirections(AxisSet::from_iter(
+                [Axis::Y]
+            )))
+        );
         assert!(v.invert_reference.contains(Axis::Y));
         for c in [
             InitCommand::LoadFromFlash,

@@ -118,9 +118,10 @@ impl Outputs {
             OutputPort::MotorCurrents => Some(POWER_STAGES_BIT),
             OutputPort::CurrentReduction => Some(CURRENT_REDUCTION_BIT),
             OutputPort::Brake => Some(BRAKE_BIT),
-            OutputPort::User | OutputPort::Analog | OutputPort::ControlOut | OutputPort::SignalOut => {
-                None
-            }
+            OutputPort::User
+            | OutputPort::Analog
+            | OutputPort::ControlOut
+            | OutputPort::SignalOut => None,
         }
     }
 
@@ -219,7 +220,10 @@ impl PortCondition {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum InputName {
     /// `limit-x1` … `limit-a2`: axis 0-3, input 0 (switch 1) or 1 (switch 2).
-    Limit { axis: usize, input: usize },
+    Limit {
+        axis: usize,
+        input: usize,
+    },
     /// `estop1`, `estop2`.
     Estop(usize),
     Overtemp,
@@ -329,7 +333,10 @@ mod tests {
         let mut o = Outputs::power_up();
         o.write(OutputPort::Spindle, 1);
         assert!(o.spindle());
-        assert_eq!(o.read(OutputPort::ControlOut), SPINDLE_BIT | POWER_STAGES_BIT);
+        assert_eq!(
+            o.read(OutputPort::ControlOut),
+            SPINDLE_BIT | POWER_STAGES_BIT
+        );
         o.write(OutputPort::ControlOut, BRAKE_BIT);
         assert_eq!(o.read(OutputPort::Brake), 1);
         assert_eq!(o.read(OutputPort::Spindle), 0);

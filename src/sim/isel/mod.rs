@@ -42,8 +42,8 @@ use std::time::Instant;
 
 use crate::axis::{Axis, AxisSet};
 use crate::proto::isel::{
-    AxisConfig, CircleDirection, ControlByte, DeviceNumber, InputPort, Plane, Positions,
-    Received, Reply, ReplyCode, RequestFramer, SyncChar,
+    AxisConfig, CircleDirection, ControlByte, DeviceNumber, InputPort, Plane, Positions, Received,
+    Reply, ReplyCode, RequestFramer, SyncChar,
 };
 use crate::wire::LineSettings;
 
@@ -277,7 +277,9 @@ impl IselSim {
         // Every reply the model builds is encodable (text lines are its own
         // and never start with a digit); should one not be, the host still
         // gets the handshake instead of silence.
-        let bytes = reply.encode().unwrap_or_else(|_| vec![ReplyCode::Ok.byte()]);
+        let bytes = reply
+            .encode()
+            .unwrap_or_else(|_| vec![ReplyCode::Ok.byte()]);
         self.out.push_back(bytes);
     }
 
@@ -327,19 +329,21 @@ impl IselSim {
         a.contact(input, self.init.swap_limits.contains(ax)) != setting.low_active
     }
 
-    /// Whether the controller watches this input and it is active: enabled
-    /// by `@0IE` and on an initialised axis.
-    fn input_monitored(&self, axis: usize, input: usize) -> bool {
-        let Some(ax) = Axis::from_index(axis) else {
-            return false;
-        };
-        let enabled = self
-            .init
-            .limit_switches
-            .get(ax, input as u8 + 1)
+    /// Whether an input is enabled by `@0IE` and active: what the
+    /// controller sees of its limit switches (`@0DRp`/`@0DRn`, seeks).
+    fn input_seen(&self, axis: usize, input: usize) -> bool {
+        let enabled = Axis::from_index(axis)
+            .and_then(|a| self.init.limit_switches.get(a, input as u8 + 1))
             .is_some_and(|s| s.enabled);
-        let initialised = self.axis_config.is_some_and(|c| c.axes().contains(ax));
-        enabled && initialised && self.input_active(axis, input)
+        enabled && self.input_active(axis, input)
+    }
+
+    /// Whether the controller watches this input during moves and it is
+    /// active: seen, on an initialised axis.
+    fn input_monitored(&self, axis: usize, input: usize) -> bool {
+        let initialised = Axis::from_index(axis)
+            .is_some_and(|a| self.axis_config.is_some_and(|c| c.axes().contains(a)));
+        initialised && self.input_seen(axis, input)
     }
 
     /// The monitored inputs that are active, as port 3 bits.
@@ -391,7 +395,7 @@ impl IselSim {
             return;
         }
         match self.framer.push(byte) {
-            Some(Received::Line(line)) => self.line(&line, t),
+            Some(Received::Line(line)) => self.received_line(&line, t),
             Some(Received::Overlong { .. }) => {
                 if self.storing {
                     self.storing = false;

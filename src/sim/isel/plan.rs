@@ -109,7 +109,11 @@ impl LegSpec {
                 let (distance, speed) = match metric {
                     Metric::Leading => (delta[longest].unsigned_abs(), speeds[longest]),
                     Metric::Path3d => {
-                        let xyz = delta.iter().take(3).map(|d| (*d as f64).powi(2)).sum::<f64>();
+                        let xyz = delta
+                            .iter()
+                            .take(3)
+                            .map(|d| (*d as f64).powi(2))
+                            .sum::<f64>();
                         let length = xyz.sqrt().round() as u64;
                         let length = if length == 0 {
                             delta[3].unsigned_abs()
@@ -347,7 +351,11 @@ mod tests {
             .collect();
         assert_eq!(
             targets,
-            [[110, 220, 300, 400], [110, 220, 304, 400], [110, 220, 300, 400]]
+            [
+                [110, 220, 300, 400],
+                [110, 220, 304, 400],
+                [110, 220, 300, 400]
+            ]
         );
         // The longer way (Y) leads at its speed.
         let layout = legs[0].layout([100, 200, 300, 400]).expect("moves");

@@ -141,7 +141,10 @@ mod tests {
     fn lines_are_checked_and_nine_closes() {
         let mut p = empty();
         let xy = Some(AxisConfig::XY);
-        assert_eq!(store_line(&mut p, line("010,900,0,900"), xy, 3), Ok(Stored::More));
+        assert_eq!(
+            store_line(&mut p, line("010,900,0,900"), xy, 3),
+            Ok(Stored::More)
+        );
         assert_eq!(
             store_line(&mut p, line("010,900"), xy, 3),
             Err(ReplyCode::ParameterCount)
@@ -158,8 +161,14 @@ mod tests {
             "behind the end"
         );
         assert_eq!(store_line(&mut p, line("3 0,-1"), xy, 3), Ok(Stored::More));
-        assert_eq!(store_line(&mut p, line("5 1"), xy, 3), Err(ReplyCode::MemoryFull));
-        assert_eq!(store_line(&mut p, line("9"), None, 3), Err(ReplyCode::NoAxes));
+        assert_eq!(
+            store_line(&mut p, line("5 1"), xy, 3),
+            Err(ReplyCode::MemoryFull)
+        );
+        assert_eq!(
+            store_line(&mut p, line("9"), None, 3),
+            Err(ReplyCode::NoAxes)
+        );
         let mut q = empty();
         assert_eq!(store_line(&mut q, line("3 0,1"), xy, 3), Ok(Stored::More));
         assert_eq!(store_line(&mut q, line("9"), xy, 3), Ok(Stored::Closed));

@@ -18,14 +18,22 @@ use super::{Activity, IselSim, Paused, ReplyTo};
 /// What an activity is doing right now.
 #[derive(Debug, Clone)]
 pub enum Step {
-    Motion(MotionJob),
+    Motion(Box<MotionJob>),
     /// `@0k`: the flash is being erased (manual 2.2.17).
-    Erase { until: Instant },
+    Erase {
+        until: Instant,
+    },
     /// A program waits: a delay `5` (not `stoppable`, manual 3.2.6) or the
     /// time a command takes.
-    Wait { until: Instant, stoppable: bool },
+    Wait {
+        until: Instant,
+        stoppable: bool,
+    },
     /// A program waits for a character from the host (`2`, manual 3.2.4).
-    Sync { sync: SyncChar, offset: i16 },
+    Sync {
+        sync: SyncChar,
+        offset: i16,
+    },
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -155,7 +163,11 @@ impl IselSim {
             Event::LegEnd => self.leg_end(t),
             Event::Switch { axis, side } => {
                 let before = self.snapshot();
-                if let Some(p) = self.axes.get_mut(axis).and_then(|a| a.pressed.get_mut(side)) {
+                if let Some(p) = self
+                    .axes
+                    .get_mut(axis)
+                    .and_then(|a| a.pressed.get_mut(side))
+                {
                     *p = !*p;
                 }
                 self.inputs_changed(before, t);
@@ -179,7 +191,8 @@ impl IselSim {
     /// Start `job`'s first leg that moves: the step to wait on, or `None`
     /// when nothing moves (its actions are done).
     pub(super) fn begin_job(&mut self, mut job: MotionJob, t: Instant) -> Option<Step> {
-        self.start_leg(&mut job, t).then_some(Step::Motion(job))
+        self.start_leg(&mut job, t)
+            .then(|| Step::Motion(Box::new(job)))
     }
 
     fn start_leg(&mut self, job: &mut MotionJob, t: Instant) -> bool {
@@ -231,15 +244,9 @@ impl IselSim {
     /// Whether a seek's switch reads as it waits for. A switch `@0IE`
     /// disables is never seen (manual 2.2.22: the axis runs on).
     fn until_met(&self, until: Until) -> bool {
-        let seen = |axis: usize, input: usize| {
-            let enabled = Axis::from_index(axis)
-                .and_then(|a| self.init.limit_switches.get(a, input as u8 + 1))
-                .is_some_and(|s| s.enabled);
-            enabled && self.input_active(axis, input)
-        };
         match until {
-            Until::Active { axis, input } => seen(axis, input),
-            Until::Released { axis, input } => !seen(axis, input),
+            Until::Active { axis, input } => self.input_seen(axis, input),
+            Until::Released { axis, input } => !self.input_seen(axis, input),
         }
     }
 
@@ -331,9 +338,8 @@ impl IselSim {
             return;
         }
         let newly = now.monitored & !before.monitored;
-        let condition_met = |sim: &IselSim, c: Option<PortCondition>| {
-            c.is_some_and(|c| c.met(sim.port(c.port)))
-        };
+        let condition_met =
+            |sim: &IselSim, c: Option<PortCondition>| c.is_some_and(|c| c.met(sim.port(c.port)));
         if let Some(job) = self.motion_job_mut() {
             let monitor = job.monitor_limits;
             let until = job.current.as_ref().and_then(|(spec, _)| match spec {
@@ -365,7 +371,10 @@ impl IselSim {
     fn check_watches(&mut self, t: Instant) {
         let ports = self.ports();
         let off_target = |w: PortWatch| {
-            let port = ports.get(usize::from(w.port.number())).copied().unwrap_or(0);
+            let port = ports
+                .get(usize::from(w.port.number()))
+                .copied()
+                .unwrap_or(0);
             w.mask != 0 && port & w.mask != w.value & w.mask
         };
         if off_target(self.init.estop_input) {
@@ -477,7 +486,8 @@ impl IselSim {
                     self.brake(t, StopCause::Soft);
                 }
             }
-            Step::Erase { .. } | Step::Wait {
+            Step::Erase { .. }
+            | Step::Wait {
                 stoppable: false, ..
             } => {}
             Step::Wait { .. } | Step::Sync { .. } => {

@@ -161,6 +161,10 @@ mod tests {
             );
         }
         assert!(lines.iter().any(|l| l.contains("Hood closed")));
-        assert!(lines.iter().any(|l| l.starts_with("Axis Y: switch 1 ACTIVE")));
+        assert!(
+            lines
+                .iter()
+                .any(|l| l.starts_with("Axis Y: switch 1 ACTIVE"))
+        );
     }
 }
