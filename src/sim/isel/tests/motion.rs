@@ -181,3 +181,27 @@ fn bytes_that_arrive_during_a_move_are_dropped() {
     c.silent_for(Duration::from_millis(100));
     assert_eq!(c.position(), [2000, 0, 0]);
 }
+
+#[test]
+fn a_clockwise_quarter_circle_from_the_cores_parameters() {
+    use crate::proto::isel::{CircleDirection, Frame, circle};
+    let mut c = Conv::referenced();
+    c.expect_after("@0A20000,8000,20000,8000,0,100,0,100", "0", MINUTE);
+    // From the top of a circle of R = 1000 clockwise to its right side.
+    let arc = circle(1000, 90.0, 0.0, CircleDirection::Cw, 2000).expect("arc");
+    let [f, y] = arc
+        .commands()
+        .map(|cmd| Frame::default_device(cmd).to_string());
+    c.expect(&f, "0");
+    c.send(&y);
+    let took = profile(u64::from(arc.params.arc_length), 2000.0);
+    c.run_until(c.sent_at + took / 2);
+    let p = c.physical();
+    // Halfway is 45 degrees: (707, 707) from the centre at (20000, 19000).
+    assert!(
+        (p[0] - 20_707.0).abs() < 3.0 && (p[1] - 19_707.0).abs() < 3.0,
+        "{p:?}"
+    );
+    assert_eq!(c.next_reply(MINUTE).expect("reply").0, "0");
+    assert_eq!(c.position(), [21_000, 19_000, 0]);
+}

@@ -239,3 +239,24 @@ fn watched_inputs_abort_a_run() {
     assert!(c.sim.describe(c.now).contains("out user 80"));
     c.expect("@0A1,100,0,100,0,100,0,100", "4");
 }
+
+#[test]
+fn a_delay_cannot_be_cut_short_by_a_soft_stop_but_break_ends_the_run() {
+    let mut c = Conv::new();
+    c.expect("@07", "0");
+    store(&mut c, &["5 10", "133", "9"]);
+    c.send("@0S");
+    c.wait(Duration::from_millis(300));
+    c.send_bytes(&[0xFD]);
+    c.press("stop");
+    // Manual 3.2.6: the delay runs on.
+    let (sync, at) = c.next_reply(MINUTE).expect("sync");
+    assert_eq!(sync, "!");
+    assert!(at >= Duration::from_millis(690), "{at:?}");
+    assert_eq!(c.next_reply(MINUTE).expect("end").0, "0");
+    c.send("@0S");
+    c.wait(Duration::from_millis(300));
+    c.send_bytes(&[0xFF]);
+    assert_eq!(c.next_reply(MINUTE).expect("break").0, "F");
+    c.silent_for(Duration::from_secs(2));
+}
