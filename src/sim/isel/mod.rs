@@ -10,13 +10,14 @@
 //! The model is split by job:
 //! - [`config`]: what it is built from (a profile or a plain struct);
 //! - [`flash`]: init values (chapter 4) and the stored program;
-//! - [`mechanics`]: carriages, counters, limit switches;
-//! - [`plan`] and [`path`]: from a command to legs of motion, and where the
+//! - `mechanics`: carriages, counters, limit switches;
+//! - `plan` and `path`: from a command to legs of motion, and where the
 //!   axes are at any time on a leg (`crate::motion` timing);
 //! - `exec`: DNC commands and stored program lines;
 //! - `run`: jobs in progress (moves, reference runs, program runs) and the
 //!   events that end them;
-//! - `controls`: the operator's inputs; [`io`]: ports; [`text`]: texts.
+//! - `controls`: the operator's inputs; `io`: ports; `text`: texts;
+//!   `program`: storing and running CNC programs.
 //!
 //! Time only enters as arguments: the model keeps the latest time it was
 //! given and computes the next event (a leg ends, a switch trips, a delay
@@ -26,13 +27,13 @@ pub mod config;
 mod controls;
 mod exec;
 pub mod flash;
-pub mod io;
-pub mod mechanics;
-pub mod path;
-pub mod plan;
-pub mod program;
+mod io;
+mod mechanics;
+mod path;
+mod plan;
+mod program;
 mod run;
-pub mod text;
+mod text;
 
 #[cfg(test)]
 mod tests;
