@@ -583,20 +583,24 @@ impl IselSim {
     }
 
     /// Run the stored program from `run.pc` until something takes time.
-    pub(super) fn run_program(&mut self, reply: ReplyTo, mut run: ProgramRun, t: Instant) {
+    pub(super) fn run_program(&mut self, reply: ReplyTo, run: ProgramRun, t: Instant) {
+        // The watches of chapter 4 are read before every command.
         self.activity = Some(Activity {
             reply,
-            program: None,
+            program: Some(run),
             step: Step::Wait {
                 until: t,
                 stoppable: true,
             },
         });
         self.check_watches(t);
-        if self.activity.is_none() {
+        let Some(Activity {
+            program: Some(mut run),
+            ..
+        }) = self.activity.take()
+        else {
             return;
-        }
-        self.activity = None;
+        };
         let (command, len) = match &self.flash.program {
             Some(p) => (p.lines.get(run.pc).cloned(), p.lines.len()),
             None => (None, 0),

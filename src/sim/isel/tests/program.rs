@@ -260,3 +260,23 @@ fn a_delay_cannot_be_cut_short_by_a_soft_stop_but_break_ends_the_run() {
     assert_eq!(c.next_reply(MINUTE).expect("break").0, "F");
     c.silent_for(Duration::from_secs(2));
 }
+
+#[test]
+fn a_watch_that_is_already_off_target_ends_the_run_before_its_first_command() {
+    let mut c = Conv::new();
+    c.expect("@07", "0");
+    c.expect("@0IH0,4,4", "0");
+    c.expect("@0Ia0,1,1", "0");
+    store(&mut c, &["133", "9"]);
+    // The external hood input (user input 2) reads open.
+    c.expect("@0S", "H");
+    assert!(
+        c.sim.describe(c.now).contains("out user 01"),
+        "error signal"
+    );
+    c.set("in0.2", true);
+    c.send("@0S");
+    c.wait(Duration::from_millis(10));
+    assert_eq!(c.take(), "!0");
+    assert!(c.sim.describe(c.now).contains("out user 00"));
+}
