@@ -452,6 +452,15 @@ impl IselSim {
         self.clock.map_or(t, |c| c.max(t))
     }
 
+    /// After a change at `t`: work out the next event and handle what the
+    /// change made due at once (a leg halted at `t` ends at `t`), so the
+    /// next deadline always lies ahead.
+    fn settle_at(&mut self, t: Instant) {
+        self.schedule();
+        self.catch_up(t);
+        self.schedule();
+    }
+
     /// Work out the next event after a change.
     fn schedule(&mut self) {
         self.next = self.clock.and_then(|now| self.compute_next(now));
@@ -471,7 +480,7 @@ impl SimDevice for IselSim {
         self.catch_up(now);
         let t = self.now_or(now);
         self.receive(byte, t);
-        self.schedule();
+        self.settle_at(t);
     }
 
     fn advance(&mut self, now: Instant) {
@@ -491,7 +500,7 @@ impl SimDevice for IselSim {
         self.catch_up(now);
         let t = self.now_or(now);
         let result = self.operator(control, t);
-        self.schedule();
+        self.settle_at(t);
         result
     }
 
