@@ -30,3 +30,22 @@ pub fn build(protocol: Protocol, profile: &Profile) -> Result<Box<dyn SimDevice>
         Protocol::Emcu | Protocol::Emp => Err(RegistryError::NotAvailable(protocol)),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::{ConfigDirs, load_profile};
+
+    #[test]
+    fn the_isel_simulator_is_built_for_the_profiles_machine() {
+        let profile = load_profile("default", &ConfigDirs::builtin_only()).expect("profile");
+        let device = build(Protocol::Isel, &profile).expect("isel simulator");
+        assert_eq!(device.line().baud, 19200);
+        assert!(device.input_names().contains(&"limit-x1"));
+        assert!(
+            device
+                .describe(std::time::Instant::now())
+                .contains("physical X 16000")
+        );
+    }
+}
