@@ -8,6 +8,7 @@
 //!
 //! Exit codes: 0 ok, 1 failure (a message on stderr), 2 bad usage (clap).
 
+pub mod profile;
 pub mod sim;
 
 use std::fs::OpenOptions;

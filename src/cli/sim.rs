@@ -6,9 +6,8 @@ use std::path::PathBuf;
 use anyhow::{Context as _, bail};
 use clap::Args;
 
-use super::GlobalArgs;
-use crate::config::{ConfigDirs, load_profile};
-use crate::proto::Protocol;
+use super::{GlobalArgs, profile};
+use crate::config::ConfigDirs;
 use crate::sim::registry;
 use crate::sim::shell::{PtyOptions, run_pty_simulator};
 
@@ -21,7 +20,8 @@ the controller's baud rate (isel 19200). Clients may close it and open it again.
 
 The simulated machine is the one the profile describes (axes, soft limits, [sim]
 limit_margin and start_position). The family is --protocol (or --sim), else the
-profile's connection.protocol.
+profile's connection.protocol; without --profile, --sim/--protocol pick the shipped
+profile of that family (isel, emcu, emp).
 
 Lines on stdin operate the machine and inject faults; each accepted line prints `ok` (or
 its output), errors go to stderr. The simulator ends when stdin closes, on `quit`, or
@@ -57,17 +57,6 @@ pub struct SimArgs {
     pub link: Option<PathBuf>,
 }
 
-/// The family to simulate: `--protocol`, else `--sim`, else the profile's.
-fn family(global: &GlobalArgs, profile_protocol: Protocol) -> anyhow::Result<Protocol> {
-    match (global.protocol, global.sim) {
-        (Some(p), Some(s)) if p != s => {
-            bail!("--protocol {p} and --sim {s} name different families: give one of them")
-        }
-        (Some(p), _) | (None, Some(p)) => Ok(p),
-        (None, None) => Ok(profile_protocol),
-    }
-}
-
 /// Run `jogterm sim` until stdin closes.
 pub fn run(global: &GlobalArgs, args: &SimArgs) -> anyhow::Result<()> {
     if let Some(port) = &global.port {
@@ -76,11 +65,10 @@ pub fn run(global: &GlobalArgs, args: &SimArgs) -> anyhow::Result<()> {
              port; use --link PATH for a fixed path"
         );
     }
-    let name = global.profile.as_deref().unwrap_or("default");
-    let profile = load_profile(name, &ConfigDirs::from_env())?;
-    let protocol = family(global, profile.connection.protocol)?;
+    let profile = profile::resolve(global, &ConfigDirs::from_env())?;
+    let protocol = profile::family(&profile);
     let device = registry::build(protocol, &profile)?;
-    tracing::info!(%protocol, profile = %name, "simulator starting");
+    tracing::info!(%protocol, profile = %profile.name, "simulator starting");
     run_pty_simulator(
         device,
         PtyOptions {
@@ -90,22 +78,4 @@ pub fn run(global: &GlobalArgs, args: &SimArgs) -> anyhow::Result<()> {
     .with_context(|| format!("the {protocol} simulator failed"))?;
     tracing::info!(%protocol, "simulator ended");
     Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_family_comes_from_the_options_or_the_profile() {
-        let mut g = GlobalArgs::default();
-        assert_eq!(family(&g, Protocol::Emp).ok(), Some(Protocol::Emp));
-        g.sim = Some(Protocol::Isel);
-        assert_eq!(family(&g, Protocol::Emp).ok(), Some(Protocol::Isel));
-        g.protocol = Some(Protocol::Isel);
-        assert_eq!(family(&g, Protocol::Emp).ok(), Some(Protocol::Isel));
-        g.protocol = Some(Protocol::Emcu);
-        let err = family(&g, Protocol::Emp).expect_err("conflict");
-        assert!(err.to_string().contains("different families"), "{err}");
-    }
 }
