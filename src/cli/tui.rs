@@ -7,20 +7,10 @@
 
 use std::process::ExitCode;
 
-use crate::config::{ConfigDirs, ConfigError, Profile, Source, Theme};
-use crate::config::{load_profile_with_sources, load_theme};
-use crate::proto::Protocol;
+use super::GlobalArgs;
+use super::profile::resolve_with_sources;
+use crate::config::{ConfigDirs, ConfigError, Profile, Source, Theme, load_theme};
 use crate::ui::keymap::Keymap;
-
-/// The options of the console, as the command line gives them.
-#[derive(Debug, Clone, Default, PartialEq, Eq)]
-pub struct TuiOptions {
-    pub profile: Option<String>,
-    pub port: Option<String>,
-    pub protocol: Option<Protocol>,
-    pub sim: Option<Protocol>,
-    pub theme: Option<String>,
-}
 
 /// The console's configuration, checked.
 #[derive(Debug, Clone)]
@@ -37,7 +27,7 @@ pub enum SetupError {
     #[error(transparent)]
     Config(#[from] ConfigError),
     /// The options contradict each other or the profile.
-    #[error("error: {0}")]
+    #[error("jogterm: error: {0}")]
     Options(String),
 }
 
@@ -50,51 +40,16 @@ impl SetupError {
 
 /// The shipped theme used without `--theme`.
 pub const DEFAULT_THEME: &str = "dark";
-/// The profile used without `--profile`.
-pub const DEFAULT_PROFILE: &str = "default";
 
-/// Load and check everything the console needs.
-pub fn resolve(options: &TuiOptions, dirs: &ConfigDirs) -> Result<Resolved, SetupError> {
-    if let (Some(sim), Some(port)) = (options.sim, &options.port) {
-        return Err(SetupError::Options(format!(
-            "--sim {sim} runs the built-in simulator; it cannot be combined with --port {port}"
-        )));
-    }
-    if let (Some(sim), Some(protocol)) = (options.sim, options.protocol)
-        && sim != protocol
-    {
-        return Err(SetupError::Options(format!(
-            "--protocol {protocol} and --sim {sim} name different families: give one of them"
-        )));
-    }
-    let spec = options.profile.as_deref().unwrap_or(DEFAULT_PROFILE);
-    let (mut profile, mut sources) = load_profile_with_sources(spec, dirs)?;
-    if let Some(sim) = options.sim {
-        // A profile of another family describes another machine: take the
-        // shipped profile of the simulated family instead.
-        if profile.connection.protocol != sim {
-            (profile, sources) =
-                load_profile_with_sources(sim.name(), &ConfigDirs::builtin_only())?;
-        }
-        profile.connection.port = crate::config::profile::Connection::SIMULATOR.to_string();
-    }
-    if let Some(protocol) = options.protocol
-        && protocol != profile.connection.protocol
-    {
-        profile.connection.protocol = protocol;
-        if let Some(problem) = profile.validate().into_iter().next() {
-            return Err(SetupError::Options(format!(
-                "--protocol {protocol}: the profile `{}` does not fit: {} ({})",
-                profile.name,
-                problem.message,
-                problem.key.join(".")
-            )));
-        }
-    }
-    if let Some(port) = &options.port {
-        profile.connection.port = port.clone();
-    }
-    let theme = load_theme(options.theme.as_deref().unwrap_or(DEFAULT_THEME), dirs)?;
+/// Load and check everything the console needs: the profile as every
+/// command resolves it (`cli::profile`), the theme, the profile's keys.
+pub fn resolve(global: &GlobalArgs, dirs: &ConfigDirs) -> Result<Resolved, SetupError> {
+    let (profile, sources) =
+        resolve_with_sources(global, dirs).map_err(|e| match e.downcast::<ConfigError>() {
+            Ok(config) => SetupError::Config(config),
+            Err(other) => SetupError::Options(format!("{other:#}")),
+        })?;
+    let theme = load_theme(global.theme.as_deref().unwrap_or(DEFAULT_THEME), dirs)?;
     let refs: Vec<&Source> = sources.iter().collect();
     let keymap = Keymap::default().with_overrides(&profile.keys, &refs)?;
     Ok(Resolved {
@@ -109,7 +64,7 @@ mod tests {
     use std::fs;
 
     use super::*;
-    use crate::axis::{Axis, AxisSet};
+    use crate::proto::Protocol;
     use crate::ui::key::KeyChord;
     use crate::ui::keymap::{Action, Mode};
 
@@ -123,13 +78,16 @@ mod tests {
         (dir, dirs)
     }
 
-    fn options() -> TuiOptions {
-        TuiOptions::default()
+    fn with_profile(name: &str) -> GlobalArgs {
+        GlobalArgs {
+            profile: Some(name.into()),
+            ..GlobalArgs::default()
+        }
     }
 
     #[test]
     fn without_options_it_is_the_isel_simulator_in_the_dark_theme() {
-        let r = resolve(&options(), &ConfigDirs::builtin_only()).expect("ok");
+        let r = resolve(&GlobalArgs::default(), &ConfigDirs::builtin_only()).expect("ok");
         assert_eq!(r.profile.connection.protocol, Protocol::Isel);
         assert!(r.profile.connection.is_simulator());
         assert_eq!(r.theme.name, "dark");
@@ -138,79 +96,33 @@ mod tests {
     #[test]
     fn sim_of_another_family_takes_that_familys_shipped_profile() {
         let r = resolve(
-            &TuiOptions {
+            &GlobalArgs {
                 sim: Some(Protocol::Emcu),
-                ..options()
+                theme: Some("mono16".into()),
+                ..GlobalArgs::default()
             },
             &ConfigDirs::builtin_only(),
         )
         .expect("ok");
         assert_eq!(r.profile.connection.protocol, Protocol::Emcu);
-        assert_eq!(r.profile.name, "EMCU SMC3000");
         assert!(r.profile.connection.is_simulator());
-        // The same family keeps the chosen profile, on the simulator.
-        let r = resolve(
-            &TuiOptions {
-                profile: Some("emp".into()),
-                sim: Some(Protocol::Emp),
-                ..options()
-            },
-            &ConfigDirs::builtin_only(),
-        )
-        .expect("ok");
-        assert_eq!(r.profile.axis_set(), AxisSet::EMPTY.with(Axis::X));
-        assert!(r.profile.connection.is_simulator());
-    }
-
-    #[test]
-    fn port_and_protocol_patch_the_profile() {
-        let r = resolve(
-            &TuiOptions {
-                profile: Some("isel".into()),
-                port: Some("/dev/pts/7".into()),
-                protocol: Some(Protocol::Emcu),
-                ..options()
-            },
-            &ConfigDirs::builtin_only(),
-        )
-        .expect("ok");
-        assert_eq!(r.profile.connection.port, "/dev/pts/7");
-        assert_eq!(r.profile.connection.protocol, Protocol::Emcu);
+        assert_eq!(r.theme.name, "mono16");
     }
 
     #[test]
     fn contradictions_are_refused_with_exit_status_2() {
-        let dirs = ConfigDirs::builtin_only();
-        for (bad, needle) in [
-            (
-                TuiOptions {
-                    sim: Some(Protocol::Isel),
-                    port: Some("/dev/ttyUSB0".into()),
-                    ..options()
-                },
-                "cannot be combined",
-            ),
-            (
-                TuiOptions {
-                    sim: Some(Protocol::Isel),
-                    protocol: Some(Protocol::Emp),
-                    ..options()
-                },
-                "different families",
-            ),
-            (
-                // The default profile's axes have no EMP drive addresses.
-                TuiOptions {
-                    protocol: Some(Protocol::Emp),
-                    ..options()
-                },
-                "drive address",
-            ),
-        ] {
-            let err = resolve(&bad, &dirs).expect_err(needle);
-            assert!(err.to_string().contains(needle), "{err}");
-            assert_eq!(err.exit_code(), ExitCode::from(2));
-        }
+        let err = resolve(
+            &GlobalArgs {
+                sim: Some(Protocol::Isel),
+                port: Some("/dev/ttyUSB0".into()),
+                ..GlobalArgs::default()
+            },
+            &ConfigDirs::builtin_only(),
+        )
+        .expect_err("contradiction");
+        assert!(matches!(err, SetupError::Options(_)), "{err}");
+        assert!(err.to_string().starts_with("jogterm: error: "), "{err}");
+        assert_eq!(err.exit_code(), ExitCode::from(2));
     }
 
     #[test]
@@ -233,28 +145,22 @@ mod tests {
         )
         .expect("write");
         let cases = [
-            (options_with_profile("broken"), "broken.toml:3:"),
-            (options_with_profile("keys"), "keys.toml:4:"),
+            (with_profile("broken"), "broken.toml:3:"),
+            (with_profile("keys"), "keys.toml:4:"),
             (
-                TuiOptions {
+                GlobalArgs {
                     theme: Some("bad".into()),
-                    ..options()
+                    ..GlobalArgs::default()
                 },
                 "bad.toml:3:",
             ),
         ];
         for (opts, place) in cases {
             let err = resolve(&opts, &dirs).expect_err(place);
+            assert!(matches!(err, SetupError::Config(_)), "{err}");
             let shown = err.to_string();
             assert!(shown.contains(place), "{shown}");
             assert!(shown.contains(": error: "), "{shown}");
-        }
-    }
-
-    fn options_with_profile(name: &str) -> TuiOptions {
-        TuiOptions {
-            profile: Some(name.into()),
-            ..TuiOptions::default()
         }
     }
 
@@ -266,7 +172,7 @@ mod tests {
             "name = \"mill\"\n[keys.safety]\n\"ctrl-x\" = \"stop\"\n",
         )
         .expect("write");
-        let r = resolve(&options_with_profile("mill"), &dirs).expect("ok");
+        let r = resolve(&with_profile("mill"), &dirs).expect("ok");
         assert_eq!(
             r.keymap.lookup(Mode::Safety, &KeyChord::ctrl('x')),
             Some(Action::Stop)

@@ -17,8 +17,10 @@ pub mod emcu;
 pub mod emp;
 pub mod engine;
 pub mod fault;
+pub mod isel;
 mod line;
 pub mod pty;
+pub mod registry;
 pub mod shell;
 
 use std::time::Instant;
