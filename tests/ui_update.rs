@@ -8,6 +8,7 @@ use std::time::{Duration, Instant};
 use jogterm::axis::{Axis, AxisSet};
 use jogterm::device::api::{
     Event, IoBit, IoGroup, IoSnapshot, JogEnd, JogId, LinkState, OutputId, Refusal, Request,
+    UploadEvent,
 };
 use jogterm::proto::Protocol;
 use jogterm::sim::InputControl;
@@ -416,4 +417,39 @@ fn link_loss_says_the_state_is_unknown() {
     let shown = screen(&m, 80, 24);
     assert!(shown.contains("reconnecting"), "{shown}");
     assert!(shown.contains("UNKNOWN"), "{shown}");
+}
+
+#[test]
+fn an_upload_shows_its_progress_and_its_end() {
+    let mut m = ready(Protocol::Isel);
+    update(
+        &mut m,
+        Msg::Device(Event::Upload(UploadEvent::Progress {
+            done: 12,
+            total: 40,
+            lines_per_second: 30.0,
+        })),
+    );
+    assert!(
+        screen(&m, 80, 24)
+            .lines()
+            .next()
+            .is_some_and(|l| l.contains("upload 12/40"))
+    );
+    update(
+        &mut m,
+        Msg::Device(Event::Upload(UploadEvent::Finished {
+            total: 40,
+            elapsed: Duration::from_millis(1500),
+        })),
+    );
+    let shown = screen(&m, 80, 24);
+    assert!(
+        !shown.lines().next().is_some_and(|l| l.contains("upload")),
+        "{shown}"
+    );
+    assert!(
+        shown.contains("upload finished: 40 lines in 1.5 s"),
+        "{shown}"
+    );
 }

@@ -8,7 +8,7 @@ use ratatui::style::Style;
 use ratatui::text::{Line, Span};
 use ratatui::widgets::Widget;
 
-use crate::device::api::LinkState;
+use crate::device::api::{LinkState, UploadEvent};
 use crate::ui::key::KeyChord;
 use crate::ui::keymap::{Action, Mode};
 use crate::ui::model::Model;
@@ -65,13 +65,23 @@ impl Widget for StatusBar<'_> {
             LinkState::Reconnecting { .. } => ("reconnecting", base.patch(p.warning)),
             LinkState::Closed => ("closed", base),
         };
-        let poll = match &model.stats {
+        let mut poll = match &model.stats {
             Some(s) if width >= 70 => {
                 format!("poll {:.0}/{:.0} Hz ", s.position_rate_hz, s.wire_limit_hz)
             }
             Some(s) => format!("{:.0} Hz ", s.position_rate_hz),
             None => "poll - ".to_string(),
         };
+        // An upload in progress is worth a glance from any panel.
+        match &model.upload {
+            Some(UploadEvent::Started { total }) => {
+                poll.insert_str(0, &format!("upload 0/{total} "))
+            }
+            Some(UploadEvent::Progress { done, total, .. }) => {
+                poll.insert_str(0, &format!("upload {done}/{total} "))
+            }
+            _ => {}
+        }
         let state = Span::styled(
             format!(" {} ", summary.word),
             base.patch(severity_style(p, summary.severity)),
