@@ -1,0 +1,498 @@
+//! Lint rules for isel CNC programs (manual chapter 3, `../shared/protocols.md`
+//! isel 9-13).
+
+use crate::axis::{Axis, AxisSet};
+use crate::proto::isel::{
+    AxisConfig, CncCommand, HelixParams, NoteKind, Plane, ReplyCode, check_cnc,
+};
+
+use super::super::flow::{self, Flow, LoopRange};
+use super::super::model::{Command, Program, Statement};
+use super::super::path::covering_config;
+use super::super::source::Span;
+use super::{Diagnostic, LintConfig, Rule, count, end_span, limits, statement_span};
+
+/// Loops nest at most this deep (manual 3.2.5).
+pub const MAX_LOOP_DEPTH: usize = 7;
+
+pub(super) fn lint(program: &Program, config: &LintConfig) -> Vec<Diagnostic> {
+    let mut out = Vec::new();
+    let axes = match exact_config(config.axes) {
+        Some(axes) => axes,
+        None => {
+            out.push(Diagnostic::error(
+                Rule::Axis,
+                Span::new(0, 0..0),
+                format!(
+                    "the axes `{}` are no isel configuration: X, XY, XYZ or XYZA (manual 2.2.1); \
+                     checking for {}",
+                    config.axes,
+                    covering_config(config.axes)
+                ),
+            ));
+            covering_config(config.axes)
+        }
+    };
+    let flows = flow::flows(program);
+    let mut plane = Plane::XY;
+    for (line, statement) in program.statements() {
+        lines(line, statement, axes, config, &mut plane, &mut out);
+    }
+    structure(program, &flows, &mut out);
+    end(program, &flows, &mut out);
+    size(program, config, &mut out);
+    circle_direction(program, &flows, &mut out);
+    limits::isel(program, axes, config, &mut out);
+    out
+}
+
+/// The isel configuration with exactly these axes (manual 2.2.1).
+fn exact_config(axes: AxisSet) -> Option<AxisConfig> {
+    AxisConfig::ALL.into_iter().find(|c| c.axes() == axes)
+}
+
+/// The rule for a reply code of the parser or the check.
+fn rule_for(code: Option<ReplyCode>) -> Rule {
+    match code {
+        Some(ReplyCode::NotStorable) => Rule::NotStorable,
+        Some(ReplyCode::ParameterCount) => Rule::ParameterCount,
+        Some(ReplyCode::BadNumber) => Rule::NumberRange,
+        Some(ReplyCode::BadSpeed) => Rule::Speed,
+        Some(ReplyCode::BadAxis | ReplyCode::NoAxes) => Rule::Axis,
+        _ => Rule::Syntax,
+    }
+}
+
+/// The section of chapter 3 that describes a CNC code.
+pub(crate) fn section(code: char) -> &'static str {
+    match code {
+        '0' => "3.2.2",
+        '1' => "3.2.3",
+        '2' => "3.2.4",
+        '3' => "3.2.5",
+        '5' => "3.2.6",
+        '6' => "3.2.7",
+        '7' => "3.2.8",
+        '9' => "3.2.9",
+        'd' => "3.2.10",
+        'e' => "3.2.11",
+        'f' => "3.2.12",
+        'g' => "3.2.13",
+        'j' => "3.2.14",
+        'J' => "3.2.15",
+        'm' => "3.2.16",
+        'n' => "3.2.17",
+        'N' => "3.2.18",
+        'o' => "3.2.19",
+        'p' => "3.2.20",
+        'T' => "3.2.21",
+        'w' => "3.2.22",
+        'y' => "3.2.23",
+        'z' => "3.2.24",
+        _ => "3.2",
+    }
+}
+
+fn param_span(line: usize, statement: &Statement, param: usize) -> Span {
+    match statement.params.get(param) {
+        Some(cols) => Span::new(line, cols.clone()),
+        None => Span::new(line, statement.code.clone()),
+    }
+}
+
+/// The checks of one line on its own.
+fn lines(
+    line: usize,
+    statement: &Statement,
+    axes: AxisConfig,
+    config: &LintConfig,
+    plane: &mut Plane,
+    out: &mut Vec<Diagnostic>,
+) {
+    let command = match &statement.command {
+        Err(e) => {
+            let reply = e
+                .reply
+                .map(|c| format!(" (the controller answers `{}`)", c.char()))
+                .unwrap_or_default();
+            out.push(Diagnostic::error(
+                rule_for(e.reply),
+                Span::new(line, e.cols.clone()),
+                format!("{}{reply}", e.message),
+            ));
+            return;
+        }
+        Ok(Command::Isel(command)) => command,
+        Ok(Command::Emcu(_)) => return,
+    };
+    let code = command.code();
+    if let Err(e) = check_cnc(command, axes) {
+        let forward =
+            matches!(command, CncCommand::Loop { count, offset } if *count > 0 && *offset >= 0);
+        let span = match e.param {
+            Some(p) => param_span(line, statement, p),
+            None => Span::new(line, statement.code.clone()),
+        };
+        out.push(Diagnostic::error(
+            if forward {
+                Rule::ForwardLoop
+            } else {
+                rule_for(Some(e.code))
+            },
+            span,
+            format!(
+                "{} (manual {}; the controller answers `{}`)",
+                e.message,
+                section(code),
+                e.code.char()
+            ),
+        ));
+    }
+    for note in &statement.notes {
+        let span = Span::new(line, note.cols.clone());
+        match note.kind {
+            NoteKind::TableSpelling {
+                written,
+                section: letter,
+            } => out.push(
+                Diagnostic::warning(
+                    Rule::TableSpelling,
+                    span,
+                    format!(
+                        "`{written}` is the spelling of the manual's command table; \
+                         its section {} writes `{letter}`",
+                        section(letter)
+                    ),
+                )
+                .with_fix(span, letter.to_string()),
+            ),
+            NoteKind::CcwWrittenAsOne => out.push(
+                Diagnostic::warning(
+                    Rule::CcwAsOne,
+                    span,
+                    "`f1` means counter-clockwise, which the manual writes `f-1`; \
+                     clockwise is `f0` (manual 3.2.12)",
+                )
+                .with_fix(span, "-1"),
+            ),
+            NoteKind::SpaceAfterCode | NoteKind::AlternateLetter { .. } => {}
+        }
+    }
+    match command {
+        CncCommand::SendSync(sync) if sync.collides_with_reply_code() => {
+            out.push(Diagnostic::warning(
+                Rule::SyncCollision,
+                param_span(line, statement, 0),
+                format!(
+                    "the sync character `{sync}` ({}) is also a reply code: while the program \
+                     runs, the console takes it for the end of the run (manual 3.2.3, chapter 5)",
+                    sync.byte()
+                ),
+            ));
+        }
+        CncCommand::Loop {
+            count: 0,
+            offset: 0,
+        } => out.push(Diagnostic::warning(
+            Rule::EndlessJump,
+            param_span(line, statement, 1),
+            "`3 0,0` jumps to itself: the program hangs here until it is stopped (manual 3.2.5)",
+        )),
+        CncCommand::SetPlane(p) => *plane = *p,
+        _ => {}
+    }
+    max_speeds(line, statement, command, axes, *plane, config, out);
+}
+
+/// The axis each steps,speed pair of `0`/`m` moves (manual 3.2.2).
+fn pair_axes(axes: AxisConfig) -> &'static [Axis] {
+    match axes {
+        AxisConfig::X => &[Axis::X],
+        AxisConfig::XY => &[Axis::X, Axis::Y],
+        AxisConfig::XYZ => &[Axis::X, Axis::Y, Axis::Z, Axis::Z],
+        AxisConfig::XYZA => &[Axis::X, Axis::Y, Axis::Z, Axis::A],
+    }
+}
+
+/// Speeds above the profile's highest speed of an axis. The plane of a
+/// circle is the last `e` before it in the text (not followed through jumps).
+fn max_speeds(
+    line: usize,
+    statement: &Statement,
+    command: &CncCommand,
+    axes: AxisConfig,
+    plane: Plane,
+    config: &LintConfig,
+    out: &mut Vec<Diagnostic>,
+) {
+    // (param index of the speed, axis, speed)
+    let mut speeds: Vec<(usize, Axis, u32)> = Vec::new();
+    match command {
+        CncCommand::MoveRelative(pairs) | CncCommand::MoveAbsolute(pairs) => {
+            let absolute = matches!(command, CncCommand::MoveAbsolute(_));
+            for (i, (pair, axis)) in pairs.iter().zip(pair_axes(axes)).enumerate() {
+                // z2 of an absolute move with 3 axes is ignored (3.2.16).
+                let ignored = absolute && axes == AxisConfig::XYZ && i == 3;
+                let moves = absolute || pair.steps != 0;
+                if moves && !ignored {
+                    speeds.push((2 * i + 1, *axis, pair.speed));
+                }
+            }
+        }
+        CncCommand::SetReferenceSpeeds(list) => {
+            for (i, (speed, axis)) in list.iter().zip(axes.axes().iter()).enumerate() {
+                speeds.push((i, axis, *speed));
+            }
+        }
+        CncCommand::Circle(c) | CncCommand::Helix(HelixParams { circle: c, .. }) => {
+            let (a1, a2) = plane.axes();
+            speeds.push((1, a1, c.speed));
+            speeds.push((1, a2, c.speed));
+        }
+        _ => {}
+    }
+    let mut reported = false;
+    for (param, axis, speed) in speeds {
+        let Some(limit) = config.limit(axis) else {
+            continue;
+        };
+        let Some(max) = limit.max_speed_hz else {
+            continue;
+        };
+        // One diagnostic per parameter (a circle's speed serves two axes).
+        if f64::from(speed) > max + 1e-6 && !(reported && param == 1 && is_arc(command)) {
+            reported = true;
+            out.push(Diagnostic::warning(
+                Rule::MaxSpeed,
+                param_span(line, statement, param),
+                format!(
+                    "{speed} Hz is above the highest speed of axis {axis} in the machine profile, \
+                     {} Hz",
+                    super::trim_float(max)
+                ),
+            ));
+        }
+    }
+}
+
+fn is_arc(command: &CncCommand) -> bool {
+    matches!(command, CncCommand::Circle(_) | CncCommand::Helix(_))
+}
+
+/// The offset parameter of a jumping command.
+fn offset_param(command: Option<&CncCommand>) -> usize {
+    match command {
+        Some(CncCommand::BranchOnPort { .. }) => 3,
+        _ => 1,
+    }
+}
+
+fn offset_span(program: &Program, index: usize) -> Span {
+    match program.statement(index) {
+        Some((line, s)) => param_span(line, s, offset_param(flow::command(program, index))),
+        None => end_span(program),
+    }
+}
+
+/// Jump targets, loop nesting and loops left by jumps (manual 3.2.5).
+fn structure(program: &Program, flows: &[Flow], out: &mut Vec<Diagnostic>) {
+    let len = flows.len();
+    for (index, f) in flows.iter().enumerate() {
+        let (target, what) = match *f {
+            Flow::Jump(t) | Flow::Branch(t) => (t, "jump target"),
+            // Forward loops are reported by the check.
+            Flow::Loop { start } if start <= index as i64 => (start, "loop start"),
+            _ => continue,
+        };
+        if flow::inside(target, len).is_some() {
+            continue;
+        }
+        let place = if target < 0 {
+            format!(
+                "{} before the first",
+                count(target.unsigned_abs() as usize, "command")
+            )
+        } else {
+            format!(
+                "{} after the last",
+                count((target - len as i64 + 1) as usize, "command")
+            )
+        };
+        out.push(Diagnostic::error(
+            Rule::JumpTarget,
+            offset_span(program, index),
+            format!(
+                "the {what} lies {place} command of the program; jumps may not leave it \
+                 (manual 3.2.5)"
+            ),
+        ));
+    }
+    let loops = flow::loops(flows);
+    let nesting = flow::nesting(&loops);
+    for (lp, depth) in &nesting.depths {
+        if *depth > MAX_LOOP_DEPTH {
+            out.push(Diagnostic::error(
+                Rule::LoopDepth,
+                statement_span(program, lp.end),
+                format!(
+                    "this loop is nested {depth} deep; loops nest at most {MAX_LOOP_DEPTH} deep \
+                     (manual 3.2.5)"
+                ),
+            ));
+        }
+    }
+    for (earlier, later) in &nesting.overlaps {
+        out.push(Diagnostic::warning(
+            Rule::LoopOverlap,
+            statement_span(program, later.end),
+            format!(
+                "this loop repeats {} and overlaps the loop in line {} without containing it; \
+                 loops should nest (manual 3.2.5)",
+                body(program, *later),
+                line_number(program, earlier.end)
+            ),
+        ));
+    }
+    let innermost = flow::innermost_loops(&loops, len);
+    for (index, f) in flows.iter().enumerate() {
+        let target = match *f {
+            Flow::Jump(t) | Flow::Branch(t) => t,
+            _ => continue,
+        };
+        let (Some(target), Some(Some(lp))) = (flow::inside(target, len), innermost.get(index))
+        else {
+            continue;
+        };
+        if !lp.contains(target) {
+            out.push(Diagnostic::error(
+                Rule::LoopExit,
+                offset_span(program, index),
+                format!(
+                    "this jump leaves the loop of line {} ({}); a loop may not be left by a jump \
+                     (manual 3.2.5)",
+                    line_number(program, lp.end),
+                    body(program, *lp)
+                ),
+            ));
+        }
+    }
+}
+
+/// 1-based line number of a command, for messages.
+fn line_number(program: &Program, index: usize) -> usize {
+    program.line_of(index).map_or(0, |l| l + 1)
+}
+
+fn body(program: &Program, lp: LoopRange) -> String {
+    format!(
+        "lines {}-{}",
+        line_number(program, lp.start),
+        line_number(program, lp.end.saturating_sub(1))
+    )
+}
+
+/// The end `9`, and nothing after it (manual 3.2.9, `../shared/protocols.md`
+/// isel 9).
+fn end(program: &Program, flows: &[Flow], out: &mut Vec<Diagnostic>) {
+    match flows.iter().position(|f| *f == Flow::End) {
+        None => {
+            let at = end_span(program);
+            let insert = if program.lines().last().is_some_and(|l| !l.text().is_empty()) {
+                "\n9"
+            } else {
+                "9"
+            };
+            out.push(
+                Diagnostic::error(
+                    Rule::MissingEnd,
+                    at,
+                    "the program has no end `9`: without it the controller keeps the program \
+                     invalid and cannot run it (manual 3.2.9)",
+                )
+                .with_fix(at, insert),
+            );
+        }
+        Some(end) => {
+            for index in end + 1..flows.len() {
+                out.push(Diagnostic::error(
+                    Rule::AfterEnd,
+                    statement_span(program, index),
+                    format!(
+                        "nothing may follow the end `9` of line {}: the controller is back in \
+                         DNC mode after it and refuses this line (manual 3.2.9)",
+                        line_number(program, end)
+                    ),
+                ));
+            }
+        }
+    }
+}
+
+/// Program memory (`../shared/protocols.md` isel 9: 2000 commands, `6` beyond).
+fn size(program: &Program, config: &LintConfig, out: &mut Vec<Diagnostic>) {
+    let capacity = config.capacity_for(program.language());
+    let len = program.command_count();
+    if len > capacity {
+        out.push(Diagnostic::error(
+            Rule::ProgramSize,
+            statement_span(program, capacity),
+            format!(
+                "the controller stores {}; this program has {len}, and this one answers `6` \
+                 (memory full)",
+                count(capacity, "command")
+            ),
+        ));
+    }
+}
+
+/// Circles reached on some way before any `f` (manual 3.2.12: "Die Richtung
+/// für die Kreisinterpolation ist prinzipiell vor jeder Kreisbewegung zu
+/// programmieren"). A forward data-flow over the jumps: the direction is set
+/// at a command when it is set on every way that reaches it.
+fn circle_direction(program: &Program, flows: &[Flow], out: &mut Vec<Diagnostic>) {
+    let len = flows.len();
+    if len == 0 {
+        return;
+    }
+    let sets = |i: usize| {
+        matches!(
+            flow::command(program, i),
+            Some(CncCommand::SetCircleDirection(_))
+        )
+    };
+    // None = not reached (yet); Some(set on every way so far).
+    let mut set: Vec<Option<bool>> = vec![None; len];
+    set[0] = Some(false);
+    let mut work = vec![0usize];
+    while let Some(i) = work.pop() {
+        let Some(here) = set.get(i).copied().flatten() else {
+            continue;
+        };
+        let after = here || sets(i);
+        for next in flow::successors(flows[i], i, len).into_iter().flatten() {
+            let new = match set[next] {
+                None => after,
+                Some(old) => old && after,
+            };
+            if set[next] != Some(new) {
+                set[next] = Some(new);
+                work.push(next);
+            }
+        }
+    }
+    for (index, state) in set.iter().enumerate() {
+        let command = flow::command(program, index);
+        if *state == Some(false) && command.is_some_and(is_arc) {
+            let letter = command.map_or('y', CncCommand::code);
+            out.push(Diagnostic::warning(
+                Rule::CircleDirection,
+                statement_span(program, index),
+                format!(
+                    "no `f` sets the circle direction before this `{letter}` (on some way \
+                     here): it runs in whatever direction was set last; write `f0` (CW) or \
+                     `f-1` (CCW) before it (manual 3.2.12)"
+                ),
+            ));
+        }
+    }
+}
