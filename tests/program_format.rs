@@ -163,7 +163,20 @@ proptest! {
     fn arbitrary_text_never_panics(text in any::<String>()) {
         for language in Language::ALL {
             let program = Program::parse(language, &text);
-            let _ = lint(&program, &limited());
+            // Every span can slice its line (whole characters).
+            for d in lint(&program, &limited()) {
+                if let Some(line) = program.line(d.span.line) {
+                    prop_assert!(line.text().get(d.span.cols()).is_some(), "{:?}", d);
+                }
+            }
+            for line in program.lines() {
+                if let Some(s) = line.statement() {
+                    prop_assert!(line.text().get(s.code.clone()).is_some());
+                    if let Err(e) = &s.command {
+                        prop_assert!(line.text().get(e.cols.clone()).is_some(), "{:?}", e);
+                    }
+                }
+            }
             let _ = path_with(&program, &Start::at_zero(AxisSet::XYZ), 2_000);
             round_trip(language, &text)?;
         }

@@ -183,6 +183,29 @@ fn axis_not_initialised() {
 }
 
 #[test]
+fn axis_of_the_circle_plane() {
+    let xy = LintConfig::new(AxisSet::from_mask(3));
+    let circle = "y400,1500,119,-141,141,-1,-1";
+    // `e1` (XZ) on the way through line 2 only: the circle may run in XZ.
+    check(
+        Language::Isel,
+        &xy,
+        Rule::Axis,
+        Severity::Error,
+        &format!("f0\no0,0,1,2\ne1\n{circle}\n9\n"),
+        &[3],
+        &format!("f0\no0,0,1,2\ne0\n{circle}\n9\n"),
+    );
+    // Every plane of XYZ has its axes.
+    isel_error(
+        Rule::Axis,
+        "f0\ne2\n78\nw32000,600,-1000,-2000,0,1,-1,6000\n9\n",
+        &[2],
+        "f0\ne2\nw32000,600,-1000,-2000,0,1,-1,6000\n9\n",
+    );
+}
+
+#[test]
 fn forward_loop() {
     isel_error(
         Rule::ForwardLoop,
@@ -446,9 +469,9 @@ fn simulation_bound() {
 fn max_speed() {
     isel_warning(
         Rule::MaxSpeed,
-        "77\n0100,30000,0,900,0,900,0,900\nd900,900,25000\n9\n",
-        &[1, 2],
-        "77\n0100,20000,0,30000,0,900,0,900\nd900,900,900\n9\n",
+        "77\n0100,30000,0,900,0,900,0,900\nd900,900,25000\nf0\ny400,30000,119,-141,141,-1,-1\n9\n",
+        &[1, 2, 4],
+        "77\n0100,20000,0,30000,0,900,0,900\nd900,900,900\nf0\ny400,20000,119,-141,141,-1,-1\n9\n",
     );
 }
 

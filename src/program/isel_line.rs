@@ -26,6 +26,14 @@ pub(crate) fn parse(code: &str, base: usize) -> Parsed {
         },
         Err(e) => {
             let mut message = e.message;
+            // The core reads bytes; a program is text, so name the character.
+            let odd = code
+                .get(e.span.start.min(code.len())..)
+                .and_then(|rest| rest.chars().next())
+                .filter(|c| !(' '..='~').contains(c));
+            if let Some(c) = odd {
+                message = format!("unexpected character {c:?}: commands are printable ASCII");
+            }
             if code.starts_with('#') {
                 // `#x` is neither a command nor, without a blank after `#`, a
                 // comment (`docs/programs.md`).

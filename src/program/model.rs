@@ -17,7 +17,7 @@ pub const ISEL_CAPACITY: usize = 2000;
 
 /// The two program languages: isel CNC programs (manual chapter 3) and EMCU
 /// jobs (buffered commands of manual 1.5, stored with `@F`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, clap::ValueEnum)]
 pub enum Language {
     Isel,
     Emcu,
@@ -332,10 +332,15 @@ fn parse_line(language: Language, text: &str) -> Line {
         Shape::Comment(cols) => LineKind::Comment(cols),
         Shape::Code { code, comment } => {
             let code_text = text.get(code.clone()).unwrap_or_default();
-            let parsed = match language {
+            let mut parsed = match language {
                 Language::Isel => isel_line::parse(code_text, code.start),
                 Language::Emcu => emcu_line::parse(code_text, code.start),
             };
+            // The cores count bytes; a span must cover whole characters so
+            // that an editor can slice the line with it.
+            if let Err(e) = &mut parsed.command {
+                e.cols = on_char_boundaries(text, e.cols.clone());
+            }
             LineKind::Statement(Statement {
                 index: 0,
                 code,
@@ -350,4 +355,17 @@ fn parse_line(language: Language, text: &str) -> Line {
         text: text.to_string(),
         kind,
     }
+}
+
+/// `cols` widened to whole characters of `text`.
+fn on_char_boundaries(text: &str, cols: Range<usize>) -> Range<usize> {
+    let mut start = cols.start.min(text.len());
+    while !text.is_char_boundary(start) {
+        start -= 1;
+    }
+    let mut end = cols.end.clamp(start, text.len());
+    while !text.is_char_boundary(end) {
+        end += 1;
+    }
+    start..end
 }

@@ -34,14 +34,14 @@ pub(super) fn lint(program: &Program, config: &LintConfig) -> Vec<Diagnostic> {
         }
     };
     let flows = flow::flows(program);
-    let mut plane = Plane::XY;
+    let modal = modal_states(program, &flows);
     for (line, statement) in program.statements() {
-        lines(line, statement, axes, config, &mut plane, &mut out);
+        let here = modal.get(statement.index).copied().flatten();
+        lines(line, statement, axes, config, here, &mut out);
     }
     structure(program, &flows, &mut out);
     end(program, &flows, &mut out);
     size(program, config, &mut out);
-    circle_direction(program, &flows, &mut out);
     limits::isel(program, axes, config, &mut out);
     out
 }
@@ -106,7 +106,7 @@ fn lines(
     statement: &Statement,
     axes: AxisConfig,
     config: &LintConfig,
-    plane: &mut Plane,
+    modal: Option<Modal>,
     out: &mut Vec<Diagnostic>,
 ) {
     let command = match &statement.command {
@@ -198,10 +198,12 @@ fn lines(
             param_span(line, statement, 1),
             "`3 0,0` jumps to itself: the program hangs here until it is stopped (manual 3.2.5)",
         )),
-        CncCommand::SetPlane(p) => *plane = *p,
         _ => {}
     }
-    max_speeds(line, statement, command, axes, *plane, config, out);
+    if let Some(modal) = modal.filter(|_| is_arc(command)) {
+        circle_state(line, statement, command, axes, modal, out);
+    }
+    max_speeds(line, statement, command, axes, modal, config, out);
 }
 
 /// The axis each steps,speed pair of `0`/`m` moves (manual 3.2.2).
@@ -214,14 +216,14 @@ fn pair_axes(axes: AxisConfig) -> &'static [Axis] {
     }
 }
 
-/// Speeds above the profile's highest speed of an axis. The plane of a
-/// circle is the last `e` before it in the text (not followed through jumps).
+/// Speeds above the profile's highest speed of an axis; a circle's speed
+/// for the axes of every plane it may run in.
 fn max_speeds(
     line: usize,
     statement: &Statement,
     command: &CncCommand,
     axes: AxisConfig,
-    plane: Plane,
+    modal: Option<Modal>,
     config: &LintConfig,
     out: &mut Vec<Diagnostic>,
 ) {
@@ -245,9 +247,11 @@ fn max_speeds(
             }
         }
         CncCommand::Circle(c) | CncCommand::Helix(HelixParams { circle: c, .. }) => {
-            let (a1, a2) = plane.axes();
-            speeds.push((1, a1, c.speed));
-            speeds.push((1, a2, c.speed));
+            for plane in modal.map(|m| m.planes()).unwrap_or_default() {
+                let (a1, a2) = plane.axes();
+                speeds.push((1, a1, c.speed));
+                speeds.push((1, a2, c.speed));
+            }
         }
         _ => {}
     }
@@ -445,52 +449,109 @@ fn size(program: &Program, config: &LintConfig, out: &mut Vec<Diagnostic>) {
     }
 }
 
-/// Circles reached on some way before any `f` (manual 3.2.12: "Die Richtung
-/// für die Kreisinterpolation ist prinzipiell vor jeder Kreisbewegung zu
-/// programmieren"). A forward data-flow over the jumps: the direction is set
-/// at a command when it is set on every way that reaches it.
-fn circle_direction(program: &Program, flows: &[Flow], out: &mut Vec<Diagnostic>) {
-    let len = flows.len();
-    if len == 0 {
-        return;
+/// The modal state of the controller when a command runs, over every way
+/// that reaches it: whether an `f` has surely set the circle direction
+/// (manual 3.2.12), and the planes (`e`, manual 3.2.11; XY at the start) it
+/// may be in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Modal {
+    direction_set: bool,
+    /// Bit `Plane::value()` for each plane possible.
+    plane_bits: u8,
+}
+
+impl Modal {
+    fn planes(self) -> Vec<Plane> {
+        Plane::ALL
+            .into_iter()
+            .filter(|p| self.plane_bits & (1 << p.value()) != 0)
+            .collect()
     }
-    let sets = |i: usize| {
-        matches!(
-            flow::command(program, i),
-            Some(CncCommand::SetCircleDirection(_))
-        )
+
+    fn join(self, other: Modal) -> Modal {
+        Modal {
+            direction_set: self.direction_set && other.direction_set,
+            plane_bits: self.plane_bits | other.plane_bits,
+        }
+    }
+}
+
+/// A forward data-flow over the jumps: `None` for commands no way reaches.
+fn modal_states(program: &Program, flows: &[Flow]) -> Vec<Option<Modal>> {
+    let len = flows.len();
+    let mut states: Vec<Option<Modal>> = vec![None; len];
+    let Some(first) = states.first_mut() else {
+        return states;
     };
-    // None = not reached (yet); Some(set on every way so far).
-    let mut set: Vec<Option<bool>> = vec![None; len];
-    set[0] = Some(false);
+    *first = Some(Modal {
+        direction_set: false,
+        plane_bits: 1 << Plane::XY.value(),
+    });
     let mut work = vec![0usize];
     while let Some(i) = work.pop() {
-        let Some(here) = set.get(i).copied().flatten() else {
+        let Some(mut after) = states.get(i).copied().flatten() else {
             continue;
         };
-        let after = here || sets(i);
-        for next in flow::successors(flows[i], i, len).into_iter().flatten() {
-            let new = match set[next] {
-                None => after,
-                Some(old) => old && after,
+        match flow::command(program, i) {
+            Some(CncCommand::SetCircleDirection(_)) => after.direction_set = true,
+            Some(CncCommand::SetPlane(p)) => after.plane_bits = 1 << p.value(),
+            _ => {}
+        }
+        let Some(f) = flows.get(i) else {
+            continue;
+        };
+        for next in flow::successors(*f, i, len).into_iter().flatten() {
+            let Some(slot) = states.get_mut(next) else {
+                continue;
             };
-            if set[next] != Some(new) {
-                set[next] = Some(new);
+            let new = slot.map_or(after, |old| old.join(after));
+            if *slot != Some(new) {
+                *slot = Some(new);
                 work.push(next);
             }
         }
     }
-    for (index, state) in set.iter().enumerate() {
-        let command = flow::command(program, index);
-        if *state == Some(false) && command.is_some_and(is_arc) {
-            let letter = command.map_or('y', CncCommand::code);
-            out.push(Diagnostic::warning(
-                Rule::CircleDirection,
-                statement_span(program, index),
+    states
+}
+
+/// A circle or helix: its direction set before it (manual 3.2.12: "Die
+/// Richtung für die Kreisinterpolation ist prinzipiell vor jeder
+/// Kreisbewegung zu programmieren"), and the axes of every plane it may run
+/// in initialised (the controller answers `3` when it runs it otherwise).
+fn circle_state(
+    line: usize,
+    statement: &Statement,
+    command: &CncCommand,
+    axes: AxisConfig,
+    modal: Modal,
+    out: &mut Vec<Diagnostic>,
+) {
+    let span = Span::new(line, statement.code.clone());
+    let letter = command.code();
+    if !modal.direction_set {
+        out.push(Diagnostic::warning(
+            Rule::CircleDirection,
+            span,
+            format!(
+                "no `f` sets the circle direction before this `{letter}` (on some way here): \
+                 it runs in whatever direction was set last; write `f0` (CW) or `f-1` (CCW) \
+                 before it (manual 3.2.12)"
+            ),
+        ));
+    }
+    for plane in modal.planes() {
+        let (a1, a2) = plane.axes();
+        let mut needed = vec![a1, a2];
+        if letter == 'w' {
+            needed.push(plane.third_axis());
+        }
+        if let Some(missing) = needed.into_iter().find(|a| !axes.axes().contains(*a)) {
+            out.push(Diagnostic::error(
+                Rule::Axis,
+                span,
                 format!(
-                    "no `f` sets the circle direction before this `{letter}` (on some way \
-                     here): it runs in whatever direction was set last; write `f0` (CW) or \
-                     `f-1` (CCW) before it (manual 3.2.12)"
+                    "this `{letter}` runs in the {plane:?} plane (manual 3.2.11), which needs \
+                     axis {missing}; the controller has {axes} and answers `3` when it gets here"
                 ),
             ));
         }
