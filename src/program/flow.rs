@@ -44,14 +44,22 @@ pub(crate) fn command(program: &Program, index: usize) -> Option<&CncCommand> {
         .and_then(Command::as_isel)
 }
 
-/// The flow of every command, in index order.
-pub(crate) fn flows(program: &Program) -> Vec<Flow> {
+/// The isel command of every statement (`None` where a line does not
+/// parse), in index order: one pass over the lines, so that runs and data
+/// flows index a flat list.
+pub(crate) fn commands(program: &Program) -> Vec<Option<&CncCommand>> {
     program
         .statements()
-        .map(|(_, s)| {
-            let command = s.command.as_ref().ok().and_then(Command::as_isel);
-            flow_of(command, s.index)
-        })
+        .map(|(_, s)| s.command.as_ref().ok().and_then(Command::as_isel))
+        .collect()
+}
+
+/// The flow of every command, in index order.
+pub(crate) fn flows(commands: &[Option<&CncCommand>]) -> Vec<Flow> {
+    commands
+        .iter()
+        .enumerate()
+        .map(|(index, command)| flow_of(*command, index))
         .collect()
 }
 

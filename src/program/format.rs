@@ -7,6 +7,8 @@
 //!
 //! `Program::parse(l, &format(&p)).items() == p.items()` for every program.
 
+use std::fmt::Write as _;
+
 use super::model::{LineKind, Program};
 
 /// The program in canonical form, each line ended by LF.
@@ -18,7 +20,10 @@ pub fn format(program: &Program) -> String {
             LineKind::Comment(cols) => out.push_str(line.slice(cols.clone())),
             LineKind::Statement(s) => {
                 match &s.command {
-                    Ok(command) => out.push_str(&command.to_string()),
+                    // Writing to a String cannot fail.
+                    Ok(command) => {
+                        let _ = write!(out, "{command}");
+                    }
                     Err(_) => out.push_str(line.slice(s.code.clone())),
                 }
                 if let Some(comment) = &s.comment {

@@ -209,9 +209,8 @@ impl Program {
     /// Parse a whole text. Never fails: lines the controller would refuse
     /// hold their [`SyntaxError`].
     pub fn parse(language: Language, text: &str) -> Program {
-        let lines = source::lines(text)
-            .map(|l| parse_line(language, l))
-            .collect();
+        let mut lines = Vec::with_capacity(text.bytes().filter(|b| *b == b'\n').count() + 1);
+        lines.extend(source::lines(text).map(|l| parse_line(language, l)));
         let mut program = Program {
             language,
             lines,

@@ -33,8 +33,9 @@ pub(super) fn lint(program: &Program, config: &LintConfig) -> Vec<Diagnostic> {
             covering_config(config.axes)
         }
     };
-    let flows = flow::flows(program);
-    let modal = modal_states(program, &flows);
+    let commands = flow::commands(program);
+    let flows = flow::flows(&commands);
+    let modal = modal_states(&commands, &flows);
     for (line, statement) in program.statements() {
         let here = modal.get(statement.index).copied().flatten();
         lines(line, statement, axes, config, here, &mut out);
@@ -227,8 +228,27 @@ fn max_speeds(
     config: &LintConfig,
     out: &mut Vec<Diagnostic>,
 ) {
-    // (param index of the speed, axis, speed)
-    let mut speeds: Vec<(usize, Axis, u32)> = Vec::new();
+    // One diagnostic per parameter: a circle's speed serves two axes.
+    let mut reported: Option<usize> = None;
+    let mut check = |param: usize, axis: Axis, speed: u32| {
+        let max = config.limit(axis).and_then(|l| l.max_speed_hz);
+        let Some(max) = max.filter(|m| f64::from(speed) > m + 1e-6) else {
+            return;
+        };
+        if reported == Some(param) {
+            return;
+        }
+        reported = Some(param);
+        out.push(Diagnostic::warning(
+            Rule::MaxSpeed,
+            param_span(line, statement, param),
+            format!(
+                "{speed} Hz is above the highest speed of axis {axis} in the machine profile, \
+                 {} Hz",
+                super::trim_float(max)
+            ),
+        ));
+    };
     match command {
         CncCommand::MoveRelative(pairs) | CncCommand::MoveAbsolute(pairs) => {
             let absolute = matches!(command, CncCommand::MoveAbsolute(_));
@@ -237,45 +257,25 @@ fn max_speeds(
                 let ignored = absolute && axes == AxisConfig::XYZ && i == 3;
                 let moves = absolute || pair.steps != 0;
                 if moves && !ignored {
-                    speeds.push((2 * i + 1, *axis, pair.speed));
+                    check(2 * i + 1, *axis, pair.speed);
                 }
             }
         }
         CncCommand::SetReferenceSpeeds(list) => {
             for (i, (speed, axis)) in list.iter().zip(axes.axes().iter()).enumerate() {
-                speeds.push((i, axis, *speed));
+                check(i, axis, *speed);
             }
         }
         CncCommand::Circle(c) | CncCommand::Helix(HelixParams { circle: c, .. }) => {
-            for plane in modal.map(|m| m.planes()).unwrap_or_default() {
-                let (a1, a2) = plane.axes();
-                speeds.push((1, a1, c.speed));
-                speeds.push((1, a2, c.speed));
+            for plane in Plane::ALL {
+                if modal.is_some_and(|m| m.has(plane)) {
+                    let (a1, a2) = plane.axes();
+                    check(1, a1, c.speed);
+                    check(1, a2, c.speed);
+                }
             }
         }
         _ => {}
-    }
-    let mut reported = false;
-    for (param, axis, speed) in speeds {
-        let Some(limit) = config.limit(axis) else {
-            continue;
-        };
-        let Some(max) = limit.max_speed_hz else {
-            continue;
-        };
-        // One diagnostic per parameter (a circle's speed serves two axes).
-        if f64::from(speed) > max + 1e-6 && !(reported && param == 1 && is_arc(command)) {
-            reported = true;
-            out.push(Diagnostic::warning(
-                Rule::MaxSpeed,
-                param_span(line, statement, param),
-                format!(
-                    "{speed} Hz is above the highest speed of axis {axis} in the machine profile, \
-                     {} Hz",
-                    super::trim_float(max)
-                ),
-            ));
-        }
     }
 }
 
@@ -461,11 +461,8 @@ struct Modal {
 }
 
 impl Modal {
-    fn planes(self) -> Vec<Plane> {
-        Plane::ALL
-            .into_iter()
-            .filter(|p| self.plane_bits & (1 << p.value()) != 0)
-            .collect()
+    fn has(self, plane: Plane) -> bool {
+        self.plane_bits & (1 << plane.value()) != 0
     }
 
     fn join(self, other: Modal) -> Modal {
@@ -477,7 +474,7 @@ impl Modal {
 }
 
 /// A forward data-flow over the jumps: `None` for commands no way reaches.
-fn modal_states(program: &Program, flows: &[Flow]) -> Vec<Option<Modal>> {
+fn modal_states(commands: &[Option<&CncCommand>], flows: &[Flow]) -> Vec<Option<Modal>> {
     let len = flows.len();
     let mut states: Vec<Option<Modal>> = vec![None; len];
     let Some(first) = states.first_mut() else {
@@ -492,7 +489,7 @@ fn modal_states(program: &Program, flows: &[Flow]) -> Vec<Option<Modal>> {
         let Some(mut after) = states.get(i).copied().flatten() else {
             continue;
         };
-        match flow::command(program, i) {
+        match commands.get(i).copied().flatten() {
             Some(CncCommand::SetCircleDirection(_)) => after.direction_set = true,
             Some(CncCommand::SetPlane(p)) => after.plane_bits = 1 << p.value(),
             _ => {}
@@ -539,7 +536,7 @@ fn circle_state(
             ),
         ));
     }
-    for plane in modal.planes() {
+    for plane in Plane::ALL.into_iter().filter(|p| modal.has(*p)) {
         let (a1, a2) = plane.axes();
         let mut needed = vec![a1, a2];
         if letter == 'w' {

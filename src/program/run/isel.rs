@@ -9,6 +9,7 @@
 //! limits are in machine coordinates = counter + origin.
 
 use std::collections::HashSet;
+use std::hash::{BuildHasherDefault, Hasher};
 
 use crate::axis::{Axis, AxisSet};
 use crate::proto::isel::{
@@ -91,7 +92,7 @@ enum Step {
 }
 
 pub(crate) struct Runner<'p> {
-    program: &'p Program,
+    commands: Vec<Option<&'p CncCommand>>,
     config: AxisConfig,
     mode: Mode,
     budget: usize,
@@ -100,7 +101,7 @@ pub(crate) struct Runner<'p> {
 impl<'p> Runner<'p> {
     pub fn new(program: &'p Program, config: AxisConfig, mode: Mode, budget: usize) -> Runner<'p> {
         Runner {
-            program,
+            commands: flow::commands(program),
             config,
             mode,
             budget,
@@ -109,9 +110,9 @@ impl<'p> Runner<'p> {
 
     /// Run from `start`, telling `observer` every motion.
     pub fn run(&self, start: State, observer: &mut dyn Observer) -> Outcome {
-        let len = self.program.command_count();
+        let len = self.commands.len();
         let mut work = vec![start];
-        let mut seen: HashSet<State> = HashSet::new();
+        let mut seen: Seen = HashSet::default();
         let mut executed = 0usize;
         let mut finish = Finish::RanOff;
         'paths: while let Some(mut state) = work.pop() {
@@ -127,8 +128,23 @@ impl<'p> Runner<'p> {
                         bound: Some(state.pc),
                     };
                 }
+                let command = self.commands.get(state.pc).copied().flatten();
+                // Paths that meet at a jump in the same state have the same
+                // future: follow it once. On one path, meeting it again means
+                // the program repeats for ever.
+                if matches!(
+                    command,
+                    Some(
+                        CncCommand::Loop { count: 0, .. }
+                            | CncCommand::WaitSync { .. }
+                            | CncCommand::BranchOnPort { .. }
+                    )
+                ) && !remember(&mut seen, state)
+                {
+                    finish = Finish::Endless(state.pc);
+                    continue 'paths;
+                }
                 executed += 1;
-                let command = flow::command(self.program, state.pc);
                 if self.mode == Mode::Explore
                     && state.direction.is_none()
                     && matches!(command, Some(CncCommand::Circle(_) | CncCommand::Helix(_)))
@@ -140,23 +156,14 @@ impl<'p> Runner<'p> {
                     work.push(other);
                     state.direction = Some(CircleDirection::Cw);
                 }
-                let at = state.pc;
                 match self.step(&mut state, command, observer) {
                     Step::Go(next) => state.pc = next,
-                    Step::Jump(target) => {
-                        state.pc = target;
-                        if target <= at && !remember(&mut seen, state) {
-                            finish = Finish::Endless(at);
-                            continue 'paths;
-                        }
-                    }
+                    Step::Jump(target) => state.pc = target,
                     Step::Fork { fall, taken } => {
                         if let (Mode::Explore, Some(target)) = (self.mode, taken) {
                             let mut other = state;
                             other.pc = target;
-                            if remember(&mut seen, other) {
-                                work.push(other);
-                            }
+                            work.push(other);
                         }
                         state.pc = fall;
                     }
@@ -239,7 +246,7 @@ impl<'p> Runner<'p> {
 
     fn jump(&self, s: &mut State, command: &CncCommand) -> Step {
         let index = s.pc;
-        let len = self.program.command_count();
+        let len = self.commands.len();
         match flow::flow_of(Some(command), index) {
             Flow::Jump(t) => match flow::inside(t, len) {
                 Some(t) => Step::Jump(t),
@@ -443,8 +450,12 @@ impl<'p> Runner<'p> {
     }
 }
 
+/// States seen at jumps. Hashed with [`FxHasher`]: a state is some hundred
+/// bytes and the default hasher would be a good part of a run's time.
+type Seen = HashSet<State, BuildHasherDefault<FxHasher>>;
+
 /// Whether `state` is new (then it is remembered).
-fn remember(seen: &mut HashSet<State>, state: State) -> bool {
+fn remember(seen: &mut Seen, state: State) -> bool {
     if seen.len() >= SEEN_LIMIT {
         return !seen.contains(&state);
     }
@@ -515,4 +526,58 @@ pub(crate) fn extents(g: &ArcGeometry) -> ((i64, i64), (i64, i64)) {
         }
     }
     (x, y)
+}
+
+/// The multiply-rotate hash of rustc (`FxHasher`): fast on the integer
+/// fields `#[derive(Hash)]` writes. Not proof against crafted collisions,
+/// which here could only slow a check down ([`SEEN_LIMIT`] bounds the set).
+#[derive(Default)]
+struct FxHasher(u64);
+
+impl FxHasher {
+    fn add(&mut self, word: u64) {
+        self.0 = (self.0.rotate_left(5) ^ word).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
+    }
+}
+
+impl Hasher for FxHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+
+    fn write(&mut self, bytes: &[u8]) {
+        let mut chunks = bytes.chunks_exact(8);
+        for chunk in &mut chunks {
+            let mut word = [0u8; 8];
+            word.copy_from_slice(chunk);
+            self.add(u64::from_le_bytes(word));
+        }
+        for &b in chunks.remainder() {
+            self.add(u64::from(b));
+        }
+    }
+
+    fn write_u8(&mut self, v: u8) {
+        self.add(u64::from(v));
+    }
+
+    fn write_u16(&mut self, v: u16) {
+        self.add(u64::from(v));
+    }
+
+    fn write_u32(&mut self, v: u32) {
+        self.add(u64::from(v));
+    }
+
+    fn write_u64(&mut self, v: u64) {
+        self.add(v);
+    }
+
+    fn write_usize(&mut self, v: usize) {
+        self.add(v as u64);
+    }
+
+    fn write_i64(&mut self, v: i64) {
+        self.add(v as u64);
+    }
 }
