@@ -182,3 +182,17 @@ fn bad_usage_is_refused_by_the_argument_parser() {
         assert_eq!(e.exit_code(), 2, "{argv:?}");
     }
 }
+
+#[test]
+fn arguments_built_without_the_parser_are_checked_too() {
+    let mut args = parse(EXAMPLE).expect("the example parses");
+    args.device = 12;
+    let (mut out, mut err) = (Vec::new(), Vec::new());
+    let code = arc::run_to(&args, &mut out, &mut err).expect("writes to memory");
+    assert_eq!(code, ExitCode::from(2));
+    assert_eq!(
+        String::from_utf8_lossy(&err),
+        "jogterm arc: the device number is 0-9, got 12\n"
+    );
+    assert!(out.is_empty());
+}

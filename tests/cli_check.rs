@@ -263,3 +263,18 @@ fn files_that_are_not_utf8_are_still_checked() {
         o.stdout
     );
 }
+
+#[test]
+fn arguments_built_without_the_parser_are_checked_too() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let args = check::Args {
+        file: dir.path().join("p.isel"),
+        protocol: None,
+        axes: Some(9),
+        profile: None,
+    };
+    let (mut out, mut err) = (Vec::new(), Vec::new());
+    let code = check::run_to(&args, &ConfigDirs::builtin_only(), &mut out, &mut err);
+    assert_eq!(code.ok(), Some(ExitCode::from(2)));
+    assert!(String::from_utf8_lossy(&err).contains("--axes 9"));
+}

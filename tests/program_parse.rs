@@ -306,3 +306,22 @@ fn items_ignore_positions_and_spellings() {
         ))))
     );
 }
+
+#[test]
+fn jump_targets_for_an_editor() {
+    // The manual's examples (3.2.5) at command 5 of a longer program.
+    let program = Program::parse(
+        Language::Isel,
+        "55\n55\n55\n55\n55\n3 25,-1\n3 0,-5\n3 0,5\n3 6,-5\n55\n55\n55\n55\n9\n",
+    );
+    let targets: Vec<Option<usize>> = (5..9).map(|i| program.jump_target(i)).collect();
+    assert_eq!(targets, [Some(4), Some(1), Some(12), Some(3)]);
+    assert_eq!(program.jump_target(0), None);
+    let outside = Program::parse(Language::Isel, "3 0,-1\n9\n");
+    assert_eq!(outside.jump_target(0), None);
+    let text = "; c\r\n  77 ;x\n\n9";
+    assert_eq!(
+        Program::parse(Language::Isel, text).text(),
+        "; c\n  77 ;x\n\n9\n"
+    );
+}

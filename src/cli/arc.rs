@@ -75,7 +75,14 @@ pub fn run_to(args: &Args, out: &mut dyn Write, err: &mut dyn Write) -> anyhow::
             return Ok(ExitCode::from(2));
         }
     };
-    let device = DeviceNumber::new(args.device).unwrap_or(DeviceNumber::DEFAULT);
+    let Some(device) = DeviceNumber::new(args.device) else {
+        writeln!(
+            err,
+            "jogterm arc: the device number is 0-9, got {}",
+            args.device
+        )?;
+        return Ok(ExitCode::from(2));
+    };
     for line in &lines {
         let text = if args.cnc {
             line.to_string()

@@ -174,6 +174,9 @@ fn setup(
         (LintConfig::new(AxisSet::XYZ), note)
     };
     if let Some(n) = args.axes {
+        if !(1..=4).contains(&n) {
+            return Err(format!("--axes {n}: the axes are 1 (X) to 4 (XYZA)"));
+        }
         if language == Language::Emcu && n > 3 {
             return Err(format!("--axes {n}: EMCU drives 3 axes at most (X, Y, Z)"));
         }

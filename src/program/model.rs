@@ -8,6 +8,7 @@ use std::path::Path;
 use crate::proto::emcu;
 use crate::proto::isel::{CncCommand, NoteKind, ReplyCode};
 
+use super::flow::{self, Flow};
 use super::source::{self, Shape, Span};
 use super::{emcu_line, isel_line};
 
@@ -297,6 +298,30 @@ impl Program {
                 Err(e) => Err((Span::new(line, e.cols.clone()), e)),
             })
             .collect()
+    }
+
+    /// Where the isel jump, branch or loop of command `index` leads: the
+    /// command index of its target (`3 0,5` at i: i + 5; `3 6,-5` at i: the
+    /// first command it repeats, i − 5), when that is inside the program.
+    /// `None` for other commands, EMCU jobs, and targets outside.
+    pub fn jump_target(&self, index: usize) -> Option<usize> {
+        let command = self.statement(index)?.1.command.as_ref().ok()?.as_isel();
+        match flow::flow_of(command, index) {
+            Flow::Jump(t) | Flow::Branch(t) | Flow::Loop { start: t } => {
+                flow::inside(t, self.command_count())
+            }
+            Flow::Next | Flow::End => None,
+        }
+    }
+
+    /// The source text: every line as read, ended by LF.
+    pub fn text(&self) -> String {
+        let mut out = String::with_capacity(self.lines.iter().map(|l| l.text.len() + 1).sum());
+        for line in &self.lines {
+            out.push_str(&line.text);
+            out.push('\n');
+        }
+        out
     }
 
     /// The content of every line without positions.

@@ -103,10 +103,11 @@ impl Segment {
         };
         let (a1, a2) = arc.plane.axes();
         let ((lo1, hi1), (lo2, hi2)) = run::isel::extents(&arc.geometry);
+        let around = |c: i64, lo: i64, hi: i64| (c.saturating_add(lo), c.saturating_add(hi));
         if axis == a1 {
-            (arc.centre.0 + lo1, arc.centre.0 + hi1)
+            around(arc.centre.0, lo1, hi1)
         } else if axis == a2 {
-            (arc.centre.1 + lo2, arc.centre.1 + hi2)
+            around(arc.centre.1, lo2, hi2)
         } else {
             line
         }
