@@ -11,7 +11,7 @@ use std::hint::black_box;
 use std::time::{Duration, Instant};
 
 use jogterm::axis::AxisSet;
-use jogterm::cli::check;
+use jogterm::cli::{GlobalArgs, check};
 use jogterm::config::{ConfigDirs, load_profile};
 use jogterm::program::{Language, LintConfig, Program, Start, format, lint, path};
 
@@ -164,12 +164,11 @@ fn main() {
         if std::fs::create_dir_all(&dir).is_ok() {
             let file = dir.join(format!("bench-{lines}.isel"));
             if std::fs::write(&file, &text).is_ok() {
-                let args = check::Args {
+                let args = check::CheckArgs {
                     file: file.clone(),
-                    protocol: None,
                     axes: None,
-                    profile: None,
                 };
+                let global = GlobalArgs::default();
                 let dirs = ConfigDirs::builtin_only();
                 row(
                     "jogterm check (run_to: read, parse, lint, print)",
@@ -177,7 +176,7 @@ fn main() {
                     runs,
                     || {
                         let (mut out, mut err) = (Vec::new(), Vec::new());
-                        let _ = check::run_to(&args, &dirs, &mut out, &mut err);
+                        let _ = check::run_to(&global, &args, &dirs, &mut out, &mut err);
                         out.len()
                     },
                 );

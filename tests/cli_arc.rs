@@ -4,24 +4,14 @@
 use std::process::ExitCode;
 
 use clap::Parser;
-use jogterm::cli::arc;
+use jogterm::cli::{Cli, CliCommand, arc};
 
-#[derive(Parser)]
-#[command(name = "jogterm")]
-struct Cli {
-    #[command(subcommand)]
-    command: Sub,
-}
-
-#[derive(clap::Subcommand)]
-enum Sub {
-    Arc(arc::Args),
-}
-
-fn parse(argv: &[&str]) -> Result<arc::Args, clap::Error> {
-    Cli::try_parse_from(std::iter::once("jogterm").chain(argv.iter().copied())).map(|cli| {
-        let Sub::Arc(args) = cli.command;
-        args
+fn parse(argv: &[&str]) -> Result<arc::ArcArgs, clap::Error> {
+    Cli::try_parse_from(std::iter::once("jogterm").chain(argv.iter().copied())).map(|cli| match cli
+        .command
+    {
+        Some(CliCommand::Arc(args)) => args,
+        other => panic!("{argv:?}: {other:?}"),
     })
 }
 
@@ -195,4 +185,32 @@ fn arguments_built_without_the_parser_are_checked_too() {
         "jogterm arc: the device number is 0-9, got 12\n"
     );
     assert!(out.is_empty());
+}
+
+#[test]
+fn the_binary_prints_the_manuals_example() {
+    let run = |argv: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_jogterm"))
+            .args(argv)
+            .output()
+            .expect("the binary runs")
+    };
+    let o = run(EXAMPLE);
+    assert_eq!(o.status.code(), Some(0));
+    assert_eq!(
+        String::from_utf8_lossy(&o.stdout),
+        "@0f-1\n@0y400,1500,119,-141,141,-1,-1\n"
+    );
+    let o = run(&[
+        "arc", "--radius", "0", "--start", "0", "--end", "90", "--cw", "--speed", "10",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert_eq!(
+        String::from_utf8_lossy(&o.stderr),
+        "jogterm arc: the radius must be at least 1 step\n"
+    );
+    let o = run(&[
+        "arc", "--radius", "10", "--start", "0", "--end", "90", "--speed", "10",
+    ]);
+    assert_eq!(o.status.code(), Some(2), "no direction");
 }

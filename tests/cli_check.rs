@@ -5,20 +5,8 @@ use std::path::Path;
 use std::process::ExitCode;
 
 use clap::Parser;
-use jogterm::cli::check;
+use jogterm::cli::{Cli, CliCommand, check};
 use jogterm::config::ConfigDirs;
-
-#[derive(Parser)]
-#[command(name = "jogterm")]
-struct Cli {
-    #[command(subcommand)]
-    command: Sub,
-}
-
-#[derive(clap::Subcommand)]
-enum Sub {
-    Check(check::Args),
-}
 
 struct Outcome {
     code: ExitCode,
@@ -33,9 +21,12 @@ fn run(argv: &[&str]) -> Outcome {
 fn run_in(argv: &[&str], dirs: &ConfigDirs) -> Outcome {
     let cli = Cli::try_parse_from(std::iter::once("jogterm").chain(argv.iter().copied()))
         .unwrap_or_else(|e| panic!("{argv:?}: {e}"));
-    let Sub::Check(args) = cli.command;
+    let Some(CliCommand::Check(args)) = &cli.command else {
+        panic!("{argv:?} is no check");
+    };
     let (mut out, mut err) = (Vec::new(), Vec::new());
-    let code = check::run_to(&args, dirs, &mut out, &mut err).expect("writes to memory");
+    let code =
+        check::run_to(&cli.global, args, dirs, &mut out, &mut err).expect("writes to memory");
     Outcome {
         code,
         stdout: String::from_utf8(out).expect("utf-8"),
@@ -63,7 +54,7 @@ fn a_clean_program_exits_0_with_a_summary_only() {
     assert_eq!(
         o.stderr,
         format!(
-            "{path}: 0 errors, 0 warnings in 5 commands (isel, axes XYZ, soft limits of profile `default`)\n"
+            "{path}: 0 errors, 0 warnings in 5 commands (isel, axes XYZ, soft limits of `isel simulator`)\n"
         )
     );
 }
@@ -134,43 +125,64 @@ fn soft_limits_come_from_the_profile_in_its_units() {
     );
     // An EMCU profile does not describe an isel machine.
     let o = run(&["check", "--profile", "emcu", &path]);
-    assert_eq!(o.code, ExitCode::SUCCESS, "{}", o.stdout);
+    assert_eq!(o.code, ExitCode::from(2), "{}", o.stdout);
     assert!(
-        o.stderr
-            .contains("no soft limits: profile `emcu` is for emcu controllers"),
+        o.stderr.contains(
+            "(an isel program by its extension): profile `EMCU SMC3000` describes a emcu machine"
+        ),
         "{}",
         o.stderr
     );
 }
 
 #[test]
-fn the_language_comes_from_the_extension_then_the_option_then_the_profile() {
+fn the_language_comes_from_the_option_then_the_extension_then_the_profile() {
     let dir = tempfile::tempdir().expect("tempdir");
     let job = "#E1,800\nL1,x100\n";
-    // `.job` is EMCU; as isel the same text is refused.
+    // `.job` is EMCU, checked for the shipped EMCU machine.
     let o = run(&["check", &file(dir.path(), "a.job", job)]);
     assert_eq!(o.code, ExitCode::SUCCESS, "{}", o.stdout);
     assert!(
-        o.stderr.contains("(emcu, axes XYZ, no soft limits)"),
+        o.stderr
+            .contains("(emcu, axes XYZ, soft limits of `EMCU SMC3000`)"),
         "{}",
         o.stderr
     );
+    // Without a telling extension the default profile's family (isel)
+    // decides, and as isel the text is refused.
     let txt = file(dir.path(), "a.txt", job);
     let o = run(&["check", &txt]);
     assert_eq!(o.code, ExitCode::from(1), "the default profile is isel");
     let o = run(&["check", "--protocol", "emcu", &txt]);
     assert_eq!(o.code, ExitCode::SUCCESS);
-    let o = run(&["check", "--profile", "emcu", &txt]);
+    let o = run(&["--profile", "emcu", "check", &txt]);
     assert_eq!(o.code, ExitCode::SUCCESS);
     assert!(
-        o.stderr.contains("soft limits of profile `emcu`"),
+        o.stderr.contains("soft limits of `EMCU SMC3000`"),
         "{}",
         o.stderr
     );
+    // --protocol wins over the extension.
+    let o = run(&[
+        "check",
+        "--protocol",
+        "isel",
+        &file(dir.path(), "b.job", "9\n"),
+    ]);
+    assert_eq!(o.code, ExitCode::SUCCESS, "{}", o.stdout);
     // EMP drives store no programs.
-    let o = run(&["check", "--profile", "emp", &txt]);
-    assert_eq!(o.code, ExitCode::from(2));
-    assert!(o.stderr.contains("--protocol isel"), "{}", o.stderr);
+    for argv in [
+        &["check", "--profile", "emp", &txt][..],
+        &["check", "--protocol", "emp", &txt],
+    ] {
+        let o = run(argv);
+        assert_eq!(o.code, ExitCode::from(2), "{argv:?}");
+        assert!(
+            o.stderr.contains("EMP drives store no programs"),
+            "{}",
+            o.stderr
+        );
+    }
 }
 
 #[test]
@@ -240,10 +252,10 @@ fn bad_usage_is_refused_by_the_argument_parser() {
     for argv in [
         &["jogterm", "check"][..],
         &["jogterm", "check", "a.isel", "--axes", "5"],
-        &["jogterm", "check", "a.isel", "--protocol", "emp"],
+        &["jogterm", "check", "a.isel", "--protocol", "modbus"],
         &["jogterm", "check", "a.isel", "--frobnicate"],
     ] {
-        let e = Cli::try_parse_from(argv).err().expect("refused");
+        let e = Cli::try_parse_from(argv).expect_err("refused");
         assert_eq!(e.exit_code(), 2, "{argv:?}");
     }
 }
@@ -267,14 +279,66 @@ fn files_that_are_not_utf8_are_still_checked() {
 #[test]
 fn arguments_built_without_the_parser_are_checked_too() {
     let dir = tempfile::tempdir().expect("tempdir");
-    let args = check::Args {
+    let args = check::CheckArgs {
         file: dir.path().join("p.isel"),
-        protocol: None,
         axes: Some(9),
-        profile: None,
     };
     let (mut out, mut err) = (Vec::new(), Vec::new());
-    let code = check::run_to(&args, &ConfigDirs::builtin_only(), &mut out, &mut err);
+    let global = jogterm::cli::GlobalArgs::default();
+    let code = check::run_to(
+        &global,
+        &args,
+        &ConfigDirs::builtin_only(),
+        &mut out,
+        &mut err,
+    );
     assert_eq!(code.ok(), Some(ExitCode::from(2)));
     assert!(String::from_utf8_lossy(&err).contains("--axes 9"));
+}
+
+/// The real binary, with an empty user configuration directory.
+fn jogterm(argv: &[&str], config: &Path) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_jogterm"))
+        .args(argv)
+        .env("JOGTERM_CONFIG_DIR", config)
+        .output()
+        .expect("the binary runs")
+}
+
+#[test]
+fn the_binary_checks_files_end_to_end() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let broken = file(
+        dir.path(),
+        "broken.isel",
+        "77\nM10,900,0,900,0,900,0,900\n0 1,900\n",
+    );
+    let o = jogterm(&["check", &broken], dir.path());
+    assert_eq!(o.status.code(), Some(1));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    let lines: Vec<&str> = stdout.lines().collect();
+    assert_eq!(lines.len(), 3, "{stdout}");
+    assert!(lines[0].starts_with(&format!("{broken}:2:1: warning: `M` is the spelling")));
+    assert!(lines[1].starts_with(&format!("{broken}:3:1: error: `0` with XYZ takes 4")));
+    assert!(lines[2].starts_with(&format!("{broken}:3:8: error: the program has no end")));
+    assert_eq!(
+        String::from_utf8_lossy(&o.stderr),
+        format!(
+            "{broken}: 2 errors, 1 warning in 3 commands (isel, axes XYZ, soft limits of `isel simulator`)\n"
+        )
+    );
+    let clean = file(dir.path(), "clean.cnc", "77\n9\n");
+    let o = jogterm(&["check", &clean, "--axes", "3"], dir.path());
+    assert_eq!(o.status.code(), Some(0));
+    assert!(o.stdout.is_empty());
+    let o = jogterm(
+        &["check", &dir.path().join("nope.isel").display().to_string()],
+        dir.path(),
+    );
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).starts_with("jogterm check: cannot read"));
+    let o = jogterm(&["check"], dir.path());
+    assert_eq!(o.status.code(), Some(2), "usage");
+    let o = jogterm(&["check", &clean, "--profile", "no-such"], dir.path());
+    assert_eq!(o.status.code(), Some(2));
 }

@@ -267,6 +267,18 @@ fn jump_target() {
         &[1, 2, 3, 4],
         "55\n3 0,1\no0,0,1,-2\n233,2\n3 2,-4\n9\n",
     );
+    // Behind the end `9`, even onto a line there.
+    let d = isel_error(
+        Rule::JumpTarget,
+        "55\n3 0,2\n9\n55\n",
+        &[1],
+        "55\n3 0,1\n9\n",
+    );
+    assert!(
+        the(&d, Rule::JumpTarget)
+            .message
+            .contains("behind the end `9` of line 3")
+    );
 }
 
 #[test]
@@ -305,12 +317,13 @@ fn program_size() {
         &small,
         Rule::ProgramSize,
         Severity::Error,
-        "55\n; comments do not count\n55\n55\n9\n",
+        "55\n; comments do not count\n55\n55\n55\n9\n",
         &[4],
-        "55\n55\n; comments do not count\n9\n",
+        "55\n55\n; comments do not count\n55\n9\n",
     );
-    // 2000 commands by default (decision 9).
-    let program = |n: usize| "55\n".repeat(n - 1) + "9\n";
+    // 2000 commands by default (decision 9); the closing `9` is not one of
+    // them (`docs/protocols.md`, isel).
+    let program = |n: usize| "55\n".repeat(n) + "9\n";
     isel_error(Rule::ProgramSize, &program(2001), &[2000], &program(2000));
 }
 

@@ -15,10 +15,28 @@ use crate::proto::isel::{
     CircleDirection, CncCommand, Command, DeviceNumber, Frame, arc_end, circle, helix,
 };
 
-/// Arguments of `jogterm arc`.
+pub const LONG_ABOUT: &str = "\
+Print the isel commands of a circular arc or a helix (manual 2.3).
+
+Computes the direction command `f` and the arc command `y` (with --helix-steps the helix
+`w`) for an arc of --radius steps from --start to --end degrees (counter-clockwise from
+axis 1 of the plane; equal angles make a full circle) in the given direction at --speed Hz
+path speed. Prints them one per line as DNC commands (`@0f-1`) or, with --cnc, as lines of a
+stored program (`f-1`). stderr says where the arc ends relative to its start.";
+
+pub const AFTER_LONG_HELP: &str = "\
+Exit status: 0 ok, 2 bad usage or values that describe no arc (radius 0, a speed outside
+1-40000 Hz, an arc shorter than one step).
+
+Example (manual 2.3.6):
+  jogterm arc --radius 200 --start 135 --end 225 --ccw --speed 1500
+  @0f-1
+  @0y400,1500,119,-141,141,-1,-1";
+
+/// Options of `jogterm arc`.
 #[derive(Debug, Clone, clap::Args)]
 #[command(group = clap::ArgGroup::new("direction").required(true).args(["cw", "ccw"]))]
-pub struct Args {
+pub struct ArcArgs {
     /// Radius in steps.
     #[arg(long)]
     pub radius: u32,
@@ -49,14 +67,18 @@ pub struct Args {
 }
 
 /// Run with the process' stdout and stderr.
-pub fn run(args: Args) -> anyhow::Result<ExitCode> {
+pub fn run(args: &ArcArgs) -> anyhow::Result<ExitCode> {
     let stdout = std::io::stdout();
     let stderr = std::io::stderr();
-    run_to(&args, &mut stdout.lock(), &mut stderr.lock())
+    run_to(args, &mut stdout.lock(), &mut stderr.lock())
 }
 
 /// Run, writing the commands to `out` and messages to `err`.
-pub fn run_to(args: &Args, out: &mut dyn Write, err: &mut dyn Write) -> anyhow::Result<ExitCode> {
+pub fn run_to(
+    args: &ArcArgs,
+    out: &mut dyn Write,
+    err: &mut dyn Write,
+) -> anyhow::Result<ExitCode> {
     let direction = if args.ccw {
         CircleDirection::Ccw
     } else {

@@ -1,50 +1,71 @@
 //! `jogterm check FILE`: lint an isel CNC program or an EMCU job for a
 //! machine profile and print compiler-style diagnostics
-//! (`docs/programs.md`).
+//! (`docs/programs.md`, "Command line").
 //!
 //! stdout: one `file:line:col: error|warning: message` per diagnostic, sorted
 //! by position; stderr: one summary line. Exit 0 without errors, 1 with
-//! errors, 2 on bad usage, an unreadable file or a broken profile.
+//! errors, 2 on bad usage, an unreadable file or a profile that cannot be
+//! used.
 
 use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use crate::axis::AxisSet;
-use crate::config::{self, ConfigDirs, Profile};
-use crate::program::{Diagnostic, Fix, Language, LintConfig, Program, Severity, lint};
-use crate::proto::Protocol;
+use clap::Args;
 
-/// Arguments of `jogterm check`.
-#[derive(Debug, Clone, clap::Args)]
-pub struct Args {
-    /// The program: `.isel`/`.cnc` for isel CNC programs, `.emcu`/`.job` for
-    /// EMCU jobs.
+use super::{GlobalArgs, profile};
+use crate::axis::AxisSet;
+use crate::config::ConfigDirs;
+use crate::program::{Diagnostic, Fix, Language, LintConfig, Program, Severity, lint};
+
+pub const LONG_ABOUT: &str = "\
+Check an isel CNC program or an EMCU job before it is stored in a controller.
+
+Prints one line per problem on stdout, sorted by position, in the form
+file:line:col: error|warning: message, and a summary on stderr. Errors are what the
+controller would refuse or what would go wrong while the program runs (a move beyond a
+soft limit of the machine profile); warnings are what is allowed but probably not meant.
+
+The language is --protocol (isel or emcu), else the file's extension (.isel and .cnc:
+isel; .emcu and .job: EMCU), else the profile's family. The machine is the profile's:
+--profile, else the shipped profile of the file's family (`default` for isel). Its axes,
+soft limits and highest speeds apply; --axes sets the axes instead. The start position is
+unknown: an axis' moves are checked against the soft limits from its first reference run
+or absolute move on (docs/programs.md).";
+
+pub const AFTER_LONG_HELP: &str = "\
+Exit status: 0 no errors (warnings allowed), 1 errors, 2 bad usage, an unreadable file or
+a profile that cannot be used.
+
+Examples:
+  jogterm check drill.isel                  check for the default machine
+  jogterm check --profile mymill drill.cnc  check for a machine of your own
+  jogterm check --axes 2 table.isel         an XY controller
+  jogterm check --protocol emcu job.txt     an EMCU job in a .txt file";
+
+/// Options of `jogterm check`.
+#[derive(Debug, Clone, Args)]
+pub struct CheckArgs {
+    /// The program: .isel/.cnc for isel CNC programs, .emcu/.job for EMCU jobs
+    #[arg(value_name = "FILE")]
     pub file: PathBuf,
-    /// The language, when the extension does not say (default: from the
-    /// extension, else the profile's protocol).
-    #[arg(long, value_enum)]
-    pub protocol: Option<Language>,
-    /// Axes the controller is initialised with: 1 = X, 2 = XY, 3 = XYZ,
-    /// 4 = XYZA (isel only). Default: the profile's axes.
-    #[arg(long, value_parser = clap::value_parser!(u8).range(1..=4))]
+    /// Axes the controller is initialised with: 1 = X, 2 = XY, 3 = XYZ, 4 = XYZA (EMCU: at
+    /// most 3) [default: the profile's axes]
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u8).range(1..=4))]
     pub axes: Option<u8>,
-    /// Machine profile (name or path) whose axes, soft limits and speeds
-    /// apply. Default: `default`.
-    #[arg(long)]
-    pub profile: Option<String>,
 }
 
 /// Exit codes.
 const PROBLEMS: u8 = 1;
 const USAGE: u8 = 2;
 
-/// Run with the process' stdout and stderr.
-pub fn run(args: Args) -> anyhow::Result<ExitCode> {
+/// Run with the process' stdout and stderr and the user's configuration.
+pub fn run(global: &GlobalArgs, args: &CheckArgs) -> anyhow::Result<ExitCode> {
     let stdout = std::io::stdout();
     let stderr = std::io::stderr();
     run_to(
-        &args,
+        global,
+        args,
         &ConfigDirs::from_env(),
         &mut stdout.lock(),
         &mut stderr.lock(),
@@ -53,27 +74,13 @@ pub fn run(args: Args) -> anyhow::Result<ExitCode> {
 
 /// Run, writing diagnostics to `out` and the summary and errors to `err`.
 pub fn run_to(
-    args: &Args,
+    global: &GlobalArgs,
+    args: &CheckArgs,
     dirs: &ConfigDirs,
     out: &mut dyn Write,
     err: &mut dyn Write,
 ) -> anyhow::Result<ExitCode> {
-    let profile_name = args.profile.as_deref().unwrap_or("default");
-    let profile = match config::load_profile(profile_name, dirs) {
-        Ok(p) => p,
-        Err(e) => {
-            writeln!(err, "{e}")?;
-            return Ok(ExitCode::from(USAGE));
-        }
-    };
-    let language = match language(args, &profile) {
-        Ok(l) => l,
-        Err(message) => {
-            writeln!(err, "jogterm check: {message}")?;
-            return Ok(ExitCode::from(USAGE));
-        }
-    };
-    let setup = match setup(args, &profile, profile_name, language) {
+    let (language, config, machine) = match setup(global, args, dirs) {
         Ok(s) => s,
         Err(message) => {
             writeln!(err, "jogterm check: {message}")?;
@@ -93,14 +100,14 @@ pub fn run_to(
     };
     let text = String::from_utf8_lossy(&bytes);
     let program = Program::parse(language, &text);
-    let diagnostics = lint(&program, &setup.config);
+    let diagnostics = lint(&program, &config);
     let name = args.file.display().to_string();
-    let mut text_out = String::new();
+    let mut report = String::new();
     for d in &diagnostics {
-        text_out.push_str(&render(&name, &program, d));
-        text_out.push('\n');
+        report.push_str(&render(&name, &program, d));
+        report.push('\n');
     }
-    out.write_all(text_out.as_bytes())?;
+    out.write_all(report.as_bytes())?;
     out.flush()?;
     let errors = diagnostics
         .iter()
@@ -109,12 +116,11 @@ pub fn run_to(
     let warnings = diagnostics.len() - errors;
     writeln!(
         err,
-        "{name}: {}, {} in {} ({language}, axes {}, {})",
+        "{name}: {}, {} in {} ({language}, axes {}, soft limits of `{machine}`)",
         plural(errors, "error"),
         plural(warnings, "warning"),
         plural(program.command_count(), "command"),
-        setup.config.axes,
-        setup.limits
+        config.axes,
     )?;
     Ok(if errors > 0 {
         ExitCode::from(PROBLEMS)
@@ -123,56 +129,38 @@ pub fn run_to(
     })
 }
 
-/// `--protocol`, else the extension, else the profile's protocol.
-fn language(args: &Args, profile: &Profile) -> Result<Language, String> {
-    if let Some(l) = args.protocol.or_else(|| Language::from_path(&args.file)) {
-        return Ok(l);
-    }
-    match profile.connection.protocol {
-        Protocol::Isel => Ok(Language::Isel),
-        Protocol::Emcu => Ok(Language::Emcu),
-        Protocol::Emp => Err(format!(
-            "{}: the extension names no program language (.isel, .cnc, .emcu, .job) and the \
-             profile's EMP drives store no programs: give --protocol isel or --protocol emcu",
-            args.file.display()
-        )),
-    }
-}
-
-struct Setup {
-    config: LintConfig,
-    /// For the summary: where the soft limits come from.
-    limits: String,
-}
-
-/// The lint configuration: the profile's machine when it speaks the file's
-/// language, `--axes` over its axes.
+/// The language, the lint configuration and the profile's name, or why
+/// there are none. The family is `--protocol`/`--sim`, else the extension's;
+/// the profile is resolved for it like for every command
+/// ([`profile::resolve`]), so it always describes a machine of the file's
+/// family.
 fn setup(
-    args: &Args,
-    profile: &Profile,
-    profile_name: &str,
-    language: Language,
-) -> Result<Setup, String> {
-    let speaks = matches!(
-        (profile.connection.protocol, language),
-        (Protocol::Isel, Language::Isel) | (Protocol::Emcu, Language::Emcu)
-    );
-    let (mut config, limits) = if speaks {
-        (
-            LintConfig::from_profile(profile),
-            format!("soft limits of profile `{profile_name}`"),
-        )
-    } else {
-        let note = if args.profile.is_some() {
-            format!(
-                "no soft limits: profile `{profile_name}` is for {} controllers",
-                profile.connection.protocol
-            )
-        } else {
-            "no soft limits".to_string()
+    global: &GlobalArgs,
+    args: &CheckArgs,
+    dirs: &ConfigDirs,
+) -> Result<(Language, LintConfig, String), String> {
+    let named = global.protocol.or(global.sim);
+    let from_extension = Language::from_path(&args.file);
+    let mut resolving = global.clone();
+    if named.is_none() {
+        resolving.protocol = from_extension.map(Language::protocol);
+    }
+    let profile = profile::resolve(&resolving, dirs).map_err(|e| {
+        let by = match (named, from_extension) {
+            (None, Some(l)) => format!(" (an {l} program by its extension)"),
+            _ => String::new(),
         };
-        (LintConfig::new(AxisSet::XYZ), note)
-    };
+        format!("{}{by}: {e:#}", args.file.display())
+    })?;
+    let family = profile::family(&profile);
+    let language = Language::of_protocol(family).ok_or_else(|| {
+        format!(
+            "{}: EMP drives store no programs; the file's extension (.isel, .cnc, .emcu, \
+             .job) or --protocol isel|emcu says which language it is",
+            args.file.display()
+        )
+    })?;
+    let mut config = LintConfig::from_profile(&profile);
     if let Some(n) = args.axes {
         if !(1..=4).contains(&n) {
             return Err(format!("--axes {n}: the axes are 1 (X) to 4 (XYZA)"));
@@ -182,7 +170,7 @@ fn setup(
         }
         config.axes = AxisSet::from_mask((1u8 << n) - 1);
     }
-    Ok(Setup { config, limits })
+    Ok((language, config, profile.name))
 }
 
 /// `file:line:col: severity: message [fix: …]`, line and column from 1.

@@ -5,6 +5,7 @@ use std::fmt;
 use std::ops::Range;
 use std::path::Path;
 
+use crate::proto::Protocol;
 use crate::proto::emcu;
 use crate::proto::isel::{CncCommand, NoteKind, ReplyCode};
 
@@ -18,7 +19,7 @@ pub const ISEL_CAPACITY: usize = 2000;
 
 /// The two program languages: isel CNC programs (manual chapter 3) and EMCU
 /// jobs (buffered commands of manual 1.5, stored with `@F`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Language {
     Isel,
     Emcu,
@@ -50,6 +51,23 @@ impl Language {
             "isel" | "cnc" => Some(Language::Isel),
             "emcu" | "job" => Some(Language::Emcu),
             _ => None,
+        }
+    }
+
+    /// The controller family that stores programs of this language.
+    pub fn protocol(self) -> Protocol {
+        match self {
+            Language::Isel => Protocol::Isel,
+            Language::Emcu => Protocol::Emcu,
+        }
+    }
+
+    /// The language of a family's programs; EMP drives store none.
+    pub fn of_protocol(protocol: Protocol) -> Option<Language> {
+        match protocol {
+            Protocol::Isel => Some(Language::Isel),
+            Protocol::Emcu => Some(Language::Emcu),
+            Protocol::Emp => None,
         }
     }
 

@@ -42,7 +42,7 @@ pub(super) fn lint(program: &Program, config: &LintConfig) -> Vec<Diagnostic> {
     }
     structure(program, &flows, &mut out);
     end(program, &flows, &mut out);
-    size(program, config, &mut out);
+    size(program, &flows, config, &mut out);
     limits::isel(program, axes, config, &mut out);
     out
 }
@@ -298,9 +298,13 @@ fn offset_span(program: &Program, index: usize) -> Span {
     }
 }
 
-/// Jump targets, loop nesting and loops left by jumps (manual 3.2.5).
+/// Jump targets, loop nesting and loops left by jumps (manual 3.2.5: "Es
+/// darf nicht vor den Anfang oder hinter das Ende des Datenfeldes verzweigt
+/// werden"; the end is the `9`, `docs/protocols.md` isel).
 fn structure(program: &Program, flows: &[Flow], out: &mut Vec<Diagnostic>) {
     let len = flows.len();
+    let end = flows.iter().position(|f| *f == Flow::End);
+    let bound = end.map_or(len, |e| e + 1);
     for (index, f) in flows.iter().enumerate() {
         let (target, what) = match *f {
             Flow::Jump(t) | Flow::Branch(t) => (t, "jump target"),
@@ -308,26 +312,29 @@ fn structure(program: &Program, flows: &[Flow], out: &mut Vec<Diagnostic>) {
             Flow::Loop { start } if start <= index as i64 => (start, "loop start"),
             _ => continue,
         };
-        if flow::inside(target, len).is_some() {
+        if flow::inside(target, bound).is_some() {
             continue;
         }
         let place = if target < 0 {
             format!(
-                "{} before the first",
+                "{} before the first command",
                 count(target.unsigned_abs() as usize, "command")
             )
         } else {
-            format!(
-                "{} after the last",
-                count((target - len as i64 + 1) as usize, "command")
-            )
+            let beyond = count((target - bound as i64 + 1) as usize, "command");
+            match end {
+                Some(e) => format!(
+                    "{beyond} behind the end `9` of line {}",
+                    line_number(program, e)
+                ),
+                None => format!("{beyond} after the last command"),
+            }
         };
         out.push(Diagnostic::error(
             Rule::JumpTarget,
             offset_span(program, index),
             format!(
-                "the {what} lies {place} command of the program; jumps may not leave it \
-                 (manual 3.2.5)"
+                "the {what} lies {place} of the program; jumps may not leave it (manual 3.2.5)"
             ),
         ));
     }
@@ -432,17 +439,21 @@ fn end(program: &Program, flows: &[Flow], out: &mut Vec<Diagnostic>) {
     }
 }
 
-/// Program memory (`../shared/protocols.md` isel 9: 2000 commands, `6` beyond).
-fn size(program: &Program, config: &LintConfig, out: &mut Vec<Diagnostic>) {
+/// Program memory (`../shared/protocols.md` isel 9: 2000 commands, `6`
+/// beyond; the closing `9` does not count, `docs/protocols.md` isel).
+fn size(program: &Program, flows: &[Flow], config: &LintConfig, out: &mut Vec<Diagnostic>) {
     let capacity = config.capacity_for(program.language());
-    let len = program.command_count();
-    if len > capacity {
+    let stored = flows
+        .iter()
+        .position(|f| *f == Flow::End)
+        .unwrap_or(flows.len());
+    if stored > capacity {
         out.push(Diagnostic::error(
             Rule::ProgramSize,
             statement_span(program, capacity),
             format!(
-                "the controller stores {}; this program has {len}, and this one answers `6` \
-                 (memory full)",
+                "the controller stores {} before the end `9`; this program has {stored}, and \
+                 this one answers `6` (memory full)",
                 count(capacity, "command")
             ),
         ));
