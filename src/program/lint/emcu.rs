@@ -3,9 +3,9 @@
 
 use crate::proto::emcu::{Command as EmcuCommand, JobError, Speed, job_problems};
 
-use super::super::model::{Command, Program, Statement};
-use super::super::source::Span;
 use super::{Diagnostic, LintConfig, Rule, count, end_span, limits, statement_span};
+use crate::program::model::{Command, Program, Statement};
+use crate::program::source::Span;
 
 pub(super) fn lint(program: &Program, config: &LintConfig) -> Vec<Diagnostic> {
     let mut out = Vec::new();

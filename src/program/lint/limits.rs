@@ -7,10 +7,10 @@ use std::collections::HashMap;
 use crate::axis::Axis;
 use crate::proto::isel::AxisConfig;
 
-use super::super::model::{Language, Program};
-use super::super::run::{self, Mode, Motion, MotionKind, Observer};
-use super::super::source::Span;
 use super::{AxisLimit, Diagnostic, LintConfig, Rule, statement_span};
+use crate::program::model::{Language, Program};
+use crate::program::run::{self, Mode, Motion, MotionKind, Observer};
+use crate::program::source::Span;
 
 pub(super) fn isel(
     program: &Program,

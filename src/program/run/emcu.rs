@@ -6,9 +6,9 @@
 use crate::axis::AxisSet;
 use crate::proto::emcu::{Command as EmcuCommand, MoveMode};
 
-use super::super::model::Program;
 use super::value::{Iv, Reach, Val};
 use super::{Finish, Motion, MotionKind, Observer, Outcome};
+use crate::program::model::Program;
 
 /// Run the job from the counters `start` (unknown when `None`); the counters
 /// equal machine coordinates (the reference point is counter 0 once the

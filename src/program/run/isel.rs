@@ -9,17 +9,18 @@
 //! limits are in machine coordinates = counter + origin.
 
 use std::collections::HashSet;
-use std::hash::{BuildHasherDefault, Hasher};
+use std::hash::BuildHasherDefault;
 
 use crate::axis::{Axis, AxisSet};
 use crate::proto::isel::{
     ArcGeometry, AxisConfig, CircleDirection, CircleParams, CncCommand, MovePair, Plane,
 };
 
-use super::super::flow::{self, Flow};
-use super::super::model::Program;
+use super::fxhash::FxHasher;
 use super::value::{Iv, Reach, Val};
 use super::{ArcMotion, Finish, Mode, Motion, MotionKind, Observer, Outcome};
+use crate::program::flow::{self, Flow};
+use crate::program::model::Program;
 
 /// The loop counters of a running program (manual 3.2.5: nesting depth 7).
 /// A loop that needs one more stops the run (`docs/protocols.md`, isel).
@@ -528,56 +529,37 @@ pub(crate) fn extents(g: &ArcGeometry) -> ((i64, i64), (i64, i64)) {
     (x, y)
 }
 
-/// The multiply-rotate hash of rustc (`FxHasher`): fast on the integer
-/// fields `#[derive(Hash)]` writes. Not proof against crafted collisions,
-/// which here could only slow a check down ([`SEEN_LIMIT`] bounds the set).
-#[derive(Default)]
-struct FxHasher(u64);
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::proto::isel::circle;
 
-impl FxHasher {
-    fn add(&mut self, word: u64) {
-        self.0 = (self.0.rotate_left(5) ^ word).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
-    }
-}
-
-impl Hasher for FxHasher {
-    fn finish(&self) -> u64 {
-        self.0
+    fn extents_of(
+        radius: u32,
+        start: f64,
+        end: f64,
+        direction: CircleDirection,
+    ) -> ((i64, i64), (i64, i64)) {
+        let arc = circle(radius, start, end, direction, 1000).expect("an arc");
+        extents(&ArcGeometry::of(&arc.params, direction))
     }
 
-    fn write(&mut self, bytes: &[u8]) {
-        let mut chunks = bytes.chunks_exact(8);
-        for chunk in &mut chunks {
-            let mut word = [0u8; 8];
-            word.copy_from_slice(chunk);
-            self.add(u64::from_le_bytes(word));
-        }
-        for &b in chunks.remainder() {
-            self.add(u64::from(b));
-        }
-    }
-
-    fn write_u8(&mut self, v: u8) {
-        self.add(u64::from(v));
-    }
-
-    fn write_u16(&mut self, v: u16) {
-        self.add(u64::from(v));
-    }
-
-    fn write_u32(&mut self, v: u32) {
-        self.add(u64::from(v));
-    }
-
-    fn write_u64(&mut self, v: u64) {
-        self.add(v);
-    }
-
-    fn write_usize(&mut self, v: usize) {
-        self.add(v as u64);
-    }
-
-    fn write_i64(&mut self, v: i64) {
-        self.add(v as u64);
+    #[test]
+    fn arc_extents_include_the_axis_crossings_they_pass() {
+        use CircleDirection::{Ccw, Cw};
+        // A quarter from 0° to 90°: no crossing between the ends.
+        assert_eq!(extents_of(1000, 0.0, 90.0, Ccw), ((0, 1000), (0, 1000)));
+        // The same ends the long way round pass 180° and 270°.
+        assert_eq!(
+            extents_of(1000, 0.0, 90.0, Cw),
+            ((-1000, 1000), (-1000, 1000))
+        );
+        // 135° to 225° CCW passes 180° only.
+        assert_eq!(
+            extents_of(200, 135.0, 225.0, Ccw),
+            ((-200, -141), (-141, 141))
+        );
+        // A full circle.
+        assert_eq!(extents_of(50, 30.0, 30.0, Ccw), ((-50, 50), (-50, 50)));
     }
 }
