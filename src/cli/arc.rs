@@ -37,32 +37,32 @@ Example (manual 2.3.6):
 #[derive(Debug, Clone, clap::Args)]
 #[command(group = clap::ArgGroup::new("direction").required(true).args(["cw", "ccw"]))]
 pub struct ArcArgs {
-    /// Radius in steps.
-    #[arg(long)]
+    /// Radius in steps
+    #[arg(long, value_name = "R")]
     pub radius: u32,
-    /// Start angle in degrees, counter-clockwise from axis 1 of the plane.
-    #[arg(long, allow_negative_numbers = true)]
+    /// Start angle in degrees, counter-clockwise from axis 1 of the plane
+    #[arg(long, value_name = "DEG", allow_negative_numbers = true)]
     pub start: f64,
-    /// End angle in degrees; equal to the start for a full circle.
-    #[arg(long, allow_negative_numbers = true)]
+    /// End angle in degrees; equal to the start for a full circle
+    #[arg(long, value_name = "DEG", allow_negative_numbers = true)]
     pub end: f64,
-    /// Clockwise.
+    /// Clockwise
     #[arg(long)]
     pub cw: bool,
-    /// Counter-clockwise.
+    /// Counter-clockwise
     #[arg(long)]
     pub ccw: bool,
-    /// Path speed in Hz (1-40000).
-    #[arg(long)]
+    /// Path speed in Hz (1-40000)
+    #[arg(long, value_name = "V")]
     pub speed: u32,
-    /// A helix: steps of the plane's third axis over the arc (`w` instead of `y`).
-    #[arg(long, allow_negative_numbers = true)]
+    /// A helix: steps of the plane's third axis over the arc (`w` instead of `y`)
+    #[arg(long, value_name = "N", allow_negative_numbers = true)]
     pub helix_steps: Option<i32>,
-    /// Print stored program lines (`f…`, `y…`) instead of DNC commands.
+    /// Print stored program lines (`f…`, `y…`) instead of DNC commands
     #[arg(long)]
     pub cnc: bool,
-    /// Device number of the DNC commands.
-    #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u8).range(0..=9))]
+    /// Device number of the DNC commands
+    #[arg(long, value_name = "D", default_value_t = 0, value_parser = clap::value_parser!(u8).range(0..=9))]
     pub device: u8,
 }
 
