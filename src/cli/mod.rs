@@ -3,11 +3,13 @@
 //! One clap root for everything jogterm does. The global options belong to
 //! the root and may be given before or after the command; each command
 //! uses the ones that mean something to it and says so in its help. Today
-//! there is `sim`; `send`, `poll`, `check`, `arc`, `upload` and the console
-//! itself (no command) are added by later work.
+//! there are `sim`, `check` and `arc`; `send`, `poll`, `upload` and the
+//! console itself (no command) are added by later work.
 //!
 //! Exit codes: 0 ok, 1 failure (a message on stderr), 2 bad usage (clap).
 
+pub mod arc;
+pub mod check;
 pub mod profile;
 pub mod sim;
 pub mod tui;
@@ -41,7 +43,9 @@ Exit status: 0 ok, 1 failure (the reason on stderr), 2 bad usage.
 Examples:
   jogterm sim --protocol isel --pty            serve the isel simulator on a new pty
   jogterm sim --pty --link /tmp/isel           the same, reachable as /tmp/isel
-  jogterm sim --pty --profile mymachine        simulate the machine of a profile";
+  jogterm sim --pty --profile mymachine        simulate the machine of a profile
+  jogterm check drill.isel                     check a CNC program for the default machine
+  jogterm arc --radius 200 --start 135 --end 225 --ccw --speed 1500";
 
 /// `jogterm`: the global options and the command.
 #[derive(Debug, Parser)]
@@ -92,6 +96,12 @@ pub enum CliCommand {
     /// Serve a built-in controller simulator on a new pseudo-terminal
     #[command(long_about = sim::LONG_ABOUT, after_long_help = sim::AFTER_LONG_HELP)]
     Sim(sim::SimArgs),
+    /// Check an isel CNC program or an EMCU job for a machine profile
+    #[command(long_about = check::LONG_ABOUT, after_long_help = check::AFTER_LONG_HELP)]
+    Check(check::CheckArgs),
+    /// Print the isel commands of a circular arc or a helix
+    #[command(long_about = arc::LONG_ABOUT, after_long_help = arc::AFTER_LONG_HELP)]
+    Arc(arc::ArcArgs),
 }
 
 /// Run what the command line asks for.
@@ -104,6 +114,8 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             sim::run(&cli.global, args)?;
             Ok(ExitCode::SUCCESS)
         }
+        Some(CliCommand::Check(args)) => check::run(&cli.global, args),
+        Some(CliCommand::Arc(args)) => arc::run(args),
         None => {
             eprintln!(
                 "jogterm: the console is not part of this build yet. \
@@ -167,10 +179,37 @@ mod tests {
             &["jogterm", "sim"][..],
             &["jogterm", "sim", "--pty", "--protocol", "modbus"],
             &["jogterm", "frobnicate"],
+            &["jogterm", "check"],
+            &["jogterm", "check", "a.isel", "--axes", "5"],
+            &[
+                "jogterm", "arc", "--radius", "1", "--start", "0", "--end", "9", "--speed", "1",
+            ],
         ] {
             let err = Cli::try_parse_from(bad).expect_err("refused");
             assert_eq!(err.exit_code(), 2, "{bad:?}");
         }
         assert!(Cli::try_parse_from(["jogterm"]).is_ok());
+    }
+
+    #[test]
+    fn check_takes_the_global_profile_and_protocol_on_either_side() {
+        let cli = Cli::try_parse_from([
+            "jogterm",
+            "--profile",
+            "mill",
+            "check",
+            "a.txt",
+            "--protocol",
+            "emcu",
+            "--axes",
+            "2",
+        ])
+        .expect("parses");
+        assert_eq!(cli.global.profile.as_deref(), Some("mill"));
+        assert_eq!(cli.global.protocol, Some(Protocol::Emcu));
+        let Some(CliCommand::Check(args)) = cli.command else {
+            panic!("check");
+        };
+        assert_eq!((args.file, args.axes), (PathBuf::from("a.txt"), Some(2)));
     }
 }
