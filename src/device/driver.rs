@@ -54,7 +54,10 @@ pub trait Driver: Send {
     /// command at a time, after the previous reply).
     fn poll_transmit(&mut self, now: Instant) -> Option<Outgoing>;
 
-    /// The next event for the clients.
+    /// The next event for the clients. A driver that finds the link dead (a
+    /// reply did not come within its deadline) reports
+    /// `Event::Link(LinkState::Lost)` and sends nothing more; the device task
+    /// treats that like a vanished port (stop bytes, close, reconnect).
     fn poll_event(&mut self) -> Option<Event>;
 
     /// When `handle_timeout` must be called: a reply deadline, the next poll, a
