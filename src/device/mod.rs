@@ -3,6 +3,9 @@
 //!
 //! - [`api`]: requests, events, machine state, refusals (family-neutral).
 //! - [`driver`]: the sans-IO [`driver::Driver`] trait each family implements.
+//! - [`isel`]: the isel @-format driver.
 
 pub mod api;
+pub mod describe;
 pub mod driver;
+pub mod isel;
