@@ -8,6 +8,7 @@
 //! - [`wire`], [`motion`], [`axis`], [`traffic`]: shared arithmetic and types.
 
 pub mod axis;
+pub mod cli;
 pub mod config;
 pub mod device;
 pub mod motion;

@@ -119,10 +119,12 @@ fn a_reply_is_handed_out_byte_by_byte_at_line_speed() {
     client
         .set_read_timeout(Some(Duration::from_millis(100)))
         .expect("timeout");
+    // Taken before the write: a test thread descheduled after the write must
+    // not make bytes look early.
+    let started = Instant::now();
     client.write_all(REQUEST).expect("write");
     let mut seen = Vec::new();
     let mut buf = [0u8; 64];
-    let started = Instant::now();
     while seen.len() < REPLY.len() {
         let n = client.read(&mut buf).expect("read");
         let at = started.elapsed();

@@ -22,7 +22,7 @@ use super::shell::{ShellControl, ShellError};
 pub const MAX_MILLIS: u64 = 600_000;
 
 /// One parsed control line.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq)]
 pub enum ControlCommand {
     Input(InputControl),
     Fault(Fault),
@@ -39,7 +39,7 @@ pub struct ControlParseError {
     pub message: String,
 }
 
-const COMMANDS: &str = "set, press, fault, show, help or quit";
+const COMMANDS: &str = "set, press, value, fault, show, help or quit";
 const LEVELS: &str = "on, off, open, closed, 1 or 0";
 const FAULTS: &str = "drop-byte, corrupt-byte, withhold, garbage, delay or close";
 
@@ -72,6 +72,21 @@ pub fn parse_line(text: &str, line: usize) -> Result<Option<ControlCommand>, Con
             end_of_line(rest, "the input").map_err(fail)?;
             ControlCommand::Input(InputControl::Press {
                 name: name.to_owned(),
+            })
+        }
+        "value" => {
+            let usage = "`value` needs an analogue input and a number: value <input> <number>";
+            let (name, rest) = next_word(rest).ok_or_else(|| fail(usage.to_owned()))?;
+            let (number, rest) = next_word(rest).ok_or_else(|| fail(usage.to_owned()))?;
+            let value = number
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| fail(format!("`{number}` is not a number: {usage}")))?;
+            end_of_line(rest, "the number").map_err(fail)?;
+            ControlCommand::Input(InputControl::Value {
+                name: name.to_owned(),
+                value,
             })
         }
         "fault" => ControlCommand::Fault(parse_fault(rest).map_err(fail)?),
@@ -232,6 +247,7 @@ pub fn help_text(input_names: &[&str]) -> String {
         "commands:\n\
          \x20 set <input> on|off|open|closed|1|0   set an input (closed = 1, open = 0)\n\
          \x20 press <input>                        press and release a button\n\
+         \x20 value <input> <number>               set an analogue input (EMP adc1-3: mV)\n\
          \x20 fault drop-byte [<index>|middle]     leave one byte out of the next message\n\
          \x20 fault corrupt-byte [<index>|middle]  flip bit 7 of one byte of the next message\n\
          \x20 fault withhold                       do not send the next message\n\
@@ -318,6 +334,20 @@ mod tests {
             name: name.into(),
             level,
         })
+    }
+
+    #[test]
+    fn value_carries_a_number() {
+        assert_eq!(
+            parse("value adc1 -12.5"),
+            ControlCommand::Input(InputControl::Value {
+                name: "adc1".into(),
+                value: -12.5
+            })
+        );
+        assert!(error("value adc1 lots").contains("not a number"));
+        assert!(error("value adc1").contains("needs an analogue input and a number"));
+        assert!(error("value adc1 1 2").contains("unexpected `2`"));
     }
 
     #[test]
@@ -441,7 +471,7 @@ mod tests {
     fn errors_name_the_line_and_what_was_expected() {
         assert_eq!(
             error("sett hood on"),
-            "line 7: unknown command `sett`: expected set, press, fault, show, help or quit"
+            "line 7: unknown command `sett`: expected set, press, value, fault, show, help or quit"
         );
         assert_eq!(
             error("set"),

@@ -13,10 +13,14 @@
 //!   granularity, a byte at 19200 baud takes 0.52 ms).
 
 pub mod control;
+pub mod emcu;
+pub mod emp;
 pub mod engine;
 pub mod fault;
+pub mod isel;
 mod line;
 pub mod pty;
+pub mod registry;
 pub mod shell;
 
 use std::time::Instant;
@@ -25,7 +29,7 @@ use crate::wire::LineSettings;
 
 /// An operator action on the simulated machine's inputs, as typed on the
 /// simulator's stdin (see `docs/simulator.md` for the control language).
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq)]
 pub enum InputControl {
     /// Set a named input to a level: `true` = the bit reads 1 (active-high as
     /// read, `../shared/protocols.md` isel 7). For safety circuits and the hood
@@ -33,6 +37,19 @@ pub enum InputControl {
     Set { name: String, level: bool },
     /// Press and release a momentary button (start, stop).
     Press { name: String },
+    /// Set an analogue input to a value in its own unit (EMP ADC channels: mV).
+    Value { name: String, value: f64 },
+}
+
+impl InputControl {
+    /// The input the control acts on.
+    pub fn name(&self) -> &str {
+        match self {
+            InputControl::Set { name, .. }
+            | InputControl::Press { name }
+            | InputControl::Value { name, .. } => name,
+        }
+    }
 }
 
 /// A controller model driven by the simulator shell.

@@ -89,9 +89,10 @@ impl SimDevice for LineAnswerer {
                 self.ready.push_back(b"S\r".to_vec());
                 Ok(())
             }
-            InputControl::Set { name, .. } | InputControl::Press { name } => {
-                Err(format!("unknown input `{name}`: expected hood or start"))
-            }
+            other => Err(format!(
+                "unknown input `{}`: expected hood or start",
+                other.name()
+            )),
         }
     }
 

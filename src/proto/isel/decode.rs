@@ -396,9 +396,10 @@ pub enum Event {
     Reply(Reply),
     /// A sync character during a program run; the run is still outstanding.
     Sync(SyncChar),
-    /// A byte that arrived while no reply was expected. A CNC program
-    /// started with the start key reports its sync characters and its final
-    /// code this way.
+    /// A byte that arrived while no reply was expected: line noise, or the
+    /// sync characters (`1` commands) of a CNC program started with the start
+    /// key, which answers nothing else, not even its end (`docs/protocols.md`,
+    /// isel, "Start key").
     Unsolicited(u8),
     /// The outstanding reply was garbled; its bytes were dropped and nothing
     /// is outstanding now.

@@ -1,0 +1,175 @@
+//! The command line: `jogterm [global options] [command]`.
+//!
+//! One clap root for everything jogterm does. The global options belong to
+//! the root and may be given before or after the command; each command
+//! uses the ones that mean something to it and says so in its help. Today
+//! there is `sim`; `send`, `poll`, `check`, `arc`, `upload` and the console
+//! itself (no command) are added by later work.
+//!
+//! Exit codes: 0 ok, 1 failure (a message on stderr), 2 bad usage (clap).
+
+pub mod profile;
+pub mod sim;
+
+use std::fs::OpenOptions;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::Mutex;
+
+use anyhow::Context as _;
+use clap::{Args, Parser, Subcommand};
+
+use crate::proto::Protocol;
+
+const ABOUT: &str = "Keyboard-only console for isel, EMCU and EMP serial motion controllers";
+
+const LONG_ABOUT: &str = "\
+jogterm drives stepper and servo machines through serial motion controllers of three
+families: isel @-format (iMC-M, iMC-MP, iMC-S8), EMCU (SMC3000 interface) and EMP
+(MSR DRS-500-ECS). Built-in simulators of the controllers let it run without hardware.
+
+Machine profiles (--profile) say how to reach the controller and describe the machine:
+axes, steps per unit, soft limits, jog settings. A name is looked up as
+$JOGTERM_CONFIG_DIR/profiles/NAME.toml (default ~/.config/jogterm/profiles), then among the
+shipped profiles (default, isel, emcu, emp); a value with a `/` or ending in `.toml` is a
+path. Without --profile the shipped `default` profile is used: the isel simulator.";
+
+const AFTER_LONG_HELP: &str = "\
+Exit status: 0 ok, 1 failure (the reason on stderr), 2 bad usage.
+
+Examples:
+  jogterm sim --protocol isel --pty            serve the isel simulator on a new pty
+  jogterm sim --pty --link /tmp/isel           the same, reachable as /tmp/isel
+  jogterm sim --pty --profile mymachine        simulate the machine of a profile";
+
+/// `jogterm`: the global options and the command.
+#[derive(Debug, Parser)]
+#[command(
+    name = "jogterm",
+    version,
+    about = ABOUT,
+    long_about = LONG_ABOUT,
+    after_long_help = AFTER_LONG_HELP
+)]
+pub struct Cli {
+    #[command(flatten)]
+    pub global: GlobalArgs,
+    #[command(subcommand)]
+    pub command: Option<CliCommand>,
+}
+
+/// Options every command accepts.
+#[derive(Debug, Clone, Default, Args)]
+pub struct GlobalArgs {
+    /// Machine profile: a name (user profile, else shipped: default, isel, emcu, emp) or a
+    /// path to a .toml file [default: default]
+    #[arg(long, global = true, value_name = "NAME")]
+    pub profile: Option<String>,
+    /// Serial device of the controller, instead of the profile's connection.port
+    /// (the console and the talking commands; `sim` serves a port and refuses it)
+    #[arg(long, global = true, value_name = "PATH")]
+    pub port: Option<String>,
+    /// Controller family, instead of the profile's connection.protocol
+    #[arg(long, global = true, value_enum, value_name = "FAMILY")]
+    pub protocol: Option<Protocol>,
+    /// Use the built-in simulator of this family instead of a port (for `sim`: the
+    /// family to serve, like --protocol)
+    #[arg(long, global = true, value_enum, value_name = "FAMILY")]
+    pub sim: Option<Protocol>,
+    /// Colour theme of the console: a name (user theme, else shipped: dark, light,
+    /// mono16) or a path (used by the console only)
+    #[arg(long, global = true, value_name = "NAME")]
+    pub theme: Option<String>,
+    /// Append a log of what jogterm does to FILE (never to the terminal)
+    #[arg(long, global = true, value_name = "FILE")]
+    pub log: Option<PathBuf>,
+}
+
+/// The commands.
+#[derive(Debug, Subcommand)]
+pub enum CliCommand {
+    /// Serve a built-in controller simulator on a new pseudo-terminal
+    #[command(long_about = sim::LONG_ABOUT, after_long_help = sim::AFTER_LONG_HELP)]
+    Sim(sim::SimArgs),
+}
+
+/// Run what the command line asks for.
+pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
+    if let Some(path) = &cli.global.log {
+        start_log(path)?;
+    }
+    match &cli.command {
+        Some(CliCommand::Sim(args)) => {
+            sim::run(&cli.global, args)?;
+            Ok(ExitCode::SUCCESS)
+        }
+        None => {
+            eprintln!(
+                "jogterm: the console is not part of this build yet. \
+                 `jogterm sim --pty` serves a simulated controller; see `jogterm --help`."
+            );
+            Ok(ExitCode::FAILURE)
+        }
+    }
+}
+
+/// Log to `path` (appending); nothing is ever logged to the terminal.
+fn start_log(path: &PathBuf) -> anyhow::Result<()> {
+    let file = OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(path)
+        .with_context(|| format!("cannot open the log file {}", path.display()))?;
+    tracing_subscriber::fmt()
+        .with_writer(Mutex::new(file))
+        .with_ansi(false)
+        .try_init()
+        .map_err(|e| anyhow::anyhow!("cannot start logging: {e}"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+
+    #[test]
+    fn the_command_line_is_consistent() {
+        Cli::command().debug_assert();
+    }
+
+    #[test]
+    fn global_options_go_before_or_after_the_command() {
+        let cli = Cli::try_parse_from([
+            "jogterm",
+            "--profile",
+            "mine",
+            "sim",
+            "--pty",
+            "--protocol",
+            "isel",
+            "--link",
+            "/tmp/x",
+        ])
+        .expect("parses");
+        assert_eq!(cli.global.profile.as_deref(), Some("mine"));
+        assert_eq!(cli.global.protocol, Some(Protocol::Isel));
+        let Some(CliCommand::Sim(args)) = cli.command else {
+            panic!("sim");
+        };
+        assert!(args.pty);
+        assert_eq!(args.link, Some(PathBuf::from("/tmp/x")));
+    }
+
+    #[test]
+    fn bad_usage_is_refused() {
+        for bad in [
+            &["jogterm", "sim"][..],
+            &["jogterm", "sim", "--pty", "--protocol", "modbus"],
+            &["jogterm", "frobnicate"],
+        ] {
+            let err = Cli::try_parse_from(bad).expect_err("refused");
+            assert_eq!(err.exit_code(), 2, "{bad:?}");
+        }
+        assert!(Cli::try_parse_from(["jogterm"]).is_ok());
+    }
+}

@@ -1,0 +1,137 @@
+//! Which machine profile a command works with: `--profile`, else the shipped
+//! one for the family `--sim`/`--protocol` names, else `default`; then the
+//! connection overrides of the command line on top. One rule for every
+//! command, so `jogterm --sim emp` and `jogterm --sim emp sim --pty` mean the
+//! same machine.
+
+use anyhow::bail;
+
+use super::GlobalArgs;
+use crate::config::profile::Connection;
+use crate::config::{ConfigDirs, Profile, load_profile};
+use crate::proto::Protocol;
+
+/// The profile the command line asks for, with `--sim`, `--protocol` and
+/// `--port` applied.
+pub fn resolve(global: &GlobalArgs, dirs: &ConfigDirs) -> anyhow::Result<Profile> {
+    let family = match (global.protocol, global.sim) {
+        (Some(p), Some(s)) if p != s => {
+            bail!("--protocol {p} and --sim {s} name different families: give one of them")
+        }
+        (Some(p), _) | (None, Some(p)) => Some(p),
+        (None, None) => None,
+    };
+    if let (Some(port), Some(sim)) = (&global.port, global.sim) {
+        bail!(
+            "--port {port} and --sim {sim} contradict each other: a port or the built-in simulator"
+        );
+    }
+    let mut profile = match (&global.profile, family) {
+        (Some(name), _) => load_profile(name, dirs)?,
+        (None, None) => load_profile("default", dirs)?,
+        (None, Some(family)) => {
+            let default = load_profile("default", dirs)?;
+            if default.connection.protocol == family {
+                default
+            } else {
+                // The shipped profile of each family is named after it.
+                load_profile(family.name(), dirs)?
+            }
+        }
+    };
+    if let Some(family) = family
+        && profile.connection.protocol != family
+    {
+        bail!(
+            "profile `{}` describes a {} machine, not {family}: choose a {family} profile or leave out --profile",
+            profile.name,
+            profile.connection.protocol
+        );
+    }
+    if global.sim.is_some() {
+        profile.connection.port = Connection::SIMULATOR.to_string();
+    }
+    if let Some(port) = &global.port {
+        profile.connection.port = port.clone();
+    }
+    Ok(profile)
+}
+
+/// The family a profile resolved by [`resolve`] talks.
+pub fn family(profile: &Profile) -> Protocol {
+    profile.connection.protocol
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn resolved(global: GlobalArgs) -> anyhow::Result<Profile> {
+        resolve(&global, &ConfigDirs::builtin_only())
+    }
+
+    #[test]
+    fn without_options_the_default_simulator() {
+        let p = resolved(GlobalArgs::default()).unwrap();
+        assert_eq!(family(&p), Protocol::Isel);
+        assert!(p.connection.is_simulator());
+    }
+
+    #[test]
+    fn sim_of_another_family_takes_its_shipped_profile_on_the_simulator() {
+        let p = resolved(GlobalArgs {
+            sim: Some(Protocol::Emp),
+            ..Default::default()
+        })
+        .unwrap();
+        assert_eq!(family(&p), Protocol::Emp);
+        assert!(p.connection.is_simulator());
+        assert_eq!(p.axes.len(), 1);
+    }
+
+    #[test]
+    fn protocol_alone_takes_the_shipped_hardware_profile() {
+        let p = resolved(GlobalArgs {
+            protocol: Some(Protocol::Emcu),
+            ..Default::default()
+        })
+        .unwrap();
+        assert_eq!(family(&p), Protocol::Emcu);
+        assert_eq!(p.connection.port, "/dev/ttyUSB0");
+        let p = resolved(GlobalArgs {
+            protocol: Some(Protocol::Isel),
+            port: Some("/dev/ttyS3".into()),
+            ..Default::default()
+        })
+        .unwrap();
+        assert_eq!(p.connection.port, "/dev/ttyS3");
+    }
+
+    #[test]
+    fn contradictions_are_refused_with_the_reason() {
+        let err = resolved(GlobalArgs {
+            protocol: Some(Protocol::Isel),
+            sim: Some(Protocol::Emp),
+            ..Default::default()
+        })
+        .unwrap_err();
+        assert!(err.to_string().contains("different families"), "{err}");
+        let err = resolved(GlobalArgs {
+            port: Some("/dev/x".into()),
+            sim: Some(Protocol::Isel),
+            ..Default::default()
+        })
+        .unwrap_err();
+        assert!(err.to_string().contains("contradict"), "{err}");
+        let err = resolved(GlobalArgs {
+            profile: Some("emcu".into()),
+            sim: Some(Protocol::Emp),
+            ..Default::default()
+        })
+        .unwrap_err();
+        assert!(
+            err.to_string().contains("describes a emcu machine"),
+            "{err}"
+        );
+    }
+}

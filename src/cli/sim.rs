@@ -1,0 +1,81 @@
+//! `jogterm sim`: serve a built-in controller simulator on a new
+//! pseudo-terminal (`sim::shell::run_pty_simulator`) until stdin closes.
+
+use std::path::PathBuf;
+
+use anyhow::{Context as _, bail};
+use clap::Args;
+
+use super::{GlobalArgs, profile};
+use crate::config::ConfigDirs;
+use crate::sim::registry;
+use crate::sim::shell::{PtyOptions, run_pty_simulator};
+
+pub const LONG_ABOUT: &str = "\
+Serve a built-in controller simulator on a new pseudo-terminal.
+
+The first line on stdout is the path to open (the --link path if given, else the
+pseudo-terminal's /dev/pts/N). Open it like a serial port; the simulator paces the line at
+the controller's baud rate (isel 19200). Clients may close it and open it again.
+
+The simulated machine is the one the profile describes (axes, soft limits, [sim]
+limit_margin and start_position). The family is --protocol (or --sim), else the
+profile's connection.protocol; without --profile, --sim/--protocol pick the shipped
+profile of that family (isel, emcu, emp).
+
+Lines on stdin operate the machine and inject faults; each accepted line prints `ok` (or
+its output), errors go to stderr. The simulator ends when stdin closes, on `quit`, or
+when it is killed.";
+
+pub const AFTER_LONG_HELP: &str = "\
+Control language (one command per line, docs/simulator.md):
+  set <input> on|off|open|closed|1|0   set an input (closed = 1 = healthy, open = 0)
+  press <input>                        press and release a button (start, stop)
+  fault drop-byte [<index>|middle]     leave one byte out of the next message
+  fault corrupt-byte [<index>|middle]  flip bit 7 of one byte of the next message
+  fault withhold                       do not send the next message
+  fault garbage <text>|hex:<hex>       send these bytes now, unasked
+  fault delay <ms>                     send the next message <ms> later
+  fault close [<reopen-after-ms>]      close the line (a pty may reopen)
+  show                                 device state, line, counters
+  help                                 commands and the device's inputs
+  quit                                 end the simulator
+
+isel inputs: limit-x1 limit-x2 limit-y1 limit-y2 limit-z1 limit-z2 limit-a1 limit-a2
+  (on = the switch is held active), estop1 estop2 (closed/open), overtemp, power-ok,
+  hood (closed/open), key-switch (on = setup mode), probe, start, stop (press),
+  in0.0 … in0.7 (user inputs)";
+
+/// Options of `jogterm sim`.
+#[derive(Debug, Args)]
+pub struct SimArgs {
+    /// Serve on a new pseudo-terminal (the only way to serve for now)
+    #[arg(long, required = true)]
+    pub pty: bool,
+    /// Keep a symbolic link at PATH that points at the pseudo-terminal
+    #[arg(long, value_name = "PATH")]
+    pub link: Option<PathBuf>,
+}
+
+/// Run `jogterm sim` until stdin closes.
+pub fn run(global: &GlobalArgs, args: &SimArgs) -> anyhow::Result<()> {
+    if let Some(port) = &global.port {
+        bail!(
+            "--port {port}: `jogterm sim` serves a new pseudo-terminal instead of opening a \
+             port; use --link PATH for a fixed path"
+        );
+    }
+    let profile = profile::resolve(global, &ConfigDirs::from_env())?;
+    let protocol = profile::family(&profile);
+    let device = registry::build(protocol, &profile)?;
+    tracing::info!(%protocol, profile = %profile.name, "simulator starting");
+    run_pty_simulator(
+        device,
+        PtyOptions {
+            link: args.link.clone(),
+        },
+    )
+    .with_context(|| format!("the {protocol} simulator failed"))?;
+    tracing::info!(%protocol, "simulator ended");
+    Ok(())
+}

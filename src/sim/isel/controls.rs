@@ -1,0 +1,164 @@
+//! The operator's side of the simulated machine: inputs set and buttons
+//! pressed from the simulator's stdin (`docs/simulator.md`, isel), and the
+//! one-line state `show` prints.
+
+use std::fmt::Write as _;
+use std::time::Instant;
+
+use crate::axis::Axis;
+use crate::sim::InputControl;
+
+use super::io::{INPUT_NAMES, InputName, SPINDLE_BIT};
+use super::run::{JobKind, Step};
+use super::{Activity, IselSim, ReplyTo};
+
+impl IselSim {
+    /// Apply an operator control at `t`.
+    pub(super) fn operator(&mut self, control: &InputControl, t: Instant) -> Result<(), String> {
+        let (name, level, press) = match control {
+            InputControl::Set { name, level } => (name, *level, false),
+            InputControl::Press { name } => (name, true, true),
+            InputControl::Value { name, .. } => {
+                return Err(format!(
+                    "`{name}`: the isel controller has no analogue inputs: use set {name} on|off"
+                ));
+            }
+        };
+        let input = InputName::parse(name).ok_or_else(|| {
+            format!(
+                "unknown input `{name}`: expected {}",
+                INPUT_NAMES.join(", ")
+            )
+        })?;
+        if press && !matches!(input, InputName::Start | InputName::Stop) {
+            return Err(format!(
+                "`{name}` is not a button (press works on start and stop): set {name} on|off"
+            ));
+        }
+        let before = self.snapshot();
+        match input {
+            InputName::Limit { axis, input } => {
+                if let Some(f) = self
+                    .axes
+                    .get_mut(axis)
+                    .and_then(|a| a.forced.get_mut(input))
+                {
+                    *f = level;
+                }
+            }
+            InputName::Estop(i) => {
+                if let Some(e) = self.inputs.estop.get_mut(i) {
+                    *e = level;
+                }
+            }
+            InputName::Overtemp => self.inputs.overtemp = level,
+            InputName::PowerOk => self.inputs.power_ok = level,
+            InputName::Probe => self.inputs.probe = level,
+            InputName::Hood => {
+                self.inputs.hood_closed = level;
+                if !level {
+                    // The spindle may not run with the hood open.
+                    self.outputs.control &= !SPINDLE_BIT;
+                }
+            }
+            InputName::KeySwitch => self.inputs.key_switch = level,
+            InputName::User(bit) => {
+                let mask = 1u8 << (bit & 7);
+                if level {
+                    self.inputs.user |= mask;
+                } else {
+                    self.inputs.user &= !mask;
+                }
+            }
+            InputName::Start => {
+                let rising = level && !self.inputs.start_key;
+                self.inputs.start_key = level && !press;
+                if rising {
+                    // Like `@0S`, but nothing answers: there was no command.
+                    let _ = self.start(ReplyTo::Silent, t);
+                }
+            }
+            InputName::Stop => {
+                let rising = level && !self.inputs.stop_key;
+                self.inputs.stop_key = level && !press;
+                if rising {
+                    self.soft_stop(t, true);
+                }
+            }
+        }
+        self.inputs_changed(before, t);
+        Ok(())
+    }
+
+    /// One line for `show`: counters (and physical positions where they
+    /// differ), modes, ports, outputs, what runs.
+    pub(super) fn state_line(&self, now: Instant) -> String {
+        let counters = self.counters_at(now);
+        let phys = self.physical_positions(now);
+        let mut s = String::new();
+        let shown: Vec<Axis> = match self.axis_config {
+            Some(c) if c.axis_count() == 4 => Axis::ALL.to_vec(),
+            _ => vec![Axis::X, Axis::Y, Axis::Z],
+        };
+        for axis in &shown {
+            let _ = write!(s, "{axis} {} ", counters[axis.index()].round());
+        }
+        if shown
+            .iter()
+            .any(|a| (phys[a.index()] - counters[a.index()]).abs() >= 0.5)
+        {
+            s.push_str("(physical");
+            for axis in &shown {
+                let _ = write!(s, " {axis} {}", phys[axis.index()].round());
+            }
+            s.push_str(") ");
+        }
+        let _ = write!(
+            s,
+            "| axes {} referenced {}",
+            self.axis_config.map_or("-".to_owned(), |c| c.to_string()),
+            if self.referenced.is_empty() {
+                "-".to_owned()
+            } else {
+                self.referenced.to_string()
+            }
+        );
+        for (on, flag) in [
+            (self.test_mode, "test mode"),
+            (self.three_d, "3D"),
+            (self.storing, "storing program"),
+            (self.paused.is_some(), "stopped (resumable)"),
+        ] {
+            if on {
+                let _ = write!(s, ", {flag}");
+            }
+        }
+        let [p0, p1, p2, p3] = self.ports();
+        let _ = write!(
+            s,
+            " | in {p0:02X} {p1:02X} {p2:02X} {p3:02X} | out user {:02X} control {:02X} | ",
+            self.outputs.user, self.outputs.control
+        );
+        s.push_str(match &self.activity {
+            None => "idle",
+            Some(Activity { step, program, .. }) => match (step, program.is_some()) {
+                (Step::Motion(job), _) => match job.kind {
+                    JobKind::Move if program.is_some() => "program: moving",
+                    JobKind::Move => "moving",
+                    JobKind::Reference => "reference run",
+                    JobKind::Clear => "clearing a limit switch",
+                },
+                (Step::Erase { .. }, _) => "erasing the program",
+                (Step::Sync { .. }, _) => "program: waiting for a sync character",
+                (
+                    Step::Wait {
+                        stoppable: false, ..
+                    },
+                    _,
+                ) => "program: delay",
+                (Step::Wait { .. }, _) => "program running",
+            },
+        });
+        s
+    }
+}
