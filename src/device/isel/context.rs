@@ -237,37 +237,72 @@ impl Context {
         }));
     }
 
-    /// An input port was read: keep it and update the safety flags. An open
-    /// E-stop circuit blocks motion until the axes have been initialised and
-    /// referenced again (manual chapter 5, code 9), even when no command was
-    /// answered `9`: the power stages were off and the axes may have moved.
+    /// An input port was read: keep it and update the safety flags.
     pub fn port_read(&mut self, port: InputPort, value: u8) {
         self.ports.set_input(port, value);
-        if port == InputPort::Status1
-            && let Some(estop) = self.ports.estop()
-        {
-            self.state.estop = estop;
-            if estop {
-                self.state.referenced = AxisSet::EMPTY;
-                match self.state.fault.as_mut() {
-                    Some(f) => f.recovery = Recovery::ClearEmergencyStop,
-                    None => {
-                        let fault = ControllerFault {
-                            command: format!("@{}b1", self.device),
-                            code: format!("port 1 = {value:02X}"),
-                            meaning: "An emergency stop circuit is open.".to_owned(),
-                            recovery: Recovery::ClearEmergencyStop,
-                        };
-                        self.state.fault = Some(fault.clone());
-                        self.emit(Event::Fault(fault));
-                    }
+        match port {
+            InputPort::Status1 => {
+                self.state.estop = value & 0b11 != 0b11;
+                if self.state.estop {
+                    self.machine_fault(port, value, "An emergency stop circuit is open.");
+                } else if value & 0b100 != 0 {
+                    self.machine_fault(port, value, "The power stages are over temperature.");
                 }
             }
+            InputPort::Status2 if value & 0b10 == 0 => {
+                self.machine_fault(port, value, "The power supply is not ok.");
+            }
+            InputPort::LimitSwitches => self.state.limit = value != 0,
+            _ => {}
         }
-        if port == InputPort::LimitSwitches
-            && let Some(limit) = self.ports.limit()
-        {
-            self.state.limit = limit;
+    }
+
+    /// A machine fault seen in the ports (manual 2.2.3): whether or not a
+    /// command was answered `9`, the power stages were off and the axes may
+    /// have moved, so the controller must be initialised and referenced
+    /// again (manual chapter 5, code 9), and it has forgotten its axes.
+    fn machine_fault(&mut self, port: InputPort, value: u8, meaning: &str) {
+        self.set_config(None);
+        self.state.referenced = AxisSet::EMPTY;
+        match self.state.fault.as_mut() {
+            Some(f) => f.recovery = Recovery::ClearEmergencyStop,
+            None => {
+                let fault = ControllerFault {
+                    command: format!("@{}b{}", self.device, port.number()),
+                    code: format!("port {} = {value:02X}", port.number()),
+                    meaning: meaning.to_owned(),
+                    recovery: Recovery::ClearEmergencyStop,
+                };
+                self.state.fault = Some(fault.clone());
+                self.emit(Event::Fault(fault));
+            }
+        }
+    }
+
+    /// The reply to a `@0P` the driver sent to learn the position: `4`
+    /// only says that no axes are initialised (some controllers report
+    /// positions anyway); any other code is a fault.
+    pub fn position_reply(&mut self, reply: crate::proto::isel::Reply, now: Instant) -> bool {
+        use crate::proto::isel::Reply;
+        match reply {
+            Reply::Positions(p) => {
+                self.measured(&p, now);
+                true
+            }
+            Reply::Code(ReplyCode::NoAxes) => {
+                self.set_config(None);
+                false
+            }
+            Reply::Code(code) => {
+                let text = format!("@{}P", self.device);
+                self.controller_error(&text, code);
+                false
+            }
+            other => {
+                let text = format!("@{}P", self.device);
+                self.link_suspect(&text, &format!("{other:?}"));
+                false
+            }
         }
     }
 
@@ -287,13 +322,17 @@ impl Context {
             recovery: recovery_of(code),
         };
         match code {
+            // After `2` or `9` the controller must be initialised and
+            // referenced again (manual chapter 5): it has forgotten its axes.
             ReplyCode::LimitSwitch => {
                 self.state.limit = true;
+                self.set_config(None);
                 self.state.referenced = AxisSet::EMPTY;
                 self.state.fault = Some(fault.clone());
             }
             ReplyCode::MachineFault => {
                 self.state.estop = true;
+                self.set_config(None);
                 self.state.referenced = AxisSet::EMPTY;
                 self.state.fault = Some(fault.clone());
             }
@@ -365,8 +404,10 @@ impl Context {
         self.zero_known = AxisSet::from_mask(self.zero_known.mask() | axes.mask());
     }
 
-    /// Whether a move of `axes` may start; the first reason it may not.
-    pub fn motion_allowed(&self, axes: AxisSet, unreferenced_ok: bool) -> Result<(), Refusal> {
+    /// Whether a move may start; the first reason it may not. With
+    /// `unreferenced_ok` (a jog with `jog.allow_unreferenced`, a reference
+    /// run) the reference is not asked for.
+    pub fn motion_allowed(&self, unreferenced_ok: bool) -> Result<(), Refusal> {
         if !self.state.link_up {
             return Err(Refusal::NotConnected);
         }
@@ -386,7 +427,11 @@ impl Context {
         if !self.profile_ready() {
             return Err(Refusal::NotInitialised);
         }
-        let missing: AxisSet = axes
+        // The controller moves nothing until every initialised axis is
+        // referenced (`../shared/protocols.md` isel 4).
+        let missing: AxisSet = self
+            .settings
+            .axis_set()
             .iter()
             .filter(|a| !self.state.referenced.contains(*a))
             .collect();

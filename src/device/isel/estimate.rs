@@ -6,10 +6,10 @@
 //! ([`crate::motion`]).
 //!
 //! How the controller sequences the axes (manual 2.2.2, 2.2.29):
-//! - 2.5D (the default): X and Y are interpolated linearly, the axis with
-//!   the longer path at its own speed and the other scaled to it; then Z,
-//!   first by z1 and then by z2 (3 axes), or Z and then A (4 axes, jogterm's
-//!   reading: `docs/protocols.md`, isel).
+//! - 2.5D (the default): X and Y (and A with 4 axes) are interpolated
+//!   linearly, the axis with the longest path at its own speed (X before Y
+//!   on a tie) and the others scaled to it; then Z, first by z1 and then by
+//!   z2 with 3 axes (`docs/protocols.md`, isel).
 //! - 3D (`@0z1`): all axes together along the X/Y/Z vector at the speed given
 //!   for X; a 4th axis follows in proportion.
 //!
@@ -147,13 +147,12 @@ impl MoveEstimate {
             let deltas = moves.iter().map(|(a, d, _)| (*a, *d)).collect();
             groups.push(Group::new(deltas, length, f64::from(speed), ramp));
         } else {
-            let (planar, rest): (Vec<_>, Vec<_>) = moves
-                .iter()
-                .partition(|(a, _, _)| matches!(a, Axis::X | Axis::Y));
+            let (planar, rest): (Vec<_>, Vec<_>) =
+                moves.iter().partition(|(a, _, _)| *a != Axis::Z);
             if let Some(group) = lead_group(&planar, ramp) {
                 groups.push(group);
             }
-            // Z (z1, then z2 with 3 axes), then A: one after the other.
+            // Z: z1, then z2 with 3 axes, one after the other.
             for m in rest {
                 if let Some(group) = lead_group(&[m], ramp) {
                     groups.push(group);
@@ -289,10 +288,14 @@ fn pair_moves(
 /// Axes interpolated together: the longest path runs at its own speed, the
 /// others are scaled to it (manual 2.2.2, 2.5D).
 fn lead_group(moves: &[&(Axis, i64, u32)], ramp: RampParams) -> Option<Group> {
-    let lead = moves
-        .iter()
-        .filter(|(_, d, _)| *d != 0)
-        .max_by_key(|(_, d, _)| d.unsigned_abs())?;
+    // The first of equally long paths leads (X before Y).
+    let lead = moves.iter().filter(|(_, d, _)| *d != 0).fold(
+        None,
+        |best: Option<&&(Axis, i64, u32)>, m| match best {
+            Some(b) if b.1.unsigned_abs() >= m.1.unsigned_abs() => Some(b),
+            _ => Some(m),
+        },
+    )?;
     let deltas = moves
         .iter()
         .filter(|(_, d, _)| *d != 0)
@@ -440,6 +443,39 @@ mod tests {
         let half = e.position_at(t0 + expected / 2);
         assert_eq!(half.get(Axis::X), Some(1_500));
         assert_eq!(half.get(Axis::Y), Some(2_000));
+    }
+
+    #[test]
+    fn with_four_axes_a_runs_with_x_and_y_then_z() {
+        let t0 = Instant::now();
+        let pairs = [
+            MovePair::new(1_000, 1_000),
+            MovePair::new(1_000, 4_000),
+            MovePair::new(500, 1_000),
+            MovePair::new(2_000, 1_000),
+        ];
+        let start = origin().with(Axis::A, 0);
+        let mut e = MoveEstimate::relative(AxisConfig::XYZA, &pairs, start, RAMP, false);
+        e.start(t0);
+        // A has the longest way and leads; X and Y follow in proportion.
+        let lead = Motion::new(2_000, RAMP.ramp(1_000.0)).end_time();
+        let half = e.position_at(t0 + lead / 2);
+        assert_eq!(half.get(Axis::A), Some(1_000));
+        assert_eq!(half.get(Axis::X), Some(500));
+        assert_eq!(half.get(Axis::Z), Some(0));
+        let z = Motion::new(500, RAMP.ramp(1_000.0)).end_time();
+        assert_eq!(e.duration(), lead + z);
+    }
+
+    #[test]
+    fn on_a_tie_x_leads_with_its_speed() {
+        let pairs = [MovePair::new(1_000, 1_000), MovePair::new(-1_000, 4_000)];
+        let start = PerAxis::new().with(Axis::X, 0).with(Axis::Y, 0);
+        let e = MoveEstimate::relative(AxisConfig::XY, &pairs, start, RAMP, false);
+        assert_eq!(
+            e.duration(),
+            Motion::new(1_000, RAMP.ramp(1_000.0)).end_time()
+        );
     }
 
     #[test]

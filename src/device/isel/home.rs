@@ -62,13 +62,7 @@ impl Operation for HomeOp {
 
     fn reply(&mut self, cx: &mut Context, reply: Reply, now: Instant) {
         if self.measure {
-            match reply {
-                Reply::Positions(p) => cx.measured(&p, now),
-                Reply::Code(code) => {
-                    cx.controller_error(&format!("@{}P", cx.device), code);
-                }
-                _ => {}
-            }
+            cx.position_reply(reply, now);
             self.done = true;
             return;
         }

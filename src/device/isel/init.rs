@@ -63,13 +63,7 @@ impl Operation for InitOp {
                 }
             },
             Stage::Probe => Next::Send(probe_command(cx, cx.settings.config)),
-            Stage::Measure => {
-                if cx.config.is_some() {
-                    Next::Send(cx.cmd(Command::ReadPosition))
-                } else {
-                    Next::Done
-                }
-            }
+            Stage::Measure => Next::Send(cx.cmd(Command::ReadPosition)),
             Stage::Done => Next::Done,
         }
     }
@@ -78,11 +72,9 @@ impl Operation for InitOp {
         match (self.stage, reply) {
             (Stage::Axes(i), Reply::Code(ReplyCode::Ok)) => {
                 if let Some(s) = self.sequence.get(i) {
-                    let config = AxisConfig::after_setting(cx.config, *s).ok();
-                    cx.set_config(config);
-                    if let Some(c) = config {
-                        cx.zero_reset(c.axes());
-                    }
+                    // The axis setting keeps counters, reference and zero
+                    // (`docs/protocols.md`, isel).
+                    cx.set_config(AxisConfig::after_setting(cx.config, *s).ok());
                 }
                 self.stage = Stage::Axes(i + 1);
             }
@@ -120,12 +112,8 @@ impl Operation for InitOp {
                 }
                 self.stage = Stage::Measure;
             }
-            (Stage::Measure, Reply::Positions(p)) => {
-                cx.measured(&p, now);
-                self.stage = Stage::Done;
-            }
-            (Stage::Measure, Reply::Code(code)) => {
-                cx.controller_error(&format!("@{}P", cx.device), code);
+            (Stage::Measure, reply) => {
+                cx.position_reply(reply, now);
                 self.stage = Stage::Done;
             }
             (_, other) => {

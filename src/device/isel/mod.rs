@@ -293,7 +293,9 @@ impl IselDriver {
                 // Storing a program: a poll would be stored or refused.
                 return None;
             }
-            let item = self.poller.next(now, self.cx.config.is_some())?;
+            // `@0P` even without axes: some controllers report positions
+            // then, others answer `4`, which only updates the state.
+            let item = self.poller.next(now)?;
             let cmd = match item {
                 PollItem::Position => self.cx.cmd(Command::ReadPosition),
                 PollItem::Port(p) => self.cx.cmd(Command::ReadPort(p)),
@@ -359,6 +361,9 @@ impl IselDriver {
                 self.cx.measured(&p, now);
                 self.poller.position_read(now);
                 self.poll_error = None;
+            }
+            (PollItem::Position, Reply::Code(crate::proto::isel::ReplyCode::NoAxes)) => {
+                self.cx.set_config(None);
             }
             (PollItem::Port(port), Reply::Byte(v)) => {
                 self.cx.port_read(port, v);
@@ -644,7 +649,7 @@ impl IselDriver {
             } => plan::move_to(cx, target, *frame, speed_hz)
                 .map(|p| Op::Motion(MotionOp::move_to(p))),
             Request::Home { axes } => self.check_axes(*axes).and_then(|()| {
-                self.cx.motion_allowed(AxisSet::EMPTY, true)?;
+                self.cx.motion_allowed(true)?;
                 Ok(Op::Home(HomeOp::new(*axes)))
             }),
             Request::SetZero { axes } => self.check_axes(*axes).and_then(|()| {

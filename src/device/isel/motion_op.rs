@@ -323,13 +323,8 @@ impl Operation for MotionOp {
                 self.phase = Phase::Measure;
             }
             Phase::Measure => {
-                match reply {
-                    Reply::Positions(p) => cx.measured(&p, now),
-                    Reply::Code(code) => {
-                        cx.controller_error(&format!("@{}P", cx.device), code);
-                        self.failed = true;
-                    }
-                    _ => {}
+                if !cx.position_reply(reply, now) {
+                    self.failed = true;
                 }
                 self.continue_steps(cx);
             }

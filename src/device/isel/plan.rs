@@ -153,7 +153,7 @@ pub fn step(
     if moving.is_empty() {
         return Err(invalid("the step moves no axis"));
     }
-    cx.motion_allowed(moving, cx.settings.allow_unreferenced)?;
+    cx.motion_allowed(cx.settings.allow_unreferenced)?;
     let mut hz = PerAxis::new();
     for axis in moving.iter() {
         if cx.state.referenced.contains(axis) {
@@ -208,7 +208,7 @@ pub fn move_to(
     if moving.is_empty() {
         return Err(invalid("the axes are already at the target"));
     }
-    cx.motion_allowed(moving, false)?;
+    cx.motion_allowed(false)?;
     let mut hz = PerAxis::new();
     let mut values = PerAxis::new();
     for axis in config.axes().iter() {
@@ -250,7 +250,7 @@ pub fn jog(cx: &Context, axes: &[(Axis, Dir)], speeds: &PerAxis<f64>) -> Result<
     if set.len() != axes.len() {
         return Err(invalid("the jog names an axis twice"));
     }
-    cx.motion_allowed(set, cx.settings.allow_unreferenced)?;
+    cx.motion_allowed(cx.settings.allow_unreferenced)?;
     let position = cx.position.ok_or(Refusal::NotConnected)?;
     let timeout = cx.settings.jog_repeat_timeout.as_secs_f64();
     // (axis, sign, speed, room in steps)

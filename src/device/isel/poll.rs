@@ -59,9 +59,8 @@ impl Poller {
         self.positions = 0;
     }
 
-    /// The next poll command, if one is due. `positions` is false while the
-    /// controller has no axes (`@0P` would answer `4`): then only ports.
-    pub fn next(&mut self, now: Instant, positions: bool) -> Option<PollItem> {
+    /// The next poll command, if one is due.
+    pub fn next(&mut self, now: Instant) -> Option<PollItem> {
         if let Some(item) = self.items.pop_front() {
             return Some(item);
         }
@@ -82,10 +81,8 @@ impl Poller {
         }
         let ports_cycle = self.cycle.is_multiple_of(u64::from(self.plan.ports_every));
         self.cycle += 1;
-        if positions {
-            self.items.push_back(PollItem::Position);
-        }
-        if ports_cycle || !positions {
+        self.items.push_back(PollItem::Position);
+        if ports_cycle {
             self.items
                 .extend(self.plan.ports.iter().map(|p| PollItem::Port(*p)));
         }
@@ -167,7 +164,7 @@ mod tests {
         let mut p = Poller::new(plan(PollRate::LineSpeed, 2));
         let mut got = Vec::new();
         for _ in 0..6 {
-            got.push(p.next(t, true));
+            got.push(p.next(t));
         }
         use PollItem::*;
         assert_eq!(
@@ -184,38 +181,31 @@ mod tests {
     }
 
     #[test]
-    fn without_axes_only_ports_are_read() {
-        let t = Instant::now();
-        let mut p = Poller::new(plan(PollRate::LineSpeed, 4));
-        assert_eq!(p.next(t, false), Some(PollItem::Port(InputPort::Status1)));
-    }
-
-    #[test]
     fn a_rate_spaces_the_cycles_and_never_bursts() {
         let t = Instant::now();
         let mut p = Poller::new(plan(PollRate::Hz(10.0), 1000));
-        assert_eq!(p.next(t, true), Some(PollItem::Position));
+        assert_eq!(p.next(t), Some(PollItem::Position));
         // Cycle 0 also read the ports.
         for _ in 0..3 {
-            assert!(p.next(t, true).is_some());
+            assert!(p.next(t).is_some());
         }
-        assert_eq!(p.next(t, true), None);
+        assert_eq!(p.next(t), None);
         assert_eq!(p.due(), Some(t + Duration::from_millis(100)));
-        assert_eq!(p.next(t + Duration::from_millis(99), true), None);
+        assert_eq!(p.next(t + Duration::from_millis(99)), None);
         assert_eq!(
-            p.next(t + Duration::from_millis(100), true),
+            p.next(t + Duration::from_millis(100)),
             Some(PollItem::Position)
         );
         // Five periods late: one cycle now, the next a period later.
         let late = t + Duration::from_millis(700);
-        assert_eq!(p.next(late, true), Some(PollItem::Position));
+        assert_eq!(p.next(late), Some(PollItem::Position));
         assert_eq!(p.due(), Some(late + Duration::from_millis(100)));
     }
 
     #[test]
     fn off_polls_nothing() {
         let mut p = Poller::new(plan(PollRate::Off, 1));
-        assert_eq!(p.next(Instant::now(), true), None);
+        assert_eq!(p.next(Instant::now()), None);
     }
 
     #[test]

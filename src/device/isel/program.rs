@@ -30,7 +30,7 @@ pub struct ProgramOp {
 
 impl ProgramOp {
     pub fn new(cx: &Context) -> Result<ProgramOp, Refusal> {
-        cx.motion_allowed(cx.settings.axis_set(), false)?;
+        cx.motion_allowed(false)?;
         match cx.state.program {
             ProgramState::None => Err(Refusal::Invalid {
                 reason: "no program is stored: upload one first".into(),
@@ -64,6 +64,10 @@ impl Operation for ProgramOp {
             Phase::Running => {
                 match reply {
                     Reply::Code(ReplyCode::Ok) => cx.notice("the program has ended"),
+                    // The stop sequence's break ends the run (isel decision 6).
+                    Reply::Code(ReplyCode::UserStop) if self.stopping => {
+                        cx.notice("the program was stopped")
+                    }
                     Reply::Code(code) => {
                         let text = cx.cmd(Command::Start).text;
                         cx.controller_error(&text, code);
@@ -79,13 +83,7 @@ impl Operation for ProgramOp {
                 self.phase = Phase::Measure;
             }
             Phase::Measure => {
-                match reply {
-                    Reply::Positions(p) => cx.measured(&p, now),
-                    Reply::Code(code) => {
-                        cx.controller_error(&format!("@{}P", cx.device), code);
-                    }
-                    _ => {}
-                }
+                cx.position_reply(reply, now);
                 self.phase = Phase::Done;
             }
             Phase::Start | Phase::Done => {}

@@ -1,8 +1,9 @@
 //! Command lines typed by the operator (`Request::Raw`, `jogterm send`).
 //!
-//! A line is parsed and checked with the core's validators against the
-//! controller's axis configuration before a byte is sent (`validate_frame`;
-//! `validate_cnc` while the controller is storing a program after `@0i`).
+//! A line is parsed and checked with the core's parser and checks against
+//! the controller's axis configuration before a byte is sent (`parse_frame`
+//! and `check_with`, as `validate_frame` does; `validate_cnc` while the
+//! controller is storing a program after `@0i`).
 //! Motion commands are refused in E-stop and after a `2`/`9` until the axes
 //! have been initialised again; whether they need a reference is left to the
 //! controller, which answers `R` itself (`../shared/protocols.md` isel 4).
@@ -18,8 +19,8 @@ use std::time::{Duration, Instant};
 use crate::axis::AxisSet;
 use crate::device::api::{Activity, Event, ProgramState, Refusal};
 use crate::proto::isel::{
-    AxisConfig, CncCommand, Command, ControlByte, InitCommand, Reply, ReplyCode, SyncChar,
-    validate_cnc, validate_frame,
+    AxisConfig, CncCommand, Command, ControlByte, InitCommand, Rejection, Reply, ReplyCode,
+    SyncChar, check_with, parse_frame, validate_cnc,
 };
 
 use super::context::{Cmd, Context};
@@ -60,6 +61,8 @@ pub struct RawOp {
     estimate: Option<MoveEstimate>,
     phase: Phase,
     stopping: bool,
+    /// The stop sequence broke the command off: nothing is left to resume.
+    broken_off: bool,
     syncs: String,
     next_estimate: Option<Instant>,
 }
@@ -73,8 +76,9 @@ impl RawOp {
         if cx.cnc_store {
             return RawOp::stored_line(cx, text);
         }
-        let parsed = validate_frame(text, cx.config).map_err(|r| invalid(r.to_string()))?;
-        let frame = parsed.value;
+        let frame = parse_frame(text)
+            .map_err(|e| invalid(Rejection::from(e).to_string()))?
+            .value;
         if frame.device != cx.device {
             return Err(invalid(format!(
                 "`{text}` is addressed to device {}; the controller is device {}",
@@ -82,9 +86,12 @@ impl RawOp {
             )));
         }
         let command = frame.command;
+        // Safety first: a move in E-stop is refused as such, whatever else
+        // is wrong with it.
         if command.may_move() {
             cx.raw_motion_allowed()?;
         }
+        check_with(&command, cx.config).map_err(|e| invalid(e.to_string()))?;
         if command == Command::SetTestMode(true) && !cx.settings.test_mode_allowed {
             return Err(invalid(
                 "test mode (moves without reference and over limit switches) is not allowed \
@@ -104,6 +111,7 @@ impl RawOp {
             estimate,
             phase: Phase::Send,
             stopping: false,
+            broken_off: false,
             syncs: String::new(),
             next_estimate: None,
         })
@@ -125,6 +133,7 @@ impl RawOp {
             estimate: None,
             phase: Phase::Send,
             stopping: false,
+            broken_off: false,
             syncs: String::new(),
             next_estimate: None,
         })
@@ -210,11 +219,7 @@ impl RawOp {
         };
         match command {
             Command::SetAxes(setting) => {
-                let config = AxisConfig::after_setting(cx.config, *setting).ok();
-                cx.set_config(config);
-                if let Some(c) = config {
-                    cx.zero_reset(c.axes());
-                }
+                cx.set_config(AxisConfig::after_setting(cx.config, *setting).ok());
                 if cx.profile_ready() {
                     cx.initialised_after_fault();
                 }
@@ -225,8 +230,14 @@ impl RawOp {
                 cx.three_d = false;
             }
             Command::SimulateReference(mask) => {
+                // The counters become 0 where the axes stand (manual 2.2.20).
                 cx.referenced(*mask);
                 cx.zero_reset(*mask);
+                if let Some(p) = cx.position.as_mut() {
+                    for axis in mask.iter() {
+                        p.set(axis, 0);
+                    }
+                }
             }
             Command::SetZero(mask) => match cx.position {
                 Some(position) => {
@@ -331,13 +342,7 @@ impl Operation for RawOp {
 
     fn reply(&mut self, cx: &mut Context, reply: Reply, now: Instant) {
         if self.phase == Phase::Measure {
-            match reply {
-                Reply::Positions(p) => cx.measured(&p, now),
-                Reply::Code(code) => {
-                    cx.controller_error(&format!("@{}P", cx.device), code);
-                }
-                _ => {}
-            }
+            cx.position_reply(reply, now);
             self.phase = Phase::Done;
             return;
         }
@@ -355,6 +360,13 @@ impl Operation for RawOp {
                     text: shown,
                 });
             }
+            Reply::Code(ReplyCode::UserStop) if self.broken_off => cx.emit(Event::Reply {
+                command: text,
+                text: format!(
+                    "{}: stopped, the rest was discarded",
+                    code_text(ReplyCode::UserStop)
+                ),
+            }),
             Reply::Code(code) => {
                 if let Some(e) = &mut self.estimate
                     && *code != ReplyCode::UserStop
@@ -389,7 +401,7 @@ impl Operation for RawOp {
         if self.stopping {
             cx.quiet_request = Some(cx.settings.timing.resync_gap);
         }
-        self.phase = if self.cmd.may_move && cx.config.is_some() && !cx.cnc_store {
+        self.phase = if self.cmd.may_move && !cx.cnc_store {
             Phase::Measure
         } else {
             Phase::Done
@@ -415,6 +427,9 @@ impl Operation for RawOp {
     }
 
     fn stop(&mut self, cx: &mut Context, now: Instant) -> Option<Duration> {
+        if self.is_running_motion() {
+            self.broken_off = true;
+        }
         self.brake(cx, now)
     }
 

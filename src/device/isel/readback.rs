@@ -107,8 +107,11 @@ impl Readback {
         if !self.initialised {
             cx.set_config(None);
             self.stage = Stage::Done;
-        } else if cx.state.estop {
-            // A probe would answer `9` and cost the reference; it is lost anyway.
+        } else if cx.state.estop || cx.state.limit {
+            // A probe would answer `9` (E-stop) or `2` (a move into an active
+            // limit switch) and so make the controller forget its axes
+            // (`docs/protocols.md`, isel). After an E-stop they are lost
+            // anyway; in a limit switch the reference state stays unknown.
             let config = if self.has_a {
                 AxisConfig::XYZA
             } else if cx.settings.config != AxisConfig::XYZA {
@@ -116,7 +119,10 @@ impl Readback {
             } else {
                 AxisConfig::XYZ
             };
-            cx.set_config(Some(config));
+            if !cx.state.estop {
+                cx.set_config(Some(config));
+                cx.notice("a limit switch is active: the reference state was not probed");
+            }
             cx.state.referenced = AxisSet::EMPTY;
             self.stage = Stage::Done;
         } else {

@@ -70,7 +70,7 @@ fn a_limit_switch_ends_a_jog_and_blocks_motion_until_initialised_and_referenced(
     h.expect_nothing();
     assert_eq!(
         h.refusals(),
-        ["step X=-10 Y=0 Z=0: axes X not referenced: reference them (h) first"]
+        ["step X=-10 Y=0 Z=0: axes XYZ not referenced: reference them (h) first"]
     );
     h.request(Request::Home { axes: AxisSet::XYZ });
     h.expect_text("@0R7");

@@ -11,3 +11,4 @@ mod properties;
 mod raw;
 mod timeouts;
 mod upload;
+mod with_sim;

@@ -153,7 +153,7 @@ fn port_bits_update_the_machine_state() {
 }
 
 #[test]
-fn an_uninitialised_controller_is_polled_for_ports_only() {
+fn an_uninitialised_controller_answering_4_is_no_fault() {
     let mut h = Harness::with(|s| s.poll.rate = PollRate::LineSpeed);
     h.connect();
     h.expect_text("@0P");
@@ -163,5 +163,8 @@ fn an_uninitialised_controller_is_polled_for_ports_only() {
         h.send();
         h.reply(r);
     }
+    h.expect_text("@0P");
+    h.reply(b"4");
     h.expect_text("@0b1");
+    assert!(h.faults().is_empty(), "{:?}", h.faults());
 }
