@@ -764,13 +764,18 @@ impl IselDriver {
 }
 
 impl Driver for IselDriver {
+    /// The first bytes on every connection are the stop sequence: whatever
+    /// the controller was doing (a move sent before the link broke), it must
+    /// not go on while its state is unknown. Its answer, if any, falls into
+    /// the quiet that follows; then the state is read back.
     fn connected(&mut self, now: Instant) {
         self.go_down("reconnected");
         self.link_up = true;
         self.poller.reset();
         self.poll_error = None;
+        self.cx.send_stop();
+        self.quiet_until = Some(now + self.cx.settings.timing.connect_settle);
         self.op = Some(Op::Readback(Readback::new()));
-        let _ = now;
         self.settle();
     }
 

@@ -104,6 +104,9 @@ pub struct Timing {
     pub resync_gap: Duration,
     /// Time the controller is left alone after 0xFE (software reset).
     pub reset_settle: Duration,
+    /// Quiet after the stop sequence that opens every connection, for the
+    /// answer of a move that may still have been running.
+    pub connect_settle: Duration,
 }
 
 impl Default for Timing {
@@ -113,6 +116,7 @@ impl Default for Timing {
             estimate_interval: Duration::from_millis(40),
             resync_gap: Duration::from_millis(10),
             reset_settle: Duration::from_millis(100),
+            connect_settle: Duration::from_millis(100),
         }
     }
 }

@@ -142,9 +142,13 @@ impl Harness {
         out.bytes
     }
 
+    /// Connected: the stop sequence goes first, then the line settles.
     pub fn connect(&mut self) {
         self.driver.connected(self.now);
         self.collect();
+        self.expect(&[0xFD, 0xFF]);
+        self.expect_nothing();
+        self.advance(ms(100));
     }
 
     pub fn take_events(&mut self) -> Vec<Event> {
