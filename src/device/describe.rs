@@ -10,6 +10,14 @@ fn axes_values<T: std::fmt::Display + Copy>(values: &PerAxis<T>) -> String {
         .join(" ")
 }
 
+/// A raw line's characters as the bytes they stand for: a control
+/// character U+00FD is the byte 0xFD (`isel::raw`), not its UTF-8 form.
+fn latin1(line: &str) -> Vec<u8> {
+    line.chars()
+        .map(|c| u8::try_from(u32::from(c)).unwrap_or(b'?'))
+        .collect()
+}
+
 /// `step X=10`, `raw @0P`, `home XYZ` …
 pub fn describe(request: &Request) -> String {
     match request {
@@ -37,7 +45,7 @@ pub fn describe(request: &Request) -> String {
             Some(bit) => format!("output {}.{bit} = {value}", output.group),
             None => format!("output {} = {value}", output.group),
         },
-        Request::Raw { line } => format!("raw {}", crate::traffic::readable(line.as_bytes())),
+        Request::Raw { line } => format!("raw {}", crate::traffic::readable(&latin1(line))),
         Request::Upload { lines, .. } => format!("upload ({} lines)", lines.len()),
         Request::RunProgram => "run program".to_owned(),
         Request::Initialise => "initialise".to_owned(),
@@ -73,6 +81,12 @@ mod tests {
                 line: "@0A 5\r".into()
             }),
             "raw @0A 5<CR>"
+        );
+        assert_eq!(
+            describe(&Request::Raw {
+                line: "\u{fd}".into()
+            }),
+            "raw <FD>"
         );
     }
 }
