@@ -14,6 +14,15 @@
 //!   back; nothing that was in flight is ever sent again.
 //! - **Shutdown** (or the last handle dropped): stop, wait until the stop
 //!   bytes are written and drained, close, `LinkState::Closed`.
+//! - **Few wakeups**: the paced writer reports every byte it hands over and
+//!   a controller's reply arrives byte by byte. While a message is being
+//!   written the task does not wait for the writer's reports (it takes them
+//!   when it wakes anyway, or when the message should be done); while a
+//!   fixed-length reply comes in it lets the bytes gather in the OS buffer
+//!   (`Driver::pending_reply_bytes`) and reads them at once, waking again
+//!   for the last few so the reply is complete as early as before. A stop
+//!   ends both at once. This is what keeps a 10 Hz poll loop cheap
+//!   (`docs/performance.md`).
 //!
 //! See `docs/device.md`.
 
@@ -36,6 +45,7 @@ use crate::transport::{
     self, EmergencyStop, Interleave, Lane, MessageId, PacedWriter, PortParts, PortSpec,
     WriterConfig, WriterEvent,
 };
+use crate::wire::LineSettings;
 
 /// Tuning of the device task.
 #[derive(Debug, Clone, Copy)]
@@ -160,7 +170,18 @@ struct Session {
     written: mpsc::UnboundedReceiver<WriterEvent>,
     traffic: TrafficBuffer,
     stop_waiters: Vec<(MessageId, Vec<StopCall>)>,
+    line: LineSettings,
+    /// Do not wait for the writer's reports before this (a message is being
+    /// paced out; its last report is due then).
+    reports_after: Option<Instant>,
+    /// Do not wait for input before this (a reply is under way; its bytes
+    /// gather in the OS buffer meanwhile).
+    read_after: Option<Instant>,
 }
+
+/// A reply's bytes are read this many byte times before the last is due,
+/// so a timer that fires up to a millisecond late still finds it early.
+const READ_AHEAD_BYTES: usize = 3;
 
 impl Task {
     async fn run(mut self, done: watch::Sender<bool>) {
@@ -171,12 +192,15 @@ impl Task {
                 .connector
                 .port()
                 .and_then(transport::open)
-                .and_then(|port| port.split(self.options.writer));
+                .and_then(|port| {
+                    let line = port.line();
+                    port.split(self.options.writer).map(|parts| (parts, line))
+                });
             match opened {
-                Ok(parts) => {
+                Ok((parts, line)) => {
                     attempt = 0;
                     self.last_lost = None;
-                    if let End::Shutdown = self.session(parts).await {
+                    if let End::Shutdown = self.session(parts, line).await {
                         break;
                     }
                 }
@@ -219,10 +243,31 @@ impl Task {
             } else {
                 Interleave::WholeMessage
             };
+            // Its last byte is handed over about this much later.
+            let due = now + s.line.transfer_time(out.bytes.len().saturating_sub(1));
+            s.reports_after = Some(s.reports_after.map_or(due, |t| t.max(due)));
             // A writer that has ended reports `Failed`; the loop sees it.
             let _ = s.writer.send(out.bytes, interleave);
         }
         self.publish_driver_events()
+    }
+
+    /// A report from the writer; `Some` when the port is gone.
+    fn writer_event(&mut self, s: &mut Session, event: Option<WriterEvent>) -> Option<Ending> {
+        match event {
+            Some(WriterEvent::Written(chunk)) => self.written(s, chunk),
+            Some(WriterEvent::DrainTimedOut { waited, .. }) => {
+                self.bus.publish(Event::Notice(format!(
+                    "stop bytes not confirmed on the wire within {} ms",
+                    waited.as_millis()
+                )))
+            }
+            // The task never cancels: the driver counts on every message.
+            Some(WriterEvent::Cancelled { .. }) => {}
+            Some(WriterEvent::Failed(e)) => return Some(Ending::PortGone(e.to_string())),
+            None => return Some(Ending::PortGone("the writer has stopped".to_owned())),
+        }
+        None
     }
 
     fn publish_driver_events(&mut self) -> Result<(), ()> {
@@ -260,7 +305,8 @@ impl Task {
                     }
                 }
             }
-            Lane::Normal if chunk.done => self.driver.transmitted(Instant::now()),
+            // The writer's own time: the report may be taken a little later.
+            Lane::Normal if chunk.done => self.driver.transmitted(chunk.at),
             Lane::Normal => {}
         }
     }
@@ -277,9 +323,12 @@ impl Task {
         if let Ok(id) = s.writer.stop(out.bytes) {
             s.stop_waiters.push((id, calls));
         }
+        // Whatever follows the stop is read and reported at once.
+        s.reports_after = None;
+        s.read_after = None;
     }
 
-    async fn session(&mut self, parts: PortParts) -> End {
+    async fn session(&mut self, parts: PortParts, line: LineSettings) -> End {
         let PortParts {
             mut reader,
             writer,
@@ -292,18 +341,37 @@ impl Task {
             written: events,
             traffic: TrafficBuffer::default(),
             stop_waiters: Vec::new(),
+            line,
+            reports_after: None,
+            read_after: None,
         };
         self.bus.publish(Event::Link(LinkState::Connected));
         self.driver.connected(Instant::now());
         let mut last_fired: Option<Instant> = None;
-        let ending = loop {
+        let ending = 'session: loop {
+            // Reports that are there already, whether or not the task waits
+            // for them.
+            while let Ok(event) = s.written.try_recv() {
+                if let Some(end) = self.writer_event(&mut s, Some(event)) {
+                    break 'session end;
+                }
+            }
             if self.pump(&mut s).is_err() {
                 break Ending::DeadLink;
             }
-            let mut wake = [self.driver.next_timeout(), s.traffic.due()]
-                .into_iter()
-                .flatten()
-                .min();
+            let now = Instant::now();
+            let stopping = !s.stop_waiters.is_empty();
+            let reports_later = s.reports_after.filter(|t| *t > now && !stopping);
+            let read_later = s.read_after.filter(|t| *t > now);
+            let mut wake = [
+                self.driver.next_timeout(),
+                s.traffic.due(),
+                reports_later,
+                read_later,
+            ]
+            .into_iter()
+            .flatten()
+            .min();
             // A deadline that handling did not move must not spin the loop.
             if wake.is_some() && wake == last_fired {
                 wake = wake.map(|t| t.max(Instant::now() + Duration::from_millis(1)));
@@ -317,24 +385,22 @@ impl Task {
             tokio::select! {
                 biased;
                 Some(call) = self.stops.recv() => self.stop_now(&mut s, call),
-                event = s.written.recv() => match event {
-                    Some(WriterEvent::Written(chunk)) => self.written(&mut s, chunk),
-                    Some(WriterEvent::DrainTimedOut { waited, .. }) => self.bus.publish(
-                        Event::Notice(format!(
-                            "stop bytes not confirmed on the wire within {} ms",
-                            waited.as_millis()
-                        )),
-                    ),
-                    // The task never cancels: the driver counts on every message.
-                    Some(WriterEvent::Cancelled { .. }) => {}
-                    Some(WriterEvent::Failed(e)) => break Ending::PortGone(e.to_string()),
-                    None => break Ending::PortGone("the writer has stopped".to_owned()),
-                },
-                read = reader.read_chunk() => match read {
+                event = s.written.recv(), if reports_later.is_none() => {
+                    if let Some(end) = self.writer_event(&mut s, event) {
+                        break end;
+                    }
+                }
+                read = reader.read_chunk(), if read_later.is_none() => match read {
                     Ok(chunk) => {
                         let records = s.traffic.read(&chunk);
                         self.publish_traffic(records);
                         self.driver.received(&chunk.bytes, chunk.at);
+                        // The rest of a fixed-length reply is read in one go.
+                        s.read_after = self
+                            .driver
+                            .pending_reply_bytes()
+                            .filter(|n| *n > READ_AHEAD_BYTES)
+                            .map(|n| chunk.at + s.line.transfer_time(n - READ_AHEAD_BYTES));
                     }
                     Err(e) => break Ending::PortGone(e.to_string()),
                 },
