@@ -249,10 +249,36 @@ impl Context {
                     self.machine_fault(port, value, "The power stages are over temperature.");
                 }
             }
-            InputPort::Status2 if value & 0b10 == 0 => {
-                self.machine_fault(port, value, "The power supply is not ok.");
+            InputPort::Status2 => {
+                if value & 0b10 == 0 {
+                    self.machine_fault(port, value, "The power supply is not ok.");
+                }
+                self.hood(value);
             }
             InputPort::LimitSwitches => self.state.limit = value != 0,
+            _ => {}
+        }
+    }
+
+    /// Port 2 bit 6 reads 1 with the hood closed or in setup mode; otherwise
+    /// the controller refuses motion with `H` (manual 2.2.3, chapter 5). An
+    /// open hood blocks motion as a fault with `CloseHood` for as long as it
+    /// is open; it does not hide a fault that needs more.
+    fn hood(&mut self, value: u8) {
+        let open = value & 0b0100_0000 == 0;
+        let is_hood = |f: &ControllerFault| f.recovery == Recovery::CloseHood;
+        match self.state.fault.as_ref() {
+            None if open => {
+                let fault = ControllerFault {
+                    command: format!("@{}b2", self.device),
+                    code: format!("port 2 = {value:02X}"),
+                    meaning: "The hood is open (and the key switch is not on setup).".to_owned(),
+                    recovery: Recovery::CloseHood,
+                };
+                self.state.fault = Some(fault.clone());
+                self.emit(Event::Fault(fault));
+            }
+            Some(f) if is_hood(f) && !open => self.state.fault = None,
             _ => {}
         }
     }

@@ -164,3 +164,42 @@ fn a_stop_cancels_queued_requests() {
     h.stop();
     assert_eq!(h.refusals(), ["raw @0b1: cancelled by stop"]);
 }
+
+#[test]
+fn an_open_hood_blocks_motion_while_it_is_open() {
+    let mut h = Harness::with(|s| {
+        s.poll.rate = crate::device::isel::PollRate::LineSpeed;
+        s.poll.ports_every = 1;
+    });
+    h.connect();
+    h.readback(0, 0, 0, b"0");
+    h.take_events();
+    h.expect_text("@0P");
+    h.reply(&position_reply(0, 0, 0));
+    h.expect_text("@0b1");
+    h.reply(b"003");
+    h.expect_text("@0b3");
+    h.reply(b"000");
+    h.expect_text("@0b2");
+    // Power ok, hood open, automatic.
+    h.reply(b"002");
+    assert_eq!(
+        h.state().fault.as_ref().map(|f| f.recovery),
+        Some(Recovery::CloseHood)
+    );
+    h.request(Request::Step {
+        delta: xyz(10, 0, 0),
+        speed_hz: speeds(500.0),
+    });
+    h.expect_text("@0P");
+    assert_eq!(
+        h.refusals(),
+        ["step X=10 Y=0 Z=0: controller error: close the hood"]
+    );
+    h.reply(&position_reply(0, 0, 0));
+    for (cmd, r) in [("@0b1", b"003"), ("@0b3", b"000"), ("@0b2", b"062")] {
+        h.expect_text(cmd);
+        h.reply(r);
+    }
+    assert!(h.state().fault.is_none(), "closed again");
+}
