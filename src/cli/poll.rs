@@ -170,7 +170,7 @@ async fn poll(mut session: Session, args: &PollArgs) -> ExitCode {
     let mut samples = 0u64;
     let mut ports: Option<IoSnapshot> = None;
     let mut code = 0u8;
-    let interrupted = tokio::signal::ctrl_c();
+    let interrupted = session::interrupted();
     tokio::pin!(interrupted);
     loop {
         if args.count.is_some_and(|n| samples >= n) {

@@ -194,9 +194,25 @@ pub fn run(global: &GlobalArgs, args: &SendArgs) -> anyhow::Result<ExitCode> {
 }
 
 async fn send_all(mut session: Session, items: &[Item]) -> ExitCode {
+    let stopper = session.handle.clone();
+    tokio::select! {
+        code = send_items(&mut session, items) => {
+            session.close().await;
+            code
+        }
+        () = session::interrupted() => {
+            // Stop first, then the orderly close.
+            let _ = stopper.stop().written().await;
+            eprintln!("jogterm send: interrupted: the machine was stopped");
+            session.close().await;
+            ExitCode::from(1)
+        }
+    }
+}
+
+async fn send_items(session: &mut Session, items: &[Item]) -> ExitCode {
     if let Linked::Failed(reason) = session.linked(Duration::from_secs(10)).await {
         eprintln!("jogterm send: link failure: {reason}");
-        session.close().await;
         return ExitCode::from(EXIT_LINK);
     }
     let mut i = 0;
@@ -204,7 +220,7 @@ async fn send_all(mut session: Session, items: &[Item]) -> ExitCode {
     while let Some(item) = items.get(i) {
         i += 1;
         let outcome = match item {
-            Item::Control(c) => send_control(&mut session, *c).await,
+            Item::Control(c) => send_control(session, *c).await,
             Item::Line {
                 text,
                 canonical,
@@ -220,7 +236,7 @@ async fn send_all(mut session: Session, items: &[Item]) -> ExitCode {
                         controls.push(*c);
                         i += 1;
                     }
-                    await_line(&mut session, text, canonical, *may_move, &controls).await
+                    await_line(session, text, canonical, *may_move, &controls).await
                 }
             }
         };
@@ -260,7 +276,6 @@ async fn send_all(mut session: Session, items: &[Item]) -> ExitCode {
         };
         break;
     }
-    session.close().await;
     ExitCode::from(code)
 }
 

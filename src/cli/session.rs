@@ -139,6 +139,30 @@ impl Session {
     }
 }
 
+/// Completes on SIGINT, SIGTERM or SIGHUP: the command then stops the
+/// machine and closes the port itself (the default actions would end the
+/// process without a stop byte, `../shared/field-notes.md`).
+pub async fn interrupted() {
+    use tokio::signal::unix::{SignalKind, signal};
+    match (
+        signal(SignalKind::interrupt()),
+        signal(SignalKind::terminate()),
+        signal(SignalKind::hangup()),
+    ) {
+        (Ok(mut int), Ok(mut term), Ok(mut hup)) => {
+            tokio::select! {
+                _ = int.recv() => {}
+                _ = term.recv() => {}
+                _ = hup.recv() => {}
+            }
+        }
+        // Without the handlers at least Ctrl-C.
+        _ => {
+            let _ = tokio::signal::ctrl_c().await;
+        }
+    }
+}
+
 /// A current-thread runtime for a command.
 pub fn runtime() -> anyhow::Result<tokio::runtime::Runtime> {
     tokio::runtime::Builder::new_current_thread()

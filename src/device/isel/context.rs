@@ -205,13 +205,6 @@ impl Context {
             AxisSet::from_mask(self.state.referenced.mask() & self.state.initialised.mask());
     }
 
-    /// The axes `@0P` reports with: X, Y, Z and A when four are on.
-    pub fn positions_expect(&self) -> Expect {
-        Expect::Positions {
-            with_a: self.config == Some(AxisConfig::XYZA),
-        }
-    }
-
     /// A position read from the controller.
     pub fn measured(&mut self, p: &Positions, now: Instant) {
         let mut steps = PerAxis::new()

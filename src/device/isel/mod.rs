@@ -509,8 +509,9 @@ impl IselDriver {
             ControlByte::Reset => self.reset(now),
             ControlByte::SoftStop | ControlByte::Break => {
                 let own_motion = match self.op.as_mut() {
+                    // The operator's own move: exactly the byte asked for
+                    // (0xFD keeps the rest for `@0S`).
                     Some(Op::Raw(raw)) if raw.is_running_motion() => {
-                        self.cx.control.push_back(control_outgoing(control));
                         if let Some(t) = raw.control_sent(&self.cx, now)
                             && let Some(ex) = self.exchange.as_mut()
                         {
@@ -524,7 +525,7 @@ impl IselDriver {
                 if own_motion {
                     // A move jogterm planned is always broken off completely.
                     self.halt(now);
-                } else if !matches!(self.op, Some(Op::Raw(_))) {
+                } else {
                     self.cx.control.push_back(control_outgoing(control));
                 }
             }

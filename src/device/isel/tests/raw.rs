@@ -193,3 +193,18 @@ fn reset_leaves_the_controller_uninitialised() {
     assert_eq!(s.referenced, AxisSet::EMPTY);
     assert!(s.fault.is_none());
 }
+
+#[test]
+fn a_control_byte_goes_out_at_once_whatever_is_outstanding() {
+    let mut h = Harness::ready();
+    h.request(raw("@0P"));
+    h.expect_text("@0P");
+    h.request(raw("\u{ff}"));
+    h.expect(&[0xFF]);
+    h.reply(&position_reply(1, 2, 3));
+    assert!(
+        replies(&h)
+            .iter()
+            .any(|(c, t)| c == "<FF>" && t == "break sent (control bytes have no reply)")
+    );
+}
