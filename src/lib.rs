@@ -5,6 +5,8 @@
 //! - [`proto`]: sans-IO protocol cores, one per controller family.
 //! - [`sim`]: built-in simulators of the three controllers.
 //! - [`transport`]: serial port, pseudo-terminal, in-process socket pair.
+//! - [`program`]: isel CNC programs and EMCU jobs as code: parser, linter,
+//!   formatter, path simulation.
 //! - [`wire`], [`motion`], [`axis`], [`traffic`]: shared arithmetic and types.
 
 pub mod axis;
@@ -12,6 +14,7 @@ pub mod cli;
 pub mod config;
 pub mod device;
 pub mod motion;
+pub mod program;
 pub mod proto;
 pub mod sim;
 pub mod traffic;

@@ -3,12 +3,14 @@
 //! One clap root for everything jogterm does. The global options belong to
 //! the root and may be given before or after the command; each command
 //! uses the ones that mean something to it and says so in its help. Today
-//! there are `sim`, `send` and `poll`; `check`, `arc`, `upload` and the
+//! there are `sim`, `send`, `poll`, `check` and `arc`; `upload` and the
 //! console itself (no command) are added by later work.
 //!
 //! Exit codes: 0 ok, 1 failure (a message on stderr), 2 bad usage (clap);
 //! `send` and `poll` add 3 for a link failure.
 
+pub mod arc;
+pub mod check;
 pub mod poll;
 pub mod profile;
 pub mod send;
@@ -47,7 +49,9 @@ Examples:
   jogterm sim --pty --link /tmp/isel           the same, reachable as /tmp/isel
   jogterm sim --pty --profile mymachine        simulate the machine of a profile
   jogterm send --port /tmp/isel '@07' '@0P'    send commands, print the replies
-  jogterm poll --port /tmp/isel --count 5      read the position five times";
+  jogterm poll --port /tmp/isel --count 5      read the position five times
+  jogterm check drill.isel                     check a CNC program for the default machine
+  jogterm arc --radius 200 --start 135 --end 225 --ccw --speed 1500";
 
 /// `jogterm`: the global options and the command.
 #[derive(Debug, Parser)]
@@ -105,6 +109,12 @@ pub enum CliCommand {
     /// Read the position (and ports) repeatedly, one line per sample
     #[command(long_about = poll::LONG_ABOUT, after_long_help = poll::AFTER_LONG_HELP)]
     Poll(poll::PollArgs),
+    /// Check an isel CNC program or an EMCU job for a machine profile
+    #[command(long_about = check::LONG_ABOUT, after_long_help = check::AFTER_LONG_HELP)]
+    Check(check::CheckArgs),
+    /// Print the isel commands of a circular arc or a helix
+    #[command(long_about = arc::LONG_ABOUT, after_long_help = arc::AFTER_LONG_HELP)]
+    Arc(arc::ArcArgs),
 }
 
 /// Run what the command line asks for.
@@ -119,6 +129,8 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         }
         Some(CliCommand::Send(args)) => send::run(&cli.global, args),
         Some(CliCommand::Poll(args)) => poll::run(&cli.global, args),
+        Some(CliCommand::Check(args)) => check::run(&cli.global, args),
+        Some(CliCommand::Arc(args)) => arc::run(args),
         None => {
             eprintln!(
                 "jogterm: the console is not part of this build yet. \
@@ -182,10 +194,37 @@ mod tests {
             &["jogterm", "sim"][..],
             &["jogterm", "sim", "--pty", "--protocol", "modbus"],
             &["jogterm", "frobnicate"],
+            &["jogterm", "check"],
+            &["jogterm", "check", "a.isel", "--axes", "5"],
+            &[
+                "jogterm", "arc", "--radius", "1", "--start", "0", "--end", "9", "--speed", "1",
+            ],
         ] {
             let err = Cli::try_parse_from(bad).expect_err("refused");
             assert_eq!(err.exit_code(), 2, "{bad:?}");
         }
         assert!(Cli::try_parse_from(["jogterm"]).is_ok());
+    }
+
+    #[test]
+    fn check_takes_the_global_profile_and_protocol_on_either_side() {
+        let cli = Cli::try_parse_from([
+            "jogterm",
+            "--profile",
+            "mill",
+            "check",
+            "a.txt",
+            "--protocol",
+            "emcu",
+            "--axes",
+            "2",
+        ])
+        .expect("parses");
+        assert_eq!(cli.global.profile.as_deref(), Some("mill"));
+        assert_eq!(cli.global.protocol, Some(Protocol::Emcu));
+        let Some(CliCommand::Check(args)) = cli.command else {
+            panic!("check");
+        };
+        assert_eq!((args.file, args.axes), (PathBuf::from("a.txt"), Some(2)));
     }
 }
