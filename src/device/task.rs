@@ -216,6 +216,9 @@ impl Task {
         }
         self.bus.publish(Event::Link(LinkState::Closed));
         self.bus.close();
+        // Refuse what comes after, before telling the handles it is over.
+        self.requests.close();
+        self.stops.close();
         let _ = done.send(true);
     }
 
