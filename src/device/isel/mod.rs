@@ -147,6 +147,7 @@ struct Exchange {
     /// Set once the last byte has gone out.
     deadline: Option<Instant>,
     transmitted: bool,
+    transmitted_at: Option<Instant>,
     last_byte: Option<Instant>,
     /// A stop went out before this (moving) command was complete on the
     /// wire: the controller reads the control bytes at once but still
@@ -233,6 +234,7 @@ impl IselDriver {
             timeout: cmd.timeout,
             deadline: None,
             transmitted: false,
+            transmitted_at: None,
             last_byte: None,
             restop: false,
         });
@@ -390,7 +392,9 @@ impl IselDriver {
             return;
         };
         self.decoder.abandon();
-        let waited = ex.timeout.unwrap_or_default();
+        let waited = ex
+            .transmitted_at
+            .map_or(Duration::ZERO, |t| now.saturating_duration_since(t));
         self.cx.emit(Event::Fault(ControllerFault {
             command: ex.text.clone(),
             code: "timeout".to_owned(),
@@ -405,7 +409,6 @@ impl IselDriver {
             reason: reason.clone(),
         }));
         self.go_down(&reason);
-        let _ = now;
     }
 
     fn go_down(&mut self, reason: &str) {
@@ -874,6 +877,7 @@ impl Driver for IselDriver {
             && !ex.transmitted
         {
             ex.transmitted = true;
+            ex.transmitted_at = Some(now);
             ex.deadline = ex.timeout.map(|t| now + t);
             restop = std::mem::take(&mut ex.restop);
             op_owned = ex.owner == Owner::Op;
