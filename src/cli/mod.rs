@@ -3,14 +3,18 @@
 //! One clap root for everything jogterm does. The global options belong to
 //! the root and may be given before or after the command; each command
 //! uses the ones that mean something to it and says so in its help. Today
-//! there are `sim`, `check` and `arc`; `send`, `poll`, `upload` and the
+//! there are `sim`, `send`, `poll`, `check` and `arc`; `upload` and the
 //! console itself (no command) are added by later work.
 //!
-//! Exit codes: 0 ok, 1 failure (a message on stderr), 2 bad usage (clap).
+//! Exit codes: 0 ok, 1 failure (a message on stderr), 2 bad usage (clap);
+//! `send` and `poll` add 3 for a link failure.
 
 pub mod arc;
 pub mod check;
+pub mod poll;
 pub mod profile;
+pub mod send;
+mod session;
 pub mod sim;
 pub mod tui;
 
@@ -38,12 +42,15 @@ shipped profiles (default, isel, emcu, emp); a value with a `/` or ending in `.t
 path. Without --profile the shipped `default` profile is used: the isel simulator.";
 
 const AFTER_LONG_HELP: &str = "\
-Exit status: 0 ok, 1 failure (the reason on stderr), 2 bad usage.
+Exit status: 0 ok, 1 failure (the reason on stderr), 2 bad usage, 3 link failure
+(send, poll).
 
 Examples:
   jogterm sim --protocol isel --pty            serve the isel simulator on a new pty
   jogterm sim --pty --link /tmp/isel           the same, reachable as /tmp/isel
   jogterm sim --pty --profile mymachine        simulate the machine of a profile
+  jogterm send --port /tmp/isel '@07' '@0P'    send commands, print the replies
+  jogterm poll --port /tmp/isel --count 5      read the position five times
   jogterm check drill.isel                     check a CNC program for the default machine
   jogterm arc --radius 200 --start 135 --end 225 --ccw --speed 1500";
 
@@ -85,7 +92,8 @@ pub struct GlobalArgs {
     /// mono16) or a path (used by the console only)
     #[arg(long, global = true, value_name = "NAME")]
     pub theme: Option<String>,
-    /// Append a log of what jogterm does to FILE (never to the terminal)
+    /// Append a log of what jogterm does to FILE (never to the terminal); `send` and
+    /// `poll` add every byte on the line to it (UTC time, >> sent, << received)
     #[arg(long, global = true, value_name = "FILE")]
     pub log: Option<PathBuf>,
 }
@@ -96,6 +104,12 @@ pub enum CliCommand {
     /// Serve a built-in controller simulator on a new pseudo-terminal
     #[command(long_about = sim::LONG_ABOUT, after_long_help = sim::AFTER_LONG_HELP)]
     Sim(sim::SimArgs),
+    /// Send commands to the controller one by one and print the replies decoded
+    #[command(long_about = send::LONG_ABOUT, after_long_help = send::AFTER_LONG_HELP)]
+    Send(send::SendArgs),
+    /// Read the position (and ports) repeatedly, one line per sample
+    #[command(long_about = poll::LONG_ABOUT, after_long_help = poll::AFTER_LONG_HELP)]
+    Poll(poll::PollArgs),
     /// Check an isel CNC program or an EMCU job for a machine profile
     #[command(long_about = check::LONG_ABOUT, after_long_help = check::AFTER_LONG_HELP)]
     Check(check::CheckArgs),
@@ -114,6 +128,8 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
             sim::run(&cli.global, args)?;
             Ok(ExitCode::SUCCESS)
         }
+        Some(CliCommand::Send(args)) => send::run(&cli.global, args),
+        Some(CliCommand::Poll(args)) => poll::run(&cli.global, args),
         Some(CliCommand::Check(args)) => check::run(&cli.global, args),
         Some(CliCommand::Arc(args)) => arc::run(args),
         None => {

@@ -246,6 +246,9 @@ pub enum Recovery {
     EraseProgram,
     /// The drive must be switched on / its mode set again (EMP).
     SwitchOn,
+    /// A reply was missing or unreadable: the line, not the machine, is in
+    /// doubt (cable, baud rate, controller type).
+    CheckLink,
 }
 
 impl Recovery {
@@ -262,6 +265,7 @@ impl Recovery {
             Recovery::ResumeOrDiscard => "start to resume the move, or stop to discard it",
             Recovery::EraseProgram => "erase the stored program",
             Recovery::SwitchOn => "switch the drive on (i)",
+            Recovery::CheckLink => "check the cable, the baud rate and the controller type",
         }
     }
 }

@@ -54,7 +54,10 @@ pub trait Driver: Send {
     /// command at a time, after the previous reply).
     fn poll_transmit(&mut self, now: Instant) -> Option<Outgoing>;
 
-    /// The next event for the clients.
+    /// The next event for the clients. A driver that finds the link dead (a
+    /// reply did not come within its deadline) reports
+    /// `Event::Link(LinkState::Lost)` and sends nothing more; the device task
+    /// treats that like a vanished port (stop bytes, close, reconnect).
     fn poll_event(&mut self) -> Option<Event>;
 
     /// When `handle_timeout` must be called: a reply deadline, the next poll, a
@@ -62,4 +65,12 @@ pub trait Driver: Send {
     fn next_timeout(&self) -> Option<Instant>;
 
     fn handle_timeout(&mut self, now: Instant);
+
+    /// How many more bytes the reply being received needs at least, when
+    /// the driver knows (a fixed-length reply under way). A hint: the device
+    /// task may let them gather in the OS buffer instead of waking for every
+    /// byte. `None`: read as soon as anything arrives.
+    fn pending_reply_bytes(&self) -> Option<usize> {
+        None
+    }
 }

@@ -3,6 +3,25 @@
 //!
 //! - [`api`]: requests, events, machine state, refusals (family-neutral).
 //! - [`driver`]: the sans-IO [`driver::Driver`] trait each family implements.
+//! - [`isel`]: the isel @-format driver.
+//! - [`task`]: the async task that owns the port ([`spawn`]); [`handle`]:
+//!   what clients hold ([`DeviceHandle`]); [`events`]: the fan-out of events
+//!   with its drop policy; [`log`]: the traffic log.
+//!
+//! `docs/device.md` describes the layer as a whole.
 
 pub mod api;
+pub mod connector;
+pub mod describe;
 pub mod driver;
+pub mod events;
+pub mod handle;
+pub mod isel;
+pub mod log;
+pub mod task;
+mod traffic_buffer;
+
+pub use connector::{Backoff, Connector};
+pub use events::{EventBus, EventReceiver, TryRecvError};
+pub use handle::{DeviceHandle, EmergencyHandle, RequestError, StopTicket, StopWritten};
+pub use task::{DeviceError, TaskOptions, driver_for, spawn, spawn_with};

@@ -1,0 +1,376 @@
+//! The device task against the isel simulator, with the wire modelled at
+//! 19200 baud: poll rates against the line's limit, the latency from a stop
+//! request to the first stop byte on the wire while polling at full rate,
+//! and the CPU a 10 Hz poll loop costs. Prints a table; `docs/performance.md`
+//! says how to run it and what it measured.
+//!
+//! `cargo bench --bench device` (optimised) or `cargo test --bench device`
+//! (debug build); add `-- --quick` for shorter runs.
+
+use std::io::{BufRead, BufReader};
+use std::path::PathBuf;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use jogterm::config::{ConfigDirs, Profile, load_profile};
+use jogterm::device::api::{Event, PositionSource};
+use jogterm::device::isel::{IselDriver, IselSettings, PollPlan, PollRate};
+use jogterm::device::{Connector, DeviceHandle, EventReceiver, TaskOptions, spawn_with};
+use jogterm::proto::Protocol;
+use jogterm::proto::isel::InputPort;
+use jogterm::sim::registry;
+use jogterm::sim::shell::{Shell, serve_socket};
+use jogterm::transport::PortSpec;
+use jogterm::wire::LineSettings;
+
+struct Row {
+    what: String,
+    result: String,
+    target: String,
+    ok: bool,
+}
+
+fn profile() -> Profile {
+    load_profile("default", &ConfigDirs::builtin_only()).expect("default profile")
+}
+
+fn settings(rate: PollRate, ports: Vec<InputPort>) -> IselSettings {
+    let mut s = IselSettings::from_profile(&profile()).expect("settings");
+    s.poll = PollPlan {
+        rate,
+        ports_every: 1,
+        ports,
+    };
+    s
+}
+
+/// The device task talking to the isel simulator over a socket pair.
+fn socket_task(settings: IselSettings) -> (Shell, DeviceHandle, EventReceiver) {
+    let device = registry::build(Protocol::Isel, &profile()).expect("simulator");
+    let (shell, stream) = serve_socket(device).expect("serve");
+    let spec = PortSpec::InProcess {
+        stream,
+        line: shell.line(),
+        name: "isel simulator".into(),
+    };
+    let (handle, events) = spawn_with(
+        Box::new(IselDriver::new(settings)),
+        Connector::from(spec),
+        TaskOptions::default(),
+    )
+    .expect("device task");
+    (shell, handle, events)
+}
+
+async fn read_back(events: &mut EventReceiver) {
+    loop {
+        match events.recv().await {
+            Some(Event::Notice(n)) if n.starts_with("state read back") => return,
+            Some(_) => {}
+            None => panic!("the device task ended"),
+        }
+    }
+}
+
+/// Measured positions per second over `span` after the read-back, and the
+/// median time between two (which load spikes on a shared machine do not
+/// move).
+async fn poll_rate(ports: Vec<InputPort>, span: Duration) -> (f64, Duration) {
+    let (shell, handle, mut events) = socket_task(settings(PollRate::LineSpeed, ports));
+    read_back(&mut events).await;
+    // Let the first cycles settle.
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    while events.try_recv().is_ok() {}
+    let start = Instant::now();
+    let mut at = Vec::new();
+    while start.elapsed() < span {
+        if let Ok(Some(Event::Position(p))) =
+            tokio::time::timeout(Duration::from_millis(100), events.recv()).await
+            && p.source == PositionSource::Measured
+        {
+            at.push(p.at);
+        }
+    }
+    let rate = at.len() as f64 / start.elapsed().as_secs_f64();
+    handle.shutdown().await;
+    drop(shell);
+    let mut gaps: Vec<Duration> = at.windows(2).map(|w| w[1] - w[0]).collect();
+    gaps.sort();
+    (rate, percentile(&gaps, 0.5))
+}
+
+/// The same loop without the device task: the transport alone sends `@0P`
+/// and reads the 19 bytes back, as fast as it can. What the machine allows
+/// at all; the device task can only come close to it.
+async fn bare_rate(span: Duration) -> f64 {
+    let device = registry::build(Protocol::Isel, &profile()).expect("simulator");
+    let (shell, stream) = serve_socket(device).expect("serve");
+    let mut parts = jogterm::transport::open(PortSpec::InProcess {
+        stream,
+        line: shell.line(),
+        name: "isel simulator".into(),
+    })
+    .and_then(|p| p.split(jogterm::transport::WriterConfig::default()))
+    .expect("port");
+    let start = Instant::now();
+    let mut cycles = 0u64;
+    while start.elapsed() < span {
+        parts
+            .writer
+            .send(
+                b"@0P\r".to_vec(),
+                jogterm::transport::Interleave::BetweenBytes,
+            )
+            .expect("send");
+        let mut got = 0;
+        while got < 19 {
+            match tokio::time::timeout(Duration::from_secs(1), parts.reader.read_chunk()).await {
+                Ok(Ok(chunk)) => got += chunk.bytes.len(),
+                _ => panic!("the simulator did not answer"),
+            }
+        }
+        cycles += 1;
+        while parts.events.try_recv().is_ok() {}
+    }
+    let rate = cycles as f64 / start.elapsed().as_secs_f64();
+    parts.writer.close();
+    drop(shell);
+    rate
+}
+
+/// Stop request to first stop byte on the wire, while polling `@0P` at
+/// full rate: `n` stops at pseudo-random moments.
+async fn stop_latency(n: usize) -> Vec<Duration> {
+    let (shell, handle, mut events) = socket_task(settings(PollRate::LineSpeed, Vec::new()));
+    read_back(&mut events).await;
+    let drain = tokio::spawn(async move { while events.recv().await.is_some() {} });
+    let mut seed: u64 = 0x9E37_79B9_7F4A_7C15;
+    let mut latencies = Vec::with_capacity(n);
+    for _ in 0..n {
+        // xorshift: 10-40 ms apart, so stops land anywhere in a poll cycle.
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        tokio::time::sleep(Duration::from_micros(10_000 + seed % 30_000)).await;
+        if let Some(w) = handle.stop().written().await {
+            latencies.push(w.latency());
+        }
+    }
+    handle.shutdown().await;
+    let _ = drain.await;
+    drop(shell);
+    latencies.sort();
+    latencies
+}
+
+fn percentile(sorted: &[Duration], p: f64) -> Duration {
+    if sorted.is_empty() {
+        return Duration::ZERO;
+    }
+    let i = ((sorted.len() - 1) as f64 * p).round() as usize;
+    sorted[i.min(sorted.len() - 1)]
+}
+
+/// User and system CPU time of this process so far.
+fn cpu_time() -> (Duration, Duration) {
+    // SAFETY: getrusage fills the struct it is given; a zeroed rusage is valid.
+    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
+    // SAFETY: a valid pointer to a rusage for the calling process.
+    let rc = unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut usage) };
+    if rc != 0 {
+        return (Duration::ZERO, Duration::ZERO);
+    }
+    let tv = |t: libc::timeval| {
+        Duration::from_secs(t.tv_sec.max(0) as u64) + Duration::from_micros(t.tv_usec.max(0) as u64)
+    };
+    (tv(usage.ru_utime), tv(usage.ru_stime))
+}
+
+/// The simulator in its own process (`jogterm sim --pty`), so the CPU this
+/// process spends is the device side's alone.
+struct SimProcess {
+    child: Child,
+    link: PathBuf,
+    _dir: tempfile::TempDir,
+}
+
+impl Drop for SimProcess {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn sim_process() -> SimProcess {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let link = dir.path().join("isel");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_jogterm"))
+        .args(["sim", "--protocol", "isel", "--pty", "--link"])
+        .arg(&link)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("spawn jogterm sim");
+    let mut first = String::new();
+    if let Some(out) = child.stdout.take() {
+        let _ = BufReader::new(out).read_line(&mut first);
+    }
+    assert_eq!(first.trim(), link.to_string_lossy(), "the simulator's path");
+    SimProcess {
+        child,
+        link,
+        _dir: dir,
+    }
+}
+
+/// CPU share of one core (user, system) for polling at 10 Hz for `span`.
+async fn poll_cpu(span: Duration) -> (f64, f64) {
+    let sim = sim_process();
+    let connector = Connector::Serial {
+        path: sim.link.clone(),
+        line: LineSettings::new(19200),
+    };
+    // The shipped profile's plan: ports 1, 3, 2 every 4th cycle.
+    let mut s = IselSettings::from_profile(&profile()).expect("settings");
+    s.poll.rate = PollRate::Hz(10.0);
+    let (handle, mut events) = spawn_with(
+        Box::new(IselDriver::new(s)),
+        connector,
+        TaskOptions::default(),
+    )
+    .expect("device task");
+    read_back(&mut events).await;
+    // A consumer like a screen at 10 frames a second: it takes what has
+    // come every 100 ms instead of waking for every event.
+    let drain = tokio::spawn(async move {
+        let mut n = 0u64;
+        let mut tick = tokio::time::interval(Duration::from_millis(100));
+        loop {
+            tick.tick().await;
+            loop {
+                match events.try_recv() {
+                    Ok(e) => n += u64::from(matches!(e, Event::Position(_))),
+                    Err(jogterm::device::TryRecvError::Empty) => break,
+                    Err(jogterm::device::TryRecvError::Closed) => return n,
+                }
+            }
+        }
+    });
+    let (cpu0, wall0) = (cpu_time(), Instant::now());
+    tokio::time::sleep(span).await;
+    let (cpu1, wall) = (cpu_time(), wall0.elapsed());
+    handle.shutdown().await;
+    let polled = drain.await.unwrap_or(0);
+    assert!(
+        polled as f64 >= 0.9 * 10.0 * span.as_secs_f64(),
+        "{polled} polls"
+    );
+    drop(sim);
+    let share = |a: Duration, b: Duration| 100.0 * (b - a).as_secs_f64() / wall.as_secs_f64();
+    (share(cpu0.0, cpu1.0), share(cpu0.1, cpu1.1))
+}
+
+fn main() {
+    let quick = std::env::args().any(|a| a == "--quick");
+    let span = Duration::from_secs(if quick { 2 } else { 10 });
+    let stops = if quick { 50 } else { 300 };
+    let runtime = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .expect("runtime");
+    let line = LineSettings::new(19200);
+    // @0P CR + 19 bytes; each port 5 + 3 bytes.
+    let p_limit = line.bytes_per_second() / 23.0;
+    let p13_limit = line.bytes_per_second() / 39.0;
+    let mut rows = Vec::new();
+    runtime.block_on(async {
+        let bare = bare_rate(span).await;
+        rows.push(Row {
+            what: "bare transport @0P loop (reference)".into(),
+            result: format!(
+                "{bare:.1}/s = {:.1} % of {p_limit:.1}/s",
+                100.0 * bare / p_limit
+            ),
+            target: "-".into(),
+            ok: true,
+        });
+        for (what, ports, limit) in [
+            ("@0P", Vec::new(), p_limit),
+            (
+                "@0P + ports 1, 3",
+                vec![InputPort::Status1, InputPort::LimitSwitches],
+                p13_limit,
+            ),
+        ] {
+            let (rate, median) = poll_rate(ports, span).await;
+            rows.push(Row {
+                what: format!("{what} poll rate"),
+                result: format!(
+                    "{rate:.1}/s = {:.1} % of {limit:.1}/s",
+                    100.0 * rate / limit
+                ),
+                target: ">= 97 %".into(),
+                ok: rate >= 0.97 * limit,
+            });
+            let median_rate = 1.0 / median.as_secs_f64().max(1e-9);
+            rows.push(Row {
+                what: format!("{what} median cycle"),
+                result: format!(
+                    "{:.3} ms = {:.1} % of the limit",
+                    median.as_secs_f64() * 1000.0,
+                    100.0 * median_rate / limit
+                ),
+                target: "-".into(),
+                ok: true,
+            });
+        }
+        let lat = stop_latency(stops).await;
+        let ms = |d: Duration| d.as_secs_f64() * 1000.0;
+        let (p50, p99) = (percentile(&lat, 0.5), percentile(&lat, 0.99));
+        rows.push(Row {
+            what: format!("stop -> first stop byte, p50 ({} stops)", lat.len()),
+            result: format!("{:.3} ms", ms(p50)),
+            target: "< 1 ms".into(),
+            ok: p50 < Duration::from_millis(1),
+        });
+        rows.push(Row {
+            what: "stop -> first stop byte, p99".into(),
+            result: format!(
+                "{:.3} ms (max {:.3} ms)",
+                ms(p99),
+                ms(lat.last().copied().unwrap_or_default())
+            ),
+            target: "< 2 ms".into(),
+            ok: p99 < Duration::from_millis(2),
+        });
+        let (user, system) = poll_cpu(span).await;
+        rows.push(Row {
+            what: format!("CPU, 10 Hz poll loop, {} s", span.as_secs()),
+            result: format!(
+                "{:.2} % of a core ({user:.2} user, {system:.2} sys)",
+                user + system
+            ),
+            target: "< 1 %".into(),
+            ok: user + system < 1.0,
+        });
+    });
+    println!(
+        "jogterm device benchmark: isel simulator, 19200 baud ({} build)",
+        if cfg!(debug_assertions) {
+            "debug"
+        } else {
+            "optimised"
+        }
+    );
+    println!("{:<42} {:<36} {:<9} ok", "measure", "result", "target");
+    for r in &rows {
+        println!(
+            "{:<42} {:<36} {:<9} {}",
+            r.what,
+            r.result,
+            r.target,
+            if r.ok { "yes" } else { "NO" }
+        );
+    }
+}

@@ -1,0 +1,260 @@
+//! `jogterm poll`: read the position (and the ports) as fast as the line
+//! allows or at an interval, one line per sample.
+
+use std::collections::BTreeMap;
+use std::process::ExitCode;
+use std::time::{Duration, Instant};
+
+use clap::Args;
+
+use super::GlobalArgs;
+use super::session::{self, EXIT_LINK, EXIT_USAGE, Linked, Session, StartError};
+use crate::axis::Axis;
+use crate::device::api::{Event, IoSnapshot, LinkState, PositionSample, PositionSource};
+use crate::device::isel::{PollPlan, PollRate};
+
+pub const LONG_ABOUT: &str = "\
+Read the controller's position (`@0P`) again and again and print one line per sample, in
+steps. With --ports the input ports 1 (E-stop circuits, keys), 3 (limit switches) and 2
+(power, hood) are read every cycle too and printed with each sample.
+
+The state is read back first (as on every connection); the first sample is that read-back.
+Without --count the command runs until interrupted (Ctrl-C), then stops and closes cleanly.";
+
+pub const AFTER_LONG_HELP: &str = "\
+Output: `t=0.012 X=16000 Y=16000 Z=16000` (t: seconds since the link came up), with --ports
+`… in1=03 in3=00 in2=62`; with --json one object per line:
+  {\"t\":0.012,\"source\":\"measured\",\"pos\":[16000,16000,16000],\"ports\":{\"1\":3,\"3\":0,\"2\":98}}
+pos is X, Y, Z (and A with four axes) in steps, as the controller reports them.
+
+Exit status: 0 done; 1 no position could be read; 2 bad usage; 3 link failure.
+
+Examples:
+  jogterm poll --port /dev/ttyUSB0 --protocol isel --count 5
+  jogterm poll --port /tmp/isel --interval-ms 0 --json --ports";
+
+/// Options of `jogterm poll`.
+#[derive(Debug, Args)]
+pub struct PollArgs {
+    /// Baud rate, instead of the profile's (isel: 19200)
+    #[arg(long, value_name = "N")]
+    pub baud: Option<u32>,
+    /// Stop after N samples
+    #[arg(long, value_name = "N")]
+    pub count: Option<u64>,
+    /// Time between samples; 0 = as fast as the line allows
+    #[arg(long, value_name = "M", default_value_t = 100)]
+    pub interval_ms: u64,
+    /// One JSON object per line
+    #[arg(long)]
+    pub json: bool,
+    /// Read and print the input ports 1, 3, 2 every cycle
+    #[arg(long)]
+    pub ports: bool,
+}
+
+/// One line of output.
+pub fn format_sample(
+    sample: &PositionSample,
+    t: f64,
+    ports: Option<&IoSnapshot>,
+    json: bool,
+) -> String {
+    let mut axes = vec![Axis::X, Axis::Y, Axis::Z];
+    if sample.steps.get(Axis::A).is_some() {
+        axes.push(Axis::A);
+    }
+    let pos: Vec<i64> = axes
+        .iter()
+        .map(|a| sample.steps.get(*a).unwrap_or(0))
+        .collect();
+    let port_values: Vec<(u8, u8)> = ports
+        .map(|io| {
+            io.groups
+                .iter()
+                .filter_map(|g| {
+                    let number = g
+                        .name
+                        .strip_prefix("in ")?
+                        .split(':')
+                        .next()?
+                        .parse()
+                        .ok()?;
+                    Some((number, g.raw?))
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    let source = match sample.source {
+        PositionSource::Measured => "measured",
+        PositionSource::Estimated => "estimated",
+    };
+    if json {
+        let mut obj = serde_json::Map::new();
+        obj.insert("t".into(), serde_json::json!((t * 1000.0).round() / 1000.0));
+        obj.insert("source".into(), source.into());
+        obj.insert("pos".into(), serde_json::json!(pos));
+        if ports.is_some() {
+            let map: BTreeMap<String, u8> = port_values
+                .iter()
+                .filter(|(n, _)| *n != 0)
+                .map(|(n, v)| (n.to_string(), *v))
+                .collect();
+            obj.insert("ports".into(), serde_json::json!(map));
+        }
+        serde_json::Value::Object(obj).to_string()
+    } else {
+        let mut line = format!("t={t:.3}");
+        for (a, v) in axes.iter().zip(&pos) {
+            line.push_str(&format!(" {a}={v}"));
+        }
+        if sample.source == PositionSource::Estimated {
+            line.push_str(" (estimated)");
+        }
+        for (n, v) in port_values.iter().filter(|(n, _)| *n != 0) {
+            line.push_str(&format!(" in{n}={v:02X}"));
+        }
+        line
+    }
+}
+
+pub fn run(global: &GlobalArgs, args: &PollArgs) -> anyhow::Result<ExitCode> {
+    let profile = match session::resolve(global, args.baud) {
+        Ok(p) => p,
+        Err(StartError::Usage(m)) => {
+            eprintln!("jogterm poll: {m}");
+            return Ok(ExitCode::from(EXIT_USAGE));
+        }
+        Err(StartError::Failed(e)) => return Err(e),
+    };
+    let rate = match args.interval_ms {
+        0 => PollRate::LineSpeed,
+        ms => PollRate::Hz(1000.0 / ms as f64),
+    };
+    let ports = args.ports;
+    let runtime = session::runtime()?;
+    runtime.block_on(async {
+        let session = match session::start(global, profile, |s| {
+            s.poll = PollPlan {
+                rate,
+                ports_every: 1,
+                ports: if ports {
+                    PollPlan::DEFAULT_PORTS.to_vec()
+                } else {
+                    Vec::new()
+                },
+            };
+        }) {
+            Ok(s) => s,
+            Err(StartError::Usage(m)) => {
+                eprintln!("jogterm poll: {m}");
+                return Ok(ExitCode::from(EXIT_USAGE));
+            }
+            Err(StartError::Failed(e)) => return Err(e),
+        };
+        Ok(poll(session, args).await)
+    })
+}
+
+async fn poll(mut session: Session, args: &PollArgs) -> ExitCode {
+    if let Linked::Failed(reason) = session.linked(Duration::from_secs(10)).await {
+        eprintln!("jogterm poll: link failure: {reason}");
+        session.close().await;
+        return ExitCode::from(EXIT_LINK);
+    }
+    let start = Instant::now();
+    // With a real controller that has no axes `@0P` answers `4`: give up
+    // when no position has come for a while.
+    let patience =
+        Duration::from_millis(args.interval_ms.saturating_mul(5)).max(Duration::from_secs(3));
+    let mut samples = 0u64;
+    let mut ports: Option<IoSnapshot> = None;
+    let mut code = 0u8;
+    let interrupted = session::interrupted();
+    tokio::pin!(interrupted);
+    loop {
+        if args.count.is_some_and(|n| samples >= n) {
+            break;
+        }
+        let event = tokio::select! {
+            _ = &mut interrupted => break,
+            e = tokio::time::timeout(patience, session.events.recv()) => e,
+        };
+        match event {
+            Err(_) => {
+                eprintln!(
+                    "jogterm poll: no position for {} s: is the controller initialised (jogterm send '@07')?",
+                    patience.as_secs()
+                );
+                code = 1;
+                break;
+            }
+            Ok(None) => {
+                code = EXIT_LINK;
+                break;
+            }
+            Ok(Some(Event::Link(LinkState::Lost { reason }))) => {
+                eprintln!("jogterm poll: link failure: {reason}");
+                code = EXIT_LINK;
+                break;
+            }
+            Ok(Some(Event::Io(io))) => ports = Some(io),
+            // With --ports every line has them: the read-back's position,
+            // which comes before the ports are read, is left out.
+            Ok(Some(Event::Position(_))) if args.ports && ports.is_none() => {}
+            Ok(Some(Event::Position(p))) => {
+                let t = p.at.saturating_duration_since(start).as_secs_f64();
+                let io = if args.ports { ports.as_ref() } else { None };
+                println!("{}", format_sample(&p, t, io, args.json));
+                samples += 1;
+            }
+            Ok(Some(_)) => {}
+        }
+    }
+    session.close().await;
+    ExitCode::from(code)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::device::api::PerAxis;
+    use crate::device::isel::input_group;
+    use crate::proto::isel::InputPort;
+
+    fn sample() -> PositionSample {
+        PositionSample {
+            at: Instant::now(),
+            steps: PerAxis::new()
+                .with(Axis::X, 256)
+                .with(Axis::Y, 131_087)
+                .with(Axis::Z, -2),
+            source: PositionSource::Measured,
+        }
+    }
+
+    #[test]
+    fn samples_as_text_and_json() {
+        let io = IoSnapshot {
+            at: Instant::now(),
+            groups: vec![
+                input_group(InputPort::Status1, 0x03),
+                input_group(InputPort::LimitSwitches, 0x10),
+            ],
+        };
+        assert_eq!(
+            format_sample(&sample(), 0.25, None, false),
+            "t=0.250 X=256 Y=131087 Z=-2"
+        );
+        assert_eq!(
+            format_sample(&sample(), 0.25, Some(&io), false),
+            "t=0.250 X=256 Y=131087 Z=-2 in1=03 in3=10"
+        );
+        let json: serde_json::Value =
+            serde_json::from_str(&format_sample(&sample(), 1.5, Some(&io), true)).expect("json");
+        assert_eq!(json["pos"], serde_json::json!([256, 131087, -2]));
+        assert_eq!(json["t"], serde_json::json!(1.5));
+        assert_eq!(json["source"], "measured");
+        assert_eq!(json["ports"], serde_json::json!({"1": 3, "3": 16}));
+    }
+}

@@ -1,0 +1,432 @@
+//! `jogterm send`: send isel commands one by one through the device task and
+//! print each reply decoded.
+
+use std::process::ExitCode;
+use std::time::Duration;
+
+use clap::Args;
+
+use super::GlobalArgs;
+use super::session::{self, EXIT_LINK, EXIT_USAGE, Linked, Session, StartError};
+use crate::device::api::{Activity, Event, LinkState, Recovery, Refusal, Request};
+use crate::device::describe::describe;
+use crate::device::isel::PollRate;
+use crate::proto::isel::{
+    AxisConfig, Command, ControlByte, ReplyCode, check, check_cnc, parse_cnc, parse_frame,
+};
+use crate::traffic::readable;
+
+pub const LONG_ABOUT: &str = "\
+Send isel @-format commands to a controller one by one and print each reply decoded:
+positions in steps, port bits by name, an error code with its meaning and what to do.
+
+Every command is checked before anything is sent (the whole list): a line the controller
+would refuse is bad usage. Lines after `@0i` are stored program lines (CNC commands such as
+`0100,900` or `9`) until `9`. Before the commands jogterm reads the controller's state back;
+it opens and closes every connection with the stop sequence 0xFD 0xFF.
+
+Control bytes act at once, also during a move, and have no reply. Write them as
+`\\xFD`, `0xFD` or by name: `softstop` (0xFD: ramp down, the rest can be resumed with @0S),
+`break` (0xFF: ramp down and forget the rest), `reset` (0xFE: the controller forgets its axes
+and reference). A control byte right after a move goes out while the move runs.";
+
+pub const AFTER_LONG_HELP: &str = "\
+Exit status: 0 every command answered `0`; 1 the controller answered an error (the rest is
+not sent) or refused for its state (E-stop, fault); 2 bad usage (a command that would be
+refused, an unknown option); 3 link failure (the port cannot be opened or vanished, a reply
+did not come).
+
+Examples:
+  jogterm send --port /dev/ttyUSB0 --protocol isel '@07' '@0R7' '@0P'
+  jogterm send --port /tmp/isel '@0A 4000,2000,0,900,0,900,0,900' softstop
+  jogterm --sim isel send '@07' '@0N7' '@0i' '0400,900,0,900,0,900,0,900' '9' '@0S'
+  jogterm send --port /tmp/isel --log traffic.log '@0b1' '@0b3'";
+
+/// Options of `jogterm send`.
+#[derive(Debug, Args)]
+pub struct SendArgs {
+    /// Baud rate, instead of the profile's (isel: 19200)
+    #[arg(long, value_name = "N")]
+    pub baud: Option<u32>,
+    /// The commands, in order: `@0P`, program lines after `@0i`, control bytes
+    #[arg(required = true, value_name = "CMD")]
+    pub commands: Vec<String>,
+}
+
+/// One thing to send.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Item {
+    Line {
+        text: String,
+        /// How the driver names it in its events (`@0A5000,900`).
+        canonical: String,
+        may_move: bool,
+    },
+    Control(ControlByte),
+}
+
+/// `\xFD`, `0xFD`, `softstop`, `break`, `reset` (case-insensitive).
+pub fn control_byte(arg: &str) -> Option<ControlByte> {
+    let lower = arg.trim().to_ascii_lowercase();
+    let hex = lower
+        .strip_prefix("\\x")
+        .or_else(|| lower.strip_prefix("0x"))
+        .and_then(|h| u8::from_str_radix(h, 16).ok());
+    match (lower.as_str(), hex) {
+        (_, Some(b)) => ControlByte::from_byte(b),
+        ("softstop" | "soft-stop", _) => Some(ControlByte::SoftStop),
+        ("break", _) => Some(ControlByte::Break),
+        ("reset", _) => Some(ControlByte::Reset),
+        _ => None,
+    }
+}
+
+/// Check every command before anything is sent. The axis configuration is
+/// followed through the list (`@07` makes the pair counts of later moves
+/// known); before the first axis setting only what does not depend on the
+/// axes is checked, the rest is checked by the driver against the
+/// controller's own configuration.
+pub fn plan(args: &[String]) -> Result<Vec<Item>, String> {
+    let mut config: Option<Option<AxisConfig>> = None;
+    let mut storing = false;
+    let mut items = Vec::with_capacity(args.len());
+    for (i, arg) in args.iter().enumerate() {
+        let n = i + 1;
+        if let Some(c) = control_byte(arg) {
+            // 0xFE leaves the controller without axes (manual 2.2.31).
+            if c == ControlByte::Reset {
+                config = Some(None);
+                storing = false;
+            }
+            items.push(Item::Control(c));
+            continue;
+        }
+        if storing {
+            let parsed = parse_cnc(arg).map_err(|e| {
+                format!(
+                    "command {n} `{arg}` (a program line after @0i): {}",
+                    e.message
+                )
+            })?;
+            if let Some(Some(c)) = config
+                && let Err(e) = check_cnc(&parsed.value, c)
+            {
+                return Err(format!("command {n} `{arg}`: {}", e.message));
+            }
+            if parsed.value == crate::proto::isel::CncCommand::End {
+                storing = false;
+            }
+            items.push(Item::Line {
+                text: arg.clone(),
+                canonical: parsed.value.to_string(),
+                may_move: false,
+            });
+            continue;
+        }
+        let frame = parse_frame(arg)
+            .map_err(|e| format!("command {n} `{arg}`: {}", e.message))?
+            .value;
+        if let Some(known) = config {
+            let checked = match known {
+                Some(c) => check(&frame.command, c),
+                None => crate::proto::isel::check_with(&frame.command, None),
+            };
+            if let Err(e) = checked {
+                return Err(format!("command {n} `{arg}`: {}", e.message));
+            }
+        }
+        match &frame.command {
+            Command::SetAxes(s) => {
+                config = Some(AxisConfig::after_setting(config.flatten(), *s).ok());
+            }
+            Command::StoreProgram => storing = true,
+            _ => {}
+        }
+        items.push(Item::Line {
+            text: arg.clone(),
+            canonical: frame.to_string(),
+            may_move: frame.command.may_move(),
+        });
+    }
+    Ok(items)
+}
+
+/// How one command ended.
+enum Outcome {
+    Answered(String),
+    ControllerError {
+        code: String,
+        meaning: String,
+        recovery: Recovery,
+    },
+    Refused(Refusal),
+    LinkFailed(String),
+}
+
+pub fn run(global: &GlobalArgs, args: &SendArgs) -> anyhow::Result<ExitCode> {
+    let items = match plan(&args.commands) {
+        Ok(items) => items,
+        Err(message) => {
+            eprintln!("jogterm send: {message}");
+            return Ok(ExitCode::from(EXIT_USAGE));
+        }
+    };
+    let profile = match session::resolve(global, args.baud) {
+        Ok(p) => p,
+        Err(StartError::Usage(m)) => {
+            eprintln!("jogterm send: {m}");
+            return Ok(ExitCode::from(EXIT_USAGE));
+        }
+        Err(StartError::Failed(e)) => return Err(e),
+    };
+    let runtime = session::runtime()?;
+    runtime.block_on(async {
+        let session = match session::start(global, profile, |s| s.poll.rate = PollRate::Off) {
+            Ok(s) => s,
+            Err(StartError::Usage(m)) => {
+                eprintln!("jogterm send: {m}");
+                return Ok(ExitCode::from(EXIT_USAGE));
+            }
+            Err(StartError::Failed(e)) => return Err(e),
+        };
+        Ok(send_all(session, &items).await)
+    })
+}
+
+async fn send_all(mut session: Session, items: &[Item]) -> ExitCode {
+    let stopper = session.handle.clone();
+    tokio::select! {
+        code = send_items(&mut session, items) => {
+            session.close().await;
+            code
+        }
+        () = session::interrupted() => {
+            // Stop first, then the orderly close.
+            let _ = stopper.stop().written().await;
+            eprintln!("jogterm send: interrupted: the machine was stopped");
+            session.close().await;
+            ExitCode::from(1)
+        }
+    }
+}
+
+async fn send_items(session: &mut Session, items: &[Item]) -> ExitCode {
+    if let Linked::Failed(reason) = session.linked(Duration::from_secs(10)).await {
+        eprintln!("jogterm send: link failure: {reason}");
+        return ExitCode::from(EXIT_LINK);
+    }
+    let mut i = 0;
+    let mut code = 0u8;
+    while let Some(item) = items.get(i) {
+        i += 1;
+        let outcome = match item {
+            Item::Control(c) => send_control(session, *c).await,
+            Item::Line {
+                text,
+                canonical,
+                may_move,
+            } => {
+                println!(">> {}", readable(text.as_bytes()));
+                if let Err(e) = session.handle.request(Request::Raw { line: text.clone() }) {
+                    Outcome::LinkFailed(e.to_string())
+                } else {
+                    // Control bytes right after a move go out while it runs.
+                    let mut controls = Vec::new();
+                    while let Some(Item::Control(c)) = items.get(i) {
+                        controls.push(*c);
+                        i += 1;
+                    }
+                    await_line(session, text, canonical, *may_move, &controls).await
+                }
+            }
+        };
+        code = match outcome {
+            Outcome::Answered(text) => {
+                for line in text.lines() {
+                    println!("<< {line}");
+                }
+                continue;
+            }
+            Outcome::ControllerError {
+                code,
+                meaning,
+                recovery,
+            } => {
+                let advice = code
+                    .bytes()
+                    .next()
+                    .and_then(ReplyCode::from_byte)
+                    .map_or(recovery.instruction(), |c| c.recovery().advice());
+                println!("<< {code}");
+                eprintln!("jogterm send: the controller answered `{code}`: {meaning} {advice}");
+                1
+            }
+            Outcome::Refused(reason) => {
+                eprintln!("jogterm send: refused: {reason}");
+                match reason {
+                    Refusal::Invalid { .. } => EXIT_USAGE,
+                    Refusal::NotConnected => EXIT_LINK,
+                    _ => 1,
+                }
+            }
+            Outcome::LinkFailed(reason) => {
+                eprintln!("jogterm send: link failure: {reason}");
+                EXIT_LINK
+            }
+        };
+        break;
+    }
+    ExitCode::from(code)
+}
+
+async fn send_control(session: &mut Session, control: ControlByte) -> Outcome {
+    let text = char::from(control.byte()).to_string();
+    println!(">> {}", readable(&[control.byte()]));
+    if let Err(e) = session.handle.request(Request::Raw { line: text.clone() }) {
+        return Outcome::LinkFailed(e.to_string());
+    }
+    wait_outcome(session, &text, &readable(&[control.byte()])).await
+}
+
+/// Wait for the answer to `text` (a raw line), sending `controls` as soon as
+/// the command is running (or has answered).
+async fn await_line(
+    session: &mut Session,
+    text: &str,
+    canonical: &str,
+    may_move: bool,
+    controls: &[ControlByte],
+) -> Outcome {
+    if !controls.is_empty() {
+        if may_move {
+            // Wait until the move runs, so the bytes act on it.
+            loop {
+                match session.events.recv().await {
+                    Some(Event::State(s)) if s.activity != Activity::Idle => break,
+                    Some(e) => {
+                        if let Some(outcome) = outcome_of(&e, text, canonical) {
+                            send_controls(session, controls).await;
+                            return outcome;
+                        }
+                    }
+                    None => return Outcome::LinkFailed("the device task ended".into()),
+                }
+            }
+        }
+        send_controls(session, controls).await;
+    }
+    wait_outcome(session, text, canonical).await
+}
+
+async fn send_controls(session: &Session, controls: &[ControlByte]) {
+    for c in controls {
+        println!(">> {}", readable(&[c.byte()]));
+        let _ = session.handle.request(Request::Raw {
+            line: char::from(c.byte()).to_string(),
+        });
+    }
+}
+
+async fn wait_outcome(session: &mut Session, text: &str, canonical: &str) -> Outcome {
+    loop {
+        match session.events.recv().await {
+            Some(e) => {
+                if let Some(outcome) = outcome_of(&e, text, canonical) {
+                    return outcome;
+                }
+            }
+            None => return Outcome::LinkFailed("the device task ended".into()),
+        }
+    }
+}
+
+/// Whether `event` ends the wait for the raw line `text` (`canonical` as the
+/// driver names it).
+fn outcome_of(event: &Event, text: &str, canonical: &str) -> Option<Outcome> {
+    match event {
+        Event::Reply { command, text: t } if command == canonical => {
+            Some(Outcome::Answered(t.clone()))
+        }
+        Event::Fault(f) if f.command == canonical => Some(
+            if f.code == "timeout" || f.recovery == Recovery::CheckLink {
+                Outcome::LinkFailed(format!("{}: {}", f.code, f.meaning))
+            } else {
+                Outcome::ControllerError {
+                    code: f.code.clone(),
+                    meaning: f.meaning.clone(),
+                    recovery: f.recovery,
+                }
+            },
+        ),
+        Event::Refused { request, reason }
+            if *request
+                == describe(&Request::Raw {
+                    line: text.to_owned(),
+                }) =>
+        {
+            Some(Outcome::Refused(reason.clone()))
+        }
+        Event::Link(LinkState::Lost { reason }) => Some(Outcome::LinkFailed(reason.clone())),
+        _ => None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn args(a: &[&str]) -> Vec<String> {
+        a.iter().map(|s| s.to_string()).collect()
+    }
+
+    #[test]
+    fn control_bytes_have_three_spellings() {
+        for s in ["\\xFD", "0xfd", "SoftStop", "softstop"] {
+            assert_eq!(control_byte(s), Some(ControlByte::SoftStop), "{s}");
+        }
+        assert_eq!(control_byte("break"), Some(ControlByte::Break));
+        assert_eq!(control_byte("0xFE"), Some(ControlByte::Reset));
+        assert_eq!(control_byte("0x41"), None);
+        assert_eq!(control_byte("@0P"), None);
+    }
+
+    #[test]
+    fn the_axis_setting_is_followed_through_the_list() {
+        let items = plan(&args(&["@07", "@0A 5000,900,0,900,0,900,0,900", "@0P"])).expect("ok");
+        assert_eq!(
+            items[1],
+            Item::Line {
+                text: "@0A 5000,900,0,900,0,900,0,900".into(),
+                canonical: "@0A5000,900,0,900,0,900,0,900".into(),
+                may_move: true
+            }
+        );
+        let err = plan(&args(&["@01", "@0A5000,900,0,900"])).expect_err("refused");
+        assert_eq!(
+            err,
+            "command 2 `@0A5000,900,0,900`: `A` with X takes 1 steps,speed pair (x), got 2"
+        );
+        // Before an axis setting, the controller's own setting decides.
+        assert!(plan(&args(&["@0A5000,900"])).is_ok());
+        let err = plan(&args(&["@0P", "@0Q"])).expect_err("refused");
+        assert!(err.starts_with("command 2 `@0Q`:"), "{err}");
+    }
+
+    #[test]
+    fn lines_after_store_are_program_lines_until_9() {
+        let items = plan(&args(&[
+            "@07",
+            "@0i",
+            "0100,900,0,900,0,900,0,900",
+            "9",
+            "@0S",
+        ]))
+        .expect("ok");
+        assert!(
+            matches!(&items[2], Item::Line { canonical, .. } if canonical == "0100,900,0,900,0,900,0,900")
+        );
+        assert!(matches!(&items[4], Item::Line { may_move: true, .. }));
+        let err = plan(&args(&["@07", "@0i", "@0P"])).expect_err("refused");
+        assert!(err.contains("a program line after @0i"), "{err}");
+    }
+}

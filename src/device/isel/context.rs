@@ -1,0 +1,511 @@
+//! The isel driver's knowledge of the controller and the machine, shared by
+//! all operations: what the controller was told (axes, ramp, zero), what it
+//! answered (positions, ports, faults), and the events for the clients.
+
+use std::collections::VecDeque;
+use std::time::{Duration, Instant};
+
+use crate::axis::{Axis, AxisSet};
+use crate::device::api::{
+    ControllerFault, Event, MachineState, PerAxis, PositionSample, PositionSource, Recovery,
+    Refusal,
+};
+use crate::device::driver::Outgoing;
+use crate::proto::isel::{
+    AxisConfig, CncCommand, Command, ControlByte, DeviceNumber, Expect, Frame, InputPort,
+    Positions, Recovery as IselRecovery, ReplyCode,
+};
+use crate::traffic::readable;
+
+use super::deadline;
+use super::estimate::RampParams;
+use super::io::PortImage;
+use super::settings::IselSettings;
+
+/// A command ready for the wire, with what its reply looks like and how long
+/// it may take.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Cmd {
+    pub bytes: Vec<u8>,
+    /// The command as text, without the CR (`@0P`), for events and logs.
+    pub text: String,
+    pub expect: Expect,
+    /// `None`: no deadline (a program run).
+    pub timeout: Option<Duration>,
+    /// Whether the controller may move while it is outstanding.
+    pub may_move: bool,
+}
+
+/// The stop sequence: soft stop, then break, so that a later start (`@0S`
+/// or the start key) cannot resume what was stopped
+/// (`../shared/protocols.md` isel 6, manual 2.2.31).
+pub const STOP_BYTES: [u8; 2] = [0xFD, 0xFF];
+
+pub fn stop_outgoing() -> Outgoing {
+    Outgoing {
+        bytes: STOP_BYTES.to_vec(),
+        interruptible: true,
+    }
+}
+
+pub fn control_outgoing(control: ControlByte) -> Outgoing {
+    Outgoing {
+        bytes: control.encode().to_vec(),
+        interruptible: true,
+    }
+}
+
+/// The client-facing recovery for an isel reply code (manual chapter 5).
+pub fn recovery_of(code: ReplyCode) -> Recovery {
+    match code.recovery() {
+        IselRecovery::None | IselRecovery::FixCommand => Recovery::None,
+        IselRecovery::InitialiseAxes | IselRecovery::ReinitialiseAndReference => {
+            Recovery::ReinitialiseAndReference
+        }
+        IselRecovery::Reference => Recovery::Reference,
+        IselRecovery::ClearFaultReinitialiseAndReference => Recovery::ClearEmergencyStop,
+        IselRecovery::CloseHood => Recovery::CloseHood,
+        IselRecovery::EraseProgram | IselRecovery::ShortenProgram | IselRecovery::FixProgram => {
+            Recovery::EraseProgram
+        }
+        IselRecovery::ResumeOrBreak => Recovery::ResumeOrDiscard,
+        IselRecovery::CheckLink => Recovery::CheckLink,
+    }
+}
+
+#[derive(Debug)]
+pub struct Context {
+    pub settings: IselSettings,
+    /// The device number in use (`@0G` may change it, manual 2.2.11).
+    pub device: DeviceNumber,
+    pub state: MachineState,
+    /// The controller's axis configuration as far as it is known; `None`
+    /// while it is not initialised or unknown.
+    pub config: Option<AxisConfig>,
+    /// Last measured machine position, steps.
+    pub position: Option<PerAxis<i64>>,
+    /// Axes whose virtual zero (`@0n`, manual 2.2.19) jogterm knows.
+    pub zero_known: AxisSet,
+    pub ramp: RampParams,
+    /// The reference speed the controller runs with (`@0d`, manual 2.2.5).
+    pub reference_hz: u32,
+    /// 3D interpolation switched on (`@0z1`, manual 2.2.29).
+    pub three_d: bool,
+    pub ports: PortImage,
+    pub events: VecDeque<Event>,
+    /// Control bytes to write at once, even while a command is outstanding
+    /// (manual 2.2.31).
+    pub control: VecDeque<Outgoing>,
+    /// Quiet time an operation wants on the line after its last reply.
+    pub quiet_request: Option<Duration>,
+    /// The machine state is in doubt (a motion reply was garbled): read it
+    /// back before anything else.
+    pub readback_wanted: bool,
+    /// The controller is storing a program after a raw `@0i` (manual 3.1):
+    /// it takes only CNC lines until `9` or an error.
+    pub cnc_store: bool,
+}
+
+impl Context {
+    pub fn new(settings: IselSettings) -> Context {
+        Context {
+            device: settings.device,
+            reference_hz: settings.reference_speed_hz,
+            settings,
+            state: MachineState::default(),
+            config: None,
+            position: None,
+            zero_known: AxisSet::EMPTY,
+            ramp: RampParams::CONTROLLER_DEFAULT,
+            three_d: false,
+            ports: PortImage::default(),
+            events: VecDeque::new(),
+            control: VecDeque::new(),
+            quiet_request: None,
+            readback_wanted: false,
+            cnc_store: false,
+        }
+    }
+
+    pub fn emit(&mut self, event: Event) {
+        self.events.push_back(event);
+    }
+
+    pub fn notice(&mut self, text: impl Into<String>) {
+        self.emit(Event::Notice(text.into()));
+    }
+
+    /// Queue the stop sequence ahead of everything.
+    pub fn send_stop(&mut self) {
+        self.control.push_back(stop_outgoing());
+    }
+
+    /// A DNC command addressed to our device, with its reply shape and deadline.
+    pub fn cmd(&self, command: Command) -> Cmd {
+        let frame = Frame::new(self.device, command);
+        let bytes = frame.encode();
+        let expect = Expect::for_command(&frame.command, self.config);
+        let timeout = deadline::for_command(
+            &frame.command,
+            expect,
+            bytes.len(),
+            &self.settings,
+            self.reference_hz,
+        );
+        Cmd {
+            text: frame.to_string(),
+            may_move: frame.command.may_move(),
+            bytes,
+            expect,
+            timeout,
+        }
+    }
+
+    /// A line of a program being stored (manual 3.1): answered `0` or a code.
+    pub fn cnc(&self, command: &CncCommand) -> Cmd {
+        let bytes = command.encode();
+        let timeout = deadline::stored_line(command, &self.settings, bytes.len());
+        Cmd {
+            text: command.to_string(),
+            bytes,
+            expect: Expect::Handshake,
+            timeout: Some(timeout),
+            may_move: false,
+        }
+    }
+
+    /// A line sent as it is (the upload abort line), answered with a code.
+    pub fn literal(&self, text: String) -> Cmd {
+        let mut bytes = text.clone().into_bytes();
+        bytes.push(b'\r');
+        let timeout = deadline::exchange(
+            self.settings.line,
+            self.settings.timing.reply_margin,
+            bytes.len(),
+            1,
+        ) + Duration::from_millis(400);
+        Cmd {
+            text,
+            bytes,
+            expect: Expect::Handshake,
+            timeout: Some(timeout),
+            may_move: false,
+        }
+    }
+
+    /// Whether the controller is initialised the way the profile says.
+    pub fn profile_ready(&self) -> bool {
+        self.config == Some(self.settings.config)
+    }
+
+    pub fn set_config(&mut self, config: Option<AxisConfig>) {
+        self.config = config;
+        self.state.initialised = config.map_or(AxisSet::EMPTY, |c| c.axes());
+        self.state.referenced =
+            AxisSet::from_mask(self.state.referenced.mask() & self.state.initialised.mask());
+    }
+
+    /// A position read from the controller.
+    pub fn measured(&mut self, p: &Positions, now: Instant) {
+        let mut steps = PerAxis::new()
+            .with(Axis::X, i64::from(p.x))
+            .with(Axis::Y, i64::from(p.y))
+            .with(Axis::Z, i64::from(p.z));
+        if let Some(a) = p.a {
+            steps.set(Axis::A, i64::from(a));
+        }
+        self.position = Some(steps);
+        self.emit(Event::Position(PositionSample {
+            at: now,
+            steps,
+            source: PositionSource::Measured,
+        }));
+    }
+
+    pub fn estimated(&mut self, steps: PerAxis<i64>, now: Instant) {
+        self.emit(Event::Position(PositionSample {
+            at: now,
+            steps,
+            source: PositionSource::Estimated,
+        }));
+    }
+
+    /// An input port was read: keep it and update the safety flags.
+    pub fn port_read(&mut self, port: InputPort, value: u8) {
+        self.ports.set_input(port, value);
+        match port {
+            InputPort::Status1 => {
+                self.state.estop = value & 0b11 != 0b11;
+                if self.state.estop {
+                    self.machine_fault(port, value, "An emergency stop circuit is open.");
+                } else if value & 0b100 != 0 {
+                    self.machine_fault(port, value, "The power stages are over temperature.");
+                }
+            }
+            InputPort::Status2 => {
+                if value & 0b10 == 0 {
+                    self.machine_fault(port, value, "The power supply is not ok.");
+                }
+                self.hood(value);
+            }
+            InputPort::LimitSwitches => self.state.limit = value != 0,
+            _ => {}
+        }
+    }
+
+    /// Port 2 bit 6 reads 1 with the hood closed or in setup mode; otherwise
+    /// the controller refuses motion with `H` (manual 2.2.3, chapter 5). An
+    /// open hood blocks motion as a fault with `CloseHood` for as long as it
+    /// is open; it does not hide a fault that needs more.
+    fn hood(&mut self, value: u8) {
+        let open = value & 0b0100_0000 == 0;
+        let is_hood = |f: &ControllerFault| f.recovery == Recovery::CloseHood;
+        match self.state.fault.as_ref() {
+            None if open => {
+                let fault = ControllerFault {
+                    command: format!("@{}b2", self.device),
+                    code: format!("port 2 = {value:02X}"),
+                    meaning: "The hood is open (and the key switch is not on setup).".to_owned(),
+                    recovery: Recovery::CloseHood,
+                };
+                self.state.fault = Some(fault.clone());
+                self.emit(Event::Fault(fault));
+            }
+            Some(f) if is_hood(f) && !open => self.state.fault = None,
+            _ => {}
+        }
+    }
+
+    /// A machine fault seen in the ports (manual 2.2.3): whether or not a
+    /// command was answered `9`, the power stages were off and the axes may
+    /// have moved, so the controller must be initialised and referenced
+    /// again (manual chapter 5, code 9), and it has forgotten its axes.
+    fn machine_fault(&mut self, port: InputPort, value: u8, meaning: &str) {
+        self.set_config(None);
+        self.state.referenced = AxisSet::EMPTY;
+        match self.state.fault.as_mut() {
+            Some(f) => f.recovery = Recovery::ClearEmergencyStop,
+            None => {
+                let fault = ControllerFault {
+                    command: format!("@{}b{}", self.device, port.number()),
+                    code: format!("port {} = {value:02X}", port.number()),
+                    meaning: meaning.to_owned(),
+                    recovery: Recovery::ClearEmergencyStop,
+                };
+                self.state.fault = Some(fault.clone());
+                self.emit(Event::Fault(fault));
+            }
+        }
+    }
+
+    /// The reply to a `@0P` the driver sent to learn the position: `4`
+    /// only says that no axes are initialised (some controllers report
+    /// positions anyway); any other code is a fault.
+    pub fn position_reply(&mut self, reply: crate::proto::isel::Reply, now: Instant) -> bool {
+        use crate::proto::isel::Reply;
+        match reply {
+            Reply::Positions(p) => {
+                self.measured(&p, now);
+                true
+            }
+            Reply::Code(ReplyCode::NoAxes) => {
+                self.set_config(None);
+                false
+            }
+            Reply::Code(code) => {
+                let text = format!("@{}P", self.device);
+                self.controller_error(&text, code);
+                false
+            }
+            other => {
+                let text = format!("@{}P", self.device);
+                self.link_suspect(&text, &format!("{other:?}"));
+                false
+            }
+        }
+    }
+
+    pub fn emit_io(&mut self, now: Instant) {
+        let snapshot = self.ports.snapshot(now);
+        self.emit(Event::Io(snapshot));
+    }
+
+    /// The controller answered `code` to `command`: apply what the code means
+    /// for the machine (manual chapter 5, `../shared/protocols.md` isel 4)
+    /// and tell the clients.
+    pub fn controller_error(&mut self, command: &str, code: ReplyCode) -> ControllerFault {
+        let fault = ControllerFault {
+            command: command.to_owned(),
+            code: code.char().to_string(),
+            meaning: code.meaning().to_owned(),
+            recovery: recovery_of(code),
+        };
+        match code {
+            // After `2` or `9` the controller must be initialised and
+            // referenced again (manual chapter 5): it has forgotten its axes.
+            ReplyCode::LimitSwitch => {
+                self.state.limit = true;
+                self.set_config(None);
+                self.state.referenced = AxisSet::EMPTY;
+                self.state.fault = Some(fault.clone());
+            }
+            ReplyCode::MachineFault => {
+                self.state.estop = true;
+                self.set_config(None);
+                self.state.referenced = AxisSet::EMPTY;
+                self.state.fault = Some(fault.clone());
+            }
+            ReplyCode::ReferenceRequired => self.state.referenced = AxisSet::EMPTY,
+            ReplyCode::NoAxes => self.set_config(None),
+            _ => {}
+        }
+        self.emit(Event::Fault(fault.clone()));
+        fault
+    }
+
+    /// A reply that is no reply code of the iMC (`A B C E =`), or garbage.
+    pub fn link_suspect(&mut self, command: &str, what: &str) -> ControllerFault {
+        let fault = ControllerFault {
+            command: command.to_owned(),
+            code: what.to_owned(),
+            meaning: "The reply could not be read: the outcome of the command is unknown."
+                .to_owned(),
+            recovery: Recovery::CheckLink,
+        };
+        self.emit(Event::Fault(fault.clone()));
+        fault
+    }
+
+    /// The axes were initialised as the profile says: a fault that needed
+    /// re-initialising now only needs a reference run (manual chapter 5,
+    /// codes 2 and 9).
+    pub fn initialised_after_fault(&mut self) {
+        let estop_clear = !self.state.estop;
+        if let Some(f) = self.state.fault.as_mut() {
+            let next = match f.recovery {
+                Recovery::ReinitialiseAndReference => Some(Recovery::Reference),
+                Recovery::ClearEmergencyStop if estop_clear => Some(Recovery::Reference),
+                _ => None,
+            };
+            if let Some(r) = next {
+                f.recovery = r;
+            }
+        }
+    }
+
+    /// Axes were referenced (a run, a simulated one, or the probe said so).
+    pub fn referenced(&mut self, axes: AxisSet) {
+        self.state.referenced = AxisSet::from_mask(
+            (self.state.referenced.mask() | axes.mask()) & self.state.initialised.mask(),
+        );
+        if self
+            .state
+            .fault
+            .as_ref()
+            .is_some_and(|f| f.recovery == Recovery::Reference)
+            && self.profile_ready()
+            && self
+                .settings
+                .axis_set()
+                .iter()
+                .all(|a| self.state.referenced.contains(a))
+        {
+            self.state.fault = None;
+        }
+    }
+
+    /// The virtual zero of `axes` is back at the reference point: jogterm's
+    /// reading of manual 2.2.19-2.2.22 (`docs/protocols.md`, isel).
+    pub fn zero_reset(&mut self, axes: AxisSet) {
+        for axis in axes.iter() {
+            self.state.work_zero.set(axis, 0);
+        }
+        self.zero_known = AxisSet::from_mask(self.zero_known.mask() | axes.mask());
+    }
+
+    /// Whether a move may start; the first reason it may not. With
+    /// `unreferenced_ok` (a jog with `jog.allow_unreferenced`, a reference
+    /// run) the reference is not asked for.
+    pub fn motion_allowed(&self, unreferenced_ok: bool) -> Result<(), Refusal> {
+        if !self.state.link_up {
+            return Err(Refusal::NotConnected);
+        }
+        if self.state.estop {
+            return Err(Refusal::EmergencyStop);
+        }
+        if let Some(f) = &self.state.fault {
+            match f.recovery {
+                Recovery::Reference => {}
+                Recovery::ClearEmergencyStop => return Err(Refusal::EmergencyStop),
+                Recovery::ReinitialiseAndReference if f.code == "2" => {
+                    return Err(Refusal::LimitSwitch);
+                }
+                recovery => return Err(Refusal::Fault { recovery }),
+            }
+        }
+        if !self.profile_ready() {
+            return Err(Refusal::NotInitialised);
+        }
+        // The controller moves nothing until every initialised axis is
+        // referenced (`../shared/protocols.md` isel 4).
+        let missing: AxisSet = self
+            .settings
+            .axis_set()
+            .iter()
+            .filter(|a| !self.state.referenced.contains(*a))
+            .collect();
+        let waived = self.state.test_mode || unreferenced_ok;
+        if !missing.is_empty() && !waived {
+            return Err(Refusal::NotReferenced { axes: missing });
+        }
+        Ok(())
+    }
+
+    /// Whether a raw motion command may be sent: not in E-stop, not after a
+    /// `2`/`9` before the axes were initialised again. The reference is the
+    /// controller's business (it answers `R`).
+    pub fn raw_motion_allowed(&self) -> Result<(), Refusal> {
+        if self.state.estop {
+            return Err(Refusal::EmergencyStop);
+        }
+        match self
+            .state
+            .fault
+            .as_ref()
+            .map(|f| (f.recovery, f.code.as_str()))
+        {
+            None | Some((Recovery::Reference, _)) => Ok(()),
+            Some((Recovery::ClearEmergencyStop, _)) => Err(Refusal::EmergencyStop),
+            Some((Recovery::ReinitialiseAndReference, "2")) => Err(Refusal::LimitSwitch),
+            Some((recovery, _)) => Err(Refusal::Fault { recovery }),
+        }
+    }
+
+    /// What 0xFE leaves behind: no axes, no reference, power-up ramp, zero
+    /// at the reference point, no test mode, not storing (manual 2.2.31,
+    /// `../shared/protocols.md` isel 6). A program being stored is invalid.
+    pub fn apply_reset(&mut self) {
+        self.set_config(None);
+        self.state.referenced = AxisSet::EMPTY;
+        self.state.test_mode = false;
+        self.three_d = false;
+        self.ramp = RampParams::CONTROLLER_DEFAULT;
+        self.reference_hz = self.settings.reference_speed_hz;
+        self.position = None;
+        self.zero_reset(self.settings.axis_set());
+        if self.cnc_store || self.state.activity == crate::device::api::Activity::Uploading {
+            self.state.program = crate::device::api::ProgramState::Invalid;
+        }
+        self.cnc_store = false;
+    }
+
+    /// The raw bytes of a reply nobody asked for, for a notice.
+    pub fn stray_bytes(&mut self, bytes: &[u8]) {
+        if !bytes.is_empty() {
+            self.notice(format!(
+                "unexpected bytes from the controller: {}",
+                readable(bytes)
+            ));
+        }
+    }
+}

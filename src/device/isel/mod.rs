@@ -1,0 +1,974 @@
+//! The isel @-format driver: a sans-IO [`Driver`] for iMC-M, iMC-MP and
+//! iMC-S8 controllers.
+//!
+//! The line discipline is the controller's: strictly one command at a time,
+//! answered only when it is done (manual 2.1; a move answers when the move
+//! is complete, manual 2.2.2). Only the control bytes 0xFD, 0xFE and 0xFF act
+//! at once, even between the bytes of a command (manual 2.2.31); the driver
+//! hands them out whenever they are due.
+//!
+//! What runs, in order of priority:
+//! 1. control bytes (stop sequence, reset);
+//! 2. the current operation ([`op`]): state read-back on connect
+//!    ([`readback`]), initialise ([`init`]), home ([`home`]), set zero
+//!    ([`zero`]), outputs ([`output`]), moves and jogs ([`motion_op`]), raw
+//!    lines ([`raw`]), uploads ([`upload`]) and program runs ([`program`]);
+//! 3. the next queued request, checked when it is its turn;
+//! 4. polling ([`poll`]): position and ports, between requests.
+//!
+//! Reply deadlines come from physics ([`deadline`]); a reply that does not
+//! come means the link is dead: the driver reports a fault and
+//! `Event::Link(LinkState::Lost)`, which the device task treats like a
+//! vanished port. Garbled replies are dropped and the line must be quiet for
+//! a moment before the next command, so stray bytes are never taken for an
+//! answer. See `docs/device.md` for the behaviour as a whole.
+
+mod context;
+mod deadline;
+mod estimate;
+mod home;
+mod init;
+mod io;
+mod motion_op;
+mod op;
+mod output;
+mod plan;
+mod poll;
+mod program;
+mod raw;
+mod readback;
+mod reply_text;
+mod settings;
+mod upload;
+mod zero;
+
+#[cfg(test)]
+mod tests;
+
+use std::collections::VecDeque;
+use std::time::{Duration, Instant};
+
+pub use context::STOP_BYTES;
+pub use estimate::{MoveEstimate, RampParams};
+pub use io::{PortImage, describe_input, input_group, output_group};
+pub use plan::overrun_cap;
+pub use poll::PollItem;
+pub use reply_text::{code_text, reply_text};
+pub use settings::{AxisLimits, IselSettings, PollPlan, PollRate, SettingsError, Timing};
+pub use upload::abort_line;
+
+use crate::axis::AxisSet;
+use crate::config::Profile;
+use crate::device::api::{
+    ControllerFault, Event, JogEnd, LinkState, MachineState, Recovery, Refusal, Request,
+};
+use crate::device::describe::describe;
+use crate::device::driver::{Driver, Outgoing};
+use crate::proto::isel::{
+    Command, ControlByte, Event as Decoded, Expect, Reply, ReplyDecoder, TEXT_SILENCE,
+};
+use crate::traffic::readable;
+
+use context::{Cmd, Context, control_outgoing, stop_outgoing};
+use home::HomeOp;
+use init::InitOp;
+use motion_op::MotionOp;
+use op::{Abandon, Next, Operation};
+use output::OutputOp;
+use poll::Poller;
+use program::ProgramOp;
+use raw::{RawOp, control_of};
+use readback::Readback;
+use upload::UploadOp;
+use zero::ZeroOp;
+
+/// Requests waiting for their turn; more are refused.
+const MAX_QUEUED: usize = 64;
+
+#[derive(Debug)]
+enum Op {
+    Readback(Readback),
+    Init(InitOp),
+    Home(HomeOp),
+    Zero(ZeroOp),
+    Output(OutputOp),
+    Motion(MotionOp),
+    Raw(RawOp),
+    Upload(UploadOp),
+    Program(ProgramOp),
+}
+
+impl Op {
+    fn get(&mut self) -> &mut dyn Operation {
+        match self {
+            Op::Readback(o) => o,
+            Op::Init(o) => o,
+            Op::Home(o) => o,
+            Op::Zero(o) => o,
+            Op::Output(o) => o,
+            Op::Motion(o) => o,
+            Op::Raw(o) => o,
+            Op::Upload(o) => o,
+            Op::Program(o) => o,
+        }
+    }
+
+    fn peek(&self) -> &dyn Operation {
+        match self {
+            Op::Readback(o) => o,
+            Op::Init(o) => o,
+            Op::Home(o) => o,
+            Op::Zero(o) => o,
+            Op::Output(o) => o,
+            Op::Motion(o) => o,
+            Op::Raw(o) => o,
+            Op::Upload(o) => o,
+            Op::Program(o) => o,
+        }
+    }
+}
+
+/// Who waits for the outstanding reply.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Owner {
+    Poll(PollItem),
+    Op,
+}
+
+/// The command on the wire and its reply.
+#[derive(Debug)]
+struct Exchange {
+    seq: u64,
+    text: String,
+    expect: Expect,
+    owner: Owner,
+    may_move: bool,
+    timeout: Option<Duration>,
+    /// Set once the last byte has gone out.
+    deadline: Option<Instant>,
+    transmitted: bool,
+    transmitted_at: Option<Instant>,
+    last_byte: Option<Instant>,
+    /// A stop went out before this (moving) command was complete on the
+    /// wire: the controller reads the control bytes at once but still
+    /// executes the command after them, so the stop is sent again.
+    restop: bool,
+}
+
+#[derive(Debug)]
+struct Queued {
+    request: Request,
+    /// For a jog: when its lease runs out while it waits.
+    lease_until: Option<Instant>,
+}
+
+/// The isel driver. Build it from a profile, hand it to the device task (or
+/// drive it by hand in tests: every method takes the time).
+#[derive(Debug)]
+pub struct IselDriver {
+    cx: Context,
+    link_up: bool,
+    exchange: Option<Exchange>,
+    seq: u64,
+    decoder: ReplyDecoder,
+    /// Messages handed out and not yet reported written: the sequence number
+    /// of a command, `None` for a control byte.
+    unsent: VecDeque<Option<u64>>,
+    op: Option<Op>,
+    queue: VecDeque<Queued>,
+    poller: Poller,
+    quiet_until: Option<Instant>,
+    stray: Vec<u8>,
+    last_state: Option<MachineState>,
+    poll_error: Option<String>,
+}
+
+impl IselDriver {
+    pub fn new(settings: IselSettings) -> IselDriver {
+        IselDriver {
+            poller: Poller::new(settings.poll.clone()),
+            cx: Context::new(settings),
+            link_up: false,
+            exchange: None,
+            seq: 0,
+            decoder: ReplyDecoder::new(),
+            unsent: VecDeque::new(),
+            op: None,
+            queue: VecDeque::new(),
+            quiet_until: None,
+            stray: Vec::new(),
+            last_state: None,
+            poll_error: None,
+        }
+    }
+
+    pub fn from_profile(profile: &Profile) -> Result<IselDriver, SettingsError> {
+        IselSettings::from_profile(profile).map(IselDriver::new)
+    }
+
+    pub fn settings(&self) -> &IselSettings {
+        &self.cx.settings
+    }
+
+    /// The machine state as the driver sees it now.
+    pub fn state(&self) -> &MachineState {
+        &self.cx.state
+    }
+
+    // ----- line discipline ---------------------------------------------
+
+    fn start(&mut self, cmd: Cmd, owner: Owner) -> Outgoing {
+        if self.decoder.expect(cmd.expect).is_err() {
+            // Cannot happen (one command at a time), but never wedge on it.
+            self.decoder.abandon();
+            let _ = self.decoder.expect(cmd.expect);
+        }
+        self.seq += 1;
+        self.unsent.push_back(Some(self.seq));
+        self.exchange = Some(Exchange {
+            seq: self.seq,
+            text: cmd.text,
+            expect: cmd.expect,
+            owner,
+            may_move: cmd.may_move,
+            timeout: cmd.timeout,
+            deadline: None,
+            transmitted: false,
+            transmitted_at: None,
+            last_byte: None,
+            restop: false,
+        });
+        Outgoing {
+            bytes: cmd.bytes,
+            interruptible: true,
+        }
+    }
+
+    fn quiet(&self, now: Instant) -> bool {
+        self.quiet_until.is_some_and(|q| now < q)
+    }
+
+    fn take_quiet_request(&mut self, now: Instant) {
+        if let Some(d) = self.cx.quiet_request.take() {
+            let until = now + d;
+            self.quiet_until = Some(self.quiet_until.map_or(until, |q| q.max(until)));
+        }
+    }
+
+    fn transmit(&mut self, now: Instant) -> Option<Outgoing> {
+        if let Some(out) = self.cx.control.pop_front() {
+            self.unsent.push_back(None);
+            return Some(out);
+        }
+        if !self.link_up || self.exchange.is_some() || self.quiet(now) {
+            return None;
+        }
+        loop {
+            if let Some(op) = self.op.as_mut() {
+                match op.get().next(&mut self.cx, now) {
+                    Next::Send(cmd) => return Some(self.start(cmd, Owner::Op)),
+                    Next::Wait => return None,
+                    Next::Done => {
+                        self.op = None;
+                        self.take_quiet_request(now);
+                        if let Some(out) = self.cx.control.pop_front() {
+                            self.unsent.push_back(None);
+                            return Some(out);
+                        }
+                        if self.quiet(now) {
+                            return None;
+                        }
+                        continue;
+                    }
+                }
+            }
+            if self.cx.readback_wanted {
+                self.cx.readback_wanted = false;
+                self.op = Some(Op::Readback(Readback::new()));
+                continue;
+            }
+            if let Some(q) = self.queue.pop_front() {
+                self.begin(q, now);
+                continue;
+            }
+            if self.cx.cnc_store {
+                // Storing a program: a poll would be stored or refused.
+                return None;
+            }
+            // `@0P` even without axes: some controllers report positions
+            // then, others answer `4`, which only updates the state.
+            let item = self.poller.next(now)?;
+            let cmd = match item {
+                PollItem::Position => self.cx.cmd(Command::ReadPosition),
+                PollItem::Port(p) => self.cx.cmd(Command::ReadPort(p)),
+            };
+            return Some(self.start(cmd, Owner::Poll(item)));
+        }
+    }
+
+    fn decoded(&mut self, events: Vec<Decoded>, now: Instant) {
+        for event in events {
+            match event {
+                Decoded::Reply(reply) => {
+                    if let Some(ex) = self.exchange.take() {
+                        self.answered(ex, reply, now);
+                    }
+                }
+                Decoded::Sync(sync) => {
+                    if let Some(op) = self.op.as_mut() {
+                        op.get().sync(&mut self.cx, sync, now);
+                    }
+                }
+                Decoded::Unsolicited(b) => self.stray.push(b),
+                Decoded::Error(e) => {
+                    let Some(ex) = self.exchange.take() else {
+                        continue;
+                    };
+                    self.quiet_until = Some(now + self.cx.settings.timing.resync_gap);
+                    match ex.owner {
+                        Owner::Poll(_) => self
+                            .cx
+                            .notice(format!("the reply to {} was garbled: {e}", ex.text)),
+                        Owner::Op => {
+                            self.cx
+                                .notice(format!("the reply to {} was garbled: {e}", ex.text));
+                            if let Some(op) = self.op.as_mut() {
+                                op.get().lost_reply(&mut self.cx, now);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        if !self.stray.is_empty() && !self.quiet(now) {
+            let bytes = std::mem::take(&mut self.stray);
+            self.cx.stray_bytes(&bytes);
+        }
+    }
+
+    fn answered(&mut self, ex: Exchange, reply: Reply, now: Instant) {
+        match ex.owner {
+            Owner::Op => {
+                if let Some(op) = self.op.as_mut() {
+                    op.get().reply(&mut self.cx, reply, now);
+                }
+            }
+            Owner::Poll(item) => self.poll_reply(item, &ex.text, reply, now),
+        }
+    }
+
+    fn poll_reply(&mut self, item: PollItem, text: &str, reply: Reply, now: Instant) {
+        match (item, reply) {
+            (PollItem::Position, Reply::Positions(p)) => {
+                self.cx.measured(&p, now);
+                self.poller.position_read(now);
+                self.poll_error = None;
+            }
+            (PollItem::Position, Reply::Code(crate::proto::isel::ReplyCode::NoAxes)) => {
+                self.cx.set_config(None);
+            }
+            (PollItem::Port(port), Reply::Byte(v)) => {
+                self.cx.port_read(port, v);
+                if self.poller.cycle_done() {
+                    self.cx.emit_io(now);
+                }
+            }
+            (_, Reply::Code(code)) => {
+                // Once per kind of trouble, not on every poll.
+                let key = format!("{text}{}", code.char());
+                if self.poll_error.as_deref() != Some(&key) {
+                    self.poll_error = Some(key);
+                    self.cx.controller_error(text, code);
+                }
+            }
+            (_, other) => self
+                .cx
+                .notice(format!("unexpected reply to {text}: {other:?}")),
+        }
+    }
+
+    fn reply_timeout(&mut self, now: Instant) {
+        let Some(ex) = self.exchange.take() else {
+            return;
+        };
+        self.decoder.abandon();
+        let waited = ex
+            .transmitted_at
+            .map_or(Duration::ZERO, |t| now.saturating_duration_since(t));
+        self.cx.emit(Event::Fault(ControllerFault {
+            command: ex.text.clone(),
+            code: "timeout".to_owned(),
+            meaning: format!(
+                "No reply within {} ms: the controller or the line is gone.",
+                waited.as_millis()
+            ),
+            recovery: Recovery::CheckLink,
+        }));
+        let reason = format!("no reply to {} within {} ms", ex.text, waited.as_millis());
+        self.cx.emit(Event::Link(LinkState::Lost {
+            reason: reason.clone(),
+        }));
+        self.go_down(&reason);
+    }
+
+    fn go_down(&mut self, reason: &str) {
+        if !self.link_up {
+            return;
+        }
+        self.link_up = false;
+        self.exchange = None;
+        self.decoder.abandon();
+        self.unsent.clear();
+        self.cx.control.clear();
+        self.quiet_until = None;
+        self.stray.clear();
+        if let Some(mut op) = self.op.take() {
+            op.get()
+                .abandon(&mut self.cx, &Abandon::LinkLost(reason.to_owned()));
+        }
+        self.refuse_queue(|| Refusal::NotConnected, JogEnd::LinkLost);
+        // Unknown until read back.
+        self.cx.set_config(None);
+        self.cx.position = None;
+        self.cx.cnc_store = false;
+        self.cx.readback_wanted = false;
+    }
+
+    // ----- stopping ------------------------------------------------------
+
+    /// What every stop does besides sending the bytes.
+    fn stop_bookkeeping(&mut self, now: Instant) {
+        if let Some(op) = self.op.as_mut()
+            && let Some(t) = op.get().stop(&mut self.cx, now)
+            && let Some(ex) = self.exchange.as_mut()
+            && ex.owner == Owner::Op
+        {
+            if ex.transmitted {
+                ex.deadline = Some(now + t);
+            } else {
+                ex.timeout = Some(t);
+            }
+        }
+        if let Some(ex) = self.exchange.as_mut()
+            && ex.may_move
+            && !ex.transmitted
+        {
+            ex.restop = true;
+        }
+    }
+
+    /// A stop the driver decides on (dead-man, release).
+    fn halt(&mut self, now: Instant) {
+        self.cx.send_stop();
+        self.stop_bookkeeping(now);
+    }
+
+    fn refuse_queue(&mut self, reason: impl Fn() -> Refusal, jog_end: JogEnd) {
+        for q in std::mem::take(&mut self.queue) {
+            if let Request::Jog { id, .. } = q.request {
+                self.cx.emit(Event::JogEnded {
+                    id,
+                    end: jog_end.clone(),
+                });
+            }
+            self.cx.emit(Event::Refused {
+                request: describe(&q.request),
+                reason: reason(),
+            });
+        }
+    }
+
+    fn reset(&mut self, now: Instant) {
+        self.cx
+            .control
+            .push_back(control_outgoing(ControlByte::Reset));
+        self.decoder.abandon();
+        self.exchange = None;
+        if let Some(mut op) = self.op.take() {
+            op.get().abandon(&mut self.cx, &Abandon::Reset);
+        }
+        self.refuse_queue(
+            || Refusal::Invalid {
+                reason: "cancelled: the controller was reset".into(),
+            },
+            JogEnd::Stopped,
+        );
+        self.cx.apply_reset();
+        self.quiet_until = Some(now + self.cx.settings.timing.reset_settle);
+        self.cx
+            .notice("the controller was reset (0xFE): initialise (i) and reference (h)");
+    }
+
+    fn raw_control(&mut self, control: ControlByte, now: Instant) {
+        let text = readable(&[control.byte()]);
+        if !self.link_up {
+            self.cx.emit(Event::Refused {
+                request: format!("raw {text}"),
+                reason: Refusal::NotConnected,
+            });
+            return;
+        }
+        match control {
+            ControlByte::Reset => self.reset(now),
+            ControlByte::SoftStop | ControlByte::Break => {
+                let own_motion = match self.op.as_mut() {
+                    // The operator's own move: exactly the byte asked for
+                    // (0xFD keeps the rest for `@0S`).
+                    Some(Op::Raw(raw)) if raw.is_running_motion() => {
+                        if let Some(t) = raw.control_sent(&self.cx, now)
+                            && let Some(ex) = self.exchange.as_mut()
+                        {
+                            ex.deadline = Some(now + t);
+                        }
+                        false
+                    }
+                    Some(op) => op.peek().activity() != crate::device::api::Activity::Idle,
+                    None => false,
+                };
+                if own_motion {
+                    // A move jogterm planned is always broken off completely.
+                    self.halt(now);
+                } else {
+                    self.cx.control.push_back(control_outgoing(control));
+                }
+            }
+        }
+        self.cx.emit(Event::Reply {
+            command: text,
+            text: format!("{} sent (control bytes have no reply)", control.name()),
+        });
+    }
+
+    // ----- requests ------------------------------------------------------
+
+    fn busy(&self) -> Option<crate::device::api::Activity> {
+        use crate::device::api::Activity;
+        if self.cx.cnc_store {
+            return Some(Activity::Uploading);
+        }
+        let activity = self.op.as_ref().map(|o| o.peek().activity())?;
+        (activity != Activity::Idle).then_some(activity)
+    }
+
+    fn refuse(&mut self, request: &Request, reason: Refusal) {
+        if let Request::Jog { id, .. } = request {
+            self.cx.emit(Event::JogEnded {
+                id: *id,
+                end: JogEnd::Refused(reason.clone()),
+            });
+        }
+        self.cx.emit(Event::Refused {
+            request: describe(request),
+            reason,
+        });
+    }
+
+    fn admit(&mut self, request: Request, now: Instant) {
+        if !self.link_up {
+            self.refuse(&request, Refusal::NotConnected);
+            return;
+        }
+        let lease_until = match &request {
+            Request::Jog { lease, .. } => Some(now + *lease),
+            _ => None,
+        };
+        // While a program is being stored line by line, raw lines are the
+        // program's lines (manual 3.1).
+        let storing_line = self.cx.cnc_store && matches!(request, Request::Raw { .. });
+        if let Some(activity) = self.busy().filter(|_| !storing_line) {
+            match (request, self.op.as_mut()) {
+                (Request::Step { delta, speed_hz }, Some(Op::Motion(m))) => {
+                    if let Err(reason) = m.coalesce(&self.cx, delta, speed_hz) {
+                        let request = Request::Step { delta, speed_hz };
+                        self.refuse(&request, reason);
+                    }
+                }
+                (request @ Request::Jog { .. }, Some(Op::Motion(m)))
+                    if m.jog_id().is_some() && m.is_stopping() =>
+                {
+                    // The next jog waits for the one that is braking; a newer
+                    // one replaces it.
+                    let waiting: Vec<Queued> = self
+                        .queue
+                        .iter()
+                        .position(|q| matches!(q.request, Request::Jog { .. }))
+                        .and_then(|i| self.queue.remove(i))
+                        .into_iter()
+                        .collect();
+                    for q in waiting {
+                        self.refuse(&q.request, Refusal::Busy { activity });
+                    }
+                    self.queue.push_front(Queued {
+                        request,
+                        lease_until,
+                    });
+                }
+                (request, _) => self.refuse(&request, Refusal::Busy { activity }),
+            }
+            return;
+        }
+        if self.queue.len() >= MAX_QUEUED {
+            self.refuse(
+                &request,
+                Refusal::Invalid {
+                    reason: format!("{MAX_QUEUED} requests are already waiting"),
+                },
+            );
+            return;
+        }
+        self.queue.push_back(Queued {
+            request,
+            lease_until,
+        });
+    }
+
+    /// A queued request's turn has come: check it against the state now.
+    fn begin(&mut self, queued: Queued, now: Instant) {
+        let cx = &self.cx;
+        let started: Result<Op, Refusal> = match &queued.request {
+            Request::Jog {
+                id, axes, speed_hz, ..
+            } => {
+                let lease_until = queued.lease_until.unwrap_or(now);
+                if lease_until <= now {
+                    self.cx.emit(Event::JogEnded {
+                        id: *id,
+                        end: JogEnd::DeadMan,
+                    });
+                    return;
+                }
+                plan::jog(cx, axes, speed_hz)
+                    .map(|p| Op::Motion(MotionOp::jog(p, *id, lease_until)))
+            }
+            Request::Step { delta, speed_hz } => match cx.position {
+                Some(base) => {
+                    plan::step(cx, &base, delta, speed_hz).map(|p| Op::Motion(MotionOp::step(p)))
+                }
+                None => Err(Refusal::NotInitialised),
+            },
+            Request::MoveTo {
+                target,
+                frame,
+                speed_hz,
+            } => plan::move_to(cx, target, *frame, speed_hz)
+                .map(|p| Op::Motion(MotionOp::move_to(p))),
+            Request::Home { axes } => self.check_axes(*axes).and_then(|()| {
+                self.cx.motion_allowed(true)?;
+                Ok(Op::Home(HomeOp::new(*axes)))
+            }),
+            Request::SetZero { axes } => self.check_axes(*axes).and_then(|()| {
+                if !self.cx.profile_ready() {
+                    return Err(Refusal::NotInitialised);
+                }
+                if self.cx.position.is_none() {
+                    return Err(Refusal::NotInitialised);
+                }
+                Ok(Op::Zero(ZeroOp::new(*axes)))
+            }),
+            Request::SetOutput { output, value } => {
+                OutputOp::new(cx, *output, *value).map(Op::Output)
+            }
+            Request::Raw { line } => RawOp::new(cx, line).map(Op::Raw),
+            Request::Upload { lines, erase_first } => {
+                UploadOp::new(cx, lines, *erase_first).map(Op::Upload)
+            }
+            Request::RunProgram => ProgramOp::new(cx).map(Op::Program),
+            Request::Initialise => Ok(Op::Init(InitOp::new(cx))),
+            Request::JogRenew { .. }
+            | Request::JogRelease { .. }
+            | Request::Reset
+            | Request::Poll { .. }
+            | Request::Shutdown => return,
+        };
+        match started {
+            Ok(op) => self.op = Some(op),
+            Err(reason) => self.refuse(&queued.request, reason),
+        }
+    }
+
+    fn check_axes(&self, axes: AxisSet) -> Result<(), Refusal> {
+        let machine = self.cx.settings.axis_set();
+        if axes.is_empty() {
+            return Err(Refusal::Invalid {
+                reason: "no axis given".into(),
+            });
+        }
+        match axes.iter().find(|a| !machine.contains(*a)) {
+            Some(axis) => Err(Refusal::Invalid {
+                reason: format!("the machine has no {axis} axis (profile axes {machine})"),
+            }),
+            None => Ok(()),
+        }
+    }
+
+    fn renew(&mut self, id: crate::device::api::JogId, lease: Duration, now: Instant) {
+        if let Some(Op::Motion(m)) = self.op.as_mut()
+            && m.renew(id, lease, now)
+        {
+            return;
+        }
+        for q in self.queue.iter_mut() {
+            if matches!(q.request, Request::Jog { id: qid, .. } if qid == id) {
+                q.lease_until = Some(now + lease);
+            }
+        }
+    }
+
+    fn release(&mut self, id: crate::device::api::JogId, now: Instant) {
+        if let Some(Op::Motion(m)) = self.op.as_mut()
+            && let Some(stop) = m.release(&mut self.cx, id)
+        {
+            if stop {
+                self.halt(now);
+            }
+            return;
+        }
+        if let Some(i) = self
+            .queue
+            .iter()
+            .position(|q| matches!(q.request, Request::Jog { id: qid, .. } if qid == id))
+        {
+            self.queue.remove(i);
+            self.cx.emit(Event::JogEnded {
+                id,
+                end: JogEnd::Released,
+            });
+        }
+    }
+
+    /// Bring `state.activity` and `link_up` up to date and tell the clients
+    /// when the state changed.
+    fn settle(&mut self) {
+        use crate::device::api::Activity;
+        let activity = match self.op.as_ref() {
+            Some(op) => op.peek().activity(),
+            None if self.cx.cnc_store => Activity::Uploading,
+            None => Activity::Idle,
+        };
+        self.cx.state.activity = if self.cx.cnc_store && activity == Activity::Idle {
+            Activity::Uploading
+        } else {
+            activity
+        };
+        self.cx.state.link_up = self.link_up;
+        if self.last_state.as_ref() != Some(&self.cx.state) {
+            self.last_state = Some(self.cx.state.clone());
+            self.cx.emit(Event::State(self.cx.state.clone()));
+        }
+    }
+
+    fn idle(&self) -> bool {
+        self.link_up
+            && self.exchange.is_none()
+            && self.op.is_none()
+            && self.queue.is_empty()
+            && !self.cx.cnc_store
+            && !self.cx.readback_wanted
+    }
+}
+
+impl Driver for IselDriver {
+    /// The first bytes on every connection are the stop sequence: whatever
+    /// the controller was doing (a move sent before the link broke), it must
+    /// not go on while its state is unknown. Its answer, if any, falls into
+    /// the quiet that follows; then the state is read back.
+    fn connected(&mut self, now: Instant) {
+        self.go_down("reconnected");
+        self.link_up = true;
+        self.poller.reset();
+        self.poll_error = None;
+        self.cx.send_stop();
+        self.quiet_until = Some(now + self.cx.settings.timing.connect_settle);
+        self.op = Some(Op::Readback(Readback::new()));
+        self.settle();
+    }
+
+    fn disconnected(&mut self, reason: &str, _now: Instant) {
+        self.go_down(reason);
+        self.settle();
+    }
+
+    fn request(&mut self, request: Request, now: Instant) {
+        match request {
+            Request::Shutdown => {}
+            Request::Poll {
+                rate_hz,
+                ports_every,
+            } => self
+                .poller
+                .set_rate(PollRate::from_request(rate_hz), ports_every),
+            Request::JogRenew { id, lease } => self.renew(id, lease, now),
+            Request::JogRelease { id } => self.release(id, now),
+            Request::Reset => {
+                if self.link_up {
+                    self.reset(now);
+                } else {
+                    self.refuse(&Request::Reset, Refusal::NotConnected);
+                }
+            }
+            Request::Raw { line } if control_of(&line).is_some() => {
+                if let Some(control) = control_of(&line) {
+                    self.raw_control(control, now);
+                }
+            }
+            other => self.admit(other, now),
+        }
+        self.settle();
+    }
+
+    fn stop(&mut self, now: Instant) -> Outgoing {
+        self.refuse_queue(
+            || Refusal::Invalid {
+                reason: "cancelled by stop".into(),
+            },
+            JogEnd::Stopped,
+        );
+        self.stop_bookkeeping(now);
+        self.settle();
+        stop_outgoing()
+    }
+
+    fn emergency_stop_bytes(&self) -> Vec<u8> {
+        STOP_BYTES.to_vec()
+    }
+
+    fn received(&mut self, bytes: &[u8], now: Instant) {
+        if !self.link_up || bytes.is_empty() {
+            return;
+        }
+        if self.exchange.is_none() && self.quiet(now) {
+            // Stray bytes while the line settles: keep it quiet a little longer.
+            self.stray.extend_from_slice(bytes);
+            self.quiet_until = Some(now + self.cx.settings.timing.resync_gap);
+            return;
+        }
+        if let Some(ex) = self.exchange.as_mut() {
+            ex.last_byte = Some(now);
+            if ex.transmitted
+                && let Some(d) = ex.deadline
+            {
+                // Bytes are flowing: the reply may take its length from here.
+                let rest = self
+                    .cx
+                    .settings
+                    .line
+                    .transfer_time(ex.expect.max_len().min(64))
+                    + self.cx.settings.timing.reply_margin;
+                ex.deadline = Some(d.max(now + rest));
+            }
+        }
+        let events = self.decoder.feed(bytes);
+        self.decoded(events, now);
+        self.take_quiet_request(now);
+        self.settle();
+    }
+
+    fn transmitted(&mut self, now: Instant) {
+        let Some(sent) = self.unsent.pop_front() else {
+            return;
+        };
+        let Some(seq) = sent else {
+            return;
+        };
+        let mut restop = false;
+        let mut op_owned = false;
+        if let Some(ex) = self.exchange.as_mut()
+            && ex.seq == seq
+            && !ex.transmitted
+        {
+            ex.transmitted = true;
+            ex.transmitted_at = Some(now);
+            ex.deadline = ex.timeout.map(|t| now + t);
+            restop = std::mem::take(&mut ex.restop);
+            op_owned = ex.owner == Owner::Op;
+        }
+        if op_owned && let Some(op) = self.op.as_mut() {
+            op.get().transmitted(&mut self.cx, now);
+        }
+        if restop {
+            self.cx.send_stop();
+        }
+        self.settle();
+    }
+
+    fn poll_transmit(&mut self, now: Instant) -> Option<Outgoing> {
+        let out = self.transmit(now);
+        self.settle();
+        out
+    }
+
+    fn poll_event(&mut self) -> Option<Event> {
+        self.cx.events.pop_front()
+    }
+
+    fn next_timeout(&self) -> Option<Instant> {
+        let mut at: Option<Instant> = None;
+        let mut consider = |t: Option<Instant>| {
+            if let Some(t) = t {
+                at = Some(at.map_or(t, |a| a.min(t)));
+            }
+        };
+        consider(self.quiet_until);
+        if let Some(ex) = &self.exchange {
+            consider(ex.deadline);
+            if matches!(ex.expect, Expect::TextUntilSilence | Expect::TextThenCode) {
+                consider(ex.last_byte.map(|t| t + TEXT_SILENCE));
+            }
+        }
+        if let Some(op) = &self.op {
+            consider(op.peek().timer());
+        }
+        if self.idle() {
+            consider(self.poller.due());
+        }
+        consider(self.poller.stats_due());
+        at
+    }
+
+    fn pending_reply_bytes(&self) -> Option<usize> {
+        let ex = self.exchange.as_ref()?;
+        match ex.expect {
+            // A reply code may be an error where data was expected, so only
+            // once the first byte said `0` is the length known.
+            Expect::Positions { .. } | Expect::Byte if !self.decoder.pending().is_empty() => Some(
+                ex.expect
+                    .max_len()
+                    .saturating_sub(self.decoder.pending().len()),
+            ),
+            _ => None,
+        }
+    }
+
+    fn handle_timeout(&mut self, now: Instant) {
+        if self.quiet_until.is_some_and(|q| now >= q) {
+            self.quiet_until = None;
+            let bytes = std::mem::take(&mut self.stray);
+            self.cx.stray_bytes(&bytes);
+        }
+        if let Some(ex) = &self.exchange {
+            let text = matches!(ex.expect, Expect::TextUntilSilence | Expect::TextThenCode);
+            let silent = ex.last_byte.is_some_and(|t| now >= t + TEXT_SILENCE);
+            let overdue = ex.deadline.is_some_and(|d| now >= d);
+            if (text && silent) || (overdue && !self.decoder.pending().is_empty()) {
+                let events = self.decoder.silence();
+                self.decoded(events, now);
+            } else if overdue {
+                self.reply_timeout(now);
+            }
+        }
+        if let Some(op) = self.op.as_mut()
+            && op.peek().timer().is_some_and(|t| t <= now)
+            && op.get().on_timer(&mut self.cx, now)
+        {
+            self.halt(now);
+        }
+        if self.poller.stats_due().is_some_and(|t| now >= t) {
+            let with_a = self.cx.config == Some(crate::proto::isel::AxisConfig::XYZA);
+            if let Some(stats) = self.poller.take_stats(now, self.cx.settings.line, with_a) {
+                self.cx.emit(Event::Stats(stats));
+            }
+        }
+        self.take_quiet_request(now);
+        self.settle();
+    }
+}

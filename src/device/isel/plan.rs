@@ -1,0 +1,318 @@
+//! Turning motion requests into isel moves: speeds capped to the axis and
+//! the controller, targets checked against the soft limits, pairs laid out
+//! for the axis configuration (manual 2.2.2, 2.2.18), and the estimate that
+//! goes with the move.
+
+use crate::axis::{Axis, AxisSet};
+use crate::device::api::{Dir, Frame, PerAxis, Refusal};
+use crate::proto::isel::{AxisConfig, Command, MovePair, SPEED_HZ, STEPS};
+
+use super::context::{Cmd, Context};
+use super::deadline;
+use super::estimate::{MoveEstimate, RampParams};
+
+/// A move ready to send.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Planned {
+    pub cmd: Cmd,
+    pub estimate: MoveEstimate,
+}
+
+fn invalid(reason: impl Into<String>) -> Refusal {
+    Refusal::Invalid {
+        reason: reason.into(),
+    }
+}
+
+/// A requested speed as a step frequency the axis and the controller allow:
+/// at most the axis's `max_speed`, within 1..=40000 Hz (isel decision 13).
+pub fn speed_hz(cx: &Context, axis: Axis, requested: Option<f64>) -> Result<u32, Refusal> {
+    let limits = cx
+        .settings
+        .limits(axis)
+        .ok_or_else(|| invalid(format!("the machine has no {axis} axis")))?;
+    let hz = requested.ok_or_else(|| invalid(format!("no speed given for axis {axis}")))?;
+    if !(hz.is_finite() && hz > 0.0) {
+        return Err(invalid(format!(
+            "the speed of {axis} must be positive, got {hz}"
+        )));
+    }
+    let lo = f64::from(*SPEED_HZ.start());
+    let hi = f64::from(*SPEED_HZ.end());
+    Ok(hz.min(limits.max_hz).clamp(lo, hi).round() as u32)
+}
+
+/// The fastest jog speed that stops within `max_overrun` steps when the
+/// operator lets go: one dead-man timeout at speed, then the braking ramp
+/// (`jog.max_overrun`): v T + (v² - f0²) / 2a <= D.
+pub fn overrun_cap(ramp: RampParams, timeout_s: f64, max_overrun: f64) -> f64 {
+    let a = f64::from(ramp.accel_hz_per_ms) * 1000.0;
+    let f0 = f64::from(ramp.start_stop_hz);
+    if a <= 0.0 {
+        return if timeout_s > 0.0 {
+            max_overrun / timeout_s
+        } else {
+            f64::MAX
+        };
+    }
+    -a * timeout_s + (a * a * timeout_s * timeout_s + f0 * f0 + 2.0 * a * max_overrun).sqrt()
+}
+
+fn check_axes(cx: &Context, axes: AxisSet) -> Result<(), Refusal> {
+    match axes.iter().find(|a| !cx.settings.axis_set().contains(*a)) {
+        Some(axis) => Err(invalid(format!(
+            "the machine has no {axis} axis (profile axes {})",
+            cx.settings.axis_set()
+        ))),
+        None => Ok(()),
+    }
+}
+
+fn in_range(value: i64, what: &str) -> Result<i32, Refusal> {
+    i32::try_from(value)
+        .ok()
+        .filter(|v| STEPS.contains(v))
+        .ok_or_else(|| {
+            invalid(format!(
+                "{what} {value} does not fit the controller's 24-bit counters"
+            ))
+        })
+}
+
+fn soft_limit(cx: &Context, axis: Axis, target: i64) -> Result<(), Refusal> {
+    match cx.settings.limits(axis) {
+        Some(l) if !l.contains(target) => Err(Refusal::SoftLimit {
+            axis,
+            target,
+            min: l.min,
+            max: l.max,
+        }),
+        _ => Ok(()),
+    }
+}
+
+/// The pairs of a move for `config`: one per axis, and with 3 axes a second
+/// Z pair that does not move (manual 2.2.2, `../shared/protocols.md` isel 5).
+fn pairs(
+    config: AxisConfig,
+    values: &PerAxis<i32>,
+    speeds: &PerAxis<u32>,
+    filler: u32,
+) -> Vec<MovePair> {
+    let pair = |axis: Axis| {
+        MovePair::new(
+            values.get(axis).unwrap_or(0),
+            speeds.get(axis).unwrap_or(filler),
+        )
+    };
+    match config {
+        AxisConfig::X => vec![pair(Axis::X)],
+        AxisConfig::XY => vec![pair(Axis::X), pair(Axis::Y)],
+        AxisConfig::XYZ => vec![
+            pair(Axis::X),
+            pair(Axis::Y),
+            pair(Axis::Z),
+            MovePair::new(0, speeds.get(Axis::Z).unwrap_or(filler)),
+        ],
+        AxisConfig::XYZA => vec![pair(Axis::X), pair(Axis::Y), pair(Axis::Z), pair(Axis::A)],
+    }
+}
+
+fn relative(
+    cx: &Context,
+    deltas: &PerAxis<i64>,
+    speeds: &PerAxis<u32>,
+) -> Result<Planned, Refusal> {
+    let start = cx.position.ok_or(Refusal::NotConnected)?;
+    let mut values = PerAxis::new();
+    for (axis, d) in deltas.iter() {
+        values.set(axis, in_range(d, &format!("the {axis} distance"))?);
+    }
+    let config = cx.settings.config;
+    let pairs = pairs(config, &values, speeds, cx.settings.start_stop_hz);
+    let estimate = MoveEstimate::relative(config, &pairs, start, cx.ramp, cx.three_d);
+    let mut cmd = cx.cmd(Command::MoveRelative(pairs));
+    cmd.timeout = Some(deadline::motion(estimate.duration()));
+    Ok(Planned { cmd, estimate })
+}
+
+/// A relative step of `delta` from `base` (the position the step starts
+/// from once the steps before it are done).
+pub fn step(
+    cx: &Context,
+    base: &PerAxis<i64>,
+    delta: &PerAxis<i64>,
+    speeds: &PerAxis<f64>,
+) -> Result<Planned, Refusal> {
+    let moving: AxisSet = delta
+        .iter()
+        .filter(|(_, d)| *d != 0)
+        .map(|(a, _)| a)
+        .collect();
+    check_axes(cx, delta.axes())?;
+    if moving.is_empty() {
+        return Err(invalid("the step moves no axis"));
+    }
+    cx.motion_allowed(cx.settings.allow_unreferenced)?;
+    let mut hz = PerAxis::new();
+    for axis in moving.iter() {
+        if cx.state.referenced.contains(axis) {
+            let from = base.get(axis).unwrap_or(0);
+            soft_limit(cx, axis, from.saturating_add(delta.get(axis).unwrap_or(0)))?;
+        }
+        hz.set(axis, speed_hz(cx, axis, speeds.get(axis))?);
+    }
+    relative(cx, delta, &hz)
+}
+
+/// An absolute move (`@0M`): the controller's targets are relative to its
+/// virtual zero (manual 2.2.19), which `work_zero` tracks; axes left out
+/// stay where they are.
+pub fn move_to(
+    cx: &Context,
+    target: &PerAxis<i64>,
+    frame: Frame,
+    speeds: &PerAxis<f64>,
+) -> Result<Planned, Refusal> {
+    check_axes(cx, target.axes())?;
+    if target.axes().is_empty() {
+        return Err(invalid("the target names no axis"));
+    }
+    let position = cx.position.ok_or(Refusal::NotConnected)?;
+    let config = cx.settings.config;
+    let unknown: AxisSet = config
+        .axes()
+        .iter()
+        .filter(|a| !cx.zero_known.contains(*a))
+        .collect();
+    if !unknown.is_empty() {
+        return Err(invalid(format!(
+            "the controller's zero point of {unknown} was set before jogterm connected and is \
+             unknown: set the zero (z) or reference (h) first"
+        )));
+    }
+    let zero = |axis: Axis| cx.state.work_zero.get(axis).unwrap_or(0);
+    let mut machine = PerAxis::new();
+    for (axis, t) in target.iter() {
+        let m = match frame {
+            Frame::Machine => t,
+            Frame::Work => t.saturating_add(zero(axis)),
+        };
+        machine.set(axis, m);
+    }
+    let moving: AxisSet = machine
+        .iter()
+        .filter(|(a, m)| position.get(*a) != Some(*m))
+        .map(|(a, _)| a)
+        .collect();
+    if moving.is_empty() {
+        return Err(invalid("the axes are already at the target"));
+    }
+    cx.motion_allowed(false)?;
+    let mut hz = PerAxis::new();
+    let mut values = PerAxis::new();
+    for axis in config.axes().iter() {
+        let m = machine.get(axis).or(position.get(axis)).unwrap_or(0);
+        if moving.contains(axis) {
+            soft_limit(cx, axis, m)?;
+            hz.set(axis, speed_hz(cx, axis, speeds.get(axis))?);
+        }
+        values.set(
+            axis,
+            in_range(m - zero(axis), &format!("the {axis} target"))?,
+        );
+    }
+    let pairs = pairs(config, &values, &hz, cx.settings.start_stop_hz);
+    let estimate = MoveEstimate::absolute(
+        config,
+        &pairs,
+        position,
+        cx.state.work_zero,
+        cx.ramp,
+        cx.three_d,
+    );
+    let mut cmd = cx.cmd(Command::MoveAbsolute(pairs));
+    cmd.timeout = Some(deadline::motion(estimate.duration()));
+    Ok(Planned { cmd, estimate })
+}
+
+/// A continuous jog: one long relative move at jog speed towards the soft
+/// limits, along the vector of the axes' speeds and ending where the first
+/// axis reaches its limit. Unreferenced axes (only with
+/// `jog.allow_unreferenced` or test mode) have no known limits: they may
+/// travel the width of their soft-limit range (`docs/device.md`).
+pub fn jog(cx: &Context, axes: &[(Axis, Dir)], speeds: &PerAxis<f64>) -> Result<Planned, Refusal> {
+    let set: AxisSet = axes.iter().map(|(a, _)| *a).collect();
+    check_axes(cx, set)?;
+    if set.is_empty() {
+        return Err(invalid("the jog names no axis"));
+    }
+    if set.len() != axes.len() {
+        return Err(invalid("the jog names an axis twice"));
+    }
+    cx.motion_allowed(cx.settings.allow_unreferenced)?;
+    let position = cx.position.ok_or(Refusal::NotConnected)?;
+    let timeout = cx.settings.jog_repeat_timeout.as_secs_f64();
+    // (axis, sign, speed, room in steps)
+    let mut legs = Vec::new();
+    for (axis, dir) in axes {
+        let limits = cx
+            .settings
+            .limits(*axis)
+            .ok_or_else(|| invalid(format!("the machine has no {axis} axis")))?;
+        let cap = overrun_cap(cx.ramp, timeout, limits.max_overrun).max(1.0);
+        let hz = speed_hz(cx, *axis, speeds.get(*axis).map(|v| v.min(cap)))?;
+        let pos = position.get(*axis).unwrap_or(0);
+        let room = if cx.state.referenced.contains(*axis) {
+            match dir {
+                Dir::Plus => limits.max - pos,
+                Dir::Minus => pos - limits.min,
+            }
+        } else {
+            limits.span()
+        }
+        .clamp(0, i64::from(*STEPS.end()));
+        if room == 0 {
+            return Err(Refusal::SoftLimit {
+                axis: *axis,
+                target: pos + dir.sign(),
+                min: limits.min,
+                max: limits.max,
+            });
+        }
+        legs.push((*axis, dir.sign(), hz, room));
+    }
+    // The axis that reaches its limit first bounds the whole vector.
+    let (lead_room, lead_hz) = legs
+        .iter()
+        .map(|(_, _, hz, room)| (*room, *hz))
+        .min_by(|a, b| {
+            let ta = a.0 as f64 / f64::from(a.1);
+            let tb = b.0 as f64 / f64::from(b.1);
+            ta.total_cmp(&tb)
+        })
+        .unwrap_or((0, 1));
+    let mut deltas = PerAxis::new();
+    let mut hz = PerAxis::new();
+    for (axis, sign, v, room) in legs {
+        let travel = (lead_room as f64 * f64::from(v) / f64::from(lead_hz)).floor() as i64;
+        deltas.set(axis, sign * travel.min(room));
+        hz.set(axis, v);
+    }
+    relative(cx, &deltas, &hz)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_overrun_cap_balances_reaction_and_braking() {
+        let ramp = RampParams::CONTROLLER_DEFAULT;
+        let v = overrun_cap(ramp, 0.15, 1200.0);
+        let a = 100_000.0;
+        let travel = v * 0.15 + (v * v - 300.0 * 300.0) / (2.0 * a);
+        assert!((travel - 1200.0).abs() < 1e-6, "{travel}");
+        assert!(v > 6_000.0 && v < 7_000.0, "{v}");
+    }
+}

@@ -1,0 +1,267 @@
+//! What the isel driver needs from a machine profile, converted once into
+//! controller units: steps, step frequencies (Hz), the axis configuration
+//! `@0<n>` and the timing of the line.
+
+use std::time::Duration;
+
+use thiserror::Error;
+
+use crate::axis::{Axis, AxisSet};
+use crate::config::Profile;
+use crate::device::api::PerAxis;
+use crate::motion::Ramp;
+use crate::proto::Protocol;
+use crate::proto::isel::{AxisConfig, DeviceNumber, InputPort, SPEED_HZ};
+use crate::wire::LineSettings;
+
+/// One axis in steps and Hz.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AxisLimits {
+    /// Soft limits in machine steps (from the reference point).
+    pub min: i64,
+    pub max: i64,
+    /// Highest step frequency any move of this axis is given: the profile's
+    /// `max_speed`, never above the controller's 40000 Hz (isel decision 13).
+    pub max_hz: f64,
+    /// `jog.max_overrun` in steps.
+    pub max_overrun: f64,
+}
+
+impl AxisLimits {
+    pub fn contains(&self, steps: i64) -> bool {
+        (self.min..=self.max).contains(&steps)
+    }
+
+    pub fn span(&self) -> i64 {
+        self.max.saturating_sub(self.min)
+    }
+}
+
+/// How often to poll.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PollRate {
+    /// The next poll right after the previous reply.
+    LineSpeed,
+    /// Poll cycles per second.
+    Hz(f64),
+    /// No polling (the `send` command, scripts).
+    Off,
+}
+
+impl PollRate {
+    /// The profile's convention: 0 = as fast as the line allows.
+    pub fn from_profile(rate_hz: f64) -> PollRate {
+        if rate_hz > 0.0 && rate_hz.is_finite() {
+            PollRate::Hz(rate_hz)
+        } else {
+            PollRate::LineSpeed
+        }
+    }
+
+    /// `Request::Poll`'s convention (`docs/device.md`): `None` = as fast as
+    /// the line allows, a positive rate = that rate, anything else = off.
+    pub fn from_request(rate_hz: Option<f64>) -> PollRate {
+        match rate_hz {
+            None => PollRate::LineSpeed,
+            Some(hz) if hz > 0.0 && hz.is_finite() => PollRate::Hz(hz),
+            Some(_) => PollRate::Off,
+        }
+    }
+}
+
+/// What one poll cycle reads.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PollPlan {
+    pub rate: PollRate,
+    /// Read `ports` every Nth cycle (at least 1).
+    pub ports_every: u32,
+    /// The input ports read on a port cycle, in this order.
+    pub ports: Vec<InputPort>,
+}
+
+impl PollPlan {
+    /// The safety ports first: E-stop circuits (1), limit switches (3), then
+    /// hood and power (2) (`../shared/protocols.md` isel 7).
+    pub const DEFAULT_PORTS: [InputPort; 3] = [
+        InputPort::Status1,
+        InputPort::LimitSwitches,
+        InputPort::Status2,
+    ];
+}
+
+/// Tuning of the driver's timing; the defaults are documented in
+/// `docs/device.md`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Timing {
+    /// Added to a query's wire time for the controller's processing and the
+    /// host's scheduling.
+    pub reply_margin: Duration,
+    /// Interval of estimated positions while a move runs (25 Hz).
+    pub estimate_interval: Duration,
+    /// Quiet time the line must show before the next command after a
+    /// garbled reply or a stopped move, so stray bytes cannot be taken for
+    /// the next reply.
+    pub resync_gap: Duration,
+    /// Time the controller is left alone after 0xFE (software reset).
+    pub reset_settle: Duration,
+    /// Quiet after the stop sequence that opens every connection, for the
+    /// answer of a move that may still have been running.
+    pub connect_settle: Duration,
+}
+
+impl Default for Timing {
+    fn default() -> Self {
+        Timing {
+            reply_margin: Duration::from_millis(100),
+            estimate_interval: Duration::from_millis(40),
+            resync_gap: Duration::from_millis(10),
+            reset_settle: Duration::from_millis(100),
+            connect_settle: Duration::from_millis(100),
+        }
+    }
+}
+
+/// The isel driver's view of a profile.
+#[derive(Debug, Clone, PartialEq)]
+pub struct IselSettings {
+    pub device: DeviceNumber,
+    /// The axis configuration the machine has (`machine.axes`).
+    pub config: AxisConfig,
+    pub axes: PerAxis<AxisLimits>,
+    pub start_stop_hz: u32,
+    pub accel_hz_per_ms: u32,
+    pub reference_speed_hz: u32,
+    /// Whether `@0T1` may be sent (`isel.test_mode`).
+    pub test_mode_allowed: bool,
+    pub allow_unreferenced: bool,
+    pub step_queue: usize,
+    /// Dead-man timeout once key repeats flow; with `max_overrun` it caps jog speeds.
+    pub jog_repeat_timeout: Duration,
+    pub line: LineSettings,
+    pub poll: PollPlan,
+    pub timing: Timing,
+}
+
+#[derive(Debug, Clone, PartialEq, Eq, Error)]
+pub enum SettingsError {
+    #[error("profile `{profile}` is for the {protocol} protocol, not isel")]
+    WrongProtocol { profile: String, protocol: Protocol },
+    #[error("profile `{profile}`: {message}")]
+    Invalid { profile: String, message: String },
+}
+
+impl IselSettings {
+    pub fn from_profile(profile: &Profile) -> Result<IselSettings, SettingsError> {
+        let invalid = |message: String| SettingsError::Invalid {
+            profile: profile.name.clone(),
+            message,
+        };
+        if profile.connection.protocol != Protocol::Isel {
+            return Err(SettingsError::WrongProtocol {
+                profile: profile.name.clone(),
+                protocol: profile.connection.protocol,
+            });
+        }
+        let listed = profile.machine.axis_set().map_err(invalid)?;
+        let config = AxisConfig::ALL
+            .into_iter()
+            .find(|c| c.axes() == listed)
+            .ok_or_else(|| invalid(format!("isel drives X, XY, XYZ or XYZA, not {listed}")))?;
+        let device = DeviceNumber::new(profile.isel.device)
+            .ok_or_else(|| invalid("isel device numbers are 0-9".into()))?;
+        let mut axes = PerAxis::new();
+        for axis in config.axes().iter() {
+            let p = profile
+                .axis(axis)
+                .ok_or_else(|| invalid(format!("axis {axis} has no [axes.{axis}] table")))?;
+            let max_hz = p
+                .speed_hz(p.max_speed)
+                .min(f64::from(*SPEED_HZ.end()))
+                .max(f64::from(*SPEED_HZ.start()));
+            axes.set(
+                axis,
+                AxisLimits {
+                    min: p.min_steps(),
+                    max: p.max_steps(),
+                    max_hz,
+                    max_overrun: (profile.jog.max_overrun * p.steps_per_unit).abs(),
+                },
+            );
+        }
+        Ok(IselSettings {
+            device,
+            config,
+            axes,
+            start_stop_hz: profile.isel.start_stop_hz,
+            accel_hz_per_ms: profile.isel.accel_hz_per_ms,
+            reference_speed_hz: profile.isel.reference_speed_hz,
+            test_mode_allowed: profile.isel.test_mode,
+            allow_unreferenced: profile.jog.allow_unreferenced,
+            step_queue: profile.jog.step_queue.max(1),
+            jog_repeat_timeout: Duration::from_millis(profile.jog.repeat_timeout_ms),
+            line: profile.connection.line(),
+            poll: PollPlan {
+                rate: PollRate::from_profile(profile.poll.rate_hz),
+                ports_every: profile.poll.ports_every.max(1),
+                ports: PollPlan::DEFAULT_PORTS.to_vec(),
+            },
+            timing: Timing::default(),
+        })
+    }
+
+    pub fn axis_set(&self) -> AxisSet {
+        self.config.axes()
+    }
+
+    pub fn limits(&self, axis: Axis) -> Option<AxisLimits> {
+        self.axes.get(axis)
+    }
+
+    /// The ramp of a move at `max_hz` with the start-stop frequency and
+    /// acceleration the driver sets (`@0j`, `@0J`, manual 2.2.15/2.2.16).
+    pub fn ramp(&self, max_hz: f64) -> Ramp {
+        Ramp {
+            start_hz: f64::from(self.start_stop_hz),
+            max_hz,
+            accel_hz_per_s: f64::from(self.accel_hz_per_ms) * 1000.0,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::{ConfigDirs, load_profile};
+
+    #[test]
+    fn the_default_profile_becomes_steps_and_hertz() {
+        let profile = load_profile("default", &ConfigDirs::builtin_only()).expect("profile");
+        let s = IselSettings::from_profile(&profile).expect("settings");
+        assert_eq!(s.config, AxisConfig::XYZ);
+        let x = s.limits(Axis::X).expect("X");
+        assert_eq!((x.min, x.max), (0, 120_000));
+        assert_eq!(x.max_hz, 10_000.0);
+        assert_eq!(x.max_overrun, 1_200.0);
+        assert_eq!(s.limits(Axis::A), None);
+        assert_eq!(s.line.baud, 19200);
+        assert_eq!(s.poll.rate, PollRate::LineSpeed);
+    }
+
+    #[test]
+    fn poll_rate_conventions() {
+        assert_eq!(PollRate::from_request(None), PollRate::LineSpeed);
+        assert_eq!(PollRate::from_request(Some(10.0)), PollRate::Hz(10.0));
+        assert_eq!(PollRate::from_request(Some(0.0)), PollRate::Off);
+        assert_eq!(PollRate::from_request(Some(f64::NAN)), PollRate::Off);
+        assert_eq!(PollRate::from_profile(0.0), PollRate::LineSpeed);
+    }
+
+    #[test]
+    fn other_protocols_are_refused() {
+        let profile = load_profile("emp", &ConfigDirs::builtin_only()).expect("profile");
+        assert!(matches!(
+            IselSettings::from_profile(&profile),
+            Err(SettingsError::WrongProtocol { .. })
+        ));
+    }
+}

@@ -1,0 +1,14 @@
+//! Byte conversations with the isel driver on synthetic time: every bullet
+//! of the driver's behaviour, one test (or a few) each.
+
+mod harness;
+
+mod connect;
+mod faults;
+mod motion;
+mod polling;
+mod properties;
+mod raw;
+mod timeouts;
+mod upload;
+mod with_sim;

@@ -1,0 +1,505 @@
+//! The device task: the one owner of the port. It feeds the family's
+//! sans-IO driver with what happens (bytes read, messages written, requests,
+//! time) and carries out what the driver asks for (messages to write,
+//! events to publish), on the current tokio runtime.
+//!
+//! - **Stop** overtakes everything: it has its own channel, checked first
+//!   (a biased select), and goes to the paced writer's stop lane, which
+//!   puts it between two bytes of a command already on its way.
+//! - **Link supervision**: a failed open, a vanished port (read or write),
+//!   or a driver that declares the link dead (no reply within its deadline)
+//!   is `LinkState::Lost` at once. A port that is still open gets the stop
+//!   sequence before it is closed. Then the task reconnects with a backoff
+//!   (250 ms doubling to 5 s) and the driver reads the controller's state
+//!   back; nothing that was in flight is ever sent again.
+//! - **Shutdown** (or the last handle dropped): stop, wait until the stop
+//!   bytes are written and drained, close, `LinkState::Closed`.
+//! - **Few wakeups**: the paced writer reports every byte it hands over and
+//!   a controller's reply arrives byte by byte. While a message is being
+//!   written the task does not wait for the writer's reports (it takes them
+//!   when it wakes anyway, or when the message should be done); while a
+//!   fixed-length reply comes in it lets the bytes gather in the OS buffer
+//!   (`Driver::pending_reply_bytes`) and reads them at once, waking again
+//!   for the last few so the reply is complete as early as before. A stop
+//!   ends both at once. This is what keeps a 10 Hz poll loop cheap
+//!   (`docs/performance.md`).
+//!
+//! See `docs/device.md`.
+
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use tokio::sync::{mpsc, watch};
+use tokio::time::{sleep_until, timeout_at};
+
+use super::api::{Event, LinkState, Request};
+use super::connector::{Backoff, Connector};
+use super::driver::Driver;
+use super::events::{EventBus, EventReceiver};
+use super::handle::{DeviceHandle, EmergencyHandle, EmergencySlot, StopCall, StopWritten};
+use super::isel::{IselDriver, SettingsError};
+use super::traffic_buffer::TrafficBuffer;
+use crate::config::Profile;
+use crate::proto::Protocol;
+use crate::transport::{
+    self, EmergencyStop, Interleave, Lane, MessageId, PacedWriter, PortParts, PortSpec,
+    WriterConfig, WriterEvent,
+};
+use crate::wire::LineSettings;
+
+/// Tuning of the device task.
+#[derive(Debug, Clone, Copy)]
+pub struct TaskOptions {
+    pub writer: WriterConfig,
+    /// Lossy events (traffic, positions …) kept per consumer.
+    pub lossy_capacity: usize,
+    /// Requests waiting for the task.
+    pub request_capacity: usize,
+    pub backoff: Backoff,
+    /// Bound on waiting for stop bytes to be written before a port closes.
+    pub stop_flush: Duration,
+}
+
+impl Default for TaskOptions {
+    fn default() -> Self {
+        TaskOptions {
+            writer: WriterConfig::default(),
+            lossy_capacity: 1024,
+            request_capacity: 256,
+            backoff: Backoff::default(),
+            stop_flush: Duration::from_millis(500),
+        }
+    }
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum DeviceError {
+    #[error(transparent)]
+    Settings(#[from] SettingsError),
+    #[error("jogterm has no {0} driver yet")]
+    Unsupported(Protocol),
+    #[error("the device task needs a tokio runtime (none is running on this thread)")]
+    NoRuntime,
+}
+
+/// The driver for a profile's controller family.
+pub fn driver_for(profile: &Profile) -> Result<Box<dyn Driver>, DeviceError> {
+    match profile.connection.protocol {
+        Protocol::Isel => Ok(Box::new(IselDriver::from_profile(profile)?)),
+        other => Err(DeviceError::Unsupported(other)),
+    }
+}
+
+/// Start the device task for `profile` on `port`. The receiver sees every
+/// event from the first one on.
+pub fn spawn(
+    profile: &Profile,
+    port: PortSpec,
+    options: TaskOptions,
+) -> Result<(DeviceHandle, EventReceiver), DeviceError> {
+    spawn_with(driver_for(profile)?, Connector::from(port), options)
+}
+
+/// Start the device task with any driver and connector.
+pub fn spawn_with(
+    driver: Box<dyn Driver>,
+    connector: Connector,
+    options: TaskOptions,
+) -> Result<(DeviceHandle, EventReceiver), DeviceError> {
+    let runtime = tokio::runtime::Handle::try_current().map_err(|_| DeviceError::NoRuntime)?;
+    let bus = EventBus::new(options.lossy_capacity);
+    let first = bus.subscribe();
+    let (requests_tx, requests) = mpsc::channel(options.request_capacity.max(1));
+    let (stops_tx, stops) = mpsc::unbounded_channel();
+    let slot = Arc::new(Mutex::new(EmergencySlot::default()));
+    let emergency = EmergencyHandle::new(slot.clone(), driver.emergency_stop_bytes());
+    let (done_tx, done) = watch::channel(false);
+    let task = Task {
+        driver,
+        connector,
+        bus: bus.clone(),
+        requests,
+        stops,
+        slot,
+        options,
+        last_lost: None,
+    };
+    runtime.spawn(task.run(done_tx));
+    Ok((
+        DeviceHandle {
+            requests: requests_tx,
+            stops: stops_tx,
+            bus,
+            emergency,
+            done,
+        },
+        first,
+    ))
+}
+
+struct Task {
+    driver: Box<dyn Driver>,
+    connector: Connector,
+    bus: EventBus,
+    requests: mpsc::Receiver<Request>,
+    stops: mpsc::UnboundedReceiver<StopCall>,
+    slot: Arc<Mutex<EmergencySlot>>,
+    options: TaskOptions,
+    /// The last loss published, so a retry loop says it once.
+    last_lost: Option<String>,
+}
+
+/// How a session or a wait ended.
+enum End {
+    Shutdown,
+    Lost,
+}
+
+/// Why a session ends.
+enum Ending {
+    Shutdown,
+    /// The driver declared the link dead; the port is still open.
+    DeadLink,
+    /// The port failed.
+    PortGone(String),
+}
+
+/// The port of one connection.
+struct Session {
+    writer: PacedWriter,
+    written: mpsc::UnboundedReceiver<WriterEvent>,
+    traffic: TrafficBuffer,
+    stop_waiters: Vec<(MessageId, Vec<StopCall>)>,
+    line: LineSettings,
+    /// Do not wait for the writer's reports before this (a message is being
+    /// paced out; its last report is due then).
+    reports_after: Option<Instant>,
+    /// Do not wait for input before this (a reply is under way; its bytes
+    /// gather in the OS buffer meanwhile).
+    read_after: Option<Instant>,
+}
+
+/// A reply's bytes are read this many byte times before the last is due,
+/// so a timer that fires up to a millisecond late still finds it early.
+const READ_AHEAD_BYTES: usize = 3;
+
+impl Task {
+    async fn run(mut self, done: watch::Sender<bool>) {
+        let mut attempt: u32 = 0;
+        loop {
+            self.bus.publish(Event::Link(LinkState::Connecting));
+            let opened = self
+                .connector
+                .port()
+                .and_then(transport::open)
+                .and_then(|port| {
+                    let line = port.line();
+                    port.split(self.options.writer).map(|parts| (parts, line))
+                });
+            match opened {
+                Ok((parts, line)) => {
+                    attempt = 0;
+                    self.last_lost = None;
+                    if let End::Shutdown = self.session(parts, line).await {
+                        break;
+                    }
+                }
+                Err(e) => self.lost(e.to_string()),
+            }
+            attempt = attempt.saturating_add(1);
+            let retry_in = self.options.backoff.delay(attempt);
+            self.bus
+                .publish(Event::Link(LinkState::Reconnecting { attempt, retry_in }));
+            if let End::Shutdown = self.wait_disconnected(retry_in).await {
+                break;
+            }
+        }
+        self.bus.publish(Event::Link(LinkState::Closed));
+        self.bus.close();
+        // Refuse what comes after, before telling the handles it is over.
+        self.requests.close();
+        self.stops.close();
+        let _ = done.send(true);
+    }
+
+    fn lost(&mut self, reason: String) {
+        if self.last_lost.as_deref() != Some(reason.as_str()) {
+            self.bus.publish(Event::Link(LinkState::Lost {
+                reason: reason.clone(),
+            }));
+            self.last_lost = Some(reason);
+        }
+    }
+
+    fn set_emergency(&self, stop: Option<EmergencyStop>) {
+        let mut slot = self.slot.lock().unwrap_or_else(|p| p.into_inner());
+        slot.stop = stop;
+    }
+
+    /// Hand the driver's messages to the writer and its events to the
+    /// clients. `Err` when the driver declared the link dead.
+    fn pump(&mut self, s: &mut Session) -> Result<(), ()> {
+        let now = Instant::now();
+        while let Some(out) = self.driver.poll_transmit(now) {
+            let interleave = if out.interruptible {
+                Interleave::BetweenBytes
+            } else {
+                Interleave::WholeMessage
+            };
+            // Its last byte is handed over about this much later.
+            let due = now + s.line.transfer_time(out.bytes.len().saturating_sub(1));
+            s.reports_after = Some(s.reports_after.map_or(due, |t| t.max(due)));
+            // A writer that has ended reports `Failed`; the loop sees it.
+            let _ = s.writer.send(out.bytes, interleave);
+        }
+        self.publish_driver_events()
+    }
+
+    /// A report from the writer; `Some` when the port is gone.
+    fn writer_event(&mut self, s: &mut Session, event: Option<WriterEvent>) -> Option<Ending> {
+        match event {
+            Some(WriterEvent::Written(chunk)) => self.written(s, chunk),
+            Some(WriterEvent::DrainTimedOut { waited, .. }) => {
+                self.bus.publish(Event::Notice(format!(
+                    "stop bytes not confirmed on the wire within {} ms",
+                    waited.as_millis()
+                )))
+            }
+            // The task never cancels: the driver counts on every message.
+            Some(WriterEvent::Cancelled { .. }) => {}
+            Some(WriterEvent::Failed(e)) => return Some(Ending::PortGone(e.to_string())),
+            None => return Some(Ending::PortGone("the writer has stopped".to_owned())),
+        }
+        None
+    }
+
+    fn publish_driver_events(&mut self) -> Result<(), ()> {
+        let mut dead = false;
+        while let Some(event) = self.driver.poll_event() {
+            if let Event::Link(LinkState::Lost { reason }) = &event {
+                dead = true;
+                self.last_lost = Some(reason.clone());
+            }
+            self.bus.publish(event);
+        }
+        if dead { Err(()) } else { Ok(()) }
+    }
+
+    fn publish_traffic(&self, records: Vec<crate::traffic::TrafficRecord>) {
+        for r in records {
+            self.bus.publish(Event::Traffic(r));
+        }
+    }
+
+    /// A chunk the writer reports.
+    fn written(&mut self, s: &mut Session, chunk: transport::WrittenChunk) {
+        let records = s.traffic.written(&chunk);
+        self.publish_traffic(records);
+        match chunk.lane {
+            Lane::Stop => {
+                if let Some(i) = s.stop_waiters.iter().position(|(id, _)| *id == chunk.id) {
+                    let (_, calls) = s.stop_waiters.swap_remove(i);
+                    for call in calls {
+                        let _ = call.done.send(Some(StopWritten {
+                            requested: call.requested,
+                            wire_start: chunk.wire_start,
+                            wire_end: chunk.wire_end,
+                        }));
+                    }
+                }
+            }
+            // The writer's own time: the report may be taken a little later.
+            Lane::Normal if chunk.done => self.driver.transmitted(chunk.at),
+            Lane::Normal => {}
+        }
+    }
+
+    /// Every stop waiting, as one write on the stop lane.
+    fn stop_now(&mut self, s: &mut Session, first: StopCall) {
+        let mut calls = vec![first];
+        while let Ok(call) = self.stops.try_recv() {
+            calls.push(call);
+        }
+        let out = self.driver.stop(Instant::now());
+        // A failed writer has reported `Failed` or will; the calls' senders
+        // are dropped with it and their tickets say nothing was written.
+        if let Ok(id) = s.writer.stop(out.bytes) {
+            s.stop_waiters.push((id, calls));
+        }
+        // Whatever follows the stop is read and reported at once.
+        s.reports_after = None;
+        s.read_after = None;
+    }
+
+    async fn session(&mut self, parts: PortParts, line: LineSettings) -> End {
+        let PortParts {
+            mut reader,
+            writer,
+            events,
+            emergency,
+        } = parts;
+        self.set_emergency(Some(emergency));
+        let mut s = Session {
+            writer,
+            written: events,
+            traffic: TrafficBuffer::default(),
+            stop_waiters: Vec::new(),
+            line,
+            reports_after: None,
+            read_after: None,
+        };
+        self.bus.publish(Event::Link(LinkState::Connected));
+        self.driver.connected(Instant::now());
+        let mut last_fired: Option<Instant> = None;
+        let ending = 'session: loop {
+            // Reports that are there already, whether or not the task waits
+            // for them.
+            while let Ok(event) = s.written.try_recv() {
+                if let Some(end) = self.writer_event(&mut s, Some(event)) {
+                    break 'session end;
+                }
+            }
+            if self.pump(&mut s).is_err() {
+                break Ending::DeadLink;
+            }
+            let now = Instant::now();
+            let stopping = !s.stop_waiters.is_empty();
+            let reports_later = s.reports_after.filter(|t| *t > now && !stopping);
+            let read_later = s.read_after.filter(|t| *t > now);
+            let mut wake = [
+                self.driver.next_timeout(),
+                s.traffic.due(),
+                reports_later,
+                read_later,
+            ]
+            .into_iter()
+            .flatten()
+            .min();
+            // A deadline that handling did not move must not spin the loop.
+            if wake.is_some() && wake == last_fired {
+                wake = wake.map(|t| t.max(Instant::now() + Duration::from_millis(1)));
+            }
+            let timer = async {
+                match wake {
+                    Some(t) => sleep_until(t.into()).await,
+                    None => std::future::pending().await,
+                }
+            };
+            tokio::select! {
+                biased;
+                Some(call) = self.stops.recv() => self.stop_now(&mut s, call),
+                event = s.written.recv(), if reports_later.is_none() => {
+                    if let Some(end) = self.writer_event(&mut s, event) {
+                        break end;
+                    }
+                }
+                read = reader.read_chunk(), if read_later.is_none() => match read {
+                    Ok(chunk) => {
+                        let records = s.traffic.read(&chunk);
+                        self.publish_traffic(records);
+                        self.driver.received(&chunk.bytes, chunk.at);
+                        // The rest of a fixed-length reply is read in one go.
+                        s.read_after = self
+                            .driver
+                            .pending_reply_bytes()
+                            .filter(|n| *n > READ_AHEAD_BYTES)
+                            .map(|n| chunk.at + s.line.transfer_time(n - READ_AHEAD_BYTES));
+                    }
+                    Err(e) => break Ending::PortGone(e.to_string()),
+                },
+                request = self.requests.recv() => match request {
+                    None | Some(Request::Shutdown) => break Ending::Shutdown,
+                    Some(r) => self.driver.request(r, Instant::now()),
+                },
+                () = timer => {
+                    let now = Instant::now();
+                    last_fired = wake;
+                    let records = s.traffic.on_time(now);
+                    self.publish_traffic(records);
+                    if self.driver.next_timeout().is_some_and(|t| t <= now) {
+                        self.driver.handle_timeout(now);
+                    }
+                }
+            }
+        };
+        self.end_session(s, reader, ending).await
+    }
+
+    async fn end_session(
+        &mut self,
+        mut s: Session,
+        reader: transport::PortReader,
+        ending: Ending,
+    ) -> End {
+        let now = Instant::now();
+        let (end, reason) = match ending {
+            Ending::Shutdown => {
+                let out = self.driver.stop(now);
+                self.flush_stop(&mut s, out.bytes).await;
+                (End::Shutdown, "the port was closed".to_owned())
+            }
+            Ending::DeadLink => {
+                // The controller may still be moving: stop it while the port
+                // is open.
+                let bytes = self.driver.emergency_stop_bytes();
+                self.flush_stop(&mut s, bytes).await;
+                let reason = self.last_lost.clone().unwrap_or_default();
+                (End::Lost, reason)
+            }
+            Ending::PortGone(reason) => (End::Lost, reason),
+        };
+        drop(reader);
+        self.set_emergency(None);
+        let records = s.traffic.flush();
+        self.publish_traffic(records);
+        s.writer.close();
+        self.driver.disconnected(&reason, Instant::now());
+        let _ = self.publish_driver_events();
+        if let End::Lost = end {
+            self.lost(reason);
+        }
+        end
+    }
+
+    /// Write stop bytes on the stop lane and wait (bounded) until the
+    /// writer reports them written, which for a terminal includes `tcdrain`.
+    async fn flush_stop(&mut self, s: &mut Session, bytes: Vec<u8>) {
+        let Ok(id) = s.writer.stop(bytes) else {
+            return;
+        };
+        let deadline = Instant::now() + self.options.stop_flush;
+        loop {
+            match timeout_at(deadline.into(), s.written.recv()).await {
+                Ok(Some(WriterEvent::Written(chunk))) => {
+                    let ours = chunk.id == id;
+                    self.written(s, chunk);
+                    if ours {
+                        return;
+                    }
+                }
+                Ok(Some(WriterEvent::DrainTimedOut { .. } | WriterEvent::Cancelled { .. })) => {}
+                Ok(Some(WriterEvent::Failed(_)) | None) | Err(_) => return,
+            }
+        }
+    }
+
+    /// Between connections: requests are answered (refused), stops say that
+    /// nothing could be written.
+    async fn wait_disconnected(&mut self, delay: Duration) -> End {
+        let until = Instant::now() + delay;
+        loop {
+            let _ = self.publish_driver_events();
+            tokio::select! {
+                biased;
+                Some(call) = self.stops.recv() => {
+                    let _ = call.done.send(None);
+                }
+                request = self.requests.recv() => match request {
+                    None | Some(Request::Shutdown) => return End::Shutdown,
+                    Some(r) => self.driver.request(r, Instant::now()),
+                },
+                () = sleep_until(until.into()) => return End::Lost,
+            }
+        }
+    }
+}
