@@ -453,3 +453,19 @@ fn an_upload_shows_its_progress_and_its_end() {
         "{shown}"
     );
 }
+
+#[test]
+fn a_text_reply_is_shown_line_by_line() {
+    let mut m = ready(Protocol::Isel);
+    update(
+        &mut m,
+        Msg::Device(Event::Reply {
+            command: "@0V".into(),
+            text: "iMC-S8 V2.0\r\nserial 42\r\n".into(),
+        }),
+    );
+    let shown = screen(&m, 80, 24);
+    assert!(shown.contains("=  @0V = iMC-S8 V2.0"), "{shown}");
+    assert!(shown.contains("=    serial 42"), "{shown}");
+    assert!(shown.contains("@0V = iMC-S8 V2.0 / serial 42"), "{shown}");
+}

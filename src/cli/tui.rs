@@ -3,14 +3,35 @@
 //! Everything that can be wrong with the configuration is found before the
 //! terminal is touched: the profile with the command line's overrides on top,
 //! the theme, the profile's `[keys]` table. A problem prints the loader's
-//! `file:line:col: error: …` and exits with status 2.
+//! `file:line:col: error: …` and exits with status 2. Then the line is
+//! opened (the built-in simulator in-process over a socket pair, or the
+//! port), the device task started, and only then the terminal taken.
 
+use std::fs::OpenOptions;
+use std::future::Future;
+use std::path::PathBuf;
 use std::process::ExitCode;
+use std::sync::Arc;
+use std::time::Instant;
+
+use anyhow::Context as _;
+use tokio::sync::mpsc;
 
 use super::GlobalArgs;
 use super::profile::resolve_with_sources;
 use crate::config::{ConfigDirs, ConfigError, Profile, Source, Theme, load_theme};
+use crate::device::api::{Event, Request};
+use crate::device::log::spawn_log;
+use crate::device::{DeviceHandle, EventReceiver, RequestError, TaskOptions};
+use crate::sim::registry;
+use crate::sim::shell::{Shell, serve_socket};
+use crate::transport::PortSpec;
+use crate::ui::input::InputThreads;
 use crate::ui::keymap::Keymap;
+use crate::ui::palette::Palette;
+use crate::ui::runtime::{self, DeviceLink, NotSent, RunOptions};
+use crate::ui::terminal::{TerminalGuard, TerminalOptions, set_emergency};
+use crate::ui::{Model, Setup};
 
 /// The console's configuration, checked.
 #[derive(Debug, Clone)]
@@ -57,6 +78,142 @@ pub fn resolve(global: &GlobalArgs, dirs: &ConfigDirs) -> Result<Resolved, Setup
         theme,
         keymap,
     })
+}
+
+/// `jogterm` without a command: run the console until the operator quits.
+pub fn run(global: &GlobalArgs) -> anyhow::Result<ExitCode> {
+    let resolved = match resolve(global, &ConfigDirs::from_env()) {
+        Ok(resolved) => resolved,
+        Err(e) => {
+            eprintln!("{e}");
+            return Ok(e.exit_code());
+        }
+    };
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .context("starting the async runtime")?;
+    runtime.block_on(session(global, resolved))?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The built-in simulator a session runs on, and its inputs.
+struct Simulator {
+    shell: Shell,
+    inputs: Vec<String>,
+}
+
+/// The line to the controller: the built-in simulator of the profile's
+/// family, served in-process (`sim::shell::serve_socket`), or the port.
+fn open_line(profile: &Profile) -> anyhow::Result<(PortSpec, Option<Simulator>)> {
+    let protocol = profile.connection.protocol;
+    if !profile.connection.is_simulator() {
+        let spec = PortSpec::Serial {
+            path: PathBuf::from(&profile.connection.port),
+            line: profile.connection.line(),
+        };
+        return Ok((spec, None));
+    }
+    let device = registry::build(protocol, profile)?;
+    let (shell, stream) =
+        serve_socket(device).with_context(|| format!("starting the {protocol} simulator"))?;
+    let inputs = shell
+        .control()
+        .input_names()
+        .with_context(|| format!("asking the {protocol} simulator for its inputs"))?
+        .into_iter()
+        .map(str::to_string)
+        .collect();
+    let spec = PortSpec::InProcess {
+        stream,
+        line: shell.line(),
+        name: format!("built-in {protocol} simulator"),
+    };
+    Ok((spec, Some(Simulator { shell, inputs })))
+}
+
+/// The device task as the UI loop drives it.
+struct Device {
+    handle: DeviceHandle,
+    events: EventReceiver,
+}
+
+impl DeviceLink for Device {
+    fn request(&mut self, request: Request) -> Result<(), NotSent> {
+        self.handle.request(request).map_err(|e| match e {
+            RequestError::Full => NotSent::Busy,
+            RequestError::Closed => NotSent::Gone,
+        })
+    }
+
+    fn stop(&mut self) {
+        // The ticket says when the bytes left; the UI learns what happened
+        // from the events that follow.
+        drop(self.handle.stop());
+    }
+
+    fn next_event(&mut self) -> impl Future<Output = Option<Event>> + Send {
+        self.events.recv()
+    }
+}
+
+async fn session(global: &GlobalArgs, resolved: Resolved) -> anyhow::Result<()> {
+    let Resolved {
+        profile,
+        theme,
+        keymap,
+    } = resolved;
+    let (spec, simulator) = open_line(&profile)?;
+    let (handle, events) = crate::device::spawn(&profile, spec, TaskOptions::default())?;
+    if let Some(path) = &global.log {
+        let file = OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(path)
+            .with_context(|| format!("cannot open the log file {}", path.display()))?;
+        spawn_log(handle.subscribe(), file);
+    }
+    // The panic hook and the hang-up path write the stop bytes themselves.
+    let emergency = handle.emergency();
+    set_emergency(Some(Arc::new(move || {
+        let _ = emergency.fire();
+    })));
+    let setup = Setup::from_profile(&profile, simulator.as_ref().map(|s| s.inputs.clone()));
+    let mut model = Model::new(setup, keymap, Palette::from(&theme), Instant::now());
+    let mut device = Device {
+        handle: handle.clone(),
+        events,
+    };
+    let result = {
+        let (guard, mut terminal) =
+            TerminalGuard::enter(TerminalOptions::from_env()).context("taking the terminal")?;
+        if let Ok(size) = terminal.size() {
+            model.size = (size.width, size.height);
+        }
+        let (tx, mut rx) = mpsc::unbounded_channel();
+        let input = InputThreads::spawn(tx).context("starting the input thread")?;
+        let result = runtime::run(
+            &mut terminal,
+            &mut model,
+            &mut device,
+            &mut rx,
+            simulator.as_ref().map(|s| s.shell.control()),
+            RunOptions::default(),
+        )
+        .await;
+        drop(input);
+        drop(guard);
+        result
+    };
+    // Whatever ended the loop: the machine is stopped and the port closed
+    // before the process goes.
+    handle.shutdown().await;
+    set_emergency(None);
+    if let Some(simulator) = simulator {
+        let _ = tokio::task::spawn_blocking(move || simulator.shell.shutdown()).await;
+    }
+    result.context("the console failed")
 }
 
 #[cfg(test)]

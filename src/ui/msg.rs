@@ -24,6 +24,9 @@ pub enum Msg {
         control: InputControl,
         result: Result<(), String>,
     },
+    /// A request could not be handed to the device task (`request` in
+    /// words, `device::describe`).
+    NotSent { request: String, reason: String },
     /// The terminal hung up or a terminating signal arrived: stop and leave.
     Terminate { reason: String },
 }

@@ -15,6 +15,7 @@ use tokio::signal::unix::{SignalKind, signal};
 use tokio::sync::mpsc::{self, UnboundedReceiver, UnboundedSender};
 
 use crate::device::api::{Event, LinkState, Request};
+use crate::device::describe::describe;
 use crate::sim::InputControl;
 use crate::sim::shell::ShellControl;
 
@@ -27,17 +28,22 @@ use super::view::Screen;
 /// The device task as the UI needs it. Implemented for the real device
 /// handle and for test doubles.
 pub trait DeviceLink {
-    /// Hand a request to the device task; `Err` once it has ended.
-    fn request(&mut self, request: Request) -> Result<(), DeviceGone>;
+    /// Hand a request to the device task.
+    fn request(&mut self, request: Request) -> Result<(), NotSent>;
     /// Stop all motion, ahead of everything queued.
     fn stop(&mut self);
     /// The next event; `None` once the device task has ended.
     fn next_event(&mut self) -> impl Future<Output = Option<Event>> + Send;
 }
 
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("the device task has ended")]
-pub struct DeviceGone;
+/// Why a request did not reach the device task.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum NotSent {
+    #[error("too many requests are waiting for the device task")]
+    Busy,
+    #[error("the device task has ended")]
+    Gone,
+}
 
 #[derive(Debug, thiserror::Error)]
 pub enum RunError {
@@ -114,8 +120,17 @@ pub async fn run<B: Backend, D: DeviceLink>(
             match effect {
                 Effect::Stop => device.stop(),
                 Effect::Request(request) => {
-                    if device.request(request).is_err() {
-                        device_open = false;
+                    let what = describe(&request);
+                    if let Err(reason) = device.request(request) {
+                        device_open &= reason != NotSent::Gone;
+                        // Said at once; the model never waits for an answer.
+                        update(
+                            model,
+                            Msg::NotSent {
+                                request: what,
+                                reason: reason.to_string(),
+                            },
+                        );
                     }
                 }
                 Effect::Simulator(control) => simulate(simulator.clone(), control, sim_tx.clone()),
@@ -197,7 +212,7 @@ mod tests {
     }
 
     impl DeviceLink for FakeDevice {
-        fn request(&mut self, request: Request) -> Result<(), DeviceGone> {
+        fn request(&mut self, request: Request) -> Result<(), NotSent> {
             if request == Request::Shutdown {
                 let _ = self.events_tx.send(Event::Link(LinkState::Closed));
             }

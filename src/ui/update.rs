@@ -49,6 +49,15 @@ pub fn update(model: &mut Model, msg: Msg) -> Vec<Effect> {
             model.dirty = true;
             Vec::new()
         }
+        Msg::NotSent { request, reason } => {
+            say(
+                model,
+                NoteLevel::Danger,
+                format!("not sent: {request}: {reason}"),
+            );
+            model.dirty = true;
+            Vec::new()
+        }
         Msg::Terminate { reason } => {
             say(
                 model,
@@ -395,13 +404,24 @@ fn device_event(model: &mut Model, event: Event) {
         }
         Event::Traffic(record) => model.traffic.record(&record, model.now),
         Event::Reply { command, text } => {
+            // Text replies (isel `@0V`, `@0H`) come in several lines.
+            let lines: Vec<&str> = text
+                .lines()
+                .map(|l| l.trim_end_matches('\r'))
+                .filter(|l| !l.is_empty())
+                .collect();
+            let mut notes = lines.iter();
+            let first = notes.next().copied().unwrap_or_default();
             model
                 .traffic
-                .note(LineKind::Reply, format!("{command} = {text}"));
+                .note(LineKind::Reply, format!("{command} = {first}"));
+            for line in notes {
+                model.traffic.note(LineKind::Reply, format!("  {line}"));
+            }
             model.message = Some(Message {
                 at: model.now,
                 level: NoteLevel::Info,
-                text: format!("{command} = {text}"),
+                text: format!("{command} = {}", lines.join(" / ")),
             });
         }
         Event::Stats(stats) => model.stats = Some(stats),

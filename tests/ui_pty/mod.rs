@@ -4,9 +4,12 @@
 
 #![allow(dead_code)]
 
+use std::fs::File;
 use std::io::{Read, Write};
 use std::num::NonZeroU16;
+use std::os::fd::{AsRawFd, FromRawFd};
 use std::path::Path;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::thread;
 use std::time::{Duration, Instant};
@@ -14,10 +17,11 @@ use std::time::{Duration, Instant};
 use portable_pty::{Child, CommandBuilder, MasterPty, PtySize, native_pty_system};
 
 pub struct PtyRun {
-    pub master: Box<dyn MasterPty + Send>,
+    master: Option<Box<dyn MasterPty + Send>>,
     pub child: Box<dyn Child + Send + Sync>,
-    writer: Box<dyn Write + Send>,
+    writer: Option<Box<dyn Write + Send>>,
     output: Arc<Mutex<Vec<u8>>>,
+    stop_reading: Arc<AtomicBool>,
     reader: Option<thread::JoinHandle<()>>,
 }
 
@@ -44,33 +48,63 @@ impl PtyRun {
         let child = pty.slave.spawn_command(cmd).expect("spawn in the pty");
         // Only the child may hold the slave, or the hang-up never comes.
         drop(pty.slave);
-        let mut reader = pty.master.try_clone_reader().expect("reader");
+        // Our own dup of the master, read with a timeout, so that the reader
+        // can let go of it when the test hangs up (every master fd must be
+        // closed for the kernel to hang the terminal up).
+        let fd = pty.master.as_raw_fd().expect("master fd");
+        // SAFETY: dup of an open fd; the File owns the copy.
+        let mut file = unsafe { File::from_raw_fd(libc::dup(fd)) };
         let writer = pty.master.take_writer().expect("writer");
         let output = Arc::new(Mutex::new(Vec::new()));
+        let stop_reading = Arc::new(AtomicBool::new(false));
         let sink = output.clone();
+        let stop = stop_reading.clone();
         let reader = thread::spawn(move || {
             let mut buf = [0u8; 4096];
-            while let Ok(n) = reader.read(&mut buf) {
-                if n == 0 {
-                    break;
+            while !stop.load(Ordering::SeqCst) {
+                let mut pfd = libc::pollfd {
+                    fd: file.as_raw_fd(),
+                    events: libc::POLLIN,
+                    revents: 0,
+                };
+                // SAFETY: one valid pollfd, bounded wait.
+                let n = unsafe { libc::poll(&mut pfd, 1, 50) };
+                if n <= 0 {
+                    continue;
                 }
-                sink.lock()
-                    .unwrap_or_else(|p| p.into_inner())
-                    .extend_from_slice(&buf[..n]);
+                match file.read(&mut buf) {
+                    Ok(0) | Err(_) => break,
+                    Ok(n) => sink
+                        .lock()
+                        .unwrap_or_else(|p| p.into_inner())
+                        .extend_from_slice(&buf[..n]),
+                }
             }
         });
         PtyRun {
-            master: pty.master,
+            master: Some(pty.master),
             child,
-            writer,
+            writer: Some(writer),
             output,
+            stop_reading,
             reader: Some(reader),
         }
     }
 
+    /// The terminal goes away: every master fd is closed.
+    pub fn close_master(&mut self) {
+        self.stop_reading.store(true, Ordering::SeqCst);
+        if let Some(reader) = self.reader.take() {
+            let _ = reader.join();
+        }
+        self.writer = None;
+        self.master = None;
+    }
+
     pub fn send(&mut self, bytes: &[u8]) {
-        self.writer.write_all(bytes).expect("write to the pty");
-        self.writer.flush().expect("flush the pty");
+        let writer = self.writer.as_mut().expect("the pty is open");
+        writer.write_all(bytes).expect("write to the pty");
+        writer.flush().expect("flush the pty");
     }
 
     /// Everything the program wrote so far.
@@ -139,6 +173,7 @@ impl PtyRun {
 
 impl Drop for PtyRun {
     fn drop(&mut self) {
+        self.stop_reading.store(true, Ordering::SeqCst);
         let _ = self.child.kill();
     }
 }
