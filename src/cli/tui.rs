@@ -12,7 +12,7 @@ use std::future::Future;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::Arc;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use anyhow::Context as _;
 use tokio::sync::mpsc;
@@ -24,7 +24,7 @@ use crate::device::api::{Event, Request};
 use crate::device::log::spawn_log;
 use crate::device::{DeviceHandle, EventReceiver, RequestError, TaskOptions};
 use crate::sim::registry;
-use crate::sim::shell::{Shell, serve_socket};
+use crate::sim::shell::{Shell, ShellControl, serve_socket};
 use crate::transport::PortSpec;
 use crate::ui::input::InputThreads;
 use crate::ui::keymap::Keymap;
@@ -158,6 +158,10 @@ impl DeviceLink for Device {
     }
 }
 
+/// Bound on closing the device after the console: the task stops the
+/// machine and drains the stop bytes within its own bound (500 ms).
+const CLOSE_WITHIN: Duration = Duration::from_secs(3);
+
 async fn session(global: &GlobalArgs, resolved: Resolved) -> anyhow::Result<()> {
     let Resolved {
         profile,
@@ -166,6 +170,36 @@ async fn session(global: &GlobalArgs, resolved: Resolved) -> anyhow::Result<()> 
     } = resolved;
     let (spec, simulator) = open_line(&profile)?;
     let (handle, events) = crate::device::spawn(&profile, spec, TaskOptions::default())?;
+    // The panic hook and the hang-up path write the stop bytes themselves.
+    let emergency = handle.emergency();
+    set_emergency(Some(Arc::new(move || {
+        let _ = emergency.fire();
+    })));
+    let setup = Setup::from_profile(&profile, simulator.as_ref().map(|s| s.inputs.clone()));
+    let model = Model::new(setup, keymap, Palette::from(&theme), Instant::now());
+    let device = Device {
+        handle: handle.clone(),
+        events,
+    };
+    let result = match start_log(global, &handle) {
+        Ok(()) => {
+            let control = simulator.as_ref().map(|s| s.shell.control());
+            in_terminal(model, device, control).await
+        }
+        Err(e) => Err(e),
+    };
+    // Whatever ended the console: the machine is stopped and the port
+    // closed before the process goes.
+    let _ = tokio::time::timeout(CLOSE_WITHIN, handle.shutdown()).await;
+    set_emergency(None);
+    if let Some(simulator) = simulator {
+        let _ = tokio::task::spawn_blocking(move || simulator.shell.shutdown()).await;
+    }
+    result
+}
+
+/// `--log FILE`: the traffic log, as `send` and `poll` write it.
+fn start_log(global: &GlobalArgs, handle: &DeviceHandle) -> anyhow::Result<()> {
     if let Some(path) = &global.log {
         let file = OpenOptions::new()
             .create(true)
@@ -174,46 +208,33 @@ async fn session(global: &GlobalArgs, resolved: Resolved) -> anyhow::Result<()> 
             .with_context(|| format!("cannot open the log file {}", path.display()))?;
         spawn_log(handle.subscribe(), file);
     }
-    // The panic hook and the hang-up path write the stop bytes themselves.
-    let emergency = handle.emergency();
-    set_emergency(Some(Arc::new(move || {
-        let _ = emergency.fire();
-    })));
-    let setup = Setup::from_profile(&profile, simulator.as_ref().map(|s| s.inputs.clone()));
-    let mut model = Model::new(setup, keymap, Palette::from(&theme), Instant::now());
-    let mut device = Device {
-        handle: handle.clone(),
-        events,
-    };
-    let result = {
-        let (guard, mut terminal) =
-            TerminalGuard::enter(TerminalOptions::from_env()).context("taking the terminal")?;
-        if let Ok(size) = terminal.size() {
-            model.size = (size.width, size.height);
-        }
-        let (tx, mut rx) = mpsc::unbounded_channel();
-        let input = InputThreads::spawn(tx).context("starting the input thread")?;
-        let result = runtime::run(
-            &mut terminal,
-            &mut model,
-            &mut device,
-            &mut rx,
-            simulator.as_ref().map(|s| s.shell.control()),
-            RunOptions::default(),
-        )
-        .await;
-        drop(input);
-        drop(guard);
-        result
-    };
-    // Whatever ended the loop: the machine is stopped and the port closed
-    // before the process goes.
-    handle.shutdown().await;
-    set_emergency(None);
-    if let Some(simulator) = simulator {
-        let _ = tokio::task::spawn_blocking(move || simulator.shell.shutdown()).await;
+    Ok(())
+}
+
+/// Take the terminal, run the loop, give the terminal back (the guard does,
+/// on every way out of here).
+async fn in_terminal(
+    mut model: Model,
+    mut device: Device,
+    simulator: Option<ShellControl>,
+) -> anyhow::Result<()> {
+    let (_guard, mut terminal) =
+        TerminalGuard::enter(TerminalOptions::from_env()).context("taking the terminal")?;
+    if let Ok(size) = terminal.size() {
+        model.size = (size.width, size.height);
     }
-    result.context("the console failed")
+    let (tx, mut rx) = mpsc::unbounded_channel();
+    let _input = InputThreads::spawn(tx).context("starting the input thread")?;
+    runtime::run(
+        &mut terminal,
+        &mut model,
+        &mut device,
+        &mut rx,
+        simulator,
+        RunOptions::default(),
+    )
+    .await
+    .context("the console failed")
 }
 
 #[cfg(test)]
