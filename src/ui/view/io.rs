@@ -198,6 +198,15 @@ fn fit_line(line: Line<'static>, width: usize) -> Line<'static> {
     flowed.lines.pop().unwrap_or_default()
 }
 
+/// Group and bit name, the bit's name once when the group is named after it
+/// (`out 2: spindle`).
+fn full_name(group: &str, bit: &str) -> String {
+    match group.split_once(": ") {
+        Some((_, long)) if long == bit => group.to_string(),
+        _ => format!("{group} {bit}"),
+    }
+}
+
 /// The selected bit in full: group, name, value, what Enter does.
 fn detail(model: &Model) -> Line<'static> {
     let p = &model.palette;
@@ -216,7 +225,7 @@ fn detail(model: &Model) -> Line<'static> {
     };
     Line::from(vec![
         Span::styled("> ", p.key),
-        Span::styled(format!("{} {}", group.name, bit.bit.name), p.text),
+        Span::styled(full_name(&group.name, &bit.bit.name), p.text),
         Span::styled(format!(" = {}", u8::from(bit.bit.value)), p.title),
         Span::styled(format!(" ({what}{changes})"), p.dim),
     ])
