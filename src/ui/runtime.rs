@@ -204,15 +204,20 @@ mod tests {
     use ratatui::backend::TestBackend;
     use ratatui::crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
 
-    /// Records what the UI asked for; answers `Shutdown` with `Closed`.
+    /// Records what the UI asked for; answers `Shutdown` with `Closed`;
+    /// refuses other requests as busy when told to.
     struct FakeDevice {
         calls: Vec<String>,
         events: UnboundedReceiver<Event>,
         events_tx: UnboundedSender<Event>,
+        busy: bool,
     }
 
     impl DeviceLink for FakeDevice {
         fn request(&mut self, request: Request) -> Result<(), NotSent> {
+            if self.busy && request != Request::Shutdown {
+                return Err(NotSent::Busy);
+            }
             if request == Request::Shutdown {
                 let _ = self.events_tx.send(Event::Link(LinkState::Closed));
             }
@@ -252,6 +257,7 @@ mod tests {
             calls: Vec::new(),
             events,
             events_tx: events_tx.clone(),
+            busy: false,
         };
         let (tx, mut rx) = mpsc::unbounded_channel();
         events_tx
@@ -342,6 +348,7 @@ mod tests {
             calls: Vec::new(),
             events,
             events_tx: events_tx.clone(),
+            busy: false,
         };
         for i in 0..500 {
             let sample = crate::device::api::PositionSample {
@@ -390,6 +397,7 @@ mod tests {
             calls: Vec::new(),
             events,
             events_tx,
+            busy: false,
         };
         let (tx, mut rx) = mpsc::unbounded_channel::<Msg>();
         drop(tx);
@@ -405,5 +413,37 @@ mod tests {
         .await
         .expect("run");
         assert_eq!(device.calls, ["stop", "Shutdown"]);
+    }
+
+    #[tokio::test]
+    async fn a_request_the_device_cannot_take_is_said_at_once() {
+        let (events_tx, events) = mpsc::unbounded_channel();
+        let mut device = FakeDevice {
+            calls: Vec::new(),
+            events,
+            events_tx,
+            busy: true,
+        };
+        let (tx, mut rx) = mpsc::unbounded_channel();
+        tx.send(key('i')).expect("key");
+        tx.send(key('q')).expect("key");
+        let mut terminal = Terminal::new(TestBackend::new(80, 24)).expect("terminal");
+        let mut model = model();
+        run(
+            &mut terminal,
+            &mut model,
+            &mut device,
+            &mut rx,
+            None,
+            RunOptions::default(),
+        )
+        .await
+        .expect("run");
+        let text = model.message.map(|m| m.text).unwrap_or_default();
+        assert!(
+            model.traffic.tail(50).iter().any(|l| l.text
+                == "not sent: initialise: too many requests are waiting for the device task"),
+            "{text}"
+        );
     }
 }
