@@ -5,7 +5,8 @@
 //! says how to run it and what it measured.
 //!
 //! `cargo bench --bench device` (optimised) or `cargo test --bench device`
-//! (debug build); add `-- --quick` for shorter runs.
+//! (debug build); add `-- --quick` for shorter runs, `-- --only cpu` (or
+//! `bare`, `poll`, `stop`) for one measure, e.g. under a profiler.
 
 use std::io::{BufRead, BufReader};
 use std::path::PathBuf;
@@ -171,19 +172,24 @@ fn percentile(sorted: &[Duration], p: f64) -> Duration {
     sorted[i.min(sorted.len() - 1)]
 }
 
-/// User and system CPU time of this process so far.
-fn cpu_time() -> (Duration, Duration) {
+/// User and system CPU time of this process so far, and its context switches
+/// (voluntary + involuntary: how often it went to sleep and woke again).
+fn cpu_time() -> (Duration, Duration, i64) {
     // SAFETY: getrusage fills the struct it is given; a zeroed rusage is valid.
     let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
     // SAFETY: a valid pointer to a rusage for the calling process.
     let rc = unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut usage) };
     if rc != 0 {
-        return (Duration::ZERO, Duration::ZERO);
+        return (Duration::ZERO, Duration::ZERO, 0);
     }
     let tv = |t: libc::timeval| {
         Duration::from_secs(t.tv_sec.max(0) as u64) + Duration::from_micros(t.tv_usec.max(0) as u64)
     };
-    (tv(usage.ru_utime), tv(usage.ru_stime))
+    (
+        tv(usage.ru_utime),
+        tv(usage.ru_stime),
+        usage.ru_nvcsw + usage.ru_nivcsw,
+    )
 }
 
 /// The simulator in its own process (`jogterm sim --pty`), so the CPU this
@@ -224,8 +230,9 @@ fn sim_process() -> SimProcess {
     }
 }
 
-/// CPU share of one core (user, system) for polling at 10 Hz for `span`.
-async fn poll_cpu(span: Duration) -> (f64, f64) {
+/// CPU share of one core (user, system) for polling at 10 Hz for `span`, and
+/// context switches per second.
+async fn poll_cpu(span: Duration) -> (f64, f64, f64) {
     let sim = sim_process();
     let connector = Connector::Serial {
         path: sim.link.clone(),
@@ -268,11 +275,19 @@ async fn poll_cpu(span: Duration) -> (f64, f64) {
     );
     drop(sim);
     let share = |a: Duration, b: Duration| 100.0 * (b - a).as_secs_f64() / wall.as_secs_f64();
-    (share(cpu0.0, cpu1.0), share(cpu0.1, cpu1.1))
+    let switches = (cpu1.2 - cpu0.2) as f64 / wall.as_secs_f64();
+    (share(cpu0.0, cpu1.0), share(cpu0.1, cpu1.1), switches)
 }
 
 fn main() {
-    let quick = std::env::args().any(|a| a == "--quick");
+    let args: Vec<String> = std::env::args().collect();
+    let quick = args.iter().any(|a| a == "--quick");
+    let only = args
+        .iter()
+        .position(|a| a == "--only")
+        .and_then(|i| args.get(i + 1))
+        .cloned();
+    let wanted = |what: &str| only.as_deref().is_none_or(|o| o == what);
     let span = Duration::from_secs(if quick { 2 } else { 10 });
     let stops = if quick { 50 } else { 300 };
     let runtime = tokio::runtime::Builder::new_current_thread()
@@ -285,16 +300,18 @@ fn main() {
     let p13_limit = line.bytes_per_second() / 39.0;
     let mut rows = Vec::new();
     runtime.block_on(async {
-        let bare = bare_rate(span).await;
-        rows.push(Row {
-            what: "bare transport @0P loop (reference)".into(),
-            result: format!(
-                "{bare:.1}/s = {:.1} % of {p_limit:.1}/s",
-                100.0 * bare / p_limit
-            ),
-            target: "-".into(),
-            ok: true,
-        });
+        if wanted("bare") {
+            let bare = bare_rate(span).await;
+            rows.push(Row {
+                what: "bare transport @0P loop (reference)".into(),
+                result: format!(
+                    "{bare:.1}/s = {:.1} % of {p_limit:.1}/s",
+                    100.0 * bare / p_limit
+                ),
+                target: "-".into(),
+                ok: true,
+            });
+        }
         for (what, ports, limit) in [
             ("@0P", Vec::new(), p_limit),
             (
@@ -303,6 +320,9 @@ fn main() {
                 p13_limit,
             ),
         ] {
+            if !wanted("poll") {
+                continue;
+            }
             let (rate, median) = poll_rate(ports, span).await;
             rows.push(Row {
                 what: format!("{what} poll rate"),
@@ -325,35 +345,45 @@ fn main() {
                 ok: true,
             });
         }
-        let lat = stop_latency(stops).await;
-        let ms = |d: Duration| d.as_secs_f64() * 1000.0;
-        let (p50, p99) = (percentile(&lat, 0.5), percentile(&lat, 0.99));
-        rows.push(Row {
-            what: format!("stop -> first stop byte, p50 ({} stops)", lat.len()),
-            result: format!("{:.3} ms", ms(p50)),
-            target: "< 1 ms".into(),
-            ok: p50 < Duration::from_millis(1),
-        });
-        rows.push(Row {
-            what: "stop -> first stop byte, p99".into(),
-            result: format!(
-                "{:.3} ms (max {:.3} ms)",
-                ms(p99),
-                ms(lat.last().copied().unwrap_or_default())
-            ),
-            target: "< 2 ms".into(),
-            ok: p99 < Duration::from_millis(2),
-        });
-        let (user, system) = poll_cpu(span).await;
-        rows.push(Row {
-            what: format!("CPU, 10 Hz poll loop, {} s", span.as_secs()),
-            result: format!(
-                "{:.2} % of a core ({user:.2} user, {system:.2} sys)",
-                user + system
-            ),
-            target: "< 1 %".into(),
-            ok: user + system < 1.0,
-        });
+        if wanted("stop") {
+            let lat = stop_latency(stops).await;
+            let ms = |d: Duration| d.as_secs_f64() * 1000.0;
+            let (p50, p99) = (percentile(&lat, 0.5), percentile(&lat, 0.99));
+            rows.push(Row {
+                what: format!("stop -> first stop byte, p50 ({} stops)", lat.len()),
+                result: format!("{:.3} ms", ms(p50)),
+                target: "< 1 ms".into(),
+                ok: p50 < Duration::from_millis(1),
+            });
+            rows.push(Row {
+                what: "stop -> first stop byte, p99".into(),
+                result: format!(
+                    "{:.3} ms (max {:.3} ms)",
+                    ms(p99),
+                    ms(lat.last().copied().unwrap_or_default())
+                ),
+                target: "< 2 ms".into(),
+                ok: p99 < Duration::from_millis(2),
+            });
+        }
+        if wanted("cpu") {
+            let (user, system, switches) = poll_cpu(span).await;
+            rows.push(Row {
+                what: format!("CPU, 10 Hz poll loop, {} s", span.as_secs()),
+                result: format!(
+                    "{:.2} % of a core ({user:.2} user, {system:.2} sys)",
+                    user + system
+                ),
+                target: "< 1 %".into(),
+                ok: user + system < 1.0,
+            });
+            rows.push(Row {
+                what: "  context switches, 10 Hz poll loop".into(),
+                result: format!("{switches:.0}/s"),
+                target: "-".into(),
+                ok: true,
+            });
+        }
     });
     println!(
         "jogterm device benchmark: isel simulator, 19200 baud ({} build)",

@@ -65,12 +65,4 @@ pub trait Driver: Send {
     fn next_timeout(&self) -> Option<Instant>;
 
     fn handle_timeout(&mut self, now: Instant);
-
-    /// How many more bytes the reply being received needs at least, when
-    /// the driver knows (a fixed-length reply under way). A hint: the device
-    /// task may let them gather in the OS buffer instead of waking for every
-    /// byte. `None`: read as soon as anything arrives.
-    fn pending_reply_bytes(&self) -> Option<usize> {
-        None
-    }
 }

@@ -14,15 +14,12 @@
 //!   back; nothing that was in flight is ever sent again.
 //! - **Shutdown** (or the last handle dropped): stop, wait until the stop
 //!   bytes are written and drained, close, `LinkState::Closed`.
-//! - **Few wakeups**: the paced writer reports every byte it hands over and
-//!   a controller's reply arrives byte by byte. While a message is being
-//!   written the task does not wait for the writer's reports (it takes them
-//!   when it wakes anyway, or when the message should be done); while a
-//!   fixed-length reply comes in it lets the bytes gather in the OS buffer
-//!   (`Driver::pending_reply_bytes`) and reads them at once, waking again
-//!   for the last few so the reply is complete as early as before. A stop
-//!   ends both at once. This is what keeps a 10 Hz poll loop cheap
-//!   (`docs/performance.md`).
+//! - **Few wakeups**: the paced writer reports every chunk it hands over.
+//!   While a message is being written the task does not wait for those
+//!   reports (it takes them when it wakes anyway, or when the message should
+//!   be done); a stop ends that at once. Received bytes are read as the
+//!   kernel delivers them (a reply comes in FIFO-sized chunks). This is what
+//!   keeps a 10 Hz poll loop cheap (`docs/performance.md`).
 //!
 //! See `docs/device.md`.
 
@@ -174,14 +171,7 @@ struct Session {
     /// Do not wait for the writer's reports before this (a message is being
     /// paced out; its last report is due then).
     reports_after: Option<Instant>,
-    /// Do not wait for input before this (a reply is under way; its bytes
-    /// gather in the OS buffer meanwhile).
-    read_after: Option<Instant>,
 }
-
-/// A reply's bytes are read this many byte times before the last is due,
-/// so a timer that fires up to a millisecond late still finds it early.
-const READ_AHEAD_BYTES: usize = 3;
 
 impl Task {
     async fn run(mut self, done: watch::Sender<bool>) {
@@ -328,7 +318,6 @@ impl Task {
         }
         // Whatever follows the stop is read and reported at once.
         s.reports_after = None;
-        s.read_after = None;
     }
 
     async fn session(&mut self, parts: PortParts, line: LineSettings) -> End {
@@ -346,7 +335,6 @@ impl Task {
             stop_waiters: Vec::new(),
             line,
             reports_after: None,
-            read_after: None,
         };
         self.bus.publish(Event::Link(LinkState::Connected));
         self.driver.connected(Instant::now());
@@ -365,16 +353,10 @@ impl Task {
             let now = Instant::now();
             let stopping = !s.stop_waiters.is_empty();
             let reports_later = s.reports_after.filter(|t| *t > now && !stopping);
-            let read_later = s.read_after.filter(|t| *t > now);
-            let mut wake = [
-                self.driver.next_timeout(),
-                s.traffic.due(),
-                reports_later,
-                read_later,
-            ]
-            .into_iter()
-            .flatten()
-            .min();
+            let mut wake = [self.driver.next_timeout(), s.traffic.due(), reports_later]
+                .into_iter()
+                .flatten()
+                .min();
             // A deadline that handling did not move must not spin the loop.
             if wake.is_some() && wake == last_fired {
                 wake = wake.map(|t| t.max(Instant::now() + Duration::from_millis(1)));
@@ -393,17 +375,11 @@ impl Task {
                         break end;
                     }
                 }
-                read = reader.read_chunk(), if read_later.is_none() => match read {
+                read = reader.read_chunk() => match read {
                     Ok(chunk) => {
                         let records = s.traffic.read(&chunk);
                         self.publish_traffic(records);
                         self.driver.received(&chunk.bytes, chunk.at);
-                        // The rest of a fixed-length reply is read in one go.
-                        s.read_after = self
-                            .driver
-                            .pending_reply_bytes()
-                            .filter(|n| *n > READ_AHEAD_BYTES)
-                            .map(|n| chunk.at + s.line.transfer_time(n - READ_AHEAD_BYTES));
                     }
                     Err(e) => break Ending::PortGone(e.to_string()),
                 },

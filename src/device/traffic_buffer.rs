@@ -15,8 +15,11 @@ use std::time::{Duration, Instant, SystemTime};
 use crate::traffic::{Direction, TrafficRecord};
 use crate::transport::{MessageId, ReadChunk, WrittenChunk};
 
-/// Received bytes become a record after this much quiet.
-pub const QUIET: Duration = Duration::from_millis(5);
+/// Received bytes become a record after this much quiet. A burst is also
+/// closed by the next message sent, which is what closes it while polling;
+/// the quiet time only has to catch a reply nothing follows, so it is long
+/// enough not to cost a wakeup per poll cycle at 10 Hz.
+pub const QUIET: Duration = Duration::from_millis(100);
 /// A burst longer than this becomes several records.
 const MAX_RECORD: usize = 256;
 
@@ -168,12 +171,13 @@ mod tests {
         let t0 = Instant::now();
         assert!(t.read(&read(b"00", t0)).is_empty());
         assert!(t.read(&read(b"03", t0 + ms(1))).is_empty());
-        assert_eq!(t.due(), Some(t0 + ms(6)));
-        assert!(t.on_time(t0 + ms(5)).is_empty());
-        let r = t.on_time(t0 + ms(6));
+        assert_eq!(t.due(), Some(t0 + ms(1) + QUIET));
+        assert!(t.on_time(t0 + QUIET).is_empty());
+        let r = t.on_time(t0 + ms(1) + QUIET);
         assert_eq!(r[0].readable(), "<< 0003");
-        t.read(&read(b"0", t0 + ms(7)));
-        let r = t.written(&chunk(2, b"@0P\r", t0 + ms(8), true));
+        let later = t0 + ms(2) + QUIET;
+        t.read(&read(b"0", later));
+        let r = t.written(&chunk(2, b"@0P\r", later + ms(1), true));
         assert_eq!(
             r.iter().map(|r| r.readable()).collect::<Vec<_>>(),
             ["<< 0", ">> @0P<CR>"]
@@ -194,7 +198,7 @@ mod tests {
             ["<< 0", ">> @0b1<CR>"]
         );
         t.read(&read(b"3", t0 + ms(4)));
-        let r = t.on_time(t0 + ms(10));
+        let r = t.on_time(t0 + ms(4) + QUIET);
         assert_eq!(r[0].readable(), "<< 03");
     }
 }

@@ -10,6 +10,11 @@
 //!   `max(t, line free)`; its byte `k` (0-based) is due at `start + (k + 1)`
 //!   byte times and is not handed out before. So a request/reply cycle can
 //!   never be faster than the real line.
+//! - delivery: like the receiving UART of a host, the shell hands bytes over
+//!   in chunks of [`HOST_RX_FIFO_TRIGGER`] (a 16550's receive FIFO interrupts
+//!   at that fill level, a USB adapter sends a packet), and the last byte of
+//!   every message exactly when it is due. Handing each byte over on its own
+//!   would wake the client once per byte, which no real serial port does.
 //!
 //! Time handed to the device is the modelled time of each event (arrival,
 //! deadline), not the wall clock at which the thread got round to it, so the
@@ -69,6 +74,10 @@ pub struct Engine {
     stats: WireStats,
 }
 
+/// Bytes handed over together at most, unless a message ends first: the
+/// receive trigger level Linux sets on a 16550A (8 of its 16 bytes).
+pub const HOST_RX_FIFO_TRIGGER: usize = 8;
+
 /// Upper bound on events handled in one `run_until`, against models that
 /// generate work without end.
 const MAX_EVENTS_PER_RUN: usize = 100_000;
@@ -116,10 +125,20 @@ impl Engine {
 
     /// When `run_until` next has something to do; `None`: nothing pending.
     pub fn next_wake(&self) -> Option<Wake> {
-        let output = self.outgoing.front().map(|o| Wake {
-            at: o.due,
-            exact: o.ends_message,
-        });
+        // The output wake-up hands over a whole receive-FIFO chunk: it is due
+        // when the chunk's last byte is, or a message's last byte if sooner.
+        let output = self
+            .outgoing
+            .iter()
+            .take(HOST_RX_FIFO_TRIGGER)
+            .position(|o| o.ends_message)
+            .or_else(|| self.outgoing.len().checked_sub(1))
+            .map(|i| i.min(HOST_RX_FIFO_TRIGGER - 1))
+            .and_then(|i| self.outgoing.get(i))
+            .map(|o| Wake {
+                at: o.due,
+                exact: o.ends_message,
+            });
         let other = [
             self.incoming.front().map(|&(_, t)| t),
             self.pending_deadline(),
@@ -359,6 +378,14 @@ mod tests {
         LineSettings::new(19200).transfer_time(n)
     }
 
+    /// The byte time (counted from the message's start, as `bt`) at which
+    /// byte `k` of a `len`-byte message is handed over: when the last byte of
+    /// its receive-FIFO chunk is due.
+    fn handed(k: usize, len: usize) -> Duration {
+        let end = ((k / HOST_RX_FIFO_TRIGGER + 1) * HOST_RX_FIFO_TRIGGER).min(len) - 1;
+        bt(end + 1)
+    }
+
     /// Arrivals add one (truncated) byte time per byte.
     fn arr(n: u32) -> Duration {
         bt(1) * n
@@ -420,7 +447,7 @@ mod tests {
         let got = drive(&mut e, t0 + Duration::from_millis(50));
         assert_eq!(got.iter().map(|&(b, _)| b).collect::<Vec<_>>(), REPLY);
         for (k, &(_, at)) in got.iter().enumerate() {
-            assert_eq!(at, t0 + arr(4) + bt(k + 1), "byte {k}");
+            assert_eq!(at, t0 + arr(4) + handed(k, REPLY.len()), "byte {k}");
         }
         // 4 + 19 bytes at 19200 baud: 11.979 ms, the isel `@0P` wire limit.
         let cycle = got.last().map(|&(_, t)| t - t0).unwrap_or_default();
@@ -455,7 +482,7 @@ mod tests {
         let got = drive(&mut e, t0 + Duration::from_millis(50));
         assert_eq!(
             got.first().map(|&(_, t)| t),
-            Some(t0 + arr(4) + Duration::from_millis(2) + bt(1))
+            Some(t0 + arr(4) + Duration::from_millis(2) + handed(0, REPLY.len()))
         );
     }
 
@@ -483,13 +510,21 @@ mod tests {
     #[test]
     fn drop_byte_leaves_out_the_middle_byte_and_keeps_the_others_times() {
         let (got, t0) = cycle_with(Fault::DropByte(ByteIndex::Middle));
-        let mut expected: Vec<(u8, Instant)> = REPLY
-            .iter()
-            .enumerate()
-            .map(|(k, &b)| (b, t0 + arr(4) + bt(k + 1)))
-            .collect();
+        // The dropped byte's time slot stays silent: the others keep their
+        // due times, and the chunks form around the gap.
+        let bytes: Vec<u8> = got.iter().map(|&(b, _)| b).collect();
+        let mut expected = REPLY.to_vec();
         expected.remove(9);
-        assert_eq!(got, expected);
+        assert_eq!(bytes, expected);
+        let last = got.last().map(|&(_, t)| t);
+        assert_eq!(last, Some(t0 + arr(4) + bt(REPLY.len())));
+        for (k, &(_, at)) in got.iter().enumerate() {
+            let slot = if k < 9 { k } else { k + 1 };
+            assert!(
+                at >= t0 + arr(4) + bt(slot + 1),
+                "byte {k} handed out early"
+            );
+        }
     }
 
     #[test]
@@ -520,7 +555,7 @@ mod tests {
         let (got, t0) = cycle_with(Fault::Delay(Duration::from_millis(30)));
         assert_eq!(
             got.first().map(|&(_, t)| t),
-            Some(t0 + arr(4) + Duration::from_millis(30) + bt(1))
+            Some(t0 + arr(4) + Duration::from_millis(30) + handed(0, REPLY.len()))
         );
         assert_eq!(got.len(), REPLY.len());
     }
@@ -578,10 +613,31 @@ mod tests {
                 exact.push(w.exact);
             }
         }
-        // 19 bytes less the dropped last one: the 18th is now the last.
-        assert_eq!(exact.len(), REPLY.len() - 1);
-        assert_eq!(exact.iter().filter(|&&x| x).count(), 1);
-        assert_eq!(exact.last(), Some(&true));
+        // 19 bytes less the dropped last one, in receive-FIFO chunks of
+        // 8, 8 and 2: only the chunk with the (new) last byte is exact.
+        assert_eq!(exact, vec![false, false, true]);
+    }
+
+    #[test]
+    fn bytes_are_handed_over_in_fifo_chunks_and_the_message_end_on_time() {
+        let (mut e, _) = engine(Duration::ZERO);
+        let t0 = Instant::now();
+        e.receive(b"\r", t0);
+        let mut chunks = Vec::new();
+        while let Some(w) = e.next_wake() {
+            let mut out = Vec::new();
+            e.run_until(w.at, &mut out);
+            if !out.is_empty() {
+                chunks.push((out.len(), w.at));
+            }
+        }
+        let sizes: Vec<usize> = chunks.iter().map(|c| c.0).collect();
+        assert_eq!(sizes, vec![8, 8, 3]);
+        // Each chunk goes out when its last byte has crossed the wire: the
+        // request's CR arrived one byte time after t0, the reply follows.
+        let due = |k: usize| t0 + bt(1) + bt(k + 1);
+        let times: Vec<Instant> = chunks.iter().map(|c| c.1).collect();
+        assert_eq!(times, vec![due(7), due(15), due(18)]);
     }
 
     #[test]

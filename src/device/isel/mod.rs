@@ -925,20 +925,6 @@ impl Driver for IselDriver {
         at
     }
 
-    fn pending_reply_bytes(&self) -> Option<usize> {
-        let ex = self.exchange.as_ref()?;
-        match ex.expect {
-            // A reply code may be an error where data was expected, so only
-            // once the first byte said `0` is the length known.
-            Expect::Positions { .. } | Expect::Byte if !self.decoder.pending().is_empty() => Some(
-                ex.expect
-                    .max_len()
-                    .saturating_sub(self.decoder.pending().len()),
-            ),
-            _ => None,
-        }
-    }
-
     fn handle_timeout(&mut self, now: Instant) {
         if self.quiet_until.is_some_and(|q| now >= q) {
             self.quiet_until = None;
