@@ -187,8 +187,8 @@ fn a_typed_command_is_refused_with_its_reason_then_sent() {
     assert!(screen.contains("pairs"), "{screen}");
     // Ctrl-U clears; the version query goes out and its answer is shown.
     run.send(b"\x15@0V\r");
-    let screen = wait_for(&run, "@0V = ");
-    assert!(screen.contains("=  @0V = isel"), "{screen}");
+    // The answer is in the message line (the console may have scrolled on).
+    wait_for(&run, "@0V = isel");
     run.send(b"\t");
     quit_and_check(&mut run);
 }

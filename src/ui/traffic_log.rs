@@ -5,10 +5,11 @@
 //! console does not scroll eighty times a second while the DRO runs.
 //!
 //! Framing per family (messages end after):
-//! - isel: CR or LF; the control bytes 0xFD/0xFE/0xFF are messages of their
-//!   own even between two bytes of a command (isel manual 2.2.31). Replies
-//!   have no terminator (`0`, `0` + hex digits): a reply ends when the next
-//!   command goes out or the line is quiet (`flush_idle`).
+//! - isel: commands after CR (or LF); the control bytes 0xFD/0xFE/0xFF are
+//!   messages of their own even between two bytes of a command (isel manual
+//!   2.2.31). Text replies after each CR LF line; the other replies have no
+//!   terminator (`0`, `0` + hex digits): a reply ends when the next command
+//!   goes out or the line is quiet (`flush_idle`).
 //! - EMCU: CR, or 0x01 for a command that runs the buffer (manual 1.3).
 //! - EMP: EOF 0x1A (EMP document, frame format).
 //!
@@ -157,7 +158,9 @@ impl TrafficLog {
 
     fn ends_message(&self, direction: Direction, byte: u8) -> bool {
         match (self.protocol, direction) {
-            (Protocol::Isel, _) => byte == b'\r' || byte == b'\n',
+            (Protocol::Isel, Direction::Sent) => byte == b'\r' || byte == b'\n',
+            // Text replies end their lines with CR LF (protocols.md isel 8).
+            (Protocol::Isel, Direction::Received) => byte == b'\n',
             (Protocol::Emcu, Direction::Sent) => byte == b'\r' || byte == 0x01,
             (Protocol::Emcu, Direction::Received) => byte == b'\r',
             (Protocol::Emp, _) => byte == emp::EOF,
@@ -340,6 +343,20 @@ mod tests {
         assert!(log.flush_idle(t + IDLE_FLUSH));
         assert_eq!(texts(&log), ["@0A5000,900<CR>", "0", "@0M10,9<CR>", "F"]);
         assert_eq!(log.tail(2).len(), 2);
+    }
+
+    #[test]
+    fn isel_text_replies_are_one_line_each_with_their_cr_lf() {
+        let t = Instant::now();
+        let mut log = TrafficLog::new(Protocol::Isel);
+        log.record(&sent(b"@0V\r"), t);
+        log.record(&received(b"iMC-S8\r"), t);
+        log.record(&received(b"\nV2.0\r\n0"), t);
+        log.record(&sent(b"@0P\r"), t);
+        assert_eq!(
+            texts(&log),
+            ["@0V<CR>", "iMC-S8<CR><LF>", "V2.0<CR><LF>", "0"]
+        );
     }
 
     #[test]
