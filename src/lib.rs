@@ -8,6 +8,7 @@
 //! - [`program`]: isel CNC programs and EMCU jobs as code: parser, linter,
 //!   formatter, path simulation.
 //! - [`wire`], [`motion`], [`axis`], [`traffic`]: shared arithmetic and types.
+//! - [`ui`]: the terminal UI (Elm architecture: model, update, view).
 
 pub mod axis;
 pub mod cli;
@@ -19,4 +20,5 @@ pub mod proto;
 pub mod sim;
 pub mod traffic;
 pub mod transport;
+pub mod ui;
 pub mod wire;

@@ -2,12 +2,13 @@
 //!
 //! One clap root for everything jogterm does. The global options belong to
 //! the root and may be given before or after the command; each command
-//! uses the ones that mean something to it and says so in its help. Today
-//! there are `sim`, `send`, `poll`, `check` and `arc`; `upload` and the
-//! console itself (no command) are added by later work.
+//! uses the ones that mean something to it and says so in its help. Without
+//! a command jogterm runs the console (`tui`); the commands are `sim`,
+//! `send`, `poll`, `check` and `arc`; `upload` is added by later work.
 //!
-//! Exit codes: 0 ok, 1 failure (a message on stderr), 2 bad usage (clap);
-//! `send` and `poll` add 3 for a link failure.
+//! Exit codes: 0 ok, 1 failure (a message on stderr), 2 bad usage (clap, and
+//! the console's configuration errors); `send` and `poll` add 3 for a link
+//! failure.
 
 pub mod arc;
 pub mod check;
@@ -16,6 +17,7 @@ pub mod profile;
 pub mod send;
 mod session;
 pub mod sim;
+pub mod tui;
 
 use std::fs::OpenOptions;
 use std::path::PathBuf;
@@ -131,13 +133,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Some(CliCommand::Poll(args)) => poll::run(&cli.global, args),
         Some(CliCommand::Check(args)) => check::run(&cli.global, args),
         Some(CliCommand::Arc(args)) => arc::run(args),
-        None => {
-            eprintln!(
-                "jogterm: the console is not part of this build yet. \
-                 `jogterm sim --pty` serves a simulated controller; see `jogterm --help`."
-            );
-            Ok(ExitCode::FAILURE)
-        }
+        None => tui::run(&cli.global),
     }
 }
 

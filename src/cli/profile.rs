@@ -8,12 +8,22 @@ use anyhow::bail;
 
 use super::GlobalArgs;
 use crate::config::profile::Connection;
-use crate::config::{ConfigDirs, Profile, load_profile};
+use crate::config::{ConfigDirs, Profile, Source, load_profile_with_sources};
 use crate::proto::Protocol;
 
 /// The profile the command line asks for, with `--sim`, `--protocol` and
 /// `--port` applied.
 pub fn resolve(global: &GlobalArgs, dirs: &ConfigDirs) -> anyhow::Result<Profile> {
+    resolve_with_sources(global, dirs).map(|(profile, _)| profile)
+}
+
+/// [`resolve`], also returning the files the profile was layered from (most
+/// specific first), so later checks of its contents (the console's `[keys]`
+/// table) can name the line at fault.
+pub fn resolve_with_sources(
+    global: &GlobalArgs,
+    dirs: &ConfigDirs,
+) -> anyhow::Result<(Profile, Vec<Source>)> {
     let family = match (global.protocol, global.sim) {
         (Some(p), Some(s)) if p != s => {
             bail!("--protocol {p} and --sim {s} name different families: give one of them")
@@ -26,16 +36,16 @@ pub fn resolve(global: &GlobalArgs, dirs: &ConfigDirs) -> anyhow::Result<Profile
             "--port {port} and --sim {sim} contradict each other: a port or the built-in simulator"
         );
     }
-    let mut profile = match (&global.profile, family) {
-        (Some(name), _) => load_profile(name, dirs)?,
-        (None, None) => load_profile("default", dirs)?,
+    let (mut profile, sources) = match (&global.profile, family) {
+        (Some(name), _) => load_profile_with_sources(name, dirs)?,
+        (None, None) => load_profile_with_sources("default", dirs)?,
         (None, Some(family)) => {
-            let default = load_profile("default", dirs)?;
-            if default.connection.protocol == family {
+            let default = load_profile_with_sources("default", dirs)?;
+            if default.0.connection.protocol == family {
                 default
             } else {
                 // The shipped profile of each family is named after it.
-                load_profile(family.name(), dirs)?
+                load_profile_with_sources(family.name(), dirs)?
             }
         }
     };
@@ -54,7 +64,7 @@ pub fn resolve(global: &GlobalArgs, dirs: &ConfigDirs) -> anyhow::Result<Profile
     if let Some(port) = &global.port {
         profile.connection.port = port.clone();
     }
-    Ok(profile)
+    Ok((profile, sources))
 }
 
 /// The family a profile resolved by [`resolve`] talks.

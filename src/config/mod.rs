@@ -84,13 +84,24 @@ const THEMES: Kind = Kind {
 
 /// Load a profile by name or path, validated.
 pub fn load_profile(spec: &str, dirs: &ConfigDirs) -> Result<Profile, ConfigError> {
+    load_profile_with_sources(spec, dirs).map(|(profile, _)| profile)
+}
+
+/// [`load_profile`], also returning the files it was layered from, most
+/// specific first, so that checks made later (the UI's `[keys]` table) can
+/// place their errors on the line that caused them
+/// ([`source::error_for_key`]).
+pub fn load_profile_with_sources(
+    spec: &str,
+    dirs: &ConfigDirs,
+) -> Result<(Profile, Vec<Source>), ConfigError> {
     let (mut profile, sources) = load_layered::<Profile>(spec, &PROFILES, dirs)?;
     let refs: Vec<&Source> = sources.iter().collect();
     if let Some(problem) = profile.validate().into_iter().next() {
         return Err(source::error_for_key(&refs, &problem.key, problem.message));
     }
     profile.retain_listed_axes();
-    Ok(profile)
+    Ok((profile, sources))
 }
 
 /// Load a theme by name or path.

@@ -1,0 +1,359 @@
+//! The console: `jogterm` without a command.
+//!
+//! Everything that can be wrong with the configuration is found before the
+//! terminal is touched: the profile with the command line's overrides on top,
+//! the theme, the profile's `[keys]` table. A problem prints the loader's
+//! `file:line:col: error: …` and exits with status 2. Then the line is
+//! opened (the built-in simulator in-process over a socket pair, or the
+//! port), the device task started, and only then the terminal taken.
+
+use std::fs::OpenOptions;
+use std::future::Future;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use anyhow::Context as _;
+use tokio::sync::mpsc;
+
+use super::GlobalArgs;
+use super::profile::resolve_with_sources;
+use crate::config::{ConfigDirs, ConfigError, Profile, Source, Theme, load_theme};
+use crate::device::api::{Event, Request};
+use crate::device::log::spawn_log;
+use crate::device::{DeviceHandle, EventReceiver, RequestError, TaskOptions};
+use crate::sim::registry;
+use crate::sim::shell::{Shell, ShellControl, serve_socket};
+use crate::transport::PortSpec;
+use crate::ui::input::InputThreads;
+use crate::ui::keymap::Keymap;
+use crate::ui::palette::Palette;
+use crate::ui::runtime::{self, DeviceLink, NotSent, RunOptions};
+use crate::ui::terminal::{TerminalGuard, TerminalOptions, set_emergency};
+use crate::ui::{Model, Setup};
+
+/// The console's configuration, checked.
+#[derive(Debug, Clone)]
+pub struct Resolved {
+    pub profile: Profile,
+    pub theme: Theme,
+    pub keymap: Keymap,
+}
+
+/// Why the console cannot start.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum SetupError {
+    /// A file is wrong: shown as the loader words it, `file:line:col: error: …`.
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+    /// The options contradict each other or the profile.
+    #[error("jogterm: error: {0}")]
+    Options(String),
+}
+
+impl SetupError {
+    /// The exit status: configuration and usage errors are 2.
+    pub fn exit_code(&self) -> ExitCode {
+        ExitCode::from(2)
+    }
+}
+
+/// The shipped theme used without `--theme`.
+pub const DEFAULT_THEME: &str = "dark";
+
+/// Load and check everything the console needs: the profile as every
+/// command resolves it (`cli::profile`), the theme, the profile's keys.
+pub fn resolve(global: &GlobalArgs, dirs: &ConfigDirs) -> Result<Resolved, SetupError> {
+    let (profile, sources) =
+        resolve_with_sources(global, dirs).map_err(|e| match e.downcast::<ConfigError>() {
+            Ok(config) => SetupError::Config(config),
+            Err(other) => SetupError::Options(format!("{other:#}")),
+        })?;
+    let theme = load_theme(global.theme.as_deref().unwrap_or(DEFAULT_THEME), dirs)?;
+    let refs: Vec<&Source> = sources.iter().collect();
+    let keymap = Keymap::default().with_overrides(&profile.keys, &refs)?;
+    Ok(Resolved {
+        profile,
+        theme,
+        keymap,
+    })
+}
+
+/// `jogterm` without a command: run the console until the operator quits.
+pub fn run(global: &GlobalArgs) -> anyhow::Result<ExitCode> {
+    let resolved = match resolve(global, &ConfigDirs::from_env()) {
+        Ok(resolved) => resolved,
+        Err(e) => {
+            eprintln!("{e}");
+            return Ok(e.exit_code());
+        }
+    };
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .context("starting the async runtime")?;
+    runtime.block_on(session(global, resolved))?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The built-in simulator a session runs on, and its inputs.
+struct Simulator {
+    shell: Shell,
+    inputs: Vec<String>,
+}
+
+/// The line to the controller: the built-in simulator of the profile's
+/// family, served in-process (`sim::shell::serve_socket`), or the port.
+fn open_line(profile: &Profile) -> anyhow::Result<(PortSpec, Option<Simulator>)> {
+    let protocol = profile.connection.protocol;
+    if !profile.connection.is_simulator() {
+        let spec = PortSpec::Serial {
+            path: PathBuf::from(&profile.connection.port),
+            line: profile.connection.line(),
+        };
+        return Ok((spec, None));
+    }
+    let device = registry::build(protocol, profile)?;
+    let (shell, stream) =
+        serve_socket(device).with_context(|| format!("starting the {protocol} simulator"))?;
+    let inputs = shell
+        .control()
+        .input_names()
+        .with_context(|| format!("asking the {protocol} simulator for its inputs"))?
+        .into_iter()
+        .map(str::to_string)
+        .collect();
+    let spec = PortSpec::InProcess {
+        stream,
+        line: shell.line(),
+        name: format!("built-in {protocol} simulator"),
+    };
+    Ok((spec, Some(Simulator { shell, inputs })))
+}
+
+/// The device task as the UI loop drives it.
+struct Device {
+    handle: DeviceHandle,
+    events: EventReceiver,
+}
+
+impl DeviceLink for Device {
+    fn request(&mut self, request: Request) -> Result<(), NotSent> {
+        self.handle.request(request).map_err(|e| match e {
+            RequestError::Full => NotSent::Busy,
+            RequestError::Closed => NotSent::Gone,
+        })
+    }
+
+    fn stop(&mut self) {
+        // The ticket says when the bytes left; the UI learns what happened
+        // from the events that follow.
+        drop(self.handle.stop());
+    }
+
+    fn next_event(&mut self) -> impl Future<Output = Option<Event>> + Send {
+        self.events.recv()
+    }
+}
+
+/// Bound on closing the device after the console: the task stops the
+/// machine and drains the stop bytes within its own bound (500 ms).
+const CLOSE_WITHIN: Duration = Duration::from_secs(3);
+
+async fn session(global: &GlobalArgs, resolved: Resolved) -> anyhow::Result<()> {
+    let Resolved {
+        profile,
+        theme,
+        keymap,
+    } = resolved;
+    let (spec, simulator) = open_line(&profile)?;
+    let (handle, events) = crate::device::spawn(&profile, spec, TaskOptions::default())?;
+    // The panic hook and the hang-up path write the stop bytes themselves.
+    let emergency = handle.emergency();
+    set_emergency(Some(Arc::new(move || {
+        let _ = emergency.fire();
+    })));
+    let setup = Setup::from_profile(&profile, simulator.as_ref().map(|s| s.inputs.clone()));
+    let model = Model::new(setup, keymap, Palette::from(&theme), Instant::now());
+    let device = Device {
+        handle: handle.clone(),
+        events,
+    };
+    let result = match start_log(global, &handle) {
+        Ok(()) => {
+            let control = simulator.as_ref().map(|s| s.shell.control());
+            in_terminal(model, device, control).await
+        }
+        Err(e) => Err(e),
+    };
+    // Whatever ended the console: the machine is stopped and the port
+    // closed before the process goes.
+    let _ = tokio::time::timeout(CLOSE_WITHIN, handle.shutdown()).await;
+    set_emergency(None);
+    if let Some(simulator) = simulator {
+        let _ = tokio::task::spawn_blocking(move || simulator.shell.shutdown()).await;
+    }
+    result
+}
+
+/// `--log FILE`: the traffic log, as `send` and `poll` write it.
+fn start_log(global: &GlobalArgs, handle: &DeviceHandle) -> anyhow::Result<()> {
+    if let Some(path) = &global.log {
+        let file = OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(path)
+            .with_context(|| format!("cannot open the log file {}", path.display()))?;
+        spawn_log(handle.subscribe(), file);
+    }
+    Ok(())
+}
+
+/// Take the terminal, run the loop, give the terminal back (the guard does,
+/// on every way out of here).
+async fn in_terminal(
+    mut model: Model,
+    mut device: Device,
+    simulator: Option<ShellControl>,
+) -> anyhow::Result<()> {
+    let (_guard, mut terminal) =
+        TerminalGuard::enter(TerminalOptions::from_env()).context("taking the terminal")?;
+    if let Ok(size) = terminal.size() {
+        model.size = (size.width, size.height);
+    }
+    let (tx, mut rx) = mpsc::unbounded_channel();
+    let _input = InputThreads::spawn(tx).context("starting the input thread")?;
+    runtime::run(
+        &mut terminal,
+        &mut model,
+        &mut device,
+        &mut rx,
+        simulator,
+        RunOptions::default(),
+    )
+    .await
+    .context("the console failed")
+}
+
+#[cfg(test)]
+mod tests {
+    use std::fs;
+
+    use super::*;
+    use crate::proto::Protocol;
+    use crate::ui::key::KeyChord;
+    use crate::ui::keymap::{Action, Mode};
+
+    fn user_dir() -> (tempfile::TempDir, ConfigDirs) {
+        let dir = tempfile::tempdir().expect("tempdir");
+        fs::create_dir_all(dir.path().join("profiles")).expect("profiles");
+        fs::create_dir_all(dir.path().join("themes")).expect("themes");
+        let dirs = ConfigDirs {
+            user: Some(dir.path().to_path_buf()),
+        };
+        (dir, dirs)
+    }
+
+    fn with_profile(name: &str) -> GlobalArgs {
+        GlobalArgs {
+            profile: Some(name.into()),
+            ..GlobalArgs::default()
+        }
+    }
+
+    #[test]
+    fn without_options_it_is_the_isel_simulator_in_the_dark_theme() {
+        let r = resolve(&GlobalArgs::default(), &ConfigDirs::builtin_only()).expect("ok");
+        assert_eq!(r.profile.connection.protocol, Protocol::Isel);
+        assert!(r.profile.connection.is_simulator());
+        assert_eq!(r.theme.name, "dark");
+    }
+
+    #[test]
+    fn sim_of_another_family_takes_that_familys_shipped_profile() {
+        let r = resolve(
+            &GlobalArgs {
+                sim: Some(Protocol::Emcu),
+                theme: Some("mono16".into()),
+                ..GlobalArgs::default()
+            },
+            &ConfigDirs::builtin_only(),
+        )
+        .expect("ok");
+        assert_eq!(r.profile.connection.protocol, Protocol::Emcu);
+        assert!(r.profile.connection.is_simulator());
+        assert_eq!(r.theme.name, "mono16");
+    }
+
+    #[test]
+    fn contradictions_are_refused_with_exit_status_2() {
+        let err = resolve(
+            &GlobalArgs {
+                sim: Some(Protocol::Isel),
+                port: Some("/dev/ttyUSB0".into()),
+                ..GlobalArgs::default()
+            },
+            &ConfigDirs::builtin_only(),
+        )
+        .expect_err("contradiction");
+        assert!(matches!(err, SetupError::Options(_)), "{err}");
+        assert!(err.to_string().starts_with("jogterm: error: "), "{err}");
+        assert_eq!(err.exit_code(), ExitCode::from(2));
+    }
+
+    #[test]
+    fn a_broken_profile_theme_or_key_names_its_line() {
+        let (dir, dirs) = user_dir();
+        let profiles = dir.path().join("profiles");
+        fs::write(
+            profiles.join("broken.toml"),
+            "name = \"x\"\n[jog]\nstep = \"big\"\n",
+        )
+        .expect("write");
+        fs::write(
+            profiles.join("keys.toml"),
+            "name = \"keys\"\n\n[keys.main]\n\"x\" = \"fly\"\n",
+        )
+        .expect("write");
+        fs::write(
+            dir.path().join("themes/bad.toml"),
+            "name = \"bad\"\n[styles]\ntext = { fg = \"nope\" }\n",
+        )
+        .expect("write");
+        let cases = [
+            (with_profile("broken"), "broken.toml:3:"),
+            (with_profile("keys"), "keys.toml:4:"),
+            (
+                GlobalArgs {
+                    theme: Some("bad".into()),
+                    ..GlobalArgs::default()
+                },
+                "bad.toml:3:",
+            ),
+        ];
+        for (opts, place) in cases {
+            let err = resolve(&opts, &dirs).expect_err(place);
+            assert!(matches!(err, SetupError::Config(_)), "{err}");
+            let shown = err.to_string();
+            assert!(shown.contains(place), "{shown}");
+            assert!(shown.contains(": error: "), "{shown}");
+        }
+    }
+
+    #[test]
+    fn profile_keys_reach_the_keymap() {
+        let (dir, dirs) = user_dir();
+        fs::write(
+            dir.path().join("profiles/mill.toml"),
+            "name = \"mill\"\n[keys.safety]\n\"ctrl-x\" = \"stop\"\n",
+        )
+        .expect("write");
+        let r = resolve(&with_profile("mill"), &dirs).expect("ok");
+        assert_eq!(
+            r.keymap.lookup(Mode::Safety, &KeyChord::ctrl('x')),
+            Some(Action::Stop)
+        );
+    }
+}

@@ -1,0 +1,60 @@
+//! The help overlay's content, generated from the keymap so it lists every
+//! key that is bound, and nothing that is not.
+
+use super::key::{KeyChord, KeyCode};
+use super::keymap::{Action, Keymap, Mode};
+
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum HelpLine {
+    Heading(&'static str),
+    Entry {
+        keys: String,
+        description: &'static str,
+    },
+    Text(&'static str),
+    Blank,
+}
+
+/// Notes shown under a mode's keys.
+fn notes(keymap: &Keymap, mode: Mode) -> &'static [&'static str] {
+    let esc_stops = keymap.lookup(Mode::Main, &KeyChord::plain(KeyCode::Esc)) == Some(Action::Stop);
+    match mode {
+        Mode::Safety => &["Space never types a space: raw commands are written without blanks."],
+        Mode::Main if esc_stops => &["Esc stops too, unless a popup is open (Esc then closes it)."],
+        Mode::Console => {
+            &["Commands are checked with the controller's own rules before they are sent."]
+        }
+        Mode::Sim => &["Simulator inputs exist only on the built-in simulator."],
+        _ => &[],
+    }
+}
+
+pub fn help_lines(keymap: &Keymap) -> Vec<HelpLine> {
+    let mut out = Vec::new();
+    for mode in Mode::ALL {
+        let entries = keymap.help(mode);
+        if entries.is_empty() {
+            continue;
+        }
+        if !out.is_empty() {
+            out.push(HelpLine::Blank);
+        }
+        out.push(HelpLine::Heading(mode.title()));
+        for entry in entries {
+            let keys = entry
+                .keys
+                .iter()
+                .map(ToString::to_string)
+                .collect::<Vec<_>>()
+                .join(" ");
+            out.push(HelpLine::Entry {
+                keys,
+                description: entry.action.description(),
+            });
+        }
+        for note in notes(keymap, mode) {
+            out.push(HelpLine::Text(note));
+        }
+    }
+    out
+}

@@ -1,0 +1,402 @@
+//! The state behind the port bit panels: the last I/O snapshot (without the
+//! bits the manual lists as "not used"), when each bit last changed (so a
+//! change stays highlighted for a moment and a flickering switch can be
+//! seen), and the operator's selection.
+
+use std::time::{Duration, Instant};
+
+use crate::device::api::{IoBit, IoGroup, IoSnapshot, OutputId};
+
+/// How long a changed bit stays highlighted.
+pub const HIGHLIGHT: Duration = Duration::from_millis(1500);
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct BitState {
+    pub bit: IoBit,
+    /// When the bit last changed value; `None` since the first snapshot.
+    pub changed_at: Option<Instant>,
+    /// Changes seen since jogterm started.
+    pub changes: u32,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct GroupState {
+    pub name: String,
+    pub raw: Option<u8>,
+    pub bits: Vec<BitState>,
+}
+
+/// Bits the manual lists as "not used" carry nothing to look at or switch;
+/// they are left out of the panel (the raw byte still shows them).
+fn is_unused(bit: &IoBit) -> bool {
+    bit.name.eq_ignore_ascii_case("not used")
+}
+
+/// Which bit is selected: group and bit index.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Selection {
+    pub group: usize,
+    pub bit: usize,
+}
+
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct IoPanel {
+    pub groups: Vec<GroupState>,
+    pub selected: Option<Selection>,
+    /// When the last snapshot was read.
+    pub at: Option<Instant>,
+    /// When the operator last moved the selection.
+    pub moved_at: Option<Instant>,
+}
+
+impl IoPanel {
+    /// Take a new snapshot. Bits are matched to the previous snapshot by group
+    /// and bit name, so a driver that adds or drops a group does not make
+    /// every bit look changed.
+    pub fn apply(&mut self, snapshot: &IoSnapshot) {
+        let selected_names = self.selected_names();
+        let groups = snapshot
+            .groups
+            .iter()
+            .map(|group| self.merge_group(group, snapshot.at))
+            .collect();
+        self.groups = groups;
+        self.at = Some(snapshot.at);
+        self.selected = selected_names
+            .and_then(|(g, b)| self.find(&g, &b))
+            .or_else(|| self.first());
+    }
+
+    fn merge_group(&self, group: &IoGroup, at: Instant) -> GroupState {
+        let old = self.groups.iter().find(|g| g.name == group.name);
+        let bits = group
+            .bits
+            .iter()
+            .filter(|bit| !is_unused(bit))
+            .enumerate()
+            .map(|(i, bit)| {
+                let before = old.and_then(|g| {
+                    g.bits
+                        .get(i)
+                        .filter(|b| b.bit.name == bit.name)
+                        .or_else(|| g.bits.iter().find(|b| b.bit.name == bit.name))
+                });
+                match before {
+                    Some(b) if b.bit.value != bit.value => BitState {
+                        bit: bit.clone(),
+                        changed_at: Some(at),
+                        changes: b.changes.saturating_add(1),
+                    },
+                    Some(b) => BitState {
+                        bit: bit.clone(),
+                        changed_at: b.changed_at,
+                        changes: b.changes,
+                    },
+                    None => BitState {
+                        bit: bit.clone(),
+                        changed_at: None,
+                        changes: 0,
+                    },
+                }
+            })
+            .collect();
+        GroupState {
+            name: group.name.clone(),
+            raw: group.raw,
+            bits,
+        }
+    }
+
+    fn selected_names(&self) -> Option<(String, String)> {
+        let s = self.selected?;
+        let group = self.groups.get(s.group)?;
+        let bit = group.bits.get(s.bit)?;
+        Some((group.name.clone(), bit.bit.name.clone()))
+    }
+
+    fn find(&self, group: &str, bit: &str) -> Option<Selection> {
+        let g = self.groups.iter().position(|x| x.name == group)?;
+        let b = self
+            .groups
+            .get(g)?
+            .bits
+            .iter()
+            .position(|x| x.bit.name == bit)?;
+        Some(Selection { group: g, bit: b })
+    }
+
+    fn first(&self) -> Option<Selection> {
+        self.groups
+            .iter()
+            .position(|g| !g.bits.is_empty())
+            .map(|group| Selection { group, bit: 0 })
+    }
+
+    pub fn selected_bit(&self) -> Option<(&GroupState, &BitState)> {
+        let s = self.selected?;
+        let group = self.groups.get(s.group)?;
+        Some((group, group.bits.get(s.bit)?))
+    }
+
+    /// Whether the bit is in its highlight time at `now`.
+    pub fn highlighted(bit: &BitState, now: Instant) -> bool {
+        bit.changed_at
+            .is_some_and(|t| now.saturating_duration_since(t) < HIGHLIGHT)
+    }
+
+    /// Number of bits highlighted at `now` (a change of it means a redraw).
+    pub fn highlight_count(&self, now: Instant) -> usize {
+        self.groups
+            .iter()
+            .flat_map(|g| &g.bits)
+            .filter(|b| Self::highlighted(b, now))
+            .count()
+    }
+
+    /// The bit a small panel keeps in view: one that changed a moment ago
+    /// (and after the operator last moved the selection), else the selection.
+    pub fn in_view(&self, now: Instant) -> Option<Selection> {
+        let latest_change = self
+            .groups
+            .iter()
+            .enumerate()
+            .flat_map(|(g, group)| {
+                group
+                    .bits
+                    .iter()
+                    .enumerate()
+                    .map(move |(b, bit)| (g, b, bit))
+            })
+            .filter(|(_, _, bit)| Self::highlighted(bit, now))
+            .filter(|(_, _, bit)| match (bit.changed_at, self.moved_at) {
+                (Some(c), Some(m)) => c > m,
+                _ => true,
+            })
+            .max_by_key(|(_, _, bit)| bit.changed_at)
+            .map(|(group, bit, _)| Selection { group, bit });
+        latest_change.or(self.selected)
+    }
+
+    /// Move the selection by `delta` bits, across groups, wrapping.
+    pub fn step_bit(&mut self, delta: isize, now: Instant) {
+        self.moved_at = Some(now);
+        let flat: Vec<Selection> = self
+            .groups
+            .iter()
+            .enumerate()
+            .flat_map(|(g, group)| {
+                (0..group.bits.len()).map(move |b| Selection { group: g, bit: b })
+            })
+            .collect();
+        if flat.is_empty() {
+            self.selected = None;
+            return;
+        }
+        let at = self
+            .selected
+            .and_then(|s| flat.iter().position(|x| *x == s))
+            .unwrap_or(0) as isize;
+        let len = flat.len() as isize;
+        let next = (at + delta).rem_euclid(len) as usize;
+        self.selected = flat.get(next).copied();
+    }
+
+    /// Move to the previous or next group that has bits, keeping the bit
+    /// index where the group is long enough.
+    pub fn step_group(&mut self, delta: isize, now: Instant) {
+        self.moved_at = Some(now);
+        let candidates: Vec<usize> = self
+            .groups
+            .iter()
+            .enumerate()
+            .filter(|(_, g)| !g.bits.is_empty())
+            .map(|(i, _)| i)
+            .collect();
+        if candidates.is_empty() {
+            self.selected = None;
+            return;
+        }
+        let current = self.selected.unwrap_or(Selection { group: 0, bit: 0 });
+        let at = candidates
+            .iter()
+            .position(|g| *g == current.group)
+            .unwrap_or(0) as isize;
+        let len = candidates.len() as isize;
+        let group = candidates
+            .get((at + delta).rem_euclid(len) as usize)
+            .copied()
+            .unwrap_or(0);
+        let bits = self.groups.get(group).map_or(0, |g| g.bits.len());
+        self.selected = Some(Selection {
+            group,
+            bit: current.bit.min(bits.saturating_sub(1)),
+        });
+    }
+}
+
+/// What switching the selected output means.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OutputToggle {
+    pub output: OutputId,
+    pub name: String,
+    /// The value to write: the opposite of what the bit shows.
+    pub value: u8,
+    pub hazardous: bool,
+}
+
+impl IoPanel {
+    /// The toggle for the selected bit, or why there is none.
+    pub fn toggle_selected(&self) -> Result<OutputToggle, String> {
+        let (_, bit) = self
+            .selected_bit()
+            .ok_or_else(|| "no port bits yet: nothing to switch".to_string())?;
+        let output = bit
+            .bit
+            .output
+            .ok_or_else(|| format!("{} is an input: it cannot be switched", bit.bit.name))?;
+        Ok(OutputToggle {
+            output,
+            name: bit.bit.name.clone(),
+            value: u8::from(!bit.bit.value),
+            hazardous: bit.bit.hazardous,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn bit(name: &str, value: bool) -> IoBit {
+        IoBit {
+            name: name.into(),
+            value,
+            output: None,
+            hazardous: false,
+        }
+    }
+
+    fn snapshot(at: Instant, groups: Vec<(&str, Vec<IoBit>)>) -> IoSnapshot {
+        IoSnapshot {
+            at,
+            groups: groups
+                .into_iter()
+                .map(|(name, bits)| IoGroup {
+                    name: name.into(),
+                    raw: None,
+                    bits,
+                })
+                .collect(),
+        }
+    }
+
+    #[test]
+    fn a_change_is_highlighted_for_a_moment_and_counted() {
+        let t0 = Instant::now();
+        let mut panel = IoPanel::default();
+        panel.apply(&snapshot(
+            t0,
+            vec![("p3", vec![bit("X1", false), bit("X2", false)])],
+        ));
+        assert_eq!(
+            panel.highlight_count(t0),
+            0,
+            "the first snapshot is no change"
+        );
+        let t1 = t0 + Duration::from_millis(100);
+        panel.apply(&snapshot(
+            t1,
+            vec![("p3", vec![bit("X1", true), bit("X2", false)])],
+        ));
+        assert_eq!(panel.highlight_count(t1), 1);
+        let t2 = t1 + Duration::from_millis(100);
+        panel.apply(&snapshot(
+            t2,
+            vec![("p3", vec![bit("X1", false), bit("X2", false)])],
+        ));
+        let x1 = &panel.groups[0].bits[0];
+        assert_eq!((x1.changes, x1.changed_at), (2, Some(t2)));
+        assert!(IoPanel::highlighted(
+            x1,
+            t2 + HIGHLIGHT - Duration::from_millis(1)
+        ));
+        assert!(!IoPanel::highlighted(x1, t2 + HIGHLIGHT));
+    }
+
+    #[test]
+    fn a_fresh_change_is_kept_in_view_until_the_operator_moves() {
+        let t0 = Instant::now();
+        let mut panel = IoPanel::default();
+        let groups = |x2: bool| {
+            vec![
+                ("p1", vec![bit("a", false)]),
+                ("p3", vec![bit("X1", false), bit("X2", x2)]),
+            ]
+        };
+        panel.apply(&snapshot(t0, groups(false)));
+        assert_eq!(panel.in_view(t0), Some(Selection { group: 0, bit: 0 }));
+        let t1 = t0 + Duration::from_millis(10);
+        panel.apply(&snapshot(t1, groups(true)));
+        assert_eq!(panel.in_view(t1), Some(Selection { group: 1, bit: 1 }));
+        panel.step_bit(1, t1 + Duration::from_millis(1));
+        assert_eq!(panel.in_view(t1), Some(Selection { group: 1, bit: 0 }));
+        assert_eq!(
+            panel.in_view(t1 + HIGHLIGHT),
+            Some(Selection { group: 1, bit: 0 })
+        );
+    }
+
+    #[test]
+    fn selection_survives_new_snapshots_and_wraps() {
+        let t = Instant::now();
+        let mut panel = IoPanel::default();
+        let groups = || {
+            vec![
+                ("a", vec![bit("a0", false), bit("a1", false)]),
+                ("b", vec![bit("b0", false)]),
+            ]
+        };
+        panel.apply(&snapshot(t, groups()));
+        assert_eq!(panel.selected, Some(Selection { group: 0, bit: 0 }));
+        panel.step_bit(-1, t);
+        assert_eq!(panel.selected, Some(Selection { group: 1, bit: 0 }));
+        panel.apply(&snapshot(t, groups()));
+        assert_eq!(panel.selected, Some(Selection { group: 1, bit: 0 }));
+        panel.step_group(1, t);
+        assert_eq!(panel.selected, Some(Selection { group: 0, bit: 0 }));
+        panel.step_bit(1, t);
+        panel.step_group(1, t);
+        assert_eq!(panel.selected, Some(Selection { group: 1, bit: 0 }));
+    }
+
+    #[test]
+    fn unused_bits_are_left_out() {
+        let t = Instant::now();
+        let mut panel = IoPanel::default();
+        panel.apply(&snapshot(
+            t,
+            vec![("p1", vec![bit("probe", true), bit("not used", false)])],
+        ));
+        assert_eq!(panel.groups[0].bits.len(), 1);
+    }
+
+    #[test]
+    fn only_outputs_toggle_to_the_opposite_value() {
+        let t = Instant::now();
+        let mut panel = IoPanel::default();
+        let mut spindle = bit("spindle", true);
+        spindle.output = Some(OutputId {
+            group: 2,
+            bit: None,
+        });
+        spindle.hazardous = true;
+        panel.apply(&snapshot(
+            t,
+            vec![("in", vec![bit("X1", false)]), ("out", vec![spindle])],
+        ));
+        assert!(panel.toggle_selected().unwrap_err().contains("input"));
+        panel.step_bit(1, t);
+        let toggle = panel.toggle_selected().expect("output");
+        assert_eq!((toggle.value, toggle.hazardous), (0, true));
+    }
+}

@@ -1,0 +1,234 @@
+//! All UI state in one place (The Elm Architecture): what the device last
+//! reported, what the operator selected and typed, what is open and focused.
+//! `update` is the only thing that changes it; the view only reads it.
+
+use std::time::{Duration, Instant};
+
+use crate::axis::{Axis, AxisSet};
+use crate::config::Profile;
+use crate::config::profile::AxisProfile;
+use crate::device::api::{LinkState, MachineState, PollStats, UploadEvent};
+use crate::proto::Protocol;
+use crate::wire::LineSettings;
+
+use super::io::IoPanel;
+use super::keymap::{Keymap, Mode};
+use super::line_edit::LineEdit;
+use super::msg::Effect;
+use super::palette::Palette;
+use super::position::Positions;
+use super::raw::RawContext;
+use super::sim_panel::SimPanel;
+use super::traffic_log::{NoteLevel, TrafficLog};
+
+/// How long a message stays in the message line before the machine's own
+/// state (and its recovery) takes the line back.
+pub const MESSAGE_FRESH: Duration = Duration::from_secs(10);
+
+/// What the session is connected to; fixed for its lifetime.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Setup {
+    pub protocol: Protocol,
+    /// `sim` for the built-in simulator, else the device path.
+    pub port: String,
+    pub line: LineSettings,
+    /// The machine's axes in X, Y, Z, A order.
+    pub axes: Vec<(Axis, AxisProfile)>,
+    /// Jog step distances and speeds in units (and units per second).
+    pub jog_steps: Vec<f64>,
+    pub jog_speeds: Vec<f64>,
+    /// The step and speed selected at start.
+    pub jog_start: JogSelection,
+    pub isel_device: u8,
+    /// The built-in simulator's input names, when the session runs on one.
+    pub simulator_inputs: Option<Vec<String>>,
+}
+
+impl Setup {
+    pub fn from_profile(profile: &Profile, simulator_inputs: Option<Vec<String>>) -> Self {
+        Setup {
+            protocol: profile.connection.protocol,
+            port: profile.connection.port.clone(),
+            line: profile.connection.line(),
+            axes: profile.axes.iter().map(|(a, p)| (*a, p.clone())).collect(),
+            jog_steps: profile.jog.steps.clone(),
+            jog_speeds: profile.jog.speeds.clone(),
+            jog_start: JogSelection {
+                step: profile.jog.step,
+                speed: profile.jog.speed,
+            },
+            isel_device: profile.isel.device,
+            simulator_inputs,
+        }
+    }
+
+    pub fn axis_set(&self) -> AxisSet {
+        self.axes.iter().map(|(a, _)| *a).collect()
+    }
+
+    pub fn axis(&self, axis: Axis) -> Option<&AxisProfile> {
+        self.axes.iter().find(|(a, _)| *a == axis).map(|(_, p)| p)
+    }
+
+    pub fn is_simulator(&self) -> bool {
+        self.port == crate::config::profile::Connection::SIMULATOR
+    }
+}
+
+/// The panels that can have focus. The jog keypad (issue 6) and the program
+/// editor (issue 7) join this list.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum PanelId {
+    Io,
+    Console,
+    Sim,
+}
+
+impl PanelId {
+    /// The keymap mode while the panel has focus.
+    pub fn mode(self) -> Mode {
+        match self {
+            PanelId::Io => Mode::Io,
+            PanelId::Console => Mode::Console,
+            PanelId::Sim => Mode::Sim,
+        }
+    }
+}
+
+/// A question that must be answered before its effects are carried out.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Confirmation {
+    pub title: String,
+    pub question: String,
+    pub effects: Vec<Effect>,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub enum Popup {
+    Help { scroll: usize },
+    Confirm(Confirmation),
+}
+
+impl Popup {
+    pub fn mode(&self) -> Mode {
+        match self {
+            Popup::Help { .. } => Mode::Help,
+            Popup::Confirm(_) => Mode::Confirm,
+        }
+    }
+}
+
+/// One line for the operator: a refusal and its reason, a fault, a notice.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Message {
+    pub at: Instant,
+    pub level: NoteLevel,
+    pub text: String,
+}
+
+/// The jog step and speed selected (indices into the profile's lists).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct JogSelection {
+    pub step: usize,
+    pub speed: usize,
+}
+
+#[derive(Debug, Clone)]
+pub struct Model {
+    pub setup: Setup,
+    pub keymap: Keymap,
+    pub palette: Palette,
+    /// The time of the last tick; what "a moment ago" is measured against.
+    pub now: Instant,
+    pub link: LinkState,
+    pub machine: MachineState,
+    pub positions: Positions,
+    pub io: IoPanel,
+    pub traffic: TrafficLog,
+    pub command: LineEdit,
+    pub sim: Option<SimPanel>,
+    pub stats: Option<PollStats>,
+    pub message: Option<Message>,
+    pub upload: Option<UploadEvent>,
+    pub jog: JogSelection,
+    pub focus: PanelId,
+    pub popup: Option<Popup>,
+    pub size: (u16, u16),
+    /// Something the view shows has changed since the last frame.
+    pub dirty: bool,
+    /// `Quit` has been given; the runtime is closing down.
+    pub quitting: bool,
+}
+
+impl Model {
+    pub fn new(setup: Setup, keymap: Keymap, palette: Palette, now: Instant) -> Self {
+        let sim = setup
+            .simulator_inputs
+            .as_ref()
+            .map(|names| SimPanel::new(names));
+        let jog = JogSelection {
+            step: setup
+                .jog_start
+                .step
+                .min(setup.jog_steps.len().saturating_sub(1)),
+            speed: setup
+                .jog_start
+                .speed
+                .min(setup.jog_speeds.len().saturating_sub(1)),
+        };
+        Model {
+            traffic: TrafficLog::new(setup.protocol),
+            setup,
+            keymap,
+            palette,
+            now,
+            link: LinkState::Connecting,
+            machine: MachineState::default(),
+            positions: Positions::default(),
+            io: IoPanel::default(),
+            command: LineEdit::default(),
+            sim,
+            stats: None,
+            message: None,
+            upload: None,
+            jog,
+            focus: PanelId::Io,
+            popup: None,
+            size: (80, 24),
+            dirty: true,
+            quitting: false,
+        }
+    }
+
+    /// The panels Tab cycles through, in order.
+    pub fn focus_ring(&self) -> Vec<PanelId> {
+        let mut ring = vec![PanelId::Io, PanelId::Console];
+        if self.sim.is_some() {
+            ring.push(PanelId::Sim);
+        }
+        ring
+    }
+
+    pub fn raw_context(&self) -> RawContext {
+        RawContext {
+            protocol: self.setup.protocol,
+            isel_device: self.setup.isel_device,
+            initialised: self.machine.initialised,
+        }
+    }
+
+    /// The message to show at `now`, while it is fresh.
+    pub fn fresh_message(&self) -> Option<&Message> {
+        self.message
+            .as_ref()
+            .filter(|m| self.now.saturating_duration_since(m.at) < MESSAGE_FRESH)
+    }
+
+    pub fn jog_step(&self) -> Option<f64> {
+        self.setup.jog_steps.get(self.jog.step).copied()
+    }
+
+    pub fn jog_speed(&self) -> Option<f64> {
+        self.setup.jog_speeds.get(self.jog.speed).copied()
+    }
+}

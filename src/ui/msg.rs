@@ -1,0 +1,46 @@
+//! What goes into `update` ([`Msg`]) and what comes out of it ([`Effect`]).
+
+use std::time::Instant;
+
+use ratatui::crossterm::event::KeyEvent;
+
+use crate::device::api::{Event, Request};
+use crate::sim::InputControl;
+
+/// Everything that can change the model.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Msg {
+    /// A key from the terminal (presses, repeats and releases).
+    Key(KeyEvent),
+    /// Time passes: highlights fade, messages age, half-read replies are
+    /// shown. Sent by the runtime a few times a second.
+    Tick(Instant),
+    /// An event from the device task.
+    Device(Event),
+    /// The terminal has a new size.
+    Resize { width: u16, height: u16 },
+    /// The built-in simulator has carried out (or refused) an input change.
+    Simulator {
+        control: InputControl,
+        result: Result<(), String>,
+    },
+    /// A request could not be handed to the device task (`request` in
+    /// words, `device::describe`).
+    NotSent { request: String, reason: String },
+    /// The terminal hung up or a terminating signal arrived: stop and leave.
+    Terminate { reason: String },
+}
+
+/// What `update` asks the runtime to do. The runtime carries effects out in
+/// order; `Stop` goes on the device's stop lane ahead of anything queued.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Effect {
+    /// Stop all motion now.
+    Stop,
+    /// Hand a request to the device task.
+    Request(Request),
+    /// Flip an input of the built-in simulator.
+    Simulator(InputControl),
+    /// Close the device and leave (after the effects before it).
+    Quit,
+}

@@ -1,0 +1,449 @@
+//! The loop that drives the model: messages in (keys from the input thread,
+//! device events, ticks, signals, simulator answers), `update`, effects out
+//! to the device and the simulator, and a redraw when something changed, at
+//! most once per frame interval.
+//!
+//! A stop never waits: input is looked at first, and the `Stop` effect goes
+//! to the device's stop lane as soon as `update` returns it.
+
+use std::future::Future;
+use std::time::{Duration, Instant};
+
+use ratatui::Terminal;
+use ratatui::backend::Backend;
+use tokio::signal::unix::{SignalKind, signal};
+use tokio::sync::mpsc::{self, UnboundedReceiver, UnboundedSender};
+
+use crate::device::api::{Event, LinkState, Request};
+use crate::device::describe::describe;
+use crate::sim::InputControl;
+use crate::sim::shell::ShellControl;
+
+use super::model::Model;
+use super::msg::{Effect, Msg};
+use super::terminal::run_emergency;
+use super::update::update;
+use super::view::Screen;
+
+/// The device task as the UI needs it. Implemented for the real device
+/// handle and for test doubles.
+pub trait DeviceLink {
+    /// Hand a request to the device task.
+    fn request(&mut self, request: Request) -> Result<(), NotSent>;
+    /// Stop all motion, ahead of everything queued.
+    fn stop(&mut self);
+    /// The next event; `None` once the device task has ended.
+    fn next_event(&mut self) -> impl Future<Output = Option<Event>> + Send;
+}
+
+/// Why a request did not reach the device task.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum NotSent {
+    #[error("too many requests are waiting for the device task")]
+    Busy,
+    #[error("the device task has ended")]
+    Gone,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    #[error("drawing the screen failed: {0}")]
+    Draw(String),
+    #[error("cannot watch for signals: {0}")]
+    Signals(#[source] std::io::Error),
+}
+
+#[derive(Debug, Clone, Copy)]
+pub struct RunOptions {
+    /// Least time between two frames (20 frames/s at 50 ms).
+    pub frame_interval: Duration,
+    /// How long to wait for the device to close after `Quit`.
+    pub shutdown_timeout: Duration,
+}
+
+impl Default for RunOptions {
+    fn default() -> Self {
+        Self {
+            frame_interval: Duration::from_millis(50),
+            shutdown_timeout: Duration::from_secs(2),
+        }
+    }
+}
+
+/// Run until the operator quits, a terminating signal arrives or the
+/// terminal hangs up. The device is stopped and shut down on every way out.
+pub async fn run<B: Backend, D: DeviceLink>(
+    terminal: &mut Terminal<B>,
+    model: &mut Model,
+    device: &mut D,
+    input: &mut UnboundedReceiver<Msg>,
+    simulator: Option<ShellControl>,
+    options: RunOptions,
+) -> Result<(), RunError> {
+    let mut hangup = signal(SignalKind::hangup()).map_err(RunError::Signals)?;
+    let mut terminate = signal(SignalKind::terminate()).map_err(RunError::Signals)?;
+    let mut interrupt = signal(SignalKind::interrupt()).map_err(RunError::Signals)?;
+    let (sim_tx, mut sim_rx) = mpsc::unbounded_channel::<Msg>();
+    let mut ticks = tokio::time::interval(options.frame_interval);
+    ticks.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+    let mut last_draw: Option<Instant> = None;
+    let mut device_open = true;
+    loop {
+        let msg = tokio::select! {
+            biased;
+            msg = input.recv() => msg.unwrap_or(Msg::Terminate {
+                reason: "terminal input ended".into(),
+            }),
+            _ = hangup.recv() => Msg::Terminate { reason: "hang-up signal".into() },
+            _ = terminate.recv() => Msg::Terminate { reason: "terminate signal".into() },
+            _ = interrupt.recv() => Msg::Terminate { reason: "interrupt signal".into() },
+            event = device.next_event(), if device_open => match event {
+                Some(e) => Msg::Device(e),
+                None => {
+                    device_open = false;
+                    Msg::Device(Event::Link(LinkState::Lost {
+                        reason: "the device task has ended".into(),
+                    }))
+                }
+            },
+            Some(msg) = sim_rx.recv() => msg,
+            _ = ticks.tick() => Msg::Tick(Instant::now()),
+        };
+        if matches!(msg, Msg::Terminate { .. }) {
+            // The way out may be a dead terminal: the stop bytes go first,
+            // on the reserved handle, before anything else can block.
+            run_emergency();
+        }
+        let effects = update(model, msg);
+        let mut quit = false;
+        for effect in effects {
+            match effect {
+                Effect::Stop => device.stop(),
+                Effect::Request(request) => {
+                    let what = describe(&request);
+                    if let Err(reason) = device.request(request) {
+                        device_open &= reason != NotSent::Gone;
+                        // Said at once; the model never waits for an answer.
+                        update(
+                            model,
+                            Msg::NotSent {
+                                request: what,
+                                reason: reason.to_string(),
+                            },
+                        );
+                    }
+                }
+                Effect::Simulator(control) => simulate(simulator.clone(), control, sim_tx.clone()),
+                Effect::Quit => quit = true,
+            }
+        }
+        if quit {
+            // One last frame so the screen says what is happening.
+            let _ = draw(terminal, model);
+            shutdown(device, options.shutdown_timeout).await;
+            return Ok(());
+        }
+        let due = last_draw.is_none_or(|t| t.elapsed() >= options.frame_interval);
+        if model.dirty && due {
+            if let Err(e) = draw(terminal, model) {
+                device.stop();
+                shutdown(device, options.shutdown_timeout).await;
+                return Err(e);
+            }
+            last_draw = Some(Instant::now());
+        }
+    }
+}
+
+fn draw<B: Backend>(terminal: &mut Terminal<B>, model: &mut Model) -> Result<(), RunError> {
+    terminal
+        .draw(|frame| frame.render_widget(Screen(model), frame.area()))
+        .map_err(|e| RunError::Draw(e.to_string()))?;
+    model.dirty = false;
+    Ok(())
+}
+
+/// Ask the device to close and wait (bounded) until it says it has.
+async fn shutdown<D: DeviceLink>(device: &mut D, timeout: Duration) {
+    if device.request(Request::Shutdown).is_err() {
+        return;
+    }
+    let _ = tokio::time::timeout(timeout, async {
+        while let Some(event) = device.next_event().await {
+            if matches!(event, Event::Link(LinkState::Closed)) {
+                break;
+            }
+        }
+    })
+    .await;
+}
+
+/// Carry out a simulator control off the loop (the shell answers over a
+/// channel) and report the outcome as a message.
+fn simulate(shell: Option<ShellControl>, control: InputControl, tx: UnboundedSender<Msg>) {
+    let Some(shell) = shell else {
+        let _ = tx.send(Msg::Simulator {
+            control,
+            result: Err("this session is not on the built-in simulator".into()),
+        });
+        return;
+    };
+    tokio::task::spawn_blocking(move || {
+        let result = shell.input(control.clone()).map_err(|e| e.to_string());
+        let _ = tx.send(Msg::Simulator { control, result });
+    });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::{ConfigDirs, load_profile, load_theme};
+    use crate::ui::keymap::Keymap;
+    use crate::ui::model::Setup;
+    use crate::ui::palette::Palette;
+    use ratatui::backend::TestBackend;
+    use ratatui::crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
+
+    /// Records what the UI asked for; answers `Shutdown` with `Closed`;
+    /// refuses other requests as busy when told to.
+    struct FakeDevice {
+        calls: Vec<String>,
+        events: UnboundedReceiver<Event>,
+        events_tx: UnboundedSender<Event>,
+        busy: bool,
+    }
+
+    impl DeviceLink for FakeDevice {
+        fn request(&mut self, request: Request) -> Result<(), NotSent> {
+            if self.busy && request != Request::Shutdown {
+                return Err(NotSent::Busy);
+            }
+            if request == Request::Shutdown {
+                let _ = self.events_tx.send(Event::Link(LinkState::Closed));
+            }
+            self.calls.push(format!("{request:?}"));
+            Ok(())
+        }
+
+        fn stop(&mut self) {
+            self.calls.push("stop".into());
+        }
+
+        fn next_event(&mut self) -> impl Future<Output = Option<Event>> + Send {
+            self.events.recv()
+        }
+    }
+
+    fn model() -> Model {
+        let dirs = ConfigDirs::builtin_only();
+        let profile = load_profile("default", &dirs).expect("profile");
+        let theme = load_theme("dark", &dirs).expect("theme");
+        Model::new(
+            Setup::from_profile(&profile, None),
+            Keymap::default(),
+            Palette::from(&theme),
+            Instant::now(),
+        )
+    }
+
+    fn key(c: char) -> Msg {
+        Msg::Key(KeyEvent::new(KeyCode::Char(c), KeyModifiers::NONE))
+    }
+
+    #[tokio::test]
+    async fn space_stops_and_quit_shuts_the_device_down() {
+        let (events_tx, events) = mpsc::unbounded_channel();
+        let mut device = FakeDevice {
+            calls: Vec::new(),
+            events,
+            events_tx: events_tx.clone(),
+            busy: false,
+        };
+        let (tx, mut rx) = mpsc::unbounded_channel();
+        events_tx
+            .send(Event::Link(LinkState::Connected))
+            .expect("event");
+        tx.send(key(' ')).expect("key");
+        tx.send(key('q')).expect("key");
+        let mut terminal = Terminal::new(TestBackend::new(80, 24)).expect("terminal");
+        let mut model = model();
+        run(
+            &mut terminal,
+            &mut model,
+            &mut device,
+            &mut rx,
+            None,
+            RunOptions::default(),
+        )
+        .await
+        .expect("run");
+        assert_eq!(device.calls, ["stop", "stop", "Shutdown"]);
+        assert!(model.quitting);
+    }
+
+    /// A test backend that counts the frames written.
+    struct Frames {
+        inner: TestBackend,
+        flushes: usize,
+    }
+
+    impl Backend for Frames {
+        type Error = <TestBackend as Backend>::Error;
+
+        fn draw<'a, I>(&mut self, content: I) -> Result<(), Self::Error>
+        where
+            I: Iterator<Item = (u16, u16, &'a ratatui::buffer::Cell)>,
+        {
+            self.inner.draw(content)
+        }
+
+        fn hide_cursor(&mut self) -> Result<(), Self::Error> {
+            self.inner.hide_cursor()
+        }
+
+        fn show_cursor(&mut self) -> Result<(), Self::Error> {
+            self.inner.show_cursor()
+        }
+
+        fn get_cursor_position(&mut self) -> Result<ratatui::layout::Position, Self::Error> {
+            self.inner.get_cursor_position()
+        }
+
+        fn set_cursor_position<P: Into<ratatui::layout::Position>>(
+            &mut self,
+            position: P,
+        ) -> Result<(), Self::Error> {
+            self.inner.set_cursor_position(position)
+        }
+
+        fn clear(&mut self) -> Result<(), Self::Error> {
+            self.inner.clear()
+        }
+
+        fn clear_region(
+            &mut self,
+            clear_type: ratatui::backend::ClearType,
+        ) -> Result<(), Self::Error> {
+            self.inner.clear_region(clear_type)
+        }
+
+        fn size(&self) -> Result<ratatui::layout::Size, Self::Error> {
+            self.inner.size()
+        }
+
+        fn window_size(&mut self) -> Result<ratatui::backend::WindowSize, Self::Error> {
+            self.inner.window_size()
+        }
+
+        fn flush(&mut self) -> Result<(), Self::Error> {
+            self.flushes += 1;
+            self.inner.flush()
+        }
+    }
+
+    #[tokio::test]
+    async fn a_flood_of_events_is_drawn_at_the_frame_rate() {
+        let (events_tx, events) = mpsc::unbounded_channel();
+        let mut device = FakeDevice {
+            calls: Vec::new(),
+            events,
+            events_tx: events_tx.clone(),
+            busy: false,
+        };
+        for i in 0..500 {
+            let sample = crate::device::api::PositionSample {
+                at: Instant::now(),
+                steps: crate::device::api::PerAxis::new().with(crate::axis::Axis::X, i),
+                source: crate::device::api::PositionSource::Measured,
+            };
+            events_tx.send(Event::Position(sample)).expect("event");
+        }
+        let (tx, mut rx) = mpsc::unbounded_channel();
+        let quit_later = tokio::spawn(async move {
+            tokio::time::sleep(Duration::from_millis(300)).await;
+            let _ = tx.send(key('q'));
+            tx
+        });
+        let mut terminal = Terminal::new(Frames {
+            inner: TestBackend::new(80, 24),
+            flushes: 0,
+        })
+        .expect("terminal");
+        let started = Instant::now();
+        run(
+            &mut terminal,
+            &mut model(),
+            &mut device,
+            &mut rx,
+            None,
+            RunOptions::default(),
+        )
+        .await
+        .expect("run");
+        let _ = quit_later.await;
+        let frames = terminal.backend().flushes;
+        let allowed = started.elapsed().as_millis() as usize / 50 + 3;
+        assert!(frames >= 1, "drawn at least once");
+        assert!(
+            frames <= allowed,
+            "{frames} frames for 500 events (at most {allowed})"
+        );
+    }
+
+    #[tokio::test]
+    async fn a_closed_input_stops_and_leaves() {
+        let (events_tx, events) = mpsc::unbounded_channel();
+        let mut device = FakeDevice {
+            calls: Vec::new(),
+            events,
+            events_tx,
+            busy: false,
+        };
+        let (tx, mut rx) = mpsc::unbounded_channel::<Msg>();
+        drop(tx);
+        let mut terminal = Terminal::new(TestBackend::new(80, 24)).expect("terminal");
+        run(
+            &mut terminal,
+            &mut model(),
+            &mut device,
+            &mut rx,
+            None,
+            RunOptions::default(),
+        )
+        .await
+        .expect("run");
+        assert_eq!(device.calls, ["stop", "Shutdown"]);
+    }
+
+    #[tokio::test]
+    async fn a_request_the_device_cannot_take_is_said_at_once() {
+        let (events_tx, events) = mpsc::unbounded_channel();
+        let mut device = FakeDevice {
+            calls: Vec::new(),
+            events,
+            events_tx,
+            busy: true,
+        };
+        let (tx, mut rx) = mpsc::unbounded_channel();
+        tx.send(key('i')).expect("key");
+        tx.send(key('q')).expect("key");
+        let mut terminal = Terminal::new(TestBackend::new(80, 24)).expect("terminal");
+        let mut model = model();
+        run(
+            &mut terminal,
+            &mut model,
+            &mut device,
+            &mut rx,
+            None,
+            RunOptions::default(),
+        )
+        .await
+        .expect("run");
+        let text = model.message.map(|m| m.text).unwrap_or_default();
+        assert!(
+            model.traffic.tail(50).iter().any(|l| l.text
+                == "not sent: initialise: too many requests are waiting for the device task"),
+            "{text}"
+        );
+    }
+}

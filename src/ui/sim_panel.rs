@@ -1,0 +1,138 @@
+//! The simulator panel's state: the built-in simulator's inputs (limit
+//! switches, E-stop circuits, buttons; names from the device model) and the
+//! level jogterm last set each one to. The simulator does not report levels,
+//! so an input that was never set here shows as unknown.
+
+use crate::sim::InputControl;
+
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SimInput {
+    pub name: String,
+    /// The level last set from this panel (`true` = reads 1: on / closed).
+    pub level: Option<bool>,
+    /// A change has been sent and not yet confirmed by the simulator.
+    pub pending: bool,
+}
+
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SimPanel {
+    pub inputs: Vec<SimInput>,
+    pub selected: usize,
+}
+
+impl SimPanel {
+    pub fn new(names: &[String]) -> Self {
+        SimPanel {
+            inputs: names
+                .iter()
+                .map(|name| SimInput {
+                    name: name.clone(),
+                    level: None,
+                    pending: false,
+                })
+                .collect(),
+            selected: 0,
+        }
+    }
+
+    pub fn selected(&self) -> Option<&SimInput> {
+        self.inputs.get(self.selected)
+    }
+
+    pub fn step(&mut self, delta: isize) {
+        let len = self.inputs.len() as isize;
+        if len > 0 {
+            self.selected = (self.selected as isize + delta).rem_euclid(len) as usize;
+        }
+    }
+
+    /// The control that sets the selected input to `level`.
+    pub fn set_selected(&mut self, level: bool) -> Option<InputControl> {
+        let input = self.inputs.get_mut(self.selected)?;
+        input.pending = true;
+        Some(InputControl::Set {
+            name: input.name.clone(),
+            level,
+        })
+    }
+
+    /// The control that flips the selected input. The simulator does not say
+    /// at which level an input stands (switches rest at 0, safety circuits
+    /// at 1), so flipping needs a level set here first.
+    pub fn toggle_selected(&mut self) -> Result<InputControl, String> {
+        let input = self
+            .inputs
+            .get(self.selected)
+            .ok_or_else(|| "the simulator has no inputs".to_string())?;
+        let level = input.level.ok_or_else(|| {
+            format!(
+                "{}: level not known yet; set it on/closed (1) or off/open (0) first",
+                input.name
+            )
+        })?;
+        self.set_selected(!level)
+            .ok_or_else(|| "the simulator has no inputs".to_string())
+    }
+
+    pub fn press_selected(&mut self) -> Option<InputControl> {
+        let input = self.inputs.get_mut(self.selected)?;
+        input.pending = true;
+        Some(InputControl::Press {
+            name: input.name.clone(),
+        })
+    }
+
+    /// The simulator answered a control.
+    pub fn done(&mut self, control: &InputControl, ok: bool) {
+        let name = control.name();
+        if let Some(input) = self.inputs.iter_mut().find(|i| i.name == name) {
+            input.pending = false;
+            if let (true, InputControl::Set { level, .. }) = (ok, control) {
+                input.level = Some(*level);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn levels_are_known_only_once_the_simulator_took_them() {
+        let mut p = SimPanel::new(&["limit-x1".to_string(), "stop".to_string()]);
+        assert!(p.toggle_selected().unwrap_err().contains("not known"));
+        let c = p.set_selected(true).expect("control");
+        assert_eq!(
+            c,
+            InputControl::Set {
+                name: "limit-x1".into(),
+                level: true
+            }
+        );
+        assert_eq!(p.inputs[0].level, None);
+        p.done(&c, true);
+        assert_eq!(p.inputs[0].level, Some(true));
+        let off = p.toggle_selected().expect("control");
+        assert_eq!(
+            off,
+            InputControl::Set {
+                name: "limit-x1".into(),
+                level: false
+            }
+        );
+        p.done(&off, false);
+        assert_eq!(
+            p.inputs[0].level,
+            Some(true),
+            "a refused change changes nothing"
+        );
+        p.step(-1);
+        assert_eq!(
+            p.press_selected(),
+            Some(InputControl::Press {
+                name: "stop".into()
+            })
+        );
+    }
+}

@@ -1,0 +1,154 @@
+//! The one owner of the terminal: raw mode, the alternate screen, a hidden
+//! cursor and (where the terminal supports it) the kitty keyboard flags that
+//! report key releases, all undone by a guard on drop, on error and in the
+//! panic hook.
+//!
+//! Restoring ignores every error: it may run on a terminal that has hung up,
+//! where writes fail, and a failing `eprintln!` would turn a clean exit into
+//! an abort (`../shared/field-notes.md`, "Order on hang-up"). The panic hook
+//! first runs the registered emergency stop, then restores, then prints the
+//! panic as usual.
+
+use std::io::{self, Stdout, Write};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex, Once};
+
+use ratatui::Terminal;
+use ratatui::backend::CrosstermBackend;
+use ratatui::crossterm::cursor::{Hide, Show};
+use ratatui::crossterm::event::{
+    KeyboardEnhancementFlags, PopKeyboardEnhancementFlags, PushKeyboardEnhancementFlags,
+};
+use ratatui::crossterm::execute;
+use ratatui::crossterm::terminal::{
+    Clear, ClearType, EnterAlternateScreen, LeaveAlternateScreen, disable_raw_mode,
+    enable_raw_mode, supports_keyboard_enhancement,
+};
+
+/// The environment variable that skips the keyboard protocol query (it
+/// blocks up to 2 s on a terminal that does not answer, such as a test pty).
+pub const NO_KEYBOARD_QUERY_ENV: &str = "JOGTERM_NO_KEYBOARD_QUERY";
+
+/// Writes stop bytes without the async machinery (panic hook, hang-up).
+pub type EmergencyFn = Arc<dyn Fn() + Send + Sync>;
+
+static ACTIVE: AtomicBool = AtomicBool::new(false);
+static KEYBOARD_PUSHED: AtomicBool = AtomicBool::new(false);
+static EMERGENCY: Mutex<Option<EmergencyFn>> = Mutex::new(None);
+static HOOK: Once = Once::new();
+
+#[derive(Debug, Clone, Copy, Default)]
+pub struct TerminalOptions {
+    /// Ask the terminal whether it speaks the kitty keyboard protocol and
+    /// switch on key release reports if it does.
+    pub keyboard_query: bool,
+}
+
+impl TerminalOptions {
+    /// Query unless the environment says not to.
+    pub fn from_env() -> Self {
+        let skip =
+            std::env::var_os(NO_KEYBOARD_QUERY_ENV).is_some_and(|v| !v.is_empty() && v != "0");
+        Self {
+            keyboard_query: !skip,
+        }
+    }
+}
+
+/// Holds the terminal in TUI mode; dropping it gives the terminal back.
+#[derive(Debug)]
+pub struct TerminalGuard {
+    _private: (),
+}
+
+pub type Tui = Terminal<CrosstermBackend<Stdout>>;
+
+impl TerminalGuard {
+    /// Enter TUI mode on stdout. On failure everything done so far is undone.
+    pub fn enter(options: TerminalOptions) -> io::Result<(TerminalGuard, Tui)> {
+        install_panic_hook();
+        enable_raw_mode()?;
+        ACTIVE.store(true, Ordering::SeqCst);
+        // From here the guard exists, so an error below restores on drop.
+        let guard = TerminalGuard { _private: () };
+        let mut stdout = io::stdout();
+        execute!(stdout, EnterAlternateScreen, Hide)?;
+        if options.keyboard_query && supports_keyboard_enhancement().unwrap_or(false) {
+            execute!(
+                stdout,
+                PushKeyboardEnhancementFlags(
+                    KeyboardEnhancementFlags::DISAMBIGUATE_ESCAPE_CODES
+                        | KeyboardEnhancementFlags::REPORT_EVENT_TYPES
+                        | KeyboardEnhancementFlags::REPORT_ALL_KEYS_AS_ESCAPE_CODES
+                        | KeyboardEnhancementFlags::REPORT_ALTERNATE_KEYS
+                )
+            )?;
+            KEYBOARD_PUSHED.store(true, Ordering::SeqCst);
+        }
+        // A fresh screen, cleared directly: `Terminal::clear` would ask the
+        // terminal for the cursor position, a round trip over SSH that a
+        // terminal which does not answer turns into a 2 s wait and an error.
+        execute!(stdout, Clear(ClearType::All))?;
+        let terminal = Terminal::new(CrosstermBackend::new(io::stdout()))?;
+        Ok((guard, terminal))
+    }
+
+    /// Whether key release events will arrive (kitty keyboard protocol).
+    pub fn reports_key_releases(&self) -> bool {
+        KEYBOARD_PUSHED.load(Ordering::SeqCst)
+    }
+}
+
+impl Drop for TerminalGuard {
+    fn drop(&mut self) {
+        restore();
+    }
+}
+
+/// Give the terminal back, ignoring every error. Safe to call more than once
+/// and from the panic hook.
+pub fn restore() {
+    if !ACTIVE.swap(false, Ordering::SeqCst) {
+        return;
+    }
+    let mut stdout = io::stdout();
+    if KEYBOARD_PUSHED.swap(false, Ordering::SeqCst) {
+        let _ = execute!(stdout, PopKeyboardEnhancementFlags);
+    }
+    let _ = execute!(stdout, LeaveAlternateScreen, Show);
+    let _ = disable_raw_mode();
+    let _ = stdout.flush();
+}
+
+/// Register what the panic hook runs before it restores the terminal (the
+/// device's emergency stop); `None` clears it.
+pub fn set_emergency(stop: Option<EmergencyFn>) {
+    let mut slot = EMERGENCY.lock().unwrap_or_else(|p| p.into_inner());
+    *slot = stop;
+}
+
+/// Run the registered emergency stop, if any. Never blocks on the lock: a
+/// panic while it is held must not deadlock the hook.
+pub fn run_emergency() {
+    let stop = match EMERGENCY.try_lock() {
+        Ok(slot) => slot.clone(),
+        Err(std::sync::TryLockError::Poisoned(p)) => p.into_inner().clone(),
+        Err(std::sync::TryLockError::WouldBlock) => None,
+    };
+    if let Some(stop) = stop {
+        stop();
+    }
+}
+
+fn install_panic_hook() {
+    HOOK.call_once(|| {
+        let previous = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            // Stop the machine first, then give the terminal back so the
+            // panic message lands on a usable screen.
+            run_emergency();
+            restore();
+            previous(info);
+        }));
+    });
+}

@@ -1,0 +1,280 @@
+//! The position panel (DRO): every axis of the machine in its units (work
+//! position from the virtual zero, machine position from the reference
+//! point) and in steps; estimated positions (isel while moving) marked with
+//! their own symbol and style; referenced or not per axis; the jog step and
+//! speed. Columns are dropped from the right when the panel is narrow.
+
+use ratatui::buffer::Buffer;
+use ratatui::layout::Rect;
+use ratatui::style::Style;
+use ratatui::text::{Line, Span};
+use ratatui::widgets::Widget;
+
+use crate::device::api::{LinkState, PositionSource};
+use crate::ui::model::Model;
+use crate::ui::position::{common_unit, decimals, format_amount, format_units};
+
+use super::frame;
+
+pub struct DroView<'a>(pub &'a Model);
+
+/// Rows the panel needs: title, header, one per axis, the jog line.
+pub fn height(model: &Model) -> u16 {
+    3 + model.setup.axes.len() as u16
+}
+
+/// Column widths reserved from the profile (soft limits, resolution), not
+/// from the values on screen: the columns and the panel width then stay put
+/// while an axis moves, so a frame only rewrites the digits that changed.
+#[derive(Debug, Clone, Copy)]
+struct Widths {
+    work: usize,
+    unit: usize,
+    machine: usize,
+    steps: usize,
+    words: usize,
+}
+
+fn digits(n: f64) -> usize {
+    let n = n.abs().floor();
+    if n < 1.0 {
+        1
+    } else {
+        n.log10().floor() as usize + 1
+    }
+}
+
+fn widths(model: &Model) -> Widths {
+    let mut w = Widths {
+        work: 4,
+        unit: 0,
+        machine: 7,
+        steps: 5,
+        words: WORDS.iter().map(|s| s.len()).max().unwrap_or(0),
+    };
+    for (_, p) in &model.setup.axes {
+        // Work positions reach (max - min) away from a zero set anywhere
+        // within the limits; machine positions a little beyond them.
+        let span = [p.min.abs(), p.max.abs(), p.max - p.min]
+            .into_iter()
+            .filter(|v| v.is_finite())
+            .fold(0.0, f64::max);
+        let dec = decimals(p);
+        let units = 1 + digits(span) + if dec > 0 { dec + 1 } else { 0 };
+        w.work = w.work.max(units);
+        w.machine = w.machine.max(units);
+        w.steps = w.steps.max(1 + digits(span * p.steps_per_unit));
+        w.unit = w.unit.max(p.unit.symbol().chars().count());
+    }
+    w
+}
+
+const WORDS: [&str; 5] = [
+    "last known",
+    "not initialised",
+    "not referenced",
+    "referenced, estimated",
+    "referenced",
+];
+
+/// Columns wide: marks, work, unit, machine, steps, with one blank between.
+pub fn width(model: &Model) -> u16 {
+    let w = widths(model);
+    (3 + w.work + 1 + w.unit + 1 + w.machine + 1 + w.steps) as u16
+}
+
+struct Row {
+    cells: Vec<(String, Style)>,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Col {
+    Marks,
+    Work,
+    Unit,
+    Machine,
+    Steps,
+    Words,
+}
+
+impl Widget for DroView<'_> {
+    fn render(self, area: Rect, buf: &mut Buffer) {
+        let model = self.0;
+        let p = &model.palette;
+        let sym = p.symbols;
+        let any_estimated = model.setup.axes.iter().any(|(a, _)| {
+            model
+                .positions
+                .get(*a)
+                .is_some_and(|r| r.source == PositionSource::Estimated)
+        });
+        let mut extra = Vec::new();
+        if any_estimated {
+            extra.push(Span::styled(
+                format!("{} estimated ", sym.estimated),
+                p.estimated,
+            ));
+        }
+        let inner = frame::panel("Position", extra, false, p, area, buf);
+        if inner.height == 0 {
+            return;
+        }
+        let live = matches!(model.link, LinkState::Connected);
+        let m = &model.machine;
+        let rows: Vec<Row> = model
+            .setup
+            .axes
+            .iter()
+            .map(|(axis, profile)| {
+                let reading = model.positions.get(*axis);
+                let initialised = m.initialised.contains(*axis);
+                let referenced = initialised && m.referenced.contains(*axis);
+                let (ref_sym, ref_style) = if referenced {
+                    (sym.referenced, p.ok)
+                } else {
+                    (sym.unreferenced, p.warning)
+                };
+                let estimated = reading.is_some_and(|r| r.source == PositionSource::Estimated);
+                let (src_sym, value_style) = match (live, estimated) {
+                    (false, _) => (" ", p.dim),
+                    (true, true) => (sym.estimated, p.estimated),
+                    (true, false) => (sym.measured, p.measured),
+                };
+                let other_style = if live { p.text } else { p.dim };
+                let zero = m.work_zero.get(*axis).unwrap_or(0);
+                let (work, machine, steps) = match reading {
+                    Some(r) => (
+                        format_units(profile, r.steps.saturating_sub(zero)),
+                        format_units(profile, r.steps),
+                        r.steps.to_string(),
+                    ),
+                    None => ("-".into(), "-".into(), "-".into()),
+                };
+                let words = match (initialised, referenced, live, estimated) {
+                    (_, _, false, _) => "last known",
+                    (false, _, _, _) => "not initialised",
+                    (true, false, _, _) => "not referenced",
+                    (true, true, _, true) => "referenced, estimated",
+                    (true, true, _, false) => "referenced",
+                };
+                Row {
+                    cells: vec![
+                        (axis.to_string(), p.title),
+                        (ref_sym.to_string(), ref_style),
+                        (src_sym.to_string(), value_style),
+                        (work, value_style),
+                        (profile.unit.symbol().to_string(), p.dim),
+                        (machine, other_style),
+                        (steps, other_style),
+                        (words.to_string(), p.dim),
+                    ],
+                }
+            })
+            .collect();
+        let unit_label = common_unit(model.setup.axes.iter().map(|(_, p)| p));
+        let w = widths(model);
+        let (work_w, unit_w, mach_w, steps_w) = (w.work, w.unit, w.machine, w.steps);
+        let layouts: [&[Col]; 4] = [
+            &[
+                Col::Marks,
+                Col::Work,
+                Col::Unit,
+                Col::Machine,
+                Col::Steps,
+                Col::Words,
+            ],
+            &[Col::Marks, Col::Work, Col::Unit, Col::Machine, Col::Steps],
+            &[Col::Marks, Col::Work, Col::Unit, Col::Steps],
+            &[Col::Marks, Col::Work, Col::Unit],
+        ];
+        let col_width = |c: Col| match c {
+            Col::Marks => 3,
+            Col::Work => work_w + 1,
+            Col::Unit => unit_w,
+            Col::Machine => mach_w + 1,
+            Col::Steps => steps_w + 1,
+            Col::Words => w.words + 2,
+        };
+        let cols = layouts
+            .iter()
+            .find(|cols| {
+                cols.iter().map(|c| col_width(*c)).sum::<usize>() <= usize::from(inner.width)
+            })
+            .copied()
+            .unwrap_or(&[Col::Marks, Col::Work]);
+        let mut lines = Vec::new();
+        let header: Vec<Span> = cols
+            .iter()
+            .map(|c| {
+                let text = match c {
+                    Col::Marks => "   ".to_string(),
+                    Col::Work => format!("{:>work_w$} ", "work"),
+                    Col::Unit => " ".repeat(unit_w),
+                    Col::Machine => format!(" {:>mach_w$}", "machine"),
+                    Col::Steps => format!(" {:>steps_w$}", "steps"),
+                    Col::Words => String::new(),
+                };
+                Span::styled(text, p.dim)
+            })
+            .collect();
+        lines.push(Line::from(header));
+        for row in &rows {
+            let cell = |i: usize| row.cells.get(i).cloned().unwrap_or_default();
+            let mut spans = Vec::new();
+            for c in cols {
+                match c {
+                    Col::Marks => {
+                        for i in 0..3 {
+                            let (t, s) = cell(i);
+                            spans.push(Span::styled(t, s));
+                        }
+                    }
+                    Col::Work => {
+                        let (t, s) = cell(3);
+                        spans.push(Span::styled(format!("{t:>work_w$}"), s));
+                        spans.push(Span::raw(" "));
+                    }
+                    Col::Unit => {
+                        let (t, s) = cell(4);
+                        spans.push(Span::styled(format!("{t:<unit_w$}"), s));
+                    }
+                    Col::Machine => {
+                        let (t, s) = cell(5);
+                        spans.push(Span::styled(format!(" {t:>mach_w$}"), s));
+                    }
+                    Col::Steps => {
+                        let (t, s) = cell(6);
+                        spans.push(Span::styled(format!(" {t:>steps_w$}"), s));
+                    }
+                    Col::Words => {
+                        let (t, s) = cell(7);
+                        spans.push(Span::styled(format!("  {t}"), s));
+                    }
+                }
+            }
+            lines.push(Line::from(spans));
+        }
+        let unit = unit_label.map(|u| u.symbol()).unwrap_or("units");
+        let step = model
+            .jog_step()
+            .map(format_amount)
+            .unwrap_or_else(|| "-".into());
+        let speed = model
+            .jog_speed()
+            .map(format_amount)
+            .unwrap_or_else(|| "-".into());
+        lines.push(Line::from(vec![
+            Span::styled("jog step ", p.dim),
+            Span::styled(format!("{step} {unit}"), p.text),
+            Span::styled("  speed ", p.dim),
+            Span::styled(format!("{speed} {unit}/s"), p.text),
+        ]));
+        for (i, line) in lines.into_iter().enumerate() {
+            let y = inner.y.saturating_add(i as u16);
+            if y >= inner.bottom() {
+                break;
+            }
+            line.render(Rect::new(inner.x, y, inner.width, 1), buf);
+        }
+    }
+}

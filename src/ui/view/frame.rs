@@ -1,0 +1,41 @@
+//! The frame every panel is drawn in: a title rule on top (no side borders,
+//! so no columns are spent on lines and nothing needs redrawing but the
+//! rule), the title reversed while the panel has focus so focus is never
+//! shown by colour alone.
+
+use ratatui::buffer::Buffer;
+use ratatui::layout::Rect;
+use ratatui::text::{Line, Span};
+use ratatui::widgets::{Block, Borders, Widget};
+
+use crate::ui::palette::Palette;
+
+/// Draw the frame and return the area inside it.
+pub fn panel(
+    title: &str,
+    extra: Vec<Span<'_>>,
+    focused: bool,
+    palette: &Palette,
+    area: Rect,
+    buf: &mut Buffer,
+) -> Rect {
+    let title_style = if focused {
+        palette.selected.patch(palette.title)
+    } else {
+        palette.title
+    };
+    let border = if focused {
+        palette.focus_border
+    } else {
+        palette.border
+    };
+    let mut spans = vec![Span::styled(format!(" {title} "), title_style)];
+    spans.extend(extra);
+    let block = Block::new()
+        .borders(Borders::TOP)
+        .border_style(border)
+        .title(Line::from(spans));
+    let inner = block.inner(area);
+    block.render(area, buf);
+    inner
+}

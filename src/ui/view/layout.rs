@@ -1,0 +1,122 @@
+//! Where each panel goes, sized to the terminal: side by side from 76
+//! columns (position and simulator left, port bits right, traffic below),
+//! stacked below that. The status bar and message line are always on top,
+//! the key hints at the bottom; the traffic console gets what is left, and
+//! never less than a few lines.
+
+use ratatui::layout::Rect;
+
+use crate::ui::model::{Model, PanelId};
+
+use super::{dro, io, sim};
+
+/// Narrowest terminal that gets panels side by side.
+pub const SIDE_BY_SIDE: u16 = 76;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Areas {
+    pub status: Rect,
+    pub message: Rect,
+    pub dro: Rect,
+    pub io: Rect,
+    pub sim: Option<Rect>,
+    pub console: Rect,
+    pub hints: Option<Rect>,
+}
+
+fn rows(area: Rect, y: u16, height: u16) -> Rect {
+    let y = y.min(area.bottom());
+    Rect::new(area.x, y, area.width, height.min(area.bottom() - y))
+}
+
+pub fn areas(model: &Model, area: Rect) -> Areas {
+    let status = rows(area, area.y, 1);
+    let message = rows(area, area.y + 1, 1);
+    let hints = (area.height >= 12).then(|| rows(area, area.bottom() - 1, 1));
+    let body_top = area.y + 2;
+    let body_bottom = hints.map_or(area.bottom(), |h| h.y).max(body_top);
+    let body = Rect::new(area.x, body_top, area.width, body_bottom - body_top);
+    if area.width >= SIDE_BY_SIDE {
+        side_by_side(model, body, status, message, hints)
+    } else {
+        stacked(model, body, status, message, hints)
+    }
+}
+
+fn side_by_side(
+    model: &Model,
+    body: Rect,
+    status: Rect,
+    message: Rect,
+    hints: Option<Rect>,
+) -> Areas {
+    // The position panel gets what its columns need (more on wide
+    // terminals), the port bits the rest.
+    let left_w = dro::width(model)
+        .max((body.width * 2 / 5).min(72))
+        .min(body.width / 2);
+    let right_x = body.x + left_w + 1;
+    let right_w = body.right().saturating_sub(right_x);
+    let dro_h = dro::height(model);
+    let sim_h = sim::height(model, left_w);
+    let io_h = io::height(model, right_w);
+    let console_min = (body.height / 4).max(5);
+    let top_max = body.height.saturating_sub(console_min);
+    let top = (dro_h + sim_h).max(io_h).min(top_max);
+    let dro_rect = Rect::new(body.x, body.y, left_w, dro_h.min(top));
+    let sim_rect = (sim_h > 0 && top > dro_rect.height + 1).then(|| {
+        Rect::new(
+            body.x,
+            body.y + dro_rect.height,
+            left_w,
+            top - dro_rect.height,
+        )
+    });
+    let io_rect = Rect::new(right_x, body.y, right_w, top);
+    let console = Rect::new(body.x, body.y + top, body.width, body.height - top);
+    Areas {
+        status,
+        message,
+        dro: dro_rect,
+        io: io_rect,
+        sim: sim_rect,
+        console,
+        hints,
+    }
+}
+
+fn stacked(model: &Model, body: Rect, status: Rect, message: Rect, hints: Option<Rect>) -> Areas {
+    let w = body.width;
+    let console_min = 4.min(body.height);
+    let dro_h = dro::height(model).min(body.height.saturating_sub(console_min));
+    let left = body.height - dro_h - console_min;
+    let io_need = io::height(model, w);
+    let sim_need = sim::height(model, w);
+    // The focused panel is never squeezed out: the simulator panel takes
+    // the port bits' room when it has focus and both do not fit.
+    let (io_h, sim_h) = if io_need + sim_need <= left {
+        (io_need, sim_need)
+    } else if model.focus == PanelId::Sim && sim_need > 0 {
+        let sim_h = sim_need.min(left);
+        (left - sim_h, sim_h)
+    } else {
+        (left, 0)
+    };
+    let mut y = body.y;
+    let dro_rect = Rect::new(body.x, y, w, dro_h);
+    y += dro_h;
+    let io_rect = Rect::new(body.x, y, w, io_h);
+    y += io_h;
+    let sim_rect = (sim_h > 0).then(|| Rect::new(body.x, y, w, sim_h));
+    y += sim_h;
+    let console = Rect::new(body.x, y, w, body.bottom() - y);
+    Areas {
+        status,
+        message,
+        dro: dro_rect,
+        io: io_rect,
+        sim: sim_rect,
+        console,
+        hints,
+    }
+}

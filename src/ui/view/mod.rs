@@ -1,0 +1,54 @@
+//! The view: a pure function of the model. [`Screen`] draws everything;
+//! each panel is its own widget so later panels (jog keypad, program editor)
+//! slot in beside them.
+
+pub mod console;
+pub mod dro;
+pub mod flow;
+pub mod frame;
+pub mod io;
+pub mod layout;
+pub mod popup;
+pub mod sim;
+pub mod status;
+
+use ratatui::buffer::Buffer;
+use ratatui::layout::Rect;
+use ratatui::widgets::Widget;
+
+use super::model::{Model, Popup};
+
+/// The whole screen.
+pub struct Screen<'a>(pub &'a Model);
+
+impl Widget for Screen<'_> {
+    fn render(self, area: Rect, buf: &mut Buffer) {
+        let model = self.0;
+        buf.set_style(area, model.palette.text);
+        let a = layout::areas(model, area);
+        status::StatusBar(model).render(a.status, buf);
+        status::MessageLine(model).render(a.message, buf);
+        dro::DroView(model).render(a.dro, buf);
+        io::IoView(model).render(a.io, buf);
+        if let Some(sim_area) = a.sim {
+            sim::SimView(model).render(sim_area, buf);
+        }
+        console::ConsoleView(model).render(a.console, buf);
+        if let Some(hints) = a.hints {
+            status::Hints(model).render(hints, buf);
+        }
+        match &model.popup {
+            Some(Popup::Help { scroll }) => popup::HelpView {
+                model,
+                scroll: *scroll,
+            }
+            .render(area, buf),
+            Some(Popup::Confirm(confirmation)) => popup::ConfirmView {
+                model,
+                confirmation,
+            }
+            .render(area, buf),
+            None => {}
+        }
+    }
+}

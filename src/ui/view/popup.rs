@@ -1,0 +1,128 @@
+//! The popups: the help overlay (every key, from the keymap) and the
+//! confirmation box for actions that move or power the machine.
+
+use ratatui::buffer::Buffer;
+use ratatui::layout::Rect;
+use ratatui::text::{Line, Span};
+use ratatui::widgets::{Block, Borders, Clear, Paragraph, Widget, Wrap};
+
+use crate::ui::help::{HelpLine, help_lines};
+use crate::ui::keymap::{Action, Mode};
+use crate::ui::model::{Confirmation, Model};
+
+use super::flow::fit;
+
+/// A box of at most `width` x `height` in the middle of `area`.
+fn centred(area: Rect, width: u16, height: u16) -> Rect {
+    let w = width.min(area.width);
+    let h = height.min(area.height);
+    Rect::new(
+        area.x + (area.width - w) / 2,
+        area.y + (area.height - h) / 2,
+        w,
+        h,
+    )
+}
+
+fn framed(model: &Model, title: &str, area: Rect, buf: &mut Buffer) -> Rect {
+    let p = &model.palette;
+    Clear.render(area, buf);
+    let block = Block::new()
+        .borders(Borders::ALL)
+        .border_style(p.focus_border)
+        .style(p.text)
+        .title(Span::styled(format!(" {title} "), p.title));
+    let inner = block.inner(area);
+    block.render(area, buf);
+    inner
+}
+
+pub struct HelpView<'a> {
+    pub model: &'a Model,
+    pub scroll: usize,
+}
+
+impl Widget for HelpView<'_> {
+    fn render(self, area: Rect, buf: &mut Buffer) {
+        let model = self.model;
+        let p = &model.palette;
+        let lines = help_lines(&model.keymap);
+        let key_w = lines
+            .iter()
+            .filter_map(|l| match l {
+                HelpLine::Entry { keys, .. } => Some(keys.chars().count()),
+                _ => None,
+            })
+            .max()
+            .unwrap_or(0)
+            .min(24);
+        let box_area = centred(area, 78, area.height.saturating_sub(2).max(3));
+        let close = model
+            .keymap
+            .key_for(Mode::Help, Action::Close)
+            .map(|k| format!("Help: every key ({k} closes)"))
+            .unwrap_or_else(|| "Help: every key".into());
+        let inner = framed(model, &close, box_area, buf);
+        let width = usize::from(inner.width);
+        let rows = usize::from(inner.height);
+        let scroll = self.scroll.min(lines.len().saturating_sub(rows));
+        for (i, line) in lines.iter().skip(scroll).take(rows).enumerate() {
+            let rendered = match line {
+                HelpLine::Heading(text) => Line::from(Span::styled(fit(text, width), p.title)),
+                HelpLine::Entry { keys, description } => Line::from(vec![
+                    Span::styled(format!(" {:<key_w$} ", fit(keys, key_w)), p.key),
+                    Span::styled(fit(description, width.saturating_sub(key_w + 2)), p.text),
+                ]),
+                HelpLine::Text(text) => Line::from(Span::styled(fit(text, width), p.dim)),
+                HelpLine::Blank => Line::default(),
+            };
+            rendered.render(Rect::new(inner.x, inner.y + i as u16, inner.width, 1), buf);
+        }
+    }
+}
+
+pub struct ConfirmView<'a> {
+    pub model: &'a Model,
+    pub confirmation: &'a Confirmation,
+}
+
+impl Widget for ConfirmView<'_> {
+    fn render(self, area: Rect, buf: &mut Buffer) {
+        let model = self.model;
+        let p = &model.palette;
+        let c = self.confirmation;
+        let width = area.width.clamp(20, 60);
+        let text_w = usize::from(width.saturating_sub(2)).max(1);
+        let text_rows = (c.question.chars().count().div_ceil(text_w) + 1) as u16;
+        // Borders, the question, a blank line, the answer keys.
+        let box_area = centred(area, width, text_rows + 3);
+        let inner = framed(model, &c.title, box_area, buf);
+        let keys = |action| {
+            model
+                .keymap
+                .keys_for(Mode::Confirm, action)
+                .iter()
+                .map(ToString::to_string)
+                .collect::<Vec<_>>()
+                .join("/")
+        };
+        let answer = Line::from(vec![
+            Span::styled(keys(Action::Confirm), p.key),
+            Span::styled(" yes   ", p.text),
+            Span::styled(keys(Action::Cancel), p.key),
+            Span::styled(" no", p.text),
+        ]);
+        let question =
+            Paragraph::new(Span::styled(c.question.clone(), p.warning)).wrap(Wrap { trim: true });
+        let q_area = Rect::new(
+            inner.x,
+            inner.y,
+            inner.width,
+            inner.height.saturating_sub(2),
+        );
+        question.render(q_area, buf);
+        if inner.height > 0 {
+            answer.render(Rect::new(inner.x, inner.bottom() - 1, inner.width, 1), buf);
+        }
+    }
+}

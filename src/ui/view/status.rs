@@ -1,0 +1,213 @@
+//! The status bar (link, machine state, poll rate), the message line under
+//! it (the latest refusal or notice while fresh, else what the machine state
+//! needs), and the key hints at the bottom.
+
+use ratatui::buffer::Buffer;
+use ratatui::layout::Rect;
+use ratatui::style::Style;
+use ratatui::text::{Line, Span};
+use ratatui::widgets::Widget;
+
+use crate::device::api::{LinkState, UploadEvent};
+use crate::ui::key::KeyChord;
+use crate::ui::keymap::{Action, Mode};
+use crate::ui::model::Model;
+use crate::ui::palette::Palette;
+use crate::ui::summary::{Severity, summarise};
+use crate::ui::traffic_log::NoteLevel;
+
+use super::flow::fit;
+
+pub fn severity_style(palette: &Palette, severity: Severity) -> Style {
+    match severity {
+        Severity::Ok => palette.ok,
+        Severity::Warning => palette.warning,
+        Severity::Danger => palette.danger,
+    }
+}
+
+pub fn note_style(palette: &Palette, level: NoteLevel) -> Style {
+    match level {
+        NoteLevel::Info => palette.text,
+        NoteLevel::Warning => palette.warning,
+        NoteLevel::Danger => palette.danger,
+    }
+}
+
+/// A marker that says the level without colour (mono16, screen readers).
+pub fn note_marker(level: NoteLevel) -> &'static str {
+    match level {
+        NoteLevel::Info => "·",
+        NoteLevel::Warning => "!",
+        NoteLevel::Danger => "!!",
+    }
+}
+
+pub struct StatusBar<'a>(pub &'a Model);
+
+impl Widget for StatusBar<'_> {
+    fn render(self, area: Rect, buf: &mut Buffer) {
+        let model = self.0;
+        let p = &model.palette;
+        let base = p.status_bar;
+        buf.set_style(area, base);
+        let width = usize::from(area.width);
+        let summary = summarise(model);
+        let port = if model.setup.is_simulator() {
+            "sim".to_string()
+        } else {
+            model.setup.port.clone()
+        };
+        let (link_text, link_style) = match &model.link {
+            LinkState::Connecting => ("connecting", base),
+            LinkState::Connected => ("connected", base),
+            LinkState::Lost { .. } => ("link lost", base.patch(p.danger)),
+            LinkState::Reconnecting { .. } => ("reconnecting", base.patch(p.warning)),
+            LinkState::Closed => ("closed", base),
+        };
+        let mut poll = match &model.stats {
+            Some(s) if width >= 70 => {
+                format!("poll {:.0}/{:.0} Hz ", s.position_rate_hz, s.wire_limit_hz)
+            }
+            Some(s) => format!("{:.0} Hz ", s.position_rate_hz),
+            None => "poll - ".to_string(),
+        };
+        // An upload in progress is worth a glance from any panel.
+        match &model.upload {
+            Some(UploadEvent::Started { total }) => {
+                poll.insert_str(0, &format!("upload 0/{total} "))
+            }
+            Some(UploadEvent::Progress { done, total, .. }) => {
+                poll.insert_str(0, &format!("upload {done}/{total} "))
+            }
+            _ => {}
+        }
+        let state = Span::styled(
+            format!(" {} ", summary.word),
+            base.patch(severity_style(p, summary.severity)),
+        );
+        let right = Span::styled(poll, base);
+        let fixed = state.width() + right.width() + 2;
+        let link_full = format!(
+            " {} {} {} ",
+            model.setup.protocol, port, model.setup.line.baud
+        );
+        let link = if fixed + link_full.len() + link_text.len() <= width {
+            link_full
+        } else {
+            format!(" {} ", model.setup.protocol)
+        };
+        let mut spans = vec![
+            Span::styled(link, base),
+            Span::styled(link_text, link_style),
+            Span::styled(" ", base),
+            state,
+        ];
+        let used: usize = spans.iter().map(Span::width).sum();
+        let gap = width.saturating_sub(used + right.width());
+        spans.push(Span::styled(" ".repeat(gap), base));
+        spans.push(right);
+        Line::from(spans).render(area, buf);
+    }
+}
+
+pub struct MessageLine<'a>(pub &'a Model);
+
+impl Widget for MessageLine<'_> {
+    fn render(self, area: Rect, buf: &mut Buffer) {
+        let model = self.0;
+        let p = &model.palette;
+        let width = usize::from(area.width);
+        let line = if let Some(m) = model.fresh_message() {
+            let marker = note_marker(m.level);
+            Line::from(vec![
+                Span::styled(format!("{marker} "), note_style(p, m.level)),
+                Span::styled(
+                    fit(&m.text, width.saturating_sub(marker.len() + 1)),
+                    note_style(p, m.level),
+                ),
+            ])
+        } else {
+            let summary = summarise(model);
+            match summary.detail {
+                Some(detail) => Line::from(Span::styled(
+                    fit(&detail, width),
+                    severity_style(p, summary.severity),
+                )),
+                None => Line::from(Span::styled(
+                    fit("ready: Space stops, ? lists every key", width),
+                    p.dim,
+                )),
+            }
+        };
+        line.render(area, buf);
+    }
+}
+
+/// The hints at the bottom: the keys that matter where the operator is.
+pub struct Hints<'a>(pub &'a Model);
+
+impl Widget for Hints<'_> {
+    fn render(self, area: Rect, buf: &mut Buffer) {
+        let model = self.0;
+        let p = &model.palette;
+        let map = &model.keymap;
+        let mut hints: Vec<(Option<KeyChord>, &str)> =
+            vec![(map.key_for(Mode::Safety, Action::Stop), "stop")];
+        let context: &[(Mode, Action, &str)] = match &model.popup {
+            Some(popup) => match popup.mode() {
+                Mode::Confirm => &[
+                    (Mode::Confirm, Action::Confirm, "yes"),
+                    (Mode::Confirm, Action::Cancel, "no"),
+                ],
+                _ => &[
+                    (Mode::Help, Action::ScrollDown, "scroll"),
+                    (Mode::Help, Action::Close, "close"),
+                ],
+            },
+            None => match model.focus.mode() {
+                Mode::Console => &[
+                    (Mode::Console, Action::Submit, "send"),
+                    (Mode::Console, Action::HistoryPrev, "history"),
+                    (Mode::Main, Action::FocusNext, "focus"),
+                ],
+                Mode::Sim => &[
+                    (Mode::Sim, Action::SimToggle, "flip"),
+                    (Mode::Sim, Action::SimOn, "on"),
+                    (Mode::Sim, Action::SimOff, "off"),
+                    (Mode::Sim, Action::SimPress, "press"),
+                    (Mode::Main, Action::FocusNext, "focus"),
+                ],
+                _ => &[
+                    (Mode::Main, Action::Help, "help"),
+                    (Mode::Main, Action::FocusNext, "focus"),
+                    (Mode::Io, Action::ToggleOutput, "switch"),
+                    (Mode::Main, Action::Initialise, "init"),
+                    (Mode::Main, Action::Home, "home"),
+                    (Mode::Main, Action::FocusConsole, "command"),
+                    (Mode::Main, Action::Quit, "quit"),
+                ],
+            },
+        };
+        hints.extend(
+            context
+                .iter()
+                .map(|(m, a, label)| (map.key_for(*m, *a), *label)),
+        );
+        let width = usize::from(area.width);
+        let mut spans = Vec::new();
+        let mut used = 0;
+        for (key, label) in hints {
+            let Some(key) = key else { continue };
+            let key = key.to_string();
+            let w = key.chars().count() + label.len() + 3;
+            if used + w > width {
+                break;
+            }
+            spans.push(Span::styled(key, p.key));
+            spans.push(Span::styled(format!(" {label}  "), p.dim));
+            used += w;
+        }
+        Line::from(spans).render(area, buf);
+    }
+}

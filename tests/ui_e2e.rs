@@ -1,0 +1,272 @@
+//! The real `jogterm` binary in an 80x24 pseudo-terminal, driven as an
+//! operator would: against `jogterm sim --pty` (a limit switch flipped on the
+//! simulator's stdin lights up on screen) and on the built-in simulator; the
+//! terminal is given back after `q`, a terminating signal and a hang-up; a
+//! broken configuration exits with status 2 before the terminal is touched.
+
+mod ui_pty;
+
+use std::io::{BufRead, BufReader, Write};
+use std::path::Path;
+use std::process::{Child, ChildStdin, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use ui_pty::{PtyRun, contains, rfind};
+
+const JOGTERM: &str = env!("CARGO_BIN_EXE_jogterm");
+const LEAVE_ALTERNATE: &[u8] = b"\x1b[?1049l";
+const WAIT: Duration = Duration::from_secs(20);
+
+/// The environment every run gets: no keyboard protocol query (the test
+/// terminal does not answer it), no user configuration.
+fn env(config: &Path) -> Vec<(&'static str, String)> {
+    vec![
+        ("JOGTERM_NO_KEYBOARD_QUERY", "1".into()),
+        ("JOGTERM_CONFIG_DIR", config.display().to_string()),
+        ("RUST_BACKTRACE", "0".into()),
+    ]
+}
+
+fn spawn(args: &[&str], config: &Path) -> PtyRun {
+    let env = env(config);
+    let env: Vec<(&str, &str)> = env.iter().map(|(k, v)| (*k, v.as_str())).collect();
+    PtyRun::spawn(Path::new(JOGTERM), args, &env)
+}
+
+/// `jogterm sim --pty`: the process, its stdin (the control language) and
+/// the path of its pty.
+struct Simulator {
+    child: Child,
+    stdin: ChildStdin,
+    path: String,
+}
+
+impl Simulator {
+    fn start(family: &str, config: &Path) -> Simulator {
+        let mut child = Command::new(JOGTERM)
+            .args(["sim", "--pty", "--protocol", family])
+            .envs(env(config))
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("start jogterm sim");
+        let stdout = child.stdout.take().expect("stdout");
+        let mut lines = BufReader::new(stdout);
+        let mut path = String::new();
+        lines
+            .read_line(&mut path)
+            .expect("the simulator prints its path");
+        // Keep reading its answers (`ok`): a closed stdout would end it.
+        std::thread::spawn(move || {
+            let mut line = String::new();
+            while lines.read_line(&mut line).is_ok_and(|n| n > 0) {
+                line.clear();
+            }
+        });
+        let stdin = child.stdin.take().expect("stdin");
+        Simulator {
+            child,
+            stdin,
+            path: path.trim().to_string(),
+        }
+    }
+
+    fn control(&mut self, line: &str) {
+        writeln!(self.stdin, "{line}").expect("write to the simulator");
+        self.stdin.flush().expect("flush");
+    }
+}
+
+impl Drop for Simulator {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn wait_for(run: &PtyRun, needle: &str) -> String {
+    run.wait_for(needle, WAIT)
+        .unwrap_or_else(|screen| panic!("`{needle}` never appeared:\n{screen}"))
+}
+
+/// The screen row that holds `needle`.
+fn row_with(screen: &str, needle: &str) -> Option<String> {
+    screen
+        .lines()
+        .find(|l| l.contains(needle))
+        .map(str::to_string)
+}
+
+/// Quit with `q` and check the terminal is back: main screen, cursor shown.
+fn quit_and_check(run: &mut PtyRun) {
+    run.send(b"q");
+    let code = run.wait_exit(WAIT);
+    run.drain(Duration::from_secs(5));
+    let screen = run.screen();
+    assert_eq!(code, Some(0), "{}", screen.screen().contents());
+    assert!(
+        !screen.screen().alternate_screen(),
+        "still on the alternate screen"
+    );
+    assert!(!screen.screen().hide_cursor(), "cursor still hidden");
+    assert!(rfind(&run.output(), LEAVE_ALTERNATE).is_some());
+}
+
+#[test]
+fn a_limit_switch_flipped_on_the_simulator_lights_up() {
+    let config = tempfile::tempdir().expect("tempdir");
+    let mut sim = Simulator::start("isel", config.path());
+    let mut run = spawn(&["--port", &sim.path], config.path());
+    let screen = wait_for(&run, "connected");
+    assert!(screen.contains("isel"), "{screen}");
+    // Port 3 is read with the positions; X1 is unlit.
+    let screen = wait_for(&run, "○X1");
+    let row = row_with(&screen, "○X1").expect("the limit switch row");
+    assert!(row.contains("in 3"), "{row}");
+
+    sim.control("set limit-x1 on");
+    let screen = wait_for(&run, "●X1");
+    let row = row_with(&screen, "●X1").expect("the limit switch row");
+    assert!(row.contains("in 3"), "{row}");
+    assert!(
+        screen.contains("LIMIT"),
+        "the state word says so:\n{screen}"
+    );
+    sim.control("set limit-x1 off");
+    wait_for(&run, "○X1");
+    quit_and_check(&mut run);
+}
+
+#[test]
+fn the_built_in_simulator_runs_by_default_and_its_inputs_can_be_flipped() {
+    let config = tempfile::tempdir().expect("tempdir");
+    let mut run = spawn(&[], config.path());
+    wait_for(&run, "connected");
+    let screen = wait_for(&run, "Simulator inputs");
+    assert!(screen.contains("limit-x1=?"), "{screen}");
+    // Tab to the simulator panel, walk to limit-x1 and set it.
+    run.send(b"\t\t");
+    wait_for(&run, "flip");
+    let names = screen
+        .lines()
+        .skip_while(|l| !l.contains("Simulator inputs"))
+        .skip(1)
+        .take_while(|l| !l.contains("──"))
+        .flat_map(|l| {
+            l.split_whitespace()
+                .filter_map(|w| w.split_once('=').map(|(n, _)| n.to_string()))
+                .collect::<Vec<_>>()
+        })
+        .collect::<Vec<_>>();
+    let steps = names
+        .iter()
+        .position(|n| n == "limit-x1")
+        .expect("limit-x1 is listed");
+    for _ in 0..steps {
+        run.send(b"\x1b[B");
+    }
+    run.send(b"1");
+    wait_for(&run, "limit-x1=1");
+    wait_for(&run, "●X1");
+    quit_and_check(&mut run);
+}
+
+#[test]
+fn a_typed_command_is_refused_with_its_reason_then_sent() {
+    let config = tempfile::tempdir().expect("tempdir");
+    let mut run = spawn(&[], config.path());
+    wait_for(&run, "connected");
+    // Initialised, the controller's axes are known to the check.
+    run.send(b"i");
+    wait_for(&run, "NOT REF");
+    run.send(b":@0A5000,900");
+    wait_for(&run, "> @0A5000,900");
+    run.send(b"\r");
+    let screen = wait_for(&run, "^ ");
+    assert!(screen.contains("pairs"), "{screen}");
+    // Ctrl-U clears; the version query goes out and its answer is shown.
+    run.send(b"\x15@0V\r");
+    // The answer is in the message line (the console may have scrolled on).
+    wait_for(&run, "@0V = isel");
+    run.send(b"\t");
+    quit_and_check(&mut run);
+}
+
+#[test]
+fn the_terminal_is_cooked_again_after_quitting() {
+    let config = tempfile::tempdir().expect("tempdir");
+    let script = format!("'{JOGTERM}'; stty -a");
+    let env = env(config.path());
+    let env: Vec<(&str, &str)> = env.iter().map(|(k, v)| (*k, v.as_str())).collect();
+    let mut run = PtyRun::spawn(Path::new("/bin/sh"), &["-c", &script], &env);
+    wait_for(&run, "connected");
+    run.send(b"q");
+    assert_eq!(run.wait_exit(WAIT), Some(0));
+    run.drain(Duration::from_secs(5));
+    let output = run.output();
+    let after = &output[rfind(&output, LEAVE_ALTERNATE).expect("left the TUI")..];
+    let stty = String::from_utf8_lossy(after);
+    for flag in ["icanon", "echo", "isig"] {
+        assert!(
+            stty.split_whitespace().any(|w| w == flag),
+            "`{flag}` is not set again:\n{stty}"
+        );
+    }
+}
+
+#[test]
+fn a_terminate_signal_stops_and_gives_the_terminal_back() {
+    let config = tempfile::tempdir().expect("tempdir");
+    let mut run = spawn(&[], config.path());
+    wait_for(&run, "connected");
+    let pid = run.child.process_id().expect("pid");
+    // SAFETY: a signal to the child we started.
+    unsafe {
+        libc::kill(pid as libc::pid_t, libc::SIGTERM);
+    }
+    let code = run.wait_exit(WAIT);
+    run.drain(Duration::from_secs(5));
+    assert_eq!(code, Some(0), "{}", run.screen().screen().contents());
+    let screen = run.screen();
+    assert!(!screen.screen().alternate_screen());
+    assert!(!screen.screen().hide_cursor());
+}
+
+#[test]
+fn a_hang_up_ends_the_console_promptly() {
+    let config = tempfile::tempdir().expect("tempdir");
+    let mut run = spawn(&[], config.path());
+    wait_for(&run, "connected");
+    let started = Instant::now();
+    // Closing the master is the terminal going away: the kernel sends SIGHUP.
+    run.close_master();
+    let code = run.wait_exit(WAIT);
+    assert!(
+        code.is_some(),
+        "still running {:?} after the hang-up",
+        started.elapsed()
+    );
+}
+
+#[test]
+fn a_broken_configuration_exits_2_before_touching_the_terminal() {
+    let config = tempfile::tempdir().expect("tempdir");
+    std::fs::create_dir_all(config.path().join("themes")).expect("themes");
+    std::fs::write(
+        config.path().join("themes/loud.toml"),
+        "name = \"loud\"\n[styles]\nlit = { fg = \"neon\" }\n",
+    )
+    .expect("theme");
+    let mut run = spawn(&["--theme", "loud"], config.path());
+    assert_eq!(run.wait_exit(WAIT), Some(2));
+    run.drain(Duration::from_secs(5));
+    let output = run.output();
+    let text = String::from_utf8_lossy(&output);
+    assert!(text.contains("loud.toml:3:"), "{text}");
+    assert!(text.contains("error:"), "{text}");
+    assert!(
+        !contains(&output, b"\x1b[?1049h"),
+        "the alternate screen was entered"
+    );
+}

@@ -1,0 +1,163 @@
+//! The terminal guard in a real pseudo-terminal: after a normal exit, an
+//! error and a panic, the terminal is back in cooked mode (ICANON, ECHO), on
+//! the main screen, with a visible cursor; on a panic the emergency stop
+//! runs before the terminal is restored.
+//!
+//! Each case runs this test binary again as a child in a pty, running only
+//! the ignored `child` test with the case in `JOGTERM_GUARD_CASE`.
+
+mod ui_pty;
+
+use std::io::Write;
+use std::sync::Arc;
+use std::time::Duration;
+
+use jogterm::ui::terminal::{TerminalGuard, TerminalOptions, set_emergency};
+use ratatui::text::Line;
+use ui_pty::{PtyRun, contains, rfind};
+
+const CASE_ENV: &str = "JOGTERM_GUARD_CASE";
+const LEAVE_ALTERNATE: &[u8] = b"\x1b[?1049l";
+const SHOW_CURSOR: &[u8] = b"\x1b[?25h";
+
+/// `icanon=1 echo=1` when the terminal on stdin is cooked again.
+fn termios_line() -> String {
+    // SAFETY: tcgetattr fills the struct for a valid fd or fails.
+    let mut t: libc::termios = unsafe { std::mem::zeroed() };
+    let ok = unsafe { libc::tcgetattr(0, &mut t) } == 0;
+    format!(
+        "TERMIOS ok={} icanon={} echo={}",
+        u8::from(ok),
+        u8::from(t.c_lflag & libc::ICANON != 0),
+        u8::from(t.c_lflag & libc::ECHO != 0)
+    )
+}
+
+fn in_tui() -> Result<(), String> {
+    let (guard, mut terminal) =
+        TerminalGuard::enter(TerminalOptions::default()).map_err(|e| e.to_string())?;
+    terminal
+        .draw(|f| f.render_widget(Line::from("IN THE TUI"), f.area()))
+        .map_err(|e| e.to_string())?;
+    let case = std::env::var(CASE_ENV).unwrap_or_default();
+    match case.as_str() {
+        "error" => Err("a failure inside the TUI".to_string()),
+        "panic" => panic!("a bug inside the TUI"),
+        _ => {
+            drop(guard);
+            Ok(())
+        }
+    }
+}
+
+#[test]
+#[ignore = "the child process of the terminal guard tests"]
+fn child() {
+    if std::env::var(CASE_ENV).is_err() {
+        return;
+    }
+    set_emergency(Some(Arc::new(|| {
+        let mut out = std::io::stdout();
+        let _ = out.write_all(b"EMERGENCY-STOP-RAN\r\n");
+        let _ = out.flush();
+    })));
+    // Runs after the guard's hook has restored the terminal.
+    let previous = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        println!("{}", termios_line());
+        previous(info);
+    }));
+    let result = in_tui();
+    println!("{}", termios_line());
+    if let Err(e) = result {
+        println!("ERROR {e}");
+        std::process::exit(1);
+    }
+}
+
+fn run_case(case: &str) -> (Option<u32>, Vec<u8>, String) {
+    let exe = std::env::current_exe().expect("test binary");
+    let mut run = PtyRun::spawn(
+        &exe,
+        &[
+            "--ignored",
+            "--exact",
+            "child",
+            "--nocapture",
+            "--test-threads=1",
+        ],
+        &[(CASE_ENV, case), ("RUST_BACKTRACE", "0")],
+    );
+    let code = run.wait_exit(Duration::from_secs(30));
+    run.drain(Duration::from_secs(5));
+    let output = run.output();
+    let screen = run.screen();
+    assert!(
+        !screen.screen().alternate_screen(),
+        "{case}: still on the alternate screen"
+    );
+    assert!(
+        !screen.screen().hide_cursor(),
+        "{case}: cursor still hidden"
+    );
+    (code, output, screen.screen().contents())
+}
+
+fn assert_restored(case: &str, output: &[u8], screen: &str) {
+    let leave = rfind(output, LEAVE_ALTERNATE)
+        .unwrap_or_else(|| panic!("{case}: the alternate screen was never left"));
+    // What the alternate screen showed just before it was left.
+    let mut tui = vt100::Parser::new(
+        std::num::NonZeroU16::MIN.saturating_add(23),
+        std::num::NonZeroU16::MIN.saturating_add(79),
+        0,
+    );
+    tui.process(&output[..leave]);
+    assert!(
+        tui.screen().alternate_screen(),
+        "{case}: TUI on the alternate screen"
+    );
+    assert!(
+        tui.screen().contents().contains("IN THE TUI"),
+        "{case}: the TUI never drew"
+    );
+    assert!(contains(output, SHOW_CURSOR), "{case}: cursor shown");
+    let after = &output[leave..];
+    assert!(
+        contains(after, b"TERMIOS ok=1 icanon=1 echo=1"),
+        "{case}: terminal not cooked again:\n{screen}"
+    );
+}
+
+#[test]
+fn the_terminal_is_restored_on_a_normal_exit() {
+    let (code, output, screen) = run_case("exit");
+    assert_eq!(code, Some(0), "{screen}");
+    assert_restored("exit", &output, &screen);
+    assert!(!contains(&output, b"EMERGENCY-STOP-RAN"));
+}
+
+#[test]
+fn the_terminal_is_restored_on_an_error() {
+    let (code, output, screen) = run_case("error");
+    assert_eq!(code, Some(1), "{screen}");
+    assert_restored("error", &output, &screen);
+    assert!(
+        screen.contains("ERROR a failure inside the TUI"),
+        "{screen}"
+    );
+}
+
+#[test]
+fn the_terminal_is_restored_on_a_panic_after_the_emergency_stop() {
+    let (code, output, screen) = run_case("panic");
+    assert_ne!(code, Some(0), "{screen}");
+    assert_restored("panic", &output, &screen);
+    assert!(screen.contains("a bug inside the TUI"), "{screen}");
+    let stop = rfind(&output, b"EMERGENCY-STOP-RAN").expect("emergency stop ran");
+    let leave = rfind(&output, LEAVE_ALTERNATE).expect("left the alternate screen");
+    assert!(
+        stop < leave,
+        "the stop bytes go out before the terminal is restored"
+    );
+}
