@@ -33,6 +33,9 @@ pub struct Homing {
     pub since: Instant,
     /// The device task has reported it running.
     pub seen: bool,
+    /// The axes referenced when it was seen running: only axes referenced
+    /// after that count as done (a run repeats a reference already held).
+    pub before: AxisSet,
 }
 
 /// The keypad panel's state.
@@ -69,6 +72,7 @@ impl Keypad {
                     axes: *axes,
                     since: now,
                     seen: false,
+                    before: AxisSet::EMPTY,
                 });
             }
         }
@@ -77,6 +81,9 @@ impl Keypad {
     fn machine_state(&mut self, state: &MachineState) {
         if let Some(h) = self.homing.as_mut() {
             if state.activity == Activity::Homing {
+                if !h.seen {
+                    h.before = state.referenced;
+                }
                 h.seen = true;
             } else if h.seen {
                 self.homing = None;

@@ -279,10 +279,16 @@ fn status_line(model: &Model, width: usize) -> Line<'static> {
             p.warning,
         ));
     }
-    if let Some(Homing { axes, since, .. }) = model.keypad.homing {
+    if let Some(Homing {
+        axes,
+        since,
+        before,
+        ..
+    }) = model.keypad.homing
+    {
         let done: crate::axis::AxisSet = axes
             .iter()
-            .filter(|a| model.machine.referenced.contains(*a))
+            .filter(|a| model.machine.referenced.contains(*a) && !before.contains(*a))
             .collect();
         let secs = now.saturating_duration_since(since).as_secs_f64();
         let done = if done.is_empty() {
