@@ -42,7 +42,7 @@ fn lock(shared: &Shared) -> MutexGuard<'_, Probe> {
 }
 
 /// The simulator, recording arrivals on the way in.
-struct Recorder(Shared);
+pub struct Recorder(pub Shared);
 
 impl SimDevice for Recorder {
     fn line(&self) -> LineSettings {
