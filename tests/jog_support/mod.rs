@@ -209,6 +209,45 @@ impl WireRig {
         }
     }
 
+    /// Move X to `units` (machine coordinates), so jogs both ways stay
+    /// inside the soft limits; returns once the controller is there.
+    pub async fn park_x(&mut self, units: f64) {
+        let spu = self.steps_per_unit(Axis::X);
+        let target = (units * spu).round() as i64;
+        self.request(Request::MoveTo {
+            target: jogterm::device::api::PerAxis::new().with(Axis::X, target),
+            frame: jogterm::device::api::Frame::Machine,
+            speed_hz: self.settings.speeds_hz(&[(Axis::X, Dir::Plus)], 50.0),
+        });
+        let deadline = Instant::now() + Duration::from_secs(30);
+        while (self.counters()[0] - target as f64).abs() > 0.5
+            || self.machine.activity != jogterm::device::api::Activity::Idle
+        {
+            assert!(
+                Instant::now() < deadline,
+                "never parked: {:?}",
+                self.counters()
+            );
+            self.run_for(Duration::from_millis(20)).await;
+        }
+    }
+
+    /// Wait until the keypad's jog has ended and the axis stands.
+    pub async fn settle(&mut self) {
+        let deadline = Instant::now() + Duration::from_secs(10);
+        while self.jogger.active().is_some()
+            || self.machine.activity != jogterm::device::api::Activity::Idle
+        {
+            assert!(
+                Instant::now() < deadline,
+                "the jog never ended: {:?}",
+                self.machine
+            );
+            self.run_for(Duration::from_millis(10)).await;
+        }
+        self.run_for(Duration::from_millis(100)).await;
+    }
+
     pub fn request(&self, r: Request) {
         self.handle.request(r).expect("request taken");
     }
