@@ -29,7 +29,7 @@ const KEY: u8 = 1;
 
 fn vector(i: usize) -> &'static [(Axis, Dir)] {
     // Back and forth, so the axis stays between its soft limits.
-    if i % 2 == 0 {
+    if i.is_multiple_of(2) {
         &[(Axis::X, Dir::Plus)]
     } else {
         &[(Axis::X, Dir::Minus)]
