@@ -3,6 +3,8 @@
 //!
 //! - [`api`]: requests, events, machine state, refusals (family-neutral).
 //! - [`driver`]: the sans-IO [`driver::Driver`] trait each family implements.
+//! - [`common`]: what the drivers of all families share (refusals, jog
+//!   vectors and leases, step coalescing, polling, the request queue).
 //! - [`isel`]: the isel @-format driver.
 //! - [`task`]: the async task that owns the port ([`spawn`]); [`handle`]:
 //!   what clients hold ([`DeviceHandle`]); [`events`]: the fan-out of events
@@ -11,6 +13,7 @@
 //! `docs/device.md` describes the layer as a whole.
 
 pub mod api;
+pub mod common;
 pub mod connector;
 pub mod describe;
 pub mod driver;

@@ -10,28 +10,16 @@
 
 use std::time::{Duration, Instant};
 
-use crate::device::api::{Activity, Event, JogEnd, JogId, PerAxis, Recovery, Refusal};
+use crate::device::api::{Activity, JogEnd, JogId, PerAxis, Recovery, Refusal};
+use crate::device::common::MotionKind;
+use crate::device::common::motion::Coalescing;
+use crate::device::common::sink::refuse_step;
 use crate::proto::isel::{Command, ControlByte, Reply, ReplyCode};
 
 use super::context::{Context, control_outgoing};
 use super::deadline;
 use super::op::{Abandon, Next, Operation};
 use super::plan::{self, Planned};
-
-#[derive(Debug)]
-enum Kind {
-    Step {
-        /// Presses that arrived while the step ran: delta and speeds.
-        pending: Vec<(PerAxis<i64>, PerAxis<f64>)>,
-    },
-    MoveTo,
-    Jog {
-        id: JogId,
-        lease_until: Instant,
-        end: Option<JogEnd>,
-        reported: bool,
-    },
-}
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Phase {
@@ -46,7 +34,7 @@ enum Phase {
 
 #[derive(Debug)]
 pub struct MotionOp {
-    kind: Kind,
+    kind: MotionKind,
     planned: Planned,
     phase: Phase,
     stopping: bool,
@@ -56,31 +44,18 @@ pub struct MotionOp {
 
 impl MotionOp {
     pub fn step(planned: Planned) -> MotionOp {
-        MotionOp::new(
-            Kind::Step {
-                pending: Vec::new(),
-            },
-            planned,
-        )
+        MotionOp::new(MotionKind::step(), planned)
     }
 
     pub fn move_to(planned: Planned) -> MotionOp {
-        MotionOp::new(Kind::MoveTo, planned)
+        MotionOp::new(MotionKind::MoveTo, planned)
     }
 
     pub fn jog(planned: Planned, id: JogId, lease_until: Instant) -> MotionOp {
-        MotionOp::new(
-            Kind::Jog {
-                id,
-                lease_until,
-                end: None,
-                reported: false,
-            },
-            planned,
-        )
+        MotionOp::new(MotionKind::jog(id, lease_until), planned)
     }
 
-    fn new(kind: Kind, planned: Planned) -> MotionOp {
+    fn new(kind: MotionKind, planned: Planned) -> MotionOp {
         MotionOp {
             kind,
             planned,
@@ -92,10 +67,7 @@ impl MotionOp {
     }
 
     pub fn jog_id(&self) -> Option<JogId> {
-        match self.kind {
-            Kind::Jog { id, .. } => Some(id),
-            _ => None,
-        }
+        self.kind.jog_id()
     }
 
     /// Whether the operation still has a move running or about to run.
@@ -116,64 +88,36 @@ impl MotionOp {
         speeds: PerAxis<f64>,
     ) -> Result<(), Refusal> {
         let moving = self.is_moving();
-        let activity = self.activity();
-        let Kind::Step { pending } = &mut self.kind else {
-            return Err(Refusal::Busy { activity });
+        let position = cx.position.unwrap_or_default();
+        let in_flight = self.planned.estimate.deltas();
+        let at = Coalescing {
+            open: !(self.stopping || self.failed || (!moving && self.kind.pending_steps() == 0)),
+            bound: cx.settings.jog.step_queue,
+            position: &position,
+            in_flight: moving.then_some(&in_flight),
+            activity: self.activity(),
         };
-        if self.stopping || self.failed || (!moving && pending.is_empty()) {
-            return Err(Refusal::Busy { activity });
-        }
-        if pending.len() >= cx.settings.step_queue {
-            return Err(Refusal::StepQueueFull);
-        }
-        let mut base = cx.position.unwrap_or_default();
-        let add = |d: &PerAxis<i64>, base: &mut PerAxis<i64>| {
-            for (axis, v) in d.iter() {
-                base.set(axis, base.get(axis).unwrap_or(0).saturating_add(v));
-            }
-        };
-        if moving {
-            add(&self.planned.estimate.deltas(), &mut base);
-        }
-        for (d, _) in pending.iter() {
-            add(d, &mut base);
-        }
-        plan::step(cx, &base, &delta, &speeds)?;
-        pending.push((delta, speeds));
-        Ok(())
+        self.kind.coalesce(at, delta, speeds, |base| {
+            plan::step(cx, base, &delta, &speeds).map(|_| ())
+        })
     }
 
     /// A lease renewal for jog `id`; false when this is not that jog.
     pub fn renew(&mut self, id: JogId, lease: Duration, now: Instant) -> bool {
-        match &mut self.kind {
-            Kind::Jog {
-                id: mine,
-                lease_until,
-                ..
-            } if *mine == id => {
-                *lease_until = now + lease;
-                true
-            }
-            _ => false,
-        }
+        self.kind.renew(id, lease, now)
     }
 
     /// Jog `id` was released. Returns whether the stop sequence must be sent.
     pub fn release(&mut self, cx: &mut Context, id: JogId) -> Option<bool> {
-        let Kind::Jog { id: mine, end, .. } = &mut self.kind else {
-            return None;
-        };
-        if *mine != id {
+        if self.kind.jog_id() != Some(id) {
             return None;
         }
-        if end.is_none() {
-            *end = Some(JogEnd::Released);
-        }
+        self.kind.set_jog_end(JogEnd::Released, false);
         match self.phase {
             Phase::Send => {
                 // Never handed out: it simply does not start.
                 self.phase = Phase::Done;
-                self.report_jog(cx);
+                self.kind.report_jog(&mut cx.events);
                 Some(false)
             }
             Phase::Moving => Some(!self.stopping),
@@ -181,54 +125,19 @@ impl MotionOp {
         }
     }
 
-    fn report_jog(&mut self, cx: &mut Context) {
-        if let Kind::Jog {
-            id, end, reported, ..
-        } = &mut self.kind
-            && !*reported
-        {
-            *reported = true;
-            let end = end.clone().unwrap_or(JogEnd::Stopped);
-            cx.emit(Event::JogEnded { id: *id, end });
-        }
-    }
-
-    fn set_jog_end(&mut self, value: JogEnd, overwrite: bool) {
-        if let Kind::Jog { end, .. } = &mut self.kind
-            && (overwrite || end.is_none())
-        {
-            *end = Some(value);
-        }
-    }
-
     fn drop_pending(&mut self, cx: &mut Context, reason: Refusal) {
-        if let Kind::Step { pending } = &mut self.kind {
-            for (delta, _) in pending.drain(..) {
-                cx.emit(Event::Refused {
-                    request: format!("step {}", describe_delta(&delta)),
-                    reason: reason.clone(),
-                });
-            }
-        }
+        self.kind.drop_pending(&mut cx.events, reason);
     }
 
     /// After the position was read: the next coalesced step, if any.
     fn continue_steps(&mut self, cx: &mut Context) {
         self.phase = Phase::Done;
-        let Kind::Step { pending } = &mut self.kind else {
+        if self.failed || self.stopping {
+            return;
+        }
+        let Some((total, speeds)) = self.kind.take_pending() else {
             return;
         };
-        if pending.is_empty() || self.failed || self.stopping {
-            return;
-        }
-        let mut total = PerAxis::new();
-        let mut speeds = PerAxis::new();
-        for (delta, s) in pending.drain(..) {
-            for (axis, v) in delta.iter() {
-                total.set(axis, total.get(axis).unwrap_or(0i64).saturating_add(v));
-            }
-            speeds = s;
-        }
         let base = cx.position.unwrap_or_default();
         match plan::step(cx, &base, &total, &speeds) {
             Ok(planned) => {
@@ -236,21 +145,9 @@ impl MotionOp {
                 self.phase = Phase::Send;
                 self.next_estimate = None;
             }
-            Err(reason) => cx.emit(Event::Refused {
-                request: format!("step {}", describe_delta(&total)),
-                reason,
-            }),
+            Err(reason) => refuse_step(&mut cx.events, &total, reason),
         }
     }
-}
-
-/// `X+10 Y-5` for refusals of coalesced steps.
-pub fn describe_delta(delta: &PerAxis<i64>) -> String {
-    delta
-        .iter()
-        .map(|(a, d)| format!("{a}{d:+}"))
-        .collect::<Vec<_>>()
-        .join(" ")
 }
 
 impl Operation for MotionOp {
@@ -279,7 +176,7 @@ impl Operation for MotionOp {
             Phase::Moving => {
                 self.next_estimate = None;
                 match reply {
-                    Reply::Code(ReplyCode::Ok) => self.set_jog_end(JogEnd::SoftLimit, false),
+                    Reply::Code(ReplyCode::Ok) => self.kind.set_jog_end(JogEnd::SoftLimit, false),
                     Reply::Code(ReplyCode::UserStop) => {
                         if !self.stopping {
                             // The controller's stop key: the rest of the move is
@@ -293,14 +190,14 @@ impl Operation for MotionOp {
                                 },
                             );
                         }
-                        self.set_jog_end(JogEnd::Stopped, false);
+                        self.kind.set_jog_end(JogEnd::Stopped, false);
                         cx.quiet_request = Some(cx.settings.timing.resync_gap);
                     }
                     Reply::Code(code) => {
                         self.planned.estimate.halt(now);
                         self.failed = true;
                         let fault = cx.controller_error(&self.planned.cmd.text, code);
-                        self.set_jog_end(JogEnd::Fault(fault.clone()), true);
+                        self.kind.set_jog_end(JogEnd::Fault(fault.clone()), true);
                         self.drop_pending(
                             cx,
                             Refusal::Fault {
@@ -310,7 +207,7 @@ impl Operation for MotionOp {
                     }
                     other => {
                         let fault = cx.link_suspect(&self.planned.cmd.text, &format!("{other:?}"));
-                        self.set_jog_end(JogEnd::Fault(fault), true);
+                        self.kind.set_jog_end(JogEnd::Fault(fault), true);
                         self.failed = true;
                         cx.readback_wanted = true;
                     }
@@ -319,7 +216,7 @@ impl Operation for MotionOp {
                     // A stray second `F` must not be taken for the next reply.
                     cx.quiet_request = Some(cx.settings.timing.resync_gap);
                 }
-                self.report_jog(cx);
+                self.kind.report_jog(&mut cx.events);
                 self.phase = Phase::Measure;
             }
             Phase::Measure => {
@@ -336,7 +233,7 @@ impl Operation for MotionOp {
         match self.phase {
             Phase::Moving => {
                 let fault = cx.link_suspect(&self.planned.cmd.text, "garbled reply");
-                self.set_jog_end(JogEnd::Fault(fault), true);
+                self.kind.set_jog_end(JogEnd::Fault(fault), true);
                 self.failed = true;
                 self.drop_pending(
                     cx,
@@ -344,7 +241,7 @@ impl Operation for MotionOp {
                         recovery: Recovery::CheckLink,
                     },
                 );
-                self.report_jog(cx);
+                self.kind.report_jog(&mut cx.events);
                 // Whether it ended with `0`, `F`, `2` or `9` is unknown.
                 cx.readback_wanted = true;
                 self.phase = Phase::Done;
@@ -360,11 +257,11 @@ impl Operation for MotionOp {
                 reason: "cancelled by stop".into(),
             },
         );
-        self.set_jog_end(JogEnd::Stopped, false);
+        self.kind.set_jog_end(JogEnd::Stopped, false);
         match self.phase {
             Phase::Send => {
                 self.phase = Phase::Done;
-                self.report_jog(cx);
+                self.kind.report_jog(&mut cx.events);
                 None
             }
             Phase::Moving if !self.stopping => {
@@ -380,10 +277,7 @@ impl Operation for MotionOp {
         if self.phase != Phase::Moving {
             return None;
         }
-        let lease = match self.kind {
-            Kind::Jog { lease_until, .. } if !self.stopping => Some(lease_until),
-            _ => None,
-        };
+        let lease = self.kind.lease_until().filter(|_| !self.stopping);
         match (self.next_estimate, lease) {
             (Some(a), Some(b)) => Some(a.min(b)),
             (a, b) => a.or(b),
@@ -405,11 +299,8 @@ impl Operation for MotionOp {
             }
             self.next_estimate = Some(next);
         }
-        if let Kind::Jog { lease_until, .. } = self.kind
-            && !self.stopping
-            && lease_until <= now
-        {
-            self.set_jog_end(JogEnd::DeadMan, false);
+        if !self.stopping && self.kind.lease_until().is_some_and(|t| t <= now) {
+            self.kind.set_jog_end(JogEnd::DeadMan, false);
             return true;
         }
         false
@@ -418,11 +309,11 @@ impl Operation for MotionOp {
     fn abandon(&mut self, cx: &mut Context, cause: &Abandon) {
         match cause {
             Abandon::LinkLost(_) => {
-                self.set_jog_end(JogEnd::LinkLost, true);
+                self.kind.set_jog_end(JogEnd::LinkLost, true);
                 self.drop_pending(cx, Refusal::NotConnected);
             }
             Abandon::Reset => {
-                self.set_jog_end(JogEnd::Stopped, false);
+                self.kind.set_jog_end(JogEnd::Stopped, false);
                 self.drop_pending(
                     cx,
                     Refusal::Invalid {
@@ -431,22 +322,12 @@ impl Operation for MotionOp {
                 );
             }
         }
-        self.report_jog(cx);
+        self.kind.report_jog(&mut cx.events);
         self.phase = Phase::Done;
     }
 
     fn activity(&self) -> Activity {
-        if self.stopping && self.phase == Phase::Moving {
-            return Activity::Stopping;
-        }
-        match (&self.kind, self.phase) {
-            (_, Phase::Measure | Phase::Done) => match &self.kind {
-                Kind::Step { pending } if !pending.is_empty() => Activity::Stepping,
-                _ => Activity::Idle,
-            },
-            (Kind::Step { .. }, _) => Activity::Stepping,
-            (Kind::MoveTo, _) => Activity::Moving,
-            (Kind::Jog { .. }, _) => Activity::Jogging,
-        }
+        let stopping = self.stopping && self.phase == Phase::Moving;
+        self.kind.activity(self.is_moving(), stopping)
     }
 }

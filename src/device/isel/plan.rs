@@ -5,6 +5,9 @@
 
 use crate::axis::{Axis, AxisSet};
 use crate::device::api::{Dir, Frame, PerAxis, Refusal};
+use crate::device::common::limits::{capped_speed, invalid, machine_has, moving_axes};
+use crate::device::common::vector::{self, Leg};
+use crate::device::common::{limits, overrun};
 use crate::proto::isel::{AxisConfig, Command, MovePair, SPEED_HZ, STEPS};
 
 use super::context::{Cmd, Context};
@@ -18,54 +21,24 @@ pub struct Planned {
     pub estimate: MoveEstimate,
 }
 
-fn invalid(reason: impl Into<String>) -> Refusal {
-    Refusal::Invalid {
-        reason: reason.into(),
-    }
-}
-
 /// A requested speed as a step frequency the axis and the controller allow:
 /// at most the axis's `max_speed`, within 1..=40000 Hz (isel decision 13).
 pub fn speed_hz(cx: &Context, axis: Axis, requested: Option<f64>) -> Result<u32, Refusal> {
-    let limits = cx
-        .settings
-        .limits(axis)
-        .ok_or_else(|| invalid(format!("the machine has no {axis} axis")))?;
-    let hz = requested.ok_or_else(|| invalid(format!("no speed given for axis {axis}")))?;
-    if !(hz.is_finite() && hz > 0.0) {
-        return Err(invalid(format!(
-            "the speed of {axis} must be positive, got {hz}"
-        )));
-    }
+    let hz = capped_speed(&cx.settings.axes, axis, requested)?;
     let lo = f64::from(*SPEED_HZ.start());
     let hi = f64::from(*SPEED_HZ.end());
-    Ok(hz.min(limits.max_hz).clamp(lo, hi).round() as u32)
+    Ok(hz.clamp(lo, hi).round() as u32)
 }
 
 /// The fastest jog speed that stops within `max_overrun` steps when the
 /// operator lets go: one dead-man timeout at speed, then the braking ramp
-/// (`jog.max_overrun`): v T + (v² - f0²) / 2a <= D.
+/// to the start-stop frequency (`jog.max_overrun`, `common::overrun`).
 pub fn overrun_cap(ramp: RampParams, timeout_s: f64, max_overrun: f64) -> f64 {
-    let a = f64::from(ramp.accel_hz_per_ms) * 1000.0;
-    let f0 = f64::from(ramp.start_stop_hz);
-    if a <= 0.0 {
-        return if timeout_s > 0.0 {
-            max_overrun / timeout_s
-        } else {
-            f64::MAX
-        };
-    }
-    -a * timeout_s + (a * a * timeout_s * timeout_s + f0 * f0 + 2.0 * a * max_overrun).sqrt()
+    overrun::overrun_cap(timeout_s, max_overrun, |v| ramp.ramp(v))
 }
 
 fn check_axes(cx: &Context, axes: AxisSet) -> Result<(), Refusal> {
-    match axes.iter().find(|a| !cx.settings.axis_set().contains(*a)) {
-        Some(axis) => Err(invalid(format!(
-            "the machine has no {axis} axis (profile axes {})",
-            cx.settings.axis_set()
-        ))),
-        None => Ok(()),
-    }
+    machine_has(cx.settings.axis_set(), axes)
 }
 
 fn in_range(value: i64, what: &str) -> Result<i32, Refusal> {
@@ -80,15 +53,7 @@ fn in_range(value: i64, what: &str) -> Result<i32, Refusal> {
 }
 
 fn soft_limit(cx: &Context, axis: Axis, target: i64) -> Result<(), Refusal> {
-    match cx.settings.limits(axis) {
-        Some(l) if !l.contains(target) => Err(Refusal::SoftLimit {
-            axis,
-            target,
-            min: l.min,
-            max: l.max,
-        }),
-        _ => Ok(()),
-    }
+    limits::soft_limit(&cx.settings.axes, axis, target)
 }
 
 /// The pairs of a move for `config`: one per axis, and with 3 axes a second
@@ -144,16 +109,12 @@ pub fn step(
     delta: &PerAxis<i64>,
     speeds: &PerAxis<f64>,
 ) -> Result<Planned, Refusal> {
-    let moving: AxisSet = delta
-        .iter()
-        .filter(|(_, d)| *d != 0)
-        .map(|(a, _)| a)
-        .collect();
+    let moving = moving_axes(delta);
     check_axes(cx, delta.axes())?;
     if moving.is_empty() {
         return Err(invalid("the step moves no axis"));
     }
-    cx.motion_allowed(cx.settings.allow_unreferenced)?;
+    cx.motion_allowed(cx.settings.jog.allow_unreferenced)?;
     let mut hz = PerAxis::new();
     for axis in moving.iter() {
         if cx.state.referenced.contains(axis) {
@@ -250,10 +211,9 @@ pub fn jog(cx: &Context, axes: &[(Axis, Dir)], speeds: &PerAxis<f64>) -> Result<
     if set.len() != axes.len() {
         return Err(invalid("the jog names an axis twice"));
     }
-    cx.motion_allowed(cx.settings.allow_unreferenced)?;
+    cx.motion_allowed(cx.settings.jog.allow_unreferenced)?;
     let position = cx.position.ok_or(Refusal::NotConnected)?;
-    let timeout = cx.settings.jog_repeat_timeout.as_secs_f64();
-    // (axis, sign, speed, room in steps)
+    let timeout = cx.settings.jog.repeat_timeout.as_secs_f64();
     let mut legs = Vec::new();
     for (axis, dir) in axes {
         let limits = cx
@@ -263,41 +223,20 @@ pub fn jog(cx: &Context, axes: &[(Axis, Dir)], speeds: &PerAxis<f64>) -> Result<
         let cap = overrun_cap(cx.ramp, timeout, limits.max_overrun).max(1.0);
         let hz = speed_hz(cx, *axis, speeds.get(*axis).map(|v| v.min(cap)))?;
         let pos = position.get(*axis).unwrap_or(0);
-        let room = if cx.state.referenced.contains(*axis) {
-            match dir {
-                Dir::Plus => limits.max - pos,
-                Dir::Minus => pos - limits.min,
-            }
-        } else {
-            limits.span()
-        }
-        .clamp(0, i64::from(*STEPS.end()));
-        if room == 0 {
-            return Err(Refusal::SoftLimit {
-                axis: *axis,
-                target: pos + dir.sign(),
-                min: limits.min,
-                max: limits.max,
-            });
-        }
-        legs.push((*axis, dir.sign(), hz, room));
+        let referenced = cx.state.referenced.contains(*axis);
+        let max_travel = i64::from(*STEPS.end());
+        let room = vector::room(*axis, &limits, pos, *dir, referenced, max_travel)?;
+        legs.push(Leg {
+            axis: *axis,
+            dir: *dir,
+            hz: f64::from(hz),
+            room,
+        });
     }
-    // The axis that reaches its limit first bounds the whole vector.
-    let (lead_room, lead_hz) = legs
-        .iter()
-        .map(|(_, _, hz, room)| (*room, *hz))
-        .min_by(|a, b| {
-            let ta = a.0 as f64 / f64::from(a.1);
-            let tb = b.0 as f64 / f64::from(b.1);
-            ta.total_cmp(&tb)
-        })
-        .unwrap_or((0, 1));
-    let mut deltas = PerAxis::new();
+    let deltas = vector::travel(&legs);
     let mut hz = PerAxis::new();
-    for (axis, sign, v, room) in legs {
-        let travel = (lead_room as f64 * f64::from(v) / f64::from(lead_hz)).floor() as i64;
-        deltas.set(axis, sign * travel.min(room));
-        hz.set(axis, v);
+    for leg in &legs {
+        hz.set(leg.axis, leg.hz.round() as u32);
     }
     relative(cx, &deltas, &hz)
 }
