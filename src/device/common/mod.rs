@@ -37,6 +37,8 @@ pub mod queue;
 pub mod settings;
 pub mod sink;
 pub mod state;
+#[cfg(test)]
+pub mod testing;
 pub mod upload;
 pub mod vector;
 
