@@ -14,7 +14,6 @@ use crate::device::api::{
 use crate::device::common::{Sink, gate};
 use crate::device::driver::Outgoing;
 use crate::proto::emcu::{Command, EmcuAxis, Expect, Status, StatusFlag, Terminator};
-use crate::traffic::readable;
 
 use super::io;
 use super::settings::EmcuSettings;
@@ -42,6 +41,19 @@ pub struct Cmd {
 /// `@B` CR: halt every axis with its ramp; the job ends, positions are
 /// kept (manual 1.5.11). jogterm's stop, on every path.
 pub const HALT: &[u8] = b"@B\r";
+
+/// What opens every connection: a CR, then `@B`. The interface may hold
+/// the start of a line that was cut when the link broke (`@X` without its
+/// CR); the CR ends it (an empty line is no command, `docs/protocols.md`,
+/// EMCU), so that `@B` is read as a line of its own and not as the tail of
+/// a malformed one, which would leave the axes running.
+pub const CONNECT_HALT: &[u8] = b"\r@B\r";
+
+/// Lines in a message, each of which is answered: one per terminator.
+pub fn lines_in(bytes: &[u8]) -> u32 {
+    let n = bytes.iter().filter(|b| matches!(**b, b'\r' | 0x01)).count();
+    u32::try_from(n).unwrap_or(u32::MAX)
+}
 
 pub fn halt_outgoing() -> Outgoing {
     Outgoing {
@@ -134,7 +146,7 @@ impl Context {
         bytes.push(end.byte());
         let expect = command.expect();
         Cmd {
-            text: readable(bytes.strip_suffix(b"\r").unwrap_or(&bytes)),
+            text: super::raw::line_text(command, end),
             timeout: self.ack_timeout(bytes.len(), expect),
             may_move: command.may_move() && (end == Terminator::RunBuffer || command.is_master()),
             bytes,

@@ -28,7 +28,8 @@ pub fn output_id(output: Output) -> OutputId {
     }
 }
 
-fn status_group(status: &Status) -> IoGroup {
+/// The `@X` flags as an I/O group, `raw` the [`status_byte`].
+pub fn status_group(status: &Status) -> IoGroup {
     let bits = StatusFlag::ALL
         .iter()
         .map(|f| io::input(f.to_string(), status.get(*f)))

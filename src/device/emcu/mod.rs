@@ -54,9 +54,9 @@ use std::collections::VecDeque;
 use std::time::{Duration, Instant};
 
 pub use context::HALT;
-pub use io::{describe_status, output_id, status_byte};
+pub use io::{describe_status, output_id, status_byte, status_group};
 pub use poll::{PollItem, wire_limit_hz};
-pub use raw::{RUN_MARK, RawKind, RawLine, parse_raw};
+pub use raw::{RUN_MARK, RawKind, RawLine, line_text, parse_raw};
 pub use settings::{EmcuSettings, StatusPoll, Timing};
 
 use crate::config::Profile;
@@ -71,7 +71,7 @@ use crate::proto::emcu::{
     Command, Disposition, Expect, Garbage, Reply, ReplyDecoder, ReplyEvent, Terminator,
 };
 
-use context::{Cmd, Context, halt_outgoing, reply_len};
+use context::{CONNECT_HALT, Cmd, Context, halt_outgoing, lines_in, reply_len};
 use home::{Home, home_op};
 use init::{Init, init_op};
 use motion_op::MotionOp;
@@ -277,7 +277,9 @@ impl EmcuDriver {
         if let Some(out) = self.cx.control.pop_front() {
             self.unsent.push_back(None);
             let until = self.control_deadline(now);
-            self.acks.expect(until);
+            for _ in 0..lines_in(&out.bytes) {
+                self.acks.expect(until);
+            }
             return Some(out);
         }
         if !self.link_up || self.exchange.is_some() || self.quiet(now) {
@@ -778,7 +780,8 @@ fn raw_request(cmd: &Cmd) -> Request {
 }
 
 impl Driver for EmcuDriver {
-    /// The first line on every connection is `@B`: whatever the interface
+    /// The first line on every connection is `@B` (after a CR that ends any
+    /// line the broken link cut, [`CONNECT_HALT`]): whatever the interface
     /// was running (a batch sent before the link broke), it must not go on
     /// while its state is unknown; `@B` also drops commands left in the
     /// data memory. A job transfer that was open when the link was lost is
@@ -789,7 +792,10 @@ impl Driver for EmcuDriver {
         self.link_up = true;
         self.poller.reset();
         self.poll_error = None;
-        self.cx.control.push_back(halt_outgoing());
+        self.cx.control.push_back(Outgoing {
+            bytes: CONNECT_HALT.to_vec(),
+            interruptible: false,
+        });
         if std::mem::take(&mut self.cx.transfer_left_open) {
             let end = upload::transfer_end(&self.cx);
             self.cx.control.push_back(Outgoing {

@@ -72,6 +72,23 @@ impl RawLine {
     }
 }
 
+/// How the driver names a line in its events: the command, and `<01>` for
+/// a 0x01 at its end (`@LX`, `L1,x500<01>`).
+pub fn line_text(command: &Command, end: Terminator) -> String {
+    let mut bytes = command.to_string().into_bytes();
+    if end != Terminator::Cr {
+        bytes.push(end.byte());
+    }
+    crate::traffic::readable(&bytes)
+}
+
+impl RawLine {
+    /// See [`line_text`].
+    pub fn text(&self) -> String {
+        line_text(&self.command, self.end)
+    }
+}
+
 /// Parse and check a raw line (`docs/protocols.md`, EMCU, for the syntax).
 pub fn parse_raw(line: &str) -> Result<RawLine, Refusal> {
     let (text, end) = match line.strip_suffix(RUN_MARK) {
@@ -212,14 +229,19 @@ impl RawOp {
                 "0x03 CR: the data memory is full and runs; more buffered lines wait for 0x02 CR"
                     .to_owned()
             }
+            // Said before `answered` has stored the line: counts include it.
             Reply::Ack | Reply::Ready => match (self.line.command.is_master(), self.line.end) {
                 (true, _) => "CR (done)".to_owned(),
                 (false, Terminator::Cr) if cx.transfer => {
-                    format!("CR: stored in the job ({} lines)", job_len(cx))
+                    format!("CR: stored in the job ({} lines)", job_len(cx) + 1)
                 }
                 (false, Terminator::Cr) => format!(
                     "CR: stored in the data memory ({} waiting; a line ended by \\x01 runs them)",
-                    cx.stored.len()
+                    cx.stored.len() + 1
+                ),
+                (false, Terminator::RunBuffer) if cx.transfer => format!(
+                    "CR: the job is stored ({} lines; @J runs it)",
+                    job_len(cx) + 1
                 ),
                 (false, Terminator::RunBuffer) => "CR: running".to_owned(),
             },

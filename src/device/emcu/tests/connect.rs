@@ -123,9 +123,9 @@ fn a_transfer_left_open_by_a_lost_link_is_ended_on_the_next_connection() {
     )));
     h.driver.connected(h.now);
     h.collect();
-    h.expect(b"@B\r");
+    h.expect(b"\r@B\r");
     h.expect(b"\x01");
-    h.reply(b"\r\r");
+    h.reply(b"\r\r\r");
     h.expect_nothing();
     h.advance(ms(100));
     h.expect_text("@X");

@@ -40,12 +40,12 @@ impl Harness {
         self.driver.state().clone()
     }
 
-    /// Connected: `@B` goes first, its CR comes, the line settles.
+    /// Connected: a CR and `@B` go first, their CRs come, the line settles.
     pub fn connect(&mut self) {
         self.driver.connected(self.now);
         self.collect();
-        self.expect(b"@B\r");
-        self.reply(b"\r");
+        self.expect(b"\r@B\r");
+        self.reply(b"\r\r");
         self.expect_nothing();
         self.advance(ms(100));
     }

@@ -12,8 +12,10 @@ use crate::device::api::{
 };
 use crate::device::common::PollRate;
 use crate::device::common::testing::refusal_reasons;
+use crate::device::driver::Driver;
 use crate::device::emcu::{EmcuDriver, EmcuSettings, output_id};
 use crate::proto::emcu::{EmcuAxis, Output};
+use crate::sim::SimDevice;
 use crate::sim::emcu::EmcuSim;
 use crate::wire::LineSettings;
 
@@ -293,4 +295,25 @@ fn a_bad_raw_line_is_refused_and_never_reaches_the_interface() {
     assert_eq!(b.sent.len(), before, "{:?}", b.sent_text());
     assert_eq!(refusal_reasons(&b.events).len(), 1);
     assert!(!b.sim.status(b.now).error);
+}
+
+#[test]
+fn a_line_cut_by_a_broken_link_cannot_swallow_the_halt_on_reconnect() {
+    let mut b = homed(PollRate::Off);
+    b.request(Request::Step {
+        delta: PerAxis::new().with(Axis::X, 40_000),
+        speed_hz: speeds(2_000.0),
+    });
+    b.run(ms(1_500));
+    assert!(b.sim.status(b.now).moving);
+    // The link breaks with `@X` half sent: the interface holds `@X`.
+    b.driver.disconnected("cut", b.now);
+    let now = b.now;
+    b.sim.on_byte(b'@', now);
+    b.sim.on_byte(b'X', now);
+    b.driver.connected(b.now);
+    b.run(secs(3));
+    let st = b.sim.status(b.now);
+    assert!(!st.moving && !st.error, "{st:?}");
+    assert_eq!(b.driver.state().referenced, AxisSet::XYZ);
 }
