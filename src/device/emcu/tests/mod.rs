@@ -7,4 +7,7 @@ mod connect;
 mod faults;
 mod motion;
 mod polling;
+mod properties;
+mod raw;
+mod upload;
 mod with_sim;
