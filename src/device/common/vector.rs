@@ -4,10 +4,10 @@
 //! (only with `jog.allow_unreferenced`) has no known limits: it may travel
 //! the width of its soft-limit range (`docs/device.md`).
 
-use crate::axis::Axis;
+use crate::axis::{Axis, AxisSet};
 use crate::device::api::{Dir, PerAxis, Refusal};
 
-use super::limits::AxisLimits;
+use super::limits::{AxisLimits, invalid};
 
 /// One axis of a jog.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -49,6 +49,56 @@ pub fn room(
         });
     }
     Ok(room)
+}
+
+/// What a jog needs of the machine to plan its legs.
+pub struct JogFrame<'a, L, S> {
+    pub position: &'a PerAxis<i64>,
+    pub referenced: AxisSet,
+    /// The most one command of the controller can carry, steps.
+    pub max_travel: i64,
+    /// The limits of an axis; `None`: the machine has no such axis.
+    pub limits_of: L,
+    /// The speed an axis runs at (capped as the family must), Hz as the
+    /// controller will be given it.
+    pub speed_of: S,
+}
+
+/// The axes of a jog: at least one, each once.
+pub fn jog_axes(axes: &[(Axis, Dir)]) -> Result<AxisSet, Refusal> {
+    let set: AxisSet = axes.iter().map(|(a, _)| *a).collect();
+    if set.is_empty() {
+        return Err(invalid("the jog names no axis"));
+    }
+    if set.len() != axes.len() {
+        return Err(invalid("the jog names an axis twice"));
+    }
+    Ok(set)
+}
+
+/// The legs of a jog of `axes` ([`jog_axes`] checked them) from where the
+/// machine stands.
+pub fn legs<L, S>(axes: &[(Axis, Dir)], frame: JogFrame<'_, L, S>) -> Result<Vec<Leg>, Refusal>
+where
+    L: Fn(Axis) -> Option<AxisLimits>,
+    S: Fn(Axis, &AxisLimits) -> Result<f64, Refusal>,
+{
+    axes.iter()
+        .map(|&(axis, dir)| {
+            let limits = (frame.limits_of)(axis)
+                .ok_or_else(|| invalid(format!("the machine has no {axis} axis")))?;
+            let hz = (frame.speed_of)(axis, &limits)?;
+            let pos = frame.position.get(axis).unwrap_or(0);
+            let referenced = frame.referenced.contains(axis);
+            let room = room(axis, &limits, pos, dir, referenced, frame.max_travel)?;
+            Ok(Leg {
+                axis,
+                dir,
+                hz,
+                room,
+            })
+        })
+        .collect()
 }
 
 /// The signed travel of each leg: the leg that reaches its limit first

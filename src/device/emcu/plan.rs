@@ -9,10 +9,11 @@ use std::time::Duration;
 
 use crate::axis::{Axis, AxisSet};
 use crate::device::api::{Dir, Frame, PerAxis, Refusal};
+use crate::device::common::AxisLimits;
 use crate::device::common::deadline;
 use crate::device::common::limits::{capped_speed, invalid, machine_has, moving_axes, soft_limit};
 use crate::device::common::overrun::overrun_cap;
-use crate::device::common::vector::{self, Leg};
+use crate::device::common::vector;
 use crate::motion::Motion;
 use crate::proto::emcu::{Command, EmcuAxis, Move, MoveMode, Speed, Steps};
 
@@ -209,38 +210,30 @@ pub fn move_to(
 pub fn jog(cx: &Context, axes: &[(Axis, Dir)], speeds: &PerAxis<f64>) -> Result<Planned, Refusal> {
     let set: AxisSet = axes.iter().map(|(a, _)| *a).collect();
     machine_has(cx.settings.axes, set)?;
-    if set.is_empty() {
-        return Err(invalid("the jog names no axis"));
-    }
-    if set.len() != axes.len() {
-        return Err(invalid("the jog names an axis twice"));
-    }
+    vector::jog_axes(axes)?;
     cx.motion_allowed(cx.settings.jog.allow_unreferenced)?;
     cx.memory_free()?;
     let position = cx.position.ok_or(Refusal::NotConnected)?;
     let reaction = cx.settings.jog.repeat_timeout.as_secs_f64();
-    let mut legs = Vec::new();
-    for (axis, dir) in axes {
-        let limits = cx
-            .settings
-            .limits(*axis)
-            .ok_or_else(|| invalid(format!("the machine has no {axis} axis")))?;
-        let cap = overrun_cap(reaction, limits.max_overrun, |v| cx.settings.move_ramp(v)).max(1.0);
-        let hz = capped_speed(
-            &cx.settings.limits,
-            *axis,
-            speeds.get(*axis).map(|v| v.min(cap)),
-        )?;
-        let referenced = cx.state.referenced.contains(*axis);
-        let pos = position.get(*axis).unwrap_or(0);
-        let room = vector::room(*axis, &limits, pos, *dir, referenced, i64::from(Steps::MAX))?;
-        legs.push(Leg {
-            axis: *axis,
-            dir: *dir,
-            hz: f64::from(slot_speed(hz)),
-            room,
-        });
-    }
+    let legs = vector::legs(
+        axes,
+        vector::JogFrame {
+            position: &position,
+            referenced: cx.state.referenced,
+            max_travel: i64::from(Steps::MAX),
+            limits_of: |axis| cx.settings.limits(axis),
+            speed_of: |axis, limits: &AxisLimits| {
+                let cap = overrun_cap(reaction, limits.max_overrun, |v| cx.settings.move_ramp(v))
+                    .max(1.0);
+                capped_speed(
+                    &cx.settings.limits,
+                    axis,
+                    speeds.get(axis).map(|v| v.min(cap)),
+                )
+                .map(|hz| f64::from(slot_speed(hz)))
+            },
+        },
+    )?;
     let deltas = vector::travel(&legs);
     let hz: PerAxis<f64> = legs.iter().map(|l| (l.axis, l.hz)).collect();
     let moving: PerAxis<i64> = deltas.iter().filter(|(_, d)| *d != 0).collect();

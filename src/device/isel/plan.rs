@@ -5,8 +5,9 @@
 
 use crate::axis::{Axis, AxisSet};
 use crate::device::api::{Dir, Frame, PerAxis, Refusal};
+use crate::device::common::AxisLimits;
 use crate::device::common::limits::{capped_speed, invalid, machine_has, moving_axes};
-use crate::device::common::vector::{self, Leg};
+use crate::device::common::vector;
 use crate::device::common::{limits, overrun};
 use crate::proto::isel::{AxisConfig, Command, MovePair, SPEED_HZ, STEPS};
 
@@ -205,34 +206,23 @@ pub fn move_to(
 pub fn jog(cx: &Context, axes: &[(Axis, Dir)], speeds: &PerAxis<f64>) -> Result<Planned, Refusal> {
     let set: AxisSet = axes.iter().map(|(a, _)| *a).collect();
     check_axes(cx, set)?;
-    if set.is_empty() {
-        return Err(invalid("the jog names no axis"));
-    }
-    if set.len() != axes.len() {
-        return Err(invalid("the jog names an axis twice"));
-    }
+    vector::jog_axes(axes)?;
     cx.motion_allowed(cx.settings.jog.allow_unreferenced)?;
     let position = cx.position.ok_or(Refusal::NotConnected)?;
     let timeout = cx.settings.jog.repeat_timeout.as_secs_f64();
-    let mut legs = Vec::new();
-    for (axis, dir) in axes {
-        let limits = cx
-            .settings
-            .limits(*axis)
-            .ok_or_else(|| invalid(format!("the machine has no {axis} axis")))?;
-        let cap = overrun_cap(cx.ramp, timeout, limits.max_overrun).max(1.0);
-        let hz = speed_hz(cx, *axis, speeds.get(*axis).map(|v| v.min(cap)))?;
-        let pos = position.get(*axis).unwrap_or(0);
-        let referenced = cx.state.referenced.contains(*axis);
-        let max_travel = i64::from(*STEPS.end());
-        let room = vector::room(*axis, &limits, pos, *dir, referenced, max_travel)?;
-        legs.push(Leg {
-            axis: *axis,
-            dir: *dir,
-            hz: f64::from(hz),
-            room,
-        });
-    }
+    let legs = vector::legs(
+        axes,
+        vector::JogFrame {
+            position: &position,
+            referenced: cx.state.referenced,
+            max_travel: i64::from(*STEPS.end()),
+            limits_of: |axis| cx.settings.limits(axis),
+            speed_of: |axis, limits: &AxisLimits| {
+                let cap = overrun_cap(cx.ramp, timeout, limits.max_overrun).max(1.0);
+                speed_hz(cx, axis, speeds.get(axis).map(|v| v.min(cap))).map(f64::from)
+            },
+        },
+    )?;
     let deltas = vector::travel(&legs);
     let mut hz = PerAxis::new();
     for leg in &legs {
