@@ -5,7 +5,7 @@
 //! - [`driver`]: the sans-IO [`driver::Driver`] trait each family implements.
 //! - [`common`]: what the drivers of all families share (refusals, jog
 //!   vectors and leases, step coalescing, polling, the request queue).
-//! - [`isel`]: the isel @-format driver.
+//! - [`isel`]: the isel @-format driver; [`emp`]: the EMP driver.
 //! - [`task`]: the async task that owns the port ([`spawn`]); [`handle`]:
 //!   what clients hold ([`DeviceHandle`]); [`events`]: the fan-out of events
 //!   with its drop policy; [`log`]: the traffic log.
@@ -17,6 +17,7 @@ pub mod common;
 pub mod connector;
 pub mod describe;
 pub mod driver;
+pub mod emp;
 pub mod events;
 pub mod handle;
 pub mod isel;

@@ -26,6 +26,12 @@ pub fn position_reply(x: i32, y: i32, z: i32) -> Vec<u8> {
 /// The common driver harness with the isel driver in it.
 pub type Harness = crate::device::common::testing::Harness<IselDriver>;
 
+impl Default for Harness {
+    fn default() -> Harness {
+        Harness::new()
+    }
+}
+
 impl Harness {
     pub fn new() -> Harness {
         Harness::with(|_| {})
