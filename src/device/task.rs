@@ -32,7 +32,6 @@ use tokio::time::{sleep_until, timeout_at};
 use super::api::{Event, LinkState, Request};
 use super::connector::{Backoff, Connector};
 use super::driver::Driver;
-use super::emp::EmpDriver;
 use super::events::{EventBus, EventReceiver};
 use super::handle::{DeviceHandle, EmergencyHandle, EmergencySlot, StopCall, StopWritten};
 use super::isel::{IselDriver, SettingsError};
@@ -84,7 +83,7 @@ pub enum DeviceError {
 pub fn driver_for(profile: &Profile) -> Result<Box<dyn Driver>, DeviceError> {
     match profile.connection.protocol {
         Protocol::Isel => Ok(Box::new(IselDriver::from_profile(profile)?)),
-        Protocol::Emp => Ok(Box::new(EmpDriver::from_profile(profile)?)),
+        Protocol::Emp => Ok(Box::new(super::emp::EmpDriver::from_profile(profile)?)),
         other => Err(DeviceError::Unsupported(other)),
     }
 }

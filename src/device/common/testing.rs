@@ -28,6 +28,8 @@ pub struct Harness<D> {
     pub driver: D,
     pub now: Instant,
     pub events: Vec<Event>,
+    /// Every message the driver handed out, in order.
+    pub sent: Vec<Vec<u8>>,
 }
 
 impl<D: Driver> Harness<D> {
@@ -36,6 +38,7 @@ impl<D: Driver> Harness<D> {
             driver,
             now: Instant::now(),
             events: Vec::new(),
+            sent: Vec::new(),
         }
     }
 
@@ -70,7 +73,15 @@ impl<D: Driver> Harness<D> {
     pub fn take(&mut self) -> Option<Vec<u8>> {
         let out = self.driver.poll_transmit(self.now).map(|o| o.bytes);
         self.collect();
+        if let Some(bytes) = &out {
+            self.sent.push(bytes.clone());
+        }
         out
+    }
+
+    /// Whether a message starting with `prefix` was handed out.
+    pub fn sent_any(&self, prefix: &[u8]) -> bool {
+        self.sent.iter().any(|m| m.starts_with(prefix))
     }
 
     /// The writer reports the last message written.
