@@ -7,16 +7,22 @@ use std::time::{Duration, Instant};
 
 use clap::Args;
 
-use super::GlobalArgs;
 use super::session::{self, EXIT_LINK, EXIT_USAGE, Linked, Session, StartError};
+use super::{GlobalArgs, emp};
 use crate::axis::Axis;
+use crate::config::Profile;
 use crate::device::api::{Event, IoSnapshot, LinkState, PositionSample, PositionSource};
 use crate::device::isel::{PollPlan, PollRate};
+use crate::proto::Protocol;
 
 pub const LONG_ABOUT: &str = "\
 Read the controller's position (`@0P`) again and again and print one line per sample, in
 steps. With --ports the input ports 1 (E-stop circuits, keys), 3 (limit switches) and 2
 (power, hood) are read every cycle too and printed with each sample.
+
+EMP (--protocol emp): every drive's position (`2C`) per cycle, as fast as the line allows
+(10.8 ms per drive) or at the interval; with --ports the switches and inputs (`40 01`) of
+every drive too. --drive 11,21 names the drives on the link (axes X, Y, Z, A in that order).
 
 The state is read back first (as on every connection); the first sample is that read-back.
 Without --count the command runs until interrupted (Ctrl-C), then stops and closes cleanly.";
@@ -25,13 +31,16 @@ pub const AFTER_LONG_HELP: &str = "\
 Output: `t=0.012 X=16000 Y=16000 Z=16000` (t: seconds since the link came up), with --ports
 `… in1=03 in3=00 in2=62`; with --json one object per line:
   {\"t\":0.012,\"source\":\"measured\",\"pos\":[16000,16000,16000],\"ports\":{\"1\":3,\"3\":0,\"2\":98}}
-pos is X, Y, Z (and A with four axes) in steps, as the controller reports them.
+pos has one entry per axis of the machine (isel: X, Y, Z, and A with four axes; EMP: one per
+drive) in steps, as the controller reports them. EMP with --ports: `… drive11=05`,
+{\"drive11\":5}: inputs I1-I4 of drive 11 as bits 0-3.
 
 Exit status: 0 done; 1 no position could be read; 2 bad usage; 3 link failure.
 
 Examples:
   jogterm poll --port /dev/ttyUSB0 --protocol isel --count 5
-  jogterm poll --port /tmp/isel --interval-ms 0 --json --ports";
+  jogterm poll --port /tmp/isel --interval-ms 0 --json --ports
+  jogterm poll --port /tmp/emp --protocol emp --drive 11 --interval-ms 0 --count 100";
 
 /// Options of `jogterm poll`.
 #[derive(Debug, Args)]
@@ -48,9 +57,12 @@ pub struct PollArgs {
     /// One JSON object per line
     #[arg(long)]
     pub json: bool,
-    /// Read and print the input ports 1, 3, 2 every cycle
+    /// Read and print the input ports 1, 3, 2 every cycle (EMP: every drive's inputs)
     #[arg(long)]
     pub ports: bool,
+    /// EMP: the drives on the link (`11`, `11,21`), for the axes X, Y, Z, A
+    #[arg(long, value_name = "DS")]
+    pub drive: Vec<String>,
 }
 
 /// One line of output.
@@ -60,28 +72,19 @@ pub fn format_sample(
     ports: Option<&IoSnapshot>,
     json: bool,
 ) -> String {
-    let mut axes = vec![Axis::X, Axis::Y, Axis::Z];
-    if sample.steps.get(Axis::A).is_some() {
-        axes.push(Axis::A);
-    }
+    let axes: Vec<Axis> = Axis::ALL
+        .into_iter()
+        .filter(|a| sample.steps.get(*a).is_some())
+        .collect();
     let pos: Vec<i64> = axes
         .iter()
         .map(|a| sample.steps.get(*a).unwrap_or(0))
         .collect();
-    let port_values: Vec<(u8, u8)> = ports
+    let port_values: Vec<(String, u8)> = ports
         .map(|io| {
             io.groups
                 .iter()
-                .filter_map(|g| {
-                    let number = g
-                        .name
-                        .strip_prefix("in ")?
-                        .split(':')
-                        .next()?
-                        .parse()
-                        .ok()?;
-                    Some((number, g.raw?))
-                })
+                .filter_map(|g| Some((port_key(&g.name)?, g.raw?)))
                 .collect()
         })
         .unwrap_or_default();
@@ -95,11 +98,7 @@ pub fn format_sample(
         obj.insert("source".into(), source.into());
         obj.insert("pos".into(), serde_json::json!(pos));
         if ports.is_some() {
-            let map: BTreeMap<String, u8> = port_values
-                .iter()
-                .filter(|(n, _)| *n != 0)
-                .map(|(n, v)| (n.to_string(), *v))
-                .collect();
+            let map: BTreeMap<String, u8> = port_values.iter().cloned().collect();
             obj.insert("ports".into(), serde_json::json!(map));
         }
         serde_json::Value::Object(obj).to_string()
@@ -111,11 +110,31 @@ pub fn format_sample(
         if sample.source == PositionSource::Estimated {
             line.push_str(" (estimated)");
         }
-        for (n, v) in port_values.iter().filter(|(n, _)| *n != 0) {
-            line.push_str(&format!(" in{n}={v:02X}"));
+        for (key, v) in &port_values {
+            if key.bytes().all(|b| b.is_ascii_digit()) {
+                line.push_str(&format!(" in{key}={v:02X}"));
+            } else {
+                line.push_str(&format!(" {key}={v:02X}"));
+            }
         }
         line
     }
+}
+
+/// How a port group is keyed in the output: isel input ports by number
+/// (`in 3: limit switches` -> `3`, port 0 left out), EMP drives by address
+/// (`drive 11 (X)` -> `drive11`).
+fn port_key(group: &str) -> Option<String> {
+    let head = group.split(':').next()?.trim();
+    if let Some(n) = head.strip_prefix("in ") {
+        return n
+            .parse::<u8>()
+            .ok()
+            .filter(|n| *n != 0)
+            .map(|n| n.to_string());
+    }
+    let ds = head.strip_prefix("drive ")?.split(' ').next()?;
+    Some(format!("drive{ds}"))
 }
 
 pub fn run(global: &GlobalArgs, args: &PollArgs) -> anyhow::Result<ExitCode> {
@@ -131,6 +150,9 @@ pub fn run(global: &GlobalArgs, args: &PollArgs) -> anyhow::Result<ExitCode> {
         0 => PollRate::LineSpeed,
         ms => PollRate::Hz(1000.0 / ms as f64),
     };
+    if profile.connection.protocol == Protocol::Emp {
+        return run_emp(global, args, profile, rate);
+    }
     let ports = args.ports;
     let runtime = session::runtime()?;
     runtime.block_on(async {
@@ -144,6 +166,36 @@ pub fn run(global: &GlobalArgs, args: &PollArgs) -> anyhow::Result<ExitCode> {
                     Vec::new()
                 },
             };
+        }) {
+            Ok(s) => s,
+            Err(StartError::Usage(m)) => {
+                eprintln!("jogterm poll: {m}");
+                return Ok(ExitCode::from(EXIT_USAGE));
+            }
+            Err(StartError::Failed(e)) => return Err(e),
+        };
+        Ok(poll(session, args).await)
+    })
+}
+
+/// `jogterm poll --protocol emp`: every drive's `2C` per cycle, `40` every
+/// cycle with --ports (else once, at the start).
+fn run_emp(
+    global: &GlobalArgs,
+    args: &PollArgs,
+    mut profile: Profile,
+    rate: PollRate,
+) -> anyhow::Result<ExitCode> {
+    if let Err(m) = emp::apply_drives(&mut profile, &args.drive) {
+        eprintln!("jogterm poll: {m}");
+        return Ok(ExitCode::from(EXIT_USAGE));
+    }
+    let ports_every = if args.ports { 1 } else { u32::MAX };
+    let runtime = session::runtime()?;
+    runtime.block_on(async {
+        let session = match session::start_emp(global, profile, |s| {
+            s.poll = rate;
+            s.ports_every = ports_every;
         }) {
             Ok(s) => s,
             Err(StartError::Usage(m)) => {
@@ -183,7 +235,7 @@ async fn poll(mut session: Session, args: &PollArgs) -> ExitCode {
         match event {
             Err(_) => {
                 eprintln!(
-                    "jogterm poll: no position for {} s: is the controller initialised (jogterm send '@07')?",
+                    "jogterm poll: no position for {} s: is the controller initialised (isel: jogterm send '@07') and connected?",
                     patience.as_secs()
                 );
                 code = 1;

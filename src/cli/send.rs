@@ -6,11 +6,14 @@ use std::time::Duration;
 
 use clap::Args;
 
-use super::GlobalArgs;
 use super::session::{self, EXIT_LINK, EXIT_USAGE, Linked, Session, StartError};
+use super::{GlobalArgs, emp};
+use crate::config::Profile;
 use crate::device::api::{Activity, Event, LinkState, Recovery, Refusal, Request};
 use crate::device::describe::describe;
+use crate::device::emp::STARTED;
 use crate::device::isel::PollRate;
+use crate::proto::Protocol;
 use crate::proto::isel::{
     AxisConfig, Command, ControlByte, ReplyCode, check, check_cnc, parse_cnc, parse_frame,
 };
@@ -28,7 +31,13 @@ it opens and closes every connection with the stop sequence 0xFD 0xFF.
 Control bytes act at once, also during a move, and have no reply. Write them as
 `\\xFD`, `0xFD` or by name: `softstop` (0xFD: ramp down, the rest can be resumed with @0S),
 `break` (0xFF: ramp down and forget the rest), `reset` (0xFE: the controller forgets its axes
-and reference). A control byte right after a move goes out while the move runs.";
+and reference). A control byte right after a move goes out while the move runs.
+
+EMP (--protocol emp): every command is a frame of 16 hex characters, spaces allowed
+(`2C 11 00 00 00000000`), or 14 without the drive byte, which --drive then supplies (default:
+the profile's first drive). Frames are checked with jogterm's EMP parser first. A long action
+(`26` homing, `2A 01` positioning) prints its `55` answer (`started: …`) and then waits for its
+completion. The stops `08` and `2A 03` go out at once.";
 
 pub const AFTER_LONG_HELP: &str = "\
 Exit status: 0 every command answered `0`; 1 the controller answered an error (the rest is
@@ -40,7 +49,9 @@ Examples:
   jogterm send --port /dev/ttyUSB0 --protocol isel '@07' '@0R7' '@0P'
   jogterm send --port /tmp/isel '@0A 4000,2000,0,900,0,900,0,900' softstop
   jogterm --sim isel send '@07' '@0N7' '@0i' '0400,900,0,900,0,900,0,900' '9' '@0S'
-  jogterm send --port /tmp/isel --log traffic.log '@0b1' '@0b3'";
+  jogterm send --port /tmp/isel --log traffic.log '@0b1' '@0b3'
+  jogterm send --port /tmp/emp --protocol emp '02 11 11 00 00000000' '22 11 07 00 00000000'
+  jogterm send --port /tmp/emp --protocol emp --drive 11 '26 00 00 00140400' '2C 00 00 00000000'";
 
 /// Options of `jogterm send`.
 #[derive(Debug, Args)]
@@ -48,7 +59,11 @@ pub struct SendArgs {
     /// Baud rate, instead of the profile's (isel: 19200)
     #[arg(long, value_name = "N")]
     pub baud: Option<u32>,
-    /// The commands, in order: `@0P`, program lines after `@0i`, control bytes
+    /// EMP: the drives on the link (`11`, `11,21`), for the axes X, Y, Z, A; the first
+    /// is the drive of frames typed without one
+    #[arg(long, value_name = "DS")]
+    pub drive: Vec<String>,
+    /// The commands, in order: `@0P`, program lines after `@0i`, control bytes; EMP frames
     #[arg(required = true, value_name = "CMD")]
     pub commands: Vec<String>,
 }
@@ -164,13 +179,6 @@ enum Outcome {
 }
 
 pub fn run(global: &GlobalArgs, args: &SendArgs) -> anyhow::Result<ExitCode> {
-    let items = match plan(&args.commands) {
-        Ok(items) => items,
-        Err(message) => {
-            eprintln!("jogterm send: {message}");
-            return Ok(ExitCode::from(EXIT_USAGE));
-        }
-    };
     let profile = match session::resolve(global, args.baud) {
         Ok(p) => p,
         Err(StartError::Usage(m)) => {
@@ -179,9 +187,45 @@ pub fn run(global: &GlobalArgs, args: &SendArgs) -> anyhow::Result<ExitCode> {
         }
         Err(StartError::Failed(e)) => return Err(e),
     };
+    if profile.connection.protocol == Protocol::Emp {
+        return run_emp(global, args, profile);
+    }
+    let items = match plan(&args.commands) {
+        Ok(items) => items,
+        Err(message) => {
+            eprintln!("jogterm send: {message}");
+            return Ok(ExitCode::from(EXIT_USAGE));
+        }
+    };
     let runtime = session::runtime()?;
     runtime.block_on(async {
         let session = match session::start(global, profile, |s| s.poll.rate = PollRate::Off) {
+            Ok(s) => s,
+            Err(StartError::Usage(m)) => {
+                eprintln!("jogterm send: {m}");
+                return Ok(ExitCode::from(EXIT_USAGE));
+            }
+            Err(StartError::Failed(e)) => return Err(e),
+        };
+        Ok(send_all(session, &items).await)
+    })
+}
+
+/// `jogterm send --protocol emp`: the frames checked, then sent with
+/// polling off.
+fn run_emp(global: &GlobalArgs, args: &SendArgs, mut profile: Profile) -> anyhow::Result<ExitCode> {
+    let planned = emp::apply_drives(&mut profile, &args.drive)
+        .and_then(|()| emp::plan(&args.commands, emp::default_drive(&profile)));
+    let items = match planned {
+        Ok(items) => items,
+        Err(message) => {
+            eprintln!("jogterm send: {message}");
+            return Ok(ExitCode::from(EXIT_USAGE));
+        }
+    };
+    let runtime = session::runtime()?;
+    runtime.block_on(async {
+        let session = match session::start_emp(global, profile, |s| s.poll = PollRate::Off) {
             Ok(s) => s,
             Err(StartError::Usage(m)) => {
                 eprintln!("jogterm send: {m}");
@@ -236,7 +280,16 @@ async fn send_items(session: &mut Session, items: &[Item]) -> ExitCode {
                         controls.push(*c);
                         i += 1;
                     }
-                    await_line(session, text, canonical, *may_move, &controls).await
+                    let mut outcome =
+                        await_line(session, text, canonical, *may_move, &controls).await;
+                    // EMP: a long action's `55`; its completion follows.
+                    while let Outcome::Answered(t) = &outcome
+                        && t.starts_with(STARTED)
+                    {
+                        println!("<< {t}");
+                        outcome = wait_outcome(session, text, canonical).await;
+                    }
+                    outcome
                 }
             }
         };

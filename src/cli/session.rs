@@ -10,6 +10,8 @@ use anyhow::Context as _;
 use super::{GlobalArgs, profile};
 use crate::config::{ConfigDirs, Profile};
 use crate::device::api::{Event, LinkState};
+use crate::device::driver::Driver;
+use crate::device::emp::{EmpDriver, EmpSettings};
 use crate::device::isel::{IselDriver, IselSettings};
 use crate::device::log::spawn_log;
 use crate::device::{Connector, DeviceHandle, EventReceiver, TaskOptions, spawn_with};
@@ -46,13 +48,13 @@ impl From<anyhow::Error> for StartError {
 }
 
 /// The profile for a talking command: `--profile` etc. as everywhere, with
-/// `--baud` on top; only isel has a driver so far.
+/// `--baud` on top.
 pub fn resolve(global: &GlobalArgs, baud: Option<u32>) -> Result<Profile, StartError> {
     let mut profile = profile::resolve(global, &ConfigDirs::from_env())
         .map_err(|e| StartError::Usage(format!("{e:#}")))?;
-    if profile.connection.protocol != Protocol::Isel {
+    if !matches!(profile.connection.protocol, Protocol::Isel | Protocol::Emp) {
         return Err(StartError::Usage(format!(
-            "jogterm talks to isel controllers only so far, not {} (--protocol isel)",
+            "jogterm send and poll talk to isel and EMP controllers here, not {} (--protocol isel|emp)",
             profile.connection.protocol
         )));
     }
@@ -71,14 +73,37 @@ pub fn start(
     let mut settings =
         IselSettings::from_profile(&profile).map_err(|e| StartError::Usage(e.to_string()))?;
     adjust(&mut settings);
+    open(global, profile, Box::new(IselDriver::new(settings)))
+}
+
+/// Start the device task with the EMP driver; `adjust` tunes it (polling).
+pub fn start_emp(
+    global: &GlobalArgs,
+    profile: Profile,
+    adjust: impl FnOnce(&mut EmpSettings),
+) -> Result<Session, StartError> {
+    let mut settings =
+        EmpSettings::from_profile(&profile).map_err(|e| StartError::Usage(e.to_string()))?;
+    adjust(&mut settings);
+    open(global, profile, Box::new(EmpDriver::new(settings)))
+}
+
+/// The device task with `driver` in front of the profile's port (or its
+/// family's built-in simulator), and the traffic log.
+fn open(
+    global: &GlobalArgs,
+    profile: Profile,
+    driver: Box<dyn Driver>,
+) -> Result<Session, StartError> {
+    let family = profile.connection.protocol;
     let line: LineSettings = profile.connection.line();
     let (connector, simulator) = if profile.connection.is_simulator() {
-        let device = registry::build(Protocol::Isel, &profile).map_err(anyhow::Error::from)?;
+        let device = registry::build(family, &profile).map_err(anyhow::Error::from)?;
         let (shell, stream) = serve_socket(device).context("starting the built-in simulator")?;
         let spec = PortSpec::InProcess {
             stream,
             line: shell.line(),
-            name: "built-in isel simulator".into(),
+            name: format!("built-in {family} simulator"),
         };
         (Connector::from(spec), Some(shell))
     } else {
@@ -90,12 +115,8 @@ pub fn start(
             None,
         )
     };
-    let (handle, events) = spawn_with(
-        Box::new(IselDriver::new(settings)),
-        connector,
-        TaskOptions::default(),
-    )
-    .map_err(anyhow::Error::from)?;
+    let (handle, events) =
+        spawn_with(driver, connector, TaskOptions::default()).map_err(anyhow::Error::from)?;
     if let Some(path) = &global.log {
         let file = OpenOptions::new()
             .create(true)

@@ -288,7 +288,9 @@ impl Context {
             _ => Recovery::None,
         };
         let fault = ControllerFault {
-            command: rejected.to_string(),
+            // The frame as sent, as `Event::Reply` names it (`jogterm send`
+            // matches the two); the meaning names the drive.
+            command: rejected.to_frame().to_string(),
             code: format!("EE {:02X}", code.0),
             meaning: match code.meaning() {
                 Some(m) => format!("drive {}: {m}", rejected.ds),

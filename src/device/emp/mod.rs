@@ -45,7 +45,7 @@ use std::time::{Duration, Instant};
 
 pub use output::output_id;
 pub use poll::{PollItem, wire_limit_hz};
-pub use raw::{parse_raw, reply_text};
+pub use raw::{STARTED, parse_raw, reply_text};
 pub use settings::{DriveAxis, EmpSettings, Timing};
 pub use speed::DriveSpeed;
 
@@ -122,6 +122,8 @@ enum Owner {
     },
     /// A stop frame.
     Stop,
+    /// A stop frame typed by the operator: also answered as `Event::Reply`.
+    RawStop,
 }
 
 /// The EMP driver. Build it from a profile, hand it to the device task (or
@@ -140,6 +142,8 @@ pub struct EmpDriver {
     errors: VecDeque<(Frame, bool)>,
     /// Stop frames to send at once.
     stops: VecDeque<Frame>,
+    /// Typed stop frames, sent right after those.
+    raw_stops: VecDeque<Frame>,
     poller: Poller<PollItem>,
     /// Frames handed to the writer and not yet reported written.
     unsent: VecDeque<Frame>,
@@ -167,6 +171,7 @@ impl EmpDriver {
             side: VecDeque::new(),
             errors: VecDeque::new(),
             stops: VecDeque::new(),
+            raw_stops: VecDeque::new(),
             unsent: VecDeque::new(),
             restop: Vec::new(),
             quiet_until: None,
@@ -231,6 +236,9 @@ impl EmpDriver {
         }
         if let Some(frame) = self.stops.pop_front() {
             return Some(self.send(frame, Owner::Stop, now));
+        }
+        if let Some(frame) = self.raw_stops.pop_front() {
+            return Some(self.send(frame, Owner::RawStop, now));
         }
         // One first answer at a time (stops aside).
         if self.correlator.next_deadline().is_some() || self.quiet(now) {
@@ -397,9 +405,10 @@ impl EmpDriver {
             ));
             return;
         }
-        let quiet = is_query(&request.command)
-            || request.command.is_stop()
-            || matches!(owner, Some(Owner::Stop | Owner::Poll(_)));
+        // What jogterm sent on its own to a drive that is off is a notice;
+        // what the operator asked for is a fault.
+        let quiet = matches!(owner, Some(Owner::Stop | Owner::Poll(_)))
+            || (owner == Some(Owner::Op) && matches!(self.op, Some(Op::Readback(_))));
         self.errors.push_back((*request, quiet));
     }
 
@@ -440,6 +449,17 @@ impl EmpDriver {
             Some(Owner::Stop) => {
                 if let Some(op) = self.op.as_mut() {
                     op.get().stop_answered(request.ds);
+                }
+            }
+            Some(Owner::RawStop) => {
+                if let Some(op) = self.op.as_mut() {
+                    op.get().stop_answered(request.ds);
+                }
+                if let Some(r) = reply {
+                    self.cx.emit(Event::Reply {
+                        command: frame_text(request),
+                        text: reply_text(r),
+                    });
                 }
             }
         }
@@ -484,6 +504,7 @@ impl EmpDriver {
         self.unsent.clear();
         self.restop.clear();
         self.stops.clear();
+        self.raw_stops.clear();
         self.errors.clear();
         self.side.clear();
         self.quiet_until = None;
@@ -559,7 +580,7 @@ impl EmpDriver {
             if let Some(op) = self.op.as_mut() {
                 op.get().stopped(&mut self.cx, &[frame.ds]);
             }
-            self.stops.push_back(frame);
+            self.raw_stops.push_back(frame);
             return;
         }
         if is_query(&frame.command) && self.op.is_some() {

@@ -3,7 +3,7 @@
 //! measured), and every `ports_every`th cycle the switches and inputs of
 //! every drive with `40 01`.
 
-use crate::device::common::{PollRate, Poller};
+use crate::device::common::Poller;
 use crate::proto::emp::{Command, DriveAddress, Request};
 use crate::wire::LineSettings;
 
@@ -27,7 +27,7 @@ impl PollItem {
 pub fn poller(settings: &EmpSettings) -> Poller<PollItem> {
     let ds: Vec<DriveAddress> = settings.drives.iter().map(|d| d.ds).collect();
     Poller::new(
-        PollRate::from_profile(settings.rate_hz),
+        settings.poll,
         settings.ports_every,
         ds.iter().map(|d| PollItem::Position(*d)).collect(),
         ds.iter().map(|d| PollItem::Io(*d)).collect(),

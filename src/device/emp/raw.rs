@@ -15,6 +15,10 @@ use super::context::Context;
 use super::op::Operation;
 use super::script::{Next, Outcome, Script};
 
+/// How the first answer of a long action (`55`) starts its `Event::Reply`
+/// text; the completion follows as another reply to the same frame.
+pub const STARTED: &str = "started: ";
+
 /// Parse a raw line; the error names what is wrong with it.
 pub fn parse_raw(line: &str) -> Result<Request, Refusal> {
     line.trim()
@@ -84,11 +88,10 @@ impl Operation for RawOp {
         let command = frame_text(request);
         let text = match (outcome, reply) {
             (Outcome::Answered, Some(r)) => reply_text(r),
-            (Outcome::Started, Some(r)) => format!("started: {}", reply_text(r)),
+            (Outcome::Started, Some(r)) => format!("{STARTED}{}", reply_text(r)),
             (Outcome::Completed, Some(r)) => format!("completed: {}", reply_text(r)),
             (Outcome::Ended, _) => "ended by a later request".to_owned(),
-            // The fault with the error code follows (`0A`).
-            (Outcome::Rejected, Some(r)) => reply_text(r),
+            // A rejection is told by the fault with the error code (`0A`).
             _ => return,
         };
         cx.emit(Event::Reply { command, text });

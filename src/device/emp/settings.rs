@@ -9,7 +9,7 @@ use crate::config::Profile;
 use crate::config::profile::{EmpJog, EmpStop};
 use crate::device::api::PerAxis;
 use crate::device::common::settings::{axis_limits, listed_axes};
-use crate::device::common::{AxisLimits, JogSettings, SettingsError};
+use crate::device::common::{AxisLimits, JogSettings, PollRate, SettingsError};
 use crate::proto::Protocol;
 use crate::proto::emp::reload::TIMER_HZ;
 use crate::proto::emp::{DriveAddress, FRAME_WIRE_LEN, Speed};
@@ -61,7 +61,8 @@ pub struct EmpSettings {
     pub stop: EmpStop,
     pub home_fast: Speed,
     pub home_slow: Speed,
-    pub rate_hz: f64,
+    /// Position polls (the profile's `poll.rate_hz`, 0 = line speed).
+    pub poll: PollRate,
     pub ports_every: u32,
     pub timing: Timing,
 }
@@ -108,7 +109,7 @@ impl EmpSettings {
             stop: profile.emp.stop,
             home_fast: speed("home_fast", profile.emp.home_fast)?,
             home_slow: speed("home_slow", profile.emp.home_slow)?,
-            rate_hz: profile.poll.rate_hz,
+            poll: PollRate::from_profile(profile.poll.rate_hz),
             ports_every: profile.poll.ports_every,
             timing: Timing {
                 round_trip,

@@ -34,18 +34,9 @@ impl Harness {
     /// One drive at 11, polling off unless `poll`.
     pub fn emp(adjust: impl FnOnce(&mut EmpSettings)) -> Harness {
         let mut s = settings();
-        s.rate_hz = 0.0;
+        s.poll = crate::device::common::PollRate::Off;
         adjust(&mut s);
-        let mut h = Harness::on(EmpDriver::new(s));
-        h.driver.request(
-            crate::device::api::Request::Poll {
-                rate_hz: Some(0.0),
-                ports_every: 4,
-            },
-            h.now,
-        );
-        h.collect();
-        h
+        Harness::on(EmpDriver::new(s))
     }
 
     pub fn state(&self) -> MachineState {
