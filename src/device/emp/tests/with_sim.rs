@@ -94,8 +94,15 @@ fn move_to_arrives_and_positions_are_measured_during_the_move() {
         frame: Frame::Machine,
         speed_hz: x_speed(28_000.0),
     });
+    b.events.clear();
     b.run(ms(1500));
     assert_eq!(b.driver.state().activity, Activity::Moving);
+    let during = b
+        .events
+        .iter()
+        .filter(|e| matches!(e, Event::Position(_)))
+        .count();
+    assert!(during > 100, "{during}: {:?}", b.sent_text());
     let mid = counter(&b, DriveAddress::SINGLE);
     assert!(mid > 0 && mid < 112_000, "{mid}");
     b.run(Duration::from_secs(6));
