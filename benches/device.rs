@@ -81,15 +81,17 @@ async fn read_back(events: &mut EventReceiver) {
 /// median time between two (which load spikes on a shared machine do not
 /// move).
 async fn poll_rate(ports: Vec<InputPort>, span: Duration) -> (f64, Duration) {
-    measure_rate(socket_task(settings(PollRate::LineSpeed, ports)), span).await
+    let (shell, handle, mut events) = socket_task(settings(PollRate::LineSpeed, ports));
+    read_back(&mut events).await;
+    measure_rate((shell, handle, events), span).await
 }
 
-/// The rate and median cycle of a task polling at line speed.
+/// The rate and median cycle of a task polling at line speed, once its
+/// controller is ready.
 async fn measure_rate(
     (shell, handle, mut events): (Shell, DeviceHandle, EventReceiver),
     span: Duration,
 ) -> (f64, Duration) {
-    read_back(&mut events).await;
     // Let the first cycles settle.
     tokio::time::sleep(Duration::from_millis(200)).await;
     while events.try_recv().is_ok() {}
@@ -153,15 +155,17 @@ async fn bare_rate(span: Duration) -> f64 {
 /// Stop request to first stop byte on the wire, while polling `@0P` at
 /// full rate: `n` stops at pseudo-random moments.
 async fn stop_latency(n: usize) -> Vec<Duration> {
-    measure_stops(socket_task(settings(PollRate::LineSpeed, Vec::new())), n).await
+    let (shell, handle, mut events) = socket_task(settings(PollRate::LineSpeed, Vec::new()));
+    read_back(&mut events).await;
+    measure_stops((shell, handle, events), n).await
 }
 
-/// `n` stops at pseudo-random moments while the task polls at full rate.
+/// `n` stops at pseudo-random moments while the task polls at full rate,
+/// once its controller is ready.
 async fn measure_stops(
     (shell, handle, mut events): (Shell, DeviceHandle, EventReceiver),
     n: usize,
 ) -> Vec<Duration> {
-    read_back(&mut events).await;
     let drain = tokio::spawn(async move { while events.recv().await.is_some() {} });
     let mut seed: u64 = 0x9E37_79B9_7F4A_7C15;
     let mut latencies = Vec::with_capacity(n);
@@ -298,8 +302,9 @@ async fn poll_cpu(span: Duration) -> (f64, f64, f64) {
 }
 
 /// EMP: the device task with the EMP driver against the EMP simulator of the
-/// `emp` profile (one drive, 38400 baud), polling `2C` only.
-fn emp_task() -> (Shell, DeviceHandle, EventReceiver) {
+/// `emp` profile (one drive, 38400 baud), polling `2C` only, the drive
+/// switched on (before `02` it answers `2C` with `EE`).
+async fn emp_task() -> (Shell, DeviceHandle, EventReceiver) {
     let profile = load_profile("emp", &ConfigDirs::builtin_only()).expect("emp profile");
     let mut settings = EmpSettings::from_profile(&profile).expect("emp settings");
     settings.poll = PollRate::LineSpeed;
@@ -312,12 +317,23 @@ fn emp_task() -> (Shell, DeviceHandle, EventReceiver) {
         line: shell.line(),
         name: "EMP simulator".into(),
     };
-    let (handle, events) = spawn_with(
+    let (handle, mut events) = spawn_with(
         Box::new(EmpDriver::new(settings)),
         Connector::from(spec),
         TaskOptions::default(),
     )
     .expect("device task");
+    read_back(&mut events).await;
+    handle
+        .request(jogterm::device::api::Request::Initialise)
+        .expect("request");
+    loop {
+        match events.recv().await {
+            Some(Event::Notice(n)) if n.starts_with("initialised") => break,
+            Some(_) => {}
+            None => panic!("the device task ended"),
+        }
+    }
     (shell, handle, events)
 }
 
@@ -330,7 +346,7 @@ async fn emp_rows(span: Duration, stops: usize, rows: &mut Vec<Row>) {
         line.transfer_time(2 * jogterm::proto::emp::FRAME_WIRE_LEN) + Duration::from_micros(1600);
     let limit = 1.0 / round_trip.as_secs_f64();
     let manual = 1.0 / 0.0108;
-    let (rate, median) = measure_rate(emp_task(), span).await;
+    let (rate, median) = measure_rate(emp_task().await, span).await;
     rows.push(Row {
         what: "EMP 2C poll rate".into(),
         result: format!(
@@ -357,7 +373,7 @@ async fn emp_rows(span: Duration, stops: usize, rows: &mut Vec<Row>) {
         target: "-".into(),
         ok: true,
     });
-    let lat = measure_stops(emp_task(), stops).await;
+    let lat = measure_stops(emp_task().await, stops).await;
     let ms = |d: Duration| d.as_secs_f64() * 1000.0;
     let (p50, p99) = (percentile(&lat, 0.5), percentile(&lat, 0.99));
     // A stop frame waits for the frame on the wire (17 bytes, 4.4 ms).
@@ -490,7 +506,7 @@ fn main() {
         }
     });
     println!(
-        "jogterm device benchmark: isel simulator, 19200 baud ({} build)",
+        "jogterm device benchmark: isel simulator at 19200 baud, EMP at 38400 ({} build)",
         if cfg!(debug_assertions) {
             "debug"
         } else {

@@ -194,7 +194,7 @@ impl Context {
     }
 
     /// A reply (first answer or completion) to `request` carried `body`.
-    pub fn observe(&mut self, request: &Request, body: &ReplyBody, now: Instant) {
+    pub fn observe(&mut self, request: &Request, body: &ReplyBody) {
         let axis = self.settings.axis_of(request.ds);
         let Some(d) = self.drive_mut(request.ds) else {
             return;
@@ -233,7 +233,6 @@ impl Context {
         if unreference && let Some(a) = axis {
             self.unreference(a);
         }
-        let _ = now;
         self.refresh();
     }
 
@@ -271,6 +270,7 @@ impl Context {
     /// the fault with its meaning, and what it means for the machine.
     pub fn error_read(&mut self, rejected: &Request, code: ErrorCode, quiet_not_on: bool) {
         let axis = self.settings.axis_of(rejected.ds);
+        let was_off = self.drive(rejected.ds).is_some_and(|d| d.on == Some(false));
         let recovery = match code {
             ErrorCode::NOT_ON => {
                 if let Some(d) = self.drive_mut(rejected.ds) {
@@ -307,10 +307,12 @@ impl Context {
         }
         self.refresh();
         if quiet {
-            self.notice(format!(
-                "drive {} is not switched on: initialise (i)",
-                rejected.ds
-            ));
+            if !was_off {
+                self.notice(format!(
+                    "drive {} is not switched on: initialise (i)",
+                    rejected.ds
+                ));
+            }
         } else {
             self.emit(Event::Fault(fault));
         }

@@ -152,8 +152,6 @@ pub struct EmpDriver {
     restop: Vec<Frame>,
     quiet_until: Option<Instant>,
     report: StateReport,
-    poll_error: Option<String>,
-    framing_reported: bool,
 }
 
 impl EmpDriver {
@@ -176,8 +174,6 @@ impl EmpDriver {
             restop: Vec::new(),
             quiet_until: None,
             report: StateReport::default(),
-            poll_error: None,
-            framing_reported: false,
         }
     }
 
@@ -302,17 +298,17 @@ impl EmpDriver {
         match m {
             Matched::Answered { request, reply } => {
                 let owner = self.take_owner(&request);
-                self.observe(&request, &reply, now);
+                self.observe(&request, &reply);
                 self.dispatch(owner, &request, Outcome::Answered, Some(&reply), now);
             }
             Matched::Started { request, reply } => {
                 let owner = self.owner_of(&request);
-                self.observe(&request, &reply, now);
+                self.observe(&request, &reply);
                 self.dispatch(owner, &request, Outcome::Started, Some(&reply), now);
             }
             Matched::Completed { request, reply } => {
                 let owner = self.take_owner(&request);
-                self.observe(&request, &reply, now);
+                self.observe(&request, &reply);
                 if owner.is_none() {
                     self.cx
                         .notice(format!("{} completed: {reply}", frame_text(&request)));
@@ -363,10 +359,10 @@ impl EmpDriver {
         }
     }
 
-    fn observe(&mut self, request: &Frame, reply: &Reply, now: Instant) {
+    fn observe(&mut self, request: &Frame, reply: &Reply) {
         if let Some(body) = reply.body() {
             let limits_before = self.cx.drive(request.ds).and_then(|d| d.limits);
-            self.cx.observe(request, body, now);
+            self.cx.observe(request, body);
             if let ReplyBody::Inputs { limits, .. } | ReplyBody::Outputs { limits, .. } = body {
                 let was = limits_before.is_some_and(|l| l.plus || l.minus);
                 if (limits.plus || limits.minus) && !was {
@@ -403,6 +399,14 @@ impl EmpDriver {
                 "drive {} rejected 0A: the error code cannot be read",
                 request.ds
             ));
+            return;
+        }
+        // A poll of a drive known to be off: nothing new to ask.
+        let known_off = self
+            .cx
+            .drive(request.ds)
+            .is_some_and(|d| d.on == Some(false));
+        if known_off && matches!(owner, Some(Owner::Poll(_))) {
             return;
         }
         // What jogterm sent on its own to a drive that is off is a notice;
@@ -471,7 +475,6 @@ impl EmpDriver {
             self.poller.abandon_cycle();
             return;
         }
-        self.poll_error = None;
         match item {
             PollItem::Position(ds) => {
                 let last = self.cx.drives.last().map(|d| d.ds);
@@ -493,7 +496,7 @@ impl EmpDriver {
         }
     }
 
-    fn go_down(&mut self, reason: &str) {
+    fn go_down(&mut self, _reason: &str) {
         if !self.link_up {
             return;
         }
@@ -515,7 +518,6 @@ impl EmpDriver {
             .refuse_all(|| Refusal::NotConnected, JogEnd::LinkLost, &mut self.cx);
         self.cx.forget();
         self.cx.state.activity = Activity::Idle;
-        let _ = reason;
     }
 
     // ----- requests ------------------------------------------------------
@@ -716,8 +718,6 @@ impl Driver for EmpDriver {
         self.go_down("reconnected");
         self.link_up = true;
         self.poller.reset();
-        self.poll_error = None;
-        self.framing_reported = false;
         let all = self.cx.addresses();
         self.stop_drives(&all);
         self.quiet_until = Some(now + self.cx.settings.timing.connect_settle);

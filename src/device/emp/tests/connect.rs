@@ -167,3 +167,18 @@ fn a_motion_command_to_a_drive_that_is_off_asks_to_switch_it_on() {
     assert!(h.state().fault.is_none());
     assert_eq!(DriveAddress::SINGLE.byte(), 0x11);
 }
+
+#[test]
+fn polls_of_a_drive_known_to_be_off_do_not_ask_again() {
+    let mut h = Harness::emp(|_| {});
+    h.connect(0, false);
+    h.poll();
+    h.events.clear();
+    for _ in 0..3 {
+        h.expect_frame("2C 11 00 00 00000000");
+        h.answer("2D 11 00 EE 00000000");
+    }
+    h.expect_frame("2C 11 00 00 00000000");
+    assert!(h.notices().is_empty(), "{:?}", h.notices());
+    assert!(h.faults().is_empty());
+}
