@@ -237,3 +237,17 @@ fn inputs_show_in_poll_and_a_vanished_port_exits_3() {
     assert_eq!(out.status.code(), Some(3), "{}", text(&out.stderr));
     assert!(text(&out.stderr).contains("link failure"));
 }
+
+#[test]
+fn poll_of_a_drive_that_is_off_gives_up_with_a_hint() {
+    let sim = Sim::start();
+    let started = std::time::Instant::now();
+    let out = run(&sim.link, &["poll", "--count", "3", "--interval-ms", "0"]);
+    assert_eq!(out.status.code(), Some(1), "{}", text(&out.stdout));
+    assert!(
+        text(&out.stderr).contains("02 11 11 00 00000000"),
+        "{}",
+        text(&out.stderr)
+    );
+    assert!(started.elapsed() < Duration::from_secs(10));
+}

@@ -220,6 +220,7 @@ async fn poll(mut session: Session, args: &PollArgs) -> ExitCode {
     let patience =
         Duration::from_millis(args.interval_ms.saturating_mul(5)).max(Duration::from_secs(3));
     let mut samples = 0u64;
+    let mut last_position = Instant::now();
     let mut ports: Option<IoSnapshot> = None;
     let mut code = 0u8;
     let interrupted = session::interrupted();
@@ -228,14 +229,17 @@ async fn poll(mut session: Session, args: &PollArgs) -> ExitCode {
         if args.count.is_some_and(|n| samples >= n) {
             break;
         }
+        // Patience counts from the last position, not the last event: a
+        // controller that rejects every poll still produces traffic.
+        let left = patience.saturating_sub(last_position.elapsed());
         let event = tokio::select! {
             _ = &mut interrupted => break,
-            e = tokio::time::timeout(patience, session.events.recv()) => e,
+            e = tokio::time::timeout(left, session.events.recv()) => e,
         };
         match event {
             Err(_) => {
                 eprintln!(
-                    "jogterm poll: no position for {} s: is the controller initialised (isel: jogterm send '@07') and connected?",
+                    "jogterm poll: no position for {} s: is the controller initialised (isel: jogterm send '@07'; EMP: jogterm send '02 11 11 00 00000000') and connected?",
                     patience.as_secs()
                 );
                 code = 1;
@@ -255,6 +259,7 @@ async fn poll(mut session: Session, args: &PollArgs) -> ExitCode {
             // which comes before the ports are read, is left out.
             Ok(Some(Event::Position(_))) if args.ports && ports.is_none() => {}
             Ok(Some(Event::Position(p))) => {
+                last_position = Instant::now();
                 let t = p.at.saturating_duration_since(start).as_secs_f64();
                 let io = if args.ports { ports.as_ref() } else { None };
                 println!("{}", format_sample(&p, t, io, args.json));
