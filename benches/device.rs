@@ -18,6 +18,7 @@ use std::time::{Duration, Instant};
 
 use jogterm::config::{ConfigDirs, Profile, load_profile};
 use jogterm::device::api::{Event, PositionSource};
+use jogterm::device::driver::Driver;
 use jogterm::device::emp::{EmpDriver, EmpSettings};
 use jogterm::device::isel::{IselDriver, IselSettings, PollPlan, PollRate};
 use jogterm::device::{Connector, DeviceHandle, EventReceiver, TaskOptions, spawn_with};
@@ -51,19 +52,22 @@ fn settings(rate: PollRate, ports: Vec<InputPort>) -> IselSettings {
 
 /// The device task talking to the isel simulator over a socket pair.
 fn socket_task(settings: IselSettings) -> (Shell, DeviceHandle, EventReceiver) {
-    let device = registry::build(Protocol::Isel, &profile()).expect("simulator");
+    serve(&profile(), Box::new(IselDriver::new(settings)))
+}
+
+/// `driver` in the device task, talking to the simulator of `profile`'s
+/// family over a socket pair.
+fn serve(profile: &Profile, driver: Box<dyn Driver>) -> (Shell, DeviceHandle, EventReceiver) {
+    let family = profile.connection.protocol;
+    let device = registry::build(family, profile).expect("simulator");
     let (shell, stream) = serve_socket(device).expect("serve");
     let spec = PortSpec::InProcess {
         stream,
         line: shell.line(),
-        name: "isel simulator".into(),
+        name: format!("{family} simulator"),
     };
-    let (handle, events) = spawn_with(
-        Box::new(IselDriver::new(settings)),
-        Connector::from(spec),
-        TaskOptions::default(),
-    )
-    .expect("device task");
+    let (handle, events) =
+        spawn_with(driver, Connector::from(spec), TaskOptions::default()).expect("device task");
     (shell, handle, events)
 }
 
@@ -310,19 +314,7 @@ async fn emp_task() -> (Shell, DeviceHandle, EventReceiver) {
     settings.poll = PollRate::LineSpeed;
     // `40` once at the start only: the row measures `2C`.
     settings.ports_every = u32::MAX;
-    let device = registry::build(Protocol::Emp, &profile).expect("simulator");
-    let (shell, stream) = serve_socket(device).expect("serve");
-    let spec = PortSpec::InProcess {
-        stream,
-        line: shell.line(),
-        name: "EMP simulator".into(),
-    };
-    let (handle, mut events) = spawn_with(
-        Box::new(EmpDriver::new(settings)),
-        Connector::from(spec),
-        TaskOptions::default(),
-    )
-    .expect("device task");
+    let (shell, handle, mut events) = serve(&profile, Box::new(EmpDriver::new(settings)));
     read_back(&mut events).await;
     handle
         .request(jogterm::device::api::Request::Initialise)

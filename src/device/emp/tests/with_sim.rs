@@ -321,3 +321,37 @@ fn two_drives_on_one_link_are_polled_in_turn() {
         "{stats:?}"
     );
 }
+
+#[test]
+fn stops_at_any_moment_while_polling_never_lose_the_link() {
+    let mut b = bench_for(&profile(), |_| {});
+    b.run(ms(300));
+    b.request(Request::Initialise);
+    b.run(ms(300));
+    b.events.clear();
+    let mut seed: u64 = 0x9E37_79B9_7F4A_7C15;
+    for _ in 0..100 {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        b.run(Duration::from_micros(1_000 + seed % 20_000));
+        b.stop();
+    }
+    b.run(ms(500));
+    assert!(
+        !b.events
+            .iter()
+            .any(|e| matches!(e, Event::Link(_) | Event::Fault(_))),
+        "{:?}",
+        b.events
+            .iter()
+            .filter(|e| matches!(e, Event::Link(_) | Event::Fault(_) | Event::Notice(_)))
+            .collect::<Vec<_>>()
+    );
+    let positions = b
+        .events
+        .iter()
+        .filter(|e| matches!(e, Event::Position(_)))
+        .count();
+    assert!(positions > 50, "{positions}");
+}
