@@ -2,7 +2,9 @@
 //! runs on for one dead-man timeout at speed and then brakes, and together
 //! that must stay within `jog.max_overrun`:
 //!
-//!     v T + braking(v) <= D
+//! ```text
+//! v T + braking(v) <= D
+//! ```
 //!
 //! Braking is the family's: isel ramps down at a constant acceleration to
 //! its start-stop frequency, EMCU takes its fixed ramp time from any speed,
