@@ -355,3 +355,48 @@ fn stops_at_any_moment_while_polling_never_lose_the_link() {
         .count();
     assert!(positions > 50, "{positions}");
 }
+
+#[test]
+fn a_positioning_jog_ends_at_the_soft_limit_or_on_release() {
+    let mut b = homed(|s| s.jog_style = crate::config::profile::EmpJog::Position);
+    b.request(Request::Jog {
+        id: JogId(20),
+        axes: vec![(Axis::X, Dir::Plus)],
+        speed_hz: x_speed(56_000.0),
+        lease: Duration::from_secs(300),
+    });
+    b.run(ms(1000));
+    assert_eq!(b.driver.state().activity, Activity::Jogging);
+    assert!(b.sent_text().iter().any(|t| t.starts_with("2A1101")));
+    b.request(Request::JogRelease { id: JogId(20) });
+    b.run(ms(500));
+    assert_eq!(speed(&b, DriveAddress::SINGLE), 0.0);
+    assert!(b.events.iter().any(|e| matches!(
+        e,
+        Event::JogEnded {
+            id: JogId(20),
+            end: JogEnd::Released
+        }
+    )));
+    // Without a release it runs to the soft limit and ends there.
+    b.events.clear();
+    b.request(Request::Jog {
+        id: JogId(21),
+        axes: vec![(Axis::X, Dir::Minus)],
+        speed_hz: x_speed(56_000.0),
+        lease: Duration::from_secs(300),
+    });
+    b.run(Duration::from_secs(10));
+    assert!(
+        b.events.iter().any(|e| matches!(
+            e,
+            Event::JogEnded {
+                id: JogId(21),
+                end: JogEnd::SoftLimit
+            }
+        )),
+        "{:?}",
+        b.events
+    );
+    assert_eq!(counter(&b, DriveAddress::SINGLE), 0);
+}
