@@ -12,6 +12,7 @@
 
 pub mod arc;
 pub mod check;
+pub mod emp;
 pub mod poll;
 pub mod profile;
 pub mod send;
