@@ -11,6 +11,8 @@ use crate::device::api::{LinkState, MachineState, PollStats, UploadEvent};
 use crate::proto::Protocol;
 use crate::wire::LineSettings;
 
+use super::editor::Editor;
+use super::editor::dialog::Dialog;
 use super::io::IoPanel;
 use super::keymap::{Keymap, Mode};
 use super::line_edit::LineEdit;
@@ -75,13 +77,16 @@ impl Setup {
     }
 }
 
-/// The panels that can have focus. The jog keypad (issue 6) and the program
-/// editor (issue 7) join this list.
+/// The panels that can have focus. The jog keypad (issue 6) joins this
+/// list.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum PanelId {
     Io,
     Console,
     Sim,
+    /// The program editor: while it has focus the program screen is shown
+    /// (not in the Tab ring; `e`/F4 opens and closes it).
+    Editor,
 }
 
 impl PanelId {
@@ -91,6 +96,7 @@ impl PanelId {
             PanelId::Io => Mode::Io,
             PanelId::Console => Mode::Console,
             PanelId::Sim => Mode::Sim,
+            PanelId::Editor => Mode::Editor,
         }
     }
 }
@@ -105,8 +111,12 @@ pub struct Confirmation {
 
 #[derive(Debug, Clone, PartialEq)]
 pub enum Popup {
-    Help { scroll: usize },
+    Help {
+        scroll: usize,
+    },
     Confirm(Confirmation),
+    /// A form or question of the program editor.
+    Editor(Dialog),
 }
 
 impl Popup {
@@ -114,6 +124,7 @@ impl Popup {
         match self {
             Popup::Help { .. } => Mode::Help,
             Popup::Confirm(_) => Mode::Confirm,
+            Popup::Editor(dialog) => dialog.mode(),
         }
     }
 }
@@ -153,6 +164,8 @@ pub struct Model {
     pub jog: JogSelection,
     pub focus: PanelId,
     pub popup: Option<Popup>,
+    /// The program being edited (`docs/editor.md`).
+    pub editor: Editor,
     pub size: (u16, u16),
     /// Something the view shows has changed since the last frame.
     pub dirty: bool,
@@ -177,6 +190,7 @@ impl Model {
                 .min(setup.jog_speeds.len().saturating_sub(1)),
         };
         Model {
+            editor: Editor::new(&setup, now),
             traffic: TrafficLog::new(setup.protocol),
             setup,
             keymap,

@@ -19,6 +19,8 @@ use crate::device::describe::describe;
 use crate::sim::InputControl;
 use crate::sim::shell::ShellControl;
 
+use super::editor::io::perform;
+use super::editor::worker::EditorWorker;
 use super::model::Model;
 use super::msg::{Effect, Msg};
 use super::terminal::run_emergency;
@@ -51,6 +53,8 @@ pub enum RunError {
     Draw(String),
     #[error("cannot watch for signals: {0}")]
     Signals(#[source] std::io::Error),
+    #[error("cannot start the editor's file and lint threads: {0}")]
+    Worker(#[source] std::io::Error),
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -84,6 +88,8 @@ pub async fn run<B: Backend, D: DeviceLink>(
     let mut terminate = signal(SignalKind::terminate()).map_err(RunError::Signals)?;
     let mut interrupt = signal(SignalKind::interrupt()).map_err(RunError::Signals)?;
     let (sim_tx, mut sim_rx) = mpsc::unbounded_channel::<Msg>();
+    let (editor_tx, mut editor_rx) = mpsc::unbounded_channel::<Msg>();
+    let worker = EditorWorker::spawn(editor_tx).map_err(RunError::Worker)?;
     let mut ticks = tokio::time::interval(options.frame_interval);
     ticks.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
     let mut last_draw: Option<Instant> = None;
@@ -107,6 +113,7 @@ pub async fn run<B: Backend, D: DeviceLink>(
                 }
             },
             Some(msg) = sim_rx.recv() => msg,
+            Some(msg) = editor_rx.recv() => msg,
             _ = ticks.tick() => Msg::Tick(Instant::now()),
         };
         if matches!(msg, Msg::Terminate { .. }) {
@@ -115,6 +122,9 @@ pub async fn run<B: Backend, D: DeviceLink>(
             run_emergency();
         }
         let effects = update(model, msg);
+        // On the way out files are written here and now (a last recovery,
+        // a save before quitting), in order, before the device closes.
+        let leaving = effects.iter().any(|e| matches!(e, Effect::Quit));
         let mut quit = false;
         for effect in effects {
             match effect {
@@ -134,12 +144,19 @@ pub async fn run<B: Backend, D: DeviceLink>(
                     }
                 }
                 Effect::Simulator(control) => simulate(simulator.clone(), control, sim_tx.clone()),
+                Effect::Editor(io) if leaving => {
+                    if !matches!(io, crate::ui::editor::io::EditorIo::Lint(_)) {
+                        let _ = perform(io);
+                    }
+                }
+                Effect::Editor(io) => worker.submit(io),
                 Effect::Quit => quit = true,
             }
         }
         if quit {
             // One last frame so the screen says what is happening.
             let _ = draw(terminal, model);
+            finish_files(worker).await;
             shutdown(device, options.shutdown_timeout).await;
             return Ok(());
         }
@@ -153,6 +170,11 @@ pub async fn run<B: Backend, D: DeviceLink>(
             last_draw = Some(Instant::now());
         }
     }
+}
+
+/// Let the editor's file thread finish what it was handed (bounded).
+async fn finish_files(worker: EditorWorker) {
+    let _ = tokio::task::spawn_blocking(move || worker.finish(Duration::from_secs(2))).await;
 }
 
 fn draw<B: Backend>(terminal: &mut Terminal<B>, model: &mut Model) -> Result<(), RunError> {

@@ -5,8 +5,9 @@
 
 use std::time::Instant;
 
-use crate::device::api::{ControllerFault, Event, JogEnd, LinkState, Request, UploadEvent};
+use crate::device::api::{ControllerFault, Event, JogEnd, LinkState, Request};
 
+use super::editor;
 use super::help::help_lines;
 use super::io::OutputToggle;
 use super::key::KeyChord;
@@ -27,9 +28,10 @@ pub fn update(model: &mut Model, msg: Msg) -> Vec<Effect> {
         },
         Msg::Tick(now) => {
             tick(model, now);
-            Vec::new()
+            editor::update::tick(model, now)
         }
         Msg::Device(event) => {
+            editor::update::device_event(model, &event);
             device_event(model, event);
             model.dirty = true;
             Vec::new()
@@ -66,7 +68,15 @@ pub fn update(model: &mut Model, msg: Msg) -> Vec<Effect> {
             );
             model.quitting = true;
             model.dirty = true;
-            vec![Effect::Stop, Effect::Quit]
+            // The last edits go to the recovery file before leaving.
+            let mut effects = vec![Effect::Stop];
+            effects.extend(editor::update::terminate(model));
+            effects.push(Effect::Quit);
+            effects
+        }
+        Msg::Editor(msg) => {
+            model.dirty = true;
+            editor::update::message(model, msg)
         }
     }
 }
@@ -78,9 +88,13 @@ pub fn route_key(model: &mut Model, chord: KeyChord) -> Vec<Effect> {
         return stop(model);
     }
     if let Some(popup) = &model.popup {
-        return match model.keymap.lookup(popup.mode(), &chord) {
-            Some(action) => popup_action(model, action),
-            None => Vec::new(),
+        return match (model.keymap.lookup(popup.mode(), &chord), popup) {
+            (Some(action), _) => popup_action(model, action),
+            (None, Popup::Editor(editor::dialog::Dialog::Form(_))) => match chord.typed_char() {
+                Some(c) => editor::update::form_char(model, c),
+                None => Vec::new(),
+            },
+            (None, _) => Vec::new(),
         };
     }
     let focus = model.focus;
@@ -92,6 +106,11 @@ pub fn route_key(model: &mut Model, chord: KeyChord) -> Vec<Effect> {
     {
         model.command.insert(c);
         return Vec::new();
+    }
+    if focus == PanelId::Editor
+        && let Some(c) = chord.typed_char()
+    {
+        return editor::update::type_char(model, c);
     }
     match model.keymap.lookup(Mode::Main, &chord) {
         Some(action) => main_action(model, action),
@@ -112,6 +131,10 @@ fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
     match action {
         Action::Stop => stop(model),
         Action::Quit => {
+            // Unsaved edits ask first.
+            if let Some(effects) = editor::update::before_quit(model) {
+                return effects;
+            }
             model.quitting = true;
             vec![Effect::Stop, Effect::Quit]
         }
@@ -187,8 +210,10 @@ fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
             model.traffic.show_polls = !model.traffic.show_polls;
             Vec::new()
         }
-        // Actions of other modes never reach here (the keymap refuses them).
-        _ => Vec::new(),
+        // The program editor's actions on the main screen (teach-in,
+        // upload, run); actions of other modes never reach here (the
+        // keymap refuses them).
+        other => editor::update::main_action(model, other).unwrap_or_default(),
     }
 }
 
@@ -215,6 +240,9 @@ fn popup_action(model: &mut Model, action: Action) -> Vec<Effect> {
         (Some(Popup::Confirm(c)), Action::Cancel) => {
             say(model, NoteLevel::Info, format!("{}: cancelled", c.title));
             Vec::new()
+        }
+        (Some(Popup::Editor(dialog)), action) => {
+            editor::update::dialog_action(model, dialog, action)
         }
         (Some(Popup::Help { .. }), Action::Close) => Vec::new(),
         (Some(Popup::Help { scroll }), scroll_action) => {
@@ -244,6 +272,7 @@ fn panel_action(model: &mut Model, panel: PanelId, action: Action) -> Vec<Effect
         PanelId::Io => io_action(model, action),
         PanelId::Console => console_action(model, action),
         PanelId::Sim => sim_action(model, action),
+        PanelId::Editor => editor::update::action(model, action),
     }
 }
 
@@ -377,28 +406,14 @@ fn device_event(model: &mut Model, event: Event) {
         ),
         Event::JogEnded { end, .. } => jog_ended(model, end),
         Event::Upload(upload) => {
-            let text = match &upload {
-                UploadEvent::Finished { total, elapsed } => Some((
-                    NoteLevel::Info,
-                    format!(
-                        "upload finished: {total} lines in {:.1} s",
-                        elapsed.as_secs_f64()
-                    ),
-                )),
-                UploadEvent::Failed { line, fault } => Some((
-                    NoteLevel::Danger,
-                    format!("upload failed at line {}: {}", line + 1, fault_text(fault)),
-                )),
-                UploadEvent::Aborted { done, reason } => Some((
-                    NoteLevel::Danger,
-                    format!(
-                        "upload aborted after {done} lines: {reason}; the controller holds a partial program"
-                    ),
-                )),
-                UploadEvent::Started { .. } | UploadEvent::Progress { .. } => None,
-            };
-            if let Some((level, text)) = text {
-                say(model, level, text);
+            // The editor knows which line each uploaded command came from.
+            if let Some(report) = editor::update::upload_event(model, &upload) {
+                let level = if report.danger {
+                    NoteLevel::Danger
+                } else {
+                    NoteLevel::Info
+                };
+                say(model, level, report.text);
             }
             model.upload = Some(upload);
         }
@@ -489,7 +504,7 @@ pub fn fault_text(f: &ControllerFault) -> String {
 }
 
 /// Show a message in the message line and keep it in the console.
-fn say(model: &mut Model, level: NoteLevel, text: String) {
+pub(crate) fn say(model: &mut Model, level: NoteLevel, text: String) {
     model.traffic.note(LineKind::Note(level), text.clone());
     model.message = Some(Message {
         at: model.now,
