@@ -67,6 +67,10 @@ Examples:
 pub struct Cli {
     #[command(flatten)]
     pub global: GlobalArgs,
+    /// Open this isel program or EMCU job in the console's program editor (the console
+    /// only; unsaved edits of earlier sessions are offered back in any case)
+    #[arg(long, value_name = "FILE")]
+    pub program: Option<PathBuf>,
     #[command(subcommand)]
     pub command: Option<CliCommand>,
 }
@@ -124,6 +128,10 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     if let Some(path) = &cli.global.log {
         start_log(path)?;
     }
+    if cli.program.is_some() && cli.command.is_some() {
+        eprintln!("jogterm: error: --program belongs to the console, not to a command");
+        return Ok(ExitCode::from(2));
+    }
     match &cli.command {
         Some(CliCommand::Sim(args)) => {
             sim::run(&cli.global, args)?;
@@ -133,7 +141,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Some(CliCommand::Poll(args)) => poll::run(&cli.global, args),
         Some(CliCommand::Check(args)) => check::run(&cli.global, args),
         Some(CliCommand::Arc(args)) => arc::run(args),
-        None => tui::run(&cli.global),
+        None => tui::run(&cli.global, cli.program.as_deref()),
     }
 }
 

@@ -19,7 +19,6 @@ use crate::device::describe::describe;
 use crate::sim::InputControl;
 use crate::sim::shell::ShellControl;
 
-use super::editor::io::perform;
 use super::editor::worker::EditorWorker;
 use super::model::Model;
 use super::msg::{Effect, Msg};
@@ -122,8 +121,6 @@ pub async fn run<B: Backend, D: DeviceLink>(
             run_emergency();
         }
         let effects = update(model, msg);
-        // On the way out files are written here and now (a last recovery,
-        // a save before quitting), in order, before the device closes.
         let leaving = effects.iter().any(|e| matches!(e, Effect::Quit));
         let mut quit = false;
         for effect in effects {
@@ -144,11 +141,10 @@ pub async fn run<B: Backend, D: DeviceLink>(
                     }
                 }
                 Effect::Simulator(control) => simulate(simulator.clone(), control, sim_tx.clone()),
-                Effect::Editor(io) if leaving => {
-                    if !matches!(io, crate::ui::editor::io::EditorIo::Lint(_)) {
-                        let _ = perform(io);
-                    }
-                }
+                // On the way out no lint is started; files go through the
+                // file thread like every other request, so they are done in
+                // the order asked (`finish_files` waits for them).
+                Effect::Editor(crate::ui::editor::io::EditorIo::Lint(_)) if leaving => {}
                 Effect::Editor(io) => worker.submit(io),
                 Effect::Quit => quit = true,
             }

@@ -1366,6 +1366,15 @@ fn saved(
                     origin: old_origin,
                 }));
             }
+            // Saved as it stands: its recovery goes now, not at the next
+            // tick (a quit may follow at once).
+            if !model.editor.modified()
+                && let Some(store) = model.editor.store.clone()
+                && let Some((_, origin)) = model.editor.file.recovered.take()
+            {
+                model.editor.file.recovery_due = None;
+                effects.push(Effect::Editor(EditorIo::RemoveRecovery { store, origin }));
+            }
             let lines = model.editor.buffer.line_count();
             say(
                 model,
