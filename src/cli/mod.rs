@@ -4,10 +4,10 @@
 //! the root and may be given before or after the command; each command
 //! uses the ones that mean something to it and says so in its help. Without
 //! a command jogterm runs the console (`tui`); the commands are `sim`,
-//! `send`, `poll`, `check` and `arc`; `upload` is added by later work.
+//! `send`, `poll`, `check`, `arc` and `upload`.
 //!
 //! Exit codes: 0 ok, 1 failure (a message on stderr), 2 bad usage (clap, and
-//! the console's configuration errors); `send` and `poll` add 3 for a link
+//! the console's configuration errors); `send`, `poll` and `upload` add 3 for a link
 //! failure.
 
 pub mod arc;
@@ -18,6 +18,7 @@ pub mod send;
 mod session;
 pub mod sim;
 pub mod tui;
+pub mod upload;
 
 use std::fs::OpenOptions;
 use std::path::PathBuf;
@@ -44,7 +45,7 @@ path. Without --profile the shipped `default` profile is used: the isel simulato
 
 const AFTER_LONG_HELP: &str = "\
 Exit status: 0 ok, 1 failure (the reason on stderr), 2 bad usage, 3 link failure
-(send, poll).
+(send, poll, upload).
 
 Examples:
   jogterm sim --protocol isel --pty            serve the isel simulator on a new pty
@@ -53,7 +54,9 @@ Examples:
   jogterm send --port /tmp/isel '@07' '@0P'    send commands, print the replies
   jogterm poll --port /tmp/isel --count 5      read the position five times
   jogterm check drill.isel                     check a CNC program for the default machine
-  jogterm arc --radius 200 --start 135 --end 225 --ccw --speed 1500";
+  jogterm arc --radius 200 --start 135 --end 225 --ccw --speed 1500
+  jogterm upload drill.isel --port /tmp/isel --erase --start
+  jogterm --program drill.isel                 the console, with the program in its editor";
 
 /// `jogterm`: the global options and the command.
 #[derive(Debug, Parser)]
@@ -121,6 +124,9 @@ pub enum CliCommand {
     /// Print the isel commands of a circular arc or a helix
     #[command(long_about = arc::LONG_ABOUT, after_long_help = arc::AFTER_LONG_HELP)]
     Arc(arc::ArcArgs),
+    /// Store a program in the controller (checked first), with progress; --start runs it
+    #[command(long_about = upload::LONG_ABOUT, after_long_help = upload::AFTER_LONG_HELP)]
+    Upload(upload::UploadArgs),
 }
 
 /// Run what the command line asks for.
@@ -141,6 +147,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Some(CliCommand::Poll(args)) => poll::run(&cli.global, args),
         Some(CliCommand::Check(args)) => check::run(&cli.global, args),
         Some(CliCommand::Arc(args)) => arc::run(args),
+        Some(CliCommand::Upload(args)) => upload::run(&cli.global, args),
         None => tui::run(&cli.global, cli.program.as_deref()),
     }
 }
