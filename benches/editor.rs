@@ -9,7 +9,8 @@
 //!   runs on its own thread; its time is shown for reference).
 //!
 //! Run: `cargo bench --bench editor` (optimised) or `cargo test --bench
-//! editor` (debug build); `-- --quick` for a shorter run.
+//! editor` (debug build); `-- --quick` for a shorter run, `-- --frames` for
+//! the frames alone (e.g. under a profiler).
 
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -23,6 +24,7 @@ use jogterm::program::store::{Fingerprint, Loaded};
 use jogterm::proto::Protocol;
 use jogterm::sim::registry;
 use jogterm::sim::shell::serve_socket;
+use jogterm::traffic::Direction;
 use jogterm::transport::PortSpec;
 use jogterm::ui::editor::io::{EditorIo, EditorMsg};
 use jogterm::ui::keymap::Keymap;
@@ -55,9 +57,16 @@ fn wire_limit(lines: &[String], line: LineSettings) -> f64 {
     bytes as f64 / line.bytes_per_second()
 }
 
-/// Upload `lines` through the device task to the simulator; the time from
-/// `Started` to `Finished`.
-async fn upload(lines: Vec<String>) -> Duration {
+/// How an upload went: the time from `Started` to `Finished`, and the
+/// median time jogterm took from a reply to the next line (from the device
+/// task's traffic records).
+struct Uploaded {
+    took: Duration,
+    turnaround: Duration,
+}
+
+/// Upload `lines` through the device task to the simulator.
+async fn upload(lines: Vec<String>) -> Uploaded {
     let mut settings = IselSettings::from_profile(&profile()).expect("settings");
     settings.poll.rate = PollRate::Off;
     let device = registry::build(Protocol::Isel, &profile()).expect("simulator");
@@ -90,13 +99,25 @@ async fn upload(lines: Vec<String>) -> Duration {
         })
         .expect("upload");
     let mut started = None;
+    let mut last_reply: Option<std::time::SystemTime> = None;
+    let mut turnarounds = Vec::new();
     let took = loop {
         match events.recv().await {
+            Some(Event::Traffic(record)) if started.is_some() => match record.direction {
+                Direction::Received => last_reply = Some(record.at),
+                Direction::Sent => {
+                    if let Some(reply) = last_reply.take() {
+                        turnarounds.extend(record.at.duration_since(reply).ok());
+                    }
+                }
+            },
             Some(Event::Upload(UploadEvent::Started { .. })) => started = Some(Instant::now()),
             Some(Event::Upload(UploadEvent::Finished { .. })) => {
                 break started.map_or(Duration::ZERO, |s| s.elapsed());
             }
-            Some(Event::Upload(other @ (UploadEvent::Failed { .. } | UploadEvent::Aborted { .. }))) => {
+            Some(Event::Upload(
+                other @ (UploadEvent::Failed { .. } | UploadEvent::Aborted { .. }),
+            )) => {
                 panic!("{other:?}")
             }
             Some(Event::Refused { reason, .. }) => panic!("refused: {reason}"),
@@ -106,7 +127,11 @@ async fn upload(lines: Vec<String>) -> Duration {
     };
     handle.shutdown().await;
     shell.shutdown();
-    took
+    turnarounds.sort();
+    Uploaded {
+        took,
+        turnaround: percentile(&turnarounds, 0.5),
+    }
 }
 
 fn key(code: KeyCode) -> Msg {
@@ -125,7 +150,10 @@ fn editing(n: usize) -> Model {
         t0,
     );
     let text = program(n).join("\n");
-    update(&mut m, Msg::Editor(EditorMsg::Open(PathBuf::from("/bench.isel"))));
+    update(
+        &mut m,
+        Msg::Editor(EditorMsg::Open(PathBuf::from("/bench.isel"))),
+    );
     let effects = update(
         &mut m,
         Msg::Editor(EditorMsg::Loaded {
@@ -172,17 +200,35 @@ fn main() {
         .expect("runtime");
     let line = LineSettings::new(19200);
 
+    let frames_only = std::env::args().any(|a| a == "--frames");
     let lines = program(1000);
     let limit = wire_limit(&lines, line);
-    let took = runtime.block_on(upload(lines));
-    let share = 100.0 * limit / took.as_secs_f64();
+    if !frames_only {
+        upload_rate(&runtime, lines, limit);
+    }
+    frame_times(quick);
+}
+
+fn upload_rate(runtime: &tokio::runtime::Runtime, lines: Vec<String>, limit: f64) {
+    let per_line = limit / 1000.0;
+    let up = runtime.block_on(upload(lines));
+    let share = 100.0 * limit / up.took.as_secs_f64();
     println!(
         "upload 1000 commands at 19200 baud: {:.2} s, wire limit {limit:.2} s: {share:.1} % \
          (target >= 95 %) {}",
-        took.as_secs_f64(),
+        up.took.as_secs_f64(),
         if share >= 95.0 { "ok" } else { "MISSED" }
     );
+    let own = up.turnaround.as_secs_f64();
+    println!(
+        "  jogterm's turnaround (reply to next line), median {:.3} ms: {:.1} % of the wire \
+         limit if it were the only overhead; the rest is the simulator's and the scheduler's",
+        own * 1e3,
+        100.0 * per_line / (per_line + own)
+    );
+}
 
+fn frame_times(quick: bool) {
     let mut m = editing(10_000);
     let mut terminal = Terminal::new(TestBackend::new(160, 48)).expect("terminal");
     let keys = if quick { 100 } else { 400 };
@@ -193,10 +239,16 @@ fn main() {
         update(&mut m, key(KeyCode::Down));
     }
     let t0 = m.now;
+    let mut updates = Vec::with_capacity(keys);
     for i in 0..keys {
         let t = Instant::now();
-        let c = if i % 40 == 39 { KeyCode::Enter } else { KeyCode::Char(';') };
+        let c = if i % 40 == 39 {
+            KeyCode::Enter
+        } else {
+            KeyCode::Char(';')
+        };
         update(&mut m, key(c));
+        updates.push(t.elapsed());
         terminal
             .draw(|f| f.render_widget(Screen(&m), f.area()))
             .expect("draw");
@@ -209,7 +261,22 @@ fn main() {
         }
     }
     frames.sort();
+    updates.sort();
     lints.sort();
+    // The same frame without the toolpath preview (F9 to off).
+    let mut bare = Vec::new();
+    for _ in 0..3 {
+        update(&mut m, key(KeyCode::F(9)));
+    }
+    for _ in 0..keys.min(100) {
+        let t = Instant::now();
+        update(&mut m, key(KeyCode::Char(';')));
+        terminal
+            .draw(|f| f.render_widget(Screen(&m), f.area()))
+            .expect("draw");
+        bare.push(t.elapsed());
+    }
+    bare.sort();
     let worst = frames.last().copied().unwrap_or_default();
     println!(
         "typing into 10 000 lines at 160x48: frame (update + render) median {:.2} ms, \
@@ -222,6 +289,14 @@ fn main() {
         } else {
             "MISSED"
         }
+    );
+    println!(
+        "  of which update median {:.2} ms, worst {:.2} ms; without the preview: frame median \
+         {:.2} ms, worst {:.2} ms",
+        percentile(&updates, 0.5).as_secs_f64() * 1e3,
+        updates.last().copied().unwrap_or_default().as_secs_f64() * 1e3,
+        percentile(&bare, 0.5).as_secs_f64() * 1e3,
+        bare.last().copied().unwrap_or_default().as_secs_f64() * 1e3,
     );
     println!(
         "lint + toolpath of 10 000 lines (lint thread): median {:.1} ms, worst {:.1} ms",

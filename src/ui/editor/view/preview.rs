@@ -22,15 +22,6 @@ use crate::ui::position::format_units;
 use crate::ui::view::flow::fit;
 use crate::ui::view::frame;
 
-/// One segment as drawn in a plane.
-struct Polyline {
-    /// A reference run (drawn dim).
-    reference: bool,
-    /// From the line under the cursor (highlighted).
-    here: bool,
-    points: Vec<(f64, f64)>,
-}
-
 /// Rows a plane needs to be worth drawing.
 const MIN_ROWS: u16 = 6;
 
@@ -75,36 +66,55 @@ fn units(model: &Model, axis: Axis, steps: f64) -> f64 {
         .map_or(steps, |p| steps / p.steps_per_unit)
 }
 
-/// Points along a segment in steps of X, Y, Z, A: the ends of a line,
-/// enough points of an arc that it looks round.
-fn points(segment: &Segment) -> Vec<[f64; 4]> {
+/// Visit the points along a segment in steps of X, Y, Z, A: the ends of a
+/// line, enough points of an arc that it looks round. No allocation: the
+/// preview visits every segment of the program every frame.
+fn for_points(segment: &Segment, mut visit: impl FnMut([f64; 4])) {
     let from = segment.from.map(|v| v as f64);
     let to = segment.to.map(|v| v as f64);
     let arc = match &segment.kind {
         SegmentKind::Arc(arc) | SegmentKind::Helix { arc, .. } => arc,
-        _ => return vec![from, to],
+        _ => {
+            visit(from);
+            visit(to);
+            return;
+        }
     };
     let (a1, a2) = arc.plane.axes();
     let n = ((arc.geometry.sweep.abs() / std::f64::consts::TAU) * 64.0)
         .ceil()
         .clamp(4.0, 64.0) as usize;
-    (0..=n)
-        .map(|i| {
-            let t = i as f64 / n as f64;
-            let (u, v) = arc.geometry.point_at(t);
-            let mut p: [f64; 4] = std::array::from_fn(|k| {
-                from.get(k).copied().unwrap_or(0.0)
-                    + (to.get(k).copied().unwrap_or(0.0) - from.get(k).copied().unwrap_or(0.0)) * t
-            });
-            if let Some(c) = p.get_mut(a1.index()) {
-                *c = arc.centre.0 as f64 + u;
-            }
-            if let Some(c) = p.get_mut(a2.index()) {
-                *c = arc.centre.1 as f64 + v;
-            }
-            p
-        })
-        .collect()
+    for i in 0..=n {
+        let t = i as f64 / n as f64;
+        let (u, v) = arc.geometry.point_at(t);
+        let mut p: [f64; 4] = std::array::from_fn(|k| {
+            from.get(k).copied().unwrap_or(0.0)
+                + (to.get(k).copied().unwrap_or(0.0) - from.get(k).copied().unwrap_or(0.0)) * t
+        });
+        if let Some(c) = p.get_mut(a1.index()) {
+            *c = arc.centre.0 as f64 + u;
+        }
+        if let Some(c) = p.get_mut(a2.index()) {
+            *c = arc.centre.1 as f64 + v;
+        }
+        visit(p);
+    }
+}
+
+/// Visit the strokes of a segment in a plane: `(from, to)` pairs.
+fn for_strokes(
+    segment: &Segment,
+    coord: &impl Fn(&[f64; 4]) -> (f64, f64),
+    mut visit: impl FnMut((f64, f64), (f64, f64)),
+) {
+    let mut last: Option<(f64, f64)> = None;
+    for_points(segment, |p| {
+        let here = coord(&p);
+        if let Some(before) = last {
+            visit(before, here);
+        }
+        last = Some(here);
+    });
 }
 
 /// Bounds with equal units per dot on both axes, everything in view.
@@ -224,16 +234,8 @@ fn plane(
         };
         (x, y)
     };
-    let polylines: Vec<Polyline> = path
-        .segments
-        .iter()
-        .filter(|s| !matches!(s.kind, SegmentKind::SimulatedReference(_)))
-        .map(|s| Polyline {
-            reference: matches!(s.kind, SegmentKind::Reference(_)),
-            here: s.line == model.editor.buffer.cursor().line,
-            points: points(s).iter().map(coord).collect(),
-        })
-        .collect();
+    let drawn = |s: &&Segment| !matches!(s.kind, SegmentKind::SimulatedReference(_));
+    let cursor_line = model.editor.buffer.cursor().line;
     let start = coord(&path.start.map(|v| v as f64));
     let end = coord(&path.end.map(|v| v as f64));
     let limit = |axis: Axis| model.setup.axis(axis).map(|prof| (prof.min, prof.max));
@@ -246,10 +248,11 @@ fn plane(
             hi = [hi[0].max(x), hi[1].max(y)];
         }
     };
-    for line in &polylines {
-        for (x, y) in &line.points {
-            take(*x, *y);
-        }
+    for segment in path.segments.iter().filter(drawn) {
+        for_points(segment, |p| {
+            let (x, y) = coord(&p);
+            take(x, y);
+        });
     }
     if let (Some((h0, h1)), Some((v0, v1))) = (hl, vl) {
         take(h0, v0);
@@ -287,23 +290,33 @@ fn plane(
                 });
             }
             ctx.layer();
-            for line in polylines.iter().filter(|l| !l.here) {
-                let c = if line.reference { dim_c } else { path_c };
-                for w in line.points.windows(2) {
-                    if let [a, b] = w {
-                        ctx.draw(&Line::new(a.0, a.1, b.0, b.1, c));
-                    }
+            for segment in path.segments.iter().filter(drawn) {
+                if segment.line == cursor_line {
+                    continue;
                 }
+                let c = if matches!(segment.kind, SegmentKind::Reference(_)) {
+                    dim_c
+                } else {
+                    path_c
+                };
+                for_strokes(segment, &coord, |a, b| {
+                    ctx.draw(&Line::new(a.0, a.1, b.0, b.1, c));
+                });
             }
             ctx.layer();
             // The cursor's line on top, and marked for themes without colour.
-            for line in polylines.iter().filter(|l| l.here) {
-                for w in line.points.windows(2) {
-                    if let [a, b] = w {
-                        ctx.draw(&Line::new(a.0, a.1, b.0, b.1, here_c));
-                    }
-                }
-                if let Some(last) = line.points.last() {
+            for segment in path
+                .segments
+                .iter()
+                .filter(drawn)
+                .filter(|s| s.line == cursor_line)
+            {
+                let mut last = None;
+                for_strokes(segment, &coord, |a, b| {
+                    ctx.draw(&Line::new(a.0, a.1, b.0, b.1, here_c));
+                    last = Some(b);
+                });
+                if let Some(last) = last {
                     ctx.print(last.0, last.1, TextLine::styled("*", p.warning));
                 }
             }
