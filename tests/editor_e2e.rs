@@ -126,3 +126,164 @@ fn quitting_with_unsaved_edits_asks_first() {
     );
     assert!(recoveries(&state).is_empty(), "{:?}", recoveries(&state));
 }
+
+#[test]
+fn a_hang_up_writes_the_last_edits_before_leaving() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let config = dir.path().join("config");
+    let state = dir.path().join("state");
+    fs::create_dir_all(&config).expect("config dir");
+    let file = dir.path().join("hup.isel");
+    fs::write(&file, PROGRAM).expect("write the program");
+    let file_arg = file.display().to_string();
+
+    let mut run = spawn(&["--program", &file_arg], &config, &state);
+    wait_for(&run, "hup.isel");
+    run.send(b";\tfirst\r");
+    wait_for(&run, "first");
+    wait_until("the recovery file", || !recoveries(&state).is_empty());
+    // Within the autosave interval of the first write: only the hang-up
+    // path can have written this one.
+    run.send(b";\tlast-words\r");
+    wait_for(&run, "last-words");
+    run.close_master();
+    assert!(run.wait_exit(WAIT).is_some(), "jogterm did not leave");
+    let kept: Vec<String> = recoveries(&state)
+        .iter()
+        .map(|n| fs::read_to_string(state.join("recovery").join(n)).unwrap_or_default())
+        .collect();
+    assert!(kept.iter().any(|t| t.contains("last-words")), "{kept:?}");
+    assert_eq!(fs::read_to_string(&file).expect("read"), PROGRAM);
+}
+
+/// `jogterm sim --pty` with its stdin kept open (a closed stdin ends it).
+struct Sim {
+    child: std::process::Child,
+    _stdin: std::process::ChildStdin,
+    path: String,
+}
+
+impl Drop for Sim {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn isel_sim(config: &Path) -> Sim {
+    use std::io::BufRead;
+    let mut child = std::process::Command::new(JOGTERM)
+        .args(["sim", "--pty", "--protocol", "isel"])
+        .env("JOGTERM_CONFIG_DIR", config)
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .expect("start jogterm sim");
+    let mut lines = std::io::BufReader::new(child.stdout.take().expect("stdout"));
+    let mut path = String::new();
+    lines.read_line(&mut path).expect("the simulator's path");
+    std::thread::spawn(move || {
+        let mut line = String::new();
+        while lines.read_line(&mut line).is_ok_and(|n| n > 0) {
+            line.clear();
+        }
+    });
+    let stdin = child.stdin.take().expect("stdin");
+    Sim {
+        child,
+        _stdin: stdin,
+        path: path.trim().to_string(),
+    }
+}
+
+/// A loop and a branch; referenced, the path ends at X 3200, Y 1800, Z 400
+/// steps (`tests/cli_upload.rs` checks the same against `program::path`).
+const LOOP_AND_BRANCH: &str = "\
+; a loop and a branch
+j300
+J100
+m2000,4000,1000,4000,400,4000,0,4000
+0 400,4000,0,4000,0,4000,0,4000
+3 2,-1
+o0,0,1,2
+0 0,4000,800,4000,0,4000,0,4000
+3 0,2
+0 4000,4000,0,4000,0,4000,0,4000
+9
+";
+
+#[test]
+fn edit_upload_and_run_on_the_simulator_end_where_the_preview_said() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let config = dir.path().join("config");
+    let state = dir.path().join("state");
+    fs::create_dir_all(&config).expect("config dir");
+    let sim = isel_sim(&config);
+    // The program arrives with a typo the editor shows and the operator fixes.
+    let file = dir.path().join("loop.isel");
+    fs::write(&file, LOOP_AND_BRANCH.replace("3 2,-1", "3 2,-1,7")).expect("write");
+    let file_arg = file.display().to_string();
+    let mut run = spawn(
+        &[
+            "--port",
+            &sim.path,
+            "--protocol",
+            "isel",
+            "--program",
+            &file_arg,
+        ],
+        &config,
+        &state,
+    );
+    wait_for(&run, "connected");
+    wait_for(&run, " 1 E ");
+    // F5 is refused while the error is there, and the cursor goes to it.
+    run.send(b"\x1b[15~");
+    wait_for(&run, "upload refused");
+    // End of the line, take back the `,7`, save.
+    run.send(b"\x1b[F\x7f\x7f\x13");
+    wait_until("the save", || {
+        fs::read_to_string(&file).is_ok_and(|t| t == LOOP_AND_BRANCH)
+    });
+    // The machine screen: initialise, reference (asks), back to the editor.
+    run.send(b"\x1bOS");
+    wait_for(&run, "Position");
+    run.send(b"i");
+    wait_for(&run, "NOT REF");
+    run.send(b"h");
+    run.send(b"y");
+    wait_for(&run, "READY");
+    run.send(b"e");
+    wait_for(&run, "Toolpath ends X");
+    // Upload, then run (asks first).
+    run.send(b"\x1b[15~");
+    wait_for(&run, "upload finished: 10 commands stored");
+    run.send(b"\x1b[17~");
+    wait_for(&run, "Run the program");
+    run.send(b"y");
+    wait_for(&run, "program has ended");
+    // The machine screen shows where it stands, in steps.
+    run.send(b"\x1bOS");
+    wait_for(&run, "Position");
+    // `X⌂    8.000 mm    8.000    3200 …`: work, unit, machine, steps.
+    let steps = |screen: &str, axis: &str| -> Option<String> {
+        screen
+            .lines()
+            .find(|l| l.trim_start().starts_with(axis))
+            .and_then(|l| l.split_whitespace().nth(4).map(str::to_string))
+    };
+    // The position read at the program's end may be a frame behind.
+    let end = Instant::now() + WAIT;
+    loop {
+        let screen = run.screen().screen().contents();
+        let at = ["X", "Y", "Z"].map(|a| steps(&screen, a));
+        if at == [Some("3200".into()), Some("1800".into()), Some("400".into())] {
+            break;
+        }
+        assert!(Instant::now() < end, "{at:?}\n{screen}");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    run.send(b"q");
+    assert_eq!(run.wait_exit(WAIT), Some(0));
+}
