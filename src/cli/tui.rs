@@ -103,7 +103,7 @@ pub fn run(global: &GlobalArgs, program: Option<&Path>) -> anyhow::Result<ExitCo
 /// The built-in simulator a session runs on, and its inputs.
 struct Simulator {
     shell: Shell,
-    inputs: Vec<String>,
+    inputs: Vec<(String, Option<bool>)>,
 }
 
 /// The line to the controller: the built-in simulator of the profile's
@@ -122,10 +122,10 @@ fn open_line(profile: &Profile) -> anyhow::Result<(PortSpec, Option<Simulator>)>
         serve_socket(device).with_context(|| format!("starting the {protocol} simulator"))?;
     let inputs = shell
         .control()
-        .input_names()
+        .input_levels()
         .with_context(|| format!("asking the {protocol} simulator for its inputs"))?
         .into_iter()
-        .map(str::to_string)
+        .map(|(name, level)| (name.to_string(), level))
         .collect();
     let spec = PortSpec::InProcess {
         stream,
@@ -241,11 +241,14 @@ async fn in_terminal(
     simulator: Option<ShellControl>,
     program: Option<&Path>,
 ) -> anyhow::Result<()> {
-    let (_guard, mut terminal) =
+    let (guard, mut terminal) =
         TerminalGuard::enter(TerminalOptions::from_env()).context("taking the terminal")?;
     if let Ok(size) = terminal.size() {
         model.size = (size.width, size.height);
     }
+    // With the kitty keyboard protocol a key release stops a held jog at
+    // once; without it the missing key repeat does (`docs/jogging.md`).
+    model.keypad.set_releases(guard.reports_key_releases());
     let (tx, mut rx) = mpsc::unbounded_channel();
     // The editor's first work: look for edits an earlier session left,
     // then open the command line's program (which may have some of them).

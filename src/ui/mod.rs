@@ -8,7 +8,8 @@
 //!
 //! The state behind the panels lives in small modules of its own
 //! ([`position`], [`io`], [`traffic_log`], [`line_edit`], [`sim_panel`],
-//! and the program [`editor`] with its own screen);
+//! [`jog`] for the jog keypad, and the program [`editor`] with its own
+//! screen);
 //! [`raw`] checks typed commands with each family's parser.
 //!
 //! Around it: [`terminal`] owns the terminal (restored on drop, error and
@@ -19,6 +20,7 @@ pub mod editor;
 pub mod help;
 pub mod input;
 pub mod io;
+pub mod jog;
 pub mod key;
 pub mod keymap;
 pub mod line_edit;

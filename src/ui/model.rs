@@ -8,12 +8,16 @@ use crate::axis::{Axis, AxisSet};
 use crate::config::Profile;
 use crate::config::profile::AxisProfile;
 use crate::device::api::{LinkState, MachineState, PollStats, UploadEvent};
+use crate::jog::JogSettings;
 use crate::proto::Protocol;
 use crate::wire::LineSettings;
 
 use super::editor::Editor;
 use super::editor::dialog::Dialog;
 use super::io::IoPanel;
+use super::jog::Keypad;
+use super::jog::axes::AxisChoice;
+use super::jog::goto::GoToPrompt;
 use super::keymap::{Keymap, Mode};
 use super::line_edit::LineEdit;
 use super::msg::Effect;
@@ -42,12 +46,18 @@ pub struct Setup {
     /// The step and speed selected at start.
     pub jog_start: JogSelection,
     pub isel_device: u8,
-    /// The built-in simulator's input names, when the session runs on one.
-    pub simulator_inputs: Option<Vec<String>>,
+    /// The built-in simulator's inputs with their levels at start (`None`
+    /// where the simulator does not say), when the session runs on one.
+    pub simulator_inputs: Option<Vec<(String, Option<bool>)>>,
+    /// Everything jogging needs from the profile (`crate::jog`).
+    pub jog: JogSettings,
 }
 
 impl Setup {
-    pub fn from_profile(profile: &Profile, simulator_inputs: Option<Vec<String>>) -> Self {
+    pub fn from_profile(
+        profile: &Profile,
+        simulator_inputs: Option<Vec<(String, Option<bool>)>>,
+    ) -> Self {
         Setup {
             protocol: profile.connection.protocol,
             port: profile.connection.port.clone(),
@@ -61,6 +71,7 @@ impl Setup {
             },
             isel_device: profile.isel.device,
             simulator_inputs,
+            jog: JogSettings::from_profile(profile),
         }
     }
 
@@ -77,10 +88,11 @@ impl Setup {
     }
 }
 
-/// The panels that can have focus. The jog keypad (issue 6) joins this
-/// list.
+/// The panels that can have focus.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum PanelId {
+    /// The jog keypad; focused at start.
+    Jog,
     Io,
     Console,
     Sim,
@@ -93,6 +105,7 @@ impl PanelId {
     /// The keymap mode while the panel has focus.
     pub fn mode(self) -> Mode {
         match self {
+            PanelId::Jog => Mode::Jog,
             PanelId::Io => Mode::Io,
             PanelId::Console => Mode::Console,
             PanelId::Sim => Mode::Sim,
@@ -117,6 +130,10 @@ pub enum Popup {
     Confirm(Confirmation),
     /// A form or question of the program editor.
     Editor(Dialog),
+    /// A position to go to, typed.
+    GoTo(GoToPrompt),
+    /// An axis for a reference run or a work zero.
+    Axes(AxisChoice),
 }
 
 impl Popup {
@@ -125,6 +142,8 @@ impl Popup {
             Popup::Help { .. } => Mode::Help,
             Popup::Confirm(_) => Mode::Confirm,
             Popup::Editor(dialog) => dialog.mode(),
+            Popup::GoTo(_) => Mode::GoTo,
+            Popup::Axes(_) => Mode::Axes,
         }
     }
 }
@@ -162,6 +181,8 @@ pub struct Model {
     pub message: Option<Message>,
     pub upload: Option<UploadEvent>,
     pub jog: JogSelection,
+    /// The jog keypad: jogging state, homing progress.
+    pub keypad: Keypad,
     pub focus: PanelId,
     pub popup: Option<Popup>,
     /// The program being edited (`docs/editor.md`).
@@ -178,7 +199,7 @@ impl Model {
         let sim = setup
             .simulator_inputs
             .as_ref()
-            .map(|names| SimPanel::new(names));
+            .map(|inputs| SimPanel::new(inputs));
         let jog = JogSelection {
             step: setup
                 .jog_start
@@ -192,6 +213,7 @@ impl Model {
         Model {
             editor: Editor::new(&setup, now),
             traffic: TrafficLog::new(setup.protocol),
+            keypad: Keypad::new(setup.jog.clone()),
             setup,
             keymap,
             palette,
@@ -206,7 +228,7 @@ impl Model {
             message: None,
             upload: None,
             jog,
-            focus: PanelId::Io,
+            focus: PanelId::Jog,
             popup: None,
             size: (80, 24),
             dirty: true,
@@ -216,7 +238,7 @@ impl Model {
 
     /// The panels Tab cycles through, in order.
     pub fn focus_ring(&self) -> Vec<PanelId> {
-        let mut ring = vec![PanelId::Io, PanelId::Console];
+        let mut ring = vec![PanelId::Jog, PanelId::Io, PanelId::Console];
         if self.sim.is_some() {
             ring.push(PanelId::Sim);
         }

@@ -18,6 +18,7 @@ use ratatui::layout::Rect;
 use ratatui::widgets::Widget;
 
 use super::editor;
+use super::jog::view::{AxesView, GoToView, KeypadView};
 use super::model::{Model, PanelId, Popup};
 
 /// The whole screen.
@@ -46,25 +47,27 @@ impl Widget for Screen<'_> {
             Some(Popup::Editor(dialog)) => {
                 editor::view::dialog::DialogView { model, dialog }.render(area, buf)
             }
+            Some(Popup::GoTo(prompt)) => GoToView { model, prompt }.render(area, buf),
+            Some(Popup::Axes(choice)) => AxesView { model, choice }.render(area, buf),
             None => {}
         }
     }
 }
 
-/// The machine screen: position, ports, simulator inputs, traffic.
+/// The machine screen: position, jog keypad, ports, simulator inputs,
+/// traffic.
 fn machine_screen(model: &Model, area: Rect, buf: &mut Buffer) {
-    {
-        let a = layout::areas(model, area);
-        status::StatusBar(model).render(a.status, buf);
-        status::MessageLine(model).render(a.message, buf);
-        dro::DroView(model).render(a.dro, buf);
-        io::IoView(model).render(a.io, buf);
-        if let Some(sim_area) = a.sim {
-            sim::SimView(model).render(sim_area, buf);
-        }
-        console::ConsoleView(model).render(a.console, buf);
-        if let Some(hints) = a.hints {
-            status::Hints(model).render(hints, buf);
-        }
+    let a = layout::areas(model, area);
+    status::StatusBar(model).render(a.status, buf);
+    status::MessageLine(model).render(a.message, buf);
+    dro::DroView(model).render(a.dro, buf);
+    KeypadView(model).render(a.keypad, buf);
+    io::IoView(model).render(a.io, buf);
+    if let Some(sim_area) = a.sim {
+        sim::SimView(model).render(sim_area, buf);
+    }
+    console::ConsoleView(model).render(a.console, buf);
+    if let Some(hints) = a.hints {
+        status::Hints(model).render(hints, buf);
     }
 }
