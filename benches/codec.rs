@@ -254,18 +254,18 @@ fn main() {
         build_kind()
     );
     println!(
-        "| {:<52} | {:>5} | {:>12} | {:>8} | {:>8} | {:>10} |",
+        "| {:<54} | {:>5} | {:>12} | {:>8} | {:>8} | {:>10} |",
         "what", "bytes", "messages/s", "ns/msg", "MB/s", "x the wire"
     );
     println!(
-        "| {:-<52} | {:->5} | {:->12} | {:->8} | {:->8} | {:->10} |",
+        "| {:-<54} | {:->5} | {:->12} | {:->8} | {:->8} | {:->10} |",
         "", ":", ":", ":", ":", ":"
     );
     for r in rows.iter().filter(|r| r.what.contains(&filter)) {
         let per = r.timing.cpu.max(Duration::from_nanos(1)).as_secs_f64() / BATCH as f64;
         let rate = 1.0 / per;
         println!(
-            "| {:<52} | {:>5} | {:>12.0} | {:>8.1} | {:>8.1} | {:>10.0} |",
+            "| {:<54} | {:>5} | {:>12.0} | {:>8.1} | {:>8.1} | {:>10.0} |",
             r.what,
             r.len,
             rate,
