@@ -188,6 +188,28 @@ fn load_layered<T: DeserializeOwned>(
     Ok((value, sources))
 }
 
+/// Largest configuration file jogterm reads. Profiles and themes are a few
+/// KiB; the bound keeps a wrong path (`base = "/dev/zero"`, a log file) from
+/// filling memory before the error is reported.
+pub const MAX_FILE_BYTES: u64 = 1 << 20;
+
+/// The text of a configuration file, at most [`MAX_FILE_BYTES`].
+fn read_text(path: &Path) -> std::io::Result<String> {
+    use std::io::{Error, ErrorKind, Read};
+    let mut bytes = Vec::new();
+    std::fs::File::open(path)?
+        .take(MAX_FILE_BYTES + 1)
+        .read_to_end(&mut bytes)?;
+    if bytes.len() as u64 > MAX_FILE_BYTES {
+        return Err(Error::new(
+            ErrorKind::InvalidData,
+            format!("larger than {} KiB", MAX_FILE_BYTES / 1024),
+        ));
+    }
+    String::from_utf8(bytes)
+        .map_err(|_| Error::new(ErrorKind::InvalidData, "stream did not contain valid UTF-8"))
+}
+
 fn resolve(
     name: &str,
     kind: &Kind,
@@ -195,7 +217,7 @@ fn resolve(
     referrer: Option<&Source>,
 ) -> Result<Source, ConfigError> {
     let read = |path: &Path| -> Result<Source, ConfigError> {
-        std::fs::read_to_string(path)
+        read_text(path)
             .map(|text| Source {
                 origin: Origin::File(path.to_path_buf()),
                 text,

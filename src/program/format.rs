@@ -19,6 +19,7 @@ pub fn format(program: &Program) -> String {
             LineKind::Blank => {}
             LineKind::Comment(cols) => out.push_str(line.slice(cols.clone())),
             LineKind::Statement(s) => {
+                let code_start = out.len();
                 match &s.command {
                     // Writing to a String cannot fail.
                     Ok(command) => {
@@ -27,7 +28,13 @@ pub fn format(program: &Program) -> String {
                     Err(_) => out.push_str(line.slice(s.code.clone())),
                 }
                 if let Some(comment) = &s.comment {
-                    out.push(' ');
+                    // `#` and a blank start a whole-line comment
+                    // (`docs/programs.md`): a line that is just `#` and its
+                    // comment keeps them together, or it would read back as
+                    // a comment.
+                    if out.get(code_start..) != Some("#") {
+                        out.push(' ');
+                    }
                     out.push_str(line.slice(comment.clone()));
                 }
             }

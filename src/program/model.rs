@@ -332,11 +332,17 @@ impl Program {
         }
     }
 
-    /// The source text: every line as read, ended by LF.
+    /// The source text: every line as read, ended by LF, so that
+    /// [`Program::parse`] reads the same lines back. A line that itself ends
+    /// with a CR (read from `CR CR LF`) is ended by CR LF: the one CR before
+    /// an LF is taken as part of the line end ([`source::lines`]).
     pub fn text(&self) -> String {
-        let mut out = String::with_capacity(self.lines.iter().map(|l| l.text.len() + 1).sum());
+        let mut out = String::with_capacity(self.lines.iter().map(|l| l.text.len() + 2).sum());
         for line in &self.lines {
             out.push_str(&line.text);
+            if line.text.ends_with('\r') {
+                out.push('\r');
+            }
             out.push('\n');
         }
         out

@@ -1,0 +1,9 @@
+//! cargo-fuzz target: configuration loader: profile and theme files.
+//! The properties are in `tests/fuzz_checks`, shared with the proptest
+//! suites (`docs/fuzzing.md`).
+#![no_main]
+
+#[path = "../../tests/fuzz_checks/mod.rs"]
+mod fuzz_checks;
+
+libfuzzer_sys::fuzz_target!(|data: &[u8]| fuzz_checks::config::config(data));

@@ -1,0 +1,27 @@
+//! EMP: frame decoder, request and reply decoding, the correlator.
+//!
+//! Proptest engine of the fuzz suite (`docs/fuzzing.md`): inputs from
+//! `tests/fuzz_inputs`, properties from `tests/fuzz_checks` (the same ones the
+//! cargo-fuzz targets in `fuzz/` check). `JOGTERM_FUZZ_CASES` sets the number
+//! of cases.
+
+mod fuzz_checks;
+mod fuzz_inputs;
+
+use proptest::prelude::*;
+
+proptest! {
+    #![proptest_config(fuzz_inputs::config())]
+
+    #[test]
+    fn frames(data in fuzz_inputs::inputs("emp_frames")) {
+        fuzz_checks::emp::frames(&data);
+    }
+}
+
+#[test]
+fn every_emp_frames_seed_passes() {
+    for seed in fuzz_inputs::seeds("emp_frames") {
+        fuzz_checks::emp::frames(&seed);
+    }
+}
