@@ -270,7 +270,12 @@ async fn send_items(session: &mut Session, items: &[Item]) -> ExitCode {
                 }
             }
             Outcome::LinkFailed(reason) => {
-                eprintln!("jogterm send: link failure: {reason}");
+                // What happened and what to do: the line, not the machine, is in doubt.
+                eprintln!(
+                    "jogterm send: link failure: {}; {}",
+                    reason.trim_end_matches('.'),
+                    Recovery::CheckLink.instruction()
+                );
                 EXIT_LINK
             }
         };
@@ -349,7 +354,7 @@ fn outcome_of(event: &Event, text: &str, canonical: &str) -> Option<Outcome> {
         }
         Event::Fault(f) if f.command == canonical => Some(
             if f.code == "timeout" || f.recovery == Recovery::CheckLink {
-                Outcome::LinkFailed(format!("{}: {}", f.code, f.meaning))
+                Outcome::LinkFailed(format!("{} to {}: {}", f.code, f.command, f.meaning))
             } else {
                 Outcome::ControllerError {
                     code: f.code.clone(),
