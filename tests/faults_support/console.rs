@@ -1,6 +1,8 @@
 //! The real `jogterm` console in a pseudo-terminal, driven as an operator
 //! would, against a simulator's link; the screen read back with vt100.
 
+use std::cell::RefCell;
+use std::num::NonZeroU16;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -17,6 +19,10 @@ const LEAVE_ALTERNATE: &[u8] = b"\x1b[?1049l";
 pub struct Console {
     pub run: PtyRun,
     pub log: PathBuf,
+    /// The screen, fed only the output that is new since the last look
+    /// (parsing everything again every 20 ms would load the machine the
+    /// scenarios run on).
+    screen: RefCell<(vt100::Parser, usize)>,
 }
 
 impl Console {
@@ -46,14 +52,30 @@ impl Console {
             ("RUST_BACKTRACE", "0"),
         ];
         let run = PtyRun::spawn_sized(Path::new(JOGTERM), &args, &env, ROWS, COLS);
-        let console = Console { run, log };
+        let console = Console {
+            run,
+            log,
+            screen: RefCell::new((
+                vt100::Parser::new(
+                    NonZeroU16::MIN.saturating_add(ROWS - 1),
+                    NonZeroU16::MIN.saturating_add(COLS - 1),
+                    0,
+                ),
+                0,
+            )),
+        };
         console.wait_for("state read back");
         console
     }
 
     /// The screen now.
     pub fn screen(&self) -> String {
-        self.run.screen().screen().contents()
+        let mut screen = self.screen.borrow_mut();
+        let (parser, seen) = &mut *screen;
+        let new = self.run.output_since(*seen);
+        *seen += new.len();
+        parser.process(&new);
+        parser.screen().contents()
     }
 
     /// The message line (the second row): what the operator is told.
@@ -80,6 +102,21 @@ impl Console {
                     "the console never showed {what} within {WAIT:?}:\n{screen}\n--- traffic log (tail):\n{}",
                     self.log_tail()
                 );
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+
+    /// Whether `needle` shows up within `timeout` (for a step that may be
+    /// retried).
+    pub fn shows_within(&self, needle: &str, timeout: Duration) -> bool {
+        let end = Instant::now() + timeout;
+        loop {
+            if self.screen().contains(needle) {
+                return true;
+            }
+            if Instant::now() > end {
+                return false;
             }
             std::thread::sleep(Duration::from_millis(20));
         }
@@ -122,13 +159,37 @@ impl Console {
 
     /// Initialise (`i`) and set the reference where the axes stand (`@0N7`),
     /// so moves are allowed; waits for READY.
+    ///
+    /// A link lost meanwhile (the isel driver gives a query 100 ms beyond
+    /// its wire time, which a heavily loaded machine can miss) refuses the
+    /// request; the steps are then tried again once the link is back.
     pub fn make_ready(&mut self) {
-        self.keys(b"i");
-        self.wait_for("NOT REF");
-        self.command("@0N7");
-        self.wait_until("READY", |s| {
-            s.lines().next().is_some_and(|l| l.contains("READY"))
-        });
+        let end = Instant::now() + WAIT;
+        let ready = |s: &str| s.lines().next().is_some_and(|l| l.contains("READY"));
+        while !ready(&self.screen()) {
+            assert!(
+                Instant::now() < end,
+                "the console never became READY:\n{}\n--- traffic log (tail):\n{}",
+                self.screen(),
+                self.log_tail()
+            );
+            self.wait_until("connected", |s| {
+                s.lines().next().is_some_and(|l| l.contains("connected"))
+            });
+            let status = self.status_bar();
+            if status.contains("NOT INIT") {
+                self.keys(b"i");
+                self.shows_within("NOT REF", Duration::from_secs(3));
+            } else if status.contains("NOT REF") {
+                self.command("@0N7");
+                let t = Instant::now() + Duration::from_secs(3);
+                while !ready(&self.screen()) && Instant::now() < t {
+                    std::thread::sleep(Duration::from_millis(20));
+                }
+            } else {
+                std::thread::sleep(Duration::from_millis(50));
+            }
+        }
     }
 
     pub fn log_tail(&self) -> String {

