@@ -8,12 +8,14 @@
 //! - [`program`]: isel CNC programs and EMCU jobs as code: parser, linter,
 //!   formatter, path simulation.
 //! - [`wire`], [`motion`], [`axis`], [`traffic`]: shared arithmetic and types.
+//! - [`jog`]: jogging as pure logic: keys to requests, leases, speed caps.
 //! - [`ui`]: the terminal UI (Elm architecture: model, update, view).
 
 pub mod axis;
 pub mod cli;
 pub mod config;
 pub mod device;
+pub mod jog;
 pub mod motion;
 pub mod program;
 pub mod proto;

@@ -145,8 +145,9 @@ fn the_built_in_simulator_runs_by_default_and_its_inputs_can_be_flipped() {
     wait_for(&run, "connected");
     let screen = wait_for(&run, "Simulator inputs");
     assert!(screen.contains("limit-x1=?"), "{screen}");
-    // Tab to the simulator panel, walk to limit-x1 and set it.
-    run.send(b"\t\t");
+    // Tab to the simulator panel (past the port bits and the console; the
+    // jog keypad has focus at start), walk to limit-x1 and set it.
+    run.send(b"\t\t\t");
     wait_for(&run, "flip");
     let names = screen
         .lines()

@@ -135,6 +135,9 @@ fn hazardous_outputs_ask_first_plain_ones_do_not() {
     let mut m = ready(Protocol::Isel);
     let t = m.now;
     update(&mut m, Msg::Device(Event::Io(outputs_snapshot(t, false))));
+    // The jog keypad has focus at start; the port bits are next.
+    assert_eq!(m.focus, PanelId::Jog);
+    press(&mut m, [key(KeyCode::Tab)]);
     assert_eq!(m.focus, PanelId::Io);
     // The selection starts on the input: Enter only explains.
     assert!(press(&mut m, [key(KeyCode::Enter)]).is_empty());
@@ -333,7 +336,9 @@ fn jog_step_and_speed_move_within_the_profile_lists() {
     assert_eq!((m.jog_step(), m.jog_speed()), (Some(1.0), Some(2.0)));
     press(&mut m, [ch(']'), ch(']'), ch(']'), ch('+')]);
     assert_eq!((m.jog_step(), m.jog_speed()), (Some(10.0), Some(5.0)));
-    assert!(screen(&m, 80, 24).contains("jog step 10 mm  speed 5 mm/s"));
+    let shown = screen(&m, 80, 24);
+    assert!(shown.contains("STEP 10 mm"), "{shown}");
+    assert!(shown.contains("5 mm/s"), "{shown}");
     press(
         &mut m,
         [
@@ -367,7 +372,10 @@ fn a_changed_bit_is_highlighted_then_fades_with_a_redraw() {
 #[test]
 fn simulator_inputs_are_flipped_through_effects() {
     let mut m = ready(Protocol::Isel);
-    press(&mut m, [key(KeyCode::Tab), key(KeyCode::Tab)]);
+    press(
+        &mut m,
+        [key(KeyCode::Tab), key(KeyCode::Tab), key(KeyCode::Tab)],
+    );
     assert_eq!(m.focus, PanelId::Sim);
     // The level is not known yet: flipping explains, setting works.
     assert!(press(&mut m, [key(KeyCode::Enter)]).is_empty());

@@ -218,11 +218,14 @@ async fn in_terminal(
     mut device: Device,
     simulator: Option<ShellControl>,
 ) -> anyhow::Result<()> {
-    let (_guard, mut terminal) =
+    let (guard, mut terminal) =
         TerminalGuard::enter(TerminalOptions::from_env()).context("taking the terminal")?;
     if let Ok(size) = terminal.size() {
         model.size = (size.width, size.height);
     }
+    // With the kitty keyboard protocol a key release stops a held jog at
+    // once; without it the missing key repeat does (`docs/jogging.md`).
+    model.keypad.set_releases(guard.reports_key_releases());
     let (tx, mut rx) = mpsc::unbounded_channel();
     let _input = InputThreads::spawn(tx).context("starting the input thread")?;
     runtime::run(

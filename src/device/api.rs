@@ -110,14 +110,22 @@ pub enum Frame {
 pub enum Request {
     /// Continuous jog on one or more axes (diagonal when several). Runs until
     /// released, stopped, or its lease runs out without renewal (dead-man).
-    /// The driver never drives past the soft limits.
+    /// The driver never drives past the soft limits, and never faster than
+    /// `speed_hz` or than the lease allows: one lease at speed, the stop's
+    /// way to the wire and braking stay within `jog.max_overrun`
+    /// (`crate::jog::overrun`). A long first lease (the terminal's delay
+    /// before its first key repeat) therefore starts the jog slower than the
+    /// short renewals that follow let it run (`docs/jogging.md`).
     Jog {
         id: JogId,
         axes: Vec<(Axis, Dir)>,
         speed_hz: PerAxis<f64>,
         lease: Duration,
     },
-    /// A key repeat arrived: keep jog `id` alive for `lease` from now.
+    /// A key repeat arrived: keep jog `id` alive for `lease` from now (at
+    /// most as long as its speed allows within `jog.max_overrun`). A lease
+    /// shorter than the one the jog holds lets it speed up towards
+    /// `speed_hz`.
     JogRenew {
         id: JogId,
         lease: Duration,

@@ -1,21 +1,24 @@
 //! Terminal input on its own thread, forwarded as [`Msg`]s, and a watcher
 //! that notices the terminal hanging up.
 //!
-//! No stop logic lives here: the device task enforces jog leases itself, so
+//! No jog logic lives here: the device task enforces jog leases itself, so
 //! a stuck input thread (crossterm spins and never returns when the terminal
 //! vanishes without a SIGHUP, crossterm issue #793) cannot keep a machine
-//! moving. The hang-up watcher is a separate thread for the same reason.
+//! moving. The hang-up watcher is a separate thread for the same reason; on
+//! a hang-up it writes the stop bytes itself (the emergency handle) before
+//! it tells the loop.
 
 use std::os::fd::{AsRawFd, BorrowedFd};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::thread::{self, JoinHandle};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use ratatui::crossterm::event::{self, Event as TermEvent};
 use tokio::sync::mpsc::UnboundedSender;
 
 use super::msg::Msg;
+use super::terminal::run_emergency;
 
 /// How often the threads look at their stop flag.
 const POLL: Duration = Duration::from_millis(100);
@@ -69,7 +72,9 @@ fn read_loop(tx: &UnboundedSender<Msg>, stop: &AtomicBool) {
         let msg = match event::poll(POLL) {
             Ok(false) => continue,
             Ok(true) => match event::read() {
-                Ok(TermEvent::Key(key)) => Msg::Key(key),
+                // The time it was read: what the jog keypad's dead-man
+                // arithmetic counts from.
+                Ok(TermEvent::Key(key)) => Msg::KeyAt(key, Instant::now()),
                 Ok(TermEvent::Resize(width, height)) => Msg::Resize { width, height },
                 Ok(_) => continue,
                 Err(e) => terminate(format!("terminal input failed: {e}")),
@@ -104,6 +109,9 @@ fn watch_hangup(tx: &UnboundedSender<Msg>, stop: &AtomicBool) {
         // SAFETY: one valid pollfd, a bounded timeout.
         let n = unsafe { libc::poll(&mut fds, 1, POLL.as_millis() as libc::c_int) };
         if n > 0 && fds.revents & (libc::POLLHUP | libc::POLLERR | libc::POLLNVAL) != 0 {
+            // The stop bytes first, from this thread: the loop may be stuck
+            // on the dead terminal (crossterm issue #793).
+            run_emergency();
             let _ = tx.send(terminate("the terminal hung up".into()));
             return;
         }

@@ -7,7 +7,8 @@
 //! - [`view::Screen`]: drawing, a pure function of the model.
 //!
 //! The state behind the panels lives in small modules of its own
-//! ([`position`], [`io`], [`traffic_log`], [`line_edit`], [`sim_panel`]);
+//! ([`position`], [`io`], [`traffic_log`], [`line_edit`], [`sim_panel`],
+//! [`jog`] for the jog keypad);
 //! [`raw`] checks typed commands with each family's parser.
 //!
 //! Around it: [`terminal`] owns the terminal (restored on drop, error and
@@ -17,6 +18,7 @@
 pub mod help;
 pub mod input;
 pub mod io;
+pub mod jog;
 pub mod key;
 pub mod keymap;
 pub mod line_edit;

@@ -8,10 +8,14 @@ use crate::axis::{Axis, AxisSet};
 use crate::config::Profile;
 use crate::config::profile::AxisProfile;
 use crate::device::api::{LinkState, MachineState, PollStats, UploadEvent};
+use crate::jog::JogSettings;
 use crate::proto::Protocol;
 use crate::wire::LineSettings;
 
 use super::io::IoPanel;
+use super::jog::Keypad;
+use super::jog::axes::AxisChoice;
+use super::jog::goto::GoToPrompt;
 use super::keymap::{Keymap, Mode};
 use super::line_edit::LineEdit;
 use super::msg::Effect;
@@ -42,6 +46,8 @@ pub struct Setup {
     pub isel_device: u8,
     /// The built-in simulator's input names, when the session runs on one.
     pub simulator_inputs: Option<Vec<String>>,
+    /// Everything jogging needs from the profile (`crate::jog`).
+    pub jog: JogSettings,
 }
 
 impl Setup {
@@ -59,6 +65,7 @@ impl Setup {
             },
             isel_device: profile.isel.device,
             simulator_inputs,
+            jog: JogSettings::from_profile(profile),
         }
     }
 
@@ -75,10 +82,12 @@ impl Setup {
     }
 }
 
-/// The panels that can have focus. The jog keypad (issue 6) and the program
-/// editor (issue 7) join this list.
+/// The panels that can have focus. The program editor (issue 7) joins this
+/// list.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum PanelId {
+    /// The jog keypad; focused at start.
+    Jog,
     Io,
     Console,
     Sim,
@@ -88,6 +97,7 @@ impl PanelId {
     /// The keymap mode while the panel has focus.
     pub fn mode(self) -> Mode {
         match self {
+            PanelId::Jog => Mode::Jog,
             PanelId::Io => Mode::Io,
             PanelId::Console => Mode::Console,
             PanelId::Sim => Mode::Sim,
@@ -105,8 +115,14 @@ pub struct Confirmation {
 
 #[derive(Debug, Clone, PartialEq)]
 pub enum Popup {
-    Help { scroll: usize },
+    Help {
+        scroll: usize,
+    },
     Confirm(Confirmation),
+    /// A position to go to, typed.
+    GoTo(GoToPrompt),
+    /// An axis for a reference run or a work zero.
+    Axes(AxisChoice),
 }
 
 impl Popup {
@@ -114,6 +130,8 @@ impl Popup {
         match self {
             Popup::Help { .. } => Mode::Help,
             Popup::Confirm(_) => Mode::Confirm,
+            Popup::GoTo(_) => Mode::GoTo,
+            Popup::Axes(_) => Mode::Axes,
         }
     }
 }
@@ -151,6 +169,8 @@ pub struct Model {
     pub message: Option<Message>,
     pub upload: Option<UploadEvent>,
     pub jog: JogSelection,
+    /// The jog keypad: jogging state, homing progress.
+    pub keypad: Keypad,
     pub focus: PanelId,
     pub popup: Option<Popup>,
     pub size: (u16, u16),
@@ -178,6 +198,7 @@ impl Model {
         };
         Model {
             traffic: TrafficLog::new(setup.protocol),
+            keypad: Keypad::new(setup.jog.clone()),
             setup,
             keymap,
             palette,
@@ -192,7 +213,7 @@ impl Model {
             message: None,
             upload: None,
             jog,
-            focus: PanelId::Io,
+            focus: PanelId::Jog,
             popup: None,
             size: (80, 24),
             dirty: true,
@@ -202,7 +223,7 @@ impl Model {
 
     /// The panels Tab cycles through, in order.
     pub fn focus_ring(&self) -> Vec<PanelId> {
-        let mut ring = vec![PanelId::Io, PanelId::Console];
+        let mut ring = vec![PanelId::Jog, PanelId::Io, PanelId::Console];
         if self.sim.is_some() {
             ring.push(PanelId::Sim);
         }

@@ -10,8 +10,12 @@ use crate::sim::InputControl;
 /// Everything that can change the model.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Msg {
-    /// A key from the terminal (presses, repeats and releases).
+    /// A key from the terminal (presses, repeats and releases), at the
+    /// model's time.
     Key(KeyEvent),
+    /// A key as the input thread read it, and when: the jog keypad's
+    /// dead-man arithmetic needs the key's own time, not the last tick's.
+    KeyAt(KeyEvent, Instant),
     /// Time passes: highlights fade, messages age, half-read replies are
     /// shown. Sent by the runtime a few times a second.
     Tick(Instant),

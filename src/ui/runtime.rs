@@ -5,6 +5,11 @@
 //!
 //! A stop never waits: input is looked at first, and the `Stop` effect goes
 //! to the device's stop lane as soon as `update` returns it.
+//!
+//! Terminating signals (HUP, TERM, INT) are watched by a task of their own,
+//! which writes the stop bytes through the emergency handle the moment a
+//! signal arrives, whatever this loop is doing (drawing to a terminal that
+//! has stopped reading, say), and then tells the loop to stop and leave.
 
 use std::future::Future;
 use std::time::{Duration, Instant};
@@ -80,9 +85,8 @@ pub async fn run<B: Backend, D: DeviceLink>(
     simulator: Option<ShellControl>,
     options: RunOptions,
 ) -> Result<(), RunError> {
-    let mut hangup = signal(SignalKind::hangup()).map_err(RunError::Signals)?;
-    let mut terminate = signal(SignalKind::terminate()).map_err(RunError::Signals)?;
-    let mut interrupt = signal(SignalKind::interrupt()).map_err(RunError::Signals)?;
+    let (signal_tx, mut signals) = mpsc::unbounded_channel::<Msg>();
+    let watcher = watch_signals(signal_tx)?;
     let (sim_tx, mut sim_rx) = mpsc::unbounded_channel::<Msg>();
     let mut ticks = tokio::time::interval(options.frame_interval);
     ticks.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
@@ -94,9 +98,7 @@ pub async fn run<B: Backend, D: DeviceLink>(
             msg = input.recv() => msg.unwrap_or(Msg::Terminate {
                 reason: "terminal input ended".into(),
             }),
-            _ = hangup.recv() => Msg::Terminate { reason: "hang-up signal".into() },
-            _ = terminate.recv() => Msg::Terminate { reason: "terminate signal".into() },
-            _ = interrupt.recv() => Msg::Terminate { reason: "interrupt signal".into() },
+            Some(msg) = signals.recv() => msg,
             event = device.next_event(), if device_open => match event {
                 Some(e) => Msg::Device(e),
                 None => {
@@ -141,6 +143,7 @@ pub async fn run<B: Backend, D: DeviceLink>(
             // One last frame so the screen says what is happening.
             let _ = draw(terminal, model);
             shutdown(device, options.shutdown_timeout).await;
+            watcher.abort();
             return Ok(());
         }
         let due = last_draw.is_none_or(|t| t.elapsed() >= options.frame_interval);
@@ -148,11 +151,41 @@ pub async fn run<B: Backend, D: DeviceLink>(
             if let Err(e) = draw(terminal, model) {
                 device.stop();
                 shutdown(device, options.shutdown_timeout).await;
+                watcher.abort();
                 return Err(e);
             }
             last_draw = Some(Instant::now());
         }
     }
+}
+
+/// Watch HUP, TERM and INT on a task of their own. Their default action
+/// ends the process without a stop (and SIGHUP is what a vanishing
+/// terminal sends), so they are caught from here on: each writes the stop
+/// bytes through the emergency handle at once, then asks the loop to stop
+/// and leave (`../shared/field-notes.md`, "SIGHUP's default action").
+fn watch_signals(tx: UnboundedSender<Msg>) -> Result<tokio::task::JoinHandle<()>, RunError> {
+    let mut hangup = signal(SignalKind::hangup()).map_err(RunError::Signals)?;
+    let mut terminate = signal(SignalKind::terminate()).map_err(RunError::Signals)?;
+    let mut interrupt = signal(SignalKind::interrupt()).map_err(RunError::Signals)?;
+    Ok(tokio::spawn(async move {
+        loop {
+            let reason = tokio::select! {
+                _ = hangup.recv() => "hang-up signal",
+                _ = terminate.recv() => "terminate signal",
+                _ = interrupt.recv() => "interrupt signal",
+            };
+            run_emergency();
+            if tx
+                .send(Msg::Terminate {
+                    reason: reason.into(),
+                })
+                .is_err()
+            {
+                return;
+            }
+        }
+    }))
 }
 
 fn draw<B: Backend>(terminal: &mut Terminal<B>, model: &mut Model) -> Result<(), RunError> {

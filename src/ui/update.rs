@@ -5,12 +5,19 @@
 
 use std::time::Instant;
 
+use ratatui::crossterm::event::{KeyEvent, KeyEventKind};
+
 use crate::device::api::{ControllerFault, Event, JogEnd, LinkState, Request, UploadEvent};
+use crate::jog::{KeyPhase, Motion};
 
 use super::help::help_lines;
 use super::io::OutputToggle;
+use super::jog::axes::{AxisChoice, Purpose};
+use super::jog::goto::{self, GoToPrompt};
+use super::jog::{self as keypad};
 use super::key::KeyChord;
 use super::keymap::{Action, Mode};
+use super::line_edit::LineError;
 use super::model::{Confirmation, Message, Model, PanelId, Popup};
 use super::msg::{Effect, Msg};
 use super::raw;
@@ -18,16 +25,17 @@ use super::traffic_log::{LineKind, NoteLevel};
 
 pub fn update(model: &mut Model, msg: Msg) -> Vec<Effect> {
     match msg {
-        Msg::Key(event) => match KeyChord::from_event(&event) {
-            Some(chord) => {
-                model.dirty = true;
-                route_key(model, chord)
+        Msg::Key(event) => key_event(model, event),
+        Msg::KeyAt(event, at) => {
+            if at > model.now {
+                model.now = at;
             }
-            None => Vec::new(),
-        },
+            key_event(model, event)
+        }
         Msg::Tick(now) => {
             tick(model, now);
-            Vec::new()
+            // Toggle jogs live on the console's ticks.
+            keypad::tick(model)
         }
         Msg::Device(event) => {
             device_event(model, event);
@@ -66,25 +74,82 @@ pub fn update(model: &mut Model, msg: Msg) -> Vec<Effect> {
             );
             model.quitting = true;
             model.dirty = true;
+            keypad::stopped(model);
             vec![Effect::Stop, Effect::Quit]
         }
     }
 }
 
+fn key_event(model: &mut Model, event: KeyEvent) -> Vec<Effect> {
+    let phase = match event.kind {
+        KeyEventKind::Press => KeyPhase::Press,
+        KeyEventKind::Repeat => KeyPhase::Repeat,
+        KeyEventKind::Release => KeyPhase::Release,
+    };
+    if phase == KeyPhase::Release {
+        // Releases matter to the jog keypad only (kitty keyboard protocol).
+        let mut pressed = event;
+        pressed.kind = KeyEventKind::Press;
+        let Some(chord) = KeyChord::from_event(&pressed) else {
+            return Vec::new();
+        };
+        let effects = keypad::released(model, chord);
+        model.dirty |= !effects.is_empty();
+        return effects;
+    }
+    let Some(chord) = KeyChord::from_event(&event) else {
+        return Vec::new();
+    };
+    model.dirty = true;
+    let effects = route(model, chord, phase);
+    model.keypad.issued(&effects, model.now);
+    if effects.contains(&Effect::Quit) {
+        model.quitting = true;
+    }
+    effects
+}
+
 /// Safety keys first, whatever is open or focused; then the popup (modal:
 /// it takes every other key), the focused panel, typing, the main screen.
 pub fn route_key(model: &mut Model, chord: KeyChord) -> Vec<Effect> {
+    route(model, chord, KeyPhase::Press)
+}
+
+fn route(model: &mut Model, chord: KeyChord, phase: KeyPhase) -> Vec<Effect> {
     if model.keymap.lookup(Mode::Safety, &chord) == Some(Action::Stop) {
         return stop(model);
     }
+    let focus = model.focus;
+    let motion_key = model.popup.is_none()
+        && model
+            .keymap
+            .lookup(focus.mode(), &chord)
+            .and_then(keypad::vector_of)
+            .is_some();
+    // Toggle jogging: any key stops the jog and does nothing else (the
+    // keypad's own keys know their repeats from a new press).
+    if !motion_key && let Some(effects) = keypad::any_key(model, chord, phase) {
+        say(model, NoteLevel::Info, "jog stopped".to_string());
+        return effects;
+    }
     if let Some(popup) = &model.popup {
-        return match model.keymap.lookup(popup.mode(), &chord) {
+        let mode = popup.mode();
+        return match model.keymap.lookup(mode, &chord) {
             Some(action) => popup_action(model, action),
-            None => Vec::new(),
+            None => {
+                if let (Some(Popup::GoTo(prompt)), Some(c)) =
+                    (model.popup.as_mut(), chord.typed_char())
+                {
+                    prompt.line.insert(c);
+                }
+                Vec::new()
+            }
         };
     }
-    let focus = model.focus;
     if let Some(action) = model.keymap.lookup(focus.mode(), &chord) {
+        if focus == PanelId::Jog {
+            return jog_action(model, action, chord, phase);
+        }
         return panel_action(model, focus, action);
     }
     if focus == PanelId::Console
@@ -100,6 +165,7 @@ pub fn route_key(model: &mut Model, chord: KeyChord) -> Vec<Effect> {
 }
 
 fn stop(model: &mut Model) -> Vec<Effect> {
+    keypad::stopped(model);
     say(
         model,
         NoteLevel::Info,
@@ -112,8 +178,82 @@ fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
     match action {
         Action::Stop => stop(model),
         Action::Quit => {
+            if keypad::moving(model) {
+                // Quitting stops the machine; a slip of the finger must not
+                // end a program run or a reference run (`docs/jogging.md`).
+                ask(
+                    model,
+                    "Quit while moving",
+                    format!(
+                        "The machine is moving ({:?}). Stop all motion, close the port and quit?",
+                        model.machine.activity
+                    ),
+                    vec![Effect::Stop, Effect::Quit],
+                );
+                return Vec::new();
+            }
             model.quitting = true;
             vec![Effect::Stop, Effect::Quit]
+        }
+        Action::JogKind => {
+            let (effects, (level, text)) = keypad::switch_kind(model);
+            say(model, level, text);
+            effects
+        }
+        Action::GoTo => {
+            if let Err(reason) = keypad::gate(model).check(Motion::GoTo) {
+                say(model, NoteLevel::Danger, format!("go to refused: {reason}"));
+                return Vec::new();
+            }
+            model.popup = Some(Popup::GoTo(GoToPrompt::default()));
+            Vec::new()
+        }
+        Action::GoZero => {
+            if let Err(reason) = keypad::gate(model).check(Motion::GoTo) {
+                say(
+                    model,
+                    NoteLevel::Danger,
+                    format!("go to zero refused: {reason}"),
+                );
+                return Vec::new();
+            }
+            let settings = model.keypad.settings();
+            let target = goto::zero_target(settings);
+            let speed = keypad::selection(model).speed;
+            match goto::request(&target, settings, &model.machine, speed) {
+                Ok(request) => {
+                    let axes = settings.axis_set();
+                    let speed = crate::ui::position::format_amount(speed);
+                    ask(
+                        model,
+                        "Go to the work zero",
+                        format!(
+                            "Axes {axes} will move to the work zero ({}) at {speed} per second. \
+                             Keep clear of the machine. Go?",
+                            goto::describe(&target)
+                        ),
+                        vec![Effect::Request(request)],
+                    );
+                }
+                Err(e) => say(model, NoteLevel::Danger, format!("go to zero refused: {e}")),
+            }
+            Vec::new()
+        }
+        Action::HomeAxis | Action::ZeroAxis => {
+            let (purpose, motion) = if action == Action::HomeAxis {
+                (Purpose::Home, Motion::Home)
+            } else {
+                (Purpose::Zero, Motion::SetZero)
+            };
+            if let Err(reason) = keypad::gate(model).check(motion) {
+                say(model, NoteLevel::Danger, format!("refused: {reason}"));
+                return Vec::new();
+            }
+            model.popup = Some(Popup::Axes(AxisChoice {
+                purpose,
+                axes: model.setup.axis_set(),
+            }));
+            Vec::new()
         }
         Action::Help => {
             model.popup = Some(Popup::Help { scroll: 0 });
@@ -217,6 +357,37 @@ fn popup_action(model: &mut Model, action: Action) -> Vec<Effect> {
             Vec::new()
         }
         (Some(Popup::Help { .. }), Action::Close) => Vec::new(),
+        (Some(Popup::GoTo(prompt)), action) => goto_action(model, prompt, action),
+        (Some(Popup::Axes(choice)), Action::Cancel) => {
+            say(
+                model,
+                NoteLevel::Info,
+                format!("{}: cancelled", choice.title()),
+            );
+            Vec::new()
+        }
+        (Some(Popup::Axes(choice)), action) => match choice.chosen(action) {
+            Some(axes) => {
+                let request = choice.request(axes);
+                if let Request::SetZero { .. } = request {
+                    say(
+                        model,
+                        NoteLevel::Info,
+                        format!("work zero of {axes} set to the current position"),
+                    );
+                }
+                vec![Effect::Request(request)]
+            }
+            None => {
+                say(
+                    model,
+                    NoteLevel::Warning,
+                    format!("the machine has axes {} only", choice.axes),
+                );
+                model.popup = Some(Popup::Axes(choice));
+                Vec::new()
+            }
+        },
         (Some(Popup::Help { scroll }), scroll_action) => {
             let page = usize::from(model.size.1.saturating_sub(6)).max(1);
             let last = help_lines(&model.keymap).len().saturating_sub(1);
@@ -239,8 +410,69 @@ fn popup_action(model: &mut Model, action: Action) -> Vec<Effect> {
     }
 }
 
+/// A typed go-to prompt: editing keys, Enter checks and goes, Esc cancels.
+fn goto_action(model: &mut Model, mut prompt: GoToPrompt, action: Action) -> Vec<Effect> {
+    let line = &mut prompt.line;
+    match action {
+        Action::Cancel => {
+            say(model, NoteLevel::Info, "go to: cancelled".to_string());
+            return Vec::new();
+        }
+        Action::Submit => {
+            let settings = model.keypad.settings();
+            let speed = keypad::selection(model).speed;
+            let checked = keypad::gate(model)
+                .check(Motion::GoTo)
+                .map_err(|r| r.to_string())
+                .and_then(|()| {
+                    goto::parse(line.text(), settings)
+                        .and_then(|t| {
+                            goto::request(&t, settings, &model.machine, speed).map(|r| (t, r))
+                        })
+                        .map_err(|e| e.to_string())
+                });
+            match checked {
+                Ok((target, request)) => {
+                    say(
+                        model,
+                        NoteLevel::Info,
+                        format!("go to {} (work coordinates)", goto::describe(&target)),
+                    );
+                    return vec![Effect::Request(request)];
+                }
+                Err(message) => {
+                    line.error = Some(LineError {
+                        message,
+                        span: None,
+                    });
+                }
+            }
+        }
+        Action::CursorLeft => line.left(),
+        Action::CursorRight => line.right(),
+        Action::CursorHome => line.home(),
+        Action::CursorEnd => line.end(),
+        Action::DeleteBack => line.delete_back(),
+        Action::DeleteForward => line.delete_forward(),
+        Action::ClearLine => line.clear(),
+        _ => {}
+    }
+    model.popup = Some(Popup::GoTo(prompt));
+    Vec::new()
+}
+
+/// A key of the focused jog keypad.
+fn jog_action(model: &mut Model, action: Action, chord: KeyChord, phase: KeyPhase) -> Vec<Effect> {
+    let (effects, note) = keypad::motion_key(model, action, chord, phase);
+    if let Some((level, text)) = note {
+        say(model, level, text);
+    }
+    effects
+}
+
 fn panel_action(model: &mut Model, panel: PanelId, action: Action) -> Vec<Effect> {
     match panel {
+        PanelId::Jog => Vec::new(),
         PanelId::Io => io_action(model, action),
         PanelId::Console => console_action(model, action),
         PanelId::Sim => sim_action(model, action),
@@ -364,6 +596,9 @@ fn tick(model: &mut Model, now: Instant) {
 }
 
 fn device_event(model: &mut Model, event: Event) {
+    if !keypad::device_event(model, &event) {
+        return;
+    }
     match event {
         Event::Link(state) => link_changed(model, state),
         Event::Position(sample) => model.positions.apply(&sample),
@@ -375,7 +610,11 @@ fn device_event(model: &mut Model, event: Event) {
             NoteLevel::Danger,
             format!("refused {request}: {reason}"),
         ),
-        Event::JogEnded { end, .. } => jog_ended(model, end),
+        Event::JogEnded { end, .. } => {
+            if keypad::end_is_news(model, &end) {
+                jog_ended(model, end);
+            }
+        }
         Event::Upload(upload) => {
             let text = match &upload {
                 UploadEvent::Finished { total, elapsed } => Some((

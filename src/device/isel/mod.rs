@@ -463,6 +463,28 @@ impl IselDriver {
         self.stop_bookkeeping(now);
     }
 
+    /// A jog stops to go on faster (`motion_op`): the stop sequence, the
+    /// move's answer awaited for as long as braking takes, and no jog end.
+    fn speed_up(&mut self, now: Instant) {
+        let Some(Op::Motion(m)) = self.op.as_mut() else {
+            return;
+        };
+        let Some(t) = m.speed_up(now) else {
+            return;
+        };
+        self.cx.send_stop();
+        if let Some(ex) = self.exchange.as_mut()
+            && ex.owner == Owner::Op
+        {
+            if ex.transmitted {
+                ex.deadline = Some(now + t);
+            } else {
+                ex.timeout = Some(t);
+                ex.restop = ex.may_move;
+            }
+        }
+    }
+
     fn refuse_queue(&mut self, reason: impl Fn() -> Refusal, jog_end: JogEnd) {
         for q in std::mem::take(&mut self.queue) {
             if let Request::Jog { id, .. } = q.request {
@@ -637,8 +659,19 @@ impl IselDriver {
                     });
                     return;
                 }
-                plan::jog(cx, axes, speed_hz)
-                    .map(|p| Op::Motion(MotionOp::jog(p, *id, lease_until)))
+                // The lease the jog holds now: what is left of the one it
+                // was given (it may have waited behind a braking jog).
+                let lease = lease_until.saturating_duration_since(now);
+                plan::jog(cx, axes, speed_hz, lease).map(|p| {
+                    Op::Motion(MotionOp::jog(
+                        p,
+                        *id,
+                        axes.clone(),
+                        *speed_hz,
+                        lease,
+                        lease_until,
+                    ))
+                })
             }
             Request::Step { delta, speed_hz } => match cx.position {
                 Some(base) => {
@@ -703,8 +736,11 @@ impl IselDriver {
 
     fn renew(&mut self, id: crate::device::api::JogId, lease: Duration, now: Instant) {
         if let Some(Op::Motion(m)) = self.op.as_mut()
-            && m.renew(id, lease, now)
+            && let Some(speed_up) = m.renew(&self.cx, id, lease, now)
         {
+            if speed_up {
+                self.speed_up(now);
+            }
             return;
         }
         for q in self.queue.iter_mut() {

@@ -7,10 +7,21 @@
 //! the lease runs out (dead-man), on release or on stop, the stop sequence
 //! 0xFD 0xFF ends it (`../shared/protocols.md` isel 6: the break makes sure a
 //! later start cannot resume it). The jog has ended when the move answers.
+//!
+//! A jog never runs faster than its lease allows: one lease at speed plus
+//! braking stays within `jog.max_overrun` (`plan::overrun_cap`). The first
+//! lease covers the terminal's delay before its first key repeat and is
+//! long, so the jog starts slow; the first renewal with the short lease lets
+//! it speed up. The controller cannot change the speed of a running move
+//! (manual 2.2.2), so the move is stopped (0xFD 0xFF), its end read, and a
+//! faster one sent from there: a short dip, once per jog, and only when the
+//! speed asked for is above what the long lease allows
+//! (`docs/jogging.md`, "Speed-up after the first repeat").
 
 use std::time::{Duration, Instant};
 
-use crate::device::api::{Activity, Event, JogEnd, JogId, PerAxis, Recovery, Refusal};
+use crate::axis::Axis;
+use crate::device::api::{Activity, Dir, Event, JogEnd, JogId, PerAxis, Recovery, Refusal};
 use crate::proto::isel::{Command, ControlByte, Reply, ReplyCode};
 
 use super::context::{Context, control_outgoing};
@@ -27,11 +38,21 @@ enum Kind {
     MoveTo,
     Jog {
         id: JogId,
+        axes: Vec<(Axis, Dir)>,
+        /// The speeds the client asked for (the plan may run slower).
+        requested: PerAxis<f64>,
+        /// The lease length the jog holds now; the speed cap follows it.
+        lease: Duration,
         lease_until: Instant,
         end: Option<JogEnd>,
         reported: bool,
+        /// Stopping to restart faster: the stop is not the jog's end.
+        speeding_up: bool,
     },
 }
+
+/// A faster move is worth its dip only when it is faster by this factor.
+const SPEED_UP_FACTOR: f64 = 1.05;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Phase {
@@ -68,13 +89,24 @@ impl MotionOp {
         MotionOp::new(Kind::MoveTo, planned)
     }
 
-    pub fn jog(planned: Planned, id: JogId, lease_until: Instant) -> MotionOp {
+    pub fn jog(
+        planned: Planned,
+        id: JogId,
+        axes: Vec<(Axis, Dir)>,
+        requested: PerAxis<f64>,
+        lease: Duration,
+        lease_until: Instant,
+    ) -> MotionOp {
         MotionOp::new(
             Kind::Jog {
                 id,
+                axes,
+                requested,
+                lease,
                 lease_until,
                 end: None,
                 reported: false,
+                speeding_up: false,
             },
             planned,
         )
@@ -143,19 +175,87 @@ impl MotionOp {
         Ok(())
     }
 
-    /// A lease renewal for jog `id`; false when this is not that jog.
-    pub fn renew(&mut self, id: JogId, lease: Duration, now: Instant) -> bool {
-        match &mut self.kind {
-            Kind::Jog {
-                id: mine,
-                lease_until,
-                ..
-            } if *mine == id => {
-                *lease_until = now + lease;
-                true
-            }
-            _ => false,
+    /// A lease renewal for jog `id`: `None` when this is not that jog, else
+    /// whether the jog should now speed up (stop, then a faster move).
+    ///
+    /// The lease is never longer than the running speed allows within
+    /// `jog.max_overrun` ([`plan::lease_cap`]); a shorter lease than the jog
+    /// holds raises its speed cap.
+    pub fn renew(
+        &mut self,
+        cx: &Context,
+        id: JogId,
+        lease: Duration,
+        now: Instant,
+    ) -> Option<bool> {
+        let moving = self.phase == Phase::Moving && !self.stopping;
+        let unsent = self.phase == Phase::Send;
+        let Kind::Jog {
+            id: mine,
+            axes,
+            requested,
+            lease: held,
+            lease_until,
+            end,
+            speeding_up,
+            ..
+        } = &mut self.kind
+        else {
+            return None;
+        };
+        if *mine != id {
+            return None;
         }
+        let granted = lease.min(plan::lease_cap(cx, &self.planned.speeds));
+        *lease_until = now + granted;
+        if lease >= *held {
+            return Some(false);
+        }
+        *held = lease;
+        if unsent && end.is_none() {
+            // Not on the wire yet: plan it for the new lease straight away.
+            if let Ok(planned) = plan::jog(cx, axes, requested, lease) {
+                self.planned = planned;
+            }
+            return Some(false);
+        }
+        if !moving || end.is_some() || *speeding_up {
+            return Some(false);
+        }
+        // The speed the shorter lease allows, per axis, against the plan's.
+        let faster = axes.iter().any(|(axis, _)| {
+            let now_hz = self.planned.speeds.get(*axis).map_or(0.0, f64::from);
+            let cap = cx
+                .settings
+                .limits(*axis)
+                .map_or(0.0, |l| plan::overrun_cap(cx.ramp, lease, l.max_overrun));
+            let want = requested.get(*axis).unwrap_or(0.0).min(cap);
+            want > now_hz * SPEED_UP_FACTOR
+        });
+        *speeding_up = faster;
+        Some(faster)
+    }
+
+    /// The move is stopped to be followed by a faster one: like a stop, but
+    /// the jog goes on. Returns the time the move's answer may still take.
+    pub fn speed_up(&mut self, now: Instant) -> Option<Duration> {
+        if self.phase != Phase::Moving || self.stopping {
+            return None;
+        }
+        self.stopping = true;
+        self.planned.estimate.brake(now);
+        Some(deadline::motion(self.planned.estimate.remaining(now)))
+    }
+
+    fn is_speeding_up(&self) -> bool {
+        matches!(
+            self.kind,
+            Kind::Jog {
+                speeding_up: true,
+                end: None,
+                ..
+            }
+        )
     }
 
     /// Jog `id` was released. Returns whether the stop sequence must be sent.
@@ -208,6 +308,44 @@ impl MotionOp {
                     request: format!("step {}", describe_delta(&delta)),
                     reason: reason.clone(),
                 });
+            }
+        }
+    }
+
+    /// After a jog that stopped to speed up has been measured: the faster
+    /// move from where it stopped, if the lease is still alive.
+    fn restart_jog(&mut self, cx: &mut Context, now: Instant) {
+        let Kind::Jog {
+            axes,
+            requested,
+            lease,
+            lease_until,
+            speeding_up,
+            ..
+        } = &mut self.kind
+        else {
+            return;
+        };
+        *speeding_up = false;
+        if *lease_until <= now {
+            self.set_jog_end(JogEnd::DeadMan, false);
+            self.report_jog(cx);
+            return;
+        }
+        match plan::jog(cx, axes, requested, *lease) {
+            Ok(planned) => {
+                self.planned = planned;
+                self.phase = Phase::Send;
+                self.stopping = false;
+                self.next_estimate = None;
+            }
+            Err(Refusal::SoftLimit { .. }) => {
+                self.set_jog_end(JogEnd::SoftLimit, false);
+                self.report_jog(cx);
+            }
+            Err(reason) => {
+                self.set_jog_end(JogEnd::Refused(reason), false);
+                self.report_jog(cx);
             }
         }
     }
@@ -293,7 +431,9 @@ impl Operation for MotionOp {
                                 },
                             );
                         }
-                        self.set_jog_end(JogEnd::Stopped, false);
+                        if !self.is_speeding_up() {
+                            self.set_jog_end(JogEnd::Stopped, false);
+                        }
                         cx.quiet_request = Some(cx.settings.timing.resync_gap);
                     }
                     Reply::Code(code) => {
@@ -319,13 +459,22 @@ impl Operation for MotionOp {
                     // A stray second `F` must not be taken for the next reply.
                     cx.quiet_request = Some(cx.settings.timing.resync_gap);
                 }
-                self.report_jog(cx);
+                if !self.is_speeding_up() {
+                    self.report_jog(cx);
+                }
                 self.phase = Phase::Measure;
             }
             Phase::Measure => {
                 if !cx.position_reply(reply, now) {
                     self.failed = true;
                 }
+                if self.is_speeding_up() && !self.failed {
+                    self.phase = Phase::Done;
+                    self.restart_jog(cx, now);
+                    return;
+                }
+                // A jog that was to speed up but failed ends here.
+                self.report_jog(cx);
                 self.continue_steps(cx);
             }
             Phase::Send | Phase::Done => {}
@@ -436,6 +585,9 @@ impl Operation for MotionOp {
     }
 
     fn activity(&self) -> Activity {
+        if self.is_speeding_up() {
+            return Activity::Jogging;
+        }
         if self.stopping && self.phase == Phase::Moving {
             return Activity::Stopping;
         }

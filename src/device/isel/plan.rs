@@ -3,8 +3,11 @@
 //! for the axis configuration (manual 2.2.2, 2.2.18), and the estimate that
 //! goes with the move.
 
+use std::time::Duration;
+
 use crate::axis::{Axis, AxisSet};
 use crate::device::api::{Dir, Frame, PerAxis, Refusal};
+use crate::jog::{self, Braking};
 use crate::proto::isel::{AxisConfig, Command, MovePair, SPEED_HZ, STEPS};
 
 use super::context::{Cmd, Context};
@@ -16,6 +19,8 @@ use super::estimate::{MoveEstimate, RampParams};
 pub struct Planned {
     pub cmd: Cmd,
     pub estimate: MoveEstimate,
+    /// The step frequency of each axis the move names (Hz).
+    pub speeds: PerAxis<u32>,
 }
 
 fn invalid(reason: impl Into<String>) -> Refusal {
@@ -42,20 +47,36 @@ pub fn speed_hz(cx: &Context, axis: Axis, requested: Option<f64>) -> Result<u32,
     Ok(hz.min(limits.max_hz).clamp(lo, hi).round() as u32)
 }
 
-/// The fastest jog speed that stops within `max_overrun` steps when the
-/// operator lets go: one dead-man timeout at speed, then the braking ramp
-/// (`jog.max_overrun`): v T + (v² - f0²) / 2a <= D.
-pub fn overrun_cap(ramp: RampParams, timeout_s: f64, max_overrun: f64) -> f64 {
-    let a = f64::from(ramp.accel_hz_per_ms) * 1000.0;
-    let f0 = f64::from(ramp.start_stop_hz);
-    if a <= 0.0 {
-        return if timeout_s > 0.0 {
-            max_overrun / timeout_s
-        } else {
-            f64::MAX
-        };
+/// How the controller brakes with `ramp` (manual 2.2.15, 2.2.16): down to
+/// the start-stop frequency at the acceleration, then at once.
+pub fn braking(ramp: RampParams) -> Braking {
+    Braking::Ramp {
+        start_hz: f64::from(ramp.start_stop_hz),
+        accel_hz_per_s: f64::from(ramp.accel_hz_per_ms) * 1000.0,
     }
-    -a * timeout_s + (a * a * timeout_s * timeout_s + f0 * f0 + 2.0 * a * max_overrun).sqrt()
+}
+
+/// The fastest jog speed that stops within `max_overrun` steps when the
+/// operator lets go while the jog holds a lease of `lease`: the lease at
+/// speed, the stop's way to the wire, then the braking ramp
+/// (`jog.max_overrun`, `crate::jog::overrun`).
+pub fn overrun_cap(ramp: RampParams, lease: Duration, max_overrun: f64) -> f64 {
+    jog::speed_cap(&braking(ramp), lease, max_overrun)
+}
+
+/// The longest lease a jog running at `speeds` may hold and still stop
+/// within every axis's `max_overrun`.
+pub fn lease_cap(cx: &Context, speeds: &PerAxis<u32>) -> Duration {
+    let b = braking(cx.ramp);
+    speeds
+        .iter()
+        .filter_map(|(axis, hz)| {
+            cx.settings
+                .limits(axis)
+                .map(|l| jog::lease_cap(&b, f64::from(hz), l.max_overrun))
+        })
+        .min()
+        .unwrap_or(Duration::ZERO)
 }
 
 fn check_axes(cx: &Context, axes: AxisSet) -> Result<(), Refusal> {
@@ -133,7 +154,16 @@ fn relative(
     let estimate = MoveEstimate::relative(config, &pairs, start, cx.ramp, cx.three_d);
     let mut cmd = cx.cmd(Command::MoveRelative(pairs));
     cmd.timeout = Some(deadline::motion(estimate.duration()));
-    Ok(Planned { cmd, estimate })
+    let moving = deltas
+        .iter()
+        .filter(|(_, d)| *d != 0)
+        .filter_map(|(a, _)| speeds.get(a).map(|hz| (a, hz)))
+        .collect();
+    Ok(Planned {
+        cmd,
+        estimate,
+        speeds: moving,
+    })
 }
 
 /// A relative step of `delta` from `base` (the position the step starts
@@ -233,7 +263,11 @@ pub fn move_to(
     );
     let mut cmd = cx.cmd(Command::MoveAbsolute(pairs));
     cmd.timeout = Some(deadline::motion(estimate.duration()));
-    Ok(Planned { cmd, estimate })
+    Ok(Planned {
+        cmd,
+        estimate,
+        speeds: hz,
+    })
 }
 
 /// A continuous jog: one long relative move at jog speed towards the soft
@@ -241,7 +275,16 @@ pub fn move_to(
 /// axis reaches its limit. Unreferenced axes (only with
 /// `jog.allow_unreferenced` or test mode) have no known limits: they may
 /// travel the width of their soft-limit range (`docs/device.md`).
-pub fn jog(cx: &Context, axes: &[(Axis, Dir)], speeds: &PerAxis<f64>) -> Result<Planned, Refusal> {
+///
+/// No axis runs faster than one `lease` at speed plus braking allows within
+/// `jog.max_overrun` ([`overrun_cap`]): the lease is how long the jog runs
+/// on if nobody renews it (`docs/jogging.md`).
+pub fn jog(
+    cx: &Context,
+    axes: &[(Axis, Dir)],
+    speeds: &PerAxis<f64>,
+    lease: Duration,
+) -> Result<Planned, Refusal> {
     let set: AxisSet = axes.iter().map(|(a, _)| *a).collect();
     check_axes(cx, set)?;
     if set.is_empty() {
@@ -252,7 +295,6 @@ pub fn jog(cx: &Context, axes: &[(Axis, Dir)], speeds: &PerAxis<f64>) -> Result<
     }
     cx.motion_allowed(cx.settings.allow_unreferenced)?;
     let position = cx.position.ok_or(Refusal::NotConnected)?;
-    let timeout = cx.settings.jog_repeat_timeout.as_secs_f64();
     // (axis, sign, speed, room in steps)
     let mut legs = Vec::new();
     for (axis, dir) in axes {
@@ -260,7 +302,7 @@ pub fn jog(cx: &Context, axes: &[(Axis, Dir)], speeds: &PerAxis<f64>) -> Result<
             .settings
             .limits(*axis)
             .ok_or_else(|| invalid(format!("the machine has no {axis} axis")))?;
-        let cap = overrun_cap(cx.ramp, timeout, limits.max_overrun).max(1.0);
+        let cap = overrun_cap(cx.ramp, lease, limits.max_overrun).max(1.0);
         let hz = speed_hz(cx, *axis, speeds.get(*axis).map(|v| v.min(cap)))?;
         let pos = position.get(*axis).unwrap_or(0);
         let room = if cx.state.referenced.contains(*axis) {
@@ -307,12 +349,16 @@ mod tests {
     use super::*;
 
     #[test]
-    fn the_overrun_cap_balances_reaction_and_braking() {
+    fn the_overrun_cap_balances_lease_reaction_and_braking() {
         let ramp = RampParams::CONTROLLER_DEFAULT;
-        let v = overrun_cap(ramp, 0.15, 1200.0);
+        let v = overrun_cap(ramp, Duration::from_millis(150), 1200.0);
         let a = 100_000.0;
-        let travel = v * 0.15 + (v * v - 300.0 * 300.0) / (2.0 * a);
-        assert!((travel - 1200.0).abs() < 1e-6, "{travel}");
-        assert!(v > 6_000.0 && v < 7_000.0, "{v}");
+        let reaction = jog::STOP_REACTION.as_secs_f64();
+        let travel = v * (0.15 + reaction) + (v * v - 300.0 * 300.0) / (2.0 * a);
+        assert!((travel - 1200.0).abs() < 1e-3, "{travel}");
+        assert!(v > 6_000.0 && v < 6_300.0, "{v}");
+        // The grace lease before the first key repeat allows much less.
+        let grace = overrun_cap(ramp, Duration::from_millis(750), 1200.0);
+        assert!(grace > 1_500.0 && grace < 1_600.0, "{grace}");
     }
 }

@@ -135,8 +135,6 @@ pub struct IselSettings {
     pub test_mode_allowed: bool,
     pub allow_unreferenced: bool,
     pub step_queue: usize,
-    /// Dead-man timeout once key repeats flow; with `max_overrun` it caps jog speeds.
-    pub jog_repeat_timeout: Duration,
     pub line: LineSettings,
     pub poll: PollPlan,
     pub timing: Timing,
@@ -198,7 +196,6 @@ impl IselSettings {
             test_mode_allowed: profile.isel.test_mode,
             allow_unreferenced: profile.jog.allow_unreferenced,
             step_queue: profile.jog.step_queue.max(1),
-            jog_repeat_timeout: Duration::from_millis(profile.jog.repeat_timeout_ms),
             line: profile.connection.line(),
             poll: PollPlan {
                 rate: PollRate::from_profile(profile.poll.rate_hz),

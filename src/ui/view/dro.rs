@@ -1,8 +1,9 @@
 //! The position panel (DRO): every axis of the machine in its units (work
 //! position from the virtual zero, machine position from the reference
 //! point) and in steps; estimated positions (isel while moving) marked with
-//! their own symbol and style; referenced or not per axis; the jog step and
-//! speed. Columns are dropped from the right when the panel is narrow.
+//! their own symbol and style; referenced or not per axis (the jog step and
+//! speed are on the jog keypad). Columns are dropped from the right when the
+//! panel is narrow.
 
 use ratatui::buffer::Buffer;
 use ratatui::layout::Rect;
@@ -12,15 +13,15 @@ use ratatui::widgets::Widget;
 
 use crate::device::api::{LinkState, PositionSource};
 use crate::ui::model::Model;
-use crate::ui::position::{common_unit, decimals, format_amount, format_units};
+use crate::ui::position::{decimals, format_units};
 
 use super::frame;
 
 pub struct DroView<'a>(pub &'a Model);
 
-/// Rows the panel needs: title, header, one per axis, the jog line.
+/// Rows the panel needs: title, header, one per axis.
 pub fn height(model: &Model) -> u16 {
-    3 + model.setup.axes.len() as u16
+    2 + model.setup.axes.len() as u16
 }
 
 /// Column widths reserved from the profile (soft limits, resolution), not
@@ -171,7 +172,6 @@ impl Widget for DroView<'_> {
                 }
             })
             .collect();
-        let unit_label = common_unit(model.setup.axes.iter().map(|(_, p)| p));
         let w = widths(model);
         let (work_w, unit_w, mach_w, steps_w) = (w.work, w.unit, w.machine, w.steps);
         let layouts: [&[Col]; 4] = [
@@ -254,21 +254,6 @@ impl Widget for DroView<'_> {
             }
             lines.push(Line::from(spans));
         }
-        let unit = unit_label.map(|u| u.symbol()).unwrap_or("units");
-        let step = model
-            .jog_step()
-            .map(format_amount)
-            .unwrap_or_else(|| "-".into());
-        let speed = model
-            .jog_speed()
-            .map(format_amount)
-            .unwrap_or_else(|| "-".into());
-        lines.push(Line::from(vec![
-            Span::styled("jog step ", p.dim),
-            Span::styled(format!("{step} {unit}"), p.text),
-            Span::styled("  speed ", p.dim),
-            Span::styled(format!("{speed} {unit}/s"), p.text),
-        ]));
         for (i, line) in lines.into_iter().enumerate() {
             let y = inner.y.saturating_add(i as u16);
             if y >= inner.bottom() {

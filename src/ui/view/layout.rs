@@ -1,11 +1,13 @@
 //! Where each panel goes, sized to the terminal: side by side from 76
-//! columns (position and simulator left, port bits right, traffic below),
+//! columns (position, jog keypad and simulator left, port bits right,
+//! traffic below),
 //! stacked below that. The status bar and message line are always on top,
 //! the key hints at the bottom; the traffic console gets what is left, and
 //! never less than a few lines.
 
 use ratatui::layout::Rect;
 
+use crate::ui::jog::view as keypad;
 use crate::ui::model::{Model, PanelId};
 
 use super::{dro, io, sim};
@@ -18,6 +20,7 @@ pub struct Areas {
     pub status: Rect,
     pub message: Rect,
     pub dro: Rect,
+    pub keypad: Rect,
     pub io: Rect,
     pub sim: Option<Rect>,
     pub console: Rect,
@@ -58,26 +61,29 @@ fn side_by_side(
     let right_x = body.x + left_w + 1;
     let right_w = body.right().saturating_sub(right_x);
     let dro_h = dro::height(model);
+    let pad_h = keypad::height(model);
     let sim_h = sim::height(model, left_w);
     let io_h = io::height(model, right_w);
     let console_min = (body.height / 4).max(5);
     let top_max = body.height.saturating_sub(console_min);
-    let top = (dro_h + sim_h).max(io_h).min(top_max);
+    let top = (dro_h + pad_h + sim_h).max(io_h).min(top_max);
     let dro_rect = Rect::new(body.x, body.y, left_w, dro_h.min(top));
-    let sim_rect = (sim_h > 0 && top > dro_rect.height + 1).then(|| {
-        Rect::new(
-            body.x,
-            body.y + dro_rect.height,
-            left_w,
-            top - dro_rect.height,
-        )
-    });
+    let pad_rect = Rect::new(
+        body.x,
+        body.y + dro_rect.height,
+        left_w,
+        pad_h.min(top - dro_rect.height),
+    );
+    let used = dro_rect.height + pad_rect.height;
+    let sim_rect =
+        (sim_h > 0 && top > used + 1).then(|| Rect::new(body.x, body.y + used, left_w, top - used));
     let io_rect = Rect::new(right_x, body.y, right_w, top);
     let console = Rect::new(body.x, body.y + top, body.width, body.height - top);
     Areas {
         status,
         message,
         dro: dro_rect,
+        keypad: pad_rect,
         io: io_rect,
         sim: sim_rect,
         console,
@@ -89,7 +95,8 @@ fn stacked(model: &Model, body: Rect, status: Rect, message: Rect, hints: Option
     let w = body.width;
     let console_min = 4.min(body.height);
     let dro_h = dro::height(model).min(body.height.saturating_sub(console_min));
-    let left = body.height - dro_h - console_min;
+    let pad_h = keypad::height(model).min(body.height - dro_h - console_min);
+    let left = body.height - dro_h - pad_h - console_min;
     let io_need = io::height(model, w);
     let sim_need = sim::height(model, w);
     // The focused panel is never squeezed out: the simulator panel takes
@@ -105,6 +112,8 @@ fn stacked(model: &Model, body: Rect, status: Rect, message: Rect, hints: Option
     let mut y = body.y;
     let dro_rect = Rect::new(body.x, y, w, dro_h);
     y += dro_h;
+    let pad_rect = Rect::new(body.x, y, w, pad_h);
+    y += pad_h;
     let io_rect = Rect::new(body.x, y, w, io_h);
     y += io_h;
     let sim_rect = (sim_h > 0).then(|| Rect::new(body.x, y, w, sim_h));
@@ -114,6 +123,7 @@ fn stacked(model: &Model, body: Rect, status: Rect, message: Rect, hints: Option
         status,
         message,
         dro: dro_rect,
+        keypad: pad_rect,
         io: io_rect,
         sim: sim_rect,
         console,

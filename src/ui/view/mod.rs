@@ -16,6 +16,7 @@ use ratatui::buffer::Buffer;
 use ratatui::layout::Rect;
 use ratatui::widgets::Widget;
 
+use super::jog::view::{AxesView, GoToView, KeypadView};
 use super::model::{Model, Popup};
 
 /// The whole screen.
@@ -29,6 +30,7 @@ impl Widget for Screen<'_> {
         status::StatusBar(model).render(a.status, buf);
         status::MessageLine(model).render(a.message, buf);
         dro::DroView(model).render(a.dro, buf);
+        KeypadView(model).render(a.keypad, buf);
         io::IoView(model).render(a.io, buf);
         if let Some(sim_area) = a.sim {
             sim::SimView(model).render(sim_area, buf);
@@ -48,6 +50,8 @@ impl Widget for Screen<'_> {
                 confirmation,
             }
             .render(area, buf),
+            Some(Popup::GoTo(prompt)) => GoToView { model, prompt }.render(area, buf),
+            Some(Popup::Axes(choice)) => AxesView { model, choice }.render(area, buf),
             None => {}
         }
     }

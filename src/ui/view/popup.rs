@@ -13,7 +13,7 @@ use crate::ui::model::{Confirmation, Model};
 use super::flow::fit;
 
 /// A box of at most `width` x `height` in the middle of `area`.
-fn centred(area: Rect, width: u16, height: u16) -> Rect {
+pub fn centred(area: Rect, width: u16, height: u16) -> Rect {
     let w = width.min(area.width);
     let h = height.min(area.height);
     Rect::new(
@@ -24,7 +24,8 @@ fn centred(area: Rect, width: u16, height: u16) -> Rect {
     )
 }
 
-fn framed(model: &Model, title: &str, area: Rect, buf: &mut Buffer) -> Rect {
+/// Clear `area` and draw a popup's frame with `title`; the area inside.
+pub fn framed(model: &Model, title: &str, area: Rect, buf: &mut Buffer) -> Rect {
     let p = &model.palette;
     Clear.render(area, buf);
     let block = Block::new()

@@ -160,12 +160,29 @@ impl Widget for Hints<'_> {
                     (Mode::Confirm, Action::Confirm, "yes"),
                     (Mode::Confirm, Action::Cancel, "no"),
                 ],
+                Mode::GoTo => &[
+                    (Mode::GoTo, Action::Submit, "go"),
+                    (Mode::GoTo, Action::Cancel, "cancel"),
+                ],
+                Mode::Axes => &[
+                    (Mode::Axes, Action::AxisAll, "all axes"),
+                    (Mode::Axes, Action::Cancel, "cancel"),
+                ],
                 _ => &[
                     (Mode::Help, Action::ScrollDown, "scroll"),
                     (Mode::Help, Action::Close, "close"),
                 ],
             },
             None => match model.focus.mode() {
+                Mode::Jog => &[
+                    (Mode::Main, Action::Help, "help"),
+                    (Mode::Main, Action::FocusNext, "focus"),
+                    (Mode::Main, Action::JogKind, "step/cont."),
+                    (Mode::Main, Action::GoTo, "go to"),
+                    (Mode::Main, Action::Initialise, "init"),
+                    (Mode::Main, Action::Home, "home"),
+                    (Mode::Main, Action::Quit, "quit"),
+                ],
                 Mode::Console => &[
                     (Mode::Console, Action::Submit, "send"),
                     (Mode::Console, Action::HistoryPrev, "history"),

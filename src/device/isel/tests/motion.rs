@@ -21,6 +21,24 @@ fn jog(id: u64, axes: Vec<(Axis, Dir)>, hz: f64, lease: Duration) -> Request {
     }
 }
 
+/// Ready at `(x, y, z)` with an overrun bound too large to cap any speed:
+/// for the tests of what a jog does, not of how fast it may go.
+fn ready_uncapped(x: i32, y: i32, z: i32) -> Harness {
+    let mut h = Harness::with(|s| {
+        for axis in [Axis::X, Axis::Y, Axis::Z] {
+            if let Some(mut l) = s.limits(axis) {
+                l.max_overrun = 1e12;
+                s.axes.set(axis, l);
+            }
+        }
+    });
+    h.connect();
+    h.readback(x, y, z, b"0");
+    h.expect_nothing();
+    h.take_events();
+    h
+}
+
 fn jog_ends(h: &Harness) -> Vec<(u64, JogEnd)> {
     h.events
         .iter()
@@ -192,7 +210,7 @@ fn move_to_needs_a_known_zero() {
 
 #[test]
 fn a_jog_runs_towards_the_soft_limit_along_its_vector() {
-    let mut h = Harness::ready_at(100_000, 40_000, 0);
+    let mut h = ready_uncapped(100_000, 40_000, 0);
     h.request(jog(
         1,
         vec![(Axis::X, Dir::Plus), (Axis::Y, Dir::Minus)],
@@ -233,17 +251,155 @@ fn jog_speed_is_capped_by_the_allowed_overrun() {
     });
     h.connect();
     h.readback(0, 0, 0, b"0");
-    h.request(jog(1, vec![(Axis::X, Dir::Plus)], 9_000.0, ms(750)));
-    let cap = crate::device::isel::overrun_cap(RampParams::CONTROLLER_DEFAULT, 0.15, 100.0);
+    h.request(jog(1, vec![(Axis::X, Dir::Plus)], 9_000.0, ms(150)));
+    let cap = crate::device::isel::overrun_cap(RampParams::CONTROLLER_DEFAULT, ms(150), 100.0);
     let expected = format!("@0A120000,{},0,300,0,300,0,300", cap.round() as u32);
     h.expect_text(&expected);
+}
+
+/// `@0A` of a jog along +X from 0 at `hz`.
+fn x_jog(hz: f64) -> String {
+    format!("@0A120000,{},0,300,0,300,0,300", hz.round() as u32)
+}
+
+fn cap(lease: Duration) -> f64 {
+    // The default profile: 3 mm at 400 steps/mm.
+    crate::device::isel::overrun_cap(RampParams::CONTROLLER_DEFAULT, lease, 1200.0)
+}
+
+#[test]
+fn a_jog_starts_at_the_grace_leases_cap_and_speeds_up_on_the_first_repeat() {
+    let mut h = Harness::ready_at(0, 0, 0);
+    // 15 mm/s asked for; the first lease (750 ms) allows about 3.9 mm/s.
+    h.request(jog(1, vec![(Axis::X, Dir::Plus)], 6_000.0, ms(750)));
+    h.expect_text(&x_jog(cap(ms(750))));
+    h.advance(ms(500));
+    h.request(Request::JogRenew {
+        id: JogId(1),
+        lease: ms(150),
+    });
+    // The controller cannot change a running move's speed: stop, read where
+    // it ended, go on faster. The jog itself goes on.
+    h.expect(&[0xFD, 0xFF]);
+    assert_eq!(h.state().activity, Activity::Jogging);
+    h.advance(ms(15));
+    h.reply(b"F");
+    assert!(jog_ends(&h).is_empty(), "{:?}", jog_ends(&h));
+    h.advance(ms(10));
+    h.expect_text("@0P");
+    h.reply(&position_reply(780, 0, 0));
+    let room = 120_000 - 780;
+    h.expect_text(&format!(
+        "@0A{room},{},0,300,0,300,0,300",
+        6_000.0f64.min(cap(ms(150))).round() as u32
+    ));
+    assert_eq!(h.state().activity, Activity::Jogging);
+    // Further renewals keep it alive and change nothing on the wire.
+    for _ in 0..5 {
+        h.advance(ms(33));
+        h.request(Request::JogRenew {
+            id: JogId(1),
+            lease: ms(150),
+        });
+        h.expect_nothing();
+    }
+    h.request(Request::JogRelease { id: JogId(1) });
+    h.expect(&[0xFD, 0xFF]);
+    h.reply(b"F");
+    assert_eq!(jog_ends(&h), [(1, JogEnd::Released)]);
+}
+
+#[test]
+fn a_slow_jog_never_stops_to_speed_up() {
+    let mut h = Harness::ready_at(0, 0, 0);
+    h.request(jog(1, vec![(Axis::X, Dir::Plus)], 800.0, ms(750)));
+    h.expect_text(&x_jog(800.0));
+    h.advance(ms(500));
+    h.request(Request::JogRenew {
+        id: JogId(1),
+        lease: ms(150),
+    });
+    h.expect_nothing();
+}
+
+#[test]
+fn a_release_or_a_lapsed_lease_while_speeding_up_ends_the_jog_without_a_restart() {
+    for release in [true, false] {
+        let mut h = Harness::ready_at(0, 0, 0);
+        h.request(jog(3, vec![(Axis::X, Dir::Plus)], 6_000.0, ms(750)));
+        h.send();
+        h.advance(ms(500));
+        h.request(Request::JogRenew {
+            id: JogId(3),
+            lease: ms(150),
+        });
+        h.expect(&[0xFD, 0xFF]);
+        if release {
+            h.request(Request::JogRelease { id: JogId(3) });
+            h.expect_nothing();
+        } else {
+            h.advance(ms(200));
+        }
+        h.reply(b"F");
+        h.advance(ms(10));
+        h.expect_text("@0P");
+        h.reply(&position_reply(900, 0, 0));
+        h.expect_nothing();
+        let end = if release {
+            JogEnd::Released
+        } else {
+            JogEnd::DeadMan
+        };
+        assert_eq!(jog_ends(&h), [(3, end)]);
+        assert_eq!(h.state().activity, Activity::Idle);
+    }
+}
+
+#[test]
+fn a_renewal_before_the_move_is_out_replans_it_without_a_stop() {
+    let mut h = Harness::ready_at(0, 0, 0);
+    h.request(jog(4, vec![(Axis::X, Dir::Plus)], 6_000.0, ms(750)));
+    let planned = h.take();
+    assert_eq!(
+        planned.as_deref().map(crate::traffic::readable),
+        Some(format!("{}<CR>", x_jog(cap(ms(750)))))
+    );
+    // Renewed while the command is still on its way: it is already out in
+    // full here, so the speed-up goes the usual way; but a renewal before
+    // the driver handed it out re-plans it.
+    let mut h = Harness::ready_at(0, 0, 0);
+    h.request(jog(5, vec![(Axis::X, Dir::Plus)], 6_000.0, ms(750)));
+    h.request(Request::JogRenew {
+        id: JogId(5),
+        lease: ms(150),
+    });
+    h.expect_text(&x_jog(6_000.0f64.min(cap(ms(150)))));
+}
+
+#[test]
+fn a_renewal_never_grants_more_than_the_speed_allows() {
+    let mut h = Harness::ready_at(0, 0, 0);
+    h.request(jog(6, vec![(Axis::X, Dir::Plus)], 800.0, ms(150)));
+    h.expect_text(&x_jog(800.0));
+    // 800 Hz may run (1200 - 10 ms reaction - braking) / 800 Hz ≈ 1.48 s;
+    // a client asking for 10 s gets that, not more.
+    h.request(Request::JogRenew {
+        id: JogId(6),
+        lease: ms(10_000),
+    });
+    h.advance(ms(1_470));
+    h.expect_nothing();
+    h.advance(ms(30));
+    h.expect(&[0xFD, 0xFF]);
+    h.reply(b"F");
+    assert_eq!(jog_ends(&h), [(6, JogEnd::DeadMan)]);
 }
 
 #[test]
 fn a_jog_whose_lease_runs_out_is_stopped_and_broken_off() {
     let mut h = Harness::ready_at(0, 0, 0);
-    h.request(jog(7, vec![(Axis::X, Dir::Plus)], 2_000.0, ms(750)));
-    h.expect_text("@0A120000,2000,0,300,0,300,0,300");
+    h.request(jog(7, vec![(Axis::X, Dir::Plus)], 1_000.0, ms(750)));
+    h.expect_text("@0A120000,1000,0,300,0,300,0,300");
     h.advance(ms(700));
     h.request(Request::JogRenew {
         id: JogId(7),
@@ -290,7 +446,7 @@ fn a_released_jog_is_stopped_and_reported_when_it_ends() {
 
 #[test]
 fn a_jog_that_reaches_the_limit_ends_with_softlimit() {
-    let mut h = Harness::ready_at(119_000, 0, 0);
+    let mut h = ready_uncapped(119_000, 0, 0);
     h.request(jog(4, vec![(Axis::X, Dir::Plus)], 1_000.0, ms(5_000)));
     h.expect_text("@0A1000,1000,0,300,0,300,0,300");
     h.advance(ms(1_200));
@@ -301,7 +457,7 @@ fn a_jog_that_reaches_the_limit_ends_with_softlimit() {
 
 #[test]
 fn stop_brakes_the_estimate_and_shortens_the_deadline() {
-    let mut h = Harness::ready_at(0, 0, 0);
+    let mut h = ready_uncapped(0, 0, 0);
     h.request(jog(5, vec![(Axis::X, Dir::Plus)], 5_300.0, ms(5_000)));
     h.expect_text("@0A120000,5300,0,300,0,300,0,300");
     h.advance(ms(500));

@@ -1,0 +1,301 @@
+//! The jog keypad panel: its state ([`Keypad`]: the jog logic of
+//! `crate::jog` with the keys it was pressed with, homing progress), the
+//! glue `update` calls for motion keys, key releases, ticks and device
+//! events, and the go-to prompt ([`goto`]) and axis choice ([`axes`])
+//! popups. Drawing is in [`view`].
+//!
+//! Nothing here sends anything: it returns `Effect`s, and notes for the
+//! message line, which `update` carries out.
+
+pub mod axes;
+pub mod goto;
+pub mod view;
+
+use std::time::Instant;
+
+use crate::axis::{Axis, AxisSet};
+use crate::device::api::{Activity, Dir, Event, JogEnd, MachineState, Refusal, Request};
+use crate::jog::{Gate, JogKind, JogSettings, Jogger, KeyPhase, LastOutcome, Selection, Vector};
+
+use super::key::KeyChord;
+use super::keymap::Action;
+use super::model::Model;
+use super::msg::Effect;
+use super::traffic_log::NoteLevel;
+
+/// A line for the message line (and the console), from the keypad.
+pub type Note = (NoteLevel, String);
+
+/// A reference run the keypad has seen asked for, to show its progress.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Homing {
+    pub axes: AxisSet,
+    pub since: Instant,
+    /// The device task has reported it running.
+    pub seen: bool,
+    /// The axes referenced when it was seen running: only axes referenced
+    /// after that count as done (a run repeats a reference already held).
+    pub before: AxisSet,
+}
+
+/// The keypad panel's state.
+#[derive(Debug, Clone)]
+pub struct Keypad {
+    pub jogger: Jogger<KeyChord>,
+    pub homing: Option<Homing>,
+}
+
+impl Keypad {
+    pub fn new(settings: JogSettings) -> Keypad {
+        Keypad {
+            jogger: Jogger::new(settings),
+            homing: None,
+        }
+    }
+
+    pub fn settings(&self) -> &JogSettings {
+        self.jogger.settings()
+    }
+
+    /// Whether the terminal reports key releases (kitty keyboard protocol):
+    /// then a release stops a held jog at once.
+    pub fn set_releases(&mut self, releases: bool) {
+        self.jogger.set_releases(releases);
+    }
+
+    /// Effects `update` is about to carry out: a reference run starts its
+    /// progress display.
+    pub fn issued(&mut self, effects: &[Effect], now: Instant) {
+        for effect in effects {
+            if let Effect::Request(Request::Home { axes }) = effect {
+                self.homing = Some(Homing {
+                    axes: *axes,
+                    since: now,
+                    seen: false,
+                    before: AxisSet::EMPTY,
+                });
+            }
+        }
+    }
+
+    fn machine_state(&mut self, state: &MachineState) {
+        if let Some(h) = self.homing.as_mut() {
+            if state.activity == Activity::Homing {
+                if !h.seen {
+                    h.before = state.referenced;
+                }
+                h.seen = true;
+            } else if h.seen {
+                self.homing = None;
+            }
+        }
+    }
+}
+
+/// The direction a keymap action jogs in.
+pub fn vector_of(action: Action) -> Option<Vector> {
+    use Axis::{A, X, Y, Z};
+    use Dir::{Minus, Plus};
+    let pairs: &[(Axis, Dir)] = match action {
+        Action::JogXPlus => &[(X, Plus)],
+        Action::JogXMinus => &[(X, Minus)],
+        Action::JogYPlus => &[(Y, Plus)],
+        Action::JogYMinus => &[(Y, Minus)],
+        Action::JogZPlus => &[(Z, Plus)],
+        Action::JogZMinus => &[(Z, Minus)],
+        Action::JogAPlus => &[(A, Plus)],
+        Action::JogAMinus => &[(A, Minus)],
+        Action::JogXPlusYPlus => &[(X, Plus), (Y, Plus)],
+        Action::JogXMinusYPlus => &[(X, Minus), (Y, Plus)],
+        Action::JogXPlusYMinus => &[(X, Plus), (Y, Minus)],
+        Action::JogXMinusYMinus => &[(X, Minus), (Y, Minus)],
+        _ => return None,
+    };
+    Some(Vector::new(pairs))
+}
+
+/// The motion gate for the model's state and profile.
+pub fn gate(model: &Model) -> Gate<'_> {
+    let settings = model.keypad.settings();
+    Gate {
+        link: &model.link,
+        machine: &model.machine,
+        axes: settings.axis_set(),
+        allow_unreferenced: settings.allow_unreferenced,
+    }
+}
+
+/// The step and speed selected in the model, in units.
+pub fn selection(model: &Model) -> Selection {
+    Selection {
+        step: model.jog_step().unwrap_or(0.0),
+        speed: model.jog_speed().unwrap_or(0.0),
+    }
+}
+
+fn requests(list: Vec<Request>) -> Vec<Effect> {
+    list.into_iter().map(Effect::Request).collect()
+}
+
+/// A motion key of the keypad (`action` one of the jog actions).
+pub fn motion_key(
+    model: &mut Model,
+    action: Action,
+    chord: KeyChord,
+    phase: KeyPhase,
+) -> (Vec<Effect>, Option<Note>) {
+    let Some(vector) = vector_of(action) else {
+        return (Vec::new(), None);
+    };
+    let now = model.now;
+    let machine_axes = model.keypad.settings().axis_set();
+    if let Some(axis) = vector.axes().iter().find(|a| !machine_axes.contains(*a)) {
+        if phase != KeyPhase::Press {
+            return (Vec::new(), None);
+        }
+        let reason = Refusal::Invalid {
+            reason: format!("the machine has no {axis} axis (axes {machine_axes})"),
+        };
+        let text = format!("jog refused: {reason}");
+        model.keypad.jogger.refused(reason, now);
+        return (Vec::new(), Some((NoteLevel::Warning, text)));
+    }
+    let sel = selection(model);
+    let before = model.keypad.jogger.last().cloned();
+    let gate = Gate {
+        link: &model.link,
+        machine: &model.machine,
+        axes: machine_axes,
+        allow_unreferenced: model.keypad.settings().allow_unreferenced,
+    };
+    let out = model
+        .keypad
+        .jogger
+        .key(&gate, chord, vector, phase, sel, now);
+    // A refusal is said once, when it is new (the key is latched after it).
+    let note = match model.keypad.jogger.last() {
+        Some(LastOutcome::Refused { reason, at })
+            if *at == now && before.as_ref() != model.keypad.jogger.last() =>
+        {
+            Some((NoteLevel::Danger, format!("jog refused: {reason}")))
+        }
+        _ => None,
+    };
+    (requests(out), note)
+}
+
+/// A key was let go (only terminals with the kitty keyboard protocol say).
+pub fn released(model: &mut Model, chord: KeyChord) -> Vec<Effect> {
+    let now = model.now;
+    let gate_free = Gate {
+        link: &model.link,
+        machine: &model.machine,
+        axes: AxisSet::EMPTY,
+        allow_unreferenced: false,
+    };
+    // A release never starts motion; the gate and selection are not used.
+    let out = model.keypad.jogger.key(
+        &gate_free,
+        chord,
+        Vector::default(),
+        KeyPhase::Release,
+        Selection {
+            step: 0.0,
+            speed: 0.0,
+        },
+        now,
+    );
+    requests(out)
+}
+
+/// Any key other than a stop key, before it is routed: in toggle mode a
+/// running jog stops and the key is used up.
+pub fn any_key(model: &mut Model, chord: KeyChord, phase: KeyPhase) -> Option<Vec<Effect>> {
+    let now = model.now;
+    model
+        .keypad
+        .jogger
+        .other_key(chord, phase, now)
+        .map(requests)
+}
+
+/// The operator stopped everything.
+pub fn stopped(model: &mut Model) {
+    let now = model.now;
+    model.keypad.jogger.stopped(now);
+    model.keypad.homing = None;
+}
+
+/// Switch between step and continuous jogging.
+pub fn switch_kind(model: &mut Model) -> (Vec<Effect>, Note) {
+    let now = model.now;
+    let kind = match model.keypad.jogger.kind() {
+        JogKind::Step => JogKind::Continuous,
+        JogKind::Continuous => JogKind::Step,
+    };
+    let out = model.keypad.jogger.set_kind(kind, now);
+    let text = match kind {
+        JogKind::Step => "step jogging: one press, one step".to_string(),
+        JogKind::Continuous => match model.keypad.jogger.mode() {
+            crate::config::profile::JogMode::Hold => {
+                "continuous jogging: the axis moves while the key is held".to_string()
+            }
+            crate::config::profile::JogMode::Toggle => {
+                "continuous jogging, TOGGLE: a key starts the axis, any key stops it".to_string()
+            }
+        },
+    };
+    (requests(out), (NoteLevel::Info, text))
+}
+
+/// Time passes: toggle jogs are renewed, let-go keys cleared.
+pub fn tick(model: &mut Model) -> Vec<Effect> {
+    let now = model.now;
+    requests(model.keypad.jogger.tick(now))
+}
+
+/// A device event the keypad cares about. Returns `false` for a refusal the
+/// keypad accounts for itself (a step press dropped because the driver's
+/// queue is full: expected while a key repeats), which the message line
+/// should not repeat.
+pub fn device_event(model: &mut Model, event: &Event) -> bool {
+    let now = model.now;
+    match event {
+        Event::JogEnded { id, end } => {
+            model.keypad.jogger.ended(*id, end, now);
+            true
+        }
+        Event::Refused {
+            reason: Refusal::StepQueueFull,
+            ..
+        } => {
+            model.keypad.jogger.step_dropped();
+            false
+        }
+        Event::Refused { request, reason } => {
+            if request.starts_with("step") || request.starts_with("move to") {
+                model.keypad.jogger.refused(reason.clone(), now);
+            }
+            if request.starts_with("home") {
+                model.keypad.homing = None;
+            }
+            true
+        }
+        Event::State(state) => {
+            model.keypad.machine_state(state);
+            true
+        }
+        _ => true,
+    }
+}
+
+/// Whether a jog's end is worth a message: a dead-man end is the normal
+/// way a held jog ends where the terminal reports no releases.
+pub fn end_is_news(model: &Model, end: &JogEnd) -> bool {
+    *end != JogEnd::DeadMan || model.keypad.jogger.releases()
+}
+
+/// Whether anything moves, as far as the console knows.
+pub fn moving(model: &Model) -> bool {
+    model.machine.activity != Activity::Idle || model.keypad.jogger.active().is_some()
+}
