@@ -12,7 +12,7 @@ use std::time::{Duration, Instant};
 use faults_support::console::Console;
 use faults_support::runner::{self, Scenario, Tally};
 use faults_support::sim::SimProcess;
-use faults_support::wire::{assert_isel_motion, isel_messages};
+use faults_support::wire::{assert_isel_motion, isel_messages, isel_motion};
 use faults_support::{JOGTERM, WAIT, contains_panic};
 
 /// A long X move (15 s at 4000 Hz) for a fault to interrupt.
@@ -31,6 +31,21 @@ fn ready_isel() -> (SimProcess, Console) {
     let mut console = Console::start(&sim);
     console.make_ready();
     (sim, console)
+}
+
+/// Go to `target` with the keypad's go-to prompt (`g`, the target, Enter);
+/// waits until the controller has the move and the console says MOVING.
+/// The motion command the controller received.
+fn start_go_to(sim: &mut SimProcess, console: &mut Console, target: &str) -> String {
+    console.keys(b"g");
+    console.keys(target.as_bytes());
+    console.wait_for(target);
+    console.keys(b"\r");
+    let received = sim.wait_received("the go-to move", |r| !isel_motion(r).is_empty());
+    console.wait_until("MOVING in the status bar", |s| {
+        s.lines().next().is_some_and(|l| l.contains("MOVING"))
+    });
+    isel_motion(&received).remove(0)
 }
 
 /// Wait until the controller has received the whole `command`.
@@ -169,12 +184,13 @@ fn withheld_reply(t: &mut Tally) {
     console.quit();
 }
 
-/// The line closed under a long move and reopened 500 ms later: the console
-/// says the link is lost and the motion state unknown, reconnects, stops the
-/// move first and reads the state back; the move is not sent again.
+/// The line closed under a go-to move (`g X150`, 6 s) and reopened 500 ms
+/// later: the console says the link is lost and the motion state unknown,
+/// reconnects, stops the move first and reads the state back; the move is
+/// not sent again.
 fn port_closed_mid_move_and_reopened(t: &mut Tally) {
     let (mut sim, mut console) = ready_isel();
-    start_move(&mut sim, &mut console, LONG_MOVE);
+    let go_to = start_go_to(&mut sim, &mut console, "X150");
     sim.control("fault close 500");
     t.fault();
     console.wait_for("motion state unknown until the controller is read again");
@@ -188,10 +204,10 @@ fn port_closed_mid_move_and_reopened(t: &mut Tally) {
     let x = x_steps(&screen).expect("the X position");
     assert!(x > 0 && x < 60_000, "the move was stopped: X {x}\n{screen}");
     let received = sim.received();
-    assert_isel_motion(&received, &[LONG_MOVE]);
+    assert_isel_motion(&received, &[&go_to]);
     let after: Vec<String> = isel_messages(&received)
         .into_iter()
-        .skip_while(|m| m != LONG_MOVE)
+        .skip_while(|m| *m != go_to)
         .skip(1)
         .collect();
     assert_eq!(
@@ -354,6 +370,49 @@ fn sighup_during_a_move(t: &mut Tally) {
     sim.assert_alive();
 }
 
+/// A hang-up (SIGHUP) during a continuous jog held with key repeats: jogterm
+/// stops the machine and ends; the jog's one move was sent once and the
+/// machine comes to rest.
+fn sighup_during_a_continuous_jog(t: &mut Tally) {
+    let (mut sim, mut console) = ready_isel();
+    // Continuous jogging, then hold X+ (Right) as a terminal repeats it.
+    console.keys(b"c");
+    console.wait_for("continuous");
+    let right = b"\x1b[C";
+    let end = Instant::now() + WAIT;
+    loop {
+        console.keys(right);
+        std::thread::sleep(Duration::from_millis(30));
+        let bar = console.status_bar();
+        if bar.contains("JOGGING") {
+            break;
+        }
+        assert!(
+            Instant::now() < end,
+            "the jog never started:\n{}",
+            console.screen()
+        );
+    }
+    // A few repeats more, then the terminal goes away between two repeats.
+    for _ in 0..5 {
+        console.keys(right);
+        std::thread::sleep(Duration::from_millis(30));
+    }
+    console.run.close_master();
+    t.fault();
+    console.assert_exits(None);
+    let received = sim.wait_received("the stop after the hang-up", |r| {
+        isel_messages(r)
+            .iter()
+            .skip_while(|m| !faults_support::wire::isel_moves(m))
+            .any(|m| m == "<FD>")
+    });
+    let motion = isel_motion(&received);
+    assert_eq!(motion.len(), 1, "one move for the jog: {motion:?}");
+    sim.wait_device("idle", |d| d.ends_with("| idle"));
+    sim.assert_alive();
+}
+
 /// `jogterm send` whose reply is withheld: it ends with status 3 and says
 /// the link failed and what to check, within its deadline.
 fn withheld_reply_to_send(t: &mut Tally) {
@@ -435,6 +494,10 @@ fn main() -> ExitCode {
         Scenario {
             name: "sighup_during_a_move",
             run: sighup_during_a_move,
+        },
+        Scenario {
+            name: "sighup_during_a_continuous_jog",
+            run: sighup_during_a_continuous_jog,
         },
     ])
 }
