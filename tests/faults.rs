@@ -413,11 +413,26 @@ fn sighup_during_a_continuous_jog(t: &mut Tally) {
     sim.assert_alive();
 }
 
+/// The output of a command line run, once it has ended; killed and failed
+/// if it does not end within [`WAIT`].
+fn wait_child(mut child: std::process::Child, what: &str) -> std::process::Output {
+    let end = Instant::now() + WAIT;
+    while matches!(child.try_wait(), Ok(None)) {
+        if Instant::now() > end {
+            let _ = child.kill();
+            let out = child.wait_with_output();
+            panic!("{what} hangs: {out:?}");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    child.wait_with_output().expect("the output")
+}
+
 /// `jogterm send` whose reply is withheld: it ends with status 3 and says
 /// the link failed and what to check, within its deadline.
 fn withheld_reply_to_send(t: &mut Tally) {
     let mut sim = SimProcess::start("isel");
-    let mut child = Command::new(JOGTERM)
+    let child = Command::new(JOGTERM)
         .args(["send", "--protocol", "isel", "--port"])
         .arg(&sim.link)
         .args(["@07", "@0N7", MEDIUM_MOVE, "@0P"])
@@ -431,12 +446,7 @@ fn withheld_reply_to_send(t: &mut Tally) {
     });
     sim.control("fault withhold");
     t.fault();
-    let end = Instant::now() + WAIT;
-    while matches!(child.try_wait(), Ok(None)) {
-        assert!(Instant::now() < end, "jogterm send hangs");
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    let out = child.wait_with_output().expect("jogterm send ends");
+    let out = wait_child(child, "jogterm send");
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(3), "{stderr}");
     assert!(!contains_panic(&out.stderr), "{stderr}");
@@ -450,6 +460,53 @@ fn withheld_reply_to_send(t: &mut Tally) {
         "{stderr}"
     );
     assert_isel_motion(&sim.received(), &[MEDIUM_MOVE]);
+    sim.assert_alive();
+}
+
+/// `jogterm poll` whose `@0P` reply is withheld: it ends with status 3,
+/// says the link failed on which command and what to check; the samples
+/// before it are whole lines; nothing moved.
+fn withheld_reply_to_poll(t: &mut Tally) {
+    let mut sim = SimProcess::start("isel");
+    let child = Command::new(JOGTERM)
+        .args([
+            "poll",
+            "--protocol",
+            "isel",
+            "--json",
+            "--interval-ms",
+            "20",
+            "--port",
+        ])
+        .arg(&sim.link)
+        .env("JOGTERM_CONFIG_DIR", sim.dir.path())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("run jogterm poll");
+    sim.wait_received("a few polls", |r| {
+        isel_messages(r).iter().filter(|m| *m == "@0P").count() >= 5
+    });
+    sim.control("fault withhold");
+    t.fault();
+    let out = wait_child(child, "jogterm poll");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(3), "{stderr}");
+    assert!(!contains_panic(&out.stderr), "{stderr}");
+    assert!(stderr.contains("link failure: no reply to @0"), "{stderr}");
+    assert!(
+        stderr.contains("check the cable, the baud rate and the controller type"),
+        "{stderr}"
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.lines().count() >= 1, "samples before the fault");
+    for line in stdout.lines() {
+        assert!(
+            line.starts_with('{') && line.ends_with('}'),
+            "a whole JSON sample per line: {line}"
+        );
+    }
+    assert_isel_motion(&sim.received(), &[]);
     sim.assert_alive();
 }
 
@@ -470,6 +527,10 @@ fn main() -> ExitCode {
         Scenario {
             name: "withheld_reply_to_send",
             run: withheld_reply_to_send,
+        },
+        Scenario {
+            name: "withheld_reply_to_poll",
+            run: withheld_reply_to_poll,
         },
         Scenario {
             name: "port_closed_mid_move_and_reopened",
