@@ -8,7 +8,8 @@
 //!
 //! It takes the arguments `cargo test` hands every test binary: names to
 //! filter by (substrings, or whole names with `--exact`), `--skip NAME`,
-//! `--list`, `--test-threads N`; other libtest flags are accepted and ignored.
+//! `--list`, `--test-threads N`, `--ignored` (runs nothing: no scenario is
+//! ignored); other libtest flags are accepted and ignored.
 
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -48,6 +49,8 @@ struct Options {
     skip: Vec<String>,
     exact: bool,
     list: bool,
+    /// `--ignored`: only ignored tests, and no scenario is ignored.
+    only_ignored: bool,
     threads: usize,
 }
 
@@ -57,6 +60,7 @@ fn options() -> Options {
         skip: Vec::new(),
         exact: false,
         list: false,
+        only_ignored: false,
         threads: DEFAULT_PARALLEL,
     };
     let mut args = std::env::args().skip(1);
@@ -64,6 +68,7 @@ fn options() -> Options {
         match arg.as_str() {
             "--list" => o.list = true,
             "--exact" => o.exact = true,
+            "--ignored" => o.only_ignored = true,
             "--skip" => o.skip.extend(args.next()),
             "--test-threads" => {
                 if let Some(n) = args.next().and_then(|n| n.parse::<usize>().ok()) {
@@ -95,7 +100,8 @@ impl Options {
                 name.contains(f.as_str())
             }
         };
-        (self.filters.is_empty() || self.filters.iter().any(matches))
+        !self.only_ignored
+            && (self.filters.is_empty() || self.filters.iter().any(matches))
             && !self.skip.iter().any(|s| name.contains(s.as_str()))
     }
 }
