@@ -296,6 +296,10 @@ fn closing_a_pty_line_with_reopen_gives_the_link_path_back() {
 fn controls_reach_the_device_and_its_refusals_come_back() {
     let (shell, mut client) = socket_shell();
     let control = shell.control();
+    assert_eq!(
+        control.input_levels().expect("levels"),
+        vec![("hood", Some(true)), ("start", None)]
+    );
     control
         .input(InputControl::Set {
             name: "hood".into(),
@@ -327,6 +331,11 @@ fn controls_reach_the_device_and_its_refusals_come_back() {
         "unknown input `door`: expected hood or start"
     );
     assert_eq!(control.input_names().expect("names"), vec!["hood", "start"]);
+    assert_eq!(
+        control.input_levels().expect("levels"),
+        vec![("hood", Some(false)), ("start", None)],
+        "the level follows what was set"
+    );
 }
 
 #[test]

@@ -144,7 +144,10 @@ fn the_built_in_simulator_runs_by_default_and_its_inputs_can_be_flipped() {
     let mut run = spawn(&[], config.path());
     wait_for(&run, "connected");
     let screen = wait_for(&run, "Simulator inputs");
-    assert!(screen.contains("limit-x1=?"), "{screen}");
+    assert!(
+        screen.contains("limit-x1=0") && screen.contains("estop1=1"),
+        "the simulator's levels are shown from the start:\n{screen}"
+    );
     // Tab to the simulator panel (past the port bits and the console; the
     // jog keypad has focus at start), walk to limit-x1 and set it.
     run.send(b"\t\t\t");
@@ -170,6 +173,10 @@ fn the_built_in_simulator_runs_by_default_and_its_inputs_can_be_flipped() {
     run.send(b"1");
     wait_for(&run, "limit-x1=1");
     wait_for(&run, "●X1");
+    // Enter flips it back.
+    run.send(b"\r");
+    wait_for(&run, "limit-x1=0");
+    wait_for(&run, "○X1");
     quit_and_check(&mut run);
 }
 

@@ -377,27 +377,34 @@ fn simulator_inputs_are_flipped_through_effects() {
         [key(KeyCode::Tab), key(KeyCode::Tab), key(KeyCode::Tab)],
     );
     assert_eq!(m.focus, PanelId::Sim);
-    // The level is not known yet: flipping explains, setting works.
-    assert!(press(&mut m, [key(KeyCode::Enter)]).is_empty());
-    let fx = press(&mut m, [ch('1')]);
-    let control = InputControl::Set {
+    // The simulator reported the circuit closed at start: Enter opens it.
+    assert!(screen(&m, 80, 24).contains("estop1=1"));
+    let open = InputControl::Set {
         name: "estop1".into(),
-        level: true,
+        level: false,
     };
-    assert_eq!(fx, [Effect::Simulator(control.clone())]);
+    assert_eq!(
+        press(&mut m, [key(KeyCode::Enter)]),
+        [Effect::Simulator(open.clone())]
+    );
+    assert!(
+        screen(&m, 80, 24).contains("estop1=…"),
+        "pending until the simulator took it"
+    );
     update(
         &mut m,
         Msg::Simulator {
-            control,
+            control: open,
             result: Ok(()),
         },
     );
-    assert!(screen(&m, 80, 24).contains("estop1=1"));
+    assert!(screen(&m, 80, 24).contains("estop1=0"));
+    let fx = press(&mut m, [ch('1')]);
     assert_eq!(
-        press(&mut m, [key(KeyCode::Enter)]),
+        fx,
         [Effect::Simulator(InputControl::Set {
             name: "estop1".into(),
-            level: false
+            level: true
         })]
     );
     update(

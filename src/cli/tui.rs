@@ -101,7 +101,7 @@ pub fn run(global: &GlobalArgs) -> anyhow::Result<ExitCode> {
 /// The built-in simulator a session runs on, and its inputs.
 struct Simulator {
     shell: Shell,
-    inputs: Vec<String>,
+    inputs: Vec<(String, Option<bool>)>,
 }
 
 /// The line to the controller: the built-in simulator of the profile's
@@ -120,10 +120,10 @@ fn open_line(profile: &Profile) -> anyhow::Result<(PortSpec, Option<Simulator>)>
         serve_socket(device).with_context(|| format!("starting the {protocol} simulator"))?;
     let inputs = shell
         .control()
-        .input_names()
+        .input_levels()
         .with_context(|| format!("asking the {protocol} simulator for its inputs"))?
         .into_iter()
-        .map(str::to_string)
+        .map(|(name, level)| (name.to_string(), level))
         .collect();
     let spec = PortSpec::InProcess {
         stream,

@@ -227,6 +227,10 @@ impl Engine {
         self.device.input_names()
     }
 
+    pub fn input_level(&self, name: &str) -> Option<bool> {
+        self.device.input_level(name)
+    }
+
     fn pending_deadline(&self) -> Option<Instant> {
         self.device
             .next_deadline()
@@ -346,6 +350,9 @@ mod tests {
         }
         fn input_names(&self) -> Vec<&'static str> {
             vec!["hood"]
+        }
+        fn input_level(&self, _name: &str) -> Option<bool> {
+            None
         }
         fn describe(&self, _now: Instant) -> String {
             format!("{} lines pending", self.pending.len())
@@ -682,6 +689,9 @@ mod tests {
         }
         fn input_names(&self) -> Vec<&'static str> {
             Vec::new()
+        }
+        fn input_level(&self, _name: &str) -> Option<bool> {
+            None
         }
         fn describe(&self, _: Instant) -> String {
             String::new()

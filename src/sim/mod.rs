@@ -82,6 +82,12 @@ pub trait SimDevice: Send + 'static {
     /// The names `control` understands, for the simulator's `help`.
     fn input_names(&self) -> Vec<&'static str>;
 
+    /// The level the operator's controls left a two-level input at (`true` =
+    /// on / closed), so a panel can show it before anyone flipped it.
+    /// `None` for a name that is not such an input here (an analogue
+    /// channel, a step button, an unknown name).
+    fn input_level(&self, name: &str) -> Option<bool>;
+
     /// One line of state (positions, ports, flags) for the simulator's `show`.
     fn describe(&self, now: Instant) -> String;
 }

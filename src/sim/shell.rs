@@ -64,6 +64,7 @@ enum Request {
     Show(Reply<String>),
     Received(Reply<Received>),
     InputNames(Reply<Vec<&'static str>>),
+    InputLevels(Reply<Vec<(&'static str, Option<bool>)>>),
     Shutdown,
 }
 
@@ -106,6 +107,11 @@ impl ShellControl {
     /// The input names the device understands.
     pub fn input_names(&self) -> Result<Vec<&'static str>, ShellError> {
         self.ask(Request::InputNames)
+    }
+
+    /// Every input name with the level it stands at now (`SimDevice::input_level`).
+    pub fn input_levels(&self) -> Result<Vec<(&'static str, Option<bool>)>, ShellError> {
+        self.ask(Request::InputLevels)
     }
 
     fn ask<T>(&self, make: impl FnOnce(Reply<T>) -> Request) -> Result<T, ShellError> {
@@ -443,6 +449,15 @@ impl Worker {
             }
             Request::InputNames(reply) => {
                 let _ = reply.send(self.engine.input_names());
+            }
+            Request::InputLevels(reply) => {
+                let levels = self
+                    .engine
+                    .input_names()
+                    .into_iter()
+                    .map(|name| (name, self.engine.input_level(name)))
+                    .collect();
+                let _ = reply.send(levels);
             }
             Request::Shutdown => return Flow::Exit,
         }

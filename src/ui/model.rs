@@ -44,14 +44,18 @@ pub struct Setup {
     /// The step and speed selected at start.
     pub jog_start: JogSelection,
     pub isel_device: u8,
-    /// The built-in simulator's input names, when the session runs on one.
-    pub simulator_inputs: Option<Vec<String>>,
+    /// The built-in simulator's inputs with their levels at start (`None`
+    /// where the simulator does not say), when the session runs on one.
+    pub simulator_inputs: Option<Vec<(String, Option<bool>)>>,
     /// Everything jogging needs from the profile (`crate::jog`).
     pub jog: JogSettings,
 }
 
 impl Setup {
-    pub fn from_profile(profile: &Profile, simulator_inputs: Option<Vec<String>>) -> Self {
+    pub fn from_profile(
+        profile: &Profile,
+        simulator_inputs: Option<Vec<(String, Option<bool>)>>,
+    ) -> Self {
         Setup {
             protocol: profile.connection.protocol,
             port: profile.connection.port.clone(),
@@ -185,7 +189,7 @@ impl Model {
         let sim = setup
             .simulator_inputs
             .as_ref()
-            .map(|names| SimPanel::new(names));
+            .map(|inputs| SimPanel::new(inputs));
         let jog = JogSelection {
             step: setup
                 .jog_start

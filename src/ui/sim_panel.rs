@@ -1,7 +1,9 @@
 //! The simulator panel's state: the built-in simulator's inputs (limit
 //! switches, E-stop circuits, buttons; names from the device model) and the
-//! level jogterm last set each one to. The simulator does not report levels,
-//! so an input that was never set here shows as unknown.
+//! level each stands at: as the simulator reported it at start, then as
+//! jogterm last set it. An input the simulator gives no level for (a
+//! test double, an input changed from the simulator's stdin is not seen)
+//! shows as unknown until it is set here.
 
 use crate::sim::InputControl;
 
@@ -21,13 +23,13 @@ pub struct SimPanel {
 }
 
 impl SimPanel {
-    pub fn new(names: &[String]) -> Self {
+    pub fn new(inputs: &[(String, Option<bool>)]) -> Self {
         SimPanel {
-            inputs: names
+            inputs: inputs
                 .iter()
-                .map(|name| SimInput {
+                .map(|(name, level)| SimInput {
                     name: name.clone(),
-                    level: None,
+                    level: *level,
                     pending: false,
                 })
                 .collect(),
@@ -56,9 +58,8 @@ impl SimPanel {
         })
     }
 
-    /// The control that flips the selected input. The simulator does not say
-    /// at which level an input stands (switches rest at 0, safety circuits
-    /// at 1), so flipping needs a level set here first.
+    /// The control that flips the selected input; one whose level is not
+    /// known needs a level set here first.
     pub fn toggle_selected(&mut self) -> Result<InputControl, String> {
         let input = self
             .inputs
@@ -99,8 +100,21 @@ mod tests {
     use super::*;
 
     #[test]
+    fn levels_reported_at_start_can_be_flipped_at_once() {
+        let mut p = SimPanel::new(&[("estop1".to_string(), Some(true))]);
+        assert_eq!(
+            p.toggle_selected(),
+            Ok(InputControl::Set {
+                name: "estop1".into(),
+                level: false
+            })
+        );
+        assert!(p.inputs[0].pending);
+    }
+
+    #[test]
     fn levels_are_known_only_once_the_simulator_took_them() {
-        let mut p = SimPanel::new(&["limit-x1".to_string(), "stop".to_string()]);
+        let mut p = SimPanel::new(&[("limit-x1".to_string(), None), ("stop".to_string(), None)]);
         assert!(p.toggle_selected().unwrap_err().contains("not known"));
         let c = p.set_selected(true).expect("control");
         assert_eq!(

@@ -68,6 +68,9 @@ impl SimDevice for Recorder {
     fn input_names(&self) -> Vec<&'static str> {
         lock(&self.0).sim.input_names()
     }
+    fn input_level(&self, name: &str) -> Option<bool> {
+        lock(&self.0).sim.input_level(name)
+    }
     fn describe(&self, now: Instant) -> String {
         lock(&self.0).sim.describe(now)
     }

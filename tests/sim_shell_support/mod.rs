@@ -100,6 +100,10 @@ impl SimDevice for LineAnswerer {
         vec!["hood", "start"]
     }
 
+    fn input_level(&self, name: &str) -> Option<bool> {
+        (name == "hood").then_some(self.hood)
+    }
+
     fn describe(&self, _now: Instant) -> String {
         format!("hood={}", u8::from(self.hood))
     }

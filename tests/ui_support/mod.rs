@@ -9,7 +9,7 @@
 use std::time::{Duration, Instant};
 
 use jogterm::axis::{Axis, AxisSet};
-use jogterm::config::{ConfigDirs, load_profile, load_theme};
+use jogterm::config::{ConfigDirs, Profile, load_profile, load_theme};
 use jogterm::device::api::{
     Activity, ControllerFault, Event, IoBit, IoGroup, IoSnapshot, LinkState, MachineState,
     OutputId, PerAxis, PollStats, PositionSample, PositionSource, Recovery,
@@ -57,13 +57,15 @@ impl State {
     }
 }
 
-/// The isel simulator's inputs as a session on it would list them.
-pub fn isel_sim_inputs() -> Vec<String> {
+/// Some of the isel simulator's inputs, with the levels the simulator built
+/// from `profile` reports for them, as a session on it would list them.
+pub fn isel_sim_inputs(profile: &Profile) -> Vec<(String, Option<bool>)> {
+    let sim = jogterm::sim::registry::build(Protocol::Isel, profile).expect("isel simulator");
     [
         "estop1", "estop2", "start", "stop", "limit-x1", "limit-x2", "hood",
     ]
     .iter()
-    .map(|s| s.to_string())
+    .map(|name| (name.to_string(), sim.input_level(name)))
     .collect()
 }
 
@@ -76,7 +78,7 @@ pub fn fresh(protocol: Protocol, theme: &str, t0: Instant) -> Model {
     let mut setup = Setup::from_profile(&profile, None);
     if protocol == Protocol::Isel {
         setup.port = "sim".into();
-        setup.simulator_inputs = Some(isel_sim_inputs());
+        setup.simulator_inputs = Some(isel_sim_inputs(&profile));
     }
     Model::new(setup, Keymap::default(), Palette::from(&theme), t0)
 }

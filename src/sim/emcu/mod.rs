@@ -212,6 +212,10 @@ impl SimDevice for EmcuSim {
         vec![INPUT_E1]
     }
 
+    fn input_level(&self, name: &str) -> Option<bool> {
+        name.eq_ignore_ascii_case(INPUT_E1).then_some(self.e1)
+    }
+
     /// `X 120 [machine 8120] Y 0 [machine 8000] Z 0 | moving, job running |
     /// A1 off A2 off | E1 low | memory 3/256 | ROM job 5 | #S200 #R500 &V0`.
     fn describe(&self, now: Instant) -> String {

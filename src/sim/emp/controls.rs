@@ -83,6 +83,12 @@ fn input_number(name: &str) -> Option<u8> {
     }
 }
 
+/// The drive and number (1-4) of a digital input's name (`i3`, `21.i3`).
+pub(crate) fn digital_input(name: &str) -> Option<(Option<DriveAddress>, u8)> {
+    let (drive, local) = split_drive(name).ok()?;
+    Some((drive, input_number(local)?))
+}
+
 /// `adcN` and what follows it.
 fn adc_channel(name: &str) -> Option<(usize, &str)> {
     let lower = name.get(..3)?;

@@ -590,6 +590,10 @@ impl Drive {
     }
 
     /// An operator sets input `n` (1-4).
+    pub(crate) fn input(&self, n: u8) -> bool {
+        self.inputs.get(n)
+    }
+
     pub(crate) fn set_input(&mut self, n: u8, on: bool) {
         self.inputs = self.inputs.with(n, on);
     }

@@ -287,6 +287,15 @@ impl SimDevice for EmpSim {
         controls::INPUT_NAMES.to_vec()
     }
 
+    fn input_level(&self, name: &str) -> Option<bool> {
+        let (drive, n) = controls::digital_input(name)?;
+        let index = match drive {
+            None => 0,
+            Some(ds) => self.drive_index(ds.byte())?,
+        };
+        Some(self.drives.get(index)?.input(n))
+    }
+
     fn describe(&self, now: Instant) -> String {
         let now = self.at_least_clock(now);
         let mut out = String::new();

@@ -13,6 +13,24 @@ use super::run::{JobKind, Step};
 use super::{Activity, IselSim, ReplyTo};
 
 impl IselSim {
+    /// The level an input was set to. A limit switch is the operator's
+    /// forcing of it: a switch the axis runs onto shows on port 3, not here.
+    pub(super) fn operator_level(&self, name: &str) -> Option<bool> {
+        let i = &self.inputs;
+        Some(match InputName::parse(name)? {
+            InputName::Limit { axis, input } => *self.axes.get(axis)?.forced.get(input)?,
+            InputName::Estop(n) => *i.estop.get(n)?,
+            InputName::Overtemp => i.overtemp,
+            InputName::Start => i.start_key,
+            InputName::Stop => i.stop_key,
+            InputName::Probe => i.probe,
+            InputName::PowerOk => i.power_ok,
+            InputName::Hood => i.hood_closed,
+            InputName::KeySwitch => i.key_switch,
+            InputName::User(bit) => i.user & 1u8.checked_shl(u32::from(bit))? != 0,
+        })
+    }
+
     /// Apply an operator control at `t`.
     pub(super) fn operator(&mut self, control: &InputControl, t: Instant) -> Result<(), String> {
         let (name, level, press) = match control {

@@ -508,6 +508,10 @@ impl SimDevice for IselSim {
         io::input_names()
     }
 
+    fn input_level(&self, name: &str) -> Option<bool> {
+        self.operator_level(name)
+    }
+
     fn describe(&self, now: Instant) -> String {
         self.state_line(now)
     }

@@ -116,3 +116,12 @@ fn unknown_inputs_are_refused_with_the_names_there_are() {
     c.sim.control(&e1(true), c.now).unwrap();
     assert!(c.sim.describe(c.now).contains("E1 high"));
 }
+
+#[test]
+fn e1_level_is_reported() {
+    let mut c = Conversation::referenced();
+    assert_eq!(c.sim.input_level("E1"), Some(false));
+    c.sim.control(&e1(true), c.now).unwrap();
+    assert_eq!(c.sim.input_level("e1"), Some(true));
+    assert_eq!(c.sim.input_level("E2"), None);
+}

@@ -205,6 +205,10 @@ fn controls_address_drives_and_name_what_exists() {
     });
     c.set("31.i2", true).unwrap();
     assert_eq!(c.snapshot_of(0x31).inputs.bits(), 0b0010);
+    assert_eq!(c.sim.input_level("31.i2"), Some(true));
+    assert_eq!(c.sim.input_level("i2"), Some(false), "the first drive's");
+    assert_eq!(c.sim.input_level("21.i2"), None, "no such drive");
+    assert_eq!(c.sim.input_level("adc1"), None, "analogue");
     assert_eq!(c.snapshot_of(0x11).inputs.bits(), 0);
     let e = c.set("21.i2", true).unwrap_err();
     assert!(e.contains("no drive 21") && e.contains("11, 31"), "{e}");

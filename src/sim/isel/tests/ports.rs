@@ -107,3 +107,26 @@ fn unknown_inputs_and_buttons_are_refused_with_the_names() {
     assert!(err.contains("set hood"), "{err}");
     assert_eq!(c.sim.input_names().len(), 25);
 }
+
+#[test]
+fn input_levels_are_what_the_operator_set() {
+    let mut c = Conv::new();
+    let level = |c: &Conv, name: &str| c.sim.input_level(name);
+    assert_eq!(level(&c, "estop1"), Some(true), "circuits rest closed");
+    assert_eq!(level(&c, "hood"), Some(true));
+    assert_eq!(level(&c, "power-ok"), Some(true));
+    assert_eq!(level(&c, "limit-x1"), Some(false));
+    assert_eq!(level(&c, "in0.7"), Some(false));
+    c.set("estop1", false);
+    c.set("LIMIT-Z2", true);
+    c.set("in0.7", true);
+    c.set("key-switch", true);
+    assert_eq!(level(&c, "estop1"), Some(false));
+    assert_eq!(level(&c, "limit-z2"), Some(true));
+    assert_eq!(level(&c, "in0.7"), Some(true));
+    assert_eq!(level(&c, "key-switch"), Some(true));
+    assert_eq!(level(&c, "door"), None);
+    for name in c.sim.input_names() {
+        assert!(level(&c, name).is_some(), "{name} has a level");
+    }
+}
