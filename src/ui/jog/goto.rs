@@ -203,6 +203,24 @@ mod tests {
         ));
     }
 
+    proptest::proptest! {
+        /// Whatever is typed: an answer, never a panic; an accepted target
+        /// names each of the machine's axes at most once, with a finite value.
+        #[test]
+        fn any_typed_line_is_parsed_or_refused(text in "[xyzaXYZA0-9=,.+\\-e ]{0,24}|\\PC{0,24}") {
+            let s = settings();
+            if let Ok(t) = parse(&text, &s) {
+                proptest::prop_assert!(!t.units.is_empty());
+                for (i, (axis, v)) in t.units.iter().enumerate() {
+                    proptest::prop_assert!(v.is_finite());
+                    proptest::prop_assert!(s.axis_set().contains(*axis));
+                    proptest::prop_assert!(t.units.iter().skip(i + 1).all(|(a, _)| a != axis));
+                }
+                let _ = request(&t, &s, &MachineState::default(), 2.0);
+            }
+        }
+    }
+
     #[test]
     fn soft_limits_count_from_the_work_zero() {
         let s = settings();

@@ -1,11 +1,15 @@
-//! The terminal goes away during a continuous jog: the real `jogterm` in a
+//! jogterm and its terminal, end to end: the real `jogterm` in a
 //! pseudo-terminal, on a pty served by the isel simulator in this process
-//! (with the arrival time of every byte recorded). The jog is held with key
-//! repeats, then the terminal's master side is closed (the kernel sends
-//! SIGHUP). The stop bytes must reach the controller within 50 ms, long
-//! before the dead-man could have stopped it (the profile here gives the
-//! lease a full second), the axis must stand, and a later `@0S` must not
-//! move it.
+//! (with the arrival time of every byte recorded), jogging with a profile
+//! whose lease is a full second, so only the path under test can stop the
+//! axis within 50 ms:
+//!
+//! - the terminal goes away (the master closes, the kernel sends SIGHUP) or
+//!   SIGTERM arrives during a held jog: the stop bytes reach the controller
+//!   at once, the axis stands, and a later `@0S` does not move it;
+//! - a terminal with the kitty keyboard protocol (the test answers the
+//!   query as one would): a key release stops the jog at once, and the
+//!   protocol's flags are popped on the way out.
 
 mod jog_support;
 mod ui_pty;
@@ -58,11 +62,22 @@ fn a_terminate_signal_during_a_jog_writes_the_stop_at_once() {
     jog_then(End::Terminate);
 }
 
-fn jog_then(end: End) {
+/// jogterm in a pty on the recorded simulator, initialised, referenced,
+/// the keypad focused in continuous (hold) jogging.
+struct Session {
+    _config: tempfile::TempDir,
+    probe: Arc<Mutex<Probe>>,
+    shell: jogterm::sim::shell::Shell,
+    run: PtyRun,
+}
+
+/// `kitty`: answer the keyboard protocol query as a kitty-protocol terminal
+/// would, so jogterm turns key release reports on.
+fn session(kitty: bool) -> Session {
     let config = tempfile::tempdir().expect("tempdir");
     let profiles = config.path().join("profiles");
     std::fs::create_dir_all(&profiles).expect("profiles dir");
-    // A long lease: only the hang-up path can stop the jog within 50 ms.
+    // A long lease: only the path under test can stop the jog within 50 ms.
     std::fs::write(
         profiles.join("longlease.toml"),
         "[jog]\nrepeat_timeout_ms = 1000\nfirst_repeat_grace_ms = 2000\n",
@@ -83,20 +98,33 @@ fn jog_then(end: End) {
     )
     .expect("serve the simulator");
 
-    let env = [
-        ("JOGTERM_NO_KEYBOARD_QUERY", "1"),
-        (
-            "JOGTERM_CONFIG_DIR",
-            config.path().to_str().expect("utf-8 path"),
-        ),
+    let config_dir = config.path().to_str().expect("utf-8 path").to_string();
+    let mut env = vec![
+        ("JOGTERM_CONFIG_DIR", config_dir.as_str()),
         ("RUST_BACKTRACE", "0"),
     ];
+    if !kitty {
+        env.push(("JOGTERM_NO_KEYBOARD_QUERY", "1"));
+    }
     let link_arg = link.display().to_string();
     let mut run = PtyRun::spawn(
         Path::new(JOGTERM),
         &["--profile", "longlease", "--port", &link_arg],
         &env,
     );
+    if kitty {
+        // crossterm asks `CSI ? u` (the flags) then `CSI c` (device
+        // attributes); a kitty-protocol terminal answers both.
+        let deadline = Instant::now() + WAIT;
+        while !ui_pty::contains(&run.output(), b"\x1b[?u") {
+            assert!(
+                Instant::now() < deadline,
+                "jogterm never asked for the keyboard protocol"
+            );
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        run.send(b"\x1b[?0u\x1b[?62;22c");
+    }
     wait_for(&run, "connected");
     // Initialise, and reference without travel (`@0N7`) from the console.
     run.send(b"i");
@@ -109,7 +137,21 @@ fn jog_then(end: End) {
     std::thread::sleep(Duration::from_millis(300));
     run.send(b"c");
     wait_for(&run, "HOLD");
+    Session {
+        _config: config,
+        probe,
+        shell,
+        run,
+    }
+}
 
+fn jog_then(end: End) {
+    let Session {
+        _config,
+        probe,
+        shell,
+        mut run,
+    } = session(false);
     let x0 = counter_x(&probe);
     // Hold Right at 30 Hz for a second.
     let start = Instant::now();
@@ -186,5 +228,59 @@ fn jog_then(end: End) {
     std::thread::sleep(Duration::from_millis(500));
     lock(&probe).sim.advance(Instant::now());
     assert_eq!(counter_x(&probe), stood, "@0S resumed the jog");
+    shell.shutdown();
+}
+
+/// A terminal with the kitty keyboard protocol reports key releases: the
+/// release stops the jog at once (the lease here would take a second), and
+/// the protocol's flags are popped on the way out.
+#[test]
+fn with_the_kitty_keyboard_protocol_a_release_stops_the_jog_at_once() {
+    let Session {
+        _config,
+        probe,
+        shell,
+        mut run,
+    } = session(true);
+    assert!(
+        ui_pty::contains(&run.output(), b"\x1b[>"),
+        "the keyboard flags were never pushed"
+    );
+    let x0 = counter_x(&probe);
+    // Right: press, repeats at 30 Hz, release (kitty: CSI 1;1:<event> C).
+    run.send(b"\x1b[1;1:1C");
+    std::thread::sleep(Duration::from_millis(400));
+    for _ in 0..10 {
+        run.send(b"\x1b[1;1:2C");
+        std::thread::sleep(Duration::from_millis(33));
+    }
+    let screen = run.screen().screen().contents();
+    assert!(screen.contains("release stops"), "{screen}");
+    let released = Instant::now();
+    run.send(b"\x1b[1;1:3C");
+    std::thread::sleep(Duration::from_millis(500));
+    let moved = counter_x(&probe);
+    assert!(moved > x0 + 100.0, "the jog never moved: {x0} -> {moved}");
+    let arrivals: Vec<(Instant, u8)> = lock(&probe)
+        .arrivals
+        .iter()
+        .filter(|(t, _)| *t >= released)
+        .copied()
+        .collect();
+    let stop = first_break(&arrivals).expect("the release stopped the jog");
+    let latency = stop.saturating_duration_since(released);
+    println!("kitty release -> break on the wire: {:.2} ms", ms(latency));
+    assert!(latency < BOUND, "{latency:?}");
+    std::thread::sleep(Duration::from_millis(300));
+    assert_eq!(counter_x(&probe), moved, "the axis still moves");
+
+    run.send(b"q");
+    let code = run.wait_exit(WAIT);
+    run.drain(Duration::from_secs(5));
+    assert_eq!(code, Some(0));
+    assert!(
+        ui_pty::contains(&run.output(), b"\x1b[<1u"),
+        "the keyboard flags were not popped"
+    );
     shell.shutdown();
 }
