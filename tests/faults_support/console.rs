@@ -37,6 +37,8 @@ impl Console {
         let link = sim.link.display().to_string();
         let log_arg = log.display().to_string();
         let config = sim.dir.path().display().to_string();
+        // Recovery files and other state stay in the scenario's directory.
+        let state = sim.dir.path().join("state").display().to_string();
         let mut args = vec![
             "--port",
             link.as_str(),
@@ -49,6 +51,7 @@ impl Console {
         let env = [
             ("JOGTERM_NO_KEYBOARD_QUERY", "1"),
             ("JOGTERM_CONFIG_DIR", config.as_str()),
+            ("JOGTERM_STATE_DIR", state.as_str()),
             ("RUST_BACKTRACE", "0"),
         ];
         let run = PtyRun::spawn_sized(Path::new(JOGTERM), &args, &env, ROWS, COLS);
