@@ -1,20 +1,23 @@
-//! The device task against the isel simulator, with the wire modelled at
-//! 19200 baud: poll rates against the line's limit, the latency from a stop
-//! request to the first stop byte on the wire while polling at full rate,
-//! and the CPU a 10 Hz poll loop costs. Prints a table; `docs/performance.md`
-//! says how to run it and what it measured.
+//! The device task against the isel and EMCU simulators, with the wire
+//! modelled at 19200 baud: poll rates against the line's limit, the latency
+//! from a stop request to the first stop byte on the wire while polling at
+//! full rate, and the CPU a 10 Hz poll loop costs. Prints a table;
+//! `docs/performance.md` says how to run it and what it measured.
 //!
 //! `cargo bench --bench device` (optimised) or `cargo test --bench device`
 //! (debug build); add `-- --quick` for shorter runs, `-- --only cpu` (or
-//! `bare`, `poll`, `stop`) for one measure, e.g. under a profiler.
+//! `bare`, `poll`, `stop`, `emcu`) for one measure, e.g. under a profiler.
 
 use std::io::{BufRead, BufReader};
 use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
+use jogterm::axis::{Axis, AxisSet};
 use jogterm::config::{ConfigDirs, Profile, load_profile};
-use jogterm::device::api::{Event, PositionSource};
+use jogterm::device::api::{Activity, Event, Frame, PerAxis, PositionSource, Request};
+use jogterm::device::driver::Driver;
+use jogterm::device::emcu::{EmcuDriver, EmcuSettings};
 use jogterm::device::isel::{IselDriver, IselSettings, PollPlan, PollRate};
 use jogterm::device::{Connector, DeviceHandle, EventReceiver, TaskOptions, spawn_with};
 use jogterm::proto::Protocol;
@@ -47,19 +50,23 @@ fn settings(rate: PollRate, ports: Vec<InputPort>) -> IselSettings {
 
 /// The device task talking to the isel simulator over a socket pair.
 fn socket_task(settings: IselSettings) -> (Shell, DeviceHandle, EventReceiver) {
-    let device = registry::build(Protocol::Isel, &profile()).expect("simulator");
+    socket_task_for(Box::new(IselDriver::new(settings)), &profile())
+}
+
+/// Any family's driver and the simulator of `profile`'s family.
+fn socket_task_for(
+    driver: Box<dyn Driver>,
+    profile: &Profile,
+) -> (Shell, DeviceHandle, EventReceiver) {
+    let device = registry::build(profile.connection.protocol, profile).expect("simulator");
     let (shell, stream) = serve_socket(device).expect("serve");
     let spec = PortSpec::InProcess {
         stream,
         line: shell.line(),
-        name: "isel simulator".into(),
+        name: format!("{} simulator", profile.connection.protocol),
     };
-    let (handle, events) = spawn_with(
-        Box::new(IselDriver::new(settings)),
-        Connector::from(spec),
-        TaskOptions::default(),
-    )
-    .expect("device task");
+    let (handle, events) =
+        spawn_with(driver, Connector::from(spec), TaskOptions::default()).expect("device task");
     (shell, handle, events)
 }
 
@@ -162,6 +169,174 @@ async fn stop_latency(n: usize) -> Vec<Duration> {
     drop(shell);
     latencies.sort();
     latencies
+}
+
+// ----- EMCU ------------------------------------------------------------
+
+/// The shipped `emcu` profile with a short, fast way to the reference
+/// switches, so the set-up of a measure takes a second or two.
+fn emcu_profile() -> Profile {
+    let mut p = load_profile("emcu", &ConfigDirs::builtin_only()).expect("emcu profile");
+    p.sim.start_position = 2.0;
+    p.emcu.start_speed_hz = 1_000;
+    p
+}
+
+/// Where the EMCU measures poll: four-digit counters on every axis, the
+/// positions the brief's 53 cycles/s are reckoned for.
+const EMCU_AT: i64 = 5_000;
+
+/// The EMCU device task polling `@LX @LY @LZ` at line speed (no `@X`),
+/// initialised, referenced and standing at [`EMCU_AT`] on every axis.
+async fn emcu_task() -> (Shell, DeviceHandle, EventReceiver) {
+    let profile = emcu_profile();
+    let mut s = EmcuSettings::from_profile(&profile).expect("settings");
+    s.poll.rate = PollRate::LineSpeed;
+    s.poll.ports.clear();
+    let (shell, handle, mut events) = socket_task_for(Box::new(EmcuDriver::new(s)), &profile);
+    read_back(&mut events).await;
+    let idle = |e: &Event| matches!(e, Event::State(s) if s.activity == Activity::Idle);
+    handle.request(Request::Initialise).expect("request");
+    handle
+        .request(Request::Home { axes: AxisSet::XYZ })
+        .expect("request");
+    wait_for(&mut events, |e| {
+        matches!(e, Event::State(s) if s.referenced == AxisSet::XYZ && s.activity == Activity::Idle)
+    })
+    .await;
+    let at = PerAxis::new()
+        .with(Axis::X, EMCU_AT)
+        .with(Axis::Y, EMCU_AT)
+        .with(Axis::Z, EMCU_AT);
+    handle
+        .request(Request::MoveTo {
+            target: at,
+            frame: Frame::Machine,
+            speed_hz: PerAxis::new()
+                .with(Axis::X, 2_000.0)
+                .with(Axis::Y, 2_000.0)
+                .with(Axis::Z, 1_000.0),
+        })
+        .expect("request");
+    wait_for(
+        &mut events,
+        |e| matches!(e, Event::State(s) if s.activity != Activity::Idle),
+    )
+    .await;
+    wait_for(&mut events, idle).await;
+    wait_for(
+        &mut events,
+        |e| matches!(e, Event::Position(p) if p.steps == at),
+    )
+    .await;
+    (shell, handle, events)
+}
+
+async fn wait_for(events: &mut EventReceiver, pred: impl Fn(&Event) -> bool) {
+    let within = Duration::from_secs(60);
+    loop {
+        match tokio::time::timeout(within, events.recv()).await {
+            Ok(Some(e)) if pred(&e) => return,
+            Ok(Some(_)) => {}
+            _ => panic!("the EMCU set-up did not come through"),
+        }
+    }
+}
+
+/// Position cycles (`@LX @LY @LZ`) per second at line speed, and the median
+/// time between two.
+async fn emcu_poll_rate(span: Duration) -> (f64, Duration) {
+    let (shell, handle, mut events) = emcu_task().await;
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    while events.try_recv().is_ok() {}
+    let start = Instant::now();
+    let mut at = Vec::new();
+    while start.elapsed() < span {
+        if let Ok(Some(Event::Position(p))) =
+            tokio::time::timeout(Duration::from_millis(100), events.recv()).await
+        {
+            at.push(p.at);
+        }
+    }
+    let rate = at.len() as f64 / start.elapsed().as_secs_f64();
+    handle.shutdown().await;
+    drop(shell);
+    let mut gaps: Vec<Duration> = at.windows(2).map(|w| w[1] - w[0]).collect();
+    gaps.sort();
+    (rate, percentile(&gaps, 0.5))
+}
+
+/// Stop request to the first byte of `@B` on the wire while polling at line
+/// speed. A line is never cut, so a stop waits for the poll line on the
+/// wire (4 bytes, 2.1 ms at most).
+async fn emcu_stop_latency(n: usize) -> Vec<Duration> {
+    let (shell, handle, events) = emcu_task().await;
+    let mut events = events;
+    let drain = tokio::spawn(async move { while events.recv().await.is_some() {} });
+    let mut seed: u64 = 0x9E37_79B9_7F4A_7C15;
+    let mut latencies = Vec::with_capacity(n);
+    for _ in 0..n {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        tokio::time::sleep(Duration::from_micros(10_000 + seed % 30_000)).await;
+        if let Some(w) = handle.stop().written().await {
+            latencies.push(w.latency());
+        }
+    }
+    handle.shutdown().await;
+    let _ = drain.await;
+    drop(shell);
+    latencies.sort();
+    latencies
+}
+
+/// The EMCU rows: poll rate and median cycle against the wire limit at
+/// four-digit positions (3 x (4 + 8) bytes: 53.3/s), stop latency.
+async fn emcu_rows(span: Duration, stops: usize, rows: &mut Vec<Row>) {
+    let line = LineSettings::new(19200);
+    let digits = EMCU_AT.to_string().len() as f64;
+    let limit = line.bytes_per_second() / (3.0 * (4.0 + 4.0 + digits));
+    let (rate, median) = emcu_poll_rate(span).await;
+    rows.push(Row {
+        what: "EMCU @LX @LY @LZ poll rate".into(),
+        result: format!(
+            "{rate:.1}/s = {:.1} % of {limit:.1}/s",
+            100.0 * rate / limit
+        ),
+        target: ">= 97 %".into(),
+        ok: rate >= 0.97 * limit,
+    });
+    let median_rate = 1.0 / median.as_secs_f64().max(1e-9);
+    rows.push(Row {
+        what: "EMCU @LX @LY @LZ median cycle".into(),
+        result: format!(
+            "{:.3} ms = {:.1} % of the limit",
+            median.as_secs_f64() * 1000.0,
+            100.0 * median_rate / limit
+        ),
+        target: "-".into(),
+        ok: true,
+    });
+    let lat = emcu_stop_latency(stops).await;
+    let ms = |d: Duration| d.as_secs_f64() * 1000.0;
+    let (p50, p99) = (percentile(&lat, 0.5), percentile(&lat, 0.99));
+    rows.push(Row {
+        what: format!("EMCU stop -> first @B byte, p50 ({})", lat.len()),
+        result: format!("{:.3} ms", ms(p50)),
+        target: "< 2.1 ms".into(),
+        ok: p50 < Duration::from_micros(2_100),
+    });
+    rows.push(Row {
+        what: "EMCU stop -> first @B byte, p99".into(),
+        result: format!(
+            "{:.3} ms (max {:.3} ms)",
+            ms(p99),
+            ms(lat.last().copied().unwrap_or_default())
+        ),
+        target: "< 3.1 ms".into(),
+        ok: p99 < Duration::from_micros(3_100),
+    });
 }
 
 fn percentile(sorted: &[Duration], p: f64) -> Duration {
@@ -366,6 +541,9 @@ fn main() {
                 ok: p99 < Duration::from_millis(2),
             });
         }
+        if wanted("emcu") {
+            emcu_rows(span, stops, &mut rows).await;
+        }
         if wanted("cpu") {
             let (user, system, switches) = poll_cpu(span).await;
             rows.push(Row {
@@ -386,7 +564,7 @@ fn main() {
         }
     });
     println!(
-        "jogterm device benchmark: isel simulator, 19200 baud ({} build)",
+        "jogterm device benchmark: isel and EMCU simulators, 19200 baud ({} build)",
         if cfg!(debug_assertions) {
             "debug"
         } else {

@@ -8,15 +8,17 @@ use std::time::{Duration, Instant};
 use clap::Args;
 
 use super::GlobalArgs;
-use super::session::{self, EXIT_LINK, EXIT_USAGE, Linked, Session, StartError};
+use super::session::{self, EXIT_LINK, EXIT_USAGE, Linked, Polling, Session, StartError};
 use crate::axis::Axis;
 use crate::device::api::{Event, IoSnapshot, LinkState, PositionSample, PositionSource, Recovery};
-use crate::device::isel::{PollPlan, PollRate};
+use crate::device::common::PollRate;
+use crate::proto::Protocol;
 
 pub const LONG_ABOUT: &str = "\
-Read the controller's position (`@0P`) again and again and print one line per sample, in
-steps. With --ports the input ports 1 (E-stop circuits, keys), 3 (limit switches) and 2
-(power, hood) are read every cycle too and printed with each sample.
+Read the controller's position (isel `@0P`, EMCU `@LX @LY @LZ`) again and again and print one
+line per sample, in steps. With --ports the input ports 1 (E-stop circuits, keys), 3 (limit
+switches) and 2 (power, hood) of an isel controller, or the `@X` flags of an EMCU interface,
+are read every cycle too and printed with each sample.
 
 The state is read back first (as on every connection); the first sample is that read-back.
 Without --count the command runs until interrupted (Ctrl-C), then stops and closes cleanly.";
@@ -25,13 +27,16 @@ pub const AFTER_LONG_HELP: &str = "\
 Output: `t=0.012 X=16000 Y=16000 Z=16000` (t: seconds since the link came up), with --ports
 `… in1=03 in3=00 in2=62`; with --json one object per line:
   {\"t\":0.012,\"source\":\"measured\",\"pos\":[16000,16000,16000],\"ports\":{\"1\":3,\"3\":0,\"2\":98}}
-pos is X, Y, Z (and A with four axes) in steps, as the controller reports them.
+pos has one entry per axis of the machine (X, Y, Z, A as far as it has them), in steps, as
+the controller reports them. EMCU with --ports: `… status=08`, {\"status\":8}: the `@X` flags
+as a byte, bit 0 moving, 1 waiting, 2 error, 3 position unknown, 4 referencing, 5 job running.
 
 Exit status: 0 done; 1 no position could be read; 2 bad usage; 3 link failure.
 
 Examples:
   jogterm poll --port /dev/ttyUSB0 --protocol isel --count 5
-  jogterm poll --port /tmp/isel --interval-ms 0 --json --ports";
+  jogterm poll --port /tmp/isel --interval-ms 0 --json --ports
+  jogterm poll --port /tmp/emcu --protocol emcu --interval-ms 0 --count 100";
 
 /// Options of `jogterm poll`.
 #[derive(Debug, Args)]
@@ -60,28 +65,19 @@ pub fn format_sample(
     ports: Option<&IoSnapshot>,
     json: bool,
 ) -> String {
-    let mut axes = vec![Axis::X, Axis::Y, Axis::Z];
-    if sample.steps.get(Axis::A).is_some() {
-        axes.push(Axis::A);
-    }
+    let axes: Vec<Axis> = Axis::ALL
+        .into_iter()
+        .filter(|a| sample.steps.get(*a).is_some())
+        .collect();
     let pos: Vec<i64> = axes
         .iter()
         .map(|a| sample.steps.get(*a).unwrap_or(0))
         .collect();
-    let port_values: Vec<(u8, u8)> = ports
+    let port_values: Vec<(String, u8)> = ports
         .map(|io| {
             io.groups
                 .iter()
-                .filter_map(|g| {
-                    let number = g
-                        .name
-                        .strip_prefix("in ")?
-                        .split(':')
-                        .next()?
-                        .parse()
-                        .ok()?;
-                    Some((number, g.raw?))
-                })
+                .filter_map(|g| Some((port_key(&g.name)?, g.raw?)))
                 .collect()
         })
         .unwrap_or_default();
@@ -95,11 +91,7 @@ pub fn format_sample(
         obj.insert("source".into(), source.into());
         obj.insert("pos".into(), serde_json::json!(pos));
         if ports.is_some() {
-            let map: BTreeMap<String, u8> = port_values
-                .iter()
-                .filter(|(n, _)| *n != 0)
-                .map(|(n, v)| (n.to_string(), *v))
-                .collect();
+            let map: BTreeMap<String, u8> = port_values.iter().cloned().collect();
             obj.insert("ports".into(), serde_json::json!(map));
         }
         serde_json::Value::Object(obj).to_string()
@@ -111,10 +103,38 @@ pub fn format_sample(
         if sample.source == PositionSource::Estimated {
             line.push_str(" (estimated)");
         }
-        for (n, v) in port_values.iter().filter(|(n, _)| *n != 0) {
-            line.push_str(&format!(" in{n}={v:02X}"));
+        for (key, v) in &port_values {
+            if key.bytes().all(|b| b.is_ascii_digit()) {
+                line.push_str(&format!(" in{key}={v:02X}"));
+            } else {
+                line.push_str(&format!(" {key}={v:02X}"));
+            }
         }
         line
+    }
+}
+
+/// How a port group is keyed in the output: isel input ports by number
+/// (`in 3: limit switches` -> `3`, port 0 left out), the EMCU status group
+/// by name (`status: @X flags` -> `status`).
+fn port_key(group: &str) -> Option<String> {
+    let head = group.split(':').next()?.trim();
+    match head.strip_prefix("in ") {
+        Some(n) => n
+            .parse::<u8>()
+            .ok()
+            .filter(|n| *n != 0)
+            .map(|n| n.to_string()),
+        None if head == "status" => Some(head.to_owned()),
+        None => None,
+    }
+}
+
+/// Why no position may come, in the family's terms.
+fn no_position_hint(family: Protocol) -> &'static str {
+    match family {
+        Protocol::Isel => "is the controller initialised (jogterm send '@07')?",
+        _ => "is the controller connected and switched on?",
     }
 }
 
@@ -131,20 +151,14 @@ pub fn run(global: &GlobalArgs, args: &PollArgs) -> anyhow::Result<ExitCode> {
         0 => PollRate::LineSpeed,
         ms => PollRate::Hz(1000.0 / ms as f64),
     };
-    let ports = args.ports;
+    let polling = Polling {
+        rate,
+        ports: args.ports,
+    };
+    let family = profile.connection.protocol;
     let runtime = session::runtime()?;
     runtime.block_on(async {
-        let session = match session::start(global, profile, |s| {
-            s.poll = PollPlan {
-                rate,
-                ports_every: 1,
-                ports: if ports {
-                    PollPlan::DEFAULT_PORTS.to_vec()
-                } else {
-                    Vec::new()
-                },
-            };
-        }) {
+        let session = match session::start(global, profile, polling) {
             Ok(s) => s,
             Err(StartError::Usage(m)) => {
                 eprintln!("jogterm poll: {m}");
@@ -152,11 +166,11 @@ pub fn run(global: &GlobalArgs, args: &PollArgs) -> anyhow::Result<ExitCode> {
             }
             Err(StartError::Failed(e)) => return Err(e),
         };
-        Ok(poll(session, args).await)
+        Ok(poll(session, args, family).await)
     })
 }
 
-async fn poll(mut session: Session, args: &PollArgs) -> ExitCode {
+async fn poll(mut session: Session, args: &PollArgs, family: Protocol) -> ExitCode {
     if let Linked::Failed(reason) = session.linked(Duration::from_secs(10)).await {
         eprintln!(
             "jogterm poll: link failure: {reason}; {}",
@@ -166,8 +180,8 @@ async fn poll(mut session: Session, args: &PollArgs) -> ExitCode {
         return ExitCode::from(EXIT_LINK);
     }
     let start = Instant::now();
-    // With a real controller that has no axes `@0P` answers `4`: give up
-    // when no position has come for a while.
+    // With a real isel controller that has no axes `@0P` answers `4`: give
+    // up when no position has come for a while.
     let patience =
         Duration::from_millis(args.interval_ms.saturating_mul(5)).max(Duration::from_secs(3));
     let mut samples = 0u64;
@@ -181,13 +195,14 @@ async fn poll(mut session: Session, args: &PollArgs) -> ExitCode {
         }
         let event = tokio::select! {
             _ = &mut interrupted => break,
-            e = tokio::time::timeout(patience, session.events.recv()) => e,
+            e = tokio::time::timeout(patience, session.next_event()) => e,
         };
         match event {
             Err(_) => {
                 eprintln!(
-                    "jogterm poll: no position for {} s: is the controller initialised (jogterm send '@07')?",
-                    patience.as_secs()
+                    "jogterm poll: no position for {} s: {}",
+                    patience.as_secs(),
+                    no_position_hint(family)
                 );
                 code = 1;
                 break;
@@ -263,5 +278,32 @@ mod tests {
         assert_eq!(json["t"], serde_json::json!(1.5));
         assert_eq!(json["source"], "measured");
         assert_eq!(json["ports"], serde_json::json!({"1": 3, "3": 16}));
+    }
+
+    #[test]
+    fn emcu_samples_have_the_machines_axes_and_the_status_byte() {
+        use crate::device::emcu::status_group;
+        use crate::proto::emcu::Status;
+        let xy = PositionSample {
+            at: Instant::now(),
+            steps: PerAxis::new().with(Axis::X, 12).with(Axis::Y, -3),
+            source: PositionSource::Measured,
+        };
+        let status = Status {
+            position_unknown: true,
+            ..Status::default()
+        };
+        let io = IoSnapshot {
+            at: Instant::now(),
+            groups: vec![status_group(&status)],
+        };
+        assert_eq!(
+            format_sample(&xy, 0.5, Some(&io), false),
+            "t=0.500 X=12 Y=-3 status=08"
+        );
+        let json: serde_json::Value =
+            serde_json::from_str(&format_sample(&xy, 0.5, Some(&io), true)).expect("json");
+        assert_eq!(json["pos"], serde_json::json!([12, -3]));
+        assert_eq!(json["ports"], serde_json::json!({"status": 8}));
     }
 }

@@ -1,5 +1,5 @@
-//! `jogterm send`: send isel commands one by one through the device task and
-//! print each reply decoded.
+//! `jogterm send`: send isel or EMCU commands one by one through the device
+//! task and print each reply decoded.
 
 use std::process::ExitCode;
 use std::time::Duration;
@@ -7,10 +7,12 @@ use std::time::Duration;
 use clap::Args;
 
 use super::GlobalArgs;
-use super::session::{self, EXIT_LINK, EXIT_USAGE, Linked, Session, StartError};
+use super::session::{self, EXIT_LINK, EXIT_USAGE, Linked, Polling, Session, StartError};
 use crate::device::api::{Activity, Event, LinkState, Recovery, Refusal, Request};
 use crate::device::describe::describe;
-use crate::device::isel::PollRate;
+use crate::device::emcu::{RUN_MARK, RawKind, parse_raw};
+use crate::proto::Protocol;
+use crate::proto::emcu::{Command as EmcuCommand, Terminator};
 use crate::proto::isel::{
     AxisConfig, Command, ControlByte, ReplyCode, check, check_cnc, parse_cnc, parse_frame,
 };
@@ -28,7 +30,14 @@ it opens and closes every connection with the stop sequence 0xFD 0xFF.
 Control bytes act at once, also during a move, and have no reply. Write them as
 `\\xFD`, `0xFD` or by name: `softstop` (0xFD: ramp down, the rest can be resumed with @0S),
 `break` (0xFF: ramp down and forget the rest), `reset` (0xFE: the controller forgets its axes
-and reference). A control byte right after a move goes out while the move runs.";
+and reference). A control byte right after a move goes out while the move runs.
+
+EMCU (--protocol emcu): every line is checked with jogterm's EMCU parser first (the interface
+itself acknowledges bad lines and only sets its error flag). End a line with `\\x01` to run the
+data memory (`#E1,800` `L1,x500\\x01`). The queries `@X`, `@LX`, `@LY`, `@LZ`, `@V` and the
+stops `@B` (ramp, positions kept) and `@S` (at once, positions lost) go out at once, also while
+a batch runs; any other line waits until the batch before it has ended, and the command ends
+when the last batch has.";
 
 pub const AFTER_LONG_HELP: &str = "\
 Exit status: 0 every command answered `0`; 1 the controller answered an error (the rest is
@@ -40,7 +49,9 @@ Examples:
   jogterm send --port /dev/ttyUSB0 --protocol isel '@07' '@0R7' '@0P'
   jogterm send --port /tmp/isel '@0A 4000,2000,0,900,0,900,0,900' softstop
   jogterm --sim isel send '@07' '@0N7' '@0i' '0400,900,0,900,0,900,0,900' '9' '@0S'
-  jogterm send --port /tmp/isel --log traffic.log '@0b1' '@0b3'";
+  jogterm send --port /tmp/isel --log traffic.log '@0b1' '@0b3'
+  jogterm send --port /tmp/emcu --protocol emcu '#S200' '#R500\\x01' '$HZYX\\x01' '@X'
+  jogterm send --port /tmp/emcu --protocol emcu '#E1,1000' 'L1,x4000\\x01' '@LX' '@B'";
 
 /// Options of `jogterm send`.
 #[derive(Debug, Args)]
@@ -63,6 +74,50 @@ pub enum Item {
         may_move: bool,
     },
     Control(ControlByte),
+    /// Wait until what runs has ended (EMCU: a batch or job).
+    AwaitIdle,
+}
+
+/// The plan for the profile's family.
+pub fn plan_for(family: Protocol, args: &[String]) -> Result<Vec<Item>, String> {
+    match family {
+        Protocol::Isel => plan(args),
+        Protocol::Emcu => emcu_plan(args),
+        other => Err(format!("jogterm send does not talk {other} yet")),
+    }
+}
+
+/// EMCU: every line checked with the driver's parser; a line that is no
+/// query or stop waits for the batch before it, and the last batch is
+/// awaited at the end (closing the link stops what still runs).
+pub fn emcu_plan(args: &[String]) -> Result<Vec<Item>, String> {
+    let mut items = Vec::with_capacity(args.len() + 1);
+    // After `@F` the buffered lines are the job's (the interface runs none
+    // of them) until the one ended by 0x01 (decision 2).
+    let mut storing = false;
+    for (i, arg) in args.iter().enumerate() {
+        let text = match arg.strip_suffix("\\x01") {
+            Some(head) => format!("{head}{RUN_MARK}"),
+            None => arg.clone(),
+        };
+        let line = parse_raw(&text).map_err(|e| format!("command {} `{arg}`: {e}", i + 1))?;
+        let job_line = storing && !line.command.is_master();
+        if line.kind() == RawKind::Other && !job_line {
+            items.push(Item::AwaitIdle);
+        }
+        match line.command {
+            EmcuCommand::StoreJob => storing = true,
+            _ if job_line && line.end == Terminator::RunBuffer => storing = false,
+            _ => {}
+        }
+        items.push(Item::Line {
+            text,
+            canonical: line.text(),
+            may_move: line.command.may_move(),
+        });
+    }
+    items.push(Item::AwaitIdle);
+    Ok(items)
 }
 
 /// `\xFD`, `0xFD`, `softstop`, `break`, `reset` (case-insensitive).
@@ -164,13 +219,6 @@ enum Outcome {
 }
 
 pub fn run(global: &GlobalArgs, args: &SendArgs) -> anyhow::Result<ExitCode> {
-    let items = match plan(&args.commands) {
-        Ok(items) => items,
-        Err(message) => {
-            eprintln!("jogterm send: {message}");
-            return Ok(ExitCode::from(EXIT_USAGE));
-        }
-    };
     let profile = match session::resolve(global, args.baud) {
         Ok(p) => p,
         Err(StartError::Usage(m)) => {
@@ -179,9 +227,16 @@ pub fn run(global: &GlobalArgs, args: &SendArgs) -> anyhow::Result<ExitCode> {
         }
         Err(StartError::Failed(e)) => return Err(e),
     };
+    let items = match plan_for(profile.connection.protocol, &args.commands) {
+        Ok(items) => items,
+        Err(message) => {
+            eprintln!("jogterm send: {message}");
+            return Ok(ExitCode::from(EXIT_USAGE));
+        }
+    };
     let runtime = session::runtime()?;
     runtime.block_on(async {
-        let session = match session::start(global, profile, |s| s.poll.rate = PollRate::Off) {
+        let session = match session::start(global, profile, Polling::OFF) {
             Ok(s) => s,
             Err(StartError::Usage(m)) => {
                 eprintln!("jogterm send: {m}");
@@ -212,7 +267,10 @@ async fn send_all(mut session: Session, items: &[Item]) -> ExitCode {
 
 async fn send_items(session: &mut Session, items: &[Item]) -> ExitCode {
     if let Linked::Failed(reason) = session.linked(Duration::from_secs(10)).await {
-        eprintln!("jogterm send: link failure: {reason}");
+        eprintln!(
+            "jogterm send: link failure: {reason}; {}",
+            Recovery::CheckLink.instruction()
+        );
         return ExitCode::from(EXIT_LINK);
     }
     let mut i = 0;
@@ -220,6 +278,10 @@ async fn send_items(session: &mut Session, items: &[Item]) -> ExitCode {
     while let Some(item) = items.get(i) {
         i += 1;
         let outcome = match item {
+            Item::AwaitIdle => match await_idle(session).await {
+                Some(outcome) => outcome,
+                None => continue,
+            },
             Item::Control(c) => send_control(session, *c).await,
             Item::Line {
                 text,
@@ -252,11 +314,13 @@ async fn send_items(session: &mut Session, items: &[Item]) -> ExitCode {
                 meaning,
                 recovery,
             } => {
-                let advice = code
-                    .bytes()
-                    .next()
-                    .and_then(ReplyCode::from_byte)
-                    .map_or(recovery.instruction(), |c| c.recovery().advice());
+                // An isel reply code is one character; other families' codes
+                // (EMCU `error flag`) carry their recovery in the event.
+                let advice = match code.as_bytes() {
+                    [b] => ReplyCode::from_byte(*b),
+                    _ => None,
+                }
+                .map_or(recovery.instruction(), |c| c.recovery().advice());
                 println!("<< {code}");
                 eprintln!("jogterm send: the controller answered `{code}`: {meaning} {advice}");
                 1
@@ -284,6 +348,26 @@ async fn send_items(session: &mut Session, items: &[Item]) -> ExitCode {
     ExitCode::from(code)
 }
 
+/// Wait until the machine is idle; a fault or a lost link on the way ends
+/// the wait with that outcome.
+async fn await_idle(session: &mut Session) -> Option<Outcome> {
+    while session.activity != Activity::Idle {
+        match session.next_event().await {
+            Some(Event::Fault(f)) => return Some(fault_outcome(f)),
+            // The driver ends what ran when the link goes: idle, but lost.
+            Some(Event::State(s)) if !s.link_up => {
+                return Some(Outcome::LinkFailed("the link was lost".into()));
+            }
+            Some(Event::Link(LinkState::Lost { reason })) => {
+                return Some(Outcome::LinkFailed(reason));
+            }
+            None => return Some(Outcome::LinkFailed("the device task ended".into())),
+            Some(_) => {}
+        }
+    }
+    None
+}
+
 async fn send_control(session: &mut Session, control: ControlByte) -> Outcome {
     let text = char::from(control.byte()).to_string();
     println!(">> {}", readable(&[control.byte()]));
@@ -306,7 +390,7 @@ async fn await_line(
         if may_move {
             // Wait until the move runs, so the bytes act on it.
             loop {
-                match session.events.recv().await {
+                match session.next_event().await {
                     Some(Event::State(s)) if s.activity != Activity::Idle => break,
                     Some(e) => {
                         if let Some(outcome) = outcome_of(&e, text, canonical) {
@@ -334,7 +418,7 @@ async fn send_controls(session: &Session, controls: &[ControlByte]) {
 
 async fn wait_outcome(session: &mut Session, text: &str, canonical: &str) -> Outcome {
     loop {
-        match session.events.recv().await {
+        match session.next_event().await {
             Some(e) => {
                 if let Some(outcome) = outcome_of(&e, text, canonical) {
                     return outcome;
@@ -352,17 +436,7 @@ fn outcome_of(event: &Event, text: &str, canonical: &str) -> Option<Outcome> {
         Event::Reply { command, text: t } if command == canonical => {
             Some(Outcome::Answered(t.clone()))
         }
-        Event::Fault(f) if f.command == canonical => Some(
-            if f.code == "timeout" || f.recovery == Recovery::CheckLink {
-                Outcome::LinkFailed(format!("{} to {}: {}", f.code, f.command, f.meaning))
-            } else {
-                Outcome::ControllerError {
-                    code: f.code.clone(),
-                    meaning: f.meaning.clone(),
-                    recovery: f.recovery,
-                }
-            },
-        ),
+        Event::Fault(f) if f.command == canonical => Some(fault_outcome(f.clone())),
         Event::Refused { request, reason }
             if *request
                 == describe(&Request::Raw {
@@ -373,6 +447,18 @@ fn outcome_of(event: &Event, text: &str, canonical: &str) -> Option<Outcome> {
         }
         Event::Link(LinkState::Lost { reason }) => Some(Outcome::LinkFailed(reason.clone())),
         _ => None,
+    }
+}
+
+fn fault_outcome(f: crate::device::api::ControllerFault) -> Outcome {
+    if f.code == "timeout" || f.recovery == Recovery::CheckLink {
+        Outcome::LinkFailed(format!("{} to {}: {}", f.code, f.command, f.meaning))
+    } else {
+        Outcome::ControllerError {
+            code: f.code,
+            meaning: f.meaning,
+            recovery: f.recovery,
+        }
     }
 }
 
@@ -433,5 +519,39 @@ mod tests {
         assert!(matches!(&items[4], Item::Line { may_move: true, .. }));
         let err = plan(&args(&["@07", "@0i", "@0P"])).expect_err("refused");
         assert!(err.contains("a program line after @0i"), "{err}");
+    }
+
+    #[test]
+    fn emcu_lines_are_checked_and_batches_awaited() {
+        let items = emcu_plan(&args(&["#E1,800", "L1,x500\\x01", "@LX", "@B", "@X"])).expect("ok");
+        let names: Vec<String> = items
+            .iter()
+            .map(|i| match i {
+                Item::Line { canonical, .. } => canonical.clone(),
+                Item::AwaitIdle => "wait".into(),
+                Item::Control(c) => format!("{c:?}"),
+            })
+            .collect();
+        assert_eq!(
+            names,
+            [
+                "wait",
+                "#E1,800",
+                "wait",
+                "L1,x500<01>",
+                "@LX",
+                "@B",
+                "@X",
+                "wait"
+            ]
+        );
+        // Job lines after `@F` run nothing: no waits until the 0x01 line.
+        let items = emcu_plan(&args(&["@F", "#E1,800", "L1,x5\\x01", "@J"])).expect("ok");
+        let waits: Vec<bool> = items.iter().map(|i| *i == Item::AwaitIdle).collect();
+        assert_eq!(waits, [true, false, false, false, true, false, true]);
+        let err = emcu_plan(&args(&["@X", "L1,q5"])).expect_err("refused");
+        assert!(err.starts_with("command 2 `L1,q5`:"), "{err}");
+        let err = emcu_plan(&args(&["@X\\x01"])).expect_err("refused");
+        assert!(err.contains("master command"), "{err}");
     }
 }

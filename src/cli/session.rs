@@ -9,8 +9,11 @@ use anyhow::Context as _;
 
 use super::{GlobalArgs, profile};
 use crate::config::{ConfigDirs, Profile};
-use crate::device::api::{Event, LinkState};
-use crate::device::isel::{IselDriver, IselSettings};
+use crate::device::api::{Activity, Event, LinkState};
+use crate::device::common::PollRate;
+use crate::device::driver::Driver;
+use crate::device::emcu::{EmcuDriver, EmcuSettings};
+use crate::device::isel::{IselDriver, IselSettings, PollPlan};
 use crate::device::log::spawn_log;
 use crate::device::{Connector, DeviceHandle, EventReceiver, TaskOptions, spawn_with};
 use crate::proto::Protocol;
@@ -29,6 +32,8 @@ pub const EXIT_USAGE: u8 = 2;
 pub struct Session {
     pub handle: DeviceHandle,
     pub events: EventReceiver,
+    /// What the machine does, as the last state event said.
+    pub activity: Activity,
     /// Kept alive as long as the session; `None` on a real port.
     _simulator: Option<Shell>,
 }
@@ -46,13 +51,13 @@ impl From<anyhow::Error> for StartError {
 }
 
 /// The profile for a talking command: `--profile` etc. as everywhere, with
-/// `--baud` on top; only isel has a driver so far.
+/// `--baud` on top; only families with a driver here.
 pub fn resolve(global: &GlobalArgs, baud: Option<u32>) -> Result<Profile, StartError> {
     let mut profile = profile::resolve(global, &ConfigDirs::from_env())
         .map_err(|e| StartError::Usage(format!("{e:#}")))?;
-    if profile.connection.protocol != Protocol::Isel {
+    if !talks(profile.connection.protocol) {
         return Err(StartError::Usage(format!(
-            "jogterm talks to isel controllers only so far, not {} (--protocol isel)",
+            "jogterm send and poll do not talk {} yet (--protocol isel or emcu)",
             profile.connection.protocol
         )));
     }
@@ -62,23 +67,85 @@ pub fn resolve(global: &GlobalArgs, baud: Option<u32>) -> Result<Profile, StartE
     Ok(profile)
 }
 
-/// Start the device task; `adjust` tunes the driver (polling).
+/// The families `send` and `poll` talk.
+fn talks(protocol: Protocol) -> bool {
+    matches!(protocol, Protocol::Isel | Protocol::Emcu)
+}
+
+/// What a command polls: positions at `rate`, and with `ports` the family's
+/// ports or status every cycle.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Polling {
+    pub rate: PollRate,
+    pub ports: bool,
+}
+
+impl Polling {
+    /// No polling at all (`send`).
+    pub const OFF: Polling = Polling {
+        rate: PollRate::Off,
+        ports: false,
+    };
+}
+
+/// The profile's driver, polling as the command wants.
+fn driver(profile: &Profile, polling: Polling) -> Result<Box<dyn Driver>, StartError> {
+    match profile.connection.protocol {
+        Protocol::Isel => Ok(Box::new(IselDriver::new(isel_settings(profile, polling)?))),
+        Protocol::Emcu => Ok(Box::new(EmcuDriver::new(emcu_settings(profile, polling)?))),
+        other => Err(StartError::Usage(format!(
+            "jogterm has no {other} driver yet"
+        ))),
+    }
+}
+
+/// isel: positions (`@0P`), with `ports` the input ports 1, 3, 2 every
+/// cycle. Without polling the profile's plan stays as it is.
+fn isel_settings(profile: &Profile, polling: Polling) -> Result<IselSettings, StartError> {
+    let mut s =
+        IselSettings::from_profile(profile).map_err(|e| StartError::Usage(e.to_string()))?;
+    s.poll.rate = polling.rate;
+    if polling.rate != PollRate::Off {
+        s.poll.ports_every = 1;
+        s.poll.ports = if polling.ports {
+            PollPlan::DEFAULT_PORTS.to_vec()
+        } else {
+            Vec::new()
+        };
+    }
+    Ok(s)
+}
+
+/// EMCU: positions (`@LX`, `@LY`, `@LZ`), with `ports` `@X` every cycle.
+fn emcu_settings(profile: &Profile, polling: Polling) -> Result<EmcuSettings, StartError> {
+    let mut s =
+        EmcuSettings::from_profile(profile).map_err(|e| StartError::Usage(e.to_string()))?;
+    s.poll.rate = polling.rate;
+    if polling.rate != PollRate::Off {
+        s.poll.ports_every = 1;
+        if !polling.ports {
+            s.poll.ports.clear();
+        }
+    }
+    Ok(s)
+}
+
+/// Start the device task, polling as `polling` says.
 pub fn start(
     global: &GlobalArgs,
     profile: Profile,
-    adjust: impl FnOnce(&mut IselSettings),
+    polling: Polling,
 ) -> Result<Session, StartError> {
-    let mut settings =
-        IselSettings::from_profile(&profile).map_err(|e| StartError::Usage(e.to_string()))?;
-    adjust(&mut settings);
+    let driver = driver(&profile, polling)?;
+    let family = profile.connection.protocol;
     let line: LineSettings = profile.connection.line();
     let (connector, simulator) = if profile.connection.is_simulator() {
-        let device = registry::build(Protocol::Isel, &profile).map_err(anyhow::Error::from)?;
+        let device = registry::build(family, &profile).map_err(anyhow::Error::from)?;
         let (shell, stream) = serve_socket(device).context("starting the built-in simulator")?;
         let spec = PortSpec::InProcess {
             stream,
             line: shell.line(),
-            name: "built-in isel simulator".into(),
+            name: format!("built-in {family} simulator"),
         };
         (Connector::from(spec), Some(shell))
     } else {
@@ -90,12 +157,8 @@ pub fn start(
             None,
         )
     };
-    let (handle, events) = spawn_with(
-        Box::new(IselDriver::new(settings)),
-        connector,
-        TaskOptions::default(),
-    )
-    .map_err(anyhow::Error::from)?;
+    let (handle, events) =
+        spawn_with(driver, connector, TaskOptions::default()).map_err(anyhow::Error::from)?;
     if let Some(path) = &global.log {
         let file = OpenOptions::new()
             .create(true)
@@ -107,6 +170,7 @@ pub fn start(
     Ok(Session {
         handle,
         events,
+        activity: Activity::Idle,
         _simulator: simulator,
     })
 }
@@ -119,11 +183,20 @@ pub enum Linked {
 }
 
 impl Session {
+    /// The next event; state events update `activity` on the way.
+    pub async fn next_event(&mut self) -> Option<Event> {
+        let event = self.events.recv().await;
+        if let Some(Event::State(s)) = &event {
+            self.activity = s.activity;
+        }
+        event
+    }
+
     /// Wait until the port is open (or the first attempt failed).
     pub async fn linked(&mut self, within: Duration) -> Linked {
         let deadline = tokio::time::Instant::now() + within;
         loop {
-            match tokio::time::timeout_at(deadline, self.events.recv()).await {
+            match tokio::time::timeout_at(deadline, self.next_event()).await {
                 Ok(Some(Event::Link(LinkState::Connected))) => return Linked::Up,
                 Ok(Some(Event::Link(LinkState::Lost { reason }))) => return Linked::Failed(reason),
                 Ok(Some(_)) => {}

@@ -3,7 +3,9 @@
 //!
 //! - [`api`]: requests, events, machine state, refusals (family-neutral).
 //! - [`driver`]: the sans-IO [`driver::Driver`] trait each family implements.
-//! - [`isel`]: the isel @-format driver.
+//! - [`common`]: what the drivers of all families share (refusals, jog
+//!   vectors and leases, step coalescing, polling, the request queue).
+//! - [`isel`]: the isel @-format driver; [`emcu`]: the EMCU driver.
 //! - [`task`]: the async task that owns the port ([`spawn`]); [`handle`]:
 //!   what clients hold ([`DeviceHandle`]); [`events`]: the fan-out of events
 //!   with its drop policy; [`log`]: the traffic log.
@@ -11,9 +13,11 @@
 //! `docs/device.md` describes the layer as a whole.
 
 pub mod api;
+pub mod common;
 pub mod connector;
 pub mod describe;
 pub mod driver;
+pub mod emcu;
 pub mod events;
 pub mod handle;
 pub mod isel;

@@ -83,6 +83,7 @@ pub enum DeviceError {
 pub fn driver_for(profile: &Profile) -> Result<Box<dyn Driver>, DeviceError> {
     match profile.connection.protocol {
         Protocol::Isel => Ok(Box::new(IselDriver::from_profile(profile)?)),
+        Protocol::Emcu => Ok(Box::new(super::emcu::EmcuDriver::from_profile(profile)?)),
         other => Err(DeviceError::Unsupported(other)),
     }
 }

@@ -1,11 +1,13 @@
 //! Shared by the device task tests: the isel simulator behind a socket pair
-//! (or a pty), the device task in front of it, and waiting for events.
+//! (or any family's on a pty), the device task in front of it, and waiting
+//! for events.
 #![allow(dead_code)]
 
 use std::time::Duration;
 
 use jogterm::config::{ConfigDirs, Profile, load_profile};
 use jogterm::device::api::{Event, LinkState, Request};
+use jogterm::device::driver::Driver;
 use jogterm::device::isel::{IselDriver, IselSettings, PollRate};
 use jogterm::device::{Connector, DeviceHandle, EventReceiver, TaskOptions, spawn_with};
 use jogterm::proto::Protocol;
@@ -61,7 +63,13 @@ pub fn socket_rig(settings: IselSettings) -> Rig {
 /// The same on a pseudo-terminal reachable through the stable `link`, so
 /// the line can be closed and brought back (`fault close <ms>`).
 pub fn pty_rig(settings: IselSettings, link: &std::path::Path) -> Rig {
-    let device = registry::build(Protocol::Isel, &profile()).expect("simulator");
+    pty_rig_for(Box::new(IselDriver::new(settings)), &profile(), link)
+}
+
+/// Any family's driver in front of the simulator of `profile`'s family, on
+/// a pty reachable through `link`.
+pub fn pty_rig_for(driver: Box<dyn Driver>, profile: &Profile, link: &std::path::Path) -> Rig {
+    let device = registry::build(profile.connection.protocol, profile).expect("simulator");
     let shell = serve_pty(
         device,
         PtyOptions {
@@ -73,12 +81,8 @@ pub fn pty_rig(settings: IselSettings, link: &std::path::Path) -> Rig {
         path: link.to_path_buf(),
         line: shell.line(),
     };
-    let (handle, events) = spawn_with(
-        Box::new(IselDriver::new(settings)),
-        connector,
-        TaskOptions::default(),
-    )
-    .expect("device task");
+    let (handle, events) =
+        spawn_with(driver, connector, TaskOptions::default()).expect("device task");
     Rig {
         shell,
         handle,

@@ -10,6 +10,7 @@ use crate::device::api::{
     ControllerFault, Event, MachineState, PerAxis, PositionSample, PositionSource, Recovery,
     Refusal,
 };
+use crate::device::common::{gate, link};
 use crate::device::driver::Outgoing;
 use crate::proto::isel::{
     AxisConfig, CncCommand, Command, ControlByte, DeviceNumber, Expect, Frame, InputPort,
@@ -53,6 +54,12 @@ pub fn control_outgoing(control: ControlByte) -> Outgoing {
         bytes: control.encode().to_vec(),
         interruptible: true,
     }
+}
+
+/// A `2` reply: a limit switch, refused as such until the axes are
+/// initialised again (manual chapter 5).
+fn is_limit_fault(fault: &ControllerFault) -> bool {
+    fault.recovery == Recovery::ReinitialiseAndReference && fault.code == "2"
 }
 
 /// The client-facing recovery for an isel reply code (manual chapter 5).
@@ -365,13 +372,7 @@ impl Context {
 
     /// A reply that is no reply code of the iMC (`A B C E =`), or garbage.
     pub fn link_suspect(&mut self, command: &str, what: &str) -> ControllerFault {
-        let fault = ControllerFault {
-            command: command.to_owned(),
-            code: what.to_owned(),
-            meaning: "The reply could not be read: the outcome of the command is unknown."
-                .to_owned(),
-            recovery: Recovery::CheckLink,
-        };
+        let fault = link::unreadable(command, what);
         self.emit(Event::Fault(fault.clone()));
         fault
     }
@@ -398,17 +399,8 @@ impl Context {
         self.state.referenced = AxisSet::from_mask(
             (self.state.referenced.mask() | axes.mask()) & self.state.initialised.mask(),
         );
-        if self
-            .state
-            .fault
-            .as_ref()
-            .is_some_and(|f| f.recovery == Recovery::Reference)
-            && self.profile_ready()
-            && self
-                .settings
-                .axis_set()
-                .iter()
-                .all(|a| self.state.referenced.contains(a))
+        if self.profile_ready()
+            && gate::reference_fault_cleared(&self.state, self.settings.axis_set())
         {
             self.state.fault = None;
         }
@@ -425,60 +417,24 @@ impl Context {
 
     /// Whether a move may start; the first reason it may not. With
     /// `unreferenced_ok` (a jog with `jog.allow_unreferenced`, a reference
-    /// run) the reference is not asked for.
+    /// run) the reference is not asked for. The controller moves nothing
+    /// until every initialised axis is referenced (`../shared/protocols.md`
+    /// isel 4), so every profile axis must be.
     pub fn motion_allowed(&self, unreferenced_ok: bool) -> Result<(), Refusal> {
-        if !self.state.link_up {
-            return Err(Refusal::NotConnected);
-        }
-        if self.state.estop {
-            return Err(Refusal::EmergencyStop);
-        }
-        if let Some(f) = &self.state.fault {
-            match f.recovery {
-                Recovery::Reference => {}
-                Recovery::ClearEmergencyStop => return Err(Refusal::EmergencyStop),
-                Recovery::ReinitialiseAndReference if f.code == "2" => {
-                    return Err(Refusal::LimitSwitch);
-                }
-                recovery => return Err(Refusal::Fault { recovery }),
-            }
-        }
-        if !self.profile_ready() {
-            return Err(Refusal::NotInitialised);
-        }
-        // The controller moves nothing until every initialised axis is
-        // referenced (`../shared/protocols.md` isel 4).
-        let missing: AxisSet = self
-            .settings
-            .axis_set()
-            .iter()
-            .filter(|a| !self.state.referenced.contains(*a))
-            .collect();
-        let waived = self.state.test_mode || unreferenced_ok;
-        if !missing.is_empty() && !waived {
-            return Err(Refusal::NotReferenced { axes: missing });
-        }
-        Ok(())
+        gate::motion_allowed(
+            &self.state,
+            self.profile_ready(),
+            self.settings.axis_set(),
+            self.state.test_mode || unreferenced_ok,
+            is_limit_fault,
+        )
     }
 
     /// Whether a raw motion command may be sent: not in E-stop, not after a
     /// `2`/`9` before the axes were initialised again. The reference is the
     /// controller's business (it answers `R`).
     pub fn raw_motion_allowed(&self) -> Result<(), Refusal> {
-        if self.state.estop {
-            return Err(Refusal::EmergencyStop);
-        }
-        match self
-            .state
-            .fault
-            .as_ref()
-            .map(|f| (f.recovery, f.code.as_str()))
-        {
-            None | Some((Recovery::Reference, _)) => Ok(()),
-            Some((Recovery::ClearEmergencyStop, _)) => Err(Refusal::EmergencyStop),
-            Some((Recovery::ReinitialiseAndReference, "2")) => Err(Refusal::LimitSwitch),
-            Some((recovery, _)) => Err(Refusal::Fault { recovery }),
-        }
+        gate::faults(&self.state, is_limit_fault)
     }
 
     /// What 0xFE leaves behind: no axes, no reference, power-up ramp, zero

@@ -17,8 +17,8 @@
 use std::time::Duration;
 
 use crate::axis::{Axis, AxisSet};
+use crate::device::common::deadline as common_deadline;
 use crate::proto::isel::{CncCommand, Command, Expect, InitCommand};
-use crate::wire::LineSettings;
 
 use super::settings::IselSettings;
 
@@ -31,24 +31,12 @@ pub const FLASH: Duration = Duration::from_secs(3);
 /// of unknown length.
 pub const CLEAR_SWITCH: Duration = Duration::from_secs(15);
 
-/// A query or setting: `command_len` bytes out, `reply_len` back.
-pub fn exchange(
-    line: LineSettings,
-    margin: Duration,
-    command_len: usize,
-    reply_len: usize,
-) -> Duration {
-    line.transfer_time(command_len + reply_len) + margin
-}
-
-/// A move planned to take `duration`.
-pub fn motion(duration: Duration) -> Duration {
-    duration + duration / 4 + Duration::from_secs(1)
-}
+pub use crate::device::common::deadline::{exchange, motion};
 
 /// How long a reference run of `mask` may take at `speed_hz`: each axis may
 /// have to cross its whole travel and a half again (it may start beyond a
-/// soft limit and overshoots its switch), then clear the switch slowly.
+/// soft limit and overshoots its switch), then clear the switch slowly
+/// (`common::deadline::reference`).
 pub fn reference(settings: &IselSettings, mask: AxisSet, speed_hz: u32) -> Duration {
     let widest = settings
         .axes
@@ -56,15 +44,10 @@ pub fn reference(settings: &IselSettings, mask: AxisSet, speed_hz: u32) -> Durat
         .map(|(_, l)| l.span())
         .max()
         .unwrap_or(0);
-    let speed = f64::from(speed_hz.max(1));
-    let secs: f64 = mask
+    let spans = mask
         .iter()
-        .map(|axis| {
-            let span = settings.limits(axis).map_or(widest, |l| l.span());
-            span.unsigned_abs() as f64 * 1.5 / speed + 1.0
-        })
-        .sum();
-    motion(Duration::from_secs_f64(secs)) + Duration::from_secs(1)
+        .map(|axis| settings.limits(axis).map_or(widest, |l| l.span()));
+    common_deadline::reference(spans, f64::from(speed_hz))
 }
 
 /// The deadline for a DNC command that is no move planned by the driver
@@ -135,6 +118,7 @@ pub fn reference_masks(axes: AxisSet) -> Vec<AxisSet> {
 mod tests {
     use super::*;
     use crate::config::{ConfigDirs, load_profile};
+    use crate::wire::LineSettings;
 
     fn settings() -> IselSettings {
         let profile = load_profile("default", &ConfigDirs::builtin_only()).expect("profile");
@@ -178,11 +162,6 @@ mod tests {
         assert_eq!(x, motion(Duration::from_secs(46)) + Duration::from_secs(1));
         let xyz = reference(&s, AxisSet::XYZ, 4000);
         assert!(xyz > x);
-    }
-
-    #[test]
-    fn a_moves_deadline_grows_with_its_duration() {
-        assert_eq!(motion(Duration::from_secs(4)), Duration::from_secs(6));
     }
 
     #[test]

@@ -8,7 +8,8 @@
 use std::collections::BTreeMap;
 use std::time::Instant;
 
-use crate::device::api::{IoBit, IoGroup, IoSnapshot, OutputId};
+use crate::device::api::{IoGroup, IoSnapshot, OutputId};
+use crate::device::common::io;
 use crate::proto::isel::ports::{InputRole, OUTPUT_PORTS};
 use crate::proto::isel::{InputPort, OutputPort};
 
@@ -82,18 +83,9 @@ pub fn input_group(port: InputPort, raw: u8) -> IoGroup {
     let bits = port
         .bits()
         .iter()
-        .map(|b| IoBit {
-            name: b.name.to_owned(),
-            value: raw & (1 << b.bit) != 0,
-            output: None,
-            hazardous: false,
-        })
+        .map(|b| io::input(b.name, raw & (1 << b.bit) != 0))
         .collect();
-    IoGroup {
-        name: port_title(port).to_owned(),
-        raw: Some(raw),
-        bits,
-    }
+    io::group(port_title(port), Some(raw), bits)
 }
 
 /// An output port: on/off ports and the analog port are one switchable
@@ -103,31 +95,33 @@ pub fn output_group(port: OutputPort, written: Option<u8>) -> IoGroup {
     let group = u16::from(port.number());
     let value = written.unwrap_or(0);
     let bits = if info.bits.is_empty() {
-        vec![IoBit {
-            name: info.name.to_owned(),
-            value: value != 0,
-            output: Some(OutputId { group, bit: None }),
-            hazardous: info.hazard.is_some(),
-        }]
+        vec![io::output(
+            info.name,
+            value != 0,
+            OutputId { group, bit: None },
+            info.hazard.is_some(),
+        )]
     } else {
         info.bits
             .iter()
-            .map(|b| IoBit {
-                name: b.name.to_owned(),
-                value: value & (1 << b.bit) != 0,
-                output: Some(OutputId {
-                    group,
-                    bit: Some(b.bit),
-                }),
-                hazardous: b.hazard.is_some() || (info.hazard.is_some() && b.name != "not used"),
+            .map(|b| {
+                io::output(
+                    b.name,
+                    value & (1 << b.bit) != 0,
+                    OutputId {
+                        group,
+                        bit: Some(b.bit),
+                    },
+                    b.hazard.is_some() || (info.hazard.is_some() && b.name != "not used"),
+                )
             })
             .collect()
     };
-    IoGroup {
-        name: format!("out {}: {}", port.number(), info.name),
-        raw: written,
+    io::group(
+        format!("out {}: {}", port.number(), info.name),
+        written,
         bits,
-    }
+    )
 }
 
 /// The names of the set bits of an input byte, for `jogterm send`.

@@ -52,17 +52,18 @@ pub use context::STOP_BYTES;
 pub use estimate::{MoveEstimate, RampParams};
 pub use io::{PortImage, describe_input, input_group, output_group};
 pub use plan::overrun_cap;
-pub use poll::PollItem;
+pub use poll::{PollItem, wire_limit_hz};
 pub use reply_text::{code_text, reply_text};
-pub use settings::{AxisLimits, IselSettings, PollPlan, PollRate, SettingsError, Timing};
+pub use settings::{
+    AxisLimits, IselSettings, JogSettings, PollPlan, PollRate, SettingsError, Timing,
+};
 pub use upload::abort_line;
 
-use crate::axis::AxisSet;
 use crate::config::Profile;
-use crate::device::api::{
-    ControllerFault, Event, JogEnd, LinkState, MachineState, Recovery, Refusal, Request,
-};
-use crate::device::describe::describe;
+use crate::device::api::{Event, JogEnd, MachineState, Refusal, Request};
+use crate::device::common::limits::named_axes;
+use crate::device::common::sink::refuse;
+use crate::device::common::{Poller, Queued, RequestQueue, Running, StateReport, link};
 use crate::device::driver::{Driver, Outgoing};
 use crate::proto::isel::{
     Command, ControlByte, Event as Decoded, Expect, Reply, ReplyDecoder, TEXT_SILENCE,
@@ -75,15 +76,11 @@ use init::InitOp;
 use motion_op::MotionOp;
 use op::{Abandon, Next, Operation};
 use output::OutputOp;
-use poll::Poller;
 use program::ProgramOp;
 use raw::{RawOp, control_of};
 use readback::Readback;
 use upload::UploadOp;
 use zero::ZeroOp;
-
-/// Requests waiting for their turn; more are refused.
-const MAX_QUEUED: usize = 64;
 
 #[derive(Debug)]
 enum Op {
@@ -155,13 +152,6 @@ struct Exchange {
     restop: bool,
 }
 
-#[derive(Debug)]
-struct Queued {
-    request: Request,
-    /// For a jog: when its lease runs out while it waits.
-    lease_until: Option<Instant>,
-}
-
 /// The isel driver. Build it from a profile, hand it to the device task (or
 /// drive it by hand in tests: every method takes the time).
 #[derive(Debug)]
@@ -175,18 +165,18 @@ pub struct IselDriver {
     /// of a command, `None` for a control byte.
     unsent: VecDeque<Option<u64>>,
     op: Option<Op>,
-    queue: VecDeque<Queued>,
-    poller: Poller,
+    queue: RequestQueue,
+    poller: Poller<PollItem>,
     quiet_until: Option<Instant>,
     stray: Vec<u8>,
-    last_state: Option<MachineState>,
+    report: StateReport,
     poll_error: Option<String>,
 }
 
 impl IselDriver {
     pub fn new(settings: IselSettings) -> IselDriver {
         IselDriver {
-            poller: Poller::new(settings.poll.clone()),
+            poller: poll::poller(&settings.poll),
             cx: Context::new(settings),
             link_up: false,
             exchange: None,
@@ -194,10 +184,10 @@ impl IselDriver {
             decoder: ReplyDecoder::new(),
             unsent: VecDeque::new(),
             op: None,
-            queue: VecDeque::new(),
+            queue: RequestQueue::default(),
             quiet_until: None,
             stray: Vec::new(),
-            last_state: None,
+            report: StateReport::default(),
             poll_error: None,
         }
     }
@@ -287,7 +277,7 @@ impl IselDriver {
                 self.op = Some(Op::Readback(Readback::new()));
                 continue;
             }
-            if let Some(q) = self.queue.pop_front() {
+            if let Some(q) = self.queue.pop(now, &mut self.cx.events) {
                 self.begin(q, now);
                 continue;
             }
@@ -395,19 +385,7 @@ impl IselDriver {
         let waited = ex
             .transmitted_at
             .map_or(Duration::ZERO, |t| now.saturating_duration_since(t));
-        self.cx.emit(Event::Fault(ControllerFault {
-            command: ex.text.clone(),
-            code: "timeout".to_owned(),
-            meaning: format!(
-                "No reply within {} ms: the controller or the line is gone.",
-                waited.as_millis()
-            ),
-            recovery: Recovery::CheckLink,
-        }));
-        let reason = format!("no reply to {} within {} ms", ex.text, waited.as_millis());
-        self.cx.emit(Event::Link(LinkState::Lost {
-            reason: reason.clone(),
-        }));
+        let reason = link::no_reply(&ex.text, waited, &mut self.cx.events);
         self.go_down(&reason);
     }
 
@@ -426,7 +404,11 @@ impl IselDriver {
             op.get()
                 .abandon(&mut self.cx, &Abandon::LinkLost(reason.to_owned()));
         }
-        self.refuse_queue(|| Refusal::NotConnected, JogEnd::LinkLost);
+        self.queue.refuse_all(
+            || Refusal::NotConnected,
+            JogEnd::LinkLost,
+            &mut self.cx.events,
+        );
         // Unknown until read back.
         self.cx.set_config(None);
         self.cx.position = None;
@@ -485,21 +467,6 @@ impl IselDriver {
         }
     }
 
-    fn refuse_queue(&mut self, reason: impl Fn() -> Refusal, jog_end: JogEnd) {
-        for q in std::mem::take(&mut self.queue) {
-            if let Request::Jog { id, .. } = q.request {
-                self.cx.emit(Event::JogEnded {
-                    id,
-                    end: jog_end.clone(),
-                });
-            }
-            self.cx.emit(Event::Refused {
-                request: describe(&q.request),
-                reason: reason(),
-            });
-        }
-    }
-
     fn reset(&mut self, now: Instant) {
         self.cx
             .control
@@ -509,11 +476,12 @@ impl IselDriver {
         if let Some(mut op) = self.op.take() {
             op.get().abandon(&mut self.cx, &Abandon::Reset);
         }
-        self.refuse_queue(
+        self.queue.refuse_all(
             || Refusal::Invalid {
                 reason: "cancelled: the controller was reset".into(),
             },
             JogEnd::Stopped,
+            &mut self.cx.events,
         );
         self.cx.apply_reset();
         self.quiet_until = Some(now + self.cx.settings.timing.reset_settle);
@@ -573,16 +541,7 @@ impl IselDriver {
     }
 
     fn refuse(&mut self, request: &Request, reason: Refusal) {
-        if let Request::Jog { id, .. } = request {
-            self.cx.emit(Event::JogEnded {
-                id: *id,
-                end: JogEnd::Refused(reason.clone()),
-            });
-        }
-        self.cx.emit(Event::Refused {
-            request: describe(request),
-            reason,
-        });
+        refuse(&mut self.cx.events, request, reason);
     }
 
     fn admit(&mut self, request: Request, now: Instant) {
@@ -590,58 +549,30 @@ impl IselDriver {
             self.refuse(&request, Refusal::NotConnected);
             return;
         }
-        let lease_until = match &request {
-            Request::Jog { lease, .. } => Some(now + *lease),
-            _ => None,
-        };
         // While a program is being stored line by line, raw lines are the
         // program's lines (manual 3.1).
         let storing_line = self.cx.cnc_store && matches!(request, Request::Raw { .. });
-        if let Some(activity) = self.busy().filter(|_| !storing_line) {
-            match (request, self.op.as_mut()) {
-                (Request::Step { delta, speed_hz }, Some(Op::Motion(m))) => {
-                    if let Err(reason) = m.coalesce(&self.cx, delta, speed_hz) {
-                        let request = Request::Step { delta, speed_hz };
-                        self.refuse(&request, reason);
-                    }
+        let running = match self.busy().filter(|_| !storing_line) {
+            None => Running::Idle,
+            Some(activity) => {
+                let motion = match self.op.as_ref() {
+                    Some(Op::Motion(m)) => Some(m),
+                    _ => None,
+                };
+                Running::Busy {
+                    activity,
+                    motion: motion.is_some(),
+                    braking_jog: motion.is_some_and(|m| m.jog_id().is_some() && m.is_stopping()),
                 }
-                (request @ Request::Jog { .. }, Some(Op::Motion(m)))
-                    if m.jog_id().is_some() && m.is_stopping() =>
-                {
-                    // The next jog waits for the one that is braking; a newer
-                    // one replaces it.
-                    let waiting: Vec<Queued> = self
-                        .queue
-                        .iter()
-                        .position(|q| matches!(q.request, Request::Jog { .. }))
-                        .and_then(|i| self.queue.remove(i))
-                        .into_iter()
-                        .collect();
-                    for q in waiting {
-                        self.refuse(&q.request, Refusal::Busy { activity });
-                    }
-                    self.queue.push_front(Queued {
-                        request,
-                        lease_until,
-                    });
-                }
-                (request, _) => self.refuse(&request, Refusal::Busy { activity }),
             }
-            return;
+        };
+        if let Some((delta, speed_hz)) =
+            self.queue.admit(request, now, running, &mut self.cx.events)
+            && let Some(Op::Motion(m)) = self.op.as_mut()
+            && let Err(reason) = m.coalesce(&self.cx, delta, speed_hz)
+        {
+            self.refuse(&Request::Step { delta, speed_hz }, reason);
         }
-        if self.queue.len() >= MAX_QUEUED {
-            self.refuse(
-                &request,
-                Refusal::Invalid {
-                    reason: format!("{MAX_QUEUED} requests are already waiting"),
-                },
-            );
-            return;
-        }
-        self.queue.push_back(Queued {
-            request,
-            lease_until,
-        });
     }
 
     /// A queued request's turn has come: check it against the state now.
@@ -652,13 +583,6 @@ impl IselDriver {
                 id, axes, speed_hz, ..
             } => {
                 let lease_until = queued.lease_until.unwrap_or(now);
-                if lease_until <= now {
-                    self.cx.emit(Event::JogEnded {
-                        id: *id,
-                        end: JogEnd::DeadMan,
-                    });
-                    return;
-                }
                 // The lease the jog holds now: what is left of the one it
                 // was given (it may have waited behind a braking jog).
                 let lease = lease_until.saturating_duration_since(now);
@@ -685,11 +609,11 @@ impl IselDriver {
                 speed_hz,
             } => plan::move_to(cx, target, *frame, speed_hz)
                 .map(|p| Op::Motion(MotionOp::move_to(p))),
-            Request::Home { axes } => self.check_axes(*axes).and_then(|()| {
+            Request::Home { axes } => named_axes(cx.settings.axis_set(), *axes).and_then(|()| {
                 self.cx.motion_allowed(true)?;
                 Ok(Op::Home(HomeOp::new(*axes)))
             }),
-            Request::SetZero { axes } => self.check_axes(*axes).and_then(|()| {
+            Request::SetZero { axes } => named_axes(cx.settings.axis_set(), *axes).and_then(|()| {
                 if !self.cx.profile_ready() {
                     return Err(Refusal::NotInitialised);
                 }
@@ -719,21 +643,6 @@ impl IselDriver {
         }
     }
 
-    fn check_axes(&self, axes: AxisSet) -> Result<(), Refusal> {
-        let machine = self.cx.settings.axis_set();
-        if axes.is_empty() {
-            return Err(Refusal::Invalid {
-                reason: "no axis given".into(),
-            });
-        }
-        match axes.iter().find(|a| !machine.contains(*a)) {
-            Some(axis) => Err(Refusal::Invalid {
-                reason: format!("the machine has no {axis} axis (profile axes {machine})"),
-            }),
-            None => Ok(()),
-        }
-    }
-
     fn renew(&mut self, id: crate::device::api::JogId, lease: Duration, now: Instant) {
         if let Some(Op::Motion(m)) = self.op.as_mut()
             && let Some(speed_up) = m.renew(&self.cx, id, lease, now)
@@ -743,11 +652,7 @@ impl IselDriver {
             }
             return;
         }
-        for q in self.queue.iter_mut() {
-            if matches!(q.request, Request::Jog { id: qid, .. } if qid == id) {
-                q.lease_until = Some(now + lease);
-            }
-        }
+        self.queue.renew(id, lease, now);
     }
 
     fn release(&mut self, id: crate::device::api::JogId, now: Instant) {
@@ -759,17 +664,7 @@ impl IselDriver {
             }
             return;
         }
-        if let Some(i) = self
-            .queue
-            .iter()
-            .position(|q| matches!(q.request, Request::Jog { id: qid, .. } if qid == id))
-        {
-            self.queue.remove(i);
-            self.cx.emit(Event::JogEnded {
-                id,
-                end: JogEnd::Released,
-            });
-        }
+        self.queue.release(id, &mut self.cx.events);
     }
 
     /// Bring `state.activity` and `link_up` up to date and tell the clients
@@ -787,10 +682,7 @@ impl IselDriver {
             activity
         };
         self.cx.state.link_up = self.link_up;
-        if self.last_state.as_ref() != Some(&self.cx.state) {
-            self.last_state = Some(self.cx.state.clone());
-            self.cx.emit(Event::State(self.cx.state.clone()));
-        }
+        self.report.publish(&self.cx.state, &mut self.cx.events);
     }
 
     fn idle(&self) -> bool {
@@ -853,11 +745,12 @@ impl Driver for IselDriver {
     }
 
     fn stop(&mut self, now: Instant) -> Outgoing {
-        self.refuse_queue(
+        self.queue.refuse_all(
             || Refusal::Invalid {
                 reason: "cancelled by stop".into(),
             },
             JogEnd::Stopped,
+            &mut self.cx.events,
         );
         self.stop_bookkeeping(now);
         self.settle();
@@ -986,7 +879,8 @@ impl Driver for IselDriver {
         }
         if self.poller.stats_due().is_some_and(|t| now >= t) {
             let with_a = self.cx.config == Some(crate::proto::isel::AxisConfig::XYZA);
-            if let Some(stats) = self.poller.take_stats(now, self.cx.settings.line, with_a) {
+            let limit = wire_limit_hz(&self.poller, self.cx.settings.line, with_a);
+            if let Some(stats) = self.poller.take_stats(now, limit) {
                 self.cx.emit(Event::Stats(stats));
             }
         }

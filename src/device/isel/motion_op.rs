@@ -21,7 +21,10 @@
 use std::time::{Duration, Instant};
 
 use crate::axis::Axis;
-use crate::device::api::{Activity, Dir, Event, JogEnd, JogId, PerAxis, Recovery, Refusal};
+use crate::device::api::{Activity, Dir, JogEnd, JogId, PerAxis, Recovery, Refusal};
+use crate::device::common::MotionKind;
+use crate::device::common::motion::Coalescing;
+use crate::device::common::sink::refuse_step;
 use crate::proto::isel::{Command, ControlByte, Reply, ReplyCode};
 
 use super::context::{Context, control_outgoing};
@@ -29,26 +32,16 @@ use super::deadline;
 use super::op::{Abandon, Next, Operation};
 use super::plan::{self, Planned};
 
+/// What a continuous jog needs to follow its lease with its speed.
 #[derive(Debug)]
-enum Kind {
-    Step {
-        /// Presses that arrived while the step ran: delta and speeds.
-        pending: Vec<(PerAxis<i64>, PerAxis<f64>)>,
-    },
-    MoveTo,
-    Jog {
-        id: JogId,
-        axes: Vec<(Axis, Dir)>,
-        /// The speeds the client asked for (the plan may run slower).
-        requested: PerAxis<f64>,
-        /// The lease length the jog holds now; the speed cap follows it.
-        lease: Duration,
-        lease_until: Instant,
-        end: Option<JogEnd>,
-        reported: bool,
-        /// Stopping to restart faster: the stop is not the jog's end.
-        speeding_up: bool,
-    },
+struct JogSpeed {
+    axes: Vec<(Axis, Dir)>,
+    /// The speeds the client asked for (the plan may run slower).
+    requested: PerAxis<f64>,
+    /// The lease length the jog holds now; the speed cap follows it.
+    lease: Duration,
+    /// Stopping to restart faster: the stop is not the jog's end.
+    speeding_up: bool,
 }
 
 /// A faster move is worth its dip only when it is faster by this factor.
@@ -67,7 +60,9 @@ enum Phase {
 
 #[derive(Debug)]
 pub struct MotionOp {
-    kind: Kind,
+    kind: MotionKind,
+    /// Set for a continuous jog.
+    jog_speed: Option<JogSpeed>,
     planned: Planned,
     phase: Phase,
     stopping: bool,
@@ -77,16 +72,11 @@ pub struct MotionOp {
 
 impl MotionOp {
     pub fn step(planned: Planned) -> MotionOp {
-        MotionOp::new(
-            Kind::Step {
-                pending: Vec::new(),
-            },
-            planned,
-        )
+        MotionOp::new(MotionKind::step(), planned)
     }
 
     pub fn move_to(planned: Planned) -> MotionOp {
-        MotionOp::new(Kind::MoveTo, planned)
+        MotionOp::new(MotionKind::MoveTo, planned)
     }
 
     pub fn jog(
@@ -97,24 +87,20 @@ impl MotionOp {
         lease: Duration,
         lease_until: Instant,
     ) -> MotionOp {
-        MotionOp::new(
-            Kind::Jog {
-                id,
-                axes,
-                requested,
-                lease,
-                lease_until,
-                end: None,
-                reported: false,
-                speeding_up: false,
-            },
-            planned,
-        )
+        let mut op = MotionOp::new(MotionKind::jog(id, lease_until), planned);
+        op.jog_speed = Some(JogSpeed {
+            axes,
+            requested,
+            lease,
+            speeding_up: false,
+        });
+        op
     }
 
-    fn new(kind: Kind, planned: Planned) -> MotionOp {
+    fn new(kind: MotionKind, planned: Planned) -> MotionOp {
         MotionOp {
             kind,
+            jog_speed: None,
             planned,
             phase: Phase::Send,
             stopping: false,
@@ -124,10 +110,7 @@ impl MotionOp {
     }
 
     pub fn jog_id(&self) -> Option<JogId> {
-        match self.kind {
-            Kind::Jog { id, .. } => Some(id),
-            _ => None,
-        }
+        self.kind.jog_id()
     }
 
     /// Whether the operation still has a move running or about to run.
@@ -148,31 +131,18 @@ impl MotionOp {
         speeds: PerAxis<f64>,
     ) -> Result<(), Refusal> {
         let moving = self.is_moving();
-        let activity = self.activity();
-        let Kind::Step { pending } = &mut self.kind else {
-            return Err(Refusal::Busy { activity });
+        let position = cx.position.unwrap_or_default();
+        let in_flight = self.planned.estimate.deltas();
+        let at = Coalescing {
+            open: !(self.stopping || self.failed || (!moving && self.kind.pending_steps() == 0)),
+            bound: cx.settings.jog.step_queue,
+            position: &position,
+            in_flight: moving.then_some(&in_flight),
+            activity: self.activity(),
         };
-        if self.stopping || self.failed || (!moving && pending.is_empty()) {
-            return Err(Refusal::Busy { activity });
-        }
-        if pending.len() >= cx.settings.step_queue {
-            return Err(Refusal::StepQueueFull);
-        }
-        let mut base = cx.position.unwrap_or_default();
-        let add = |d: &PerAxis<i64>, base: &mut PerAxis<i64>| {
-            for (axis, v) in d.iter() {
-                base.set(axis, base.get(axis).unwrap_or(0).saturating_add(v));
-            }
-        };
-        if moving {
-            add(&self.planned.estimate.deltas(), &mut base);
-        }
-        for (d, _) in pending.iter() {
-            add(d, &mut base);
-        }
-        plan::step(cx, &base, &delta, &speeds)?;
-        pending.push((delta, speeds));
-        Ok(())
+        self.kind.coalesce(at, delta, speeds, |base| {
+            plan::step(cx, base, &delta, &speeds).map(|_| ())
+        })
     }
 
     /// A lease renewal for jog `id`: `None` when this is not that jog, else
@@ -190,49 +160,37 @@ impl MotionOp {
     ) -> Option<bool> {
         let moving = self.phase == Phase::Moving && !self.stopping;
         let unsent = self.phase == Phase::Send;
-        let Kind::Jog {
-            id: mine,
-            axes,
-            requested,
-            lease: held,
-            lease_until,
-            end,
-            speeding_up,
-            ..
-        } = &mut self.kind
-        else {
-            return None;
-        };
-        if *mine != id {
+        let granted = lease.min(plan::lease_cap(cx, &self.planned.speeds));
+        if !self.kind.renew(id, granted, now) {
             return None;
         }
-        let granted = lease.min(plan::lease_cap(cx, &self.planned.speeds));
-        *lease_until = now + granted;
-        if lease >= *held {
+        let ended = self.kind.jog_end().is_some();
+        let speed = self.jog_speed.as_mut()?;
+        if lease >= speed.lease {
             return Some(false);
         }
-        *held = lease;
-        if unsent && end.is_none() {
+        speed.lease = lease;
+        if unsent && !ended {
             // Not on the wire yet: plan it for the new lease straight away.
-            if let Ok(planned) = plan::jog(cx, axes, requested, lease) {
+            if let Ok(planned) = plan::jog(cx, &speed.axes, &speed.requested, lease) {
                 self.planned = planned;
             }
             return Some(false);
         }
-        if !moving || end.is_some() || *speeding_up {
+        if !moving || ended || speed.speeding_up {
             return Some(false);
         }
         // The speed the shorter lease allows, per axis, against the plan's.
-        let faster = axes.iter().any(|(axis, _)| {
+        let faster = speed.axes.iter().any(|(axis, _)| {
             let now_hz = self.planned.speeds.get(*axis).map_or(0.0, f64::from);
             let cap = cx
                 .settings
                 .limits(*axis)
                 .map_or(0.0, |l| plan::overrun_cap(cx.ramp, lease, l.max_overrun));
-            let want = requested.get(*axis).unwrap_or(0.0).min(cap);
+            let want = speed.requested.get(*axis).unwrap_or(0.0).min(cap);
             want > now_hz * SPEED_UP_FACTOR
         });
-        *speeding_up = faster;
+        speed.speeding_up = faster;
         Some(faster)
     }
 
@@ -248,32 +206,20 @@ impl MotionOp {
     }
 
     fn is_speeding_up(&self) -> bool {
-        matches!(
-            self.kind,
-            Kind::Jog {
-                speeding_up: true,
-                end: None,
-                ..
-            }
-        )
+        self.jog_speed.as_ref().is_some_and(|s| s.speeding_up) && self.kind.jog_end().is_none()
     }
 
     /// Jog `id` was released. Returns whether the stop sequence must be sent.
     pub fn release(&mut self, cx: &mut Context, id: JogId) -> Option<bool> {
-        let Kind::Jog { id: mine, end, .. } = &mut self.kind else {
-            return None;
-        };
-        if *mine != id {
+        if self.kind.jog_id() != Some(id) {
             return None;
         }
-        if end.is_none() {
-            *end = Some(JogEnd::Released);
-        }
+        self.kind.set_jog_end(JogEnd::Released, false);
         match self.phase {
             Phase::Send => {
                 // Never handed out: it simply does not start.
                 self.phase = Phase::Done;
-                self.report_jog(cx);
+                self.kind.report_jog(&mut cx.events);
                 Some(false)
             }
             Phase::Moving => Some(!self.stopping),
@@ -281,58 +227,23 @@ impl MotionOp {
         }
     }
 
-    fn report_jog(&mut self, cx: &mut Context) {
-        if let Kind::Jog {
-            id, end, reported, ..
-        } = &mut self.kind
-            && !*reported
-        {
-            *reported = true;
-            let end = end.clone().unwrap_or(JogEnd::Stopped);
-            cx.emit(Event::JogEnded { id: *id, end });
-        }
-    }
-
-    fn set_jog_end(&mut self, value: JogEnd, overwrite: bool) {
-        if let Kind::Jog { end, .. } = &mut self.kind
-            && (overwrite || end.is_none())
-        {
-            *end = Some(value);
-        }
-    }
-
     fn drop_pending(&mut self, cx: &mut Context, reason: Refusal) {
-        if let Kind::Step { pending } = &mut self.kind {
-            for (delta, _) in pending.drain(..) {
-                cx.emit(Event::Refused {
-                    request: format!("step {}", describe_delta(&delta)),
-                    reason: reason.clone(),
-                });
-            }
-        }
+        self.kind.drop_pending(&mut cx.events, reason);
     }
 
     /// After a jog that stopped to speed up has been measured: the faster
     /// move from where it stopped, if the lease is still alive.
     fn restart_jog(&mut self, cx: &mut Context, now: Instant) {
-        let Kind::Jog {
-            axes,
-            requested,
-            lease,
-            lease_until,
-            speeding_up,
-            ..
-        } = &mut self.kind
-        else {
+        let Some(speed) = self.jog_speed.as_mut() else {
             return;
         };
-        *speeding_up = false;
-        if *lease_until <= now {
-            self.set_jog_end(JogEnd::DeadMan, false);
-            self.report_jog(cx);
+        speed.speeding_up = false;
+        if self.kind.lease_until().is_some_and(|until| until <= now) {
+            self.kind.set_jog_end(JogEnd::DeadMan, false);
+            self.kind.report_jog(&mut cx.events);
             return;
         }
-        match plan::jog(cx, axes, requested, *lease) {
+        match plan::jog(cx, &speed.axes, &speed.requested, speed.lease) {
             Ok(planned) => {
                 self.planned = planned;
                 self.phase = Phase::Send;
@@ -340,12 +251,12 @@ impl MotionOp {
                 self.next_estimate = None;
             }
             Err(Refusal::SoftLimit { .. }) => {
-                self.set_jog_end(JogEnd::SoftLimit, false);
-                self.report_jog(cx);
+                self.kind.set_jog_end(JogEnd::SoftLimit, false);
+                self.kind.report_jog(&mut cx.events);
             }
             Err(reason) => {
-                self.set_jog_end(JogEnd::Refused(reason), false);
-                self.report_jog(cx);
+                self.kind.set_jog_end(JogEnd::Refused(reason), false);
+                self.kind.report_jog(&mut cx.events);
             }
         }
     }
@@ -353,20 +264,12 @@ impl MotionOp {
     /// After the position was read: the next coalesced step, if any.
     fn continue_steps(&mut self, cx: &mut Context) {
         self.phase = Phase::Done;
-        let Kind::Step { pending } = &mut self.kind else {
+        if self.failed || self.stopping {
+            return;
+        }
+        let Some((total, speeds)) = self.kind.take_pending() else {
             return;
         };
-        if pending.is_empty() || self.failed || self.stopping {
-            return;
-        }
-        let mut total = PerAxis::new();
-        let mut speeds = PerAxis::new();
-        for (delta, s) in pending.drain(..) {
-            for (axis, v) in delta.iter() {
-                total.set(axis, total.get(axis).unwrap_or(0i64).saturating_add(v));
-            }
-            speeds = s;
-        }
         let base = cx.position.unwrap_or_default();
         match plan::step(cx, &base, &total, &speeds) {
             Ok(planned) => {
@@ -374,21 +277,9 @@ impl MotionOp {
                 self.phase = Phase::Send;
                 self.next_estimate = None;
             }
-            Err(reason) => cx.emit(Event::Refused {
-                request: format!("step {}", describe_delta(&total)),
-                reason,
-            }),
+            Err(reason) => refuse_step(&mut cx.events, &total, reason),
         }
     }
-}
-
-/// `X+10 Y-5` for refusals of coalesced steps.
-pub fn describe_delta(delta: &PerAxis<i64>) -> String {
-    delta
-        .iter()
-        .map(|(a, d)| format!("{a}{d:+}"))
-        .collect::<Vec<_>>()
-        .join(" ")
 }
 
 impl Operation for MotionOp {
@@ -417,7 +308,7 @@ impl Operation for MotionOp {
             Phase::Moving => {
                 self.next_estimate = None;
                 match reply {
-                    Reply::Code(ReplyCode::Ok) => self.set_jog_end(JogEnd::SoftLimit, false),
+                    Reply::Code(ReplyCode::Ok) => self.kind.set_jog_end(JogEnd::SoftLimit, false),
                     Reply::Code(ReplyCode::UserStop) => {
                         if !self.stopping {
                             // The controller's stop key: the rest of the move is
@@ -432,7 +323,7 @@ impl Operation for MotionOp {
                             );
                         }
                         if !self.is_speeding_up() {
-                            self.set_jog_end(JogEnd::Stopped, false);
+                            self.kind.set_jog_end(JogEnd::Stopped, false);
                         }
                         cx.quiet_request = Some(cx.settings.timing.resync_gap);
                     }
@@ -440,7 +331,7 @@ impl Operation for MotionOp {
                         self.planned.estimate.halt(now);
                         self.failed = true;
                         let fault = cx.controller_error(&self.planned.cmd.text, code);
-                        self.set_jog_end(JogEnd::Fault(fault.clone()), true);
+                        self.kind.set_jog_end(JogEnd::Fault(fault.clone()), true);
                         self.drop_pending(
                             cx,
                             Refusal::Fault {
@@ -450,7 +341,7 @@ impl Operation for MotionOp {
                     }
                     other => {
                         let fault = cx.link_suspect(&self.planned.cmd.text, &format!("{other:?}"));
-                        self.set_jog_end(JogEnd::Fault(fault), true);
+                        self.kind.set_jog_end(JogEnd::Fault(fault), true);
                         self.failed = true;
                         cx.readback_wanted = true;
                     }
@@ -460,7 +351,7 @@ impl Operation for MotionOp {
                     cx.quiet_request = Some(cx.settings.timing.resync_gap);
                 }
                 if !self.is_speeding_up() {
-                    self.report_jog(cx);
+                    self.kind.report_jog(&mut cx.events);
                 }
                 self.phase = Phase::Measure;
             }
@@ -474,7 +365,7 @@ impl Operation for MotionOp {
                     return;
                 }
                 // A jog that was to speed up but failed ends here.
-                self.report_jog(cx);
+                self.kind.report_jog(&mut cx.events);
                 self.continue_steps(cx);
             }
             Phase::Send | Phase::Done => {}
@@ -485,7 +376,7 @@ impl Operation for MotionOp {
         match self.phase {
             Phase::Moving => {
                 let fault = cx.link_suspect(&self.planned.cmd.text, "garbled reply");
-                self.set_jog_end(JogEnd::Fault(fault), true);
+                self.kind.set_jog_end(JogEnd::Fault(fault), true);
                 self.failed = true;
                 self.drop_pending(
                     cx,
@@ -493,7 +384,7 @@ impl Operation for MotionOp {
                         recovery: Recovery::CheckLink,
                     },
                 );
-                self.report_jog(cx);
+                self.kind.report_jog(&mut cx.events);
                 // Whether it ended with `0`, `F`, `2` or `9` is unknown.
                 cx.readback_wanted = true;
                 self.phase = Phase::Done;
@@ -509,11 +400,11 @@ impl Operation for MotionOp {
                 reason: "cancelled by stop".into(),
             },
         );
-        self.set_jog_end(JogEnd::Stopped, false);
+        self.kind.set_jog_end(JogEnd::Stopped, false);
         match self.phase {
             Phase::Send => {
                 self.phase = Phase::Done;
-                self.report_jog(cx);
+                self.kind.report_jog(&mut cx.events);
                 None
             }
             Phase::Moving if !self.stopping => {
@@ -529,10 +420,7 @@ impl Operation for MotionOp {
         if self.phase != Phase::Moving {
             return None;
         }
-        let lease = match self.kind {
-            Kind::Jog { lease_until, .. } if !self.stopping => Some(lease_until),
-            _ => None,
-        };
+        let lease = self.kind.lease_until().filter(|_| !self.stopping);
         match (self.next_estimate, lease) {
             (Some(a), Some(b)) => Some(a.min(b)),
             (a, b) => a.or(b),
@@ -554,11 +442,8 @@ impl Operation for MotionOp {
             }
             self.next_estimate = Some(next);
         }
-        if let Kind::Jog { lease_until, .. } = self.kind
-            && !self.stopping
-            && lease_until <= now
-        {
-            self.set_jog_end(JogEnd::DeadMan, false);
+        if !self.stopping && self.kind.lease_until().is_some_and(|t| t <= now) {
+            self.kind.set_jog_end(JogEnd::DeadMan, false);
             return true;
         }
         false
@@ -567,11 +452,11 @@ impl Operation for MotionOp {
     fn abandon(&mut self, cx: &mut Context, cause: &Abandon) {
         match cause {
             Abandon::LinkLost(_) => {
-                self.set_jog_end(JogEnd::LinkLost, true);
+                self.kind.set_jog_end(JogEnd::LinkLost, true);
                 self.drop_pending(cx, Refusal::NotConnected);
             }
             Abandon::Reset => {
-                self.set_jog_end(JogEnd::Stopped, false);
+                self.kind.set_jog_end(JogEnd::Stopped, false);
                 self.drop_pending(
                     cx,
                     Refusal::Invalid {
@@ -580,7 +465,7 @@ impl Operation for MotionOp {
                 );
             }
         }
-        self.report_jog(cx);
+        self.kind.report_jog(&mut cx.events);
         self.phase = Phase::Done;
     }
 
@@ -588,17 +473,7 @@ impl Operation for MotionOp {
         if self.is_speeding_up() {
             return Activity::Jogging;
         }
-        if self.stopping && self.phase == Phase::Moving {
-            return Activity::Stopping;
-        }
-        match (&self.kind, self.phase) {
-            (_, Phase::Measure | Phase::Done) => match &self.kind {
-                Kind::Step { pending } if !pending.is_empty() => Activity::Stepping,
-                _ => Activity::Idle,
-            },
-            (Kind::Step { .. }, _) => Activity::Stepping,
-            (Kind::MoveTo, _) => Activity::Moving,
-            (Kind::Jog { .. }, _) => Activity::Jogging,
-        }
+        let stopping = self.stopping && self.phase == Phase::Moving;
+        self.kind.activity(self.is_moving(), stopping)
     }
 }

@@ -7,6 +7,9 @@ use std::time::Duration;
 
 use crate::axis::{Axis, AxisSet};
 use crate::device::api::{Dir, Frame, PerAxis, Refusal};
+use crate::device::common::AxisLimits;
+use crate::device::common::limits::{self, capped_speed, invalid, machine_has, moving_axes};
+use crate::device::common::vector;
 use crate::jog::{self, Braking};
 use crate::proto::isel::{AxisConfig, Command, MovePair, SPEED_HZ, STEPS};
 
@@ -23,28 +26,13 @@ pub struct Planned {
     pub speeds: PerAxis<u32>,
 }
 
-fn invalid(reason: impl Into<String>) -> Refusal {
-    Refusal::Invalid {
-        reason: reason.into(),
-    }
-}
-
 /// A requested speed as a step frequency the axis and the controller allow:
 /// at most the axis's `max_speed`, within 1..=40000 Hz (isel decision 13).
 pub fn speed_hz(cx: &Context, axis: Axis, requested: Option<f64>) -> Result<u32, Refusal> {
-    let limits = cx
-        .settings
-        .limits(axis)
-        .ok_or_else(|| invalid(format!("the machine has no {axis} axis")))?;
-    let hz = requested.ok_or_else(|| invalid(format!("no speed given for axis {axis}")))?;
-    if !(hz.is_finite() && hz > 0.0) {
-        return Err(invalid(format!(
-            "the speed of {axis} must be positive, got {hz}"
-        )));
-    }
+    let hz = capped_speed(&cx.settings.axes, axis, requested)?;
     let lo = f64::from(*SPEED_HZ.start());
     let hi = f64::from(*SPEED_HZ.end());
-    Ok(hz.min(limits.max_hz).clamp(lo, hi).round() as u32)
+    Ok(hz.clamp(lo, hi).round() as u32)
 }
 
 /// How the controller brakes with `ramp` (manual 2.2.15, 2.2.16): down to
@@ -80,13 +68,7 @@ pub fn lease_cap(cx: &Context, speeds: &PerAxis<u32>) -> Duration {
 }
 
 fn check_axes(cx: &Context, axes: AxisSet) -> Result<(), Refusal> {
-    match axes.iter().find(|a| !cx.settings.axis_set().contains(*a)) {
-        Some(axis) => Err(invalid(format!(
-            "the machine has no {axis} axis (profile axes {})",
-            cx.settings.axis_set()
-        ))),
-        None => Ok(()),
-    }
+    machine_has(cx.settings.axis_set(), axes)
 }
 
 fn in_range(value: i64, what: &str) -> Result<i32, Refusal> {
@@ -101,15 +83,7 @@ fn in_range(value: i64, what: &str) -> Result<i32, Refusal> {
 }
 
 fn soft_limit(cx: &Context, axis: Axis, target: i64) -> Result<(), Refusal> {
-    match cx.settings.limits(axis) {
-        Some(l) if !l.contains(target) => Err(Refusal::SoftLimit {
-            axis,
-            target,
-            min: l.min,
-            max: l.max,
-        }),
-        _ => Ok(()),
-    }
+    limits::soft_limit(&cx.settings.axes, axis, target)
 }
 
 /// The pairs of a move for `config`: one per axis, and with 3 axes a second
@@ -174,16 +148,12 @@ pub fn step(
     delta: &PerAxis<i64>,
     speeds: &PerAxis<f64>,
 ) -> Result<Planned, Refusal> {
-    let moving: AxisSet = delta
-        .iter()
-        .filter(|(_, d)| *d != 0)
-        .map(|(a, _)| a)
-        .collect();
+    let moving = moving_axes(delta);
     check_axes(cx, delta.axes())?;
     if moving.is_empty() {
         return Err(invalid("the step moves no axis"));
     }
-    cx.motion_allowed(cx.settings.allow_unreferenced)?;
+    cx.motion_allowed(cx.settings.jog.allow_unreferenced)?;
     let mut hz = PerAxis::new();
     for axis in moving.iter() {
         if cx.state.referenced.contains(axis) {
@@ -287,59 +257,26 @@ pub fn jog(
 ) -> Result<Planned, Refusal> {
     let set: AxisSet = axes.iter().map(|(a, _)| *a).collect();
     check_axes(cx, set)?;
-    if set.is_empty() {
-        return Err(invalid("the jog names no axis"));
-    }
-    if set.len() != axes.len() {
-        return Err(invalid("the jog names an axis twice"));
-    }
-    cx.motion_allowed(cx.settings.allow_unreferenced)?;
+    vector::jog_axes(axes)?;
+    cx.motion_allowed(cx.settings.jog.allow_unreferenced)?;
     let position = cx.position.ok_or(Refusal::NotConnected)?;
-    // (axis, sign, speed, room in steps)
-    let mut legs = Vec::new();
-    for (axis, dir) in axes {
-        let limits = cx
-            .settings
-            .limits(*axis)
-            .ok_or_else(|| invalid(format!("the machine has no {axis} axis")))?;
-        let cap = overrun_cap(cx.ramp, lease, limits.max_overrun).max(1.0);
-        let hz = speed_hz(cx, *axis, speeds.get(*axis).map(|v| v.min(cap)))?;
-        let pos = position.get(*axis).unwrap_or(0);
-        let room = if cx.state.referenced.contains(*axis) {
-            match dir {
-                Dir::Plus => limits.max - pos,
-                Dir::Minus => pos - limits.min,
-            }
-        } else {
-            limits.span()
-        }
-        .clamp(0, i64::from(*STEPS.end()));
-        if room == 0 {
-            return Err(Refusal::SoftLimit {
-                axis: *axis,
-                target: pos + dir.sign(),
-                min: limits.min,
-                max: limits.max,
-            });
-        }
-        legs.push((*axis, dir.sign(), hz, room));
-    }
-    // The axis that reaches its limit first bounds the whole vector.
-    let (lead_room, lead_hz) = legs
-        .iter()
-        .map(|(_, _, hz, room)| (*room, *hz))
-        .min_by(|a, b| {
-            let ta = a.0 as f64 / f64::from(a.1);
-            let tb = b.0 as f64 / f64::from(b.1);
-            ta.total_cmp(&tb)
-        })
-        .unwrap_or((0, 1));
-    let mut deltas = PerAxis::new();
+    let legs = vector::legs(
+        axes,
+        vector::JogFrame {
+            position: &position,
+            referenced: cx.state.referenced,
+            max_travel: i64::from(*STEPS.end()),
+            limits_of: |axis| cx.settings.limits(axis),
+            speed_of: |axis, limits: &AxisLimits| {
+                let cap = overrun_cap(cx.ramp, lease, limits.max_overrun).max(1.0);
+                speed_hz(cx, axis, speeds.get(axis).map(|v| v.min(cap))).map(f64::from)
+            },
+        },
+    )?;
+    let deltas = vector::travel(&legs);
     let mut hz = PerAxis::new();
-    for (axis, sign, v, room) in legs {
-        let travel = (lead_room as f64 * f64::from(v) / f64::from(lead_hz)).floor() as i64;
-        deltas.set(axis, sign * travel.min(room));
-        hz.set(axis, v);
+    for leg in &legs {
+        hz.set(leg.axis, leg.hz.round() as u32);
     }
     relative(cx, &deltas, &hz)
 }

@@ -4,80 +4,19 @@
 
 use std::time::Duration;
 
-use thiserror::Error;
-
 use crate::axis::{Axis, AxisSet};
 use crate::config::Profile;
 use crate::device::api::PerAxis;
+use crate::device::common::settings::{axis_limits, listed_axes};
 use crate::motion::Ramp;
 use crate::proto::Protocol;
 use crate::proto::isel::{AxisConfig, DeviceNumber, InputPort, SPEED_HZ};
 use crate::wire::LineSettings;
 
-/// One axis in steps and Hz.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct AxisLimits {
-    /// Soft limits in machine steps (from the reference point).
-    pub min: i64,
-    pub max: i64,
-    /// Highest step frequency any move of this axis is given: the profile's
-    /// `max_speed`, never above the controller's 40000 Hz (isel decision 13).
-    pub max_hz: f64,
-    /// `jog.max_overrun` in steps.
-    pub max_overrun: f64,
-}
+pub use crate::device::common::{AxisLimits, JogSettings, PollRate, SettingsError};
 
-impl AxisLimits {
-    pub fn contains(&self, steps: i64) -> bool {
-        (self.min..=self.max).contains(&steps)
-    }
-
-    pub fn span(&self) -> i64 {
-        self.max.saturating_sub(self.min)
-    }
-}
-
-/// How often to poll.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum PollRate {
-    /// The next poll right after the previous reply.
-    LineSpeed,
-    /// Poll cycles per second.
-    Hz(f64),
-    /// No polling (the `send` command, scripts).
-    Off,
-}
-
-impl PollRate {
-    /// The profile's convention: 0 = as fast as the line allows.
-    pub fn from_profile(rate_hz: f64) -> PollRate {
-        if rate_hz > 0.0 && rate_hz.is_finite() {
-            PollRate::Hz(rate_hz)
-        } else {
-            PollRate::LineSpeed
-        }
-    }
-
-    /// `Request::Poll`'s convention (`docs/device.md`): `None` = as fast as
-    /// the line allows, a positive rate = that rate, anything else = off.
-    pub fn from_request(rate_hz: Option<f64>) -> PollRate {
-        match rate_hz {
-            None => PollRate::LineSpeed,
-            Some(hz) if hz > 0.0 && hz.is_finite() => PollRate::Hz(hz),
-            Some(_) => PollRate::Off,
-        }
-    }
-}
-
-/// What one poll cycle reads.
-#[derive(Debug, Clone, PartialEq)]
-pub struct PollPlan {
-    pub rate: PollRate,
-    /// Read `ports` every Nth cycle (at least 1).
-    pub ports_every: u32,
-    /// The input ports read on a port cycle, in this order.
-    pub ports: Vec<InputPort>,
-}
+/// What one poll cycle reads: `@0P`, and the input ports on a port cycle.
+pub type PollPlan = crate::device::common::PollPlan<InputPort>;
 
 impl PollPlan {
     /// The safety ports first: E-stop circuits (1), limit switches (3), then
@@ -133,69 +72,38 @@ pub struct IselSettings {
     pub reference_speed_hz: u32,
     /// Whether `@0T1` may be sent (`isel.test_mode`).
     pub test_mode_allowed: bool,
-    pub allow_unreferenced: bool,
-    pub step_queue: usize,
+    pub jog: JogSettings,
     pub line: LineSettings,
     pub poll: PollPlan,
     pub timing: Timing,
 }
 
-#[derive(Debug, Clone, PartialEq, Eq, Error)]
-pub enum SettingsError {
-    #[error("profile `{profile}` is for the {protocol} protocol, not isel")]
-    WrongProtocol { profile: String, protocol: Protocol },
-    #[error("profile `{profile}`: {message}")]
-    Invalid { profile: String, message: String },
-}
-
 impl IselSettings {
     pub fn from_profile(profile: &Profile) -> Result<IselSettings, SettingsError> {
-        let invalid = |message: String| SettingsError::Invalid {
-            profile: profile.name.clone(),
-            message,
-        };
-        if profile.connection.protocol != Protocol::Isel {
-            return Err(SettingsError::WrongProtocol {
-                profile: profile.name.clone(),
-                protocol: profile.connection.protocol,
-            });
-        }
-        let listed = profile.machine.axis_set().map_err(invalid)?;
+        SettingsError::check_protocol(profile, Protocol::Isel)?;
+        let listed = listed_axes(profile)?;
         let config = AxisConfig::ALL
             .into_iter()
             .find(|c| c.axes() == listed)
-            .ok_or_else(|| invalid(format!("isel drives X, XY, XYZ or XYZA, not {listed}")))?;
+            .ok_or_else(|| {
+                SettingsError::invalid(
+                    profile,
+                    format!("isel drives X, XY, XYZ or XYZA, not {listed}"),
+                )
+            })?;
         let device = DeviceNumber::new(profile.isel.device)
-            .ok_or_else(|| invalid("isel device numbers are 0-9".into()))?;
-        let mut axes = PerAxis::new();
-        for axis in config.axes().iter() {
-            let p = profile
-                .axis(axis)
-                .ok_or_else(|| invalid(format!("axis {axis} has no [axes.{axis}] table")))?;
-            let max_hz = p
-                .speed_hz(p.max_speed)
-                .min(f64::from(*SPEED_HZ.end()))
-                .max(f64::from(*SPEED_HZ.start()));
-            axes.set(
-                axis,
-                AxisLimits {
-                    min: p.min_steps(),
-                    max: p.max_steps(),
-                    max_hz,
-                    max_overrun: (profile.jog.max_overrun * p.steps_per_unit).abs(),
-                },
-            );
-        }
+            .ok_or_else(|| SettingsError::invalid(profile, "isel device numbers are 0-9"))?;
+        // isel decision 13: 1..=40000 Hz.
+        let hz = (f64::from(*SPEED_HZ.start()), f64::from(*SPEED_HZ.end()));
         Ok(IselSettings {
             device,
             config,
-            axes,
+            axes: axis_limits(profile, config.axes(), hz)?,
             start_stop_hz: profile.isel.start_stop_hz,
             accel_hz_per_ms: profile.isel.accel_hz_per_ms,
             reference_speed_hz: profile.isel.reference_speed_hz,
             test_mode_allowed: profile.isel.test_mode,
-            allow_unreferenced: profile.jog.allow_unreferenced,
-            step_queue: profile.jog.step_queue.max(1),
+            jog: JogSettings::from_profile(profile),
             line: profile.connection.line(),
             poll: PollPlan {
                 rate: PollRate::from_profile(profile.poll.rate_hz),
@@ -242,15 +150,6 @@ mod tests {
         assert_eq!(s.limits(Axis::A), None);
         assert_eq!(s.line.baud, 19200);
         assert_eq!(s.poll.rate, PollRate::LineSpeed);
-    }
-
-    #[test]
-    fn poll_rate_conventions() {
-        assert_eq!(PollRate::from_request(None), PollRate::LineSpeed);
-        assert_eq!(PollRate::from_request(Some(10.0)), PollRate::Hz(10.0));
-        assert_eq!(PollRate::from_request(Some(0.0)), PollRate::Off);
-        assert_eq!(PollRate::from_request(Some(f64::NAN)), PollRate::Off);
-        assert_eq!(PollRate::from_profile(0.0), PollRate::LineSpeed);
     }
 
     #[test]

@@ -20,7 +20,8 @@
 
 use std::time::{Duration, Instant};
 
-use crate::device::api::{Activity, Event, ProgramState, Refusal, UploadEvent};
+use crate::device::api::{Activity, ProgramState, Refusal};
+use crate::device::common::upload::UploadProgress;
 use crate::proto::isel::{CncCommand, Command, ControlByte, Reply, ReplyCode, validate_cnc};
 
 use super::context::{Context, control_outgoing};
@@ -30,9 +31,6 @@ use super::op::{Abandon, Next, Operation};
 pub fn abort_line(cx: &Context) -> String {
     format!("@{}#", cx.device)
 }
-
-/// Progress events at most this often.
-const PROGRESS_EVERY: Duration = Duration::from_millis(100);
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Stage {
@@ -46,17 +44,14 @@ enum Stage {
 #[derive(Debug)]
 pub struct UploadOp {
     lines: Vec<CncCommand>,
-    /// Lines the client gave (the appended `9` is not among them).
-    total: usize,
     erase_first: bool,
     erased: bool,
     stage: Stage,
     storing: bool,
     stopping: bool,
-    /// Client lines the controller has acknowledged.
-    done: usize,
-    started: Option<Instant>,
-    last_progress: Option<Instant>,
+    /// Client lines (the appended `9` is not among them) and how many the
+    /// controller has acknowledged.
+    progress: UploadProgress,
     abort_reason: String,
 }
 
@@ -90,31 +85,18 @@ impl UploadOp {
         }
         Ok(UploadOp {
             lines: parsed,
-            total: lines.len(),
             erase_first,
             erased: false,
             stage: Stage::Open,
             storing: false,
             stopping: false,
-            done: 0,
-            started: None,
-            last_progress: None,
+            progress: UploadProgress::new(lines.len()),
             abort_reason: String::new(),
         })
     }
 
-    fn rate(&self, done: usize, now: Instant) -> f64 {
-        let secs = self
-            .started
-            .map_or(0.0, |s| now.saturating_duration_since(s).as_secs_f64());
-        if secs > 0.0 { done as f64 / secs } else { 0.0 }
-    }
-
     fn aborted(&mut self, cx: &mut Context, reason: String) {
-        cx.emit(Event::Upload(UploadEvent::Aborted {
-            done: self.done,
-            reason,
-        }));
+        self.progress.aborted(reason, &mut cx.events);
         self.stage = Stage::Done;
     }
 }
@@ -123,10 +105,7 @@ impl Operation for UploadOp {
     fn next(&mut self, cx: &mut Context, now: Instant) -> Next {
         match self.stage {
             Stage::Open => {
-                if self.started.is_none() {
-                    self.started = Some(now);
-                    cx.emit(Event::Upload(UploadEvent::Started { total: self.total }));
-                }
+                self.progress.start(now, &mut cx.events);
                 Next::Send(cx.cmd(Command::StoreProgram))
             }
             Stage::Erase => Next::Send(cx.cmd(Command::EraseProgram)),
@@ -205,34 +184,14 @@ impl Operation for UploadOp {
                     if is_end {
                         self.storing = false;
                         cx.state.program = ProgramState::Stored;
-                        let elapsed = self
-                            .started
-                            .map_or(Duration::ZERO, |s| now.saturating_duration_since(s));
-                        cx.emit(Event::Upload(UploadEvent::Progress {
-                            done: self.total,
-                            total: self.total,
-                            lines_per_second: self.rate(self.total, now),
-                        }));
-                        cx.emit(Event::Upload(UploadEvent::Finished {
-                            total: self.total,
-                            elapsed,
-                        }));
+                        self.progress.finished(now, &mut cx.events);
                         if self.stopping {
                             cx.notice("the stop came after the last line: the program is stored");
                         }
                         self.stage = Stage::Done;
                         return;
                     }
-                    let done = (i + 1).min(self.total);
-                    self.done = done;
-                    if self.last_progress.is_none_or(|t| now >= t + PROGRESS_EVERY) {
-                        self.last_progress = Some(now);
-                        cx.emit(Event::Upload(UploadEvent::Progress {
-                            done,
-                            total: self.total,
-                            lines_per_second: self.rate(done, now),
-                        }));
-                    }
+                    self.progress.line_done(i + 1, now, &mut cx.events);
                     if self.stopping {
                         self.abort_reason = "stopped by the operator".into();
                         self.stage = Stage::Abort;
@@ -245,7 +204,7 @@ impl Operation for UploadOp {
                     cx.state.program = ProgramState::Invalid;
                     let text = self.lines.get(i).map(|l| l.to_string()).unwrap_or_default();
                     let fault = cx.controller_error(&text, code);
-                    cx.emit(Event::Upload(UploadEvent::Failed { line: i, fault }));
+                    self.progress.failed(i, fault, &mut cx.events);
                     self.stage = Stage::Done;
                 }
             }

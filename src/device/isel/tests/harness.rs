@@ -2,14 +2,11 @@
 //! collected. Nothing here reads a clock except the one `Instant::now()`
 //! that anchors the synthetic time line.
 
-use std::time::{Duration, Instant};
-
 use crate::axis::Axis;
 use crate::config::{ConfigDirs, load_profile};
-use crate::device::api::{Event, MachineState, PerAxis, Request};
+use crate::device::api::{MachineState, PerAxis};
 use crate::device::driver::Driver;
 use crate::device::isel::{IselDriver, IselSettings, PollRate};
-use crate::traffic::readable;
 
 pub fn settings() -> IselSettings {
     let profile = load_profile("default", &ConfigDirs::builtin_only()).expect("default profile");
@@ -18,9 +15,7 @@ pub fn settings() -> IselSettings {
     s
 }
 
-pub fn ms(n: u64) -> Duration {
-    Duration::from_millis(n)
-}
+pub use crate::device::common::testing::ms;
 
 /// `@0P` reply for these positions (3 axes).
 pub fn position_reply(x: i32, y: i32, z: i32) -> Vec<u8> {
@@ -28,10 +23,13 @@ pub fn position_reply(x: i32, y: i32, z: i32) -> Vec<u8> {
     format!("0{}{}{}", field(x), field(y), field(z)).into_bytes()
 }
 
-pub struct Harness {
-    pub driver: IselDriver,
-    pub now: Instant,
-    pub events: Vec<Event>,
+/// The common driver harness with the isel driver in it.
+pub type Harness = crate::device::common::testing::Harness<IselDriver>;
+
+impl Default for Harness {
+    fn default() -> Harness {
+        Harness::new()
+    }
 }
 
 impl Harness {
@@ -42,104 +40,11 @@ impl Harness {
     pub fn with(adjust: impl FnOnce(&mut IselSettings)) -> Harness {
         let mut s = settings();
         adjust(&mut s);
-        Harness {
-            driver: IselDriver::new(s),
-            now: Instant::now(),
-            events: Vec::new(),
-        }
-    }
-
-    fn collect(&mut self) {
-        while let Some(e) = self.driver.poll_event() {
-            self.events.push(e);
-        }
+        Harness::on(IselDriver::new(s))
     }
 
     pub fn state(&self) -> MachineState {
         self.driver.state().clone()
-    }
-
-    /// Move the clock forward, handling every timeout on the way. A timeout
-    /// that stays due after it was handled wants a message sent (a poll):
-    /// the clock stops there, as the device task would send it.
-    pub fn advance(&mut self, d: Duration) {
-        let end = self.now + d;
-        loop {
-            match self.driver.next_timeout() {
-                Some(t) if t <= end => {
-                    self.now = self.now.max(t);
-                    self.driver.handle_timeout(self.now);
-                    self.collect();
-                    if self.driver.next_timeout().is_some_and(|n| n <= self.now) {
-                        return;
-                    }
-                }
-                _ => break,
-            }
-        }
-        self.now = end;
-    }
-
-    /// The next message, not yet reported written.
-    pub fn take(&mut self) -> Option<Vec<u8>> {
-        let out = self.driver.poll_transmit(self.now).map(|o| o.bytes);
-        self.collect();
-        out
-    }
-
-    /// The writer reports the last message written.
-    pub fn written(&mut self) {
-        self.driver.transmitted(self.now);
-        self.collect();
-    }
-
-    /// The next message, written at once.
-    pub fn send(&mut self) -> Option<Vec<u8>> {
-        let out = self.take();
-        if out.is_some() {
-            self.written();
-        }
-        out
-    }
-
-    #[track_caller]
-    pub fn expect(&mut self, bytes: &[u8]) {
-        let got = self.send();
-        assert_eq!(
-            got.as_deref().map(readable),
-            Some(readable(bytes)),
-            "expected the driver to send {}",
-            readable(bytes)
-        );
-    }
-
-    #[track_caller]
-    pub fn expect_text(&mut self, text: &str) {
-        let mut bytes = text.as_bytes().to_vec();
-        bytes.push(b'\r');
-        self.expect(&bytes);
-    }
-
-    #[track_caller]
-    pub fn expect_nothing(&mut self) {
-        let got = self.take();
-        assert_eq!(got.as_deref().map(readable), None, "expected silence");
-    }
-
-    pub fn reply(&mut self, bytes: &[u8]) {
-        self.driver.received(bytes, self.now);
-        self.collect();
-    }
-
-    pub fn request(&mut self, r: Request) {
-        self.driver.request(r, self.now);
-        self.collect();
-    }
-
-    pub fn stop(&mut self) -> Vec<u8> {
-        let out = self.driver.stop(self.now);
-        self.collect();
-        out.bytes
     }
 
     /// Connected: the stop sequence goes first, then the line settles.
@@ -149,10 +54,6 @@ impl Harness {
         self.expect(&[0xFD, 0xFF]);
         self.expect_nothing();
         self.advance(ms(100));
-    }
-
-    pub fn take_events(&mut self) -> Vec<Event> {
-        std::mem::take(&mut self.events)
     }
 
     /// The read-back of a controller at `(x, y, z)` that answers the probe
@@ -191,46 +92,6 @@ impl Harness {
 
     pub fn ready() -> Harness {
         Harness::ready_at(40_000, 40_000, 16_000)
-    }
-
-    pub fn refusals(&self) -> Vec<String> {
-        self.events
-            .iter()
-            .filter_map(|e| match e {
-                Event::Refused { request, reason } => Some(format!("{request}: {reason}")),
-                _ => None,
-            })
-            .collect()
-    }
-
-    pub fn faults(&self) -> Vec<String> {
-        self.events
-            .iter()
-            .filter_map(|e| match e {
-                Event::Fault(f) => Some(format!("{} {}", f.command, f.code)),
-                _ => None,
-            })
-            .collect()
-    }
-
-    pub fn notices(&self) -> Vec<String> {
-        self.events
-            .iter()
-            .filter_map(|e| match e {
-                Event::Notice(n) => Some(n.clone()),
-                _ => None,
-            })
-            .collect()
-    }
-
-    pub fn positions(&self) -> Vec<crate::device::api::PositionSample> {
-        self.events
-            .iter()
-            .filter_map(|e| match e {
-                Event::Position(p) => Some(*p),
-                _ => None,
-            })
-            .collect()
     }
 }
 

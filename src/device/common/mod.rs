@@ -1,0 +1,51 @@
+//! Driver pieces that are the same for every controller family: what a
+//! request may do given the machine state, how far a jog may go, how steps
+//! are coalesced and leases kept, how polls are scheduled and counted, how
+//! requests wait for their turn. Each family's driver (`isel`, `emcu`, `emp`)
+//! supplies what only it knows (commands, replies, timing of its line) and
+//! uses these for the rest, so the behaviour a client sees is one behaviour.
+//!
+//! Sans-IO like the drivers: time comes in as `Instant` arguments, events go
+//! out through a [`Sink`].
+//!
+//! - [`sink`]: where events go; refusals in the shape every driver uses.
+//! - [`settings`]: profile values every family converts the same way (axis
+//!   limits in steps, jog settings), and the settings error.
+//! - [`limits`]: axes of the machine, soft limits, speed caps.
+//! - [`overrun`]: the fastest jog that still stops within `jog.max_overrun`.
+//! - [`vector`]: a jog's travel towards the soft limits along its speed vector.
+//! - [`motion`]: a running move's kind (step, go-to, jog), its jog lease and
+//!   its end, and the steps coalesced behind it.
+//! - [`gate`]: refusals of motion from the machine state.
+//! - [`queue`]: requests waiting for their turn, and what is refused at once.
+//! - [`poll`]: poll rates, cycles, statistics.
+//! - [`upload`]: progress of a program upload.
+//! - [`link`]: declaring a silent link dead.
+//! - [`deadline`]: reply and move deadlines from physics.
+//! - [`io`]: building `IoSnapshot` groups.
+//! - [`state`]: telling the clients when the machine state changed.
+
+pub mod deadline;
+pub mod gate;
+pub mod io;
+pub mod limits;
+pub mod link;
+pub mod motion;
+pub mod overrun;
+pub mod poll;
+pub mod queue;
+pub mod settings;
+pub mod sink;
+pub mod state;
+#[cfg(test)]
+pub mod testing;
+pub mod upload;
+pub mod vector;
+
+pub use limits::AxisLimits;
+pub use motion::{MotionKind, StepQueue};
+pub use poll::{PollPlan, PollRate, Poller};
+pub use queue::{Queued, RequestQueue, Running};
+pub use settings::{JogSettings, SettingsError};
+pub use sink::Sink;
+pub use state::StateReport;

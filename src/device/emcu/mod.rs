@@ -1,0 +1,974 @@
+//! The EMCU driver: a sans-IO [`Driver`] for the EMCU interface on SMC3000
+//! stepper cards (manual `emcu-smc3000-programming.de.txt`, chapter 1).
+//!
+//! The line discipline is the interface's: every line is acknowledged, and
+//! the next line waits for the answer (manual 1.4.2, at most 500 ms).
+//! Master commands (`@…`) run at once, also during a move; buffered
+//! commands go into the data memory and run when a line ends with 0x01, and
+//! the interface reports the end with an unsolicited 0x02 CR (decision 1),
+//! which can arrive between any two lines and is told apart by the core's
+//! `Expect::classify`. So positions are polled during moves (always
+//! measured), and a stop (`@B`, manual 1.5.11) goes out at once, even while
+//! an answer is outstanding (its CR is expected on top).
+//!
+//! What runs, in order of priority:
+//! 1. stops and resets (`@B`, `@R`, `@S`), at once;
+//! 2. the current operation ([`op`]): state read-back ([`readback`]),
+//!    initialise ([`init`]), reference runs ([`home`]), outputs
+//!    ([`output`]), moves and jogs ([`motion_op`]), the stored job
+//!    ([`program`]), raw lines ([`raw`]), uploads ([`upload`]); batches and
+//!    their runs are [`run`] and [`run_op`];
+//! 3. raw queries, between the operation's lines;
+//! 4. the next queued request, checked when it is its turn;
+//! 5. polling ([`poll`]): positions, and `@X` every `ports_every` cycles.
+//!
+//! An answer that does not come within its deadline means the link is dead
+//! (`Event::Link(Lost)`). A line that does not fit what is awaited (a
+//! garbled answer, a CR too many) puts the exchange in doubt: a late answer
+//! is still taken, and after a moment of quiet the answer counts as lost
+//! and the operation decides (`docs/device.md`).
+
+mod context;
+mod effects;
+mod home;
+mod init;
+mod io;
+mod measure;
+mod motion_op;
+mod op;
+mod output;
+mod plan;
+mod poll;
+mod program;
+mod raw;
+mod readback;
+mod run;
+mod run_op;
+mod settings;
+mod upload;
+
+#[cfg(test)]
+mod tests;
+
+use std::collections::VecDeque;
+use std::time::{Duration, Instant};
+
+pub use context::HALT;
+pub use io::{describe_status, output_id, status_byte, status_group};
+pub use poll::{PollItem, wire_limit_hz};
+pub use raw::{RUN_MARK, RawKind, RawLine, line_text, parse_raw};
+pub use settings::{EmcuSettings, StatusPoll, Timing};
+
+use crate::config::Profile;
+use crate::device::api::{Event, JogEnd, JogId, MachineState, Refusal, Request};
+use crate::device::common::limits::{invalid, named_axes};
+use crate::device::common::sink::refuse;
+use crate::device::common::{
+    PollRate, Poller, Queued, RequestQueue, Running, SettingsError, Sink, StateReport, link,
+};
+use crate::device::driver::{Driver, Outgoing};
+use crate::proto::emcu::{
+    Command, Disposition, Expect, Garbage, Reply, ReplyDecoder, ReplyEvent, Terminator,
+};
+
+use context::{CONNECT_HALT, Cmd, Context, halt_outgoing, lines_in, reply_len};
+use home::{Home, home_op};
+use init::{Init, init_op};
+use motion_op::MotionOp;
+use op::{Abandon, Next, Operation};
+use output::{Switch, output_op};
+use program::{Job, job_op};
+use raw::RawOp;
+use readback::Readback;
+use run_op::RunOp;
+use upload::UploadOp;
+
+#[derive(Debug)]
+enum Op {
+    Readback(Readback),
+    Init(RunOp<Init>),
+    Home(RunOp<Home>),
+    Output(RunOp<Switch>),
+    Job(RunOp<Job>),
+    Motion(MotionOp),
+    Raw(RawOp),
+    Upload(UploadOp),
+}
+
+impl Op {
+    fn get(&mut self) -> &mut dyn Operation {
+        match self {
+            Op::Readback(o) => o,
+            Op::Init(o) => o,
+            Op::Home(o) => o,
+            Op::Output(o) => o,
+            Op::Job(o) => o,
+            Op::Motion(o) => o,
+            Op::Raw(o) => o,
+            Op::Upload(o) => o,
+        }
+    }
+
+    fn peek(&self) -> &dyn Operation {
+        match self {
+            Op::Readback(o) => o,
+            Op::Init(o) => o,
+            Op::Home(o) => o,
+            Op::Output(o) => o,
+            Op::Job(o) => o,
+            Op::Motion(o) => o,
+            Op::Raw(o) => o,
+            Op::Upload(o) => o,
+        }
+    }
+}
+
+/// Who waits for the outstanding answer.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Owner {
+    Poll(PollItem),
+    Op,
+    /// A raw query that went between an operation's lines.
+    Side,
+}
+
+/// The line on the wire and its answer.
+#[derive(Debug)]
+struct Exchange {
+    seq: u64,
+    text: String,
+    expect: Expect,
+    owner: Owner,
+    timeout: Duration,
+    /// Set once the last byte has gone out.
+    deadline: Option<Instant>,
+    transmitted_at: Option<Instant>,
+    may_move: bool,
+    /// When a line came that did not fit (garbage, an answer out of step).
+    doubt: Option<Instant>,
+    /// A stop went out before this line, which starts a run, was complete on
+    /// the wire: the run starts after the `@B`, so `@B` goes again.
+    restop: bool,
+}
+
+/// CRs that answer lines nobody waits for: the stops and resets, which go
+/// out whatever is outstanding. Forgotten after their deadline.
+#[derive(Debug, Default)]
+struct ControlAcks {
+    count: u32,
+    until: Option<Instant>,
+}
+
+impl ControlAcks {
+    fn expect(&mut self, until: Instant) {
+        self.count += 1;
+        self.until = Some(self.until.map_or(until, |u| u.max(until)));
+    }
+
+    /// A CR came: one of ours?
+    fn take(&mut self) -> bool {
+        if self.count == 0 {
+            return false;
+        }
+        self.count -= 1;
+        if self.count == 0 {
+            self.until = None;
+        }
+        true
+    }
+
+    fn expire(&mut self, now: Instant) {
+        if self.until.is_some_and(|u| u <= now) {
+            *self = ControlAcks::default();
+        }
+    }
+}
+
+/// The EMCU driver. Build it from a profile, hand it to the device task (or
+/// drive it by hand in tests: every method takes the time).
+#[derive(Debug)]
+pub struct EmcuDriver {
+    cx: Context,
+    link_up: bool,
+    exchange: Option<Exchange>,
+    seq: u64,
+    decoder: ReplyDecoder,
+    /// Messages handed out and not yet reported written: the sequence number
+    /// of a line, `None` for a control line.
+    unsent: VecDeque<Option<u64>>,
+    op: Option<Op>,
+    queue: RequestQueue,
+    /// Raw queries waiting to go between an operation's lines.
+    side: VecDeque<Cmd>,
+    poller: Poller<PollItem>,
+    quiet_until: Option<Instant>,
+    acks: ControlAcks,
+    report: StateReport,
+    poll_error: Option<String>,
+    last_byte: Option<Instant>,
+}
+
+impl EmcuDriver {
+    pub fn new(settings: EmcuSettings) -> EmcuDriver {
+        EmcuDriver {
+            poller: poll::poller(&settings),
+            cx: Context::new(settings),
+            link_up: false,
+            exchange: None,
+            seq: 0,
+            decoder: ReplyDecoder::new(),
+            unsent: VecDeque::new(),
+            op: None,
+            queue: RequestQueue::default(),
+            side: VecDeque::new(),
+            quiet_until: None,
+            acks: ControlAcks::default(),
+            report: StateReport::default(),
+            poll_error: None,
+            last_byte: None,
+        }
+    }
+
+    pub fn from_profile(profile: &Profile) -> Result<EmcuDriver, SettingsError> {
+        EmcuSettings::from_profile(profile).map(EmcuDriver::new)
+    }
+
+    pub fn settings(&self) -> &EmcuSettings {
+        &self.cx.settings
+    }
+
+    /// The machine state as the driver sees it now.
+    pub fn state(&self) -> &MachineState {
+        &self.cx.state
+    }
+
+    // ----- line discipline ---------------------------------------------
+
+    fn start(&mut self, cmd: Cmd, owner: Owner) -> Outgoing {
+        self.seq += 1;
+        self.unsent.push_back(Some(self.seq));
+        self.exchange = Some(Exchange {
+            seq: self.seq,
+            text: cmd.text,
+            expect: cmd.expect,
+            owner,
+            timeout: cmd.timeout,
+            deadline: None,
+            transmitted_at: None,
+            may_move: cmd.may_move,
+            doubt: None,
+            restop: false,
+        });
+        Outgoing {
+            bytes: cmd.bytes,
+            interruptible: false,
+        }
+    }
+
+    fn quiet(&self, now: Instant) -> bool {
+        self.quiet_until.is_some_and(|q| now < q)
+    }
+
+    fn control_deadline(&self, now: Instant) -> Instant {
+        now + self.cx.ack_timeout(3, Expect::Ack)
+    }
+
+    fn transmit(&mut self, now: Instant) -> Option<Outgoing> {
+        if let Some(out) = self.cx.control.pop_front() {
+            self.unsent.push_back(None);
+            let until = self.control_deadline(now);
+            for _ in 0..lines_in(&out.bytes) {
+                self.acks.expect(until);
+            }
+            return Some(out);
+        }
+        if !self.link_up || self.exchange.is_some() || self.quiet(now) {
+            return None;
+        }
+        loop {
+            if let Some(op) = self.op.as_mut() {
+                match op.get().next(&mut self.cx, now) {
+                    Next::Send(cmd) => return Some(self.start(cmd, Owner::Op)),
+                    Next::Wait => break,
+                    Next::Done => {
+                        self.op = None;
+                        continue;
+                    }
+                }
+            }
+            if self.cx.readback_wanted {
+                self.cx.readback_wanted = false;
+                self.op = Some(Op::Readback(Readback::new()));
+                continue;
+            }
+            match self.queue.pop(now, &mut self.cx) {
+                Some(q) => self.begin(q, now),
+                None => break,
+            }
+        }
+        // Between an operation's lines: raw queries, then polls.
+        if let Some(cmd) = self.side.pop_front() {
+            return Some(self.start(cmd, Owner::Side));
+        }
+        if self.cx.status_wanted {
+            self.cx.status_wanted = false;
+            let cmd = self.cx.cmd(&Command::Status, Terminator::Cr);
+            return Some(self.start(cmd, Owner::Poll(PollItem::Status)));
+        }
+        let item = self.poller.next(now)?;
+        let command = match item {
+            PollItem::Position(axis) => Command::Position(axis),
+            PollItem::Status => Command::Status,
+        };
+        let cmd = self.cx.cmd(&command, Terminator::Cr);
+        Some(self.start(cmd, Owner::Poll(item)))
+    }
+
+    fn route(&mut self, reply: Reply, now: Instant) {
+        if let Some(ex) = &self.exchange
+            && ex.expect.classify(&reply) == Disposition::Answer
+            && let Some(ex) = self.exchange.take()
+        {
+            self.answered(ex, reply, now);
+            return;
+        }
+        if reply == Reply::Ack && self.acks.take() {
+            return;
+        }
+        let quiet = self.quiet(now);
+        match self.exchange.as_mut() {
+            Some(ex) => {
+                ex.doubt = Some(now);
+                let text = format!(
+                    "unexpected answer {reply} while waiting for the answer to {}",
+                    ex.text
+                );
+                self.cx.notice(text);
+            }
+            None if !quiet => self.cx.stray(&reply.to_string()),
+            None => {}
+        }
+    }
+
+    fn garbage(&mut self, garbage: Garbage, now: Instant) {
+        let quiet = self.quiet(now);
+        match self.exchange.as_mut() {
+            Some(ex) => {
+                ex.doubt = Some(now);
+                let text = format!("{garbage} (waiting for the answer to {})", ex.text);
+                self.cx.notice(text);
+            }
+            None if !quiet => self.cx.stray(&garbage.to_string()),
+            None => {}
+        }
+    }
+
+    /// 0x02 CR: a run has ended (or there is room again).
+    fn ready(&mut self, now: Instant) {
+        match self.op.as_mut() {
+            Some(op) => op.get().ready(&mut self.cx, now),
+            // Nobody waits for a run: something ran that jogterm did not
+            // start (or a stop ended one). Read `@X`.
+            None => self.cx.status_wanted = true,
+        }
+    }
+
+    fn answered(&mut self, ex: Exchange, reply: Reply, now: Instant) {
+        match ex.owner {
+            Owner::Op => {
+                if let Some(op) = self.op.as_mut() {
+                    op.get().reply(&mut self.cx, reply, now);
+                }
+            }
+            Owner::Poll(item) => self.poll_reply(item, reply, now),
+            Owner::Side => {
+                match reply {
+                    Reply::Status(s) => self.cx.status_read(s, now),
+                    Reply::Position { axis, steps } => self.cx.position_of(axis, steps),
+                    _ => {}
+                }
+                let text = raw::query_text(&reply);
+                self.cx.emit(Event::Reply {
+                    command: ex.text,
+                    text,
+                });
+            }
+        }
+    }
+
+    fn poll_reply(&mut self, item: PollItem, reply: Reply, now: Instant) {
+        match (item, reply) {
+            (PollItem::Position(axis), Reply::Position { steps, .. }) => {
+                self.cx.position_part(axis, steps);
+                if self.cx.axes().last() == Some(&axis) {
+                    self.cx.position_complete(now);
+                    self.poller.position_read(now);
+                }
+                self.poll_error = None;
+            }
+            (PollItem::Status, Reply::Status(status)) => {
+                self.cx.status_read(status, now);
+                if let Some(op) = self.op.as_mut() {
+                    op.get().status(&mut self.cx, status, now);
+                }
+            }
+            // `classify` lets only the awaited answer through.
+            _ => {}
+        }
+    }
+
+    /// The answer to the outstanding line is lost (garbled, out of step, cut).
+    fn lost(&mut self, now: Instant) {
+        let Some(ex) = self.exchange.take() else {
+            return;
+        };
+        self.decoder.reset();
+        match ex.owner {
+            Owner::Op => {
+                if let Some(op) = self.op.as_mut() {
+                    op.get().lost_reply(&mut self.cx, now);
+                }
+            }
+            Owner::Poll(_) => {
+                self.poller.abandon_cycle();
+                if self.poll_error.as_deref() != Some(&ex.text) {
+                    self.cx.notice(format!(
+                        "the answer to {} was lost; polling goes on",
+                        ex.text
+                    ));
+                    self.poll_error = Some(ex.text);
+                }
+            }
+            Owner::Side => {
+                let fault = link::unreadable(&ex.text, "garbled answer");
+                self.cx.emit(Event::Fault(fault));
+            }
+        }
+    }
+
+    fn reply_timeout(&mut self, now: Instant) {
+        let Some(ex) = self.exchange.take() else {
+            return;
+        };
+        let waited = ex
+            .transmitted_at
+            .map_or(Duration::ZERO, |t| now.saturating_duration_since(t));
+        let reason = link::no_reply(&ex.text, waited, &mut self.cx);
+        self.go_down(&reason);
+    }
+
+    fn go_down(&mut self, reason: &str) {
+        if !self.link_up {
+            return;
+        }
+        self.link_up = false;
+        self.exchange = None;
+        self.decoder.reset();
+        self.unsent.clear();
+        self.cx.control.clear();
+        self.quiet_until = None;
+        self.acks = ControlAcks::default();
+        if let Some(mut op) = self.op.take() {
+            op.get()
+                .abandon(&mut self.cx, &Abandon::LinkLost(reason.to_owned()));
+        }
+        self.queue
+            .refuse_all(|| Refusal::NotConnected, JogEnd::LinkLost, &mut self.cx);
+        for cmd in std::mem::take(&mut self.side) {
+            refuse(&mut self.cx, &raw_request(&cmd), Refusal::NotConnected);
+        }
+        // Unknown until read back and initialised again.
+        let cx = &mut self.cx;
+        cx.position = None;
+        cx.status = None;
+        cx.set_ramp(false);
+        cx.slot_hz = None;
+        cx.outputs = [None; 2];
+        cx.e1_link = None;
+        cx.stored.clear();
+        if cx.transfer {
+            cx.transfer = false;
+            cx.transfer_left_open = true;
+        }
+        cx.readback_wanted = false;
+        cx.status_wanted = false;
+        cx.halt_wanted = false;
+    }
+
+    // ----- stopping ------------------------------------------------------
+
+    /// What every stop does besides sending `@B`: waiting requests are
+    /// refused, the operation brakes, the data memory is dropped.
+    fn stop_all(&mut self, now: Instant) {
+        self.queue.refuse_all(
+            || Refusal::Invalid {
+                reason: "cancelled by stop".into(),
+            },
+            JogEnd::Stopped,
+            &mut self.cx,
+        );
+        self.halted(now);
+    }
+
+    fn halted(&mut self, now: Instant) {
+        if let Some(op) = self.op.as_mut() {
+            op.get().stop(&mut self.cx, now);
+        }
+        self.cx.after_halt();
+    }
+
+    /// A halt the driver decides on (dead-man, release, an overdue run):
+    /// `@B` after whatever is already on its way.
+    fn halt(&mut self, now: Instant) {
+        self.cx.control.push_back(halt_outgoing());
+        self.halted(now);
+    }
+
+    /// `@R` (manual 1.5.1) or `@S` (manual 1.5.12): everything ends at once.
+    fn abort(&mut self, command: Command, now: Instant) {
+        let cmd = self.cx.cmd(&command, Terminator::Cr);
+        self.cx.control.push_back(Outgoing {
+            bytes: cmd.bytes,
+            interruptible: false,
+        });
+        self.exchange = None;
+        self.decoder.reset();
+        if let Some(mut op) = self.op.take() {
+            op.get().abandon(&mut self.cx, &Abandon::Reset);
+        }
+        self.queue.refuse_all(
+            || Refusal::Invalid {
+                reason: "cancelled: the interface was reset".into(),
+            },
+            JogEnd::Stopped,
+            &mut self.cx,
+        );
+        if command == Command::Reset {
+            self.cx.apply_reset();
+            self.cx
+                .notice("the interface was reset (@R): reference the axes (h)");
+        } else {
+            self.cx.after_abort();
+            self.cx.notice(
+                "the axes were stopped at once (@S): the positions are lost, reference the axes (h)",
+            );
+        }
+        // Its answers (a CR, 0x02 CRs of ended runs) fall into the quiet.
+        self.quiet_until = Some(now + self.cx.settings.timing.connect_settle);
+    }
+
+    // ----- requests ------------------------------------------------------
+
+    fn busy(&self) -> Option<crate::device::api::Activity> {
+        use crate::device::api::Activity;
+        if self.cx.transfer {
+            return Some(Activity::Uploading);
+        }
+        let activity = self.op.as_ref().map(|o| o.peek().activity())?;
+        (activity != Activity::Idle).then_some(activity)
+    }
+
+    fn admit(&mut self, request: Request, now: Instant) {
+        if !self.link_up {
+            refuse(&mut self.cx, &request, Refusal::NotConnected);
+            return;
+        }
+        // Lines of an open transfer are the job's: they are not refused.
+        let transfer_line = self.cx.transfer && matches!(request, Request::Raw { .. });
+        let running = match self.busy().filter(|_| !transfer_line) {
+            None => Running::Idle,
+            Some(activity) => {
+                let motion = match self.op.as_ref() {
+                    Some(Op::Motion(m)) => Some(m),
+                    _ => None,
+                };
+                Running::Busy {
+                    activity,
+                    motion: motion.is_some(),
+                    braking_jog: motion.is_some_and(|m| m.jog_id().is_some() && m.is_stopping()),
+                }
+            }
+        };
+        if let Some((delta, speed_hz)) = self.queue.admit(request, now, running, &mut self.cx)
+            && let Some(Op::Motion(m)) = self.op.as_mut()
+            && let Err(reason) = m.coalesce(&self.cx, delta, speed_hz)
+        {
+            refuse(&mut self.cx, &Request::Step { delta, speed_hz }, reason);
+        }
+    }
+
+    fn raw(&mut self, line: String, now: Instant) {
+        let request = Request::Raw { line };
+        let Request::Raw { line } = &request else {
+            return;
+        };
+        if !self.link_up {
+            refuse(&mut self.cx, &request, Refusal::NotConnected);
+            return;
+        }
+        let parsed = match parse_raw(line) {
+            Ok(p) => p,
+            Err(reason) => {
+                refuse(&mut self.cx, &request, reason);
+                return;
+            }
+        };
+        let text = self.cx.cmd(&parsed.command, parsed.end).text;
+        let answer = |cx: &mut Context, what: &str| {
+            cx.emit(Event::Reply {
+                command: text.clone(),
+                text: what.to_owned(),
+            })
+        };
+        match parsed.kind() {
+            RawKind::Halt => {
+                self.queue.refuse_all(
+                    || Refusal::Invalid {
+                        reason: "cancelled by stop".into(),
+                    },
+                    JogEnd::Stopped,
+                    &mut self.cx,
+                );
+                self.halt(now);
+                answer(
+                    &mut self.cx,
+                    "@B sent: the axes halt with their ramp (positions kept)",
+                );
+            }
+            RawKind::Abort => {
+                self.abort(Command::Stop, now);
+                answer(
+                    &mut self.cx,
+                    "@S sent: the axes stopped at once (positions lost)",
+                );
+            }
+            RawKind::Reset => {
+                self.abort(Command::Reset, now);
+                answer(&mut self.cx, "@R sent: the interface was reset");
+            }
+            RawKind::Query if self.op.is_some() => {
+                let cmd = self.cx.cmd(&parsed.command, parsed.end);
+                self.side.push_back(cmd);
+            }
+            RawKind::Query | RawKind::Other => self.admit(request, now),
+        }
+    }
+
+    /// A queued request's turn has come: check it against the state now.
+    fn begin(&mut self, queued: Queued, now: Instant) {
+        if let Request::SetZero { axes } = queued.request {
+            if let Err(reason) = self.set_zero(axes) {
+                refuse(&mut self.cx, &queued.request, reason);
+            }
+            return;
+        }
+        let cx = &self.cx;
+        let started: Result<Option<Op>, Refusal> = match &queued.request {
+            Request::Jog {
+                id, axes, speed_hz, ..
+            } => {
+                let until = queued.lease_until.unwrap_or(now);
+                plan::jog(cx, axes, speed_hz)
+                    .map(|p| Some(Op::Motion(MotionOp::jog(cx, p, *id, until))))
+            }
+            Request::Step { delta, speed_hz } => match cx.position {
+                Some(base) => plan::step(cx, &base, delta, speed_hz)
+                    .map(|p| Some(Op::Motion(MotionOp::step(cx, p)))),
+                None => Err(Refusal::NotInitialised),
+            },
+            Request::MoveTo {
+                target,
+                frame,
+                speed_hz,
+            } => plan::move_to(cx, target, *frame, speed_hz)
+                .map(|p| Some(Op::Motion(MotionOp::move_to(cx, p)))),
+            Request::Home { axes } => named_axes(cx.settings.axes, *axes)
+                .and_then(|()| cx.motion_allowed(true))
+                .and_then(|()| cx.memory_free())
+                .and_then(|()| {
+                    home_op(cx, *axes)
+                        .map(|op| Some(Op::Home(op)))
+                        .ok_or_else(|| invalid(format!("{axes} cannot be referenced")))
+                }),
+            Request::SetOutput { output, value } => {
+                output_op(cx, *output, *value).map(|op| Some(Op::Output(op)))
+            }
+            Request::Raw { line } => parse_raw(line)
+                .and_then(|l| RawOp::new(cx, l))
+                .map(|op| Some(Op::Raw(op))),
+            Request::Upload { lines, .. } => {
+                UploadOp::new(cx, lines).map(|op| Some(Op::Upload(op)))
+            }
+            Request::RunProgram => job_op(cx).map(|op| Some(Op::Job(op))),
+            Request::Initialise => cx.memory_free().map(|()| Some(Op::Init(init_op(cx)))),
+            Request::SetZero { .. }
+            | Request::JogRenew { .. }
+            | Request::JogRelease { .. }
+            | Request::Reset
+            | Request::Poll { .. }
+            | Request::Shutdown => Ok(None),
+        };
+        match started {
+            Ok(op) => self.op = op,
+            Err(reason) => refuse(&mut self.cx, &queued.request, reason),
+        }
+    }
+
+    /// jogterm's work zero: the EMCU has no zero point of its own (manual
+    /// 1.5.10 counts from the reference point), so `SetZero` only records
+    /// the position (`docs/protocols.md`, EMCU).
+    fn set_zero(&mut self, axes: crate::axis::AxisSet) -> Result<(), Refusal> {
+        named_axes(self.cx.settings.axes, axes)?;
+        let position = self.cx.position.ok_or(Refusal::NotInitialised)?;
+        for axis in axes.iter() {
+            self.cx
+                .state
+                .work_zero
+                .set(axis, position.get(axis).unwrap_or(0));
+        }
+        Ok(())
+    }
+
+    fn renew(&mut self, id: JogId, lease: Duration, now: Instant) {
+        if let Some(Op::Motion(m)) = self.op.as_mut()
+            && m.renew(id, lease, now)
+        {
+            return;
+        }
+        self.queue.renew(id, lease, now);
+    }
+
+    fn release(&mut self, id: JogId, now: Instant) {
+        if let Some(Op::Motion(m)) = self.op.as_mut()
+            && let Some(halt) = m.release(&mut self.cx, id, now)
+        {
+            if halt {
+                self.halt(now);
+            }
+            return;
+        }
+        self.queue.release(id, &mut self.cx);
+    }
+
+    /// Bring `state` up to date, carry out a halt an operation asked for,
+    /// and tell the clients when the state changed.
+    fn settle(&mut self, now: Instant) {
+        use crate::device::api::Activity;
+        if std::mem::take(&mut self.cx.halt_wanted) && self.link_up {
+            self.halt(now);
+        }
+        let activity = self
+            .op
+            .as_ref()
+            .map_or(Activity::Idle, |o| o.peek().activity());
+        self.cx.state.activity = if self.cx.transfer && activity == Activity::Idle {
+            Activity::Uploading
+        } else {
+            activity
+        };
+        self.cx.state.link_up = self.link_up;
+        self.report.publish(&self.cx.state, &mut self.cx.events);
+    }
+}
+
+/// The request a raw query stood for, for refusals.
+fn raw_request(cmd: &Cmd) -> Request {
+    Request::Raw {
+        line: String::from_utf8_lossy(cmd.bytes.strip_suffix(b"\r").unwrap_or(&cmd.bytes))
+            .into_owned(),
+    }
+}
+
+impl Driver for EmcuDriver {
+    /// The first line on every connection is `@B` (after a CR that ends any
+    /// line the broken link cut, [`CONNECT_HALT`]): whatever the interface
+    /// was running (a batch sent before the link broke), it must not go on
+    /// while its state is unknown; `@B` also drops commands left in the
+    /// data memory. A job transfer that was open when the link was lost is
+    /// ended with a bare 0x01 (`upload`). Their answers fall into the quiet
+    /// that follows; then the state is read back.
+    fn connected(&mut self, now: Instant) {
+        self.go_down("reconnected");
+        self.link_up = true;
+        self.poller.reset();
+        self.poll_error = None;
+        self.cx.control.push_back(Outgoing {
+            bytes: CONNECT_HALT.to_vec(),
+            interruptible: false,
+        });
+        if std::mem::take(&mut self.cx.transfer_left_open) {
+            let end = upload::transfer_end(&self.cx);
+            self.cx.control.push_back(Outgoing {
+                bytes: end.bytes,
+                interruptible: false,
+            });
+            self.cx.state.program = crate::device::api::ProgramState::Invalid;
+            self.cx.notice(
+                "a job transfer was open when the link was lost: it was ended with a bare 0x01 \
+                 (the partial job is discarded, the error flag set)",
+            );
+        }
+        self.quiet_until = Some(now + self.cx.settings.timing.connect_settle);
+        self.op = Some(Op::Readback(Readback::new()));
+        self.settle(now);
+    }
+
+    fn disconnected(&mut self, reason: &str, now: Instant) {
+        self.go_down(reason);
+        self.settle(now);
+    }
+
+    fn request(&mut self, request: Request, now: Instant) {
+        match request {
+            Request::Shutdown => {}
+            Request::Poll {
+                rate_hz,
+                ports_every,
+            } => self
+                .poller
+                .set_rate(PollRate::from_request(rate_hz), ports_every),
+            Request::JogRenew { id, lease } => self.renew(id, lease, now),
+            Request::JogRelease { id } => self.release(id, now),
+            Request::Reset => {
+                if self.link_up {
+                    self.abort(Command::Reset, now);
+                } else {
+                    refuse(&mut self.cx, &Request::Reset, Refusal::NotConnected);
+                }
+            }
+            Request::Raw { line } => self.raw(line, now),
+            other => self.admit(other, now),
+        }
+        self.settle(now);
+    }
+
+    fn stop(&mut self, now: Instant) -> Outgoing {
+        self.stop_all(now);
+        if let Some(ex) = self.exchange.as_mut()
+            && ex.may_move
+            && ex.transmitted_at.is_none()
+        {
+            ex.restop = true;
+        }
+        let until = self.control_deadline(now);
+        self.acks.expect(until);
+        self.settle(now);
+        halt_outgoing()
+    }
+
+    fn emergency_stop_bytes(&self) -> Vec<u8> {
+        HALT.to_vec()
+    }
+
+    fn received(&mut self, bytes: &[u8], now: Instant) {
+        if !self.link_up || bytes.is_empty() {
+            return;
+        }
+        self.last_byte = Some(now);
+        if let Some(ex) = self.exchange.as_mut()
+            && let Some(d) = ex.deadline
+        {
+            // Bytes are flowing: the answer may take its length from here.
+            let rest = self.cx.settings.line.transfer_time(reply_len(ex.expect))
+                + self.cx.settings.timing.reply_margin;
+            ex.deadline = Some(d.max(now + rest));
+        }
+        for event in self.decoder.feed(bytes) {
+            match event {
+                ReplyEvent::Reply(Reply::Ready) => self.ready(now),
+                ReplyEvent::Reply(reply) => self.route(reply, now),
+                ReplyEvent::Garbage(g) => self.garbage(g, now),
+            }
+        }
+        self.settle(now);
+    }
+
+    fn transmitted(&mut self, now: Instant) {
+        let Some(Some(seq)) = self.unsent.pop_front() else {
+            return;
+        };
+        let mut restop = false;
+        let mut op_owned = false;
+        if let Some(ex) = self.exchange.as_mut()
+            && ex.seq == seq
+            && ex.transmitted_at.is_none()
+        {
+            ex.transmitted_at = Some(now);
+            ex.deadline = Some(now + ex.timeout);
+            restop = std::mem::take(&mut ex.restop);
+            op_owned = ex.owner == Owner::Op;
+        }
+        if op_owned && let Some(op) = self.op.as_mut() {
+            op.get().transmitted(&mut self.cx, now);
+        }
+        if restop {
+            self.cx.control.push_back(halt_outgoing());
+        }
+        self.settle(now);
+    }
+
+    fn poll_transmit(&mut self, now: Instant) -> Option<Outgoing> {
+        let out = self.transmit(now);
+        self.settle(now);
+        out
+    }
+
+    fn poll_event(&mut self) -> Option<Event> {
+        self.cx.events.pop_front()
+    }
+
+    fn next_timeout(&self) -> Option<Instant> {
+        let resync = self.cx.settings.timing.resync_gap;
+        let mut times = vec![self.quiet_until, self.acks.until, self.poller.stats_due()];
+        if let Some(ex) = &self.exchange {
+            times.push(ex.deadline);
+            times.push(
+                ex.doubt
+                    .map(|d| self.last_byte.unwrap_or(d).max(d) + resync),
+            );
+        } else {
+            times.push(self.poller.due());
+        }
+        if let Some(op) = &self.op {
+            times.push(op.peek().timer());
+        }
+        times.into_iter().flatten().min()
+    }
+
+    fn handle_timeout(&mut self, now: Instant) {
+        if self.quiet_until.is_some_and(|q| now >= q) {
+            self.quiet_until = None;
+        }
+        self.acks.expire(now);
+        if let Some(ex) = &self.exchange {
+            let resync = self.cx.settings.timing.resync_gap;
+            let quiet_since = self.last_byte.unwrap_or(now);
+            let doubt_over = ex.doubt.is_some_and(|d| now >= quiet_since.max(d) + resync);
+            let overdue = ex.deadline.is_some_and(|d| now >= d);
+            if doubt_over || (overdue && !self.decoder.pending().is_empty()) {
+                self.lost(now);
+            } else if overdue {
+                self.reply_timeout(now);
+            }
+        }
+        if let Some(op) = self.op.as_mut()
+            && op.peek().timer().is_some_and(|t| t <= now)
+            && op.get().on_timer(&mut self.cx, now)
+        {
+            self.halt(now);
+        }
+        if self.poller.stats_due().is_some_and(|t| now >= t) {
+            let axes = self.cx.axes();
+            let limit = wire_limit_hz(
+                &self.poller,
+                self.cx.settings.line,
+                &axes,
+                self.cx.position.as_ref(),
+            );
+            if let Some(stats) = self.poller.take_stats(now, limit) {
+                self.cx.emit(Event::Stats(stats));
+            }
+        }
+        self.settle(now);
+    }
+}

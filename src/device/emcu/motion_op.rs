@@ -1,0 +1,324 @@
+//! Moves the driver plans itself: steps (coalesced while one runs), go-to
+//! moves and continuous jogs. Each is a batch `#E<slot>,<hz>` (when the
+//! slot's speed changes) and `L<slot>,…` ended by 0x01; the interface runs
+//! it and reports its end with 0x02 CR (decision 1). Positions are polled
+//! during the move (`@LX`…, master commands run at once, manual 1.4.2), so
+//! every position is measured.
+//!
+//! A jog is one long move towards the soft limits, kept alive by leases.
+//! When the lease runs out (dead-man), on release or on stop, `@B` halts it
+//! with its ramp, positions kept (manual 1.5.11); the jog has ended when
+//! the run's 0x02 CR has come and `@X` reads idle.
+
+use std::time::{Duration, Instant};
+
+use crate::device::api::{Activity, Event, JogEnd, JogId, PerAxis, Recovery, Refusal};
+use crate::device::common::link::unreadable;
+use crate::device::common::motion::Coalescing;
+use crate::device::common::sink::refuse_step;
+use crate::device::common::{MotionKind, Sink};
+use crate::proto::emcu::Reply;
+
+use super::context::Context;
+use super::measure::Measure;
+use super::op::{Abandon, Next, Operation};
+use super::plan::{self, Planned};
+use super::run::{Run, RunEvent};
+
+#[derive(Debug)]
+enum Phase {
+    /// The batch goes out and runs.
+    Moving,
+    /// The run has ended; the positions are read.
+    Measure(Measure),
+    Done,
+}
+
+#[derive(Debug)]
+pub struct MotionOp {
+    kind: MotionKind,
+    planned: Planned,
+    run: Run,
+    phase: Phase,
+    failed: bool,
+}
+
+fn run_of(cx: &Context, planned: &Planned) -> Run {
+    let d = planned.duration;
+    Run::batch(cx, &planned.commands, Some(d + d / 4))
+}
+
+impl MotionOp {
+    pub fn step(cx: &Context, planned: Planned) -> MotionOp {
+        MotionOp::new(cx, MotionKind::step(), planned)
+    }
+
+    pub fn move_to(cx: &Context, planned: Planned) -> MotionOp {
+        MotionOp::new(cx, MotionKind::MoveTo, planned)
+    }
+
+    pub fn jog(cx: &Context, planned: Planned, id: JogId, lease_until: Instant) -> MotionOp {
+        MotionOp::new(cx, MotionKind::jog(id, lease_until), planned)
+    }
+
+    fn new(cx: &Context, kind: MotionKind, planned: Planned) -> MotionOp {
+        MotionOp {
+            kind,
+            run: run_of(cx, &planned),
+            planned,
+            phase: Phase::Moving,
+            failed: false,
+        }
+    }
+
+    pub fn jog_id(&self) -> Option<JogId> {
+        self.kind.jog_id()
+    }
+
+    fn is_moving(&self) -> bool {
+        matches!(self.phase, Phase::Moving)
+    }
+
+    pub fn is_stopping(&self) -> bool {
+        self.run.is_stopping()
+    }
+
+    /// A step pressed while this step runs: remember it (up to the bound),
+    /// checking the soft limits from where the steps before it end.
+    pub fn coalesce(
+        &mut self,
+        cx: &Context,
+        delta: PerAxis<i64>,
+        speeds: PerAxis<f64>,
+    ) -> Result<(), Refusal> {
+        let moving = self.is_moving();
+        let position = cx.position.unwrap_or_default();
+        let at = Coalescing {
+            open: !(self.is_stopping()
+                || self.failed
+                || (!moving && self.kind.pending_steps() == 0)),
+            bound: cx.settings.jog.step_queue,
+            position: &position,
+            in_flight: moving.then_some(&self.planned.deltas),
+            activity: self.activity(),
+        };
+        self.kind.coalesce(at, delta, speeds, |base| {
+            plan::step(cx, base, &delta, &speeds).map(|_| ())
+        })
+    }
+
+    pub fn renew(&mut self, id: JogId, lease: Duration, now: Instant) -> bool {
+        self.kind.renew(id, lease, now)
+    }
+
+    /// Jog `id` was released. Returns whether `@B` must be sent.
+    pub fn release(&mut self, cx: &mut Context, id: JogId, now: Instant) -> Option<bool> {
+        if self.kind.jog_id() != Some(id) {
+            return None;
+        }
+        self.kind.set_jog_end(JogEnd::Released, false);
+        if !self.is_moving() {
+            return Some(false);
+        }
+        if self.run.is_running() {
+            return Some(!self.is_stopping());
+        }
+        // Its move has not started: it does not.
+        self.run.stop(Duration::ZERO, now);
+        if self.run.is_done() {
+            self.finish_move(cx);
+            return Some(false);
+        }
+        // The move's line is on its way: it starts, and is halted.
+        Some(true)
+    }
+
+    /// The move's run is over: the jog has ended, the positions are read.
+    fn finish_move(&mut self, cx: &mut Context) {
+        self.kind.report_jog(cx);
+        self.phase = Phase::Measure(Measure::new(cx));
+    }
+
+    fn failed(&mut self, cx: &mut Context, what: &str) {
+        let fault = unreadable(&self.command_text(), what);
+        cx.emit(Event::Fault(fault.clone()));
+        self.kind.set_jog_end(JogEnd::Fault(fault), true);
+        self.kind.drop_pending(
+            cx,
+            Refusal::Fault {
+                recovery: Recovery::CheckLink,
+            },
+        );
+        self.failed = true;
+        // Whether it moves is unknown: halt it and read the state back.
+        cx.halt_wanted = true;
+        cx.readback_wanted = true;
+        self.kind.report_jog(cx);
+        self.phase = Phase::Done;
+    }
+
+    fn command_text(&self) -> String {
+        self.planned
+            .commands
+            .last()
+            .map(|c| c.to_string())
+            .unwrap_or_default()
+    }
+
+    /// After the positions were read: the next coalesced step, if any.
+    fn continue_steps(&mut self, cx: &mut Context) {
+        self.phase = Phase::Done;
+        if self.failed || self.is_stopping() {
+            return;
+        }
+        let Some((total, speeds)) = self.kind.take_pending() else {
+            return;
+        };
+        let base = cx.position.unwrap_or_default();
+        match plan::step(cx, &base, &total, &speeds) {
+            Ok(planned) => {
+                self.run = run_of(cx, &planned);
+                self.planned = planned;
+                self.phase = Phase::Moving;
+            }
+            Err(reason) => refuse_step(cx, &total, reason),
+        }
+    }
+}
+
+impl Operation for MotionOp {
+    fn next(&mut self, cx: &mut Context, _now: Instant) -> Next {
+        loop {
+            match &mut self.phase {
+                Phase::Moving => match self.run.next(cx) {
+                    Next::Done => self.finish_move(cx),
+                    other => return other,
+                },
+                Phase::Measure(m) => match m.next(cx) {
+                    Some(cmd) => return Next::Send(cmd),
+                    None => self.continue_steps(cx),
+                },
+                Phase::Done => return Next::Done,
+            }
+        }
+    }
+
+    fn reply(&mut self, cx: &mut Context, reply: Reply, now: Instant) {
+        match &mut self.phase {
+            Phase::Moving => {
+                let slot_line = self
+                    .run
+                    .current()
+                    .is_some_and(|c| c.bytes.starts_with(b"#E"));
+                match self.run.reply(&reply, now) {
+                    RunEvent::Nothing | RunEvent::Started => {
+                        if slot_line {
+                            cx.slot_hz = Some(self.planned.end_hz);
+                        }
+                    }
+                    RunEvent::StillRunning { overdue: false } => {}
+                    RunEvent::StillRunning { overdue: true } => {
+                        if self.is_stopping() {
+                            self.failed(cx, "still moving after @B");
+                        } else {
+                            cx.notice(format!(
+                                "{} did not end in time: halting it",
+                                self.command_text()
+                            ));
+                            cx.halt_wanted = true;
+                        }
+                    }
+                    RunEvent::Ended(status) => {
+                        cx.status_read(status, now);
+                        self.kind.set_jog_end(JogEnd::SoftLimit, false);
+                        self.finish_move(cx);
+                    }
+                    RunEvent::Lost => self.failed(cx, "answers lost"),
+                }
+            }
+            Phase::Measure(m) => m.reply(cx, &reply, now),
+            Phase::Done => {}
+        }
+    }
+
+    fn ready(&mut self, _cx: &mut Context, _now: Instant) {
+        if let Phase::Moving = self.phase {
+            self.run.ready();
+        }
+    }
+
+    fn lost_reply(&mut self, cx: &mut Context, _now: Instant) {
+        match &mut self.phase {
+            Phase::Moving => {
+                if self.run.lost_reply() == RunEvent::Lost {
+                    self.failed(cx, "garbled answer");
+                }
+            }
+            Phase::Measure(m) => {
+                m.give_up();
+                self.phase = Phase::Done;
+            }
+            Phase::Done => {}
+        }
+    }
+
+    fn stop(&mut self, cx: &mut Context, now: Instant) {
+        self.kind.drop_pending(
+            cx,
+            Refusal::Invalid {
+                reason: "cancelled by stop".into(),
+            },
+        );
+        self.kind.set_jog_end(JogEnd::Stopped, false);
+        if self.is_moving() {
+            self.run.stop(plan::brake_time(cx), now);
+            if self.run.is_done() {
+                self.finish_move(cx);
+            }
+        }
+    }
+
+    fn timer(&self) -> Option<Instant> {
+        if !self.is_moving() {
+            return None;
+        }
+        let lease = self.kind.lease_until().filter(|_| !self.is_stopping());
+        [self.run.timer(), lease].into_iter().flatten().min()
+    }
+
+    fn on_timer(&mut self, _cx: &mut Context, now: Instant) -> bool {
+        if !self.is_moving() {
+            return false;
+        }
+        self.run.on_timer(now);
+        if !self.is_stopping() && self.kind.lease_until().is_some_and(|t| t <= now) {
+            self.kind.set_jog_end(JogEnd::DeadMan, false);
+            return true;
+        }
+        false
+    }
+
+    fn abandon(&mut self, cx: &mut Context, cause: &Abandon) {
+        match cause {
+            Abandon::LinkLost(_) => {
+                self.kind.set_jog_end(JogEnd::LinkLost, true);
+                self.kind.drop_pending(cx, Refusal::NotConnected);
+            }
+            Abandon::Reset => {
+                self.kind.set_jog_end(JogEnd::Stopped, false);
+                self.kind.drop_pending(
+                    cx,
+                    Refusal::Invalid {
+                        reason: "cancelled: the interface was reset".into(),
+                    },
+                );
+            }
+        }
+        self.kind.report_jog(cx);
+        self.phase = Phase::Done;
+    }
+
+    fn activity(&self) -> Activity {
+        self.kind.activity(self.is_moving(), self.is_stopping())
+    }
+}
