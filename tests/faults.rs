@@ -12,7 +12,7 @@ use std::time::{Duration, Instant};
 use faults_support::console::Console;
 use faults_support::runner::{self, Scenario, Tally};
 use faults_support::sim::SimProcess;
-use faults_support::wire::{assert_isel_motion, isel_messages, isel_motion};
+use faults_support::wire::{assert_isel_motion, emcu_motion, isel_messages, isel_motion};
 use faults_support::{JOGTERM, WAIT, contains_panic};
 
 /// A long X move (15 s at 4000 Hz) for a fault to interrupt.
@@ -510,6 +510,27 @@ fn withheld_reply_to_poll(t: &mut Tally) {
     sim.assert_alive();
 }
 
+/// EMCU: a poll's answer withheld: the console says the link is lost and
+/// what to check, reconnects and reads the state back; nothing moved.
+fn withheld_reply_emcu(t: &mut Tally) {
+    let mut sim = SimProcess::start("emcu");
+    let console = Console::start(&sim);
+    sim.control("fault withhold");
+    t.fault();
+    console.wait_message(&[
+        "No reply within",
+        "check the cable, the baud rate and the controller type",
+    ]);
+    console.wait_message(&["link lost: no reply to", "motion state unknown"]);
+    console.wait_until("connected again", |s| {
+        s.lines().next().is_some_and(|l| l.contains("connected"))
+    });
+    let motion = emcu_motion(&sim.received());
+    assert!(motion.is_empty(), "nothing was to move: {motion:?}");
+    sim.assert_alive();
+    console.quit();
+}
+
 fn main() -> ExitCode {
     runner::run(&[
         Scenario {
@@ -547,6 +568,10 @@ fn main() -> ExitCode {
         Scenario {
             name: "stop_button_on_the_controller",
             run: stop_button_on_the_controller,
+        },
+        Scenario {
+            name: "withheld_reply_emcu",
+            run: withheld_reply_emcu,
         },
         Scenario {
             name: "unsolicited_garbage",

@@ -64,6 +64,34 @@ pub fn assert_isel_motion(readable: &str, expected: &[&str]) {
     );
 }
 
+/// EMCU: lines end at CR or 0x01 (manual 1.4.2); the lines that can move
+/// an axis (`Command::may_move`: moves, reference runs, resume, run job).
+pub fn emcu_motion(readable: &str) -> Vec<String> {
+    let mut lines = Vec::new();
+    let mut line = String::new();
+    let mut rest = readable;
+    while let Some(c) = rest.chars().next() {
+        if c == '<'
+            && let Some(end) = rest.find('>')
+        {
+            let token = &rest[..=end];
+            rest = &rest[end + 1..];
+            match token {
+                "<CR>" | "<01>" => lines.push(std::mem::take(&mut line)),
+                "<3C>" => line.push('<'),
+                other => line.push_str(other),
+            }
+            continue;
+        }
+        line.push(c);
+        rest = &rest[c.len_utf8()..];
+    }
+    lines
+        .into_iter()
+        .filter(|l| jogterm::proto::emcu::parse_line(l).is_ok_and(|c| c.may_move()))
+        .collect()
+}
+
 /// The parser's own checks, run by the suite before the scenarios.
 pub fn self_check() {
     assert_eq!(
@@ -76,4 +104,5 @@ pub fn self_check() {
     assert!(!isel_moves("@0P"));
     assert!(isel_moves("@0R7"));
     assert!(!isel_moves("<FD>"));
+    assert_eq!(emcu_motion("@X<CR>@LX<CR>L1,x100<01>@X<CR>"), ["L1,x100"]);
 }
