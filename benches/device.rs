@@ -4,9 +4,12 @@
 //! full rate, and the CPU a 10 Hz poll loop costs. Prints a table;
 //! `docs/performance.md` says how to run it and what it measured.
 //!
+//! EMP rows: the same against the EMP simulator at 38400 baud (`2C` poll
+//! rate against one round trip, stop latency).
+//!
 //! `cargo bench --bench device` (optimised) or `cargo test --bench device`
 //! (debug build); add `-- --quick` for shorter runs, `-- --only cpu` (or
-//! `bare`, `poll`, `stop`, `emcu`) for one measure, e.g. under a profiler.
+//! `bare`, `poll`, `stop`, `emcu`, `emp`) for one measure, e.g. under a profiler.
 
 use std::io::{BufRead, BufReader};
 use std::path::PathBuf;
@@ -18,6 +21,7 @@ use jogterm::config::{ConfigDirs, Profile, load_profile};
 use jogterm::device::api::{Activity, Event, Frame, PerAxis, PositionSource, Request};
 use jogterm::device::driver::Driver;
 use jogterm::device::emcu::{EmcuDriver, EmcuSettings};
+use jogterm::device::emp::{EmpDriver, EmpSettings};
 use jogterm::device::isel::{IselDriver, IselSettings, PollPlan, PollRate};
 use jogterm::device::{Connector, DeviceHandle, EventReceiver, TaskOptions, spawn_with};
 use jogterm::proto::Protocol;
@@ -86,6 +90,15 @@ async fn read_back(events: &mut EventReceiver) {
 async fn poll_rate(ports: Vec<InputPort>, span: Duration) -> (f64, Duration) {
     let (shell, handle, mut events) = socket_task(settings(PollRate::LineSpeed, ports));
     read_back(&mut events).await;
+    measure_rate((shell, handle, events), span).await
+}
+
+/// The rate and median cycle of a task polling at line speed, once its
+/// controller is ready.
+async fn measure_rate(
+    (shell, handle, mut events): (Shell, DeviceHandle, EventReceiver),
+    span: Duration,
+) -> (f64, Duration) {
     // Let the first cycles settle.
     tokio::time::sleep(Duration::from_millis(200)).await;
     while events.try_recv().is_ok() {}
@@ -151,6 +164,15 @@ async fn bare_rate(span: Duration) -> f64 {
 async fn stop_latency(n: usize) -> Vec<Duration> {
     let (shell, handle, mut events) = socket_task(settings(PollRate::LineSpeed, Vec::new()));
     read_back(&mut events).await;
+    measure_stops((shell, handle, events), n).await
+}
+
+/// `n` stops at pseudo-random moments while the task polls at full rate,
+/// once its controller is ready.
+async fn measure_stops(
+    (shell, handle, mut events): (Shell, DeviceHandle, EventReceiver),
+    n: usize,
+) -> Vec<Duration> {
     let drain = tokio::spawn(async move { while events.recv().await.is_some() {} });
     let mut seed: u64 = 0x9E37_79B9_7F4A_7C15;
     let mut latencies = Vec::with_capacity(n);
@@ -454,6 +476,89 @@ async fn poll_cpu(span: Duration) -> (f64, f64, f64) {
     (share(cpu0.0, cpu1.0), share(cpu0.1, cpu1.1), switches)
 }
 
+/// EMP: the device task with the EMP driver against the EMP simulator of the
+/// `emp` profile (one drive, 38400 baud), polling `2C` only, the drive
+/// switched on (before `02` it answers `2C` with `EE`).
+async fn emp_task() -> (Shell, DeviceHandle, EventReceiver) {
+    let profile = load_profile("emp", &ConfigDirs::builtin_only()).expect("emp profile");
+    let mut settings = EmpSettings::from_profile(&profile).expect("emp settings");
+    settings.poll = PollRate::LineSpeed;
+    // `40` once at the start only: the row measures `2C`.
+    settings.ports_every = u32::MAX;
+    let (shell, handle, mut events) = socket_task_for(Box::new(EmpDriver::new(settings)), &profile);
+    read_back(&mut events).await;
+    handle
+        .request(jogterm::device::api::Request::Initialise)
+        .expect("request");
+    loop {
+        match events.recv().await {
+            Some(Event::Notice(n)) if n.starts_with("initialised") => break,
+            Some(_) => {}
+            None => panic!("the device task ended"),
+        }
+    }
+    (shell, handle, events)
+}
+
+/// The EMP rows: `2C` poll rate against one round trip (two 17-byte frames
+/// at 38400 baud and the drive's 1.6 ms, 10.45 ms; the manual rounds it to
+/// 10.8 ms), and the stop latency while polling.
+async fn emp_rows(span: Duration, stops: usize, rows: &mut Vec<Row>) {
+    let line = jogterm::proto::emp::LINE;
+    let round_trip =
+        line.transfer_time(2 * jogterm::proto::emp::FRAME_WIRE_LEN) + Duration::from_micros(1600);
+    let limit = 1.0 / round_trip.as_secs_f64();
+    let manual = 1.0 / 0.0108;
+    let (rate, median) = measure_rate(emp_task().await, span).await;
+    rows.push(Row {
+        what: "EMP 2C poll rate".into(),
+        result: format!(
+            "{rate:.1}/s = {:.1} % of {limit:.1}/s",
+            100.0 * rate / limit
+        ),
+        target: ">= 97 %".into(),
+        ok: rate >= 0.97 * limit,
+    });
+    rows.push(Row {
+        what: "EMP 2C rate against 1/10.8 ms".into(),
+        result: format!("{:.1} % of {manual:.1}/s", 100.0 * rate / manual),
+        target: ">= 97 %".into(),
+        ok: rate >= 0.97 * manual,
+    });
+    let median_rate = 1.0 / median.as_secs_f64().max(1e-9);
+    rows.push(Row {
+        what: "EMP 2C median cycle".into(),
+        result: format!(
+            "{:.3} ms = {:.1} % of the limit",
+            median.as_secs_f64() * 1000.0,
+            100.0 * median_rate / limit
+        ),
+        target: "-".into(),
+        ok: true,
+    });
+    let lat = measure_stops(emp_task().await, stops).await;
+    let ms = |d: Duration| d.as_secs_f64() * 1000.0;
+    let (p50, p99) = (percentile(&lat, 0.5), percentile(&lat, 0.99));
+    // A stop frame waits for the frame on the wire (17 bytes, 4.4 ms).
+    let frame = line.transfer_time(jogterm::proto::emp::FRAME_WIRE_LEN);
+    rows.push(Row {
+        what: format!("EMP stop -> first byte, p50 ({} stops)", lat.len()),
+        result: format!("{:.3} ms", ms(p50)),
+        target: format!("< {:.1} ms", ms(frame)),
+        ok: p50 < frame,
+    });
+    rows.push(Row {
+        what: "EMP stop -> first byte, p99".into(),
+        result: format!(
+            "{:.3} ms (max {:.3} ms)",
+            ms(p99),
+            ms(lat.last().copied().unwrap_or_default())
+        ),
+        target: format!("< {:.1} ms", ms(frame + Duration::from_millis(1))),
+        ok: p99 < frame + Duration::from_millis(1),
+    });
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let quick = args.iter().any(|a| a == "--quick");
@@ -544,6 +649,9 @@ fn main() {
         if wanted("emcu") {
             emcu_rows(span, stops, &mut rows).await;
         }
+        if wanted("emp") {
+            emp_rows(span, stops, &mut rows).await;
+        }
         if wanted("cpu") {
             let (user, system, switches) = poll_cpu(span).await;
             rows.push(Row {
@@ -564,17 +672,17 @@ fn main() {
         }
     });
     println!(
-        "jogterm device benchmark: isel and EMCU simulators, 19200 baud ({} build)",
+        "jogterm device benchmark: isel and EMCU simulators at 19200 baud, EMP at 38400 ({} build)",
         if cfg!(debug_assertions) {
             "debug"
         } else {
             "optimised"
         }
     );
-    println!("{:<42} {:<36} {:<9} ok", "measure", "result", "target");
+    println!("{:<42} {:<36} {:<10} ok", "measure", "result", "target");
     for r in &rows {
         println!(
-            "{:<42} {:<36} {:<9} {}",
+            "{:<42} {:<36} {:<10} {}",
             r.what,
             r.result,
             r.target,

@@ -464,7 +464,7 @@ fn an_upload_shows_its_progress_and_its_end() {
         "{shown}"
     );
     assert!(
-        shown.contains("upload finished: 40 lines in 1.5 s"),
+        shown.contains("upload finished: 40 commands stored in 1.5 s"),
         "{shown}"
     );
 }

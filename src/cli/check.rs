@@ -174,7 +174,7 @@ fn setup(
 }
 
 /// `file:line:col: severity: message [fix: …]`, line and column from 1.
-fn render(name: &str, program: &Program, d: &Diagnostic) -> String {
+pub(super) fn render(name: &str, program: &Program, d: &Diagnostic) -> String {
     let line_text = program.line(d.span.line).map_or("", |l| l.text());
     let fix = d
         .fix

@@ -4,20 +4,22 @@
 //! the root and may be given before or after the command; each command
 //! uses the ones that mean something to it and says so in its help. Without
 //! a command jogterm runs the console (`tui`); the commands are `sim`,
-//! `send`, `poll`, `check` and `arc`; `upload` is added by later work.
+//! `send`, `poll`, `check`, `arc` and `upload`.
 //!
 //! Exit codes: 0 ok, 1 failure (a message on stderr), 2 bad usage (clap, and
-//! the console's configuration errors); `send` and `poll` add 3 for a link
+//! the console's configuration errors); `send`, `poll` and `upload` add 3 for a link
 //! failure.
 
 pub mod arc;
 pub mod check;
+pub mod emp;
 pub mod poll;
 pub mod profile;
 pub mod send;
 mod session;
 pub mod sim;
 pub mod tui;
+pub mod upload;
 
 use std::fs::OpenOptions;
 use std::path::PathBuf;
@@ -44,7 +46,7 @@ path. Without --profile the shipped `default` profile is used: the isel simulato
 
 const AFTER_LONG_HELP: &str = "\
 Exit status: 0 ok, 1 failure (the reason on stderr), 2 bad usage, 3 link failure
-(send, poll).
+(send, poll, upload).
 
 Examples:
   jogterm sim --protocol isel --pty            serve the isel simulator on a new pty
@@ -53,7 +55,9 @@ Examples:
   jogterm send --port /tmp/isel '@07' '@0P'    send commands, print the replies
   jogterm poll --port /tmp/isel --count 5      read the position five times
   jogterm check drill.isel                     check a CNC program for the default machine
-  jogterm arc --radius 200 --start 135 --end 225 --ccw --speed 1500";
+  jogterm arc --radius 200 --start 135 --end 225 --ccw --speed 1500
+  jogterm upload drill.isel --port /tmp/isel --erase --start
+  jogterm --program drill.isel                 the console, with the program in its editor";
 
 /// `jogterm`: the global options and the command.
 #[derive(Debug, Parser)]
@@ -67,6 +71,10 @@ Examples:
 pub struct Cli {
     #[command(flatten)]
     pub global: GlobalArgs,
+    /// Open this isel program or EMCU job in the console's program editor (the console
+    /// only; unsaved edits of earlier sessions are offered back in any case)
+    #[arg(long, value_name = "FILE")]
+    pub program: Option<PathBuf>,
     #[command(subcommand)]
     pub command: Option<CliCommand>,
 }
@@ -117,12 +125,19 @@ pub enum CliCommand {
     /// Print the isel commands of a circular arc or a helix
     #[command(long_about = arc::LONG_ABOUT, after_long_help = arc::AFTER_LONG_HELP)]
     Arc(arc::ArcArgs),
+    /// Store a program in the controller (checked first), with progress; --start runs it
+    #[command(long_about = upload::LONG_ABOUT, after_long_help = upload::AFTER_LONG_HELP)]
+    Upload(upload::UploadArgs),
 }
 
 /// Run what the command line asks for.
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     if let Some(path) = &cli.global.log {
         start_log(path)?;
+    }
+    if cli.program.is_some() && cli.command.is_some() {
+        eprintln!("jogterm: error: --program belongs to the console, not to a command");
+        return Ok(ExitCode::from(2));
     }
     match &cli.command {
         Some(CliCommand::Sim(args)) => {
@@ -133,7 +148,8 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Some(CliCommand::Poll(args)) => poll::run(&cli.global, args),
         Some(CliCommand::Check(args)) => check::run(&cli.global, args),
         Some(CliCommand::Arc(args)) => arc::run(args),
-        None => tui::run(&cli.global),
+        Some(CliCommand::Upload(args)) => upload::run(&cli.global, args),
+        None => tui::run(&cli.global, cli.program.as_deref()),
     }
 }
 

@@ -7,8 +7,8 @@ use std::time::{Duration, Instant};
 
 use clap::Args;
 
-use super::GlobalArgs;
 use super::session::{self, EXIT_LINK, EXIT_USAGE, Linked, Polling, Session, StartError};
+use super::{GlobalArgs, emp};
 use crate::axis::Axis;
 use crate::device::api::{Event, IoSnapshot, LinkState, PositionSample, PositionSource, Recovery};
 use crate::device::common::PollRate;
@@ -20,6 +20,10 @@ line per sample, in steps. With --ports the input ports 1 (E-stop circuits, keys
 switches) and 2 (power, hood) of an isel controller, or the `@X` flags of an EMCU interface,
 are read every cycle too and printed with each sample.
 
+EMP (--protocol emp): every drive's position (`2C`) per cycle, as fast as the line allows
+(10.8 ms per drive) or at the interval; with --ports the switches and inputs (`40 01`) of
+every drive too. --drive 11,21 names the drives on the link (axes X, Y, Z, A in that order).
+
 The state is read back first (as on every connection); the first sample is that read-back.
 Without --count the command runs until interrupted (Ctrl-C), then stops and closes cleanly.";
 
@@ -27,16 +31,19 @@ pub const AFTER_LONG_HELP: &str = "\
 Output: `t=0.012 X=16000 Y=16000 Z=16000` (t: seconds since the link came up), with --ports
 `… in1=03 in3=00 in2=62`; with --json one object per line:
   {\"t\":0.012,\"source\":\"measured\",\"pos\":[16000,16000,16000],\"ports\":{\"1\":3,\"3\":0,\"2\":98}}
-pos has one entry per axis of the machine (X, Y, Z, A as far as it has them), in steps, as
-the controller reports them. EMCU with --ports: `… status=08`, {\"status\":8}: the `@X` flags
-as a byte, bit 0 moving, 1 waiting, 2 error, 3 position unknown, 4 referencing, 5 job running.
+pos has one entry per axis of the machine (X, Y, Z, A as far as it has them; EMP: one per
+drive), in steps, as the controller reports them. EMCU with --ports: `… status=08`,
+{\"status\":8}: the `@X` flags as a byte, bit 0 moving, 1 waiting, 2 error, 3 position
+unknown, 4 referencing, 5 job running. EMP with --ports: `… drive11=05`, {\"drive11\":5}:
+inputs I1-I4 of drive 11 as bits 0-3.
 
 Exit status: 0 done; 1 no position could be read; 2 bad usage; 3 link failure.
 
 Examples:
   jogterm poll --port /dev/ttyUSB0 --protocol isel --count 5
   jogterm poll --port /tmp/isel --interval-ms 0 --json --ports
-  jogterm poll --port /tmp/emcu --protocol emcu --interval-ms 0 --count 100";
+  jogterm poll --port /tmp/emcu --protocol emcu --interval-ms 0 --count 100
+  jogterm poll --port /tmp/emp --protocol emp --drive 11 --interval-ms 0 --count 100";
 
 /// Options of `jogterm poll`.
 #[derive(Debug, Args)]
@@ -53,9 +60,12 @@ pub struct PollArgs {
     /// One JSON object per line
     #[arg(long)]
     pub json: bool,
-    /// Read and print the input ports 1, 3, 2 every cycle
+    /// Read and print the input ports 1, 3, 2 every cycle (EMP: every drive's inputs)
     #[arg(long)]
     pub ports: bool,
+    /// EMP: the drives on the link (`11`, `11,21`), for the axes X, Y, Z, A
+    #[arg(long, value_name = "DS")]
+    pub drive: Vec<String>,
 }
 
 /// One line of output.
@@ -116,30 +126,37 @@ pub fn format_sample(
 
 /// How a port group is keyed in the output: isel input ports by number
 /// (`in 3: limit switches` -> `3`, port 0 left out), the EMCU status group
-/// by name (`status: @X flags` -> `status`).
+/// by name (`status: @X flags` -> `status`), EMP drives by address
+/// (`drive 11 (X)` -> `drive11`).
 fn port_key(group: &str) -> Option<String> {
     let head = group.split(':').next()?.trim();
-    match head.strip_prefix("in ") {
-        Some(n) => n
+    if let Some(n) = head.strip_prefix("in ") {
+        return n
             .parse::<u8>()
             .ok()
             .filter(|n| *n != 0)
-            .map(|n| n.to_string()),
-        None if head == "status" => Some(head.to_owned()),
-        None => None,
+            .map(|n| n.to_string());
     }
+    if head == "status" {
+        return Some(head.to_owned());
+    }
+    let ds = head.strip_prefix("drive ")?.split(' ').next()?;
+    Some(format!("drive{ds}"))
 }
 
 /// Why no position may come, in the family's terms.
 fn no_position_hint(family: Protocol) -> &'static str {
     match family {
         Protocol::Isel => "is the controller initialised (jogterm send '@07')?",
-        _ => "is the controller connected and switched on?",
+        Protocol::Emp => {
+            "is the drive switched on (jogterm send --protocol emp '02 11 11 00 00000000') and connected?"
+        }
+        Protocol::Emcu => "is the controller connected and switched on?",
     }
 }
 
 pub fn run(global: &GlobalArgs, args: &PollArgs) -> anyhow::Result<ExitCode> {
-    let profile = match session::resolve(global, args.baud) {
+    let mut profile = match session::resolve(global, args.baud) {
         Ok(p) => p,
         Err(StartError::Usage(m)) => {
             eprintln!("jogterm poll: {m}");
@@ -156,6 +173,12 @@ pub fn run(global: &GlobalArgs, args: &PollArgs) -> anyhow::Result<ExitCode> {
         ports: args.ports,
     };
     let family = profile.connection.protocol;
+    if family == Protocol::Emp
+        && let Err(m) = emp::apply_drives(&mut profile, &args.drive)
+    {
+        eprintln!("jogterm poll: {m}");
+        return Ok(ExitCode::from(EXIT_USAGE));
+    }
     let runtime = session::runtime()?;
     runtime.block_on(async {
         let session = match session::start(global, profile, polling) {
@@ -185,6 +208,7 @@ async fn poll(mut session: Session, args: &PollArgs, family: Protocol) -> ExitCo
     let patience =
         Duration::from_millis(args.interval_ms.saturating_mul(5)).max(Duration::from_secs(3));
     let mut samples = 0u64;
+    let mut last_position = Instant::now();
     let mut ports: Option<IoSnapshot> = None;
     let mut code = 0u8;
     let interrupted = session::interrupted();
@@ -193,9 +217,12 @@ async fn poll(mut session: Session, args: &PollArgs, family: Protocol) -> ExitCo
         if args.count.is_some_and(|n| samples >= n) {
             break;
         }
+        // Patience counts from the last position, not the last event: a
+        // controller that rejects every poll still produces traffic.
+        let left = patience.saturating_sub(last_position.elapsed());
         let event = tokio::select! {
             _ = &mut interrupted => break,
-            e = tokio::time::timeout(patience, session.next_event()) => e,
+            e = tokio::time::timeout(left, session.next_event()) => e,
         };
         match event {
             Err(_) => {
@@ -225,6 +252,7 @@ async fn poll(mut session: Session, args: &PollArgs, family: Protocol) -> ExitCo
             // which comes before the ports are read, is left out.
             Ok(Some(Event::Position(_))) if args.ports && ports.is_none() => {}
             Ok(Some(Event::Position(p))) => {
+                last_position = Instant::now();
                 let t = p.at.saturating_duration_since(start).as_secs_f64();
                 let io = if args.ports { ports.as_ref() } else { None };
                 println!("{}", format_sample(&p, t, io, args.json));

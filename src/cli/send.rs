@@ -6,11 +6,13 @@ use std::time::Duration;
 
 use clap::Args;
 
-use super::GlobalArgs;
 use super::session::{self, EXIT_LINK, EXIT_USAGE, Linked, Polling, Session, StartError};
+use super::{GlobalArgs, emp};
+use crate::config::Profile;
 use crate::device::api::{Activity, Event, LinkState, Recovery, Refusal, Request};
 use crate::device::describe::describe;
 use crate::device::emcu::{RUN_MARK, RawKind, parse_raw};
+use crate::device::emp::STARTED;
 use crate::proto::Protocol;
 use crate::proto::emcu::{Command as EmcuCommand, Terminator};
 use crate::proto::isel::{
@@ -37,7 +39,13 @@ itself acknowledges bad lines and only sets its error flag). End a line with `\\
 data memory (`#E1,800` `L1,x500\\x01`). The queries `@X`, `@LX`, `@LY`, `@LZ`, `@V` and the
 stops `@B` (ramp, positions kept) and `@S` (at once, positions lost) go out at once, also while
 a batch runs; any other line waits until the batch before it has ended, and the command ends
-when the last batch has.";
+when the last batch has.
+
+EMP (--protocol emp): every command is a frame of 16 hex characters, spaces allowed
+(`2C 11 00 00 00000000`), or 14 without the drive byte, which --drive then supplies (default:
+the profile's first drive). Frames are checked with jogterm's EMP parser first. A long action
+(`26` homing, `2A 01` positioning) prints its `55` answer (`started: …`) and then waits for its
+completion. The stops `08` and `2A 03` go out at once.";
 
 pub const AFTER_LONG_HELP: &str = "\
 Exit status: 0 every command answered `0`; 1 the controller answered an error (the rest is
@@ -51,7 +59,9 @@ Examples:
   jogterm --sim isel send '@07' '@0N7' '@0i' '0400,900,0,900,0,900,0,900' '9' '@0S'
   jogterm send --port /tmp/isel --log traffic.log '@0b1' '@0b3'
   jogterm send --port /tmp/emcu --protocol emcu '#S200' '#R500\\x01' '$HZYX\\x01' '@X'
-  jogterm send --port /tmp/emcu --protocol emcu '#E1,1000' 'L1,x4000\\x01' '@LX' '@B'";
+  jogterm send --port /tmp/emcu --protocol emcu '#E1,1000' 'L1,x4000\\x01' '@LX' '@B'
+  jogterm send --port /tmp/emp --protocol emp '02 11 11 00 00000000' '22 11 07 00 00000000'
+  jogterm send --port /tmp/emp --protocol emp --drive 11 '26 00 00 00140400' '2C 00 00 00000000'";
 
 /// Options of `jogterm send`.
 #[derive(Debug, Args)]
@@ -59,7 +69,11 @@ pub struct SendArgs {
     /// Baud rate, instead of the profile's (isel: 19200)
     #[arg(long, value_name = "N")]
     pub baud: Option<u32>,
-    /// The commands, in order: `@0P`, program lines after `@0i`, control bytes
+    /// EMP: the drives on the link (`11`, `11,21`), for the axes X, Y, Z, A; the first
+    /// is the drive of frames typed without one
+    #[arg(long, value_name = "DS")]
+    pub drive: Vec<String>,
+    /// The commands, in order: `@0P`, program lines after `@0i`, control bytes; EMP frames
     #[arg(required = true, value_name = "CMD")]
     pub commands: Vec<String>,
 }
@@ -79,11 +93,11 @@ pub enum Item {
 }
 
 /// The plan for the profile's family.
-pub fn plan_for(family: Protocol, args: &[String]) -> Result<Vec<Item>, String> {
-    match family {
+pub fn plan_for(profile: &Profile, args: &[String]) -> Result<Vec<Item>, String> {
+    match profile.connection.protocol {
         Protocol::Isel => plan(args),
         Protocol::Emcu => emcu_plan(args),
-        other => Err(format!("jogterm send does not talk {other} yet")),
+        Protocol::Emp => emp::plan(args, emp::default_drive(profile)),
     }
 }
 
@@ -219,7 +233,7 @@ enum Outcome {
 }
 
 pub fn run(global: &GlobalArgs, args: &SendArgs) -> anyhow::Result<ExitCode> {
-    let profile = match session::resolve(global, args.baud) {
+    let mut profile = match session::resolve(global, args.baud) {
         Ok(p) => p,
         Err(StartError::Usage(m)) => {
             eprintln!("jogterm send: {m}");
@@ -227,7 +241,13 @@ pub fn run(global: &GlobalArgs, args: &SendArgs) -> anyhow::Result<ExitCode> {
         }
         Err(StartError::Failed(e)) => return Err(e),
     };
-    let items = match plan_for(profile.connection.protocol, &args.commands) {
+    if profile.connection.protocol == Protocol::Emp
+        && let Err(m) = emp::apply_drives(&mut profile, &args.drive)
+    {
+        eprintln!("jogterm send: {m}");
+        return Ok(ExitCode::from(EXIT_USAGE));
+    }
+    let items = match plan_for(&profile, &args.commands) {
         Ok(items) => items,
         Err(message) => {
             eprintln!("jogterm send: {message}");
@@ -298,7 +318,16 @@ async fn send_items(session: &mut Session, items: &[Item]) -> ExitCode {
                         controls.push(*c);
                         i += 1;
                     }
-                    await_line(session, text, canonical, *may_move, &controls).await
+                    let mut outcome =
+                        await_line(session, text, canonical, *may_move, &controls).await;
+                    // EMP: a long action's `55`; its completion follows.
+                    while let Outcome::Answered(t) = &outcome
+                        && t.starts_with(STARTED)
+                    {
+                        println!("<< {t}");
+                        outcome = wait_outcome(session, text, canonical).await;
+                    }
+                    outcome
                 }
             }
         };

@@ -13,6 +13,7 @@ use crate::device::api::{Activity, Event, LinkState};
 use crate::device::common::PollRate;
 use crate::device::driver::Driver;
 use crate::device::emcu::{EmcuDriver, EmcuSettings};
+use crate::device::emp::{EmpDriver, EmpSettings};
 use crate::device::isel::{IselDriver, IselSettings, PollPlan};
 use crate::device::log::spawn_log;
 use crate::device::{Connector, DeviceHandle, EventReceiver, TaskOptions, spawn_with};
@@ -57,7 +58,7 @@ pub fn resolve(global: &GlobalArgs, baud: Option<u32>) -> Result<Profile, StartE
         .map_err(|e| StartError::Usage(format!("{e:#}")))?;
     if !talks(profile.connection.protocol) {
         return Err(StartError::Usage(format!(
-            "jogterm send and poll do not talk {} yet (--protocol isel or emcu)",
+            "jogterm send and poll do not talk {} (--protocol isel, emcu or emp)",
             profile.connection.protocol
         )));
     }
@@ -69,7 +70,7 @@ pub fn resolve(global: &GlobalArgs, baud: Option<u32>) -> Result<Profile, StartE
 
 /// The families `send` and `poll` talk.
 fn talks(protocol: Protocol) -> bool {
-    matches!(protocol, Protocol::Isel | Protocol::Emcu)
+    matches!(protocol, Protocol::Isel | Protocol::Emcu | Protocol::Emp)
 }
 
 /// What a command polls: positions at `rate`, and with `ports` the family's
@@ -93,9 +94,7 @@ fn driver(profile: &Profile, polling: Polling) -> Result<Box<dyn Driver>, StartE
     match profile.connection.protocol {
         Protocol::Isel => Ok(Box::new(IselDriver::new(isel_settings(profile, polling)?))),
         Protocol::Emcu => Ok(Box::new(EmcuDriver::new(emcu_settings(profile, polling)?))),
-        other => Err(StartError::Usage(format!(
-            "jogterm has no {other} driver yet"
-        ))),
+        Protocol::Emp => Ok(Box::new(EmpDriver::new(emp_settings(profile, polling)?))),
     }
 }
 
@@ -126,6 +125,16 @@ fn emcu_settings(profile: &Profile, polling: Polling) -> Result<EmcuSettings, St
         if !polling.ports {
             s.poll.ports.clear();
         }
+    }
+    Ok(s)
+}
+
+/// EMP: positions (`2C` of every drive), with `ports` `40` every cycle.
+fn emp_settings(profile: &Profile, polling: Polling) -> Result<EmpSettings, StartError> {
+    let mut s = EmpSettings::from_profile(profile).map_err(|e| StartError::Usage(e.to_string()))?;
+    s.poll = polling.rate;
+    if polling.rate != PollRate::Off {
+        s.ports_every = if polling.ports { 1 } else { u32::MAX };
     }
     Ok(s)
 }

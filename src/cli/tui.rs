@@ -9,10 +9,10 @@
 
 use std::fs::OpenOptions;
 use std::future::Future;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::Arc;
-use std::time::{Duration, Instant};
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use anyhow::Context as _;
 use tokio::sync::mpsc;
@@ -23,15 +23,17 @@ use crate::config::{ConfigDirs, ConfigError, Profile, Source, Theme, load_theme}
 use crate::device::api::{Event, Request};
 use crate::device::log::spawn_log;
 use crate::device::{DeviceHandle, EventReceiver, RequestError, TaskOptions};
+use crate::program::store::RecoveryStore;
 use crate::sim::registry;
 use crate::sim::shell::{Shell, ShellControl, serve_socket};
 use crate::transport::PortSpec;
+use crate::ui::editor::io::EditorMsg;
 use crate::ui::input::InputThreads;
 use crate::ui::keymap::Keymap;
 use crate::ui::palette::Palette;
 use crate::ui::runtime::{self, DeviceLink, NotSent, RunOptions};
 use crate::ui::terminal::{TerminalGuard, TerminalOptions, set_emergency};
-use crate::ui::{Model, Setup};
+use crate::ui::{Model, Msg, Setup};
 
 /// The console's configuration, checked.
 #[derive(Debug, Clone)]
@@ -81,7 +83,7 @@ pub fn resolve(global: &GlobalArgs, dirs: &ConfigDirs) -> Result<Resolved, Setup
 }
 
 /// `jogterm` without a command: run the console until the operator quits.
-pub fn run(global: &GlobalArgs) -> anyhow::Result<ExitCode> {
+pub fn run(global: &GlobalArgs, program: Option<&Path>) -> anyhow::Result<ExitCode> {
     let resolved = match resolve(global, &ConfigDirs::from_env()) {
         Ok(resolved) => resolved,
         Err(e) => {
@@ -94,7 +96,7 @@ pub fn run(global: &GlobalArgs) -> anyhow::Result<ExitCode> {
         .enable_all()
         .build()
         .context("starting the async runtime")?;
-    runtime.block_on(session(global, resolved))?;
+    runtime.block_on(session(global, resolved, program))?;
     Ok(ExitCode::SUCCESS)
 }
 
@@ -162,7 +164,11 @@ impl DeviceLink for Device {
 /// machine and drains the stop bytes within its own bound (500 ms).
 const CLOSE_WITHIN: Duration = Duration::from_secs(3);
 
-async fn session(global: &GlobalArgs, resolved: Resolved) -> anyhow::Result<()> {
+async fn session(
+    global: &GlobalArgs,
+    resolved: Resolved,
+    program: Option<&Path>,
+) -> anyhow::Result<()> {
     let Resolved {
         profile,
         theme,
@@ -176,7 +182,14 @@ async fn session(global: &GlobalArgs, resolved: Resolved) -> anyhow::Result<()> 
         let _ = emergency.fire();
     })));
     let setup = Setup::from_profile(&profile, simulator.as_ref().map(|s| s.inputs.clone()));
-    let model = Model::new(setup, keymap, Palette::from(&theme), Instant::now());
+    let mut model = Model::new(setup, keymap, Palette::from(&theme), Instant::now());
+    // Unsaved edits go to the user's state directory (`docs/editor.md`);
+    // the tag tells this session's new programs from another's.
+    if let Some(store) = RecoveryStore::from_env() {
+        model
+            .editor
+            .keep_recoveries(store, session_tag(std::process::id(), SystemTime::now()));
+    }
     let device = Device {
         handle: handle.clone(),
         events,
@@ -184,7 +197,7 @@ async fn session(global: &GlobalArgs, resolved: Resolved) -> anyhow::Result<()> 
     let result = match start_log(global, &handle) {
         Ok(()) => {
             let control = simulator.as_ref().map(|s| s.shell.control());
-            in_terminal(model, device, control).await
+            in_terminal(model, device, control, program).await
         }
         Err(e) => Err(e),
     };
@@ -196,6 +209,15 @@ async fn session(global: &GlobalArgs, resolved: Resolved) -> anyhow::Result<()> 
         let _ = tokio::task::spawn_blocking(move || simulator.shell.shutdown()).await;
     }
     result
+}
+
+/// A name for this session's unsaved new programs: the process and the
+/// second it started, so a later session never takes it for its own.
+fn session_tag(pid: u32, started: SystemTime) -> String {
+    let secs = started
+        .duration_since(UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs());
+    format!("{pid}-{secs}")
 }
 
 /// `--log FILE`: the traffic log, as `send` and `poll` write it.
@@ -217,6 +239,7 @@ async fn in_terminal(
     mut model: Model,
     mut device: Device,
     simulator: Option<ShellControl>,
+    program: Option<&Path>,
 ) -> anyhow::Result<()> {
     let (guard, mut terminal) =
         TerminalGuard::enter(TerminalOptions::from_env()).context("taking the terminal")?;
@@ -227,6 +250,12 @@ async fn in_terminal(
     // once; without it the missing key repeat does (`docs/jogging.md`).
     model.keypad.set_releases(guard.reports_key_releases());
     let (tx, mut rx) = mpsc::unbounded_channel();
+    // The editor's first work: look for edits an earlier session left,
+    // then open the command line's program (which may have some of them).
+    let _ = tx.send(Msg::Editor(EditorMsg::Scan));
+    if let Some(path) = program {
+        let _ = tx.send(Msg::Editor(EditorMsg::Open(path.to_path_buf())));
+    }
     let _input = InputThreads::spawn(tx).context("starting the input thread")?;
     runtime::run(
         &mut terminal,

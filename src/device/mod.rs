@@ -5,7 +5,7 @@
 //! - [`driver`]: the sans-IO [`driver::Driver`] trait each family implements.
 //! - [`common`]: what the drivers of all families share (refusals, jog
 //!   vectors and leases, step coalescing, polling, the request queue).
-//! - [`isel`]: the isel @-format driver; [`emcu`]: the EMCU driver.
+//! - [`isel`], [`emcu`], [`emp`]: the drivers of the three families.
 //! - [`task`]: the async task that owns the port ([`spawn`]); [`handle`]:
 //!   what clients hold ([`DeviceHandle`]); [`events`]: the fan-out of events
 //!   with its drop policy; [`log`]: the traffic log.
@@ -18,6 +18,7 @@ pub mod connector;
 pub mod describe;
 pub mod driver;
 pub mod emcu;
+pub mod emp;
 pub mod events;
 pub mod handle;
 pub mod isel;

@@ -73,8 +73,6 @@ impl Default for TaskOptions {
 pub enum DeviceError {
     #[error(transparent)]
     Settings(#[from] SettingsError),
-    #[error("jogterm has no {0} driver yet")]
-    Unsupported(Protocol),
     #[error("the device task needs a tokio runtime (none is running on this thread)")]
     NoRuntime,
 }
@@ -84,7 +82,7 @@ pub fn driver_for(profile: &Profile) -> Result<Box<dyn Driver>, DeviceError> {
     match profile.connection.protocol {
         Protocol::Isel => Ok(Box::new(IselDriver::from_profile(profile)?)),
         Protocol::Emcu => Ok(Box::new(super::emcu::EmcuDriver::from_profile(profile)?)),
-        other => Err(DeviceError::Unsupported(other)),
+        Protocol::Emp => Ok(Box::new(super::emp::EmpDriver::from_profile(profile)?)),
     }
 }
 

@@ -15,6 +15,7 @@
 //! - [`path()`]: the tool's path through the program, segment by segment with
 //!   source lines, and the predicted end position.
 //! - [`format()`]: the canonical text, comments kept.
+//! - [`store`]: program files on disk: atomic saves and recovery files.
 //!
 //! The language rules (comments, file extensions, what the simulation
 //! assumes) are in `docs/programs.md`.
@@ -41,6 +42,7 @@ mod model;
 pub mod path;
 mod run;
 pub mod source;
+pub mod store;
 
 pub use format::format;
 pub use lint::{AxisLimit, DEFAULT_BUDGET, Diagnostic, Fix, LintConfig, Rule, Severity, lint};

@@ -32,11 +32,25 @@ pub struct Start {
     pub axes: AxisSet,
     /// The counters when the program starts.
     pub position: Position,
+    /// The counter values of the virtual zero point (isel `@0n`, manual
+    /// 2.2.19) in force when the program starts: absolute moves `m` count
+    /// from it. 0 after a reference run.
+    pub zero: Position,
 }
 
 impl Start {
     pub fn new(axes: AxisSet, position: Position) -> Start {
-        Start { axes, position }
+        Start {
+            axes,
+            position,
+            zero: [0; 4],
+        }
+    }
+
+    /// The same start with the virtual zero point at `zero` (isel).
+    pub fn with_zero(mut self, zero: Position) -> Start {
+        self.zero = zero;
+        self
     }
 
     /// All counters at 0 (machine zero after a reference run).
@@ -177,7 +191,10 @@ pub fn path_with(program: &Program, start: &Start, max_commands: usize) -> Path 
                 Mode::Path,
                 max_commands,
             );
-            runner.run(run::isel::State::start(Some(start.position)), &mut collect)
+            runner.run(
+                run::isel::State::start(Some(start.position)).with_zero(start.zero),
+                &mut collect,
+            )
         }
         Language::Emcu => run::emcu::run(program, Some(start.position), max_commands, &mut collect),
     };

@@ -25,6 +25,10 @@ fn notes(keymap: &Keymap, mode: Mode) -> &'static [&'static str] {
             &["Commands are checked with the controller's own rules before they are sent."]
         }
         Mode::Sim => &["Simulator inputs exist only on the built-in simulator."],
+        Mode::Editor => &[
+            "Gutter numbers are the controller's command numbers; #N in go-to finds command N.",
+            "Unsaved edits are kept in a recovery file every few seconds (docs/editor.md).",
+        ],
         _ => &[],
     }
 }

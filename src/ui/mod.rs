@@ -8,13 +8,15 @@
 //!
 //! The state behind the panels lives in small modules of its own
 //! ([`position`], [`io`], [`traffic_log`], [`line_edit`], [`sim_panel`],
-//! [`jog`] for the jog keypad);
+//! [`jog`] for the jog keypad, and the program [`editor`] with its own
+//! screen);
 //! [`raw`] checks typed commands with each family's parser.
 //!
 //! Around it: [`terminal`] owns the terminal (restored on drop, error and
 //! panic), [`input`] reads keys on its own thread, [`runtime`] runs the loop
 //! that feeds `update` and carries out its effects.
 
+pub mod editor;
 pub mod help;
 pub mod input;
 pub mod io;

@@ -12,6 +12,8 @@ use crate::jog::JogSettings;
 use crate::proto::Protocol;
 use crate::wire::LineSettings;
 
+use super::editor::Editor;
+use super::editor::dialog::Dialog;
 use super::io::IoPanel;
 use super::jog::Keypad;
 use super::jog::axes::AxisChoice;
@@ -86,8 +88,7 @@ impl Setup {
     }
 }
 
-/// The panels that can have focus. The program editor (issue 7) joins this
-/// list.
+/// The panels that can have focus.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum PanelId {
     /// The jog keypad; focused at start.
@@ -95,6 +96,9 @@ pub enum PanelId {
     Io,
     Console,
     Sim,
+    /// The program editor: while it has focus the program screen is shown
+    /// (not in the Tab ring; `e`/F4 opens and closes it).
+    Editor,
 }
 
 impl PanelId {
@@ -105,6 +109,7 @@ impl PanelId {
             PanelId::Io => Mode::Io,
             PanelId::Console => Mode::Console,
             PanelId::Sim => Mode::Sim,
+            PanelId::Editor => Mode::Editor,
         }
     }
 }
@@ -123,6 +128,8 @@ pub enum Popup {
         scroll: usize,
     },
     Confirm(Confirmation),
+    /// A form or question of the program editor.
+    Editor(Dialog),
     /// A position to go to, typed.
     GoTo(GoToPrompt),
     /// An axis for a reference run or a work zero.
@@ -134,6 +141,7 @@ impl Popup {
         match self {
             Popup::Help { .. } => Mode::Help,
             Popup::Confirm(_) => Mode::Confirm,
+            Popup::Editor(dialog) => dialog.mode(),
             Popup::GoTo(_) => Mode::GoTo,
             Popup::Axes(_) => Mode::Axes,
         }
@@ -177,6 +185,8 @@ pub struct Model {
     pub keypad: Keypad,
     pub focus: PanelId,
     pub popup: Option<Popup>,
+    /// The program being edited (`docs/editor.md`).
+    pub editor: Editor,
     pub size: (u16, u16),
     /// Something the view shows has changed since the last frame.
     pub dirty: bool,
@@ -201,6 +211,7 @@ impl Model {
                 .min(setup.jog_speeds.len().saturating_sub(1)),
         };
         Model {
+            editor: Editor::new(&setup, now),
             traffic: TrafficLog::new(setup.protocol),
             keypad: Keypad::new(setup.jog.clone()),
             setup,

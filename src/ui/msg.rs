@@ -7,6 +7,8 @@ use ratatui::crossterm::event::KeyEvent;
 use crate::device::api::{Event, Request};
 use crate::sim::InputControl;
 
+use super::editor::io::{EditorIo, EditorMsg};
+
 /// Everything that can change the model.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Msg {
@@ -33,6 +35,8 @@ pub enum Msg {
     NotSent { request: String, reason: String },
     /// The terminal hung up or a terminating signal arrived: stop and leave.
     Terminate { reason: String },
+    /// A file or lint result for the program editor, or a request to it.
+    Editor(EditorMsg),
 }
 
 /// What `update` asks the runtime to do. The runtime carries effects out in
@@ -45,6 +49,9 @@ pub enum Effect {
     Request(Request),
     /// Flip an input of the built-in simulator.
     Simulator(InputControl),
+    /// A file or lint request of the program editor (carried out off the
+    /// loop; the result comes back as `Msg::Editor`).
+    Editor(EditorIo),
     /// Close the device and leave (after the effects before it).
     Quit,
 }

@@ -24,6 +24,7 @@ use crate::device::describe::describe;
 use crate::sim::InputControl;
 use crate::sim::shell::ShellControl;
 
+use super::editor::worker::EditorWorker;
 use super::model::Model;
 use super::msg::{Effect, Msg};
 use super::terminal::run_emergency;
@@ -56,6 +57,8 @@ pub enum RunError {
     Draw(String),
     #[error("cannot watch for signals: {0}")]
     Signals(#[source] std::io::Error),
+    #[error("cannot start the editor's file and lint threads: {0}")]
+    Worker(#[source] std::io::Error),
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -88,6 +91,8 @@ pub async fn run<B: Backend, D: DeviceLink>(
     let (signal_tx, mut signals) = mpsc::unbounded_channel::<Msg>();
     let watcher = watch_signals(signal_tx)?;
     let (sim_tx, mut sim_rx) = mpsc::unbounded_channel::<Msg>();
+    let (editor_tx, mut editor_rx) = mpsc::unbounded_channel::<Msg>();
+    let worker = EditorWorker::spawn(editor_tx).map_err(RunError::Worker)?;
     let mut ticks = tokio::time::interval(options.frame_interval);
     ticks.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
     let mut last_draw: Option<Instant> = None;
@@ -109,6 +114,7 @@ pub async fn run<B: Backend, D: DeviceLink>(
                 }
             },
             Some(msg) = sim_rx.recv() => msg,
+            Some(msg) = editor_rx.recv() => msg,
             _ = ticks.tick() => Msg::Tick(Instant::now()),
         };
         if matches!(msg, Msg::Terminate { .. }) {
@@ -117,6 +123,7 @@ pub async fn run<B: Backend, D: DeviceLink>(
             run_emergency();
         }
         let effects = update(model, msg);
+        let leaving = effects.iter().any(|e| matches!(e, Effect::Quit));
         let mut quit = false;
         for effect in effects {
             match effect {
@@ -136,12 +143,18 @@ pub async fn run<B: Backend, D: DeviceLink>(
                     }
                 }
                 Effect::Simulator(control) => simulate(simulator.clone(), control, sim_tx.clone()),
+                // On the way out no lint is started; files go through the
+                // file thread like every other request, so they are done in
+                // the order asked (`finish_files` waits for them).
+                Effect::Editor(crate::ui::editor::io::EditorIo::Lint(_)) if leaving => {}
+                Effect::Editor(io) => worker.submit(io),
                 Effect::Quit => quit = true,
             }
         }
         if quit {
             // One last frame so the screen says what is happening.
             let _ = draw(terminal, model);
+            finish_files(worker).await;
             shutdown(device, options.shutdown_timeout).await;
             watcher.abort();
             return Ok(());
@@ -157,6 +170,11 @@ pub async fn run<B: Backend, D: DeviceLink>(
             last_draw = Some(Instant::now());
         }
     }
+}
+
+/// Let the editor's file thread finish what it was handed (bounded).
+async fn finish_files(worker: EditorWorker) {
+    let _ = tokio::task::spawn_blocking(move || worker.finish(Duration::from_secs(2))).await;
 }
 
 /// Watch HUP, TERM and INT on a task of their own. Their default action

@@ -7,9 +7,10 @@ use std::time::Instant;
 
 use ratatui::crossterm::event::{KeyEvent, KeyEventKind};
 
-use crate::device::api::{ControllerFault, Event, JogEnd, LinkState, Request, UploadEvent};
+use crate::device::api::{ControllerFault, Event, JogEnd, LinkState, Request};
 use crate::jog::{KeyPhase, Motion};
 
+use super::editor;
 use super::help::help_lines;
 use super::io::OutputToggle;
 use super::jog::axes::{AxisChoice, Purpose};
@@ -35,9 +36,12 @@ pub fn update(model: &mut Model, msg: Msg) -> Vec<Effect> {
         Msg::Tick(now) => {
             tick(model, now);
             // Toggle jogs live on the console's ticks.
-            keypad::tick(model)
+            let mut effects = keypad::tick(model);
+            effects.extend(editor::update::tick(model, now));
+            effects
         }
         Msg::Device(event) => {
+            editor::update::device_event(model, &event);
             device_event(model, event);
             model.dirty = true;
             Vec::new()
@@ -75,7 +79,15 @@ pub fn update(model: &mut Model, msg: Msg) -> Vec<Effect> {
             model.quitting = true;
             model.dirty = true;
             keypad::stopped(model);
-            vec![Effect::Stop, Effect::Quit]
+            // The last edits go to the recovery file before leaving.
+            let mut effects = vec![Effect::Stop];
+            effects.extend(editor::update::terminate(model));
+            effects.push(Effect::Quit);
+            effects
+        }
+        Msg::Editor(msg) => {
+            model.dirty = true;
+            editor::update::message(model, msg)
         }
     }
 }
@@ -134,12 +146,12 @@ fn route(model: &mut Model, chord: KeyChord, phase: KeyPhase) -> Vec<Effect> {
     }
     if let Some(popup) = &model.popup {
         let mode = popup.mode();
-        return match model.keymap.lookup(mode, &chord) {
-            Some(action) => popup_action(model, action),
-            None => {
-                if let (Some(Popup::GoTo(prompt)), Some(c)) =
-                    (model.popup.as_mut(), chord.typed_char())
-                {
+        let editor_form = matches!(popup, Popup::Editor(editor::dialog::Dialog::Form(_)));
+        return match (model.keymap.lookup(mode, &chord), chord.typed_char()) {
+            (Some(action), _) => popup_action(model, action),
+            (None, Some(c)) if editor_form => editor::update::form_char(model, c),
+            (None, typed) => {
+                if let (Some(Popup::GoTo(prompt)), Some(c)) = (model.popup.as_mut(), typed) {
                     prompt.line.insert(c);
                 }
                 Vec::new()
@@ -157,6 +169,11 @@ fn route(model: &mut Model, chord: KeyChord, phase: KeyPhase) -> Vec<Effect> {
     {
         model.command.insert(c);
         return Vec::new();
+    }
+    if focus == PanelId::Editor
+        && let Some(c) = chord.typed_char()
+    {
+        return editor::update::type_char(model, c);
     }
     match model.keymap.lookup(Mode::Main, &chord) {
         Some(action) => main_action(model, action),
@@ -178,6 +195,10 @@ fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
     match action {
         Action::Stop => stop(model),
         Action::Quit => {
+            // Unsaved edits ask first.
+            if let Some(effects) = editor::update::before_quit(model) {
+                return effects;
+            }
             if keypad::moving(model) {
                 // Quitting stops the machine; a slip of the finger must not
                 // end a program run or a reference run (`docs/jogging.md`).
@@ -327,8 +348,10 @@ fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
             model.traffic.show_polls = !model.traffic.show_polls;
             Vec::new()
         }
-        // Actions of other modes never reach here (the keymap refuses them).
-        _ => Vec::new(),
+        // The program editor's actions on the main screen (teach-in,
+        // upload, run); actions of other modes never reach here (the
+        // keymap refuses them).
+        other => editor::update::main_action(model, other).unwrap_or_default(),
     }
 }
 
@@ -355,6 +378,9 @@ fn popup_action(model: &mut Model, action: Action) -> Vec<Effect> {
         (Some(Popup::Confirm(c)), Action::Cancel) => {
             say(model, NoteLevel::Info, format!("{}: cancelled", c.title));
             Vec::new()
+        }
+        (Some(Popup::Editor(dialog)), action) => {
+            editor::update::dialog_action(model, dialog, action)
         }
         (Some(Popup::Help { .. }), Action::Close) => Vec::new(),
         (Some(Popup::GoTo(prompt)), action) => goto_action(model, prompt, action),
@@ -476,6 +502,7 @@ fn panel_action(model: &mut Model, panel: PanelId, action: Action) -> Vec<Effect
         PanelId::Io => io_action(model, action),
         PanelId::Console => console_action(model, action),
         PanelId::Sim => sim_action(model, action),
+        PanelId::Editor => editor::update::action(model, action),
     }
 }
 
@@ -616,28 +643,14 @@ fn device_event(model: &mut Model, event: Event) {
             }
         }
         Event::Upload(upload) => {
-            let text = match &upload {
-                UploadEvent::Finished { total, elapsed } => Some((
-                    NoteLevel::Info,
-                    format!(
-                        "upload finished: {total} lines in {:.1} s",
-                        elapsed.as_secs_f64()
-                    ),
-                )),
-                UploadEvent::Failed { line, fault } => Some((
-                    NoteLevel::Danger,
-                    format!("upload failed at line {}: {}", line + 1, fault_text(fault)),
-                )),
-                UploadEvent::Aborted { done, reason } => Some((
-                    NoteLevel::Danger,
-                    format!(
-                        "upload aborted after {done} lines: {reason}; the controller holds a partial program"
-                    ),
-                )),
-                UploadEvent::Started { .. } | UploadEvent::Progress { .. } => None,
-            };
-            if let Some((level, text)) = text {
-                say(model, level, text);
+            // The editor knows which line each uploaded command came from.
+            if let Some(report) = editor::update::upload_event(model, &upload) {
+                let level = if report.danger {
+                    NoteLevel::Danger
+                } else {
+                    NoteLevel::Info
+                };
+                say(model, level, report.text);
             }
             model.upload = Some(upload);
         }
@@ -728,7 +741,7 @@ pub fn fault_text(f: &ControllerFault) -> String {
 }
 
 /// Show a message in the message line and keep it in the console.
-fn say(model: &mut Model, level: NoteLevel, text: String) {
+pub(crate) fn say(model: &mut Model, level: NoteLevel, text: String) {
     model.traffic.note(LineKind::Note(level), text.clone());
     model.message = Some(Message {
         at: model.now,

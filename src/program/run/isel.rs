@@ -78,6 +78,13 @@ impl State {
             loops: LoopStack::default(),
         }
     }
+
+    /// The same state with the virtual zero point at the counter values
+    /// `zero` (an `@0n` before the program started, manual 2.2.19).
+    pub fn with_zero(mut self, zero: [i64; 4]) -> State {
+        self.zero = zero.map(|v| Some(Iv::exact(v)));
+        self
+    }
 }
 
 enum Step {

@@ -1,6 +1,7 @@
 //! The view: a pure function of the model. [`Screen`] draws everything;
-//! each panel is its own widget so later panels (jog keypad, program editor)
-//! slot in beside them.
+//! each panel is its own widget so later panels (jog keypad) slot in beside
+//! them. While the program editor has focus the program screen
+//! (`ui::editor::view`) takes the place of the machine screen.
 
 pub mod console;
 pub mod dro;
@@ -16,8 +17,9 @@ use ratatui::buffer::Buffer;
 use ratatui::layout::Rect;
 use ratatui::widgets::Widget;
 
+use super::editor;
 use super::jog::view::{AxesView, GoToView, KeypadView};
-use super::model::{Model, Popup};
+use super::model::{Model, PanelId, Popup};
 
 /// The whole screen.
 pub struct Screen<'a>(pub &'a Model);
@@ -26,18 +28,10 @@ impl Widget for Screen<'_> {
     fn render(self, area: Rect, buf: &mut Buffer) {
         let model = self.0;
         buf.set_style(area, model.palette.text);
-        let a = layout::areas(model, area);
-        status::StatusBar(model).render(a.status, buf);
-        status::MessageLine(model).render(a.message, buf);
-        dro::DroView(model).render(a.dro, buf);
-        KeypadView(model).render(a.keypad, buf);
-        io::IoView(model).render(a.io, buf);
-        if let Some(sim_area) = a.sim {
-            sim::SimView(model).render(sim_area, buf);
-        }
-        console::ConsoleView(model).render(a.console, buf);
-        if let Some(hints) = a.hints {
-            status::Hints(model).render(hints, buf);
+        if model.focus == PanelId::Editor {
+            editor::view::ProgramScreen(model).render(area, buf);
+        } else {
+            machine_screen(model, area, buf);
         }
         match &model.popup {
             Some(Popup::Help { scroll }) => popup::HelpView {
@@ -50,9 +44,30 @@ impl Widget for Screen<'_> {
                 confirmation,
             }
             .render(area, buf),
+            Some(Popup::Editor(dialog)) => {
+                editor::view::dialog::DialogView { model, dialog }.render(area, buf)
+            }
             Some(Popup::GoTo(prompt)) => GoToView { model, prompt }.render(area, buf),
             Some(Popup::Axes(choice)) => AxesView { model, choice }.render(area, buf),
             None => {}
         }
+    }
+}
+
+/// The machine screen: position, jog keypad, ports, simulator inputs,
+/// traffic.
+fn machine_screen(model: &Model, area: Rect, buf: &mut Buffer) {
+    let a = layout::areas(model, area);
+    status::StatusBar(model).render(a.status, buf);
+    status::MessageLine(model).render(a.message, buf);
+    dro::DroView(model).render(a.dro, buf);
+    KeypadView(model).render(a.keypad, buf);
+    io::IoView(model).render(a.io, buf);
+    if let Some(sim_area) = a.sim {
+        sim::SimView(model).render(sim_area, buf);
+    }
+    console::ConsoleView(model).render(a.console, buf);
+    if let Some(hints) = a.hints {
+        status::Hints(model).render(hints, buf);
     }
 }

@@ -160,6 +160,16 @@ impl Widget for Hints<'_> {
                     (Mode::Confirm, Action::Confirm, "yes"),
                     (Mode::Confirm, Action::Cancel, "no"),
                 ],
+                Mode::Form => &[
+                    (Mode::Form, Action::Submit, "ok"),
+                    (Mode::Form, Action::NextField, "next field"),
+                    (Mode::Form, Action::Cancel, "cancel"),
+                ],
+                Mode::Unsaved => &[
+                    (Mode::Unsaved, Action::Save, "save"),
+                    (Mode::Unsaved, Action::Discard, "discard"),
+                    (Mode::Unsaved, Action::Cancel, "back"),
+                ],
                 Mode::GoTo => &[
                     (Mode::GoTo, Action::Submit, "go"),
                     (Mode::GoTo, Action::Cancel, "cancel"),
@@ -187,6 +197,16 @@ impl Widget for Hints<'_> {
                     (Mode::Console, Action::Submit, "send"),
                     (Mode::Console, Action::HistoryPrev, "history"),
                     (Mode::Main, Action::FocusNext, "focus"),
+                ],
+                Mode::Editor => &[
+                    (Mode::Editor, Action::CloseEditor, "machine"),
+                    (Mode::Editor, Action::Save, "save"),
+                    (Mode::Main, Action::Upload, "upload"),
+                    (Mode::Main, Action::RunProgram, "run"),
+                    (Mode::Editor, Action::Find, "find"),
+                    (Mode::Editor, Action::NextProblem, "problem"),
+                    (Mode::Editor, Action::Undo, "undo"),
+                    (Mode::Editor, Action::TypeBlank, "blank"),
                 ],
                 Mode::Sim => &[
                     (Mode::Sim, Action::SimToggle, "flip"),

@@ -1,0 +1,325 @@
+//! What the EMP driver knows about the drives and the machine, updated from
+//! every reply whoever asked for it: switched on, operating mode, sample
+//! rate, position, limit switches, inputs, outputs. Operations read it to
+//! decide what to send; `MachineState` is derived from it.
+
+use std::collections::VecDeque;
+use std::time::Instant;
+
+use crate::axis::{Axis, AxisSet};
+use crate::config::profile::{EmpJog, EmpStop};
+use crate::device::api::{
+    ControllerFault, Event, MachineState, PerAxis, PositionSample, PositionSource, Recovery,
+    Refusal,
+};
+use crate::device::common::{Sink, gate};
+use crate::proto::emp::{
+    Command, DriveAddress, ErrorCode, Inputs, Limits, OnScope, OperatingMode, Outputs, ReloadValue,
+    ReplyBody, Request,
+};
+
+use super::settings::EmpSettings;
+
+/// One drive as last seen.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DriveState {
+    pub ds: DriveAddress,
+    pub axis: Axis,
+    /// `Some(true)` after `02` was answered or a command other than `0A` was
+    /// taken; `Some(false)` after `04` or a "not switched on" error.
+    pub on: Option<bool>,
+    pub mode: Option<OperatingMode>,
+    pub reload: Option<ReloadValue>,
+    /// The position counter (encoder counts).
+    pub position: Option<i64>,
+    pub limits: Option<Limits>,
+    pub inputs: Option<Inputs>,
+    /// Outputs as last written (no query reads them back: manual "42").
+    pub outputs: Option<Outputs>,
+}
+
+impl DriveState {
+    fn new(ds: DriveAddress, axis: Axis) -> DriveState {
+        DriveState {
+            ds,
+            axis,
+            on: None,
+            mode: None,
+            reload: None,
+            position: None,
+            limits: None,
+            inputs: None,
+            outputs: None,
+        }
+    }
+
+    /// Forget what may have changed while the link was down; the outputs
+    /// stay as written (a drive keeps them through `04`, docs/protocols.md).
+    fn unknown(&mut self) {
+        self.on = None;
+        self.mode = None;
+        self.reload = None;
+        self.position = None;
+        self.limits = None;
+        self.inputs = None;
+    }
+}
+
+#[derive(Debug)]
+pub struct Context {
+    pub settings: EmpSettings,
+    pub state: MachineState,
+    pub drives: Vec<DriveState>,
+    pub events: VecDeque<Event>,
+    /// The last complete position sample (every drive), machine counts.
+    pub position: Option<PerAxis<i64>>,
+}
+
+impl Sink for Context {
+    fn emit(&mut self, event: Event) {
+        self.events.push_back(event);
+    }
+}
+
+impl Context {
+    pub fn new(settings: EmpSettings) -> Context {
+        let drives = settings
+            .drives
+            .iter()
+            .map(|d| DriveState::new(d.ds, d.axis))
+            .collect();
+        Context {
+            settings,
+            state: MachineState::default(),
+            drives,
+            events: VecDeque::new(),
+            position: None,
+        }
+    }
+
+    pub fn drive(&self, ds: DriveAddress) -> Option<&DriveState> {
+        self.drives.iter().find(|d| d.ds == ds)
+    }
+
+    pub fn drive_mut(&mut self, ds: DriveAddress) -> Option<&mut DriveState> {
+        self.drives.iter_mut().find(|d| d.ds == ds)
+    }
+
+    pub fn addresses(&self) -> Vec<DriveAddress> {
+        self.drives.iter().map(|d| d.ds).collect()
+    }
+
+    /// The scope of `02`: a single drive, or a module on a link of several
+    /// (manual "02 : Mehrere Baugruppen EIN", docs/protocols.md EMP).
+    pub fn on_scope(&self) -> OnScope {
+        if self.drives.len() > 1 {
+            OnScope::Link
+        } else {
+            OnScope::Single
+        }
+    }
+
+    /// The mode jogs run in, from `emp.jog`: IV for velocity jogs, TPWM for
+    /// positioning (manual "22").
+    pub fn jog_mode(&self) -> OperatingMode {
+        match self.settings.jog_style {
+            EmpJog::Velocity => OperatingMode::Iv,
+            EmpJog::Position => OperatingMode::Tpwm,
+        }
+    }
+
+    /// The stop frame for a drive, from `emp.stop`: `08` holds the position,
+    /// `2A 03` brakes hard and leaves the motor without current.
+    pub fn stop_request(&self, ds: DriveAddress) -> Request {
+        Request::new(
+            ds,
+            match self.settings.stop {
+                EmpStop::Hold => Command::Hold,
+                EmpStop::Fast => Command::FastStop,
+            },
+        )
+    }
+
+    /// The link is gone or new: what the drives do now is unknown.
+    pub fn forget(&mut self) {
+        for d in &mut self.drives {
+            d.unknown();
+        }
+        self.position = None;
+        self.state.initialised = AxisSet::EMPTY;
+    }
+
+    /// Every drive is switched on.
+    pub fn ready(&self) -> bool {
+        self.drives.iter().all(|d| d.on == Some(true))
+    }
+
+    /// Whether a move of `axes` may start now (`common::gate`).
+    pub fn motion_allowed(&self, axes: AxisSet, unreferenced_ok: bool) -> Result<(), Refusal> {
+        gate::motion_allowed(&self.state, self.ready(), axes, unreferenced_ok, is_limit)
+    }
+
+    /// Only the emergency stop and faults (raw motion, reference runs).
+    pub fn faults_allow(&self) -> Result<(), Refusal> {
+        if !self.state.link_up {
+            return Err(Refusal::NotConnected);
+        }
+        gate::faults(&self.state, is_limit)
+    }
+
+    /// Bring `state.initialised` in line with the drives.
+    pub fn refresh(&mut self) {
+        self.state.initialised = self
+            .drives
+            .iter()
+            .filter(|d| d.on == Some(true))
+            .map(|d| d.axis)
+            .collect();
+        if self
+            .state
+            .fault
+            .as_ref()
+            .is_some_and(|f| f.recovery == Recovery::SwitchOn)
+            && self.ready()
+        {
+            self.state.fault = None;
+        }
+        if gate::reference_fault_cleared(&self.state, self.settings.axes) {
+            self.state.fault = None;
+        }
+        self.state.limit = self
+            .drives
+            .iter()
+            .any(|d| d.limits.is_some_and(|l| l.plus || l.minus));
+    }
+
+    /// A reply (first answer or completion) to `request` carried `body`.
+    pub fn observe(&mut self, request: &Request, body: &ReplyBody) {
+        let axis = self.settings.axis_of(request.ds);
+        let Some(d) = self.drive_mut(request.ds) else {
+            return;
+        };
+        if !matches!(request.command, Command::LastError | Command::Identify(_)) {
+            d.on = Some(true);
+        }
+        if let Some(p) = body.position() {
+            d.position = Some(i64::from(p.increments()));
+        }
+        let mut unreference = false;
+        match (&request.command, body) {
+            (Command::Off, _) => {
+                d.on = Some(false);
+                d.mode = None;
+            }
+            (Command::MotorEnable(mode), _) => d.mode = Some(*mode),
+            (Command::MotorDisable | Command::FastStop, _) => d.mode = None,
+            (Command::SetPosition(_), _) => {
+                // "Der Regler wird abgeschaltet" (manual "20 05"), and the
+                // counter no longer counts from the reference point.
+                d.mode = None;
+                unreference = true;
+            }
+            (Command::SampleRate(r), _) => d.reload = Some(*r),
+            (_, ReplyBody::Inputs { limits, inputs }) => {
+                d.limits = Some(*limits);
+                d.inputs = Some(*inputs);
+            }
+            (_, ReplyBody::Outputs { limits, outputs }) => {
+                d.limits = Some(*limits);
+                d.outputs = Some(*outputs);
+            }
+            _ => {}
+        }
+        if unreference && let Some(a) = axis {
+            self.unreference(a);
+        }
+        self.refresh();
+    }
+
+    pub fn unreference(&mut self, axis: Axis) {
+        self.state.referenced = self
+            .state
+            .referenced
+            .iter()
+            .filter(|a| *a != axis)
+            .collect();
+    }
+
+    /// The position counter of every drive, if all are known.
+    pub fn positions(&self) -> Option<PerAxis<i64>> {
+        let mut out = PerAxis::new();
+        for d in &self.drives {
+            out.set(d.axis, d.position?);
+        }
+        Some(out)
+    }
+
+    /// A poll cycle has read every drive's position.
+    pub fn position_complete(&mut self, now: Instant) {
+        if let Some(steps) = self.positions() {
+            self.position = Some(steps);
+            self.emit(Event::Position(PositionSample {
+                at: now,
+                steps,
+                source: PositionSource::Measured,
+            }));
+        }
+    }
+
+    /// `0A` told why `rejected` was not taken (or why a long action failed):
+    /// the fault with its meaning, and what it means for the machine.
+    pub fn error_read(&mut self, rejected: &Request, code: ErrorCode, quiet_not_on: bool) {
+        let axis = self.settings.axis_of(rejected.ds);
+        let was_off = self.drive(rejected.ds).is_some_and(|d| d.on == Some(false));
+        let recovery = match code {
+            ErrorCode::NOT_ON => {
+                if let Some(d) = self.drive_mut(rejected.ds) {
+                    d.on = Some(false);
+                    d.mode = None;
+                }
+                Recovery::SwitchOn
+            }
+            ErrorCode::LIMIT_SWITCH => {
+                if let Some(a) = axis {
+                    self.unreference(a);
+                }
+                Recovery::Reference
+            }
+            _ => Recovery::None,
+        };
+        let fault = ControllerFault {
+            // The frame as sent, as `Event::Reply` names it (`jogterm send`
+            // matches the two); the meaning names the drive.
+            command: rejected.to_frame().to_string(),
+            code: format!("EE {:02X}", code.0),
+            meaning: match code.meaning() {
+                Some(m) => format!("drive {}: {m}", rejected.ds),
+                None => format!(
+                    "drive {}: error {:02X} (not documented)",
+                    rejected.ds, code.0
+                ),
+            },
+            recovery,
+        };
+        let quiet = code == ErrorCode::NOT_ON && quiet_not_on;
+        if recovery != Recovery::None && !quiet {
+            self.state.fault = Some(fault.clone());
+        }
+        self.refresh();
+        if quiet {
+            if !was_off {
+                self.notice(format!(
+                    "drive {} is not switched on: initialise (i)",
+                    rejected.ds
+                ));
+            }
+        } else {
+            self.emit(Event::Fault(fault));
+        }
+    }
+}
+
+/// The fault a limit switch caused (refused as such by `gate`).
+pub fn is_limit(fault: &ControllerFault) -> bool {
+    fault.code == format!("EE {:02X}", ErrorCode::LIMIT_SWITCH.0) || fault.code == "limit"
+}

@@ -1,0 +1,866 @@
+//! The EMP driver: a sans-IO [`Driver`] for MSR DRS-500-ECS servo drives on
+//! one link (Easy Motion Protocol, manual `msr-emp-drs500-command-set.de.txt`;
+//! `../shared/protocols.md` EMP, `docs/protocols.md` EMP).
+//!
+//! Line discipline: one request at a time waits for its first answer (the
+//! drives answer in order; a round trip is 10.8 ms at 38400 baud). Long
+//! actions (`26` homing, TP `2A`) answer `55` at once and `22` on their own
+//! when done (decision 1): the core's `Correlator` matches those completions
+//! to their request by CMD and DS, so the line is free while they run and
+//! positions are polled (`2C`, always measured). Stops (`08` or `2A 03` per
+//! `emp.stop`) go out at once, whatever is outstanding. A request answered
+//! `EE` is followed by `0A` to the same drive, and the fault is reported
+//! with the meaning of its code.
+//!
+//! What runs, in order of priority:
+//! 1. stops;
+//! 2. `0A` after a rejection;
+//! 3. the current operation: read-back ([`readback`]), initialise
+//!    ([`init`]), reference runs ([`home`]), moves and jogs ([`motion_op`],
+//!    planned in [`plan`]), outputs ([`output`]), raw frames ([`raw`]);
+//! 4. raw queries, between the operation's frames;
+//! 5. the next queued request, checked when it is its turn;
+//! 6. polling ([`poll`]).
+
+mod context;
+mod home;
+mod init;
+mod io;
+mod motion_op;
+mod op;
+mod output;
+mod plan;
+mod poll;
+mod raw;
+mod readback;
+mod script;
+mod settings;
+mod speed;
+
+#[cfg(test)]
+mod tests;
+
+use std::collections::VecDeque;
+use std::time::{Duration, Instant};
+
+pub use output::output_id;
+pub use poll::{PollItem, wire_limit_hz};
+pub use raw::{STARTED, parse_raw, reply_text};
+pub use settings::{DriveAxis, EmpSettings, Timing};
+pub use speed::DriveSpeed;
+
+use crate::axis::AxisSet;
+use crate::config::Profile;
+use crate::device::api::{Activity, Event, JogEnd, JogId, MachineState, Refusal, Request};
+use crate::device::common::limits::{invalid, named_axes};
+use crate::device::common::sink::refuse;
+use crate::device::common::{
+    PollRate, Poller, Queued, RequestQueue, Running, SettingsError, Sink, StateReport, link,
+};
+use crate::device::driver::{Driver, Outgoing};
+use crate::proto::emp::{
+    Command, Correlator, DriveAddress, Event as Matched, FrameDecoder, Incoming, Reply, ReplyBody,
+    Request as Frame,
+};
+
+use context::Context;
+use home::Home;
+use init::Init;
+use motion_op::MotionOp;
+use op::Operation;
+use output::{Switch, output_request};
+use raw::{RawOp, frame_text, is_query};
+use readback::Readback;
+use script::{Next, Outcome};
+
+#[derive(Debug)]
+enum Op {
+    Readback(Readback),
+    Init(Init),
+    Home(Home),
+    Output(Switch),
+    Motion(Box<MotionOp>),
+    Raw(RawOp),
+}
+
+impl Op {
+    fn get(&mut self) -> &mut dyn Operation {
+        match self {
+            Op::Readback(o) => o,
+            Op::Init(o) => o,
+            Op::Home(o) => o,
+            Op::Output(o) => o,
+            Op::Motion(o) => o.as_mut(),
+            Op::Raw(o) => o,
+        }
+    }
+
+    fn peek(&self) -> &dyn Operation {
+        match self {
+            Op::Readback(o) => o,
+            Op::Init(o) => o,
+            Op::Home(o) => o,
+            Op::Output(o) => o,
+            Op::Motion(o) => o.as_ref(),
+            Op::Raw(o) => o,
+        }
+    }
+}
+
+/// Who waits for the answers to a frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Owner {
+    Poll(PollItem),
+    Op,
+    /// A raw query between an operation's frames.
+    Side,
+    /// `0A` after `rejected` was answered `EE`; `quiet`: "not switched on"
+    /// is a notice, not a fault (a query or a stop to a drive that is off).
+    ErrorQuery {
+        rejected: Frame,
+        quiet: bool,
+    },
+    /// A stop frame.
+    Stop,
+    /// A stop frame typed by the operator: also answered as `Event::Reply`.
+    RawStop,
+}
+
+/// The EMP driver. Build it from a profile, hand it to the device task (or
+/// drive it by hand in tests: every method takes the time).
+#[derive(Debug)]
+pub struct EmpDriver {
+    cx: Context,
+    link_up: bool,
+    decoder: FrameDecoder,
+    correlator: Correlator,
+    /// Frames sent whose answers are awaited, with who awaits them.
+    owners: Vec<(Frame, Owner)>,
+    op: Option<Op>,
+    queue: RequestQueue,
+    side: VecDeque<Frame>,
+    errors: VecDeque<(Frame, bool)>,
+    /// Stop frames to send at once.
+    stops: VecDeque<Frame>,
+    /// Typed stop frames, sent right after those.
+    raw_stops: VecDeque<Frame>,
+    poller: Poller<PollItem>,
+    /// Frames handed to the writer and not yet reported written.
+    unsent: VecDeque<Frame>,
+    /// A stop overtook a frame that may move (the stop lane jumps the
+    /// writer's queue): stop its drive again once it is written.
+    restop: Vec<Frame>,
+    quiet_until: Option<Instant>,
+    report: StateReport,
+}
+
+impl EmpDriver {
+    pub fn new(settings: EmpSettings) -> EmpDriver {
+        let timeout = settings.reply_timeout();
+        EmpDriver {
+            poller: poll::poller(&settings),
+            cx: Context::new(settings),
+            link_up: false,
+            decoder: FrameDecoder::new(),
+            correlator: Correlator::new(timeout),
+            owners: Vec::new(),
+            op: None,
+            queue: RequestQueue::default(),
+            side: VecDeque::new(),
+            errors: VecDeque::new(),
+            stops: VecDeque::new(),
+            raw_stops: VecDeque::new(),
+            unsent: VecDeque::new(),
+            restop: Vec::new(),
+            quiet_until: None,
+            report: StateReport::default(),
+        }
+    }
+
+    pub fn from_profile(profile: &Profile) -> Result<EmpDriver, SettingsError> {
+        EmpSettings::from_profile(profile).map(EmpDriver::new)
+    }
+
+    pub fn settings(&self) -> &EmpSettings {
+        &self.cx.settings
+    }
+
+    /// The machine state as the driver sees it now.
+    pub fn state(&self) -> &MachineState {
+        &self.cx.state
+    }
+
+    // ----- the line ------------------------------------------------------
+
+    fn quiet(&self, now: Instant) -> bool {
+        self.quiet_until.is_some_and(|q| now < q)
+    }
+
+    /// Hand a frame to the writer and expect its answers.
+    fn send(&mut self, frame: Frame, owner: Owner, now: Instant) -> Outgoing {
+        self.register(frame, owner, now);
+        self.unsent.push_back(frame);
+        Outgoing {
+            bytes: frame.encode().to_vec(),
+            interruptible: false,
+        }
+    }
+
+    fn register(&mut self, frame: Frame, owner: Owner, now: Instant) {
+        let ended = self.correlator.sent(frame, now);
+        self.owners.push((frame, owner));
+        for m in ended {
+            self.matched(m, now);
+        }
+    }
+
+    fn owner_of(&self, frame: &Frame) -> Option<Owner> {
+        self.owners
+            .iter()
+            .find(|(f, _)| f == frame)
+            .map(|(_, o)| *o)
+    }
+
+    fn take_owner(&mut self, frame: &Frame) -> Option<Owner> {
+        let i = self.owners.iter().position(|(f, _)| f == frame)?;
+        Some(self.owners.remove(i).1)
+    }
+
+    fn transmit(&mut self, now: Instant) -> Option<Outgoing> {
+        if !self.link_up {
+            return None;
+        }
+        if let Some(frame) = self.stops.pop_front() {
+            return Some(self.send(frame, Owner::Stop, now));
+        }
+        if let Some(frame) = self.raw_stops.pop_front() {
+            return Some(self.send(frame, Owner::RawStop, now));
+        }
+        // One first answer at a time (stops aside).
+        if self.correlator.next_deadline().is_some() || self.quiet(now) {
+            return None;
+        }
+        if let Some((rejected, quiet)) = self.errors.pop_front() {
+            let frame = Frame::new(rejected.ds, Command::LastError);
+            return Some(self.send(frame, Owner::ErrorQuery { rejected, quiet }, now));
+        }
+        loop {
+            if let Some(op) = self.op.as_mut() {
+                match op.get().next(&mut self.cx, now) {
+                    Next::Send(frame) => return Some(self.send(frame, Owner::Op, now)),
+                    Next::Wait => break,
+                    Next::Done => {
+                        self.op = None;
+                        continue;
+                    }
+                }
+            }
+            match self.queue.pop(now, &mut self.cx) {
+                Some(q) => self.begin(q, now),
+                None => break,
+            }
+        }
+        if let Some(frame) = self.side.pop_front() {
+            return Some(self.send(frame, Owner::Side, now));
+        }
+        let item = self.poller.next(now)?;
+        Some(self.send(item.request(), Owner::Poll(item), now))
+    }
+
+    /// Stop frames for `drives`, sent ahead of everything.
+    fn stop_drives(&mut self, drives: &[DriveAddress]) {
+        for ds in drives {
+            let frame = self.cx.stop_request(*ds);
+            if !self.stops.contains(&frame) {
+                self.stops.push_back(frame);
+            }
+        }
+    }
+
+    fn collect_stops(&mut self) {
+        let wanted = self
+            .op
+            .as_mut()
+            .map(|o| o.get().take_stops())
+            .unwrap_or_default();
+        if !wanted.is_empty() && self.link_up {
+            self.stop_drives(&wanted);
+        }
+    }
+
+    fn incoming(&mut self, incoming: Incoming, now: Instant) {
+        let m = self.correlator.received(incoming);
+        self.matched(m, now);
+    }
+
+    /// What the correlator made of a frame (or of a frame sent).
+    fn matched(&mut self, m: Matched, now: Instant) {
+        match m {
+            Matched::Answered { request, reply } => {
+                let owner = self.take_owner(&request);
+                self.observe(&request, &reply);
+                self.dispatch(owner, &request, Outcome::Answered, Some(&reply), now);
+            }
+            Matched::Started { request, reply } => {
+                let owner = self.owner_of(&request);
+                self.observe(&request, &reply);
+                self.dispatch(owner, &request, Outcome::Started, Some(&reply), now);
+            }
+            Matched::Completed { request, reply } => {
+                let owner = self.take_owner(&request);
+                self.observe(&request, &reply);
+                if owner.is_none() {
+                    self.cx
+                        .notice(format!("{} completed: {reply}", frame_text(&request)));
+                }
+                self.dispatch(owner, &request, Outcome::Completed, Some(&reply), now);
+            }
+            Matched::Rejected { request, reply } | Matched::Failed { request, reply } => {
+                let owner = self.take_owner(&request);
+                self.rejected(&request, owner);
+                self.dispatch(owner, &request, Outcome::Rejected, Some(&reply), now);
+            }
+            Matched::Ended { request, .. } => {
+                let owner = self.take_owner(&request);
+                self.dispatch(owner, &request, Outcome::Ended, None, now);
+            }
+            Matched::TimedOut { request } => {
+                let waited = self.cx.settings.reply_timeout();
+                let reason = link::no_reply(&frame_text(&request), waited, &mut self.cx);
+                self.go_down(&reason);
+            }
+            Matched::Malformed {
+                request,
+                incoming,
+                error,
+            } => {
+                let owner = self.take_owner(&request);
+                let mut fault = link::unreadable(&frame_text(&request), "unreadable reply");
+                fault.meaning = format!("{incoming}: {error}. {}", fault.meaning);
+                match owner {
+                    Some(Owner::Poll(_)) => {
+                        self.poller.abandon_cycle();
+                        self.cx.notice(fault.meaning);
+                    }
+                    _ => self.cx.emit(Event::Fault(fault)),
+                }
+                if request.command.may_move() {
+                    // Whether it moves is unknown: stop it.
+                    self.stop_drives(&[request.ds]);
+                }
+                self.dispatch(owner, &request, Outcome::Rejected, None, now);
+            }
+            Matched::Unexpected { incoming, reason } => {
+                if !self.quiet(now) {
+                    self.cx
+                        .notice(format!("unexpected frame {incoming} ignored: {reason}"));
+                }
+            }
+        }
+    }
+
+    fn observe(&mut self, request: &Frame, reply: &Reply) {
+        if let Some(body) = reply.body() {
+            let limits_before = self.cx.drive(request.ds).and_then(|d| d.limits);
+            self.cx.observe(request, body);
+            if let ReplyBody::Inputs { limits, .. } | ReplyBody::Outputs { limits, .. } = body {
+                let was = limits_before.is_some_and(|l| l.plus || l.minus);
+                if (limits.plus || limits.minus) && !was {
+                    self.limit_hit(request.ds, *limits);
+                }
+            }
+        }
+    }
+
+    /// A limit switch has become active: the drive has braked on its own
+    /// (manual, introduction); the axis needs a reference run.
+    fn limit_hit(&mut self, ds: DriveAddress, limits: crate::proto::emp::Limits) {
+        let Some(axis) = self.cx.settings.axis_of(ds) else {
+            return;
+        };
+        let fault = crate::device::api::ControllerFault {
+            command: format!("{ds}: 40 01"),
+            code: "limit".into(),
+            meaning: format!("drive {ds} ({axis}): {limits}: the drive braked at the switch"),
+            recovery: crate::device::api::Recovery::Reference,
+        };
+        self.cx.unreference(axis);
+        self.cx.state.fault = Some(fault.clone());
+        self.cx.emit(Event::Fault(fault));
+        if let Some(op) = self.op.as_mut() {
+            op.get().limit_hit(&mut self.cx, ds);
+        }
+        self.collect_stops();
+    }
+
+    fn rejected(&mut self, request: &Frame, owner: Option<Owner>) {
+        if request.command == Command::LastError {
+            self.cx.notice(format!(
+                "drive {} rejected 0A: the error code cannot be read",
+                request.ds
+            ));
+            return;
+        }
+        // A poll of a drive known to be off: nothing new to ask.
+        let known_off = self
+            .cx
+            .drive(request.ds)
+            .is_some_and(|d| d.on == Some(false));
+        if known_off && matches!(owner, Some(Owner::Poll(_))) {
+            return;
+        }
+        // What jogterm sent on its own to a drive that is off is a notice;
+        // what the operator asked for is a fault.
+        let quiet = matches!(owner, Some(Owner::Stop | Owner::Poll(_)))
+            || (owner == Some(Owner::Op) && matches!(self.op, Some(Op::Readback(_))));
+        self.errors.push_back((*request, quiet));
+    }
+
+    fn dispatch(
+        &mut self,
+        owner: Option<Owner>,
+        request: &Frame,
+        outcome: Outcome,
+        reply: Option<&Reply>,
+        now: Instant,
+    ) {
+        match owner {
+            Some(Owner::Op) | None => {
+                if let Some(op) = self.op.as_mut()
+                    && (owner.is_some() || op.peek().owns(request))
+                {
+                    op.get().outcome(&mut self.cx, request, outcome, reply, now);
+                }
+            }
+            Some(Owner::Poll(item)) => self.poll_reply(item, outcome, now),
+            Some(Owner::Side) => {
+                if let Some(r) = reply {
+                    self.cx.emit(Event::Reply {
+                        command: frame_text(request),
+                        text: reply_text(r),
+                    });
+                }
+            }
+            Some(Owner::ErrorQuery { rejected, quiet }) => {
+                if let Some(Reply::Ready {
+                    body: ReplyBody::LastError(code),
+                    ..
+                }) = reply
+                {
+                    self.cx.error_read(&rejected, *code, quiet);
+                }
+            }
+            Some(Owner::Stop) => {
+                if let Some(op) = self.op.as_mut() {
+                    op.get().stop_answered(request.ds);
+                }
+            }
+            Some(Owner::RawStop) => {
+                if let Some(op) = self.op.as_mut() {
+                    op.get().stop_answered(request.ds);
+                }
+                if let Some(r) = reply {
+                    self.cx.emit(Event::Reply {
+                        command: frame_text(request),
+                        text: reply_text(r),
+                    });
+                }
+            }
+        }
+        self.collect_stops();
+    }
+
+    fn poll_reply(&mut self, item: PollItem, outcome: Outcome, now: Instant) {
+        if outcome != Outcome::Answered {
+            self.poller.abandon_cycle();
+            return;
+        }
+        match item {
+            PollItem::Position(ds) => {
+                let last = self.cx.drives.last().map(|d| d.ds);
+                if last == Some(ds) {
+                    self.cx.position_complete(now);
+                    self.poller.position_read(now);
+                    if let Some(op) = self.op.as_mut() {
+                        op.get().position(&mut self.cx, now);
+                    }
+                }
+            }
+            PollItem::Io(ds) => {
+                let last = self.poller.ports().last().copied();
+                if last == Some(PollItem::Io(ds)) {
+                    let snapshot = io::snapshot(&self.cx, now);
+                    self.cx.emit(Event::Io(snapshot));
+                }
+            }
+        }
+    }
+
+    fn go_down(&mut self, _reason: &str) {
+        if !self.link_up {
+            return;
+        }
+        self.link_up = false;
+        self.correlator.clear();
+        self.owners.clear();
+        self.decoder.reset();
+        self.unsent.clear();
+        self.restop.clear();
+        self.stops.clear();
+        self.raw_stops.clear();
+        self.errors.clear();
+        self.side.clear();
+        self.quiet_until = None;
+        if let Some(mut op) = self.op.take() {
+            op.get().link_lost(&mut self.cx);
+        }
+        self.queue
+            .refuse_all(|| Refusal::NotConnected, JogEnd::LinkLost, &mut self.cx);
+        self.cx.forget();
+        self.cx.state.activity = Activity::Idle;
+    }
+
+    // ----- requests ------------------------------------------------------
+
+    fn busy(&self) -> Option<Activity> {
+        let activity = self.op.as_ref().map(|o| o.peek().activity())?;
+        (activity != Activity::Idle).then_some(activity)
+    }
+
+    fn admit(&mut self, request: Request, now: Instant) {
+        if !self.link_up {
+            refuse(&mut self.cx, &request, Refusal::NotConnected);
+            return;
+        }
+        let running = match self.busy() {
+            None => Running::Idle,
+            Some(activity) => {
+                let motion = match self.op.as_ref() {
+                    Some(Op::Motion(m)) => Some(m),
+                    _ => None,
+                };
+                Running::Busy {
+                    activity,
+                    motion: motion.is_some(),
+                    braking_jog: motion.is_some_and(|m| m.jog_id().is_some() && m.is_stopping()),
+                }
+            }
+        };
+        if let Some((delta, speed_hz)) = self.queue.admit(request, now, running, &mut self.cx)
+            && let Some(Op::Motion(m)) = self.op.as_mut()
+            && let Err(reason) = m.coalesce(&self.cx, delta, speed_hz)
+        {
+            refuse(&mut self.cx, &Request::Step { delta, speed_hz }, reason);
+        }
+    }
+
+    fn raw(&mut self, line: String, now: Instant) {
+        let request = Request::Raw { line };
+        let Request::Raw { line } = &request else {
+            return;
+        };
+        if !self.link_up {
+            refuse(&mut self.cx, &request, Refusal::NotConnected);
+            return;
+        }
+        let frame = match parse_raw(line) {
+            Ok(f) => f,
+            Err(reason) => {
+                refuse(&mut self.cx, &request, reason);
+                return;
+            }
+        };
+        if frame.command.is_stop() {
+            // A typed stop goes at once, like the stop key.
+            self.queue.refuse_all(
+                || Refusal::Invalid {
+                    reason: "cancelled by stop".into(),
+                },
+                JogEnd::Stopped,
+                &mut self.cx,
+            );
+            if let Some(op) = self.op.as_mut() {
+                op.get().stopped(&mut self.cx, &[frame.ds]);
+            }
+            self.raw_stops.push_back(frame);
+            return;
+        }
+        if is_query(&frame.command) && self.op.is_some() {
+            self.side.push_back(frame);
+            return;
+        }
+        self.admit(request, now);
+    }
+
+    /// A queued request's turn has come: check it against the state now.
+    fn begin(&mut self, queued: Queued, now: Instant) {
+        let cx = &self.cx;
+        let started: Result<Option<Op>, Refusal> = match &queued.request {
+            Request::Jog {
+                id, axes, speed_hz, ..
+            } => {
+                let until = queued.lease_until.unwrap_or(now);
+                plan::jog(cx, axes, speed_hz)
+                    .map(|p| Some(Op::Motion(Box::new(MotionOp::jog(cx, p, *id, until)))))
+            }
+            Request::Step { delta, speed_hz } => match cx.positions() {
+                Some(base) => plan::step(cx, &base, delta, speed_hz)
+                    .map(|p| Some(Op::Motion(Box::new(MotionOp::step(cx, p, *delta))))),
+                None => Err(Refusal::NotInitialised),
+            },
+            Request::MoveTo {
+                target,
+                frame,
+                speed_hz,
+            } => plan::move_to(cx, target, *frame, speed_hz)
+                .map(|p| Some(Op::Motion(Box::new(MotionOp::move_to(cx, p))))),
+            Request::Home { axes } => named_axes(cx.settings.axes, *axes)
+                .and_then(|()| cx.motion_allowed(*axes, true))
+                .and_then(|()| {
+                    Home::new(cx, *axes)
+                        .map(|h| Some(Op::Home(h)))
+                        .ok_or_else(|| invalid(format!("{axes} cannot be referenced")))
+                }),
+            Request::SetZero { axes } => self.set_zero(*axes).map(|()| None),
+            Request::SetOutput { output, value } => {
+                output_request(cx, *output, *value).map(|f| Some(Op::Output(Switch::new(f))))
+            }
+            Request::Raw { line } => parse_raw(line)
+                .and_then(|f| RawOp::new(cx, f))
+                .map(|op| Some(Op::Raw(op))),
+            Request::Initialise => Ok(Some(Op::Init(Init::new(cx)))),
+            Request::Upload { .. } | Request::RunProgram => Err(invalid(
+                "EMP drives store no programs (EMP manual: every command runs at once)",
+            )),
+            Request::Reset => Err(invalid(
+                "EMP drives have no reset command: stop, then initialise (i)",
+            )),
+            Request::JogRenew { .. }
+            | Request::JogRelease { .. }
+            | Request::Poll { .. }
+            | Request::Shutdown => Ok(None),
+        };
+        match started {
+            Ok(op) => {
+                if op.is_some() {
+                    self.op = op;
+                }
+            }
+            Err(reason) => refuse(&mut self.cx, &queued.request, reason),
+        }
+    }
+
+    /// jogterm's work zero: `20 05` would set the drive's counter, but it
+    /// switches the controller off (manual "20 05": "Der Regler wird
+    /// abgeschaltet") and the counter would no longer count from the
+    /// reference point, so `SetZero` only records the position
+    /// (docs/protocols.md, EMP).
+    fn set_zero(&mut self, axes: AxisSet) -> Result<(), Refusal> {
+        named_axes(self.cx.settings.axes, axes)?;
+        let position = self.cx.positions().ok_or(Refusal::NotInitialised)?;
+        for axis in axes.iter() {
+            self.cx
+                .state
+                .work_zero
+                .set(axis, position.get(axis).unwrap_or(0));
+        }
+        Ok(())
+    }
+
+    fn renew(&mut self, id: JogId, lease: Duration, now: Instant) {
+        if let Some(Op::Motion(m)) = self.op.as_mut()
+            && m.renew(id, lease, now)
+        {
+            return;
+        }
+        self.queue.renew(id, lease, now);
+    }
+
+    fn release(&mut self, id: JogId) {
+        if let Some(Op::Motion(m)) = self.op.as_mut()
+            && m.release(id)
+        {
+            self.collect_stops();
+            return;
+        }
+        self.queue.release(id, &mut self.cx);
+    }
+
+    /// Bring `state` up to date and tell the clients when it changed.
+    fn settle(&mut self, _now: Instant) {
+        self.collect_stops();
+        self.cx.state.activity = self
+            .op
+            .as_ref()
+            .map_or(Activity::Idle, |o| o.peek().activity());
+        self.cx.state.link_up = self.link_up;
+        self.cx.refresh();
+        self.report.publish(&self.cx.state, &mut self.cx.events);
+    }
+
+    /// The stop frames for every drive, as one message.
+    fn stop_bytes(&self) -> Vec<u8> {
+        self.cx
+            .addresses()
+            .into_iter()
+            .flat_map(|ds| self.cx.stop_request(ds).encode())
+            .collect()
+    }
+}
+
+impl Driver for EmpDriver {
+    /// The first frames on every connection stop every drive: whatever ran
+    /// before the link broke must not go on while its state is unknown. A
+    /// drive that is not switched on answers `EE` to it (a notice). Answers
+    /// to what was in flight before fall into the quiet that follows; then
+    /// the state is read back.
+    fn connected(&mut self, now: Instant) {
+        self.go_down("reconnected");
+        self.link_up = true;
+        self.poller.reset();
+        let all = self.cx.addresses();
+        self.stop_drives(&all);
+        self.quiet_until = Some(now + self.cx.settings.timing.connect_settle);
+        self.op = Some(Op::Readback(Readback::new(&self.cx)));
+        self.settle(now);
+    }
+
+    fn disconnected(&mut self, reason: &str, now: Instant) {
+        self.go_down(reason);
+        self.settle(now);
+    }
+
+    fn request(&mut self, request: Request, now: Instant) {
+        match request {
+            Request::Shutdown => {}
+            Request::Poll {
+                rate_hz,
+                ports_every,
+            } => self
+                .poller
+                .set_rate(PollRate::from_request(rate_hz), ports_every),
+            Request::JogRenew { id, lease } => self.renew(id, lease, now),
+            Request::JogRelease { id } => self.release(id),
+            Request::Raw { line } => self.raw(line, now),
+            other => self.admit(other, now),
+        }
+        self.settle(now);
+    }
+
+    fn stop(&mut self, now: Instant) -> Outgoing {
+        let all = self.cx.addresses();
+        if self.link_up {
+            self.queue.refuse_all(
+                || Refusal::Invalid {
+                    reason: "cancelled by stop".into(),
+                },
+                JogEnd::Stopped,
+                &mut self.cx,
+            );
+            self.side.clear();
+            if let Some(op) = self.op.as_mut() {
+                op.get().stopped(&mut self.cx, &all);
+                let _ = op.get().take_stops();
+            }
+            // Frames handed out that may move and are not on the wire yet
+            // go after the stop: stop their drives again once written.
+            for f in &self.unsent {
+                if f.command.may_move() && !self.restop.contains(f) {
+                    self.restop.push(*f);
+                }
+            }
+            for ds in &all {
+                let frame = self.cx.stop_request(*ds);
+                self.stops.retain(|f| *f != frame);
+                self.register(frame, Owner::Stop, now);
+            }
+        }
+        self.settle(now);
+        Outgoing {
+            bytes: self.stop_bytes(),
+            interruptible: false,
+        }
+    }
+
+    fn emergency_stop_bytes(&self) -> Vec<u8> {
+        self.stop_bytes()
+    }
+
+    fn received(&mut self, bytes: &[u8], now: Instant) {
+        if !self.link_up || bytes.is_empty() {
+            return;
+        }
+        for result in self.decoder.feed(bytes) {
+            match result {
+                Ok(incoming) => self.incoming(incoming, now),
+                Err(e) => {
+                    if !self.quiet(now) {
+                        self.cx.notice(format!("framing error on the line: {e}"));
+                    }
+                }
+            }
+        }
+        self.settle(now);
+    }
+
+    fn transmitted(&mut self, now: Instant) {
+        if let Some(frame) = self.unsent.pop_front()
+            && let Some(i) = self.restop.iter().position(|f| *f == frame)
+        {
+            self.restop.remove(i);
+            if self.link_up {
+                self.stop_drives(&[frame.ds]);
+            }
+        }
+        self.settle(now);
+    }
+
+    fn poll_transmit(&mut self, now: Instant) -> Option<Outgoing> {
+        let out = self.transmit(now);
+        self.settle(now);
+        out
+    }
+
+    fn poll_event(&mut self) -> Option<Event> {
+        self.cx.events.pop_front()
+    }
+
+    fn next_timeout(&self) -> Option<Instant> {
+        let mut times = vec![
+            self.quiet_until,
+            self.correlator.next_deadline(),
+            self.poller.stats_due(),
+        ];
+        if self.correlator.next_deadline().is_none() {
+            times.push(self.poller.due());
+        }
+        if let Some(op) = &self.op {
+            times.push(op.peek().timer());
+        }
+        times.into_iter().flatten().min()
+    }
+
+    fn handle_timeout(&mut self, now: Instant) {
+        if self.quiet_until.is_some_and(|q| now >= q) {
+            self.quiet_until = None;
+        }
+        if self.link_up {
+            let timed_out = self.correlator.poll_timeouts(now);
+            if let Some(first) = timed_out.into_iter().next() {
+                self.matched(first, now);
+            }
+        }
+        if let Some(op) = self.op.as_mut()
+            && op.peek().timer().is_some_and(|t| t <= now)
+        {
+            op.get().on_timer(&mut self.cx, now);
+        }
+        if self.poller.stats_due().is_some_and(|t| now >= t) {
+            let limit = wire_limit_hz(&self.poller, self.cx.settings.line, self.cx.drives.len());
+            if let Some(stats) = self.poller.take_stats(now, limit) {
+                self.cx.emit(Event::Stats(stats));
+            }
+        }
+        self.settle(now);
+    }
+}

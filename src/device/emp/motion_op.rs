@@ -1,0 +1,394 @@
+//! Jogs, steps and go-to moves as one operation: the mode each drive needs
+//! (`22 … 03` IV for velocity, `22 … 07` TPWM for positioning, manual "22"),
+//! the sample rate for the speed (`20 19`), then the move (`2A 00 v` or
+//! `2A 01 Vmax target`). Positioning answers `55` and later `22` on its own
+//! (decision 1); a velocity jog runs until it is released, its lease runs
+//! out, it reaches the soft-limit look-ahead or the operator stops; the
+//! driver then sends `08` or `2A 03` (`emp.stop`) to its drives and the
+//! operation ends when they have answered.
+
+use std::time::{Duration, Instant};
+
+use crate::device::api::{Activity, ControllerFault, JogEnd, JogId, PerAxis, Recovery, Refusal};
+use crate::device::common::MotionKind;
+use crate::device::common::deadline;
+use crate::device::common::motion::Coalescing;
+use crate::device::common::sink::refuse_step;
+use crate::proto::emp::{Command, DriveAddress, OperatingMode, Reply, Request};
+
+use crate::device::common::Sink;
+
+use super::context::Context;
+use super::op::Operation;
+use super::plan::{self, Plan, Style, lookahead};
+use super::script::{Next, Outcome, Script, Step};
+
+#[derive(Debug)]
+pub struct MotionOp {
+    kind: MotionKind,
+    plan: Plan,
+    script: Script,
+    stopping: bool,
+    /// Drives whose stop frame has not been answered yet.
+    stop_wait: Vec<DriveAddress>,
+    stops: Vec<DriveAddress>,
+    failed: bool,
+    /// The change the running step makes.
+    in_flight: Option<PerAxis<i64>>,
+    deadline: Option<Instant>,
+    timeout: Duration,
+}
+
+fn script_for(cx: &Context, plan: &Plan) -> Script {
+    let mode = match plan.style {
+        Style::Velocity => OperatingMode::Iv,
+        Style::Position => OperatingMode::Tpwm,
+    };
+    let mut steps = Vec::new();
+    for leg in &plan.legs {
+        let d = cx.drive(leg.ds);
+        if d.and_then(|d| d.mode) != Some(mode) {
+            steps.push(Step::Send(Request::new(leg.ds, Command::MotorEnable(mode))));
+        }
+        if d.and_then(|d| d.reload) != Some(leg.speed.reload) {
+            steps.push(Step::Send(Request::new(
+                leg.ds,
+                Command::SampleRate(leg.speed.reload),
+            )));
+        }
+        let command = match (plan.style, leg.target) {
+            (Style::Position, Some(target)) => Command::MoveTo {
+                vmax: leg.speed.speed,
+                target,
+            },
+            _ => Command::Drive {
+                velocity: leg.speed.velocity(leg.dir.sign() < 0),
+                target: crate::proto::emp::Position::ZERO,
+            },
+        };
+        steps.push(Step::Send(Request::new(leg.ds, command)));
+    }
+    if plan.style == Style::Position {
+        steps.push(Step::Barrier);
+    }
+    Script::new(steps)
+}
+
+/// How long a positioning may take: the longest leg at its speed, plus the
+/// margins of `common::deadline::motion`, plus a round trip per frame.
+fn timeout_for(cx: &Context, plan: &Plan) -> Duration {
+    let secs = plan
+        .legs
+        .iter()
+        .map(|l| l.distance as f64 / l.hz().max(1.0))
+        .fold(0.0, f64::max);
+    let frames = u32::try_from(plan.legs.len() * 3).unwrap_or(u32::MAX);
+    deadline::motion(Duration::from_secs_f64(secs)) + cx.settings.timing.round_trip * frames
+}
+
+impl MotionOp {
+    fn new(cx: &Context, kind: MotionKind, plan: Plan, delta: Option<PerAxis<i64>>) -> MotionOp {
+        MotionOp {
+            script: script_for(cx, &plan),
+            timeout: timeout_for(cx, &plan),
+            kind,
+            plan,
+            stopping: false,
+            stop_wait: Vec::new(),
+            stops: Vec::new(),
+            failed: false,
+            in_flight: delta,
+            deadline: None,
+        }
+    }
+
+    pub fn jog(cx: &Context, plan: Plan, id: JogId, until: Instant) -> MotionOp {
+        MotionOp::new(cx, MotionKind::jog(id, until), plan, None)
+    }
+
+    pub fn step(cx: &Context, plan: Plan, delta: PerAxis<i64>) -> MotionOp {
+        MotionOp::new(cx, MotionKind::step(), plan, Some(delta))
+    }
+
+    pub fn move_to(cx: &Context, plan: Plan) -> MotionOp {
+        MotionOp::new(cx, MotionKind::MoveTo, plan, None)
+    }
+
+    pub fn jog_id(&self) -> Option<JogId> {
+        self.kind.jog_id()
+    }
+
+    pub fn is_stopping(&self) -> bool {
+        self.stopping
+    }
+
+    pub fn renew(&mut self, id: JogId, lease: Duration, now: Instant) -> bool {
+        !self.stopping && self.kind.renew(id, lease, now)
+    }
+
+    /// The jog `id` was let go: stop it. False when this is not that jog.
+    pub fn release(&mut self, id: JogId) -> bool {
+        if self.kind.jog_id() != Some(id) {
+            return false;
+        }
+        self.kind.set_jog_end(JogEnd::Released, false);
+        self.halt();
+        true
+    }
+
+    /// Stop the drives of this move (the driver sends the frames).
+    fn halt(&mut self) {
+        if self.stopping {
+            return;
+        }
+        self.stopping = true;
+        self.script.cancel();
+        self.deadline = None;
+        let drives = self.plan.drives();
+        self.stop_wait = drives.clone();
+        self.stops = drives;
+    }
+
+    /// A step pressed while this runs.
+    pub fn coalesce(
+        &mut self,
+        cx: &Context,
+        delta: PerAxis<i64>,
+        speeds: PerAxis<f64>,
+    ) -> Result<(), Refusal> {
+        let position = cx.positions().unwrap_or_default();
+        let at = Coalescing {
+            open: !self.stopping && !self.failed,
+            bound: cx.settings.jog.step_queue,
+            position: &position,
+            in_flight: self.in_flight.as_ref(),
+            activity: self.activity(),
+        };
+        self.kind.coalesce(at, delta, speeds, |base| {
+            let target = crate::device::common::limits::shifted(base, &delta);
+            plan::within_limits(cx, &target)
+        })
+    }
+
+    fn fault_of(request: &Request) -> ControllerFault {
+        ControllerFault {
+            command: request.to_string(),
+            code: "EE".into(),
+            meaning: format!("drive {} rejected the move", request.ds),
+            recovery: Recovery::None,
+        }
+    }
+
+    /// The steps waiting behind a finished step, as the next move.
+    fn next_step(&mut self, cx: &mut Context) -> bool {
+        let Some((delta, speeds)) = self.kind.take_pending() else {
+            return false;
+        };
+        let Some(base) = cx.positions() else {
+            refuse_step(cx, &delta, Refusal::NotInitialised);
+            return false;
+        };
+        match plan::step(cx, &base, &delta, &speeds) {
+            Ok(plan) => {
+                self.script = script_for(cx, &plan);
+                self.timeout = timeout_for(cx, &plan);
+                self.plan = plan;
+                self.in_flight = Some(delta);
+                true
+            }
+            Err(reason) => {
+                refuse_step(cx, &delta, reason);
+                false
+            }
+        }
+    }
+}
+
+impl Operation for MotionOp {
+    fn next(&mut self, cx: &mut Context, now: Instant) -> Next {
+        loop {
+            let next = self.script.next();
+            match next {
+                Next::Send(Request {
+                    command: Command::MoveTo { .. },
+                    ..
+                }) => {
+                    self.deadline.get_or_insert(now + self.timeout);
+                    return next;
+                }
+                Next::Send(_) => return next,
+                Next::Wait => return Next::Wait,
+                Next::Done => {}
+            }
+            if self.stopping {
+                if !self.stop_wait.is_empty() {
+                    return Next::Wait;
+                }
+            } else if self.plan.style == Style::Velocity && !self.failed {
+                // Runs until stopped.
+                return Next::Wait;
+            } else if !self.failed {
+                self.deadline = None;
+                self.in_flight = None;
+                self.kind.set_jog_end(JogEnd::SoftLimit, false);
+                if self.next_step(cx) {
+                    continue;
+                }
+            }
+            self.kind.drop_pending(
+                cx,
+                Refusal::Busy {
+                    activity: Activity::Stopping,
+                },
+            );
+            self.kind.report_jog(cx);
+            return Next::Done;
+        }
+    }
+
+    fn outcome(
+        &mut self,
+        _cx: &mut Context,
+        request: &Request,
+        outcome: Outcome,
+        _reply: Option<&Reply>,
+        _now: Instant,
+    ) {
+        self.script.outcome(request, outcome);
+        if outcome == Outcome::Rejected {
+            self.failed = true;
+            self.kind
+                .set_jog_end(JogEnd::Fault(MotionOp::fault_of(request)), false);
+            // Legs already sent may be moving: stop them all.
+            self.halt();
+        }
+    }
+
+    fn owns(&self, request: &Request) -> bool {
+        self.script.owns(request)
+    }
+
+    fn activity(&self) -> Activity {
+        // Over, only `next` has not yet said so: requests may queue.
+        let over = self.script.idle()
+            && self.kind.pending_steps() == 0
+            && if self.stopping {
+                self.stop_wait.is_empty()
+            } else {
+                self.plan.style == Style::Position || self.failed
+            };
+        self.kind.activity(!over, self.stopping)
+    }
+
+    fn timer(&self) -> Option<Instant> {
+        if self.stopping {
+            return self.deadline;
+        }
+        [self.kind.lease_until(), self.deadline]
+            .into_iter()
+            .flatten()
+            .min()
+    }
+
+    fn on_timer(&mut self, cx: &mut Context, now: Instant) {
+        if self.stopping {
+            self.deadline = None;
+            return;
+        }
+        if self.kind.lease_until().is_some_and(|t| t <= now) {
+            self.kind.set_jog_end(JogEnd::DeadMan, false);
+            self.halt();
+        } else if self.deadline.is_some_and(|t| t <= now) {
+            let fault = ControllerFault {
+                command: "2A 01 (positioning)".into(),
+                code: "timeout".into(),
+                meaning: format!(
+                    "the move did not report in position within {} ms: stopped",
+                    self.timeout.as_millis()
+                ),
+                recovery: Recovery::None,
+            };
+            cx.emit(crate::device::api::Event::Fault(fault.clone()));
+            self.kind.set_jog_end(JogEnd::Fault(fault), false);
+            self.failed = true;
+            self.halt();
+        }
+    }
+
+    fn position(&mut self, cx: &mut Context, _now: Instant) {
+        if self.stopping || self.plan.style != Style::Velocity {
+            return;
+        }
+        for leg in &self.plan.legs {
+            if !cx.state.referenced.contains(leg.axis) {
+                continue;
+            }
+            let (Some(pos), Some(l)) = (
+                cx.drive(leg.ds).and_then(|d| d.position),
+                cx.settings.limits.get(leg.axis),
+            ) else {
+                continue;
+            };
+            let room = if leg.dir.sign() > 0 {
+                l.max - pos
+            } else {
+                pos - l.min
+            };
+            if (room as f64) <= lookahead(cx, leg.hz()) {
+                self.kind.set_jog_end(JogEnd::SoftLimit, false);
+                self.halt();
+                return;
+            }
+        }
+    }
+
+    fn take_stops(&mut self) -> Vec<DriveAddress> {
+        std::mem::take(&mut self.stops)
+    }
+
+    fn stopped(&mut self, cx: &mut Context, drives: &[DriveAddress]) {
+        self.kind.set_jog_end(JogEnd::Stopped, false);
+        self.kind.drop_pending(
+            cx,
+            Refusal::Invalid {
+                reason: "cancelled by stop".into(),
+            },
+        );
+        self.stopping = true;
+        self.script.cancel();
+        self.deadline = None;
+        self.stops.clear();
+        for ds in drives {
+            if !self.stop_wait.contains(ds) {
+                self.stop_wait.push(*ds);
+            }
+        }
+    }
+
+    fn stop_answered(&mut self, ds: DriveAddress) {
+        self.stop_wait.retain(|d| *d != ds);
+    }
+
+    fn link_lost(&mut self, cx: &mut Context) {
+        self.kind.set_jog_end(JogEnd::LinkLost, true);
+        self.kind.report_jog(cx);
+        self.kind.drop_pending(cx, Refusal::NotConnected);
+    }
+
+    fn limit_hit(&mut self, _cx: &mut Context, ds: DriveAddress) {
+        if !self.plan.drives().contains(&ds) || self.stopping {
+            return;
+        }
+        self.failed = true;
+        self.kind.set_jog_end(
+            JogEnd::Fault(ControllerFault {
+                command: format!("{ds}: move"),
+                code: "limit".into(),
+                meaning: format!("drive {ds}: limit switch hit"),
+                recovery: Recovery::Reference,
+            }),
+            false,
+        );
+        self.halt();
+    }
+}

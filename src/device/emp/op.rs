@@ -1,0 +1,59 @@
+//! What an operation of the EMP driver is: it hands out the frames it wants
+//! sent (one at a time, [`Script`]), takes the outcomes of its own requests,
+//! and may ask for its drives to be stopped (release, lease expiry, soft
+//! limit). The driver owns the line and the stops; operations own the meaning.
+
+use std::time::Instant;
+
+use crate::device::api::Activity;
+use crate::proto::emp::{DriveAddress, Reply, Request};
+
+use super::context::Context;
+use super::script::{Next, Outcome};
+
+pub trait Operation {
+    fn next(&mut self, cx: &mut Context, now: Instant) -> Next;
+
+    /// An outcome of a request this operation sent (`reply` when one came).
+    fn outcome(
+        &mut self,
+        cx: &mut Context,
+        request: &Request,
+        outcome: Outcome,
+        reply: Option<&Reply>,
+        now: Instant,
+    );
+
+    fn owns(&self, request: &Request) -> bool;
+
+    fn activity(&self) -> Activity;
+
+    /// When `on_timer` is due (a jog lease, a move's deadline).
+    fn timer(&self) -> Option<Instant> {
+        None
+    }
+
+    fn on_timer(&mut self, _cx: &mut Context, _now: Instant) {}
+
+    /// A new position sample.
+    fn position(&mut self, _cx: &mut Context, _now: Instant) {}
+
+    /// The drives this operation wants stopped now (release, lease expiry,
+    /// soft limit, a failed leg); the driver sends the stop frames.
+    fn take_stops(&mut self) -> Vec<DriveAddress> {
+        Vec::new()
+    }
+
+    /// The operator stopped everything: send nothing more, end what is
+    /// reported (a jog ends `Stopped`), wait for the stop frames' answers.
+    fn stopped(&mut self, cx: &mut Context, drives: &[DriveAddress]);
+
+    /// A stop frame to `ds` was answered (or rejected).
+    fn stop_answered(&mut self, _ds: DriveAddress) {}
+
+    /// The link is gone: report the end, forget the rest.
+    fn link_lost(&mut self, _cx: &mut Context) {}
+
+    /// A limit switch became active on `ds` while this ran.
+    fn limit_hit(&mut self, _cx: &mut Context, _ds: DriveAddress) {}
+}

@@ -1,0 +1,184 @@
+//! Connecting, reading the state back, initialising, polling.
+
+use crate::axis::{Axis, AxisSet};
+use crate::device::api::{Event, PositionSource, Recovery, Refusal, Request};
+use crate::device::common::testing::refusal_reasons;
+use crate::proto::emp::DriveAddress;
+
+use super::harness::{Harness, ms};
+
+#[test]
+fn the_first_frame_stops_then_the_state_is_read_back() {
+    let mut h = Harness::emp(|_| {});
+    h.connect(100, true);
+    let s = h.state();
+    assert!(s.link_up);
+    assert_eq!(s.initialised, AxisSet::EMPTY.with(Axis::X));
+    assert_eq!(s.referenced, AxisSet::EMPTY);
+    let p = h.positions();
+    assert_eq!(p.last().map(|p| p.steps.get(Axis::X)), Some(Some(100)));
+    assert_eq!(p.last().map(|p| p.source), Some(PositionSource::Measured));
+    assert!(
+        h.notices()
+            .iter()
+            .any(|n| n.starts_with("state read back: drive 11 (X) on, at 100"))
+    );
+    assert!(h.events.iter().any(|e| matches!(e, Event::Io(_))));
+    assert!(h.faults().is_empty(), "{:?}", h.faults());
+}
+
+#[test]
+fn a_drive_that_is_not_on_is_not_initialised_and_motion_is_refused() {
+    let mut h = Harness::emp(|_| {});
+    h.connect(0, false);
+    assert_eq!(h.state().initialised, AxisSet::EMPTY);
+    assert!(h.notices().iter().any(|n| n.contains("not switched on")));
+    // No fault for what the read-back expected.
+    assert!(h.faults().is_empty(), "{:?}", h.faults());
+    h.request(Request::Home {
+        axes: AxisSet::EMPTY.with(Axis::X),
+    });
+    h.expect_nothing();
+    assert_eq!(refusal_reasons(&h.events), vec![Refusal::NotInitialised]);
+}
+
+#[test]
+fn initialise_switches_every_drive_on_then_sets_the_jog_mode() {
+    let mut h = Harness::emp(|_| {});
+    h.connect(0, false);
+    h.request(Request::Initialise);
+    h.expect_frame("02 11 11 00 00000000");
+    h.answer("03 11 00 22 00000000");
+    h.expect_frame("22 11 03 00 00000000");
+    h.answer("23 11 00 22 00000000");
+    h.expect_nothing();
+    assert_eq!(h.state().initialised, AxisSet::EMPTY.with(Axis::X));
+    assert!(h.notices().iter().any(|n| n.starts_with("initialised")));
+}
+
+#[test]
+fn position_mode_jogs_initialise_tpwm() {
+    let mut h = Harness::emp(|s| s.jog_style = crate::config::profile::EmpJog::Position);
+    h.connect(0, true);
+    h.request(Request::Initialise);
+    h.expect_frame("02 11 11 00 00000000");
+    h.answer("03 11 00 22 00000000");
+    h.expect_frame("22 11 07 00 00000000");
+}
+
+#[test]
+fn polls_read_positions_and_every_nth_cycle_the_inputs() {
+    let mut h = Harness::emp(|_| {});
+    h.connect(0, true);
+    h.poll();
+    h.events.clear();
+    h.expect_frame("2C 11 00 00 00000000");
+    h.answer("2D 11 00 22 00000010");
+    h.expect_frame("40 11 01 00 00000000");
+    h.answer("41 11 04 22 00000005");
+    for n in 0..3u32 {
+        h.expect_frame("2C 11 00 00 00000000");
+        h.answer(&format!("2D 11 00 22 {:08X}", 0x20 + n));
+    }
+    h.expect_frame("2C 11 00 00 00000000");
+    let xs: Vec<Option<i64>> = h.positions().iter().map(|p| p.steps.get(Axis::X)).collect();
+    assert_eq!(xs, [Some(16), Some(32), Some(33), Some(34)]);
+    let io = h
+        .events
+        .iter()
+        .find_map(|e| match e {
+            Event::Io(s) => Some(s.clone()),
+            _ => None,
+        })
+        .expect("io");
+    let on: Vec<&str> = io.groups[0]
+        .bits
+        .iter()
+        .filter(|b| b.value)
+        .map(|b| b.name.as_str())
+        .collect();
+    assert_eq!(on, ["reference", "I1", "I3"]);
+}
+
+#[test]
+fn a_poll_rate_spaces_the_cycles() {
+    let mut h = Harness::emp(|_| {});
+    h.connect(0, true);
+    h.request(Request::Poll {
+        rate_hz: Some(10.0),
+        ports_every: 1000,
+    });
+    h.expect_frame("2C 11 00 00 00000000");
+    h.answer("2D 11 00 22 00000000");
+    h.expect_frame("40 11 01 00 00000000");
+    h.answer("41 11 00 22 00000000");
+    h.expect_nothing();
+    h.advance(ms(99));
+    h.expect_nothing();
+    h.advance(ms(1));
+    h.expect_frame("2C 11 00 00 00000000");
+}
+
+#[test]
+fn an_ee_is_read_with_0a_and_reported_with_its_meaning() {
+    let mut h = Harness::emp(|_| {});
+    h.connect(0, true);
+    h.request(Request::Raw {
+        line: "24 11 00 00 00 00 00 00".into(),
+    });
+    h.expect_frame("24 11 00 00 00000000");
+    h.answer("25 11 00 EE 00000000");
+    h.expect_frame("0A 11 00 00 00000000");
+    h.answer("0B 11 00 22 00000004");
+    let fault = h
+        .events
+        .iter()
+        .find_map(|e| match e {
+            Event::Fault(f) => Some(f.clone()),
+            _ => None,
+        })
+        .expect("fault");
+    assert_eq!(fault.code, "EE 04");
+    assert_eq!(
+        fault.meaning,
+        "drive 11: not possible in this operating mode"
+    );
+    assert_eq!(fault.recovery, Recovery::None);
+    assert!(h.state().fault.is_none());
+}
+
+#[test]
+fn a_motion_command_to_a_drive_that_is_off_asks_to_switch_it_on() {
+    let mut h = Harness::emp(|_| {});
+    h.connect(0, true);
+    h.request(Request::Raw {
+        line: "2A 11 00 05 00000000".into(),
+    });
+    h.expect_frame("2A 11 00 05 00000000");
+    h.answer("2B 11 00 EE 00000000");
+    h.expect_frame("0A 11 00 00 00000000");
+    h.answer("0B 11 00 22 00000002");
+    let s = h.state();
+    assert_eq!(s.fault.map(|f| f.recovery), Some(Recovery::SwitchOn));
+    assert_eq!(s.initialised, AxisSet::EMPTY);
+    h.request(Request::Initialise);
+    h.expect_frame("02 11 11 00 00000000");
+    h.answer("03 11 00 22 00000000");
+    assert!(h.state().fault.is_none());
+    assert_eq!(DriveAddress::SINGLE.byte(), 0x11);
+}
+
+#[test]
+fn polls_of_a_drive_known_to_be_off_do_not_ask_again() {
+    let mut h = Harness::emp(|_| {});
+    h.connect(0, false);
+    h.poll();
+    h.events.clear();
+    for _ in 0..3 {
+        h.expect_frame("2C 11 00 00 00000000");
+        h.answer("2D 11 00 EE 00000000");
+    }
+    h.expect_frame("2C 11 00 00 00000000");
+    assert!(h.notices().is_empty(), "{:?}", h.notices());
+    assert!(h.faults().is_empty());
+}

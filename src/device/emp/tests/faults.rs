@@ -1,0 +1,162 @@
+//! Faults: missing replies, garbage, unsolicited frames, a rejected move,
+//! a link lost mid-jog. The right event and recovery, no panic, no hang, no
+//! motion command sent twice.
+
+use std::time::Duration;
+
+use crate::axis::Axis;
+use crate::device::api::{Dir, Event, JogEnd, JogId, LinkState, Recovery, Request};
+use crate::device::driver::Driver;
+
+use super::harness::{Harness, frame, ms, x_speed};
+
+fn jog(id: u64) -> Request {
+    Request::Jog {
+        id: JogId(id),
+        axes: vec![(Axis::X, Dir::Plus)],
+        speed_hz: x_speed(2240.0),
+        lease: Duration::from_millis(750),
+    }
+}
+
+#[test]
+fn a_reply_that_never_comes_loses_the_link() {
+    let mut h = Harness::emp(|_| {});
+    h.connect(0, true);
+    h.poll();
+    h.expect_frame("2C 11 00 00 00000000");
+    // Round trip 10.45 ms for this and one queued stop, plus 100 ms.
+    h.advance(ms(110));
+    assert!(h.faults().is_empty());
+    h.advance(ms(20));
+    let faults = h.faults();
+    assert!(
+        faults.len() == 1 && faults[0].ends_with(" timeout"),
+        "{faults:?}"
+    );
+    assert!(
+        h.events
+            .iter()
+            .any(|e| matches!(e, Event::Link(LinkState::Lost { .. })))
+    );
+    assert!(!h.state().link_up);
+    h.expect_nothing();
+}
+
+#[test]
+fn garbage_is_reported_and_polling_goes_on() {
+    let mut h = Harness::emp(|_| {});
+    h.connect(0, true);
+    h.poll();
+    h.expect_frame("2C 11 00 00 00000000");
+    h.reply(b"2D11xx\x1a");
+    assert!(h.notices().iter().any(|n| n.starts_with("framing error")));
+    // The answer itself never came: the link is declared dead after its
+    // deadline, not before.
+    h.answer("2D 11 00 22 00000010");
+    h.expect_frame("40 11 01 00 00000000");
+}
+
+#[test]
+fn an_unsolicited_frame_is_ignored_with_a_notice() {
+    let mut h = Harness::emp(|_| {});
+    h.connect(0, true);
+    h.answer("27 11 00 22 00000000");
+    assert!(
+        h.notices()
+            .iter()
+            .any(|n| n.starts_with("unexpected frame"))
+    );
+    assert_eq!(h.state().referenced, crate::axis::AxisSet::EMPTY);
+    h.expect_nothing();
+}
+
+#[test]
+fn a_rejected_move_ends_the_jog_and_reports_the_code() {
+    let mut h = Harness::emp(|_| {});
+    h.ready(1_000_000);
+    h.request(jog(1));
+    h.expect_frame("20 11 19 00 0000EFC7");
+    h.answer("21 11 00 22 00000000");
+    h.expect_frame("2A 11 00 0B 00000000");
+    h.answer("2B 11 00 EE 00000000");
+    // The drive may be moving after all: stop it, then ask why.
+    h.expect_frame("08 11 00 00 00000000");
+    h.expect_nothing();
+    h.answer("09 11 00 22 00000000");
+    h.expect_frame("0A 11 00 00 00000000");
+    h.answer("0B 11 00 22 00000005");
+    h.expect_nothing();
+    assert!(matches!(h.jog_ends().as_slice(), [(1, JogEnd::Fault(_))]));
+    let s = h.state();
+    assert_eq!(s.fault.map(|f| f.recovery), Some(Recovery::Reference));
+    assert!(!s.referenced.contains(Axis::X));
+    assert!(h.faults().iter().any(|f| f.ends_with("EE 05")));
+}
+
+#[test]
+fn a_link_lost_mid_jog_ends_it_and_nothing_is_sent_again() {
+    let mut h = Harness::emp(|_| {});
+    h.ready(1_000_000);
+    h.request(jog(2));
+    h.expect_frame("20 11 19 00 0000EFC7");
+    h.answer("21 11 00 22 00000000");
+    h.expect_frame("2A 11 00 0B 00000000");
+    h.driver.disconnected("port vanished", h.now);
+    h.collect();
+    assert_eq!(h.jog_ends(), vec![(2, JogEnd::LinkLost)]);
+    h.expect_nothing();
+    h.advance(ms(500));
+    h.driver.connected(h.now);
+    h.collect();
+    // The stop first, then the read-back; the jog is not resumed.
+    h.expect_frame("08 11 00 00 00000000");
+    h.answer("09 11 00 22 00000000");
+    h.advance(ms(50));
+    h.expect_frame("0A 11 00 00 00000000");
+    h.answer("0B 11 00 22 00000000");
+    h.expect_frame("2C 11 00 00 00000000");
+    h.answer("2D 11 00 22 000F4300");
+    h.expect_frame("40 11 01 00 00000000");
+    h.answer("41 11 00 22 00000000");
+    h.expect_nothing();
+    let moves = h.sent.iter().filter(|m| m.starts_with(b"2A1100")).count();
+    assert_eq!(moves, 1);
+    // The drive stayed on: it keeps its reference.
+    assert!(h.state().referenced.contains(Axis::X));
+}
+
+#[test]
+fn a_stale_answer_after_reconnecting_falls_into_the_quiet() {
+    let mut h = Harness::emp(|_| {});
+    h.connect(0, true);
+    h.driver.disconnected("gone", h.now);
+    h.driver.connected(h.now);
+    h.collect();
+    h.events.clear();
+    h.expect_frame("08 11 00 00 00000000");
+    h.reply(&frame("2D 11 00 22 00000010"));
+    h.answer("09 11 00 22 00000000");
+    assert!(h.notices().is_empty(), "{:?}", h.notices());
+}
+
+#[test]
+fn upload_reset_and_programs_are_refused_with_a_reason() {
+    let mut h = Harness::emp(|_| {});
+    h.connect(0, true);
+    h.request(Request::Upload {
+        lines: vec!["x".into()],
+        erase_first: false,
+    });
+    h.request(Request::RunProgram);
+    h.request(Request::Reset);
+    h.request(Request::Raw {
+        line: "2C 11 00".into(),
+    });
+    h.expect_nothing();
+    let r = h.refusals();
+    assert_eq!(r.len(), 4, "{r:?}");
+    assert!(r[0].contains("not an EMP request"), "{}", r[0]);
+    assert!(r[1].contains("store no programs"));
+    assert!(r[3].contains("no reset"));
+}

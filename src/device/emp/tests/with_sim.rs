@@ -1,0 +1,402 @@
+//! The driver against the EMP simulator model in memory: no I/O, synthetic
+//! time, both directions of the wire modelled at 38400 baud. What the driver
+//! believes is compared with what the simulated drives hold.
+
+use std::time::Duration;
+
+use crate::axis::{Axis, AxisSet};
+use crate::config::Profile;
+use crate::device::api::{
+    Activity, Dir, Event, Frame, JogEnd, JogId, PerAxis, PositionSource, Recovery, Request,
+};
+use crate::device::common::testing::ms;
+use crate::device::emp::{EmpDriver, EmpSettings};
+use crate::proto::emp::DriveAddress;
+use crate::sim::emp::EmpSim;
+
+use super::harness::{profile, x_speed};
+
+type Bench = crate::device::common::testing::Bench<EmpDriver, EmpSim>;
+
+fn bench_for(profile: &Profile, adjust: impl FnOnce(&mut EmpSettings)) -> Bench {
+    let mut settings = EmpSettings::from_profile(profile).expect("settings");
+    adjust(&mut settings);
+    let sim = EmpSim::from_profile(profile).expect("simulator");
+    Bench::new(EmpDriver::new(settings), sim, crate::proto::emp::LINE)
+}
+
+fn counter(b: &Bench, ds: DriveAddress) -> i64 {
+    let s = b.sim.snapshot(ds, b.now).expect("drive");
+    i64::from(s.counter.increments())
+}
+
+fn speed(b: &Bench, ds: DriveAddress) -> f64 {
+    b.sim.snapshot(ds, b.now).expect("drive").speed
+}
+
+/// Switched on and referenced.
+fn homed(adjust: impl FnOnce(&mut EmpSettings)) -> Bench {
+    let mut b = bench_for(&profile(), adjust);
+    b.run(ms(300));
+    b.request(Request::Initialise);
+    b.run(ms(300));
+    assert_eq!(b.driver.state().initialised, AxisSet::EMPTY.with(Axis::X));
+    b.request(Request::Home {
+        axes: AxisSet::EMPTY.with(Axis::X),
+    });
+    b.run(Duration::from_secs(120));
+    assert!(
+        b.driver.state().referenced.contains(Axis::X),
+        "{:?}",
+        b.events
+    );
+    b.events.clear();
+    b
+}
+
+#[test]
+fn connect_initialise_home_and_read_positions_while_homing() {
+    let mut b = bench_for(&profile(), |_| {});
+    b.run(ms(300));
+    assert!(b.driver.state().link_up);
+    assert_eq!(b.driver.state().initialised, AxisSet::EMPTY);
+    b.request(Request::Initialise);
+    b.run(ms(300));
+    let snap = b.sim.snapshot(DriveAddress::SINGLE, b.now).expect("drive");
+    assert!(snap.on);
+    b.request(Request::Home {
+        axes: AxisSet::EMPTY.with(Axis::X),
+    });
+    b.run(Duration::from_secs(1));
+    assert_eq!(b.driver.state().activity, Activity::Homing);
+    let during: Vec<i64> = b
+        .events
+        .iter()
+        .filter_map(|e| match e {
+            Event::Position(p) => p.steps.get(Axis::X),
+            _ => None,
+        })
+        .collect();
+    // Polled during the run, and moving.
+    assert!(during.len() > 50, "{}", during.len());
+    assert!(during.first() != during.last());
+    b.run(Duration::from_secs(120));
+    assert!(b.driver.state().referenced.contains(Axis::X));
+    assert_eq!(b.driver.state().activity, Activity::Idle);
+    assert_eq!(counter(&b, DriveAddress::SINGLE), 0);
+}
+
+#[test]
+fn move_to_arrives_and_positions_are_measured_during_the_move() {
+    let mut b = homed(|_| {});
+    b.request(Request::MoveTo {
+        target: PerAxis::new().with(Axis::X, 112_000),
+        frame: Frame::Machine,
+        speed_hz: x_speed(28_000.0),
+    });
+    b.events.clear();
+    b.run(ms(1500));
+    assert_eq!(b.driver.state().activity, Activity::Moving);
+    let during = b
+        .events
+        .iter()
+        .filter(|e| matches!(e, Event::Position(_)))
+        .count();
+    assert!(during > 100, "{during}: {:?}", b.sent_text());
+    let mid = counter(&b, DriveAddress::SINGLE);
+    assert!(mid > 0 && mid < 112_000, "{mid}");
+    b.run(Duration::from_secs(6));
+    assert_eq!(counter(&b, DriveAddress::SINGLE), 112_000);
+    assert_eq!(b.driver.state().activity, Activity::Idle);
+    let last = b.last_measured().and_then(|p| p.get(Axis::X));
+    assert_eq!(last, Some(112_000));
+    assert!(b.events.iter().all(|e| !matches!(
+        e,
+        Event::Position(p) if p.source == PositionSource::Estimated
+    )));
+}
+
+#[test]
+fn a_velocity_jog_follows_the_lease_and_stops_on_release() {
+    let mut b = homed(|_| {});
+    b.request(Request::Jog {
+        id: JogId(1),
+        axes: vec![(Axis::X, Dir::Plus)],
+        speed_hz: x_speed(11_200.0),
+        lease: Duration::from_millis(750),
+    });
+    b.run(ms(500));
+    let v = speed(&b, DriveAddress::SINGLE);
+    assert!((v - 11_200.0).abs() < 5.0, "{v}");
+    b.request(Request::JogRelease { id: JogId(1) });
+    b.run(ms(500));
+    assert_eq!(speed(&b, DriveAddress::SINGLE), 0.0);
+    assert!(b.events.iter().any(|e| matches!(
+        e,
+        Event::JogEnded {
+            id: JogId(1),
+            end: JogEnd::Released
+        }
+    )));
+    // Without renewals the next one ends by the dead-man.
+    b.events.clear();
+    b.request(Request::Jog {
+        id: JogId(2),
+        axes: vec![(Axis::X, Dir::Minus)],
+        speed_hz: x_speed(11_200.0),
+        lease: Duration::from_millis(200),
+    });
+    b.run(ms(600));
+    assert_eq!(speed(&b, DriveAddress::SINGLE), 0.0);
+    assert!(b.events.iter().any(|e| matches!(
+        e,
+        Event::JogEnded {
+            id: JogId(2),
+            end: JogEnd::DeadMan
+        }
+    )));
+}
+
+#[test]
+fn a_long_velocity_jog_stops_within_the_soft_limit_overrun() {
+    let mut b = homed(|_| {});
+    b.request(Request::MoveTo {
+        target: PerAxis::new().with(Axis::X, 5_500_000),
+        frame: Frame::Machine,
+        speed_hz: x_speed(56_000.0),
+    });
+    b.run(Duration::from_secs(110));
+    assert_eq!(counter(&b, DriveAddress::SINGLE), 5_500_000);
+    b.events.clear();
+    let mut id = 10;
+    // Renew the lease for as long as it runs: only the soft limit ends it.
+    let end = loop {
+        b.request(Request::Jog {
+            id: JogId(id),
+            axes: vec![(Axis::X, Dir::Plus)],
+            speed_hz: x_speed(28_000.0),
+            lease: Duration::from_secs(30),
+        });
+        b.run(Duration::from_secs(10));
+        let end = b.events.iter().find_map(|e| match e {
+            Event::JogEnded { end, .. } => Some(end.clone()),
+            _ => None,
+        });
+        if let Some(end) = end {
+            break end;
+        }
+        id += 1;
+    };
+    assert_eq!(end, JogEnd::SoftLimit);
+    let at = counter(&b, DriveAddress::SINGLE);
+    let overrun = (at - 5_600_000).max(0);
+    assert!(overrun <= 33_600, "stopped at {at}");
+    assert!(at > 5_590_000, "stopped at {at}");
+}
+
+#[test]
+fn stop_ends_a_move_at_once_and_the_drive_holds() {
+    let mut b = homed(|_| {});
+    b.request(Request::MoveTo {
+        target: PerAxis::new().with(Axis::X, 2_000_000),
+        frame: Frame::Machine,
+        speed_hz: x_speed(56_000.0),
+    });
+    b.run(ms(800));
+    b.stop();
+    b.run(ms(500));
+    assert_eq!(speed(&b, DriveAddress::SINGLE), 0.0);
+    let at = counter(&b, DriveAddress::SINGLE);
+    b.run(Duration::from_secs(5));
+    assert_eq!(counter(&b, DriveAddress::SINGLE), at);
+    assert_eq!(b.driver.state().activity, Activity::Idle);
+    // The move was sent once.
+    let moves = b
+        .sent_text()
+        .iter()
+        .filter(|t| t.starts_with("2A1101"))
+        .count();
+    assert_eq!(moves, 1);
+}
+
+#[test]
+fn outputs_are_written_and_shown() {
+    let mut b = homed(|_| {});
+    b.request(Request::SetOutput {
+        output: crate::device::emp::output_id(0, 2),
+        value: 1,
+    });
+    b.run(ms(100));
+    let snap = b.sim.snapshot(DriveAddress::SINGLE, b.now).expect("drive");
+    assert_eq!(snap.outputs.bits(), 0b0100);
+    b.run(ms(200));
+    let io = b
+        .events
+        .iter()
+        .rev()
+        .find_map(|e| match e {
+            Event::Io(s) => Some(s.clone()),
+            _ => None,
+        })
+        .expect("io");
+    assert!(
+        io.groups[0]
+            .bits
+            .iter()
+            .any(|bit| bit.name == "O3" && bit.value)
+    );
+}
+
+#[test]
+fn a_limit_switch_ends_an_unreferenced_jog_with_a_fault() {
+    let mut b = bench_for(&profile(), |s| s.jog.allow_unreferenced = true);
+    b.run(ms(300));
+    b.request(Request::Initialise);
+    b.run(ms(300));
+    // The axis stands at 40 mm; the minus switch is 2 mm below machine 0.
+    b.request(Request::Jog {
+        id: JogId(3),
+        axes: vec![(Axis::X, Dir::Minus)],
+        speed_hz: x_speed(56_000.0),
+        lease: Duration::from_secs(60),
+    });
+    b.run(Duration::from_secs(20));
+    assert!(
+        b.events.iter().any(|e| matches!(
+            e,
+            Event::JogEnded { id: JogId(3), end: JogEnd::Fault(f) } if f.recovery == Recovery::Reference
+        )),
+        "{:?}",
+        b.events
+    );
+    assert!(b.driver.state().limit);
+    assert_eq!(speed(&b, DriveAddress::SINGLE), 0.0);
+    // A reference run clears it.
+    b.request(Request::Home {
+        axes: AxisSet::EMPTY.with(Axis::X),
+    });
+    b.run(Duration::from_secs(120));
+    assert!(
+        b.driver.state().fault.is_none(),
+        "{:?}",
+        b.driver.state().fault
+    );
+    assert!(!b.driver.state().limit);
+}
+
+#[test]
+fn two_drives_on_one_link_are_polled_in_turn() {
+    let mut p = profile();
+    p.machine.axes = "XY".into();
+    let mut y = p.axes.get(&Axis::X).cloned().expect("X");
+    y.drive = Some("21".into());
+    p.axes.insert(Axis::Y, y);
+    let mut b = bench_for(&p, |_| {});
+    b.run(ms(300));
+    b.request(Request::Initialise);
+    b.run(ms(300));
+    let y_ds = DriveAddress::new(2, 1).expect("21");
+    assert!(b.sim.snapshot(y_ds, b.now).expect("Y").on);
+    assert!(b.sent_text().iter().any(|t| t.starts_with("02210000")));
+    b.events.clear();
+    b.run(ms(1000));
+    let samples: Vec<PerAxis<i64>> = b
+        .events
+        .iter()
+        .filter_map(|e| match e {
+            Event::Position(p) => Some(p.steps),
+            _ => None,
+        })
+        .collect();
+    assert!(samples.len() > 30, "{}", samples.len());
+    assert!(samples.iter().all(|s| s.get(Axis::Y).is_some()));
+    // Stats: the rate against the line's limit for two drives.
+    let stats = b.events.iter().find_map(|e| match e {
+        Event::Stats(s) => Some(*s),
+        _ => None,
+    });
+    let stats = stats.expect("stats");
+    assert!(
+        stats.position_rate_hz > 0.9 * stats.wire_limit_hz,
+        "{stats:?}"
+    );
+}
+
+#[test]
+fn stops_at_any_moment_while_polling_never_lose_the_link() {
+    let mut b = bench_for(&profile(), |_| {});
+    b.run(ms(300));
+    b.request(Request::Initialise);
+    b.run(ms(300));
+    b.events.clear();
+    let mut seed: u64 = 0x9E37_79B9_7F4A_7C15;
+    for _ in 0..100 {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        b.run(Duration::from_micros(1_000 + seed % 20_000));
+        b.stop();
+    }
+    b.run(ms(500));
+    assert!(
+        !b.events
+            .iter()
+            .any(|e| matches!(e, Event::Link(_) | Event::Fault(_))),
+        "{:?}",
+        b.events
+            .iter()
+            .filter(|e| matches!(e, Event::Link(_) | Event::Fault(_) | Event::Notice(_)))
+            .collect::<Vec<_>>()
+    );
+    let positions = b
+        .events
+        .iter()
+        .filter(|e| matches!(e, Event::Position(_)))
+        .count();
+    assert!(positions > 50, "{positions}");
+}
+
+#[test]
+fn a_positioning_jog_ends_at_the_soft_limit_or_on_release() {
+    let mut b = homed(|s| s.jog_style = crate::config::profile::EmpJog::Position);
+    b.request(Request::Jog {
+        id: JogId(20),
+        axes: vec![(Axis::X, Dir::Plus)],
+        speed_hz: x_speed(56_000.0),
+        lease: Duration::from_secs(300),
+    });
+    b.run(ms(1000));
+    assert_eq!(b.driver.state().activity, Activity::Jogging);
+    assert!(b.sent_text().iter().any(|t| t.starts_with("2A1101")));
+    b.request(Request::JogRelease { id: JogId(20) });
+    b.run(ms(500));
+    assert_eq!(speed(&b, DriveAddress::SINGLE), 0.0);
+    assert!(b.events.iter().any(|e| matches!(
+        e,
+        Event::JogEnded {
+            id: JogId(20),
+            end: JogEnd::Released
+        }
+    )));
+    // Without a release it runs to the soft limit and ends there.
+    b.events.clear();
+    b.request(Request::Jog {
+        id: JogId(21),
+        axes: vec![(Axis::X, Dir::Minus)],
+        speed_hz: x_speed(56_000.0),
+        lease: Duration::from_secs(300),
+    });
+    b.run(Duration::from_secs(10));
+    assert!(
+        b.events.iter().any(|e| matches!(
+            e,
+            Event::JogEnded {
+                id: JogId(21),
+                end: JogEnd::SoftLimit
+            }
+        )),
+        "{:?}",
+        b.events
+    );
+    assert_eq!(counter(&b, DriveAddress::SINGLE), 0);
+}

@@ -1,0 +1,164 @@
+//! What the editor asks the outside world for ([`EditorIo`], an effect) and
+//! what comes back ([`EditorMsg`], a message): files through
+//! [`crate::program::store`], and the lint on its own thread. `update`
+//! stays pure; [`perform`] is what the runtime's worker runs.
+
+use std::path::PathBuf;
+use std::time::SystemTime;
+
+use crate::program::store::{
+    self, Fingerprint, Loaded, Origin, Recovery, RecoveryStore, StoreError,
+};
+
+use super::checks::{LintJob, LintResult};
+use super::dialog::Then;
+
+#[derive(Debug, Clone, PartialEq)]
+pub enum EditorIo {
+    /// Read a program file, and the recovery of its unsaved edits if any.
+    Load {
+        path: PathBuf,
+        store: Option<RecoveryStore>,
+    },
+    /// Save atomically; `expect` is what the file held when it was opened;
+    /// `fresh`: a new name, which must not be taken yet.
+    Save {
+        path: PathBuf,
+        text: String,
+        state: u64,
+        expect: Option<Fingerprint>,
+        fresh: bool,
+        then: Option<Then>,
+    },
+    WriteRecovery {
+        store: RecoveryStore,
+        recovery: Recovery,
+        state: u64,
+    },
+    RemoveRecovery {
+        store: RecoveryStore,
+        origin: Origin,
+    },
+    DiscardRecovery {
+        store: RecoveryStore,
+        origin: Origin,
+    },
+    ScanRecoveries {
+        store: RecoveryStore,
+    },
+    /// Lint and trace a snapshot (CPU only; the lint thread, latest wins).
+    Lint(Box<LintJob>),
+}
+
+/// Why a save did not happen.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum SaveFailure {
+    /// The file changed on disk since it was opened.
+    Changed,
+    /// A new name was given and a file has it already.
+    Exists,
+    Failed(String),
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub enum EditorMsg {
+    /// Open this program (the command line's `--program`).
+    Open(PathBuf),
+    /// Look for unsaved edits of an earlier session (at start).
+    Scan,
+    Loaded {
+        path: PathBuf,
+        result: Result<Option<Loaded>, String>,
+        recovery: Option<Recovery>,
+    },
+    Saved {
+        path: PathBuf,
+        state: u64,
+        result: Result<Fingerprint, SaveFailure>,
+        then: Option<Then>,
+    },
+    RecoveryWritten {
+        state: u64,
+        origin: Origin,
+        result: Result<(), String>,
+    },
+    /// A recovery was removed or put aside.
+    RecoveryGone {
+        result: Result<(), String>,
+    },
+    Recoveries(Vec<Result<Recovery, String>>),
+    Linted(Box<LintResult>),
+}
+
+/// Carry out a file request (blocking) and say how it went.
+pub fn perform(io: EditorIo) -> EditorMsg {
+    match io {
+        EditorIo::Load { path, store } => {
+            let result = store::load(&path).map_err(|e| e.to_string());
+            let absolute = match &result {
+                Ok(Some(loaded)) => loaded.path.clone(),
+                _ => store::absolute(&path).unwrap_or(path),
+            };
+            let recovery =
+                store.and_then(|s| s.read(&Origin::File(absolute.clone())).ok().flatten());
+            EditorMsg::Loaded {
+                path: absolute,
+                result,
+                recovery,
+            }
+        }
+        EditorIo::Save {
+            path,
+            text,
+            state,
+            expect,
+            fresh,
+            then,
+        } => {
+            let result = if fresh && std::fs::symlink_metadata(&path).is_ok() {
+                Err(SaveFailure::Exists)
+            } else {
+                store::save(&path, &text, expect).map_err(|e| match e {
+                    StoreError::Changed { .. } => SaveFailure::Changed,
+                    other => SaveFailure::Failed(other.to_string()),
+                })
+            };
+            EditorMsg::Saved {
+                path: store::absolute(&path).unwrap_or(path),
+                state,
+                result,
+                then,
+            }
+        }
+        EditorIo::WriteRecovery {
+            store,
+            mut recovery,
+            state,
+        } => {
+            // Stamped here: the model reads no clocks.
+            recovery.written = SystemTime::now();
+            EditorMsg::RecoveryWritten {
+                state,
+                origin: recovery.origin.clone(),
+                result: store
+                    .write(&recovery)
+                    .map(|_| ())
+                    .map_err(|e| e.to_string()),
+            }
+        }
+        EditorIo::RemoveRecovery { store, origin } => EditorMsg::RecoveryGone {
+            result: store.remove(&origin).map_err(|e| e.to_string()),
+        },
+        EditorIo::DiscardRecovery { store, origin } => EditorMsg::RecoveryGone {
+            result: store.discard(&origin).map_err(|e| e.to_string()),
+        },
+        EditorIo::ScanRecoveries { store } => EditorMsg::Recoveries(
+            store
+                .scan()
+                .into_iter()
+                .map(|r| r.map_err(|e| e.to_string()))
+                .collect(),
+        ),
+        EditorIo::Lint(job) => EditorMsg::Linted(Box::new(job.run())),
+    }
+}

@@ -1,0 +1,242 @@
+//! The program editor (`docs/editor.md`): isel CNC programs and EMCU jobs
+//! written and fixed at the machine, taught by jogging, previewed as a
+//! toolpath, uploaded and run.
+//!
+//! - [`buffer`]: the text (the parsed program itself), cursor, undo/redo.
+//! - [`checks`]: live lint and toolpath on a snapshot, off the UI thread.
+//! - [`teach`]: taught moves, dwells and outputs from the machine's position.
+//! - [`upload`]: an upload's progress and the line the controller refused.
+//! - [`search`], [`dialog`]: find, go to, forms and questions.
+//! - [`update`]: what keys, device events and results do to the model.
+//! - [`io`], [`worker`]: files and lint as effects, carried out on threads.
+//! - [`layout`], [`highlight`], [`view`]: the program screen.
+//!
+//! Why no editor widget crate: the parsed program is the buffer (spans,
+//! diagnostics and command indices come from it, re-parsed per edited
+//! line), and every key goes through jogterm's keymap, where Space is the
+//! stop key and never types. `ratatui-textarea` and `edtui` keep their own
+//! text and key handling, which would have to be mirrored on every edit.
+
+pub mod buffer;
+pub mod checks;
+pub mod dialog;
+pub mod highlight;
+pub mod io;
+pub mod layout;
+pub mod search;
+pub mod teach;
+pub mod update;
+pub mod upload;
+pub mod view;
+pub mod worker;
+
+use std::collections::VecDeque;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use crate::device::api::PerAxis;
+use crate::program::store::{Fingerprint, Origin, Recovery, RecoveryStore};
+use crate::program::{AxisLimit, Language, LintConfig};
+
+use buffer::Buffer;
+use checks::{Checks, EDITOR_BUDGET};
+use upload::Upload;
+
+use super::model::{PanelId, Setup};
+
+/// Unsaved edits are written to the recovery file at most this often while
+/// they keep changing (and within this time of the first change).
+pub const AUTOSAVE_EVERY: Duration = Duration::from_secs(2);
+
+/// Which planes the toolpath preview shows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Planes {
+    /// XY, and XZ below it when there is room and a Z axis.
+    #[default]
+    Both,
+    Xy,
+    Xz,
+    Off,
+}
+
+impl Planes {
+    pub fn next(self) -> Planes {
+        match self {
+            Planes::Both => Planes::Xy,
+            Planes::Xy => Planes::Xz,
+            Planes::Xz => Planes::Off,
+            Planes::Off => Planes::Both,
+        }
+    }
+}
+
+/// The program file behind the buffer and what is known about saving it.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct FileState {
+    /// Absolute; `None` for a program never saved.
+    pub path: Option<PathBuf>,
+    /// The buffer state last loaded or saved.
+    pub saved: u64,
+    /// What the file held when it was last read or written.
+    pub fingerprint: Option<Fingerprint>,
+    /// Bytes that were not UTF-8 were replaced when it was read.
+    pub lossy: bool,
+    /// A save is on its way.
+    pub saving: bool,
+    /// The buffer state in the recovery file, and whose file that is.
+    pub recovered: Option<(u64, Origin)>,
+    pub recovery_due: Option<Instant>,
+    pub recovery_failed: bool,
+}
+
+/// Teach-in: the point taught last and the speed chosen.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct TeachState {
+    /// Machine steps of the last taught point.
+    pub previous: Option<PerAxis<i64>>,
+    /// Index into the profile's speed list.
+    pub speed: usize,
+}
+
+#[derive(Debug, Clone)]
+pub struct Editor {
+    pub buffer: Buffer,
+    pub file: FileState,
+    pub checks: Checks,
+    pub upload: Upload,
+    pub teach: TeachState,
+    pub planes: Planes,
+    /// The last text searched for.
+    pub query: Option<String>,
+    /// First line and column shown (kept so the cursor stays in view).
+    pub top: usize,
+    pub left: usize,
+    /// The panel to return to when the editor is closed.
+    pub came_from: Option<PanelId>,
+    /// Recovered edits waiting to be offered.
+    pub offers: VecDeque<Recovery>,
+    /// Where unsaved edits are written; `None` switches that off.
+    pub store: Option<RecoveryStore>,
+    /// Tells this session's unsaved new programs from another's.
+    pub session: String,
+    /// The machine as the linter sees it (start position added per lint).
+    pub lint_config: LintConfig,
+}
+
+/// The linter's view of the machine of `setup`: its axes, soft limits and
+/// highest speeds (as `LintConfig::from_profile`), with the editor's budget.
+pub fn lint_config(setup: &Setup) -> LintConfig {
+    let mut config = LintConfig::new(setup.axis_set());
+    for (axis, p) in &setup.axes {
+        if let Some(slot) = config.limits.get_mut(axis.index()) {
+            *slot = Some(AxisLimit {
+                min: p.min_steps(),
+                max: p.max_steps(),
+                max_speed_hz: Some(p.speed_hz(p.max_speed)),
+                unit: p.unit,
+                steps_per_unit: p.steps_per_unit,
+            });
+        }
+    }
+    config.budget = EDITOR_BUDGET;
+    config
+}
+
+impl Editor {
+    /// An empty program in the machine's language (isel for a machine that
+    /// stores none).
+    pub fn new(setup: &Setup, now: Instant) -> Editor {
+        let language = Language::of_protocol(setup.protocol).unwrap_or(Language::Isel);
+        let buffer = Buffer::new(language, "");
+        let mut checks = Checks::default();
+        checks.reset(buffer.line_count(), now);
+        Editor {
+            file: FileState {
+                saved: buffer.state(),
+                ..FileState::default()
+            },
+            buffer,
+            checks,
+            upload: Upload::default(),
+            teach: TeachState {
+                previous: None,
+                speed: setup.jog_speeds.len().saturating_sub(1),
+            },
+            planes: Planes::default(),
+            query: None,
+            top: 0,
+            left: 0,
+            came_from: None,
+            offers: VecDeque::new(),
+            store: None,
+            session: "session".into(),
+            lint_config: lint_config(setup),
+        }
+    }
+
+    /// Write unsaved edits to `store`; `session` tells this session's new
+    /// programs from those of another (`jogterm` uses its pid and start).
+    pub fn keep_recoveries(&mut self, store: RecoveryStore, session: impl Into<String>) {
+        self.store = Some(store);
+        self.session = session.into();
+    }
+
+    pub fn language(&self) -> Language {
+        self.buffer.language()
+    }
+
+    pub fn modified(&self) -> bool {
+        self.buffer.state() != self.file.saved
+    }
+
+    /// The program's name as shown: the file name, or `untitled`.
+    pub fn name(&self) -> String {
+        self.file
+            .path
+            .as_deref()
+            .and_then(Path::file_name)
+            .map_or_else(
+                || "untitled".to_string(),
+                |n| n.to_string_lossy().into_owned(),
+            )
+    }
+
+    /// Whose edits the recovery file holds.
+    pub fn origin(&self) -> Origin {
+        match &self.file.path {
+            Some(path) => Origin::File(path.clone()),
+            None => Origin::Untitled {
+                tag: self.session.clone(),
+            },
+        }
+    }
+
+    /// Why the text cannot be changed now, if it cannot.
+    pub fn read_only(&self) -> Option<&'static str> {
+        self.upload
+            .busy()
+            .then_some("the program is being uploaded: edits wait until the upload ends")
+    }
+
+    /// After the buffer changed: shift what depends on line numbers and
+    /// schedule the lint and the recovery file.
+    pub fn after_edit(&mut self, now: Instant) {
+        while let Some(change) = self.buffer.take_change() {
+            self.checks.changed(change, now);
+            self.upload.changed(change);
+        }
+        if self.modified() && self.file.recovery_due.is_none() {
+            self.file.recovery_due = Some(now);
+        }
+    }
+
+    /// Put a new text in the buffer (a file opened, edits recovered).
+    pub fn replace(&mut self, language: Language, text: &str, now: Instant) {
+        self.buffer = Buffer::new(language, text);
+        self.checks.reset(self.buffer.line_count(), now);
+        self.upload.clear();
+        self.top = 0;
+        self.left = 0;
+        self.teach.previous = None;
+    }
+}

@@ -1,0 +1,325 @@
+//! The editor panel: the program with command numbers in the gutter (the
+//! controller's command index counted from 1; comments and blank lines have
+//! none), syntax highlighting, problems inline (a gutter letter `E`/`W`/`!`
+//! and the message after the line), the upload bar, and the cursor's line.
+
+use ratatui::buffer::Buffer;
+use ratatui::layout::Rect;
+use ratatui::style::{Modifier, Style};
+use ratatui::text::{Line, Span};
+use ratatui::widgets::Widget;
+
+use crate::device::api::Activity;
+use crate::program::Severity;
+use crate::ui::editor::highlight::{Class, Mark, runs};
+use crate::ui::editor::layout::{ProgramAreas, gutter_width};
+use crate::ui::editor::update::{teach_speed, unit_label};
+use crate::ui::editor::upload::Phase;
+use crate::ui::model::{Model, PanelId};
+use crate::ui::palette::Palette;
+use crate::ui::position::format_amount;
+use crate::ui::view::flow::fit;
+use crate::ui::view::frame;
+
+pub struct EditorView<'a> {
+    pub model: &'a Model,
+    pub areas: &'a ProgramAreas,
+}
+
+fn class_style(p: &Palette, class: Class) -> Style {
+    match class {
+        Class::Plain => p.text,
+        Class::Code => p.key,
+        Class::Param => p.text,
+        Class::Punct => p.dim,
+        Class::Comment => p.dim,
+    }
+}
+
+fn mark_style(p: &Palette, mark: Mark) -> Style {
+    // Underlined as well as coloured: the meaning survives mono16.
+    let under = Style::new().add_modifier(Modifier::UNDERLINED);
+    match mark {
+        Mark::None => Style::new(),
+        Mark::Note => under,
+        Mark::Warning => p.warning.patch(under),
+        Mark::Error => p.danger.patch(under),
+    }
+}
+
+/// The problem shown for a line: the controller's refusal first, then the
+/// worst diagnostic, then (for a line not yet linted) its syntax error.
+fn problem(model: &Model, line: usize) -> Option<(char, Style, String)> {
+    let p = &model.palette;
+    let e = &model.editor;
+    if let Some(mark) = e.upload.mark.as_ref().filter(|m| m.line == line) {
+        return Some(('!', p.danger, mark.message.clone()));
+    }
+    let checked = e.checks.is_checked(line);
+    let diagnostics = if checked { e.checks.on_line(line) } else { &[] };
+    if let Some(d) = diagnostics
+        .iter()
+        .find(|d| d.severity == Severity::Error)
+        .or(diagnostics.first())
+    {
+        return Some(match d.severity {
+            Severity::Error => ('E', p.danger, d.message.clone()),
+            Severity::Warning => ('W', p.warning, d.message.clone()),
+        });
+    }
+    if !checked {
+        let statement = e.buffer.program().line(line).and_then(|l| l.statement());
+        if let Some(Err(err)) = statement.map(|s| &s.command) {
+            return Some(('E', p.danger, err.message.clone()));
+        }
+    }
+    None
+}
+
+fn title_extra(model: &Model) -> Vec<Span<'static>> {
+    let p = &model.palette;
+    let e = &model.editor;
+    let mut out = Vec::new();
+    let modified = if e.modified() { "[+]" } else { "" };
+    out.push(Span::styled(format!("{}{modified} ", e.name()), p.title));
+    let commands = e.buffer.program().command_count();
+    out.push(Span::styled(
+        format!(
+            "{} {} command{} ",
+            e.language(),
+            commands,
+            if commands == 1 { "" } else { "s" }
+        ),
+        p.dim,
+    ));
+    let (errors, warnings) = e.checks.counts();
+    if errors > 0 {
+        out.push(Span::styled(format!("{errors} E "), p.danger));
+    }
+    if warnings > 0 {
+        out.push(Span::styled(format!("{warnings} W "), p.warning));
+    }
+    if e.read_only().is_some() {
+        out.push(Span::styled("read-only while uploading ", p.warning));
+    }
+    if model.machine.activity == Activity::RunningProgram {
+        out.push(Span::styled("RUNNING ", p.ok));
+    }
+    if let Some(speed) = teach_speed(model) {
+        let unit = unit_label(model);
+        out.push(Span::styled(
+            format!("teach {} {unit}/s ", format_amount(speed)),
+            p.dim,
+        ));
+    }
+    out
+}
+
+impl Widget for EditorView<'_> {
+    fn render(self, _area: Rect, buf: &mut Buffer) {
+        let model = self.model;
+        let p = &model.palette;
+        let a = self.areas;
+        let focused = model.focus == PanelId::Editor && model.popup.is_none();
+        frame::panel("Program", title_extra(model), focused, p, a.editor, buf);
+        text(model, a.text, focused, buf);
+        if let Some(bar) = a.upload {
+            upload_bar(model, bar, buf);
+        }
+        line_info(model, a.line_info, buf);
+    }
+}
+
+fn text(model: &Model, area: Rect, focused: bool, buf: &mut Buffer) {
+    let p = &model.palette;
+    let e = &model.editor;
+    let b = &e.buffer;
+    let program = b.program();
+    let gutter = gutter_width(model);
+    let width = usize::from(area.width);
+    let room = width.saturating_sub(gutter);
+    let rows = usize::from(area.height);
+    let cursor = b.cursor();
+    // The cursor is always in view, whatever the stored scroll says.
+    let top = e
+        .top
+        .min(cursor.line)
+        .max((cursor.line + 1).saturating_sub(rows));
+    let left = e
+        .left
+        .min(cursor.col)
+        .max((cursor.col + 1).saturating_sub(room.max(1)));
+    for row in 0..rows {
+        let index = top + row;
+        let Some(line) = program.line(index) else {
+            break;
+        };
+        let y = area.y + row as u16;
+        let mut spans: Vec<Span> = Vec::new();
+        let number = line
+            .statement()
+            .map(|s| (s.index + 1).to_string())
+            .unwrap_or_default();
+        let here = index == cursor.line;
+        let number_style = if here { p.title } else { p.dim };
+        spans.push(Span::styled(
+            format!("{number:>w$}", w = gutter.saturating_sub(2)),
+            number_style,
+        ));
+        let problem = problem(model, index);
+        match &problem {
+            Some((letter, style, _)) => spans.push(Span::styled(format!("{letter} "), *style)),
+            None => spans.push(Span::raw("  ")),
+        }
+        let unchecked = !e.checks.is_checked(index);
+        let diagnostics = if unchecked {
+            &[][..]
+        } else {
+            e.checks.on_line(index)
+        };
+        let mut col = 0usize;
+        let mut used = 0usize;
+        for run in runs(line, diagnostics, unchecked) {
+            let style = class_style(p, run.class).patch(mark_style(p, run.mark));
+            let piece = line.slice(run.bytes.clone());
+            for ch in piece.chars() {
+                if col >= left && used < room {
+                    let mut s = style;
+                    if focused && here && col == cursor.col {
+                        s = s.patch(p.selected);
+                    }
+                    let shown = if ch.is_control() { ' ' } else { ch };
+                    spans.push(Span::styled(shown.to_string(), s));
+                    used += 1;
+                }
+                col += 1;
+            }
+        }
+        if focused && here && cursor.col >= col && used < room {
+            spans.push(Span::styled(" ", p.selected));
+            used += 1;
+        }
+        // The problem's message after the text, where it fits.
+        if let Some((_, style, message)) = problem {
+            let free = room.saturating_sub(used + 2);
+            if free >= 8 {
+                spans.push(Span::raw("  "));
+                spans.push(Span::styled(
+                    fit(&message, free),
+                    style.add_modifier(Modifier::ITALIC),
+                ));
+            }
+        }
+        Line::from(spans).render(Rect::new(area.x, y, area.width, 1), buf);
+    }
+}
+
+fn upload_bar(model: &Model, area: Rect, buf: &mut Buffer) {
+    let p = &model.palette;
+    let u = &model.editor.upload;
+    let width = usize::from(area.width);
+    let line = match &u.phase {
+        Phase::Idle => return,
+        Phase::Requested => Line::from(Span::styled(
+            fit("upload: waiting for the controller…", width),
+            p.dim,
+        )),
+        Phase::Running {
+            done,
+            total,
+            lines_per_second,
+        } => {
+            let left = u
+                .time_left()
+                .map(|s| format!(" {:.0} s left", s.ceil()))
+                .unwrap_or_default();
+            let tail = format!(" {done}/{total} {lines_per_second:.1}/s{left}");
+            let bar_w = width.saturating_sub(tail.chars().count() + 9).clamp(4, 40);
+            let filled = if *total > 0 {
+                (bar_w * done / total).min(bar_w)
+            } else {
+                0
+            };
+            let (full, empty) = if p.symbols.lit == "●" {
+                ("█", "░")
+            } else {
+                ("#", ".")
+            };
+            Line::from(vec![
+                Span::styled("upload ", p.title),
+                Span::styled(full.repeat(filled), p.ok),
+                Span::styled(empty.repeat(bar_w - filled), p.dim),
+                Span::styled(fit(&tail, width.saturating_sub(bar_w + 7)), p.text),
+            ])
+        }
+        Phase::Finished { total, elapsed } => {
+            let run = model
+                .keymap
+                .key_for(
+                    crate::ui::keymap::Mode::Main,
+                    crate::ui::keymap::Action::RunProgram,
+                )
+                .map(|k| format!("; {k} runs it"))
+                .unwrap_or_default();
+            Line::from(Span::styled(
+                fit(
+                    &format!(
+                        "stored {total} commands in {:.1} s{run}",
+                        elapsed.as_secs_f64()
+                    ),
+                    width,
+                ),
+                p.ok,
+            ))
+        }
+        Phase::Failed {
+            command,
+            code,
+            meaning,
+        } => {
+            let at = u
+                .line_of(*command)
+                .filter(|_| u.ours)
+                .map(|l| format!(" (line {})", l + 1))
+                .unwrap_or_default();
+            Line::from(Span::styled(
+                fit(
+                    &format!(
+                        "upload failed at command {}{at}: `{code}` {meaning}",
+                        command + 1
+                    ),
+                    width,
+                ),
+                p.danger,
+            ))
+        }
+        Phase::Aborted { done, reason } => Line::from(Span::styled(
+            fit(&format!("upload stopped after {done}: {reason}"), width),
+            p.danger,
+        )),
+    };
+    line.render(area, buf);
+}
+
+fn line_info(model: &Model, area: Rect, buf: &mut Buffer) {
+    let p = &model.palette;
+    let e = &model.editor;
+    let b = &e.buffer;
+    let c = b.cursor();
+    let mut text = format!("Ln {}/{} Col {}", c.line + 1, b.line_count(), c.col + 1);
+    if let Some(i) = b.program().index_of(c.line) {
+        text.push_str(&format!("  cmd {}/{}", i + 1, b.program().command_count()));
+    }
+    let width = usize::from(area.width);
+    let mut spans = vec![Span::styled(text.clone(), p.dim)];
+    match problem(model, c.line) {
+        Some((letter, style, message)) => {
+            let free = width.saturating_sub(text.chars().count() + 4);
+            spans.push(Span::styled(format!("  {letter} "), style));
+            spans.push(Span::styled(fit(&message, free), style));
+        }
+        None if !e.checks.fresh(b.state()) => spans.push(Span::styled("  checking…", p.dim)),
+        None => {}
+    }
+    Line::from(spans).render(area, buf);
+}

@@ -1,0 +1,289 @@
+//! The real `jogterm` binary in an 80x24 pseudo-terminal with a program in
+//! its editor: edits survive a `SIGKILL` (the recovery file is written while
+//! editing, not on exit) and are offered back on the next start; a save is
+//! atomic and leaves no recovery behind.
+
+mod ui_pty;
+
+use std::fs;
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+use ui_pty::PtyRun;
+
+const JOGTERM: &str = env!("CARGO_BIN_EXE_jogterm");
+const WAIT: Duration = Duration::from_secs(20);
+
+const PROGRAM: &str = "; drill\n7 7\nm8000,8000,8000,8000\n9\n";
+
+fn spawn(args: &[&str], config: &Path, state: &Path) -> PtyRun {
+    let env = [
+        ("JOGTERM_NO_KEYBOARD_QUERY", "1".to_string()),
+        ("JOGTERM_CONFIG_DIR", config.display().to_string()),
+        ("JOGTERM_STATE_DIR", state.display().to_string()),
+        ("RUST_BACKTRACE", "0".into()),
+    ];
+    let env: Vec<(&str, &str)> = env.iter().map(|(k, v)| (*k, v.as_str())).collect();
+    PtyRun::spawn(Path::new(JOGTERM), args, &env)
+}
+
+fn wait_for(run: &PtyRun, needle: &str) -> String {
+    run.wait_for(needle, WAIT)
+        .unwrap_or_else(|screen| panic!("`{needle}` never appeared:\n{screen}"))
+}
+
+/// The recovery files in `state`.
+fn recoveries(state: &Path) -> Vec<String> {
+    fs::read_dir(state.join("recovery"))
+        .map(|entries| {
+            entries
+                .filter_map(Result::ok)
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .filter(|n| n.ends_with(".jogterm-recovery"))
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+fn wait_until(what: &str, mut ok: impl FnMut() -> bool) {
+    let end = Instant::now() + WAIT;
+    while !ok() {
+        assert!(Instant::now() < end, "{what} never happened");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+#[test]
+fn edits_survive_a_kill_and_are_offered_back() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let config = dir.path().join("config");
+    let state = dir.path().join("state");
+    fs::create_dir_all(&config).expect("config dir");
+    let file = dir.path().join("drill.isel");
+    fs::write(&file, PROGRAM).expect("write the program");
+    let file_arg = file.display().to_string();
+
+    let mut run = spawn(&["--program", &file_arg], &config, &state);
+    wait_for(&run, "connected");
+    wait_for(&run, "drill.isel");
+    // A new comment on the first line (Tab types the blank: Space stops).
+    run.send(b";\tkept-after-kill\r");
+    wait_for(&run, "kept-after-kill");
+    wait_until("the recovery file", || !recoveries(&state).is_empty());
+    // No goodbye: the process is killed outright.
+    let pid = run.child.process_id().expect("pid");
+    // SAFETY: a signal to our own child.
+    assert_eq!(unsafe { libc::kill(pid as i32, libc::SIGKILL) }, 0);
+    run.wait_exit(WAIT);
+    drop(run);
+    assert_eq!(fs::read_to_string(&file).expect("read"), PROGRAM);
+
+    let mut run = spawn(&[], &config, &state);
+    let screen = wait_for(&run, "Recovered edits");
+    assert!(screen.contains("drill.isel"), "{screen}");
+    run.send(b"y");
+    let screen = wait_for(&run, "kept-after-kill");
+    assert!(screen.contains("m8000,8000,8000,8000"), "{screen}");
+    // Saved, the file has the edits and the recovery is gone.
+    run.send(b"\x13");
+    wait_until("the save", || {
+        fs::read_to_string(&file).is_ok_and(|t| t.starts_with("; kept-after-kill\n; drill"))
+    });
+    wait_until("the recovery removed", || recoveries(&state).is_empty());
+    // Nothing unsaved: F4 back to the machine screen, and q quits at once.
+    run.send(b"\x1bOS");
+    wait_for(&run, "Position");
+    run.send(b"q");
+    assert_eq!(run.wait_exit(WAIT), Some(0));
+}
+
+#[test]
+fn quitting_with_unsaved_edits_asks_first() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let config = dir.path().join("config");
+    let state = dir.path().join("state");
+    fs::create_dir_all(&config).expect("config dir");
+    let file = dir.path().join("part.isel");
+    fs::write(&file, PROGRAM).expect("write the program");
+    let file_arg = file.display().to_string();
+
+    let mut run = spawn(&["--program", &file_arg], &config, &state);
+    wait_for(&run, "part.isel");
+    run.send(b";\tunsaved\r");
+    wait_for(&run, "unsaved");
+    // Back on the machine screen, q asks instead of quitting.
+    run.send(b"\x1bOS");
+    wait_for(&run, "Position");
+    run.send(b"q");
+    wait_for(&run, "Unsaved");
+    // Save, then go on (quit): the file holds the edits.
+    run.send(b"s");
+    assert_eq!(run.wait_exit(WAIT), Some(0));
+    assert!(
+        fs::read_to_string(&file)
+            .expect("read")
+            .starts_with("; unsaved\n")
+    );
+    assert!(recoveries(&state).is_empty(), "{:?}", recoveries(&state));
+}
+
+#[test]
+fn a_hang_up_writes_the_last_edits_before_leaving() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let config = dir.path().join("config");
+    let state = dir.path().join("state");
+    fs::create_dir_all(&config).expect("config dir");
+    let file = dir.path().join("hup.isel");
+    fs::write(&file, PROGRAM).expect("write the program");
+    let file_arg = file.display().to_string();
+
+    let mut run = spawn(&["--program", &file_arg], &config, &state);
+    wait_for(&run, "hup.isel");
+    run.send(b";\tfirst\r");
+    wait_for(&run, "first");
+    wait_until("the recovery file", || !recoveries(&state).is_empty());
+    // Within the autosave interval of the first write: only the hang-up
+    // path can have written this one.
+    run.send(b";\tlast-words\r");
+    wait_for(&run, "last-words");
+    run.close_master();
+    assert!(run.wait_exit(WAIT).is_some(), "jogterm did not leave");
+    let kept: Vec<String> = recoveries(&state)
+        .iter()
+        .map(|n| fs::read_to_string(state.join("recovery").join(n)).unwrap_or_default())
+        .collect();
+    assert!(kept.iter().any(|t| t.contains("last-words")), "{kept:?}");
+    assert_eq!(fs::read_to_string(&file).expect("read"), PROGRAM);
+}
+
+/// `jogterm sim --pty` with its stdin kept open (a closed stdin ends it).
+struct Sim {
+    child: std::process::Child,
+    _stdin: std::process::ChildStdin,
+    path: String,
+}
+
+impl Drop for Sim {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn isel_sim(config: &Path) -> Sim {
+    use std::io::BufRead;
+    let mut child = std::process::Command::new(JOGTERM)
+        .args(["sim", "--pty", "--protocol", "isel"])
+        .env("JOGTERM_CONFIG_DIR", config)
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .expect("start jogterm sim");
+    let mut lines = std::io::BufReader::new(child.stdout.take().expect("stdout"));
+    let mut path = String::new();
+    lines.read_line(&mut path).expect("the simulator's path");
+    std::thread::spawn(move || {
+        let mut line = String::new();
+        while lines.read_line(&mut line).is_ok_and(|n| n > 0) {
+            line.clear();
+        }
+    });
+    let stdin = child.stdin.take().expect("stdin");
+    Sim {
+        child,
+        _stdin: stdin,
+        path: path.trim().to_string(),
+    }
+}
+
+/// A loop and a branch; referenced, the path ends at X 3200, Y 1800, Z 400
+/// steps (`tests/cli_upload.rs` checks the same against `program::path`).
+const LOOP_AND_BRANCH: &str = "\
+; a loop and a branch
+j300
+J100
+m2000,4000,1000,4000,400,4000,0,4000
+0 400,4000,0,4000,0,4000,0,4000
+3 2,-1
+o0,0,1,2
+0 0,4000,800,4000,0,4000,0,4000
+3 0,2
+0 4000,4000,0,4000,0,4000,0,4000
+9
+";
+
+#[test]
+fn edit_upload_and_run_on_the_simulator_end_where_the_preview_said() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let config = dir.path().join("config");
+    let state = dir.path().join("state");
+    fs::create_dir_all(&config).expect("config dir");
+    let sim = isel_sim(&config);
+    // The program arrives with a typo the editor shows and the operator fixes.
+    let file = dir.path().join("loop.isel");
+    fs::write(&file, LOOP_AND_BRANCH.replace("3 2,-1", "3 2,-1,7")).expect("write");
+    let file_arg = file.display().to_string();
+    let mut run = spawn(
+        &[
+            "--port",
+            &sim.path,
+            "--protocol",
+            "isel",
+            "--program",
+            &file_arg,
+        ],
+        &config,
+        &state,
+    );
+    wait_for(&run, "connected");
+    wait_for(&run, " 1 E ");
+    // F5 is refused while the error is there, and the cursor goes to it.
+    run.send(b"\x1b[15~");
+    wait_for(&run, "upload refused");
+    // End of the line, take back the `,7`, save.
+    run.send(b"\x1b[F\x7f\x7f\x13");
+    wait_until("the save", || {
+        fs::read_to_string(&file).is_ok_and(|t| t == LOOP_AND_BRANCH)
+    });
+    // The machine screen: initialise, reference (asks), back to the editor.
+    run.send(b"\x1bOS");
+    wait_for(&run, "Position");
+    run.send(b"i");
+    wait_for(&run, "NOT REF");
+    run.send(b"h");
+    run.send(b"y");
+    wait_for(&run, "READY");
+    run.send(b"e");
+    wait_for(&run, "Toolpath ends X");
+    // Upload, then run (asks first).
+    run.send(b"\x1b[15~");
+    wait_for(&run, "upload finished: 10 commands stored");
+    run.send(b"\x1b[17~");
+    wait_for(&run, "Run the program");
+    run.send(b"y");
+    wait_for(&run, "program has ended");
+    // The machine screen shows where it stands, in steps.
+    run.send(b"\x1bOS");
+    wait_for(&run, "Position");
+    // `X⌂    8.000 mm    8.000    3200 …`: work, unit, machine, steps.
+    let steps = |screen: &str, axis: &str| -> Option<String> {
+        screen
+            .lines()
+            .find(|l| l.trim_start().starts_with(axis))
+            .and_then(|l| l.split_whitespace().nth(4).map(str::to_string))
+    };
+    // The position read at the program's end may be a frame behind.
+    let end = Instant::now() + WAIT;
+    loop {
+        let screen = run.screen().screen().contents();
+        let at = ["X", "Y", "Z"].map(|a| steps(&screen, a));
+        if at == [Some("3200".into()), Some("1800".into()), Some("400".into())] {
+            break;
+        }
+        assert!(Instant::now() < end, "{at:?}\n{screen}");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    run.send(b"q");
+    assert_eq!(run.wait_exit(WAIT), Some(0));
+}
