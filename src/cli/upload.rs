@@ -16,11 +16,10 @@ use clap::Args;
 
 use super::GlobalArgs;
 use super::check::render;
-use super::session::{self, EXIT_LINK, EXIT_USAGE, Linked, Session, StartError};
+use super::session::{self, EXIT_LINK, EXIT_USAGE, Linked, Polling, Session, StartError};
 use crate::device::api::{
     Activity, ControllerFault, Event, LinkState, PerAxis, Refusal, Request, UploadEvent,
 };
-use crate::device::isel::PollRate;
 use crate::program::store;
 use crate::program::{Language, LintConfig, Program, Severity, lint};
 
@@ -137,7 +136,7 @@ pub fn run(global: &GlobalArgs, args: &UploadArgs) -> anyhow::Result<ExitCode> {
     };
     let runtime = session::runtime()?;
     runtime.block_on(async {
-        let session = match session::start(global, profile, |s| s.poll.rate = PollRate::Off) {
+        let session = match session::start(global, profile, Polling::OFF) {
             Ok(s) => s,
             Err(StartError::Usage(m)) => return usage(m),
             Err(StartError::Failed(e)) => return Err(e),
