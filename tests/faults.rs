@@ -531,6 +531,64 @@ fn withheld_reply_emcu(t: &mut Tally) {
     console.quit();
 }
 
+/// The recovery files in a console's state directory.
+fn recoveries(sim: &SimProcess) -> Vec<String> {
+    std::fs::read_dir(sim.dir.path().join("state").join("recovery"))
+        .map(|entries| {
+            entries
+                .filter_map(Result::ok)
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .filter(|n| n.ends_with(".jogterm-recovery"))
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+/// SIGKILL of jogterm while a program is being edited: the file on disk is
+/// untouched, the next start offers the edits back and restores them, and
+/// nothing moved on either start.
+fn sigkill_mid_edit(t: &mut Tally) {
+    const PROGRAM: &str = "; drill\n7 7\nm8000,8000,8000,8000\n9\n";
+    let mut sim = SimProcess::start("isel");
+    let file = sim.dir.path().join("drill.isel");
+    std::fs::write(&file, PROGRAM).expect("write the program");
+    let file_arg = file.display().to_string();
+    let mut console = Console::start_with(&sim, &["--program", &file_arg]);
+    console.wait_for("drill.isel");
+    // A new comment on the first line (Tab types the blank: Space stops).
+    console.keys(b";\tkept-after-kill\r");
+    console.wait_for("kept-after-kill");
+    let end = Instant::now() + WAIT;
+    while recoveries(&sim).is_empty() {
+        assert!(Instant::now() < end, "no recovery file was written");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let pid = console.run.child.process_id().expect("pid");
+    // SAFETY: a signal to our own child.
+    assert_eq!(unsafe { libc::kill(pid as i32, libc::SIGKILL) }, 0);
+    t.fault();
+    assert!(
+        console.run.wait_exit(WAIT).is_some(),
+        "not ended by SIGKILL"
+    );
+    drop(console);
+    assert_eq!(
+        std::fs::read_to_string(&file).expect("read"),
+        PROGRAM,
+        "the file is untouched"
+    );
+
+    let mut console = Console::start(&sim);
+    let screen = console.wait_for("Recovered edits");
+    assert!(screen.contains("drill.isel"), "{screen}");
+    console.keys(b"y");
+    let screen = console.wait_for("kept-after-kill");
+    assert!(screen.contains("m8000,8000,8000,8000"), "{screen}");
+    assert_isel_motion(&sim.received(), &[]);
+    sim.assert_alive();
+    console.assert_no_panic();
+}
+
 fn main() -> ExitCode {
     runner::run(&[
         Scenario {
@@ -572,6 +630,10 @@ fn main() -> ExitCode {
         Scenario {
             name: "withheld_reply_emcu",
             run: withheld_reply_emcu,
+        },
+        Scenario {
+            name: "sigkill_mid_edit",
+            run: sigkill_mid_edit,
         },
         Scenario {
             name: "unsolicited_garbage",
