@@ -143,6 +143,23 @@ fn garbage_is_sent_at_once_as_text_or_hex() {
 }
 
 #[test]
+fn the_shell_keeps_what_the_device_received() {
+    let (shell, mut client) = socket_shell();
+    let control = shell.control();
+    assert_eq!(control.received().expect("received").total, 0);
+    cycle(&mut client, REQUEST, REPLY.len());
+    client.write_all(&[0xFD, 0xFF]).expect("write");
+    client.write_all(REQUEST).expect("write");
+    read_exact_within(&mut client, REPLY.len(), Duration::from_secs(2));
+    let received = control.received().expect("received");
+    assert_eq!(received.bytes, b"@0P\r\xFD\xFF@0P\r");
+    assert_eq!(
+        received.to_string(),
+        "received 10 bytes: @0P<CR><FD><FF>@0P<CR>"
+    );
+}
+
+#[test]
 fn faults_armed_together_hit_the_same_message() {
     let (shell, mut client) = socket_shell();
     let control = shell.control();

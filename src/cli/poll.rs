@@ -10,7 +10,7 @@ use clap::Args;
 use super::session::{self, EXIT_LINK, EXIT_USAGE, Linked, Polling, Session, StartError};
 use super::{GlobalArgs, emp};
 use crate::axis::Axis;
-use crate::device::api::{Event, IoSnapshot, LinkState, PositionSample, PositionSource};
+use crate::device::api::{Event, IoSnapshot, LinkState, PositionSample, PositionSource, Recovery};
 use crate::device::common::PollRate;
 use crate::proto::Protocol;
 
@@ -195,7 +195,10 @@ pub fn run(global: &GlobalArgs, args: &PollArgs) -> anyhow::Result<ExitCode> {
 
 async fn poll(mut session: Session, args: &PollArgs, family: Protocol) -> ExitCode {
     if let Linked::Failed(reason) = session.linked(Duration::from_secs(10)).await {
-        eprintln!("jogterm poll: link failure: {reason}");
+        eprintln!(
+            "jogterm poll: link failure: {reason}; {}",
+            Recovery::CheckLink.instruction()
+        );
         session.close().await;
         return ExitCode::from(EXIT_LINK);
     }
@@ -236,7 +239,11 @@ async fn poll(mut session: Session, args: &PollArgs, family: Protocol) -> ExitCo
                 break;
             }
             Ok(Some(Event::Link(LinkState::Lost { reason }))) => {
-                eprintln!("jogterm poll: link failure: {reason}");
+                // What happened and what to do: the line, not the machine, is in doubt.
+                eprintln!(
+                    "jogterm poll: link failure: {reason}; {}",
+                    Recovery::CheckLink.instruction()
+                );
                 code = EXIT_LINK;
                 break;
             }

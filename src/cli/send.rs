@@ -287,7 +287,10 @@ async fn send_all(mut session: Session, items: &[Item]) -> ExitCode {
 
 async fn send_items(session: &mut Session, items: &[Item]) -> ExitCode {
     if let Linked::Failed(reason) = session.linked(Duration::from_secs(10)).await {
-        eprintln!("jogterm send: link failure: {reason}");
+        eprintln!(
+            "jogterm send: link failure: {reason}; {}",
+            Recovery::CheckLink.instruction()
+        );
         return ExitCode::from(EXIT_LINK);
     }
     let mut i = 0;
@@ -360,7 +363,12 @@ async fn send_items(session: &mut Session, items: &[Item]) -> ExitCode {
                 }
             }
             Outcome::LinkFailed(reason) => {
-                eprintln!("jogterm send: link failure: {reason}");
+                // What happened and what to do: the line, not the machine, is in doubt.
+                eprintln!(
+                    "jogterm send: link failure: {}; {}",
+                    reason.trim_end_matches('.'),
+                    Recovery::CheckLink.instruction()
+                );
                 EXIT_LINK
             }
         };
@@ -473,7 +481,7 @@ fn outcome_of(event: &Event, text: &str, canonical: &str) -> Option<Outcome> {
 
 fn fault_outcome(f: crate::device::api::ControllerFault) -> Outcome {
     if f.code == "timeout" || f.recovery == Recovery::CheckLink {
-        Outcome::LinkFailed(format!("{}: {}", f.code, f.meaning))
+        Outcome::LinkFailed(format!("{} to {}: {}", f.code, f.command, f.meaning))
     } else {
         Outcome::ControllerError {
             code: f.code,

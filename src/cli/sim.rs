@@ -38,6 +38,7 @@ Control language (one command per line, docs/simulator.md):
   fault delay <ms>                     send the next message <ms> later
   fault close [<reopen-after-ms>]      close the line (a pty may reopen)
   show                                 device state, line, counters
+  show received                        the bytes the simulator received (readable)
   help                                 commands and the device's inputs
   quit                                 end the simulator
 

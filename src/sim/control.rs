@@ -8,7 +8,7 @@
 //! fault drop-byte [<index>]              fault corrupt-byte [<index>]
 //! fault withhold                         fault garbage <text> | hex:<hex>
 //! fault delay <ms>                       fault close [<reopen-after-ms>]
-//! show      help      quit
+//! show      show received      help      quit
 //! ```
 
 use std::io::{self, BufRead, Write};
@@ -27,6 +27,8 @@ pub enum ControlCommand {
     Input(InputControl),
     Fault(Fault),
     Show,
+    /// `show received`: the bytes the device received, readable.
+    ShowReceived,
     Help,
     Quit,
 }
@@ -90,10 +92,18 @@ pub fn parse_line(text: &str, line: usize) -> Result<Option<ControlCommand>, Con
             })
         }
         "fault" => ControlCommand::Fault(parse_fault(rest).map_err(fail)?),
-        "show" => {
-            end_of_line(rest, "`show`").map_err(fail)?;
-            ControlCommand::Show
-        }
+        "show" => match next_word(rest) {
+            None => ControlCommand::Show,
+            Some((what, rest)) if what.eq_ignore_ascii_case("received") => {
+                end_of_line(rest, "`show received`").map_err(fail)?;
+                ControlCommand::ShowReceived
+            }
+            Some((what, _)) => {
+                return Err(fail(format!(
+                    "unknown `show {what}`: expected `show` or `show received`"
+                )));
+            }
+        },
         "help" => {
             end_of_line(rest, "`help`").map_err(fail)?;
             ControlCommand::Help
@@ -255,6 +265,7 @@ pub fn help_text(input_names: &[&str]) -> String {
          \x20 fault delay <ms>                     send the next message <ms> later\n\
          \x20 fault close [<reopen-after-ms>]      close the line (a pty may reopen)\n\
          \x20 show                                 device state, line, counters\n\
+         \x20 show received                        the bytes the device received\n\
          \x20 help                                 this text\n\
          \x20 quit                                 end the simulator\n\
          inputs: {inputs}"
@@ -292,6 +303,7 @@ pub fn run_control_loop(
             ControlCommand::Input(control) => shell.input(control).map(|()| "ok".to_owned()),
             ControlCommand::Fault(fault) => shell.fault(fault).map(|()| "ok".to_owned()),
             ControlCommand::Show => shell.show(),
+            ControlCommand::ShowReceived => shell.received().map(|r| r.to_string()),
             ControlCommand::Help => shell.input_names().map(|names| help_text(&names)),
         };
         match result {
@@ -459,6 +471,8 @@ mod tests {
     #[test]
     fn show_help_quit_blank_and_comments() {
         assert_eq!(parse("show"), ControlCommand::Show);
+        assert_eq!(parse("show received"), ControlCommand::ShowReceived);
+        assert_eq!(parse("SHOW Received"), ControlCommand::ShowReceived);
         assert_eq!(parse("help"), ControlCommand::Help);
         assert_eq!(parse("quit"), ControlCommand::Quit);
         assert_eq!(parse("exit"), ControlCommand::Quit);
@@ -488,6 +502,14 @@ mod tests {
         assert_eq!(
             error("set hood on now"),
             "line 7: unexpected `now` after the level: expected the end of the line"
+        );
+        assert_eq!(
+            error("show more"),
+            "line 7: unknown `show more`: expected `show` or `show received`"
+        );
+        assert_eq!(
+            error("show received all"),
+            "line 7: unexpected `all` after `show received`: expected the end of the line"
         );
         assert_eq!(
             error("press"),
@@ -552,10 +574,6 @@ mod tests {
         assert_eq!(
             error("fault garbage hex:abc"),
             "line 7: hex:abc has an odd number of digits: expected two per byte"
-        );
-        assert_eq!(
-            error("show all"),
-            "line 7: unexpected `all` after `show`: expected the end of the line"
         );
     }
 

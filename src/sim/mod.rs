@@ -20,6 +20,7 @@ pub mod fault;
 pub mod isel;
 mod line;
 pub mod pty;
+pub mod received;
 pub mod registry;
 pub mod shell;
 

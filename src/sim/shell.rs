@@ -20,6 +20,7 @@ use super::engine::Engine;
 use super::fault::Fault;
 use super::line::{Line, PtyShared, ReadOutcome};
 use super::pty::{self, StableLink};
+use super::received::{Received, ReceivedLog};
 use super::{InputControl, SimDevice};
 use crate::transport::fd;
 use crate::wire::LineSettings;
@@ -61,6 +62,7 @@ enum Request {
     Input(InputControl, Reply<Result<(), String>>),
     Fault(Fault, Reply<Result<(), String>>),
     Show(Reply<String>),
+    Received(Reply<Received>),
     InputNames(Reply<Vec<&'static str>>),
     InputLevels(Reply<Vec<(&'static str, Option<bool>)>>),
     Shutdown,
@@ -95,6 +97,11 @@ impl ShellControl {
     /// The device's state line and the shell's line and wire counters.
     pub fn show(&self) -> Result<String, ShellError> {
         self.ask(Request::Show)
+    }
+
+    /// The bytes the device received from the line (`show received`).
+    pub fn received(&self) -> Result<Received, ShellError> {
+        self.ask(Request::Received)
     }
 
     /// The input names the device understands.
@@ -289,6 +296,7 @@ fn spawn(
         wake: wake_rx,
         out: Vec::new(),
         last_error: None,
+        received: ReceivedLog::default(),
     };
     let thread = thread::Builder::new()
         .name("jogterm-sim".into())
@@ -321,6 +329,8 @@ struct Worker {
     out: Vec<u8>,
     /// The last line error (such as a failed reopen), for `show`.
     last_error: Option<String>,
+    /// Everything read from the line, for `show received`.
+    received: ReceivedLog,
 }
 
 enum Flow {
@@ -401,8 +411,9 @@ impl Worker {
             }
             if watched == 2 && fds.get(1).is_some_and(|p| p.revents != 0) {
                 while let ReadOutcome::Data(n) = self.line.read(&mut buf, read_at) {
-                    self.engine
-                        .receive(buf.get(..n).unwrap_or_default(), read_at);
+                    let bytes = buf.get(..n).unwrap_or_default();
+                    self.received.record(bytes);
+                    self.engine.receive(bytes, read_at);
                 }
             }
         }
@@ -432,6 +443,9 @@ impl Worker {
             }
             Request::Show(reply) => {
                 let _ = reply.send(self.show(now));
+            }
+            Request::Received(reply) => {
+                let _ = reply.send(self.received.snapshot());
             }
             Request::InputNames(reply) => {
                 let _ = reply.send(self.engine.input_names());

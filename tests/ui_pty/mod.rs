@@ -1,6 +1,6 @@
-//! Running a program in a pseudo-terminal of 80x24 and reading its screen
-//! back through a terminal parser (vt100), for the tests of the terminal
-//! guard and of the real binary.
+//! Running a program in a pseudo-terminal (80x24 unless told) and reading
+//! its screen back through a terminal parser (vt100), for the tests of the
+//! terminal guard, of the real binary and of the fault-injection suite.
 
 #![allow(dead_code)]
 
@@ -23,15 +23,29 @@ pub struct PtyRun {
     output: Arc<Mutex<Vec<u8>>>,
     stop_reading: Arc<AtomicBool>,
     reader: Option<thread::JoinHandle<()>>,
+    rows: u16,
+    cols: u16,
 }
 
 impl PtyRun {
     /// Start `program` with `args` and `env` in a new 80x24 pty.
     pub fn spawn(program: &Path, args: &[&str], env: &[(&str, &str)]) -> PtyRun {
+        Self::spawn_sized(program, args, env, 24, 80)
+    }
+
+    /// Start `program` in a new pty of `rows` x `cols` (at least 1x1).
+    pub fn spawn_sized(
+        program: &Path,
+        args: &[&str],
+        env: &[(&str, &str)],
+        rows: u16,
+        cols: u16,
+    ) -> PtyRun {
+        let (rows, cols) = (rows.max(1), cols.max(1));
         let pty = native_pty_system()
             .openpty(PtySize {
-                rows: 24,
-                cols: 80,
+                rows,
+                cols,
                 pixel_width: 0,
                 pixel_height: 0,
             })
@@ -88,6 +102,8 @@ impl PtyRun {
             output,
             stop_reading,
             reader: Some(reader),
+            rows,
+            cols,
         }
     }
 
@@ -115,11 +131,23 @@ impl PtyRun {
             .clone()
     }
 
-    /// The screen as an 80x24 terminal shows it now.
+    /// What the program wrote from byte `offset` on (for a caller that keeps
+    /// its own parser and feeds it only what is new).
+    pub fn output_since(&self, offset: usize) -> Vec<u8> {
+        let output = self.output.lock().unwrap_or_else(|p| p.into_inner());
+        output.get(offset..).unwrap_or_default().to_vec()
+    }
+
+    /// The terminal's size: rows, columns.
+    pub fn size(&self) -> (u16, u16) {
+        (self.rows, self.cols)
+    }
+
+    /// The screen as the terminal shows it now.
     pub fn screen(&self) -> vt100::Parser {
         let (rows, cols) = (
-            NonZeroU16::MIN.saturating_add(23),
-            NonZeroU16::MIN.saturating_add(79),
+            NonZeroU16::MIN.saturating_add(self.rows - 1),
+            NonZeroU16::MIN.saturating_add(self.cols - 1),
         );
         let mut parser = vt100::Parser::new(rows, cols, 0);
         parser.process(&self.output());

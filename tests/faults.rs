@@ -1,0 +1,651 @@
+//! The fault-injection suite (`docs/faults.md`): scripted scenarios against
+//! `jogterm sim --pty`, each asserting what the operator sees (the message
+//! line names what happened and what to do), what the controller received
+//! (no motion command repeated), and that nothing panicked or hung (every
+//! wait is bounded). Its own runner prints the totals.
+
+mod faults_support;
+
+use std::process::{Command, ExitCode};
+use std::time::{Duration, Instant};
+
+use faults_support::console::Console;
+use faults_support::runner::{self, Scenario, Tally};
+use faults_support::sim::SimProcess;
+use faults_support::wire::{assert_isel_motion, emcu_motion, isel_messages, isel_motion};
+use faults_support::{JOGTERM, WAIT, contains_panic};
+
+/// A long X move (15 s at 4000 Hz) for a fault to interrupt.
+const LONG_MOVE: &str = "@0M60000,4000,0,4000,0,4000,0,4000";
+/// A short X move (about 1 s) to try after a fault.
+const SHORT_MOVE: &str = "@0M4000,4000,0,4000,0,4000,0,4000";
+/// An X move of about 2 s: long enough to arm a fault for its answer
+/// under load, short enough that its deadline (the move plus a quarter
+/// plus 1 s, docs/protocols.md) keeps the scenario brief.
+const MEDIUM_MOVE: &str = "@0M8000,4000,0,4000,0,4000,0,4000";
+
+/// The console connected to a fresh isel simulator, initialised and
+/// referenced (`@0N7`), so moves are allowed.
+fn ready_isel() -> (SimProcess, Console) {
+    let sim = SimProcess::start("isel");
+    let mut console = Console::start(&sim);
+    console.make_ready();
+    (sim, console)
+}
+
+/// Go to `target` with the keypad's go-to prompt (`g`, the target, Enter);
+/// waits until the controller has the move and the console says MOVING.
+/// The motion command the controller received.
+fn start_go_to(sim: &mut SimProcess, console: &mut Console, target: &str) -> String {
+    console.keys(b"g");
+    console.keys(target.as_bytes());
+    console.wait_for(target);
+    console.keys(b"\r");
+    let received = sim.wait_received("the go-to move", |r| !isel_motion(r).is_empty());
+    console.wait_until("MOVING in the status bar", |s| {
+        s.lines().next().is_some_and(|l| l.contains("MOVING"))
+    });
+    isel_motion(&received).remove(0)
+}
+
+/// Wait until the controller has received the whole `command`.
+fn wait_received_command(sim: &mut SimProcess, command: &str) {
+    sim.wait_received(command, |r| isel_messages(r).iter().any(|m| m == command));
+}
+
+/// Start a move from the console and wait until it runs (the controller
+/// has the whole command and the console says MOVING).
+fn start_move(sim: &mut SimProcess, console: &mut Console, command: &str) {
+    console.command(command);
+    wait_received_command(sim, command);
+    console.wait_until("MOVING in the status bar", |s| {
+        s.lines().next().is_some_and(|l| l.contains("MOVING"))
+    });
+}
+
+/// The X position the console shows (the steps column of the X row:
+/// `X⌂   10.000 mm   10.000    4000 …`).
+fn x_steps(screen: &str) -> Option<i64> {
+    let row = screen.lines().find(|l| l.starts_with('X'))?;
+    row.split_whitespace().nth(4)?.parse().ok()
+}
+
+/// A move typed now is refused with its reason (by the command line's
+/// check, or by the device task) and never sent.
+fn assert_move_refused(console: &mut Console) {
+    console.command(SHORT_MOVE);
+    let screen = console.wait_until("the typed move refused", |s| {
+        s.lines()
+            .any(|l| l.starts_with("^ ") || l.contains("refused"))
+    });
+    let reason = screen
+        .lines()
+        .find(|l| l.starts_with("^ ") || l.contains("refused"))
+        .unwrap_or_default();
+    assert!(
+        reason.contains(": ") || reason.contains("first"),
+        "the refusal says what to do: {reason}"
+    );
+}
+
+/// A byte missing from a poll's reply: the console says the reply was
+/// garbled (information: polling reads it again), keeps the link, and a move
+/// afterwards is sent exactly once and ends where it should.
+fn dropped_byte_in_a_reply(t: &mut Tally) {
+    let (mut sim, mut console) = ready_isel();
+    sim.control("fault drop-byte");
+    t.fault();
+    // The next reply is a poll's (the position or a port), or, right after
+    // a reconnect, the read-back's, which then starts again.
+    let screen = console.wait_until("the garbled reply named", |s| {
+        s.lines().any(|l| {
+            l.contains("the reply to @0") && l.contains("was garbled")
+                || l.contains("reply could not be read")
+        })
+    });
+    let line = screen
+        .lines()
+        .map(str::trim)
+        .find(|l| l.contains("garbled") || l.contains("could not be read"))
+        .unwrap_or_default();
+    assert!(line.starts_with("·"), "information, nothing to do: {line}");
+    console.command(SHORT_MOVE);
+    wait_received_command(&mut sim, SHORT_MOVE);
+    console.wait_until("READY after the move", |s| {
+        s.lines().next().is_some_and(|l| l.contains("READY")) && x_steps(s) == Some(4000)
+    });
+    assert!(console.status_bar().contains("connected"));
+    assert_isel_motion(&sim.received(), &[SHORT_MOVE]);
+    sim.assert_alive();
+    console.quit();
+}
+
+/// A corrupted byte in the answer to a move: the outcome is unknown, so
+/// the console says so and what to check, reads the state back, and does
+/// not send the move again.
+fn corrupted_byte(t: &mut Tally) {
+    let (mut sim, mut console) = ready_isel();
+    console.command(MEDIUM_MOVE);
+    wait_received_command(&mut sim, MEDIUM_MOVE);
+    // The next message the controller produces is the move's answer `0`.
+    sim.control("fault corrupt-byte");
+    t.fault();
+    let line = console.wait_message(&[
+        "the outcome of the command is unknown",
+        "check the cable",
+        MEDIUM_MOVE,
+    ]);
+    assert!(line.starts_with("!!"), "{line}");
+    let screen = console.wait_until("READY with the position read back", |s| {
+        s.lines().next().is_some_and(|l| l.contains("READY")) && x_steps(s) == Some(8000)
+    });
+    assert!(screen.contains("the reply to @0M"), "{screen}");
+    assert_isel_motion(&sim.received(), &[MEDIUM_MOVE]);
+    sim.assert_alive();
+    console.quit();
+}
+
+/// The answer to a move withheld: after the move's deadline the console
+/// reports the timeout and the lost link with what to check, reconnects,
+/// stops and reads back; the move is not sent again.
+fn withheld_reply(t: &mut Tally) {
+    let (mut sim, mut console) = ready_isel();
+    console.command(MEDIUM_MOVE);
+    wait_received_command(&mut sim, MEDIUM_MOVE);
+    sim.control("fault withhold");
+    t.fault();
+    let line = console.wait_message(&[
+        "No reply within",
+        "check the cable, the baud rate and the controller type",
+        MEDIUM_MOVE,
+    ]);
+    assert!(line.starts_with("!!"), "{line}");
+    console.wait_message(&[
+        &format!("link lost: no reply to {MEDIUM_MOVE}"),
+        "motion state unknown until the controller is read again",
+    ]);
+    console.wait_until("connected and READY again", |s| {
+        let bar = s.lines().next().unwrap_or_default();
+        bar.contains("connected") && bar.contains("READY")
+    });
+    let received = sim.received();
+    assert_isel_motion(&received, &[MEDIUM_MOVE]);
+    let after: Vec<String> = isel_messages(&received)
+        .into_iter()
+        .skip_while(|m| m != MEDIUM_MOVE)
+        .skip(1)
+        .collect();
+    assert_eq!(
+        after.first().map(String::as_str),
+        Some("<FD>"),
+        "the reconnect stops first: {after:?}"
+    );
+    sim.assert_alive();
+    console.quit();
+}
+
+/// The line closed under a go-to move (`g X150`, 6 s) and reopened 500 ms
+/// later: the console says the link is lost and the motion state unknown,
+/// reconnects, stops the move first and reads the state back; the move is
+/// not sent again.
+fn port_closed_mid_move_and_reopened(t: &mut Tally) {
+    let (mut sim, mut console) = ready_isel();
+    let go_to = start_go_to(&mut sim, &mut console, "X150");
+    sim.control("fault close 500");
+    t.fault();
+    console.wait_for("motion state unknown until the controller is read again");
+    console.wait_for("reconnecting");
+    let screen = console.wait_until("the state read back after the reconnect", |s| {
+        s.lines()
+            .nth(1)
+            .is_some_and(|l| l.contains("state read back"))
+            && s.lines().next().is_some_and(|l| l.contains("READY"))
+    });
+    let x = x_steps(&screen).expect("the X position");
+    assert!(x > 0 && x < 60_000, "the move was stopped: X {x}\n{screen}");
+    let received = sim.received();
+    assert_isel_motion(&received, &[&go_to]);
+    let after: Vec<String> = isel_messages(&received)
+        .into_iter()
+        .skip_while(|m| *m != go_to)
+        .skip(1)
+        .collect();
+    assert_eq!(
+        after.first().map(String::as_str),
+        Some("<FD>"),
+        "the reopened line is stopped first: {after:?}"
+    );
+    sim.assert_alive();
+    console.quit();
+}
+
+/// An E-stop circuit opened during a move: the controller answers `9`; the
+/// console shows E-STOP and tells the operator to release it, then
+/// initialise and reference; a move typed now is refused, not sent.
+fn estop_during_a_move(t: &mut Tally) {
+    let (mut sim, mut console) = ready_isel();
+    start_move(&mut sim, &mut console, LONG_MOVE);
+    sim.control("set estop1 open");
+    t.fault();
+    let line = console.wait_message(&[
+        "release the emergency stop, then initialise (i) and reference (h)",
+        "answer 9",
+    ]);
+    assert!(line.starts_with("!!"), "{line}");
+    console.wait_until("E-STOP in the status bar", |s| {
+        s.lines().next().is_some_and(|l| l.contains("E-STOP"))
+    });
+    assert_move_refused(&mut console);
+    sim.control("set estop1 closed");
+    assert_isel_motion(&sim.received(), &[LONG_MOVE]);
+    sim.assert_alive();
+    console.quit();
+}
+
+/// A limit switch during a move: the controller answers `2`; the console
+/// shows LIMIT and says to initialise and reference.
+fn limit_switch_during_a_move(t: &mut Tally) {
+    let (mut sim, mut console) = ready_isel();
+    start_move(&mut sim, &mut console, LONG_MOVE);
+    sim.control("set limit-x2 on");
+    t.fault();
+    let line = console.wait_message(&["initialise (i) and reference (h)", "answer 2"]);
+    assert!(line.starts_with("!!"), "{line}");
+    console.wait_until("LIMIT in the status bar", |s| {
+        s.lines().next().is_some_and(|l| l.contains("LIMIT"))
+    });
+    assert_move_refused(&mut console);
+    sim.control("set limit-x2 off");
+    assert_isel_motion(&sim.received(), &[LONG_MOVE]);
+    sim.assert_alive();
+    console.quit();
+}
+
+/// The stop key on the controller during a move (typed as a raw command):
+/// it answers `F`; the console says the move was stopped and that start
+/// resumes it or stop discards it. Nothing is sent again.
+fn stop_button_on_the_controller(t: &mut Tally) {
+    let (mut sim, mut console) = ready_isel();
+    start_move(&mut sim, &mut console, LONG_MOVE);
+    sim.control("press stop");
+    t.fault();
+    let line = console.wait_message(&[
+        "stopped by the stop key",
+        "start to resume the move, or stop to discard it",
+        "answer F",
+    ]);
+    assert!(line.starts_with("!!"), "{line}");
+    assert_isel_motion(&sim.received(), &[LONG_MOVE]);
+    sim.assert_alive();
+    console.quit();
+}
+
+/// Small deterministic pseudo-random numbers (xorshift64*), so a failing
+/// fuzz run can be repeated.
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
+    }
+
+    fn below(&mut self, n: u64) -> u64 {
+        self.next() % n.max(1)
+    }
+}
+
+/// Bursts of garbage fuzzed during the garbage scenario.
+const GARBAGE_BURSTS: u32 = 40;
+
+/// Unsolicited garbage while polling: the console names the bytes, keeps
+/// the link; then random bursts at random moments (seeded): no panic, no
+/// motion, and the console still answers a typed command afterwards.
+fn unsolicited_garbage(t: &mut Tally) {
+    let (mut sim, mut console) = ready_isel();
+    sim.control("fault garbage ?!xyz");
+    t.fault();
+    // Bytes that arrive while a poll's reply is awaited garble that reply;
+    // the others are named as unexpected.
+    console.wait_until("the garbage named", |s| {
+        s.contains("unexpected bytes from the controller") || s.contains("was garbled")
+    });
+    let seed = 0x5EED_F00D_u64;
+    let mut rng = Rng(seed);
+    for _ in 0..GARBAGE_BURSTS {
+        let len = 1 + rng.below(12);
+        let hex: Vec<String> = (0..len)
+            .map(|_| format!("{:02x}", rng.below(256)))
+            .collect();
+        sim.control(&format!("fault garbage hex:{}", hex.join("")));
+        t.fuzzed += 1;
+        std::thread::sleep(Duration::from_millis(rng.below(60)));
+    }
+    t.fault();
+    console.wait_until("connected again after the garbage", |s| {
+        s.lines().next().is_some_and(|l| l.contains("connected"))
+    });
+    // Still operable: a typed query is answered.
+    let end = Instant::now() + WAIT;
+    loop {
+        console.command("@0V");
+        if console.shows_within("@0V = isel", Duration::from_secs(3)) {
+            break;
+        }
+        assert!(
+            Instant::now() < end,
+            "the console no longer answers (seed {seed:#x}):\n{}",
+            console.screen()
+        );
+    }
+    assert_isel_motion(&sim.received(), &[]);
+    sim.assert_alive();
+    console.quit();
+}
+
+/// A hang-up (the terminal goes away: SIGHUP) during a move: jogterm stops
+/// the machine (the stop bytes reach the controller, which comes to rest
+/// long before the move's end) and ends without a panic.
+fn sighup_during_a_move(t: &mut Tally) {
+    let (mut sim, mut console) = ready_isel();
+    start_move(&mut sim, &mut console, LONG_MOVE);
+    console.run.close_master();
+    t.fault();
+    console.assert_exits(None);
+    let received = sim.wait_received("the stop after the hang-up", |r| {
+        isel_messages(r)
+            .iter()
+            .skip_while(|m| *m != LONG_MOVE)
+            .any(|m| m == "<FD>")
+    });
+    assert_isel_motion(&received, &[LONG_MOVE]);
+    // Stopped with a ramp, well before the move's end (15 s away).
+    let state = sim.wait_device("idle", |d| d.ends_with("| idle"));
+    assert!(
+        !state.contains("X 60000"),
+        "the move ran to its end: {state}"
+    );
+    sim.assert_alive();
+}
+
+/// A hang-up (SIGHUP) during a continuous jog held with key repeats: jogterm
+/// stops the machine and ends; the jog's one move was sent once and the
+/// machine comes to rest.
+fn sighup_during_a_continuous_jog(t: &mut Tally) {
+    let (mut sim, mut console) = ready_isel();
+    // Continuous jogging, then hold X+ (Right) as a terminal repeats it.
+    console.keys(b"c");
+    console.wait_for("continuous");
+    let right = b"\x1b[C";
+    let end = Instant::now() + WAIT;
+    loop {
+        console.keys(right);
+        std::thread::sleep(Duration::from_millis(30));
+        let bar = console.status_bar();
+        if bar.contains("JOGGING") {
+            break;
+        }
+        assert!(
+            Instant::now() < end,
+            "the jog never started:\n{}",
+            console.screen()
+        );
+    }
+    // A few repeats more, then the terminal goes away between two repeats.
+    for _ in 0..5 {
+        console.keys(right);
+        std::thread::sleep(Duration::from_millis(30));
+    }
+    console.run.close_master();
+    t.fault();
+    console.assert_exits(None);
+    let received = sim.wait_received("the stop after the hang-up", |r| {
+        isel_messages(r)
+            .iter()
+            .skip_while(|m| !faults_support::wire::isel_moves(m))
+            .any(|m| m == "<FD>")
+    });
+    let motion = isel_motion(&received);
+    assert_eq!(motion.len(), 1, "one move for the jog: {motion:?}");
+    sim.wait_device("idle", |d| d.ends_with("| idle"));
+    sim.assert_alive();
+}
+
+/// The output of a command line run, once it has ended; killed and failed
+/// if it does not end within [`WAIT`].
+fn wait_child(mut child: std::process::Child, what: &str) -> std::process::Output {
+    let end = Instant::now() + WAIT;
+    while matches!(child.try_wait(), Ok(None)) {
+        if Instant::now() > end {
+            let _ = child.kill();
+            let out = child.wait_with_output();
+            panic!("{what} hangs: {out:?}");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    child.wait_with_output().expect("the output")
+}
+
+/// `jogterm send` whose reply is withheld: it ends with status 3 and says
+/// the link failed and what to check, within its deadline.
+fn withheld_reply_to_send(t: &mut Tally) {
+    let mut sim = SimProcess::start("isel");
+    let child = Command::new(JOGTERM)
+        .args(["send", "--protocol", "isel", "--port"])
+        .arg(&sim.link)
+        .args(["@07", "@0N7", MEDIUM_MOVE, "@0P"])
+        .env("JOGTERM_CONFIG_DIR", sim.dir.path())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("run jogterm send");
+    sim.wait_received("the move", |r| {
+        isel_messages(r).iter().any(|m| m == MEDIUM_MOVE)
+    });
+    sim.control("fault withhold");
+    t.fault();
+    let out = wait_child(child, "jogterm send");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(3), "{stderr}");
+    assert!(!contains_panic(&out.stderr), "{stderr}");
+    assert!(stderr.contains("link failure"), "{stderr}");
+    assert!(
+        stderr.contains(&format!("timeout to {MEDIUM_MOVE}")),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains("check the cable, the baud rate and the controller type"),
+        "{stderr}"
+    );
+    assert_isel_motion(&sim.received(), &[MEDIUM_MOVE]);
+    sim.assert_alive();
+}
+
+/// `jogterm poll` whose `@0P` reply is withheld: it ends with status 3,
+/// says the link failed on which command and what to check; the samples
+/// before it are whole lines; nothing moved.
+fn withheld_reply_to_poll(t: &mut Tally) {
+    let mut sim = SimProcess::start("isel");
+    let child = Command::new(JOGTERM)
+        .args([
+            "poll",
+            "--protocol",
+            "isel",
+            "--json",
+            "--interval-ms",
+            "20",
+            "--port",
+        ])
+        .arg(&sim.link)
+        .env("JOGTERM_CONFIG_DIR", sim.dir.path())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("run jogterm poll");
+    sim.wait_received("a few polls", |r| {
+        isel_messages(r).iter().filter(|m| *m == "@0P").count() >= 5
+    });
+    sim.control("fault withhold");
+    t.fault();
+    let out = wait_child(child, "jogterm poll");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(3), "{stderr}");
+    assert!(!contains_panic(&out.stderr), "{stderr}");
+    assert!(stderr.contains("link failure: no reply to @0"), "{stderr}");
+    assert!(
+        stderr.contains("check the cable, the baud rate and the controller type"),
+        "{stderr}"
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.lines().count() >= 1, "samples before the fault");
+    for line in stdout.lines() {
+        assert!(
+            line.starts_with('{') && line.ends_with('}'),
+            "a whole JSON sample per line: {line}"
+        );
+    }
+    assert_isel_motion(&sim.received(), &[]);
+    sim.assert_alive();
+}
+
+/// EMCU: a poll's answer withheld: the console says the link is lost and
+/// what to check, reconnects and reads the state back; nothing moved.
+fn withheld_reply_emcu(t: &mut Tally) {
+    let mut sim = SimProcess::start("emcu");
+    let console = Console::start(&sim);
+    sim.control("fault withhold");
+    t.fault();
+    console.wait_message(&[
+        "No reply within",
+        "check the cable, the baud rate and the controller type",
+    ]);
+    console.wait_message(&["link lost: no reply to", "motion state unknown"]);
+    console.wait_until("connected again", |s| {
+        s.lines().next().is_some_and(|l| l.contains("connected"))
+    });
+    let motion = emcu_motion(&sim.received());
+    assert!(motion.is_empty(), "nothing was to move: {motion:?}");
+    sim.assert_alive();
+    console.quit();
+}
+
+/// The recovery files in a console's state directory.
+fn recoveries(sim: &SimProcess) -> Vec<String> {
+    std::fs::read_dir(sim.dir.path().join("state").join("recovery"))
+        .map(|entries| {
+            entries
+                .filter_map(Result::ok)
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .filter(|n| n.ends_with(".jogterm-recovery"))
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+/// SIGKILL of jogterm while a program is being edited: the file on disk is
+/// untouched, the next start offers the edits back and restores them, and
+/// nothing moved on either start.
+fn sigkill_mid_edit(t: &mut Tally) {
+    const PROGRAM: &str = "; drill\n7 7\nm8000,8000,8000,8000\n9\n";
+    let mut sim = SimProcess::start("isel");
+    let file = sim.dir.path().join("drill.isel");
+    std::fs::write(&file, PROGRAM).expect("write the program");
+    let file_arg = file.display().to_string();
+    let mut console = Console::start_with(&sim, &["--program", &file_arg]);
+    console.wait_for("drill.isel");
+    // A new comment on the first line (Tab types the blank: Space stops).
+    console.keys(b";\tkept-after-kill\r");
+    console.wait_for("kept-after-kill");
+    let end = Instant::now() + WAIT;
+    while recoveries(&sim).is_empty() {
+        assert!(Instant::now() < end, "no recovery file was written");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let pid = console.run.child.process_id().expect("pid");
+    // SAFETY: a signal to our own child.
+    assert_eq!(unsafe { libc::kill(pid as i32, libc::SIGKILL) }, 0);
+    t.fault();
+    assert!(
+        console.run.wait_exit(WAIT).is_some(),
+        "not ended by SIGKILL"
+    );
+    drop(console);
+    assert_eq!(
+        std::fs::read_to_string(&file).expect("read"),
+        PROGRAM,
+        "the file is untouched"
+    );
+
+    let mut console = Console::start(&sim);
+    let screen = console.wait_for("Recovered edits");
+    assert!(screen.contains("drill.isel"), "{screen}");
+    console.keys(b"y");
+    let screen = console.wait_for("kept-after-kill");
+    assert!(screen.contains("m8000,8000,8000,8000"), "{screen}");
+    assert_isel_motion(&sim.received(), &[]);
+    sim.assert_alive();
+    console.assert_no_panic();
+}
+
+fn main() -> ExitCode {
+    runner::run(&[
+        Scenario {
+            name: "dropped_byte_in_a_reply",
+            run: dropped_byte_in_a_reply,
+        },
+        Scenario {
+            name: "corrupted_byte",
+            run: corrupted_byte,
+        },
+        Scenario {
+            name: "withheld_reply",
+            run: withheld_reply,
+        },
+        Scenario {
+            name: "withheld_reply_to_send",
+            run: withheld_reply_to_send,
+        },
+        Scenario {
+            name: "withheld_reply_to_poll",
+            run: withheld_reply_to_poll,
+        },
+        Scenario {
+            name: "port_closed_mid_move_and_reopened",
+            run: port_closed_mid_move_and_reopened,
+        },
+        Scenario {
+            name: "estop_during_a_move",
+            run: estop_during_a_move,
+        },
+        Scenario {
+            name: "limit_switch_during_a_move",
+            run: limit_switch_during_a_move,
+        },
+        Scenario {
+            name: "stop_button_on_the_controller",
+            run: stop_button_on_the_controller,
+        },
+        Scenario {
+            name: "withheld_reply_emcu",
+            run: withheld_reply_emcu,
+        },
+        Scenario {
+            name: "sigkill_mid_edit",
+            run: sigkill_mid_edit,
+        },
+        Scenario {
+            name: "unsolicited_garbage",
+            run: unsolicited_garbage,
+        },
+        Scenario {
+            name: "sighup_during_a_move",
+            run: sighup_during_a_move,
+        },
+        Scenario {
+            name: "sighup_during_a_continuous_jog",
+            run: sighup_during_a_continuous_jog,
+        },
+    ])
+}

@@ -1,0 +1,250 @@
+//! The real `jogterm` console in a pseudo-terminal, driven as an operator
+//! would, against a simulator's link; the screen read back with vt100.
+
+use std::cell::RefCell;
+use std::num::NonZeroU16;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use super::sim::SimProcess;
+use super::ui_pty::PtyRun;
+use super::{JOGTERM, WAIT, contains_panic};
+
+/// Wide enough that the message line is never cut.
+pub const ROWS: u16 = 40;
+pub const COLS: u16 = 300;
+
+const LEAVE_ALTERNATE: &[u8] = b"\x1b[?1049l";
+
+pub struct Console {
+    pub run: PtyRun,
+    pub log: PathBuf,
+    /// The screen, fed only the output that is new since the last look
+    /// (parsing everything again every 20 ms would load the machine the
+    /// scenarios run on).
+    screen: RefCell<(vt100::Parser, usize)>,
+}
+
+impl Console {
+    /// `jogterm --port <link> --protocol <family> --log <dir>/traffic.log`,
+    /// waiting until the state has been read back.
+    pub fn start(sim: &SimProcess) -> Console {
+        Self::start_with(sim, &[])
+    }
+
+    pub fn start_with(sim: &SimProcess, extra: &[&str]) -> Console {
+        let log = sim.dir.path().join("traffic.log");
+        let link = sim.link.display().to_string();
+        let log_arg = log.display().to_string();
+        let config = sim.dir.path().display().to_string();
+        // Recovery files and other state stay in the scenario's directory.
+        let state = sim.dir.path().join("state").display().to_string();
+        let mut args = vec![
+            "--port",
+            link.as_str(),
+            "--protocol",
+            sim.family,
+            "--log",
+            log_arg.as_str(),
+        ];
+        args.extend_from_slice(extra);
+        let env = [
+            ("JOGTERM_NO_KEYBOARD_QUERY", "1"),
+            ("JOGTERM_CONFIG_DIR", config.as_str()),
+            ("JOGTERM_STATE_DIR", state.as_str()),
+            ("RUST_BACKTRACE", "0"),
+        ];
+        let run = PtyRun::spawn_sized(Path::new(JOGTERM), &args, &env, ROWS, COLS);
+        let console = Console {
+            run,
+            log,
+            screen: RefCell::new((
+                vt100::Parser::new(
+                    NonZeroU16::MIN.saturating_add(ROWS - 1),
+                    NonZeroU16::MIN.saturating_add(COLS - 1),
+                    0,
+                ),
+                0,
+            )),
+        };
+        console.wait_for("state read back");
+        console
+    }
+
+    /// The screen now.
+    pub fn screen(&self) -> String {
+        let mut screen = self.screen.borrow_mut();
+        let (parser, seen) = &mut *screen;
+        let new = self.run.output_since(*seen);
+        *seen += new.len();
+        parser.process(&new);
+        parser.screen().contents()
+    }
+
+    /// The message line (the second row): what the operator is told.
+    pub fn message_line(&self) -> String {
+        self.screen().lines().nth(1).unwrap_or_default().to_string()
+    }
+
+    /// The status bar (the first row).
+    pub fn status_bar(&self) -> String {
+        self.screen().lines().next().unwrap_or_default().to_string()
+    }
+
+    /// Wait until the screen satisfies `done`; the screen. Bounded by [`WAIT`];
+    /// on timeout the screen and the traffic log are shown.
+    pub fn wait_until(&self, what: &str, done: impl Fn(&str) -> bool) -> String {
+        let end = Instant::now() + WAIT;
+        loop {
+            let screen = self.screen();
+            if done(&screen) {
+                return screen;
+            }
+            if Instant::now() > end {
+                panic!(
+                    "the console never showed {what} within {WAIT:?}:\n{screen}\n--- traffic log (tail):\n{}",
+                    self.log_tail()
+                );
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+
+    /// Whether `needle` shows up within `timeout` (for a step that may be
+    /// retried).
+    pub fn shows_within(&self, needle: &str, timeout: Duration) -> bool {
+        let end = Instant::now() + timeout;
+        loop {
+            if self.screen().contains(needle) {
+                return true;
+            }
+            if Instant::now() > end {
+                return false;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+
+    pub fn wait_for(&self, needle: &str) -> String {
+        self.wait_until(&format!("`{needle}`"), |s| s.contains(needle))
+    }
+
+    /// Wait until one line of the screen holds every one of `needles`: the
+    /// message line, or the same message kept in the traffic console (the
+    /// message line shows it for 10 s, later messages replace it). The line.
+    pub fn wait_message(&self, needles: &[&str]) -> String {
+        let holds = |l: &str| needles.iter().all(|n| l.contains(n));
+        let screen = self.wait_until(&format!("a message with {needles:?}"), |s| {
+            s.lines().any(holds)
+        });
+        screen
+            .lines()
+            .find(|l| holds(l))
+            .unwrap_or_default()
+            .trim()
+            .to_string()
+    }
+
+    pub fn keys(&mut self, bytes: &[u8]) {
+        self.run.send(bytes);
+    }
+
+    /// Type a raw command on the console's command line and send it, then
+    /// give the focus back to the port bits (where `i`, `q` reach the main
+    /// keys). Commands never contain a blank: Space is the stop key.
+    pub fn command(&mut self, line: &str) {
+        assert!(!line.contains(' '), "Space would stop, not type: {line}");
+        self.keys(b":\x15");
+        self.keys(line.as_bytes());
+        self.wait_for(&format!("> {line}"));
+        self.keys(b"\r\t");
+    }
+
+    /// Initialise (`i`) and set the reference where the axes stand (`@0N7`),
+    /// so moves are allowed; waits for READY.
+    ///
+    /// A link lost meanwhile (the isel driver gives a query 100 ms beyond
+    /// its wire time, which a heavily loaded machine can miss) refuses the
+    /// request; the steps are then tried again once the link is back.
+    pub fn make_ready(&mut self) {
+        let end = Instant::now() + WAIT;
+        let ready = |s: &str| s.lines().next().is_some_and(|l| l.contains("READY"));
+        while !ready(&self.screen()) {
+            assert!(
+                Instant::now() < end,
+                "the console never became READY:\n{}\n--- traffic log (tail):\n{}",
+                self.screen(),
+                self.log_tail()
+            );
+            self.wait_until("connected", |s| {
+                s.lines().next().is_some_and(|l| l.contains("connected"))
+            });
+            let status = self.status_bar();
+            if status.contains("NOT INIT") {
+                self.keys(b"i");
+                self.shows_within("NOT REF", Duration::from_secs(3));
+            } else if status.contains("NOT REF") {
+                self.command("@0N7");
+                let t = Instant::now() + Duration::from_secs(3);
+                while !ready(&self.screen()) && Instant::now() < t {
+                    std::thread::sleep(Duration::from_millis(20));
+                }
+            } else {
+                std::thread::sleep(Duration::from_millis(50));
+            }
+        }
+    }
+
+    pub fn log_tail(&self) -> String {
+        let text = std::fs::read_to_string(&self.log).unwrap_or_default();
+        let lines: Vec<&str> = text.lines().collect();
+        lines[lines.len().saturating_sub(40)..].join("\n")
+    }
+
+    /// Nothing the console wrote says it panicked (the pty carries its stderr).
+    pub fn assert_no_panic(&self) {
+        let output = self.run.output();
+        assert!(
+            !contains_panic(&output),
+            "jogterm panicked:\n{}",
+            String::from_utf8_lossy(&output)
+        );
+    }
+
+    /// Quit with `q`: exit status 0 in time, no panic, the terminal given back.
+    pub fn quit(mut self) {
+        self.keys(b"q");
+        self.assert_exits(Some(0));
+        self.assert_terminal_restored();
+    }
+
+    /// The console ends within [`WAIT`] (with `code` if given), without a
+    /// panic.
+    pub fn assert_exits(&mut self, code: Option<u32>) {
+        let exit = self.run.wait_exit(WAIT);
+        self.run.drain(Duration::from_secs(5));
+        let screen = self.run.screen();
+        assert!(
+            exit.is_some(),
+            "jogterm did not end within {WAIT:?}:\n{}",
+            screen.screen().contents()
+        );
+        if code.is_some() {
+            assert_eq!(exit, code, "{}", screen.screen().contents());
+        }
+        self.assert_no_panic();
+    }
+
+    /// After the end: the alternate screen was left and the cursor is shown.
+    pub fn assert_terminal_restored(&self) {
+        let screen = self.run.screen();
+        let output = self.run.output();
+        assert!(
+            output
+                .windows(LEAVE_ALTERNATE.len())
+                .any(|w| w == LEAVE_ALTERNATE),
+            "the alternate screen was not left"
+        );
+        assert!(!screen.screen().hide_cursor(), "the cursor is still hidden");
+    }
+}

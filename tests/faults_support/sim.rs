@@ -1,0 +1,191 @@
+//! `jogterm sim --pty --link <tmp>/tty<family>` as a child process: its stdin
+//! is the control channel (`set`, `press`, `fault …`), `show received` is the
+//! controller's own view of what it was sent.
+
+use std::io::{BufRead, BufReader, Read, Write};
+use std::path::{Path, PathBuf};
+use std::process::{Child, ChildStdin, Command, Stdio};
+use std::sync::mpsc::{self, Receiver};
+use std::sync::{Arc, Mutex};
+use std::thread;
+use std::time::{Duration, Instant};
+
+use super::{JOGTERM, WAIT, contains_panic};
+
+/// A running simulator; killed when dropped.
+pub struct SimProcess {
+    child: Child,
+    stdin: ChildStdin,
+    lines: Receiver<String>,
+    stderr: Arc<Mutex<Vec<u8>>>,
+    pub family: &'static str,
+    pub link: PathBuf,
+    pub dir: tempfile::TempDir,
+}
+
+impl SimProcess {
+    /// Start the simulator of `family` and wait for its first line (the link).
+    pub fn start(family: &'static str) -> SimProcess {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let link = dir.path().join(format!("tty{family}"));
+        let mut child = Command::new(JOGTERM)
+            .args(["sim", "--pty", "--protocol", family, "--link"])
+            .arg(&link)
+            .env("JOGTERM_CONFIG_DIR", dir.path())
+            .env("RUST_BACKTRACE", "0")
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("spawn jogterm sim");
+        let stdout = child.stdout.take().expect("stdout");
+        let (tx, lines) = mpsc::channel();
+        thread::spawn(move || {
+            for line in BufReader::new(stdout).lines() {
+                let Ok(line) = line else { break };
+                if tx.send(line).is_err() {
+                    break;
+                }
+            }
+        });
+        let stderr = Arc::new(Mutex::new(Vec::new()));
+        let sink = stderr.clone();
+        let mut err = child.stderr.take().expect("stderr");
+        thread::spawn(move || {
+            let mut buf = [0u8; 1024];
+            while let Ok(n) = err.read(&mut buf) {
+                if n == 0 {
+                    break;
+                }
+                sink.lock()
+                    .unwrap_or_else(|p| p.into_inner())
+                    .extend_from_slice(&buf[..n]);
+            }
+        });
+        let stdin = child.stdin.take().expect("stdin");
+        let sim = SimProcess {
+            child,
+            stdin,
+            lines,
+            stderr,
+            family,
+            link,
+            dir,
+        };
+        let first = sim.line("the link path");
+        assert_eq!(Path::new(&first), sim.link, "the first line is the link");
+        sim
+    }
+
+    fn line(&self, what: &str) -> String {
+        match self.lines.recv_timeout(WAIT) {
+            Ok(line) => line,
+            Err(_) => panic!(
+                "the simulator printed no line for {what} within {WAIT:?}; stderr:\n{}",
+                self.stderr_text()
+            ),
+        }
+    }
+
+    fn write(&mut self, command: &str) {
+        writeln!(self.stdin, "{command}").expect("write to the simulator");
+        self.stdin.flush().expect("flush the simulator's stdin");
+    }
+
+    /// A control line the simulator must accept (`ok`).
+    pub fn control(&mut self, command: &str) {
+        self.write(command);
+        let answer = self.line(command);
+        assert_eq!(
+            answer,
+            "ok",
+            "`{command}` was not accepted; stderr:\n{}",
+            self.stderr_text()
+        );
+    }
+
+    /// Everything the controller has received, in `traffic::readable` form.
+    pub fn received(&mut self) -> String {
+        self.write("show received");
+        let answer = self.line("show received");
+        match answer.split_once(": ") {
+            Some((head, bytes)) if head.starts_with("received ") && !head.contains("not kept") => {
+                bytes.to_string()
+            }
+            _ => panic!("unexpected answer to `show received`: {answer}"),
+        }
+    }
+
+    /// The device's state line of `show` (`device: …`); the other lines
+    /// (line, wire counters, faults armed, a last error) are read and left.
+    pub fn device_state(&mut self) -> String {
+        self.write("show");
+        let device = self.line("show");
+        for _ in 0..3 {
+            self.line("show");
+        }
+        // A fifth line only when reopening the line failed.
+        if let Ok(extra) = self.lines.recv_timeout(Duration::from_millis(100)) {
+            assert!(extra.starts_with("last error"), "after `show`: {extra}");
+        }
+        device
+    }
+
+    /// Wait until the device's state line satisfies `done`; the line.
+    pub fn wait_device(&mut self, what: &str, done: impl Fn(&str) -> bool) -> String {
+        let end = Instant::now() + WAIT;
+        loop {
+            let state = self.device_state();
+            if done(&state) {
+                return state;
+            }
+            assert!(
+                Instant::now() < end,
+                "the device never was {what}:\n{state}"
+            );
+            thread::sleep(Duration::from_millis(50));
+        }
+    }
+
+    /// Wait until what the controller received satisfies `done`; the
+    /// received text. Bounded by [`WAIT`].
+    pub fn wait_received(&mut self, what: &str, done: impl Fn(&str) -> bool) -> String {
+        let end = Instant::now() + WAIT;
+        loop {
+            let received = self.received();
+            if done(&received) {
+                return received;
+            }
+            assert!(
+                Instant::now() < end,
+                "the controller never received {what}:\n{received}"
+            );
+            thread::sleep(Duration::from_millis(50));
+        }
+    }
+
+    pub fn stderr_text(&self) -> String {
+        String::from_utf8_lossy(&self.stderr.lock().unwrap_or_else(|p| p.into_inner())).into_owned()
+    }
+
+    /// The simulator is still running and has not panicked.
+    pub fn assert_alive(&mut self) {
+        assert!(
+            matches!(self.child.try_wait(), Ok(None)),
+            "the simulator ended; stderr:\n{}",
+            self.stderr_text()
+        );
+        assert!(
+            !contains_panic(self.stderr_text().as_bytes()),
+            "the simulator panicked:\n{}",
+            self.stderr_text()
+        );
+    }
+}
+
+impl Drop for SimProcess {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}

@@ -1,0 +1,108 @@
+//! What the controller received (`show received`, in `traffic::readable`
+//! form) split into messages, and the motion commands among them: the
+//! suite's proof that no motion command went out twice.
+
+/// isel: commands end at CR (returned without it); the control bytes 0xFD,
+/// 0xFE, 0xFF are messages of their own, also between two bytes of a command
+/// (the controller reads them in its receive interrupt, isel manual 2.2.31).
+pub fn isel_messages(readable: &str) -> Vec<String> {
+    let mut messages = Vec::new();
+    let mut command = String::new();
+    let mut rest = readable;
+    while let Some(c) = rest.chars().next() {
+        if c == '<'
+            && let Some(end) = rest.find('>')
+        {
+            let token = &rest[..=end];
+            rest = &rest[end + 1..];
+            match token {
+                "<CR>" => messages.push(std::mem::take(&mut command)),
+                "<FD>" | "<FE>" | "<FF>" => messages.push(token.to_string()),
+                "<3C>" => command.push('<'),
+                other => command.push_str(other),
+            }
+            continue;
+        }
+        command.push(c);
+        rest = &rest[c.len_utf8()..];
+    }
+    messages
+}
+
+/// An isel command that makes an axis travel: absolute and relative moves
+/// (a relative move of zero steps everywhere is jogterm's reference probe,
+/// which moves nothing), reference runs, program starts.
+pub fn isel_moves(command: &str) -> bool {
+    let Some(rest) = command.strip_prefix("@0") else {
+        return false;
+    };
+    match rest.chars().next() {
+        Some('M' | 'm' | 'R' | 'S') => true,
+        Some('A') => rest[1..]
+            .split(',')
+            .step_by(2)
+            .any(|steps| steps.trim().trim_start_matches('+').trim_start_matches('-') != "0"),
+        _ => false,
+    }
+}
+
+/// The isel motion commands received, in order.
+pub fn isel_motion(readable: &str) -> Vec<String> {
+    isel_messages(readable)
+        .into_iter()
+        .filter(|m| isel_moves(m))
+        .collect()
+}
+
+/// The controller received exactly `expected` motion commands, in order:
+/// none repeated, none added.
+pub fn assert_isel_motion(readable: &str, expected: &[&str]) {
+    let got = isel_motion(readable);
+    assert_eq!(
+        got, expected,
+        "motion commands received (a repeat or an extra one is a fault):\n{readable}"
+    );
+}
+
+/// EMCU: lines end at CR or 0x01 (manual 1.4.2); the lines that can move
+/// an axis (`Command::may_move`: moves, reference runs, resume, run job).
+pub fn emcu_motion(readable: &str) -> Vec<String> {
+    let mut lines = Vec::new();
+    let mut line = String::new();
+    let mut rest = readable;
+    while let Some(c) = rest.chars().next() {
+        if c == '<'
+            && let Some(end) = rest.find('>')
+        {
+            let token = &rest[..=end];
+            rest = &rest[end + 1..];
+            match token {
+                "<CR>" | "<01>" => lines.push(std::mem::take(&mut line)),
+                "<3C>" => line.push('<'),
+                other => line.push_str(other),
+            }
+            continue;
+        }
+        line.push(c);
+        rest = &rest[c.len_utf8()..];
+    }
+    lines
+        .into_iter()
+        .filter(|l| jogterm::proto::emcu::parse_line(l).is_ok_and(|c| c.may_move()))
+        .collect()
+}
+
+/// The parser's own checks, run by the suite before the scenarios.
+pub fn self_check() {
+    assert_eq!(
+        isel_messages("<FD><FF>@0P<CR>@0M1<FD><FF>0,900<CR>a<3C>b<CR>"),
+        ["<FD>", "<FF>", "@0P", "<FD>", "<FF>", "@0M10,900", "a<b"]
+    );
+    assert!(isel_moves("@0M100,900,0,900,0,900,0,900"));
+    assert!(isel_moves("@0A100,900,0,900,0,900,0,900"));
+    assert!(!isel_moves("@0A0,900,0,900,0,900,0,900"));
+    assert!(!isel_moves("@0P"));
+    assert!(isel_moves("@0R7"));
+    assert!(!isel_moves("<FD>"));
+    assert_eq!(emcu_motion("@X<CR>@LX<CR>L1,x100<01>@X<CR>"), ["L1,x100"]);
+}
