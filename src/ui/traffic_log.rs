@@ -72,6 +72,10 @@ pub struct TrafficLog {
     received: Pending,
     /// Whether the last complete command sent was a routine poll.
     last_sent_routine: bool,
+    /// The last rejection of a routine poll (EMP INFO `EE`), shown once: the
+    /// same rejection again is counted with the polls, so a drive that is
+    /// switched off and rejects every poll does not flood the console.
+    last_rejection: Option<Vec<u8>>,
     /// Typed lines sent and not yet seen on the wire (whitespace removed,
     /// upper case), so they show even when they read like polls.
     typed: VecDeque<Vec<u8>>,
@@ -90,6 +94,7 @@ impl TrafficLog {
             sent: Pending::default(),
             received: Pending::default(),
             last_sent_routine: false,
+            last_rejection: None,
             typed: VecDeque::new(),
             poll_count: 0,
             show_polls: false,
@@ -193,9 +198,20 @@ impl TrafficLog {
                 self.last_sent_routine = routine;
                 routine
             }
-            Direction::Received => {
-                self.last_sent_routine && is_routine_answer(self.protocol, bytes)
+            Direction::Received if self.last_sent_routine => {
+                if is_routine_answer(self.protocol, bytes) {
+                    self.last_rejection = None;
+                    true
+                } else if !is_poll_rejection(self.protocol, bytes) {
+                    false
+                } else if self.last_rejection.as_deref() == Some(bytes) {
+                    true
+                } else {
+                    self.last_rejection = Some(bytes.to_vec());
+                    false
+                }
             }
+            Direction::Received => false,
         };
         let kind = match direction {
             Direction::Sent => LineKind::Sent,
@@ -313,6 +329,14 @@ pub fn is_routine_answer(protocol: Protocol, bytes: &[u8]) -> bool {
     }
 }
 
+/// Whether a message is a controller's refusal of a routine poll (EMP
+/// INFO `EE` to `2C` / `40`): shown, but its repeats are not news.
+fn is_poll_rejection(protocol: Protocol, bytes: &[u8]) -> bool {
+    protocol == Protocol::Emp
+        && emp::Frame::from_hex(body(bytes))
+            .is_ok_and(|f| matches!(f.cmd, 0x2D | 0x41) && f.info == 0xEE)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -412,6 +436,33 @@ mod tests {
         log.record(&received(b"2D11002200000100\x1a2B11002200000000\x1a"), t);
         assert_eq!(texts(&log), ["2B11002200000000<EOF>"]);
         assert_eq!(log.poll_count, 1);
+    }
+
+    #[test]
+    fn a_rejected_poll_is_shown_once_until_something_else_is_answered() {
+        let t = Instant::now();
+        let mut log = TrafficLog::new(Protocol::Emp);
+        for _ in 0..5 {
+            log.record(&sent(b"2C11000000000000\x1a"), t);
+            log.record(&received(b"2D1100EE00000000\x1a"), t);
+        }
+        assert_eq!(texts(&log), ["2D1100EE00000000<EOF>"]);
+        assert_eq!(log.poll_count, 5);
+        // Switched on: positions come; a later rejection is news again.
+        log.record(&sent(b"2C11000000000000\x1a"), t);
+        log.record(&received(b"2D11002200000100\x1a"), t);
+        log.record(&sent(b"2C11000000000000\x1a"), t);
+        log.record(&received(b"2D1100EE00000000\x1a"), t);
+        assert_eq!(
+            texts(&log),
+            ["2D1100EE00000000<EOF>", "2D1100EE00000000<EOF>"]
+        );
+        // Unsolicited frames are never folded, however often they repeat.
+        for _ in 0..2 {
+            log.record(&sent(b"2C11000000000000\x1a"), t);
+            log.record(&received(b"2B11002200000000\x1a"), t);
+        }
+        assert_eq!(texts(&log).len(), 4);
     }
 
     #[test]
