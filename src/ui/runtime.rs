@@ -131,6 +131,8 @@ pub async fn run<B: Backend, D: DeviceLink>(
             // The way out may be a dead terminal: the stop bytes go first,
             // on the reserved handle, before anything else can block.
             run_emergency();
+            device.stop();
+            late_edits(model, input, &worker).await;
         }
         let effects = update(model, msg);
         let leaving = effects.iter().any(|e| matches!(e, Effect::Quit));
@@ -185,6 +187,36 @@ pub async fn run<B: Backend, D: DeviceLink>(
                 continue;
             }
             last_draw = Some(Instant::now());
+        }
+    }
+}
+
+/// How long a `Terminate` waits for keys the input thread read before the
+/// hang-up and has not handed over yet.
+const LATE_INPUT: Duration = Duration::from_millis(200);
+
+/// Keys typed before a hang-up can still be on their way when the
+/// `Terminate` of the hang-up watcher or of SIGHUP is taken: read by
+/// crossterm, not yet sent (or, for a signal, behind it in the select).
+/// Their edits must reach the recovery file, so the input thread gets a
+/// moment to hand them over, until it ends (its own `Terminate`, or the
+/// channel closed) or `LATE_INPUT` has passed. The machine is stopped
+/// already: only their file effects are carried out, never a request to
+/// the device.
+async fn late_edits(model: &mut Model, input: &mut UnboundedReceiver<Msg>, worker: &EditorWorker) {
+    let until = tokio::time::Instant::now() + LATE_INPUT;
+    loop {
+        let msg = match tokio::time::timeout_at(until, input.recv()).await {
+            Ok(Some(msg @ (Msg::Key(_) | Msg::KeyAt(..)))) => msg,
+            Ok(Some(Msg::Terminate { .. }) | None) | Err(_) => return,
+            Ok(Some(_)) => continue,
+        };
+        for effect in update(model, msg) {
+            match effect {
+                Effect::Editor(crate::ui::editor::io::EditorIo::Lint(_)) => {}
+                Effect::Editor(io) => worker.submit(io),
+                _ => {}
+            }
         }
     }
 }
@@ -569,6 +601,62 @@ mod tests {
         assert!(kept.contains("; last-words"), "{kept:?}");
     }
 
+    /// The hang-up watcher's `Terminate` is taken before keys the input
+    /// thread read just ahead of the hang-up: their edits still reach the
+    /// recovery file, and they ask the device for nothing.
+    #[tokio::test]
+    async fn keys_behind_a_hang_up_still_reach_the_recovery_file() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let store = crate::program::store::RecoveryStore::new(dir.path());
+        let (events_tx, events) = mpsc::unbounded_channel();
+        let mut device = FakeDevice {
+            calls: Vec::new(),
+            events,
+            events_tx,
+            busy: false,
+        };
+        let mut model = model();
+        model.editor.keep_recoveries(store.clone(), "test");
+        model.focus = crate::ui::model::PanelId::Editor;
+        model.editor.file.recovery_due = Some(Instant::now() + Duration::from_secs(3600));
+        let (tx, mut rx) = mpsc::unbounded_channel::<Msg>();
+        tx.send(Msg::Terminate {
+            reason: "the terminal hung up".into(),
+        })
+        .expect("send");
+        for c in "late".chars() {
+            tx.send(key(c)).expect("key");
+        }
+        // The input thread's own end, as on EOF.
+        tx.send(Msg::Terminate {
+            reason: "terminal input ended".into(),
+        })
+        .expect("send");
+        let mut terminal = Terminal::new(TestBackend::new(80, 24)).expect("terminal");
+        run(
+            &mut terminal,
+            &mut model,
+            &mut device,
+            &mut rx,
+            None,
+            RunOptions::default(),
+        )
+        .await
+        .expect("run");
+        assert_eq!(model.editor.buffer.text().trim_end(), "late");
+        let kept = store
+            .read(&model.editor.origin())
+            .expect("read the recovery")
+            .map(|r| r.text)
+            .unwrap_or_default();
+        assert_eq!(kept.trim_end(), "late");
+        assert!(
+            device.calls.iter().all(|c| c == "stop" || c == "Shutdown"),
+            "{:?}",
+            device.calls
+        );
+    }
+
     #[tokio::test]
     async fn a_closed_input_stops_and_leaves() {
         let (events_tx, events) = mpsc::unbounded_channel();
@@ -591,7 +679,9 @@ mod tests {
         )
         .await
         .expect("run");
-        assert_eq!(device.calls, ["stop", "Shutdown"]);
+        // The stop goes out as the `Terminate` is taken, before late keys
+        // are waited for, and once more from `update`.
+        assert_eq!(device.calls, ["stop", "stop", "Shutdown"]);
     }
 
     #[tokio::test]
