@@ -280,6 +280,63 @@ fn cancel_drops_the_queued_messages_and_finishes_the_one_on_the_wire() {
     assert_eq!(peer.join().expect("peer"), first);
 }
 
+/// Everything the peer receives until every copy of the other end is
+/// closed.
+fn read_to_end(mut peer: UnixStream) -> thread::JoinHandle<Vec<u8>> {
+    peer.set_read_timeout(Some(Duration::from_secs(5)))
+        .expect("timeout");
+    thread::spawn(move || {
+        let mut got = Vec::new();
+        let _ = peer.read_to_end(&mut got);
+        got
+    })
+}
+
+#[test]
+fn a_close_completes_the_message_on_the_wire_and_drops_the_queue() {
+    let (parts, peer) = socket_port();
+    let PortParts {
+        reader,
+        writer,
+        mut events,
+        emergency,
+    } = parts;
+    drop((reader, emergency));
+    let peer = read_to_end(peer);
+    // 200 bytes take about 100 ms at 19200 baud: the close comes while
+    // the frame is partly written.
+    let first = long_message(200);
+    let a = writer
+        .send(first.clone(), Interleave::WholeMessage)
+        .expect("send");
+    writer
+        .send(b"@X\r".to_vec(), Interleave::WholeMessage)
+        .expect("send");
+    let started = first_chunk(&mut events);
+    assert_eq!(started.id, a);
+    assert!(!started.done, "the frame went out at once");
+    writer.close();
+    assert_eq!(peer.join().expect("peer"), first);
+}
+
+#[test]
+fn a_close_right_behind_a_stop_writes_the_stop() {
+    for _ in 0..20 {
+        let (parts, peer) = socket_port();
+        let PortParts {
+            reader,
+            writer,
+            emergency,
+            ..
+        } = parts;
+        drop((reader, emergency));
+        let peer = read_to_end(peer);
+        writer.stop(b"@B\r".to_vec()).expect("stop");
+        writer.close();
+        assert_eq!(peer.join().expect("peer"), b"@B\r");
+    }
+}
+
 #[test]
 fn a_vanished_peer_fails_the_writer_with_link_lost() {
     let (parts, peer) = socket_port();

@@ -128,8 +128,9 @@ struct Pending {
     interleave: Interleave,
 }
 
-/// Handle to the writer thread. Dropping it ends the thread; messages not yet
-/// written are then dropped without reports.
+/// Handle to the writer thread. Dropping it ends the thread as
+/// [`PacedWriter::close`] does; messages not started are then dropped
+/// without reports.
 #[derive(Debug)]
 pub struct PacedWriter {
     port: String,
@@ -227,7 +228,9 @@ impl PacedWriter {
         self.command(Command::Cancel)
     }
 
-    /// End the thread now (queued messages are dropped) and wait for it.
+    /// End the thread and wait for it: the stops handed over are written
+    /// and a message partly written is completed (bounded, past the pacer);
+    /// queued messages not started are dropped.
     pub fn close(mut self) {
         self.shut_down();
     }
@@ -332,9 +335,41 @@ impl Worker {
                     self.report(WriterEvent::Cancelled { id: p.id });
                 }
             }
-            Command::Shutdown => return Flow::Exit,
+            Command::Shutdown => {
+                if let Err(e) = self.close_cleanly() {
+                    self.report(WriterEvent::Failed(e));
+                }
+                return Flow::Exit;
+            }
         }
         Flow::Continue
+    }
+
+    /// The port is about to close. The stops asked for go out, and a
+    /// message partly on the line is completed: a fragment left behind
+    /// would be completed by the next connection's first bytes into a
+    /// malformed line (an EMCU `@…` plus the leading CR of `\r@B\r` sets
+    /// the error flag, docs/protocols.md EMCU). Messages not started are
+    /// dropped, as a close promises.
+    fn close_cleanly(&mut self) -> Result<(), TransportError> {
+        self.queue.clear();
+        if self.current.as_ref().is_some_and(|c| c.written == 0) {
+            self.current = None;
+        }
+        if !self.stops.is_empty() {
+            // The order `step` keeps: a frame on its way ahead of the stop.
+            let whole = self
+                .current
+                .as_ref()
+                .is_some_and(|c| c.pending.interleave == Interleave::WholeMessage);
+            if whole {
+                self.finish_current_at_once()?;
+            }
+            while let Some(stop) = self.stops.pop_front() {
+                self.write_stop(stop)?;
+            }
+        }
+        self.finish_current_at_once()
     }
 
     fn wake_at(&self) -> Option<Instant> {

@@ -97,8 +97,17 @@ pub async fn run<B: Backend, D: DeviceLink>(
     ticks.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
     let mut last_draw: Option<Instant> = None;
     let mut device_open = true;
+    // A frame that could not be drawn: the terminal is gone (a hang-up's
+    // EIO can beat its SIGHUP and POLLHUP to this loop). The way out is the
+    // one a `Terminate` takes, so the last edits still reach the recovery
+    // file, and the error is returned once that is done.
+    let mut failed: Option<RunError> = None;
+    let mut next: Option<Msg> = None;
     loop {
-        let msg = tokio::select! {
+        let msg = if let Some(msg) = next.take() {
+            msg
+        } else {
+            tokio::select! {
             biased;
             msg = input.recv() => msg.unwrap_or(Msg::Terminate {
                 reason: "terminal input ended".into(),
@@ -116,11 +125,14 @@ pub async fn run<B: Backend, D: DeviceLink>(
             Some(msg) = sim_rx.recv() => msg,
             Some(msg) = editor_rx.recv() => msg,
             _ = ticks.tick() => Msg::Tick(Instant::now()),
+            }
         };
         if matches!(msg, Msg::Terminate { .. }) {
             // The way out may be a dead terminal: the stop bytes go first,
             // on the reserved handle, before anything else can block.
             run_emergency();
+            device.stop();
+            late_edits(model, input, &worker).await;
         }
         let effects = update(model, msg);
         let leaving = effects.iter().any(|e| matches!(e, Effect::Quit));
@@ -152,29 +164,72 @@ pub async fn run<B: Backend, D: DeviceLink>(
             }
         }
         if quit {
-            // One last frame so the screen says what is happening.
-            let _ = draw(terminal, model);
-            finish_files(worker).await;
-            shutdown(device, options.shutdown_timeout).await;
+            if failed.is_none() {
+                // One last frame so the screen says what is happening.
+                let _ = draw(terminal, model);
+            }
+            // The stop bytes went out already; the device closes while the
+            // files are written, so neither waits on the other.
+            tokio::join!(
+                finish_files(worker),
+                shutdown(device, options.shutdown_timeout)
+            );
             watcher.abort();
-            return Ok(());
+            return failed.map_or(Ok(()), Err);
         }
         let due = last_draw.is_none_or(|t| t.elapsed() >= options.frame_interval);
         if model.dirty && due {
             if let Err(e) = draw(terminal, model) {
-                device.stop();
-                shutdown(device, options.shutdown_timeout).await;
-                watcher.abort();
-                return Err(e);
+                next = Some(Msg::Terminate {
+                    reason: e.to_string(),
+                });
+                failed = Some(e);
+                continue;
             }
             last_draw = Some(Instant::now());
         }
     }
 }
 
+/// How long a `Terminate` waits for keys the input thread read before the
+/// hang-up and has not handed over yet.
+const LATE_INPUT: Duration = Duration::from_millis(200);
+
+/// Keys typed before a hang-up can still be on their way when the
+/// `Terminate` of the hang-up watcher or of SIGHUP is taken: read by
+/// crossterm, not yet sent (or, for a signal, behind it in the select).
+/// Their edits must reach the recovery file, so the input thread gets a
+/// moment to hand them over, until it ends (its own `Terminate`, or the
+/// channel closed) or `LATE_INPUT` has passed. The machine is stopped
+/// already: only their file effects are carried out, never a request to
+/// the device.
+async fn late_edits(model: &mut Model, input: &mut UnboundedReceiver<Msg>, worker: &EditorWorker) {
+    let until = tokio::time::Instant::now() + LATE_INPUT;
+    loop {
+        let msg = match tokio::time::timeout_at(until, input.recv()).await {
+            Ok(Some(msg @ (Msg::Key(_) | Msg::KeyAt(..)))) => msg,
+            Ok(Some(Msg::Terminate { .. }) | None) | Err(_) => return,
+            Ok(Some(_)) => continue,
+        };
+        for effect in update(model, msg) {
+            match effect {
+                Effect::Editor(crate::ui::editor::io::EditorIo::Lint(_)) => {}
+                Effect::Editor(io) => worker.submit(io),
+                _ => {}
+            }
+        }
+    }
+}
+
+/// How long the way out waits for the file thread. Bounded, so a dead
+/// disk cannot keep the process alive, but generous: a recovery write is
+/// two `fsync`s, which on a busy disk take seconds, and the process ending
+/// first would lose the edits it carries.
+const FILES_BOUND: Duration = Duration::from_secs(10);
+
 /// Let the editor's file thread finish what it was handed (bounded).
 async fn finish_files(worker: EditorWorker) {
-    let _ = tokio::task::spawn_blocking(move || worker.finish(Duration::from_secs(2))).await;
+    let _ = tokio::task::spawn_blocking(move || worker.finish(FILES_BOUND)).await;
 }
 
 /// Watch HUP, TERM and INT on a task of their own. Their default action
@@ -441,6 +496,167 @@ mod tests {
         );
     }
 
+    /// A terminal that has gone: every flush fails as a hung-up pty does.
+    struct HungUp(TestBackend);
+
+    fn never(e: core::convert::Infallible) -> std::io::Error {
+        match e {}
+    }
+
+    impl Backend for HungUp {
+        type Error = std::io::Error;
+
+        fn draw<'a, I>(&mut self, content: I) -> Result<(), Self::Error>
+        where
+            I: Iterator<Item = (u16, u16, &'a ratatui::buffer::Cell)>,
+        {
+            self.0.draw(content).map_err(never)
+        }
+
+        fn hide_cursor(&mut self) -> Result<(), Self::Error> {
+            self.0.hide_cursor().map_err(never)
+        }
+
+        fn show_cursor(&mut self) -> Result<(), Self::Error> {
+            self.0.show_cursor().map_err(never)
+        }
+
+        fn get_cursor_position(&mut self) -> Result<ratatui::layout::Position, Self::Error> {
+            self.0.get_cursor_position().map_err(never)
+        }
+
+        fn set_cursor_position<P: Into<ratatui::layout::Position>>(
+            &mut self,
+            position: P,
+        ) -> Result<(), Self::Error> {
+            self.0.set_cursor_position(position).map_err(never)
+        }
+
+        fn clear(&mut self) -> Result<(), Self::Error> {
+            self.0.clear().map_err(never)
+        }
+
+        fn clear_region(
+            &mut self,
+            clear_type: ratatui::backend::ClearType,
+        ) -> Result<(), Self::Error> {
+            self.0.clear_region(clear_type).map_err(never)
+        }
+
+        fn size(&self) -> Result<ratatui::layout::Size, Self::Error> {
+            self.0.size().map_err(never)
+        }
+
+        fn window_size(&mut self) -> Result<ratatui::backend::WindowSize, Self::Error> {
+            self.0.window_size().map_err(never)
+        }
+
+        fn flush(&mut self) -> Result<(), Self::Error> {
+            Err(std::io::Error::from_raw_os_error(libc::EIO))
+        }
+    }
+
+    /// The terminal hangs up and the next frame fails before any hang-up
+    /// message arrives: the way out still writes the unsaved edits to the
+    /// recovery file (the autosave is not due for an hour).
+    #[tokio::test]
+    async fn a_frame_that_cannot_be_drawn_still_keeps_the_edits() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let store = crate::program::store::RecoveryStore::new(dir.path());
+        let (events_tx, events) = mpsc::unbounded_channel();
+        let mut device = FakeDevice {
+            calls: Vec::new(),
+            events,
+            events_tx,
+            busy: false,
+        };
+        let mut model = model();
+        model.editor.keep_recoveries(store.clone(), "test");
+        for c in "; last-words".chars() {
+            model.editor.buffer.insert_char(c);
+        }
+        model.editor.after_edit(model.now);
+        model.editor.file.recovery_due = Some(Instant::now() + Duration::from_secs(3600));
+        model.dirty = true;
+        // The input stays open: no `Terminate` but the failed frame's.
+        let (_tx, mut rx) = mpsc::unbounded_channel::<Msg>();
+        let mut terminal = Terminal::new(HungUp(TestBackend::new(80, 24))).expect("terminal");
+        let result = run(
+            &mut terminal,
+            &mut model,
+            &mut device,
+            &mut rx,
+            None,
+            RunOptions::default(),
+        )
+        .await;
+        assert!(matches!(result, Err(RunError::Draw(_))), "{result:?}");
+        assert_eq!(device.calls.first().map(String::as_str), Some("stop"));
+        assert!(device.calls.iter().any(|c| c == "Shutdown"));
+        let kept = store
+            .read(&model.editor.origin())
+            .expect("read the recovery")
+            .map(|r| r.text)
+            .unwrap_or_default();
+        assert!(kept.contains("; last-words"), "{kept:?}");
+    }
+
+    /// The hang-up watcher's `Terminate` is taken before keys the input
+    /// thread read just ahead of the hang-up: their edits still reach the
+    /// recovery file, and they ask the device for nothing.
+    #[tokio::test]
+    async fn keys_behind_a_hang_up_still_reach_the_recovery_file() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let store = crate::program::store::RecoveryStore::new(dir.path());
+        let (events_tx, events) = mpsc::unbounded_channel();
+        let mut device = FakeDevice {
+            calls: Vec::new(),
+            events,
+            events_tx,
+            busy: false,
+        };
+        let mut model = model();
+        model.editor.keep_recoveries(store.clone(), "test");
+        model.focus = crate::ui::model::PanelId::Editor;
+        model.editor.file.recovery_due = Some(Instant::now() + Duration::from_secs(3600));
+        let (tx, mut rx) = mpsc::unbounded_channel::<Msg>();
+        tx.send(Msg::Terminate {
+            reason: "the terminal hung up".into(),
+        })
+        .expect("send");
+        for c in "late".chars() {
+            tx.send(key(c)).expect("key");
+        }
+        // The input thread's own end, as on EOF.
+        tx.send(Msg::Terminate {
+            reason: "terminal input ended".into(),
+        })
+        .expect("send");
+        let mut terminal = Terminal::new(TestBackend::new(80, 24)).expect("terminal");
+        run(
+            &mut terminal,
+            &mut model,
+            &mut device,
+            &mut rx,
+            None,
+            RunOptions::default(),
+        )
+        .await
+        .expect("run");
+        assert_eq!(model.editor.buffer.text().trim_end(), "late");
+        let kept = store
+            .read(&model.editor.origin())
+            .expect("read the recovery")
+            .map(|r| r.text)
+            .unwrap_or_default();
+        assert_eq!(kept.trim_end(), "late");
+        assert!(
+            device.calls.iter().all(|c| c == "stop" || c == "Shutdown"),
+            "{:?}",
+            device.calls
+        );
+    }
+
     #[tokio::test]
     async fn a_closed_input_stops_and_leaves() {
         let (events_tx, events) = mpsc::unbounded_channel();
@@ -463,7 +679,9 @@ mod tests {
         )
         .await
         .expect("run");
-        assert_eq!(device.calls, ["stop", "Shutdown"]);
+        // The stop goes out as the `Terminate` is taken, before late keys
+        // are waited for, and once more from `update`.
+        assert_eq!(device.calls, ["stop", "stop", "Shutdown"]);
     }
 
     #[tokio::test]
