@@ -14,7 +14,7 @@ pub mod settings;
 pub mod vector;
 
 pub use gate::{Gate, Motion};
-pub use overrun::{Braking, STOP_REACTION, lease_cap, speed_cap, travel};
+pub use overrun::{Braking, STOP_REACTION, lease_cap, reaction_speed_cap, speed_cap, travel};
 pub use pad::{ActiveJog, JogKind, Jogger, KeyPhase, LastOutcome, Selection};
 pub use settings::{JogAxis, JogSettings};
 pub use vector::Vector;

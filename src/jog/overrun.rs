@@ -10,7 +10,8 @@
 //! travel(v, t) = v · (t + STOP_REACTION) + braking(v)   <=   max_overrun
 //! ```
 //!
-//! [`speed_cap`] is the fastest `v` that keeps this for a lease `t`,
+//! [`speed_cap`] is the fastest `v` that keeps this for a lease `t`
+//! ([`reaction_speed_cap`] for any reaction time: the drivers' own caps),
 //! [`lease_cap`] the longest lease a jog already running at `v` may be given.
 //! Pure arithmetic: no clocks, no I/O (`docs/jogging.md`, "The overrun
 //! bound").
@@ -77,22 +78,33 @@ pub fn travel(braking: &Braking, v: f64, lease: Duration) -> f64 {
 }
 
 /// The fastest speed (Hz) whose [`travel`] over `lease` stays within
-/// `max_overrun` steps; 0 when not even a crawl does. `travel` grows
-/// strictly with the speed, so a bisection finds it for any braking model.
+/// `max_overrun` steps; 0 when not even a crawl does.
 pub fn speed_cap(braking: &Braking, lease: Duration, max_overrun: f64) -> f64 {
+    reaction_speed_cap(braking, lease + STOP_REACTION, max_overrun)
+}
+
+/// The fastest speed (Hz) that runs on for `reaction` at speed and then
+/// brakes within `max_overrun` steps: v · reaction + braking(v) <= bound.
+/// 0 when not even a crawl does; `f64::MAX` when nothing is too fast (no
+/// reaction time and no braking distance). The distance grows strictly
+/// with the speed, so a bisection finds it for any braking model.
+pub fn reaction_speed_cap(braking: &Braking, reaction: Duration, max_overrun: f64) -> f64 {
     if !(max_overrun.is_finite() && max_overrun > 0.0) {
         return 0.0;
     }
+    let t = reaction.as_secs_f64();
+    let run_on = |v: f64| v * t + braking.distance(v);
     // Nothing runs faster than it could travel the whole bound in the
-    // reaction time alone.
-    let mut hi = max_overrun / STOP_REACTION.as_secs_f64();
-    let mut lo = 0.0;
-    if travel(braking, hi, lease) <= max_overrun {
-        return hi;
+    // reaction time alone; without a reaction time, far above any
+    // controller's speed.
+    let mut hi = if t > 0.0 { max_overrun / t } else { CEILING_HZ };
+    if run_on(hi) <= max_overrun {
+        return if t > 0.0 { hi } else { f64::MAX };
     }
+    let mut lo = 0.0;
     for _ in 0..100 {
         let mid = (lo + hi) / 2.0;
-        if travel(braking, mid, lease) <= max_overrun {
+        if run_on(mid) <= max_overrun {
             lo = mid;
         } else {
             hi = mid;
@@ -100,6 +112,9 @@ pub fn speed_cap(braking: &Braking, lease: Duration, max_overrun: f64) -> f64 {
     }
     lo
 }
+
+/// Highest speed considered when no reaction time bounds it, Hz.
+const CEILING_HZ: f64 = 1e9;
 
 /// The longest lease a jog running at `v` Hz may hold so that its
 /// [`travel`] stays within `max_overrun`; zero when even an immediate stop
@@ -159,6 +174,33 @@ mod tests {
         assert!((emcu.distance(1_000.0) - 300.0).abs() < 1e-9);
         let v = speed_cap(&emcu, ms(150), 600.0);
         assert!((travel(&emcu, v, ms(150)) - 600.0).abs() < 1e-3);
+    }
+
+    #[test]
+    fn the_reaction_cap_is_the_closed_form_for_a_constant_ramp() {
+        let v = reaction_speed_cap(&ISEL, ms(150), 1200.0);
+        let (a, t, f0, d) = (100_000.0f64, 0.15f64, 300.0f64, 1200.0f64);
+        let closed = -a * t + (a * a * t * t + f0 * f0 + 2.0 * a * d).sqrt();
+        assert!((v - closed).abs() < 1e-6, "{v} {closed}");
+        // EMCU: 500 ms from any speed down to 200 Hz:
+        // v T + (v + s) R / 2 = D  ->  v = (D - s R / 2) / (T + R / 2)
+        let emcu = Braking::FixedTime {
+            start_hz: 200.0,
+            ramp: ms(500),
+        };
+        let v = reaction_speed_cap(&emcu, ms(150), 600.0);
+        assert!((v - 550.0 / 0.4).abs() < 1e-6, "{v}");
+    }
+
+    #[test]
+    fn without_braking_or_reaction_nothing_is_too_fast() {
+        let none = Braking::FixedTime {
+            start_hz: 0.0,
+            ramp: Duration::ZERO,
+        };
+        assert_eq!(reaction_speed_cap(&none, Duration::ZERO, 10.0), f64::MAX);
+        let v = reaction_speed_cap(&none, ms(100), 10.0);
+        assert!((v - 100.0).abs() < 1e-6, "{v}");
     }
 
     #[test]

@@ -12,7 +12,6 @@
 //! - [`settings`]: profile values every family converts the same way (axis
 //!   limits in steps, jog settings), and the settings error.
 //! - [`limits`]: axes of the machine, soft limits, speed caps.
-//! - [`overrun`]: the fastest jog that still stops within `jog.max_overrun`.
 //! - [`vector`]: a jog's travel towards the soft limits along its speed vector.
 //! - [`motion`]: a running move's kind (step, go-to, jog), its jog lease and
 //!   its end, and the steps coalesced behind it.
@@ -31,7 +30,6 @@ pub mod io;
 pub mod limits;
 pub mod link;
 pub mod motion;
-pub mod overrun;
 pub mod poll;
 pub mod queue;
 pub mod settings;

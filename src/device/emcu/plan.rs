@@ -12,8 +12,8 @@ use crate::device::api::{Dir, Frame, PerAxis, Refusal};
 use crate::device::common::AxisLimits;
 use crate::device::common::deadline;
 use crate::device::common::limits::{capped_speed, invalid, machine_has, moving_axes, soft_limit};
-use crate::device::common::overrun::overrun_cap;
 use crate::device::common::vector;
+use crate::jog::reaction_speed_cap;
 use crate::motion::Motion;
 use crate::proto::emcu::{Command, EmcuAxis, Move, MoveMode, Speed, Steps};
 
@@ -206,7 +206,7 @@ pub fn move_to(
 /// A continuous jog: one relative move towards the soft limits along the
 /// speed vector (`common::vector`), each speed capped so that the axis
 /// stops within `jog.max_overrun` after the operator lets go: one dead-man
-/// timeout at speed, then the `#R` ramp down (`common::overrun`).
+/// timeout at speed, then the `#R` ramp down (`jog::reaction_speed_cap`).
 pub fn jog(cx: &Context, axes: &[(Axis, Dir)], speeds: &PerAxis<f64>) -> Result<Planned, Refusal> {
     let set: AxisSet = axes.iter().map(|(a, _)| *a).collect();
     machine_has(cx.settings.axes, set)?;
@@ -214,7 +214,7 @@ pub fn jog(cx: &Context, axes: &[(Axis, Dir)], speeds: &PerAxis<f64>) -> Result<
     cx.motion_allowed(cx.settings.jog.allow_unreferenced)?;
     cx.memory_free()?;
     let position = cx.position.ok_or(Refusal::NotConnected)?;
-    let reaction = cx.settings.jog.repeat_timeout.as_secs_f64();
+    let reaction = cx.settings.jog.repeat_timeout;
     let legs = vector::legs(
         axes,
         vector::JogFrame {
@@ -223,7 +223,7 @@ pub fn jog(cx: &Context, axes: &[(Axis, Dir)], speeds: &PerAxis<f64>) -> Result<
             max_travel: i64::from(Steps::MAX),
             limits_of: |axis| cx.settings.limits(axis),
             speed_of: |axis, limits: &AxisLimits| {
-                let cap = overrun_cap(reaction, limits.max_overrun, |v| cx.settings.move_ramp(v))
+                let cap = reaction_speed_cap(&cx.settings.braking(), reaction, limits.max_overrun)
                     .max(1.0);
                 capped_speed(
                     &cx.settings.limits,

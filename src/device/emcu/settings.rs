@@ -111,6 +111,16 @@ impl EmcuSettings {
         self.limits.get(axis)
     }
 
+    /// How a move brakes: the `#R` ramp time from any speed down to the
+    /// start speed (manual 1.5.5-1.5.7), the same ramp [`Self::move_ramp`]
+    /// runs.
+    pub fn braking(&self) -> crate::jog::Braking {
+        crate::jog::Braking::FixedTime {
+            start_hz: f64::from(self.start_speed.get()),
+            ramp: std::time::Duration::from_millis(u64::from(self.ramp.get())),
+        }
+    }
+
     /// The ramp of the leading axis of an `L` move whose slot is at
     /// `end_hz`: `#R` ms from the start speed to the end speed and the same
     /// down (manual 1.5.5-1.5.7); an end speed at or below the start speed

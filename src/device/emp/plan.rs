@@ -13,9 +13,8 @@ use crate::axis::{Axis, AxisSet};
 use crate::config::profile::EmpJog;
 use crate::device::api::{Dir, Frame, PerAxis, Refusal};
 use crate::device::common::limits::{capped_speed, invalid, moving_axes, named_axes, soft_limit};
-use crate::device::common::overrun::overrun_cap;
 use crate::device::common::vector::{Leg as VectorLeg, room, travel};
-use crate::motion::Ramp;
+use crate::jog::{Braking, reaction_speed_cap};
 use crate::proto::emp::{DriveAddress, Position};
 
 use super::context::Context;
@@ -83,19 +82,19 @@ pub fn lookahead(cx: &Context, hz: f64) -> f64 {
 
 /// The fastest jog that stops within `jog.max_overrun` after the operator
 /// lets go: one dead-man timeout and a round trip at speed, then braking in
-/// `BRAKE_TIME` (`common::overrun`).
+/// `BRAKE_TIME` (`jog::reaction_speed_cap`).
 fn jog_cap(cx: &Context, axis: Axis) -> f64 {
     let Some(l) = cx.settings.limits.get(axis) else {
         return 0.0;
     };
-    let reaction = cx.settings.jog.repeat_timeout.as_secs_f64()
-        + cx.settings.timing.round_trip.as_secs_f64() * cx.drives.len() as f64;
-    let brake = BRAKE_TIME.as_secs_f64();
-    overrun_cap(reaction, l.max_overrun, |v| Ramp {
+    let reaction =
+        cx.settings.jog.repeat_timeout + cx.settings.timing.round_trip * cx.drives.len() as u32;
+    // A servo brakes to rest in `BRAKE_TIME` from any speed.
+    let braking = Braking::FixedTime {
         start_hz: 0.0,
-        max_hz: v,
-        accel_hz_per_s: v / brake,
-    })
+        ramp: BRAKE_TIME,
+    };
+    reaction_speed_cap(&braking, reaction, l.max_overrun)
 }
 
 fn position(counts: i64) -> Result<Position, Refusal> {
