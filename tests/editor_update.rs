@@ -201,6 +201,35 @@ fn a_stored_program_is_offered_to_be_erased_first() {
 }
 
 #[test]
+fn after_a_failed_upload_erase_and_retry_is_offered_and_run_is_refused() {
+    let mut m = editing(GOOD);
+    with_program_state(&mut m, ProgramState::Invalid);
+    // Starting the invalid partial program is refused with what to do.
+    let effects = update(&mut m, key(KeyCode::F(6)));
+    assert!(
+        !effects
+            .iter()
+            .any(|e| matches!(e, Effect::Request(Request::RunProgram))),
+        "{effects:?}"
+    );
+    let message = m
+        .message
+        .as_ref()
+        .map(|m| m.text.clone())
+        .unwrap_or_default();
+    assert!(message.contains("upload it again"), "{message}");
+    // Uploading asks to erase the partial program first, then retries.
+    let effects = update(&mut m, key(KeyCode::F(5)));
+    assert!(upload_request(&effects).is_none());
+    assert!(matches!(m.popup, Some(Popup::Editor(_))));
+    let shown = screen(&m, 80, 24);
+    assert!(shown.contains("invalid program"), "{shown}");
+    let effects = update(&mut m, key(KeyCode::Char('y')));
+    let (_, erase) = upload_request(&effects).expect("the upload");
+    assert!(erase);
+}
+
+#[test]
 fn a_controller_error_at_command_n_marks_its_line_and_keeps_the_text() {
     let mut m = editing(GOOD);
     with_program_state(&mut m, ProgramState::None);
