@@ -400,3 +400,28 @@ fn a_positioning_jog_ends_at_the_soft_limit_or_on_release() {
     );
     assert_eq!(counter(&b, DriveAddress::SINGLE), 0);
 }
+
+/// Safety audit (docs/safety-tests.md): a reference run stopped half way
+/// stands, is never resumed and references nothing.
+#[test]
+fn a_stop_during_homing_halts_the_drive_and_nothing_resumes() {
+    let mut b = bench_for(&profile(), |_| {});
+    b.run(ms(300));
+    b.request(Request::Initialise);
+    b.run(ms(300));
+    b.request(Request::Home {
+        axes: AxisSet::EMPTY.with(Axis::X),
+    });
+    b.run(Duration::from_secs(1));
+    assert_eq!(b.driver.state().activity, Activity::Homing);
+    assert_ne!(speed(&b, DriveAddress::SINGLE), 0.0);
+    b.stop();
+    b.run(ms(500));
+    assert_eq!(speed(&b, DriveAddress::SINGLE), 0.0);
+    let at = counter(&b, DriveAddress::SINGLE);
+    b.run(Duration::from_secs(30));
+    assert_eq!(counter(&b, DriveAddress::SINGLE), at, "nothing resumed");
+    assert_eq!(speed(&b, DriveAddress::SINGLE), 0.0);
+    assert_eq!(b.driver.state().activity, Activity::Idle);
+    assert!(!b.driver.state().referenced.contains(Axis::X));
+}
