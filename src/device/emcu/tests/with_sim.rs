@@ -317,3 +317,55 @@ fn a_line_cut_by_a_broken_link_cannot_swallow_the_halt_on_reconnect() {
     assert!(!st.moving && !st.error, "{st:?}");
     assert_eq!(b.driver.state().referenced, AxisSet::XYZ);
 }
+
+/// Safety audit (docs/safety-tests.md): a reference run stopped half way
+/// stands, is never resumed and references nothing it did not finish.
+#[test]
+fn a_stop_during_homing_halts_the_run_and_nothing_resumes() {
+    let mut b = bench(PollRate::LineSpeed);
+    b.run(ms(500));
+    b.request(Request::Initialise);
+    b.run(ms(500));
+    b.request(Request::Home { axes: AxisSet::XYZ });
+    b.run(secs(5));
+    assert_eq!(b.driver.state().activity, Activity::Homing);
+    assert!(b.sim.status(b.now).moving);
+    b.stop();
+    b.run(secs(3));
+    assert!(!b.sim.status(b.now).moving, "{:?}", b.sim.status(b.now));
+    let at = counters(&mut b);
+    b.run(secs(60));
+    assert!(!b.sim.status(b.now).moving);
+    assert_eq!(counters(&mut b), at, "nothing resumed");
+    assert_eq!(b.driver.state().activity, Activity::Idle);
+    assert_eq!(b.driver.state().referenced, AxisSet::EMPTY);
+    let runs = b.sent_text().iter().filter(|t| t.starts_with("$H")).count();
+    assert_eq!(runs, 1, "{:?}", b.sent_text());
+}
+
+/// Safety audit (docs/safety-tests.md): a stored job stopped while it runs
+/// stands and its remaining lines never run.
+#[test]
+fn a_stop_during_a_running_job_halts_it_and_nothing_resumes() {
+    let mut b = homed(PollRate::LineSpeed);
+    b.request(Request::Upload {
+        lines: vec!["#E1,1000".into(), "L1,x20000".into(), "L1,y20000".into()],
+        erase_first: false,
+    });
+    b.run(ms(500));
+    assert_eq!(b.driver.state().program, ProgramState::Stored);
+    b.request(Request::RunProgram);
+    b.run(secs(2));
+    assert_eq!(b.driver.state().activity, Activity::RunningProgram);
+    assert!(b.sim.status(b.now).moving);
+    b.stop();
+    b.run(secs(3));
+    assert!(!b.sim.status(b.now).moving, "{:?}", b.sim.status(b.now));
+    let at = counters(&mut b);
+    assert!(at[0] > 0 && at[0] < 20_000, "{at:?}");
+    b.run(secs(60));
+    assert!(!b.sim.status(b.now).moving);
+    assert_eq!(counters(&mut b), at, "nothing resumed");
+    assert_eq!(at[1], 0, "the second line never ran");
+    assert_eq!(b.driver.state().activity, Activity::Idle);
+}

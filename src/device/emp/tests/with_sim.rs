@@ -400,3 +400,76 @@ fn a_positioning_jog_ends_at_the_soft_limit_or_on_release() {
     );
     assert_eq!(counter(&b, DriveAddress::SINGLE), 0);
 }
+
+/// Safety audit (docs/safety-tests.md): a reference run stopped half way
+/// stands, is never resumed and references nothing.
+#[test]
+fn a_stop_during_homing_halts_the_drive_and_nothing_resumes() {
+    let mut b = bench_for(&profile(), |_| {});
+    b.run(ms(300));
+    b.request(Request::Initialise);
+    b.run(ms(300));
+    b.request(Request::Home {
+        axes: AxisSet::EMPTY.with(Axis::X),
+    });
+    b.run(Duration::from_secs(1));
+    assert_eq!(b.driver.state().activity, Activity::Homing);
+    assert_ne!(speed(&b, DriveAddress::SINGLE), 0.0);
+    b.stop();
+    b.run(ms(500));
+    assert_eq!(speed(&b, DriveAddress::SINGLE), 0.0);
+    let at = counter(&b, DriveAddress::SINGLE);
+    b.run(Duration::from_secs(30));
+    assert_eq!(counter(&b, DriveAddress::SINGLE), at, "nothing resumed");
+    assert_eq!(speed(&b, DriveAddress::SINGLE), 0.0);
+    assert_eq!(b.driver.state().activity, Activity::Idle);
+    assert!(!b.driver.state().referenced.contains(Axis::X));
+}
+
+/// Safety audit (docs/safety-tests.md): Space during a continuous jog ends it
+/// for good; the drive holds although the lease had time left.
+#[test]
+fn a_stop_during_a_velocity_jog_holds_and_nothing_resumes() {
+    let mut b = homed(|_| {});
+    b.request(Request::Jog {
+        id: JogId(1),
+        axes: vec![(Axis::X, Dir::Plus)],
+        speed_hz: x_speed(11_200.0),
+        lease: Duration::from_secs(30),
+    });
+    b.run(ms(500));
+    assert_ne!(speed(&b, DriveAddress::SINGLE), 0.0);
+    b.stop();
+    b.run(ms(500));
+    assert_eq!(speed(&b, DriveAddress::SINGLE), 0.0);
+    let at = counter(&b, DriveAddress::SINGLE);
+    b.run(Duration::from_secs(5));
+    assert_eq!(counter(&b, DriveAddress::SINGLE), at, "nothing resumed");
+    assert_eq!(b.driver.state().activity, Activity::Idle);
+    assert!(b.events.iter().any(|e| matches!(
+        e,
+        Event::JogEnded {
+            id: JogId(1),
+            end: JogEnd::Stopped
+        }
+    )));
+}
+
+/// Safety audit (docs/safety-tests.md): a velocity move typed as a raw
+/// frame is stopped by Space like any other.
+#[test]
+fn a_stop_after_a_raw_velocity_move_holds_the_drive() {
+    let mut b = homed(|_| {});
+    for line in ["22 11 03 00 00000000", "2A 11 00 40 00000000"] {
+        b.request(Request::Raw { line: line.into() });
+        b.run(ms(200));
+    }
+    b.run(ms(300));
+    assert_ne!(speed(&b, DriveAddress::SINGLE), 0.0, "{:?}", b.events);
+    b.stop();
+    b.run(ms(500));
+    assert_eq!(speed(&b, DriveAddress::SINGLE), 0.0);
+    let at = counter(&b, DriveAddress::SINGLE);
+    b.run(Duration::from_secs(5));
+    assert_eq!(counter(&b, DriveAddress::SINGLE), at, "nothing resumed");
+}

@@ -7,7 +7,7 @@ use std::time::Duration;
 use crate::axis::{Axis, AxisSet};
 use crate::config::{ConfigDirs, load_profile};
 use crate::device::api::{
-    Dir, Event, JogEnd, JogId, PerAxis, PositionSource, ProgramState, Recovery, Request,
+    Activity, Dir, Event, JogEnd, JogId, PerAxis, PositionSource, ProgramState, Recovery, Request,
     UploadEvent,
 };
 use crate::device::isel::{IselDriver, IselSettings, PollRate};
@@ -280,4 +280,56 @@ fn polling_at_line_speed_reaches_the_wire_limit() {
         last.position_rate_hz > 0.97 * last.wire_limit_hz,
         "{last:?}"
     );
+}
+
+/// Safety audit (docs/safety-tests.md): a reference run stopped half way
+/// stands, is never resumed and does not count.
+#[test]
+fn a_stop_during_homing_halts_the_run_and_nothing_resumes() {
+    let mut b = bench(PollRate::LineSpeed);
+    b.run(ms(500));
+    b.request(Request::Initialise);
+    b.run(ms(500));
+    b.request(Request::Home { axes: AxisSet::XYZ });
+    b.run(ms(1_000));
+    assert_eq!(b.driver.state().activity, Activity::Homing);
+    let before = b.counters();
+    b.run(ms(100));
+    assert_ne!(b.counters(), before, "homing moves");
+    b.stop();
+    b.run(Duration::from_secs(2));
+    let at = b.counters();
+    b.run(Duration::from_secs(60));
+    assert_eq!(b.counters(), at, "nothing resumed");
+    assert_eq!(b.driver.state().activity, Activity::Idle);
+    assert_ne!(b.driver.state().referenced, AxisSet::XYZ);
+}
+
+/// Safety audit (docs/safety-tests.md): a stored program stopped while it
+/// runs stands and the rest of it never runs.
+#[test]
+fn a_stop_during_a_running_program_halts_it_and_nothing_resumes() {
+    let mut b = homed(PollRate::LineSpeed);
+    b.request(Request::Upload {
+        lines: vec![
+            "04000,1000,0,1000,0,1000,0,1000".into(),
+            "00,1000,4000,1000,0,1000,0,1000".into(),
+        ],
+        erase_first: true,
+    });
+    b.run(Duration::from_secs(5));
+    assert_eq!(b.driver.state().program, ProgramState::Stored);
+    b.request(Request::RunProgram);
+    b.run(ms(1_000));
+    let before = b.counters();
+    b.run(ms(100));
+    assert_ne!(b.counters(), before, "the program moves");
+    b.stop();
+    b.run(Duration::from_secs(2));
+    let at = b.counters();
+    assert!(at[0] > 0.0 && at[0] < 4_000.0, "{at:?}");
+    b.run(Duration::from_secs(60));
+    assert_eq!(b.counters(), at, "nothing resumed");
+    assert_eq!(at[1], 0.0, "the second line never ran");
+    assert_eq!(b.driver.state().activity, Activity::Idle);
 }
