@@ -9,6 +9,8 @@
 //! out through a [`Sink`].
 //!
 //! - [`sink`]: where events go; refusals in the shape every driver uses.
+//! - [`admit`]: what runs when a request arrives, coalescing a step into it,
+//!   the start of a typed raw line.
 //! - [`settings`]: profile values every family converts the same way (axis
 //!   limits in steps, jog settings), and the settings error.
 //! - [`limits`]: axes of the machine, soft limits, speed caps.
@@ -24,6 +26,7 @@
 //! - [`io`]: building `IoSnapshot` groups.
 //! - [`state`]: telling the clients when the machine state changed.
 
+pub mod admit;
 pub mod deadline;
 pub mod gate;
 pub mod io;
@@ -40,6 +43,7 @@ pub mod testing;
 pub mod upload;
 pub mod vector;
 
+pub use admit::RunningMove;
 pub use limits::AxisLimits;
 pub use motion::{MotionKind, StepQueue};
 pub use poll::{PollPlan, PollRate, Poller};

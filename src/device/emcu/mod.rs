@@ -61,10 +61,11 @@ pub use settings::{EmcuSettings, StatusPoll, Timing};
 
 use crate::config::Profile;
 use crate::device::api::{Event, JogEnd, JogId, MachineState, Refusal, Request};
+use crate::device::common::admit::{admit, parse_raw_request};
 use crate::device::common::limits::{invalid, named_axes};
 use crate::device::common::sink::refuse;
 use crate::device::common::{
-    PollRate, Poller, Queued, RequestQueue, Running, SettingsError, Sink, StateReport, link,
+    PollRate, Poller, Queued, RequestQueue, SettingsError, Sink, StateReport, link,
 };
 use crate::device::driver::{Driver, Outgoing};
 use crate::proto::emcu::{
@@ -575,43 +576,19 @@ impl EmcuDriver {
         }
         // Lines of an open transfer are the job's: they are not refused.
         let transfer_line = self.cx.transfer && matches!(request, Request::Raw { .. });
-        let running = match self.busy().filter(|_| !transfer_line) {
-            None => Running::Idle,
-            Some(activity) => {
-                let motion = match self.op.as_ref() {
-                    Some(Op::Motion(m)) => Some(m),
-                    _ => None,
-                };
-                Running::Busy {
-                    activity,
-                    motion: motion.is_some(),
-                    braking_jog: motion.is_some_and(|m| m.jog_id().is_some() && m.is_stopping()),
-                }
-            }
+        let busy = self.busy().filter(|_| !transfer_line);
+        let motion = match self.op.as_mut() {
+            Some(Op::Motion(m)) => Some(m),
+            _ => None,
         };
-        if let Some((delta, speed_hz)) = self.queue.admit(request, now, running, &mut self.cx)
-            && let Some(Op::Motion(m)) = self.op.as_mut()
-            && let Err(reason) = m.coalesce(&self.cx, delta, speed_hz)
-        {
-            refuse(&mut self.cx, &Request::Step { delta, speed_hz }, reason);
-        }
+        admit(&mut self.queue, request, now, busy, motion, &mut self.cx);
     }
 
     fn raw(&mut self, line: String, now: Instant) {
-        let request = Request::Raw { line };
-        let Request::Raw { line } = &request else {
+        let Some((request, parsed)) =
+            parse_raw_request(line, self.link_up, &mut self.cx, parse_raw)
+        else {
             return;
-        };
-        if !self.link_up {
-            refuse(&mut self.cx, &request, Refusal::NotConnected);
-            return;
-        }
-        let parsed = match parse_raw(line) {
-            Ok(p) => p,
-            Err(reason) => {
-                refuse(&mut self.cx, &request, reason);
-                return;
-            }
         };
         let text = self.cx.cmd(&parsed.command, parsed.end).text;
         let answer = |cx: &mut Context, what: &str| {

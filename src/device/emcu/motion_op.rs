@@ -13,6 +13,7 @@
 use std::time::{Duration, Instant};
 
 use crate::device::api::{Activity, Event, JogEnd, JogId, PerAxis, Recovery, Refusal};
+use crate::device::common::RunningMove;
 use crate::device::common::link::unreadable;
 use crate::device::common::motion::Coalescing;
 use crate::device::common::sink::refuse_step;
@@ -71,40 +72,8 @@ impl MotionOp {
         }
     }
 
-    pub fn jog_id(&self) -> Option<JogId> {
-        self.kind.jog_id()
-    }
-
     fn is_moving(&self) -> bool {
         matches!(self.phase, Phase::Moving)
-    }
-
-    pub fn is_stopping(&self) -> bool {
-        self.run.is_stopping()
-    }
-
-    /// A step pressed while this step runs: remember it (up to the bound),
-    /// checking the soft limits from where the steps before it end.
-    pub fn coalesce(
-        &mut self,
-        cx: &Context,
-        delta: PerAxis<i64>,
-        speeds: PerAxis<f64>,
-    ) -> Result<(), Refusal> {
-        let moving = self.is_moving();
-        let position = cx.position.unwrap_or_default();
-        let at = Coalescing {
-            open: !(self.is_stopping()
-                || self.failed
-                || (!moving && self.kind.pending_steps() == 0)),
-            bound: cx.settings.jog.step_queue,
-            position: &position,
-            in_flight: moving.then_some(&self.planned.deltas),
-            activity: self.activity(),
-        };
-        self.kind.coalesce(at, delta, speeds, |base| {
-            plan::step(cx, base, &delta, &speeds).map(|_| ())
-        })
     }
 
     pub fn renew(&mut self, id: JogId, lease: Duration, now: Instant) -> bool {
@@ -183,6 +152,42 @@ impl MotionOp {
             }
             Err(reason) => refuse_step(cx, &total, reason),
         }
+    }
+}
+
+impl RunningMove for MotionOp {
+    type Cx = Context;
+
+    fn jog_id(&self) -> Option<JogId> {
+        self.kind.jog_id()
+    }
+
+    fn is_stopping(&self) -> bool {
+        self.run.is_stopping()
+    }
+
+    /// A step pressed while this step runs: remember it (up to the bound),
+    /// checking the soft limits from where the steps before it end.
+    fn coalesce(
+        &mut self,
+        cx: &Context,
+        delta: PerAxis<i64>,
+        speeds: PerAxis<f64>,
+    ) -> Result<(), Refusal> {
+        let moving = self.is_moving();
+        let position = cx.position.unwrap_or_default();
+        let at = Coalescing {
+            open: !(self.is_stopping()
+                || self.failed
+                || (!moving && self.kind.pending_steps() == 0)),
+            bound: cx.settings.jog.step_queue,
+            position: &position,
+            in_flight: moving.then_some(&self.planned.deltas),
+            activity: self.activity(),
+        };
+        self.kind.coalesce(at, delta, speeds, |base| {
+            plan::step(cx, base, &delta, &speeds).map(|_| ())
+        })
     }
 }
 

@@ -52,10 +52,11 @@ pub use speed::DriveSpeed;
 use crate::axis::AxisSet;
 use crate::config::Profile;
 use crate::device::api::{Activity, Event, JogEnd, JogId, MachineState, Refusal, Request};
+use crate::device::common::admit::{admit, parse_raw_request};
 use crate::device::common::limits::{invalid, named_axes};
 use crate::device::common::sink::refuse;
 use crate::device::common::{
-    PollRate, Poller, Queued, RequestQueue, Running, SettingsError, Sink, StateReport, link,
+    PollRate, Poller, Queued, RequestQueue, SettingsError, Sink, StateReport, link,
 };
 use crate::device::driver::{Driver, Outgoing};
 use crate::proto::emp::{
@@ -532,43 +533,18 @@ impl EmpDriver {
             refuse(&mut self.cx, &request, Refusal::NotConnected);
             return;
         }
-        let running = match self.busy() {
-            None => Running::Idle,
-            Some(activity) => {
-                let motion = match self.op.as_ref() {
-                    Some(Op::Motion(m)) => Some(m),
-                    _ => None,
-                };
-                Running::Busy {
-                    activity,
-                    motion: motion.is_some(),
-                    braking_jog: motion.is_some_and(|m| m.jog_id().is_some() && m.is_stopping()),
-                }
-            }
+        let busy = self.busy();
+        let motion = match self.op.as_mut() {
+            Some(Op::Motion(m)) => Some(m.as_mut()),
+            _ => None,
         };
-        if let Some((delta, speed_hz)) = self.queue.admit(request, now, running, &mut self.cx)
-            && let Some(Op::Motion(m)) = self.op.as_mut()
-            && let Err(reason) = m.coalesce(&self.cx, delta, speed_hz)
-        {
-            refuse(&mut self.cx, &Request::Step { delta, speed_hz }, reason);
-        }
+        admit(&mut self.queue, request, now, busy, motion, &mut self.cx);
     }
 
     fn raw(&mut self, line: String, now: Instant) {
-        let request = Request::Raw { line };
-        let Request::Raw { line } = &request else {
+        let Some((request, frame)) = parse_raw_request(line, self.link_up, &mut self.cx, parse_raw)
+        else {
             return;
-        };
-        if !self.link_up {
-            refuse(&mut self.cx, &request, Refusal::NotConnected);
-            return;
-        }
-        let frame = match parse_raw(line) {
-            Ok(f) => f,
-            Err(reason) => {
-                refuse(&mut self.cx, &request, reason);
-                return;
-            }
         };
         if frame.command.is_stop() {
             // A typed stop goes at once, like the stop key.

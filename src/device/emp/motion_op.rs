@@ -11,6 +11,7 @@ use std::time::{Duration, Instant};
 
 use crate::device::api::{Activity, ControllerFault, JogEnd, JogId, PerAxis, Recovery, Refusal};
 use crate::device::common::MotionKind;
+use crate::device::common::RunningMove;
 use crate::device::common::deadline;
 use crate::device::common::motion::Coalescing;
 use crate::device::common::sink::refuse_step;
@@ -114,14 +115,6 @@ impl MotionOp {
         MotionOp::new(cx, MotionKind::MoveTo, plan, None)
     }
 
-    pub fn jog_id(&self) -> Option<JogId> {
-        self.kind.jog_id()
-    }
-
-    pub fn is_stopping(&self) -> bool {
-        self.stopping
-    }
-
     pub fn renew(&mut self, id: JogId, lease: Duration, now: Instant) -> bool {
         !self.stopping && self.kind.renew(id, lease, now)
     }
@@ -147,27 +140,6 @@ impl MotionOp {
         let drives = self.plan.drives();
         self.stop_wait = drives.clone();
         self.stops = drives;
-    }
-
-    /// A step pressed while this runs.
-    pub fn coalesce(
-        &mut self,
-        cx: &Context,
-        delta: PerAxis<i64>,
-        speeds: PerAxis<f64>,
-    ) -> Result<(), Refusal> {
-        let position = cx.positions().unwrap_or_default();
-        let at = Coalescing {
-            open: !self.stopping && !self.failed,
-            bound: cx.settings.jog.step_queue,
-            position: &position,
-            in_flight: self.in_flight.as_ref(),
-            activity: self.activity(),
-        };
-        self.kind.coalesce(at, delta, speeds, |base| {
-            let target = crate::device::common::limits::shifted(base, &delta);
-            plan::within_limits(cx, &target)
-        })
     }
 
     fn fault_of(request: &Request) -> ControllerFault {
@@ -201,6 +173,39 @@ impl MotionOp {
                 false
             }
         }
+    }
+}
+
+impl RunningMove for MotionOp {
+    type Cx = Context;
+
+    fn jog_id(&self) -> Option<JogId> {
+        self.kind.jog_id()
+    }
+
+    fn is_stopping(&self) -> bool {
+        self.stopping
+    }
+
+    /// A step pressed while this runs.
+    fn coalesce(
+        &mut self,
+        cx: &Context,
+        delta: PerAxis<i64>,
+        speeds: PerAxis<f64>,
+    ) -> Result<(), Refusal> {
+        let position = cx.positions().unwrap_or_default();
+        let at = Coalescing {
+            open: !self.stopping && !self.failed,
+            bound: cx.settings.jog.step_queue,
+            position: &position,
+            in_flight: self.in_flight.as_ref(),
+            activity: self.activity(),
+        };
+        self.kind.coalesce(at, delta, speeds, |base| {
+            let target = crate::device::common::limits::shifted(base, &delta);
+            plan::within_limits(cx, &target)
+        })
     }
 }
 

@@ -10,7 +10,7 @@ use crate::device::api::{
     ControllerFault, Event, MachineState, PerAxis, PositionSample, PositionSource, Recovery,
     Refusal,
 };
-use crate::device::common::{gate, link};
+use crate::device::common::{Sink, gate, link};
 use crate::device::driver::Outgoing;
 use crate::proto::isel::{
     AxisConfig, CncCommand, Command, ControlByte, DeviceNumber, Expect, Frame, InputPort,
@@ -111,6 +111,12 @@ pub struct Context {
     /// The controller is storing a program after a raw `@0i` (manual 3.1):
     /// it takes only CNC lines until `9` or an error.
     pub cnc_store: bool,
+}
+
+impl Sink for Context {
+    fn emit(&mut self, event: Event) {
+        self.events.push_back(event);
+    }
 }
 
 impl Context {

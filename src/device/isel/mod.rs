@@ -61,9 +61,10 @@ pub use upload::abort_line;
 
 use crate::config::Profile;
 use crate::device::api::{Event, JogEnd, MachineState, Refusal, Request};
+use crate::device::common::admit::admit;
 use crate::device::common::limits::named_axes;
 use crate::device::common::sink::refuse;
-use crate::device::common::{Poller, Queued, RequestQueue, Running, StateReport, link};
+use crate::device::common::{Poller, Queued, RequestQueue, StateReport, link};
 use crate::device::driver::{Driver, Outgoing};
 use crate::proto::isel::{
     Command, ControlByte, Event as Decoded, Expect, Reply, ReplyDecoder, TEXT_SILENCE,
@@ -552,27 +553,12 @@ impl IselDriver {
         // While a program is being stored line by line, raw lines are the
         // program's lines (manual 3.1).
         let storing_line = self.cx.cnc_store && matches!(request, Request::Raw { .. });
-        let running = match self.busy().filter(|_| !storing_line) {
-            None => Running::Idle,
-            Some(activity) => {
-                let motion = match self.op.as_ref() {
-                    Some(Op::Motion(m)) => Some(m),
-                    _ => None,
-                };
-                Running::Busy {
-                    activity,
-                    motion: motion.is_some(),
-                    braking_jog: motion.is_some_and(|m| m.jog_id().is_some() && m.is_stopping()),
-                }
-            }
+        let busy = self.busy().filter(|_| !storing_line);
+        let motion = match self.op.as_mut() {
+            Some(Op::Motion(m)) => Some(m),
+            _ => None,
         };
-        if let Some((delta, speed_hz)) =
-            self.queue.admit(request, now, running, &mut self.cx.events)
-            && let Some(Op::Motion(m)) = self.op.as_mut()
-            && let Err(reason) = m.coalesce(&self.cx, delta, speed_hz)
-        {
-            self.refuse(&Request::Step { delta, speed_hz }, reason);
-        }
+        admit(&mut self.queue, request, now, busy, motion, &mut self.cx);
     }
 
     /// A queued request's turn has come: check it against the state now.

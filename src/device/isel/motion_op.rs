@@ -23,6 +23,7 @@ use std::time::{Duration, Instant};
 use crate::axis::Axis;
 use crate::device::api::{Activity, Dir, JogEnd, JogId, PerAxis, Recovery, Refusal};
 use crate::device::common::MotionKind;
+use crate::device::common::RunningMove;
 use crate::device::common::motion::Coalescing;
 use crate::device::common::sink::refuse_step;
 use crate::proto::isel::{Command, ControlByte, Reply, ReplyCode};
@@ -109,40 +110,9 @@ impl MotionOp {
         }
     }
 
-    pub fn jog_id(&self) -> Option<JogId> {
-        self.kind.jog_id()
-    }
-
     /// Whether the operation still has a move running or about to run.
     pub fn is_moving(&self) -> bool {
         matches!(self.phase, Phase::Send | Phase::Moving)
-    }
-
-    pub fn is_stopping(&self) -> bool {
-        self.stopping
-    }
-
-    /// A step pressed while this step runs: remember it (up to the bound),
-    /// checking the soft limits from where the steps before it end.
-    pub fn coalesce(
-        &mut self,
-        cx: &Context,
-        delta: PerAxis<i64>,
-        speeds: PerAxis<f64>,
-    ) -> Result<(), Refusal> {
-        let moving = self.is_moving();
-        let position = cx.position.unwrap_or_default();
-        let in_flight = self.planned.estimate.deltas();
-        let at = Coalescing {
-            open: !(self.stopping || self.failed || (!moving && self.kind.pending_steps() == 0)),
-            bound: cx.settings.jog.step_queue,
-            position: &position,
-            in_flight: moving.then_some(&in_flight),
-            activity: self.activity(),
-        };
-        self.kind.coalesce(at, delta, speeds, |base| {
-            plan::step(cx, base, &delta, &speeds).map(|_| ())
-        })
     }
 
     /// A lease renewal for jog `id`: `None` when this is not that jog, else
@@ -279,6 +249,41 @@ impl MotionOp {
             }
             Err(reason) => refuse_step(&mut cx.events, &total, reason),
         }
+    }
+}
+
+impl RunningMove for MotionOp {
+    type Cx = Context;
+
+    fn jog_id(&self) -> Option<JogId> {
+        self.kind.jog_id()
+    }
+
+    fn is_stopping(&self) -> bool {
+        self.stopping
+    }
+
+    /// A step pressed while this step runs: remember it (up to the bound),
+    /// checking the soft limits from where the steps before it end.
+    fn coalesce(
+        &mut self,
+        cx: &Context,
+        delta: PerAxis<i64>,
+        speeds: PerAxis<f64>,
+    ) -> Result<(), Refusal> {
+        let moving = self.is_moving();
+        let position = cx.position.unwrap_or_default();
+        let in_flight = self.planned.estimate.deltas();
+        let at = Coalescing {
+            open: !(self.stopping || self.failed || (!moving && self.kind.pending_steps() == 0)),
+            bound: cx.settings.jog.step_queue,
+            position: &position,
+            in_flight: moving.then_some(&in_flight),
+            activity: self.activity(),
+        };
+        self.kind.coalesce(at, delta, speeds, |base| {
+            plan::step(cx, base, &delta, &speeds).map(|_| ())
+        })
     }
 }
 
