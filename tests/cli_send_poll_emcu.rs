@@ -3,113 +3,12 @@
 //! its stdin: reset, initialise, home, move, positions during the move, the
 //! `@X` flags, stop, and a port that vanishes mid-move.
 
-use std::io::{BufRead, BufReader, Write};
-use std::path::{Path, PathBuf};
-use std::process::{Child, ChildStdin, Command, Output, Stdio};
-use std::sync::mpsc::{self, Receiver};
+use std::process::Stdio;
 use std::thread;
 use std::time::{Duration, Instant};
 
-/// A simulator process; killed when dropped.
-struct Sim {
-    child: Child,
-    stdin: ChildStdin,
-    lines: Receiver<String>,
-    link: PathBuf,
-    _dir: tempfile::TempDir,
-}
-
-impl Drop for Sim {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
-
-impl Sim {
-    fn start() -> Sim {
-        let dir = tempfile::tempdir().expect("temp dir");
-        let link = dir.path().join("emcu");
-        let mut child = Command::new(env!("CARGO_BIN_EXE_jogterm"))
-            .args(["sim", "--protocol", "emcu", "--pty", "--link"])
-            .arg(&link)
-            .env("JOGTERM_CONFIG_DIR", dir.path())
-            .stdin(Stdio::piped())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::inherit())
-            .spawn()
-            .expect("spawn the simulator");
-        let stdout = child.stdout.take().expect("stdout");
-        let (tx, lines) = mpsc::channel();
-        thread::spawn(move || {
-            for line in BufReader::new(stdout).lines() {
-                let Ok(line) = line else { break };
-                if tx.send(line).is_err() {
-                    break;
-                }
-            }
-        });
-        let stdin = child.stdin.take().expect("stdin");
-        let sim = Sim {
-            child,
-            stdin,
-            lines,
-            link,
-            _dir: dir,
-        };
-        assert_eq!(PathBuf::from(sim.line()), sim.link);
-        sim
-    }
-
-    fn line(&self) -> String {
-        self.lines
-            .recv_timeout(Duration::from_secs(10))
-            .expect("a line from the simulator")
-    }
-
-    /// An operator command, answered `ok`.
-    fn operate(&mut self, command: &str) {
-        writeln!(self.stdin, "{command}").expect("write stdin");
-        self.stdin.flush().expect("flush");
-        assert_eq!(self.line(), "ok", "{command}");
-    }
-
-    /// The device's state line of `show` (the first of its four or five).
-    fn device(&mut self) -> String {
-        writeln!(self.stdin, "show").expect("write stdin");
-        self.stdin.flush().expect("flush");
-        let device = self.line();
-        let mut rest = 3;
-        while rest > 0 {
-            let line = self.line();
-            rest -= 1;
-            if line.starts_with("faults armed") {
-                break;
-            }
-        }
-        device
-    }
-}
-
-fn jogterm(port: &Path, args: &[&str]) -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_jogterm"));
-    c.args(args[..1].iter())
-        .arg("--port")
-        .arg(port)
-        .arg("--protocol")
-        .arg("emcu")
-        .args(&args[1..])
-        .env("JOGTERM_CONFIG_DIR", "/nonexistent-jogterm-config");
-    c
-}
-
-fn run(port: &Path, args: &[&str]) -> Output {
-    jogterm(port, args).output().expect("run jogterm")
-}
-
-fn text(bytes: &[u8]) -> String {
-    String::from_utf8_lossy(bytes).into_owned()
-}
+mod sim_process;
+use sim_process::{SimProcess, json_lines, text};
 
 /// `<< @LX1234: X = 1234 steps` -> 1234.
 fn x_steps(line: &str) -> Option<i64> {
@@ -121,7 +20,7 @@ const READY: [&str; 4] = ["@R", "#S2000", "#R200\\x01", "$HZYX\\x01"];
 
 #[test]
 fn send_resets_homes_moves_reads_during_the_move_and_stops() {
-    let sim = Sim::start();
+    let sim = SimProcess::start("emcu");
     let mut args = vec!["send"];
     args.extend(READY);
     args.extend([
@@ -135,7 +34,7 @@ fn send_resets_homes_moves_reads_during_the_move_and_stops() {
         "@X",
     ]);
     let started = Instant::now();
-    let out = run(&sim.link, &args);
+    let out = sim.run(&args);
     let stdout = text(&out.stdout);
     assert!(out.status.success(), "{stdout}\n{}", text(&out.stderr));
     assert!(stdout.contains(">> @R\n<< @R sent"), "{stdout}");
@@ -163,14 +62,14 @@ fn send_resets_homes_moves_reads_during_the_move_and_stops() {
 
 #[test]
 fn a_batch_runs_to_its_end_before_the_command_ends() {
-    let sim = Sim::start();
+    let sim = SimProcess::start("emcu");
     let mut args = vec!["send"];
     args.extend(READY);
     args.extend(["#E1,2000", "L1,x1000,y500\\x01", "@LX", "L1,x-200\\x01"]);
-    let out = run(&sim.link, &args);
+    let out = sim.run(&args);
     let stdout = text(&out.stdout);
     assert!(out.status.success(), "{stdout}\n{}", text(&out.stderr));
-    let out = run(&sim.link, &["send", "@LX", "@LY", "@X"]);
+    let out = sim.run(&["send", "@LX", "@LY", "@X"]);
     let stdout = text(&out.stdout);
     assert!(out.status.success(), "{stdout}");
     assert!(stdout.contains("<< @LX800: X = 800 steps"), "{stdout}");
@@ -180,42 +79,36 @@ fn a_batch_runs_to_its_end_before_the_command_ends() {
 
 #[test]
 fn outputs_and_the_job_store() {
-    let mut sim = Sim::start();
+    let mut sim = SimProcess::start("emcu");
     let mut args = vec!["send"];
     args.extend(READY);
     args.extend(["@F", "#E1,2000", "L1,x300\\x01", "@J", "@LX", "A1,1\\x01"]);
-    let out = run(&sim.link, &args);
+    let out = sim.run(&args);
     let stdout = text(&out.stdout);
     assert!(out.status.success(), "{stdout}\n{}", text(&out.stderr));
     assert!(
         stdout.contains(">> L1,x300<01>\n<< CR: the job is stored (2 lines; @J runs it)"),
         "{stdout}"
     );
-    let described = sim.device();
+    let described = sim.device_state();
     assert!(described.contains("X 300"), "{described}");
     assert!(described.contains("A1 on"), "{described}");
 }
 
 #[test]
 fn poll_prints_measured_positions_and_the_status() {
-    let sim = Sim::start();
-    let out = run(
-        &sim.link,
-        &[
-            "poll",
-            "--json",
-            "--count",
-            "5",
-            "--ports",
-            "--interval-ms",
-            "0",
-        ],
-    );
+    let sim = SimProcess::start("emcu");
+    let out = sim.run(&[
+        "poll",
+        "--json",
+        "--count",
+        "5",
+        "--ports",
+        "--interval-ms",
+        "0",
+    ]);
     assert!(out.status.success(), "{}", text(&out.stderr));
-    let lines: Vec<serde_json::Value> = text(&out.stdout)
-        .lines()
-        .map(|l| serde_json::from_str(l).expect("a JSON object per line"))
-        .collect();
+    let lines = json_lines(&out.stdout);
     assert_eq!(lines.len(), 5);
     for l in &lines {
         assert_eq!(l["pos"].as_array().map(Vec::len), Some(3), "{l}");
@@ -227,8 +120,8 @@ fn poll_prints_measured_positions_and_the_status() {
 
 #[test]
 fn bad_lines_are_refused_before_anything_is_sent() {
-    let sim = Sim::start();
-    let out = run(&sim.link, &["send", "@X", "L1,q5\\x01"]);
+    let sim = SimProcess::start("emcu");
+    let out = sim.run(&["send", "@X", "L1,q5\\x01"]);
     assert_eq!(out.status.code(), Some(2));
     assert!(
         text(&out.stderr).contains("command 2 `L1,q5\\x01`"),
@@ -240,11 +133,12 @@ fn bad_lines_are_refused_before_anything_is_sent() {
 
 #[test]
 fn a_port_that_vanishes_mid_move_exits_3() {
-    let mut sim = Sim::start();
+    let mut sim = SimProcess::start("emcu");
     let mut args = vec!["send"];
     args.extend(READY);
     args.extend(["#E1,1000", "L1,x40000\\x01"]);
-    let child = jogterm(&sim.link, &args)
+    let child = sim
+        .jogterm(&args)
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
@@ -252,22 +146,22 @@ fn a_port_that_vanishes_mid_move_exits_3() {
     // Wait until the move runs.
     let deadline = Instant::now() + Duration::from_secs(20);
     loop {
-        let d = sim.device();
+        let d = sim.device_state();
         if d.contains("moving") && !d.contains("referencing") && !d.contains("position unknown") {
             break;
         }
         assert!(Instant::now() < deadline, "no move: {d}");
         thread::sleep(Duration::from_millis(100));
     }
-    sim.operate("fault close 500");
+    sim.control("fault close 500");
     let out = child.wait_with_output().expect("send ends");
     assert_eq!(out.status.code(), Some(3), "{}", text(&out.stderr));
     assert!(text(&out.stderr).contains("link failure"));
     // The line is back; the next connection's `@B` halts the move.
     thread::sleep(Duration::from_millis(800));
-    let out = run(&sim.link, &["send", "@X"]);
+    let out = sim.run(&["send", "@X"]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     thread::sleep(Duration::from_millis(1_500));
-    let d = sim.device();
+    let d = sim.device_state();
     assert!(!d.contains("moving"), "{d}");
 }

@@ -2,115 +2,27 @@
 //! against the real `jogterm sim --protocol emp --pty`: switch on, home,
 //! move, read the position during a move, read I/O, stop.
 
-use std::io::{BufRead, BufReader, Write};
-use std::path::{Path, PathBuf};
-use std::process::{Child, ChildStdin, Command, Output, Stdio};
-use std::sync::mpsc::{self, Receiver};
+use std::process::Stdio;
 use std::thread;
 use std::time::Duration;
 
-/// A simulator process; killed when dropped.
-struct Sim {
-    child: Child,
-    stdin: ChildStdin,
-    lines: Receiver<String>,
-    link: PathBuf,
-    _dir: tempfile::TempDir,
-}
-
-impl Drop for Sim {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
-
-impl Sim {
-    fn start() -> Sim {
-        let dir = tempfile::tempdir().expect("temp dir");
-        let link = dir.path().join("emp");
-        let mut child = Command::new(env!("CARGO_BIN_EXE_jogterm"))
-            .args(["sim", "--protocol", "emp", "--pty", "--link"])
-            .arg(&link)
-            .env("JOGTERM_CONFIG_DIR", dir.path())
-            .stdin(Stdio::piped())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::inherit())
-            .spawn()
-            .expect("spawn the simulator");
-        let stdout = child.stdout.take().expect("stdout");
-        let (tx, lines) = mpsc::channel();
-        thread::spawn(move || {
-            for line in BufReader::new(stdout).lines() {
-                let Ok(line) = line else { break };
-                if tx.send(line).is_err() {
-                    break;
-                }
-            }
-        });
-        let stdin = child.stdin.take().expect("stdin");
-        let sim = Sim {
-            child,
-            stdin,
-            lines,
-            link,
-            _dir: dir,
-        };
-        let first = sim.line();
-        assert_eq!(PathBuf::from(first), sim.link);
-        sim
-    }
-
-    fn line(&self) -> String {
-        self.lines
-            .recv_timeout(Duration::from_secs(10))
-            .expect("a line from the simulator")
-    }
-
-    fn operate(&mut self, command: &str) {
-        writeln!(self.stdin, "{command}").expect("write stdin");
-        self.stdin.flush().expect("flush");
-        assert_eq!(self.line(), "ok", "{command}");
-    }
-}
-
-fn jogterm(port: &Path, args: &[&str]) -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_jogterm"));
-    c.args(args[..1].iter())
-        .arg("--port")
-        .arg(port)
-        .arg("--protocol")
-        .arg("emp")
-        .args(&args[1..])
-        .env("JOGTERM_CONFIG_DIR", "/nonexistent-jogterm-config");
-    c
-}
-
-fn run(port: &Path, args: &[&str]) -> Output {
-    jogterm(port, args).output().expect("run jogterm")
-}
-
-fn text(bytes: &[u8]) -> String {
-    String::from_utf8_lossy(bytes).into_owned()
-}
+mod sim_process;
+use sim_process::{SimProcess, json_lines, text};
 
 #[test]
 fn send_switches_on_homes_moves_and_reads_back() {
-    let sim = Sim::start();
-    let out = run(
-        &sim.link,
-        &[
-            "send",
-            "02 11 11 00 00000000",
-            "22 11 07 00 00000000",
-            "20 11 19 00 000030D4",
-            // Homing out at 127 counts/ms, back off the switch at 32.
-            "26 11 00 00 007F2000",
-            "2A 11 01 7F 000186A0",
-            "2C 11 00 00 00000000",
-            "40 11 01 00 00000000",
-        ],
-    );
+    let sim = SimProcess::start("emp");
+    let out = sim.run(&[
+        "send",
+        "02 11 11 00 00000000",
+        "22 11 07 00 00000000",
+        "20 11 19 00 000030D4",
+        // Homing out at 127 counts/ms, back off the switch at 32.
+        "26 11 00 00 007F2000",
+        "2A 11 01 7F 000186A0",
+        "2C 11 00 00 00000000",
+        "40 11 01 00 00000000",
+    ]);
     let stdout = text(&out.stdout);
     assert!(out.status.success(), "{stdout}\n{}", text(&out.stderr));
     assert!(
@@ -126,21 +38,18 @@ fn send_switches_on_homes_moves_and_reads_back() {
 
 #[test]
 fn positions_are_read_during_a_velocity_move_and_a_stop_holds() {
-    let sim = Sim::start();
-    let out = run(
-        &sim.link,
-        &[
-            "send",
-            "--drive",
-            "11",
-            "02 11 00 00000000",
-            "22 03 00 00000000",
-            "2A 00 40 00000000",
-            "2C 00 00 00000000",
-            "2C 00 00 00000000",
-            "08 00 00 00000000",
-        ],
-    );
+    let sim = SimProcess::start("emp");
+    let out = sim.run(&[
+        "send",
+        "--drive",
+        "11",
+        "02 11 00 00000000",
+        "22 03 00 00000000",
+        "2A 00 40 00000000",
+        "2C 00 00 00000000",
+        "2C 00 00 00000000",
+        "08 00 00 00000000",
+    ]);
     let stdout = text(&out.stdout);
     assert!(out.status.success(), "{stdout}\n{}", text(&out.stderr));
     let positions: Vec<&str> = stdout
@@ -154,9 +63,9 @@ fn positions_are_read_during_a_velocity_move_and_a_stop_holds() {
 
 #[test]
 fn a_rejected_frame_exits_1_with_the_error_meaning() {
-    let sim = Sim::start();
+    let sim = SimProcess::start("emp");
     // Not switched on yet: the drive answers EE, 0A says why.
-    let out = run(&sim.link, &["send", "2A 11 00 05 00000000"]);
+    let out = sim.run(&["send", "2A 11 00 05 00000000"]);
     assert_eq!(out.status.code(), Some(1), "{}", text(&out.stdout));
     let stderr = text(&out.stderr);
     assert!(stderr.contains("not switched on"), "{stderr}");
@@ -164,11 +73,8 @@ fn a_rejected_frame_exits_1_with_the_error_meaning() {
 
 #[test]
 fn bad_frames_are_refused_before_anything_is_sent() {
-    let sim = Sim::start();
-    let out = run(
-        &sim.link,
-        &["send", "2C 11 00 00 00000000", "2c11000000000000"],
-    );
+    let sim = SimProcess::start("emp");
+    let out = sim.run(&["send", "2C 11 00 00 00000000", "2c11000000000000"]);
     assert_eq!(out.status.code(), Some(2));
     assert!(
         text(&out.stderr).contains("command 2 `2c11000000000000`"),
@@ -180,26 +86,20 @@ fn bad_frames_are_refused_before_anything_is_sent() {
 
 #[test]
 fn poll_prints_one_position_per_drive_as_json() {
-    let sim = Sim::start();
-    let on = run(&sim.link, &["send", "02 11 11 00 00000000"]);
+    let sim = SimProcess::start("emp");
+    let on = sim.run(&["send", "02 11 11 00 00000000"]);
     assert!(on.status.success(), "{}", text(&on.stderr));
-    let out = run(
-        &sim.link,
-        &[
-            "poll",
-            "--json",
-            "--count",
-            "20",
-            "--ports",
-            "--interval-ms",
-            "0",
-        ],
-    );
+    let out = sim.run(&[
+        "poll",
+        "--json",
+        "--count",
+        "20",
+        "--ports",
+        "--interval-ms",
+        "0",
+    ]);
     assert!(out.status.success(), "{}", text(&out.stderr));
-    let lines: Vec<serde_json::Value> = text(&out.stdout)
-        .lines()
-        .map(|l| serde_json::from_str(l).expect("a JSON object per line"))
-        .collect();
+    let lines = json_lines(&out.stdout);
     assert_eq!(lines.len(), 20);
     for l in &lines {
         assert_eq!(l["pos"].as_array().map(Vec::len), Some(1), "{l}");
@@ -215,24 +115,25 @@ fn poll_prints_one_position_per_drive_as_json() {
 
 #[test]
 fn inputs_show_in_poll_and_a_vanished_port_exits_3() {
-    let mut sim = Sim::start();
-    let on = run(&sim.link, &["send", "02 11 11 00 00000000"]);
+    let mut sim = SimProcess::start("emp");
+    let on = sim.run(&["send", "02 11 11 00 00000000"]);
     assert!(on.status.success(), "{}", text(&on.stderr));
-    sim.operate("set i2 on");
-    let out = run(&sim.link, &["poll", "--count", "3", "--ports"]);
+    sim.control("set i2 on");
+    let out = sim.run(&["poll", "--count", "3", "--ports"]);
     let stdout = text(&out.stdout);
     assert!(out.status.success(), "{}", text(&out.stderr));
     assert!(
         stdout.lines().all(|l| l.ends_with(" drive11=02")),
         "{stdout}"
     );
-    let child = jogterm(&sim.link, &["poll", "--interval-ms", "0"])
+    let child = sim
+        .jogterm(&["poll", "--interval-ms", "0"])
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
         .expect("poll");
     thread::sleep(Duration::from_millis(1000));
-    sim.operate("fault close");
+    sim.control("fault close");
     let out = child.wait_with_output().expect("poll ends");
     assert_eq!(out.status.code(), Some(3), "{}", text(&out.stderr));
     assert!(text(&out.stderr).contains("link failure"));
@@ -240,9 +141,9 @@ fn inputs_show_in_poll_and_a_vanished_port_exits_3() {
 
 #[test]
 fn poll_of_a_drive_that_is_off_gives_up_with_a_hint() {
-    let sim = Sim::start();
+    let sim = SimProcess::start("emp");
     let started = std::time::Instant::now();
-    let out = run(&sim.link, &["poll", "--count", "3", "--interval-ms", "0"]);
+    let out = sim.run(&["poll", "--count", "3", "--interval-ms", "0"]);
     assert_eq!(out.status.code(), Some(1), "{}", text(&out.stdout));
     assert!(
         text(&out.stderr).contains("02 11 11 00 00000000"),

@@ -4,76 +4,31 @@
 //! (`program::path`) predicts; a program in the way needs `--erase`; a
 //! program with errors sends nothing and names its lines.
 
-use std::io::{BufRead, BufReader};
-use std::path::PathBuf;
-use std::process::{Child, Command, Output, Stdio};
+use std::path::Path;
+use std::process::{Output, Stdio};
 
 use jogterm::axis::AxisSet;
 use jogterm::program::path::{Start, path};
 use jogterm::program::{Language, Program};
 
-/// A simulator process; killed when dropped. Its stdin stays open (a closed
-/// stdin would end it).
-struct Sim {
-    child: Child,
-    link: PathBuf,
-    dir: tempfile::TempDir,
+mod sim_process;
+use sim_process::{SimProcess, jogterm};
+
+/// `jogterm` against the simulator, configured from the simulator's
+/// directory, with no stdin.
+fn run(sim: &SimProcess, args: &[&str]) -> Output {
+    sim.jogterm(args)
+        .env("JOGTERM_CONFIG_DIR", sim.dir.path())
+        .stdin(Stdio::null())
+        .output()
+        .expect("run jogterm")
 }
 
-impl Drop for Sim {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
-
-impl Sim {
-    fn start() -> Sim {
-        let dir = tempfile::tempdir().expect("temp dir");
-        let link = dir.path().join("isel");
-        let mut child = Command::new(env!("CARGO_BIN_EXE_jogterm"))
-            .args(["sim", "--protocol", "isel", "--pty", "--link"])
-            .arg(&link)
-            .env("JOGTERM_CONFIG_DIR", dir.path())
-            .stdin(Stdio::piped())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::inherit())
-            .spawn()
-            .expect("spawn the simulator");
-        let stdout = child.stdout.take().expect("stdout");
-        let mut lines = BufReader::new(stdout);
-        let mut first = String::new();
-        lines.read_line(&mut first).expect("the simulator's path");
-        assert_eq!(PathBuf::from(first.trim()), link);
-        std::thread::spawn(move || {
-            let mut line = String::new();
-            while lines.read_line(&mut line).is_ok_and(|n| n > 0) {
-                line.clear();
-            }
-        });
-        Sim { child, link, dir }
-    }
-
-    fn jogterm(&self, args: &[&str]) -> Output {
-        Command::new(env!("CARGO_BIN_EXE_jogterm"))
-            .args(args)
-            .args([
-                "--port",
-                &self.link.display().to_string(),
-                "--protocol",
-                "isel",
-            ])
-            .env("JOGTERM_CONFIG_DIR", self.dir.path())
-            .stdin(Stdio::null())
-            .output()
-            .expect("run jogterm")
-    }
-
-    fn file(&self, name: &str, text: &str) -> String {
-        let path = self.dir.path().join(name);
-        std::fs::write(&path, text).expect("write the program");
-        path.display().to_string()
-    }
+/// A program file in the simulator's directory; its path.
+fn write_program(sim: &SimProcess, name: &str, text: &str) -> String {
+    let path = sim.dir.path().join(name);
+    std::fs::write(&path, text).expect("write the program");
+    path.display().to_string()
 }
 
 fn stderr(out: &Output) -> String {
@@ -102,11 +57,11 @@ fn predicted_end(text: &str) -> [i64; 4] {
 
 #[test]
 fn a_program_with_a_loop_and_a_branch_ends_where_the_preview_said() {
-    let sim = Sim::start();
-    let reference = sim.jogterm(&["send", "@07", "@0R7"]);
+    let sim = SimProcess::start("isel");
+    let reference = run(&sim, &["send", "@07", "@0R7"]);
     assert!(reference.status.success(), "{}", stderr(&reference));
-    let file = sim.file("loop.isel", LOOP_AND_BRANCH);
-    let out = sim.jogterm(&["upload", &file, "--start"]);
+    let file = write_program(&sim, "loop.isel", LOOP_AND_BRANCH);
+    let out = run(&sim, &["upload", &file, "--start"]);
     let said = stderr(&out);
     assert_eq!(out.status.code(), Some(0), "{said}");
     assert!(said.contains("10 commands stored"), "{said}");
@@ -117,19 +72,19 @@ fn a_program_with_a_loop_and_a_branch_ends_where_the_preview_said() {
     assert!(said.contains(&expected), "{expected}\n{said}");
 
     // Stored now: another upload stops unless it may erase.
-    let out = sim.jogterm(&["upload", &file]);
+    let out = run(&sim, &["upload", &file]);
     let said = stderr(&out);
     assert_eq!(out.status.code(), Some(1), "{said}");
     assert!(said.contains("a program is already stored"), "{said}");
-    let out = sim.jogterm(&["upload", &file, "--erase"]);
+    let out = run(&sim, &["upload", &file, "--erase"]);
     assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
 }
 
 #[test]
 fn a_program_with_errors_sends_nothing_and_names_its_lines() {
-    let sim = Sim::start();
-    let file = sim.file("bad.isel", "; head\n7 7\nm8000,8000\nq\n9\n");
-    let out = sim.jogterm(&["upload", &file]);
+    let sim = SimProcess::start("isel");
+    let file = write_program(&sim, "bad.isel", "; head\n7 7\nm8000,8000\nq\n9\n");
+    let out = run(&sim, &["upload", &file]);
     let said = stderr(&out);
     assert_eq!(out.status.code(), Some(2), "{said}");
     assert!(said.contains("bad.isel:3:1: error:"), "{said}");
@@ -142,19 +97,11 @@ fn a_program_with_errors_sends_nothing_and_names_its_lines() {
 
 #[test]
 fn a_missing_file_or_a_dead_port_have_their_exit_codes() {
-    let sim = Sim::start();
-    let out = sim.jogterm(&["upload", "/nonexistent/x.isel"]);
+    let sim = SimProcess::start("isel");
+    let out = run(&sim, &["upload", "/nonexistent/x.isel"]);
     assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
-    let file = sim.file("ok.isel", "7 7\n9\n");
-    let out = Command::new(env!("CARGO_BIN_EXE_jogterm"))
-        .args([
-            "upload",
-            &file,
-            "--port",
-            "/nonexistent/tty",
-            "--protocol",
-            "isel",
-        ])
+    let file = write_program(&sim, "ok.isel", "7 7\n9\n");
+    let out = jogterm(Path::new("/nonexistent/tty"), "isel", &["upload", &file])
         .env("JOGTERM_CONFIG_DIR", sim.dir.path())
         .output()
         .expect("run jogterm");
@@ -163,18 +110,10 @@ fn a_missing_file_or_a_dead_port_have_their_exit_codes() {
 
 #[test]
 fn other_families_are_sent_to_the_console_editor_before_anything_is_opened() {
-    let sim = Sim::start();
-    let file = sim.file("job.emcu", "L1,x100\n");
+    let sim = SimProcess::start("isel");
+    let file = write_program(&sim, "job.emcu", "L1,x100\n");
     for family in ["emcu", "emp"] {
-        let out = Command::new(env!("CARGO_BIN_EXE_jogterm"))
-            .args([
-                "upload",
-                &file,
-                "--port",
-                "/nonexistent/tty",
-                "--protocol",
-                family,
-            ])
+        let out = jogterm(Path::new("/nonexistent/tty"), family, &["upload", &file])
             .env("JOGTERM_CONFIG_DIR", sim.dir.path())
             .output()
             .expect("run jogterm");

@@ -3,16 +3,15 @@
 //! editing, not on exit) and are offered back on the next start; a save is
 //! atomic and leaves no recovery behind.
 
+mod sim_process;
 mod ui_pty;
 
 use std::fs;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
+use sim_process::{JOGTERM, SimProcess, WAIT};
 use ui_pty::PtyRun;
-
-const JOGTERM: &str = env!("CARGO_BIN_EXE_jogterm");
-const WAIT: Duration = Duration::from_secs(20);
 
 const PROGRAM: &str = "; drill\n7 7\nm8000,8000,8000,8000\n9\n";
 
@@ -156,47 +155,6 @@ fn a_hang_up_writes_the_last_edits_before_leaving() {
     assert_eq!(fs::read_to_string(&file).expect("read"), PROGRAM);
 }
 
-/// `jogterm sim --pty` with its stdin kept open (a closed stdin ends it).
-struct Sim {
-    child: std::process::Child,
-    _stdin: std::process::ChildStdin,
-    path: String,
-}
-
-impl Drop for Sim {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
-
-fn isel_sim(config: &Path) -> Sim {
-    use std::io::BufRead;
-    let mut child = std::process::Command::new(JOGTERM)
-        .args(["sim", "--pty", "--protocol", "isel"])
-        .env("JOGTERM_CONFIG_DIR", config)
-        .stdin(std::process::Stdio::piped())
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::null())
-        .spawn()
-        .expect("start jogterm sim");
-    let mut lines = std::io::BufReader::new(child.stdout.take().expect("stdout"));
-    let mut path = String::new();
-    lines.read_line(&mut path).expect("the simulator's path");
-    std::thread::spawn(move || {
-        let mut line = String::new();
-        while lines.read_line(&mut line).is_ok_and(|n| n > 0) {
-            line.clear();
-        }
-    });
-    let stdin = child.stdin.take().expect("stdin");
-    Sim {
-        child,
-        _stdin: stdin,
-        path: path.trim().to_string(),
-    }
-}
-
 /// A loop and a branch; referenced, the path ends at X 3200, Y 1800, Z 400
 /// steps (`tests/cli_upload.rs` checks the same against `program::path`).
 const LOOP_AND_BRANCH: &str = "\
@@ -219,7 +177,7 @@ fn edit_upload_and_run_on_the_simulator_end_where_the_preview_said() {
     let config = dir.path().join("config");
     let state = dir.path().join("state");
     fs::create_dir_all(&config).expect("config dir");
-    let sim = isel_sim(&config);
+    let sim = SimProcess::start("isel");
     // The program arrives with a typo the editor shows and the operator fixes.
     let file = dir.path().join("loop.isel");
     fs::write(&file, LOOP_AND_BRANCH.replace("3 2,-1", "3 2,-1,7")).expect("write");
@@ -227,7 +185,7 @@ fn edit_upload_and_run_on_the_simulator_end_where_the_preview_said() {
     let mut run = spawn(
         &[
             "--port",
-            &sim.path,
+            &sim.link.display().to_string(),
             "--protocol",
             "isel",
             "--program",

@@ -4,18 +4,16 @@
 //! terminal is given back after `q`, a terminating signal and a hang-up; a
 //! broken configuration exits with status 2 before the terminal is touched.
 
+mod sim_process;
 mod ui_pty;
 
-use std::io::{BufRead, BufReader, Write};
 use std::path::Path;
-use std::process::{Child, ChildStdin, Command, Stdio};
 use std::time::{Duration, Instant};
 
+use sim_process::{JOGTERM, SimProcess, WAIT};
 use ui_pty::{PtyRun, contains, rfind};
 
-const JOGTERM: &str = env!("CARGO_BIN_EXE_jogterm");
 const LEAVE_ALTERNATE: &[u8] = b"\x1b[?1049l";
-const WAIT: Duration = Duration::from_secs(20);
 
 /// The environment every run gets: no keyboard protocol query (the test
 /// terminal does not answer it), no user configuration.
@@ -31,58 +29,6 @@ fn spawn(args: &[&str], config: &Path) -> PtyRun {
     let env = env(config);
     let env: Vec<(&str, &str)> = env.iter().map(|(k, v)| (*k, v.as_str())).collect();
     PtyRun::spawn(Path::new(JOGTERM), args, &env)
-}
-
-/// `jogterm sim --pty`: the process, its stdin (the control language) and
-/// the path of its pty.
-struct Simulator {
-    child: Child,
-    stdin: ChildStdin,
-    path: String,
-}
-
-impl Simulator {
-    fn start(family: &str, config: &Path) -> Simulator {
-        let mut child = Command::new(JOGTERM)
-            .args(["sim", "--pty", "--protocol", family])
-            .envs(env(config))
-            .stdin(Stdio::piped())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("start jogterm sim");
-        let stdout = child.stdout.take().expect("stdout");
-        let mut lines = BufReader::new(stdout);
-        let mut path = String::new();
-        lines
-            .read_line(&mut path)
-            .expect("the simulator prints its path");
-        // Keep reading its answers (`ok`): a closed stdout would end it.
-        std::thread::spawn(move || {
-            let mut line = String::new();
-            while lines.read_line(&mut line).is_ok_and(|n| n > 0) {
-                line.clear();
-            }
-        });
-        let stdin = child.stdin.take().expect("stdin");
-        Simulator {
-            child,
-            stdin,
-            path: path.trim().to_string(),
-        }
-    }
-
-    fn control(&mut self, line: &str) {
-        writeln!(self.stdin, "{line}").expect("write to the simulator");
-        self.stdin.flush().expect("flush");
-    }
-}
-
-impl Drop for Simulator {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
 }
 
 fn wait_for(run: &PtyRun, needle: &str) -> String {
@@ -116,8 +62,8 @@ fn quit_and_check(run: &mut PtyRun) {
 #[test]
 fn a_limit_switch_flipped_on_the_simulator_lights_up() {
     let config = tempfile::tempdir().expect("tempdir");
-    let mut sim = Simulator::start("isel", config.path());
-    let mut run = spawn(&["--port", &sim.path], config.path());
+    let mut sim = SimProcess::start("isel");
+    let mut run = spawn(&["--port", &sim.link.display().to_string()], config.path());
     let screen = wait_for(&run, "connected");
     assert!(screen.contains("isel"), "{screen}");
     // Port 3 is read with the positions; X1 is unlit.

@@ -11,18 +11,8 @@ pub mod ui_pty;
 
 pub mod console;
 pub mod runner;
+#[path = "../sim_process/mod.rs"]
 pub mod sim;
 pub mod wire;
 
-use std::time::Duration;
-
-pub const JOGTERM: &str = env!("CARGO_BIN_EXE_jogterm");
-
-/// Every wait of the suite is bounded by this: generous under load, and a
-/// hang still ends the scenario.
-pub const WAIT: Duration = Duration::from_secs(20);
-
-/// Whether a process' output carries a Rust panic message.
-pub fn contains_panic(output: &[u8]) -> bool {
-    output.windows(b"panicked".len()).any(|w| w == b"panicked")
-}
+pub use sim::{JOGTERM, WAIT, contains_panic};

@@ -1,16 +1,60 @@
-//! `jogterm sim --pty --link <tmp>/tty<family>` as a child process: its stdin
-//! is the control channel (`set`, `press`, `fault …`), `show received` is the
-//! controller's own view of what it was sent.
+//! `jogterm sim --pty --link <tmp>/tty<family>` as a child process, shared
+//! by the end-to-end tests (`mod sim_process;`) and the fault suite: its
+//! stdin is the control channel (`set`, `press`, `fault …`; kept open, as a
+//! closed stdin ends the simulator), `show received` is the controller's own
+//! view of what it was sent, and [`SimProcess::jogterm`] runs the `jogterm`
+//! binary against its link.
+
+#![allow(dead_code)]
 
 use std::io::{BufRead, BufReader, Read, Write};
 use std::path::{Path, PathBuf};
-use std::process::{Child, ChildStdin, Command, Stdio};
+use std::process::{Child, ChildStdin, Command, Output, Stdio};
 use std::sync::mpsc::{self, Receiver};
 use std::sync::{Arc, Mutex};
 use std::thread;
 use std::time::{Duration, Instant};
 
-use super::{JOGTERM, WAIT, contains_panic};
+pub const JOGTERM: &str = env!("CARGO_BIN_EXE_jogterm");
+
+/// Every wait on the simulator is bounded by this: generous under load, and
+/// a hang still ends the test.
+pub const WAIT: Duration = Duration::from_secs(20);
+
+/// Whether a process' output carries a Rust panic message.
+pub fn contains_panic(output: &[u8]) -> bool {
+    output.windows(b"panicked".len()).any(|w| w == b"panicked")
+}
+
+/// A process' output as text.
+pub fn text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
+
+/// `jogterm poll --json` output: one JSON object a line.
+pub fn json_lines(stdout: &[u8]) -> Vec<serde_json::Value> {
+    text(stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("a JSON object per line"))
+        .collect()
+}
+
+/// `jogterm <args[0]> --port <port> --protocol <family> <args[1..]>`, with
+/// a configuration directory that does not exist (the defaults).
+pub fn jogterm(port: &Path, family: &str, args: &[&str]) -> Command {
+    let (subcommand, rest) = args
+        .split_first()
+        .map_or((None, args), |(s, r)| (Some(s), r));
+    let mut c = Command::new(JOGTERM);
+    c.args(subcommand)
+        .arg("--port")
+        .arg(port)
+        .arg("--protocol")
+        .arg(family)
+        .args(rest)
+        .env("JOGTERM_CONFIG_DIR", "/nonexistent-jogterm-config");
+    c
+}
 
 /// A running simulator; killed when dropped.
 pub struct SimProcess {
@@ -162,6 +206,16 @@ impl SimProcess {
             );
             thread::sleep(Duration::from_millis(50));
         }
+    }
+
+    /// [`jogterm`] against this simulator's link.
+    pub fn jogterm(&self, args: &[&str]) -> Command {
+        jogterm(&self.link, self.family, args)
+    }
+
+    /// [`SimProcess::jogterm`] run to its end.
+    pub fn run(&self, args: &[&str]) -> Output {
+        self.jogterm(args).output().expect("run jogterm")
     }
 
     pub fn stderr_text(&self) -> String {
