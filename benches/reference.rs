@@ -19,10 +19,13 @@ use std::io::{Read, Write};
 use std::path::Path;
 use std::time::{Duration, Instant};
 
+use jogterm::axis::Axis;
 use jogterm::config::{ConfigDirs, Profile, load_profile};
 use jogterm::device::driver::Driver;
+use jogterm::device::emcu::{EmcuDriver, EmcuSettings};
+use jogterm::device::emp::{EmpDriver, EmpSettings};
 use jogterm::device::isel::{IselDriver, IselSettings, PollPlan, PollRate};
-use jogterm::device::{Connector, TaskOptions, driver_for, spawn_with};
+use jogterm::device::{Connector, TaskOptions, spawn_with};
 use jogterm::proto::Protocol;
 use support::{Args, SimProcess, build_kind, first_position, position_rate};
 
@@ -153,7 +156,23 @@ fn poll_driver(protocol: Protocol) -> Result<Box<dyn Driver>, String> {
             };
             Ok(Box::new(IselDriver::new(s)))
         }
-        _ => driver_for(&profile).map_err(|e| e.to_string()),
+        // The reference reads one axis (`@LX`) and no status: so does the
+        // driver here, or the rows would compare a three-axis cycle with one.
+        Protocol::Emcu => {
+            profile.machine.axes = "X".into();
+            profile.axes.retain(|axis, _| *axis == Axis::X);
+            let mut s = EmcuSettings::from_profile(&profile).map_err(|e| e.to_string())?;
+            s.poll.rate = PollRate::LineSpeed;
+            s.poll.ports.clear();
+            Ok(Box::new(EmcuDriver::new(s)))
+        }
+        // `2C` of the one drive, no `40` between.
+        Protocol::Emp => {
+            let mut s = EmpSettings::from_profile(&profile).map_err(|e| e.to_string())?;
+            s.poll = PollRate::LineSpeed;
+            s.ports_every = u32::MAX;
+            Ok(Box::new(EmpDriver::new(s)))
+        }
     }
 }
 
