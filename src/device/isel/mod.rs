@@ -170,6 +170,9 @@ pub struct IselDriver {
     poller: Poller<PollItem>,
     quiet_until: Option<Instant>,
     stray: Vec<u8>,
+    /// The quiet after the connect's stop sequence is on: an `F` in it is
+    /// that stop's answer, not noise.
+    settling_after_connect: bool,
     report: StateReport,
     poll_error: Option<String>,
 }
@@ -188,6 +191,7 @@ impl IselDriver {
             queue: RequestQueue::default(),
             quiet_until: None,
             stray: Vec::new(),
+            settling_after_connect: false,
             report: StateReport::default(),
             poll_error: None,
         }
@@ -237,6 +241,26 @@ impl IselDriver {
 
     fn quiet(&self, now: Instant) -> bool {
         self.quiet_until.is_some_and(|q| now < q)
+    }
+
+    /// Reports the bytes that arrived while the line was quiet. After a
+    /// connect, 0xFD answers `F` only if a move was still running
+    /// (`../shared/protocols.md` isel 6): the operator must hear that the
+    /// machine was moving, not read it as noise.
+    fn report_stray(&mut self) {
+        let bytes = std::mem::take(&mut self.stray);
+        let rest = match bytes.split_first() {
+            Some((b'F', rest)) if std::mem::take(&mut self.settling_after_connect) => {
+                self.cx.notice(
+                    "the controller was still moving when the link came up: jogterm stopped it \
+                     (it answered F); check the position before the next move",
+                );
+                rest
+            }
+            _ => &bytes[..],
+        };
+        self.settling_after_connect = false;
+        self.cx.stray_bytes(rest);
     }
 
     fn take_quiet_request(&mut self, now: Instant) {
@@ -332,8 +356,7 @@ impl IselDriver {
             }
         }
         if !self.stray.is_empty() && !self.quiet(now) {
-            let bytes = std::mem::take(&mut self.stray);
-            self.cx.stray_bytes(&bytes);
+            self.report_stray();
         }
     }
 
@@ -401,6 +424,7 @@ impl IselDriver {
         self.cx.control.clear();
         self.quiet_until = None;
         self.stray.clear();
+        self.settling_after_connect = false;
         if let Some(mut op) = self.op.take() {
             op.get()
                 .abandon(&mut self.cx, &Abandon::LinkLost(reason.to_owned()));
@@ -692,6 +716,7 @@ impl Driver for IselDriver {
         self.poller.reset();
         self.poll_error = None;
         self.cx.send_stop();
+        self.settling_after_connect = true;
         self.quiet_until = Some(now + self.cx.settings.timing.connect_settle);
         self.op = Some(Op::Readback(Readback::new()));
         self.settle();
@@ -843,8 +868,7 @@ impl Driver for IselDriver {
     fn handle_timeout(&mut self, now: Instant) {
         if self.quiet_until.is_some_and(|q| now >= q) {
             self.quiet_until = None;
-            let bytes = std::mem::take(&mut self.stray);
-            self.cx.stray_bytes(&bytes);
+            self.report_stray();
         }
         if let Some(ex) = &self.exchange {
             let text = matches!(ex.expect, Expect::TextUntilSilence | Expect::TextThenCode);

@@ -286,3 +286,46 @@ fn requests_while_disconnected_are_refused() {
         Some(Refusal::NotConnected)
     ));
 }
+
+/// A move still running when the link came up answers the connect's 0xFD
+/// with `F`: the operator is told the machine was moving and was stopped,
+/// and only bytes that mean nothing are called unexpected.
+#[test]
+fn a_move_stopped_by_the_connect_is_reported_as_stopped_not_as_noise() {
+    let mut h = Harness::new();
+    h.driver.connected(h.now);
+    h.collect();
+    h.expect(&[0xFD, 0xFF]);
+    h.reply(b"F");
+    h.advance(ms(100));
+    h.readback(0, 0, 0, b"0");
+    let notices = h.notices();
+    assert!(
+        notices
+            .iter()
+            .any(|n| n.starts_with("the controller was still moving when the link came up")),
+        "{notices:?}"
+    );
+    assert!(
+        !notices.iter().any(|n| n.starts_with("unexpected bytes")),
+        "{notices:?}"
+    );
+}
+
+#[test]
+fn noise_after_the_connect_is_still_called_unexpected() {
+    let mut h = Harness::new();
+    h.driver.connected(h.now);
+    h.collect();
+    h.expect(&[0xFD, 0xFF]);
+    h.reply(b"Fxy");
+    h.advance(ms(100));
+    h.readback(0, 0, 0, b"0");
+    let notices = h.notices();
+    assert!(
+        notices
+            .iter()
+            .any(|n| n == "unexpected bytes from the controller: xy"),
+        "{notices:?}"
+    );
+}
