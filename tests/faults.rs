@@ -610,13 +610,14 @@ fn status_has(screen: &str, word: &str) -> bool {
 /// Initialise (`i`) and reference (`h`, confirmed with `y`) until READY.
 fn emp_initialise_and_reference(console: &mut Console) {
     console.keys(b"i");
-    // Fresh: NOT REF. After a long action was given up: still ERROR, and
-    // the detail under the status bar now asks only for the reference run.
+    // Fresh: NOT REF. After a long action was given up: still ERROR; the
+    // message line says it is initialised, and once no message is shown,
+    // the detail there asks only for the reference run.
     console.wait_until("initialised: the reference run left", |s| {
         status_has(s, "NOT REF")
-            || s.lines()
-                .nth(1)
-                .is_some_and(|l| l.contains(": reference the axes (h)"))
+            || s.lines().nth(1).is_some_and(|l| {
+                l.contains("initialised: drives") || l.contains(": reference the axes (h)")
+            })
     });
     console.keys(b"h");
     console.wait_for("Start the reference run?");
