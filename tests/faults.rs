@@ -756,7 +756,11 @@ fn emp_busy_never_ready_go_to(t: &mut Tally) {
         (EMP_HOME, go_to.as_str(), EMP_HOME),
         "nothing repeated: {motion:?}"
     );
-    console.wait_until("READY after the move", |s| status_has(s, "READY"));
+    // At 0.5 mm (5600 counts) and READY: the move has ended (READY alone
+    // may still be the screen from before it started).
+    console.wait_until("READY at X 0.5 mm after the move", |s| {
+        status_has(s, "READY") && x_steps(s) == Some(5600)
+    });
     sim.assert_alive();
     console.quit();
 }
