@@ -96,7 +96,7 @@ impl RawOp {
         })
     }
 
-    /// The long action is running (its `55` came) and not given up.
+    /// The long action is running: its `55` came, its end has not.
     fn running(&self) -> bool {
         self.script.running().contains(&self.request)
     }
