@@ -71,6 +71,47 @@ fn a_rejected_frame_exits_1_with_the_error_meaning() {
     assert!(stderr.contains("not switched on"), "{stderr}");
 }
 
+/// The bug of docs/faults.md: a raw positioning whose drive answers busy
+/// and never ready used to wait until Ctrl-C. Now it ends at the deadline of
+/// its travel and speed (112 000 counts at 100 counts/ms: 1.1 s, deadline
+/// 2.4 s) with the drive stopped and exit status 1.
+#[test]
+fn a_raw_move_that_stays_busy_ends_at_its_deadline_with_the_drive_stopped() {
+    let mut sim = SimProcess::start("emp");
+    sim.control("fault stall");
+    let started = std::time::Instant::now();
+    let out = sim.run(&[
+        "send",
+        "02 11 11 00 00000000",
+        "22 11 07 00 00000000",
+        "20 11 19 00 000030D4",
+        "2A 11 01 64 0001B580",
+        "2C 11 00 00 00000000",
+    ]);
+    let stdout = text(&out.stdout);
+    let stderr = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stdout}\n{stderr}");
+    assert!(started.elapsed() < Duration::from_secs(15), "{stderr}");
+    assert!(
+        stdout.contains(">> 2A1101640001B580\n<< started: 11: busy"),
+        "{stdout}"
+    );
+    assert!(
+        stderr.contains("the controller answered `55`: drive 11 (X) stayed busy (55)")
+            && stderr.contains("stopped with 08")
+            && stderr.contains("initialise (i) and reference (h)"),
+        "{stderr}"
+    );
+    // Nothing after the move was sent but the stop.
+    assert!(!stdout.contains(">> 2C11"), "{stdout}");
+    let received = sim.received();
+    let after = received
+        .split("2A1101640001B580<EOF>")
+        .nth(1)
+        .unwrap_or_default();
+    assert!(after.starts_with("0811000000000000<EOF>"), "{received}");
+}
+
 #[test]
 fn bad_frames_are_refused_before_anything_is_sent() {
     let sim = SimProcess::start("emp");

@@ -12,7 +12,9 @@ use std::time::{Duration, Instant};
 use faults_support::console::Console;
 use faults_support::runner::{self, Scenario, Tally};
 use faults_support::sim::SimProcess;
-use faults_support::wire::{assert_isel_motion, emcu_motion, isel_messages, isel_motion};
+use faults_support::wire::{
+    assert_isel_motion, emcu_motion, emp_after, emp_motion, isel_messages, isel_motion,
+};
 use faults_support::{JOGTERM, WAIT, contains_panic};
 
 /// A long X move (15 s at 4000 Hz) for a fault to interrupt.
@@ -589,6 +591,235 @@ fn sigkill_mid_edit(t: &mut Tally) {
     console.assert_no_panic();
 }
 
+/// The EMP machine of the scenarios: the shipped `emp` profile with the axis
+/// at 1 mm at power-up, so that a reference run takes under a second.
+const EMP_PROFILE: &str = "base = \"emp\"\n\n[sim]\nstart_position = 1.0\n";
+
+/// The reference run of the shipped profile (`emp.home_fast` 20,
+/// `emp.home_slow` 4, counts per ms at 1 kHz).
+const EMP_HOME: &str = "2611000000140400";
+
+/// The stop frame of the shipped profile (`emp.stop = "hold"`: `08`).
+const EMP_STOP: &str = "0811000000000000";
+
+/// The first line of the screen holds `word`.
+fn status_has(screen: &str, word: &str) -> bool {
+    screen.lines().next().is_some_and(|l| l.contains(word))
+}
+
+/// Initialise (`i`) and reference (`h`, confirmed with `y`) until READY.
+fn emp_initialise_and_reference(console: &mut Console) {
+    console.keys(b"i");
+    // Fresh: NOT REF. After a long action was given up: still ERROR; the
+    // message line says it is initialised, and once no message is shown,
+    // the detail there asks only for the reference run.
+    console.wait_until("initialised: the reference run left", |s| {
+        status_has(s, "NOT REF")
+            || s.lines().nth(1).is_some_and(|l| {
+                l.contains("initialised: drives") || l.contains(": reference the axes (h)")
+            })
+    });
+    console.keys(b"h");
+    console.wait_for("Start the reference run?");
+    console.keys(b"y");
+    console.wait_until("READY after the reference run", |s| status_has(s, "READY"));
+}
+
+/// The console against a fresh EMP simulator, initialised and referenced.
+fn ready_emp() -> (SimProcess, Console) {
+    let sim = SimProcess::start_with_files("emp", &[("profiles/emp.toml", EMP_PROFILE)]);
+    let mut console = Console::start(&sim);
+    emp_initialise_and_reference(&mut console);
+    (sim, console)
+}
+
+/// The first non-query frame the drive received after `frame`: polls
+/// (`2C`, `40`) and error reads (`0A`) go on while a long action runs.
+fn emp_first_command_after(received: &str, frame: &str) -> Option<String> {
+    emp_after(received, frame)
+        .into_iter()
+        .find(|f| !(f.starts_with("2C") || f.starts_with("40") || f.starts_with("0A")))
+}
+
+/// After a long action was given up: the operator is told, in the message
+/// line, that the drive stayed busy, what `needles` say, and to initialise
+/// and reference; the state is ERROR; the stop frame was the first command
+/// the drive received after `frame`.
+fn assert_given_up(sim: &mut SimProcess, console: &Console, frame: &str, needles: &[&str]) {
+    let mut all = vec![
+        "drive 11 (X) stayed busy (55)",
+        "initialise (i) and reference (h)",
+        frame,
+    ];
+    all.extend_from_slice(needles);
+    // The fault as a danger message (`!!`) in the traffic console; the line
+    // under the status bar shows the same as the state's detail.
+    console.wait_until(&format!("a danger message with {all:?}"), |s| {
+        s.lines()
+            .any(|l| l.trim_start().starts_with("!!") && all.iter().all(|n| l.contains(n)))
+    });
+    console.wait_until("ERROR in the status bar", |s| status_has(s, "ERROR"));
+    let received = sim.wait_received("the stop after the deadline", |r| {
+        emp_after(r, frame).iter().any(|f| f == EMP_STOP)
+    });
+    assert_eq!(
+        emp_first_command_after(&received, frame).as_deref(),
+        Some(EMP_STOP),
+        "the drive is stopped before anything else: {:?}",
+        emp_after(&received, frame)
+    );
+}
+
+/// How many lines of the screen say that something was refused.
+fn refusals_shown(console: &Console) -> usize {
+    console
+        .screen()
+        .lines()
+        .filter(|l| l.contains("refused"))
+        .count()
+}
+
+/// Moves asked for now are refused and never sent: a step of the jog
+/// keypad (Right) and a raw positioning typed on the command line, which
+/// the driver refuses with the recovery.
+fn assert_emp_motion_refused(sim: &mut SimProcess, console: &mut Console) {
+    let before = emp_motion(&sim.received());
+    let shown = refusals_shown(console);
+    console.keys(b"\x1b[C");
+    console.wait_until("the step refused", |s| {
+        s.lines().filter(|l| l.contains("refused")).count() > shown
+    });
+    console.command("2A1101640000EA60");
+    console.wait_until("the raw move refused with what to do", |s| {
+        s.lines().any(|l| {
+            l.contains("refused")
+                && l.contains("2A1101640000EA60")
+                && l.contains("controller error: initialise (i) and reference (h)")
+        })
+    });
+    // Give a wrongly sent frame time to arrive before looking.
+    std::thread::sleep(Duration::from_millis(300));
+    assert_eq!(emp_motion(&sim.received()), before, "nothing more moved");
+}
+
+/// EMP: a go-to move (`g X1`, 2 s at the jog speed) whose drive answers busy (`55`) and
+/// never ready (`fault stall`): at the move's deadline the console stops the
+/// drive (`08` first), says what happened and what to do, and refuses every
+/// move until the operator has initialised and referenced again; then a
+/// move runs.
+fn emp_busy_never_ready_go_to(t: &mut Tally) {
+    let (mut sim, mut console) = ready_emp();
+    sim.control("fault stall");
+    t.fault();
+    console.keys(b"g");
+    console.keys(b"X1");
+    console.wait_for("X1");
+    console.keys(b"\r");
+    let received = sim.wait_received("the go-to move", |r| {
+        emp_motion(r).iter().any(|f| f.starts_with("2A1101"))
+    });
+    let go_to = emp_motion(&received)
+        .into_iter()
+        .find(|f| f.starts_with("2A1101"))
+        .unwrap_or_default();
+    console.wait_until("MOVING in the status bar", |s| status_has(s, "MOVING"));
+    assert_given_up(
+        &mut sim,
+        &console,
+        &go_to,
+        &["did not report in position (22)", "stopped with 08"],
+    );
+    let state = sim.wait_device("held", |d| !d.contains("stalled"));
+    assert!(!state.contains("positioning"), "{state}");
+    assert_emp_motion_refused(&mut sim, &mut console);
+    // Acknowledged by doing what it said: then a move runs again.
+    emp_initialise_and_reference(&mut console);
+    console.keys(b"g");
+    console.keys(b"X0.5");
+    console.wait_for("X0.5");
+    console.keys(b"\r");
+    let received = sim.wait_received("the move after the recovery", |r| {
+        emp_motion(r)
+            .iter()
+            .filter(|f| f.starts_with("2A1101"))
+            .count()
+            == 2
+    });
+    let motion = emp_motion(&received);
+    assert_eq!(
+        motion.len(),
+        4,
+        "home, the move, home, the move: {motion:?}"
+    );
+    assert_eq!(
+        (motion[0].as_str(), motion[1].as_str(), motion[2].as_str()),
+        (EMP_HOME, go_to.as_str(), EMP_HOME),
+        "nothing repeated: {motion:?}"
+    );
+    // At 0.5 mm (5600 counts) and READY: the move has ended (READY alone
+    // may still be the screen from before it started).
+    console.wait_until("READY at X 0.5 mm after the move", |s| {
+        status_has(s, "READY") && x_steps(s) == Some(5600)
+    });
+    sim.assert_alive();
+    console.quit();
+}
+
+/// EMP: a raw TP positioning typed on the command line (`2A 11 01`, Vmax
+/// 100 counts/ms, 112 000 counts: 1.1 s) whose drive stays busy: the raw
+/// frame gets the deadline a planned move of that travel and speed gets,
+/// the drive is stopped, the operator told, and moves are refused.
+fn emp_busy_never_ready_raw_move(t: &mut Tally) {
+    const RAW_MOVE: &str = "2A1101640001B580";
+    let (mut sim, mut console) = ready_emp();
+    // TP needs TPWM (manual "2A"); the reference run left the jog mode IV.
+    console.command("2211070000000000");
+    console.wait_for("2211070000000000 = ");
+    sim.control("fault stall");
+    t.fault();
+    console.command(RAW_MOVE);
+    console.wait_for(&format!("{RAW_MOVE} = started"));
+    assert_given_up(
+        &mut sim,
+        &console,
+        RAW_MOVE,
+        &["did not report in position (22)", "stopped with 08"],
+    );
+    assert_emp_motion_refused(&mut sim, &mut console);
+    let motion = emp_motion(&sim.received());
+    assert_eq!(motion, [EMP_HOME, RAW_MOVE], "nothing repeated");
+    sim.assert_alive();
+    console.quit();
+}
+
+/// EMP: a raw reference run (`26`) whose drive stays busy and does not
+/// move: the watchdog's position reads stand still, so the run is given up
+/// as stalled within about a second, long before its deadline; the drive is
+/// stopped and the operator told what to check.
+fn emp_raw_homing_stalled(t: &mut Tally) {
+    let (mut sim, mut console) = ready_emp();
+    sim.control("fault stall");
+    t.fault();
+    console.command(EMP_HOME);
+    let started = Instant::now();
+    assert_given_up(
+        &mut sim,
+        &console,
+        EMP_HOME,
+        &["homing stalled", "Check the axis for a blockage"],
+    );
+    assert!(
+        started.elapsed() < Duration::from_secs(10),
+        "the watchdog, not the deadline: {:?}",
+        started.elapsed()
+    );
+    let motion = emp_motion(&sim.received());
+    assert_eq!(motion, [EMP_HOME, EMP_HOME], "the typed run once");
+    assert_emp_motion_refused(&mut sim, &mut console);
+    sim.assert_alive();
+    console.quit();
+}
+
 fn main() -> ExitCode {
     runner::run(&[
         Scenario {
@@ -646,6 +877,18 @@ fn main() -> ExitCode {
         Scenario {
             name: "sighup_during_a_continuous_jog",
             run: sighup_during_a_continuous_jog,
+        },
+        Scenario {
+            name: "emp_busy_never_ready_go_to",
+            run: emp_busy_never_ready_go_to,
+        },
+        Scenario {
+            name: "emp_busy_never_ready_raw_move",
+            run: emp_busy_never_ready_raw_move,
+        },
+        Scenario {
+            name: "emp_raw_homing_stalled",
+            run: emp_raw_homing_stalled,
         },
     ])
 }

@@ -37,6 +37,7 @@ Control language (one command per line, docs/simulator.md):
   fault garbage <text>|hex:<hex>       send these bytes now, unasked
   fault delay <ms>                     send the next message <ms> later
   fault close [<reopen-after-ms>]      close the line (a pty may reopen)
+  fault stall                          the next long action stays busy, unmoving (EMP)
   show                                 device state, line, counters
   show received                        the bytes the simulator received (readable)
   help                                 commands and the device's inputs

@@ -8,6 +8,7 @@
 //! fault drop-byte [<index>]              fault corrupt-byte [<index>]
 //! fault withhold                         fault garbage <text> | hex:<hex>
 //! fault delay <ms>                       fault close [<reopen-after-ms>]
+//! fault stall
 //! show      show received      help      quit
 //! ```
 
@@ -43,7 +44,7 @@ pub struct ControlParseError {
 
 const COMMANDS: &str = "set, press, value, fault, show, help or quit";
 const LEVELS: &str = "on, off, open, closed, 1 or 0";
-const FAULTS: &str = "drop-byte, corrupt-byte, withhold, garbage, delay or close";
+const FAULTS: &str = "drop-byte, corrupt-byte, withhold, garbage, delay, close or stall";
 
 /// Parse one line. Blank lines and lines starting with `#` are `Ok(None)`.
 pub fn parse_line(text: &str, line: usize) -> Result<Option<ControlCommand>, ControlParseError> {
@@ -150,6 +151,10 @@ fn parse_fault(text: &str) -> Result<Fault, String> {
                 }
             };
             Ok(Fault::Close { reopen_after })
+        }
+        "stall" => {
+            end_of_line(rest, "`stall`")?;
+            Ok(Fault::Stall)
         }
         _ => Err(format!("unknown fault `{kind}`: expected {FAULTS}")),
     }
@@ -264,6 +269,7 @@ pub fn help_text(input_names: &[&str]) -> String {
          \x20 fault garbage <text>|hex:<hex>       send these bytes now, unasked\n\
          \x20 fault delay <ms>                     send the next message <ms> later\n\
          \x20 fault close [<reopen-after-ms>]      close the line (a pty may reopen)\n\
+         \x20 fault stall                          the next long action stays busy (EMP)\n\
          \x20 show                                 device state, line, counters\n\
          \x20 show received                        the bytes the device received\n\
          \x20 help                                 this text\n\
@@ -419,6 +425,7 @@ mod tests {
             parse("fault withhold"),
             ControlCommand::Fault(Fault::Withhold)
         );
+        assert_eq!(parse("fault stall"), ControlCommand::Fault(Fault::Stall));
         assert_eq!(
             parse("fault delay 250"),
             ControlCommand::Fault(Fault::Delay(Duration::from_millis(250)))
@@ -521,11 +528,11 @@ mod tests {
         );
         assert_eq!(
             error("fault"),
-            "line 7: `fault` needs a kind: expected drop-byte, corrupt-byte, withhold, garbage, delay or close"
+            "line 7: `fault` needs a kind: expected drop-byte, corrupt-byte, withhold, garbage, delay, close or stall"
         );
         assert_eq!(
             error("fault melt"),
-            "line 7: unknown fault `melt`: expected drop-byte, corrupt-byte, withhold, garbage, delay or close"
+            "line 7: unknown fault `melt`: expected drop-byte, corrupt-byte, withhold, garbage, delay, close or stall"
         );
         assert_eq!(
             error("fault drop-byte -1"),

@@ -199,8 +199,9 @@ impl Engine {
         result
     }
 
-    /// Arm a message fault, or queue garbage. `Close` concerns the line, not
-    /// the wire model, and is the shell's; here it is refused.
+    /// Arm a message fault, or queue garbage; `Stall` goes to the device.
+    /// `Close` concerns the line, not the wire model, and is the shell's;
+    /// here it is refused.
     pub fn fault(&mut self, fault: Fault, now: Instant) -> Result<(), String> {
         match fault {
             Fault::DropByte(i) => self.armed.drop = Some(i),
@@ -214,6 +215,12 @@ impl Engine {
                 self.enqueue(timed);
             }
             Fault::Close { .. } => return Err("closing the line is up to the shell".to_owned()),
+            Fault::Stall => {
+                let t = self.tick(now);
+                let result = self.device.stall_next(t);
+                self.advance(t);
+                return result;
+            }
         }
         Ok(())
     }
@@ -654,6 +661,14 @@ mod tests {
             e.fault(Fault::Close { reopen_after: None }, Instant::now())
                 .is_err()
         );
+    }
+
+    #[test]
+    fn a_stall_goes_to_the_device_which_may_have_no_long_actions() {
+        let (mut e, _) = engine(Duration::ZERO);
+        let err = e.fault(Fault::Stall, Instant::now()).unwrap_err();
+        assert!(err.contains("EMP"), "{err}");
+        assert!(e.armed().is_empty());
     }
 
     #[test]

@@ -28,6 +28,11 @@ pub enum Fault {
     /// Close the line. For a pseudo-terminal, `reopen_after` brings up a new
     /// one (same stable link path) after that time.
     Close { reopen_after: Option<Duration> },
+    /// A device fault, not a message fault: the next long action the device
+    /// starts (EMP positioning or homing) answers busy and then neither
+    /// moves nor reports ready, until a request ends it (a stop). Only
+    /// simulators with such actions model it (`SimDevice::stall_next`).
+    Stall,
 }
 
 /// Which byte of a message a fault hits.

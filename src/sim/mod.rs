@@ -90,4 +90,11 @@ pub trait SimDevice: Send + 'static {
 
     /// One line of state (positions, ports, flags) for the simulator's `show`.
     fn describe(&self, now: Instant) -> String;
+
+    /// `fault stall`: the next long action stays busy without moving and
+    /// without reporting ready, until a request ends it. `Err` says why
+    /// this device cannot (it has no such actions).
+    fn stall_next(&mut self, _now: Instant) -> Result<(), String> {
+        Err("`fault stall` needs a device with long actions that report their end (EMP)".into())
+    }
 }

@@ -1,6 +1,6 @@
 //! What the controller received (`show received`, in `traffic::readable`
-//! form) split into messages, and the motion commands among them: the
-//! suite's proof that no motion command went out twice.
+//! form) split into messages (isel, EMCU, EMP), and the motion commands
+//! among them: the suite's proof that no motion command went out twice.
 
 /// isel: commands end at CR (returned without it); the control bytes 0xFD,
 /// 0xFE, 0xFF are messages of their own, also between two bytes of a command
@@ -92,6 +92,39 @@ pub fn emcu_motion(readable: &str) -> Vec<String> {
         .collect()
 }
 
+/// EMP: frames end at EOF 0x1A (`<EOF>` in readable form; EMP manual "Easy
+/// Motion Protocol": every string ends with EOF), returned without it.
+pub fn emp_frames(readable: &str) -> Vec<String> {
+    let mut frames: Vec<String> = readable
+        .split("<EOF>")
+        .map(|f| f.replace("<3C>", "<"))
+        .collect();
+    // What follows the last EOF is a frame not yet complete.
+    frames.pop();
+    frames
+}
+
+/// The EMP frames that can make an axis travel (`Command::may_move`:
+/// positioning, velocity and torque moves, homing, joystick on).
+pub fn emp_motion(readable: &str) -> Vec<String> {
+    emp_frames(readable)
+        .into_iter()
+        .filter(|f| {
+            f.parse::<jogterm::proto::emp::Request>()
+                .is_ok_and(|r| r.command.may_move())
+        })
+        .collect()
+}
+
+/// The EMP frames received after the last `frame` (none if it never came).
+pub fn emp_after(readable: &str, frame: &str) -> Vec<String> {
+    let frames = emp_frames(readable);
+    match frames.iter().rposition(|f| f == frame) {
+        Some(i) => frames.into_iter().skip(i + 1).collect(),
+        None => Vec::new(),
+    }
+}
+
 /// The parser's own checks, run by the suite before the scenarios.
 pub fn self_check() {
     assert_eq!(
@@ -105,4 +138,24 @@ pub fn self_check() {
     assert!(isel_moves("@0R7"));
     assert!(!isel_moves("<FD>"));
     assert_eq!(emcu_motion("@X<CR>@LX<CR>L1,x100<01>@X<CR>"), ["L1,x100"]);
+    let emp = "2C11000000000000<EOF>2A11016400124F80<EOF>0811000000000000<EOF>\
+               2A11000000000000<EOF>2611000000140400<EOF>2C1100";
+    assert_eq!(
+        emp_frames(emp),
+        [
+            "2C11000000000000",
+            "2A11016400124F80",
+            "0811000000000000",
+            "2A11000000000000",
+            "2611000000140400"
+        ]
+    );
+    // A velocity move at 0 and a stop move nothing.
+    assert_eq!(emp_motion(emp), ["2A11016400124F80", "2611000000140400"]);
+    assert_eq!(
+        emp_after(emp, "2A11016400124F80")
+            .first()
+            .map(String::as_str),
+        Some("0811000000000000")
+    );
 }

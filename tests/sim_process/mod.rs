@@ -70,7 +70,22 @@ pub struct SimProcess {
 impl SimProcess {
     /// Start the simulator of `family` and wait for its first line (the link).
     pub fn start(family: &'static str) -> SimProcess {
+        Self::start_with_files(family, &[])
+    }
+
+    /// [`SimProcess::start`] with `files` (path relative to the directory,
+    /// contents) written into its configuration directory first: a profile
+    /// in `profiles/<name>.toml` patches the shipped one for the simulator
+    /// and for every `jogterm` that shares the directory.
+    pub fn start_with_files(family: &'static str, files: &[(&str, &str)]) -> SimProcess {
         let dir = tempfile::tempdir().expect("temp dir");
+        for (path, contents) in files {
+            let path = dir.path().join(path);
+            if let Some(parent) = path.parent() {
+                std::fs::create_dir_all(parent).expect("create the config directory");
+            }
+            std::fs::write(&path, contents).expect("write a config file");
+        }
         let link = dir.path().join(format!("tty{family}"));
         let mut child = Command::new(JOGTERM)
             .args(["sim", "--pty", "--protocol", family, "--link"])

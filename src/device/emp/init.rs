@@ -1,10 +1,12 @@
 //! `Initialise`: every drive switched on (`02`, manual "02"), then the mode
 //! jogs run in set (`22 … 03` IV for `emp.jog = velocity`, `22 … 07` TPWM
-//! for `position`, manual "22").
+//! for `position`, manual "22"). Initialising is the first half of what a
+//! long action given up at its deadline asks for; the reference run is the
+//! second.
 
 use std::time::Instant;
 
-use crate::device::api::Activity;
+use crate::device::api::{Activity, Recovery};
 use crate::proto::emp::{Command, DriveAddress, Reply, Request};
 
 use crate::device::common::Sink;
@@ -40,6 +42,14 @@ impl Operation for Init {
     fn next(&mut self, cx: &mut Context, _now: Instant) -> Next {
         let next = self.script.next();
         if next == Next::Done && !self.script.failed() {
+            // A long action given up at its deadline (`emp::deadline`) asked
+            // to initialise and reference: now only the reference is left.
+            if let Some(f) = cx.state.fault.as_mut()
+                && f.recovery == Recovery::ReinitialiseAndReference
+            {
+                f.recovery = Recovery::Reference;
+            }
+            cx.refresh();
             cx.notice(format!(
                 "initialised: drives {} on, mode {}",
                 cx.addresses()

@@ -18,11 +18,14 @@
 //! 3. the current operation: read-back ([`readback`]), initialise
 //!    ([`init`]), reference runs ([`home`]), moves and jogs ([`motion_op`],
 //!    planned in [`plan`]), outputs ([`output`]), raw frames ([`raw`]);
+//!    long actions that stay busy are given up at their deadline
+//!    ([`deadline`]) or, raw reference runs, when they stall ([`stall`]);
 //! 4. raw queries, between the operation's frames;
 //! 5. the next queued request, checked when it is its turn;
 //! 6. polling ([`poll`]).
 
 mod context;
+mod deadline;
 mod home;
 mod init;
 mod io;
@@ -36,6 +39,7 @@ mod readback;
 mod script;
 mod settings;
 mod speed;
+mod stall;
 
 #[cfg(test)]
 mod tests;

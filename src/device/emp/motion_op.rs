@@ -12,14 +12,12 @@ use std::time::{Duration, Instant};
 use crate::device::api::{Activity, ControllerFault, JogEnd, JogId, PerAxis, Recovery, Refusal};
 use crate::device::common::MotionKind;
 use crate::device::common::RunningMove;
-use crate::device::common::deadline;
 use crate::device::common::motion::Coalescing;
 use crate::device::common::sink::refuse_step;
 use crate::proto::emp::{Command, DriveAddress, OperatingMode, Reply, Request};
 
-use crate::device::common::Sink;
-
 use super::context::Context;
+use super::deadline::{self, GivenUp, LongKind};
 use super::op::Operation;
 use super::plan::{self, Plan, Style, lookahead};
 use super::script::{Next, Outcome, Script, Step};
@@ -75,16 +73,28 @@ fn script_for(cx: &Context, plan: &Plan) -> Script {
     Script::new(steps)
 }
 
-/// How long a positioning may take: the longest leg at its speed, plus the
-/// margins of `common::deadline::motion`, plus a round trip per frame.
+/// How long a positioning may take: the longest leg at its speed, with the
+/// margins of `emp::deadline::positioning`.
 fn timeout_for(cx: &Context, plan: &Plan) -> Duration {
     let secs = plan
         .legs
         .iter()
         .map(|l| l.distance as f64 / l.hz().max(1.0))
         .fold(0.0, f64::max);
-    let frames = u32::try_from(plan.legs.len() * 3).unwrap_or(u32::MAX);
-    deadline::motion(Duration::from_secs_f64(secs)) + cx.settings.timing.round_trip * frames
+    deadline::positioning(cx, secs, plan.legs.len())
+}
+
+/// The TP frame of a positioning leg.
+fn move_of(leg: &super::plan::Leg) -> Option<Request> {
+    leg.target.map(|target| {
+        Request::new(
+            leg.ds,
+            Command::MoveTo {
+                vmax: leg.speed.speed,
+                target,
+            },
+        )
+    })
 }
 
 impl MotionOp {
@@ -218,7 +228,8 @@ impl Operation for MotionOp {
                     command: Command::MoveTo { .. },
                     ..
                 }) => {
-                    self.deadline.get_or_insert(now + self.timeout);
+                    self.deadline
+                        .get_or_insert(deadline::due(now, self.timeout));
                     return next;
                 }
                 Next::Send(_) => return next,
@@ -304,19 +315,30 @@ impl Operation for MotionOp {
             self.kind.set_jog_end(JogEnd::DeadMan, false);
             self.halt();
         } else if self.deadline.is_some_and(|t| t <= now) {
-            let fault = ControllerFault {
-                command: "2A 01 (positioning)".into(),
-                code: "timeout".into(),
-                meaning: format!(
-                    "the move did not report in position within {} ms: stopped",
-                    self.timeout.as_millis()
-                ),
-                recovery: Recovery::None,
-            };
-            cx.emit(crate::device::api::Event::Fault(fault.clone()));
-            self.kind.set_jog_end(JogEnd::Fault(fault), false);
+            // Still busy: stop every drive of the move first (`halt`), then
+            // the fault for the first leg still running, which blocks motion
+            // until the operator initialises and references.
             self.failed = true;
             self.halt();
+            let request = self
+                .script
+                .running()
+                .first()
+                .copied()
+                .or_else(|| self.plan.legs.first().and_then(move_of));
+            if let Some(request) = request {
+                let fault = deadline::give_up(
+                    cx,
+                    &request,
+                    LongKind::Positioning,
+                    GivenUp::Deadline(self.timeout),
+                );
+                self.kind.set_jog_end(JogEnd::Fault(fault), false);
+            }
+            for leg in &self.plan.legs {
+                cx.unreference(leg.axis);
+            }
+            cx.refresh();
         }
     }
 

@@ -112,6 +112,8 @@ pub(crate) struct Drive {
     i2c_slow: bool,
     eeprom: Vec<u8>,
     rtc: RtcClock,
+    /// `fault stall` is armed for this drive's next long action.
+    pub(crate) stall_next: bool,
 }
 
 /// A counter value as the 25-bit register holds it: it wraps like the
@@ -145,6 +147,7 @@ impl Drive {
             i2c_slow: false,
             eeprom: vec![0xFF; EEPROM_SIZE],
             rtc: RtcClock::new(),
+            stall_next: false,
             cfg,
         }
     }
@@ -326,7 +329,9 @@ impl Drive {
                 let fast = self.velocity_speed(fast.value().into(), false).abs();
                 let slow = self.velocity_speed(slow.value().into(), false).abs();
                 let mut replies = vec![self.busy(ReplyBody::Homing(pos))];
-                if self.servo.home(t, fast, slow) {
+                if std::mem::take(&mut self.stall_next) {
+                    self.servo.stall(t);
+                } else if self.servo.home(t, fast, slow) {
                     replies.push(self.homed(t));
                 }
                 Ok(replies)
@@ -509,7 +514,9 @@ impl Drive {
         let speed = self.velocity_speed(speed, false).abs();
         let pos = self.counter(t);
         let mut replies = vec![self.busy(ReplyBody::Moved(pos))];
-        if self.servo.position_to(t, goal, speed, self.cfg.accel) {
+        if std::mem::take(&mut self.stall_next) {
+            self.servo.stall(t);
+        } else if self.servo.position_to(t, goal, speed, self.cfg.accel) {
             replies.push(self.ready(ReplyBody::Moved(self.counter(t))));
         }
         Ok(replies)

@@ -88,6 +88,9 @@ pub struct EmpSim {
     /// The time the model has been brought up to.
     clock: Option<Instant>,
     stats: LinkStats,
+    /// `fault stall`: the next long action on the link, whichever drive
+    /// starts it, stays busy without moving.
+    stall: bool,
 }
 
 impl EmpSim {
@@ -107,6 +110,7 @@ impl EmpSim {
             output: VecDeque::new(),
             clock: None,
             stats: LinkStats::default(),
+            stall: false,
         })
     }
 
@@ -176,10 +180,16 @@ impl EmpSim {
         let Some(drive) = self.drives.get_mut(q.drive) else {
             return;
         };
+        // The drive takes the armed stall when it starts a long action.
+        drive.stall_next = self.stall;
         let replies = match q.request {
             Ok(request) => drive.execute(request.command, q.due),
             Err(e) => vec![drive.reject_frame(&q.frame, &e)],
         };
+        if self.stall && !drive.stall_next {
+            self.stall = false;
+        }
+        drive.stall_next = false;
         self.output
             .extend(replies.iter().map(|r| r.encode().to_vec()));
     }
@@ -283,6 +293,12 @@ impl SimDevice for EmpSim {
         Ok(())
     }
 
+    fn stall_next(&mut self, now: Instant) -> Result<(), String> {
+        self.advance(now);
+        self.stall = true;
+        Ok(())
+    }
+
     fn input_names(&self) -> Vec<&'static str> {
         controls::INPUT_NAMES.to_vec()
     }
@@ -304,6 +320,9 @@ impl SimDevice for EmpSim {
                 out.push_str(" | ");
             }
             describe_drive(&mut out, &d.snapshot(now));
+        }
+        if self.stall {
+            out.push_str(" | stall armed");
         }
         let s = self.stats;
         if s.framing_errors + s.ignored_frames > 0 {

@@ -108,6 +108,9 @@ enum Activity {
     SetPoint,
     Positioning,
     Homing(Homing),
+    /// `fault stall`: a long action that stays busy at rest and never ends
+    /// on its own (`docs/simulator.md`, "Faults").
+    Stalled,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -228,6 +231,13 @@ impl Servo {
         false
     }
 
+    /// A long action starts stalled: the axis stands where it is, and
+    /// nothing ends the action but a request that brakes (`brake`).
+    pub(crate) fn stall(&mut self, t: Instant) {
+        self.trajectory = Trajectory::rest(self.position(t));
+        self.activity = Activity::Stalled;
+    }
+
     /// When the axis next needs attention, if ever.
     pub(crate) fn next_event(&self) -> Option<Instant> {
         self.next().map(|(t, _)| t)
@@ -254,6 +264,7 @@ impl Servo {
                 Phase::Seek(_) | Phase::Creep => [reference(), limit(), None],
                 Phase::Overrun(_) => [rest(), None, None],
             },
+            Activity::Stalled => [None, None, None],
         };
         candidates.into_iter().flatten().fold(
             None,
@@ -281,9 +292,12 @@ impl Servo {
                 })
             }
             (Activity::Homing(h), _) => self.on_homing_edge(at, h, event),
-            // `next` offers idle axes only their rest, and the reference
-            // edge only to homing.
-            (Activity::Idle | Activity::SetPoint | Activity::Positioning, _) => None,
+            // `next` offers idle axes only their rest, the reference edge
+            // only to homing, and a stalled axis nothing.
+            (
+                Activity::Idle | Activity::SetPoint | Activity::Positioning | Activity::Stalled,
+                _,
+            ) => None,
         }
     }
 
@@ -313,7 +327,7 @@ impl Servo {
                 }
                 None
             }
-            Activity::Idle | Activity::SetPoint => {
+            Activity::Idle | Activity::SetPoint | Activity::Stalled => {
                 self.activity = Activity::Idle;
                 None
             }
@@ -383,6 +397,7 @@ impl Servo {
             Activity::SetPoint => "running",
             Activity::Positioning => "positioning",
             Activity::Homing(_) => "homing",
+            Activity::Stalled => "stalled",
         }
     }
 }
@@ -456,6 +471,19 @@ mod tests {
             );
             assert_eq!(s.position(t0 + secs(600)), 0.0, "from {start}");
         }
+    }
+
+    #[test]
+    fn a_stalled_action_stands_until_braked() {
+        let t0 = Instant::now();
+        let mut s = Servo::new(5_000.0, SWITCHES, 50_000.0);
+        s.stall(t0);
+        assert_eq!(s.next_event(), None);
+        assert_eq!(run(&mut s, t0 + secs(600)), []);
+        assert_eq!(s.position(t0 + secs(600)), 5_000.0);
+        assert_eq!(s.activity_name(), "stalled");
+        s.brake(t0 + secs(600), 50_000.0);
+        assert_eq!(s.activity_name(), "idle");
     }
 
     #[test]

@@ -6,6 +6,7 @@
 use super::harness::*;
 use crate::config::{ConfigDirs, load_profile};
 use crate::proto::emp::Frame;
+use crate::sim::SimDevice;
 use crate::sim::emp::{EmpSim, EmpSimConfig};
 
 const MM: f64 = 11_200.0;
@@ -367,4 +368,43 @@ fn a_rejected_move_still_ends_the_running_positioning() {
     c.silence(secs(30.0));
     assert_eq!(c.position(), p);
     assert_eq!(c.snapshot().speed, 0.0);
+}
+
+#[test]
+fn a_stalled_tp_move_stays_busy_and_unmoving_until_a_stop_holds_it() {
+    let mut c = emp_at(40.0);
+    c.switch_on();
+    mode(&mut c, 0x07);
+    let at = c.now;
+    c.sim.stall_next(at).unwrap();
+    assert!(c.sim.describe(at).contains("stall armed"));
+    let before = c.position();
+    c.exchange("2A1101 7F 00030D40", &format!("2B110055{before:08X}"));
+    // Armed once: the next long action took it.
+    assert!(!c.sim.describe(c.now).contains("stall armed"));
+    c.wait(secs(10.0));
+    assert_eq!(c.position(), before);
+    assert_eq!(c.snapshot().activity, "stalled");
+    // No `22` ever came; a stop ends the action and answers for itself.
+    c.exchange("0811000000000000", &format!("09110022{before:08X}"));
+    assert_eq!(c.snapshot().activity, "idle");
+    c.silence(secs(5.0));
+    // The next move runs normally.
+    c.exchange("2A1101 7F 00030D40", &format!("2B110055{before:08X}"));
+    c.expect("2B11002200030D40");
+}
+
+#[test]
+fn a_stalled_homing_answers_busy_and_stands() {
+    let mut c = emp_at(40.0);
+    c.switch_on();
+    mode(&mut c, 0x07);
+    let at = c.now;
+    c.sim.stall_next(at).unwrap();
+    let before = c.position();
+    c.exchange("2611000000140400", &format!("27110055{before:08X}"));
+    c.wait(secs(30.0));
+    assert_eq!(c.position(), before);
+    c.exchange("2A1103 00 00000000", &format!("2B110022{before:08X}"));
+    c.silence(secs(5.0));
 }
