@@ -90,4 +90,13 @@ pub trait SimDevice: Send + 'static {
 
     /// One line of state (positions, ports, flags) for the simulator's `show`.
     fn describe(&self, now: Instant) -> String;
+
+    /// How many commands the controller's program store takes from now on
+    /// (`memory <n>`): a controller with less memory than its profile says,
+    /// or memory partly used. `Err` says why not (a controller that stores no
+    /// programs, more than the controller's own memory).
+    fn set_program_memory(&mut self, commands: usize) -> Result<(), String> {
+        let _ = commands;
+        Err("this controller stores no programs".into())
+    }
 }
