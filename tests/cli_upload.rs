@@ -138,7 +138,11 @@ fn a_program_of_the_other_family_is_refused_by_its_extension() {
 fn isel_program(moves: usize) -> String {
     let mut text = String::from("; more moves than the controller has room for\n7 7\n");
     for i in 0..moves {
-        text.push_str(&format!("0 {},2000,0,2000,0,2000,0,2000 ; move {}\n", 10 + i, i + 1));
+        text.push_str(&format!(
+            "0 {},2000,0,2000,0,2000,0,2000 ; move {}\n",
+            10 + i,
+            i + 1
+        ));
     }
     text.push_str("9\n");
     text
@@ -183,7 +187,9 @@ fn an_emcu_job_is_stored_and_run_and_ends_where_the_preview_said() {
     let mut sim = SimProcess::start("emcu");
     let ready = run(&sim, &["send", "@R", "#S2000", "#R200\\x01", "$HZYX\\x01"]);
     assert!(ready.status.success(), "{}", stderr(&ready));
-    sim.wait_device("referenced", |s| s.contains("X 0 ") && !s.contains("moving"));
+    sim.wait_device("referenced", |s| {
+        s.contains("X 0 ") && !s.contains("moving")
+    });
     let file = write_program(&sim, "pallet.emcu", EMCU_JOB);
     let out = run(&sim, &["upload", &file, "--start"]);
     let said = stderr(&out);
@@ -199,7 +205,8 @@ fn an_emcu_job_is_stored_and_run_and_ends_where_the_preview_said() {
     // The controller's own counters say the same.
     let state = sim.device_state();
     assert!(
-        state.starts_with(&format!("device: X {} ", end[0])) && state.contains(&format!("Y {} ", end[1]))
+        state.starts_with(&format!("device: X {} ", end[0]))
+            && state.contains(&format!("Y {} ", end[1]))
             && state.contains(&format!("Z {} ", end[2])),
         "{state}"
     );
@@ -225,7 +232,10 @@ fn an_emcu_job_with_errors_sends_nothing_and_names_its_lines() {
     assert_eq!(out.status.code(), Some(2), "{said}");
     assert!(said.contains("bad.emcu:3:1: error:"), "{said}");
     assert!(said.contains("bad.emcu:4:2: error:"), "{said}");
-    assert!(said.contains("2 errors to fix first; nothing was sent"), "{said}");
+    assert!(
+        said.contains("2 errors to fix first; nothing was sent"),
+        "{said}"
+    );
     let received = sim.received();
     assert!(!received.contains("@F"), "{received}");
 }
@@ -247,7 +257,10 @@ fn an_emcu_job_beyond_the_interfaces_memory_is_refused_at_its_file_line() {
     assert!(!said.contains("running the program"), "{said}");
     let received = sim.received();
     assert!(!received.contains("@J"), "nothing was started: {received}");
-    assert!(!received.contains("L2,x-500"), "the upload stopped at the line: {received}");
+    assert!(
+        !received.contains("L2,x-500"),
+        "the upload stopped at the line: {received}"
+    );
     assert!(sim.device_state().contains("ROM empty"));
     sim.assert_alive();
 }

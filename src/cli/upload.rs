@@ -327,8 +327,8 @@ fn failure(prepared: &Prepared, index: usize, fault: &ControllerFault) -> String
         // The driver ends the transfer with a bare 0x01, which discards the
         // job (`docs/protocols.md`, EMCU).
         Language::Emcu => format!(
-            "the interface discarded the job, nothing is stored; the job has {} commands, \
-             and this controller took {index}: shorten the job or split it",
+            "the interface discarded the job, nothing is stored (the job has {} commands, \
+             the controller took {index})",
             prepared.lines.len()
         ),
     };
@@ -547,10 +547,15 @@ mod tests {
         };
         let said = failure(&prepared, 2, &fault);
         assert!(
-            said.starts_with("p.emcu:5: the controller refused command 3 `L1,X200`: 0x03 memory full"),
+            said.starts_with(
+                "p.emcu:5: the controller refused command 3 `L1,X200`: 0x03 memory full"
+            ),
             "{said}"
         );
         assert!(said.contains("discarded the job"), "{said}");
-        assert!(said.contains("3 commands, and this controller took 2"), "{said}");
+        assert!(
+            said.contains("(the job has 3 commands, the controller took 2)"),
+            "{said}"
+        );
     }
 }

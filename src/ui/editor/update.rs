@@ -669,10 +669,19 @@ fn upload(model: &mut Model) -> Vec<Effect> {
     }
     match model.machine.program {
         ProgramState::Stored => {
+            let text = match language {
+                Language::Isel => {
+                    "A program is stored in the controller. Erase it (@0k) and store this one?"
+                }
+                // `@F` replaces the stored job (decision 2).
+                Language::Emcu => {
+                    "A job is stored in the controller. Replace it with this one (@F)?"
+                }
+            };
             ask(
                 model,
                 "Upload",
-                "A program is stored in the controller. Erase it (@0k) and store this one?".into(),
+                text.into(),
                 Answer::Upload { erase: true },
                 Answer::Nothing,
             );
@@ -706,7 +715,10 @@ fn start_upload(model: &mut Model, erase: bool) -> Vec<Effect> {
     };
     let lines_of: Vec<usize> = program.statements().map(|(line, _)| line).collect();
     let state = model.editor.buffer.state();
-    model.editor.upload.start(lines_of, state);
+    model
+        .editor
+        .upload
+        .start(program.language(), lines_of, state);
     let text = format!(
         "uploading {} commands{}",
         lines.len(),
