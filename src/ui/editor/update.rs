@@ -688,12 +688,22 @@ fn upload(model: &mut Model) -> Vec<Effect> {
             Vec::new()
         }
         ProgramState::Invalid => {
+            let text = match language {
+                Language::Isel => {
+                    "The controller holds an invalid program (an upload failed or was stopped). \
+                     Erase it and store this one?"
+                }
+                // The interface discarded the broken transfer (the bare 0x01
+                // that ends it, `docs/protocols.md`, EMCU).
+                Language::Emcu => {
+                    "The last upload failed or was stopped, so the interface holds no job. \
+                     Store this one?"
+                }
+            };
             ask(
                 model,
                 "Upload",
-                "The controller holds an invalid program (an upload failed or was stopped). \
-                 Erase it and store this one?"
-                    .into(),
+                text.into(),
                 Answer::Upload { erase: true },
                 Answer::Nothing,
             );
