@@ -613,6 +613,15 @@ mod tests {
         }
 
         #[test]
+        fn memory_takes_any_count_and_never_panics(n in proptest::num::usize::ANY, tail in "\\PC{0,20}") {
+            proptest::prop_assert_eq!(
+                parse_line(&format!("memory {n}"), 1),
+                Ok(Some(ControlCommand::Memory(n)))
+            );
+            let _ = parse_line(&format!("memory {tail}"), 1);
+        }
+
+        #[test]
         fn any_bytes_parse_as_hex_garbage(bytes in proptest::collection::vec(proptest::num::u8::ANY, 1..20)) {
             let hex: String = bytes.iter().map(|b| format!("{b:02x} ")).collect();
             let parsed = parse_line(&format!("fault garbage hex:{hex}"), 1);
