@@ -371,7 +371,6 @@ async fn start(session: &mut Session) -> Status {
     let mut running = false;
     let mut fault: Option<ControllerFault> = None;
     let mut position: Option<PerAxis<i64>> = None;
-    eprintln!("running the program (Ctrl-C stops the machine)");
     'request: loop {
         if session.handle.request(Request::RunProgram).is_err() {
             return Err(lost("the device task ended"));
@@ -389,7 +388,12 @@ async fn start(session: &mut Session) -> Status {
                     initialise(session).await?;
                     continue 'request;
                 }
-                Event::State(s) if s.activity == Activity::RunningProgram => running = true,
+                Event::State(s) if s.activity == Activity::RunningProgram => {
+                    if !running {
+                        eprintln!("running the program (Ctrl-C stops the machine)");
+                    }
+                    running = true;
+                }
                 Event::State(s) if running && s.activity == Activity::Idle => break 'request,
                 Event::Position(p) => position = Some(p.steps),
                 Event::Fault(f) => fault = Some(f),
