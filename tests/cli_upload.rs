@@ -1,8 +1,11 @@
-//! End to end: `jogterm upload` against the real `jogterm sim --protocol
-//! isel --pty`: a program with a loop and a branch is checked, stored and
-//! run, and the simulated machine ends where the toolpath preview
-//! (`program::path`) predicts; a program in the way needs `--erase`; a
-//! program with errors sends nothing and names its lines.
+//! End to end: `jogterm upload` against the real `jogterm sim --pty`: an
+//! isel program with a loop and a branch and an EMCU job are checked, stored
+//! and run, and the simulated machine ends where the toolpath preview
+//! (`program::path`) predicts; an isel program in the way needs `--erase`; a
+//! program with errors sends nothing and names its lines; a controller with
+//! less memory than the linter assumes (`memory <n>` on the simulator's
+//! stdin) refuses the command that does not fit, and the upload names its
+//! file line.
 
 use std::path::Path;
 use std::process::{Output, Stdio};
@@ -12,7 +15,7 @@ use jogterm::program::path::{Start, path};
 use jogterm::program::{Language, Program};
 
 mod sim_process;
-use sim_process::{SimProcess, jogterm};
+use sim_process::{SimProcess, contains_panic, jogterm};
 
 /// `jogterm` against the simulator, configured from the simulator's
 /// directory, with no stdin.
@@ -109,19 +112,155 @@ fn a_missing_file_or_a_dead_port_have_their_exit_codes() {
 }
 
 #[test]
-fn other_families_are_sent_to_the_console_editor_before_anything_is_opened() {
+fn emp_drives_are_refused_before_anything_is_opened() {
     let sim = SimProcess::start("isel");
     let file = write_program(&sim, "job.emcu", "L1,x100\n");
-    for family in ["emcu", "emp"] {
-        let out = jogterm(Path::new("/nonexistent/tty"), family, &["upload", &file])
-            .env("JOGTERM_CONFIG_DIR", sim.dir.path())
-            .output()
-            .expect("run jogterm");
-        let said = stderr(&out);
-        assert_eq!(out.status.code(), Some(2), "{family}: {said}");
-        assert!(
-            said.contains("stores isel CNC programs"),
-            "{family}: {said}"
-        );
+    let out = jogterm(Path::new("/nonexistent/tty"), "emp", &["upload", &file])
+        .env("JOGTERM_CONFIG_DIR", sim.dir.path())
+        .output()
+        .expect("run jogterm");
+    let said = stderr(&out);
+    assert_eq!(out.status.code(), Some(2), "{said}");
+    assert!(said.contains("emp drives store no programs"), "{said}");
+}
+
+#[test]
+fn a_program_of_the_other_family_is_refused_by_its_extension() {
+    let sim = SimProcess::start("emcu");
+    let file = write_program(&sim, "drill.isel", "7 7\n9\n");
+    let out = run(&sim, &["upload", &file]);
+    let said = stderr(&out);
+    assert_eq!(out.status.code(), Some(2), "{said}");
+    assert!(said.contains("an isel program by its extension"), "{said}");
+}
+
+/// Commands stored (isel `@0i` … `9`) before the one that does not fit.
+fn isel_program(moves: usize) -> String {
+    let mut text = String::from("; more moves than the controller has room for\n7 7\n");
+    for i in 0..moves {
+        text.push_str(&format!(
+            "0 {},2000,0,2000,0,2000,0,2000 ; move {}\n",
+            10 + i,
+            i + 1
+        ));
     }
+    text.push_str("9\n");
+    text
+}
+
+#[test]
+fn an_isel_controller_with_less_memory_refuses_the_command_beyond_it_at_its_file_line() {
+    let mut sim = SimProcess::start("isel");
+    sim.control("memory 3");
+    let file = write_program(&sim, "long.isel", &isel_program(4));
+    // The linter assumes the controller's 2000 commands: nothing to fix.
+    let check = run(&sim, &["check", &file]);
+    assert_eq!(check.status.code(), Some(0), "{}", stderr(&check));
+    let out = run(&sim, &["upload", &file]);
+    let said = stderr(&out);
+    assert_eq!(out.status.code(), Some(1), "{said}");
+    // `7 7` and two moves fit; command 4 is the third move, on line 5.
+    assert!(
+        said.contains("long.isel:5: the controller refused command 4 `012,2000,0,2000,0,2000,0,2000`: 6 The CNC program does not fit into the program memory"),
+        "{said}"
+    );
+    assert!(said.contains("upload again with --erase"), "{said}");
+    assert!(said.contains("upload 0/6"), "{said}");
+    assert!(!contains_panic(&out.stderr), "{said}");
+    sim.assert_alive();
+}
+
+/// Referenced, the counters are 0 (manual 1.5.9). Absolute and relative
+/// moves, a wait and an output.
+const EMCU_JOB: &str = "\
+; a small EMCU job
+#E2,1500
+L2,X2000,Y1000          ; absolute
+W50
+L2,x-500,z300           ; relative
+A1,1
+L2,y250
+";
+
+#[test]
+fn an_emcu_job_is_stored_and_run_and_ends_where_the_preview_said() {
+    let mut sim = SimProcess::start("emcu");
+    let ready = run(&sim, &["send", "@R", "#S2000", "#R200\\x01", "$HZYX\\x01"]);
+    assert!(ready.status.success(), "{}", stderr(&ready));
+    sim.wait_device("referenced", |s| {
+        s.contains("X 0 ") && !s.contains("moving")
+    });
+    let file = write_program(&sim, "pallet.emcu", EMCU_JOB);
+    let out = run(&sim, &["upload", &file, "--start"]);
+    let said = stderr(&out);
+    assert_eq!(out.status.code(), Some(0), "{said}");
+    assert!(said.contains("6 commands stored"), "{said}");
+    assert!(said.contains("upload 6/6 (100 %)"), "{said}");
+    assert!(said.contains("lines/s"), "{said}");
+    let program = Program::parse(Language::Emcu, EMCU_JOB);
+    let end = path(&program, &Start::new(AxisSet::XYZ, [0; 4])).end;
+    assert_eq!(end, [1500, 1250, 300, 0]);
+    let expected = format!("position (steps): X {}, Y {}, Z {}", end[0], end[1], end[2]);
+    assert!(said.contains(&expected), "{expected}\n{said}");
+    // The controller's own counters say the same.
+    let state = sim.device_state();
+    assert!(
+        state.starts_with(&format!("device: X {} ", end[0]))
+            && state.contains(&format!("Y {} ", end[1]))
+            && state.contains(&format!("Z {} ", end[2])),
+        "{state}"
+    );
+    let received = sim.received();
+    assert!(received.contains("@F<CR>#E2,1500<CR>"), "{received}");
+    assert!(received.contains("L2,y250<01>"), "{received}");
+    assert!(received.contains("@J<CR>"), "{received}");
+
+    // `@F` replaces the stored job: another upload needs no --erase, and
+    // --erase changes nothing.
+    let out = run(&sim, &["upload", &file]);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    let out = run(&sim, &["upload", &file, "--erase"]);
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+}
+
+#[test]
+fn an_emcu_job_with_errors_sends_nothing_and_names_its_lines() {
+    let mut sim = SimProcess::start("emcu");
+    let file = write_program(&sim, "bad.emcu", "; head\nL1,X100\n@X\nW0\n");
+    let out = run(&sim, &["upload", &file]);
+    let said = stderr(&out);
+    assert_eq!(out.status.code(), Some(2), "{said}");
+    assert!(said.contains("bad.emcu:3:1: error:"), "{said}");
+    assert!(said.contains("bad.emcu:4:2: error:"), "{said}");
+    assert!(
+        said.contains("2 errors to fix first; nothing was sent"),
+        "{said}"
+    );
+    let received = sim.received();
+    assert!(!received.contains("@F"), "{received}");
+}
+
+#[test]
+fn an_emcu_job_beyond_the_interfaces_memory_is_refused_at_its_file_line() {
+    let mut sim = SimProcess::start("emcu");
+    sim.control("memory 2");
+    let file = write_program(&sim, "pallet.emcu", EMCU_JOB);
+    let out = run(&sim, &["upload", &file, "--start"]);
+    let said = stderr(&out);
+    assert_eq!(out.status.code(), Some(1), "{said}");
+    // Commands 1 and 2 fit; command 3 `W50` is on line 4.
+    assert!(
+        said.contains("pallet.emcu:4: the controller refused command 3 `W50`: 0x03 memory full"),
+        "{said}"
+    );
+    assert!(said.contains("discarded the job"), "{said}");
+    assert!(!said.contains("running the program"), "{said}");
+    let received = sim.received();
+    assert!(!received.contains("@J"), "nothing was started: {received}");
+    assert!(
+        !received.contains("L2,x-500"),
+        "the upload stopped at the line: {received}"
+    );
+    assert!(sim.device_state().contains("ROM empty"));
+    sim.assert_alive();
 }

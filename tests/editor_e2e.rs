@@ -1,7 +1,9 @@
 //! The real `jogterm` binary in an 80x24 pseudo-terminal with a program in
 //! its editor: edits survive a `SIGKILL` (the recovery file is written while
 //! editing, not on exit) and are offered back on the next start; a save is
-//! atomic and leaves no recovery behind.
+//! atomic and leaves no recovery behind; a controller that refuses a line
+//! the linter let through (less program memory than assumed) gets that line
+//! marked, and erase-and-retry stores the program once there is room.
 
 mod sim_process;
 mod ui_pty;
@@ -242,6 +244,81 @@ fn edit_upload_and_run_on_the_simulator_end_where_the_preview_said() {
         assert!(Instant::now() < end, "{at:?}\n{screen}");
         std::thread::sleep(Duration::from_millis(50));
     }
+    run.send(b"q");
+    assert_eq!(run.wait_exit(WAIT), Some(0));
+}
+
+#[test]
+fn a_line_the_controller_has_no_room_for_is_marked_and_erase_and_retry_stores_it() {
+    const PROGRAM: &str = "; four moves\n7 7\n0 100,2000,0,2000,0,2000,0,2000\n\
+        0 200,2000,0,2000,0,2000,0,2000\n0 300,2000,0,2000,0,2000,0,2000\n9\n";
+    let dir = tempfile::tempdir().expect("tempdir");
+    let config = dir.path().join("config");
+    let state = dir.path().join("state");
+    fs::create_dir_all(&config).expect("config dir");
+    let mut sim = SimProcess::start("isel");
+    // The controller has room for two commands; the linter assumes 2000.
+    sim.control("memory 2");
+    let file = dir.path().join("moves.isel");
+    fs::write(&file, PROGRAM).expect("write");
+    let file_arg = file.display().to_string();
+    let mut run = spawn(
+        &[
+            "--port",
+            &sim.link.display().to_string(),
+            "--protocol",
+            "isel",
+            "--program",
+            &file_arg,
+        ],
+        &config,
+        &state,
+    );
+    wait_for(&run, "connected");
+    wait_for(&run, "moves.isel");
+    // The machine screen: initialise (the upload needs the axes), back.
+    run.send(b"\x1bOS");
+    wait_for(&run, "Position");
+    run.send(b"i");
+    wait_for(&run, "NOT REF");
+    run.send(b"e");
+    wait_for(&run, "moves.isel");
+    run.send(b"\x1b[15~");
+    // `7 7` and the first move fit; command 3 is the second move, line 4.
+    let screen = wait_for(&run, "upload failed at command 3 (line 4)");
+    assert!(screen.contains("`6`"), "{screen}");
+    // The mark: `!` after the command number 3 on the line of the second
+    // move, with the meaning beside it (the line is still there).
+    let end = Instant::now() + WAIT;
+    loop {
+        let screen = run.screen().screen().contents();
+        let marked = screen
+            .lines()
+            .any(|l| l.trim_start().starts_with("3! 0 200,2000") && l.contains("the controll"));
+        if marked {
+            break;
+        }
+        assert!(Instant::now() < end, "line 4 not marked:\n{screen}");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    assert_eq!(fs::read_to_string(&file).expect("read"), PROGRAM);
+    // Room again (the operator freed the memory); F5 offers erase-and-retry.
+    sim.control("memory 2000");
+    run.send(b"\x1b[15~");
+    wait_for(&run, "invalid program");
+    run.send(b"y");
+    wait_for(&run, "upload finished: 5 commands stored");
+    let received = sim.received();
+    assert!(received.contains("@0k"), "erased first: {received}");
+    // The buffer and the file are as they were: nothing was edited.
+    let screen = run.screen().screen().contents();
+    assert!(
+        screen.contains("0 300,2000,0,2000,0,2000,0,2000"),
+        "{screen}"
+    );
+    assert_eq!(fs::read_to_string(&file).expect("read"), PROGRAM);
+    run.send(b"\x1bOS");
+    wait_for(&run, "Position");
     run.send(b"q");
     assert_eq!(run.wait_exit(WAIT), Some(0));
 }

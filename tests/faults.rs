@@ -820,6 +820,81 @@ fn emp_raw_homing_stalled(t: &mut Tally) {
     console.quit();
 }
 
+/// EMCU memory full (0x03) during an upload from the editor: the interface
+/// has less job memory than the linter assumes (`memory 2` on the
+/// simulator's stdin), so it answers the third command with 0x03 CR. The
+/// upload stops at that line, the editor marks it with the meaning of 0x03
+/// and says what to do, the text and the file stay as they were, and
+/// nothing was started.
+fn emcu_memory_full_during_an_upload(t: &mut Tally) {
+    const JOB: &str = "; pallet\n#E2,1500\nL2,X2000,Y1000\nW50\nL2,x-500,z300\nA1,1\n";
+    let mut sim = SimProcess::start("emcu");
+    let file = sim.dir.path().join("pallet.emcu");
+    std::fs::write(&file, JOB).expect("write the job");
+    let file_arg = file.display().to_string();
+    sim.control("memory 2");
+    t.fault();
+    let mut console = Console::start_with(&sim, &["--program", &file_arg]);
+    console.wait_for("pallet.emcu");
+    // F5 uploads.
+    console.keys(b"\x1b[15~");
+    // The editor's upload line keeps what happened and what to do (the
+    // message line may move on to the error flag the interface set).
+    console.wait_message(&[
+        "upload failed at command 3 (line 4)",
+        "memory full",
+        "shorten the job or split it",
+    ]);
+    // The line is marked in the editor with the meaning (not only said).
+    let screen = console.wait_until("the refused line marked", |s| {
+        s.lines().any(|l| {
+            l.contains("3! W50") && l.contains("the controller answered `0x03`: memory full")
+        })
+    });
+    // Untouched: every line still there, the file as it was.
+    for line in JOB.lines() {
+        assert!(screen.contains(line), "`{line}` is gone:\n{screen}");
+    }
+    assert_eq!(std::fs::read_to_string(&file).expect("read"), JOB);
+    // The controller: the upload stopped at the line (nothing after it
+    // was sent, nothing twice), the transfer was ended and the job thrown
+    // away, nothing started or moved.
+    let received = sim.received();
+    assert_eq!(
+        received.matches("L2,X2000,Y1000<CR>").count(),
+        1,
+        "{received}"
+    );
+    assert_eq!(received.matches("W50<CR>").count(), 1, "{received}");
+    assert!(!received.contains("L2,x-500"), "{received}");
+    assert!(!received.contains("@J"), "nothing was started: {received}");
+    let motion = emcu_motion(&received);
+    assert_eq!(
+        motion,
+        ["L2,X2000,Y1000"],
+        "stored in ROM only, once: {received}"
+    );
+    let state = sim.device_state();
+    assert!(
+        state.contains("ROM empty"),
+        "the job was discarded: {state}"
+    );
+    assert!(state.starts_with("device: X 0 "), "nothing moved: {state}");
+    assert!(!state.contains("moving"), "nothing moves: {state}");
+    sim.assert_alive();
+    console.assert_no_panic();
+    // F4: the machine screen, whose console keeps the whole report, and
+    // where q quits.
+    console.keys(b"\x1bOS");
+    console.wait_for("Position");
+    let said = console.wait_message(&[
+        "upload failed at command 3 (line 4): the controller answered `0x03`: memory full",
+        "the interface discarded the job and stores nothing (it took 2 commands)",
+    ]);
+    assert!(said.contains("change the job, then upload again"), "{said}");
+    console.quit();
+}
+
 fn main() -> ExitCode {
     runner::run(&[
         Scenario {
@@ -865,6 +940,10 @@ fn main() -> ExitCode {
         Scenario {
             name: "sigkill_mid_edit",
             run: sigkill_mid_edit,
+        },
+        Scenario {
+            name: "emcu_memory_full_during_an_upload",
+            run: emcu_memory_full_during_an_upload,
         },
         Scenario {
             name: "unsolicited_garbage",

@@ -1,6 +1,9 @@
-//! `jogterm upload FILE`: check a program, store it in the controller
-//! (isel `@0i` … `9`, manual 2.2.13 and chapter 3) with its progress on
-//! stderr, and optionally start it (`@0S`, manual 2.2.23).
+//! `jogterm upload FILE`: check a program, store it in the controller with
+//! its progress on stderr, and optionally start it. isel: `@0i` … `9`
+//! (manual 2.2.13, chapter 3), started with `@0S` (2.2.23). EMCU: a ROM job,
+//! `@F` … 0x01 (manual 1.5.17, decision 2), started with `@J` (1.5.18). Both
+//! go through the device task's `Upload` and `RunProgram`, as the console's
+//! editor does.
 //!
 //! The program is linted for the machine profile first; an error is bad
 //! usage and nothing is sent. A controller error at command N is reported
@@ -22,48 +25,55 @@ use crate::device::api::{
 };
 use crate::program::store;
 use crate::program::{Language, LintConfig, Program, Severity, lint};
-use crate::proto::Protocol;
 
 pub const LONG_ABOUT: &str = "\
-Check an isel CNC program, store it in the controller's program memory and, with --start,
-run it.
+Check an isel CNC program or an EMCU job, store it in the controller and, with --start, run
+it.
 
 The program is checked for the machine profile first, as `jogterm check` does; with an error
 nothing is sent. Comments and blank lines are not sent; every command goes out in its
 canonical spelling, one at a time, each answered by the controller before the next. Progress
 (commands, lines per second, time left) goes to stderr.
 
-If the controller holds a program already (it answers `@0i` with `G`), --erase erases it
-first (`@0k`); without it the upload stops and says so. A controller error at command N is
-reported as FILE:LINE for the line that holds command N; the partial program the controller
-then holds is invalid and has to be erased (upload again with --erase).
+isel: if the controller holds a program already (it answers `@0i` with `G`), --erase erases
+it first (`@0k`); without it the upload stops and says so. EMCU: the job goes into the ROM
+job store (`@F` … 0x01), which replaces a stored job in any case (--erase changes nothing).
 
-With --start the stored program is started (`@0S`) and followed until it ends; the final
-position is printed. Ctrl-C, a hang-up or SIGTERM stop the machine first.";
+A controller error at command N (isel: its error code; EMCU: 0x03, memory full) is reported
+as FILE:LINE for the line that holds command N. An isel controller then holds an invalid
+program that has to be erased (upload again with --erase); an EMCU interface has discarded
+the job.
+
+With --start the stored program is started (isel `@0S`, EMCU `@J`) and followed until it
+ends; the final position is printed. A controller whose ramp or axes jogterm has not set up
+yet in this session is initialised first. Ctrl-C, a hang-up or SIGTERM stop the machine
+first. EMP drives store no programs.";
 
 pub const AFTER_LONG_HELP: &str = "\
 Exit status: 0 stored (and run); 1 the controller answered an error or refused for its
-state; 2 bad usage (an error in the program, an unreadable file, an unknown option);
-3 link failure.
+state; 2 bad usage (an error in the program, an unreadable file, an unknown option, an EMP
+drive); 3 link failure.
 
 Examples:
   jogterm upload drill.isel --port /dev/ttyUSB0 --protocol isel
   jogterm upload drill.isel --port /tmp/isel --erase --start
+  jogterm upload pallet.emcu --port /dev/ttyUSB1 --protocol emcu --start
   jogterm --sim isel upload examples/programs/drill-pattern.isel --start";
 
 /// Options of `jogterm upload`.
 #[derive(Debug, Args)]
 pub struct UploadArgs {
-    /// The program (.isel or .cnc)
+    /// The program (isel: .isel or .cnc; EMCU: .emcu)
     #[arg(value_name = "FILE")]
     pub file: PathBuf,
-    /// Erase a program the controller holds already (`@0k`) instead of stopping
+    /// isel: erase a program the controller holds already (`@0k`) instead of
+    /// stopping. EMCU: `@F` replaces a stored job anyway
     #[arg(long)]
     pub erase: bool,
     /// Start the program once it is stored and wait until it ends
     #[arg(long)]
     pub start: bool,
-    /// Baud rate, instead of the profile's (isel: 19200)
+    /// Baud rate, instead of the profile's (isel and EMCU: 19200)
     #[arg(long, value_name = "N")]
     pub baud: Option<u32>,
 }
@@ -75,13 +85,20 @@ struct Prepared {
     program: Program,
 }
 
-/// The file, checked; `Err` is the message for bad usage (printed already
-/// when it is a list of diagnostics).
-fn prepare(args: &UploadArgs, config: &LintConfig) -> Result<Prepared, String> {
+impl Prepared {
+    fn language(&self) -> Language {
+        self.program.language()
+    }
+}
+
+/// The file, checked as a program of `language`; `Err` is the message for
+/// bad usage (printed already when it is a list of diagnostics).
+fn prepare(args: &UploadArgs, language: Language, config: &LintConfig) -> Result<Prepared, String> {
     let name = args.file.display().to_string();
-    if let Some(other) = Language::from_path(&args.file).filter(|l| *l != Language::Isel) {
+    if let Some(other) = Language::from_path(&args.file).filter(|l| *l != language) {
         return Err(format!(
-            "{name}: an {other} program by its extension; jogterm uploads isel programs so far"
+            "{name}: an {other} program by its extension, but the controller is {} (it takes {language} programs)",
+            language.protocol()
         ));
     }
     let loaded = store::load(&args.file)
@@ -92,7 +109,7 @@ fn prepare(args: &UploadArgs, config: &LintConfig) -> Result<Prepared, String> {
             "{name}: bytes that are not UTF-8 (the controller takes ASCII)"
         ));
     }
-    let program = Program::parse(Language::Isel, &loaded.text);
+    let program = Program::parse(language, &loaded.text);
     let diagnostics = lint(&program, config);
     let errors: Vec<_> = diagnostics
         .iter()
@@ -131,16 +148,13 @@ pub fn run(global: &GlobalArgs, args: &UploadArgs) -> anyhow::Result<ExitCode> {
         Err(StartError::Usage(m)) => return usage(m),
         Err(StartError::Failed(e)) => return Err(e),
     };
-    // The command's checks, initialise-and-retry and `--erase` are the isel
-    // controller's (manual 3.1); an EMCU job goes up from the console's
-    // editor (F5), EMP drives store no programs.
-    if profile.connection.protocol != Protocol::Isel {
+    let Some(language) = Language::of_protocol(profile.connection.protocol) else {
         return usage(format!(
-            "jogterm upload stores isel CNC programs; for an {} controller use the console's editor (jogterm --program FILE, F5 uploads an EMCU job)",
+            "{} drives store no programs: jogterm upload stores isel CNC programs and EMCU jobs",
             profile.connection.protocol
         ));
-    }
-    let prepared = match prepare(args, &LintConfig::from_profile(&profile)) {
+    };
+    let prepared = match prepare(args, language, &LintConfig::from_profile(&profile)) {
         Ok(p) => p,
         Err(m) => return usage(m),
     };
@@ -217,6 +231,10 @@ async fn next(session: &mut Session) -> Result<Event, u8> {
 async fn upload(session: &mut Session, prepared: &Prepared, erase: bool) -> Status {
     let mut initialised = false;
     let mut progress = Progress::new(prepared.lines.len());
+    // The activity the device task last reported: the upload may go on
+    // after its last line (EMCU reads `@X`), and a start before then would
+    // be refused as busy.
+    let mut activity = Activity::Idle;
     loop {
         let request = Request::Upload {
             lines: prepared.lines.clone(),
@@ -227,8 +245,8 @@ async fn upload(session: &mut Session, prepared: &Prepared, erase: bool) -> Stat
         }
         loop {
             match next(session).await? {
-                // A controller not yet told its axes is initialised once
-                // (the profile's axes, `@0<n>`), then the upload retried.
+                // A controller the driver says is not initialised (isel: its
+                // axes, `@0<n>`) is initialised once, then the upload retried.
                 Event::Refused {
                     reason: Refusal::NotInitialised,
                     ..
@@ -253,6 +271,9 @@ async fn upload(session: &mut Session, prepared: &Prepared, erase: bool) -> Stat
                             prepared.name,
                             if secs > 0.0 { total as f64 / secs } else { 0.0 }
                         );
+                        if activity != Activity::Idle {
+                            idle(session).await?;
+                        }
                         return Ok(());
                     }
                     UploadEvent::Failed { line, fault } => {
@@ -272,22 +293,47 @@ async fn upload(session: &mut Session, prepared: &Prepared, erase: bool) -> Stat
                     progress.end();
                     return Err(lost(&reason));
                 }
+                Event::State(s) => activity = s.activity,
                 _ => {}
             }
         }
     }
 }
 
-/// `FILE:LINE: the controller refused command N `…`: code meaning; advice`.
+/// Wait until the device task reports the machine idle.
+async fn idle(session: &mut Session) -> Status {
+    loop {
+        match next(session).await? {
+            Event::State(s) if s.activity == Activity::Idle => return Ok(()),
+            Event::Link(LinkState::Lost { reason }) => return Err(lost(&reason)),
+            _ => {}
+        }
+    }
+}
+
+/// `FILE:LINE: the controller refused command N `…`: code meaning; what
+/// it holds now`.
 fn failure(prepared: &Prepared, index: usize, fault: &ControllerFault) -> String {
-    let place = match prepared.program.line_of(index) {
-        Some(line) => format!("{}:{}", prepared.name, line + 1),
+    let place = match (prepared.program.line_of(index), prepared.language()) {
+        (Some(line), _) => format!("{}:{}", prepared.name, line + 1),
         // The `9` the driver appends to a program that lacks one.
-        None => format!("{} (the closing 9)", prepared.name),
+        (None, Language::Isel) => format!("{} (the closing 9)", prepared.name),
+        (None, Language::Emcu) => format!("{} (after its last command)", prepared.name),
+    };
+    let after = match prepared.language() {
+        Language::Isel => {
+            "the partial program it holds is invalid (upload again with --erase)".to_string()
+        }
+        // The driver ends the transfer with a bare 0x01, which discards the
+        // job (`docs/protocols.md`, EMCU).
+        Language::Emcu => format!(
+            "the interface discarded the job, nothing is stored (the job has {} commands, \
+             the controller took {index})",
+            prepared.lines.len()
+        ),
     };
     format!(
-        "{place}: the controller refused command {} `{}`: {} {}; the partial program it holds \
-         is invalid (upload again with --erase)",
+        "{place}: the controller refused command {} `{}`: {} {}; {after}",
         index + 1,
         fault.command,
         fault.code,
@@ -321,22 +367,42 @@ async fn initialise(session: &mut Session) -> Status {
 
 /// `RunProgram`, followed until the machine is idle again.
 async fn start(session: &mut Session) -> Status {
-    if session.handle.request(Request::RunProgram).is_err() {
-        return Err(lost("the device task ended"));
-    }
-    eprintln!("running the program (Ctrl-C stops the machine)");
+    let mut initialised = false;
     let mut running = false;
     let mut fault: Option<ControllerFault> = None;
     let mut position: Option<PerAxis<i64>> = None;
-    loop {
-        match next(session).await? {
-            Event::State(s) if s.activity == Activity::RunningProgram => running = true,
-            Event::State(s) if running && s.activity == Activity::Idle => break,
-            Event::Position(p) => position = Some(p.steps),
-            Event::Fault(f) => fault = Some(f),
-            Event::Refused { reason, .. } => return Err(refused("starting the program", &reason)),
-            Event::Link(LinkState::Lost { reason }) => return Err(lost(&reason)),
-            _ => {}
+    'request: loop {
+        if session.handle.request(Request::RunProgram).is_err() {
+            return Err(lost("the device task ended"));
+        }
+        loop {
+            match next(session).await? {
+                // A session that has not set the controller up (EMCU: `#S`
+                // and `#R` cannot be read back, `docs/protocols.md`)
+                // initialises it once, then starts again.
+                Event::Refused {
+                    reason: Refusal::NotInitialised,
+                    ..
+                } if !initialised && !running => {
+                    initialised = true;
+                    initialise(session).await?;
+                    continue 'request;
+                }
+                Event::State(s) if s.activity == Activity::RunningProgram => {
+                    if !running {
+                        eprintln!("running the program (Ctrl-C stops the machine)");
+                    }
+                    running = true;
+                }
+                Event::State(s) if running && s.activity == Activity::Idle => break 'request,
+                Event::Position(p) => position = Some(p.steps),
+                Event::Fault(f) => fault = Some(f),
+                Event::Refused { reason, .. } => {
+                    return Err(refused("starting the program", &reason));
+                }
+                Event::Link(LinkState::Lost { reason }) => return Err(lost(&reason)),
+                _ => {}
+            }
         }
     }
     // The position read at the end comes with or just after the idle state.
@@ -464,6 +530,36 @@ mod tests {
         };
         let said = failure(&prepared, 1, &fault);
         assert!(said.starts_with("p.isel:5: the controller refused command 2 `m8000,8000`"));
+        assert!(said.ends_with("(upload again with --erase)"), "{said}");
         assert!(failure(&prepared, 7, &fault).starts_with("p.isel (the closing 9)"));
+    }
+
+    #[test]
+    fn an_emcu_failure_names_the_line_and_says_the_job_is_gone() {
+        let text = "; pallet\n$HZYX\n\nL1,X100\nL1,X200\n";
+        let program = Program::parse(Language::Emcu, text);
+        let prepared = Prepared {
+            name: "p.emcu".into(),
+            lines: program.upload_lines().expect("lines"),
+            program,
+        };
+        let fault = ControllerFault {
+            command: "L1,X200".into(),
+            code: "0x03".into(),
+            meaning: "memory full".into(),
+            recovery: crate::device::api::Recovery::None,
+        };
+        let said = failure(&prepared, 2, &fault);
+        assert!(
+            said.starts_with(
+                "p.emcu:5: the controller refused command 3 `L1,X200`: 0x03 memory full"
+            ),
+            "{said}"
+        );
+        assert!(said.contains("discarded the job"), "{said}");
+        assert!(
+            said.contains("(the job has 3 commands, the controller took 2)"),
+            "{said}"
+        );
     }
 }

@@ -9,6 +9,7 @@
 //! fault withhold                         fault garbage <text> | hex:<hex>
 //! fault delay <ms>                       fault close [<reopen-after-ms>]
 //! fault stall
+//! memory <commands>
 //! show      show received      help      quit
 //! ```
 
@@ -27,6 +28,8 @@ pub const MAX_MILLIS: u64 = 600_000;
 pub enum ControlCommand {
     Input(InputControl),
     Fault(Fault),
+    /// `memory <commands>`: the program store takes this many commands.
+    Memory(usize),
     Show,
     /// `show received`: the bytes the device received, readable.
     ShowReceived,
@@ -42,7 +45,7 @@ pub struct ControlParseError {
     pub message: String,
 }
 
-const COMMANDS: &str = "set, press, value, fault, show, help or quit";
+const COMMANDS: &str = "set, press, value, fault, memory, show, help or quit";
 const LEVELS: &str = "on, off, open, closed, 1 or 0";
 const FAULTS: &str = "drop-byte, corrupt-byte, withhold, garbage, delay, close or stall";
 
@@ -93,6 +96,15 @@ pub fn parse_line(text: &str, line: usize) -> Result<Option<ControlCommand>, Con
             })
         }
         "fault" => ControlCommand::Fault(parse_fault(rest).map_err(fail)?),
+        "memory" => {
+            let usage = "`memory` needs a number of commands: memory <commands>";
+            let (number, rest) = next_word(rest).ok_or_else(|| fail(usage.to_owned()))?;
+            let commands = number
+                .parse::<usize>()
+                .map_err(|_| fail(format!("`{number}` is not a number of commands: {usage}")))?;
+            end_of_line(rest, "the number").map_err(fail)?;
+            ControlCommand::Memory(commands)
+        }
         "show" => match next_word(rest) {
             None => ControlCommand::Show,
             Some((what, rest)) if what.eq_ignore_ascii_case("received") => {
@@ -270,6 +282,7 @@ pub fn help_text(input_names: &[&str]) -> String {
          \x20 fault delay <ms>                     send the next message <ms> later\n\
          \x20 fault close [<reopen-after-ms>]      close the line (a pty may reopen)\n\
          \x20 fault stall                          the next long action stays busy (EMP)\n\
+         \x20 memory <commands>                    the program store takes this many commands\n\
          \x20 show                                 device state, line, counters\n\
          \x20 show received                        the bytes the device received\n\
          \x20 help                                 this text\n\
@@ -308,6 +321,7 @@ pub fn run_control_loop(
             ControlCommand::Quit => return Ok(()),
             ControlCommand::Input(control) => shell.input(control).map(|()| "ok".to_owned()),
             ControlCommand::Fault(fault) => shell.fault(fault).map(|()| "ok".to_owned()),
+            ControlCommand::Memory(n) => shell.program_memory(n).map(|()| "ok".to_owned()),
             ControlCommand::Show => shell.show(),
             ControlCommand::ShowReceived => shell.received().map(|r| r.to_string()),
             ControlCommand::Help => shell.input_names().map(|names| help_text(&names)),
@@ -352,6 +366,15 @@ mod tests {
             name: name.into(),
             level,
         })
+    }
+
+    #[test]
+    fn memory_takes_a_number_of_commands() {
+        assert_eq!(parse("memory 12"), ControlCommand::Memory(12));
+        assert_eq!(parse("MEMORY 0"), ControlCommand::Memory(0));
+        assert!(error("memory").contains("needs a number of commands"));
+        assert!(error("memory -3").contains("not a number of commands"));
+        assert!(error("memory 5 6").contains("unexpected `6`"));
     }
 
     #[test]
@@ -492,7 +515,7 @@ mod tests {
     fn errors_name_the_line_and_what_was_expected() {
         assert_eq!(
             error("sett hood on"),
-            "line 7: unknown command `sett`: expected set, press, value, fault, show, help or quit"
+            "line 7: unknown command `sett`: expected set, press, value, fault, memory, show, help or quit"
         );
         assert_eq!(
             error("set"),
@@ -594,6 +617,15 @@ mod tests {
         #[test]
         fn the_parser_never_panics(text in "\\PC{0,40}") {
             let _ = parse_line(&text, 1);
+        }
+
+        #[test]
+        fn memory_takes_any_count_and_never_panics(n in proptest::num::usize::ANY, tail in "\\PC{0,20}") {
+            proptest::prop_assert_eq!(
+                parse_line(&format!("memory {n}"), 1),
+                Ok(Some(ControlCommand::Memory(n)))
+            );
+            let _ = parse_line(&format!("memory {tail}"), 1);
         }
 
         #[test]

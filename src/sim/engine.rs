@@ -234,6 +234,12 @@ impl Engine {
         self.device.input_names()
     }
 
+    /// Size the device's program store (`SimDevice::set_program_memory`).
+    /// Call `run_until(now)` first so the model has seen everything before.
+    pub fn set_program_memory(&mut self, commands: usize) -> Result<(), String> {
+        self.device.set_program_memory(commands)
+    }
+
     pub fn input_level(&self, name: &str) -> Option<bool> {
         self.device.input_level(name)
     }

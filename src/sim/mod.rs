@@ -97,4 +97,13 @@ pub trait SimDevice: Send + 'static {
     fn stall_next(&mut self, _now: Instant) -> Result<(), String> {
         Err("`fault stall` needs a device with long actions that report their end (EMP)".into())
     }
+
+    /// How many commands the controller's program store takes from now on
+    /// (`memory <n>`): a controller with less memory than its profile says,
+    /// or memory partly used. `Err` says why not (a controller that stores no
+    /// programs, more than the controller's own memory).
+    fn set_program_memory(&mut self, commands: usize) -> Result<(), String> {
+        let _ = commands;
+        Err("this controller stores no programs".into())
+    }
 }

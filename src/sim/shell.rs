@@ -61,6 +61,7 @@ type Reply<T> = mpsc::Sender<T>;
 enum Request {
     Input(InputControl, Reply<Result<(), String>>),
     Fault(Fault, Reply<Result<(), String>>),
+    Memory(usize, Reply<Result<(), String>>),
     Show(Reply<String>),
     Received(Reply<Received>),
     InputNames(Reply<Vec<&'static str>>),
@@ -91,6 +92,12 @@ impl ShellControl {
     /// Inject a fault (`docs/simulator.md`, "Faults").
     pub fn fault(&self, fault: Fault) -> Result<(), ShellError> {
         self.ask(|reply| Request::Fault(fault, reply))?
+            .map_err(ShellError::Rejected)
+    }
+
+    /// Size the controller's program store (`memory <n>`).
+    pub fn program_memory(&self, commands: usize) -> Result<(), ShellError> {
+        self.ask(|reply| Request::Memory(commands, reply))?
             .map_err(ShellError::Rejected)
     }
 
@@ -440,6 +447,9 @@ impl Worker {
             }
             Request::Fault(fault, reply) => {
                 let _ = reply.send(self.engine.fault(fault, now));
+            }
+            Request::Memory(commands, reply) => {
+                let _ = reply.send(self.engine.set_program_memory(commands));
             }
             Request::Show(reply) => {
                 let _ = reply.send(self.show(now));

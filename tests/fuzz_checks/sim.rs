@@ -69,6 +69,11 @@ pub fn drive_family(protocol: Protocol, stream: &[u8], choices: &mut Choices) {
             // Refusals (a button that cannot be set) are fine; a panic is not.
             let _ = engine.control(&control, now);
         }
+        if choices.one_in(16) {
+            // A smaller program store (`memory <n>`), also in the middle of
+            // a transfer; a refusal (EMP, beyond the controller's) is fine.
+            let _ = engine.set_program_memory(choices.below(300) as usize);
+        }
         if choices.one_in(32) {
             let _ = engine.describe(now);
         }

@@ -156,7 +156,8 @@ impl Operation for UploadOp {
                     let fault = ControllerFault {
                         command: text,
                         code: "0x03".into(),
-                        meaning: "memory full: the interface cannot store this line".into(),
+                        meaning: "memory full: the job store has no room for this command (shorten the job or split it)"
+                            .into(),
                         recovery: Recovery::None,
                     };
                     cx.emit(crate::device::api::Event::Fault(fault.clone()));

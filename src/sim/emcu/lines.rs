@@ -99,13 +99,17 @@ impl EmcuSim {
     }
 
     /// A buffered command: into the ROM during a transfer (decision 2), else
-    /// into the data memory (decision 1).
+    /// into the data memory (decision 1). A command the ROM store has no room
+    /// for is answered 0x03 CR, the interface's only "memory full" (decision
+    /// 1; `docs/protocols.md`, EMCU), and spoils the transfer.
     fn store(&mut self, command: Command, last: bool) {
         if self.rom.is_receiving() {
-            if !self.rom.receive(command, last) {
+            if self.rom.receive(command, last, self.job_capacity) {
+                self.send(Reply::Ack);
+            } else {
                 self.flag_error(format!("ROM job full: `{command}` not stored"));
+                self.send(Reply::MemoryFull);
             }
-            self.send(Reply::Ack);
             return;
         }
         match self.memory.store(command, last) {

@@ -5,7 +5,7 @@
 use std::collections::VecDeque;
 
 use crate::proto::emcu::Command;
-use crate::proto::emcu::job::{DATA_MEMORY_CAPACITY, JOB_CAPACITY};
+use crate::proto::emcu::job::DATA_MEMORY_CAPACITY;
 
 /// What storing a command in the data memory came to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -98,12 +98,12 @@ impl Rom {
         matches!(self, Rom::Receiving { .. })
     }
 
-    /// Stores a command of the transfer; `last` (ended by 0x01) ends it.
-    /// False when the command did not fit.
-    pub fn receive(&mut self, command: Command, last: bool) -> bool {
+    /// Stores a command of the transfer in a store of `capacity` commands;
+    /// `last` (ended by 0x01) ends it. False when the command did not fit.
+    pub fn receive(&mut self, command: Command, last: bool, capacity: usize) -> bool {
         let fits = match self {
             Rom::Receiving { commands, broken } => {
-                let fits = commands.len() < JOB_CAPACITY;
+                let fits = commands.len() < capacity;
                 if fits {
                     commands.push(command);
                 } else {
@@ -171,6 +171,7 @@ impl Rom {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::proto::emcu::job::JOB_CAPACITY;
 
     fn wait() -> Command {
         "W1".parse().unwrap()
@@ -204,12 +205,12 @@ mod tests {
     fn a_spoilt_transfer_stores_nothing() {
         let mut rom = Rom::default();
         rom.begin_transfer();
-        assert!(rom.receive(wait(), false));
+        assert!(rom.receive(wait(), false, JOB_CAPACITY));
         rom.refuse(false);
-        assert!(rom.receive(wait(), true));
+        assert!(rom.receive(wait(), true, JOB_CAPACITY));
         assert_eq!(rom, Rom::Empty);
         rom.begin_transfer();
-        assert!(rom.receive(wait(), true));
+        assert!(rom.receive(wait(), true, JOB_CAPACITY));
         assert!(rom.has_job());
         assert_eq!(rom.command(0), Some(wait()));
         assert_eq!(rom.command(1), None);
@@ -220,9 +221,21 @@ mod tests {
         let mut rom = Rom::default();
         rom.begin_transfer();
         for _ in 0..JOB_CAPACITY {
-            assert!(rom.receive(wait(), false));
+            assert!(rom.receive(wait(), false, JOB_CAPACITY));
         }
-        assert!(!rom.receive(wait(), true));
+        assert!(!rom.receive(wait(), true, JOB_CAPACITY));
+        assert_eq!(rom, Rom::Empty);
+    }
+
+    #[test]
+    fn a_smaller_store_refuses_the_command_beyond_it() {
+        let mut rom = Rom::default();
+        rom.begin_transfer();
+        assert!(rom.receive(wait(), false, 2));
+        assert!(rom.receive(wait(), false, 2));
+        assert!(!rom.receive(wait(), false, 2));
+        assert!(rom.is_receiving(), "the transfer goes on to its 0x01 line");
+        assert!(!rom.receive(wait(), true, 2));
         assert_eq!(rom, Rom::Empty);
     }
 }

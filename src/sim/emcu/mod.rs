@@ -29,7 +29,7 @@ use std::fmt::Write as _;
 use std::time::Instant;
 
 use crate::config::Profile;
-use crate::proto::emcu::job::DATA_MEMORY_CAPACITY;
+use crate::proto::emcu::job::{DATA_MEMORY_CAPACITY, JOB_CAPACITY};
 use crate::proto::emcu::{CommandFramer, EmcuAxis, Output, Reply, Status};
 use crate::wire::LineSettings;
 
@@ -61,6 +61,9 @@ pub struct EmcuSim {
     settings: Settings,
     memory: DataMemory,
     rom: Rom,
+    /// Commands the ROM store takes (`memory <n>` on the simulator's stdin
+    /// lowers it, as a controller with less memory than assumed).
+    job_capacity: usize,
     exec: Executor,
     error: bool,
     position_unknown: bool,
@@ -83,6 +86,7 @@ impl EmcuSim {
             settings: Settings::default(),
             memory: DataMemory::default(),
             rom: Rom::default(),
+            job_capacity: JOB_CAPACITY,
             exec: Executor::default(),
             error: false,
             position_unknown: true,
@@ -212,6 +216,18 @@ impl SimDevice for EmcuSim {
         vec![INPUT_E1]
     }
 
+    /// The ROM job store (manual 1.5.17) takes `commands` from the next
+    /// line on; a job stored already stays (it is in the ROM).
+    fn set_program_memory(&mut self, commands: usize) -> Result<(), String> {
+        if commands > JOB_CAPACITY {
+            return Err(format!(
+                "the EMCU's ROM job store holds at most {JOB_CAPACITY} commands"
+            ));
+        }
+        self.job_capacity = commands;
+        Ok(())
+    }
+
     fn input_level(&self, name: &str) -> Option<bool> {
         name.eq_ignore_ascii_case(INPUT_E1).then_some(self.e1)
     }
@@ -255,6 +271,9 @@ impl SimDevice for EmcuSim {
             Rom::Receiving { .. } => write!(out, " | ROM receiving {}", self.rom.len()),
             Rom::Stored(_) => write!(out, " | ROM job {}", self.rom.len()),
         };
+        if self.job_capacity != JOB_CAPACITY {
+            let _ = write!(out, " (room for {})", self.job_capacity);
+        }
         let _ = write!(
             out,
             " | #S{} #R{} &V{}",

@@ -50,7 +50,7 @@ use crate::wire::LineSettings;
 
 use super::{InputControl, SimDevice};
 
-pub use config::{AxisMechanics, IselSimConfig, SimConfigError};
+pub use config::{AxisMechanics, IselSimConfig, PROGRAM_CAPACITY, SimConfigError};
 pub use flash::{Flash, InitValues, StoredProgram};
 
 use io::{Inputs, Outputs, PortCondition};
@@ -514,5 +514,18 @@ impl SimDevice for IselSim {
 
     fn describe(&self, now: Instant) -> String {
         self.state_line(now)
+    }
+
+    /// The flash takes `commands` program commands before the end `9` from
+    /// the next stored line on (manual 2.2.13: beyond them `6`, memory
+    /// full); a stored program stays.
+    fn set_program_memory(&mut self, commands: usize) -> Result<(), String> {
+        if commands > PROGRAM_CAPACITY {
+            return Err(format!(
+                "the isel controller's program memory holds at most {PROGRAM_CAPACITY} commands"
+            ));
+        }
+        self.config.program_capacity = commands;
+        Ok(())
     }
 }

@@ -669,22 +669,41 @@ fn upload(model: &mut Model) -> Vec<Effect> {
     }
     match model.machine.program {
         ProgramState::Stored => {
+            let text = match language {
+                Language::Isel => {
+                    "A program is stored in the controller. Erase it (@0k) and store this one?"
+                }
+                // `@F` replaces the stored job (decision 2).
+                Language::Emcu => {
+                    "A job is stored in the controller. Replace it with this one (@F)?"
+                }
+            };
             ask(
                 model,
                 "Upload",
-                "A program is stored in the controller. Erase it (@0k) and store this one?".into(),
+                text.into(),
                 Answer::Upload { erase: true },
                 Answer::Nothing,
             );
             Vec::new()
         }
         ProgramState::Invalid => {
+            let text = match language {
+                Language::Isel => {
+                    "The controller holds an invalid program (an upload failed or was stopped). \
+                     Erase it and store this one?"
+                }
+                // The interface discarded the broken transfer (the bare 0x01
+                // that ends it, `docs/protocols.md`, EMCU).
+                Language::Emcu => {
+                    "The last upload failed or was stopped, so the interface holds no job. \
+                     Store this one?"
+                }
+            };
             ask(
                 model,
                 "Upload",
-                "The controller holds an invalid program (an upload failed or was stopped). \
-                 Erase it and store this one?"
-                    .into(),
+                text.into(),
                 Answer::Upload { erase: true },
                 Answer::Nothing,
             );
@@ -706,7 +725,10 @@ fn start_upload(model: &mut Model, erase: bool) -> Vec<Effect> {
     };
     let lines_of: Vec<usize> = program.statements().map(|(line, _)| line).collect();
     let state = model.editor.buffer.state();
-    model.editor.upload.start(lines_of, state);
+    model
+        .editor
+        .upload
+        .start(program.language(), lines_of, state);
     let text = format!(
         "uploading {} commands{}",
         lines.len(),

@@ -7,6 +7,7 @@
 use std::time::Duration;
 
 use crate::device::api::UploadEvent;
+use crate::program::Language;
 
 use super::buffer::Change;
 
@@ -56,6 +57,9 @@ pub struct Upload {
     pub offer_erase: bool,
     /// The editor started the running upload (not someone else's events).
     pub ours: bool,
+    /// The language uploaded: what a failed upload leaves in the controller
+    /// differs (isel: an invalid program; EMCU: nothing, the job is dropped).
+    language: Option<Language>,
 }
 
 impl Default for Upload {
@@ -67,6 +71,7 @@ impl Default for Upload {
             mark: None,
             offer_erase: false,
             ours: false,
+            language: None,
         }
     }
 }
@@ -79,8 +84,10 @@ pub struct Report {
 }
 
 impl Upload {
-    /// An upload of commands whose source lines are `lines_of` was sent.
-    pub fn start(&mut self, lines_of: Vec<usize>, state: u64) {
+    /// An upload of `language` commands whose source lines are `lines_of`
+    /// was sent.
+    pub fn start(&mut self, language: Language, lines_of: Vec<usize>, state: u64) {
+        self.language = Some(language);
         self.phase = Phase::Requested;
         self.lines_of = lines_of;
         self.state = Some(state);
@@ -155,12 +162,22 @@ impl Upload {
                     Some(l) => format!("command {} (line {})", line + 1, l + 1),
                     None => format!("command {}", line + 1),
                 };
+                let after = match self.language {
+                    // The driver ends the transfer with a bare 0x01, which
+                    // discards the job (`docs/protocols.md`, EMCU).
+                    Some(Language::Emcu) => format!(
+                        "the interface discarded the job and stores nothing (it took {line} \
+                         command{}); change the job, then upload again",
+                        if *line == 1 { "" } else { "s" }
+                    ),
+                    Some(Language::Isel) | None => "the stored program is invalid: fix the line, \
+                         then upload again (it offers to erase first)"
+                        .to_string(),
+                };
                 Some(Report {
                     danger: true,
                     text: format!(
-                        "upload failed at {place}: the controller answered {meaning}; \
-                         the stored program is invalid: fix the line, then upload again \
-                         (it offers to erase first)"
+                        "upload failed at {place}: the controller answered {meaning}; {after}"
                     ),
                 })
             }
@@ -233,7 +250,7 @@ mod tests {
     fn a_refused_command_marks_the_line_it_was_sent_from() {
         let mut u = Upload::default();
         // Commands 0, 1, 2 come from lines 1, 3, 4 (comments between).
-        u.start(vec![1, 3, 4], 7);
+        u.start(Language::Isel, vec![1, 3, 4], 7);
         assert!(u.busy());
         u.event(&UploadEvent::Started { total: 3 });
         u.event(&UploadEvent::Progress {
@@ -272,9 +289,47 @@ mod tests {
     }
 
     #[test]
+    fn a_job_the_emcu_has_no_room_for_is_marked_and_said_to_be_gone() {
+        let mut u = Upload::default();
+        u.start(Language::Emcu, vec![1, 2, 4], 3);
+        u.event(&UploadEvent::Started { total: 3 });
+        let report = u
+            .event(&UploadEvent::Failed {
+                line: 2,
+                fault: ControllerFault {
+                    command: "W50".into(),
+                    code: "0x03".into(),
+                    meaning: "memory full".into(),
+                    recovery: Recovery::None,
+                },
+            })
+            .expect("said");
+        assert!(
+            report.text.contains("command 3 (line 5)"),
+            "{}",
+            report.text
+        );
+        assert!(
+            report.text.contains("`0x03`: memory full"),
+            "{}",
+            report.text
+        );
+        assert!(
+            report
+                .text
+                .contains("discarded the job and stores nothing (it took 2 commands)"),
+            "{}",
+            report.text
+        );
+        let mark = u.mark.as_ref().expect("marked");
+        assert_eq!(mark.line, 4);
+        assert!(mark.message.contains("memory full"), "{}", mark.message);
+    }
+
+    #[test]
     fn the_appended_end_is_put_on_the_last_command() {
         let mut u = Upload::default();
-        u.start(vec![0, 2], 1);
+        u.start(Language::Isel, vec![0, 2], 1);
         assert_eq!(u.line_of(2), Some(2));
         assert_eq!(u.line_of(1), Some(2));
     }
@@ -282,7 +337,7 @@ mod tests {
     #[test]
     fn a_program_in_the_way_offers_an_erase() {
         let mut u = Upload::default();
-        u.start(vec![0], 1);
+        u.start(Language::Isel, vec![0], 1);
         u.event(&UploadEvent::Started { total: 1 });
         u.event(&UploadEvent::Aborted {
             done: 0,

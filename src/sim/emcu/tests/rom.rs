@@ -112,9 +112,32 @@ fn a_job_longer_than_the_store_is_discarded() {
     for _ in 0..JOB_CAPACITY {
         assert_eq!(c.send("W1\r"), "<CR>");
     }
-    assert_eq!(c.send("W1\x01"), "<CR>");
+    // Memory full (decision 1's 0x03 CR), and the transfer is spoilt.
+    assert_eq!(c.send("W1\x01"), "<03><CR>");
     assert_eq!(c.flags(), "001000");
     assert_eq!(c.send("@J\r"), "<CR><02><CR>");
+}
+
+#[test]
+fn a_smaller_store_answers_memory_full_at_the_first_command_beyond_it() {
+    let mut c = Conversation::referenced();
+    c.sim.set_program_memory(2).unwrap();
+    assert!(c.sim.describe(c.now).contains("(room for 2)"));
+    assert_eq!(c.send("@F\r"), "<CR>");
+    assert_eq!(c.send("W1\r"), "<CR>");
+    assert_eq!(c.send("W1\r"), "<CR>");
+    assert_eq!(c.send("L1,x100\r"), "<03><CR>");
+    // The rest of the transfer is taken and thrown away with it.
+    assert_eq!(c.send("\x01"), "<CR>");
+    assert!(c.sim.describe(c.now).contains("ROM empty"));
+    assert_eq!(c.flags(), "001000");
+    assert_eq!(c.send("@J\r"), "<CR><02><CR>");
+    assert_eq!(c.position(X), 0);
+    // A job that fits is stored and runs.
+    c.send("@R\r");
+    assert!(c.sim.set_program_memory(JOB_CAPACITY + 1).is_err());
+    store_job(&mut c, &["L1,x100", "A1,1"]);
+    assert!(c.sim.describe(c.now).contains("ROM job 2"));
 }
 
 #[test]

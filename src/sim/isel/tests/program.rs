@@ -98,6 +98,16 @@ fn program_memory_holds_the_configured_number_of_commands() {
 }
 
 #[test]
+fn the_operator_can_shrink_the_program_memory() {
+    let mut c = Conv::new();
+    assert!(c.sim.set_program_memory(2001).is_err());
+    c.sim.set_program_memory(2).unwrap();
+    c.expect("@07", "0");
+    store(&mut c, &["5 1", "5 1"]);
+    c.expect("5 2", "6");
+}
+
+#[test]
 fn delays_sync_characters_and_the_wait_for_one() {
     let mut c = Conv::new();
     c.expect("@07", "0");
