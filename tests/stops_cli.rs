@@ -1,0 +1,481 @@
+//! Every way the command-line tools start motion has a tested way to stop it
+//! (`docs/safety-tests.md`): `jogterm send`, `poll` and `upload --start`
+//! against the real `jogterm sim --pty`, interrupted by a signal (SIGINT,
+//! SIGTERM, SIGHUP: `src/cli/session.rs::interrupted`), and a program the
+//! isel simulator's start key runs, stopped from jogterm. Each test shows
+//! the stop bytes reached the controller (its own record), the axis stands
+//! (read twice, unchanged), nothing resumes, no panic, and the exit status.
+
+use std::process::{Child, Output, Stdio};
+use std::thread;
+use std::time::{Duration, Instant};
+
+mod sim_process;
+use sim_process::{SimProcess, WAIT, contains_panic, text};
+
+#[allow(dead_code)]
+#[path = "faults_support/wire.rs"]
+mod wire;
+use wire::{emcu_motion, isel_messages, isel_motion};
+
+/// isel: a long X move (15 s at 4000 Hz) for a signal to interrupt.
+const ISEL_LONG_MOVE: &str = "@0M60000,4000,0,4000,0,4000,0,4000";
+/// isel: the axes and the reference where they stand, so moves are allowed.
+const ISEL_READY: [&str; 2] = ["@07", "@0N7"];
+
+/// EMCU: reset, start speed and ramp, a fast reference run (as
+/// `tests/cli_send_poll_emcu.rs`), then a move of 20 s at 2 kHz.
+const EMCU_LONG_MOVE: [&str; 6] = [
+    "@R",
+    "#S2000",
+    "#R200\\x01",
+    "$HZYX\\x01",
+    "#E1,2000",
+    "L1,x40000\\x01",
+];
+
+/// EMP drive 11: switch on, enable in TP mode, home, then position far away
+/// slowly (`send` waits for the positioning's completion).
+const EMP_LONG_MOVE: [&str; 4] = [
+    "02 11 00 00000000",
+    "22 07 00 00000000",
+    "26 00 00 007F2000",
+    "2A 01 10 00400000",
+];
+
+/// How long an axis that stands is watched for motion.
+const STANDS_FOR: Duration = Duration::from_millis(600);
+
+/// The process' output once it has ended; killed and failed if it does not
+/// end within [`WAIT`] (a hang is a failure, not a stuck test).
+fn wait_child(mut child: Child, what: &str) -> Output {
+    let end = Instant::now() + WAIT;
+    while matches!(child.try_wait(), Ok(None)) {
+        if Instant::now() > end {
+            let _ = child.kill();
+            let out = child.wait_with_output();
+            panic!("{what} hangs: {out:?}");
+        }
+        thread::sleep(Duration::from_millis(20));
+    }
+    child.wait_with_output().expect("the output")
+}
+
+fn spawn(sim: &SimProcess, args: &[&str]) -> Child {
+    sim.jogterm(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run jogterm")
+}
+
+fn signal(child: &Child, signal: libc::c_int) {
+    let pid = libc::pid_t::try_from(child.id()).expect("a pid");
+    // SAFETY: a signal to a child this test started and has not reaped.
+    assert_eq!(unsafe { libc::kill(pid, signal) }, 0, "kill({pid})");
+}
+
+/// The command ended with `code`, without a panic.
+fn assert_exit(out: &Output, code: i32, what: &str) {
+    assert!(
+        !contains_panic(&out.stderr),
+        "{what} panicked:\n{}",
+        text(&out.stderr)
+    );
+    assert_eq!(
+        out.status.code(),
+        Some(code),
+        "{what}:\n{}\n{}",
+        text(&out.stdout),
+        text(&out.stderr)
+    );
+}
+
+/// Whether the simulator's state line says an axis moves.
+fn moving(family: &str, state: &str) -> bool {
+    match family {
+        // isel: `| moving`, or `| program: moving` while a program runs.
+        "isel" => state.ends_with("moving"),
+        "emcu" => state.contains("moving"),
+        // EMP: a running drive shows its speed (`-112000/s homing`).
+        _ => state.contains("/s"),
+    }
+}
+
+/// The axes stand: the state (positions included) is the same twice, read
+/// [`STANDS_FOR`] apart, once the ramp down has ended. The state line.
+fn assert_stands(sim: &mut SimProcess) -> String {
+    let family = sim.family;
+    let first = sim.wait_device("at rest", |d| !moving(family, d));
+    thread::sleep(STANDS_FOR);
+    let second = sim.device_state();
+    assert_eq!(first, second, "the axes moved on after the stop");
+    second
+}
+
+/// isel: the X position of the state line (`device: X 6896 Y 0 …`).
+fn isel_x(state: &str) -> i64 {
+    state
+        .strip_prefix("device: X ")
+        .and_then(|r| r.split_whitespace().next())
+        .and_then(|x| x.parse().ok())
+        .unwrap_or_else(|| panic!("no X position in {state}"))
+}
+
+/// isel: what the controller received after `command` (the messages).
+fn isel_after(received: &str, command: &str) -> Vec<String> {
+    isel_messages(received)
+        .into_iter()
+        .skip_while(|m| m != command)
+        .skip(1)
+        .collect()
+}
+
+/// isel: the stop after `command` is 0xFD and then 0xFF (docs/protocols.md:
+/// every stop is both, the break makes sure nothing is left to resume).
+fn assert_isel_stopped_after(received: &str, command: &str) {
+    let after = isel_after(received, command);
+    assert_eq!(
+        after.get(..2),
+        Some(&["<FD>".to_string(), "<FF>".to_string()][..]),
+        "the stop right after {command}:\n{received}"
+    );
+}
+
+/// isel: a later `@0S` is answered `G` (nothing to resume) and moves
+/// nothing; `state` is where the axes stood before.
+fn assert_isel_nothing_resumes(sim: &mut SimProcess, state: &str) {
+    let out = sim.run(&["send", "@0S"]);
+    assert_exit(&out, 1, "send @0S");
+    assert!(text(&out.stdout).contains("<< G"), "{}", text(&out.stdout));
+    assert_eq!(isel_x(&assert_stands(sim)), isel_x(state), "resumed");
+}
+
+/// Wait until the simulator's axes move.
+fn wait_moving(sim: &mut SimProcess, what: &str) {
+    let family = sim.family;
+    sim.wait_device(what, |d| moving(family, d));
+}
+
+/// `jogterm send` of a long isel move, interrupted by `sig` mid-move: the
+/// stop goes out at once (0xFD 0xFF), the command says so and exits 1, the
+/// axis stands short of the target and `@0S` does not resume it.
+fn isel_send_interrupted_by(sig: libc::c_int) {
+    let mut sim = SimProcess::start("isel");
+    let mut args = vec!["send"];
+    args.extend(ISEL_READY);
+    args.push(ISEL_LONG_MOVE);
+    let child = spawn(&sim, &args);
+    sim.wait_received("the move", |r| {
+        isel_messages(r).iter().any(|m| m == ISEL_LONG_MOVE)
+    });
+    wait_moving(&mut sim, "moving");
+    signal(&child, sig);
+    let out = wait_child(child, "jogterm send");
+    assert_exit(&out, 1, "send interrupted");
+    assert!(
+        text(&out.stderr).contains("interrupted: the machine was stopped"),
+        "{}",
+        text(&out.stderr)
+    );
+    let state = assert_stands(&mut sim);
+    let x = isel_x(&state);
+    assert!(x > 0 && x < 60_000, "stopped mid-move: {state}");
+    let received = sim.received();
+    assert_isel_stopped_after(&received, ISEL_LONG_MOVE);
+    assert_eq!(isel_motion(&received), [ISEL_LONG_MOVE], "{received}");
+    assert_isel_nothing_resumes(&mut sim, &state);
+    sim.assert_alive();
+}
+
+#[test]
+fn isel_send_ctrl_c_mid_move_stops_and_nothing_resumes() {
+    isel_send_interrupted_by(libc::SIGINT);
+}
+
+#[test]
+fn isel_send_sigterm_mid_move_stops_and_nothing_resumes() {
+    isel_send_interrupted_by(libc::SIGTERM);
+}
+
+#[test]
+fn isel_send_sighup_mid_move_stops_and_nothing_resumes() {
+    isel_send_interrupted_by(libc::SIGHUP);
+}
+
+/// EMCU: `send` of a long move interrupted with Ctrl-C: `@B` reaches the
+/// interface right after the move, the axis stands short of the target and
+/// a later connection does not move it.
+#[test]
+fn emcu_send_ctrl_c_mid_move_stops_and_nothing_resumes() {
+    let mut sim = SimProcess::start("emcu");
+    let mut args = vec!["send"];
+    args.extend(EMCU_LONG_MOVE);
+    let child = spawn(&sim, &args);
+    // The move runs once the reference run has ended.
+    sim.wait_device("moving after the reference run", |d| {
+        d.contains("moving") && !d.contains("referencing") && !d.contains("position unknown")
+    });
+    signal(&child, libc::SIGINT);
+    let out = wait_child(child, "jogterm send");
+    assert_exit(&out, 1, "send interrupted");
+    assert!(
+        text(&out.stderr).contains("interrupted: the machine was stopped"),
+        "{}",
+        text(&out.stderr)
+    );
+    let state = assert_stands(&mut sim);
+    let x = emcu_x(&state);
+    assert!(x > 0 && x < 40_000, "stopped mid-move: {state}");
+    let received = sim.received();
+    let after = received
+        .split_once("L1,x40000<01>")
+        .map(|(_, rest)| rest)
+        .unwrap_or_else(|| panic!("the move was not received:\n{received}"));
+    assert!(
+        after.trim_start_matches("@X<CR>").starts_with("@B<CR>"),
+        "the stop right after the move (queries aside):\n{received}"
+    );
+    assert_eq!(
+        emcu_motion(&received).last().map(String::as_str),
+        Some("L1,x40000")
+    );
+    emcu_nothing_resumes(&mut sim, &state);
+    sim.assert_alive();
+}
+
+/// EMCU: the X position of the state line (`device: X 1234 [machine …] …`).
+fn emcu_x(state: &str) -> i64 {
+    state
+        .strip_prefix("device: X ")
+        .and_then(|r| r.split_whitespace().next())
+        .and_then(|x| x.parse().ok())
+        .unwrap_or_else(|| panic!("no X position in {state}"))
+}
+
+/// EMCU: a later connection (`send @X`) moves nothing: no motion line goes
+/// out and the axis still stands where it stood.
+fn emcu_nothing_resumes(sim: &mut SimProcess, state: &str) {
+    let before = emcu_motion(&sim.received()).len();
+    let out = sim.run(&["send", "@X"]);
+    assert_exit(&out, 0, "send @X");
+    assert_eq!(emcu_x(&assert_stands(sim)), emcu_x(state), "resumed");
+    assert_eq!(emcu_motion(&sim.received()).len(), before);
+}
+
+/// EMP: the frames received (`traffic::readable` ends each with `<EOF>`).
+fn emp_frames(received: &str) -> Vec<&str> {
+    received.split("<EOF>").filter(|f| !f.is_empty()).collect()
+}
+
+/// EMP: the drive's position in the state line (`11 X TP pos 3360 …`).
+fn emp_pos(state: &str) -> i64 {
+    state
+        .split_once(" pos ")
+        .and_then(|(_, r)| r.split_whitespace().next())
+        .and_then(|p| p.parse().ok())
+        .unwrap_or_else(|| panic!("no position in {state}"))
+}
+
+/// EMP: a later connection (`send 2C`) moves nothing: the drive stands
+/// where it stood.
+fn emp_nothing_resumes(sim: &mut SimProcess, state: &str) {
+    let out = sim.run(&["send", "--drive", "11", "2C 00 00 00000000"]);
+    assert_exit(&out, 0, "send 2C");
+    assert_eq!(emp_pos(&assert_stands(sim)), emp_pos(state), "resumed");
+}
+
+/// EMP: `send` of a long positioning (`2A 01`, the command waits for its
+/// completion) interrupted with Ctrl-C: the stop frame `08` (the profile's
+/// `emp.stop = "hold"`) reaches the drive right after, it stands short of
+/// the target, and a later connection does not move it.
+#[test]
+fn emp_send_ctrl_c_mid_positioning_stops_and_nothing_resumes() {
+    let mut sim = SimProcess::start("emp");
+    let mut args = vec!["send", "--drive", "11"];
+    args.extend(EMP_LONG_MOVE);
+    let child = spawn(&sim, &args);
+    sim.wait_received("the positioning", |r| r.contains("2A11011000400000"));
+    wait_moving(&mut sim, "positioning");
+    signal(&child, libc::SIGINT);
+    let out = wait_child(child, "jogterm send");
+    assert_exit(&out, 1, "send interrupted");
+    assert!(
+        text(&out.stderr).contains("interrupted: the machine was stopped"),
+        "{}",
+        text(&out.stderr)
+    );
+    let state = assert_stands(&mut sim);
+    assert!(emp_pos(&state) < 0x40_0000, "stopped mid-move: {state}");
+    let received = sim.received();
+    let frames = emp_frames(&received);
+    let after: Vec<&str> = frames
+        .iter()
+        .skip_while(|f| **f != "2A11011000400000")
+        .skip(1)
+        .copied()
+        .filter(|f| !f.starts_with("2C") && !f.starts_with("0A"))
+        .collect();
+    assert_eq!(
+        after.first().copied(),
+        Some("0811000000000000"),
+        "the stop right after the positioning (reads aside):\n{received}"
+    );
+    emp_nothing_resumes(&mut sim, &state);
+    sim.assert_alive();
+}
+
+/// `jogterm poll` never starts motion, and interrupted (Ctrl-C) it stops
+/// and closes as its help says ("then stops and closes cleanly"): the stop
+/// ends what the controller received, the status is 0.
+fn poll_interrupted(family: &'static str, prepare: &[&str], poll: &str, stop: &str) {
+    let mut sim = SimProcess::start(family);
+    if !prepare.is_empty() {
+        let mut args = vec!["send"];
+        args.extend(prepare);
+        let out = sim.run(&args);
+        assert_exit(&out, 0, "send (prepare)");
+    }
+    let before = sim.received();
+    let child = spawn(&sim, &["poll", "--interval-ms", "0"]);
+    sim.wait_received("a few polls", |r| {
+        r.len() > before.len() && r[before.len()..].matches(poll).count() >= 5
+    });
+    signal(&child, libc::SIGINT);
+    let out = wait_child(child, "jogterm poll");
+    assert_exit(&out, 0, "poll interrupted");
+    assert!(text(&out.stdout).lines().count() >= 1, "samples printed");
+    let received = sim.received();
+    let polled = &received[before.len()..];
+    // The stop goes out at once, isel's control bytes even between two bytes
+    // of a poll (`@0<FD><FF>P<CR>`): at most the poll in flight ends after it.
+    let tail = polled
+        .rfind(stop)
+        .map(|at| &polled[at + stop.len()..])
+        .unwrap_or_else(|| panic!("no stop received:\n{polled}"));
+    assert!(
+        tail.matches("<CR>").count() + tail.matches("<EOF>").count() <= 1,
+        "the stop ends the traffic (but the poll in flight):\n{polled}"
+    );
+    match family {
+        "isel" => assert!(isel_motion(polled).is_empty(), "{polled}"),
+        "emcu" => assert!(emcu_motion(polled).is_empty(), "{polled}"),
+        _ => assert!(
+            emp_frames(polled)
+                .iter()
+                .all(|f| !f.starts_with("2A") && !f.starts_with("26")),
+            "{polled}"
+        ),
+    }
+    assert_stands(&mut sim);
+    sim.assert_alive();
+}
+
+#[test]
+fn isel_poll_ctrl_c_stops_closes_and_never_moves() {
+    poll_interrupted("isel", &ISEL_READY, "@0P<CR>", "<FD><FF>");
+}
+
+#[test]
+fn emcu_poll_ctrl_c_stops_closes_and_never_moves() {
+    poll_interrupted("emcu", &[], "@LX<CR>", "@B<CR>");
+}
+
+#[test]
+fn emp_poll_ctrl_c_stops_closes_and_never_moves() {
+    poll_interrupted(
+        "emp",
+        &["--drive", "11", "02 11 00 00000000"],
+        "2C11000000000000<EOF>",
+        "0811000000000000<EOF>",
+    );
+}
+
+/// A program with one long X move (relative, 15 s at 4000 Hz).
+const ISEL_LONG_PROGRAM: &str = "; one long move\n7 7\n060000,4000,0,4000,0,4000,0,4000\n9\n";
+
+/// `jogterm upload FILE --start` interrupted with Ctrl-C while the stored
+/// program runs: 0xFD 0xFF right after the start, the axis stands short of
+/// the program's end, status 1. A later connection moves nothing (a later
+/// `@0S` would be a new run of the stored program from its start, manual
+/// 2.2.23, not a resume).
+#[test]
+fn isel_upload_start_ctrl_c_stops_the_running_program() {
+    let mut sim = SimProcess::start("isel");
+    let out = sim.run(&["send", "@07", "@0N7"]);
+    assert_exit(&out, 0, "send (reference)");
+    let file = sim.dir.path().join("long.isel");
+    std::fs::write(&file, ISEL_LONG_PROGRAM).expect("write the program");
+    let file_arg = file.display().to_string();
+    let child = spawn(&sim, &["upload", &file_arg, "--start"]);
+    sim.wait_received("the start", |r| isel_messages(r).iter().any(|m| m == "@0S"));
+    wait_moving(&mut sim, "the program running");
+    signal(&child, libc::SIGINT);
+    let out = wait_child(child, "jogterm upload");
+    assert_exit(&out, 1, "upload interrupted");
+    assert!(
+        text(&out.stderr).contains("interrupted: the machine was stopped"),
+        "{}",
+        text(&out.stderr)
+    );
+    let state = assert_stands(&mut sim);
+    let x = isel_x(&state);
+    assert!(x > 0 && x < 60_000, "stopped mid-program: {state}");
+    let received = sim.received();
+    assert_isel_stopped_after(&received, "@0S");
+    let out = sim.run(&["send", "@0P"]);
+    assert_exit(&out, 0, "send @0P");
+    assert_eq!(isel_x(&assert_stands(&mut sim)), x, "moved on");
+    assert_eq!(isel_motion(&sim.received()), ["@0S"], "one start only");
+    sim.assert_alive();
+}
+
+/// Store [`ISEL_LONG_PROGRAM`]'s move with `send` and run it with the
+/// simulator's start key (isel manual 3.1: the key starts the stored program,
+/// the controller sends no answer but the sync character).
+fn isel_program_started_by_the_key(sim: &mut SimProcess) {
+    let out = sim.run(&[
+        "send",
+        "@07",
+        "@0N7",
+        "@0i",
+        "060000,4000,0,4000,0,4000,0,4000",
+        "9",
+    ]);
+    assert_exit(&out, 0, "send (store)");
+    // The closing stop sequence may still be on its way through the line:
+    // pressed before it arrives, the start would be stopped by it.
+    sim.wait_received("the closing stop", |r| r.ends_with("9<CR><FD><FF>"));
+    sim.control("press start");
+    sim.wait_device("the program started by the key, under way", |d| {
+        moving("isel", d) && isel_x(d) > 1000
+    });
+}
+
+/// The machine's start key runs the stored program; `jogterm send break`
+/// stops it: 0xFD 0xFF reach the controller first (every connection opens
+/// with the stop sequence, docs/protocols.md), the program halts mid-move,
+/// jogterm starts nothing, and a later connection moves nothing.
+#[test]
+fn isel_start_key_program_is_stopped_by_send_break() {
+    let mut sim = SimProcess::start("isel");
+    isel_program_started_by_the_key(&mut sim);
+    let before = sim.received();
+    let out = sim.run(&["send", "break"]);
+    assert_exit(&out, 0, "send break");
+    let state = assert_stands(&mut sim);
+    let x = isel_x(&state);
+    assert!(x > 0 && x < 60_000, "stopped mid-program: {state}");
+    let received = sim.received();
+    let sent = isel_messages(&received[before.len()..]);
+    assert_eq!(
+        sent.get(..2),
+        Some(&["<FD>".to_string(), "<FF>".to_string()][..]),
+        "{sent:?}"
+    );
+    assert!(isel_motion(&received).is_empty(), "jogterm started nothing");
+    let out = sim.run(&["send", "@0P"]);
+    assert_exit(&out, 0, "send @0P");
+    assert_eq!(isel_x(&assert_stands(&mut sim)), x, "moved on");
+    sim.assert_alive();
+}
