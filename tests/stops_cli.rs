@@ -6,12 +6,15 @@
 //! the stop bytes reached the controller (its own record), the axis stands
 //! (read twice, unchanged), nothing resumes, no panic, and the exit status.
 
-use std::process::{Child, Output, Stdio};
-use std::thread;
-use std::time::{Duration, Instant};
+use std::process::{Child, Stdio};
 
 mod sim_process;
-use sim_process::{SimProcess, WAIT, contains_panic, text};
+mod stops_support;
+use sim_process::{SimProcess, text};
+use stops_support::{
+    assert_a_new_connection_moves_nothing, assert_exit, assert_stands, emp_frames, moving, signal,
+    wait_child, wait_moving, x_steps,
+};
 
 #[allow(dead_code)]
 #[path = "faults_support/wire.rs"]
@@ -43,24 +46,6 @@ const EMP_LONG_MOVE: [&str; 4] = [
     "2A 01 10 00400000",
 ];
 
-/// How long an axis that stands is watched for motion.
-const STANDS_FOR: Duration = Duration::from_millis(600);
-
-/// The process' output once it has ended; killed and failed if it does not
-/// end within [`WAIT`] (a hang is a failure, not a stuck test).
-fn wait_child(mut child: Child, what: &str) -> Output {
-    let end = Instant::now() + WAIT;
-    while matches!(child.try_wait(), Ok(None)) {
-        if Instant::now() > end {
-            let _ = child.kill();
-            let out = child.wait_with_output();
-            panic!("{what} hangs: {out:?}");
-        }
-        thread::sleep(Duration::from_millis(20));
-    }
-    child.wait_with_output().expect("the output")
-}
-
 fn spawn(sim: &SimProcess, args: &[&str]) -> Child {
     sim.jogterm(args)
         .stdout(Stdio::piped())
@@ -69,57 +54,8 @@ fn spawn(sim: &SimProcess, args: &[&str]) -> Child {
         .expect("run jogterm")
 }
 
-fn signal(child: &Child, signal: libc::c_int) {
-    let pid = libc::pid_t::try_from(child.id()).expect("a pid");
-    // SAFETY: a signal to a child this test started and has not reaped.
-    assert_eq!(unsafe { libc::kill(pid, signal) }, 0, "kill({pid})");
-}
-
-/// The command ended with `code`, without a panic.
-fn assert_exit(out: &Output, code: i32, what: &str) {
-    assert!(
-        !contains_panic(&out.stderr),
-        "{what} panicked:\n{}",
-        text(&out.stderr)
-    );
-    assert_eq!(
-        out.status.code(),
-        Some(code),
-        "{what}:\n{}\n{}",
-        text(&out.stdout),
-        text(&out.stderr)
-    );
-}
-
-/// Whether the simulator's state line says an axis moves.
-fn moving(family: &str, state: &str) -> bool {
-    match family {
-        // isel: `| moving`, or `| program: moving` while a program runs.
-        "isel" => state.ends_with("moving"),
-        "emcu" => state.contains("moving"),
-        // EMP: a running drive shows its speed (`-112000/s homing`).
-        _ => state.contains("/s"),
-    }
-}
-
-/// The axes stand: the state (positions included) is the same twice, read
-/// [`STANDS_FOR`] apart, once the ramp down has ended. The state line.
-fn assert_stands(sim: &mut SimProcess) -> String {
-    let family = sim.family;
-    let first = sim.wait_device("at rest", |d| !moving(family, d));
-    thread::sleep(STANDS_FOR);
-    let second = sim.device_state();
-    assert_eq!(first, second, "the axes moved on after the stop");
-    second
-}
-
-/// isel: the X position of the state line (`device: X 6896 Y 0 …`).
 fn isel_x(state: &str) -> i64 {
-    state
-        .strip_prefix("device: X ")
-        .and_then(|r| r.split_whitespace().next())
-        .and_then(|x| x.parse().ok())
-        .unwrap_or_else(|| panic!("no X position in {state}"))
+    x_steps("isel", state)
 }
 
 /// isel: what the controller received after `command` (the messages).
@@ -151,12 +87,6 @@ fn assert_isel_nothing_resumes(sim: &mut SimProcess, state: &str) {
     assert_eq!(isel_x(&assert_stands(sim)), isel_x(state), "resumed");
 }
 
-/// Wait until the simulator's axes move.
-fn wait_moving(sim: &mut SimProcess, what: &str) {
-    let family = sim.family;
-    sim.wait_device(what, |d| moving(family, d));
-}
-
 /// `jogterm send` of a long isel move, interrupted by `sig` mid-move: the
 /// stop goes out at once (0xFD 0xFF), the command says so and exits 1, the
 /// axis stands short of the target and `@0S` does not resume it.
@@ -170,7 +100,7 @@ fn isel_send_interrupted_by(sig: libc::c_int) {
         isel_messages(r).iter().any(|m| m == ISEL_LONG_MOVE)
     });
     wait_moving(&mut sim, "moving");
-    signal(&child, sig);
+    signal(child.id(), sig);
     let out = wait_child(child, "jogterm send");
     assert_exit(&out, 1, "send interrupted");
     assert!(
@@ -216,7 +146,7 @@ fn emcu_send_ctrl_c_mid_move_stops_and_nothing_resumes() {
     sim.wait_device("moving after the reference run", |d| {
         d.contains("moving") && !d.contains("referencing") && !d.contains("position unknown")
     });
-    signal(&child, libc::SIGINT);
+    signal(child.id(), libc::SIGINT);
     let out = wait_child(child, "jogterm send");
     assert_exit(&out, 1, "send interrupted");
     assert!(
@@ -225,7 +155,7 @@ fn emcu_send_ctrl_c_mid_move_stops_and_nothing_resumes() {
         text(&out.stderr)
     );
     let state = assert_stands(&mut sim);
-    let x = emcu_x(&state);
+    let x = x_steps("emcu", &state);
     assert!(x > 0 && x < 40_000, "stopped mid-move: {state}");
     let received = sim.received();
     let after = received
@@ -240,49 +170,8 @@ fn emcu_send_ctrl_c_mid_move_stops_and_nothing_resumes() {
         emcu_motion(&received).last().map(String::as_str),
         Some("L1,x40000")
     );
-    emcu_nothing_resumes(&mut sim, &state);
+    assert_a_new_connection_moves_nothing(&mut sim, x);
     sim.assert_alive();
-}
-
-/// EMCU: the X position of the state line (`device: X 1234 [machine …] …`).
-fn emcu_x(state: &str) -> i64 {
-    state
-        .strip_prefix("device: X ")
-        .and_then(|r| r.split_whitespace().next())
-        .and_then(|x| x.parse().ok())
-        .unwrap_or_else(|| panic!("no X position in {state}"))
-}
-
-/// EMCU: a later connection (`send @X`) moves nothing: no motion line goes
-/// out and the axis still stands where it stood.
-fn emcu_nothing_resumes(sim: &mut SimProcess, state: &str) {
-    let before = emcu_motion(&sim.received()).len();
-    let out = sim.run(&["send", "@X"]);
-    assert_exit(&out, 0, "send @X");
-    assert_eq!(emcu_x(&assert_stands(sim)), emcu_x(state), "resumed");
-    assert_eq!(emcu_motion(&sim.received()).len(), before);
-}
-
-/// EMP: the frames received (`traffic::readable` ends each with `<EOF>`).
-fn emp_frames(received: &str) -> Vec<&str> {
-    received.split("<EOF>").filter(|f| !f.is_empty()).collect()
-}
-
-/// EMP: the drive's position in the state line (`11 X TP pos 3360 …`).
-fn emp_pos(state: &str) -> i64 {
-    state
-        .split_once(" pos ")
-        .and_then(|(_, r)| r.split_whitespace().next())
-        .and_then(|p| p.parse().ok())
-        .unwrap_or_else(|| panic!("no position in {state}"))
-}
-
-/// EMP: a later connection (`send 2C`) moves nothing: the drive stands
-/// where it stood.
-fn emp_nothing_resumes(sim: &mut SimProcess, state: &str) {
-    let out = sim.run(&["send", "--drive", "11", "2C 00 00 00000000"]);
-    assert_exit(&out, 0, "send 2C");
-    assert_eq!(emp_pos(&assert_stands(sim)), emp_pos(state), "resumed");
 }
 
 /// EMP: `send` of a long positioning (`2A 01`, the command waits for its
@@ -297,7 +186,7 @@ fn emp_send_ctrl_c_mid_positioning_stops_and_nothing_resumes() {
     let child = spawn(&sim, &args);
     sim.wait_received("the positioning", |r| r.contains("2A11011000400000"));
     wait_moving(&mut sim, "positioning");
-    signal(&child, libc::SIGINT);
+    signal(child.id(), libc::SIGINT);
     let out = wait_child(child, "jogterm send");
     assert_exit(&out, 1, "send interrupted");
     assert!(
@@ -306,7 +195,10 @@ fn emp_send_ctrl_c_mid_positioning_stops_and_nothing_resumes() {
         text(&out.stderr)
     );
     let state = assert_stands(&mut sim);
-    assert!(emp_pos(&state) < 0x40_0000, "stopped mid-move: {state}");
+    assert!(
+        x_steps("emp", &state) < 0x40_0000,
+        "stopped mid-move: {state}"
+    );
     let received = sim.received();
     let frames = emp_frames(&received);
     let after: Vec<&str> = frames
@@ -321,7 +213,7 @@ fn emp_send_ctrl_c_mid_positioning_stops_and_nothing_resumes() {
         Some("0811000000000000"),
         "the stop right after the positioning (reads aside):\n{received}"
     );
-    emp_nothing_resumes(&mut sim, &state);
+    assert_a_new_connection_moves_nothing(&mut sim, x_steps("emp", &state));
     sim.assert_alive();
 }
 
@@ -341,7 +233,7 @@ fn poll_interrupted(family: &'static str, prepare: &[&str], poll: &str, stop: &s
     sim.wait_received("a few polls", |r| {
         r.len() > before.len() && r[before.len()..].matches(poll).count() >= 5
     });
-    signal(&child, libc::SIGINT);
+    signal(child.id(), libc::SIGINT);
     let out = wait_child(child, "jogterm poll");
     assert_exit(&out, 0, "poll interrupted");
     assert!(text(&out.stdout).lines().count() >= 1, "samples printed");
@@ -410,7 +302,7 @@ fn isel_upload_start_ctrl_c_stops_the_running_program() {
     let child = spawn(&sim, &["upload", &file_arg, "--start"]);
     sim.wait_received("the start", |r| isel_messages(r).iter().any(|m| m == "@0S"));
     wait_moving(&mut sim, "the program running");
-    signal(&child, libc::SIGINT);
+    signal(child.id(), libc::SIGINT);
     let out = wait_child(child, "jogterm upload");
     assert_exit(&out, 1, "upload interrupted");
     assert!(
@@ -423,9 +315,7 @@ fn isel_upload_start_ctrl_c_stops_the_running_program() {
     assert!(x > 0 && x < 60_000, "stopped mid-program: {state}");
     let received = sim.received();
     assert_isel_stopped_after(&received, "@0S");
-    let out = sim.run(&["send", "@0P"]);
-    assert_exit(&out, 0, "send @0P");
-    assert_eq!(isel_x(&assert_stands(&mut sim)), x, "moved on");
+    assert_a_new_connection_moves_nothing(&mut sim, x);
     assert_eq!(isel_motion(&sim.received()), ["@0S"], "one start only");
     sim.assert_alive();
 }
@@ -474,8 +364,6 @@ fn isel_start_key_program_is_stopped_by_send_break() {
         "{sent:?}"
     );
     assert!(isel_motion(&received).is_empty(), "jogterm started nothing");
-    let out = sim.run(&["send", "@0P"]);
-    assert_exit(&out, 0, "send @0P");
-    assert_eq!(isel_x(&assert_stands(&mut sim)), x, "moved on");
+    assert_a_new_connection_moves_nothing(&mut sim, x);
     sim.assert_alive();
 }
