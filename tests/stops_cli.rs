@@ -367,3 +367,24 @@ fn isel_start_key_program_is_stopped_by_send_break() {
     assert_a_new_connection_moves_nothing(&mut sim, x);
     sim.assert_alive();
 }
+
+/// A failure reported to a stderr that is gone (the terminal hung up, its
+/// reader ended) still ends with status 1, not a panic's 101: a console
+/// whose last frame failed on a dead terminal leaves this way after it has
+/// stopped the machine. Here the simulator cannot make its link.
+#[test]
+fn a_failure_on_a_stderr_that_is_gone_exits_1_not_with_a_panic() {
+    let (reader, writer) = std::io::pipe().expect("a pipe");
+    drop(reader);
+    let dir = tempfile::tempdir().expect("temp dir");
+    let out = std::process::Command::new(sim_process::JOGTERM)
+        .args(["sim", "--pty", "--protocol", "isel", "--link"])
+        .arg(dir.path().join("missing").join("tty"))
+        .env("JOGTERM_CONFIG_DIR", dir.path())
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(writer)
+        .status()
+        .expect("run jogterm sim");
+    assert_eq!(out.code(), Some(1));
+}
