@@ -133,6 +133,38 @@ fn isel_send_sighup_mid_move_stops_and_nothing_resumes() {
     isel_send_interrupted_by(libc::SIGHUP);
 }
 
+/// A hang-up of the terminal `send` runs in: SIGHUP, and stderr is gone.
+/// The stop goes out, then the orderly close (its stop sequence too), and
+/// saying so on the dead stderr does not panic: status 1, not 101.
+#[test]
+fn isel_send_hang_up_with_its_stderr_gone_stops_closes_and_exits_1() {
+    let mut sim = SimProcess::start("isel");
+    let (reader, writer) = std::io::pipe().expect("a pipe");
+    drop(reader);
+    let mut args = vec!["send"];
+    args.extend(ISEL_READY);
+    args.push(ISEL_LONG_MOVE);
+    let child = sim
+        .jogterm(&args)
+        .stdout(Stdio::null())
+        .stderr(writer)
+        .spawn()
+        .expect("run jogterm");
+    wait_moving(&mut sim, "moving");
+    signal(child.id(), libc::SIGHUP);
+    let out = wait_child(child, "jogterm send");
+    assert_eq!(out.status.code(), Some(1));
+    let state = assert_stands(&mut sim);
+    let received = sim.received();
+    let after = isel_after(&received, ISEL_LONG_MOVE);
+    assert_eq!(
+        after,
+        ["<FD>", "<FF>", "<FD>", "<FF>"],
+        "the stop, then the close's stop sequence:\n{received}"
+    );
+    assert_isel_nothing_resumes(&mut sim, &state);
+}
+
 /// EMCU: `send` of a long move interrupted with Ctrl-C: `@B` reaches the
 /// interface right after the move, the axis stands short of the target and
 /// a later connection does not move it.

@@ -278,7 +278,7 @@ async fn send_all(mut session: Session, items: &[Item]) -> ExitCode {
         () = session::interrupted() => {
             // Stop first, then the orderly close.
             let _ = stopper.stop().written().await;
-            eprintln!("jogterm send: interrupted: the machine was stopped");
+            session::say_interrupted("send");
             session.close().await;
             ExitCode::from(1)
         }

@@ -161,7 +161,7 @@ async fn upload_and_run(mut session: Session, prepared: &Prepared, args: &Upload
         code = steps(&mut session, prepared, args) => code,
         () = session::interrupted() => {
             let _ = stopper.stop().written().await;
-            eprintln!("jogterm upload: interrupted: the machine was stopped");
+            session::say_interrupted("upload");
             1
         }
     };
