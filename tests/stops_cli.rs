@@ -420,3 +420,47 @@ fn a_failure_on_a_stderr_that_is_gone_exits_1_not_with_a_panic() {
         .expect("run jogterm sim");
     assert_eq!(out.code(), Some(1));
 }
+
+/// `poll` while the machine's start key runs the stored program: the
+/// controller answers nothing while a program runs (isel manual 3.1), so
+/// poll cannot be interrupted mid-move; it ends by itself with a link
+/// failure (status 3), and its close stops the program (0xFD 0xFF), which
+/// then stands short of its end. Poll never started it.
+#[test]
+fn isel_poll_during_a_start_key_program_gives_up_and_stops_it() {
+    let mut sim = SimProcess::start("isel");
+    let out = sim.run(&[
+        "send",
+        "@07",
+        "@0N7",
+        "@0i",
+        "060000,4000,0,4000,0,4000,0,4000",
+        "9",
+    ]);
+    assert_exit(&out, 0, "send (store)");
+    let before = sim.received();
+    let child = spawn(&sim, &["poll"]);
+    sim.wait_received("a few polls", |r| {
+        r.len() > before.len() && r[before.len()..].matches("@0P<CR>").count() >= 5
+    });
+    sim.control("press start");
+    let out = wait_child(child, "jogterm poll");
+    assert_exit(&out, 3, "poll during a program");
+    assert!(
+        text(&out.stderr).contains("link failure: no reply to @0P"),
+        "{}",
+        text(&out.stderr)
+    );
+    let state = assert_stands(&mut sim);
+    let x = isel_x(&state);
+    assert!(x < 60_000, "the program ran to its end: {state}");
+    let received = sim.received();
+    let polled = isel_messages(&received[before.len()..]);
+    assert_eq!(
+        polled.get(polled.len().saturating_sub(2)..),
+        Some(&["<FD>".to_string(), "<FF>".to_string()][..]),
+        "the close stops last: {polled:?}"
+    );
+    assert!(isel_motion(&received).is_empty(), "poll started nothing");
+    assert_a_new_connection_moves_nothing(&mut sim, x);
+}
