@@ -43,8 +43,8 @@ position is printed. Ctrl-C, a hang-up or SIGTERM stop the machine first.";
 
 pub const AFTER_LONG_HELP: &str = "\
 Exit status: 0 stored (and run); 1 the controller answered an error or refused for its
-state; 2 bad usage (an error in the program, an unreadable file, an unknown option);
-3 link failure.
+state, or interrupted (Ctrl-C, SIGTERM, a hang-up: the machine is stopped first); 2 bad
+usage (an error in the program, an unreadable file, an unknown option); 3 link failure.
 
 Examples:
   jogterm upload drill.isel --port /dev/ttyUSB0 --protocol isel
