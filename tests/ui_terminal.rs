@@ -68,6 +68,9 @@ fn leave_after_a_hang_up(guard: TerminalGuard, terminal: Tui) -> ! {
         }
         std::thread::sleep(Duration::from_millis(20));
     }
+    // The drops the console's way out runs (`process::exit` runs none):
+    // ratatui's `Terminal` drop is what panicked here before `Tui` wrapped it.
+    #[allow(clippy::drop_non_drop)]
     drop(terminal);
     drop(guard);
     std::process::exit(0)
