@@ -1,6 +1,7 @@
 //! The `jogterm` binary: parse the command line (bad usage exits 2) and run
 //! it; any failure is one message on stderr and exit status 1.
 
+use std::io::Write;
 use std::process::ExitCode;
 
 use clap::Parser;
@@ -11,7 +12,10 @@ fn main() -> ExitCode {
     match cli::run(cli) {
         Ok(code) => code,
         Err(e) => {
-            eprintln!("jogterm: {e:#}");
+            // Not `eprintln!`, which panics when stderr is gone (a terminal
+            // that hung up under the console, ../shared/field-notes.md
+            // "Order on hang-up") and turns status 1 into a panic's 101.
+            let _ = writeln!(std::io::stderr(), "jogterm: {e:#}");
             ExitCode::FAILURE
         }
     }

@@ -1,7 +1,7 @@
 //! The terminal guard in a real pseudo-terminal: after a normal exit, an
 //! error and a panic, the terminal is back in cooked mode (ICANON, ECHO), on
 //! the main screen, with a visible cursor; on a panic the emergency stop
-//! runs before the terminal is restored.
+//! runs before the terminal is restored; after a hang-up leaving panics not.
 //!
 //! Each case runs this test binary again as a child in a pty, running only
 //! the ignored `child` test with the case in `JOGTERM_GUARD_CASE`.
@@ -12,7 +12,7 @@ use std::io::Write;
 use std::sync::Arc;
 use std::time::Duration;
 
-use jogterm::ui::terminal::{TerminalGuard, TerminalOptions, set_emergency};
+use jogterm::ui::terminal::{TerminalGuard, TerminalOptions, Tui, set_emergency};
 use ratatui::text::Line;
 use ui_pty::{PtyRun, contains, rfind};
 
@@ -43,11 +43,37 @@ fn in_tui() -> Result<(), String> {
     match case.as_str() {
         "error" => Err("a failure inside the TUI".to_string()),
         "panic" => panic!("a bug inside the TUI"),
+        "hangup" => leave_after_a_hang_up(guard, terminal),
         _ => {
             drop(guard);
             Ok(())
         }
     }
+}
+
+/// The terminal goes away under the TUI (the parent closes the pty master):
+/// once a write fails, leave as the console does, dropping the terminal and
+/// the guard on a dead terminal; exit 0 unless that panicked.
+fn leave_after_a_hang_up(guard: TerminalGuard, terminal: Tui) -> ! {
+    // SAFETY: ignoring SIGHUP, whose default action would end this child
+    // before the drops under test (the console catches it).
+    unsafe { libc::signal(libc::SIGHUP, libc::SIG_IGN) };
+    let mut out = std::io::stdout();
+    let _ = out.write_all(b"WAITING-FOR-HANGUP");
+    let _ = out.flush();
+    let end = std::time::Instant::now() + Duration::from_secs(30);
+    while out.write_all(b".").and_then(|()| out.flush()).is_ok() {
+        if std::time::Instant::now() > end {
+            std::process::exit(3);
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    // The drops the console's way out runs (`process::exit` runs none):
+    // ratatui's `Terminal` drop is what panicked here before `Tui` wrapped it.
+    #[allow(clippy::drop_non_drop)]
+    drop(terminal);
+    drop(guard);
+    std::process::exit(0)
 }
 
 #[test]
@@ -160,4 +186,27 @@ fn the_terminal_is_restored_on_a_panic_after_the_emergency_stop() {
         stop < leave,
         "the stop bytes go out before the terminal is restored"
     );
+}
+
+#[test]
+fn leaving_after_a_hang_up_does_not_panic() {
+    let exe = std::env::current_exe().expect("test binary");
+    let mut run = PtyRun::spawn(
+        &exe,
+        &[
+            "--ignored",
+            "--exact",
+            "child",
+            "--nocapture",
+            "--test-threads=1",
+        ],
+        &[(CASE_ENV, "hangup"), ("RUST_BACKTRACE", "0")],
+    );
+    if let Err(screen) = run.wait_for("WAITING-FOR-HANGUP", Duration::from_secs(30)) {
+        panic!("the child never drew:\n{screen}");
+    }
+    run.close_master();
+    // ratatui's own drop `eprintln!`s when it cannot show the cursor, which
+    // panics on a hung-up stderr (status 101): `Tui` drops without it.
+    assert_eq!(run.wait_exit(Duration::from_secs(30)), Some(0));
 }

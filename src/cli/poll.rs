@@ -37,7 +37,8 @@ drive), in steps, as the controller reports them. EMCU with --ports: `… status
 unknown, 4 referencing, 5 job running. EMP with --ports: `… drive11=05`, {\"drive11\":5}:
 inputs I1-I4 of drive 11 as bits 0-3.
 
-Exit status: 0 done; 1 no position could be read; 2 bad usage; 3 link failure.
+Exit status: 0 done (also when interrupted: it stops and closes first); 1 no position could
+be read; 2 bad usage; 3 link failure.
 
 Examples:
   jogterm poll --port /dev/ttyUSB0 --protocol isel --count 5

@@ -49,9 +49,10 @@ completion. The stops `08` and `2A 03` go out at once.";
 
 pub const AFTER_LONG_HELP: &str = "\
 Exit status: 0 every command answered `0`; 1 the controller answered an error (the rest is
-not sent) or refused for its state (E-stop, fault); 2 bad usage (a command that would be
-refused, an unknown option); 3 link failure (the port cannot be opened or vanished, a reply
-did not come).
+not sent) or refused for its state (E-stop, fault), or interrupted (Ctrl-C, SIGTERM, a
+hang-up: the machine is stopped first); 2 bad usage (a command that would be refused, an
+unknown option); 3 link failure (the port cannot be opened or vanished, a reply did not
+come).
 
 Examples:
   jogterm send --port /dev/ttyUSB0 --protocol isel '@07' '@0R7' '@0P'
@@ -278,7 +279,7 @@ async fn send_all(mut session: Session, items: &[Item]) -> ExitCode {
         () = session::interrupted() => {
             // Stop first, then the orderly close.
             let _ = stopper.stop().written().await;
-            eprintln!("jogterm send: interrupted: the machine was stopped");
+            session::say_interrupted("send");
             session.close().await;
             ExitCode::from(1)
         }

@@ -245,6 +245,18 @@ pub async fn interrupted() {
     }
 }
 
+/// Say on stderr that a signal stopped the machine. Not `eprintln!`: after
+/// a hang-up stderr may be the dead terminal, where it panics (status 101,
+/// and the orderly close after it skipped; `../shared/field-notes.md`,
+/// "Order on hang-up").
+pub fn say_interrupted(command: &str) {
+    use std::io::Write;
+    let _ = writeln!(
+        std::io::stderr(),
+        "jogterm {command}: interrupted: the machine was stopped"
+    );
+}
+
 /// A current-thread runtime for a command.
 pub fn runtime() -> anyhow::Result<tokio::runtime::Runtime> {
     tokio::runtime::Builder::new_current_thread()

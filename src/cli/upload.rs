@@ -51,8 +51,9 @@ first. EMP drives store no programs.";
 
 pub const AFTER_LONG_HELP: &str = "\
 Exit status: 0 stored (and run); 1 the controller answered an error or refused for its
-state; 2 bad usage (an error in the program, an unreadable file, an unknown option, an EMP
-drive); 3 link failure.
+state, or interrupted (Ctrl-C, SIGTERM, a hang-up: the machine is stopped first); 2 bad
+usage (an error in the program, an unreadable file, an unknown option, an EMP drive); 3 link
+failure.
 
 Examples:
   jogterm upload drill.isel --port /dev/ttyUSB0 --protocol isel
@@ -175,7 +176,7 @@ async fn upload_and_run(mut session: Session, prepared: &Prepared, args: &Upload
         code = steps(&mut session, prepared, args) => code,
         () = session::interrupted() => {
             let _ = stopper.stop().written().await;
-            eprintln!("jogterm upload: interrupted: the machine was stopped");
+            session::say_interrupted("upload");
             1
         }
     };

@@ -10,6 +10,8 @@
 //! panic as usual.
 
 use std::io::{self, Stdout, Write};
+use std::mem::ManuallyDrop;
+use std::ops::{Deref, DerefMut};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, Once};
 
@@ -61,7 +63,27 @@ pub struct TerminalGuard {
     _private: (),
 }
 
-pub type Tui = Terminal<CrosstermBackend<Stdout>>;
+/// The console's terminal. Dropping it writes nothing: ratatui's own drop
+/// shows a hidden cursor and `eprintln!`s when that fails, which on a
+/// terminal that has hung up panics (`../shared/field-notes.md`, "Order on
+/// hang-up") and turned a hang-up's clean exit into status 101. The guard's
+/// [`restore`] shows the cursor, ignoring every error; the terminal's
+/// buffers are left to the process' end (one per process).
+pub struct Tui(ManuallyDrop<Terminal<CrosstermBackend<Stdout>>>);
+
+impl Deref for Tui {
+    type Target = Terminal<CrosstermBackend<Stdout>>;
+
+    fn deref(&self) -> &Self::Target {
+        &self.0
+    }
+}
+
+impl DerefMut for Tui {
+    fn deref_mut(&mut self) -> &mut Self::Target {
+        &mut self.0
+    }
+}
 
 impl TerminalGuard {
     /// Enter TUI mode on stdout. On failure everything done so far is undone.
@@ -90,7 +112,7 @@ impl TerminalGuard {
         // terminal which does not answer turns into a 2 s wait and an error.
         execute!(stdout, Clear(ClearType::All))?;
         let terminal = Terminal::new(CrosstermBackend::new(io::stdout()))?;
-        Ok((guard, terminal))
+        Ok((guard, Tui(ManuallyDrop::new(terminal))))
     }
 
     /// Whether key release events will arrive (kitty keyboard protocol).

@@ -833,8 +833,13 @@ impl Driver for EmcuDriver {
         halt_outgoing()
     }
 
+    /// The emergency handle writes from another thread, between any two
+    /// bytes of a line the writer has on its way: `@LZ` cut into `@L` +
+    /// `@B` CR + `Z` CR would be the malformed line `@L@B`, the stop lost
+    /// and the axes left running. The CR first ends the cut line, so `@B`
+    /// is a line of its own, as on every connection ([`CONNECT_HALT`]).
     fn emergency_stop_bytes(&self) -> Vec<u8> {
-        HALT.to_vec()
+        CONNECT_HALT.to_vec()
     }
 
     fn received(&mut self, bytes: &[u8], now: Instant) {

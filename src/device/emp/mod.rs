@@ -762,8 +762,16 @@ impl Driver for EmpDriver {
         }
     }
 
+    /// The emergency handle writes from another thread, between any two
+    /// bytes of a frame the writer has on its way; a stop frame glued to
+    /// the cut frame's head would be dropped with it (`docs/protocols.md`,
+    /// EMP framing) and the drive left running. An EOF first ends the cut
+    /// frame (dropped as a short run; a lone EOF, when nothing was cut, is
+    /// dropped too), so the stop frames are read as frames of their own.
     fn emergency_stop_bytes(&self) -> Vec<u8> {
-        self.stop_bytes()
+        let mut bytes = vec![crate::proto::emp::EOF];
+        bytes.extend(self.stop_bytes());
+        bytes
     }
 
     fn received(&mut self, bytes: &[u8], now: Instant) {

@@ -184,3 +184,30 @@ fn stops_expect_their_own_cr() {
     assert_eq!(h.replies().len(), 1);
     let _ = h.driver.next_timeout();
 }
+
+/// The emergency stop (panic hook, hang-up, a signal) is written by another
+/// thread between any two bytes of a line on its way. Wherever it lands,
+/// the interface, which ends a line at CR or 0x01 (manual 1.4.2), reads
+/// `@B` as a line of its own: the stop is never lost in a malformed line.
+#[test]
+fn an_emergency_stop_cut_into_a_line_is_still_a_halt_of_its_own() {
+    let h = Harness::new();
+    let stop = h.driver.emergency_stop_bytes();
+    for line in [&b"@LZ\r"[..], b"#E9,200\r", b"L9,x30000\x01"] {
+        for cut in 0..=line.len() {
+            let mut wire = line[..cut].to_vec();
+            wire.extend_from_slice(&stop);
+            wire.extend_from_slice(&line[cut..]);
+            let halts = wire
+                .split(|b| matches!(*b, b'\r' | 0x01))
+                .filter(|l| *l == b"@B")
+                .count();
+            assert_eq!(
+                halts,
+                1,
+                "cut at {cut}: {}",
+                crate::traffic::readable(&wire)
+            );
+        }
+    }
+}

@@ -160,3 +160,32 @@ fn upload_reset_and_programs_are_refused_with_a_reason() {
     assert!(r[1].contains("store no programs"));
     assert!(r[3].contains("no reset"));
 }
+
+/// The emergency stop (panic hook, hang-up, a signal) is written by another
+/// thread between any two bytes of a frame on its way. Wherever it lands,
+/// the drive's framing (a frame is exactly what lies between two EOFs)
+/// reads the stop frame whole: it is never lost with the cut frame.
+#[test]
+fn an_emergency_stop_cut_into_a_frame_is_still_a_stop_of_its_own() {
+    use crate::proto::emp::{FrameDecoder, Incoming};
+    let h = Harness::emp(|_| {});
+    let emergency = h.driver.emergency_stop_bytes();
+    let stop = frame("08 11 00 00 00000000");
+    let polled = frame("2C 11 00 00 00000000");
+    for cut in 0..=polled.len() {
+        let mut wire = polled[..cut].to_vec();
+        wire.extend_from_slice(&emergency);
+        wire.extend_from_slice(&polled[cut..]);
+        let stops = FrameDecoder::new()
+            .feed(&wire)
+            .into_iter()
+            .filter(|r| matches!(r, Ok(Incoming::Frame(f)) if f.encode()[..] == stop[..]))
+            .count();
+        assert_eq!(
+            stops,
+            1,
+            "cut at {cut}: {}",
+            crate::traffic::readable(&wire)
+        );
+    }
+}

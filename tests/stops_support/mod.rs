@@ -1,0 +1,121 @@
+//! What the stop tests (`tests/stops_cli.rs`, `tests/stops_console.rs`)
+//! share: signals to a child, bounded waits for it, and the simulator's
+//! state line read per family (moving or not, the X position), so "the axis
+//! stands" is the same check everywhere.
+
+#![allow(dead_code)]
+
+use std::process::{Child, Output};
+use std::thread;
+use std::time::{Duration, Instant};
+
+use crate::sim_process::{SimProcess, WAIT, contains_panic, text};
+
+/// How long an axis that stands is watched for motion.
+pub const STANDS_FOR: Duration = Duration::from_millis(600);
+
+/// The process' output once it has ended; killed and failed if it does not
+/// end within [`WAIT`] (a hang is a failure, not a stuck test).
+pub fn wait_child(mut child: Child, what: &str) -> Output {
+    let end = Instant::now() + WAIT;
+    while matches!(child.try_wait(), Ok(None)) {
+        if Instant::now() > end {
+            let _ = child.kill();
+            let out = child.wait_with_output();
+            panic!("{what} hangs: {out:?}");
+        }
+        thread::sleep(Duration::from_millis(20));
+    }
+    child.wait_with_output().expect("the output")
+}
+
+/// Send `signal` to the process `pid` (a child this test started).
+pub fn signal(pid: u32, signal: libc::c_int) {
+    let pid = libc::pid_t::try_from(pid).expect("a pid");
+    // SAFETY: a signal to a child this test started and has not reaped.
+    assert_eq!(unsafe { libc::kill(pid, signal) }, 0, "kill({pid})");
+}
+
+/// The command ended with `code`, without a panic.
+pub fn assert_exit(out: &Output, code: i32, what: &str) {
+    assert!(
+        !contains_panic(&out.stderr),
+        "{what} panicked:\n{}",
+        text(&out.stderr)
+    );
+    assert_eq!(
+        out.status.code(),
+        Some(code),
+        "{what}:\n{}\n{}",
+        text(&out.stdout),
+        text(&out.stderr)
+    );
+}
+
+/// Whether the simulator's state line says an axis moves.
+pub fn moving(family: &str, state: &str) -> bool {
+    match family {
+        // isel: `| moving`, or `| program: moving` while a program runs.
+        "isel" => state.ends_with("moving"),
+        "emcu" => state.contains("moving"),
+        // EMP: a running drive shows its speed (`-112000/s homing`).
+        _ => state.contains("/s"),
+    }
+}
+
+/// Wait until the simulator's axes move.
+pub fn wait_moving(sim: &mut SimProcess, what: &str) -> String {
+    let family = sim.family;
+    sim.wait_device(what, |d| moving(family, d))
+}
+
+/// The axes stand: the state (positions included) is the same twice, read
+/// [`STANDS_FOR`] apart, once the ramp down has ended. The state line.
+pub fn assert_stands(sim: &mut SimProcess) -> String {
+    let family = sim.family;
+    let first = sim.wait_device("at rest", |d| !moving(family, d));
+    thread::sleep(STANDS_FOR);
+    let second = sim.device_state();
+    assert_eq!(first, second, "the axes moved on after the stop");
+    second
+}
+
+/// The X (or EMP: the drive's) position in steps of a state line: isel
+/// `device: X 6896 Y 0 …`, EMCU `device: X 1234 [machine …] …`, EMP
+/// `device: 11 X TP pos 3360 …`.
+pub fn x_steps(family: &str, state: &str) -> i64 {
+    let number = match family {
+        "emp" => state.split_once(" pos ").map(|(_, r)| r),
+        _ => state.strip_prefix("device: X "),
+    };
+    number
+        .and_then(|r| r.split_whitespace().next())
+        .and_then(|x| x.parse().ok())
+        .unwrap_or_else(|| panic!("no X position in {state}"))
+}
+
+/// EMP: the frames received (`traffic::readable` ends each with `<EOF>`).
+pub fn emp_frames(received: &str) -> Vec<&str> {
+    received.split("<EOF>").filter(|f| !f.is_empty()).collect()
+}
+
+/// A later connection moves nothing: `jogterm send` of a position query
+/// (isel `@0P`, EMCU `@LX`, EMP `2C`; each connection opens with the
+/// family's stop) ends with 0 and the axis still stands at `x`. (EMCU: not
+/// `@X`, which answers the error flag that a line cut by an emergency stop
+/// leaves set, `docs/protocols.md`.)
+pub fn assert_a_new_connection_moves_nothing(sim: &mut SimProcess, x: i64) {
+    let query: &[&str] = match sim.family {
+        "isel" => &["send", "@0P"],
+        "emcu" => &["send", "@LX"],
+        _ => &["send", "--drive", "11", "2C 00 00 00000000"],
+    };
+    let out = sim.run(query);
+    let received = sim.received();
+    let tail = &received[received.len().saturating_sub(600)..];
+    let what = format!("a query on a new connection; the controller received last:\n…{tail}");
+    assert_exit(&out, 0, &what);
+    let family = sim.family;
+    let state = assert_stands(sim);
+    assert_eq!(x_steps(family, &state), x, "moved on: {state}");
+}
