@@ -645,8 +645,20 @@ impl EmcuDriver {
                 id, axes, speed_hz, ..
             } => {
                 let until = queued.lease_until.unwrap_or(now);
-                plan::jog(cx, axes, speed_hz)
-                    .map(|p| Some(Op::Motion(MotionOp::jog(cx, p, *id, until))))
+                // The lease the jog holds now: what is left of the one it
+                // was given (it may have waited behind a braking jog).
+                let lease = until.saturating_duration_since(now);
+                plan::jog(cx, axes, speed_hz, lease).map(|p| {
+                    Some(Op::Motion(MotionOp::jog(
+                        cx,
+                        p,
+                        *id,
+                        axes.clone(),
+                        *speed_hz,
+                        lease,
+                        until,
+                    )))
+                })
             }
             Request::Step { delta, speed_hz } => match cx.position {
                 Some(base) => plan::step(cx, &base, delta, speed_hz)
@@ -708,11 +720,25 @@ impl EmcuDriver {
 
     fn renew(&mut self, id: JogId, lease: Duration, now: Instant) {
         if let Some(Op::Motion(m)) = self.op.as_mut()
-            && m.renew(id, lease, now)
+            && let Some(speed_up) = m.renew(&self.cx, id, lease, now)
         {
+            if speed_up {
+                self.speed_up(now);
+            }
             return;
         }
         self.queue.renew(id, lease, now);
+    }
+
+    /// A jog halts to go on faster (`motion_op`): `@B` after whatever is
+    /// already on its way, the data memory dropped, and no jog end.
+    fn speed_up(&mut self, now: Instant) {
+        let Some(Op::Motion(m)) = self.op.as_mut() else {
+            return;
+        };
+        m.speed_up(&self.cx, now);
+        self.cx.control.push_back(halt_outgoing());
+        self.cx.after_halt();
     }
 
     fn release(&mut self, id: JogId, now: Instant) {
