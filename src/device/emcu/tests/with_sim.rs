@@ -330,15 +330,17 @@ fn a_hold_speeds_up_once_and_stops_within_the_bound_after_its_last_repeat() {
     b.run(ms(500));
     let mut resumed = None;
     let first_repeat = b.now;
-    for _ in 0..90 {
+    for i in 0..90 {
+        if i > 0 {
+            b.run(ms(33));
+        }
+        if resumed.is_none() && sent_count(&b, "L9") == 2 {
+            resumed = Some(b.now - first_repeat);
+        }
         b.request(Request::JogRenew {
             id: JogId(1),
             lease: repeat,
         });
-        b.run(ms(33));
-        if resumed.is_none() && sent_count(&b, "L9") == 2 {
-            resumed = Some(b.now - first_repeat);
-        }
     }
     let last = counters(&mut b)[0];
     // One halt to speed up, and the faster move as fast as the short
