@@ -9,11 +9,14 @@
 //! speed of a running jog is its own (isel and EMCU: stop and restart from
 //! where it stopped, EMP: a new velocity or positioning frame).
 
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use crate::axis::Axis;
-use crate::device::api::{Dir, PerAxis};
+use crate::device::api::{Dir, JogEnd, PerAxis, Refusal};
 use crate::jog::{self, Braking};
+
+use super::motion::MotionKind;
+use super::sink::Sink;
 
 /// A faster jog is worth changing to only when it is faster by this factor
 /// (isel and EMCU pay for the change with a dip).
@@ -126,6 +129,40 @@ pub fn granted(
         .into_iter()
         .map(|(hz, bound)| jog::lease_cap(braking, hz, bound))
         .fold(lease, Duration::min)
+}
+
+/// A jog that halted to speed up (isel, EMCU) goes on with `faster`, the
+/// plan for the lease it holds from where it stopped; unless it has ended
+/// meanwhile (release, stop), its lease ran out (dead-man) or the plan was
+/// refused (the soft limit reached, or another reason): then the jog's end
+/// is told.
+pub fn restart<P>(
+    speed: &mut JogSpeed,
+    kind: &mut MotionKind,
+    sink: &mut impl Sink,
+    now: Instant,
+    faster: Result<P, Refusal>,
+) -> Option<P> {
+    speed.sped_up();
+    if kind.jog_end().is_none() && kind.lease_until().is_some_and(|until| until <= now) {
+        kind.set_jog_end(JogEnd::DeadMan, false);
+    }
+    if kind.jog_end().is_some() {
+        kind.report_jog(sink);
+        return None;
+    }
+    match faster {
+        Ok(plan) => Some(plan),
+        Err(reason) => {
+            let end = match reason {
+                Refusal::SoftLimit { .. } => JogEnd::SoftLimit,
+                other => JogEnd::Refused(other),
+            };
+            kind.set_jog_end(end, false);
+            kind.report_jog(sink);
+            None
+        }
+    }
 }
 
 #[cfg(test)]

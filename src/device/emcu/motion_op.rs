@@ -28,7 +28,7 @@ use std::time::{Duration, Instant};
 use crate::axis::Axis;
 use crate::device::api::{Activity, Dir, Event, JogEnd, JogId, PerAxis, Recovery, Refusal};
 use crate::device::common::RunningMove;
-use crate::device::common::jog_speed::{JogSpeed, MoveState, Renewal};
+use crate::device::common::jog_speed::{self, JogSpeed, MoveState, Renewal};
 use crate::device::common::link::unreadable;
 use crate::device::common::motion::Coalescing;
 use crate::device::common::sink::refuse_step;
@@ -177,30 +177,18 @@ impl MotionOp {
         let Some(speed) = self.jog_speed.as_mut() else {
             return;
         };
-        speed.sped_up();
-        if self.kind.jog_end().is_some() || self.failed {
+        if self.failed {
+            // Where it stands is unknown: no faster move from there.
+            speed.sped_up();
             self.kind.report_jog(cx);
             return;
         }
-        if self.kind.lease_until().is_some_and(|until| until <= now) {
-            self.kind.set_jog_end(JogEnd::DeadMan, false);
-            self.kind.report_jog(cx);
-            return;
-        }
-        match plan::jog(cx, &speed.axes, &speed.requested, speed.lease) {
-            Ok(planned) => {
-                self.run = run_of(cx, &planned);
-                self.planned = planned;
-                self.phase = Phase::Moving;
-            }
-            Err(Refusal::SoftLimit { .. }) => {
-                self.kind.set_jog_end(JogEnd::SoftLimit, false);
-                self.kind.report_jog(cx);
-            }
-            Err(reason) => {
-                self.kind.set_jog_end(JogEnd::Refused(reason), false);
-                self.kind.report_jog(cx);
-            }
+        let faster = plan::jog(cx, &speed.axes, &speed.requested, speed.lease);
+        let faster = jog_speed::restart(speed, &mut self.kind, cx, now, faster);
+        if let Some(planned) = faster {
+            self.run = run_of(cx, &planned);
+            self.planned = planned;
+            self.phase = Phase::Moving;
         }
     }
 

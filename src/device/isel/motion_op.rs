@@ -24,7 +24,7 @@ use crate::axis::Axis;
 use crate::device::api::{Activity, Dir, JogEnd, JogId, PerAxis, Recovery, Refusal};
 use crate::device::common::MotionKind;
 use crate::device::common::RunningMove;
-use crate::device::common::jog_speed::{JogSpeed, MoveState, Renewal};
+use crate::device::common::jog_speed::{self, JogSpeed, MoveState, Renewal};
 use crate::device::common::motion::Coalescing;
 use crate::device::common::sink::refuse_step;
 use crate::proto::isel::{Command, ControlByte, Reply, ReplyCode};
@@ -193,27 +193,13 @@ impl MotionOp {
         let Some(speed) = self.jog_speed.as_mut() else {
             return;
         };
-        speed.sped_up();
-        if self.kind.lease_until().is_some_and(|until| until <= now) {
-            self.kind.set_jog_end(JogEnd::DeadMan, false);
-            self.kind.report_jog(&mut cx.events);
-            return;
-        }
-        match plan::jog(cx, &speed.axes, &speed.requested, speed.lease) {
-            Ok(planned) => {
-                self.planned = planned;
-                self.phase = Phase::Send;
-                self.stopping = false;
-                self.next_estimate = None;
-            }
-            Err(Refusal::SoftLimit { .. }) => {
-                self.kind.set_jog_end(JogEnd::SoftLimit, false);
-                self.kind.report_jog(&mut cx.events);
-            }
-            Err(reason) => {
-                self.kind.set_jog_end(JogEnd::Refused(reason), false);
-                self.kind.report_jog(&mut cx.events);
-            }
+        let faster = plan::jog(cx, &speed.axes, &speed.requested, speed.lease);
+        let faster = jog_speed::restart(speed, &mut self.kind, &mut cx.events, now, faster);
+        if let Some(planned) = faster {
+            self.planned = planned;
+            self.phase = Phase::Send;
+            self.stopping = false;
+            self.next_estimate = None;
         }
     }
 
