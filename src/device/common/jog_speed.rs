@@ -168,6 +168,7 @@ pub fn restart<P>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::prelude::*;
 
     const EMCU: Braking = Braking::FixedTime {
         start_hz: 200.0,
@@ -243,5 +244,58 @@ mod tests {
         // A slow jog keeps what it asked for; nothing moving bounds nothing.
         assert_eq!(granted(&EMCU, ms(150), [(300.0, 600.0)]), ms(150));
         assert_eq!(granted(&EMCU, ms(150), []), ms(150));
+    }
+
+    proptest! {
+        #[test]
+        fn a_granted_lease_keeps_every_axis_within_its_bound(
+            start in 0.0f64..2_000.0,
+            ramp_ms in 1u64..2_000,
+            a in (1.0f64..20_000.0, 10.0f64..100_000.0),
+            b in (1.0f64..20_000.0, 10.0f64..100_000.0),
+            lease_ms in 0u64..5_000,
+        ) {
+            let braking = Braking::FixedTime { start_hz: start, ramp: ms(ramp_ms) };
+            let lease = ms(lease_ms);
+            let l = granted(&braking, lease, [a, b]);
+            prop_assert!(l <= lease);
+            for (hz, bound) in [a, b] {
+                // A speed that cannot stop within its bound gets no lease;
+                // the lease is whole nanoseconds (a few µsteps of slack).
+                if l > Duration::ZERO {
+                    prop_assert!(jog::travel(&braking, hz, l) <= bound + 1e-3);
+                }
+            }
+        }
+
+        #[test]
+        fn a_jog_speeds_up_only_at_a_new_shortest_lease_and_never_above_its_cap(
+            asked in 100.0f64..5_000.0,
+            leases in proptest::collection::vec(50u64..1_000, 1..40),
+        ) {
+            let first = ms(750);
+            let mut s = x_jog(asked, first);
+            let mut running = asked.min(cap(Axis::X, first));
+            let mut shortest = first;
+            for l in leases {
+                let lease = ms(l);
+                let at = running;
+                match s.renewed(lease, MoveState::Running, |_| at, cap) {
+                    Renewal::SpeedUp => {
+                        prop_assert!(lease < shortest, "{lease:?} {shortest:?}");
+                        let next = asked.min(cap(Axis::X, lease));
+                        prop_assert!(next > running * SPEED_UP_FACTOR);
+                        running = next;
+                        s.sped_up();
+                    }
+                    Renewal::Keep => {}
+                    Renewal::Replan => prop_assert!(false, "a running jog is not planned anew"),
+                }
+                shortest = shortest.min(lease);
+                prop_assert_eq!(s.lease, shortest);
+                // Whatever runs stops within the bound for the lease it holds.
+                prop_assert!(jog::travel(&EMCU, running, s.lease) <= 600.0 + 1e-6);
+            }
+        }
     }
 }

@@ -100,7 +100,7 @@ impl MotionOp {
     /// whether the jog should now speed up (stop, then a faster move).
     ///
     /// The lease is never longer than the running speed allows within
-    /// `jog.max_overrun` ([`plan::lease_cap`]); a shorter lease than the jog
+    /// `jog.max_overrun` ([`plan::granted`]); a shorter lease than the jog
     /// holds raises its speed cap.
     pub fn renew(
         &mut self,
@@ -109,7 +109,7 @@ impl MotionOp {
         lease: Duration,
         now: Instant,
     ) -> Option<bool> {
-        let granted = lease.min(plan::lease_cap(cx, &self.planned.speeds));
+        let granted = plan::granted(cx, &self.planned.speeds, lease);
         if !self.kind.renew(id, granted, now) {
             return None;
         }
