@@ -568,3 +568,54 @@ fn a_hold_speeds_up_once_without_a_stop_and_stops_within_the_bound() {
     eprintln!("EMP hold at {top} counts/s: {overrun} counts after the last repeat (bound {bound})");
     assert!(overrun > 0.0 && overrun <= bound, "{overrun} > {bound}");
 }
+
+#[test]
+fn a_positioning_jog_speeds_up_with_a_new_2a_01_and_no_stop() {
+    let mut b = homed(|s| s.jog_style = crate::config::profile::EmpJog::Position);
+    let (bound, top, grace, repeat) = jog_figures();
+    let since = b.sent.len();
+    b.request(Request::Jog {
+        id: JogId(32),
+        axes: vec![(Axis::X, Dir::Plus)],
+        speed_hz: x_speed(top),
+        lease: grace,
+    });
+    b.run(ms(500));
+    let slow = speed(&b, DriveAddress::SINGLE);
+    assert!(slow > 0.0 && slow < top, "{slow}");
+    for i in 0..60 {
+        if i > 0 {
+            b.run(ms(33));
+        }
+        b.request(Request::JogRenew {
+            id: JogId(32),
+            lease: repeat,
+        });
+    }
+    let v = speed(&b, DriveAddress::SINGLE);
+    assert!((v - top).abs() / top < 1e-3, "{v}");
+    // The first positioning and the faster one to the same target.
+    let moves: Vec<String> = b
+        .sent_text()
+        .iter()
+        .skip(since)
+        .filter(|t| t.starts_with("2A1101"))
+        .cloned()
+        .collect();
+    assert_eq!(moves.len(), 2, "{moves:?}");
+    assert_eq!(moves[0].get(8..16), moves[1].get(8..16), "{moves:?}");
+    assert_eq!(frames_sent(&b, since, "0811"), 0, "{:?}", b.sent_text());
+    assert_eq!(b.driver.state().activity, Activity::Jogging);
+    let last = counter(&b, DriveAddress::SINGLE);
+    b.run(Duration::from_secs(2));
+    assert_eq!(speed(&b, DriveAddress::SINGLE), 0.0);
+    let overrun = (counter(&b, DriveAddress::SINGLE) - last) as f64;
+    assert!(overrun > 0.0 && overrun <= bound, "{overrun} > {bound}");
+    assert!(b.events.iter().any(|e| matches!(
+        e,
+        Event::JogEnded {
+            id: JogId(32),
+            end: JogEnd::DeadMan
+        }
+    )));
+}
