@@ -8,13 +8,18 @@
 //! - last key repeat → break byte, beyond the dead-man timeout;
 //! - travel after the last repeat at the profile's top jog speed, against
 //!   `jog.max_overrun`;
-//! - travel after letting go of a step key held for 3 s at 30 Hz.
+//! - travel after letting go of a step key held for 3 s at 30 Hz;
+//! - EMCU and EMP (their simulators, `jog_family`): travel after a tap
+//!   (press, no repeat, no release) and after the last repeat of a hold, at
+//!   the axis's top speed, against `jog.max_overrun`.
 //!
 //! `cargo bench --bench jog` (or `cargo test --bench jog` in a debug build)
 //! prints a table; `docs/jogging.md` has the figures.
 
 #[path = "../tests/jog_support/mod.rs"]
 mod jog_support;
+
+mod jog_family;
 
 use std::time::{Duration, Instant};
 
@@ -199,6 +204,43 @@ async fn step_hold() -> Row {
     }
 }
 
+/// Tap and hold rows of one family (5 trials each, back and forth).
+async fn family_rows<S: jog_family::XCounter>(mut rig: jog_family::FamilyRig<S>) -> [Row; 2] {
+    rig.ready().await;
+    let (mut tap, mut hold) = (Vec::new(), Vec::new());
+    for i in 0..5 {
+        let dir = vector(i).first().map_or(Dir::Plus, |(_, d)| *d);
+        tap.push(rig.tap(dir).await);
+        hold.push(rig.hold(dir).await);
+    }
+    let limit = format!("<= {} mm (jog.max_overrun)", rig.bound_mm);
+    let top = rig.top_hz / rig.spu;
+    let rows = [
+        Row {
+            what: if rig.name == "EMCU" {
+                "EMCU tap at top speed: travel after the press"
+            } else {
+                "EMP tap at top speed: travel after the press"
+            },
+            unit: "mm",
+            values: tap,
+            limit: format!("{limit}, {top} mm/s asked"),
+        },
+        Row {
+            what: if rig.name == "EMCU" {
+                "EMCU hold: travel after the last repeat"
+            } else {
+                "EMP hold: travel after the last repeat"
+            },
+            unit: "mm",
+            values: hold,
+            limit,
+        },
+    ];
+    rig.shutdown().await;
+    rows
+}
+
 fn main() {
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
@@ -210,6 +252,15 @@ fn main() {
             "{:<46} {:>4} {:>9} {:>9} {:>9}",
             "jog, isel simulator at 19200 baud", "n", "p50", "p99", "max"
         );
+        if std::env::var_os("JOG_BENCH_FAMILIES_ONLY").is_some() {
+            for row in family_rows(jog_family::emcu()).await {
+                row.print();
+            }
+            for row in family_rows(jog_family::emp()).await {
+                row.print();
+            }
+            return;
+        }
         let (press_off, release) =
             release_trials(PollRate::Off, "press -> move (polling off)").await;
         press_off.print();
@@ -224,5 +275,11 @@ fn main() {
         overrun.print();
         println!("  (top jog speed asked for: {speed} mm/s; the driver caps it)");
         step_hold().await.print();
+        for row in family_rows(jog_family::emcu()).await {
+            row.print();
+        }
+        for row in family_rows(jog_family::emp()).await {
+            row.print();
+        }
     });
 }

@@ -28,23 +28,24 @@ pub fn profile() -> Profile {
     load_profile("default", &ConfigDirs::builtin_only()).expect("default profile")
 }
 
-/// What the probe holds: the simulated controller and every byte that
+/// What the probe holds: the simulated controller (isel unless said
+/// otherwise: `benches/jog.rs` also probes EMCU and EMP) and every byte that
 /// reached it, with its arrival time.
-pub struct Probe {
-    pub sim: IselSim,
+pub struct Probe<S = IselSim> {
+    pub sim: S,
     pub arrivals: Vec<(Instant, u8)>,
 }
 
-pub type Shared = Arc<Mutex<Probe>>;
+pub type Shared<S = IselSim> = Arc<Mutex<Probe<S>>>;
 
-fn lock(shared: &Shared) -> MutexGuard<'_, Probe> {
+pub fn lock<S>(shared: &Shared<S>) -> MutexGuard<'_, Probe<S>> {
     shared.lock().unwrap_or_else(|p| p.into_inner())
 }
 
 /// The simulator, recording arrivals on the way in.
-pub struct Recorder(pub Shared);
+pub struct Recorder<S = IselSim>(pub Shared<S>);
 
-impl SimDevice for Recorder {
+impl<S: SimDevice> SimDevice for Recorder<S> {
     fn line(&self) -> LineSettings {
         lock(&self.0).sim.line()
     }

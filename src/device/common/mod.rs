@@ -17,6 +17,8 @@
 //! - [`vector`]: a jog's travel towards the soft limits along its speed vector.
 //! - [`motion`]: a running move's kind (step, go-to, jog), its jog lease and
 //!   its end, and the steps coalesced behind it.
+//! - [`jog_speed`]: a jog's speed following its lease (granted leases, the
+//!   speed-up at the first short renewal).
 //! - [`gate`]: refusals of motion from the machine state.
 //! - [`queue`]: requests waiting for their turn, and what is refused at once.
 //! - [`poll`]: poll rates, cycles, statistics.
@@ -30,6 +32,7 @@ pub mod admit;
 pub mod deadline;
 pub mod gate;
 pub mod io;
+pub mod jog_speed;
 pub mod limits;
 pub mod link;
 pub mod motion;

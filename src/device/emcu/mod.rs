@@ -91,7 +91,8 @@ enum Op {
     Home(RunOp<Home>),
     Output(RunOp<Switch>),
     Job(RunOp<Job>),
-    Motion(MotionOp),
+    // Boxed: a jog's speed bookkeeping makes it the largest by far.
+    Motion(Box<MotionOp>),
     Raw(RawOp),
     Upload(UploadOp),
 }
@@ -104,7 +105,7 @@ impl Op {
             Op::Home(o) => o,
             Op::Output(o) => o,
             Op::Job(o) => o,
-            Op::Motion(o) => o,
+            Op::Motion(o) => o.as_mut(),
             Op::Raw(o) => o,
             Op::Upload(o) => o,
         }
@@ -117,7 +118,7 @@ impl Op {
             Op::Home(o) => o,
             Op::Output(o) => o,
             Op::Job(o) => o,
-            Op::Motion(o) => o,
+            Op::Motion(o) => o.as_ref(),
             Op::Raw(o) => o,
             Op::Upload(o) => o,
         }
@@ -578,7 +579,7 @@ impl EmcuDriver {
         let transfer_line = self.cx.transfer && matches!(request, Request::Raw { .. });
         let busy = self.busy().filter(|_| !transfer_line);
         let motion = match self.op.as_mut() {
-            Some(Op::Motion(m)) => Some(m),
+            Some(Op::Motion(m)) => Some(m.as_mut()),
             _ => None,
         };
         admit(&mut self.queue, request, now, busy, motion, &mut self.cx);
@@ -645,12 +646,24 @@ impl EmcuDriver {
                 id, axes, speed_hz, ..
             } => {
                 let until = queued.lease_until.unwrap_or(now);
-                plan::jog(cx, axes, speed_hz)
-                    .map(|p| Some(Op::Motion(MotionOp::jog(cx, p, *id, until))))
+                // The lease the jog holds now: what is left of the one it
+                // was given (it may have waited behind a braking jog).
+                let lease = until.saturating_duration_since(now);
+                plan::jog(cx, axes, speed_hz, lease).map(|p| {
+                    Some(Op::Motion(Box::new(MotionOp::jog(
+                        cx,
+                        p,
+                        *id,
+                        axes.clone(),
+                        *speed_hz,
+                        lease,
+                        until,
+                    ))))
+                })
             }
             Request::Step { delta, speed_hz } => match cx.position {
                 Some(base) => plan::step(cx, &base, delta, speed_hz)
-                    .map(|p| Some(Op::Motion(MotionOp::step(cx, p)))),
+                    .map(|p| Some(Op::Motion(Box::new(MotionOp::step(cx, p))))),
                 None => Err(Refusal::NotInitialised),
             },
             Request::MoveTo {
@@ -658,7 +671,7 @@ impl EmcuDriver {
                 frame,
                 speed_hz,
             } => plan::move_to(cx, target, *frame, speed_hz)
-                .map(|p| Some(Op::Motion(MotionOp::move_to(cx, p)))),
+                .map(|p| Some(Op::Motion(Box::new(MotionOp::move_to(cx, p))))),
             Request::Home { axes } => named_axes(cx.settings.axes, *axes)
                 .and_then(|()| cx.motion_allowed(true))
                 .and_then(|()| cx.memory_free())
@@ -708,11 +721,25 @@ impl EmcuDriver {
 
     fn renew(&mut self, id: JogId, lease: Duration, now: Instant) {
         if let Some(Op::Motion(m)) = self.op.as_mut()
-            && m.renew(id, lease, now)
+            && let Some(speed_up) = m.renew(&self.cx, id, lease, now)
         {
+            if speed_up {
+                self.speed_up(now);
+            }
             return;
         }
         self.queue.renew(id, lease, now);
+    }
+
+    /// A jog halts to go on faster (`motion_op`): `@B` after whatever is
+    /// already on its way, the data memory dropped, and no jog end.
+    fn speed_up(&mut self, now: Instant) {
+        let Some(Op::Motion(m)) = self.op.as_mut() else {
+            return;
+        };
+        m.speed_up(&self.cx, now);
+        self.cx.control.push_back(halt_outgoing());
+        self.cx.after_halt();
     }
 
     fn release(&mut self, id: JogId, now: Instant) {

@@ -9,11 +9,26 @@
 //! When the lease runs out (dead-man), on release or on stop, `@B` halts it
 //! with its ramp, positions kept (manual 1.5.11); the jog has ended when
 //! the run's 0x02 CR has come and `@X` reads idle.
+//!
+//! A jog never runs faster than its lease allows within `jog.max_overrun`
+//! (`plan::overrun_cap`): the first lease covers the terminal's delay before
+//! its first key repeat and is long, so the jog starts slow; the first
+//! renewal with the short lease lets it speed up (`common::jog_speed`). The
+//! interface cannot change the speed of a running move: `#E` is a buffered
+//! command and only master commands are read while a run is under way
+//! (manual 1.4.2, 1.5.6); `@A`/`@C` resume at the same speed (1.5.13,
+//! 1.5.14). So the move is halted with `@B` (ramp, positions kept, 1.5.11),
+//! its end confirmed and the positions read, and a faster batch sent from
+//! there: a dip of one brake ramp and one start ramp, once per jog, only
+//! when the speed asked for is above what the long lease allows
+//! (`docs/jogging.md`).
 
 use std::time::{Duration, Instant};
 
-use crate::device::api::{Activity, Event, JogEnd, JogId, PerAxis, Recovery, Refusal};
+use crate::axis::Axis;
+use crate::device::api::{Activity, Dir, Event, JogEnd, JogId, PerAxis, Recovery, Refusal};
 use crate::device::common::RunningMove;
+use crate::device::common::jog_speed::{self, JogSpeed, MoveState, Renewal};
 use crate::device::common::link::unreadable;
 use crate::device::common::motion::Coalescing;
 use crate::device::common::sink::refuse_step;
@@ -38,6 +53,8 @@ enum Phase {
 #[derive(Debug)]
 pub struct MotionOp {
     kind: MotionKind,
+    /// Set for a continuous jog.
+    jog_speed: Option<JogSpeed>,
     planned: Planned,
     run: Run,
     phase: Phase,
@@ -58,13 +75,26 @@ impl MotionOp {
         MotionOp::new(cx, MotionKind::MoveTo, planned)
     }
 
-    pub fn jog(cx: &Context, planned: Planned, id: JogId, lease_until: Instant) -> MotionOp {
-        MotionOp::new(cx, MotionKind::jog(id, lease_until), planned)
+    /// A jog planned for `lease` (what is left of its lease when it
+    /// starts), at most at the `requested` speeds.
+    pub fn jog(
+        cx: &Context,
+        planned: Planned,
+        id: JogId,
+        axes: Vec<(Axis, Dir)>,
+        requested: PerAxis<f64>,
+        lease: Duration,
+        lease_until: Instant,
+    ) -> MotionOp {
+        let mut op = MotionOp::new(cx, MotionKind::jog(id, lease_until), planned);
+        op.jog_speed = Some(JogSpeed::new(axes, requested, lease));
+        op
     }
 
     fn new(cx: &Context, kind: MotionKind, planned: Planned) -> MotionOp {
         MotionOp {
             kind,
+            jog_speed: None,
             run: run_of(cx, &planned),
             planned,
             phase: Phase::Moving,
@@ -76,8 +106,90 @@ impl MotionOp {
         matches!(self.phase, Phase::Moving)
     }
 
-    pub fn renew(&mut self, id: JogId, lease: Duration, now: Instant) -> bool {
-        self.kind.renew(id, lease, now)
+    /// A lease renewal for jog `id`: `None` when this is not that jog, else
+    /// whether the jog should now speed up (`@B`, then a faster batch).
+    ///
+    /// The lease is never longer than the running speed allows within
+    /// `jog.max_overrun` ([`plan::granted`]); a shorter lease than the jog
+    /// holds raises its speed cap.
+    pub fn renew(
+        &mut self,
+        cx: &Context,
+        id: JogId,
+        lease: Duration,
+        now: Instant,
+    ) -> Option<bool> {
+        let granted = plan::granted(cx, &self.planned, lease);
+        if !self.kind.renew(id, granted, now) {
+            return None;
+        }
+        let at = if self.kind.jog_end().is_some() || !self.is_moving() || self.is_stopping() {
+            MoveState::Other
+        } else if self.run.is_running() {
+            MoveState::Running
+        } else if self.run.untouched() {
+            MoveState::Unsent
+        } else {
+            // Its lines are on their way: too late to plan, too early to halt.
+            MoveState::Other
+        };
+        let speed = self.jog_speed.as_mut()?;
+        let planned = &self.planned;
+        let renewal = speed.renewed(
+            lease,
+            at,
+            |axis| planned.speeds.get(axis).unwrap_or(0.0),
+            |axis, lease| plan::overrun_cap(cx, axis, lease),
+        );
+        match renewal {
+            Renewal::Replan => {
+                if let Ok(planned) = plan::jog(cx, &speed.axes, &speed.requested, lease) {
+                    self.run = run_of(cx, &planned);
+                    self.planned = planned;
+                }
+                Some(false)
+            }
+            Renewal::SpeedUp => Some(true),
+            Renewal::Keep => Some(false),
+        }
+    }
+
+    /// The move is halted (the driver sends `@B`) to be followed by a
+    /// faster one: like a stop, but the jog goes on.
+    pub fn speed_up(&mut self, cx: &Context, now: Instant) {
+        if self.is_moving() {
+            self.run.stop(plan::brake_time(cx), now);
+        }
+    }
+
+    /// Halting to restart faster, and the jog has not ended otherwise.
+    fn is_speeding_up(&self) -> bool {
+        self.jog_speed
+            .as_ref()
+            .is_some_and(JogSpeed::is_speeding_up)
+            && self.kind.jog_end().is_none()
+    }
+
+    /// After a jog halted to speed up has been measured: the faster batch
+    /// from where it stopped, if the lease is still alive.
+    fn restart_jog(&mut self, cx: &mut Context, now: Instant) {
+        self.phase = Phase::Done;
+        let Some(speed) = self.jog_speed.as_mut() else {
+            return;
+        };
+        if self.failed {
+            // Where it stands is unknown: no faster move from there.
+            speed.sped_up();
+            self.kind.report_jog(cx);
+            return;
+        }
+        let faster = plan::jog(cx, &speed.axes, &speed.requested, speed.lease);
+        let faster = jog_speed::restart(speed, &mut self.kind, cx, now, faster);
+        if let Some(planned) = faster {
+            self.run = run_of(cx, &planned);
+            self.planned = planned;
+            self.phase = Phase::Moving;
+        }
     }
 
     /// Jog `id` was released. Returns whether `@B` must be sent.
@@ -102,9 +214,12 @@ impl MotionOp {
         Some(true)
     }
 
-    /// The move's run is over: the jog has ended, the positions are read.
+    /// The move's run is over: the jog has ended (unless it halted to speed
+    /// up), the positions are read.
     fn finish_move(&mut self, cx: &mut Context) {
-        self.kind.report_jog(cx);
+        if !self.is_speeding_up() {
+            self.kind.report_jog(cx);
+        }
         self.phase = Phase::Measure(Measure::new(cx));
     }
 
@@ -192,7 +307,7 @@ impl RunningMove for MotionOp {
 }
 
 impl Operation for MotionOp {
-    fn next(&mut self, cx: &mut Context, _now: Instant) -> Next {
+    fn next(&mut self, cx: &mut Context, now: Instant) -> Next {
         loop {
             match &mut self.phase {
                 Phase::Moving => match self.run.next(cx) {
@@ -201,6 +316,13 @@ impl Operation for MotionOp {
                 },
                 Phase::Measure(m) => match m.next(cx) {
                     Some(cmd) => return Next::Send(cmd),
+                    None if self
+                        .jog_speed
+                        .as_ref()
+                        .is_some_and(JogSpeed::is_speeding_up) =>
+                    {
+                        self.restart_jog(cx, now);
+                    }
                     None => self.continue_steps(cx),
                 },
                 Phase::Done => return Next::Done,
@@ -235,7 +357,9 @@ impl Operation for MotionOp {
                     }
                     RunEvent::Ended(status) => {
                         cx.status_read(status, now);
-                        self.kind.set_jog_end(JogEnd::SoftLimit, false);
+                        if !self.is_speeding_up() {
+                            self.kind.set_jog_end(JogEnd::SoftLimit, false);
+                        }
                         self.finish_move(cx);
                     }
                     RunEvent::Lost => self.failed(cx, "answers lost"),
@@ -252,7 +376,7 @@ impl Operation for MotionOp {
         }
     }
 
-    fn lost_reply(&mut self, cx: &mut Context, _now: Instant) {
+    fn lost_reply(&mut self, cx: &mut Context, now: Instant) {
         match &mut self.phase {
             Phase::Moving => {
                 if self.run.lost_reply() == RunEvent::Lost {
@@ -261,7 +385,17 @@ impl Operation for MotionOp {
             }
             Phase::Measure(m) => {
                 m.give_up();
-                self.phase = Phase::Done;
+                if self
+                    .jog_speed
+                    .as_ref()
+                    .is_some_and(JogSpeed::is_speeding_up)
+                {
+                    // Where the halted jog stands is unknown: it ends here.
+                    self.failed = true;
+                    self.restart_jog(cx, now);
+                } else {
+                    self.phase = Phase::Done;
+                }
             }
             Phase::Done => {}
         }
@@ -324,6 +458,9 @@ impl Operation for MotionOp {
     }
 
     fn activity(&self) -> Activity {
+        if self.is_speeding_up() {
+            return Activity::Jogging;
+        }
         self.kind.activity(self.is_moving(), self.is_stopping())
     }
 }

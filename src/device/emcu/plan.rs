@@ -11,9 +11,10 @@ use crate::axis::{Axis, AxisSet};
 use crate::device::api::{Dir, Frame, PerAxis, Refusal};
 use crate::device::common::AxisLimits;
 use crate::device::common::deadline;
+use crate::device::common::jog_speed;
 use crate::device::common::limits::{capped_speed, invalid, machine_has, moving_axes, soft_limit};
 use crate::device::common::vector;
-use crate::jog::reaction_speed_cap;
+use crate::jog;
 use crate::motion::Motion;
 use crate::proto::emcu::{Command, EmcuAxis, Move, MoveMode, Speed, Steps};
 
@@ -28,6 +29,9 @@ pub struct Planned {
     pub end_hz: u16,
     /// The change per axis.
     pub deltas: PerAxis<i64>,
+    /// The speed of each moving axis, Hz: the lead at `end_hz`, the others
+    /// in proportion (manual 1.5.10).
+    pub speeds: PerAxis<f64>,
     /// How long it takes as planned.
     pub duration: Duration,
 }
@@ -102,10 +106,21 @@ fn planned(
         .max()
         .unwrap_or(0);
     let motion = Motion::new(lead, cx.settings.move_ramp(f64::from(end_hz)));
+    let speeds = deltas
+        .iter()
+        .filter(|(_, d)| *d != 0)
+        .map(|(axis, d)| {
+            (
+                axis,
+                f64::from(end_hz) * d.unsigned_abs() as f64 / lead as f64,
+            )
+        })
+        .collect();
     Ok(Planned {
         commands,
         end_hz,
         deltas: *deltas,
+        speeds,
         duration: motion.end_time(),
     })
 }
@@ -203,18 +218,42 @@ pub fn move_to(
     )
 }
 
+/// The fastest jog speed of `axis` that stops within its `jog.max_overrun`
+/// when the operator lets go while the jog holds a lease of `lease`: the
+/// lease at speed, the `@B`'s way to the wire, then the `#R` ramp down
+/// (manual 1.5.7, `jog::speed_cap`).
+pub fn overrun_cap(cx: &Context, axis: Axis, lease: Duration) -> f64 {
+    cx.settings.limits(axis).map_or(0.0, |l| {
+        jog::speed_cap(&cx.settings.braking(), lease, l.max_overrun)
+    })
+}
+
+/// The lease a renewal asking for `lease` is granted while `planned` runs:
+/// no longer than its speeds allow within `jog.max_overrun`.
+pub fn granted(cx: &Context, planned: &Planned, lease: Duration) -> Duration {
+    let bounds = planned
+        .speeds
+        .iter()
+        .filter_map(|(axis, hz)| cx.settings.limits(axis).map(|l| (hz, l.max_overrun)));
+    jog_speed::granted(&cx.settings.braking(), lease, bounds)
+}
+
 /// A continuous jog: one relative move towards the soft limits along the
 /// speed vector (`common::vector`), each speed capped so that the axis
-/// stops within `jog.max_overrun` after the operator lets go: one dead-man
-/// timeout at speed, then the `#R` ramp down (`jog::reaction_speed_cap`).
-pub fn jog(cx: &Context, axes: &[(Axis, Dir)], speeds: &PerAxis<f64>) -> Result<Planned, Refusal> {
+/// stops within `jog.max_overrun` when the `lease` the jog holds runs out
+/// unrenewed ([`overrun_cap`]; `docs/jogging.md`).
+pub fn jog(
+    cx: &Context,
+    axes: &[(Axis, Dir)],
+    speeds: &PerAxis<f64>,
+    lease: Duration,
+) -> Result<Planned, Refusal> {
     let set: AxisSet = axes.iter().map(|(a, _)| *a).collect();
     machine_has(cx.settings.axes, set)?;
     vector::jog_axes(axes)?;
     cx.motion_allowed(cx.settings.jog.allow_unreferenced)?;
     cx.memory_free()?;
     let position = cx.position.ok_or(Refusal::NotConnected)?;
-    let reaction = cx.settings.jog.repeat_timeout;
     let legs = vector::legs(
         axes,
         vector::JogFrame {
@@ -222,15 +261,15 @@ pub fn jog(cx: &Context, axes: &[(Axis, Dir)], speeds: &PerAxis<f64>) -> Result<
             referenced: cx.state.referenced,
             max_travel: i64::from(Steps::MAX),
             limits_of: |axis| cx.settings.limits(axis),
-            speed_of: |axis, limits: &AxisLimits| {
-                let cap = reaction_speed_cap(&cx.settings.braking(), reaction, limits.max_overrun)
-                    .max(1.0);
+            speed_of: |axis, _: &AxisLimits| {
+                // Whole Hz below the cap: the slot speed is rounded.
+                let cap = overrun_cap(cx, axis, lease).floor().max(1.0);
                 capped_speed(
                     &cx.settings.limits,
                     axis,
                     speeds.get(axis).map(|v| v.min(cap)),
                 )
-                .map(|hz| f64::from(slot_speed(hz)))
+                .map(|hz| f64::from(slot_speed(hz.floor())))
             },
         },
     )?;

@@ -143,6 +143,11 @@ impl Run {
         self.started
     }
 
+    /// Nothing of the batch has been handed out yet.
+    pub fn untouched(&self) -> bool {
+        self.phase == Phase::Send && self.next == 0
+    }
+
     /// Lines acknowledged so far.
     pub fn acked_count(&self) -> usize {
         self.next

@@ -32,7 +32,7 @@ mod io;
 mod motion_op;
 mod op;
 mod output;
-mod plan;
+pub(crate) mod plan;
 mod poll;
 mod raw;
 mod readback;
@@ -580,8 +580,20 @@ impl EmpDriver {
                 id, axes, speed_hz, ..
             } => {
                 let until = queued.lease_until.unwrap_or(now);
-                plan::jog(cx, axes, speed_hz)
-                    .map(|p| Some(Op::Motion(Box::new(MotionOp::jog(cx, p, *id, until)))))
+                // The lease the jog holds now: what is left of the one it
+                // was given (it may have waited behind a braking jog).
+                let lease = until.saturating_duration_since(now);
+                plan::jog(cx, axes, speed_hz, lease).map(|p| {
+                    Some(Op::Motion(Box::new(MotionOp::jog(
+                        cx,
+                        p,
+                        *id,
+                        axes.clone(),
+                        *speed_hz,
+                        lease,
+                        until,
+                    ))))
+                })
             }
             Request::Step { delta, speed_hz } => match cx.positions() {
                 Some(base) => plan::step(cx, &base, delta, speed_hz)
@@ -649,7 +661,7 @@ impl EmpDriver {
 
     fn renew(&mut self, id: JogId, lease: Duration, now: Instant) {
         if let Some(Op::Motion(m)) = self.op.as_mut()
-            && m.renew(id, lease, now)
+            && m.renew(&self.cx, id, lease, now)
         {
             return;
         }

@@ -6,12 +6,27 @@
 //! out, it reaches the soft-limit look-ahead or the operator stops; the
 //! driver then sends `08` or `2A 03` (`emp.stop`) to its drives and the
 //! operation ends when they have answered.
+//!
+//! A jog never runs faster than its lease allows within `jog.max_overrun`
+//! (`plan::overrun_cap`): the first lease covers the terminal's delay before
+//! its first key repeat and is long, so the jog starts slow; the first
+//! renewal with the short lease lets it speed up (`common::jog_speed`)
+//! without a stop: in IV mode `20 19` changes the running speed at once and
+//! a new `2A 00` sets the velocity byte; in TPWM a new `2A 01` with the new
+//! Vmax to the same target takes over from the running positioning (manual
+//! "20 : Abtastrate", "2A"; `docs/protocols.md` EMP). The sample rate goes
+//! first: the velocity byte only grows with the speed, so the speed between
+//! the two frames is at most the new one.
 
 use std::time::{Duration, Instant};
 
-use crate::device::api::{Activity, ControllerFault, JogEnd, JogId, PerAxis, Recovery, Refusal};
+use crate::axis::Axis;
+use crate::device::api::{
+    Activity, ControllerFault, Dir, JogEnd, JogId, PerAxis, Recovery, Refusal,
+};
 use crate::device::common::MotionKind;
 use crate::device::common::RunningMove;
+use crate::device::common::jog_speed::{JogSpeed, MoveState, Renewal};
 use crate::device::common::motion::Coalescing;
 use crate::device::common::sink::refuse_step;
 use crate::proto::emp::{Command, DriveAddress, OperatingMode, Reply, Request};
@@ -25,6 +40,8 @@ use super::script::{Next, Outcome, Script, Step};
 #[derive(Debug)]
 pub struct MotionOp {
     kind: MotionKind,
+    /// Set for a continuous jog.
+    jog_speed: Option<JogSpeed>,
     plan: Plan,
     script: Script,
     stopping: bool,
@@ -49,28 +66,40 @@ fn script_for(cx: &Context, plan: &Plan) -> Script {
         if d.and_then(|d| d.mode) != Some(mode) {
             steps.push(Step::Send(Request::new(leg.ds, Command::MotorEnable(mode))));
         }
-        if d.and_then(|d| d.reload) != Some(leg.speed.reload) {
-            steps.push(Step::Send(Request::new(
-                leg.ds,
-                Command::SampleRate(leg.speed.reload),
-            )));
-        }
-        let command = match (plan.style, leg.target) {
-            (Style::Position, Some(target)) => Command::MoveTo {
-                vmax: leg.speed.speed,
-                target,
-            },
-            _ => Command::Drive {
-                velocity: leg.speed.velocity(leg.dir.sign() < 0),
-                target: crate::proto::emp::Position::ZERO,
-            },
-        };
-        steps.push(Step::Send(Request::new(leg.ds, command)));
+        steps.extend(leg_steps(plan.style, leg, d.and_then(|d| d.reload)));
     }
     if plan.style == Style::Position {
         steps.push(Step::Barrier);
     }
     Script::new(steps)
+}
+
+/// The sample rate when the drive's differs from `reload`, then the move
+/// of one leg.
+fn leg_steps(
+    style: Style,
+    leg: &plan::Leg,
+    reload: Option<crate::proto::emp::ReloadValue>,
+) -> Vec<Step> {
+    let mut steps = Vec::new();
+    if reload != Some(leg.speed.reload) {
+        steps.push(Step::Send(Request::new(
+            leg.ds,
+            Command::SampleRate(leg.speed.reload),
+        )));
+    }
+    let command = match (style, leg.target) {
+        (Style::Position, Some(target)) => Command::MoveTo {
+            vmax: leg.speed.speed,
+            target,
+        },
+        _ => Command::Drive {
+            velocity: leg.speed.velocity(leg.dir.sign() < 0),
+            target: crate::proto::emp::Position::ZERO,
+        },
+    };
+    steps.push(Step::Send(Request::new(leg.ds, command)));
+    steps
 }
 
 /// How long a positioning may take: the longest leg at its speed, with the
@@ -103,6 +132,7 @@ impl MotionOp {
             script: script_for(cx, &plan),
             timeout: timeout_for(cx, &plan),
             kind,
+            jog_speed: None,
             plan,
             stopping: false,
             stop_wait: Vec::new(),
@@ -113,8 +143,20 @@ impl MotionOp {
         }
     }
 
-    pub fn jog(cx: &Context, plan: Plan, id: JogId, until: Instant) -> MotionOp {
-        MotionOp::new(cx, MotionKind::jog(id, until), plan, None)
+    /// A jog planned for `lease` (what is left of its lease when it
+    /// starts), at most at the `requested` speeds.
+    pub fn jog(
+        cx: &Context,
+        plan: Plan,
+        id: JogId,
+        axes: Vec<(Axis, Dir)>,
+        requested: PerAxis<f64>,
+        lease: Duration,
+        until: Instant,
+    ) -> MotionOp {
+        let mut op = MotionOp::new(cx, MotionKind::jog(id, until), plan, None);
+        op.jog_speed = Some(JogSpeed::new(axes, requested, lease));
+        op
     }
 
     pub fn step(cx: &Context, plan: Plan, delta: PerAxis<i64>) -> MotionOp {
@@ -125,8 +167,74 @@ impl MotionOp {
         MotionOp::new(cx, MotionKind::MoveTo, plan, None)
     }
 
-    pub fn renew(&mut self, id: JogId, lease: Duration, now: Instant) -> bool {
-        !self.stopping && self.kind.renew(id, lease, now)
+    /// A lease renewal for jog `id`; false when this is not that jog or it
+    /// is stopping. The lease is never longer than the running speed allows
+    /// within `jog.max_overrun` ([`plan::granted`]); the first shorter lease
+    /// than the jog holds raises its speed ([`Self::speed_up`]).
+    pub fn renew(&mut self, cx: &Context, id: JogId, lease: Duration, now: Instant) -> bool {
+        if self.stopping {
+            return false;
+        }
+        let granted = plan::granted(cx, &self.plan, lease);
+        if !self.kind.renew(id, granted, now) {
+            return false;
+        }
+        // Frames still on their way (the first few ms of the jog): no
+        // change in the middle of them.
+        let at = if self.kind.jog_end().is_none() && !self.failed && self.script.settled() {
+            MoveState::Running
+        } else {
+            MoveState::Other
+        };
+        let Some(speed) = self.jog_speed.as_mut() else {
+            return true;
+        };
+        let legs = &self.plan.legs;
+        let renewal = speed.renewed(
+            lease,
+            at,
+            |axis| {
+                legs.iter()
+                    .find(|l| l.axis == axis)
+                    .map_or(0.0, plan::Leg::hz)
+            },
+            |axis, lease| plan::overrun_cap(cx, axis, lease),
+        );
+        if renewal == Renewal::SpeedUp {
+            self.speed_up(cx);
+        }
+        true
+    }
+
+    /// The running jog goes on faster, without a stop: the new speed's
+    /// frames take over from the running ones. A jog whose faster plan is
+    /// refused (its soft-limit look-ahead is longer at the new speed) goes
+    /// on as it runs.
+    fn speed_up(&mut self, cx: &Context) {
+        let Some(speed) = self.jog_speed.as_mut() else {
+            return;
+        };
+        speed.sped_up();
+        let Ok(faster) = plan::jog(cx, &speed.axes, &speed.requested, speed.lease) else {
+            return;
+        };
+        let mut steps = Vec::new();
+        for leg in &faster.legs {
+            let reload = self
+                .plan
+                .legs
+                .iter()
+                .find(|l| l.ds == leg.ds)
+                .map(|l| l.speed.reload);
+            steps.extend(leg_steps(faster.style, leg, reload));
+        }
+        if faster.style == Style::Position {
+            steps.push(Step::Barrier);
+        }
+        self.script.replace_rest(steps);
+        self.timeout = timeout_for(cx, &faster);
+        self.deadline = None;
+        self.plan = faster;
     }
 
     /// The jog `id` was let go: stop it. False when this is not that jog.

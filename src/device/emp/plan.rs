@@ -12,10 +12,12 @@
 use crate::axis::{Axis, AxisSet};
 use crate::config::profile::EmpJog;
 use crate::device::api::{Dir, Frame, PerAxis, Refusal};
+use crate::device::common::jog_speed;
 use crate::device::common::limits::{capped_speed, invalid, moving_axes, named_axes, soft_limit};
 use crate::device::common::vector::{Leg as VectorLeg, room, travel};
-use crate::jog::{Braking, reaction_speed_cap};
+use crate::jog::{self, Braking};
 use crate::proto::emp::{DriveAddress, Position};
+use std::time::Duration;
 
 use super::context::Context;
 use super::settings::BRAKE_TIME;
@@ -80,21 +82,47 @@ pub fn lookahead(cx: &Context, hz: f64) -> f64 {
     hz * (reaction + BRAKE_TIME.as_secs_f64() / 2.0)
 }
 
-/// The fastest jog that stops within `jog.max_overrun` after the operator
-/// lets go: one dead-man timeout and a round trip at speed, then braking in
-/// `BRAKE_TIME` (`jog::reaction_speed_cap`).
-fn jog_cap(cx: &Context, axis: Axis) -> f64 {
-    let Some(l) = cx.settings.limits.get(axis) else {
-        return 0.0;
-    };
-    let reaction =
-        cx.settings.jog.repeat_timeout + cx.settings.timing.round_trip * cx.drives.len() as u32;
-    // A servo brakes to rest in `BRAKE_TIME` from any speed.
-    let braking = Braking::FixedTime {
+/// How a servo brakes: to rest within `BRAKE_TIME` from any speed.
+pub fn braking() -> Braking {
+    Braking::FixedTime {
         start_hz: 0.0,
         ramp: BRAKE_TIME,
-    };
-    reaction_speed_cap(&braking, reaction, l.max_overrun)
+    }
+}
+
+/// The stop frame's way to the drive: a round trip per drive (the stop
+/// frames of a jog go out one after the other).
+fn stop_way(cx: &Context) -> Duration {
+    cx.settings.timing.round_trip * u32::try_from(cx.drives.len()).unwrap_or(u32::MAX)
+}
+
+/// The speed the drive's arithmetic may run above the one asked for is at
+/// most 1/RelVal (`speed::DriveSpeed::for_hz`), below 1e-4 up to 150 000
+/// counts/s: a cap is asked for this much lower, so the speed run keeps it.
+const RELOAD_MARGIN: f64 = 1e-4;
+
+/// The fastest jog of `axis` that stops within `jog.max_overrun` when the
+/// `lease` it holds runs out unrenewed: the lease, the stop's way to the
+/// wire and a round trip per drive at speed, then braking in `BRAKE_TIME`
+/// (`jog::speed_cap`).
+pub fn overrun_cap(cx: &Context, axis: Axis, lease: Duration) -> f64 {
+    cx.settings.limits.get(axis).map_or(0.0, |l| {
+        jog::speed_cap(&braking(), lease + stop_way(cx), l.max_overrun) * (1.0 - RELOAD_MARGIN)
+    })
+}
+
+/// The lease a renewal asking for `lease` is granted while `plan` runs: no
+/// longer than its speeds allow within `jog.max_overrun`, the stop frames'
+/// round trips included.
+pub fn granted(cx: &Context, plan: &Plan, lease: Duration) -> Duration {
+    let way = stop_way(cx).as_secs_f64();
+    let bounds = plan.legs.iter().filter_map(|leg| {
+        cx.settings
+            .limits
+            .get(leg.axis)
+            .map(|l| (leg.hz(), l.max_overrun - leg.hz() * way))
+    });
+    jog_speed::granted(&braking(), lease, bounds)
 }
 
 fn position(counts: i64) -> Result<Position, Refusal> {
@@ -107,8 +135,14 @@ fn ds_of(cx: &Context, axis: Axis) -> Result<DriveAddress, Refusal> {
         .ok_or_else(|| invalid(format!("the machine has no {axis} axis")))
 }
 
-/// A continuous jog of `axes`.
-pub fn jog(cx: &Context, axes: &[(Axis, Dir)], speeds: &PerAxis<f64>) -> Result<Plan, Refusal> {
+/// A continuous jog of `axes`, each no faster than the `lease` it holds
+/// allows within `jog.max_overrun` ([`overrun_cap`], `docs/jogging.md`).
+pub fn jog(
+    cx: &Context,
+    axes: &[(Axis, Dir)],
+    speeds: &PerAxis<f64>,
+    lease: Duration,
+) -> Result<Plan, Refusal> {
     let set: AxisSet = axes.iter().map(|(a, _)| *a).collect();
     named_axes(cx.settings.axes, set)?;
     if set.len() != axes.len() {
@@ -123,7 +157,8 @@ pub fn jog(cx: &Context, axes: &[(Axis, Dir)], speeds: &PerAxis<f64>) -> Result<
     let mut legs = Vec::new();
     let mut vector = Vec::new();
     for &(axis, dir) in axes {
-        let hz = capped_speed(&cx.settings.limits, axis, speeds.get(axis))?.min(jog_cap(cx, axis));
+        let hz = capped_speed(&cx.settings.limits, axis, speeds.get(axis))?
+            .min(overrun_cap(cx, axis, lease));
         let speed = speed_of(hz, axis)?;
         let limits = cx
             .settings

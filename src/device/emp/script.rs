@@ -86,6 +86,21 @@ impl Script {
         self.awaiting.is_none() && self.running.is_empty() && (self.failed || self.steps.is_empty())
     }
 
+    /// Every frame has been sent and answered; at most long actions are
+    /// still running (and barriers wait for them).
+    pub fn settled(&self) -> bool {
+        self.awaiting.is_none()
+            && !self.failed
+            && self.steps.iter().all(|s| matches!(s, Step::Barrier))
+    }
+
+    /// What is left to do becomes `steps` (a running jog changing its
+    /// speed): barriers not yet passed are dropped with it, long actions
+    /// running are still awaited until they end or are ended.
+    pub fn replace_rest(&mut self, steps: impl IntoIterator<Item = Step>) {
+        self.steps = steps.into_iter().collect();
+    }
+
     /// Whether `request` is one this script waits for.
     pub fn owns(&self, request: &Request) -> bool {
         self.awaiting.as_ref() == Some(request) || self.running.contains(request)
@@ -154,6 +169,23 @@ mod tests {
         assert_eq!(s.next(), Next::Send(a));
         s.outcome(&a, Outcome::Rejected);
         assert!(s.failed());
+        assert_eq!(s.next(), Next::Done);
+    }
+
+    #[test]
+    fn a_running_action_can_be_followed_by_new_frames_before_its_barrier() {
+        let pos = Request::new(DriveAddress::SINGLE, Command::ReadPosition);
+        let mut s = Script::new([Step::Send(home()), Step::Barrier]);
+        assert!(!s.settled());
+        assert_eq!(s.next(), Next::Send(home()));
+        assert!(!s.settled());
+        s.outcome(&home(), Outcome::Started);
+        assert!(s.settled());
+        s.replace_rest([Step::Send(pos), Step::Barrier]);
+        assert_eq!(s.next(), Next::Send(pos));
+        s.outcome(&pos, Outcome::Answered);
+        assert_eq!(s.next(), Next::Wait);
+        s.outcome(&home(), Outcome::Ended);
         assert_eq!(s.next(), Next::Done);
     }
 

@@ -24,6 +24,7 @@ use crate::axis::Axis;
 use crate::device::api::{Activity, Dir, JogEnd, JogId, PerAxis, Recovery, Refusal};
 use crate::device::common::MotionKind;
 use crate::device::common::RunningMove;
+use crate::device::common::jog_speed::{self, JogSpeed, MoveState, Renewal};
 use crate::device::common::motion::Coalescing;
 use crate::device::common::sink::refuse_step;
 use crate::proto::isel::{Command, ControlByte, Reply, ReplyCode};
@@ -32,21 +33,6 @@ use super::context::{Context, control_outgoing};
 use super::deadline;
 use super::op::{Abandon, Next, Operation};
 use super::plan::{self, Planned};
-
-/// What a continuous jog needs to follow its lease with its speed.
-#[derive(Debug)]
-struct JogSpeed {
-    axes: Vec<(Axis, Dir)>,
-    /// The speeds the client asked for (the plan may run slower).
-    requested: PerAxis<f64>,
-    /// The lease length the jog holds now; the speed cap follows it.
-    lease: Duration,
-    /// Stopping to restart faster: the stop is not the jog's end.
-    speeding_up: bool,
-}
-
-/// A faster move is worth its dip only when it is faster by this factor.
-const SPEED_UP_FACTOR: f64 = 1.05;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Phase {
@@ -89,12 +75,7 @@ impl MotionOp {
         lease_until: Instant,
     ) -> MotionOp {
         let mut op = MotionOp::new(MotionKind::jog(id, lease_until), planned);
-        op.jog_speed = Some(JogSpeed {
-            axes,
-            requested,
-            lease,
-            speeding_up: false,
-        });
+        op.jog_speed = Some(JogSpeed::new(axes, requested, lease));
         op
     }
 
@@ -119,7 +100,7 @@ impl MotionOp {
     /// whether the jog should now speed up (stop, then a faster move).
     ///
     /// The lease is never longer than the running speed allows within
-    /// `jog.max_overrun` ([`plan::lease_cap`]); a shorter lease than the jog
+    /// `jog.max_overrun` ([`plan::granted`]); a shorter lease than the jog
     /// holds raises its speed cap.
     pub fn renew(
         &mut self,
@@ -128,40 +109,42 @@ impl MotionOp {
         lease: Duration,
         now: Instant,
     ) -> Option<bool> {
-        let moving = self.phase == Phase::Moving && !self.stopping;
-        let unsent = self.phase == Phase::Send;
-        let granted = lease.min(plan::lease_cap(cx, &self.planned.speeds));
+        let granted = plan::granted(cx, &self.planned.speeds, lease);
         if !self.kind.renew(id, granted, now) {
             return None;
         }
-        let ended = self.kind.jog_end().is_some();
+        let at = if self.kind.jog_end().is_some() {
+            MoveState::Other
+        } else if self.phase == Phase::Send {
+            MoveState::Unsent
+        } else if self.phase == Phase::Moving && !self.stopping {
+            MoveState::Running
+        } else {
+            MoveState::Other
+        };
         let speed = self.jog_speed.as_mut()?;
-        if lease >= speed.lease {
-            return Some(false);
-        }
-        speed.lease = lease;
-        if unsent && !ended {
-            // Not on the wire yet: plan it for the new lease straight away.
-            if let Ok(planned) = plan::jog(cx, &speed.axes, &speed.requested, lease) {
-                self.planned = planned;
+        let planned = &self.planned;
+        let renewal = speed.renewed(
+            lease,
+            at,
+            |axis| planned.speeds.get(axis).map_or(0.0, f64::from),
+            |axis, lease| {
+                cx.settings
+                    .limits(axis)
+                    .map_or(0.0, |l| plan::overrun_cap(cx.ramp, lease, l.max_overrun))
+            },
+        );
+        match renewal {
+            Renewal::Replan => {
+                // Not on the wire yet: plan it for the new lease straight away.
+                if let Ok(planned) = plan::jog(cx, &speed.axes, &speed.requested, lease) {
+                    self.planned = planned;
+                }
+                Some(false)
             }
-            return Some(false);
+            Renewal::SpeedUp => Some(true),
+            Renewal::Keep => Some(false),
         }
-        if !moving || ended || speed.speeding_up {
-            return Some(false);
-        }
-        // The speed the shorter lease allows, per axis, against the plan's.
-        let faster = speed.axes.iter().any(|(axis, _)| {
-            let now_hz = self.planned.speeds.get(*axis).map_or(0.0, f64::from);
-            let cap = cx
-                .settings
-                .limits(*axis)
-                .map_or(0.0, |l| plan::overrun_cap(cx.ramp, lease, l.max_overrun));
-            let want = speed.requested.get(*axis).unwrap_or(0.0).min(cap);
-            want > now_hz * SPEED_UP_FACTOR
-        });
-        speed.speeding_up = faster;
-        Some(faster)
     }
 
     /// The move is stopped to be followed by a faster one: like a stop, but
@@ -176,7 +159,10 @@ impl MotionOp {
     }
 
     fn is_speeding_up(&self) -> bool {
-        self.jog_speed.as_ref().is_some_and(|s| s.speeding_up) && self.kind.jog_end().is_none()
+        self.jog_speed
+            .as_ref()
+            .is_some_and(JogSpeed::is_speeding_up)
+            && self.kind.jog_end().is_none()
     }
 
     /// Jog `id` was released. Returns whether the stop sequence must be sent.
@@ -207,27 +193,13 @@ impl MotionOp {
         let Some(speed) = self.jog_speed.as_mut() else {
             return;
         };
-        speed.speeding_up = false;
-        if self.kind.lease_until().is_some_and(|until| until <= now) {
-            self.kind.set_jog_end(JogEnd::DeadMan, false);
-            self.kind.report_jog(&mut cx.events);
-            return;
-        }
-        match plan::jog(cx, &speed.axes, &speed.requested, speed.lease) {
-            Ok(planned) => {
-                self.planned = planned;
-                self.phase = Phase::Send;
-                self.stopping = false;
-                self.next_estimate = None;
-            }
-            Err(Refusal::SoftLimit { .. }) => {
-                self.kind.set_jog_end(JogEnd::SoftLimit, false);
-                self.kind.report_jog(&mut cx.events);
-            }
-            Err(reason) => {
-                self.kind.set_jog_end(JogEnd::Refused(reason), false);
-                self.kind.report_jog(&mut cx.events);
-            }
+        let faster = plan::jog(cx, &speed.axes, &speed.requested, speed.lease);
+        let faster = jog_speed::restart(speed, &mut self.kind, &mut cx.events, now, faster);
+        if let Some(planned) = faster {
+            self.planned = planned;
+            self.phase = Phase::Send;
+            self.stopping = false;
+            self.next_estimate = None;
         }
     }
 

@@ -8,6 +8,7 @@ use std::time::Duration;
 use crate::axis::{Axis, AxisSet};
 use crate::device::api::{Dir, Frame, PerAxis, Refusal};
 use crate::device::common::AxisLimits;
+use crate::device::common::jog_speed;
 use crate::device::common::limits::{self, capped_speed, invalid, machine_has, moving_axes};
 use crate::device::common::vector;
 use crate::jog::{self, Braking};
@@ -52,19 +53,15 @@ pub fn overrun_cap(ramp: RampParams, lease: Duration, max_overrun: f64) -> f64 {
     jog::speed_cap(&braking(ramp), lease, max_overrun)
 }
 
-/// The longest lease a jog running at `speeds` may hold and still stop
-/// within every axis's `max_overrun`.
-pub fn lease_cap(cx: &Context, speeds: &PerAxis<u32>) -> Duration {
-    let b = braking(cx.ramp);
-    speeds
-        .iter()
-        .filter_map(|(axis, hz)| {
-            cx.settings
-                .limits(axis)
-                .map(|l| jog::lease_cap(&b, f64::from(hz), l.max_overrun))
-        })
-        .min()
-        .unwrap_or(Duration::ZERO)
+/// The lease a renewal asking for `lease` is granted while a jog runs at
+/// `speeds`: no longer than they allow within every axis's `max_overrun`.
+pub fn granted(cx: &Context, speeds: &PerAxis<u32>, lease: Duration) -> Duration {
+    let bounds = speeds.iter().filter_map(|(axis, hz)| {
+        cx.settings
+            .limits(axis)
+            .map(|l| (f64::from(hz), l.max_overrun))
+    });
+    jog_speed::granted(&braking(cx.ramp), lease, bounds)
 }
 
 fn check_axes(cx: &Context, axes: AxisSet) -> Result<(), Refusal> {

@@ -9,7 +9,16 @@ use crate::device::api::{
 };
 use crate::device::common::testing::refusal_reasons;
 
-use super::harness::{Harness, ms, speeds, xyz};
+use super::harness::{Harness, ms, settings, speeds, xyz};
+
+/// The slot speed a jog holding `lease` may run at: the fastest that stops
+/// within X's `jog.max_overrun` (`jog::speed_cap` with the `#R` ramp), in
+/// whole Hz below the cap.
+fn cap(lease: Duration) -> u16 {
+    let s = settings();
+    let bound = s.limits(Axis::X).expect("X").max_overrun;
+    crate::jog::speed_cap(&s.braking(), lease, bound).floor() as u16
+}
 
 fn jog(id: u64, axes: Vec<(Axis, Dir)>, hz: f64, lease: Duration) -> Request {
     Request::Jog {
@@ -154,9 +163,11 @@ fn a_move_to_is_absolute_in_machine_steps_with_jogterms_work_zero() {
 fn a_jog_runs_to_the_soft_limit_until_its_lease_runs_out() {
     let mut h = Harness::ready_at(10_000, 0, 0);
     h.request(jog(1, vec![(Axis::X, Dir::Plus)], 1_000.0, ms(300)));
-    // Capped: 0.15 s at speed plus the 500 ms ramp from speed to 200 Hz
-    // within 3 mm = 600 steps: v = (600 - 50) / 0.4 = 1375 Hz.
-    h.expect_text("#E9,1000");
+    // Capped for the lease it holds: 0.3 s at speed, the stop's way to the
+    // wire and the 500 ms ramp from speed to 200 Hz within 3 mm = 600
+    // steps: v = (600 - 50) / (0.31 + 0.25) = 982 Hz.
+    assert!(cap(ms(300)) < 1_000);
+    h.expect_text(&format!("#E9,{}", cap(ms(300))));
     h.reply(b"\r");
     h.expect(b"L9,x50000\x01");
     h.reply(b"\r");
@@ -184,7 +195,7 @@ fn a_jog_runs_to_the_soft_limit_until_its_lease_runs_out() {
 fn a_jog_speed_is_capped_by_the_overrun() {
     let mut h = Harness::ready_at(10_000, 0, 0);
     h.request(jog(1, vec![(Axis::X, Dir::Minus)], 2_000.0, ms(300)));
-    h.expect_text("#E9,1375");
+    h.expect_text(&format!("#E9,{}", cap(ms(300))));
 }
 
 #[test]
@@ -196,7 +207,8 @@ fn release_and_stop_end_a_jog() {
         1_000.0,
         ms(500),
     ));
-    h.expect_text("#E9,1000");
+    // 723 Hz: (600 - 50) / (0.51 + 0.25).
+    h.expect_text(&format!("#E9,{}", cap(ms(500))));
     h.reply(b"\r");
     // X reaches 0 first: 10000 steps each way.
     h.expect(b"L9,x-10000,y10000\x01");
@@ -222,7 +234,7 @@ fn release_and_stop_end_a_jog() {
 fn a_jog_released_before_its_move_went_out_never_starts() {
     let mut h = Harness::ready_at(10_000, 0, 0);
     h.request(jog(4, vec![(Axis::X, Dir::Plus)], 1_000.0, ms(500)));
-    h.expect_text("#E9,1000");
+    h.expect_text(&format!("#E9,{}", cap(ms(500))));
     h.request(Request::JogRelease { id: JogId(4) });
     // `@B` also drops the `#E` stored for it.
     h.expect(b"@B\r");
@@ -332,4 +344,79 @@ fn outputs_are_switched_by_a_batch_of_one_and_remembered() {
         "{:?}",
         h.refusals()
     );
+}
+
+#[test]
+fn a_jog_speeds_up_once_at_the_first_short_renewal() {
+    let mut h = Harness::ready_at(10_000, 0, 0);
+    // The first lease covers the terminal's repeat delay: slow.
+    h.request(jog(1, vec![(Axis::X, Dir::Plus)], 1_000.0, ms(750)));
+    h.expect_text(&format!("#E9,{}", cap(ms(750))));
+    h.reply(b"\r");
+    h.expect(b"L9,x50000\x01");
+    h.reply(b"\r");
+    h.advance(ms(500));
+    h.request(Request::JogRenew {
+        id: JogId(1),
+        lease: ms(150),
+    });
+    // `#E` cannot reach a running batch (manual 1.4.2): halted, not ended.
+    h.expect(b"@B\r");
+    h.reply(b"\r");
+    assert_eq!(h.state().activity, Activity::Jogging);
+    h.run_ends();
+    h.positions_read(10_300, 0, 0);
+    assert!(h.jog_ends().is_empty());
+    // From where it stopped, as fast as asked: 1000 Hz is below cap(150 ms).
+    assert!(cap(ms(150)) > 1_000);
+    h.expect_text("#E9,1000");
+    h.reply(b"\r");
+    h.expect(b"L9,x49700\x01");
+    h.reply(b"\r");
+    assert_eq!(h.state().activity, Activity::Jogging);
+    // Once: the next repeats only renew.
+    h.advance(ms(33));
+    h.request(Request::JogRenew {
+        id: JogId(1),
+        lease: ms(150),
+    });
+    h.expect_nothing();
+    h.advance(ms(149));
+    h.expect_nothing();
+    h.advance(ms(1));
+    h.expect(b"@B\r");
+    h.reply(b"\r");
+    h.run_ends();
+    h.positions_read(10_500, 0, 0);
+    assert_eq!(h.jog_ends(), [(1, JogEnd::DeadMan)]);
+    assert_eq!(h.state().activity, Activity::Idle);
+}
+
+#[test]
+fn a_renewal_is_granted_no_longer_lease_than_the_speed_allows() {
+    let mut h = Harness::ready_at(10_000, 0, 0);
+    h.request(jog(1, vec![(Axis::X, Dir::Plus)], 2_000.0, ms(150)));
+    let hz = cap(ms(150));
+    h.expect_text(&format!("#E9,{hz}"));
+    h.reply(b"\r");
+    h.expect(b"L9,x50000\x01");
+    h.reply(b"\r");
+    h.advance(ms(100));
+    // A toggle tick or a late repeat asking for 750 ms at this speed.
+    h.request(Request::JogRenew {
+        id: JogId(1),
+        lease: ms(750),
+    });
+    let s = settings();
+    let bound = s.limits(Axis::X).expect("X").max_overrun;
+    let allowed = crate::jog::lease_cap(&s.braking(), f64::from(hz), bound);
+    assert!(allowed < ms(151), "{allowed:?}");
+    h.advance(ms(149));
+    h.expect_nothing();
+    h.advance(allowed - ms(149));
+    h.expect(b"@B\r");
+    h.reply(b"\r");
+    h.run_ends();
+    h.positions_read(10_400, 0, 0);
+    assert_eq!(h.jog_ends(), [(1, JogEnd::DeadMan)]);
 }

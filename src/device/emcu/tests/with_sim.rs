@@ -226,15 +226,141 @@ fn a_jog_towards_the_limit_stops_at_the_soft_limit() {
     // 5 mm/s at most on Z: 15 700 steps at 1 kHz.
     b.run(secs(25));
     assert_eq!(i64::from(counters(&mut b)[2]), max - 300);
+    // A lease so long that only the soft limit ends the jog; the speed its
+    // overrun bound allows for it sets how long the last 300 steps take.
+    let lease = secs(30);
+    let hz = lease_speed(Axis::Z, lease).min(500.0);
     b.request(Request::Jog {
         id: JogId(2),
         axes: vec![(Axis::Z, Dir::Plus)],
         speed_hz: speeds(500.0),
-        lease: secs(30),
+        lease,
     });
-    b.run(secs(5));
+    b.run(Duration::from_secs_f64(300.0 / hz) + secs(2));
     assert!(!b.sim.status(b.now).moving);
     assert_eq!(i64::from(counters(&mut b)[2]), max);
+    let ends: Vec<_> = b
+        .events
+        .iter()
+        .filter_map(|e| match e {
+            Event::JogEnded { id, end } => Some((*id, end.clone())),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(ends, [(JogId(2), JogEnd::SoftLimit)]);
+}
+
+fn settings() -> EmcuSettings {
+    let profile = load_profile("emcu", &ConfigDirs::builtin_only()).expect("profile");
+    EmcuSettings::from_profile(&profile).expect("settings")
+}
+
+/// The jog speed (whole Hz) the overrun bound allows `axis` with `lease`.
+fn lease_speed(axis: Axis, lease: Duration) -> f64 {
+    let s = settings();
+    let bound = s.limits(axis).expect("axis").max_overrun;
+    crate::jog::speed_cap(&s.braking(), lease, bound).floor()
+}
+
+fn bound_and_top(axis: Axis) -> (f64, f64) {
+    let l = settings().limits(axis).expect("axis");
+    (l.max_overrun, l.max_hz)
+}
+
+/// The profile's dead-man leases: before the first key repeat, and after.
+fn leases() -> (Duration, Duration) {
+    let profile = load_profile("emcu", &ConfigDirs::builtin_only()).expect("profile");
+    (
+        Duration::from_millis(profile.jog.first_repeat_grace_ms),
+        Duration::from_millis(profile.jog.repeat_timeout_ms),
+    )
+}
+
+fn sent_count(b: &Bench, prefix: &str) -> usize {
+    b.sent_text()
+        .iter()
+        .filter(|t| t.starts_with(prefix))
+        .count()
+}
+
+#[test]
+fn a_tap_at_top_speed_stops_within_the_overrun_bound() {
+    let mut b = homed(PollRate::LineSpeed);
+    let (bound, top) = bound_and_top(Axis::X);
+    let (grace, _) = leases();
+    // Press, no repeat, no release (a tap on a terminal without release
+    // events): the first lease runs out and the dead-man stops the axis.
+    let from = counters(&mut b)[0];
+    b.request(Request::Jog {
+        id: JogId(1),
+        axes: vec![(Axis::X, Dir::Plus)],
+        speed_hz: speeds(top),
+        lease: grace,
+    });
+    b.run(secs(3));
+    assert!(!b.sim.status(b.now).moving);
+    let overrun = f64::from(counters(&mut b)[0] - from);
+    eprintln!("EMCU tap at {top} Hz: {overrun} steps after the press (bound {bound})");
+    assert!(overrun > 0.0 && overrun <= bound, "{overrun} > {bound}");
+    assert!(
+        b.events.iter().any(|e| matches!(
+            e,
+            Event::JogEnded {
+                end: JogEnd::DeadMan,
+                ..
+            }
+        )),
+        "{:?}",
+        b.events
+    );
+}
+
+#[test]
+fn a_hold_speeds_up_once_and_stops_within_the_bound_after_its_last_repeat() {
+    let mut b = homed(PollRate::LineSpeed);
+    let (bound, top) = bound_and_top(Axis::X);
+    let (grace, repeat) = leases();
+    b.request(Request::Jog {
+        id: JogId(1),
+        axes: vec![(Axis::X, Dir::Plus)],
+        speed_hz: speeds(top),
+        lease: grace,
+    });
+    // The terminal's repeat delay, then repeats at 30 Hz for 3 s.
+    b.run(ms(500));
+    let mut resumed = None;
+    let first_repeat = b.now;
+    for i in 0..90 {
+        if i > 0 {
+            b.run(ms(33));
+        }
+        if resumed.is_none() && sent_count(&b, "L9") == 2 {
+            resumed = Some(b.now - first_repeat);
+        }
+        b.request(Request::JogRenew {
+            id: JogId(1),
+            lease: repeat,
+        });
+    }
+    let last = counters(&mut b)[0];
+    // One halt to speed up, and the faster move as fast as the short
+    // lease allows (or as asked).
+    assert_eq!(sent_count(&b, "L9"), 2, "{:?}", b.sent_text());
+    assert_eq!(sent_count(&b, "@B"), 1, "{:?}", b.sent_text());
+    let fast = lease_speed(Axis::X, repeat).min(top);
+    assert!(fast > lease_speed(Axis::X, grace));
+    assert_eq!(
+        sent_count(&b, &format!("#E9,{fast}")),
+        1,
+        "{:?}",
+        b.sent_text()
+    );
+    eprintln!("EMCU speed-up: the faster move went out {resumed:?} after the first repeat");
+    b.run(secs(3));
+    assert!(!b.sim.status(b.now).moving);
+    let overrun = f64::from(counters(&mut b)[0] - last);
+    eprintln!("EMCU hold at {fast} Hz: {overrun} steps after the last repeat (bound {bound})");
+    assert!(overrun > 0.0 && overrun <= bound, "{overrun} > {bound}");
 }
 
 #[test]

@@ -141,8 +141,12 @@ fn jog_speeds_are_capped_by_the_overrun() {
     });
     h.ready(1_000_000);
     h.request(jog(8, Dir::Plus, 50_000.0));
-    // v T + v B / 2 <= 1000 with T = 150 ms + 10.45 ms, B = 100 ms:
-    // v <= 4 752 counts/s.
+    // v (L + R + T) + v B / 2 <= 1000 with the lease L = 750 ms it holds,
+    // the stop's way to the wire R = 10 ms, a round trip T and B = 100 ms:
+    // v <= 1 219 counts/s.
+    let rt = super::harness::settings().timing.round_trip;
+    let cap = crate::jog::speed_cap(&crate::device::emp::plan::braking(), ms(750) + rt, 1_000.0);
+    assert!(cap > 1_200.0 && cap < 1_230.0, "{cap}");
     let hex = |h: &mut Harness| {
         let sent = h.send().expect("a frame");
         String::from_utf8_lossy(&sent).into_owned()
@@ -155,7 +159,7 @@ fn jog_speeds_are_capped_by_the_overrun() {
     assert!(drive.starts_with("2A1100"), "{drive}");
     let v = u32::from_str_radix(&drive[6..8], 16).expect("hex");
     let hz = f64::from(v) * 12_500_000.0 / f64::from(reload);
-    assert!(hz <= 4_752.0 && hz > 4_700.0, "{hz}");
+    assert!(hz <= cap && hz > cap * 0.999, "{hz} {cap}");
 }
 
 #[test]
@@ -265,4 +269,106 @@ fn a_stop_that_overtakes_a_move_in_the_writer_stops_again_after_it() {
     let _ = h.stop();
     h.written();
     h.expect_frame("08 11 00 00 00000000");
+}
+
+/// The overrun bound of X in counts and the stop frame's round trip.
+fn bound_and_way() -> (f64, Duration) {
+    let s = super::harness::settings();
+    let bound = s.limits.get(Axis::X).expect("X").max_overrun;
+    (bound, s.timing.round_trip)
+}
+
+/// The fastest X jog the bound allows with `lease` (`plan::overrun_cap`).
+fn lease_speed(lease: Duration) -> f64 {
+    let (bound, rt) = bound_and_way();
+    crate::jog::speed_cap(&crate::device::emp::plan::braking(), lease + rt, bound)
+}
+
+/// The velocity move the driver sends next (`20 19` first when the sample
+/// rate changes), answered; its speed in counts/s.
+fn velocity_move(h: &mut Harness, reload: &mut u32) -> f64 {
+    let next = |h: &mut Harness| {
+        let sent = h.send().expect("a frame");
+        String::from_utf8_lossy(&sent).into_owned()
+    };
+    let mut f = next(h);
+    if f.starts_with("20111900") {
+        *reload = u32::from_str_radix(&f[12..16], 16).expect("hex");
+        h.answer("21 11 00 22 00000000");
+        f = next(h);
+    }
+    assert!(f.starts_with("2A1100"), "{f}");
+    let v = u32::from_str_radix(&f[6..8], 16).expect("hex");
+    h.answer("2B 11 00 22 000F4240");
+    f64::from(v) * 12_500_000.0 / f64::from(*reload)
+}
+
+#[test]
+fn a_velocity_jog_speeds_up_once_at_the_first_short_renewal_without_a_stop() {
+    let mut h = Harness::emp(|_| {});
+    h.ready(1_000_000);
+    let top = 56_000.0;
+    h.request(jog(9, Dir::Plus, top));
+    let mut reload = 0;
+    let grace = velocity_move(&mut h, &mut reload);
+    // The first lease (750 ms) allows less than the axis's top speed.
+    assert!(grace <= lease_speed(ms(750)) && grace > lease_speed(ms(750)) * 0.999);
+    assert!(grace < top);
+    h.expect_nothing();
+    h.advance(ms(500));
+    h.request(Request::JogRenew {
+        id: JogId(9),
+        lease: ms(150),
+    });
+    // The new sample rate and velocity: no stop frame in between.
+    let fast = velocity_move(&mut h, &mut reload);
+    assert!(lease_speed(ms(150)) > top);
+    assert!((fast - top).abs() / top < 1e-4, "{fast}");
+    assert!(h.jog_ends().is_empty());
+    // Once: the next repeat only renews.
+    h.advance(ms(33));
+    h.request(Request::JogRenew {
+        id: JogId(9),
+        lease: ms(150),
+    });
+    h.expect_nothing();
+    h.advance(ms(150));
+    h.expect_frame("08 11 00 00 00000000");
+    h.answer("09 11 00 22 00100000");
+    h.expect_nothing();
+    assert_eq!(h.jog_ends(), vec![(9, JogEnd::DeadMan)]);
+}
+
+#[test]
+fn a_renewal_is_granted_no_longer_lease_than_the_speed_allows() {
+    let mut h = Harness::emp(|_| {});
+    h.ready(1_000_000);
+    h.request(Request::Jog {
+        id: JogId(10),
+        axes: vec![(Axis::X, Dir::Plus)],
+        speed_hz: x_speed(56_000.0),
+        lease: ms(150),
+    });
+    let mut reload = 0;
+    let hz = velocity_move(&mut h, &mut reload);
+    h.advance(ms(100));
+    // A late repeat or a toggle tick asking for 750 ms at this speed.
+    h.request(Request::JogRenew {
+        id: JogId(10),
+        lease: ms(750),
+    });
+    let (bound, rt) = bound_and_way();
+    let allowed = crate::jog::lease_cap(
+        &crate::device::emp::plan::braking(),
+        hz,
+        bound - hz * rt.as_secs_f64(),
+    );
+    assert!(allowed < ms(740), "{allowed:?}");
+    h.advance(allowed - ms(1));
+    h.expect_nothing();
+    h.advance(ms(2));
+    h.expect_frame("08 11 00 00 00000000");
+    h.answer("09 11 00 22 00100000");
+    h.expect_nothing();
+    assert_eq!(h.jog_ends(), vec![(10, JogEnd::DeadMan)]);
 }

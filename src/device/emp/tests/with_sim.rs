@@ -14,7 +14,7 @@ use crate::device::emp::{EmpDriver, EmpSettings};
 use crate::proto::emp::DriveAddress;
 use crate::sim::emp::EmpSim;
 
-use super::harness::{profile, x_speed};
+use super::harness::{profile, settings, x_speed};
 
 type Bench = crate::device::common::testing::Bench<EmpDriver, EmpSim>;
 
@@ -32,6 +32,25 @@ fn counter(b: &Bench, ds: DriveAddress) -> i64 {
 
 fn speed(b: &Bench, ds: DriveAddress) -> f64 {
     b.sim.snapshot(ds, b.now).expect("drive").speed
+}
+
+/// Hold the key of jog `id`: a renewal with the profile's repeat timeout
+/// every 100 ms, until the jog ends or `within` has passed. The end, if any.
+fn hold(b: &mut Bench, id: JogId, within: Duration) -> Option<JogEnd> {
+    let lease = settings().jog.repeat_timeout;
+    let end = b.now + within;
+    while b.now < end {
+        b.request(Request::JogRenew { id, lease });
+        b.run(ms(100));
+        let ended = b.events.iter().find_map(|e| match e {
+            Event::JogEnded { id: i, end } if *i == id => Some(end.clone()),
+            _ => None,
+        });
+        if ended.is_some() {
+            return ended;
+        }
+    }
+    None
 }
 
 /// Switched on and referenced.
@@ -168,25 +187,15 @@ fn a_long_velocity_jog_stops_within_the_soft_limit_overrun() {
     b.run(Duration::from_secs(110));
     assert_eq!(counter(&b, DriveAddress::SINGLE), 5_500_000);
     b.events.clear();
-    let mut id = 10;
-    // Renew the lease for as long as it runs: only the soft limit ends it.
-    let end = loop {
-        b.request(Request::Jog {
-            id: JogId(id),
-            axes: vec![(Axis::X, Dir::Plus)],
-            speed_hz: x_speed(28_000.0),
-            lease: Duration::from_secs(30),
-        });
-        b.run(Duration::from_secs(10));
-        let end = b.events.iter().find_map(|e| match e {
-            Event::JogEnded { end, .. } => Some(end.clone()),
-            _ => None,
-        });
-        if let Some(end) = end {
-            break end;
-        }
-        id += 1;
-    };
+    // Held with key repeats: only the soft limit ends it, at the speed the
+    // short lease allows.
+    b.request(Request::Jog {
+        id: JogId(10),
+        axes: vec![(Axis::X, Dir::Plus)],
+        speed_hz: x_speed(28_000.0),
+        lease: settings().jog.repeat_timeout,
+    });
+    let end = hold(&mut b, JogId(10), Duration::from_secs(10)).expect("ended");
     assert_eq!(end, JogEnd::SoftLimit);
     let at = counter(&b, DriveAddress::SINGLE);
     let overrun = (at - 5_600_000).max(0);
@@ -258,9 +267,9 @@ fn a_limit_switch_ends_an_unreferenced_jog_with_a_fault() {
         id: JogId(3),
         axes: vec![(Axis::X, Dir::Minus)],
         speed_hz: x_speed(56_000.0),
-        lease: Duration::from_secs(60),
+        lease: settings().jog.repeat_timeout,
     });
-    b.run(Duration::from_secs(20));
+    hold(&mut b, JogId(3), Duration::from_secs(20));
     assert!(
         b.events.iter().any(|e| matches!(
             e,
@@ -363,9 +372,9 @@ fn a_positioning_jog_ends_at_the_soft_limit_or_on_release() {
         id: JogId(20),
         axes: vec![(Axis::X, Dir::Plus)],
         speed_hz: x_speed(56_000.0),
-        lease: Duration::from_secs(300),
+        lease: settings().jog.repeat_timeout,
     });
-    b.run(ms(1000));
+    assert_eq!(hold(&mut b, JogId(20), ms(1000)), None);
     assert_eq!(b.driver.state().activity, Activity::Jogging);
     assert!(b.sent_text().iter().any(|t| t.starts_with("2A1101")));
     b.request(Request::JogRelease { id: JogId(20) });
@@ -384,9 +393,9 @@ fn a_positioning_jog_ends_at_the_soft_limit_or_on_release() {
         id: JogId(21),
         axes: vec![(Axis::X, Dir::Minus)],
         speed_hz: x_speed(56_000.0),
-        lease: Duration::from_secs(300),
+        lease: settings().jog.repeat_timeout,
     });
-    b.run(Duration::from_secs(10));
+    hold(&mut b, JogId(21), Duration::from_secs(10));
     assert!(
         b.events.iter().any(|e| matches!(
             e,
@@ -472,4 +481,141 @@ fn a_stop_after_a_raw_velocity_move_holds_the_drive() {
     let at = counter(&b, DriveAddress::SINGLE);
     b.run(Duration::from_secs(5));
     assert_eq!(counter(&b, DriveAddress::SINGLE), at, "nothing resumed");
+}
+
+/// X's overrun bound (counts), top speed (counts/s) and dead-man leases
+/// (before the first key repeat, after).
+fn jog_figures() -> (f64, f64, Duration, Duration) {
+    let s = settings();
+    let l = s.limits.get(Axis::X).expect("X");
+    let p = profile();
+    (
+        l.max_overrun,
+        l.max_hz,
+        Duration::from_millis(p.jog.first_repeat_grace_ms),
+        s.jog.repeat_timeout,
+    )
+}
+
+/// Frames starting with `prefix` sent since the `since`-th frame.
+fn frames_sent(b: &Bench, since: usize, prefix: &str) -> usize {
+    b.sent_text()
+        .iter()
+        .skip(since)
+        .filter(|t| t.starts_with(prefix))
+        .count()
+}
+
+#[test]
+fn a_tap_at_top_speed_stops_within_the_overrun_bound() {
+    let mut b = homed(|_| {});
+    let (bound, top, grace, _) = jog_figures();
+    let from = counter(&b, DriveAddress::SINGLE);
+    // Press, no repeat, no release: the first lease runs out.
+    b.request(Request::Jog {
+        id: JogId(30),
+        axes: vec![(Axis::X, Dir::Plus)],
+        speed_hz: x_speed(top),
+        lease: grace,
+    });
+    b.run(Duration::from_secs(2));
+    assert_eq!(speed(&b, DriveAddress::SINGLE), 0.0);
+    let overrun = (counter(&b, DriveAddress::SINGLE) - from) as f64;
+    eprintln!("EMP tap at {top} counts/s: {overrun} counts after the press (bound {bound})");
+    assert!(overrun > 0.0 && overrun <= bound, "{overrun} > {bound}");
+    assert!(b.events.iter().any(|e| matches!(
+        e,
+        Event::JogEnded {
+            id: JogId(30),
+            end: JogEnd::DeadMan
+        }
+    )));
+}
+
+#[test]
+fn a_hold_speeds_up_once_without_a_stop_and_stops_within_the_bound() {
+    let mut b = homed(|_| {});
+    let (bound, top, grace, repeat) = jog_figures();
+    let since = b.sent.len();
+    b.request(Request::Jog {
+        id: JogId(31),
+        axes: vec![(Axis::X, Dir::Plus)],
+        speed_hz: x_speed(top),
+        lease: grace,
+    });
+    b.run(ms(500));
+    let slow = speed(&b, DriveAddress::SINGLE);
+    assert!(slow > 0.0 && slow < top, "{slow}");
+    // Repeats at 30 Hz for 3 s, from 500 ms after the press.
+    for i in 0..90 {
+        if i > 0 {
+            b.run(ms(33));
+        }
+        b.request(Request::JogRenew {
+            id: JogId(31),
+            lease: repeat,
+        });
+    }
+    let v = speed(&b, DriveAddress::SINGLE);
+    assert!((v - top).abs() / top < 1e-4, "{v}");
+    // Two velocity frames (the start and the one speed-up), no stop.
+    assert_eq!(frames_sent(&b, since, "2A1100"), 2, "{:?}", b.sent_text());
+    assert_eq!(frames_sent(&b, since, "0811"), 0, "{:?}", b.sent_text());
+    let last = counter(&b, DriveAddress::SINGLE);
+    b.run(Duration::from_secs(2));
+    assert_eq!(speed(&b, DriveAddress::SINGLE), 0.0);
+    let overrun = (counter(&b, DriveAddress::SINGLE) - last) as f64;
+    eprintln!("EMP hold at {top} counts/s: {overrun} counts after the last repeat (bound {bound})");
+    assert!(overrun > 0.0 && overrun <= bound, "{overrun} > {bound}");
+}
+
+#[test]
+fn a_positioning_jog_speeds_up_with_a_new_2a_01_and_no_stop() {
+    let mut b = homed(|s| s.jog_style = crate::config::profile::EmpJog::Position);
+    let (bound, top, grace, repeat) = jog_figures();
+    let since = b.sent.len();
+    b.request(Request::Jog {
+        id: JogId(32),
+        axes: vec![(Axis::X, Dir::Plus)],
+        speed_hz: x_speed(top),
+        lease: grace,
+    });
+    b.run(ms(500));
+    let slow = speed(&b, DriveAddress::SINGLE);
+    assert!(slow > 0.0 && slow < top, "{slow}");
+    for i in 0..60 {
+        if i > 0 {
+            b.run(ms(33));
+        }
+        b.request(Request::JogRenew {
+            id: JogId(32),
+            lease: repeat,
+        });
+    }
+    let v = speed(&b, DriveAddress::SINGLE);
+    assert!((v - top).abs() / top < 1e-3, "{v}");
+    // The first positioning and the faster one to the same target.
+    let moves: Vec<String> = b
+        .sent_text()
+        .iter()
+        .skip(since)
+        .filter(|t| t.starts_with("2A1101"))
+        .cloned()
+        .collect();
+    assert_eq!(moves.len(), 2, "{moves:?}");
+    assert_eq!(moves[0].get(8..16), moves[1].get(8..16), "{moves:?}");
+    assert_eq!(frames_sent(&b, since, "0811"), 0, "{:?}", b.sent_text());
+    assert_eq!(b.driver.state().activity, Activity::Jogging);
+    let last = counter(&b, DriveAddress::SINGLE);
+    b.run(Duration::from_secs(2));
+    assert_eq!(speed(&b, DriveAddress::SINGLE), 0.0);
+    let overrun = (counter(&b, DriveAddress::SINGLE) - last) as f64;
+    assert!(overrun > 0.0 && overrun <= bound, "{overrun} > {bound}");
+    assert!(b.events.iter().any(|e| matches!(
+        e,
+        Event::JogEnded {
+            id: JogId(32),
+            end: JogEnd::DeadMan
+        }
+    )));
 }
