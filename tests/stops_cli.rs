@@ -368,6 +368,10 @@ fn isel_program_started_by_the_key(sim: &mut SimProcess) {
     // The closing stop sequence may still be on its way through the line:
     // pressed before it arrives, the start would be stopped by it.
     sim.wait_received("the closing stop", |r| r.ends_with("9<CR><FD><FF>"));
+    // `received` records bytes when the simulator reads them; the modelled
+    // controller gets each one byte time later (about 0.5 ms at 19200 baud).
+    // A start pressed in between would be broken off by the 0xFF.
+    std::thread::sleep(std::time::Duration::from_millis(50));
     sim.control("press start");
     sim.wait_device("the program started by the key, under way", |d| {
         moving("isel", d) && isel_x(d) > 1000
