@@ -292,14 +292,7 @@ fn requests_while_disconnected_are_refused() {
 /// and only bytes that mean nothing are called unexpected.
 #[test]
 fn a_move_stopped_by_the_connect_is_reported_as_stopped_not_as_noise() {
-    let mut h = Harness::new();
-    h.driver.connected(h.now);
-    h.collect();
-    h.expect(&[0xFD, 0xFF]);
-    h.reply(b"F");
-    h.advance(ms(100));
-    h.readback(0, 0, 0, b"0");
-    let notices = h.notices();
+    let notices = notices_after_a_connect_answered(b"F");
     assert!(
         notices
             .iter()
@@ -314,18 +307,24 @@ fn a_move_stopped_by_the_connect_is_reported_as_stopped_not_as_noise() {
 
 #[test]
 fn noise_after_the_connect_is_still_called_unexpected() {
-    let mut h = Harness::new();
-    h.driver.connected(h.now);
-    h.collect();
-    h.expect(&[0xFD, 0xFF]);
-    h.reply(b"Fxy");
-    h.advance(ms(100));
-    h.readback(0, 0, 0, b"0");
-    let notices = h.notices();
+    let notices = notices_after_a_connect_answered(b"Fxy");
     assert!(
         notices
             .iter()
             .any(|n| n == "unexpected bytes from the controller: xy"),
         "{notices:?}"
     );
+}
+
+/// The notices of a connect whose stop sequence was answered with `answer`
+/// during the settle, once the state is read back.
+fn notices_after_a_connect_answered(answer: &[u8]) -> Vec<String> {
+    let mut h = Harness::new();
+    h.driver.connected(h.now);
+    h.collect();
+    h.expect(&[0xFD, 0xFF]);
+    h.reply(answer);
+    h.advance(ms(100));
+    h.readback(0, 0, 0, b"0");
+    h.notices()
 }
