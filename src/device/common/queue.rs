@@ -24,6 +24,16 @@ pub struct Queued {
     pub lease_until: Option<Instant>,
 }
 
+impl Queued {
+    /// The lease a jog holds when its turn comes at `now`: when it runs out,
+    /// and what is left of it (the jog may have waited behind a braking
+    /// one, so this can be less than it was given, or nothing).
+    pub fn held_lease(&self, now: Instant) -> (Instant, Duration) {
+        let until = self.lease_until.unwrap_or(now);
+        (until, until.saturating_duration_since(now))
+    }
+}
+
 /// What the driver is doing when a request arrives.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Running {
@@ -193,6 +203,19 @@ mod tests {
         motion: true,
         braking_jog: false,
     };
+
+    #[test]
+    fn a_jog_holds_what_is_left_of_its_lease_when_its_turn_comes() {
+        let given = Instant::now();
+        let queued = Queued {
+            request: jog(1),
+            lease_until: Some(given + Duration::from_millis(100)),
+        };
+        let at = |ms| given + Duration::from_millis(ms);
+        assert_eq!(queued.held_lease(at(30)).1, Duration::from_millis(70));
+        // Waited past its lease behind a braking jog: it holds nothing.
+        assert_eq!(queued.held_lease(at(250)), (at(100), Duration::ZERO));
+    }
 
     #[test]
     fn busy_refuses_at_once_but_hands_steps_to_the_move() {

@@ -645,10 +645,7 @@ impl EmcuDriver {
             Request::Jog {
                 id, axes, speed_hz, ..
             } => {
-                let until = queued.lease_until.unwrap_or(now);
-                // The lease the jog holds now: what is left of the one it
-                // was given (it may have waited behind a braking jog).
-                let lease = until.saturating_duration_since(now);
+                let (until, lease) = queued.held_lease(now);
                 plan::jog(cx, axes, speed_hz, lease).map(|p| {
                     Some(Op::Motion(Box::new(MotionOp::jog(
                         cx,

@@ -592,10 +592,7 @@ impl IselDriver {
             Request::Jog {
                 id, axes, speed_hz, ..
             } => {
-                let lease_until = queued.lease_until.unwrap_or(now);
-                // The lease the jog holds now: what is left of the one it
-                // was given (it may have waited behind a braking jog).
-                let lease = lease_until.saturating_duration_since(now);
+                let (lease_until, lease) = queued.held_lease(now);
                 plan::jog(cx, axes, speed_hz, lease).map(|p| {
                     Op::Motion(MotionOp::jog(
                         p,
