@@ -6,6 +6,7 @@
 
 use std::io::{BufRead, BufReader, Write};
 use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
 
 mod sim_process;
 mod stops_support;
@@ -20,11 +21,18 @@ use wire::isel_messages;
 /// Read the first line of the child's stdout, then drop the reader, as
 /// `| head -1` does. The line.
 fn take_first_line_and_close(child: &mut Child) -> String {
+    take_lines_and_close(child, 1)
+}
+
+/// Read `n` lines of the child's stdout, then drop the reader. The lines.
+fn take_lines_and_close(child: &mut Child, n: usize) -> String {
     let stdout = child.stdout.take().expect("stdout piped");
     let mut reader = BufReader::new(stdout);
-    let mut first = String::new();
-    reader.read_line(&mut first).expect("the first line");
-    first
+    let mut lines = String::new();
+    for _ in 0..n {
+        reader.read_line(&mut lines).expect("a line");
+    }
+    lines
 }
 
 /// A pipe whose reader is gone before the process starts: its first write
@@ -77,6 +85,38 @@ fn isel_poll_stops_and_closes_when_its_reader_goes_away() {
 #[test]
 fn emcu_poll_json_stops_and_closes_when_its_reader_goes_away() {
     poll_with_stdout_closed("emcu", &["--json", "--ports"], "@LX<CR>", "@B<CR>");
+}
+
+/// `jogterm poll` at a long interval notices its reader has gone without
+/// waiting for the next sample to fail (`cli::out::stdout_gone`): it ends
+/// within moments, not at the next sample 15 s later, with the closing stop.
+#[test]
+fn poll_at_a_long_interval_ends_at_once_when_its_reader_goes_away() {
+    let mut sim = SimProcess::start("isel");
+    let before = sim.received();
+    let mut child = sim
+        .jogterm(&["poll", "--interval-ms", "15000"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run jogterm poll");
+    // The read-back's position and the first poll's come at once, the next
+    // 15 s later.
+    let first = take_lines_and_close(&mut child, 2);
+    assert_eq!(first.matches("X=").count(), 2, "two samples first: {first}");
+    let closed = Instant::now();
+    let out = wait_child(child, "jogterm poll with its stdout closed");
+    let took = closed.elapsed();
+    assert_exit(&out, 0, "poll with its stdout closed");
+    assert!(
+        took < Duration::from_secs(5),
+        "ended {took:?} after its reader went away"
+    );
+    sim.wait_received("the closing stop", |r| {
+        isel_messages(r.get(before.len()..).unwrap_or_default())
+            .ends_with(&["<FD>".to_string(), "<FF>".to_string()])
+    });
+    sim.assert_alive();
 }
 
 /// `jogterm send` with its stdout closed after the first line: nothing more

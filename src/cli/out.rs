@@ -118,6 +118,51 @@ impl Write for WatchedStdout {
     }
 }
 
+/// Completes when the reader of stdout has gone, without a write to find
+/// out: a pipe whose reader closed reports `POLLERR`, a socket's or a
+/// terminal's far end that went away `POLLHUP` (poll(2); only errors are
+/// asked for, so a writable stdout never wakes it). Never completes on a
+/// file or `/dev/null`, nor when the watch cannot start. A thread of its own
+/// looks every 100 ms and ends once the future is dropped.
+///
+/// For a command that may wait long between two lines (`poll` at a long
+/// interval): it ends when `| head` has ended, not at its next sample.
+pub fn stdout_gone() -> impl std::future::Future<Output = ()> {
+    use std::os::fd::AsFd;
+    use std::time::{Duration, Instant};
+
+    use crate::transport::fd::{poll_until, pollfd};
+
+    let (tx, rx) = tokio::sync::oneshot::channel::<()>();
+    let watch = std::thread::Builder::new()
+        .name("jogterm-stdout-watch".into())
+        .spawn(move || {
+            let stdout = io::stdout();
+            while !tx.is_closed() {
+                let mut fds = [pollfd(stdout.as_fd(), 0)];
+                let deadline = Instant::now() + Duration::from_millis(100);
+                if poll_until(&mut fds, Some(deadline)).is_err() {
+                    return;
+                }
+                let revents = fds[0].revents;
+                if revents & libc::POLLNVAL != 0 {
+                    // No stdout at all: writes fail on their own.
+                    return;
+                }
+                if revents & (libc::POLLERR | libc::POLLHUP) != 0 {
+                    let _ = tx.send(());
+                    return;
+                }
+            }
+        });
+    async move {
+        // The watch that ended without seeing the reader go never completes.
+        if watch.is_err() || rx.await.is_err() {
+            std::future::pending::<()>().await;
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

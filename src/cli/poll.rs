@@ -217,6 +217,8 @@ async fn poll(mut session: Session, args: &PollArgs, family: Protocol) -> ExitCo
     let mut code = 0u8;
     let interrupted = session::interrupted();
     tokio::pin!(interrupted);
+    let stdout_gone = out::stdout_gone();
+    tokio::pin!(stdout_gone);
     loop {
         if args.count.is_some_and(|n| samples >= n) {
             break;
@@ -226,6 +228,8 @@ async fn poll(mut session: Session, args: &PollArgs, family: Protocol) -> ExitCo
         let left = patience.saturating_sub(last_position.elapsed());
         let event = tokio::select! {
             _ = &mut interrupted => break,
+            // As a sample stdout cannot take (`stdout_failed`): status 0.
+            () = &mut stdout_gone => break,
             e = tokio::time::timeout(left, session.next_event()) => e,
         };
         match event {
