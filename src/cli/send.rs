@@ -51,8 +51,8 @@ completion. The stops `08` and `2A 03` go out at once.";
 pub const AFTER_LONG_HELP: &str = "\
 Exit status: 0 every command answered `0`; 1 the controller answered an error (the rest is
 not sent) or refused for its state (E-stop, fault), or interrupted (Ctrl-C, SIGTERM, a
-hang-up: the machine is stopped first), or stdout closed or failed (`| head -1`: nothing
-more is sent, the machine is stopped); 2 bad usage (a command that would be refused, an
+hang-up: the machine is stopped first), or stdout closed or failed (`| head -1`: a command in
+flight is answered, nothing more is sent, the machine is stopped); 2 bad usage (a command that would be refused, an
 unknown option); 3 link failure (the port cannot be opened or vanished, a reply did not
 come).
 
