@@ -11,6 +11,11 @@
 //! - [`jog`]: jogging as pure logic: keys to requests, leases, speed caps.
 //! - [`ui`]: the terminal UI (Elm architecture: model, update, view).
 
+// stdout and stderr only through `cli::out` (or a `Write` whose errors are
+// handled): `println!` and `eprintln!` panic on a closed stdout/stderr.
+// Tests may print.
+#![cfg_attr(not(test), deny(clippy::print_stdout, clippy::print_stderr))]
+
 pub mod axis;
 pub mod cli;
 pub mod config;

@@ -11,6 +11,7 @@
 use std::io::Write;
 use std::process::ExitCode;
 
+use super::out::closed_is_ok;
 use crate::proto::isel::{
     CircleDirection, CncCommand, Command, DeviceNumber, Frame, arc_end, circle, helix,
 };
@@ -25,8 +26,9 @@ path speed. Prints them one per line as DNC commands (`@0f-1`) or, with --cnc, a
 stored program (`f-1`). stderr says where the arc ends relative to its start.";
 
 pub const AFTER_LONG_HELP: &str = "\
-Exit status: 0 ok, 2 bad usage or values that describe no arc (radius 0, a speed outside
-1-40000 Hz, an arc shorter than one step).
+Exit status: 0 ok (also when the reader of stdout goes away early, `| head -1`), 1 stdout
+failed otherwise, 2 bad usage or values that describe no arc (radius 0, a speed outside
+1-40000 Hz, an arc shorter than one step). A failure to write stderr is ignored.
 
 Example (manual 2.3.6):
   jogterm arc --radius 200 --start 135 --end 225 --ccw --speed 1500
@@ -93,20 +95,21 @@ pub fn run_to(
     let lines: [CncCommand; 2] = match computed {
         Ok(lines) => lines,
         Err(e) => {
-            writeln!(err, "jogterm arc: {e}")?;
+            let _ = writeln!(err, "jogterm arc: {e}");
             return Ok(ExitCode::from(2));
         }
     };
     let Some(device) = DeviceNumber::new(args.device) else {
-        writeln!(
+        let _ = writeln!(
             err,
             "jogterm arc: the device number is 0-9, got {}",
             args.device
-        )?;
+        );
         return Ok(ExitCode::from(2));
     };
+    let mut text = String::new();
     for line in &lines {
-        let text = if args.cnc {
+        let command = if args.cnc {
             line.to_string()
         } else {
             match line.as_dnc() {
@@ -114,9 +117,12 @@ pub fn run_to(
                 None => line.to_string(),
             }
         };
-        writeln!(out, "{text}")?;
+        text.push_str(&command);
+        text.push('\n');
     }
-    out.flush()?;
+    // A reader that takes only the first line (`| head -1`) has what it
+    // asked for; any other failure to write is one.
+    closed_is_ok(out.write_all(text.as_bytes()).and_then(|()| out.flush()))?;
     let end = arc_end(args.radius, args.start, args.end);
     let mut note = format!(
         "the arc ends {},{} steps from its start",
@@ -125,11 +131,11 @@ pub fn run_to(
     if let Some(s3) = args.helix_steps {
         note.push_str(&format!(" in the plane, {s3} along the third axis"));
     }
-    writeln!(
+    let _ = writeln!(
         err,
         "{note}; the controller may end a step off it, so follow it with an absolute move \
          (manual 2.3.2)"
-    )?;
+    );
     Ok(ExitCode::SUCCESS)
 }
 

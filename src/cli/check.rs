@@ -13,6 +13,7 @@ use std::process::ExitCode;
 
 use clap::Args;
 
+use super::out::closed_is_ok;
 use super::{GlobalArgs, profile};
 use crate::axis::AxisSet;
 use crate::config::ConfigDirs;
@@ -34,8 +35,10 @@ unknown: an axis' moves are checked against the soft limits from its first refer
 or absolute move on (docs/programs.md).";
 
 pub const AFTER_LONG_HELP: &str = "\
-Exit status: 0 no errors (warnings allowed), 1 errors, 2 bad usage, an unreadable file or
-a profile that cannot be used.
+Exit status: 0 no errors (warnings allowed), 1 errors (or stdout failed other than by its
+reader going away), 2 bad usage, an unreadable file or a profile that cannot be used. A
+reader that takes only the first lines (`| head -1`) changes neither the summary nor the
+status; a failure to write stderr is ignored.
 
 Examples:
   jogterm check drill.isel                  check for the default machine
@@ -83,18 +86,18 @@ pub fn run_to(
     let (language, config, machine) = match setup(global, args, dirs) {
         Ok(s) => s,
         Err(message) => {
-            writeln!(err, "jogterm check: {message}")?;
+            let _ = writeln!(err, "jogterm check: {message}");
             return Ok(ExitCode::from(USAGE));
         }
     };
     let bytes = match std::fs::read(&args.file) {
         Ok(b) => b,
         Err(e) => {
-            writeln!(
+            let _ = writeln!(
                 err,
                 "jogterm check: cannot read {}: {e}",
                 args.file.display()
-            )?;
+            );
             return Ok(ExitCode::from(USAGE));
         }
     };
@@ -107,21 +110,22 @@ pub fn run_to(
         report.push_str(&render(&name, &program, d));
         report.push('\n');
     }
-    out.write_all(report.as_bytes())?;
-    out.flush()?;
+    // A reader that takes only the first lines (`| head -1`) leaves the
+    // verdict as it is; any other failure to write is one.
+    closed_is_ok(out.write_all(report.as_bytes()).and_then(|()| out.flush()))?;
     let errors = diagnostics
         .iter()
         .filter(|d| d.severity == Severity::Error)
         .count();
     let warnings = diagnostics.len() - errors;
-    writeln!(
+    let _ = writeln!(
         err,
         "{name}: {}, {} in {} ({language}, axes {}, soft limits of `{machine}`)",
         plural(errors, "error"),
         plural(warnings, "warning"),
         plural(program.command_count(), "command"),
         config.axes,
-    )?;
+    );
     Ok(if errors > 0 {
         ExitCode::from(PROBLEMS)
     } else {

@@ -13,6 +13,7 @@
 pub mod arc;
 pub mod check;
 pub mod emp;
+pub mod out;
 pub mod poll;
 pub mod profile;
 pub mod send;
@@ -136,7 +137,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         start_log(path)?;
     }
     if cli.program.is_some() && cli.command.is_some() {
-        eprintln!("jogterm: error: --program belongs to the console, not to a command");
+        out::say("jogterm: error: --program belongs to the console, not to a command");
         return Ok(ExitCode::from(2));
     }
     match &cli.command {

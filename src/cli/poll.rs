@@ -7,6 +7,7 @@ use std::time::{Duration, Instant};
 
 use clap::Args;
 
+use super::out::{self, StdoutError};
 use super::session::{self, EXIT_LINK, EXIT_USAGE, Linked, Polling, Session, StartError};
 use super::{GlobalArgs, emp};
 use crate::axis::Axis;
@@ -25,7 +26,8 @@ EMP (--protocol emp): every drive's position (`2C`) per cycle, as fast as the li
 every drive too. --drive 11,21 names the drives on the link (axes X, Y, Z, A in that order).
 
 The state is read back first (as on every connection); the first sample is that read-back.
-Without --count the command runs until interrupted (Ctrl-C), then stops and closes cleanly.";
+Without --count the command runs until interrupted (Ctrl-C) or until the reader of its output
+goes away (`| head -5`), then stops and closes cleanly.";
 
 pub const AFTER_LONG_HELP: &str = "\
 Output: `t=0.012 X=16000 Y=16000 Z=16000` (t: seconds since the link came up), with --ports
@@ -37,8 +39,9 @@ drive), in steps, as the controller reports them. EMCU with --ports: `… status
 unknown, 4 referencing, 5 job running. EMP with --ports: `… drive11=05`, {\"drive11\":5}:
 inputs I1-I4 of drive 11 as bits 0-3.
 
-Exit status: 0 done (also when interrupted: it stops and closes first); 1 no position could
-be read; 2 bad usage; 3 link failure.
+Exit status: 0 done (also when interrupted, or when the reader of its output goes away as
+`| head -1` does: it stops and closes first); 1 no position could be read, or stdout failed
+otherwise (a hung-up terminal); 2 bad usage; 3 link failure.
 
 Examples:
   jogterm poll --port /dev/ttyUSB0 --protocol isel --count 5
@@ -160,7 +163,7 @@ pub fn run(global: &GlobalArgs, args: &PollArgs) -> anyhow::Result<ExitCode> {
     let mut profile = match session::resolve(global, args.baud) {
         Ok(p) => p,
         Err(StartError::Usage(m)) => {
-            eprintln!("jogterm poll: {m}");
+            out::say(format_args!("jogterm poll: {m}"));
             return Ok(ExitCode::from(EXIT_USAGE));
         }
         Err(StartError::Failed(e)) => return Err(e),
@@ -177,7 +180,7 @@ pub fn run(global: &GlobalArgs, args: &PollArgs) -> anyhow::Result<ExitCode> {
     if family == Protocol::Emp
         && let Err(m) = emp::apply_drives(&mut profile, &args.drive)
     {
-        eprintln!("jogterm poll: {m}");
+        out::say(format_args!("jogterm poll: {m}"));
         return Ok(ExitCode::from(EXIT_USAGE));
     }
     let runtime = session::runtime()?;
@@ -185,7 +188,7 @@ pub fn run(global: &GlobalArgs, args: &PollArgs) -> anyhow::Result<ExitCode> {
         let session = match session::start(global, profile, polling) {
             Ok(s) => s,
             Err(StartError::Usage(m)) => {
-                eprintln!("jogterm poll: {m}");
+                out::say(format_args!("jogterm poll: {m}"));
                 return Ok(ExitCode::from(EXIT_USAGE));
             }
             Err(StartError::Failed(e)) => return Err(e),
@@ -196,10 +199,10 @@ pub fn run(global: &GlobalArgs, args: &PollArgs) -> anyhow::Result<ExitCode> {
 
 async fn poll(mut session: Session, args: &PollArgs, family: Protocol) -> ExitCode {
     if let Linked::Failed(reason) = session.linked(Duration::from_secs(10)).await {
-        eprintln!(
+        out::say(format_args!(
             "jogterm poll: link failure: {reason}; {}",
             Recovery::CheckLink.instruction()
-        );
+        ));
         session.close().await;
         return ExitCode::from(EXIT_LINK);
     }
@@ -214,6 +217,8 @@ async fn poll(mut session: Session, args: &PollArgs, family: Protocol) -> ExitCo
     let mut code = 0u8;
     let interrupted = session::interrupted();
     tokio::pin!(interrupted);
+    let stdout_gone = out::stdout_gone();
+    tokio::pin!(stdout_gone);
     loop {
         if args.count.is_some_and(|n| samples >= n) {
             break;
@@ -223,15 +228,17 @@ async fn poll(mut session: Session, args: &PollArgs, family: Protocol) -> ExitCo
         let left = patience.saturating_sub(last_position.elapsed());
         let event = tokio::select! {
             _ = &mut interrupted => break,
+            // As a sample stdout cannot take (`stdout_failed`): status 0.
+            () = &mut stdout_gone => break,
             e = tokio::time::timeout(left, session.next_event()) => e,
         };
         match event {
             Err(_) => {
-                eprintln!(
+                out::say(format_args!(
                     "jogterm poll: no position for {} s: {}",
                     patience.as_secs(),
                     no_position_hint(family)
-                );
+                ));
                 code = 1;
                 break;
             }
@@ -241,10 +248,10 @@ async fn poll(mut session: Session, args: &PollArgs, family: Protocol) -> ExitCo
             }
             Ok(Some(Event::Link(LinkState::Lost { reason }))) => {
                 // What happened and what to do: the line, not the machine, is in doubt.
-                eprintln!(
+                out::say(format_args!(
                     "jogterm poll: link failure: {reason}; {}",
                     Recovery::CheckLink.instruction()
-                );
+                ));
                 code = EXIT_LINK;
                 break;
             }
@@ -256,7 +263,10 @@ async fn poll(mut session: Session, args: &PollArgs, family: Protocol) -> ExitCo
                 last_position = Instant::now();
                 let t = p.at.saturating_duration_since(start).as_secs_f64();
                 let io = if args.ports { ports.as_ref() } else { None };
-                println!("{}", format_sample(&p, t, io, args.json));
+                if let Err(e) = out::line(format_sample(&p, t, io, args.json)) {
+                    code = stdout_failed(e);
+                    break;
+                }
                 samples += 1;
             }
             Ok(Some(_)) => {}
@@ -264,6 +274,19 @@ async fn poll(mut session: Session, args: &PollArgs, family: Protocol) -> ExitCo
     }
     session.close().await;
     ExitCode::from(code)
+}
+
+/// The exit status when stdout cannot take a sample: 0 when its reader went
+/// away (`| head -1` has what it wanted; as Ctrl-C, the session still stops
+/// and closes), 1 and a message for any other failure.
+fn stdout_failed(e: StdoutError) -> u8 {
+    match e {
+        StdoutError::Closed => 0,
+        StdoutError::Failed(_) => {
+            out::say(format_args!("jogterm poll: {e}; stopped polling"));
+            1
+        }
+    }
 }
 
 #[cfg(test)]

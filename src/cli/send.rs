@@ -6,6 +6,7 @@ use std::time::Duration;
 
 use clap::Args;
 
+use super::out::{self, StdoutError};
 use super::session::{self, EXIT_LINK, EXIT_USAGE, Linked, Polling, Session, StartError};
 use super::{GlobalArgs, emp};
 use crate::config::Profile;
@@ -50,7 +51,8 @@ completion. The stops `08` and `2A 03` go out at once.";
 pub const AFTER_LONG_HELP: &str = "\
 Exit status: 0 every command answered `0`; 1 the controller answered an error (the rest is
 not sent) or refused for its state (E-stop, fault), or interrupted (Ctrl-C, SIGTERM, a
-hang-up: the machine is stopped first); 2 bad usage (a command that would be refused, an
+hang-up: the machine is stopped first), or stdout closed or failed (`| head -1`: a command in
+flight is answered, nothing more is sent, the machine is stopped); 2 bad usage (a command that would be refused, an
 unknown option); 3 link failure (the port cannot be opened or vanished, a reply did not
 come).
 
@@ -231,13 +233,15 @@ enum Outcome {
     },
     Refused(Refusal),
     LinkFailed(String),
+    /// A line could not be written to stdout: nothing more is sent.
+    Unwritable(StdoutError),
 }
 
 pub fn run(global: &GlobalArgs, args: &SendArgs) -> anyhow::Result<ExitCode> {
     let mut profile = match session::resolve(global, args.baud) {
         Ok(p) => p,
         Err(StartError::Usage(m)) => {
-            eprintln!("jogterm send: {m}");
+            out::say(format_args!("jogterm send: {m}"));
             return Ok(ExitCode::from(EXIT_USAGE));
         }
         Err(StartError::Failed(e)) => return Err(e),
@@ -245,13 +249,13 @@ pub fn run(global: &GlobalArgs, args: &SendArgs) -> anyhow::Result<ExitCode> {
     if profile.connection.protocol == Protocol::Emp
         && let Err(m) = emp::apply_drives(&mut profile, &args.drive)
     {
-        eprintln!("jogterm send: {m}");
+        out::say(format_args!("jogterm send: {m}"));
         return Ok(ExitCode::from(EXIT_USAGE));
     }
     let items = match plan_for(&profile, &args.commands) {
         Ok(items) => items,
         Err(message) => {
-            eprintln!("jogterm send: {message}");
+            out::say(format_args!("jogterm send: {message}"));
             return Ok(ExitCode::from(EXIT_USAGE));
         }
     };
@@ -260,7 +264,7 @@ pub fn run(global: &GlobalArgs, args: &SendArgs) -> anyhow::Result<ExitCode> {
         let session = match session::start(global, profile, Polling::OFF) {
             Ok(s) => s,
             Err(StartError::Usage(m)) => {
-                eprintln!("jogterm send: {m}");
+                out::say(format_args!("jogterm send: {m}"));
                 return Ok(ExitCode::from(EXIT_USAGE));
             }
             Err(StartError::Failed(e)) => return Err(e),
@@ -288,10 +292,10 @@ async fn send_all(mut session: Session, items: &[Item]) -> ExitCode {
 
 async fn send_items(session: &mut Session, items: &[Item]) -> ExitCode {
     if let Linked::Failed(reason) = session.linked(Duration::from_secs(10)).await {
-        eprintln!(
+        out::say(format_args!(
             "jogterm send: link failure: {reason}; {}",
             Recovery::CheckLink.instruction()
-        );
+        ));
         return ExitCode::from(EXIT_LINK);
     }
     let mut i = 0;
@@ -309,8 +313,9 @@ async fn send_items(session: &mut Session, items: &[Item]) -> ExitCode {
                 canonical,
                 may_move,
             } => {
-                println!(">> {}", readable(text.as_bytes()));
-                if let Err(e) = session.handle.request(Request::Raw { line: text.clone() }) {
+                if let Err(e) = out::line(format_args!(">> {}", readable(text.as_bytes()))) {
+                    Outcome::Unwritable(e)
+                } else if let Err(e) = session.handle.request(Request::Raw { line: text.clone() }) {
                     Outcome::LinkFailed(e.to_string())
                 } else {
                     // Control bytes right after a move go out while it runs.
@@ -325,7 +330,10 @@ async fn send_items(session: &mut Session, items: &[Item]) -> ExitCode {
                     while let Outcome::Answered(t) = &outcome
                         && t.starts_with(STARTED)
                     {
-                        println!("<< {t}");
+                        if let Err(e) = out::line(format_args!("<< {t}")) {
+                            outcome = Outcome::Unwritable(e);
+                            break;
+                        }
                         outcome = wait_outcome(session, text, canonical).await;
                     }
                     outcome
@@ -334,11 +342,15 @@ async fn send_items(session: &mut Session, items: &[Item]) -> ExitCode {
         };
         code = match outcome {
             Outcome::Answered(text) => {
-                for line in text.lines() {
-                    println!("<< {line}");
+                match text
+                    .lines()
+                    .try_for_each(|line| out::line(format_args!("<< {line}")))
+                {
+                    Ok(()) => continue,
+                    Err(e) => unwritable(e),
                 }
-                continue;
             }
+            Outcome::Unwritable(e) => unwritable(e),
             Outcome::ControllerError {
                 code,
                 meaning,
@@ -351,12 +363,16 @@ async fn send_items(session: &mut Session, items: &[Item]) -> ExitCode {
                     _ => None,
                 }
                 .map_or(recovery.instruction(), |c| c.recovery().advice());
-                println!("<< {code}");
-                eprintln!("jogterm send: the controller answered `{code}`: {meaning} {advice}");
+                // The status is 1 whether or not stdout takes the code: the
+                // error is said on stderr in any case.
+                let _ = out::line(format_args!("<< {code}"));
+                out::say(format_args!(
+                    "jogterm send: the controller answered `{code}`: {meaning} {advice}"
+                ));
                 1
             }
             Outcome::Refused(reason) => {
-                eprintln!("jogterm send: refused: {reason}");
+                out::say(format_args!("jogterm send: refused: {reason}"));
                 match reason {
                     Refusal::Invalid { .. } => EXIT_USAGE,
                     Refusal::NotConnected => EXIT_LINK,
@@ -365,11 +381,11 @@ async fn send_items(session: &mut Session, items: &[Item]) -> ExitCode {
             }
             Outcome::LinkFailed(reason) => {
                 // What happened and what to do: the line, not the machine, is in doubt.
-                eprintln!(
+                out::say(format_args!(
                     "jogterm send: link failure: {}; {}",
                     reason.trim_end_matches('.'),
                     Recovery::CheckLink.instruction()
-                );
+                ));
                 EXIT_LINK
             }
         };
@@ -400,7 +416,9 @@ async fn await_idle(session: &mut Session) -> Option<Outcome> {
 
 async fn send_control(session: &mut Session, control: ControlByte) -> Outcome {
     let text = char::from(control.byte()).to_string();
-    println!(">> {}", readable(&[control.byte()]));
+    if let Err(e) = out::line(format_args!(">> {}", readable(&[control.byte()]))) {
+        return Outcome::Unwritable(e);
+    }
     if let Err(e) = session.handle.request(Request::Raw { line: text.clone() }) {
         return Outcome::LinkFailed(e.to_string());
     }
@@ -424,26 +442,48 @@ async fn await_line(
                     Some(Event::State(s)) if s.activity != Activity::Idle => break,
                     Some(e) => {
                         if let Some(outcome) = outcome_of(&e, text, canonical) {
-                            send_controls(session, controls).await;
-                            return outcome;
+                            return match send_controls(session, controls).await {
+                                Ok(()) => outcome,
+                                Err(e) => Outcome::Unwritable(e),
+                            };
                         }
                     }
                     None => return Outcome::LinkFailed("the device task ended".into()),
                 }
             }
         }
-        send_controls(session, controls).await;
+        if let Err(e) = send_controls(session, controls).await {
+            return Outcome::Unwritable(e);
+        }
     }
     wait_outcome(session, text, canonical).await
 }
 
-async fn send_controls(session: &Session, controls: &[ControlByte]) {
+/// Send `controls`, each said on stdout first. They go out even when stdout
+/// fails: they are the stops the operator asked for during a move; the
+/// first failure is returned once all have gone.
+async fn send_controls(session: &Session, controls: &[ControlByte]) -> Result<(), StdoutError> {
+    let mut said = Ok(());
     for c in controls {
-        println!(">> {}", readable(&[c.byte()]));
+        if said.is_ok() {
+            said = out::line(format_args!(">> {}", readable(&[c.byte()])));
+        }
         let _ = session.handle.request(Request::Raw {
             line: char::from(c.byte()).to_string(),
         });
     }
+    said
+}
+
+/// The exit status when stdout cannot take a line, said on stderr: nothing
+/// more is sent, and the session's close stops the machine. 1 also for a
+/// reader that went away on purpose (`| head -1`): commands may be left
+/// unsent, as after Ctrl-C.
+fn unwritable(e: StdoutError) -> u8 {
+    out::say(format_args!(
+        "jogterm send: {e}: nothing more is sent; the machine is stopped"
+    ));
+    1
 }
 
 async fn wait_outcome(session: &mut Session, text: &str, canonical: &str) -> Outcome {

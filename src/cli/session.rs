@@ -250,11 +250,9 @@ pub async fn interrupted() {
 /// and the orderly close after it skipped; `../shared/field-notes.md`,
 /// "Order on hang-up").
 pub fn say_interrupted(command: &str) {
-    use std::io::Write;
-    let _ = writeln!(
-        std::io::stderr(),
+    super::out::say(format_args!(
         "jogterm {command}: interrupted: the machine was stopped"
-    );
+    ));
 }
 
 /// A current-thread runtime for a command.

@@ -1,15 +1,17 @@
 //! `jogterm sim`: serve a built-in controller simulator on a new
-//! pseudo-terminal (`sim::shell::run_pty_simulator`) until stdin closes.
+//! pseudo-terminal (`sim::shell::run_pty_simulator_with`) until stdin or
+//! stdout closes.
 
 use std::path::PathBuf;
 
 use anyhow::{Context as _, bail};
 use clap::Args;
 
+use super::out::WatchedStdout;
 use super::{GlobalArgs, profile};
 use crate::config::ConfigDirs;
 use crate::sim::registry;
-use crate::sim::shell::{PtyOptions, run_pty_simulator};
+use crate::sim::shell::{PtyOptions, run_pty_simulator_with};
 
 pub const LONG_ABOUT: &str = "\
 Serve a built-in controller simulator on a new pseudo-terminal.
@@ -24,8 +26,8 @@ profile's connection.protocol; without --profile, --sim/--protocol pick the ship
 profile of that family (isel, emcu, emp).
 
 Lines on stdin operate the machine and inject faults; each accepted line prints `ok` (or
-its output), errors go to stderr. The simulator ends when stdin closes, on `quit`, or
-when it is killed.";
+its output), errors go to stderr. The simulator ends when stdin closes, on `quit`, when
+the reader of its stdout goes away (status 0, as for the others), or when it is killed.";
 
 pub const AFTER_LONG_HELP: &str = "\
 Control language (one command per line, docs/simulator.md):
@@ -71,13 +73,28 @@ pub fn run(global: &GlobalArgs, args: &SimArgs) -> anyhow::Result<()> {
     let protocol = profile::family(&profile);
     let device = registry::build(protocol, &profile)?;
     tracing::info!(%protocol, profile = %profile.name, "simulator starting");
-    run_pty_simulator(
+    let mut stdout = WatchedStdout::new();
+    let result = run_pty_simulator_with(
         device,
         PtyOptions {
             link: args.link.clone(),
         },
-    )
-    .with_context(|| format!("the {protocol} simulator failed"))?;
-    tracing::info!(%protocol, "simulator ended");
-    Ok(())
+        std::io::stdin().lock(),
+        &mut stdout,
+        &mut std::io::stderr(),
+    );
+    match result {
+        // Nobody reads the answers any more (`| head -1` took the path):
+        // the simulator ends as when its stdin closes. It has shut down
+        // its line already.
+        Err(e) if stdout.reader_gone() => {
+            tracing::info!(%protocol, "simulator ended: {e}");
+            Ok(())
+        }
+        Err(e) => Err(e).with_context(|| format!("the {protocol} simulator failed")),
+        Ok(()) => {
+            tracing::info!(%protocol, "simulator ended");
+            Ok(())
+        }
+    }
 }

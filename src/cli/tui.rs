@@ -17,8 +17,8 @@ use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 use anyhow::Context as _;
 use tokio::sync::mpsc;
 
-use super::GlobalArgs;
 use super::profile::resolve_with_sources;
+use super::{GlobalArgs, out};
 use crate::config::{ConfigDirs, ConfigError, Profile, Source, Theme, load_theme};
 use crate::device::api::{Event, Request};
 use crate::device::log::spawn_log;
@@ -87,7 +87,7 @@ pub fn run(global: &GlobalArgs, program: Option<&Path>) -> anyhow::Result<ExitCo
     let resolved = match resolve(global, &ConfigDirs::from_env()) {
         Ok(resolved) => resolved,
         Err(e) => {
-            eprintln!("{e}");
+            out::say(&e);
             return Ok(e.exit_code());
         }
     };

@@ -10,7 +10,7 @@
 //! at the file line that holds command N (comments and blank lines are never
 //! sent, so N is not the line number).
 
-use std::io::{IsTerminal, Write};
+use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
@@ -19,6 +19,7 @@ use clap::Args;
 
 use super::GlobalArgs;
 use super::check::render;
+use super::out;
 use super::session::{self, EXIT_LINK, EXIT_USAGE, Linked, Polling, Session, StartError};
 use crate::device::api::{
     Activity, ControllerFault, Event, LinkState, PerAxis, Refusal, Request, UploadEvent,
@@ -50,6 +51,9 @@ yet in this session is initialised first. Ctrl-C, a hang-up or SIGTERM stop the 
 first. EMP drives store no programs.";
 
 pub const AFTER_LONG_HELP: &str = "\
+Progress and messages on a stderr that is closed or hung up are dropped: the upload (and the
+run) goes on to its end, and the exit status says how it ended.
+
 Exit status: 0 stored (and run); 1 the controller answered an error or refused for its
 state, or interrupted (Ctrl-C, SIGTERM, a hang-up: the machine is stopped first); 2 bad
 usage (an error in the program, an unreadable file, an unknown option, an EMP drive); 3 link
@@ -118,7 +122,7 @@ fn prepare(args: &UploadArgs, language: Language, config: &LintConfig) -> Result
         .collect();
     if !errors.is_empty() {
         for d in &errors {
-            eprintln!("{}", render(&name, &program, d));
+            out::say(render(&name, &program, d));
         }
         return Err(format!(
             "{name}: {} error{} to fix first; nothing was sent",
@@ -141,7 +145,7 @@ fn prepare(args: &UploadArgs, language: Language, config: &LintConfig) -> Result
 
 pub fn run(global: &GlobalArgs, args: &UploadArgs) -> anyhow::Result<ExitCode> {
     let usage = |m: String| {
-        eprintln!("jogterm upload: {m}");
+        out::say(format_args!("jogterm upload: {m}"));
         Ok(ExitCode::from(EXIT_USAGE))
     };
     let profile = match session::resolve(global, args.baud) {
@@ -190,7 +194,7 @@ type Status = Result<(), u8>;
 async fn steps(session: &mut Session, prepared: &Prepared, args: &UploadArgs) -> u8 {
     let result = async {
         if let Linked::Failed(reason) = session.linked(Duration::from_secs(10)).await {
-            eprintln!("jogterm upload: link failure: {reason}");
+            out::say(format_args!("jogterm upload: link failure: {reason}"));
             return Err(EXIT_LINK);
         }
         upload(session, prepared, args.erase).await?;
@@ -208,7 +212,7 @@ async fn steps(session: &mut Session, prepared: &Prepared, args: &UploadArgs) ->
 
 /// The exit status for a refusal, said on stderr.
 fn refused(what: &str, reason: &Refusal) -> u8 {
-    eprintln!("jogterm upload: {what} refused: {reason}");
+    out::say(format_args!("jogterm upload: {what} refused: {reason}"));
     match reason {
         Refusal::Invalid { .. } => EXIT_USAGE,
         Refusal::NotConnected => EXIT_LINK,
@@ -217,7 +221,7 @@ fn refused(what: &str, reason: &Refusal) -> u8 {
 }
 
 fn lost(reason: &str) -> u8 {
-    eprintln!("jogterm upload: link failure: {reason}");
+    out::say(format_args!("jogterm upload: link failure: {reason}"));
     EXIT_LINK
 }
 
@@ -267,11 +271,11 @@ async fn upload(session: &mut Session, prepared: &Prepared, erase: bool) -> Stat
                     UploadEvent::Finished { total, elapsed } => {
                         progress.end();
                         let secs = elapsed.as_secs_f64();
-                        eprintln!(
+                        out::say(format_args!(
                             "{}: {total} commands stored in {secs:.1} s ({:.1} lines/s)",
                             prepared.name,
                             if secs > 0.0 { total as f64 / secs } else { 0.0 }
-                        );
+                        ));
                         if activity != Activity::Idle {
                             idle(session).await?;
                         }
@@ -279,14 +283,14 @@ async fn upload(session: &mut Session, prepared: &Prepared, erase: bool) -> Stat
                     }
                     UploadEvent::Failed { line, fault } => {
                         progress.end();
-                        eprintln!("{}", failure(prepared, line, &fault));
+                        out::say(failure(prepared, line, &fault));
                         return Err(1);
                     }
                     UploadEvent::Aborted { done, reason } => {
                         progress.end();
-                        eprintln!(
+                        out::say(format_args!(
                             "jogterm upload: the upload stopped after {done} commands: {reason}"
-                        );
+                        ));
                         return Err(1);
                     }
                 },
@@ -354,10 +358,10 @@ async fn initialise(session: &mut Session) -> Status {
             }
             Event::Refused { reason, .. } => return Err(refused("initialising", &reason)),
             Event::Fault(f) => {
-                eprintln!(
+                out::say(format_args!(
                     "jogterm upload: initialising failed: `{}` answered {}: {}",
                     f.command, f.code, f.meaning
-                );
+                ));
                 return Err(1);
             }
             Event::Link(LinkState::Lost { reason }) => return Err(lost(&reason)),
@@ -391,7 +395,7 @@ async fn start(session: &mut Session) -> Status {
                 }
                 Event::State(s) if s.activity == Activity::RunningProgram => {
                     if !running {
-                        eprintln!("running the program (Ctrl-C stops the machine)");
+                        out::say("running the program (Ctrl-C stops the machine)");
                     }
                     running = true;
                 }
@@ -418,10 +422,10 @@ async fn start(session: &mut Session) -> Status {
         }
     }
     if let Some(f) = fault {
-        eprintln!(
+        out::say(format_args!(
             "jogterm upload: the program ended with `{}`: {}",
             f.code, f.meaning
-        );
+        ));
         return Err(1);
     }
     let at = position.map_or_else(
@@ -433,7 +437,7 @@ async fn start(session: &mut Session) -> Status {
                 .join(", ")
         },
     );
-    eprintln!("the program ended; position (steps): {at}");
+    out::say(format_args!("the program ended; position (steps): {at}"));
     Ok(())
 }
 
@@ -468,19 +472,19 @@ impl Progress {
         }
         self.last = Some(now);
         let text = progress_text(done, self.total, rate);
-        let mut err = std::io::stderr().lock();
-        let _ = if self.terminal {
-            write!(err, "\r\x1b[2K{text}")
+        // A closed stderr never aborts the upload: the lines keep going out
+        // and the exit status says how it ended.
+        if self.terminal {
+            out::say_raw(format_args!("\r\x1b[2K{text}"));
         } else {
-            writeln!(err, "{text}")
-        };
-        let _ = err.flush();
+            out::say(text);
+        }
         self.shown = true;
     }
 
     fn end(&mut self) {
         if self.terminal && self.shown {
-            eprintln!();
+            out::say("");
         }
         self.shown = false;
     }
