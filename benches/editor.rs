@@ -62,7 +62,12 @@ fn wire_limit(lines: &[String], line: LineSettings) -> f64 {
 /// task's traffic records).
 struct Uploaded {
     took: Duration,
-    turnaround: Duration,
+    /// From a reply to the next line, sorted.
+    turnarounds: Vec<Duration>,
+    /// From a line's first byte written to its reply read, less the wire
+    /// time of both: the controller's side of the cycle (the simulator's
+    /// thread and the reader's wake-up), sorted.
+    answer_delays: Vec<Duration>,
 }
 
 /// Upload `lines` through the device task to the simulator.
@@ -101,14 +106,33 @@ async fn upload(lines: Vec<String>) -> Uploaded {
     let mut started = None;
     let mut last_reply: Option<std::time::SystemTime> = None;
     let mut turnarounds = Vec::new();
+    let mut answer_delays = Vec::new();
+    let mut line_start: Option<std::time::SystemTime> = None;
+    let mut line_bytes = 0;
+    let wire = LineSettings::new(19200);
     let took = loop {
         match events.recv().await {
             Some(Event::Traffic(record)) if started.is_some() => match record.direction {
-                Direction::Received => last_reply = Some(record.at),
+                Direction::Received => {
+                    last_reply = Some(record.at);
+                    if let Some(start) = line_start.take() {
+                        let on_wire = wire.transfer_time(line_bytes + record.bytes.len());
+                        answer_delays.extend(
+                            record
+                                .at
+                                .duration_since(start)
+                                .ok()
+                                .map(|d| d.saturating_sub(on_wire)),
+                        );
+                    }
+                    line_bytes = 0;
+                }
                 Direction::Sent => {
                     if let Some(reply) = last_reply.take() {
                         turnarounds.extend(record.at.duration_since(reply).ok());
                     }
+                    line_start.get_or_insert(record.at);
+                    line_bytes += record.bytes.len();
                 }
             },
             Some(Event::Upload(UploadEvent::Started { .. })) => started = Some(Instant::now()),
@@ -128,9 +152,11 @@ async fn upload(lines: Vec<String>) -> Uploaded {
     handle.shutdown().await;
     shell.shutdown();
     turnarounds.sort();
+    answer_delays.sort();
     Uploaded {
         took,
-        turnaround: percentile(&turnarounds, 0.5),
+        turnarounds,
+        answer_delays,
     }
 }
 
@@ -219,13 +245,31 @@ fn upload_rate(runtime: &tokio::runtime::Runtime, lines: Vec<String>, limit: f64
         up.took.as_secs_f64(),
         if share >= 95.0 { "ok" } else { "MISSED" }
     );
-    let own = up.turnaround.as_secs_f64();
+    let own = percentile(&up.turnarounds, 0.5).as_secs_f64();
     println!(
         "  jogterm's turnaround (reply to next line), median {:.3} ms: {:.1} % of the wire \
          limit if it were the only overhead; the rest is the simulator's and the scheduler's",
         own * 1e3,
         100.0 * per_line / (per_line + own)
     );
+    let ms = |d: Duration| d.as_secs_f64() * 1e3;
+    let mean = |v: &[Duration]| ms(v.iter().sum::<Duration>()) / v.len().max(1) as f64;
+    for (what, v) in [
+        ("turnaround (jogterm)", &up.turnarounds),
+        (
+            "answer beyond the wire (line written -> reply read)",
+            &up.answer_delays,
+        ),
+    ] {
+        println!(
+            "  {what}: mean {:.3} ms, p50 {:.3}, p90 {:.3}, p99 {:.3}, max {:.3} ms",
+            mean(v),
+            ms(percentile(v, 0.5)),
+            ms(percentile(v, 0.9)),
+            ms(percentile(v, 0.99)),
+            ms(v.last().copied().unwrap_or_default())
+        );
+    }
 }
 
 fn frame_times(quick: bool) {

@@ -29,7 +29,7 @@ use std::time::{Duration, Instant};
 use tokio::sync::{mpsc, watch};
 use tokio::time::{sleep_until, timeout_at};
 
-use super::api::{Event, LinkState, Request};
+use super::api::{Activity, Event, LinkState, MachineState, Request};
 use super::connector::{Backoff, Connector};
 use super::driver::Driver;
 use super::events::{EventBus, EventReceiver};
@@ -39,7 +39,7 @@ use super::traffic_buffer::TrafficBuffer;
 use crate::config::Profile;
 use crate::proto::Protocol;
 use crate::transport::{
-    self, EmergencyStop, Interleave, Lane, MessageId, PacedWriter, PortParts, PortSpec,
+    self, EmergencyStop, Interleave, Lane, MessageId, Pace, PacedWriter, PortParts, PortSpec,
     WriterConfig, WriterEvent,
 };
 use crate::wire::LineSettings;
@@ -119,6 +119,7 @@ pub fn spawn_with(
         slot,
         options,
         last_lost: None,
+        pace: Pace::Tight,
     };
     runtime.spawn(task.run(done_tx));
     Ok((
@@ -143,6 +144,11 @@ struct Task {
     options: TaskOptions,
     /// The last loss published, so a retry loop says it once.
     last_lost: Option<String>,
+    /// How far ahead of the wire the driver's messages may run: bulk while
+    /// the driver reports an upload (nothing moves then, motion is refused),
+    /// tight otherwise, so that a stop is never more than the writer's
+    /// `max_backlog` behind bytes already handed over.
+    pace: Pace,
 }
 
 /// How a session or a wait ended.
@@ -170,6 +176,16 @@ struct Session {
     /// Do not wait for the writer's reports before this (a message is being
     /// paced out; its last report is due then).
     reports_after: Option<Instant>,
+}
+
+/// Bulk pacing only for an upload on a link that is up: storing a program
+/// moves nothing, and the drivers refuse motion until it has ended.
+fn pace_for(state: &MachineState) -> Pace {
+    if state.link_up && state.activity == Activity::Uploading {
+        Pace::Bulk
+    } else {
+        Pace::Tight
+    }
 }
 
 impl Task {
@@ -239,7 +255,10 @@ impl Task {
             let due = now + s.line.transfer_time(out.bytes.len().saturating_sub(1));
             s.reports_after = Some(s.reports_after.map_or(due, |t| t.max(due)));
             // A writer that has ended reports `Failed`; the loop sees it.
-            let _ = s.writer.send(out.bytes, interleave);
+            let _ = match self.pace {
+                Pace::Tight => s.writer.send(out.bytes, interleave),
+                Pace::Bulk => s.writer.send_bulk(out.bytes, interleave),
+            };
         }
         self.publish_driver_events()
     }
@@ -268,6 +287,9 @@ impl Task {
             if let Event::Link(LinkState::Lost { reason }) = &event {
                 dead = true;
                 self.last_lost = Some(reason.clone());
+            }
+            if let Event::State(state) = &event {
+                self.pace = pace_for(state);
             }
             self.bus.publish(event);
         }
@@ -476,5 +498,27 @@ impl Task {
                 () = sleep_until(until.into()) => return End::Lost,
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn only_an_upload_on_a_live_link_is_paced_in_bulk() {
+        let mut state = MachineState {
+            link_up: true,
+            activity: Activity::Uploading,
+            ..MachineState::default()
+        };
+        assert_eq!(pace_for(&state), Pace::Bulk);
+        for activity in [Activity::Idle, Activity::Moving, Activity::Jogging] {
+            state.activity = activity;
+            assert_eq!(pace_for(&state), Pace::Tight, "{activity:?}");
+        }
+        state.activity = Activity::Uploading;
+        state.link_up = false;
+        assert_eq!(pace_for(&state), Pace::Tight);
     }
 }

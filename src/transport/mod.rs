@@ -30,7 +30,7 @@ use std::time::Duration;
 pub use emergency::EmergencyStop;
 pub use error::TransportError;
 pub use list::{PortInfo, list_ports};
-pub use pacing::Pacer;
+pub use pacing::{Pace, Pacer};
 pub use reader::{PortReader, ReadChunk};
 pub use writer::{
     Interleave, Lane, MessageId, PacedWriter, WriterConfig, WriterEvent, WrittenChunk,

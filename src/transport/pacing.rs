@@ -11,11 +11,26 @@ use std::time::{Duration, Instant};
 
 use crate::wire::LineSettings;
 
+/// How far ahead of the wire a message may be handed to the OS.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Pace {
+    /// Within the writer's `max_backlog`: a stop is never more than that
+    /// behind bytes already handed over.
+    #[default]
+    Tight,
+    /// Within the larger bulk backlog: for streams during which nothing
+    /// moves (a program being stored), where a stop costs nothing by
+    /// waiting a few milliseconds more, and one writer wake-up per byte
+    /// would leave the line idle whenever a wake-up comes late.
+    Bulk,
+}
+
 /// How many bytes ahead of the wire the writer may be.
 #[derive(Debug, Clone)]
 pub struct Pacer {
     byte_time: Duration,
     max_backlog: Duration,
+    bulk_backlog: Duration,
     wire_free: Option<Instant>,
 }
 
@@ -26,10 +41,26 @@ impl Pacer {
     /// just because the writer thread woke a few microseconds late.
     pub fn new(line: LineSettings, max_backlog: Duration) -> Self {
         let byte_time = line.byte_time().max(Duration::from_nanos(1));
+        let max_backlog = max_backlog.max(byte_time + byte_time / 2);
         Self {
             byte_time,
-            max_backlog: max_backlog.max(byte_time + byte_time / 2),
+            max_backlog,
+            bulk_backlog: max_backlog,
             wire_free: None,
+        }
+    }
+
+    /// The backlog allowed for [`Pace::Bulk`] messages (never below the
+    /// tight one).
+    pub fn with_bulk_backlog(mut self, bulk_backlog: Duration) -> Self {
+        self.bulk_backlog = bulk_backlog.max(self.max_backlog);
+        self
+    }
+
+    fn limit(&self, pace: Pace) -> Duration {
+        match pace {
+            Pace::Tight => self.max_backlog,
+            Pace::Bulk => self.bulk_backlog,
         }
     }
 
@@ -55,16 +86,27 @@ impl Pacer {
 
     /// Bytes that may be handed over at `now`.
     pub fn allowance(&self, now: Instant) -> usize {
-        let room = self.max_backlog.saturating_sub(self.backlog(now));
+        self.allowance_for(Pace::Tight, now)
+    }
+
+    /// Bytes of a message paced `pace` that may be handed over at `now`.
+    pub fn allowance_for(&self, pace: Pace, now: Instant) -> usize {
+        let room = self.limit(pace).saturating_sub(self.backlog(now));
         (room.as_nanos() / self.byte_time.as_nanos()) as usize
     }
 
     /// The earliest time at which at least one byte may be handed over.
     pub fn ready_at(&self, now: Instant) -> Instant {
-        if self.allowance(now) > 0 {
+        self.ready_at_for(Pace::Tight, now)
+    }
+
+    /// The earliest time at which at least one byte of a message paced
+    /// `pace` may be handed over.
+    pub fn ready_at_for(&self, pace: Pace, now: Instant) -> Instant {
+        if self.allowance_for(pace, now) > 0 {
             return now;
         }
-        let keep = self.max_backlog.saturating_sub(self.byte_time);
+        let keep = self.limit(pace).saturating_sub(self.byte_time);
         let free = self.wire_free_at(now);
         free.checked_sub(keep).map_or(now, |t| t.max(now))
     }
@@ -125,6 +167,29 @@ mod tests {
             ready < end,
             "next byte is handed over before the line idles"
         );
+    }
+
+    #[test]
+    fn bulk_runs_further_ahead_and_tight_waits_for_its_own_bound() {
+        let t0 = Instant::now();
+        let mut p = Pacer::new(LineSettings::new(19200), Duration::from_millis(1))
+            .with_bulk_backlog(Duration::from_millis(4));
+        assert_eq!(
+            p.allowance_for(Pace::Bulk, t0),
+            7,
+            "4 ms hold seven 0.52 ms bytes"
+        );
+        p.wrote(7, t0);
+        assert_eq!(p.allowance_for(Pace::Bulk, t0), 0);
+        // A tight message behind bulk bytes waits until the backlog is back
+        // under its own bound: the bulk bound is per message, not a new floor.
+        let tight = p.ready_at_for(Pace::Tight, t0);
+        assert!(p.backlog(tight) <= Duration::from_millis(1));
+        assert!(tight - t0 >= Duration::from_millis(2), "{:?}", tight - t0);
+        // Never below the tight bound.
+        let q = Pacer::new(LineSettings::new(19200), Duration::from_millis(1))
+            .with_bulk_backlog(Duration::ZERO);
+        assert_eq!(q.allowance_for(Pace::Bulk, t0), q.allowance(t0));
     }
 
     #[test]
