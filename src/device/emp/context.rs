@@ -4,7 +4,7 @@
 //! decide what to send; `MachineState` is derived from it.
 
 use std::collections::VecDeque;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use crate::axis::{Axis, AxisSet};
 use crate::config::profile::{EmpJog, EmpStop};
@@ -73,6 +73,9 @@ pub struct Context {
     pub events: VecDeque<Event>,
     /// The last complete position sample (every drive), machine counts.
     pub position: Option<PerAxis<i64>>,
+    /// About how often the poller reads a switched-on drive's position;
+    /// `None` when positions are not polled (kept by the driver).
+    pub position_poll: Option<Duration>,
 }
 
 impl Sink for Context {
@@ -94,6 +97,7 @@ impl Context {
             drives,
             events: VecDeque::new(),
             position: None,
+            position_poll: None,
         }
     }
 

@@ -19,13 +19,15 @@
 //!    ([`init`]), reference runs ([`home`]), moves and jogs ([`motion_op`],
 //!    planned in [`plan`]), outputs ([`output`]), raw frames ([`raw`]);
 //!    long actions that stay busy are given up at their deadline
-//!    ([`deadline`]) or, raw reference runs, when they stall ([`stall`]);
+//!    ([`deadline`]) or, reference runs planned or raw, when they stall
+//!    ([`stall`]), both through [`guard`];
 //! 4. raw queries, between the operation's frames;
 //! 5. the next queued request, checked when it is its turn;
 //! 6. polling ([`poll`]).
 
 mod context;
 mod deadline;
+mod guard;
 mod home;
 mod init;
 mod io;
@@ -482,6 +484,9 @@ impl EmpDriver {
         }
         match item {
             PollItem::Position(ds) => {
+                if let Some(op) = self.op.as_mut() {
+                    op.get().polled(&mut self.cx, ds, now);
+                }
                 let last = self.cx.drives.last().map(|d| d.ds);
                 if last == Some(ds) {
                     self.cx.position_complete(now);
@@ -686,6 +691,8 @@ impl EmpDriver {
             .as_ref()
             .map_or(Activity::Idle, |o| o.peek().activity());
         self.cx.state.link_up = self.link_up;
+        self.cx.position_poll =
+            poll::position_period(&self.poller, self.cx.settings.line, self.cx.drives.len());
         self.cx.refresh();
         self.report.publish(&self.cx.state, &mut self.cx.events);
     }
@@ -831,11 +838,14 @@ impl Driver for EmpDriver {
             self.correlator.next_deadline(),
             self.poller.stats_due(),
         ];
-        if self.correlator.next_deadline().is_none() {
-            times.push(self.poller.due());
-        }
         if let Some(op) = &self.op {
             times.push(op.peek().timer());
+        }
+        // What waits for the line to be free wakes the driver only then: a
+        // due poll or watchdog read behind a first answer cannot be sent.
+        if self.correlator.next_deadline().is_none() {
+            times.push(self.poller.due());
+            times.push(self.op.as_ref().and_then(|o| o.peek().send_due()));
         }
         times.into_iter().flatten().min()
     }

@@ -3,7 +3,9 @@
 //! measured), and every `ports_every`th cycle the switches and inputs of
 //! every drive with `40 01`.
 
-use crate::device::common::Poller;
+use std::time::Duration;
+
+use crate::device::common::{PollRate, Poller};
 use crate::proto::emp::{Command, DriveAddress, Request};
 use crate::wire::LineSettings;
 
@@ -42,6 +44,23 @@ pub fn wire_limit_hz(poller: &Poller<PollItem>, line: LineSettings, drives: usiz
         (line.transfer_time(2 * crate::proto::emp::FRAME_WIRE_LEN) + PROCESSING).as_secs_f64();
     let ports = poller.ports().len() as f64 / f64::from(poller.ports_every());
     1.0 / (round_trip * (drives as f64 + ports))
+}
+
+/// About how often the poller reads each drive's position: its rate, or
+/// at line speed a cycle's round trips; `None` when polling is off.
+pub fn position_period(
+    poller: &Poller<PollItem>,
+    line: LineSettings,
+    drives: usize,
+) -> Option<Duration> {
+    let hz = match poller.rate() {
+        PollRate::Off => return None,
+        PollRate::Hz(hz) => hz,
+        PollRate::LineSpeed => wire_limit_hz(poller, line, drives),
+    };
+    (hz > 0.0 && hz.is_finite())
+        .then(|| Duration::try_from_secs_f64(1.0 / hz).ok())
+        .flatten()
 }
 
 #[cfg(test)]
