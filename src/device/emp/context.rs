@@ -153,6 +153,11 @@ impl Context {
         self.state.initialised = AxisSet::EMPTY;
     }
 
+    /// Drive `ds` is known to be switched off (`04`, or "not switched on").
+    pub fn known_off(&self, ds: DriveAddress) -> bool {
+        self.drive(ds).is_some_and(|d| d.on == Some(false))
+    }
+
     /// Every drive is switched on.
     pub fn ready(&self) -> bool {
         self.drives.iter().all(|d| d.on == Some(true))

@@ -50,7 +50,7 @@ use std::collections::VecDeque;
 use std::time::{Duration, Instant};
 
 pub use output::output_id;
-pub use poll::{PollItem, wire_limit_hz};
+pub use poll::{OFF_POLL_EVERY, PollItem, wire_limit_hz};
 pub use raw::{STARTED, parse_raw, reply_text};
 pub use settings::{DriveAxis, EmpSettings, Timing};
 pub use speed::DriveSpeed;
@@ -152,6 +152,8 @@ pub struct EmpDriver {
     /// Typed stop frames, sent right after those.
     raw_stops: VecDeque<Frame>,
     poller: Poller<PollItem>,
+    /// Holds back the polls of drives that are switched off.
+    off_polls: poll::OffDrives,
     /// Frames handed to the writer and not yet reported written.
     unsent: VecDeque<Frame>,
     /// A stop overtook a frame that may move (the stop lane jumps the
@@ -166,6 +168,7 @@ impl EmpDriver {
         let timeout = settings.reply_timeout();
         EmpDriver {
             poller: poll::poller(&settings),
+            off_polls: poll::OffDrives::default(),
             cx: Context::new(settings),
             link_up: false,
             decoder: FrameDecoder::new(),
@@ -270,8 +273,29 @@ impl EmpDriver {
         if let Some(frame) = self.side.pop_front() {
             return Some(self.send(frame, Owner::Side, now));
         }
-        let item = self.poller.next(now)?;
-        Some(self.send(item.request(), Owner::Poll(item), now))
+        self.next_poll(now)
+    }
+
+    /// The next poll due; the polls of a drive that is off are held back
+    /// (`poll::OffDrives`) and the cycle goes on without them.
+    fn next_poll(&mut self, now: Instant) -> Option<Outgoing> {
+        // A cycle's items at most, so a line-speed poller whose every item
+        // is held back does not spin.
+        let most = self.cx.drives.len() * 2 + 1;
+        self.off_polls.look();
+        for _ in 0..most {
+            let Some(item) = self.poller.next(now) else {
+                // Nothing more in this cycle: the poller wakes for the next.
+                self.off_polls.look();
+                return None;
+            };
+            let off = self.cx.known_off(item.ds());
+            if self.off_polls.admit(item, off, now) {
+                self.off_polls.look();
+                return Some(self.send(item.request(), Owner::Poll(item), now));
+            }
+        }
+        None
     }
 
     /// Stop frames for `drives`, sent ahead of everything.
@@ -478,6 +502,10 @@ impl EmpDriver {
     }
 
     fn poll_reply(&mut self, item: PollItem, outcome: Outcome, now: Instant) {
+        if outcome == Outcome::Rejected && self.cx.known_off(item.ds()) {
+            // Still off: nothing was lost, the other drives' polls go on.
+            return;
+        }
         if outcome != Outcome::Answered {
             self.poller.abandon_cycle();
             return;
@@ -521,6 +549,7 @@ impl EmpDriver {
         self.errors.clear();
         self.side.clear();
         self.quiet_until = None;
+        self.off_polls.reset();
         if let Some(mut op) = self.op.take() {
             op.get().link_lost(&mut self.cx);
         }
@@ -717,6 +746,7 @@ impl Driver for EmpDriver {
         self.go_down("reconnected");
         self.link_up = true;
         self.poller.reset();
+        self.off_polls.reset();
         let all = self.cx.addresses();
         self.stop_drives(&all);
         self.quiet_until = Some(now + self.cx.settings.timing.connect_settle);
@@ -846,6 +876,7 @@ impl Driver for EmpDriver {
         if self.correlator.next_deadline().is_none() {
             times.push(self.poller.due());
             times.push(self.op.as_ref().and_then(|o| o.peek().send_due()));
+            times.push(self.off_polls.wake());
         }
         times.into_iter().flatten().min()
     }

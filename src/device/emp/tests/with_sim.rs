@@ -740,3 +740,60 @@ fn a_planned_homing_of_two_drives_watches_every_drive_s_run() {
     b.sim.stall_next(b.now).expect("stall");
     assert_run_given_up(&mut b, "11", Axis::X);
 }
+
+/// `2C` frames to drives 11 and 21 among those sent from `from` on.
+fn position_polls(b: &Bench, from: usize) -> (usize, usize) {
+    let sent = b.sent_text();
+    let count = |ds: &str| {
+        sent.iter()
+            .skip(from)
+            .filter(|t| t.starts_with(&format!("2C{ds}")))
+            .count()
+    };
+    (count("11"), count("21"))
+}
+
+#[test]
+fn a_drive_that_is_off_is_polled_once_a_second_and_the_others_at_full_rate() {
+    let mut p = profile();
+    p.machine.axes = "XY".into();
+    let mut y = p.axes.get(&Axis::X).cloned().expect("X");
+    y.drive = Some("21".into());
+    p.axes.insert(Axis::Y, y);
+    let mut b = bench_for(&p, |_| {});
+    // Connected, both drives off; X switched on by a typed `02`.
+    b.run(ms(300));
+    b.request(Request::Raw {
+        line: "02 11 00 00 00000000".into(),
+    });
+    b.run(ms(100));
+    let y_ds = DriveAddress::new(2, 1).expect("21");
+    assert!(b.sim.snapshot(DriveAddress::SINGLE, b.now).expect("X").on);
+    assert!(!b.sim.snapshot(y_ds, b.now).expect("Y").on);
+    let from = b.sent.len();
+    b.run(ms(2000));
+    let (x, y) = position_polls(&b, from);
+    // Y once a second; X at the line's rate (a round trip of 10.45 ms,
+    // `40 01` every fourth cycle, Y's few rejections).
+    assert!(y <= 3, "Y polled {y} times in 2 s");
+    assert!(x > 130, "X polled {x} times in 2 s");
+    // The operator still sees that Y is off.
+    let s = b.driver.state();
+    assert_eq!(s.initialised, AxisSet::EMPTY.with(Axis::X));
+    assert!(
+        b.events
+            .iter()
+            .any(|e| matches!(e, Event::Notice(n) if n.contains("drive 21 is not switched on"))),
+        "{:?}",
+        b.events
+    );
+    // Switched on: both at the full rate again.
+    b.request(Request::Raw {
+        line: "02 21 00 00 00000000".into(),
+    });
+    b.run(ms(100));
+    let from = b.sent.len();
+    b.run(ms(1000));
+    let (x, y) = position_polls(&b, from);
+    assert!(x > 30 && y > 30 && x.abs_diff(y) <= 1, "X {x}, Y {y}");
+}
