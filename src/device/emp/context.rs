@@ -219,6 +219,9 @@ impl Context {
             (Command::Off, _) => {
                 d.on = Some(false);
                 d.mode = None;
+                // Its `2C` is rejected from now on: no stale position in
+                // the samples of the other drives' poll cycles.
+                d.position = None;
             }
             (Command::MotorEnable(mode), _) => d.mode = Some(*mode),
             (Command::MotorDisable | Command::FastStop, _) => d.mode = None,
@@ -285,6 +288,7 @@ impl Context {
                 if let Some(d) = self.drive_mut(rejected.ds) {
                     d.on = Some(false);
                     d.mode = None;
+                    d.position = None;
                 }
                 Recovery::SwitchOn
             }

@@ -213,3 +213,29 @@ fn a_drive_known_to_be_off_is_polled_once_a_second_without_asking_again() {
     }
     assert!(reads >= 6, "{reads}");
 }
+
+#[test]
+fn a_drive_switched_off_by_a_typed_04_is_polled_slowly_without_a_stale_position() {
+    let mut h = Harness::emp(|_| {});
+    h.connect(1000, true);
+    h.request(Request::Raw {
+        line: "04 11 00 00 00000000".into(),
+    });
+    h.expect_frame("04 11 00 00 00000000");
+    h.answer("05 11 00 22 000003E8");
+    h.poll();
+    h.events.clear();
+    let from = h.sent.len();
+    for _ in 0..2 {
+        h.expect_frame("2C 11 00 00 00000000");
+        h.answer("2D 11 00 EE 00000000");
+        h.expect_frame("40 11 01 00 00000000");
+        h.answer("41 11 00 EE 00000000");
+        h.expect_nothing();
+        h.advance(OFF_POLL_EVERY);
+    }
+    // Known off since its `04`: no `0A`, no position sample.
+    assert!(h.sent[from..].iter().all(|m| !m.starts_with(b"0A")));
+    assert!(h.positions().is_empty(), "{:?}", h.positions());
+    assert!(!h.state().initialised.contains(Axis::X));
+}
