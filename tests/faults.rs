@@ -820,6 +820,36 @@ fn emp_raw_homing_stalled(t: &mut Tally) {
     console.quit();
 }
 
+/// EMP: the console's own reference run (`h`, confirmed with `y`) whose
+/// drive stays busy and does not move: the same watchdog as for a raw `26`
+/// (fed by the position polls), the same give-up: the drive stopped first,
+/// the operator told what to check, moves refused.
+fn emp_homing_stalled(t: &mut Tally) {
+    let (mut sim, mut console) = ready_emp();
+    sim.control("fault stall");
+    t.fault();
+    console.keys(b"h");
+    console.wait_for("Start the reference run?");
+    console.keys(b"y");
+    let started = Instant::now();
+    assert_given_up(
+        &mut sim,
+        &console,
+        EMP_HOME,
+        &["homing stalled", "Check the axis for a blockage"],
+    );
+    assert!(
+        started.elapsed() < Duration::from_secs(10),
+        "the watchdog, not the deadline: {:?}",
+        started.elapsed()
+    );
+    let motion = emp_motion(&sim.received());
+    assert_eq!(motion, [EMP_HOME, EMP_HOME], "the run once");
+    assert_emp_motion_refused(&mut sim, &mut console);
+    sim.assert_alive();
+    console.quit();
+}
+
 /// EMCU memory full (0x03) during an upload from the editor: the interface
 /// has less job memory than the linter assumes (`memory 2` on the
 /// simulator's stdin), so it answers the third command with 0x03 CR. The
@@ -968,6 +998,10 @@ fn main() -> ExitCode {
         Scenario {
             name: "emp_raw_homing_stalled",
             run: emp_raw_homing_stalled,
+        },
+        Scenario {
+            name: "emp_homing_stalled",
+            run: emp_homing_stalled,
         },
     ])
 }

@@ -4,7 +4,7 @@
 //! decide what to send; `MachineState` is derived from it.
 
 use std::collections::VecDeque;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use crate::axis::{Axis, AxisSet};
 use crate::config::profile::{EmpJog, EmpStop};
@@ -73,6 +73,9 @@ pub struct Context {
     pub events: VecDeque<Event>,
     /// The last complete position sample (every drive), machine counts.
     pub position: Option<PerAxis<i64>>,
+    /// About how often the poller reads a switched-on drive's position;
+    /// `None` when positions are not polled (kept by the driver).
+    pub position_poll: Option<Duration>,
 }
 
 impl Sink for Context {
@@ -94,6 +97,7 @@ impl Context {
             drives,
             events: VecDeque::new(),
             position: None,
+            position_poll: None,
         }
     }
 
@@ -147,6 +151,11 @@ impl Context {
         }
         self.position = None;
         self.state.initialised = AxisSet::EMPTY;
+    }
+
+    /// Drive `ds` is known to be switched off (`04`, or "not switched on").
+    pub fn known_off(&self, ds: DriveAddress) -> bool {
+        self.drive(ds).is_some_and(|d| d.on == Some(false))
     }
 
     /// Every drive is switched on.
@@ -210,6 +219,9 @@ impl Context {
             (Command::Off, _) => {
                 d.on = Some(false);
                 d.mode = None;
+                // Its `2C` is rejected from now on: no stale position in
+                // the samples of the other drives' poll cycles.
+                d.position = None;
             }
             (Command::MotorEnable(mode), _) => d.mode = Some(*mode),
             (Command::MotorDisable | Command::FastStop, _) => d.mode = None,
@@ -276,6 +288,7 @@ impl Context {
                 if let Some(d) = self.drive_mut(rejected.ds) {
                     d.on = Some(false);
                     d.mode = None;
+                    d.position = None;
                 }
                 Recovery::SwitchOn
             }

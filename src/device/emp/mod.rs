@@ -19,13 +19,15 @@
 //!    ([`init`]), reference runs ([`home`]), moves and jogs ([`motion_op`],
 //!    planned in [`plan`]), outputs ([`output`]), raw frames ([`raw`]);
 //!    long actions that stay busy are given up at their deadline
-//!    ([`deadline`]) or, raw reference runs, when they stall ([`stall`]);
+//!    ([`deadline`]) or, reference runs planned or raw, when they stall
+//!    ([`stall`]), both through [`guard`];
 //! 4. raw queries, between the operation's frames;
 //! 5. the next queued request, checked when it is its turn;
 //! 6. polling ([`poll`]).
 
 mod context;
 mod deadline;
+mod guard;
 mod home;
 mod init;
 mod io;
@@ -48,7 +50,7 @@ use std::collections::VecDeque;
 use std::time::{Duration, Instant};
 
 pub use output::output_id;
-pub use poll::{PollItem, wire_limit_hz};
+pub use poll::{OFF_POLL_EVERY, PollItem, wire_limit_hz};
 pub use raw::{STARTED, parse_raw, reply_text};
 pub use settings::{DriveAxis, EmpSettings, Timing};
 pub use speed::DriveSpeed;
@@ -150,6 +152,8 @@ pub struct EmpDriver {
     /// Typed stop frames, sent right after those.
     raw_stops: VecDeque<Frame>,
     poller: Poller<PollItem>,
+    /// Holds back the polls of drives that are switched off.
+    off_polls: poll::OffDrives,
     /// Frames handed to the writer and not yet reported written.
     unsent: VecDeque<Frame>,
     /// A stop overtook a frame that may move (the stop lane jumps the
@@ -164,6 +168,7 @@ impl EmpDriver {
         let timeout = settings.reply_timeout();
         EmpDriver {
             poller: poll::poller(&settings),
+            off_polls: poll::OffDrives::default(),
             cx: Context::new(settings),
             link_up: false,
             decoder: FrameDecoder::new(),
@@ -268,8 +273,29 @@ impl EmpDriver {
         if let Some(frame) = self.side.pop_front() {
             return Some(self.send(frame, Owner::Side, now));
         }
-        let item = self.poller.next(now)?;
-        Some(self.send(item.request(), Owner::Poll(item), now))
+        self.next_poll(now)
+    }
+
+    /// The next poll due; the polls of a drive that is off are held back
+    /// (`poll::OffDrives`) and the cycle goes on without them.
+    fn next_poll(&mut self, now: Instant) -> Option<Outgoing> {
+        // A cycle's items at most, so a line-speed poller whose every item
+        // is held back does not spin.
+        let most = self.cx.drives.len() * 2 + 1;
+        self.off_polls.look();
+        for _ in 0..most {
+            let Some(item) = self.poller.next(now) else {
+                // Nothing more in this cycle: the poller wakes for the next.
+                self.off_polls.look();
+                return None;
+            };
+            let off = self.cx.known_off(item.ds());
+            if self.off_polls.admit(item, off, now) {
+                self.off_polls.look();
+                return Some(self.send(item.request(), Owner::Poll(item), now));
+            }
+        }
+        None
     }
 
     /// Stop frames for `drives`, sent ahead of everything.
@@ -476,12 +502,19 @@ impl EmpDriver {
     }
 
     fn poll_reply(&mut self, item: PollItem, outcome: Outcome, now: Instant) {
+        if outcome == Outcome::Rejected && self.cx.known_off(item.ds()) {
+            // Still off: nothing was lost, the other drives' polls go on.
+            return;
+        }
         if outcome != Outcome::Answered {
             self.poller.abandon_cycle();
             return;
         }
         match item {
             PollItem::Position(ds) => {
+                if let Some(op) = self.op.as_mut() {
+                    op.get().polled(&mut self.cx, ds, now);
+                }
                 let last = self.cx.drives.last().map(|d| d.ds);
                 if last == Some(ds) {
                     self.cx.position_complete(now);
@@ -516,6 +549,7 @@ impl EmpDriver {
         self.errors.clear();
         self.side.clear();
         self.quiet_until = None;
+        self.off_polls.reset();
         if let Some(mut op) = self.op.take() {
             op.get().link_lost(&mut self.cx);
         }
@@ -683,6 +717,8 @@ impl EmpDriver {
             .as_ref()
             .map_or(Activity::Idle, |o| o.peek().activity());
         self.cx.state.link_up = self.link_up;
+        self.cx.position_poll =
+            poll::position_period(&self.poller, self.cx.settings.line, self.cx.drives.len());
         self.cx.refresh();
         self.report.publish(&self.cx.state, &mut self.cx.events);
     }
@@ -707,6 +743,7 @@ impl Driver for EmpDriver {
         self.go_down("reconnected");
         self.link_up = true;
         self.poller.reset();
+        self.off_polls.reset();
         let all = self.cx.addresses();
         self.stop_drives(&all);
         self.quiet_until = Some(now + self.cx.settings.timing.connect_settle);
@@ -828,11 +865,15 @@ impl Driver for EmpDriver {
             self.correlator.next_deadline(),
             self.poller.stats_due(),
         ];
-        if self.correlator.next_deadline().is_none() {
-            times.push(self.poller.due());
-        }
         if let Some(op) = &self.op {
             times.push(op.peek().timer());
+        }
+        // What waits for the line to be free wakes the driver only then: a
+        // due poll or watchdog read behind a first answer cannot be sent.
+        if self.correlator.next_deadline().is_none() {
+            times.push(self.poller.due());
+            times.push(self.op.as_ref().and_then(|o| o.peek().send_due()));
+            times.push(self.off_polls.wake());
         }
         times.into_iter().flatten().min()
     }

@@ -35,8 +35,18 @@ pub trait Operation {
 
     fn on_timer(&mut self, _cx: &mut Context, _now: Instant) {}
 
+    /// When a frame of its own becomes due to be sent (a watchdog's read):
+    /// the driver wakes for it only while the line is free, as for a poll.
+    fn send_due(&self) -> Option<Instant> {
+        None
+    }
+
     /// A new position sample.
     fn position(&mut self, _cx: &mut Context, _now: Instant) {}
+
+    /// The poller has read drive `ds`'s position (`Context` holds it): a
+    /// sample for a stall watchdog, so it needs no reads of its own.
+    fn polled(&mut self, _cx: &mut Context, _ds: DriveAddress, _now: Instant) {}
 
     /// The drives this operation wants stopped now (release, lease expiry,
     /// soft limit, a failed leg); the driver sends the stop frames.

@@ -1,9 +1,14 @@
 //! Polling: a cycle reads every drive's position with `2C` (allowed at any
 //! time, also during a move: manual "2C", so positions are always
 //! measured), and every `ports_every`th cycle the switches and inputs of
-//! every drive with `40 01`.
+//! every drive with `40 01`. A drive known to be switched off answers every
+//! frame but `0A` with `EE` (manual "02", error 02), so its polls are sent
+//! only once every [`OFF_POLL_EVERY`] ([`OffDrives`]) until it is switched on
+//! again or the link is new; the other drives keep the full rate.
 
-use crate::device::common::Poller;
+use std::time::{Duration, Instant};
+
+use crate::device::common::{PollRate, Poller};
 use crate::proto::emp::{Command, DriveAddress, Request};
 use crate::wire::LineSettings;
 
@@ -16,6 +21,12 @@ pub enum PollItem {
 }
 
 impl PollItem {
+    pub fn ds(self) -> DriveAddress {
+        match self {
+            PollItem::Position(ds) | PollItem::Io(ds) => ds,
+        }
+    }
+
     pub fn request(self) -> Request {
         match self {
             PollItem::Position(ds) => Request::new(ds, Command::ReadPosition),
@@ -34,6 +45,63 @@ pub fn poller(settings: &EmpSettings) -> Poller<PollItem> {
     )
 }
 
+/// How often each poll item of a drive that is switched off is sent. Every
+/// such poll is answered `EE` and tells nothing new but that the drive is
+/// still off (`02` from jogterm, or a new link, is what switches it on and
+/// restores the full rate); once a second keeps the line free for the
+/// other drives and still shows a drive switched on behind jogterm's back
+/// (its poll is answered again) within a second.
+pub const OFF_POLL_EVERY: Duration = Duration::from_secs(1);
+
+/// When each poll item was last sent, to hold back those of drives that
+/// are switched off.
+#[derive(Debug, Default)]
+pub struct OffDrives {
+    sent: Vec<(PollItem, Instant)>,
+    /// When the first item held back by the last look for a poll becomes
+    /// due: the driver wakes then (a line-speed poller has nothing due of
+    /// its own).
+    wake: Option<Instant>,
+}
+
+impl OffDrives {
+    fn last(&self, item: PollItem) -> Option<Instant> {
+        self.sent.iter().find(|(i, _)| *i == item).map(|(_, t)| *t)
+    }
+
+    /// A new look for a poll to send: nothing held back yet.
+    pub fn look(&mut self) {
+        self.wake = None;
+    }
+
+    /// Whether `item` may be sent now (`off`: its drive is known to be
+    /// switched off); if so, it counts as sent, if not, it is held back.
+    pub fn admit(&mut self, item: PollItem, off: bool, now: Instant) -> bool {
+        if off && let Some(t) = self.last(item) {
+            let due = t + OFF_POLL_EVERY;
+            if now < due {
+                self.wake = Some(self.wake.map_or(due, |w| w.min(due)));
+                return false;
+            }
+        }
+        self.sent.retain(|(i, _)| *i != item);
+        self.sent.push((item, now));
+        true
+    }
+
+    /// When an item held back by the last look becomes due, if that look
+    /// found nothing to send.
+    pub fn wake(&self) -> Option<Instant> {
+        self.wake
+    }
+
+    /// A new link: every drive's state is unknown again.
+    pub fn reset(&mut self) {
+        self.sent.clear();
+        self.wake = None;
+    }
+}
+
 /// Position samples per second the line allows for this poll plan: every
 /// drive's `2C` round trip per cycle, and the `40` round trips spread over
 /// `ports_every` cycles.
@@ -44,10 +112,49 @@ pub fn wire_limit_hz(poller: &Poller<PollItem>, line: LineSettings, drives: usiz
     1.0 / (round_trip * (drives as f64 + ports))
 }
 
+/// About how often the poller reads each drive's position: its rate, or
+/// at line speed a cycle's round trips; `None` when polling is off.
+pub fn position_period(
+    poller: &Poller<PollItem>,
+    line: LineSettings,
+    drives: usize,
+) -> Option<Duration> {
+    let hz = match poller.rate() {
+        PollRate::Off => return None,
+        PollRate::Hz(hz) => hz,
+        PollRate::LineSpeed => wire_limit_hz(poller, line, drives),
+    };
+    (hz > 0.0 && hz.is_finite())
+        .then(|| Duration::try_from_secs_f64(1.0 / hz).ok())
+        .flatten()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::config::{ConfigDirs, load_profile};
+
+    #[test]
+    fn a_drive_that_is_off_is_polled_once_a_second() {
+        let t = Instant::now();
+        let x = PollItem::Position(DriveAddress::SINGLE);
+        let mut off = OffDrives::default();
+        assert!(off.admit(x, true, t), "the first poll goes");
+        assert_eq!(off.wake(), None);
+        assert!(!off.admit(x, true, t + Duration::from_millis(999)));
+        assert_eq!(off.wake(), Some(t + OFF_POLL_EVERY));
+        off.look();
+        assert_eq!(off.wake(), None);
+        assert!(off.admit(x, true, t + OFF_POLL_EVERY));
+        // Switched on: at once, every time.
+        let on = t + OFF_POLL_EVERY + Duration::from_millis(10);
+        assert!(off.admit(x, false, on));
+        assert!(off.admit(x, false, on));
+        // Off again: a second after the last poll.
+        assert!(!off.admit(x, true, on + Duration::from_millis(500)));
+        off.reset();
+        assert!(off.admit(x, true, on + Duration::from_millis(500)));
+    }
 
     #[test]
     fn one_drive_polls_at_most_once_per_round_trip() {

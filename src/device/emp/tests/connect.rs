@@ -6,6 +6,7 @@ use crate::device::common::testing::refusal_reasons;
 use crate::proto::emp::DriveAddress;
 
 use super::harness::{Harness, ms};
+use crate::device::emp::OFF_POLL_EVERY;
 
 #[test]
 fn the_first_frame_stops_then_the_state_is_read_back() {
@@ -169,16 +170,72 @@ fn a_motion_command_to_a_drive_that_is_off_asks_to_switch_it_on() {
 }
 
 #[test]
-fn polls_of_a_drive_known_to_be_off_do_not_ask_again() {
+fn a_drive_known_to_be_off_is_polled_once_a_second_without_asking_again() {
     let mut h = Harness::emp(|_| {});
     h.connect(0, false);
     h.poll();
     h.events.clear();
-    for _ in 0..3 {
-        h.expect_frame("2C 11 00 00 00000000");
-        h.answer("2D 11 00 EE 00000000");
-    }
+    // The first cycle at line speed: position and inputs, both `EE`.
     h.expect_frame("2C 11 00 00 00000000");
+    h.answer("2D 11 00 EE 00000000");
+    h.expect_frame("40 11 01 00 00000000");
+    h.answer("41 11 00 EE 00000000");
+    // Then nothing for a second (`OFF_POLL_EVERY`), and no `0A` again.
+    h.expect_nothing();
+    h.advance(OFF_POLL_EVERY - ms(1));
+    h.expect_nothing();
+    h.advance(ms(1));
+    h.expect_frame("2C 11 00 00 00000000");
+    h.answer("2D 11 00 EE 00000000");
+    h.expect_frame("40 11 01 00 00000000");
+    h.answer("41 11 00 EE 00000000");
+    h.expect_nothing();
     assert!(h.notices().is_empty(), "{:?}", h.notices());
     assert!(h.faults().is_empty());
+    assert!(!h.state().initialised.contains(crate::axis::Axis::X));
+    // Switched on (`02`): the full rate again, each poll after the answer.
+    h.advance(ms(300));
+    h.request(crate::device::api::Request::Initialise);
+    h.expect_frame("02 11 11 00 00000000");
+    h.answer("03 11 00 22 00000000");
+    h.expect_frame("22 11 03 00 00000000");
+    h.answer("23 11 00 22 00000000");
+    let mut reads = 0;
+    for _ in 0..8 {
+        let sent = h.send().unwrap_or_default();
+        if sent.starts_with(b"2C11") {
+            reads += 1;
+            h.answer("2D 11 00 22 00000000");
+        } else {
+            assert!(sent.starts_with(b"4011"), "{sent:?}");
+            h.answer("41 11 00 22 00000000");
+        }
+    }
+    assert!(reads >= 6, "{reads}");
+}
+
+#[test]
+fn a_drive_switched_off_by_a_typed_04_is_polled_slowly_without_a_stale_position() {
+    let mut h = Harness::emp(|_| {});
+    h.connect(1000, true);
+    h.request(Request::Raw {
+        line: "04 11 00 00 00000000".into(),
+    });
+    h.expect_frame("04 11 00 00 00000000");
+    h.answer("05 11 00 22 000003E8");
+    h.poll();
+    h.events.clear();
+    let from = h.sent.len();
+    for _ in 0..2 {
+        h.expect_frame("2C 11 00 00 00000000");
+        h.answer("2D 11 00 EE 00000000");
+        h.expect_frame("40 11 01 00 00000000");
+        h.answer("41 11 00 EE 00000000");
+        h.expect_nothing();
+        h.advance(OFF_POLL_EVERY);
+    }
+    // Known off since its `04`: no `0A`, no position sample.
+    assert!(h.sent[from..].iter().all(|m| !m.starts_with(b"0A")));
+    assert!(h.positions().is_empty(), "{:?}", h.positions());
+    assert!(!h.state().initialised.contains(Axis::X));
 }

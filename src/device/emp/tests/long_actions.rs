@@ -1,7 +1,7 @@
 //! Long actions that answer busy (`55`) and never ready (`22`): raw TP
-//! moves and planned go-to moves are given up at their deadline, a raw
-//! reference run also when its position stands still (`emp::deadline`,
-//! `emp::stall`). The drive is stopped first, the fault names drive and
+//! moves and planned go-to moves are given up at their deadline, reference
+//! runs, raw or planned, also when their position stands still
+//! (`emp::guard`, `emp::deadline`, `emp::stall`). The drive is stopped first, the fault names drive and
 //! frame and asks to initialise and reference, and nothing moves until then.
 
 use crate::axis::{Axis, AxisSet};
@@ -261,6 +261,180 @@ fn a_planned_move_that_stays_busy_blocks_motion_until_acknowledged() {
     );
     assert!(meaning.contains("did not report in position"), "{meaning}");
     h.answer("09 11 00 22 000003E8");
+    h.expect_nothing();
+    assert_blocked_until_initialised_and_referenced(&mut h);
+}
+
+fn home_x() -> Request {
+    Request::Home {
+        axes: AxisSet::EMPTY.with(Axis::X),
+    }
+}
+
+/// A planned reference run of X from `position`: its frames up to the `55`.
+fn start_planned_homing(h: &mut Harness, position: u32) {
+    h.request(home_x());
+    h.expect_frame("20 11 19 00 000030D4");
+    h.answer("21 11 00 22 00000000");
+    h.expect_frame("26 11 00 00 00140400");
+    h.answer(&format!("27 11 00 55 {position:08X}"));
+}
+
+#[test]
+fn a_planned_homing_whose_position_stands_still_is_stalled() {
+    // Polling off: the watchdog reads the position itself.
+    let mut h = Harness::emp(|_| {});
+    h.ready(1_000_000);
+    h.events.clear();
+    start_planned_homing(&mut h, 1_000_000);
+    let mut pos = 1_000_000u32;
+    for _ in 0..5 {
+        h.advance(READ_EVERY);
+        h.expect_frame("2C 11 00 00 00000000");
+        pos -= 2000;
+        h.answer(&format!("2D 11 00 22 {pos:08X}"));
+    }
+    for i in 1..STILL_READS {
+        h.advance(READ_EVERY);
+        h.expect_frame("2C 11 00 00 00000000");
+        h.answer(&format!("2D 11 00 22 {pos:08X}"));
+        assert!(h.faults().is_empty(), "read {i}: {:?}", h.faults());
+    }
+    h.advance(READ_EVERY);
+    h.expect_frame("2C 11 00 00 00000000");
+    h.answer(&format!("2D 11 00 22 {pos:08X}"));
+    // The stop first, then the fault naming drive and frame.
+    h.expect_frame("08 11 00 00 00000000");
+    let (command, code, meaning) = the_fault(&h);
+    assert_eq!(
+        (command.as_str(), code.as_str()),
+        ("2611000000140400", "55")
+    );
+    assert!(
+        meaning.starts_with("homing stalled: drive 11 (X) stayed busy (55)")
+            && meaning.contains("stopped with 08"),
+        "{meaning}"
+    );
+    h.answer("09 11 00 22 000F0000");
+    h.advance(READ_EVERY * 3);
+    h.expect_nothing();
+    assert_eq!(h.state().activity, crate::device::api::Activity::Idle);
+    assert!(h.notices().iter().all(|n| !n.contains("ended early")));
+    assert_blocked_until_initialised_and_referenced(&mut h);
+}
+
+/// Answer what the driver sends during a reference run that stands at
+/// `pos`, `step` by `step` until `until`: polls and watchdog reads with the
+/// position, `40 01` with nothing active. Returns every frame sent, and
+/// stops at the first stop frame (unanswered).
+fn serve_standing(
+    h: &mut Harness,
+    pos: u32,
+    step: std::time::Duration,
+    until: std::time::Instant,
+) -> Vec<String> {
+    let mut frames = Vec::new();
+    while h.now < until {
+        h.advance(step);
+        while let Some(bytes) = h.send() {
+            let text: String = bytes
+                .iter()
+                .filter(|b| **b != 0x1A)
+                .map(|b| char::from(*b))
+                .collect();
+            frames.push(text.clone());
+            if text.starts_with("2C11") {
+                h.answer(&format!("2D 11 00 22 {pos:08X}"));
+            } else if text.starts_with("4011") {
+                h.answer("41 11 00 22 00000000");
+            } else {
+                return frames;
+            }
+        }
+    }
+    frames
+}
+
+#[test]
+fn a_planned_homing_takes_the_poll_samples_and_reads_nothing_itself() {
+    let mut h = Harness::emp(|_| {});
+    h.ready(1_000_000);
+    h.events.clear();
+    start_planned_homing(&mut h, 1_000_000);
+    // Polling at 20 Hz: a `2C` every 50 ms, `40 01` on the first cycle.
+    h.request(Request::Poll {
+        rate_hz: Some(20.0),
+        ports_every: 1000,
+    });
+    let start = h.now;
+    let frames = serve_standing(&mut h, 1_000_000, ms(5), start + ms(2000));
+    let elapsed = h.now - start;
+    assert_eq!(
+        frames.last().map(String::as_str),
+        Some("0811000000000000"),
+        "{frames:?}"
+    );
+    // Stalled after about a second of samples, not at the deadline.
+    assert!(
+        elapsed >= ms(1000) && elapsed <= ms(1100),
+        "{elapsed:?}: {frames:?}"
+    );
+    // Every `2C` was the poller's: one per 50 ms cycle, none extra.
+    let reads = frames.iter().filter(|f| f.starts_with("2C11")).count();
+    let cycles = elapsed.as_millis() / 50 + 1;
+    assert!(
+        u128::try_from(reads).unwrap_or(u128::MAX) <= cycles,
+        "{reads} reads in {cycles} cycles: {frames:?}"
+    );
+    let (command, code, meaning) = the_fault(&h);
+    assert_eq!(
+        (command.as_str(), code.as_str()),
+        ("2611000000140400", "55")
+    );
+    assert!(meaning.starts_with("homing stalled"), "{meaning}");
+    h.answer("09 11 00 22 000F4240");
+    assert_eq!(
+        h.state().fault.map(|f| f.recovery),
+        Some(Recovery::ReinitialiseAndReference)
+    );
+}
+
+#[test]
+fn a_planned_homing_that_moves_but_never_arrives_ends_at_its_deadline() {
+    let mut h = Harness::emp(|s| {
+        if let Some(x) = s.limits.get(Axis::X) {
+            s.limits.set(
+                Axis::X,
+                crate::device::common::AxisLimits { max: 40_000, ..x },
+            );
+        }
+    });
+    h.ready(20_000);
+    h.events.clear();
+    // The reference deadline of a raw `26` with the same speeds: 22 s.
+    start_planned_homing(&mut h, 20_000);
+    let start = h.now;
+    let mut pos = 20_000u32;
+    while h.now < start + ms(21_900) {
+        h.advance(READ_EVERY);
+        h.expect_frame("2C 11 00 00 00000000");
+        pos += 1;
+        h.answer(&format!("2D 11 00 22 {pos:08X}"));
+    }
+    assert!(h.faults().is_empty(), "{:?}", h.faults());
+    h.advance(ms(150));
+    h.expect_frame("08 11 00 00 00000000");
+    let (command, code, meaning) = the_fault(&h);
+    assert_eq!(
+        (command.as_str(), code.as_str()),
+        ("2611000000140400", "55")
+    );
+    assert!(
+        meaning.contains("drive 11 (X) stayed busy (55)")
+            && meaning.contains("did not reach the reference point (22) within 22 s"),
+        "{meaning}"
+    );
+    h.answer("09 11 00 22 00009C40");
     h.expect_nothing();
     assert_blocked_until_initialised_and_referenced(&mut h);
 }

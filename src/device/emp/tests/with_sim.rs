@@ -12,6 +12,7 @@ use crate::device::api::{
 use crate::device::common::testing::ms;
 use crate::device::emp::{EmpDriver, EmpSettings};
 use crate::proto::emp::DriveAddress;
+use crate::sim::SimDevice;
 use crate::sim::emp::EmpSim;
 
 use super::harness::{profile, settings, x_speed};
@@ -618,4 +619,181 @@ fn a_positioning_jog_speeds_up_with_a_new_2a_01_and_no_stop() {
             end: JogEnd::DeadMan
         }
     )));
+}
+
+/// X on drive 11 and Y on drive 21, connected and initialised.
+fn two_drives() -> Bench {
+    let mut p = profile();
+    p.machine.axes = "XY".into();
+    let mut y = p.axes.get(&Axis::X).cloned().expect("X");
+    y.drive = Some("21".into());
+    p.axes.insert(Axis::Y, y);
+    let mut b = bench_for(&p, |_| {});
+    b.run(ms(300));
+    b.request(Request::Initialise);
+    b.run(ms(300));
+    assert_eq!(
+        b.driver.state().initialised,
+        AxisSet::EMPTY.with(Axis::X).with(Axis::Y)
+    );
+    b.events.clear();
+    b
+}
+
+fn fault_meanings(b: &Bench) -> Vec<String> {
+    b.events
+        .iter()
+        .filter_map(|e| match e {
+            Event::Fault(f) => Some(f.meaning.clone()),
+            _ => None,
+        })
+        .collect()
+}
+
+/// The frames sent after the last one starting with `prefix`.
+fn sent_after(b: &Bench, prefix: &str) -> Vec<String> {
+    let sent = b.sent_text();
+    let from = sent.iter().rposition(|t| t.starts_with(prefix));
+    from.map_or_else(Vec::new, |i| sent.into_iter().skip(i + 1).collect())
+}
+
+/// Given up while `stalled` (`21` or `11`) homed: both drives stopped
+/// right after, every axis of the run unreferenced, motion blocked.
+fn assert_run_given_up(b: &mut Bench, stalled: &str, axis: Axis) {
+    let given_up = b.run_until(ms(3000), |e| e.iter().any(|e| matches!(e, Event::Fault(_))));
+    assert!(given_up, "{:?}", b.sent_text());
+    let meanings = fault_meanings(b);
+    assert_eq!(meanings.len(), 1, "{meanings:?}");
+    assert!(
+        meanings[0].starts_with(&format!(
+            "homing stalled: drive {stalled} ({axis}) stayed busy (55)"
+        )),
+        "{meanings:?}"
+    );
+    b.run(ms(200));
+    let after: Vec<String> = sent_after(b, &format!("26{stalled}"))
+        .into_iter()
+        .filter(|t| !t.starts_with("2C") && !t.starts_with("40"))
+        .collect();
+    let stops: Vec<&str> = after.iter().take(2).map(|t| &t[..4]).collect();
+    assert!(
+        stops.contains(&"0811") && stops.contains(&"0821"),
+        "both drives stopped first: {after:?}"
+    );
+    assert!(
+        !after.iter().any(|t| t.starts_with("26")),
+        "no run after: {after:?}"
+    );
+    let s = b.driver.state();
+    assert_eq!(s.activity, Activity::Idle);
+    assert_eq!(s.referenced, AxisSet::EMPTY);
+    assert_eq!(
+        s.fault.as_ref().map(|f| f.recovery),
+        Some(Recovery::ReinitialiseAndReference)
+    );
+    b.events.clear();
+    let sent = b.sent.len();
+    b.request(Request::Home {
+        axes: AxisSet::EMPTY.with(Axis::X),
+    });
+    b.run(ms(100));
+    assert!(
+        !b.sent_text()[sent..].iter().any(|t| t.starts_with("2611")),
+        "{:?}",
+        b.sent_text()
+    );
+    assert!(
+        b.events.iter().any(|e| matches!(e, Event::Refused { .. })),
+        "{:?}",
+        b.events
+    );
+}
+
+#[test]
+fn a_planned_homing_of_two_drives_stops_both_when_the_first_stalls() {
+    let mut b = two_drives();
+    b.sim.stall_next(b.now).expect("stall");
+    // Y (21) first (Z, Y, X, A), polled at line speed meanwhile.
+    b.request(Request::Home {
+        axes: AxisSet::EMPTY.with(Axis::X).with(Axis::Y),
+    });
+    assert_run_given_up(&mut b, "21", Axis::Y);
+    assert!(
+        !b.sent_text().iter().any(|t| t.starts_with("2611")),
+        "X never started"
+    );
+}
+
+#[test]
+fn a_planned_homing_of_two_drives_watches_every_drive_s_run() {
+    let mut b = two_drives();
+    b.request(Request::Home {
+        axes: AxisSet::EMPTY.with(Axis::X).with(Axis::Y),
+    });
+    let y_done = b.run_until(Duration::from_secs(120), |e| {
+        e.iter()
+            .any(|e| matches!(e, Event::Notice(n) if n.starts_with("Y referenced")))
+    });
+    assert!(y_done, "{:?}", b.events);
+    // X's `26` is still to come (its `20 19` takes a round trip first).
+    assert!(!b.sent_text().iter().any(|t| t.starts_with("2611")));
+    b.sim.stall_next(b.now).expect("stall");
+    assert_run_given_up(&mut b, "11", Axis::X);
+}
+
+/// `2C` frames to drives 11 and 21 among those sent from `from` on.
+fn position_polls(b: &Bench, from: usize) -> (usize, usize) {
+    let sent = b.sent_text();
+    let count = |ds: &str| {
+        sent.iter()
+            .skip(from)
+            .filter(|t| t.starts_with(&format!("2C{ds}")))
+            .count()
+    };
+    (count("11"), count("21"))
+}
+
+#[test]
+fn a_drive_that_is_off_is_polled_once_a_second_and_the_others_at_full_rate() {
+    let mut p = profile();
+    p.machine.axes = "XY".into();
+    let mut y = p.axes.get(&Axis::X).cloned().expect("X");
+    y.drive = Some("21".into());
+    p.axes.insert(Axis::Y, y);
+    let mut b = bench_for(&p, |_| {});
+    // Connected, both drives off; X switched on by a typed `02`.
+    b.run(ms(300));
+    b.request(Request::Raw {
+        line: "02 11 00 00 00000000".into(),
+    });
+    b.run(ms(100));
+    let y_ds = DriveAddress::new(2, 1).expect("21");
+    assert!(b.sim.snapshot(DriveAddress::SINGLE, b.now).expect("X").on);
+    assert!(!b.sim.snapshot(y_ds, b.now).expect("Y").on);
+    let from = b.sent.len();
+    b.run(ms(2000));
+    let (x, y) = position_polls(&b, from);
+    // Y once a second; X at the line's rate (a round trip of 10.45 ms,
+    // `40 01` every fourth cycle, Y's few rejections).
+    assert!(y <= 3, "Y polled {y} times in 2 s");
+    assert!(x > 130, "X polled {x} times in 2 s");
+    // The operator still sees that Y is off.
+    let s = b.driver.state();
+    assert_eq!(s.initialised, AxisSet::EMPTY.with(Axis::X));
+    assert!(
+        b.events
+            .iter()
+            .any(|e| matches!(e, Event::Notice(n) if n.contains("drive 21 is not switched on"))),
+        "{:?}",
+        b.events
+    );
+    // Switched on: both at the full rate again.
+    b.request(Request::Raw {
+        line: "02 21 00 00 00000000".into(),
+    });
+    b.run(ms(100));
+    let from = b.sent.len();
+    b.run(ms(1000));
+    let (x, y) = position_polls(&b, from);
+    assert!(x > 30 && y > 30 && x.abs_diff(y) <= 1, "X {x}, Y {y}");
 }
