@@ -239,3 +239,31 @@ fn the_control_loop_prints_help_with_the_device_inputs_and_stops_at_quit() {
     );
     assert!(out.is_empty());
 }
+
+/// A client that opens, writes and closes before the simulator has noticed
+/// it (a `jogterm send break` takes about a millisecond) still reaches the
+/// device: on a real line its bytes went out. Before, they waited in the pty
+/// for the next client, and the machine went on moving.
+#[test]
+fn a_client_that_writes_and_leaves_at_once_is_still_heard() {
+    let _serial = serial();
+    let shell = serve_pty(LineAnswerer::boxed(19200), PtyOptions::default()).expect("serve");
+    let path = shell.slave_path().expect("slave");
+    let mut first = open_client(&path);
+    assert_eq!(cycle(&mut first, REQUEST, REPLY.len()), REPLY);
+    drop(first);
+    for round in 0..20u8 {
+        let before = shell.control().received().expect("received").total;
+        let mut quick = open_client(&path);
+        quick.write_all(&[0xFD, 0xFF]).expect("write");
+        drop(quick);
+        let end = std::time::Instant::now() + Duration::from_secs(2);
+        while shell.control().received().expect("received").total < before + 2 {
+            assert!(
+                std::time::Instant::now() < end,
+                "round {round}: the bytes of a client that left at once never arrived"
+            );
+            thread::sleep(Duration::from_millis(5));
+        }
+    }
+}

@@ -344,7 +344,11 @@ fn isel_upload_start_ctrl_c_stops_the_running_program() {
     );
     let state = assert_stands(&mut sim);
     let x = isel_x(&state);
-    assert!(x > 0 && x < 60_000, "stopped mid-program: {state}");
+    assert!(
+        x > 0 && x < 60_000,
+        "stopped mid-program: {state}\n{}",
+        sim.received()
+    );
     let received = sim.received();
     assert_isel_stopped_after(&received, "@0S");
     assert_a_new_connection_moves_nothing(&mut sim, x);
@@ -391,7 +395,11 @@ fn isel_start_key_program_is_stopped_by_send_break() {
     assert_exit(&out, 0, "send break");
     let state = assert_stands(&mut sim);
     let x = isel_x(&state);
-    assert!(x > 0 && x < 60_000, "stopped mid-program: {state}");
+    assert!(
+        x > 0 && x < 60_000,
+        "stopped mid-program: {state}\n{}",
+        sim.received()
+    );
     let received = sim.received();
     let sent = isel_messages(&received[before.len()..]);
     assert_eq!(

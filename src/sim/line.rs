@@ -116,11 +116,15 @@ impl Line {
         match self.state {
             State::Connected => {}
             State::NoClient { check_at } if now >= check_at => {
+                // A client that opened, wrote and closed again between two
+                // checks (`jogterm send break` takes about a millisecond)
+                // left its bytes behind: on a real line they went out, so
+                // they are read now, not handed to the next client.
                 let hung_up = match &self.fd {
                     Some(fd) => {
                         let mut fds = [fd::pollfd(fd.as_fd(), libc::POLLIN)];
                         fd::poll_until(&mut fds, Some(now))?;
-                        fds[0].revents & libc::POLLHUP != 0
+                        fds[0].revents & libc::POLLHUP != 0 && !self.bytes_waiting()
                     }
                     None => true,
                 };
@@ -251,6 +255,24 @@ impl Line {
             ),
         };
         format!("{kind}, {state}")
+    }
+
+    /// Whether bytes a client wrote wait in the pty to be read.
+    fn bytes_waiting(&self) -> bool {
+        let Some(fd) = &self.fd else {
+            return false;
+        };
+        let mut waiting: libc::c_int = 0;
+        // SAFETY: FIONREAD writes one c_int through the pointer we pass, on
+        // the master fd we own.
+        let ok = unsafe {
+            libc::ioctl(
+                std::os::fd::AsRawFd::as_raw_fd(fd),
+                libc::FIONREAD,
+                &mut waiting,
+            )
+        };
+        ok == 0 && waiting > 0
     }
 
     fn client_gone(&mut self, now: Instant) {
