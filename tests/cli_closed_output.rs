@@ -10,8 +10,8 @@ use std::time::{Duration, Instant};
 
 mod sim_process;
 mod stops_support;
-use sim_process::{JOGTERM, SimProcess, contains_panic, text};
-use stops_support::{assert_exit, wait_child};
+use sim_process::{JOGTERM, SimProcess, contains_panic, text, wait_child};
+use stops_support::assert_exit;
 
 #[allow(dead_code)]
 #[path = "faults_support/wire.rs"]

@@ -11,7 +11,7 @@ use std::time::{Duration, Instant};
 
 use faults_support::console::Console;
 use faults_support::runner::{self, Scenario, Tally};
-use faults_support::sim::SimProcess;
+use faults_support::sim::{SimProcess, wait_child};
 use faults_support::wire::{
     assert_isel_motion, emcu_motion, emp_after, emp_motion, isel_messages, isel_motion,
 };
@@ -380,26 +380,8 @@ fn sighup_during_a_continuous_jog(t: &mut Tally) {
     // Continuous jogging, then hold X+ (Right) as a terminal repeats it.
     console.keys(b"c");
     console.wait_for("continuous");
-    let right = b"\x1b[C";
-    let end = Instant::now() + WAIT;
-    loop {
-        console.keys(right);
-        std::thread::sleep(Duration::from_millis(30));
-        let bar = console.status_bar();
-        if bar.contains("JOGGING") {
-            break;
-        }
-        assert!(
-            Instant::now() < end,
-            "the jog never started:\n{}",
-            console.screen()
-        );
-    }
-    // A few repeats more, then the terminal goes away between two repeats.
-    for _ in 0..5 {
-        console.keys(right);
-        std::thread::sleep(Duration::from_millis(30));
-    }
+    // Then the terminal goes away between two repeats.
+    console.hold_until_jogging(b"\x1b[C", 5);
     console.run.close_master();
     t.fault();
     console.assert_exits(None);
@@ -413,21 +395,6 @@ fn sighup_during_a_continuous_jog(t: &mut Tally) {
     assert_eq!(motion.len(), 1, "one move for the jog: {motion:?}");
     sim.wait_device("idle", |d| d.ends_with("| idle"));
     sim.assert_alive();
-}
-
-/// The output of a command line run, once it has ended; killed and failed
-/// if it does not end within [`WAIT`].
-fn wait_child(mut child: std::process::Child, what: &str) -> std::process::Output {
-    let end = Instant::now() + WAIT;
-    while matches!(child.try_wait(), Ok(None)) {
-        if Instant::now() > end {
-            let _ = child.kill();
-            let out = child.wait_with_output();
-            panic!("{what} hangs: {out:?}");
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    child.wait_with_output().expect("the output")
 }
 
 /// `jogterm send` whose reply is withheld: it ends with status 3 and says

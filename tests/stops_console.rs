@@ -93,23 +93,7 @@ const RIGHT: &[u8] = b"\x1b[C";
 fn hold_a_continuous_jog(sim: &mut SimProcess, console: &mut Console) -> String {
     console.keys(b"c");
     console.wait_for("HOLD");
-    let end = Instant::now() + WAIT;
-    loop {
-        console.keys(RIGHT);
-        thread::sleep(Duration::from_millis(30));
-        if console.status_bar().contains("JOGGING") {
-            break;
-        }
-        assert!(
-            Instant::now() < end,
-            "the jog never started:\n{}",
-            console.screen()
-        );
-    }
-    for _ in 0..5 {
-        console.keys(RIGHT);
-        thread::sleep(Duration::from_millis(30));
-    }
+    console.hold_until_jogging(RIGHT, 5);
     let state = wait_moving(sim, "jogging");
     console.keys(RIGHT);
     state

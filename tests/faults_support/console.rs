@@ -149,6 +149,28 @@ impl Console {
         self.run.send(bytes);
     }
 
+    /// In continuous jog mode, hold `key` as a terminal repeats it (every
+    /// 30 ms) until the status bar says JOGGING, then `more` repeats.
+    pub fn hold_until_jogging(&mut self, key: &[u8], more: usize) {
+        let end = Instant::now() + WAIT;
+        loop {
+            self.keys(key);
+            std::thread::sleep(Duration::from_millis(30));
+            if self.status_bar().contains("JOGGING") {
+                break;
+            }
+            assert!(
+                Instant::now() < end,
+                "the jog never started:\n{}",
+                self.screen()
+            );
+        }
+        for _ in 0..more {
+            self.keys(key);
+            std::thread::sleep(Duration::from_millis(30));
+        }
+    }
+
     /// Type a raw command on the console's command line and send it, then
     /// give the focus back to the port bits (where `i`, `q` reach the main
     /// keys). Commands never contain a blank: Space is the stop key.

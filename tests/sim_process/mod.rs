@@ -21,6 +21,21 @@ pub const JOGTERM: &str = env!("CARGO_BIN_EXE_jogterm");
 /// a hang still ends the test.
 pub const WAIT: Duration = Duration::from_secs(20);
 
+/// The process' output once it has ended; killed and failed if it does not
+/// end within [`WAIT`] (a hang is a failure, not a stuck test).
+pub fn wait_child(mut child: Child, what: &str) -> Output {
+    let end = Instant::now() + WAIT;
+    while matches!(child.try_wait(), Ok(None)) {
+        if Instant::now() > end {
+            let _ = child.kill();
+            let out = child.wait_with_output();
+            panic!("{what} hangs: {out:?}");
+        }
+        thread::sleep(Duration::from_millis(20));
+    }
+    child.wait_with_output().expect("the output")
+}
+
 /// Whether a process' output carries a Rust panic message.
 pub fn contains_panic(output: &[u8]) -> bool {
     output.windows(b"panicked".len()).any(|w| w == b"panicked")

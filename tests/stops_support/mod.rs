@@ -5,29 +5,14 @@
 
 #![allow(dead_code)]
 
-use std::process::{Child, Output};
+use std::process::Output;
 use std::thread;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
-use crate::sim_process::{SimProcess, WAIT, contains_panic, text};
+use crate::sim_process::{SimProcess, contains_panic, text};
 
 /// How long an axis that stands is watched for motion.
 pub const STANDS_FOR: Duration = Duration::from_millis(600);
-
-/// The process' output once it has ended; killed and failed if it does not
-/// end within [`WAIT`] (a hang is a failure, not a stuck test).
-pub fn wait_child(mut child: Child, what: &str) -> Output {
-    let end = Instant::now() + WAIT;
-    while matches!(child.try_wait(), Ok(None)) {
-        if Instant::now() > end {
-            let _ = child.kill();
-            let out = child.wait_with_output();
-            panic!("{what} hangs: {out:?}");
-        }
-        thread::sleep(Duration::from_millis(20));
-    }
-    child.wait_with_output().expect("the output")
-}
 
 /// Send `signal` to the process `pid` (a child this test started).
 pub fn signal(pid: u32, signal: libc::c_int) {
