@@ -319,6 +319,18 @@ mod tests {
         busy: bool,
     }
 
+    impl FakeDevice {
+        fn new(busy: bool) -> Self {
+            let (events_tx, events) = mpsc::unbounded_channel();
+            FakeDevice {
+                calls: Vec::new(),
+                events,
+                events_tx,
+                busy,
+            }
+        }
+    }
+
     impl DeviceLink for FakeDevice {
         fn request(&mut self, request: Request) -> Result<(), NotSent> {
             if self.busy && request != Request::Shutdown {
@@ -358,13 +370,8 @@ mod tests {
 
     #[tokio::test]
     async fn space_stops_and_quit_shuts_the_device_down() {
-        let (events_tx, events) = mpsc::unbounded_channel();
-        let mut device = FakeDevice {
-            calls: Vec::new(),
-            events,
-            events_tx: events_tx.clone(),
-            busy: false,
-        };
+        let mut device = FakeDevice::new(false);
+        let events_tx = device.events_tx.clone();
         let (tx, mut rx) = mpsc::unbounded_channel();
         events_tx
             .send(Event::Link(LinkState::Connected))
@@ -449,13 +456,8 @@ mod tests {
 
     #[tokio::test]
     async fn a_flood_of_events_is_drawn_at_the_frame_rate() {
-        let (events_tx, events) = mpsc::unbounded_channel();
-        let mut device = FakeDevice {
-            calls: Vec::new(),
-            events,
-            events_tx: events_tx.clone(),
-            busy: false,
-        };
+        let mut device = FakeDevice::new(false);
+        let events_tx = device.events_tx.clone();
         for i in 0..500 {
             let sample = crate::device::api::PositionSample {
                 at: Instant::now(),
@@ -556,22 +558,24 @@ mod tests {
         }
     }
 
+    /// The model with its editor keeping recovery files in `dir`.
+    fn model_keeping_recoveries(
+        dir: &std::path::Path,
+    ) -> (Model, crate::program::store::RecoveryStore) {
+        let store = crate::program::store::RecoveryStore::new(dir);
+        let mut model = model();
+        model.editor.keep_recoveries(store.clone(), "test");
+        (model, store)
+    }
+
     /// The terminal hangs up and the next frame fails before any hang-up
     /// message arrives: the way out still writes the unsaved edits to the
     /// recovery file (the autosave is not due for an hour).
     #[tokio::test]
     async fn a_frame_that_cannot_be_drawn_still_keeps_the_edits() {
         let dir = tempfile::tempdir().expect("tempdir");
-        let store = crate::program::store::RecoveryStore::new(dir.path());
-        let (events_tx, events) = mpsc::unbounded_channel();
-        let mut device = FakeDevice {
-            calls: Vec::new(),
-            events,
-            events_tx,
-            busy: false,
-        };
-        let mut model = model();
-        model.editor.keep_recoveries(store.clone(), "test");
+        let (mut model, store) = model_keeping_recoveries(dir.path());
+        let mut device = FakeDevice::new(false);
         for c in "; last-words".chars() {
             model.editor.buffer.insert_char(c);
         }
@@ -607,16 +611,8 @@ mod tests {
     #[tokio::test]
     async fn keys_behind_a_hang_up_still_reach_the_recovery_file() {
         let dir = tempfile::tempdir().expect("tempdir");
-        let store = crate::program::store::RecoveryStore::new(dir.path());
-        let (events_tx, events) = mpsc::unbounded_channel();
-        let mut device = FakeDevice {
-            calls: Vec::new(),
-            events,
-            events_tx,
-            busy: false,
-        };
-        let mut model = model();
-        model.editor.keep_recoveries(store.clone(), "test");
+        let (mut model, store) = model_keeping_recoveries(dir.path());
+        let mut device = FakeDevice::new(false);
         model.focus = crate::ui::model::PanelId::Editor;
         model.editor.file.recovery_due = Some(Instant::now() + Duration::from_secs(3600));
         let (tx, mut rx) = mpsc::unbounded_channel::<Msg>();
@@ -659,13 +655,7 @@ mod tests {
 
     #[tokio::test]
     async fn a_closed_input_stops_and_leaves() {
-        let (events_tx, events) = mpsc::unbounded_channel();
-        let mut device = FakeDevice {
-            calls: Vec::new(),
-            events,
-            events_tx,
-            busy: false,
-        };
+        let mut device = FakeDevice::new(false);
         let (tx, mut rx) = mpsc::unbounded_channel::<Msg>();
         drop(tx);
         let mut terminal = Terminal::new(TestBackend::new(80, 24)).expect("terminal");
@@ -686,13 +676,7 @@ mod tests {
 
     #[tokio::test]
     async fn a_request_the_device_cannot_take_is_said_at_once() {
-        let (events_tx, events) = mpsc::unbounded_channel();
-        let mut device = FakeDevice {
-            calls: Vec::new(),
-            events,
-            events_tx,
-            busy: true,
-        };
+        let mut device = FakeDevice::new(true);
         let (tx, mut rx) = mpsc::unbounded_channel();
         tx.send(key('i')).expect("key");
         tx.send(key('q')).expect("key");
