@@ -387,19 +387,26 @@ impl Worker {
             self.current = None;
         }
         if !self.stops.is_empty() {
-            // The order `step` keeps: a frame on its way ahead of the stop.
-            let whole = self
-                .current
-                .as_ref()
-                .is_some_and(|c| c.pending.interleave == Interleave::WholeMessage);
-            if whole {
-                self.finish_current_at_once()?;
-            }
-            while let Some(stop) = self.stops.pop_front() {
-                self.write_stop(stop)?;
-            }
+            self.write_stops()?;
         }
         self.finish_current_at_once()
+    }
+
+    /// The stops asked for, now. A frame on its way must not be split: its
+    /// rest is handed over at once and the stops follow directly behind it;
+    /// a message that may be interleaved gets them between two bytes.
+    fn write_stops(&mut self) -> Result<(), TransportError> {
+        let whole = self
+            .current
+            .as_ref()
+            .is_some_and(|c| c.pending.interleave == Interleave::WholeMessage);
+        if whole {
+            self.finish_current_at_once()?;
+        }
+        while let Some(stop) = self.stops.pop_front() {
+            self.write_stop(stop)?;
+        }
+        Ok(())
     }
 
     fn wake_at(&self) -> Option<Instant> {
@@ -427,18 +434,7 @@ impl Worker {
                         self.queue.push_front(cur.pending);
                     }
                 }
-                let whole = self
-                    .current
-                    .as_ref()
-                    .is_some_and(|c| c.pending.interleave == Interleave::WholeMessage);
-                if whole {
-                    // The frame on its way must not be split: hand over its
-                    // rest at once, the stop follows directly behind it.
-                    self.finish_current_at_once()?;
-                }
-                while let Some(stop) = self.stops.pop_front() {
-                    self.write_stop(stop)?;
-                }
+                self.write_stops()?;
             }
             if self.current.is_none() {
                 match self.queue.pop_front() {
