@@ -147,6 +147,59 @@ fn a_stop_overtakes_an_interruptible_message_within_a_millisecond() {
     assert_eq!(received, expected, "the message is intact around the stop");
 }
 
+/// An upload's lines run further ahead of the wire (`send_bulk`): the
+/// writer hands several bytes over per wake-up, never more than the bulk
+/// backlog, and a stop still overtakes the rest within that backlog.
+#[test]
+fn a_bulk_message_runs_up_to_its_backlog_ahead_and_a_stop_still_overtakes_it() {
+    let (parts, peer) = socket_port();
+    let PortParts {
+        writer, mut events, ..
+    } = parts;
+    let bulk = WriterConfig::default().bulk_backlog;
+    let message = long_message(400);
+    let peer = collect_peer(peer, message.len() + 1);
+    let id = writer
+        .send_bulk(message.clone(), Interleave::BetweenBytes)
+        .expect("send");
+    let mut chunks = vec![first_chunk(&mut events)];
+    thread::sleep(Duration::from_millis(20));
+    let asked = Instant::now();
+    let stop = writer.stop([0xFD]).expect("stop");
+    chunks.extend(chunks_until_done(&mut events, id));
+
+    let stop_at = chunks
+        .iter()
+        .position(|c| c.id == stop)
+        .expect("stop written");
+    let stop_chunk = &chunks[stop_at];
+    let largest = chunks
+        .iter()
+        .filter(|c| c.id == id)
+        .map(|c| c.bytes.len())
+        .max()
+        .unwrap_or(0);
+    let most = (bulk.as_nanos() / byte_time().as_nanos()) as usize;
+    assert!(
+        largest > 1 && largest <= most,
+        "chunks of up to {most} bytes, not one per wake-up: {largest}"
+    );
+    for c in &chunks {
+        // Handed over no further ahead of the wire than the bulk backlog.
+        assert!(c.wire_end.saturating_duration_since(c.at) <= bulk + byte_time());
+    }
+    let ahead = stop_chunk.wire_start.saturating_duration_since(asked);
+    let handed_over = stop_chunk.at.saturating_duration_since(asked);
+    assert!(ahead <= handed_over + bulk + byte_time());
+
+    let received = peer.join().expect("peer");
+    let before: usize = chunks[..stop_at].iter().map(|c| c.bytes.len()).sum();
+    let mut expected = message[..before].to_vec();
+    expected.push(0xFD);
+    expected.extend_from_slice(&message[before..]);
+    assert_eq!(received, expected, "the message is intact around the stop");
+}
+
 #[test]
 fn a_stop_waits_for_a_whole_frame_and_goes_ahead_of_the_queue() {
     let (parts, peer) = socket_port();
