@@ -29,7 +29,7 @@ use std::time::{Duration, Instant};
 
 use jogterm::config::{ConfigDirs, Profile, load_profile, load_theme};
 use jogterm::device::api::{Event, PositionSource, Request};
-use jogterm::device::{DeviceHandle, EventReceiver, RequestError, TaskOptions, spawn};
+use jogterm::device::{DeviceHandle, EventReceiver, TaskOptions, spawn};
 use jogterm::proto::Protocol;
 use jogterm::transport::PortSpec;
 use jogterm::ui::keymap::Keymap;
@@ -66,10 +66,7 @@ struct Device {
 
 impl DeviceLink for Device {
     fn request(&mut self, request: Request) -> Result<(), NotSent> {
-        self.handle.request(request).map_err(|e| match e {
-            RequestError::Full => NotSent::Busy,
-            RequestError::Closed => NotSent::Gone,
-        })
+        self.handle.request(request).map_err(NotSent::from)
     }
 
     fn stop(&mut self) {

@@ -22,7 +22,7 @@ use super::{GlobalArgs, out};
 use crate::config::{ConfigDirs, ConfigError, Profile, Source, Theme, load_theme};
 use crate::device::api::{Event, Request};
 use crate::device::log::spawn_log;
-use crate::device::{DeviceHandle, EventReceiver, RequestError, TaskOptions};
+use crate::device::{DeviceHandle, EventReceiver, TaskOptions};
 use crate::program::store::RecoveryStore;
 use crate::sim::registry;
 use crate::sim::shell::{Shell, ShellControl, serve_socket};
@@ -143,10 +143,7 @@ struct Device {
 
 impl DeviceLink for Device {
     fn request(&mut self, request: Request) -> Result<(), NotSent> {
-        self.handle.request(request).map_err(|e| match e {
-            RequestError::Full => NotSent::Busy,
-            RequestError::Closed => NotSent::Gone,
-        })
+        self.handle.request(request).map_err(NotSent::from)
     }
 
     fn stop(&mut self) {

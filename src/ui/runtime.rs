@@ -51,6 +51,15 @@ pub enum NotSent {
     Gone,
 }
 
+impl From<crate::device::RequestError> for NotSent {
+    fn from(e: crate::device::RequestError) -> Self {
+        match e {
+            crate::device::RequestError::Full => NotSent::Busy,
+            crate::device::RequestError::Closed => NotSent::Gone,
+        }
+    }
+}
+
 #[derive(Debug, thiserror::Error)]
 pub enum RunError {
     #[error("drawing the screen failed: {0}")]
