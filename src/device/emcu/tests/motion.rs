@@ -392,6 +392,46 @@ fn a_jog_speeds_up_once_at_the_first_short_renewal() {
     assert_eq!(h.state().activity, Activity::Idle);
 }
 
+/// The jog halted with `@B` to speed up, then released (or stopped) before
+/// the halt has been read back: the faster batch never goes out, the jog
+/// ends as released (stopped), and nothing moves again.
+#[test]
+fn a_release_or_a_stop_during_the_speed_up_halt_starts_no_faster_batch() {
+    for stop in [false, true] {
+        let mut h = Harness::ready_at(10_000, 0, 0);
+        h.request(jog(1, vec![(Axis::X, Dir::Plus)], 1_000.0, ms(750)));
+        h.expect_text(&format!("#E9,{}", cap(ms(750))));
+        h.reply(b"\r");
+        h.expect(b"L9,x50000\x01");
+        h.reply(b"\r");
+        h.advance(ms(500));
+        h.request(Request::JogRenew {
+            id: JogId(1),
+            lease: ms(150),
+        });
+        h.expect(b"@B\r");
+        h.reply(b"\r");
+        let end = if stop {
+            assert_eq!(h.stop(), b"@B\r");
+            h.reply(b"\r");
+            JogEnd::Stopped
+        } else {
+            h.request(Request::JogRelease { id: JogId(1) });
+            JogEnd::Released
+        };
+        h.run_ends();
+        h.positions_read(10_300, 0, 0);
+        assert_eq!(h.jog_ends(), [(1, end)], "stop: {stop}");
+        h.advance(ms(1_000));
+        let sent: String = h.sent.iter().map(|m| crate::traffic::readable(m)).collect();
+        assert!(
+            !sent.contains("#E9,1000") && sent.matches("L9,").count() == 1,
+            "stop: {stop}: {sent}"
+        );
+        assert_eq!(h.state().activity, Activity::Idle, "stop: {stop}");
+    }
+}
+
 #[test]
 fn a_renewal_is_granted_no_longer_lease_than_the_speed_allows() {
     let mut h = Harness::ready_at(10_000, 0, 0);
