@@ -339,6 +339,37 @@ fn a_velocity_jog_speeds_up_once_at_the_first_short_renewal_without_a_stop() {
     assert_eq!(h.jog_ends(), vec![(9, JogEnd::DeadMan)]);
 }
 
+/// Released between the speed-up's sample rate (`20 19`) and its new
+/// velocity: the faster `2A` never goes out, the drive is stopped at once.
+#[test]
+fn a_release_in_the_middle_of_a_speed_up_sends_no_faster_velocity() {
+    let mut h = Harness::emp(|_| {});
+    h.ready(1_000_000);
+    h.request(jog(9, Dir::Plus, 56_000.0));
+    let mut reload = 0;
+    velocity_move(&mut h, &mut reload);
+    h.advance(ms(500));
+    h.request(Request::JogRenew {
+        id: JogId(9),
+        lease: ms(150),
+    });
+    let rate = h.send().expect("the sample rate");
+    assert!(rate.starts_with(b"20111900"), "{rate:?}");
+    h.request(Request::JogRelease { id: JogId(9) });
+    h.answer("21 11 00 22 00000000");
+    h.expect_frame("08 11 00 00 00000000");
+    h.answer("09 11 00 22 00100000");
+    h.expect_nothing();
+    h.advance(ms(1_000));
+    h.expect_nothing();
+    assert_eq!(
+        h.sent.iter().filter(|f| f.starts_with(b"2A1100")).count(),
+        1,
+        "only the grace velocity"
+    );
+    assert_eq!(h.jog_ends(), vec![(9, JogEnd::Released)]);
+}
+
 #[test]
 fn a_renewal_is_granted_no_longer_lease_than_the_speed_allows() {
     let mut h = Harness::emp(|_| {});
