@@ -478,3 +478,51 @@ fn isel_poll_during_a_start_key_program_gives_up_and_stops_it() {
     assert!(isel_motion(&received).is_empty(), "poll started nothing");
     assert_a_new_connection_moves_nothing(&mut sim, x);
 }
+
+/// EMCU: `jogterm upload JOB --start` interrupted with Ctrl-C while the
+/// stored job runs (`@J`): `@B` reaches the interface after the start, the
+/// axis stands short of the job's end, status 1, and a later connection
+/// moves nothing.
+#[test]
+fn emcu_upload_start_ctrl_c_stops_the_running_job() {
+    let mut sim = SimProcess::start("emcu");
+    let mut reference = vec!["send"];
+    reference.extend(&EMCU_LONG_MOVE[..4]);
+    let out = sim.run(&reference);
+    assert_exit(&out, 0, "send (reset, ramp, reference)");
+    let file = sim.dir.path().join("long.emcu");
+    std::fs::write(&file, "; 20 s at 2 kHz\n#E1,2000\nL1,x40000\n").expect("write the job");
+    let file_arg = file.display().to_string();
+    let child = spawn(&sim, &["upload", &file_arg, "--start"]);
+    sim.wait_received("the start", |r| r.contains("@J"));
+    sim.wait_device("the job running", |d| {
+        d.contains("moving") && x_steps("emcu", d) > 0
+    });
+    signal(child.id(), libc::SIGINT);
+    let out = wait_child(child, "jogterm upload");
+    assert_exit(&out, 1, "upload interrupted");
+    assert!(
+        text(&out.stderr).contains("interrupted: the machine was stopped"),
+        "{}",
+        text(&out.stderr)
+    );
+    let state = assert_stands(&mut sim);
+    let x = x_steps("emcu", &state);
+    assert!(x > 0 && x < 40_000, "stopped mid-job: {state}");
+    let received = sim.received();
+    let after = received
+        .rsplit_once("@J")
+        .map(|(_, rest)| rest)
+        .unwrap_or_else(|| panic!("the start was not received:\n{received}"));
+    assert!(
+        after.contains("@B<CR>"),
+        "the stop after the start:\n{received}"
+    );
+    assert_eq!(
+        received.matches("@J").count(),
+        1,
+        "one start only:\n{received}"
+    );
+    assert_a_new_connection_moves_nothing(&mut sim, x);
+    sim.assert_alive();
+}
