@@ -258,6 +258,22 @@ impl SimProcess {
         self.jogterm(args).output().expect("run jogterm")
     }
 
+    /// `jogterm poll --json --count <count> --ports --interval-ms
+    /// <interval_ms>` run to its end, which must succeed: its samples.
+    pub fn poll_json(&self, count: &str, interval_ms: &str) -> Vec<serde_json::Value> {
+        let out = self.run(&[
+            "poll",
+            "--json",
+            "--count",
+            count,
+            "--ports",
+            "--interval-ms",
+            interval_ms,
+        ]);
+        assert!(out.status.success(), "{}", text(&out.stderr));
+        json_lines(&out.stdout)
+    }
+
     pub fn stderr_text(&self) -> String {
         String::from_utf8_lossy(&self.stderr.lock().unwrap_or_else(|p| p.into_inner())).into_owned()
     }
