@@ -502,15 +502,7 @@ fn withheld_reply_emcu(t: &mut Tally) {
 
 /// The recovery files in a console's state directory.
 fn recoveries(sim: &SimProcess) -> Vec<String> {
-    std::fs::read_dir(sim.dir.path().join("state").join("recovery"))
-        .map(|entries| {
-            entries
-                .filter_map(Result::ok)
-                .map(|e| e.file_name().to_string_lossy().into_owned())
-                .filter(|n| n.ends_with(".jogterm-recovery"))
-                .collect()
-        })
-        .unwrap_or_default()
+    faults_support::ui_pty::recoveries(&sim.dir.path().join("state"))
 }
 
 /// SIGKILL of jogterm while a program is being edited: the file on disk is
