@@ -332,7 +332,7 @@ fn isel_upload_start_ctrl_c_stops_the_running_program() {
 /// simulator's start key (isel manual 3.1: the key starts the stored program,
 /// the controller sends no answer but the sync character).
 fn isel_program_started_by_the_key(sim: &mut SimProcess) {
-    let out = isel_store_long_program(&sim);
+    let out = isel_store_long_program(sim);
     assert_exit(&out, 0, "send (store)");
     // The closing stop sequence may still be on its way through the line:
     // pressed before it arrives, the start would be stopped by it.
