@@ -58,6 +58,19 @@ fn isel_x(state: &str) -> i64 {
     x_steps("isel", state)
 }
 
+/// isel: the axis stands short of the end of [`ISEL_LONG_PROGRAM`]'s move
+/// (60 000 steps) and past its start; where it stands (X steps).
+fn isel_stands_mid_program(sim: &mut SimProcess) -> i64 {
+    let state = assert_stands(sim);
+    let x = isel_x(&state);
+    assert!(
+        x > 0 && x < 60_000,
+        "stopped mid-program: {state}\n{}",
+        sim.received()
+    );
+    x
+}
+
 /// isel: what the controller received after `command` (the messages).
 fn isel_after(received: &str, command: &str) -> Vec<String> {
     isel_messages(received)
@@ -314,13 +327,7 @@ fn isel_upload_start_ctrl_c_stops_the_running_program() {
     sim.wait_received("the start", |r| isel_messages(r).iter().any(|m| m == "@0S"));
     wait_moving(&mut sim, "the program running");
     interrupt(child, libc::SIGINT, "upload");
-    let state = assert_stands(&mut sim);
-    let x = isel_x(&state);
-    assert!(
-        x > 0 && x < 60_000,
-        "stopped mid-program: {state}\n{}",
-        sim.received()
-    );
+    let x = isel_stands_mid_program(&mut sim);
     let received = sim.received();
     assert_isel_stopped_after(&received, "@0S");
     assert_a_new_connection_moves_nothing(&mut sim, x);
@@ -358,13 +365,7 @@ fn isel_start_key_program_is_stopped_by_send_break() {
     let before = sim.received();
     let out = sim.run(&["send", "break"]);
     assert_exit(&out, 0, "send break");
-    let state = assert_stands(&mut sim);
-    let x = isel_x(&state);
-    assert!(
-        x > 0 && x < 60_000,
-        "stopped mid-program: {state}\n{}",
-        sim.received()
-    );
+    let x = isel_stands_mid_program(&mut sim);
     let received = sim.received();
     let sent = isel_messages(received.get(before.len()..).unwrap_or_default());
     // The stop sequence reached the controller (that it leads every
