@@ -7,7 +7,7 @@ use std::thread;
 use std::time::Duration;
 
 mod sim_process;
-use sim_process::{SimProcess, jogterm, json_lines, text};
+use sim_process::{SimProcess, jogterm, text};
 
 #[test]
 fn send_initialises_references_moves_and_reads_back() {
@@ -115,17 +115,7 @@ fn a_stored_program_is_run() {
 #[test]
 fn poll_prints_json_samples() {
     let sim = SimProcess::start("isel");
-    let out = sim.run(&[
-        "poll",
-        "--json",
-        "--count",
-        "5",
-        "--ports",
-        "--interval-ms",
-        "20",
-    ]);
-    assert!(out.status.success(), "{}", text(&out.stderr));
-    let lines = json_lines(&out.stdout);
+    let lines = sim.poll_json("5", "20");
     assert_eq!(lines.len(), 5);
     for l in &lines {
         assert_eq!(l["pos"].as_array().map(Vec::len), Some(3), "{l}");

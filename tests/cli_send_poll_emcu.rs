@@ -8,7 +8,7 @@ use std::thread;
 use std::time::{Duration, Instant};
 
 mod sim_process;
-use sim_process::{SimProcess, json_lines, text};
+use sim_process::{SimProcess, text};
 
 /// `<< @LX1234: X = 1234 steps` -> 1234.
 fn x_steps(line: &str) -> Option<i64> {
@@ -98,17 +98,7 @@ fn outputs_and_the_job_store() {
 #[test]
 fn poll_prints_measured_positions_and_the_status() {
     let sim = SimProcess::start("emcu");
-    let out = sim.run(&[
-        "poll",
-        "--json",
-        "--count",
-        "5",
-        "--ports",
-        "--interval-ms",
-        "0",
-    ]);
-    assert!(out.status.success(), "{}", text(&out.stderr));
-    let lines = json_lines(&out.stdout);
+    let lines = sim.poll_json("5", "0");
     assert_eq!(lines.len(), 5);
     for l in &lines {
         assert_eq!(l["pos"].as_array().map(Vec::len), Some(3), "{l}");

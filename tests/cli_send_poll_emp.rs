@@ -7,7 +7,7 @@ use std::thread;
 use std::time::Duration;
 
 mod sim_process;
-use sim_process::{SimProcess, json_lines, text};
+use sim_process::{SimProcess, text};
 
 #[test]
 fn send_switches_on_homes_moves_and_reads_back() {
@@ -130,17 +130,7 @@ fn poll_prints_one_position_per_drive_as_json() {
     let sim = SimProcess::start("emp");
     let on = sim.run(&["send", "02 11 11 00 00000000"]);
     assert!(on.status.success(), "{}", text(&on.stderr));
-    let out = sim.run(&[
-        "poll",
-        "--json",
-        "--count",
-        "20",
-        "--ports",
-        "--interval-ms",
-        "0",
-    ]);
-    assert!(out.status.success(), "{}", text(&out.stderr));
-    let lines = json_lines(&out.stdout);
+    let lines = sim.poll_json("20", "0");
     assert_eq!(lines.len(), 20);
     for l in &lines {
         assert_eq!(l["pos"].as_array().map(Vec::len), Some(1), "{l}");

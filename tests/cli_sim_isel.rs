@@ -2,15 +2,18 @@
 //! pseudo-terminal through jogterm's own transport, and operated on its
 //! stdin, byte for byte.
 
-use std::io::{BufRead, BufReader, Write};
+use std::io::Write;
 use std::path::PathBuf;
 use std::process::{Child, ChildStdin, Command, Stdio};
-use std::sync::mpsc::{self, Receiver};
+use std::sync::mpsc::Receiver;
 use std::thread;
 use std::time::{Duration, Instant};
 
 use jogterm::transport::{self, PortParts, PortSpec, WriterConfig};
 use jogterm::wire::LineSettings;
+
+mod sim_process;
+use sim_process::{JOGTERM, spawn_with_lines};
 
 /// A simulator process; killed if the test fails half-way.
 struct Sim {
@@ -28,28 +31,15 @@ impl Drop for Sim {
 
 impl Sim {
     fn start(args: &[&str], config_dir: &std::path::Path) -> Sim {
-        let mut child = Command::new(env!("CARGO_BIN_EXE_jogterm"))
-            .args(args)
-            .env("JOGTERM_CONFIG_DIR", config_dir)
-            .stdin(Stdio::piped())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::inherit())
-            .spawn()
-            .expect("spawn jogterm");
-        let stdout = child.stdout.take().expect("stdout");
-        let (tx, lines) = mpsc::channel();
-        thread::spawn(move || {
-            for line in BufReader::new(stdout).lines() {
-                let Ok(line) = line else { break };
-                if tx.send(line).is_err() {
-                    break;
-                }
-            }
-        });
-        let stdin = child.stdin.take();
+        let (child, stdin, lines) = spawn_with_lines(
+            Command::new(JOGTERM)
+                .args(args)
+                .env("JOGTERM_CONFIG_DIR", config_dir)
+                .stderr(Stdio::inherit()),
+        );
         Sim {
             child,
-            stdin,
+            stdin: Some(stdin),
             lines,
         }
     }
@@ -165,7 +155,7 @@ fn a_conversation_with_the_isel_simulator_over_its_pty() {
 fn usage_errors_exit_2_and_failures_exit_1() {
     let dir = tempfile::tempdir().expect("tempdir");
     let run = |args: &[&str]| {
-        Command::new(env!("CARGO_BIN_EXE_jogterm"))
+        Command::new(JOGTERM)
             .args(args)
             .env("JOGTERM_CONFIG_DIR", dir.path())
             .stdin(Stdio::null())

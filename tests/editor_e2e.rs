@@ -9,11 +9,11 @@ mod sim_process;
 mod ui_pty;
 
 use std::fs;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use sim_process::{JOGTERM, SimProcess, WAIT};
-use ui_pty::PtyRun;
+use ui_pty::{PtyRun, recoveries};
 
 const PROGRAM: &str = "; drill\n7 7\nm8000,8000,8000,8000\n9\n";
 
@@ -28,22 +28,43 @@ fn spawn(args: &[&str], config: &Path, state: &Path) -> PtyRun {
     PtyRun::spawn(Path::new(JOGTERM), args, &env)
 }
 
+/// A temporary directory with the console's configuration directory (made)
+/// and its state directory (left for the console to make) in it.
+fn dirs() -> (tempfile::TempDir, PathBuf, PathBuf) {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let config = dir.path().join("config");
+    let state = dir.path().join("state");
+    fs::create_dir_all(&config).expect("config dir");
+    (dir, config, state)
+}
+
+/// [`spawn`] with `file` in the editor, connected to the isel simulator.
+fn spawn_on(sim: &SimProcess, file: &str, config: &Path, state: &Path) -> PtyRun {
+    spawn(
+        &[
+            "--port",
+            &sim.link.display().to_string(),
+            "--protocol",
+            "isel",
+            "--program",
+            file,
+        ],
+        config,
+        state,
+    )
+}
+
+/// The machine screen (F4), where `i` initialises the axes: not referenced.
+fn initialise(run: &mut PtyRun) {
+    run.send(b"\x1bOS");
+    wait_for(run, "Position");
+    run.send(b"i");
+    wait_for(run, "NOT REF");
+}
+
 fn wait_for(run: &PtyRun, needle: &str) -> String {
     run.wait_for(needle, WAIT)
         .unwrap_or_else(|screen| panic!("`{needle}` never appeared:\n{screen}"))
-}
-
-/// The recovery files in `state`.
-fn recoveries(state: &Path) -> Vec<String> {
-    fs::read_dir(state.join("recovery"))
-        .map(|entries| {
-            entries
-                .filter_map(Result::ok)
-                .map(|e| e.file_name().to_string_lossy().into_owned())
-                .filter(|n| n.ends_with(".jogterm-recovery"))
-                .collect()
-        })
-        .unwrap_or_default()
 }
 
 fn wait_until(what: &str, mut ok: impl FnMut() -> bool) {
@@ -56,10 +77,7 @@ fn wait_until(what: &str, mut ok: impl FnMut() -> bool) {
 
 #[test]
 fn edits_survive_a_kill_and_are_offered_back() {
-    let dir = tempfile::tempdir().expect("tempdir");
-    let config = dir.path().join("config");
-    let state = dir.path().join("state");
-    fs::create_dir_all(&config).expect("config dir");
+    let (dir, config, state) = dirs();
     let file = dir.path().join("drill.isel");
     fs::write(&file, PROGRAM).expect("write the program");
     let file_arg = file.display().to_string();
@@ -100,10 +118,7 @@ fn edits_survive_a_kill_and_are_offered_back() {
 
 #[test]
 fn quitting_with_unsaved_edits_asks_first() {
-    let dir = tempfile::tempdir().expect("tempdir");
-    let config = dir.path().join("config");
-    let state = dir.path().join("state");
-    fs::create_dir_all(&config).expect("config dir");
+    let (dir, config, state) = dirs();
     let file = dir.path().join("part.isel");
     fs::write(&file, PROGRAM).expect("write the program");
     let file_arg = file.display().to_string();
@@ -130,10 +145,7 @@ fn quitting_with_unsaved_edits_asks_first() {
 
 #[test]
 fn a_hang_up_writes_the_last_edits_before_leaving() {
-    let dir = tempfile::tempdir().expect("tempdir");
-    let config = dir.path().join("config");
-    let state = dir.path().join("state");
-    fs::create_dir_all(&config).expect("config dir");
+    let (dir, config, state) = dirs();
     let file = dir.path().join("hup.isel");
     fs::write(&file, PROGRAM).expect("write the program");
     let file_arg = file.display().to_string();
@@ -175,27 +187,13 @@ o0,0,1,2
 
 #[test]
 fn edit_upload_and_run_on_the_simulator_end_where_the_preview_said() {
-    let dir = tempfile::tempdir().expect("tempdir");
-    let config = dir.path().join("config");
-    let state = dir.path().join("state");
-    fs::create_dir_all(&config).expect("config dir");
+    let (dir, config, state) = dirs();
     let sim = SimProcess::start("isel");
     // The program arrives with a typo the editor shows and the operator fixes.
     let file = dir.path().join("loop.isel");
     fs::write(&file, LOOP_AND_BRANCH.replace("3 2,-1", "3 2,-1,7")).expect("write");
     let file_arg = file.display().to_string();
-    let mut run = spawn(
-        &[
-            "--port",
-            &sim.link.display().to_string(),
-            "--protocol",
-            "isel",
-            "--program",
-            &file_arg,
-        ],
-        &config,
-        &state,
-    );
+    let mut run = spawn_on(&sim, &file_arg, &config, &state);
     wait_for(&run, "connected");
     wait_for(&run, " 1 E ");
     // F5 is refused while the error is there, and the cursor goes to it.
@@ -207,10 +205,7 @@ fn edit_upload_and_run_on_the_simulator_end_where_the_preview_said() {
         fs::read_to_string(&file).is_ok_and(|t| t == LOOP_AND_BRANCH)
     });
     // The machine screen: initialise, reference (asks), back to the editor.
-    run.send(b"\x1bOS");
-    wait_for(&run, "Position");
-    run.send(b"i");
-    wait_for(&run, "NOT REF");
+    initialise(&mut run);
     run.send(b"h");
     run.send(b"y");
     wait_for(&run, "READY");
@@ -252,35 +247,18 @@ fn edit_upload_and_run_on_the_simulator_end_where_the_preview_said() {
 fn a_line_the_controller_has_no_room_for_is_marked_and_erase_and_retry_stores_it() {
     const PROGRAM: &str = "; four moves\n7 7\n0 100,2000,0,2000,0,2000,0,2000\n\
         0 200,2000,0,2000,0,2000,0,2000\n0 300,2000,0,2000,0,2000,0,2000\n9\n";
-    let dir = tempfile::tempdir().expect("tempdir");
-    let config = dir.path().join("config");
-    let state = dir.path().join("state");
-    fs::create_dir_all(&config).expect("config dir");
+    let (dir, config, state) = dirs();
     let mut sim = SimProcess::start("isel");
     // The controller has room for two commands; the linter assumes 2000.
     sim.control("memory 2");
     let file = dir.path().join("moves.isel");
     fs::write(&file, PROGRAM).expect("write");
     let file_arg = file.display().to_string();
-    let mut run = spawn(
-        &[
-            "--port",
-            &sim.link.display().to_string(),
-            "--protocol",
-            "isel",
-            "--program",
-            &file_arg,
-        ],
-        &config,
-        &state,
-    );
+    let mut run = spawn_on(&sim, &file_arg, &config, &state);
     wait_for(&run, "connected");
     wait_for(&run, "moves.isel");
     // The machine screen: initialise (the upload needs the axes), back.
-    run.send(b"\x1bOS");
-    wait_for(&run, "Position");
-    run.send(b"i");
-    wait_for(&run, "NOT REF");
+    initialise(&mut run);
     run.send(b"e");
     wait_for(&run, "moves.isel");
     run.send(b"\x1b[15~");

@@ -502,15 +502,7 @@ fn withheld_reply_emcu(t: &mut Tally) {
 
 /// The recovery files in a console's state directory.
 fn recoveries(sim: &SimProcess) -> Vec<String> {
-    std::fs::read_dir(sim.dir.path().join("state").join("recovery"))
-        .map(|entries| {
-            entries
-                .filter_map(Result::ok)
-                .map(|e| e.file_name().to_string_lossy().into_owned())
-                .filter(|n| n.ends_with(".jogterm-recovery"))
-                .collect()
-        })
-        .unwrap_or_default()
+    faults_support::ui_pty::recoveries(&sim.dir.path().join("state"))
 }
 
 /// SIGKILL of jogterm while a program is being edited: the file on disk is
@@ -600,6 +592,38 @@ fn ready_emp() -> (SimProcess, Console) {
     (sim, console)
 }
 
+/// [`ready_emp`] with the drive made to stay busy and not move (`fault
+/// stall`), counted as the scenario's fault.
+fn stalled_emp(t: &mut Tally) -> (SimProcess, Console) {
+    let (mut sim, console) = ready_emp();
+    sim.control("fault stall");
+    t.fault();
+    (sim, console)
+}
+
+/// A reference run (`26`) begun at `started` on a stalled drive: given up
+/// by the stall watchdog (well before the reference deadline), the drive
+/// stopped and the operator told what to check, the run sent once (`once`
+/// says which), moves refused; the console quits.
+fn assert_homing_stalled(mut sim: SimProcess, mut console: Console, started: Instant, once: &str) {
+    assert_given_up(
+        &mut sim,
+        &console,
+        EMP_HOME,
+        &["homing stalled", "Check the axis for a blockage"],
+    );
+    assert!(
+        started.elapsed() < Duration::from_secs(10),
+        "the watchdog, not the deadline: {:?}",
+        started.elapsed()
+    );
+    let motion = emp_motion(&sim.received());
+    assert_eq!(motion, [EMP_HOME, EMP_HOME], "{once}");
+    assert_emp_motion_refused(&mut sim, &mut console);
+    sim.assert_alive();
+    console.quit();
+}
+
 /// The first non-query frame the drive received after `frame`: polls
 /// (`2C`, `40`) and error reads (`0A`) go on while a long action runs.
 fn emp_first_command_after(received: &str, frame: &str) -> Option<String> {
@@ -675,9 +699,7 @@ fn assert_emp_motion_refused(sim: &mut SimProcess, console: &mut Console) {
 /// move until the operator has initialised and referenced again; then a
 /// move runs.
 fn emp_busy_never_ready_go_to(t: &mut Tally) {
-    let (mut sim, mut console) = ready_emp();
-    sim.control("fault stall");
-    t.fault();
+    let (mut sim, mut console) = stalled_emp(t);
     console.keys(b"g");
     console.keys(b"X1");
     console.wait_for("X1");
@@ -764,27 +786,10 @@ fn emp_busy_never_ready_raw_move(t: &mut Tally) {
 /// as stalled within about a second, long before its deadline; the drive is
 /// stopped and the operator told what to check.
 fn emp_raw_homing_stalled(t: &mut Tally) {
-    let (mut sim, mut console) = ready_emp();
-    sim.control("fault stall");
-    t.fault();
+    let (sim, mut console) = stalled_emp(t);
     console.command(EMP_HOME);
     let started = Instant::now();
-    assert_given_up(
-        &mut sim,
-        &console,
-        EMP_HOME,
-        &["homing stalled", "Check the axis for a blockage"],
-    );
-    assert!(
-        started.elapsed() < Duration::from_secs(10),
-        "the watchdog, not the deadline: {:?}",
-        started.elapsed()
-    );
-    let motion = emp_motion(&sim.received());
-    assert_eq!(motion, [EMP_HOME, EMP_HOME], "the typed run once");
-    assert_emp_motion_refused(&mut sim, &mut console);
-    sim.assert_alive();
-    console.quit();
+    assert_homing_stalled(sim, console, started, "the typed run once");
 }
 
 /// EMP: the console's own reference run (`h`, confirmed with `y`) whose
@@ -792,29 +797,12 @@ fn emp_raw_homing_stalled(t: &mut Tally) {
 /// (fed by the position polls), the same give-up: the drive stopped first,
 /// the operator told what to check, moves refused.
 fn emp_homing_stalled(t: &mut Tally) {
-    let (mut sim, mut console) = ready_emp();
-    sim.control("fault stall");
-    t.fault();
+    let (sim, mut console) = stalled_emp(t);
     console.keys(b"h");
     console.wait_for("Start the reference run?");
     console.keys(b"y");
     let started = Instant::now();
-    assert_given_up(
-        &mut sim,
-        &console,
-        EMP_HOME,
-        &["homing stalled", "Check the axis for a blockage"],
-    );
-    assert!(
-        started.elapsed() < Duration::from_secs(10),
-        "the watchdog, not the deadline: {:?}",
-        started.elapsed()
-    );
-    let motion = emp_motion(&sim.received());
-    assert_eq!(motion, [EMP_HOME, EMP_HOME], "the run once");
-    assert_emp_motion_refused(&mut sim, &mut console);
-    sim.assert_alive();
-    console.quit();
+    assert_homing_stalled(sim, console, started, "the run once");
 }
 
 /// EMCU memory full (0x03) during an upload from the editor: the interface

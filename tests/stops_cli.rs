@@ -12,8 +12,8 @@ mod sim_process;
 mod stops_support;
 use sim_process::{SimProcess, text, wait_child};
 use stops_support::{
-    assert_a_new_connection_moves_nothing, assert_exit, assert_stands, emp_frames, moving, signal,
-    wait_moving, x_steps,
+    assert_a_new_connection_moves_nothing, assert_exit, assert_stands, emp_frames, interrupt,
+    isel_store_long_program, moving, signal, wait_moving, x_steps,
 };
 
 #[allow(dead_code)]
@@ -58,6 +58,19 @@ fn isel_x(state: &str) -> i64 {
     x_steps("isel", state)
 }
 
+/// isel: the axis stands short of the end of [`ISEL_LONG_PROGRAM`]'s move
+/// (60 000 steps) and past its start; where it stands (X steps).
+fn isel_stands_mid_program(sim: &mut SimProcess) -> i64 {
+    let state = assert_stands(sim);
+    let x = isel_x(&state);
+    assert!(
+        x > 0 && x < 60_000,
+        "stopped mid-program: {state}\n{}",
+        sim.received()
+    );
+    x
+}
+
 /// isel: what the controller received after `command` (the messages).
 fn isel_after(received: &str, command: &str) -> Vec<String> {
     isel_messages(received)
@@ -100,14 +113,7 @@ fn isel_send_interrupted_by(sig: libc::c_int) {
         isel_messages(r).iter().any(|m| m == ISEL_LONG_MOVE)
     });
     wait_moving(&mut sim, "moving");
-    signal(child.id(), sig);
-    let out = wait_child(child, "jogterm send");
-    assert_exit(&out, 1, "send interrupted");
-    assert!(
-        text(&out.stderr).contains("interrupted: the machine was stopped"),
-        "{}",
-        text(&out.stderr)
-    );
+    interrupt(child, sig, "send");
     let state = assert_stands(&mut sim);
     let x = isel_x(&state);
     assert!(x > 0 && x < 60_000, "stopped mid-move: {state}");
@@ -178,14 +184,7 @@ fn emcu_send_ctrl_c_mid_move_stops_and_nothing_resumes() {
     sim.wait_device("moving after the reference run", |d| {
         d.contains("moving") && !d.contains("referencing") && !d.contains("position unknown")
     });
-    signal(child.id(), libc::SIGINT);
-    let out = wait_child(child, "jogterm send");
-    assert_exit(&out, 1, "send interrupted");
-    assert!(
-        text(&out.stderr).contains("interrupted: the machine was stopped"),
-        "{}",
-        text(&out.stderr)
-    );
+    interrupt(child, libc::SIGINT, "send");
     let state = assert_stands(&mut sim);
     let x = x_steps("emcu", &state);
     assert!(x > 0 && x < 40_000, "stopped mid-move: {state}");
@@ -218,14 +217,7 @@ fn emp_send_ctrl_c_mid_positioning_stops_and_nothing_resumes() {
     let child = spawn(&sim, &args);
     sim.wait_received("the positioning", |r| r.contains("2A11011000400000"));
     wait_moving(&mut sim, "positioning");
-    signal(child.id(), libc::SIGINT);
-    let out = wait_child(child, "jogterm send");
-    assert_exit(&out, 1, "send interrupted");
-    assert!(
-        text(&out.stderr).contains("interrupted: the machine was stopped"),
-        "{}",
-        text(&out.stderr)
-    );
+    interrupt(child, libc::SIGINT, "send");
     let state = assert_stands(&mut sim);
     assert!(
         x_steps("emp", &state) < 0x40_0000,
@@ -334,21 +326,8 @@ fn isel_upload_start_ctrl_c_stops_the_running_program() {
     let child = spawn(&sim, &["upload", &file_arg, "--start"]);
     sim.wait_received("the start", |r| isel_messages(r).iter().any(|m| m == "@0S"));
     wait_moving(&mut sim, "the program running");
-    signal(child.id(), libc::SIGINT);
-    let out = wait_child(child, "jogterm upload");
-    assert_exit(&out, 1, "upload interrupted");
-    assert!(
-        text(&out.stderr).contains("interrupted: the machine was stopped"),
-        "{}",
-        text(&out.stderr)
-    );
-    let state = assert_stands(&mut sim);
-    let x = isel_x(&state);
-    assert!(
-        x > 0 && x < 60_000,
-        "stopped mid-program: {state}\n{}",
-        sim.received()
-    );
+    interrupt(child, libc::SIGINT, "upload");
+    let x = isel_stands_mid_program(&mut sim);
     let received = sim.received();
     assert_isel_stopped_after(&received, "@0S");
     assert_a_new_connection_moves_nothing(&mut sim, x);
@@ -360,14 +339,7 @@ fn isel_upload_start_ctrl_c_stops_the_running_program() {
 /// simulator's start key (isel manual 3.1: the key starts the stored program,
 /// the controller sends no answer but the sync character).
 fn isel_program_started_by_the_key(sim: &mut SimProcess) {
-    let out = sim.run(&[
-        "send",
-        "@07",
-        "@0N7",
-        "@0i",
-        "060000,4000,0,4000,0,4000,0,4000",
-        "9",
-    ]);
+    let out = isel_store_long_program(sim);
     assert_exit(&out, 0, "send (store)");
     // The closing stop sequence may still be on its way through the line:
     // pressed before it arrives, the start would be stopped by it.
@@ -393,13 +365,7 @@ fn isel_start_key_program_is_stopped_by_send_break() {
     let before = sim.received();
     let out = sim.run(&["send", "break"]);
     assert_exit(&out, 0, "send break");
-    let state = assert_stands(&mut sim);
-    let x = isel_x(&state);
-    assert!(
-        x > 0 && x < 60_000,
-        "stopped mid-program: {state}\n{}",
-        sim.received()
-    );
+    let x = isel_stands_mid_program(&mut sim);
     let received = sim.received();
     let sent = isel_messages(received.get(before.len()..).unwrap_or_default());
     // The stop sequence reached the controller (that it leads every
@@ -443,14 +409,7 @@ fn a_failure_on_a_stderr_that_is_gone_exits_1_not_with_a_panic() {
 #[test]
 fn isel_poll_during_a_start_key_program_gives_up_and_stops_it() {
     let mut sim = SimProcess::start("isel");
-    let out = sim.run(&[
-        "send",
-        "@07",
-        "@0N7",
-        "@0i",
-        "060000,4000,0,4000,0,4000,0,4000",
-        "9",
-    ]);
+    let out = isel_store_long_program(&sim);
     assert_exit(&out, 0, "send (store)");
     let before = sim.received();
     let child = spawn(&sim, &["poll"]);

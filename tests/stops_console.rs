@@ -17,8 +17,8 @@ use faults_support::sim::{self as sim_process, SimProcess, WAIT};
 mod stops_support;
 use faults_support::wire::{emcu_motion, isel_messages, isel_motion};
 use stops_support::{
-    assert_a_new_connection_moves_nothing, assert_stands, emp_frames, moving, signal, wait_moving,
-    x_steps,
+    assert_a_new_connection_moves_nothing, assert_stands, emp_frames, isel_store_long_program,
+    moving, signal, wait_moving, x_steps,
 };
 
 /// A profile on top of the family's shipped one: the longest dead-man
@@ -244,14 +244,7 @@ fn emp_terminate_signal_during_a_go_to_stops() {
 #[test]
 fn isel_a_program_run_by_the_start_key_is_halted_by_the_console() {
     let mut sim = SimProcess::start("isel");
-    let out = sim.run(&[
-        "send",
-        "@07",
-        "@0N7",
-        "@0i",
-        "060000,4000,0,4000,0,4000,0,4000",
-        "9",
-    ]);
+    let out = isel_store_long_program(&sim);
     assert!(out.status.success(), "{}", sim_process::text(&out.stderr));
     let mut console = Console::start(&sim);
     console.wait_until("READY", |s| {

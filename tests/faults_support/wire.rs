@@ -6,8 +6,16 @@
 /// 0xFE, 0xFF are messages of their own, also between two bytes of a command
 /// (the controller reads them in its receive interrupt, isel manual 2.2.31).
 pub fn isel_messages(readable: &str) -> Vec<String> {
+    split_messages(readable, &["<CR>"], &["<FD>", "<FE>", "<FF>"])
+}
+
+/// Splits readable traffic into messages: each token in `ends` closes the
+/// message gathered so far (returned without it), each token in `own` is a
+/// message of its own without closing the one it interrupts; `<3C>` is the
+/// readable form of a literal `<`.
+fn split_messages(readable: &str, ends: &[&str], own: &[&str]) -> Vec<String> {
     let mut messages = Vec::new();
-    let mut command = String::new();
+    let mut message = String::new();
     let mut rest = readable;
     while let Some(c) = rest.chars().next() {
         if c == '<'
@@ -15,15 +23,18 @@ pub fn isel_messages(readable: &str) -> Vec<String> {
         {
             let token = &rest[..=end];
             rest = &rest[end + 1..];
-            match token {
-                "<CR>" => messages.push(std::mem::take(&mut command)),
-                "<FD>" | "<FE>" | "<FF>" => messages.push(token.to_string()),
-                "<3C>" => command.push('<'),
-                other => command.push_str(other),
+            if ends.contains(&token) {
+                messages.push(std::mem::take(&mut message));
+            } else if own.contains(&token) {
+                messages.push(token.to_string());
+            } else if token == "<3C>" {
+                message.push('<');
+            } else {
+                message.push_str(token);
             }
             continue;
         }
-        command.push(c);
+        message.push(c);
         rest = &rest[c.len_utf8()..];
     }
     messages
@@ -67,26 +78,7 @@ pub fn assert_isel_motion(readable: &str, expected: &[&str]) {
 /// EMCU: lines end at CR or 0x01 (manual 1.4.2); the lines that can move
 /// an axis (`Command::may_move`: moves, reference runs, resume, run job).
 pub fn emcu_motion(readable: &str) -> Vec<String> {
-    let mut lines = Vec::new();
-    let mut line = String::new();
-    let mut rest = readable;
-    while let Some(c) = rest.chars().next() {
-        if c == '<'
-            && let Some(end) = rest.find('>')
-        {
-            let token = &rest[..=end];
-            rest = &rest[end + 1..];
-            match token {
-                "<CR>" | "<01>" => lines.push(std::mem::take(&mut line)),
-                "<3C>" => line.push('<'),
-                other => line.push_str(other),
-            }
-            continue;
-        }
-        line.push(c);
-        rest = &rest[c.len_utf8()..];
-    }
-    lines
+    split_messages(readable, &["<CR>", "<01>"], &[])
         .into_iter()
         .filter(|l| jogterm::proto::emcu::parse_line(l).is_ok_and(|c| c.may_move()))
         .collect()

@@ -8,20 +8,12 @@ use jogterm::proto::emcu::{
     CommandFramer, EmcuAxis, ReplyDecoder, ReplyEvent, Terminator, parse_bytes, parse_line,
 };
 
-use super::{Choices, chunks};
+use super::{Choices, split_independent};
 
 /// Reply decoder: the input is what the line delivered.
 pub fn reply(data: &[u8]) {
     let mut choices = Choices::new(data);
-    let whole = decode(&[data]);
-    let single: Vec<&[u8]> = data.chunks(1).collect();
-    assert_eq!(
-        decode(&single),
-        whole,
-        "byte by byte differs from all at once"
-    );
-    let pieces = chunks(data, &mut choices);
-    assert_eq!(decode(&pieces), whole, "a split differs from all at once");
+    split_independent(data, &mut choices, decode);
 }
 
 fn decode(pieces: &[&[u8]]) -> Vec<ReplyEvent> {

@@ -9,7 +9,7 @@ use jogterm::proto::emp::{
     Correlator, FRAME_WIRE_LEN, FrameDecoder, FrameError, Incoming, Reply, Request,
 };
 
-use super::{Choices, chunks};
+use super::{Choices, split_independent};
 
 /// A request of every command code, as the manual's tables write them
 /// (DS 11), for the replies in the input to answer.
@@ -56,15 +56,7 @@ pub fn manual_requests() -> &'static [Request] {
 /// directions use the same frames).
 pub fn frames(data: &[u8]) {
     let mut choices = Choices::new(data);
-    let whole = decode(&[data]);
-    let single: Vec<&[u8]> = data.chunks(1).collect();
-    assert_eq!(
-        decode(&single),
-        whole,
-        "byte by byte differs from all at once"
-    );
-    let pieces = chunks(data, &mut choices);
-    assert_eq!(decode(&pieces), whole, "a split differs from all at once");
+    let whole = split_independent(data, &mut choices, decode);
 
     let incoming: Vec<Incoming> = whole
         .iter()

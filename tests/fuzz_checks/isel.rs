@@ -1,9 +1,11 @@
 //! isel @-format: the host's reply decoder (every [`Expect`] kind) and the
 //! controller's side, the request framer and the line parsers.
 
+use std::fmt::{Debug, Display};
+
 use jogterm::proto::isel::{
-    AxisConfig, Event, Expect, MAX_LINE, MAX_TEXT_REPLY, Received, Reply, ReplyDecoder,
-    RequestFramer, parse_cnc, parse_frame, validate_cnc, validate_frame,
+    AxisConfig, Event, Expect, MAX_LINE, MAX_TEXT_REPLY, ParseError, Parsed, Received, Reply,
+    ReplyDecoder, RequestFramer, parse_cnc, parse_frame, validate_cnc, validate_frame,
 };
 
 use super::{Choices, chunks, split_head};
@@ -201,69 +203,11 @@ pub fn request(data: &[u8]) {
 
 fn line_checks(line: &[u8]) {
     let len = line.len();
-    match parse_frame(line) {
-        Ok(parsed) => {
-            for r in parsed
-                .params
-                .iter()
-                .chain(parsed.notes.iter().map(|n| &n.span))
-            {
-                assert!(
-                    r.start <= r.end && r.end <= len,
-                    "span {r:?} outside {len} bytes"
-                );
-            }
-            // The canonical text parses to the same frame, without notes.
-            let text = parsed.value.to_string();
-            let back = parse_frame(&text);
-            assert_eq!(
-                back.as_ref().map(|p| &p.value),
-                Ok(&parsed.value),
-                "{text:?} (from {line:?})"
-            );
-            assert!(back.is_ok_and(|p| p.notes.is_empty()), "{text:?} has notes");
-            assert_eq!(parsed.value.encode().last(), Some(&b'\r'));
-        }
-        Err(e) => {
-            assert!(
-                e.span.start <= e.span.end && e.span.end <= len.max(1),
-                "{e:?} in {len}"
-            );
-            let _ = e.to_string();
-        }
+    if let Ok(frame) = parsed_checks(line, |l| parse_frame(l)) {
+        assert_eq!(frame.encode().last(), Some(&b'\r'));
     }
-    match parse_cnc(line) {
-        Ok(parsed) => {
-            for r in parsed
-                .params
-                .iter()
-                .chain(parsed.notes.iter().map(|n| &n.span))
-            {
-                assert!(
-                    r.start <= r.end && r.end <= len,
-                    "span {r:?} outside {len} bytes"
-                );
-            }
-            let text = parsed.value.to_string();
-            let back = parse_cnc(&text);
-            assert_eq!(
-                back.as_ref().map(|p| &p.value),
-                Ok(&parsed.value),
-                "{text:?} (from {line:?})"
-            );
-            assert!(back.is_ok_and(|p| p.notes.is_empty()), "{text:?} has notes");
-            let _ = (
-                parsed.value.code(),
-                parsed.value.jump_offset(),
-                parsed.value.as_dnc(),
-            );
-        }
-        Err(e) => {
-            assert!(
-                e.span.start <= e.span.end && e.span.end <= len.max(1),
-                "{e:?} in {len}"
-            );
-        }
+    if let Ok(cnc) = parsed_checks(line, |l| parse_cnc(l)) {
+        let _ = (cnc.code(), cnc.jump_offset(), cnc.as_dnc());
     }
     for config in AxisConfig::ALL {
         for rejection in [
@@ -282,4 +226,49 @@ fn line_checks(line: &[u8]) {
         }
     }
     let _ = validate_frame(line, None);
+}
+
+/// What both line parsers (DNC frames and CNC commands) promise for any
+/// line: spans inside the line; the canonical text parses to the same value,
+/// without notes; an error's span inside the line (or at its first byte when
+/// it is empty). The value, or the error.
+fn parsed_checks<T>(
+    line: &[u8],
+    parse: impl Fn(&[u8]) -> Result<Parsed<T>, ParseError>,
+) -> Result<T, ParseError>
+where
+    T: Display + PartialEq + Debug,
+{
+    let len = line.len();
+    match parse(line) {
+        Ok(parsed) => {
+            for r in parsed
+                .params
+                .iter()
+                .chain(parsed.notes.iter().map(|n| &n.span))
+            {
+                assert!(
+                    r.start <= r.end && r.end <= len,
+                    "span {r:?} outside {len} bytes"
+                );
+            }
+            let text = parsed.value.to_string();
+            let back = parse(text.as_bytes());
+            assert_eq!(
+                back.as_ref().map(|p| &p.value),
+                Ok(&parsed.value),
+                "{text:?} (from {line:?})"
+            );
+            assert!(back.is_ok_and(|p| p.notes.is_empty()), "{text:?} has notes");
+            Ok(parsed.value)
+        }
+        Err(e) => {
+            assert!(
+                e.span.start <= e.span.end && e.span.end <= len.max(1),
+                "{e:?} in {len}"
+            );
+            let _ = e.to_string();
+            Err(e)
+        }
+    }
 }

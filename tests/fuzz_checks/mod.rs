@@ -70,6 +70,26 @@ pub fn chunks<'a>(bytes: &'a [u8], choices: &mut Choices) -> Vec<&'a [u8]> {
     out
 }
 
+/// Decoding does not depend on how the bytes were split: `decode` of `data`
+/// fed byte by byte and in the pieces `choices` picks equals `decode` of it
+/// all at once, which is returned.
+pub fn split_independent<T: PartialEq + std::fmt::Debug>(
+    data: &[u8],
+    choices: &mut Choices,
+    decode: impl Fn(&[&[u8]]) -> T,
+) -> T {
+    let whole = decode(&[data]);
+    let single: Vec<&[u8]> = data.chunks(1).collect();
+    assert_eq!(
+        decode(&single),
+        whole,
+        "byte by byte differs from all at once"
+    );
+    let pieces = chunks(data, choices);
+    assert_eq!(decode(&pieces), whole, "a split differs from all at once");
+    whole
+}
+
 /// The first byte of an input picks a variant (expectation, language, file
 /// kind); the rest is the payload.
 pub fn split_head(data: &[u8]) -> (u8, &[u8]) {

@@ -71,6 +71,29 @@ pub fn jogterm(port: &Path, family: &str, args: &[&str]) -> Command {
     c
 }
 
+/// Spawn `command` with its stdin and stdout piped: the child, its stdin
+/// (the simulator's control channel) and its stdout line by line, read on a
+/// thread of its own so that a wait on a line can be bounded.
+pub fn spawn_with_lines(command: &mut Command) -> (Child, ChildStdin, Receiver<String>) {
+    let mut child = command
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .spawn()
+        .expect("spawn jogterm");
+    let stdout = child.stdout.take().expect("stdout");
+    let (tx, lines) = mpsc::channel();
+    thread::spawn(move || {
+        for line in BufReader::new(stdout).lines() {
+            let Ok(line) = line else { break };
+            if tx.send(line).is_err() {
+                break;
+            }
+        }
+    });
+    let stdin = child.stdin.take().expect("stdin");
+    (child, stdin, lines)
+}
+
 /// A running simulator; killed when dropped.
 pub struct SimProcess {
     child: Child,
@@ -102,26 +125,14 @@ impl SimProcess {
             std::fs::write(&path, contents).expect("write a config file");
         }
         let link = dir.path().join(format!("tty{family}"));
-        let mut child = Command::new(JOGTERM)
-            .args(["sim", "--pty", "--protocol", family, "--link"])
-            .arg(&link)
-            .env("JOGTERM_CONFIG_DIR", dir.path())
-            .env("RUST_BACKTRACE", "0")
-            .stdin(Stdio::piped())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .expect("spawn jogterm sim");
-        let stdout = child.stdout.take().expect("stdout");
-        let (tx, lines) = mpsc::channel();
-        thread::spawn(move || {
-            for line in BufReader::new(stdout).lines() {
-                let Ok(line) = line else { break };
-                if tx.send(line).is_err() {
-                    break;
-                }
-            }
-        });
+        let (mut child, stdin, lines) = spawn_with_lines(
+            Command::new(JOGTERM)
+                .args(["sim", "--pty", "--protocol", family, "--link"])
+                .arg(&link)
+                .env("JOGTERM_CONFIG_DIR", dir.path())
+                .env("RUST_BACKTRACE", "0")
+                .stderr(Stdio::piped()),
+        );
         let stderr = Arc::new(Mutex::new(Vec::new()));
         let sink = stderr.clone();
         let mut err = child.stderr.take().expect("stderr");
@@ -136,7 +147,6 @@ impl SimProcess {
                     .extend_from_slice(&buf[..n]);
             }
         });
-        let stdin = child.stdin.take().expect("stdin");
         let sim = SimProcess {
             child,
             stdin,
@@ -246,6 +256,22 @@ impl SimProcess {
     /// [`SimProcess::jogterm`] run to its end.
     pub fn run(&self, args: &[&str]) -> Output {
         self.jogterm(args).output().expect("run jogterm")
+    }
+
+    /// `jogterm poll --json --count <count> --ports --interval-ms
+    /// <interval_ms>` run to its end, which must succeed: its samples.
+    pub fn poll_json(&self, count: &str, interval_ms: &str) -> Vec<serde_json::Value> {
+        let out = self.run(&[
+            "poll",
+            "--json",
+            "--count",
+            count,
+            "--ports",
+            "--interval-ms",
+            interval_ms,
+        ]);
+        assert!(out.status.success(), "{}", text(&out.stderr));
+        json_lines(&out.stdout)
     }
 
     pub fn stderr_text(&self) -> String {

@@ -5,11 +5,11 @@
 
 #![allow(dead_code)]
 
-use std::process::Output;
+use std::process::{Child, Output};
 use std::thread;
 use std::time::Duration;
 
-use crate::sim_process::{SimProcess, contains_panic, text};
+use crate::sim_process::{SimProcess, contains_panic, text, wait_child};
 
 /// How long an axis that stands is watched for motion.
 pub const STANDS_FOR: Duration = Duration::from_millis(600);
@@ -35,6 +35,33 @@ pub fn assert_exit(out: &Output, code: i32, what: &str) {
         text(&out.stdout),
         text(&out.stderr)
     );
+}
+
+/// `jogterm <command>` (the `child`) interrupted by `sig`: it ends with
+/// status 1, without a panic, saying it stopped the machine.
+pub fn interrupt(child: Child, sig: libc::c_int, command: &str) {
+    signal(child.id(), sig);
+    let out = wait_child(child, &format!("jogterm {command}"));
+    assert_exit(&out, 1, &format!("{command} interrupted"));
+    assert!(
+        text(&out.stderr).contains("interrupted: the machine was stopped"),
+        "{}",
+        text(&out.stderr)
+    );
+}
+
+/// isel: `jogterm send` of the axes, the reference where they stand, and a
+/// stored program of one long X move (15 s at 4000 Hz) for the machine's
+/// start key to run (isel manual 2.2.13 `@0i`, 3.1); its output.
+pub fn isel_store_long_program(sim: &SimProcess) -> Output {
+    sim.run(&[
+        "send",
+        "@07",
+        "@0N7",
+        "@0i",
+        "060000,4000,0,4000,0,4000,0,4000",
+        "9",
+    ])
 }
 
 /// Whether the simulator's state line says an axis moves.

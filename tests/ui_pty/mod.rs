@@ -215,3 +215,17 @@ pub fn contains(haystack: &[u8], needle: &[u8]) -> bool {
 pub fn rfind(haystack: &[u8], needle: &[u8]) -> Option<usize> {
     haystack.windows(needle.len()).rposition(|w| w == needle)
 }
+
+/// The recovery files (`*.jogterm-recovery`) jogterm keeps in its state
+/// directory `state` while a program is edited; none when it has none.
+pub fn recoveries(state: &Path) -> Vec<String> {
+    std::fs::read_dir(state.join("recovery"))
+        .map(|entries| {
+            entries
+                .filter_map(Result::ok)
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .filter(|n| n.ends_with(".jogterm-recovery"))
+                .collect()
+        })
+        .unwrap_or_default()
+}
