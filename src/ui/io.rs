@@ -285,6 +285,7 @@ mod tests {
                     name: name.into(),
                     raw: None,
                     bits,
+                    read: None,
                 })
                 .collect(),
         }

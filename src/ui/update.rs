@@ -630,6 +630,7 @@ fn device_event(model: &mut Model, event: Event) {
         Event::Link(state) => link_changed(model, state),
         Event::Position(sample) => model.positions.apply(&sample),
         Event::Io(snapshot) => model.io.apply(&snapshot),
+        Event::Input(_) => {}
         Event::State(state) => model.machine = state,
         Event::Fault(fault) => say(model, NoteLevel::Danger, fault_text(&fault)),
         Event::Refused { request, reason } => say(

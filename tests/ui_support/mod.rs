@@ -163,6 +163,7 @@ fn isel_io(inputs: Inputs) -> Vec<IoGroup> {
             name: format!("in {}: {title}", port.number()),
             raw: Some(raw),
             bits,
+            read: None,
         });
     }
     for info in OUTPUT_PORTS.iter() {
@@ -202,6 +203,7 @@ fn isel_io(inputs: Inputs) -> Vec<IoGroup> {
             name: format!("out {number}: {}", info.name),
             raw: written,
             bits,
+            read: None,
         });
     }
     groups

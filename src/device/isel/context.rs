@@ -243,9 +243,10 @@ impl Context {
         }));
     }
 
-    /// An input port was read: keep it and update the safety flags.
-    pub fn port_read(&mut self, port: InputPort, value: u8) {
-        self.ports.set_input(port, value);
+    /// An input port was read (its reply arrived `at`): keep it and update
+    /// the safety flags.
+    pub fn port_read(&mut self, port: InputPort, value: u8, at: Instant) {
+        self.ports.set_input(port, value, at);
         match port {
             InputPort::Status1 => {
                 self.state.estop = value & 0b11 != 0b11;

@@ -8,7 +8,7 @@
 use std::collections::BTreeMap;
 use std::time::Instant;
 
-use crate::device::api::{IoGroup, IoSnapshot, OutputId};
+use crate::device::api::{InputSource, IoGroup, IoSnapshot, OutputId};
 use crate::device::common::io;
 use crate::proto::isel::ports::{InputRole, OUTPUT_PORTS};
 use crate::proto::isel::{InputPort, OutputPort};
@@ -18,6 +18,8 @@ use crate::proto::isel::{InputPort, OutputPort};
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct PortImage {
     pub inputs: [Option<u8>; 4],
+    /// When each input port's reply arrived, for the input recorder.
+    pub read_at: [Option<Instant>; 4],
     pub outputs: BTreeMap<u8, u8>,
 }
 
@@ -29,10 +31,20 @@ impl PortImage {
             .flatten()
     }
 
-    pub fn set_input(&mut self, port: InputPort, value: u8) {
-        if let Some(slot) = self.inputs.get_mut(usize::from(port.number())) {
+    /// The port's byte as read at `at` (when its reply arrived).
+    pub fn set_input(&mut self, port: InputPort, value: u8, at: Instant) {
+        let i = usize::from(port.number());
+        if let (Some(slot), Some(read)) = (self.inputs.get_mut(i), self.read_at.get_mut(i)) {
             *slot = Some(value);
+            *read = Some(at);
         }
+    }
+
+    fn read_at(&self, port: InputPort) -> Option<Instant> {
+        self.read_at
+            .get(usize::from(port.number()))
+            .copied()
+            .flatten()
     }
 
     pub fn output(&self, port: OutputPort) -> Option<u8> {
@@ -47,7 +59,11 @@ impl PortImage {
     pub fn snapshot(&self, at: Instant) -> IoSnapshot {
         let mut groups: Vec<IoGroup> = InputPort::ALL
             .into_iter()
-            .filter_map(|p| self.input(p).map(|v| input_group(p, v)))
+            .filter_map(|p| {
+                self.input(p).map(|v| {
+                    input_group(p, v).read_from(InputSource::IselPort(p.number()), self.read_at(p))
+                })
+            })
             .collect();
         groups.extend(
             OutputPort::ALL
@@ -197,14 +213,31 @@ mod tests {
     #[test]
     fn safety_bits_become_flags() {
         let mut image = PortImage::default();
+        let t = Instant::now();
         assert_eq!(image.estop(), None);
-        image.set_input(InputPort::Status1, 0b01);
+        image.set_input(InputPort::Status1, 0b01, t);
         assert_eq!(image.estop(), Some(true));
-        image.set_input(InputPort::Status1, 0b11);
+        image.set_input(InputPort::Status1, 0b11, t);
         assert_eq!(image.estop(), Some(false));
-        image.set_input(InputPort::LimitSwitches, 0);
+        image.set_input(InputPort::LimitSwitches, 0, t);
         assert_eq!(image.limit(), Some(false));
-        let snap = image.snapshot(Instant::now());
+        let snap = image.snapshot(t + std::time::Duration::from_millis(5));
         assert_eq!(snap.groups.len(), 2 + OutputPort::ALL.len());
+        // Inputs say when they were read, outputs are never read.
+        let read: Vec<_> = snap.groups.iter().map(|g| g.read).collect();
+        assert_eq!(
+            read[..2],
+            [
+                Some(crate::device::api::InputRead {
+                    source: InputSource::IselPort(1),
+                    at: t
+                }),
+                Some(crate::device::api::InputRead {
+                    source: InputSource::IselPort(3),
+                    at: t
+                })
+            ]
+        );
+        assert!(read[2..].iter().all(Option::is_none));
     }
 }

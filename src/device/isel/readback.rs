@@ -329,7 +329,7 @@ impl Operation for Readback {
             Stage::Port(i) => {
                 let port = PORTS.get(i).copied();
                 match (reply, port) {
-                    (Reply::Byte(v), Some(port)) => cx.port_read(port, v),
+                    (Reply::Byte(v), Some(port)) => cx.port_read(port, v, now),
                     (Reply::Code(code), Some(port)) => {
                         cx.controller_error(&format!("@{}b{}", cx.device, port.number()), code);
                     }
