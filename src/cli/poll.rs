@@ -175,6 +175,7 @@ pub fn run(global: &GlobalArgs, args: &PollArgs) -> anyhow::Result<ExitCode> {
     let polling = Polling {
         rate,
         ports: args.ports,
+        positions: true,
     };
     let family = profile.connection.protocol;
     if family == Protocol::Emp

@@ -14,9 +14,10 @@ use crate::device::common::PollRate;
 use crate::device::driver::Driver;
 use crate::device::emcu::{EmcuDriver, EmcuSettings};
 use crate::device::emp::{EmpDriver, EmpSettings};
+use crate::device::inputs::RecorderConfig;
 use crate::device::isel::{IselDriver, IselSettings, PollPlan};
 use crate::device::log::spawn_log;
-use crate::device::{Connector, DeviceHandle, EventReceiver, TaskOptions, spawn_with};
+use crate::device::{Connector, DeviceHandle, EventReceiver, TaskOptions, spawn_recording};
 use crate::proto::Protocol;
 use crate::sim::registry;
 use crate::sim::shell::{Shell, serve_socket};
@@ -79,6 +80,9 @@ fn talks(protocol: Protocol) -> bool {
 pub struct Polling {
     pub rate: PollRate,
     pub ports: bool,
+    /// Without: the inputs alone, every one the controller has (isel ports
+    /// 1, 3, 2 and 0), as often as `rate` allows.
+    pub positions: bool,
 }
 
 impl Polling {
@@ -86,6 +90,15 @@ impl Polling {
     pub const OFF: Polling = Polling {
         rate: PollRate::Off,
         ports: false,
+        positions: true,
+    };
+
+    /// Every input as fast as the line allows, no positions (`watch`,
+    /// `commission`).
+    pub const INPUTS: Polling = Polling {
+        rate: PollRate::LineSpeed,
+        ports: true,
+        positions: false,
     };
 }
 
@@ -99,17 +112,19 @@ fn driver(profile: &Profile, polling: Polling) -> Result<Box<dyn Driver>, StartE
 }
 
 /// isel: positions (`@0P`), with `ports` the input ports 1, 3, 2 every
-/// cycle. Without polling the profile's plan stays as it is.
+/// cycle (inputs alone: 1, 3, 2, 0). Without polling the profile's plan
+/// stays as it is.
 fn isel_settings(profile: &Profile, polling: Polling) -> Result<IselSettings, StartError> {
     let mut s =
         IselSettings::from_profile(profile).map_err(|e| StartError::Usage(e.to_string()))?;
     s.poll.rate = polling.rate;
     if polling.rate != PollRate::Off {
         s.poll.ports_every = 1;
-        s.poll.ports = if polling.ports {
-            PollPlan::DEFAULT_PORTS.to_vec()
-        } else {
-            Vec::new()
+        s.poll.positions = polling.positions;
+        s.poll.ports = match (polling.ports, polling.positions) {
+            (false, _) => Vec::new(),
+            (true, true) => PollPlan::DEFAULT_PORTS.to_vec(),
+            (true, false) => PollPlan::ALL_INPUT_PORTS.to_vec(),
         };
     }
     Ok(s)
@@ -122,6 +137,7 @@ fn emcu_settings(profile: &Profile, polling: Polling) -> Result<EmcuSettings, St
     s.poll.rate = polling.rate;
     if polling.rate != PollRate::Off {
         s.poll.ports_every = 1;
+        s.poll.positions = polling.positions;
         if !polling.ports {
             s.poll.ports.clear();
         }
@@ -135,6 +151,7 @@ fn emp_settings(profile: &Profile, polling: Polling) -> Result<EmpSettings, Star
     s.poll = polling.rate;
     if polling.rate != PollRate::Off {
         s.ports_every = if polling.ports { 1 } else { u32::MAX };
+        s.poll_positions = polling.positions;
     }
     Ok(s)
 }
@@ -166,8 +183,9 @@ pub fn start(
             None,
         )
     };
-    let (handle, events) =
-        spawn_with(driver, connector, TaskOptions::default()).map_err(anyhow::Error::from)?;
+    let inputs = RecorderConfig::from_profile(&profile);
+    let (handle, events) = spawn_recording(driver, connector, TaskOptions::default(), inputs)
+        .map_err(anyhow::Error::from)?;
     if let Some(path) = &global.log {
         let file = OpenOptions::new()
             .create(true)

@@ -26,6 +26,14 @@ impl PollPlan {
         InputPort::LimitSwitches,
         InputPort::Status2,
     ];
+
+    /// Every input port, safety first: what `jogterm watch` reads.
+    pub const ALL_INPUT_PORTS: [InputPort; 4] = [
+        InputPort::Status1,
+        InputPort::LimitSwitches,
+        InputPort::Status2,
+        InputPort::User,
+    ];
 }
 
 /// Tuning of the driver's timing; the defaults are documented in
@@ -107,6 +115,7 @@ impl IselSettings {
             line: profile.connection.line(),
             poll: PollPlan {
                 rate: PollRate::from_profile(profile.poll.rate_hz),
+                positions: true,
                 ports_every: profile.poll.ports_every.max(1),
                 ports: PollPlan::DEFAULT_PORTS.to_vec(),
             },

@@ -11,6 +11,7 @@ fn polling(rate: PollRate, every: u32) -> Harness {
     let mut h = Harness::with(|s| {
         s.poll = PollPlan {
             rate,
+            positions: true,
             ports_every: every,
             ports: PollPlan::DEFAULT_PORTS.to_vec(),
         };
