@@ -29,8 +29,10 @@ use super::channels;
 use super::history::InputHistory;
 use super::input_bits;
 
-/// Intervals between readings kept per group, for [`Sampling`].
-const INTERVALS_KEPT: usize = 32;
+/// Intervals between readings kept per group, for [`Sampling`]: the
+/// recent ones, so that the slower read-back after connecting is not
+/// taken for the polling's rate.
+const INTERVALS_KEPT: usize = 8;
 
 /// What the recorder needs to know.
 #[derive(Debug, Clone)]
@@ -67,11 +69,11 @@ impl RecorderConfig {
 pub struct Sampling {
     /// Groups read at least twice in a row on this link.
     pub groups: usize,
-    /// Fewest intervals measured for any of them.
-    pub intervals: usize,
-    /// The longest interval between two readings of any group: a pulse at
-    /// least this long is always seen, a shorter one may fall between two
-    /// readings.
+    /// Fewest readings of any of them on this link.
+    pub readings: u64,
+    /// The longest of the recent intervals between two readings of any
+    /// group: a pulse at least this long is always seen, a shorter one may
+    /// fall between two readings.
     pub longest: Duration,
 }
 
@@ -80,6 +82,8 @@ struct Group {
     read: Instant,
     levels: Vec<bool>,
     intervals: VecDeque<Duration>,
+    /// Readings since the link came up.
+    readings: u64,
     /// The link went down since `read`: the next interval is no sample
     /// interval (the levels are still compared: the window then spans the
     /// outage).
@@ -137,6 +141,7 @@ impl InputRecorder {
     pub fn disconnected(&mut self) {
         for g in self.groups.values_mut() {
             g.gap = true;
+            g.readings = 0;
         }
     }
 
@@ -152,16 +157,19 @@ impl InputRecorder {
 
     /// How often the groups are read; `None` before any was read twice.
     pub fn sampling(&self) -> Option<Sampling> {
-        let measured: Vec<&VecDeque<Duration>> = self
+        let measured: Vec<&Group> = self
             .groups
             .values()
-            .map(|g| &g.intervals)
-            .filter(|i| !i.is_empty())
+            .filter(|g| !g.intervals.is_empty())
             .collect();
-        let longest = measured.iter().flat_map(|i| i.iter()).max().copied()?;
+        let longest = measured
+            .iter()
+            .flat_map(|g| g.intervals.iter())
+            .max()
+            .copied()?;
         Some(Sampling {
             groups: measured.len(),
-            intervals: measured.iter().map(|i| i.len()).min().unwrap_or(0),
+            readings: measured.iter().map(|g| g.readings).min().unwrap_or(0),
             longest,
         })
     }
@@ -220,6 +228,7 @@ impl InputRecorder {
                             .push_back(read.at.saturating_duration_since(g.read));
                     }
                     g.gap = false;
+                    g.readings += 1;
                     let before = g.read;
                     let old = std::mem::replace(&mut g.levels, new_levels);
                     g.read = read.at;
@@ -232,6 +241,7 @@ impl InputRecorder {
                             read: read.at,
                             levels: new_levels,
                             intervals: VecDeque::new(),
+                            readings: 1,
                             gap: false,
                         },
                     );
@@ -407,7 +417,12 @@ mod tests {
         assert_eq!(off[0].window(), ms(980));
         assert_eq!(r.history().len(), 2);
         let s = r.sampling().expect("sampled");
-        assert_eq!((s.groups, s.intervals, s.longest), (2, 4, ms(980)));
+        assert_eq!((s.groups, s.readings, s.longest), (2, 5, ms(980)));
+        // Only the recent intervals count.
+        for i in 1..=INTERVALS_KEPT as u64 {
+            r.observe(&snap(t0, 1040 + i * 20, 3, 0));
+        }
+        assert_eq!(r.sampling().map(|s| s.longest), Some(ms(20)));
     }
 
     #[test]
