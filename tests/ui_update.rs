@@ -62,6 +62,7 @@ fn outputs_snapshot(at: Instant, spindle_on: bool) -> IoSnapshot {
                     output: None,
                     hazardous: false,
                 }],
+                read: None,
             },
             IoGroup {
                 name: "out".into(),
@@ -86,6 +87,7 @@ fn outputs_snapshot(at: Instant, spindle_on: bool) -> IoSnapshot {
                         hazardous: true,
                     },
                 ],
+                read: None,
             },
         ],
     }

@@ -40,13 +40,15 @@ pub enum Mode {
     GoTo,
     /// The choice of an axis (reference run or work zero of one axis).
     Axes,
+    /// The port timeline is shown.
+    Timeline,
     /// Everywhere, after the focused panel has passed on the key.
     Main,
 }
 
 impl Mode {
     /// In the order the help lists them.
-    pub const ALL: [Mode; 13] = [
+    pub const ALL: [Mode; 14] = [
         Mode::Safety,
         Mode::Main,
         Mode::Jog,
@@ -60,6 +62,7 @@ impl Mode {
         Mode::Unsaved,
         Mode::GoTo,
         Mode::Axes,
+        Mode::Timeline,
     ];
 
     /// The name in a profile's `[keys.<mode>]` table.
@@ -77,6 +80,7 @@ impl Mode {
             Mode::Jog => "jog",
             Mode::GoTo => "goto",
             Mode::Axes => "axes",
+            Mode::Timeline => "timeline",
             Mode::Main => "main",
         }
     }
@@ -95,6 +99,7 @@ impl Mode {
             Mode::Jog => "Jog keypad (focused)",
             Mode::GoTo => "Go-to prompt (other characters are typed)",
             Mode::Axes => "Choice of an axis",
+            Mode::Timeline => "Port timeline (shown)",
             Mode::Main => "Main screen",
         }
     }
@@ -201,6 +206,16 @@ impl Mode {
                 ClearLine,
             ],
             Mode::Axes => &[AxisAll, AxisX, AxisY, AxisZ, AxisA, Cancel],
+            Mode::Timeline => &[
+                Timeline,
+                TimeEarlier,
+                TimeLater,
+                TimeLive,
+                ZoomIn,
+                ZoomOut,
+                ScrollUp,
+                ScrollDown,
+            ],
             Mode::Main => &[
                 Stop,
                 Quit,
@@ -231,6 +246,7 @@ impl Mode {
                 TeachFaster,
                 Upload,
                 RunProgram,
+                Timeline,
             ],
         }
     }
@@ -346,10 +362,16 @@ pub enum Action {
     AxisY,
     AxisZ,
     AxisA,
+    Timeline,
+    TimeEarlier,
+    TimeLater,
+    TimeLive,
+    ZoomIn,
+    ZoomOut,
 }
 
 impl Action {
-    pub const ALL: [Action; 101] = [
+    pub const ALL: [Action; 107] = [
         Action::Stop,
         Action::Quit,
         Action::Help,
@@ -451,6 +473,12 @@ impl Action {
         Action::AxisY,
         Action::AxisZ,
         Action::AxisA,
+        Action::Timeline,
+        Action::TimeEarlier,
+        Action::TimeLater,
+        Action::TimeLive,
+        Action::ZoomIn,
+        Action::ZoomOut,
     ];
 
     /// The name a profile binds it by.
@@ -557,6 +585,12 @@ impl Action {
             Action::AxisY => "axis-y",
             Action::AxisZ => "axis-z",
             Action::AxisA => "axis-a",
+            Action::Timeline => "timeline",
+            Action::TimeEarlier => "earlier",
+            Action::TimeLater => "later",
+            Action::TimeLive => "live",
+            Action::ZoomIn => "zoom-in",
+            Action::ZoomOut => "zoom-out",
         }
     }
 
@@ -664,6 +698,12 @@ impl Action {
             Action::AxisY => "axis Y",
             Action::AxisZ => "axis Z",
             Action::AxisA => "axis A",
+            Action::Timeline => "show or hide the port timeline (every input change)",
+            Action::TimeEarlier => "timeline: back in time",
+            Action::TimeLater => "timeline: forward in time",
+            Action::TimeLive => "timeline: follow the newest readings",
+            Action::ZoomIn => "timeline: fewer milliseconds per column",
+            Action::ZoomOut => "timeline: more milliseconds per column",
         }
     }
 
@@ -745,6 +785,8 @@ impl Default for Keymap {
                     (c('>'), TeachFaster),
                     (p(K::F(5)), Upload),
                     (p(K::F(6)), RunProgram),
+                    (c('w'), Timeline),
+                    (p(K::F(7)), Timeline),
                 ],
             ),
             (
@@ -923,6 +965,21 @@ impl Default for Keymap {
                     (p(K::Backspace), DeleteBack),
                     (p(K::Delete), DeleteForward),
                     (KeyChord::ctrl('u'), ClearLine),
+                ],
+            ),
+            (
+                Mode::Timeline,
+                &[
+                    (c('w'), Timeline),
+                    (p(K::F(7)), Timeline),
+                    (p(K::Left), TimeEarlier),
+                    (p(K::Right), TimeLater),
+                    (p(K::End), TimeLive),
+                    (c('+'), ZoomIn),
+                    (c('='), ZoomIn),
+                    (c('-'), ZoomOut),
+                    (p(K::Up), ScrollUp),
+                    (p(K::Down), ScrollDown),
                 ],
             ),
             (

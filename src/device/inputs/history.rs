@@ -251,7 +251,18 @@ impl InputHistory {
 
     /// The newest `n` changes of all inputs, newest first.
     pub fn newest(&self, n: usize) -> Vec<Recorded> {
-        let mut cursors: Vec<usize> = self.lanes.iter().map(|l| l.changes.len()).collect();
+        self.newest_before(Duration::MAX, n)
+    }
+
+    /// The newest `n` changes of all inputs first seen before `to`, newest
+    /// first.
+    pub fn newest_before(&self, to: Duration, n: usize) -> Vec<Recorded> {
+        let to = micros(to);
+        let mut cursors: Vec<usize> = self
+            .lanes
+            .iter()
+            .map(|l| l.changes.partition_point(|s| s.seen_us < to))
+            .collect();
         let mut out = Vec::with_capacity(n.min(self.total));
         while out.len() < n {
             let next = cursors
@@ -349,6 +360,8 @@ mod tests {
         assert_eq!(got[0].window, ms(20));
         let newest: Vec<_> = h.newest(2).iter().map(|r| r.t).collect();
         assert_eq!(newest, [ms(1100), ms(150)]);
+        let before: Vec<_> = h.newest_before(ms(1100), 5).iter().map(|r| r.t).collect();
+        assert_eq!(before, [ms(150), ms(100)]);
         assert_eq!(h.latest(), Some(ms(1100)));
         assert_eq!(h.earliest(), Some(ms(100)));
     }
