@@ -171,7 +171,7 @@ fn editing(n: usize) -> Model {
     let t0 = Instant::now();
     let mut m = Model::new(
         Setup::from_profile(&profile(), None),
-        Keymap::default(),
+        Keymap::builtin().expect("built-in keys"),
         Palette::from(&theme),
         t0,
     );

@@ -107,7 +107,7 @@ fn console(profile: &Profile, sim: &SimProcess) -> Console {
     let (handle, events) = spawn(profile, spec, TaskOptions::default()).expect("device task");
     let mut model = Model::new(
         Setup::from_profile(profile, None),
-        Keymap::default(),
+        Keymap::builtin().expect("built-in keys"),
         Palette::from(&theme),
         Instant::now(),
     );

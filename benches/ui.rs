@@ -58,7 +58,7 @@ fn model(protocol: Protocol, t0: Instant) -> Model {
     let theme = load_theme("dark", &dirs).expect("shipped theme");
     let mut m = Model::new(
         Setup::from_profile(&profile, None),
-        Keymap::default(),
+        Keymap::builtin().expect("built-in keys"),
         Palette::from(&theme),
         t0,
     );

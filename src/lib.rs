@@ -1,15 +1,20 @@
 //! jogterm: a keyboard-only terminal console for stepper and servo machines on
 //! isel, EMCU and EMP serial motion controllers.
 //!
-//! Layers, from the wire up (see `docs/architecture.md`):
+//! Layers, from the wire up (`docs/architecture.md`, "Layer order"; a module
+//! uses only the layers below it, checked by the test in `src/layers.rs`):
+//! - [`wire`], [`motion`], [`axis`], [`traffic`]: shared arithmetic and types
+//!   (step-motor ramps and the jog overrun caps in [`motion`]).
 //! - [`proto`]: sans-IO protocol cores, one per controller family.
-//! - [`sim`]: built-in simulators of the three controllers.
+//! - [`config`]: machine profiles and themes.
 //! - [`transport`]: serial port, pseudo-terminal, in-process socket pair.
+//! - [`sim`]: built-in simulators of the three controllers.
+//! - [`device`]: the drivers and the one task that owns the port.
 //! - [`program`]: isel CNC programs and EMCU jobs as code: parser, linter,
 //!   formatter, path simulation.
-//! - [`wire`], [`motion`], [`axis`], [`traffic`]: shared arithmetic and types.
-//! - [`jog`]: jogging as pure logic: keys to requests, leases, speed caps.
+//! - [`jog`]: jogging as pure logic: keys to requests, leases.
 //! - [`ui`]: the terminal UI (Elm architecture: model, update, view).
+//! - [`cli`]: the commands.
 
 // stdout and stderr only through `cli::out` (or a `Write` whose errors are
 // handled): `println!` and `eprintln!` panic on a closed stdout/stderr.
@@ -21,6 +26,8 @@ pub mod cli;
 pub mod config;
 pub mod device;
 pub mod jog;
+#[cfg(test)]
+mod layers;
 pub mod motion;
 pub mod program;
 pub mod proto;

@@ -5,9 +5,15 @@
 //!
 //! Pure arithmetic, no clocks: the simulators use it to move their axes, the
 //! device task to estimate where an isel axis is while the controller cannot be
-//! asked, and to derive reply timeouts from physics.
+//! asked, and to derive reply timeouts from physics. [`overrun`] bounds how far
+//! a jog runs on after its key is let go: the drivers cap their jog speeds and
+//! leases with it, the jog keypad shows the caps.
 
 use std::time::Duration;
+
+pub mod overrun;
+
+pub use overrun::{Braking, STOP_REACTION, lease_cap, reaction_speed_cap, speed_cap, travel};
 
 /// The speed profile parameters of a move, in steps per second (Hz) and Hz/s.
 #[derive(Debug, Clone, Copy, PartialEq)]

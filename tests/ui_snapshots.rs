@@ -204,3 +204,33 @@ fn mono16_never_says_anything_by_colour_alone() {
         );
     }
 }
+
+/// The help overlay (`?`) as a listing of every line it holds, and as drawn
+/// at both sizes (first page, and the last at 80x24): generated from the
+/// keymap, it must read the same whatever form the keymap's tables take.
+#[test]
+fn help_overlay() {
+    use jogterm::ui::help::{HelpLine, help_lines};
+    use jogterm::ui::model::Popup;
+    let t0 = Instant::now();
+    let mut model = model_in(Protocol::Isel, "dark", State::Idle, t0);
+    let lines = help_lines(&model.keymap);
+    let listing: Vec<String> = lines
+        .iter()
+        .map(|line| match line {
+            HelpLine::Heading(title) => format!("# {title}"),
+            HelpLine::Entry { keys, description } => format!("{keys:>24}  {description}"),
+            HelpLine::Text(text) => format!("  {text}"),
+            HelpLine::Blank => String::new(),
+        })
+        .collect();
+    insta::assert_snapshot!("help_listing", listing.join("\n"));
+    for (w, h) in SIZES {
+        model.popup = Some(Popup::Help { scroll: 0 });
+        insta::assert_snapshot!(format!("help_{w}x{h}"), render(&model, w, h).backend());
+    }
+    model.popup = Some(Popup::Help {
+        scroll: lines.len(),
+    });
+    insta::assert_snapshot!("help_80x24_end", render(&model, 80, 24).backend());
+}

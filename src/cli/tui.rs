@@ -74,7 +74,7 @@ pub fn resolve(global: &GlobalArgs, dirs: &ConfigDirs) -> Result<Resolved, Setup
         })?;
     let theme = load_theme(global.theme.as_deref().unwrap_or(DEFAULT_THEME), dirs)?;
     let refs: Vec<&Source> = sources.iter().collect();
-    let keymap = Keymap::default().with_overrides(&profile.keys, &refs)?;
+    let keymap = Keymap::builtin()?.with_overrides(&profile.keys, &refs)?;
     Ok(Resolved {
         profile,
         theme,

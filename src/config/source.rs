@@ -132,6 +132,13 @@ pub fn parse_table(source: &Source) -> Result<toml::Table, ConfigError> {
     toml::from_str::<toml::Table>(&source.text).map_err(|e| ConfigError::from_toml(source, &e))
 }
 
+/// Parse and deserialize one source as it is (no layering), with errors
+/// located in it: for tables whose spans matter (`toml::Spanned`), which a
+/// merged [`toml::Table`] would lose.
+pub fn deserialize_text<T: DeserializeOwned>(source: &Source) -> Result<T, ConfigError> {
+    toml::from_str::<T>(&source.text).map_err(|e| ConfigError::from_toml(source, &e))
+}
+
 /// Merge `patch` into `base`: tables key by key, anything else replaced.
 pub fn merge(base: &mut toml::Table, patch: toml::Table) {
     for (key, value) in patch {

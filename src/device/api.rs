@@ -114,7 +114,7 @@ pub enum Request {
     /// The driver never drives past the soft limits, and never faster than
     /// `speed_hz` or than the lease allows: one lease at speed, the stop's
     /// way to the wire and braking stay within `jog.max_overrun`
-    /// (`crate::jog::overrun`). A long first lease (the terminal's delay
+    /// (`crate::motion::overrun`). A long first lease (the terminal's delay
     /// before its first key repeat) therefore starts the jog slower than the
     /// short renewals that follow let it run (`docs/jogging.md`).
     Jog {

@@ -10,7 +10,7 @@ use crate::config::profile::{JogMode, Unit};
 use crate::device::api::{Dir, PerAxis};
 use crate::proto::Protocol;
 
-use super::overrun::{Braking, speed_cap};
+use crate::motion::{Braking, speed_cap};
 
 /// One axis as jogging sees it.
 #[derive(Debug, Clone, Copy, PartialEq)]

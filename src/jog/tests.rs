@@ -11,6 +11,7 @@ use crate::axis::{Axis, AxisSet};
 use crate::config::profile::JogMode;
 use crate::config::{ConfigDirs, load_profile};
 use crate::device::api::{Dir, JogEnd, JogId, LinkState, MachineState, Refusal, Request};
+use crate::motion::{Braking, speed_cap};
 
 use super::*;
 

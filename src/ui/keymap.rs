@@ -2,6 +2,11 @@
 //! profile's `[keys]` overrides (errors placed on the profile line that
 //! caused them), and the listing the help overlay shows.
 //!
+//! One table each: the modes and the actions, with their names and texts,
+//! are declared once below ([`named_enum!`]); which actions each mode has,
+//! in the help's order, and their default keys are data, `config/keys.toml`,
+//! compiled in ([`Keymap::builtin`]).
+//!
 //! Routing (see `update::route_key`): the `safety` mode is looked up first for
 //! every key in every state, then the open popup's mode, then the focused
 //! panel's mode, then `main`. So a stop key can never be swallowed.
@@ -10,997 +15,225 @@ use std::collections::BTreeMap;
 use std::fmt;
 
 use super::key::{KeyChord, KeyCode};
-use crate::config::{ConfigError, Source, source};
+use crate::config::{ConfigError, Origin, Source, source};
 
-/// A context in which keys mean something.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum Mode {
-    /// Looked up before anything else, whatever has focus or is open.
-    Safety,
-    /// The confirmation popup.
-    Confirm,
-    /// The help overlay.
-    Help,
-    /// The I/O panel has focus.
-    Io,
-    /// The traffic console's command line has focus.
-    Console,
-    /// The simulator panel has focus.
-    Sim,
-    /// The program editor has focus (the program screen is shown).
-    Editor,
-    /// A form of the editor (file name, find, go to, arc, taught dwell or
-    /// output) is open.
-    Form,
-    /// The question about unsaved changes is open.
-    Unsaved,
-    /// The jog keypad has focus.
-    Jog,
-    /// The go-to prompt.
-    GoTo,
-    /// The choice of an axis (reference run or work zero of one axis).
-    Axes,
-    /// The port timeline is shown.
-    Timeline,
-    /// Everywhere, after the focused panel has passed on the key.
-    Main,
+/// An enum of names, declared once: the variants in order, each with the
+/// name a profile (and `config/keys.toml`) uses and one text. Gives `ALL`
+/// (declaration order), `name`, the text method, `from_name` and `Display`.
+/// A name given twice is an unreachable pattern in `from_name`: a warning,
+/// so an error under `clippy -D warnings`.
+macro_rules! named_enum {
+    (
+        $(#[$meta:meta])*
+        pub enum $ty:ident, $text:ident {
+            $($(#[$vmeta:meta])* $variant:ident = $name:literal, $said:literal;)*
+        }
+    ) => {
+        $(#[$meta])*
+        #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+        pub enum $ty {
+            $($(#[$vmeta])* $variant,)*
+        }
+
+        impl $ty {
+            /// Every one, in the order declared.
+            pub const ALL: [$ty; [$($name),*].len()] = [$($ty::$variant),*];
+
+            /// The name in a profile and in `config/keys.toml`.
+            pub fn name(self) -> &'static str {
+                match self {
+                    $($ty::$variant => $name,)*
+                }
+            }
+
+            pub fn $text(self) -> &'static str {
+                match self {
+                    $($ty::$variant => $said,)*
+                }
+            }
+
+            pub fn from_name(name: &str) -> Option<$ty> {
+                match name {
+                    $($name => Some($ty::$variant),)*
+                    _ => None,
+                }
+            }
+        }
+
+        impl fmt::Display for $ty {
+            fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                f.write_str(self.name())
+            }
+        }
+    };
 }
 
-impl Mode {
-    /// In the order the help lists them.
-    pub const ALL: [Mode; 14] = [
-        Mode::Safety,
-        Mode::Main,
-        Mode::Jog,
-        Mode::Io,
-        Mode::Console,
-        Mode::Sim,
-        Mode::Editor,
-        Mode::Help,
-        Mode::Confirm,
-        Mode::Form,
-        Mode::Unsaved,
-        Mode::GoTo,
-        Mode::Axes,
-        Mode::Timeline,
-    ];
-
-    /// The name in a profile's `[keys.<mode>]` table.
-    pub fn name(self) -> &'static str {
-        match self {
-            Mode::Safety => "safety",
-            Mode::Confirm => "confirm",
-            Mode::Help => "help",
-            Mode::Io => "io",
-            Mode::Console => "console",
-            Mode::Sim => "sim",
-            Mode::Editor => "editor",
-            Mode::Form => "form",
-            Mode::Unsaved => "unsaved",
-            Mode::Jog => "jog",
-            Mode::GoTo => "goto",
-            Mode::Axes => "axes",
-            Mode::Timeline => "timeline",
-            Mode::Main => "main",
-        }
-    }
-
-    pub fn title(self) -> &'static str {
-        match self {
-            Mode::Safety => "Always (before anything else)",
-            Mode::Confirm => "Confirmation",
-            Mode::Help => "This help",
-            Mode::Io => "I/O panel (focused)",
-            Mode::Console => "Console command line (focused; other characters are typed)",
-            Mode::Sim => "Simulator panel (focused)",
-            Mode::Editor => "Program editor (focused; other characters are typed)",
-            Mode::Form => "Editor form (other characters are typed)",
-            Mode::Unsaved => "Unsaved changes",
-            Mode::Jog => "Jog keypad (focused)",
-            Mode::GoTo => "Go-to prompt (other characters are typed)",
-            Mode::Axes => "Choice of an axis",
-            Mode::Timeline => "Port timeline (shown)",
-            Mode::Main => "Main screen",
-        }
-    }
-
-    pub fn from_name(name: &str) -> Option<Mode> {
-        Mode::ALL.into_iter().find(|m| m.name() == name)
-    }
-
-    /// The actions a key may be bound to in this mode.
-    pub fn actions(self) -> &'static [Action] {
-        use Action::*;
-        match self {
-            Mode::Safety => &[Stop],
-            Mode::Confirm => &[Confirm, Cancel],
-            Mode::Help => &[Close, ScrollUp, ScrollDown, PageUp, PageDown],
-            Mode::Io => &[SelectPrev, SelectNext, GroupPrev, GroupNext, ToggleOutput],
-            Mode::Console => &[
-                Submit,
-                HistoryPrev,
-                HistoryNext,
-                CursorLeft,
-                CursorRight,
-                CursorHome,
-                CursorEnd,
-                DeleteBack,
-                DeleteForward,
-                ClearLine,
-            ],
-            Mode::Sim => &[SelectPrev, SelectNext, SimToggle, SimOn, SimOff, SimPress],
-            Mode::Editor => &[
-                CloseEditor,
-                CursorUp,
-                CursorDown,
-                CursorLeft,
-                CursorRight,
-                WordLeft,
-                WordRight,
-                CursorHome,
-                CursorEnd,
-                PageUp,
-                PageDown,
-                CursorTop,
-                CursorBottom,
-                NewLine,
-                TypeBlank,
-                DeleteBack,
-                DeleteForward,
-                DeleteLine,
-                Undo,
-                Redo,
-                Save,
-                SaveAs,
-                Open,
-                Find,
-                FindNext,
-                FindPrev,
-                GoToLine,
-                NextProblem,
-                PrevProblem,
-                ApplyFix,
-                Format,
-                Circle,
-                JumpTarget,
-                TogglePreview,
-            ],
-            Mode::Form => &[
-                Submit,
-                Cancel,
-                NextField,
-                PrevField,
-                CursorLeft,
-                CursorRight,
-                CursorHome,
-                CursorEnd,
-                DeleteBack,
-                DeleteForward,
-                ClearLine,
-                TypeBlank,
-            ],
-            Mode::Unsaved => &[Save, Discard, Cancel],
-            Mode::Jog => &[
-                JogXPlus,
-                JogXMinus,
-                JogYPlus,
-                JogYMinus,
-                JogZPlus,
-                JogZMinus,
-                JogAPlus,
-                JogAMinus,
-                JogXPlusYPlus,
-                JogXMinusYPlus,
-                JogXPlusYMinus,
-                JogXMinusYMinus,
-            ],
-            Mode::GoTo => &[
-                Submit,
-                Cancel,
-                CursorLeft,
-                CursorRight,
-                CursorHome,
-                CursorEnd,
-                DeleteBack,
-                DeleteForward,
-                ClearLine,
-            ],
-            Mode::Axes => &[AxisAll, AxisX, AxisY, AxisZ, AxisA, Cancel],
-            Mode::Timeline => &[
-                Timeline,
-                TimeEarlier,
-                TimeLater,
-                TimeLive,
-                ZoomIn,
-                ZoomOut,
-                ScrollUp,
-                ScrollDown,
-            ],
-            Mode::Main => &[
-                Stop,
-                Quit,
-                Help,
-                FocusNext,
-                FocusPrev,
-                FocusConsole,
-                Initialise,
-                Home,
-                HomeAxis,
-                SetZero,
-                ZeroAxis,
-                GoTo,
-                GoZero,
-                Reset,
-                JogKind,
-                StepSmaller,
-                StepLarger,
-                SpeedSlower,
-                SpeedFaster,
-                TogglePolls,
-                EditProgram,
-                TeachAbsolute,
-                TeachRelative,
-                TeachDwell,
-                TeachOutput,
-                TeachSlower,
-                TeachFaster,
-                Upload,
-                RunProgram,
-                Timeline,
-            ],
-        }
+named_enum! {
+    /// A context in which keys mean something, in the order the help lists
+    /// them; `title` heads its part of the help.
+    pub enum Mode, title {
+        /// Looked up before anything else, whatever has focus or is open.
+        Safety = "safety", "Always (before anything else)";
+        /// Everywhere, after the focused panel has passed on the key.
+        Main = "main", "Main screen";
+        /// The jog keypad has focus.
+        Jog = "jog", "Jog keypad (focused)";
+        /// The I/O panel has focus.
+        Io = "io", "I/O panel (focused)";
+        /// The traffic console's command line has focus.
+        Console = "console", "Console command line (focused; other characters are typed)";
+        /// The simulator panel has focus.
+        Sim = "sim", "Simulator panel (focused)";
+        /// The program editor has focus (the program screen is shown).
+        Editor = "editor", "Program editor (focused; other characters are typed)";
+        /// The help overlay.
+        Help = "help", "This help";
+        /// The confirmation popup.
+        Confirm = "confirm", "Confirmation";
+        /// A form of the editor (file name, find, go to, arc, taught dwell or
+        /// output) is open.
+        Form = "form", "Editor form (other characters are typed)";
+        /// The question about unsaved changes is open.
+        Unsaved = "unsaved", "Unsaved changes";
+        /// The go-to prompt.
+        GoTo = "goto", "Go-to prompt (other characters are typed)";
+        /// The choice of an axis (reference run or work zero of one axis).
+        Axes = "axes", "Choice of an axis";
+        /// The port timeline is shown.
+        Timeline = "timeline", "Port timeline (shown)";
     }
 }
 
-impl fmt::Display for Mode {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-/// Everything a key can do.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum Action {
-    Stop,
-    Quit,
-    Help,
-    FocusNext,
-    FocusPrev,
-    FocusConsole,
-    Initialise,
-    Home,
-    SetZero,
-    Reset,
-    StepSmaller,
-    StepLarger,
-    SpeedSlower,
-    SpeedFaster,
-    TogglePolls,
-    SelectPrev,
-    SelectNext,
-    GroupPrev,
-    GroupNext,
-    ToggleOutput,
-    Submit,
-    HistoryPrev,
-    HistoryNext,
-    CursorLeft,
-    CursorRight,
-    CursorHome,
-    CursorEnd,
-    DeleteBack,
-    DeleteForward,
-    ClearLine,
-    SimToggle,
-    SimOn,
-    SimOff,
-    SimPress,
-    Confirm,
-    Cancel,
-    Close,
-    ScrollUp,
-    ScrollDown,
-    PageUp,
-    PageDown,
-    EditProgram,
-    TeachAbsolute,
-    TeachRelative,
-    TeachDwell,
-    TeachOutput,
-    TeachSlower,
-    TeachFaster,
-    Upload,
-    RunProgram,
-    CloseEditor,
-    CursorUp,
-    CursorDown,
-    WordLeft,
-    WordRight,
-    CursorTop,
-    CursorBottom,
-    NewLine,
-    TypeBlank,
-    DeleteLine,
-    Undo,
-    Redo,
-    Save,
-    SaveAs,
-    Open,
-    Find,
-    FindNext,
-    FindPrev,
-    GoToLine,
-    NextProblem,
-    PrevProblem,
-    ApplyFix,
-    Format,
-    Circle,
-    JumpTarget,
-    TogglePreview,
-    NextField,
-    PrevField,
-    Discard,
-    JogXPlus,
-    JogXMinus,
-    JogYPlus,
-    JogYMinus,
-    JogZPlus,
-    JogZMinus,
-    JogAPlus,
-    JogAMinus,
-    JogXPlusYPlus,
-    JogXMinusYPlus,
-    JogXPlusYMinus,
-    JogXMinusYMinus,
-    JogKind,
-    GoTo,
-    GoZero,
-    HomeAxis,
-    ZeroAxis,
-    AxisAll,
-    AxisX,
-    AxisY,
-    AxisZ,
-    AxisA,
-    Timeline,
-    TimeEarlier,
-    TimeLater,
-    TimeLive,
-    ZoomIn,
-    ZoomOut,
-}
-
-impl Action {
-    pub const ALL: [Action; 107] = [
-        Action::Stop,
-        Action::Quit,
-        Action::Help,
-        Action::FocusNext,
-        Action::FocusPrev,
-        Action::FocusConsole,
-        Action::Initialise,
-        Action::Home,
-        Action::SetZero,
-        Action::Reset,
-        Action::StepSmaller,
-        Action::StepLarger,
-        Action::SpeedSlower,
-        Action::SpeedFaster,
-        Action::TogglePolls,
-        Action::SelectPrev,
-        Action::SelectNext,
-        Action::GroupPrev,
-        Action::GroupNext,
-        Action::ToggleOutput,
-        Action::Submit,
-        Action::HistoryPrev,
-        Action::HistoryNext,
-        Action::CursorLeft,
-        Action::CursorRight,
-        Action::CursorHome,
-        Action::CursorEnd,
-        Action::DeleteBack,
-        Action::DeleteForward,
-        Action::ClearLine,
-        Action::SimToggle,
-        Action::SimOn,
-        Action::SimOff,
-        Action::SimPress,
-        Action::Confirm,
-        Action::Cancel,
-        Action::Close,
-        Action::ScrollUp,
-        Action::ScrollDown,
-        Action::PageUp,
-        Action::PageDown,
-        Action::EditProgram,
-        Action::TeachAbsolute,
-        Action::TeachRelative,
-        Action::TeachDwell,
-        Action::TeachOutput,
-        Action::TeachSlower,
-        Action::TeachFaster,
-        Action::Upload,
-        Action::RunProgram,
-        Action::CloseEditor,
-        Action::CursorUp,
-        Action::CursorDown,
-        Action::WordLeft,
-        Action::WordRight,
-        Action::CursorTop,
-        Action::CursorBottom,
-        Action::NewLine,
-        Action::TypeBlank,
-        Action::DeleteLine,
-        Action::Undo,
-        Action::Redo,
-        Action::Save,
-        Action::SaveAs,
-        Action::Open,
-        Action::Find,
-        Action::FindNext,
-        Action::FindPrev,
-        Action::GoToLine,
-        Action::NextProblem,
-        Action::PrevProblem,
-        Action::ApplyFix,
-        Action::Format,
-        Action::Circle,
-        Action::JumpTarget,
-        Action::TogglePreview,
-        Action::NextField,
-        Action::PrevField,
-        Action::Discard,
-        Action::JogXPlus,
-        Action::JogXMinus,
-        Action::JogYPlus,
-        Action::JogYMinus,
-        Action::JogZPlus,
-        Action::JogZMinus,
-        Action::JogAPlus,
-        Action::JogAMinus,
-        Action::JogXPlusYPlus,
-        Action::JogXMinusYPlus,
-        Action::JogXPlusYMinus,
-        Action::JogXMinusYMinus,
-        Action::JogKind,
-        Action::GoTo,
-        Action::GoZero,
-        Action::HomeAxis,
-        Action::ZeroAxis,
-        Action::AxisAll,
-        Action::AxisX,
-        Action::AxisY,
-        Action::AxisZ,
-        Action::AxisA,
-        Action::Timeline,
-        Action::TimeEarlier,
-        Action::TimeLater,
-        Action::TimeLive,
-        Action::ZoomIn,
-        Action::ZoomOut,
-    ];
-
-    /// The name a profile binds it by.
-    pub fn name(self) -> &'static str {
-        match self {
-            Action::Stop => "stop",
-            Action::Quit => "quit",
-            Action::Help => "help",
-            Action::FocusNext => "focus-next",
-            Action::FocusPrev => "focus-prev",
-            Action::FocusConsole => "focus-console",
-            Action::Initialise => "initialise",
-            Action::Home => "home",
-            Action::SetZero => "set-zero",
-            Action::Reset => "reset",
-            Action::StepSmaller => "step-smaller",
-            Action::StepLarger => "step-larger",
-            Action::SpeedSlower => "speed-slower",
-            Action::SpeedFaster => "speed-faster",
-            Action::TogglePolls => "toggle-polls",
-            Action::SelectPrev => "select-prev",
-            Action::SelectNext => "select-next",
-            Action::GroupPrev => "group-prev",
-            Action::GroupNext => "group-next",
-            Action::ToggleOutput => "toggle-output",
-            Action::Submit => "submit",
-            Action::HistoryPrev => "history-prev",
-            Action::HistoryNext => "history-next",
-            Action::CursorLeft => "cursor-left",
-            Action::CursorRight => "cursor-right",
-            Action::CursorHome => "cursor-home",
-            Action::CursorEnd => "cursor-end",
-            Action::DeleteBack => "delete-back",
-            Action::DeleteForward => "delete-forward",
-            Action::ClearLine => "clear-line",
-            Action::SimToggle => "sim-toggle",
-            Action::SimOn => "sim-on",
-            Action::SimOff => "sim-off",
-            Action::SimPress => "sim-press",
-            Action::Confirm => "confirm",
-            Action::Cancel => "cancel",
-            Action::Close => "close",
-            Action::ScrollUp => "scroll-up",
-            Action::ScrollDown => "scroll-down",
-            Action::PageUp => "page-up",
-            Action::PageDown => "page-down",
-            Action::EditProgram => "edit-program",
-            Action::TeachAbsolute => "teach-absolute",
-            Action::TeachRelative => "teach-relative",
-            Action::TeachDwell => "teach-dwell",
-            Action::TeachOutput => "teach-output",
-            Action::TeachSlower => "teach-slower",
-            Action::TeachFaster => "teach-faster",
-            Action::Upload => "upload",
-            Action::RunProgram => "run-program",
-            Action::CloseEditor => "close-editor",
-            Action::CursorUp => "cursor-up",
-            Action::CursorDown => "cursor-down",
-            Action::WordLeft => "word-left",
-            Action::WordRight => "word-right",
-            Action::CursorTop => "cursor-top",
-            Action::CursorBottom => "cursor-bottom",
-            Action::NewLine => "new-line",
-            Action::TypeBlank => "type-blank",
-            Action::DeleteLine => "delete-line",
-            Action::Undo => "undo",
-            Action::Redo => "redo",
-            Action::Save => "save",
-            Action::SaveAs => "save-as",
-            Action::Open => "open",
-            Action::Find => "find",
-            Action::FindNext => "find-next",
-            Action::FindPrev => "find-prev",
-            Action::GoToLine => "go-to-line",
-            Action::NextProblem => "next-problem",
-            Action::PrevProblem => "prev-problem",
-            Action::ApplyFix => "apply-fix",
-            Action::Format => "format",
-            Action::Circle => "circle",
-            Action::JumpTarget => "jump-target",
-            Action::TogglePreview => "toggle-preview",
-            Action::NextField => "next-field",
-            Action::PrevField => "prev-field",
-            Action::Discard => "discard",
-            Action::JogXPlus => "jog-x-plus",
-            Action::JogXMinus => "jog-x-minus",
-            Action::JogYPlus => "jog-y-plus",
-            Action::JogYMinus => "jog-y-minus",
-            Action::JogZPlus => "jog-z-plus",
-            Action::JogZMinus => "jog-z-minus",
-            Action::JogAPlus => "jog-a-plus",
-            Action::JogAMinus => "jog-a-minus",
-            Action::JogXPlusYPlus => "jog-x-plus-y-plus",
-            Action::JogXMinusYPlus => "jog-x-minus-y-plus",
-            Action::JogXPlusYMinus => "jog-x-plus-y-minus",
-            Action::JogXMinusYMinus => "jog-x-minus-y-minus",
-            Action::JogKind => "jog-kind",
-            Action::GoTo => "go-to",
-            Action::GoZero => "go-zero",
-            Action::HomeAxis => "home-axis",
-            Action::ZeroAxis => "zero-axis",
-            Action::AxisAll => "axis-all",
-            Action::AxisX => "axis-x",
-            Action::AxisY => "axis-y",
-            Action::AxisZ => "axis-z",
-            Action::AxisA => "axis-a",
-            Action::Timeline => "timeline",
-            Action::TimeEarlier => "earlier",
-            Action::TimeLater => "later",
-            Action::TimeLive => "live",
-            Action::ZoomIn => "zoom-in",
-            Action::ZoomOut => "zoom-out",
-        }
-    }
-
-    /// What it does, for the help.
-    pub fn description(self) -> &'static str {
-        match self {
-            Action::Stop => "stop all motion",
-            Action::Quit => "stop, close the port and quit",
-            Action::Help => "show this help",
-            Action::FocusNext => "focus the next panel",
-            Action::FocusPrev => "focus the previous panel",
-            Action::FocusConsole => "type a raw command",
-            Action::Initialise => "initialise the controller",
-            Action::Home => "reference run of all axes (asks first)",
-            Action::SetZero => "make the current position the work zero",
-            Action::Reset => "reset the controller (asks first)",
-            Action::StepSmaller => "smaller jog step",
-            Action::StepLarger => "larger jog step",
-            Action::SpeedSlower => "slower jog speed",
-            Action::SpeedFaster => "faster jog speed",
-            Action::TogglePolls => "show or hide poll traffic",
-            Action::SelectPrev => "previous item",
-            Action::SelectNext => "next item",
-            Action::GroupPrev => "previous port",
-            Action::GroupNext => "next port",
-            Action::ToggleOutput => "switch the selected output (asks first if hazardous)",
-            Action::Submit => "check and send the command",
-            Action::HistoryPrev => "previous command from the history",
-            Action::HistoryNext => "next command from the history",
-            Action::CursorLeft => "cursor left",
-            Action::CursorRight => "cursor right",
-            Action::CursorHome => "cursor to the start",
-            Action::CursorEnd => "cursor to the end",
-            Action::DeleteBack => "delete before the cursor",
-            Action::DeleteForward => "delete at the cursor",
-            Action::ClearLine => "clear the line",
-            Action::SimToggle => "flip the selected simulator input",
-            Action::SimOn => "set the selected input on / closed",
-            Action::SimOff => "set the selected input off / open",
-            Action::SimPress => "press and release the selected button",
-            Action::Confirm => "yes, do it",
-            Action::Cancel => "no, cancel",
-            Action::Close => "close",
-            Action::ScrollUp => "scroll up",
-            Action::ScrollDown => "scroll down",
-            Action::PageUp => "page up",
-            Action::PageDown => "page down",
-            Action::EditProgram => "show or hide the program editor",
-            Action::TeachAbsolute => "teach: absolute move to the current position",
-            Action::TeachRelative => "teach: relative move from the point taught before",
-            Action::TeachDwell => "teach: a dwell (asks for the time)",
-            Action::TeachOutput => "teach: set an output (asks which)",
-            Action::TeachSlower => "slower speed for taught moves",
-            Action::TeachFaster => "faster speed for taught moves",
-            Action::Upload => "upload the program (asks to erase a stored one)",
-            Action::RunProgram => "start the stored program (asks first)",
-            Action::CloseEditor => "back to the machine screen",
-            Action::CursorUp => "cursor up",
-            Action::CursorDown => "cursor down",
-            Action::WordLeft => "cursor to the previous word",
-            Action::WordRight => "cursor to the next word",
-            Action::CursorTop => "cursor to the first line",
-            Action::CursorBottom => "cursor to the last line",
-            Action::NewLine => "split the line",
-            Action::TypeBlank => "type a blank (Space stops and never types)",
-            Action::DeleteLine => "delete the line",
-            Action::Undo => "undo",
-            Action::Redo => "redo",
-            Action::Save => "save the program",
-            Action::SaveAs => "save the program under another name",
-            Action::Open => "open a program file",
-            Action::Find => "find text",
-            Action::FindNext => "find the next match",
-            Action::FindPrev => "find the previous match",
-            Action::GoToLine => "go to a line or (#N) a command",
-            Action::NextProblem => "next error or warning",
-            Action::PrevProblem => "previous error or warning",
-            Action::ApplyFix => "apply the suggested fix on the line",
-            Action::Format => "format the program (canonical spelling)",
-            Action::Circle => "insert an arc or helix (f and y/w from radius and angles)",
-            Action::JumpTarget => "go to where the line's jump or loop leads",
-            Action::TogglePreview => "toolpath preview: XY and XZ, XY, XZ, off",
-            Action::NextField => "next field",
-            Action::PrevField => "previous field",
-            Action::Discard => "discard the changes (kept aside in the recovery folder)",
-            Action::JogXPlus => "jog X+ (step, or while held)",
-            Action::JogXMinus => "jog X-",
-            Action::JogYPlus => "jog Y+",
-            Action::JogYMinus => "jog Y-",
-            Action::JogZPlus => "jog Z+",
-            Action::JogZMinus => "jog Z-",
-            Action::JogAPlus => "jog A+",
-            Action::JogAMinus => "jog A-",
-            Action::JogXPlusYPlus => "jog diagonally X+ Y+",
-            Action::JogXMinusYPlus => "jog diagonally X- Y+",
-            Action::JogXPlusYMinus => "jog diagonally X+ Y-",
-            Action::JogXMinusYMinus => "jog diagonally X- Y-",
-            Action::JogKind => "switch between step and continuous jogging",
-            Action::GoTo => "go to a typed position (work coordinates)",
-            Action::GoZero => "go to the work zero (asks first)",
-            Action::HomeAxis => "reference run of one axis",
-            Action::ZeroAxis => "make the current position the work zero of one axis",
-            Action::AxisAll => "all axes",
-            Action::AxisX => "axis X",
-            Action::AxisY => "axis Y",
-            Action::AxisZ => "axis Z",
-            Action::AxisA => "axis A",
-            Action::Timeline => "show or hide the port timeline (every input change)",
-            Action::TimeEarlier => "timeline: back in time",
-            Action::TimeLater => "timeline: forward in time",
-            Action::TimeLive => "timeline: follow the newest readings",
-            Action::ZoomIn => "timeline: fewer milliseconds per column",
-            Action::ZoomOut => "timeline: more milliseconds per column",
-        }
-    }
-
-    pub fn from_name(name: &str) -> Option<Action> {
-        Action::ALL.into_iter().find(|a| a.name() == name)
-    }
-}
-
-impl fmt::Display for Action {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
+named_enum! {
+    /// Everything a key can do; `description` is its line in the help.
+    pub enum Action, description {
+        Stop = "stop", "stop all motion";
+        Quit = "quit", "stop, close the port and quit";
+        Help = "help", "show this help";
+        FocusNext = "focus-next", "focus the next panel";
+        FocusPrev = "focus-prev", "focus the previous panel";
+        FocusConsole = "focus-console", "type a raw command";
+        Initialise = "initialise", "initialise the controller";
+        Home = "home", "reference run of all axes (asks first)";
+        SetZero = "set-zero", "make the current position the work zero";
+        Reset = "reset", "reset the controller (asks first)";
+        StepSmaller = "step-smaller", "smaller jog step";
+        StepLarger = "step-larger", "larger jog step";
+        SpeedSlower = "speed-slower", "slower jog speed";
+        SpeedFaster = "speed-faster", "faster jog speed";
+        TogglePolls = "toggle-polls", "show or hide poll traffic";
+        SelectPrev = "select-prev", "previous item";
+        SelectNext = "select-next", "next item";
+        GroupPrev = "group-prev", "previous port";
+        GroupNext = "group-next", "next port";
+        ToggleOutput = "toggle-output", "switch the selected output (asks first if hazardous)";
+        Submit = "submit", "check and send the command";
+        HistoryPrev = "history-prev", "previous command from the history";
+        HistoryNext = "history-next", "next command from the history";
+        CursorLeft = "cursor-left", "cursor left";
+        CursorRight = "cursor-right", "cursor right";
+        CursorHome = "cursor-home", "cursor to the start";
+        CursorEnd = "cursor-end", "cursor to the end";
+        DeleteBack = "delete-back", "delete before the cursor";
+        DeleteForward = "delete-forward", "delete at the cursor";
+        ClearLine = "clear-line", "clear the line";
+        SimToggle = "sim-toggle", "flip the selected simulator input";
+        SimOn = "sim-on", "set the selected input on / closed";
+        SimOff = "sim-off", "set the selected input off / open";
+        SimPress = "sim-press", "press and release the selected button";
+        Confirm = "confirm", "yes, do it";
+        Cancel = "cancel", "no, cancel";
+        Close = "close", "close";
+        ScrollUp = "scroll-up", "scroll up";
+        ScrollDown = "scroll-down", "scroll down";
+        PageUp = "page-up", "page up";
+        PageDown = "page-down", "page down";
+        EditProgram = "edit-program", "show or hide the program editor";
+        TeachAbsolute = "teach-absolute", "teach: absolute move to the current position";
+        TeachRelative = "teach-relative", "teach: relative move from the point taught before";
+        TeachDwell = "teach-dwell", "teach: a dwell (asks for the time)";
+        TeachOutput = "teach-output", "teach: set an output (asks which)";
+        TeachSlower = "teach-slower", "slower speed for taught moves";
+        TeachFaster = "teach-faster", "faster speed for taught moves";
+        Upload = "upload", "upload the program (asks to erase a stored one)";
+        RunProgram = "run-program", "start the stored program (asks first)";
+        CloseEditor = "close-editor", "back to the machine screen";
+        CursorUp = "cursor-up", "cursor up";
+        CursorDown = "cursor-down", "cursor down";
+        WordLeft = "word-left", "cursor to the previous word";
+        WordRight = "word-right", "cursor to the next word";
+        CursorTop = "cursor-top", "cursor to the first line";
+        CursorBottom = "cursor-bottom", "cursor to the last line";
+        NewLine = "new-line", "split the line";
+        TypeBlank = "type-blank", "type a blank (Space stops and never types)";
+        DeleteLine = "delete-line", "delete the line";
+        Undo = "undo", "undo";
+        Redo = "redo", "redo";
+        Save = "save", "save the program";
+        SaveAs = "save-as", "save the program under another name";
+        Open = "open", "open a program file";
+        Find = "find", "find text";
+        FindNext = "find-next", "find the next match";
+        FindPrev = "find-prev", "find the previous match";
+        GoToLine = "go-to-line", "go to a line or (#N) a command";
+        NextProblem = "next-problem", "next error or warning";
+        PrevProblem = "prev-problem", "previous error or warning";
+        ApplyFix = "apply-fix", "apply the suggested fix on the line";
+        Format = "format", "format the program (canonical spelling)";
+        Circle = "circle", "insert an arc or helix (f and y/w from radius and angles)";
+        JumpTarget = "jump-target", "go to where the line's jump or loop leads";
+        TogglePreview = "toggle-preview", "toolpath preview: XY and XZ, XY, XZ, off";
+        NextField = "next-field", "next field";
+        PrevField = "prev-field", "previous field";
+        Discard = "discard", "discard the changes (kept aside in the recovery folder)";
+        JogXPlus = "jog-x-plus", "jog X+ (step, or while held)";
+        JogXMinus = "jog-x-minus", "jog X-";
+        JogYPlus = "jog-y-plus", "jog Y+";
+        JogYMinus = "jog-y-minus", "jog Y-";
+        JogZPlus = "jog-z-plus", "jog Z+";
+        JogZMinus = "jog-z-minus", "jog Z-";
+        JogAPlus = "jog-a-plus", "jog A+";
+        JogAMinus = "jog-a-minus", "jog A-";
+        JogXPlusYPlus = "jog-x-plus-y-plus", "jog diagonally X+ Y+";
+        JogXMinusYPlus = "jog-x-minus-y-plus", "jog diagonally X- Y+";
+        JogXPlusYMinus = "jog-x-plus-y-minus", "jog diagonally X+ Y-";
+        JogXMinusYMinus = "jog-x-minus-y-minus", "jog diagonally X- Y-";
+        JogKind = "jog-kind", "switch between step and continuous jogging";
+        GoTo = "go-to", "go to a typed position (work coordinates)";
+        GoZero = "go-zero", "go to the work zero (asks first)";
+        HomeAxis = "home-axis", "reference run of one axis";
+        ZeroAxis = "zero-axis", "make the current position the work zero of one axis";
+        AxisAll = "axis-all", "all axes";
+        AxisX = "axis-x", "axis X";
+        AxisY = "axis-y", "axis Y";
+        AxisZ = "axis-z", "axis Z";
+        AxisA = "axis-a", "axis A";
+        Timeline = "timeline", "show or hide the port timeline (every input change)";
+        TimeEarlier = "earlier", "timeline: back in time";
+        TimeLater = "later", "timeline: forward in time";
+        TimeLive = "live", "timeline: follow the newest readings";
+        ZoomIn = "zoom-in", "timeline: fewer milliseconds per column";
+        ZoomOut = "zoom-out", "timeline: more milliseconds per column";
     }
 }
 
 /// The word that removes a binding in a profile.
 pub const UNBIND: &str = "none";
 
-/// mode -> key -> action.
+/// jogterm's default keys (`config/keys.toml`).
+pub const DEFAULT_KEYS: &str = include_str!("../../config/keys.toml");
+
+/// mode -> key -> action, and the actions each mode has.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Keymap {
-    modes: BTreeMap<Mode, BTreeMap<KeyChord, Action>>,
+    modes: BTreeMap<Mode, ModeKeys>,
 }
 
-impl Default for Keymap {
-    fn default() -> Self {
-        use Action::*;
-        use KeyCode as K;
-        let p = KeyChord::plain;
-        let c = KeyChord::char;
-        let ctrl_key = |code| KeyChord {
-            ctrl: true,
-            ..KeyChord::plain(code)
-        };
-        let alt_key = |code| KeyChord {
-            alt: true,
-            ..KeyChord::plain(code)
-        };
-        let alt = |ch| alt_key(KeyCode::Char(ch));
-        let shift = |code| KeyChord {
-            shift: true,
-            ..KeyChord::plain(code)
-        };
-        let defaults: &[(Mode, &[(KeyChord, Action)])] = &[
-            (Mode::Safety, &[(KeyChord::SPACE, Stop)]),
-            (
-                Mode::Main,
-                &[
-                    (p(K::Esc), Stop),
-                    (c('q'), Quit),
-                    (KeyChord::ctrl('c'), Quit),
-                    (c('?'), Help),
-                    (p(K::F(1)), Help),
-                    (p(K::Tab), FocusNext),
-                    (p(K::BackTab), FocusPrev),
-                    (c(':'), FocusConsole),
-                    (c('i'), Initialise),
-                    (c('h'), Home),
-                    (c('H'), HomeAxis),
-                    (c('z'), SetZero),
-                    (c('Z'), ZeroAxis),
-                    (c('g'), GoTo),
-                    (c('G'), GoZero),
-                    (KeyChord::ctrl('r'), Reset),
-                    (c('c'), JogKind),
-                    (c('['), StepSmaller),
-                    (c(']'), StepLarger),
-                    (c('-'), SpeedSlower),
-                    (c('+'), SpeedFaster),
-                    (c('='), SpeedFaster),
-                    (c('p'), TogglePolls),
-                    (p(K::F(2)), TogglePolls),
-                    (c('e'), EditProgram),
-                    (p(K::F(4)), EditProgram),
-                    (c('t'), TeachAbsolute),
-                    (c('T'), TeachRelative),
-                    (c('d'), TeachDwell),
-                    (c('o'), TeachOutput),
-                    (c('<'), TeachSlower),
-                    (c('>'), TeachFaster),
-                    (p(K::F(5)), Upload),
-                    (p(K::F(6)), RunProgram),
-                    (c('w'), Timeline),
-                    (p(K::F(7)), Timeline),
-                ],
-            ),
-            (
-                // Arrows X/Y, PgUp/PgDn Z, Home/End A: the keys the numeric
-                // keypad sends with NumLock off, and its digits in the same
-                // places with NumLock on (8 up, 4 left, 9 PgUp, 7 Home …),
-                // so the keypad means the same either way. Diagonals on the
-                // vi/roguelike corner keys y u b n.
-                Mode::Jog,
-                &[
-                    (p(K::Right), JogXPlus),
-                    (p(K::Left), JogXMinus),
-                    (p(K::Up), JogYPlus),
-                    (p(K::Down), JogYMinus),
-                    (p(K::PageUp), JogZPlus),
-                    (p(K::PageDown), JogZMinus),
-                    (p(K::Home), JogAPlus),
-                    (p(K::End), JogAMinus),
-                    (c('6'), JogXPlus),
-                    (c('4'), JogXMinus),
-                    (c('8'), JogYPlus),
-                    (c('2'), JogYMinus),
-                    (c('9'), JogZPlus),
-                    (c('3'), JogZMinus),
-                    (c('7'), JogAPlus),
-                    (c('1'), JogAMinus),
-                    (c('u'), JogXPlusYPlus),
-                    (c('y'), JogXMinusYPlus),
-                    (c('n'), JogXPlusYMinus),
-                    (c('b'), JogXMinusYMinus),
-                ],
-            ),
-            (
-                Mode::Io,
-                &[
-                    (p(K::Left), SelectPrev),
-                    (p(K::Right), SelectNext),
-                    (c('k'), GroupPrev),
-                    (c('j'), GroupNext),
-                    (p(K::Up), GroupPrev),
-                    (p(K::Down), GroupNext),
-                    (p(K::Enter), ToggleOutput),
-                ],
-            ),
-            (
-                Mode::Console,
-                &[
-                    (p(K::Enter), Submit),
-                    (p(K::Up), HistoryPrev),
-                    (p(K::Down), HistoryNext),
-                    (p(K::Left), CursorLeft),
-                    (p(K::Right), CursorRight),
-                    (p(K::Home), CursorHome),
-                    (p(K::End), CursorEnd),
-                    (p(K::Backspace), DeleteBack),
-                    (p(K::Delete), DeleteForward),
-                    (KeyChord::ctrl('u'), ClearLine),
-                ],
-            ),
-            (
-                Mode::Sim,
-                &[
-                    (p(K::Up), SelectPrev),
-                    (p(K::Left), SelectPrev),
-                    (p(K::Down), SelectNext),
-                    (p(K::Right), SelectNext),
-                    (p(K::Enter), SimToggle),
-                    (c('1'), SimOn),
-                    (c('0'), SimOff),
-                    (c('p'), SimPress),
-                ],
-            ),
-            (
-                Mode::Editor,
-                &[
-                    (p(K::F(4)), CloseEditor),
-                    (p(K::BackTab), CloseEditor),
-                    (p(K::Up), CursorUp),
-                    (p(K::Down), CursorDown),
-                    (p(K::Left), CursorLeft),
-                    (p(K::Right), CursorRight),
-                    (ctrl_key(K::Left), WordLeft),
-                    (ctrl_key(K::Right), WordRight),
-                    (p(K::Home), CursorHome),
-                    (p(K::End), CursorEnd),
-                    (p(K::PageUp), PageUp),
-                    (p(K::PageDown), PageDown),
-                    (ctrl_key(K::Home), CursorTop),
-                    (ctrl_key(K::End), CursorBottom),
-                    (p(K::Enter), NewLine),
-                    (p(K::Tab), TypeBlank),
-                    (KeyChord::ctrl(' '), TypeBlank),
-                    (p(K::Backspace), DeleteBack),
-                    (p(K::Delete), DeleteForward),
-                    (KeyChord::ctrl('k'), DeleteLine),
-                    (KeyChord::ctrl('z'), Undo),
-                    (KeyChord::ctrl('y'), Redo),
-                    (KeyChord::ctrl('s'), Save),
-                    (alt('s'), SaveAs),
-                    (KeyChord::ctrl('o'), Open),
-                    (KeyChord::ctrl('f'), Find),
-                    (p(K::F(3)), FindNext),
-                    (shift(K::F(3)), FindPrev),
-                    (KeyChord::ctrl('g'), GoToLine),
-                    (p(K::F(8)), NextProblem),
-                    (shift(K::F(8)), PrevProblem),
-                    (alt_key(K::Enter), ApplyFix),
-                    (alt('f'), Format),
-                    (KeyChord::ctrl('a'), Circle),
-                    (p(K::F(12)), JumpTarget),
-                    (p(K::F(9)), TogglePreview),
-                ],
-            ),
-            (
-                Mode::Form,
-                &[
-                    (p(K::Enter), Submit),
-                    (p(K::Esc), Cancel),
-                    (p(K::Tab), NextField),
-                    (p(K::Down), NextField),
-                    (p(K::BackTab), PrevField),
-                    (p(K::Up), PrevField),
-                    (p(K::Left), CursorLeft),
-                    (p(K::Right), CursorRight),
-                    (p(K::Home), CursorHome),
-                    (p(K::End), CursorEnd),
-                    (p(K::Backspace), DeleteBack),
-                    (p(K::Delete), DeleteForward),
-                    (KeyChord::ctrl('u'), ClearLine),
-                    (KeyChord::ctrl(' '), TypeBlank),
-                ],
-            ),
-            (
-                Mode::Unsaved,
-                &[
-                    (c('s'), Save),
-                    (p(K::Enter), Save),
-                    (c('d'), Discard),
-                    (c('n'), Cancel),
-                    (p(K::Esc), Cancel),
-                ],
-            ),
-            (
-                Mode::Help,
-                &[
-                    (p(K::Esc), Close),
-                    (c('?'), Close),
-                    (c('q'), Close),
-                    (p(K::F(1)), Close),
-                    (p(K::Up), ScrollUp),
-                    (c('k'), ScrollUp),
-                    (p(K::Down), ScrollDown),
-                    (c('j'), ScrollDown),
-                    (p(K::PageUp), PageUp),
-                    (p(K::PageDown), PageDown),
-                ],
-            ),
-            (
-                Mode::Confirm,
-                &[
-                    (c('y'), Confirm),
-                    (p(K::Enter), Confirm),
-                    (c('n'), Cancel),
-                    (p(K::Esc), Cancel),
-                ],
-            ),
-            (
-                Mode::GoTo,
-                &[
-                    (p(K::Enter), Submit),
-                    (p(K::Esc), Cancel),
-                    (p(K::Left), CursorLeft),
-                    (p(K::Right), CursorRight),
-                    (p(K::Home), CursorHome),
-                    (p(K::End), CursorEnd),
-                    (p(K::Backspace), DeleteBack),
-                    (p(K::Delete), DeleteForward),
-                    (KeyChord::ctrl('u'), ClearLine),
-                ],
-            ),
-            (
-                Mode::Timeline,
-                &[
-                    (c('w'), Timeline),
-                    (p(K::F(7)), Timeline),
-                    (p(K::Left), TimeEarlier),
-                    (p(K::Right), TimeLater),
-                    (p(K::End), TimeLive),
-                    (c('+'), ZoomIn),
-                    (c('='), ZoomIn),
-                    (c('-'), ZoomOut),
-                    (p(K::Up), ScrollUp),
-                    (p(K::Down), ScrollDown),
-                ],
-            ),
-            (
-                Mode::Axes,
-                &[
-                    (p(K::Enter), AxisAll),
-                    (c('x'), AxisX),
-                    (c('y'), AxisY),
-                    (c('z'), AxisZ),
-                    (c('a'), AxisA),
-                    (p(K::Esc), Cancel),
-                    (c('n'), Cancel),
-                ],
-            ),
-        ];
-        let modes = defaults
-            .iter()
-            .map(|(mode, keys)| (*mode, keys.iter().copied().collect()))
-            .collect();
-        Keymap { modes }
-    }
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+struct ModeKeys {
+    /// The actions a key may be bound to in this mode, in the help's order.
+    actions: Vec<Action>,
+    keys: BTreeMap<KeyChord, Action>,
 }
 
 /// One line of the help: the keys bound to an action in a mode.
@@ -1010,10 +243,97 @@ pub struct HelpEntry {
     pub action: Action,
 }
 
+/// The default keys as `config/keys.toml` writes them: mode -> action ->
+/// keys. The spans keep the order of the lines, which TOML tables do not.
+type DefaultTable = BTreeMap<String, BTreeMap<String, toml::Spanned<Vec<String>>>>;
+
 impl Keymap {
+    /// jogterm's default keys. An error here is a mistake in
+    /// `config/keys.toml` (a test loads it), named with its line.
+    pub fn builtin() -> Result<Keymap, ConfigError> {
+        Keymap::from_defaults(&Source {
+            origin: Origin::Embedded("keys"),
+            text: DEFAULT_KEYS.to_string(),
+        })
+    }
+
+    /// A keymap from a table in the form of `config/keys.toml`: every mode,
+    /// each with every action it has and that action's keys.
+    fn from_defaults(file: &Source) -> Result<Keymap, ConfigError> {
+        let table: DefaultTable = source::deserialize_text(file)?;
+        let fail = |path: &[&str], message: String| {
+            let key: Vec<String> = path.iter().map(|s| s.to_string()).collect();
+            ConfigError::at_key(file, &key, message)
+        };
+        let mut modes = BTreeMap::new();
+        for (mode_name, actions) in &table {
+            let mode = Mode::from_name(mode_name).ok_or_else(|| {
+                fail(
+                    &[mode_name],
+                    format!("unknown key mode `{mode_name}`: expected {}", mode_names()),
+                )
+            })?;
+            let mut lines: Vec<(&String, &toml::Spanned<Vec<String>>)> = actions.iter().collect();
+            lines.sort_by_key(|(_, keys)| keys.span().start);
+            let mut entry = ModeKeys::default();
+            for (action_name, keys) in lines {
+                let path = [mode_name.as_str(), action_name.as_str()];
+                let action = Action::from_name(action_name)
+                    .ok_or_else(|| fail(&path, format!("unknown action `{action_name}`")))?;
+                entry.actions.push(action);
+                for key_text in keys.get_ref() {
+                    let chord =
+                        KeyChord::parse(key_text).map_err(|e| fail(&path, e.to_string()))?;
+                    if let Some(other) = entry.keys.insert(chord, action) {
+                        return Err(fail(
+                            &path,
+                            format!(
+                                "`{key_text}` is bound twice in mode `{mode}`: to `{other}` and `{action}`"
+                            ),
+                        ));
+                    }
+                }
+            }
+            modes.insert(mode, entry);
+        }
+        if let Some(missing) = Mode::ALL.into_iter().find(|m| !modes.contains_key(m)) {
+            return Err(ConfigError::new(
+                file.origin.clone(),
+                format!("no table for key mode `{missing}`"),
+            ));
+        }
+        let map = Keymap { modes };
+        if map.lookup(Mode::Safety, &KeyChord::SPACE) != Some(Action::Stop) {
+            return Err(fail(
+                &["safety"],
+                "Space must stop: `stop = [\"space\"]`".to_string(),
+            ));
+        }
+        // A stop key is looked up before every mode: bound in another mode
+        // too, that binding could never be reached.
+        for (stop, _) in map.bindings(Mode::Safety) {
+            for mode in Mode::ALL.into_iter().filter(|m| *m != Mode::Safety) {
+                if let Some(action) = map.lookup(mode, &stop) {
+                    return Err(fail(
+                        &[mode.name(), action.name()],
+                        format!(
+                            "`{stop}` is a stop key ([safety]) and never reaches mode `{mode}`"
+                        ),
+                    ));
+                }
+            }
+        }
+        Ok(map)
+    }
+
+    /// The actions a key may be bound to in `mode`, in the help's order.
+    pub fn actions(&self, mode: Mode) -> &[Action] {
+        self.modes.get(&mode).map_or(&[], |m| m.actions.as_slice())
+    }
+
     /// The action `key` is bound to in `mode`.
     pub fn lookup(&self, mode: Mode, key: &KeyChord) -> Option<Action> {
-        self.modes.get(&mode).and_then(|m| m.get(key)).copied()
+        self.modes.get(&mode).and_then(|m| m.keys.get(key)).copied()
     }
 
     /// Every binding of `mode`, by key.
@@ -1021,7 +341,7 @@ impl Keymap {
         self.modes
             .get(&mode)
             .into_iter()
-            .flat_map(|m| m.iter().map(|(k, a)| (*k, *a)))
+            .flat_map(|m| m.keys.iter().map(|(k, a)| (*k, *a)))
     }
 
     /// The keys bound to `action` in `mode`, in key order.
@@ -1050,7 +370,7 @@ impl Keymap {
     /// The help for `mode`: one entry per action bound, in the mode's action
     /// order.
     pub fn help(&self, mode: Mode) -> Vec<HelpEntry> {
-        mode.actions()
+        self.actions(mode)
             .iter()
             .filter_map(|&action| {
                 let keys = self.keys_for(mode, action);
@@ -1070,13 +390,6 @@ impl Keymap {
         let fail = |path: &[&str], message: String| {
             let key: Vec<String> = path.iter().map(|s| s.to_string()).collect();
             source::error_for_key(sources, &key, message)
-        };
-        let mode_names = || {
-            Mode::ALL
-                .iter()
-                .map(|m| m.name())
-                .collect::<Vec<_>>()
-                .join(", ")
         };
         // Parse everything first, so the safety keys are known before other
         // modes are checked against them.
@@ -1100,16 +413,16 @@ impl Keymap {
                             format!(
                                 "unknown action `{action_name}` in mode `{mode}`: expected {}, \
                                  or `{UNBIND}` to unbind",
-                                action_list(mode)
+                                self.action_list(mode)
                             ),
                         )
                     })?;
-                    if !mode.actions().contains(&action) {
+                    if !self.actions(mode).contains(&action) {
                         return Err(fail(
                             &path,
                             format!(
                                 "action `{action}` does not exist in mode `{mode}`: expected {}",
-                                action_list(mode)
+                                self.action_list(mode)
                             ),
                         ));
                     }
@@ -1127,7 +440,7 @@ impl Keymap {
             }
         }
         for (mode, _, chord, action) in &parsed {
-            let map = self.modes.entry(*mode).or_default();
+            let map = &mut self.modes.entry(*mode).or_default().keys;
             match action {
                 Some(a) => map.insert(*chord, *a),
                 None => map.remove(chord),
@@ -1148,17 +461,25 @@ impl Keymap {
         }
         for (mode, map) in self.modes.iter_mut() {
             if *mode != Mode::Safety {
-                map.retain(|k, _| !safety.contains(k));
+                map.keys.retain(|k, _| !safety.contains(k));
             }
         }
         Ok(self)
     }
+
+    fn action_list(&self, mode: Mode) -> String {
+        self.actions(mode)
+            .iter()
+            .map(|a| a.name())
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
 }
 
-fn action_list(mode: Mode) -> String {
-    mode.actions()
+fn mode_names() -> String {
+    Mode::ALL
         .iter()
-        .map(|a| a.name())
+        .map(|m| m.name())
         .collect::<Vec<_>>()
         .join(", ")
 }
@@ -1175,6 +496,10 @@ mod tests {
         }
     }
 
+    fn builtin() -> Keymap {
+        Keymap::builtin().expect("config/keys.toml")
+    }
+
     fn apply(text: &str) -> Result<Keymap, ConfigError> {
         let src = source(text);
         let table: toml::Table = toml::from_str(text).expect("toml");
@@ -1183,16 +508,18 @@ mod tests {
             .cloned()
             .map(|v| v.try_into().expect("keys table"))
             .unwrap_or_default();
-        Keymap::default().with_overrides(&keys, &[&src])
+        Keymap::builtin()
+            .expect("built-in keys")
+            .with_overrides(&keys, &[&src])
     }
 
     #[test]
     fn every_default_binding_is_an_action_of_its_mode() {
-        let map = Keymap::default();
+        let map = builtin();
         for mode in Mode::ALL {
             for (key, action) in map.bindings(mode) {
                 assert!(
-                    mode.actions().contains(&action),
+                    map.actions(mode).contains(&action),
                     "{mode}: {key} -> {action}"
                 );
             }
@@ -1291,7 +618,7 @@ mod tests {
                 documented.push((mode, key.to_string(), action));
             }
         }
-        let map = Keymap::default();
+        let map = builtin();
         let mut actual = Vec::new();
         for mode in Mode::ALL {
             for (key, action) in map.bindings(mode) {
@@ -1314,7 +641,7 @@ mod tests {
 
     #[test]
     fn help_lists_every_binding() {
-        let map = Keymap::default();
+        let map = builtin();
         for mode in Mode::ALL {
             let help = map.help(mode);
             for (key, action) in map.bindings(mode) {
@@ -1325,5 +652,102 @@ mod tests {
                 );
             }
         }
+    }
+
+    fn defaults(text: &str) -> Result<Keymap, ConfigError> {
+        Keymap::from_defaults(&source(text))
+    }
+
+    /// Every mode's table with one made-up line per mode, so a test can
+    /// change one table and keep the others valid.
+    fn all_modes_but(skip: Mode, extra: &str) -> String {
+        let mut text = String::new();
+        for mode in Mode::ALL.into_iter().filter(|m| *m != skip) {
+            let line = if mode == Mode::Safety {
+                "stop = [\"space\"]"
+            } else {
+                "cancel = []"
+            };
+            text += &format!("[{mode}]\n{line}\n");
+        }
+        text + extra
+    }
+
+    #[test]
+    fn the_order_of_the_lines_is_the_order_of_the_help() {
+        let text = all_modes_but(
+            Mode::Confirm,
+            "[confirm]\ncancel = [\"n\"]\nconfirm = [\"y\", \"enter\"]\n",
+        );
+        let map = defaults(&text).expect("valid");
+        assert_eq!(
+            map.actions(Mode::Confirm),
+            [Action::Cancel, Action::Confirm]
+        );
+        let help: Vec<Action> = map.help(Mode::Confirm).iter().map(|e| e.action).collect();
+        assert_eq!(help, [Action::Cancel, Action::Confirm]);
+        // An action without keys is still one of the mode's: a profile may
+        // bind it.
+        assert_eq!(map.actions(Mode::Axes), [Action::Cancel]);
+        assert!(map.help(Mode::Axes).is_empty());
+    }
+
+    #[test]
+    fn the_built_in_table_lists_the_modes_in_the_help_order_and_uses_every_action() {
+        let starts: Vec<usize> = Mode::ALL
+            .iter()
+            .map(|m| {
+                DEFAULT_KEYS
+                    .find(&format!("\n[{m}]\n"))
+                    .unwrap_or_else(|| panic!("no [{m}] in config/keys.toml"))
+            })
+            .collect();
+        assert!(starts.is_sorted(), "config/keys.toml: modes out of order");
+        let map = builtin();
+        for action in Action::ALL {
+            assert!(
+                Mode::ALL.iter().any(|m| map.actions(*m).contains(&action)),
+                "`{action}` is in no mode of config/keys.toml"
+            );
+        }
+    }
+
+    #[test]
+    fn mistakes_in_the_default_table_name_their_line() {
+        let with_main = |main: &str| all_modes_but(Mode::Main, &format!("[main]\n{main}"));
+        let lines_before_main = 2 * (Mode::ALL.len() - 1);
+        let cases = [
+            (
+                with_main("quit = [\"q\"]\nfly = [\"f\"]\n"),
+                3,
+                "unknown action `fly`",
+            ),
+            (with_main("quit = [\"ctrl-\"]\n"), 2, "not a key"),
+            (
+                with_main("quit = [\"q\"]\nhelp = [\"?\", \"q\"]\n"),
+                3,
+                "bound twice in mode `main`: to `quit` and `help`",
+            ),
+            (
+                with_main("quit = [\"space\"]\n"),
+                2,
+                "stop key ([safety]) and never reaches mode `main`",
+            ),
+        ];
+        for (text, line, needle) in cases {
+            let err = defaults(&text).expect_err(&text);
+            assert_eq!(err.line, Some(lines_before_main + line), "{text}: {err}");
+            assert!(err.message.contains(needle), "{text}: {err}");
+        }
+        let err = defaults(&all_modes_but(Mode::Io, "[jogg]\nstop = []\n")).expect_err("mode");
+        assert_eq!(err.line, Some(lines_before_main + 1), "{err}");
+        assert!(err.message.contains("unknown key mode `jogg`"), "{err}");
+        let err = defaults(&all_modes_but(Mode::Io, "")).expect_err("missing");
+        assert!(err.message.contains("no table for key mode `io`"), "{err}");
+        let text = all_modes_but(Mode::Safety, "[safety]\nstop = [\"esc\"]\n");
+        let err = defaults(&text).expect_err("space");
+        assert!(err.message.contains("Space must stop"), "{err}");
+        let err = defaults("[main\n").expect_err("syntax");
+        assert_eq!(err.line, Some(1), "{err}");
     }
 }

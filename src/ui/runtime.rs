@@ -367,7 +367,7 @@ mod tests {
         let theme = load_theme("dark", &dirs).expect("theme");
         Model::new(
             Setup::from_profile(&profile, None),
-            Keymap::default(),
+            Keymap::builtin().expect("built-in keys"),
             Palette::from(&theme),
             Instant::now(),
         )

@@ -45,7 +45,8 @@ pub fn config(data: &[u8]) {
             Ok((profile, sources)) => {
                 // Everything jogterm builds from a profile it accepted.
                 let refs: Vec<_> = sources.iter().collect();
-                let _ = Keymap::default().with_overrides(&profile.keys, &refs);
+                let keymap = Keymap::builtin().expect("built-in keys");
+                let _ = keymap.with_overrides(&profile.keys, &refs);
                 let _ = registry::build(profile.connection.protocol, &profile);
                 let _ = LintConfig::from_profile(&profile);
                 let _ = Setup::from_profile(&profile, None);

@@ -80,7 +80,12 @@ pub fn fresh(protocol: Protocol, theme: &str, t0: Instant) -> Model {
         setup.port = "sim".into();
         setup.simulator_inputs = Some(isel_sim_inputs(&profile));
     }
-    Model::new(setup, Keymap::default(), Palette::from(&theme), t0)
+    Model::new(
+        setup,
+        Keymap::builtin().expect("built-in keys"),
+        Palette::from(&theme),
+        t0,
+    )
 }
 
 pub fn send(model: &mut Model, events: impl IntoIterator<Item = Event>) {

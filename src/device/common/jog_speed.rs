@@ -13,7 +13,7 @@ use std::time::{Duration, Instant};
 
 use crate::axis::Axis;
 use crate::device::api::{Dir, JogEnd, PerAxis, Refusal};
-use crate::jog::{self, Braking};
+use crate::motion::{self, Braking};
 
 use super::motion::MotionKind;
 use super::sink::Sink;
@@ -118,7 +118,7 @@ impl JogSpeed {
 
 /// The lease a renewal asking for `lease` is granted: never longer than
 /// the jog's running speeds allow within their axes' bounds
-/// (`jog::lease_cap`); `speeds` are (Hz, max_overrun steps) per moving axis.
+/// (`motion::lease_cap`); `speeds` are (Hz, max_overrun steps) per moving axis.
 /// Nothing moving (no speeds): nothing to bound, the lease as asked.
 pub fn granted(
     braking: &Braking,
@@ -127,7 +127,7 @@ pub fn granted(
 ) -> Duration {
     speeds
         .into_iter()
-        .map(|(hz, bound)| jog::lease_cap(braking, hz, bound))
+        .map(|(hz, bound)| motion::lease_cap(braking, hz, bound))
         .fold(lease, Duration::min)
 }
 
@@ -188,7 +188,7 @@ mod tests {
     }
 
     fn cap(_: Axis, lease: Duration) -> f64 {
-        jog::speed_cap(&EMCU, lease, 600.0)
+        motion::speed_cap(&EMCU, lease, 600.0)
     }
 
     #[test]
@@ -240,7 +240,7 @@ mod tests {
         let fast = cap(Axis::X, ms(150));
         let l = granted(&EMCU, ms(750), [(fast, 600.0)]);
         assert!(l <= ms(150) && l + ms(1) >= ms(150), "{l:?}");
-        assert!(jog::travel(&EMCU, fast, l) <= 600.0 + 1e-6);
+        assert!(motion::travel(&EMCU, fast, l) <= 600.0 + 1e-6);
         // A slow jog keeps what it asked for; nothing moving bounds nothing.
         assert_eq!(granted(&EMCU, ms(150), [(300.0, 600.0)]), ms(150));
         assert_eq!(granted(&EMCU, ms(150), []), ms(150));
@@ -263,7 +263,7 @@ mod tests {
                 // A speed that cannot stop within its bound gets no lease;
                 // the lease is whole nanoseconds (a few µsteps of slack).
                 if l > Duration::ZERO {
-                    prop_assert!(jog::travel(&braking, hz, l) <= bound + 1e-3);
+                    prop_assert!(motion::travel(&braking, hz, l) <= bound + 1e-3);
                 }
             }
         }
@@ -294,7 +294,7 @@ mod tests {
                 shortest = shortest.min(lease);
                 prop_assert_eq!(s.lease, shortest);
                 // Whatever runs stops within the bound for the lease it holds.
-                prop_assert!(jog::travel(&EMCU, running, s.lease) <= 600.0 + 1e-6);
+                prop_assert!(motion::travel(&EMCU, running, s.lease) <= 600.0 + 1e-6);
             }
         }
     }

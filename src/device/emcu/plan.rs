@@ -14,7 +14,7 @@ use crate::device::common::deadline;
 use crate::device::common::jog_speed;
 use crate::device::common::limits::{capped_speed, invalid, machine_has, moving_axes, soft_limit};
 use crate::device::common::vector;
-use crate::jog;
+use crate::motion;
 use crate::motion::Motion;
 use crate::proto::emcu::{Command, EmcuAxis, Move, MoveMode, Speed, Steps};
 
@@ -221,10 +221,10 @@ pub fn move_to(
 /// The fastest jog speed of `axis` that stops within its `jog.max_overrun`
 /// when the operator lets go while the jog holds a lease of `lease`: the
 /// lease at speed, the `@B`'s way to the wire, then the `#R` ramp down
-/// (manual 1.5.7, `jog::speed_cap`).
+/// (manual 1.5.7, `motion::speed_cap`).
 pub fn overrun_cap(cx: &Context, axis: Axis, lease: Duration) -> f64 {
     cx.settings.limits(axis).map_or(0.0, |l| {
-        jog::speed_cap(&cx.settings.braking(), lease, l.max_overrun)
+        motion::speed_cap(&cx.settings.braking(), lease, l.max_overrun)
     })
 }
 

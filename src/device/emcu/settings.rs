@@ -115,8 +115,8 @@ impl EmcuSettings {
     /// How a move brakes: the `#R` ramp time from any speed down to the
     /// start speed (manual 1.5.5-1.5.7), the same ramp [`Self::move_ramp`]
     /// runs.
-    pub fn braking(&self) -> crate::jog::Braking {
-        crate::jog::Braking::FixedTime {
+    pub fn braking(&self) -> crate::motion::Braking {
+        crate::motion::Braking::FixedTime {
             start_hz: f64::from(self.start_speed.get()),
             ramp: std::time::Duration::from_millis(u64::from(self.ramp.get())),
         }

@@ -15,7 +15,7 @@ use crate::device::api::{Dir, Frame, PerAxis, Refusal};
 use crate::device::common::jog_speed;
 use crate::device::common::limits::{capped_speed, invalid, moving_axes, named_axes, soft_limit};
 use crate::device::common::vector::{Leg as VectorLeg, room, travel};
-use crate::jog::{self, Braking};
+use crate::motion::{self, Braking};
 use crate::proto::emp::{DriveAddress, Position};
 use std::time::Duration;
 
@@ -104,10 +104,10 @@ const RELOAD_MARGIN: f64 = 1e-4;
 /// The fastest jog of `axis` that stops within `jog.max_overrun` when the
 /// `lease` it holds runs out unrenewed: the lease, the stop's way to the
 /// wire and a round trip per drive at speed, then braking in `BRAKE_TIME`
-/// (`jog::speed_cap`).
+/// (`motion::speed_cap`).
 pub fn overrun_cap(cx: &Context, axis: Axis, lease: Duration) -> f64 {
     cx.settings.limits.get(axis).map_or(0.0, |l| {
-        jog::speed_cap(&braking(), lease + stop_way(cx), l.max_overrun) * (1.0 - RELOAD_MARGIN)
+        motion::speed_cap(&braking(), lease + stop_way(cx), l.max_overrun) * (1.0 - RELOAD_MARGIN)
     })
 }
 

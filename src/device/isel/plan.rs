@@ -11,7 +11,7 @@ use crate::device::common::AxisLimits;
 use crate::device::common::jog_speed;
 use crate::device::common::limits::{self, capped_speed, invalid, machine_has, moving_axes};
 use crate::device::common::vector;
-use crate::jog::{self, Braking};
+use crate::motion::{self, Braking};
 use crate::proto::isel::{AxisConfig, Command, MovePair, SPEED_HZ, STEPS};
 
 use super::context::{Cmd, Context};
@@ -48,9 +48,9 @@ pub fn braking(ramp: RampParams) -> Braking {
 /// The fastest jog speed that stops within `max_overrun` steps when the
 /// operator lets go while the jog holds a lease of `lease`: the lease at
 /// speed, the stop's way to the wire, then the braking ramp
-/// (`jog.max_overrun`, `crate::jog::overrun`).
+/// (`jog.max_overrun`, `crate::motion::overrun`).
 pub fn overrun_cap(ramp: RampParams, lease: Duration, max_overrun: f64) -> f64 {
-    jog::speed_cap(&braking(ramp), lease, max_overrun)
+    motion::speed_cap(&braking(ramp), lease, max_overrun)
 }
 
 /// The lease a renewal asking for `lease` is granted while a jog runs at
@@ -287,7 +287,7 @@ mod tests {
         let ramp = RampParams::CONTROLLER_DEFAULT;
         let v = overrun_cap(ramp, Duration::from_millis(150), 1200.0);
         let a = 100_000.0;
-        let reaction = jog::STOP_REACTION.as_secs_f64();
+        let reaction = motion::STOP_REACTION.as_secs_f64();
         let travel = v * (0.15 + reaction) + (v * v - 300.0 * 300.0) / (2.0 * a);
         assert!((travel - 1200.0).abs() < 1e-3, "{travel}");
         assert!(v > 6_000.0 && v < 6_300.0, "{v}");

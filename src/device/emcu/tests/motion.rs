@@ -12,12 +12,12 @@ use crate::device::common::testing::refusal_reasons;
 use super::harness::{Harness, ms, settings, speeds, xyz};
 
 /// The slot speed a jog holding `lease` may run at: the fastest that stops
-/// within X's `jog.max_overrun` (`jog::speed_cap` with the `#R` ramp), in
+/// within X's `jog.max_overrun` (`motion::speed_cap` with the `#R` ramp), in
 /// whole Hz below the cap.
 fn cap(lease: Duration) -> u16 {
     let s = settings();
     let bound = s.limits(Axis::X).expect("X").max_overrun;
-    crate::jog::speed_cap(&s.braking(), lease, bound).floor() as u16
+    crate::motion::speed_cap(&s.braking(), lease, bound).floor() as u16
 }
 
 fn jog(id: u64, axes: Vec<(Axis, Dir)>, hz: f64, lease: Duration) -> Request {
@@ -449,7 +449,7 @@ fn a_renewal_is_granted_no_longer_lease_than_the_speed_allows() {
     });
     let s = settings();
     let bound = s.limits(Axis::X).expect("X").max_overrun;
-    let allowed = crate::jog::lease_cap(&s.braking(), f64::from(hz), bound);
+    let allowed = crate::motion::lease_cap(&s.braking(), f64::from(hz), bound);
     assert!(allowed < ms(151), "{allowed:?}");
     h.advance(ms(149));
     h.expect_nothing();

@@ -259,7 +259,7 @@ fn settings() -> EmcuSettings {
 fn lease_speed(axis: Axis, lease: Duration) -> f64 {
     let s = settings();
     let bound = s.limits(axis).expect("axis").max_overrun;
-    crate::jog::speed_cap(&s.braking(), lease, bound).floor()
+    crate::motion::speed_cap(&s.braking(), lease, bound).floor()
 }
 
 fn bound_and_top(axis: Axis) -> (f64, f64) {

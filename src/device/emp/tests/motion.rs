@@ -145,7 +145,7 @@ fn jog_speeds_are_capped_by_the_overrun() {
     // the stop's way to the wire R = 10 ms, a round trip T and B = 100 ms:
     // v <= 1 219 counts/s.
     let rt = super::harness::settings().timing.round_trip;
-    let cap = crate::jog::speed_cap(&crate::device::emp::plan::braking(), ms(750) + rt, 1_000.0);
+    let cap = crate::motion::speed_cap(&crate::device::emp::plan::braking(), ms(750) + rt, 1_000.0);
     assert!(cap > 1_200.0 && cap < 1_230.0, "{cap}");
     let hex = |h: &mut Harness| {
         let sent = h.send().expect("a frame");
@@ -281,7 +281,7 @@ fn bound_and_way() -> (f64, Duration) {
 /// The fastest X jog the bound allows with `lease` (`plan::overrun_cap`).
 fn lease_speed(lease: Duration) -> f64 {
     let (bound, rt) = bound_and_way();
-    crate::jog::speed_cap(&crate::device::emp::plan::braking(), lease + rt, bound)
+    crate::motion::speed_cap(&crate::device::emp::plan::braking(), lease + rt, bound)
 }
 
 /// The velocity move the driver sends next (`20 19` first when the sample
@@ -389,7 +389,7 @@ fn a_renewal_is_granted_no_longer_lease_than_the_speed_allows() {
         lease: ms(750),
     });
     let (bound, rt) = bound_and_way();
-    let allowed = crate::jog::lease_cap(
+    let allowed = crate::motion::lease_cap(
         &crate::device::emp::plan::braking(),
         hz,
         bound - hz * rt.as_secs_f64(),

@@ -18,7 +18,7 @@
 
 use std::time::Duration;
 
-use crate::motion::Ramp;
+use super::Ramp;
 
 /// Allowance for the way from "the lease has run out" (or "a key was let
 /// go") to the stop byte on the wire: the device task's timer (1 ms

@@ -1,0 +1,419 @@
+//! The layer order of the crate's top-level modules, checked: a module uses
+//! only modules of lower layers, never one of its own layer or above
+//! (`docs/architecture.md`, "Layer order"). The check reads the sources, so
+//! an upward `use crate::…` (or a path `crate::…`, or `super::` climbing out
+//! of the module) anywhere under `src/`, tests included, fails it with the
+//! file and line.
+
+use std::collections::BTreeSet;
+use std::fs;
+use std::path::{Path, PathBuf};
+
+/// From the wire up. A module may use the modules of the rows above its own;
+/// the modules of one row are independent of each other.
+const LAYERS: &[&[&str]] = &[
+    // shared arithmetic and types
+    &["axis", "motion", "traffic", "wire"],
+    &["proto"],
+    &["config"],
+    &["transport"],
+    &["sim"],
+    &["device"],
+    &["program"],
+    &["jog"],
+    &["ui"],
+    &["cli"],
+];
+
+/// Top-level files that are not layers: the crate root, the binary and
+/// this check.
+const NOT_LAYERS: &[&str] = &["lib", "main", "layers"];
+
+fn layer(module: &str) -> Option<usize> {
+    LAYERS.iter().position(|row| row.contains(&module))
+}
+
+/// One reference from a file to a top-level module of the crate.
+#[derive(Debug, Clone, PartialEq, Eq)]
+struct Reference {
+    line: usize,
+    module: String,
+}
+
+/// `text` with comments removed and the contents of string and character
+/// literals blanked (newlines kept, so lines still count): what is left is
+/// code whose paths can be read without a parser.
+fn code_only(text: &str) -> String {
+    let chars: Vec<char> = text.chars().collect();
+    let mut out = String::with_capacity(text.len());
+    let blank = |c: char| if c == '\n' { '\n' } else { ' ' };
+    let mut i = 0;
+    while i < chars.len() {
+        let c = chars[i];
+        let next = chars.get(i + 1).copied();
+        if c == '/' && next == Some('/') {
+            while i < chars.len() && chars[i] != '\n' {
+                i += 1;
+            }
+        } else if c == '/' && next == Some('*') {
+            // Block comments nest in Rust.
+            let mut depth = 0;
+            while i < chars.len() {
+                if chars[i] == '/' && chars.get(i + 1) == Some(&'*') {
+                    depth += 1;
+                    i += 2;
+                } else if chars[i] == '*' && chars.get(i + 1) == Some(&'/') {
+                    depth -= 1;
+                    i += 2;
+                    if depth == 0 {
+                        break;
+                    }
+                } else {
+                    out.push(blank(chars[i]));
+                    i += 1;
+                }
+            }
+        } else if c == 'r' && matches!(next, Some('"') | Some('#')) && !ident_before(&chars, i) {
+            // Raw string: r"…", r#"…"#, …
+            let mut j = i + 1;
+            let mut hashes = 0;
+            while chars.get(j) == Some(&'#') {
+                hashes += 1;
+                j += 1;
+            }
+            if chars.get(j) != Some(&'"') {
+                out.push(c);
+                i += 1;
+                continue;
+            }
+            out.push('"');
+            j += 1;
+            while j < chars.len() {
+                if chars[j] == '"' && (1..=hashes).all(|h| chars.get(j + h) == Some(&'#')) {
+                    j += 1 + hashes;
+                    break;
+                }
+                out.push(blank(chars[j]));
+                j += 1;
+            }
+            out.push('"');
+            i = j;
+        } else if c == '"' {
+            out.push('"');
+            i += 1;
+            while i < chars.len() && chars[i] != '"' {
+                if chars[i] == '\\' {
+                    out.push(' ');
+                    i += 1;
+                }
+                if let Some(&ch) = chars.get(i) {
+                    out.push(blank(ch));
+                }
+                i += 1;
+            }
+            out.push('"');
+            i += 1;
+        } else if c == '\'' {
+            // A character literal ('x', '\n', '\u{1F}') or a lifetime ('a).
+            let literal_end = if next == Some('\\') {
+                (i + 3..chars.len()).find(|&j| chars[j] == '\'')
+            } else if chars.get(i + 2) == Some(&'\'') {
+                Some(i + 2)
+            } else {
+                None
+            };
+            match literal_end {
+                Some(end) => {
+                    out.push_str("' '");
+                    i = end + 1;
+                }
+                None => {
+                    out.push(c);
+                    i += 1;
+                }
+            }
+        } else {
+            out.push(c);
+            i += 1;
+        }
+    }
+    out
+}
+
+fn is_ident(c: char) -> bool {
+    c.is_alphanumeric() || c == '_'
+}
+
+fn ident_before(chars: &[char], i: usize) -> bool {
+    i > 0 && is_ident(chars[i - 1])
+}
+
+/// A small tokenizer over code: identifiers, `::` and single punctuation.
+fn tokens(code: &str) -> Vec<(usize, String)> {
+    let chars: Vec<char> = code.chars().collect();
+    let mut line = 1;
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < chars.len() {
+        let c = chars[i];
+        if c == '\n' {
+            line += 1;
+            i += 1;
+        } else if c.is_whitespace() {
+            i += 1;
+        } else if is_ident(c) {
+            let start = i;
+            while i < chars.len() && is_ident(chars[i]) {
+                i += 1;
+            }
+            out.push((line, chars[start..i].iter().collect()));
+        } else if c == ':' && chars.get(i + 1) == Some(&':') {
+            out.push((line, "::".to_string()));
+            i += 2;
+        } else {
+            out.push((line, c.to_string()));
+            i += 1;
+        }
+    }
+    out
+}
+
+/// The top-level modules a file refers to. `depth` is the file's own module
+/// depth (`src/x.rs` and `src/x/mod.rs`: 1, `src/x/y.rs`: 2), so that a
+/// `super::` chain that climbs out of its top-level module is caught too.
+fn references(text: &str, depth: usize) -> Vec<Reference> {
+    let toks = tokens(&code_only(text));
+    let word = |k: usize| toks.get(k).map(|(_, t)| t.as_str());
+    let mut found = Vec::new();
+    // Brace depths at which inline `mod name {` blocks were opened.
+    let mut inline_mods: Vec<usize> = Vec::new();
+    let mut braces = 0usize;
+    let mut k = 0;
+    while k < toks.len() {
+        let (line, tok) = (toks[k].0, toks[k].1.as_str());
+        match tok {
+            "{" => {
+                if k >= 2 && word(k - 2) == Some("mod") {
+                    inline_mods.push(braces);
+                }
+                braces += 1;
+            }
+            "}" => {
+                braces = braces.saturating_sub(1);
+                if inline_mods.last() == Some(&braces) {
+                    inline_mods.pop();
+                }
+            }
+            _ => {}
+        }
+        let after_path = k > 0 && word(k - 1) == Some("::");
+        let macro_crate = k > 0 && word(k - 1) == Some("$");
+        let root = if tok == "crate" && !after_path && !macro_crate {
+            Some(k + 1)
+        } else if tok == "super" && !after_path {
+            let mut climbed = 0;
+            let mut j = k;
+            while word(j) == Some("super") && word(j + 1) == Some("::") {
+                climbed += 1;
+                j += 2;
+            }
+            (climbed > 0 && climbed >= depth + inline_mods.len()).then_some(j - 1)
+        } else {
+            None
+        };
+        if let Some(sep) = root.filter(|&s| word(s) == Some("::")) {
+            for module in first_segments(&toks, sep + 1) {
+                found.push(Reference { line, module });
+            }
+        }
+        k += 1;
+    }
+    found
+}
+
+/// The first segment of the path at `at`: one name, or for a group
+/// (`{a::b, c}`) the first name of each of its items.
+fn first_segments(toks: &[(usize, String)], at: usize) -> Vec<String> {
+    let Some((_, first)) = toks.get(at) else {
+        return Vec::new();
+    };
+    if first != "{" {
+        return vec![first.clone()];
+    }
+    let mut names = Vec::new();
+    let mut nesting = 0;
+    let mut item_start = true;
+    for (_, tok) in &toks[at + 1..] {
+        match tok.as_str() {
+            "{" => nesting += 1,
+            "}" if nesting == 0 => break,
+            "}" => nesting -= 1,
+            "," if nesting == 0 => item_start = true,
+            name if item_start => {
+                names.push(name.to_string());
+                item_start = false;
+            }
+            _ => {}
+        }
+    }
+    names
+}
+
+/// Every `.rs` file under `dir`.
+fn rust_files(dir: &Path, into: &mut Vec<PathBuf>) {
+    let Ok(entries) = fs::read_dir(dir) else {
+        panic!("cannot read {}", dir.display())
+    };
+    for entry in entries.flatten() {
+        let path = entry.path();
+        if path.is_dir() {
+            rust_files(&path, into);
+        } else if path.extension().is_some_and(|e| e == "rs") {
+            into.push(path);
+        }
+    }
+}
+
+/// The top-level module of a file under `src/` and its module depth.
+fn module_of(relative: &Path) -> (String, usize) {
+    let parts: Vec<String> = relative
+        .iter()
+        .map(|p| p.to_string_lossy().into_owned())
+        .collect();
+    let top = parts[0].trim_end_matches(".rs").to_string();
+    let depth = parts.len() - usize::from(parts.last().is_some_and(|p| p == "mod.rs"));
+    (top, depth)
+}
+
+/// Every reference in `src/` that goes to the same layer or up, as
+/// `file:line: a -> b`.
+fn violations(src: &Path) -> Vec<String> {
+    let mut files = Vec::new();
+    rust_files(src, &mut files);
+    files.sort();
+    let mut found = Vec::new();
+    for file in files {
+        let relative = file.strip_prefix(src).unwrap_or(&file);
+        let (top, depth) = module_of(relative);
+        if NOT_LAYERS.contains(&top.as_str()) {
+            continue;
+        }
+        let text = fs::read_to_string(&file).unwrap_or_else(|e| panic!("{}: {e}", file.display()));
+        let Some(from) = layer(&top) else {
+            found.push(format!("{}: module `{top}` is in no layer", file.display()));
+            continue;
+        };
+        for r in references(&text, depth) {
+            if r.module == top {
+                continue;
+            }
+            match layer(&r.module) {
+                Some(to) if to < from => {}
+                Some(_) => found.push(format!(
+                    "src/{}:{}: `{top}` uses `{}`, which is not below it",
+                    relative.display(),
+                    r.line,
+                    r.module
+                )),
+                // `crate::SomeReexport` or a name that is not a module.
+                None => {}
+            }
+        }
+    }
+    found
+}
+
+#[test]
+fn no_module_uses_its_own_layer_or_one_above() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let found = violations(&src);
+    assert!(
+        found.is_empty(),
+        "imports against the layer order (src/layers.rs, docs/architecture.md):\n{}",
+        found.join("\n")
+    );
+}
+
+#[test]
+fn every_top_level_module_has_a_layer() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut modules = BTreeSet::new();
+    for entry in fs::read_dir(&src).expect("src").flatten() {
+        let name = entry.file_name().to_string_lossy().into_owned();
+        let path = entry.path();
+        if path.is_dir() || name.ends_with(".rs") {
+            modules.insert(name.trim_end_matches(".rs").to_string());
+        }
+    }
+    for module in &modules {
+        assert!(
+            NOT_LAYERS.contains(&module.as_str()) || layer(module).is_some(),
+            "src/{module}: add it to a row of LAYERS in src/layers.rs"
+        );
+    }
+    for row in LAYERS {
+        for module in *row {
+            assert!(
+                modules.contains(*module),
+                "LAYERS names `{module}`, not in src/"
+            );
+        }
+    }
+}
+
+#[test]
+fn references_are_found_in_every_spelling() {
+    let text = r##"
+use crate::proto::isel;
+use crate::{axis::Axis, ui::{keymap, model}, device};
+pub(crate) fn f() { let _ = crate::sim::SimDevice::new(); }
+// use crate::cli::nothing;  (a comment)
+/* crate::cli::nothing /* nested */ still comment */
+const S: &str = "crate::cli::nothing";
+const R: &str = r#"crate::cli::nothing"#;
+fn g<'a>(c: char) -> bool { c == '{' || c == '\'' }
+macro_rules! m { () => { $crate::cli::x() } }
+mod inner {
+    use super::super::jog::Gate;
+    use super::local;
+}
+use super::super::config::Profile;
+"##;
+    // As `src/device/x.rs` (depth 2): `super::super` leaves `device`
+    // outside the inline module, not inside it.
+    let found: Vec<(usize, String)> = references(text, 2)
+        .into_iter()
+        .map(|r| (r.line, r.module))
+        .collect();
+    let expect = [
+        (2, "proto"),
+        (3, "axis"),
+        (3, "ui"),
+        (3, "device"),
+        (4, "sim"),
+        (15, "config"),
+    ];
+    let expect: Vec<(usize, String)> = expect.iter().map(|(l, m)| (*l, m.to_string())).collect();
+    assert_eq!(found, expect);
+}
+
+#[test]
+fn an_upward_import_is_reported_with_its_line() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let proto = dir.path().join("proto");
+    fs::create_dir_all(&proto).expect("mkdir");
+    fs::write(
+        proto.join("mod.rs"),
+        "use crate::axis::Axis;\nuse crate::{wire, ui::keymap::Action};\n",
+    )
+    .expect("write");
+    fs::write(dir.path().join("motion.rs"), "use crate::wire::Baud;\n").expect("write");
+    let found = violations(dir.path());
+    assert_eq!(
+        found,
+        [
+            "src/motion.rs:1: `motion` uses `wire`, which is not below it",
+            "src/proto/mod.rs:2: `proto` uses `ui`, which is not below it",
+        ]
+    );
+}
