@@ -1,12 +1,15 @@
 //! Input diagnostics: which inputs a machine has ([`channels`]), the
 //! recorder the device task feeds with every reading of them ([`recorder`]),
-//! and what it keeps ([`history`]). `jogterm watch`, `jogterm commission`
+//! what it keeps ([`history`]), and the switch walk-test that reads it
+//! ([`walk`], with its commissioning [`report`]). `jogterm watch`, `jogterm commission`
 //! and the console's port timeline all read the same changes
 //! (`docs/ui.md`, "Port timeline").
 
 pub mod channels;
 pub mod history;
 pub mod recorder;
+pub mod report;
+pub mod walk;
 
 pub use channels::channels;
 pub use history::{InputHistory, Recorded, SkewMark};
