@@ -117,7 +117,7 @@ impl IselSettings {
                 rate: PollRate::from_profile(profile.poll.rate_hz),
                 positions: true,
                 ports_every: profile.poll.ports_every.max(1),
-                ports: PollPlan::DEFAULT_PORTS.to_vec(),
+                ports: PollPlan::ALL_INPUT_PORTS.to_vec(),
             },
             timing: Timing::default(),
         })

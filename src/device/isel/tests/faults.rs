@@ -183,6 +183,8 @@ fn an_open_hood_blocks_motion_while_it_is_open() {
     h.expect_text("@0b2");
     // Power ok, hood open, automatic.
     h.reply(b"002");
+    h.expect_text("@0b0");
+    h.reply(b"000");
     assert_eq!(
         h.state().fault.as_ref().map(|f| f.recovery),
         Some(Recovery::CloseHood)
@@ -197,7 +199,12 @@ fn an_open_hood_blocks_motion_while_it_is_open() {
         ["step X=10 Y=0 Z=0: controller error: close the hood"]
     );
     h.reply(&position_reply(0, 0, 0));
-    for (cmd, r) in [("@0b1", b"003"), ("@0b3", b"000"), ("@0b2", b"062")] {
+    for (cmd, r) in [
+        ("@0b1", b"003"),
+        ("@0b3", b"000"),
+        ("@0b2", b"062"),
+        ("@0b0", b"000"),
+    ] {
         h.expect_text(cmd);
         h.reply(r);
     }
