@@ -95,7 +95,6 @@ fn the_walk_test_finds_a_swapped_wire_times_the_estop_and_writes_its_report() {
             answer("");
         }
     }
-    drop(answer);
     let status = loop {
         if let Ok(Some(s)) = child.try_wait() {
             break s;

@@ -777,10 +777,13 @@ mod tests {
         assert!(e.armed().is_empty());
     }
 
+    /// Every level `sw` was set to, and when.
+    type SwitchLog = Arc<Mutex<Vec<(Instant, bool)>>>;
+
     /// One two-level input `sw`; records every level it is set to.
     struct Switch {
         level: bool,
-        log: Arc<Mutex<Vec<(Instant, bool)>>>,
+        log: SwitchLog,
     }
 
     impl SimDevice for Switch {
@@ -816,7 +819,7 @@ mod tests {
         }
     }
 
-    fn switch() -> (Engine, Arc<Mutex<Vec<(Instant, bool)>>>) {
+    fn switch() -> (Engine, SwitchLog) {
         let log = Arc::new(Mutex::new(Vec::new()));
         let device = Switch {
             level: false,
