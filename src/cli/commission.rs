@@ -10,15 +10,14 @@ use std::time::{Duration, Instant, SystemTime};
 use anyhow::Context as _;
 use clap::Args;
 
+use super::GlobalArgs;
 use super::out;
-use super::session::{self, EXIT_LINK, EXIT_USAGE, Linked, Polling, Session, StartError};
-use super::{GlobalArgs, emp};
+use super::session::{self, EXIT_LINK, EXIT_USAGE, Polling, Session};
 use crate::device::api::{Event, LinkState, Recovery};
 use crate::device::inputs::channels;
 use crate::device::inputs::report::{self, Meta};
 use crate::device::inputs::walk::{Do, STEP_TIME, WalkTest, outputs_of};
 use crate::device::log::utc_timestamp;
-use crate::proto::Protocol;
 
 pub const LONG_ABOUT: &str = "\
 Walk through every wired input of the machine profile, one at a time, and check that it is
@@ -79,22 +78,13 @@ pub struct CommissionArgs {
 const FIRST_READING: Duration = Duration::from_secs(5);
 
 pub fn run(global: &GlobalArgs, args: &CommissionArgs) -> anyhow::Result<ExitCode> {
-    let usage = |m: String| {
-        out::say(format_args!("jogterm commission: {m}"));
-        Ok(ExitCode::from(EXIT_USAGE))
-    };
-    let mut profile = match session::resolve(global, args.baud) {
+    let profile = match session::command_profile("commission", global, args.baud, &args.drive) {
         Ok(p) => p,
-        Err(StartError::Usage(m)) => return usage(m),
-        Err(StartError::Failed(e)) => return Err(e),
+        Err(ended) => return ended,
     };
-    if profile.connection.protocol == Protocol::Emp
-        && let Err(m) = emp::apply_drives(&mut profile, &args.drive)
-    {
-        return usage(m);
-    }
     if args.step_s == 0 {
-        return usage("--step-s must be at least 1".to_owned());
+        out::say("jogterm commission: --step-s must be at least 1");
+        return Ok(ExitCode::from(EXIT_USAGE));
     }
     let started = SystemTime::now();
     let base = args.report.clone().unwrap_or_else(|| {
@@ -118,11 +108,11 @@ pub fn run(global: &GlobalArgs, args: &CommissionArgs) -> anyhow::Result<ExitCod
     let runtime = session::runtime()?;
     runtime.block_on(async {
         let channels = channels::shared(&profile);
-        let session = match session::start(global, profile, Polling::INPUTS) {
-            Ok(s) => s,
-            Err(StartError::Usage(m)) => return usage(m),
-            Err(StartError::Failed(e)) => return Err(e),
-        };
+        let session =
+            match session::command_session("commission", global, profile, Polling::INPUTS).await {
+                Ok(s) => s,
+                Err(ended) => return ended,
+            };
         let step = Duration::from_secs(args.step_s);
         Ok(commission(session, args, &channels, step, meta, &base).await)
     })
@@ -180,14 +170,6 @@ async fn commission(
     mut meta: Meta,
     base: &Path,
 ) -> ExitCode {
-    if let Linked::Failed(reason) = session.linked(Duration::from_secs(10)).await {
-        out::say(format_args!(
-            "jogterm commission: link failure: {reason}; {}",
-            Recovery::CheckLink.instruction()
-        ));
-        session.close().await;
-        return ExitCode::from(EXIT_LINK);
-    }
     let inputs = session.handle.inputs().clone();
     // Every input group read (at least twice), so every input's resting
     // level is known before its step; the outputs from the same snapshot.

@@ -69,6 +69,61 @@ pub fn resolve(global: &GlobalArgs, baud: Option<u32>) -> Result<Profile, StartE
     Ok(profile)
 }
 
+/// How a command ends early: its exit status, or a failure for `main`.
+pub type Ended = anyhow::Result<std::process::ExitCode>;
+
+fn usage(command: &str, message: &str) -> Ended {
+    super::out::say(format_args!("jogterm {command}: {message}"));
+    Ok(std::process::ExitCode::from(EXIT_USAGE))
+}
+
+/// What `poll`, `watch` and `commission` take first: the profile with
+/// `--baud` and, for EMP, the drives of `--drive`; bad usage is said as
+/// `jogterm <command>: …` and ends the command with status 2.
+pub fn command_profile(
+    command: &str,
+    global: &GlobalArgs,
+    baud: Option<u32>,
+    drives: &[String],
+) -> Result<Profile, Ended> {
+    let mut profile = match resolve(global, baud) {
+        Ok(p) => p,
+        Err(StartError::Usage(m)) => return Err(usage(command, &m)),
+        Err(StartError::Failed(e)) => return Err(Err(e)),
+    };
+    if profile.connection.protocol == Protocol::Emp
+        && let Err(m) = super::emp::apply_drives(&mut profile, drives)
+    {
+        return Err(usage(command, &m));
+    }
+    Ok(profile)
+}
+
+/// Then the session, up to the link: bad usage ends the command with
+/// status 2, a link that does not come up (within 10 s) with status 3, both
+/// said as `jogterm <command>: …`.
+pub async fn command_session(
+    command: &str,
+    global: &GlobalArgs,
+    profile: Profile,
+    polling: Polling,
+) -> Result<Session, Ended> {
+    let mut session = match start(global, profile, polling) {
+        Ok(s) => s,
+        Err(StartError::Usage(m)) => return Err(usage(command, &m)),
+        Err(StartError::Failed(e)) => return Err(Err(e)),
+    };
+    if let Linked::Failed(reason) = session.linked(Duration::from_secs(10)).await {
+        super::out::say(format_args!(
+            "jogterm {command}: link failure: {reason}; {}",
+            crate::device::api::Recovery::CheckLink.instruction()
+        ));
+        session.close().await;
+        return Err(Ok(std::process::ExitCode::from(EXIT_LINK)));
+    }
+    Ok(session)
+}
+
 /// The families `send` and `poll` talk.
 fn talks(protocol: Protocol) -> bool {
     matches!(protocol, Protocol::Isel | Protocol::Emcu | Protocol::Emp)

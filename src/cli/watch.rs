@@ -8,9 +8,9 @@ use std::time::Duration;
 
 use clap::Args;
 
-use super::out::{self, StdoutError};
-use super::session::{self, EXIT_LINK, EXIT_USAGE, Linked, Polling, Session, StartError};
-use super::{GlobalArgs, emp};
+use super::GlobalArgs;
+use super::out;
+use super::session::{self, EXIT_LINK, Polling, Session};
 use crate::device::api::{Event, InputChange, InputSource, LinkState, Recovery};
 use crate::device::inputs::{self, Sampling};
 use crate::proto::Protocol;
@@ -155,44 +155,22 @@ fn no_input_hint(family: Protocol) -> &'static str {
 }
 
 pub fn run(global: &GlobalArgs, args: &WatchArgs) -> anyhow::Result<ExitCode> {
-    let mut profile = match session::resolve(global, args.baud) {
+    let profile = match session::command_profile("watch", global, args.baud, &args.drive) {
         Ok(p) => p,
-        Err(StartError::Usage(m)) => {
-            out::say(format_args!("jogterm watch: {m}"));
-            return Ok(ExitCode::from(EXIT_USAGE));
-        }
-        Err(StartError::Failed(e)) => return Err(e),
+        Err(ended) => return ended,
     };
     let family = profile.connection.protocol;
-    if family == Protocol::Emp
-        && let Err(m) = emp::apply_drives(&mut profile, &args.drive)
-    {
-        out::say(format_args!("jogterm watch: {m}"));
-        return Ok(ExitCode::from(EXIT_USAGE));
-    }
     let runtime = session::runtime()?;
     runtime.block_on(async {
-        let session = match session::start(global, profile, Polling::INPUTS) {
-            Ok(s) => s,
-            Err(StartError::Usage(m)) => {
-                out::say(format_args!("jogterm watch: {m}"));
-                return Ok(ExitCode::from(EXIT_USAGE));
-            }
-            Err(StartError::Failed(e)) => return Err(e),
-        };
-        Ok(watch(session, args, family).await)
+        match session::command_session("watch", global, profile, Polling::INPUTS).await {
+            Ok(session) => Ok(watch(session, args, family).await),
+            Err(ended) => ended,
+        }
     })
 }
 
+/// Changes until an interrupt, a closed stdout or the link's end.
 async fn watch(mut session: Session, args: &WatchArgs, family: Protocol) -> ExitCode {
-    if let Linked::Failed(reason) = session.linked(Duration::from_secs(10)).await {
-        out::say(format_args!(
-            "jogterm watch: link failure: {reason}; {}",
-            Recovery::CheckLink.instruction()
-        ));
-        session.close().await;
-        return ExitCode::from(EXIT_LINK);
-    }
     out::say("jogterm watch: reading every input as fast as the line allows; Ctrl-C ends");
     let inputs = session.handle.inputs().clone();
     let mut told = false;
@@ -254,7 +232,7 @@ async fn watch(mut session: Session, args: &WatchArgs, family: Protocol) -> Exit
                     inputs::describe(&change)
                 };
                 if let Err(e) = out::line(text) {
-                    code = stdout_failed(e);
+                    code = out::stdout_failed(e, "watch", "stopped watching");
                     break;
                 }
             }
@@ -268,17 +246,6 @@ async fn watch(mut session: Session, args: &WatchArgs, family: Protocol) -> Exit
     }
     session.close().await;
     ExitCode::from(code)
-}
-
-/// As `poll`: a reader that went away is status 0, any other failure 1.
-fn stdout_failed(e: StdoutError) -> u8 {
-    match e {
-        StdoutError::Closed => 0,
-        StdoutError::Failed(_) => {
-            out::say(format_args!("jogterm watch: {e}; stopped watching"));
-            1
-        }
-    }
 }
 
 #[cfg(test)]

@@ -7,7 +7,10 @@ use std::time::Duration;
 use serde_json::{Value, json};
 
 use super::level_word;
-use super::walk::{InputResult, OutputResult, WalkTest, input_summary, ms, output_address};
+use super::walk::{
+    InputResult, OutputResult, WalkTest, input_summary, labelled, ms, output_address,
+    output_summary,
+};
 
 /// What the report says the walk-test was about.
 #[derive(Debug, Clone, PartialEq)]
@@ -116,19 +119,8 @@ pub fn findings(walk: &WalkTest) -> Vec<String> {
     out.extend(
         walk.outputs
             .iter()
-            .filter(|o| o.confirmed == Some(false) || o.refused.is_some())
-            .map(|o| {
-                format!(
-                    "output {} ({}): {}",
-                    o.name,
-                    output_address(o.output),
-                    o.refused
-                        .as_deref()
-                        .map_or("did not do what it should".to_owned(), |r| format!(
-                            "refused: {r}"
-                        ))
-                )
-            }),
+            .filter(|o| o.is_finding())
+            .map(output_summary),
     );
     out
 }
@@ -164,12 +156,7 @@ fn level_cell(r: &InputResult) -> String {
 fn input_row(n: usize, r: &InputResult) -> String {
     let mut note = Vec::new();
     if !r.others.is_empty() {
-        let names: Vec<String> = r
-            .others
-            .iter()
-            .map(|o| format!("{} ({})", o.label(), o.address))
-            .collect();
-        note.push(format!("moved instead: {}", names.join(", ")));
+        note.push(format!("moved instead: {}", labelled(&r.others)));
     }
     if r.chattered {
         note.push("chatters".to_owned());
@@ -267,24 +254,13 @@ pub fn markdown(meta: &Meta, walk: &WalkTest) -> String {
     if !walk.outputs.is_empty() {
         md.push_str("\n## Outputs\n\n| output | address | result | inputs that followed |\n|---|---|---|---|\n");
         for o in &walk.outputs {
-            let result = match (&o.refused, o.switched_to, o.confirmed) {
-                (Some(why), _, _) => format!("refused: {why}"),
-                (None, None, _) => "skipped".to_owned(),
-                (None, Some(v), Some(true)) => format!("switched to {v}: confirmed"),
-                (None, Some(v), Some(false)) => format!("switched to {v}: NOT confirmed"),
-                (None, Some(v), None) => format!("switched to {v}: no answer"),
-            };
-            let followed: Vec<String> = o
-                .inputs_followed
-                .iter()
-                .map(|c| format!("{} ({})", c.label(), c.address))
-                .collect();
+            let result = o.outcome();
             md.push_str(&format!(
                 "| {} | {} | {} | {} |\n",
                 cell(&o.name),
                 output_address(o.output),
                 cell(&result),
-                cell(&followed.join(", "))
+                cell(&labelled(&o.inputs_followed))
             ));
         }
     }

@@ -363,14 +363,10 @@ impl WalkTest {
                     open_skew: None,
                     close_skew: None,
                 });
-                let names: Vec<String> = circuits
-                    .iter()
-                    .map(|c| format!("{} ({})", c.label(), c.address))
-                    .collect();
                 vec![Do::Say(format!(
                     "{} {}: press the emergency stop now, then release it (Enter skips, q ends)",
                     self.position(),
-                    names.join(", ")
+                    labelled(&circuits)
                 ))]
             }
             Step::Output(o) => {
@@ -745,6 +741,15 @@ pub fn output_address(o: OutputId) -> String {
     }
 }
 
+/// `limit X1 (in3.0), limit Y1 (in3.2)`.
+pub(super) fn labelled(channels: &[Arc<InputChannel>]) -> String {
+    channels
+        .iter()
+        .map(|c| format!("{} ({})", c.label(), c.address))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
 pub(super) fn ms(d: Duration) -> String {
     format!("{:.1} ms", d.as_secs_f64() * 1000.0)
 }
@@ -770,12 +775,7 @@ pub fn input_summary(r: &InputResult) -> String {
         ));
     }
     if !r.others.is_empty() {
-        let names: Vec<String> = r
-            .others
-            .iter()
-            .map(|o| format!("{} ({})", o.label(), o.address))
-            .collect();
-        text.push_str(&format!(", moved: {}", names.join(", ")));
+        text.push_str(&format!(", moved: {}", labelled(&r.others)));
     }
     if r.chattered {
         text.push_str(", CHATTERS");
@@ -783,22 +783,37 @@ pub fn input_summary(r: &InputResult) -> String {
     text
 }
 
-fn output_summary(o: &OutputResult) -> String {
-    let what = match (&o.refused, o.switched_to, o.confirmed) {
-        (Some(why), _, _) => format!("refused: {why}"),
-        (None, None, _) => "skipped".to_owned(),
-        (None, Some(_), Some(true)) => "ok (confirmed)".to_owned(),
-        (None, Some(_), Some(false)) => "did not do what it should".to_owned(),
-        (None, Some(_), None) => "switched, not confirmed".to_owned(),
-    };
-    let mut text = format!("output {} ({}): {what}", o.name, output_address(o.output));
+impl OutputResult {
+    /// What came of it, in words: `switched to 1: confirmed`, `skipped` …
+    pub fn outcome(&self) -> String {
+        match (&self.refused, self.switched_to, self.confirmed) {
+            (Some(why), _, _) => format!("refused: {why}"),
+            (None, None, _) => "skipped".to_owned(),
+            (None, Some(v), Some(true)) => format!("switched to {v}: confirmed"),
+            (None, Some(v), Some(false)) => format!("switched to {v}: NOT confirmed"),
+            (None, Some(v), None) => format!("switched to {v}: no answer"),
+        }
+    }
+
+    /// The operator must look into it.
+    pub fn is_finding(&self) -> bool {
+        self.confirmed == Some(false) || self.refused.is_some()
+    }
+}
+
+/// One output's result in words.
+pub fn output_summary(o: &OutputResult) -> String {
+    let mut text = format!(
+        "output {} ({}): {}",
+        o.name,
+        output_address(o.output),
+        o.outcome()
+    );
     if !o.inputs_followed.is_empty() {
-        let names: Vec<String> = o
-            .inputs_followed
-            .iter()
-            .map(|c| format!("{} ({})", c.label(), c.address))
-            .collect();
-        text.push_str(&format!("; inputs that followed: {}", names.join(", ")));
+        text.push_str(&format!(
+            "; inputs that followed: {}",
+            labelled(&o.inputs_followed)
+        ));
     }
     text
 }
@@ -992,7 +1007,7 @@ mod tests {
                 value: 0
             })
         );
-        assert!(said(&out).contains("output spindle (out2): ok (confirmed)"));
+        assert!(said(&out).contains("output spindle (out2): switched to 1: confirmed"));
         // The second: skipped, nothing is switched.
         let out = w.answer("", t0);
         assert!(!out.iter().any(|d| matches!(d, Do::Request(_))));
