@@ -82,9 +82,9 @@ fn the_walk_test_finds_a_swapped_wire_times_the_estop_and_writes_its_report() {
             continue;
         };
         if prompt.contains("press the emergency stop") {
-            sim.controls(&["set estop1 open", "after 30 set estop2 open"]);
+            sim.control("set estop1 open; after 30 set estop2 open");
             thread::sleep(Duration::from_millis(300));
-            sim.controls(&["set estop1 closed", "set estop2 closed"]);
+            sim.control("set estop1 closed; set estop2 closed");
         } else if prompt.contains(" output spindle (out2)") {
             answer("y");
         } else if prompt.contains(" output ") {

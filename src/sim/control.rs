@@ -32,6 +32,8 @@ pub enum ControlCommand {
     Input(InputControl),
     /// `pulse`, `chatter`, `after`.
     Timed(TimedControl),
+    /// Input controls joined by `;`, taken at one instant.
+    Together(Vec<TimedControl>),
     Fault(Fault),
     /// `memory <commands>`: the program store takes this many commands.
     Memory(usize),
@@ -65,26 +67,33 @@ pub fn parse_line(text: &str, line: usize) -> Result<Option<ControlCommand>, Con
     if word.starts_with('#') {
         return Ok(None);
     }
-    if let Some(timed) = parse_input(word, rest) {
+    // Input controls joined by `;` are taken at one instant.
+    if text.contains(';') && parse_timed(word, rest).is_some() {
+        let all = text
+            .split(';')
+            .map(|part| {
+                let (word, rest) = next_word(part)
+                    .ok_or_else(|| "an empty command between two `;`".to_owned())?;
+                parse_timed(word, rest).unwrap_or_else(|| {
+                    Err(format!(
+                        "`{word}` cannot be joined with `;`: only set, press, pulse, chatter and after"
+                    ))
+                })
+            })
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(fail)?;
+        return Ok(Some(ControlCommand::Together(all)));
+    }
+    if let Some(timed) = parse_timed(word, rest) {
         return match timed.map_err(fail)? {
-            Timed::Input(control) => Ok(Some(ControlCommand::Input(control))),
-            what => Ok(Some(ControlCommand::Timed(TimedControl {
-                delay: Duration::ZERO,
-                what,
-            }))),
+            TimedControl {
+                delay,
+                what: Timed::Input(control),
+            } if delay.is_zero() => Ok(Some(ControlCommand::Input(control))),
+            timed => Ok(Some(ControlCommand::Timed(timed))),
         };
     }
     let command = match word.to_ascii_lowercase().as_str() {
-        "after" => {
-            let usage = "`after` needs a time and a command: after <ms> set|press|pulse|chatter …";
-            let (ms, rest) = next_word(rest).ok_or_else(|| fail(usage.to_owned()))?;
-            let delay = parse_millis(ms).map_err(fail)?;
-            let (inner, rest) = next_word(rest).ok_or_else(|| fail(usage.to_owned()))?;
-            let what = parse_input(inner, rest)
-                .ok_or_else(|| fail(format!("`{inner}` cannot wait: {usage}")))?
-                .map_err(fail)?;
-            ControlCommand::Timed(TimedControl { delay, what })
-        }
         "value" => {
             let usage = "`value` needs an analogue input and a number: value <input> <number>";
             let (name, rest) = next_word(rest).ok_or_else(|| fail(usage.to_owned()))?;
@@ -137,6 +146,29 @@ pub fn parse_line(text: &str, line: usize) -> Result<Option<ControlCommand>, Con
         }
     };
     Ok(Some(command))
+}
+
+/// `set`, `press`, `pulse`, `chatter`, and any of them `after` a time;
+/// `None` for another command word.
+fn parse_timed(word: &str, rest: &str) -> Option<Result<TimedControl, String>> {
+    if !word.eq_ignore_ascii_case("after") {
+        return parse_input(word, rest).map(|what| {
+            what.map(|what| TimedControl {
+                delay: Duration::ZERO,
+                what,
+            })
+        });
+    }
+    let usage = "`after` needs a time and a command: after <ms> set|press|pulse|chatter …";
+    let parsed = (|| {
+        let (ms, rest) = next_word(rest).ok_or_else(|| usage.to_owned())?;
+        let delay = parse_millis(ms)?;
+        let (inner, rest) = next_word(rest).ok_or_else(|| usage.to_owned())?;
+        let what =
+            parse_input(inner, rest).ok_or_else(|| format!("`{inner}` cannot wait: {usage}"))??;
+        Ok(TimedControl { delay, what })
+    })();
+    Some(parsed)
 }
 
 /// `set`, `press`, `pulse` and `chatter` (also after `after`); `None` for
@@ -353,6 +385,7 @@ pub fn help_text(input_names: &[&str]) -> String {
          \x20 pulse <input> <ms>                   flip an input, flip it back <ms> later\n\
          \x20 chatter <input> <n> <every-ms>       flip an input n times, one flip every <every-ms>\n\
          \x20 after <ms> set|press|pulse|chatter … do it <ms> from now\n\
+         \x20 <control>; <control> …               set, press, pulse, chatter, after at one instant\n\
          \x20 value <input> <number>               set an analogue input (EMP adc1-3: mV)\n\
          \x20 fault drop-byte [<index>|middle]     leave one byte out of the next message\n\
          \x20 fault corrupt-byte [<index>|middle]  flip bit 7 of one byte of the next message\n\
@@ -399,7 +432,8 @@ pub fn run_control_loop(
         let result = match command {
             ControlCommand::Quit => return Ok(()),
             ControlCommand::Input(control) => shell.input(control).map(|()| "ok".to_owned()),
-            ControlCommand::Timed(control) => shell.timed(control).map(|()| "ok".to_owned()),
+            ControlCommand::Timed(control) => shell.timed(vec![control]).map(|()| "ok".to_owned()),
+            ControlCommand::Together(all) => shell.timed(all).map(|()| "ok".to_owned()),
             ControlCommand::Fault(fault) => shell.fault(fault).map(|()| "ok".to_owned()),
             ControlCommand::Memory(n) => shell.program_memory(n).map(|()| "ok".to_owned()),
             ControlCommand::Show => shell.show(),
@@ -515,6 +549,43 @@ mod tests {
         assert_eq!(
             error("after 10 set a"),
             "line 7: `set` needs an input and a level: set <input> on|off|open|closed|1|0"
+        );
+    }
+
+    #[test]
+    fn controls_joined_by_semicolons_are_taken_together() {
+        let ms = Duration::from_millis;
+        assert_eq!(
+            parse("set estop1 open; after 30 set estop2 open"),
+            ControlCommand::Together(vec![
+                TimedControl {
+                    delay: Duration::ZERO,
+                    what: Timed::Input(InputControl::Set {
+                        name: "estop1".into(),
+                        level: false
+                    })
+                },
+                TimedControl {
+                    delay: ms(30),
+                    what: Timed::Input(InputControl::Set {
+                        name: "estop2".into(),
+                        level: false
+                    })
+                },
+            ])
+        );
+        assert_eq!(
+            error("set a on; fault withhold"),
+            "line 7: `fault` cannot be joined with `;`: only set, press, pulse, chatter and after"
+        );
+        assert_eq!(
+            error("set a on;"),
+            "line 7: an empty command between two `;`"
+        );
+        // Garbage may hold a `;`: it is no input control.
+        assert_eq!(
+            parse("fault garbage a;b"),
+            ControlCommand::Fault(Fault::Garbage(b"a;b".to_vec()))
         );
     }
 

@@ -60,7 +60,7 @@ type Reply<T> = mpsc::Sender<T>;
 
 enum Request {
     Input(InputControl, Reply<Result<(), String>>),
-    Timed(TimedControl, Reply<Result<(), String>>),
+    Timed(Vec<TimedControl>, Reply<Result<(), String>>),
     Fault(Fault, Reply<Result<(), String>>),
     Memory(usize, Reply<Result<(), String>>),
     Show(Reply<String>),
@@ -91,9 +91,9 @@ impl ShellControl {
     }
 
     /// Pulse an input, make it chatter, or set it later (`pulse`,
-    /// `chatter`, `after`).
-    pub fn timed(&self, control: TimedControl) -> Result<(), ShellError> {
-        self.ask(|reply| Request::Timed(control, reply))?
+    /// `chatter`, `after`); several are given at one instant (`;`).
+    pub fn timed(&self, controls: Vec<TimedControl>) -> Result<(), ShellError> {
+        self.ask(|reply| Request::Timed(controls, reply))?
             .map_err(ShellError::Rejected)
     }
 
@@ -450,8 +450,9 @@ impl Worker {
             Request::Input(control, reply) => {
                 let _ = reply.send(self.engine.control(&control, now));
             }
-            Request::Timed(control, reply) => {
-                let _ = reply.send(self.engine.timed(&control, now));
+            Request::Timed(controls, reply) => {
+                let result = controls.iter().try_for_each(|c| self.engine.timed(c, now));
+                let _ = reply.send(result);
             }
             Request::Fault(Fault::Close { reopen_after }, reply) => {
                 let _ = reply.send(self.line.close(reopen_after, now));

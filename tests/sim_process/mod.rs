@@ -178,27 +178,14 @@ impl SimProcess {
 
     /// A control line the simulator must accept (`ok`).
     pub fn control(&mut self, command: &str) {
-        self.controls(&[command]);
-    }
-
-    /// Control lines written at once (so the simulator reads them back to
-    /// back, microseconds apart: `set estop1 open` and `after 30 set estop2
-    /// open` are 30 ms apart on the controller), each of which it must accept.
-    pub fn controls(&mut self, commands: &[&str]) {
-        let text: String = commands.iter().map(|c| format!("{c}\n")).collect();
-        self.stdin
-            .write_all(text.as_bytes())
-            .expect("write to the simulator");
-        self.stdin.flush().expect("flush the simulator's stdin");
-        for command in commands {
-            let answer = self.line(command);
-            assert_eq!(
-                answer,
-                "ok",
-                "`{command}` was not accepted; stderr:\n{}",
-                self.stderr_text()
-            );
-        }
+        self.write(command);
+        let answer = self.line(command);
+        assert_eq!(
+            answer,
+            "ok",
+            "`{command}` was not accepted; stderr:\n{}",
+            self.stderr_text()
+        );
     }
 
     /// Everything the controller has received, in `traffic::readable` form.
