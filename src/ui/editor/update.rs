@@ -427,11 +427,12 @@ fn teach_move(model: &mut Model, kind: MoveKind) -> Vec<Effect> {
         axes: &model.setup.axes,
     };
     let slot = SlotContext::of(model.editor.buffer.program(), at);
+    let origin = teach::absolute_origin(machine.language, &model.machine);
     let taught = teach::taught_move(
         &machine,
         kind,
         &position,
-        &model.machine.work_zero,
+        &origin,
         model.editor.teach.previous.as_ref(),
         speed,
         slot,
