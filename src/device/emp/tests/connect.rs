@@ -192,13 +192,7 @@ fn a_drive_known_to_be_off_is_polled_once_a_second_without_asking_again() {
         h.advance(OFF_POLL_EVERY - ms(1));
         h.expect_nothing();
         h.advance(ms(1));
-        let sent = h.send().unwrap_or_default();
-        if sent.starts_with(b"2C11") {
-            h.answer("2D 11 00 EE 00000000");
-        } else {
-            assert_eq!(sent, super::harness::frame("40 11 01 00 00000000"));
-            h.answer("41 11 00 EE 00000000");
-        }
+        h.reject_poll();
     }
     h.expect_nothing();
     assert!(h.notices().is_empty(), "{:?}", h.notices());
@@ -250,13 +244,7 @@ fn a_drive_that_rejects_0a_too_is_known_off_and_polled_once_a_second() {
     h.poll();
     let from = h.sent.len();
     for _ in 0..5 {
-        let sent = h.send().unwrap_or_default();
-        if sent.starts_with(b"2C11") {
-            h.answer("2D 11 00 EE 00000000");
-        } else {
-            assert!(sent.starts_with(b"4011"), "{sent:?}");
-            h.answer("41 11 00 EE 00000000");
-        }
+        h.reject_poll();
         h.expect_nothing();
         h.advance(OFF_POLL_EVERY);
     }
@@ -315,13 +303,7 @@ fn a_drive_switched_off_by_a_typed_04_is_polled_slowly_without_a_stale_position(
     h.events.clear();
     let from = h.sent.len();
     for _ in 0..3 {
-        let sent = h.send().unwrap_or_default();
-        if sent.starts_with(b"2C11") {
-            h.answer("2D 11 00 EE 00000000");
-        } else {
-            assert!(sent.starts_with(b"4011"), "{sent:?}");
-            h.answer("41 11 00 EE 00000000");
-        }
+        h.reject_poll();
         h.expect_nothing();
         h.advance(OFF_POLL_EVERY);
     }

@@ -117,6 +117,19 @@ impl Harness {
         );
     }
 
+    /// The next frame is a poll of drive 11 (`2C` or `40 01`, whichever
+    /// was due): answer it `EE`, as a drive that is switched off does.
+    #[track_caller]
+    pub fn reject_poll(&mut self) {
+        let sent = self.send().unwrap_or_default();
+        if sent.starts_with(b"2C11") {
+            self.answer("2D 11 00 EE 00000000");
+        } else {
+            assert_eq!(sent, frame("40 11 01 00 00000000"));
+            self.answer("41 11 00 EE 00000000");
+        }
+    }
+
     /// Turn polling on at line speed.
     pub fn poll(&mut self) {
         self.request(crate::device::api::Request::Poll {

@@ -165,8 +165,9 @@ fn a_stop_cancels_queued_requests() {
     assert_eq!(h.refusals(), ["raw @0b1: cancelled by stop"]);
 }
 
-#[test]
-fn an_open_hood_blocks_motion_while_it_is_open() {
+/// Connected and read back, polling at line speed with the ports read in
+/// every cycle.
+fn polling_the_ports_every_cycle() -> Harness {
     let mut h = Harness::with(|s| {
         s.poll.rate = crate::device::isel::PollRate::LineSpeed;
         s.poll.ports_every = 1;
@@ -174,6 +175,12 @@ fn an_open_hood_blocks_motion_while_it_is_open() {
     h.connect();
     h.readback(0, 0, 0, b"0");
     h.take_events();
+    h
+}
+
+#[test]
+fn an_open_hood_blocks_motion_while_it_is_open() {
+    let mut h = polling_the_ports_every_cycle();
     h.expect_text("@0P");
     h.reply(&position_reply(0, 0, 0));
     h.expect_text("@0b1");
@@ -208,13 +215,7 @@ fn an_open_hood_blocks_motion_while_it_is_open() {
 /// fault still asked to release the emergency stop (and read "open.:").
 #[test]
 fn an_estop_circuit_closed_again_leaves_initialise_and_reference_to_do() {
-    let mut h = Harness::with(|s| {
-        s.poll.rate = crate::device::isel::PollRate::LineSpeed;
-        s.poll.ports_every = 1;
-    });
-    h.connect();
-    h.readback(0, 0, 0, b"0");
-    h.take_events();
+    let mut h = polling_the_ports_every_cycle();
     let cycle = |h: &mut Harness, port1: &[u8]| {
         h.expect_text("@0P");
         h.reply(&position_reply(0, 0, 0));
