@@ -300,3 +300,104 @@ fn a_line_the_controller_has_no_room_for_is_marked_and_erase_and_retry_stores_it
     run.send(b"q");
     assert_eq!(run.wait_exit(WAIT), Some(0));
 }
+
+/// The steps column of an axis' row of the position panel
+/// (`X⌂    8.000 mm    8.000    3200 …`: work, unit, machine, steps).
+fn steps_of(screen: &str, axis: &str) -> Option<String> {
+    screen
+        .lines()
+        .find(|l| l.trim_start().starts_with(axis))
+        .and_then(|l| l.split_whitespace().nth(4).map(str::to_string))
+}
+
+/// Wait until the position panel shows `steps` for X.
+fn wait_x_steps(run: &PtyRun, steps: &str) {
+    let end = Instant::now() + WAIT;
+    loop {
+        let screen = run.screen().screen().contents();
+        if steps_of(&screen, "X").as_deref() == Some(steps) {
+            return;
+        }
+        assert!(Instant::now() < end, "X never at {steps} steps:\n{screen}");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+/// Issue 20, finding 3: on EMCU, after `g X5`, `z` and a jog, `t` taught
+/// the work position into the `L` target (machine coordinates, manual
+/// 1.5.10), and the job then drove elsewhere. Taught right after `h` it
+/// said the work zero was not known. Now the taught job drives the machine
+/// back to where it stood.
+#[test]
+fn an_emcu_job_taught_after_a_work_zero_drives_back_to_where_the_machine_stood() {
+    let (dir, config, state) = dirs();
+    // Axes 1 mm from machine 0 at power-up: the reference run is short.
+    let near_zero = (
+        "profiles/emcu.toml",
+        "base = \"emcu\"\n[sim]\nstart_position = 1.0\n",
+    );
+    let mut sim = SimProcess::start_with_files("emcu", &[near_zero]);
+    fs::create_dir_all(config.join("profiles")).expect("profiles dir");
+    fs::write(config.join(near_zero.0), near_zero.1).expect("write the profile");
+    let file = dir.path().join("taught.emcu");
+    fs::write(&file, "; taught\n").expect("write the job");
+    let file_arg = file.display().to_string();
+    let link = sim.link.display().to_string();
+    let mut run = spawn(
+        &[
+            "--port",
+            &link,
+            "--protocol",
+            "emcu",
+            "--program",
+            &file_arg,
+        ],
+        &config,
+        &state,
+    );
+    wait_for(&run, "connected");
+    initialise(&mut run);
+    run.send(b"h");
+    run.send(b"y");
+    wait_for(&run, "READY");
+    wait_x_steps(&run, "0");
+    // Taught at once after the reference run: machine 0.
+    run.send(b"t");
+    wait_for(&run, "L8,X0,Y0,Z0");
+    // Machine X 5 mm (200 steps/mm), the work zero there, one 1 mm step on.
+    run.send(b"gX5\r");
+    wait_x_steps(&run, "1000");
+    run.send(b"z");
+    wait_for(&run, "work zero of XYZ set");
+    run.send(b"\x1b[C");
+    wait_x_steps(&run, "1200");
+    run.send(b"t");
+    wait_for(&run, "L8,X1200,Y0,Z0");
+    // Away to the work zero (machine 5 mm), then the job runs.
+    run.send(b"G");
+    wait_for(&run, "Go to the work zero");
+    run.send(b"y");
+    wait_x_steps(&run, "1000");
+    run.send(b"\x1b[15~");
+    wait_for(&run, "upload finished");
+    run.send(b"\x1b[17~");
+    wait_for(&run, "Run the program");
+    run.send(b"y");
+    wait_for(&run, "the job has ended");
+    // The controller's own count: X back at machine 6 mm.
+    let device = sim.device_state();
+    assert!(device.contains("X 1200 "), "{device}");
+    wait_x_steps(&run, "1200");
+    // Saved from the editor: both taught moves, in machine coordinates.
+    run.send(b"e");
+    wait_for(&run, "taught.emcu");
+    run.send(b"\x13");
+    wait_until("the save", || {
+        fs::read_to_string(&file)
+            .is_ok_and(|t| t.contains("L8,X0,Y0,Z0\n") && t.contains("L8,X1200,Y0,Z0\n"))
+    });
+    run.send(b"\x1bOS");
+    wait_for(&run, "Position");
+    run.send(b"q");
+    assert_eq!(run.wait_exit(WAIT), Some(0));
+}

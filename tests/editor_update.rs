@@ -358,3 +358,106 @@ fn teach_in_appends_an_absolute_move_to_the_measured_position() {
     update(&mut m, ctrl('z'));
     assert!(!m.editor.buffer.text().contains("0 800,"));
 }
+
+/// Issue 20, finding 6: F5 on an EMP machine said "the program is an isel
+/// program, the machine a emp controller".
+#[test]
+fn emp_machines_refuse_uploads_and_teach_in_saying_why() {
+    let t0 = Instant::now();
+    let mut m = model_in(Protocol::Emp, "dark", State::Idle, t0);
+    let said = |m: &Model| {
+        m.message
+            .as_ref()
+            .map(|n| n.text.clone())
+            .unwrap_or_default()
+    };
+    let effects = update(&mut m, key(KeyCode::F(5)));
+    assert!(upload_request(&effects).is_none());
+    assert_eq!(
+        said(&m),
+        "upload refused: EMP drives store no programs (EMP manual: every command runs at once)"
+    );
+    update(&mut m, key(KeyCode::Char('t')));
+    assert_eq!(
+        said(&m),
+        "teach-in refused: EMP drives store no programs (EMP manual: every command runs at once)"
+    );
+    // A program of the other family on EMCU.
+    let mut m = model_in(Protocol::Emcu, "dark", State::Idle, t0);
+    let loaded = jogterm::program::store::Loaded {
+        path: PathBuf::from("/work/part.isel"),
+        text: GOOD.to_string(),
+        fingerprint: Fingerprint::of(GOOD.as_bytes()),
+        lossy: false,
+    };
+    update(
+        &mut m,
+        Msg::Editor(EditorMsg::Loaded {
+            path: "/work/part.isel".into(),
+            result: Ok(Some(loaded)),
+            recovery: None,
+        }),
+    );
+    update(&mut m, key(KeyCode::F(5)));
+    assert_eq!(
+        said(&m),
+        "upload refused: the program is an isel program and the machine has an emcu controller"
+    );
+}
+
+/// The load the effects ask for, if any.
+fn load_request(effects: &[Effect]) -> Option<PathBuf> {
+    effects.iter().find_map(|e| match e {
+        Effect::Editor(EditorIo::Load { path, .. }) => Some(path.clone()),
+        _ => None,
+    })
+}
+
+/// Issue 20, finding 6: Ctrl-O starts with the open file's folder; an
+/// absolute path typed after it was looked for inside that folder
+/// (`/work//tmp/…`), found nowhere, and an empty buffer opened without a
+/// word of warning.
+#[test]
+fn ctrl_o_takes_an_absolute_path_typed_after_the_folder_and_says_when_nothing_is_there() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut m = editing(GOOD);
+    update(&mut m, key(KeyCode::F(4)));
+    update(&mut m, key(KeyCode::Char('e')));
+    assert_eq!(m.focus, PanelId::Editor);
+    let open = |m: &mut Model, typed: &str| {
+        update(m, ctrl('o'));
+        for c in typed.chars() {
+            update(m, key(KeyCode::Char(c)));
+        }
+        update(m, key(KeyCode::Enter))
+    };
+    // `/work/` is there already: the typed absolute path replaces it.
+    let missing = dir.path().join("no-such-folder").join("part.isel");
+    let effects = open(&mut m, &missing.display().to_string());
+    assert_eq!(load_request(&effects).as_deref(), Some(missing.as_path()));
+    // No folder of that name: refused, the program stays.
+    carry_out(&mut m, effects);
+    let said = m
+        .message
+        .as_ref()
+        .map(|n| n.text.clone())
+        .unwrap_or_default();
+    assert!(
+        said.starts_with("cannot open:") && said.contains("there is no folder"),
+        "{said}"
+    );
+    assert_eq!(m.editor.buffer.text(), GOOD);
+    // A folder without the file: a new program, and a warning that says so.
+    let new = dir.path().join("new.isel");
+    let effects = open(&mut m, &format!("/{}", new.display()));
+    assert_eq!(load_request(&effects).as_deref(), Some(new.as_path()));
+    carry_out(&mut m, effects);
+    let note = m.message.as_ref().expect("a message");
+    assert_eq!(note.level, jogterm::ui::traffic_log::NoteLevel::Warning);
+    assert!(
+        note.text
+            .contains("does not exist: a new, empty isel program"),
+        "{}",
+        note.text
+    );
+}

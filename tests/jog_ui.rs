@@ -370,6 +370,81 @@ fn quitting_while_a_jog_runs_asks_and_then_stops_first() {
     assert_eq!(press(&mut m, [ch('q')]), [Effect::Stop, Effect::Quit]);
 }
 
+/// Issue 20, finding 6: pressing `q` mid-jog ends the key repeats, so the
+/// dead-man stops the jog while the question is open; it went on saying
+/// "The machine is moving (Jogging)".
+#[test]
+fn the_quit_question_says_when_the_dead_man_has_stopped_the_jog() {
+    let mut m = ready();
+    continuous(&mut m);
+    let t = m.now;
+    let fx = press(&mut m, down(KeyCode::Right, t));
+    let rs = requests(&fx);
+    let [Request::Jog { id, .. }] = rs.as_slice() else {
+        panic!("{fx:?}")
+    };
+    let id = *id;
+    let jogging = MachineState {
+        activity: Activity::Jogging,
+        ..m.machine.clone()
+    };
+    update(&mut m, Msg::Device(Event::State(jogging.clone())));
+    press(&mut m, [ch('q')]);
+    let question = |m: &Model| match &m.popup {
+        Some(Popup::Confirm(c)) => c.question.clone(),
+        other => panic!("{other:?}"),
+    };
+    assert_eq!(
+        question(&m),
+        "The machine is jogging. Stop all motion, close the port and quit?"
+    );
+    update(
+        &mut m,
+        Msg::Device(Event::JogEnded {
+            id,
+            end: JogEnd::DeadMan,
+        }),
+    );
+    update(
+        &mut m,
+        Msg::Device(Event::State(MachineState {
+            activity: Activity::Idle,
+            ..jogging
+        })),
+    );
+    assert_eq!(
+        question(&m),
+        "The machine has stopped. Close the port and quit?"
+    );
+    assert!(screen(&m).contains("The machine has stopped"));
+    // The answer still stops first.
+    assert_eq!(press(&mut m, [ch('y')]), [Effect::Stop, Effect::Quit]);
+}
+
+/// Issue 20, finding 6: an isel controller is not polled during a reference
+/// run, so nothing redrew the screen and the homing timer stood still.
+#[test]
+fn the_homing_timer_redraws_on_the_clock_alone() {
+    let mut m = ready();
+    let fx = press(&mut m, [ch('h'), ch('y')]);
+    assert!(
+        matches!(requests(&fx).as_slice(), [Request::Home { .. }]),
+        "{fx:?}"
+    );
+    let homing = MachineState {
+        activity: Activity::Homing,
+        ..m.machine.clone()
+    };
+    update(&mut m, Msg::Device(Event::State(homing)));
+    let t = m.now;
+    for tenths in 1..=20u64 {
+        m.dirty = false;
+        update(&mut m, Msg::Tick(t + Duration::from_millis(100 * tenths)));
+        assert!(m.dirty, "no redraw at {tenths} tenths");
+    }
+    assert!(screen(&m).contains("homing XYZ 2.0 s"), "{}", screen(&m));
+}
+
 #[test]
 fn a_terminating_message_stops_and_forgets_the_jog() {
     let mut m = ready();

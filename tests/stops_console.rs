@@ -152,7 +152,7 @@ fn quit_while_jogging(family: &'static str) {
     hold_a_continuous_jog(&mut sim, &mut console);
     console.keys(b"q");
     // The question wraps in its popup: its first line.
-    console.wait_for("The machine is moving (Jogging). Stop all motion");
+    console.wait_for("The machine is jogging. Stop all motion");
     assert!(
         moving(family, &sim.device_state()),
         "still jogging while asked"

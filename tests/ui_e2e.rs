@@ -126,6 +126,35 @@ fn the_built_in_simulator_runs_by_default_and_its_inputs_can_be_flipped() {
     quit_and_check(&mut run);
 }
 
+/// Issue 20, finding 2: a drive that rejects every request before `02`,
+/// `0A` included, got `2C` and `0A` alternately at line speed (about 90
+/// frames/s) and the message line repeated "the error code cannot be read".
+/// The console must poll it slowly and say once what to do.
+#[test]
+fn an_emp_console_on_a_drive_that_is_switched_off_sends_at_most_2_frames_a_second() {
+    const FRAME: u64 = jogterm::proto::emp::FRAME_WIRE_LEN as u64;
+    let config = tempfile::tempdir().expect("tempdir");
+    let mut sim = SimProcess::start_with_args("emp", &["--emp-rejects-0a-before-on"]);
+    let link = sim.link.display().to_string();
+    let mut run = spawn(&["--protocol", "emp", "--port", &link], config.path());
+    // Start-up is over once the state is read back.
+    wait_for(&run, "state read back");
+    let (start, before) = (Instant::now(), sim.received_total());
+    std::thread::sleep(Duration::from_secs(4));
+    let after = sim.received_total();
+    let seconds = start.elapsed().as_secs_f64();
+    let frames = (after - before) / FRAME;
+    assert!(
+        frames as f64 <= 2.0 * seconds,
+        "{frames} frames in {seconds:.1} s"
+    );
+    // Told once what to do (the traffic console keeps the notices).
+    let screen = wait_for(&run, "drive 11 is switched off: switch it on (i)");
+    assert_eq!(screen.matches("is switched off").count(), 1, "{screen}");
+    assert!(!screen.contains("cannot be read"), "{screen}");
+    quit_and_check(&mut run);
+}
+
 #[test]
 fn a_typed_command_is_refused_with_its_reason_then_sent() {
     let config = tempfile::tempdir().expect("tempdir");

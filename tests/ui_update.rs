@@ -486,3 +486,64 @@ fn a_text_reply_is_shown_line_by_line() {
     assert!(shown.contains("=    serial 42"), "{shown}");
     assert!(shown.contains("@0V = iMC-S8 V2.0 / serial 42"), "{shown}");
 }
+
+/// Issue 20, finding 6: once the E-stop circuits were closed again, the
+/// message line kept asking to release the emergency stop, and read
+/// "… E-stop.: release …".
+#[test]
+fn the_estop_message_follows_the_circuits_and_reads_as_a_sentence() {
+    use jogterm::device::api::{ControllerFault, MachineState, Recovery};
+    let mut m = ready(Protocol::Isel);
+    let t = m.now;
+    let fault = ControllerFault {
+        command: "@0A5000,900,0,900,0,900,0,900".into(),
+        code: "9".into(),
+        meaning: jogterm::proto::isel::ReplyCode::MachineFault
+            .meaning()
+            .into(),
+        recovery: Recovery::ClearEmergencyStop,
+    };
+    let open = MachineState {
+        estop: true,
+        referenced: AxisSet::EMPTY,
+        fault: Some(fault.clone()),
+        ..m.machine.clone()
+    };
+    update(&mut m, Msg::Device(Event::Fault(fault.clone())));
+    update(&mut m, Msg::Device(Event::State(open.clone())));
+    // What the message line says: the fresh message, else the state's
+    // detail (the screen cuts long ones).
+    let message = |m: &Model| match m.fresh_message() {
+        Some(note) => note.text.clone(),
+        None => jogterm::ui::summary::summarise(m)
+            .detail
+            .unwrap_or_default(),
+    };
+    let line = message(&m);
+    assert!(
+        line.contains("or an E-stop occurred: release the emergency stop"),
+        "{line}"
+    );
+    assert!(!line.contains(".:"), "{line}");
+    // Closed again: the driver now asks for initialising and referencing.
+    let closed = MachineState {
+        estop: false,
+        fault: Some(ControllerFault {
+            recovery: Recovery::ReinitialiseAndReference,
+            ..fault
+        }),
+        ..open
+    };
+    update(&mut m, Msg::Device(Event::State(closed)));
+    let line = message(&m);
+    assert!(
+        line.contains("emergency stop released: initialise (i) and reference (h) the axes"),
+        "{line}"
+    );
+    // Once that message is old, the state's own words: no circuit to release.
+    update(&mut m, Msg::Tick(t + Duration::from_secs(30)));
+    let line = message(&m);
+    assert!(line.contains("initialise (i) and reference (h)"), "{line}");
+    assert!(!line.contains("release"), "{line}");
+    assert!(!line.contains(".:"), "{line}");
+}

@@ -10,6 +10,7 @@ use clap::Args;
 use super::out::WatchedStdout;
 use super::{GlobalArgs, profile};
 use crate::config::ConfigDirs;
+use crate::proto::Protocol;
 use crate::sim::registry;
 use crate::sim::shell::{PtyOptions, run_pty_simulator_with};
 
@@ -21,9 +22,9 @@ pseudo-terminal's /dev/pts/N). Open it like a serial port; the simulator paces t
 the controller's baud rate (isel 19200). Clients may close it and open it again.
 
 The simulated machine is the one the profile describes (axes, soft limits, [sim]
-limit_margin and start_position). The family is --protocol (or --sim), else the
-profile's connection.protocol; without --profile, --sim/--protocol pick the shipped
-profile of that family (isel, emcu, emp).
+limit_margin, start_position and the variants such as emp_rejects_0a_before_on). The
+family is --protocol (or --sim), else the profile's connection.protocol; without
+--profile, --sim/--protocol pick the shipped profile of that family (isel, emcu, emp).
 
 Lines on stdin operate the machine and inject faults; each accepted line prints `ok` (or
 its output), errors go to stderr. The simulator ends when stdin closes, on `quit`, when
@@ -59,6 +60,10 @@ pub struct SimArgs {
     /// Keep a symbolic link at PATH that points at the pseudo-terminal
     #[arg(long, value_name = "PATH")]
     pub link: Option<PathBuf>,
+    /// EMP: drives not switched on reject `0A` too (as every request but
+    /// `02`); the profile's `[sim] emp_rejects_0a_before_on`
+    #[arg(long)]
+    pub emp_rejects_0a_before_on: bool,
 }
 
 /// Run `jogterm sim` until stdin closes.
@@ -69,8 +74,14 @@ pub fn run(global: &GlobalArgs, args: &SimArgs) -> anyhow::Result<()> {
              port; use --link PATH for a fixed path"
         );
     }
-    let profile = profile::resolve(global, &ConfigDirs::from_env())?;
+    let mut profile = profile::resolve(global, &ConfigDirs::from_env())?;
     let protocol = profile::family(&profile);
+    if args.emp_rejects_0a_before_on {
+        if protocol != Protocol::Emp {
+            bail!("--emp-rejects-0a-before-on models EMP drives: this simulator is {protocol}");
+        }
+        profile.sim.emp_rejects_0a_before_on = true;
+    }
     let device = registry::build(protocol, &profile)?;
     tracing::info!(%protocol, profile = %profile.name, "simulator starting");
     let mut stdout = WatchedStdout::new();

@@ -259,6 +259,11 @@ pub struct SimProfile {
     /// Position (units, machine coordinates) the simulated axes stand at when
     /// the simulator starts, before any reference run.
     pub start_position: f64,
+    /// EMP: a drive that is not switched on rejects `0A` too, as every other
+    /// request but `02` (EMP manual "02": "Ohne diesen Einschalt-Befehl
+    /// werden keine Kommandos angenommen"); by default it answers `0A` with
+    /// error `02` (`docs/simulator.md`, EMP variants).
+    pub emp_rejects_0a_before_on: bool,
 }
 
 /// A profile problem found after parsing: the key path and what is wrong.

@@ -89,6 +89,8 @@ pub enum StoreError {
     TooLarge { path: PathBuf, size: u64 },
     #[error("{}: not a regular file", path.display())]
     NotAFile { path: PathBuf },
+    #[error("{}: there is no folder {}", path.display(), folder.display())]
+    NoFolder { path: PathBuf, folder: PathBuf },
     #[error("{} changed on disk since it was opened", path.display())]
     Changed { path: PathBuf },
     #[error("{}: not a jogterm recovery file: {reason}", path.display())]
@@ -121,12 +123,22 @@ pub fn absolute(path: &Path) -> Result<PathBuf, StoreError> {
     std::path::absolute(path).map_err(io_error(path))
 }
 
-/// Read a program file; `Ok(None)` when there is none (a new file).
+/// Read a program file; `Ok(None)` when there is none (a new file). A file
+/// in a folder that does not exist is an error, not a new file: it could
+/// never be saved, and is most likely a mistyped path.
 pub fn load(path: &Path) -> Result<Option<Loaded>, StoreError> {
     let path = absolute(path)?;
     let file = match File::open(&path) {
         Ok(f) => f,
-        Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(None),
+        Err(e) if e.kind() == io::ErrorKind::NotFound => {
+            return match path.parent() {
+                Some(folder) if !folder.is_dir() => Err(StoreError::NoFolder {
+                    folder: folder.to_path_buf(),
+                    path,
+                }),
+                _ => Ok(None),
+            };
+        }
         Err(e) => return Err(io_error(&path)(e)),
     };
     let meta = file.metadata().map_err(io_error(&path))?;
@@ -566,6 +578,11 @@ mod tests {
         assert!(loaded.lossy);
         assert_eq!(loaded.text, "; caf\u{fffd}\n");
         assert!(matches!(load(d.path()), Err(StoreError::NotAFile { .. })));
+        // A new file needs a folder to be saved in.
+        let nowhere = d.path().join("no-such-folder").join("a.isel");
+        let e = load(&nowhere).expect_err("no folder");
+        assert!(matches!(e, StoreError::NoFolder { .. }), "{e}");
+        assert!(e.to_string().contains("there is no folder"), "{e}");
     }
 
     #[test]

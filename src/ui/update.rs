@@ -204,11 +204,8 @@ fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
                 // end a program run or a reference run (`docs/jogging.md`).
                 ask(
                     model,
-                    "Quit while moving",
-                    format!(
-                        "The machine is moving ({:?}). Stop all motion, close the port and quit?",
-                        model.machine.activity
-                    ),
+                    QUIT_WHILE_MOVING,
+                    quit_question(model),
                     vec![Effect::Stop, Effect::Quit],
                 );
                 return Vec::new();
@@ -368,6 +365,42 @@ fn cycle_focus(model: &mut Model, delta: isize) {
     let at = ring.iter().position(|p| *p == model.focus).unwrap_or(0) as isize;
     if let Some(next) = ring.get((at + delta).rem_euclid(len.max(1)) as usize) {
         model.focus = *next;
+    }
+}
+
+/// The title of the question `q` asks while something moves.
+const QUIT_WHILE_MOVING: &str = "Quit while moving";
+
+/// What `q` asks while something moves, in words; once everything stands
+/// (the dead-man stopped the jog meanwhile, a reference run ended), that it
+/// has stopped: the question must not go on claiming motion.
+fn quit_question(model: &Model) -> String {
+    use crate::device::api::Activity;
+    let what = match model.machine.activity {
+        Activity::Idle if keypad::moving(model) => "jogging",
+        Activity::Idle => {
+            return "The machine has stopped. Close the port and quit?".to_string();
+        }
+        Activity::Jogging => "jogging",
+        Activity::Stepping => "stepping",
+        Activity::Moving => "moving to a position",
+        Activity::Homing => "running a reference run",
+        Activity::RunningProgram => "running a program",
+        Activity::Uploading => "storing a program",
+        Activity::Stopping => "stopping",
+    };
+    format!("The machine is {what}. Stop all motion, close the port and quit?")
+}
+
+/// Keep the quit question true to what the machine does now.
+fn refresh_quit_question(model: &mut Model) {
+    let question = quit_question(model);
+    if let Some(Popup::Confirm(c)) = model.popup.as_mut()
+        && c.title == QUIT_WHILE_MOVING
+        && c.question != question
+    {
+        c.question = question;
+        model.dirty = true;
     }
 }
 
@@ -647,18 +680,21 @@ fn tick(model: &mut Model, now: Instant) {
     let before = (
         model.io.highlight_count(model.now),
         model.fresh_message().is_some(),
+        keypad::clock_shown(model),
     );
     model.now = now;
     let flushed = model.traffic.flush_idle(now);
     let after = (
         model.io.highlight_count(now),
         model.fresh_message().is_some(),
+        keypad::clock_shown(model),
     );
     // A timeline that follows the readings moves with the clock.
     let timeline_moves = model.focus == PanelId::Timeline && model.timeline.end.is_none();
     if flushed || before != after || timeline_moves {
         model.dirty = true;
     }
+    refresh_quit_question(model);
 }
 
 fn device_event(model: &mut Model, event: Event) {
@@ -673,7 +709,13 @@ fn device_event(model: &mut Model, event: Event) {
             model.io.apply(&snapshot);
         }
         Event::Input(change) => model.timeline.record(&change),
-        Event::State(state) => model.machine = state,
+        Event::State(state) => {
+            let released = model.machine.estop && !state.estop && state.link_up;
+            model.machine = state;
+            if released {
+                estop_released(model);
+            }
+        }
         Event::Fault(fault) => say(model, NoteLevel::Danger, fault_text(&fault)),
         Event::Refused { request, reason } => say(
             model,
@@ -722,6 +764,17 @@ fn device_event(model: &mut Model, event: Event) {
         Event::Stats(stats) => model.stats = Some(stats),
         Event::Notice(text) => say(model, NoteLevel::Info, text),
     }
+    refresh_quit_question(model);
+}
+
+/// The emergency stop circuits are closed again: the message that said to
+/// release them is out of date; say what is left to do.
+fn estop_released(model: &mut Model) {
+    let text = match &model.machine.fault {
+        Some(f) => format!("emergency stop released: {}", f.recovery.instruction()),
+        None => "emergency stop released".to_string(),
+    };
+    say(model, NoteLevel::Warning, text);
 }
 
 fn link_changed(model: &mut Model, state: LinkState) {
@@ -777,9 +830,11 @@ fn jog_ended(model: &mut Model, end: JogEnd) {
 /// A controller's error for the operator: what it means and what to do
 /// first (the message line may cut the rest), then the answer and command.
 pub fn fault_text(f: &ControllerFault) -> String {
+    // Meanings are sentences (isel chapter 5's end with a full stop); the
+    // instruction follows a colon.
+    let meaning = f.meaning.trim_end().trim_end_matches('.');
     format!(
-        "{}: {} (answer {} to {})",
-        f.meaning,
+        "{meaning}: {} (answer {} to {})",
         f.recovery.instruction(),
         f.code,
         f.command

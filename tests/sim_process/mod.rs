@@ -116,6 +116,16 @@ impl SimProcess {
     /// in `profiles/<name>.toml` patches the shipped one for the simulator
     /// and for every `jogterm` that shares the directory.
     pub fn start_with_files(family: &'static str, files: &[(&str, &str)]) -> SimProcess {
+        Self::start_with(family, files, &[])
+    }
+
+    /// [`SimProcess::start`] with `args` after `jogterm sim --pty`: a
+    /// simulator variant (`--emp-rejects-0a-before-on`).
+    pub fn start_with_args(family: &'static str, args: &[&str]) -> SimProcess {
+        Self::start_with(family, &[], args)
+    }
+
+    fn start_with(family: &'static str, files: &[(&str, &str)], args: &[&str]) -> SimProcess {
         let dir = tempfile::tempdir().expect("temp dir");
         for (path, contents) in files {
             let path = dir.path().join(path);
@@ -127,7 +137,9 @@ impl SimProcess {
         let link = dir.path().join(format!("tty{family}"));
         let (mut child, stdin, lines) = spawn_with_lines(
             Command::new(JOGTERM)
-                .args(["sim", "--pty", "--protocol", family, "--link"])
+                .args(["sim", "--pty", "--protocol", family])
+                .args(args)
+                .arg("--link")
                 .arg(&link)
                 .env("JOGTERM_CONFIG_DIR", dir.path())
                 .env("RUST_BACKTRACE", "0")
@@ -198,6 +210,17 @@ impl SimProcess {
             }
             _ => panic!("unexpected answer to `show received`: {answer}"),
         }
+    }
+
+    /// How many bytes the controller has received since it started.
+    pub fn received_total(&mut self) -> u64 {
+        self.write("show received");
+        let answer = self.line("show received");
+        answer
+            .strip_prefix("received ")
+            .and_then(|rest| rest.split_once(" bytes"))
+            .and_then(|(n, _)| n.parse().ok())
+            .unwrap_or_else(|| panic!("unexpected answer to `show received`: {answer}"))
     }
 
     /// The device's state line of `show` (`device: …`); the other lines

@@ -288,17 +288,18 @@ impl Context {
     /// `0A` told why `rejected` was not taken (or why a long action failed):
     /// the fault with its meaning, and what it means for the machine.
     pub fn error_read(&mut self, rejected: &Request, code: ErrorCode, quiet_not_on: bool) {
+        if code == ErrorCode::NOT_ON {
+            let meaning = code.meaning().unwrap_or("not switched on");
+            self.switched_off(
+                rejected,
+                &format!("EE {:02X}", code.0),
+                meaning,
+                quiet_not_on,
+            );
+            return;
+        }
         let axis = self.settings.axis_of(rejected.ds);
-        let was_off = self.drive(rejected.ds).is_some_and(|d| d.on == Some(false));
         let recovery = match code {
-            ErrorCode::NOT_ON => {
-                if let Some(d) = self.drive_mut(rejected.ds) {
-                    d.on = Some(false);
-                    d.mode = None;
-                    d.position = None;
-                }
-                Recovery::SwitchOn
-            }
             ErrorCode::LIMIT_SWITCH => {
                 if let Some(a) = axis {
                     self.unreference(a);
@@ -321,21 +322,52 @@ impl Context {
             },
             recovery,
         };
-        let quiet = code == ErrorCode::NOT_ON && quiet_not_on;
-        if recovery != Recovery::None && !quiet {
+        if recovery != Recovery::None {
             self.state.fault = Some(fault.clone());
         }
         self.refresh();
-        if quiet {
-            if !was_off {
-                self.notice(format!(
-                    "drive {} is not switched on: initialise (i)",
-                    rejected.ds
-                ));
-            }
-        } else {
-            self.emit(Event::Fault(fault));
+        self.emit(Event::Fault(fault));
+    }
+
+    /// `rejected` was answered `EE` and so was the `0A` that asked why: only
+    /// a drive that is not switched on rejects `0A` (manual "02", "0A").
+    pub fn rejected_while_off(&mut self, rejected: &Request, quiet: bool) {
+        self.switched_off(
+            rejected,
+            "EE",
+            "switched off (it rejects every request, 0A included)",
+            quiet,
+        );
+    }
+
+    /// Drive `rejected.ds` is not switched on: known off from now on (its
+    /// polls slow down, `poll::OffDrives`), no position. What jogterm sent on
+    /// its own (`quiet`) is a notice, given once while the drive stays off;
+    /// what the operator asked for is a fault.
+    fn switched_off(&mut self, rejected: &Request, code: &str, meaning: &str, quiet: bool) {
+        let ds = rejected.ds;
+        let was_off = self.known_off(ds);
+        if let Some(d) = self.drive_mut(ds) {
+            d.on = Some(false);
+            d.mode = None;
+            d.position = None;
         }
+        if quiet {
+            self.refresh();
+            if !was_off {
+                self.notice(format!("drive {ds} is switched off: switch it on (i)"));
+            }
+            return;
+        }
+        let fault = ControllerFault {
+            command: rejected.to_frame().to_string(),
+            code: code.to_owned(),
+            meaning: format!("drive {ds}: {meaning}"),
+            recovery: Recovery::SwitchOn,
+        };
+        self.state.fault = Some(fault.clone());
+        self.refresh();
+        self.emit(Event::Fault(fault));
     }
 }
 

@@ -426,24 +426,27 @@ impl EmpDriver {
 
     fn rejected(&mut self, request: &Frame, owner: Option<Owner>) {
         if request.command == Command::LastError {
-            self.cx.notice(format!(
-                "drive {} rejected 0A: the error code cannot be read",
-                request.ds
-            ));
-            return;
-        }
-        // A poll of a drive known to be off: nothing new to ask.
-        let known_off = self
-            .cx
-            .drive(request.ds)
-            .is_some_and(|d| d.on == Some(false));
-        if known_off && matches!(owner, Some(Owner::Poll(_))) {
+            // A drive that is on answers `0A` (manual "0A"); one that is not
+            // takes no command at all ("Ohne diesen Einschalt-Befehl werden
+            // keine Kommandos angenommen", manual "02"), and some reject `0A`
+            // too (../shared/protocols.md "EMP before 02"). So the drive is
+            // off, and asking again would only loop.
+            let (rejected, quiet) = match owner {
+                Some(Owner::ErrorQuery { rejected, quiet }) => (rejected, quiet),
+                // The read-back's own `0A`, or one typed (answered as such).
+                _ => (*request, true),
+            };
+            self.cx.rejected_while_off(&rejected, quiet);
             return;
         }
         // What jogterm sent on its own to a drive that is off is a notice;
         // what the operator asked for is a fault.
         let quiet = matches!(owner, Some(Owner::Stop | Owner::Poll(_)))
             || (owner == Some(Owner::Op) && matches!(self.op, Some(Op::Readback(_))));
+        // Sent on its own to a drive known to be off: nothing new to ask.
+        if quiet && self.cx.known_off(request.ds) {
+            return;
+        }
         self.errors.push_back((*request, quiet));
     }
 

@@ -2,7 +2,8 @@
 //! time, also during a move: manual "2C", so positions are always
 //! measured), and every `ports_every`th cycle the switches and inputs of
 //! every drive with `40 01`. A drive known to be switched off answers every
-//! frame but `0A` with `EE` (manual "02", error 02), so its polls are sent
+//! frame with `EE` (manual "02": "Ohne diesen Einschalt-Befehl werden keine
+//! Kommandos angenommen"; some drives `0A` too), so one of its polls is sent
 //! only once every [`OFF_POLL_EVERY`] ([`OffDrives`]) until it is switched on
 //! again or the link is new; the other drives keep the full rate.
 
@@ -48,19 +49,20 @@ pub fn poller(settings: &EmpSettings) -> Poller<PollItem> {
     )
 }
 
-/// How often each poll item of a drive that is switched off is sent. Every
-/// such poll is answered `EE` and tells nothing new but that the drive is
-/// still off (`02` from jogterm, or a new link, is what switches it on and
-/// restores the full rate); once a second keeps the line free for the
-/// other drives and still shows a drive switched on behind jogterm's back
-/// (its poll is answered again) within a second.
+/// How often a drive that is switched off is polled: one frame (its `2C`
+/// or its `40 01`, whichever is due) per period. Every such poll is
+/// answered `EE` and tells nothing new but that the drive is still off
+/// (`02` from jogterm, or a new link, is what switches it on and restores
+/// the full rate); once a second keeps the line free for the other drives
+/// and still shows a drive switched on behind jogterm's back (its poll is
+/// answered again) within a second.
 pub const OFF_POLL_EVERY: Duration = Duration::from_secs(1);
 
-/// When each poll item was last sent, to hold back those of drives that
+/// When each drive was last polled, to hold back the polls of drives that
 /// are switched off.
 #[derive(Debug, Default)]
 pub struct OffDrives {
-    sent: Vec<(PollItem, Instant)>,
+    sent: Vec<(DriveAddress, Instant)>,
     /// When the first item held back by the last look for a poll becomes
     /// due: the driver wakes then (a line-speed poller has nothing due of
     /// its own).
@@ -68,8 +70,8 @@ pub struct OffDrives {
 }
 
 impl OffDrives {
-    fn last(&self, item: PollItem) -> Option<Instant> {
-        self.sent.iter().find(|(i, _)| *i == item).map(|(_, t)| *t)
+    fn last(&self, ds: DriveAddress) -> Option<Instant> {
+        self.sent.iter().find(|(d, _)| *d == ds).map(|(_, t)| *t)
     }
 
     /// A new look for a poll to send: nothing held back yet.
@@ -78,17 +80,19 @@ impl OffDrives {
     }
 
     /// Whether `item` may be sent now (`off`: its drive is known to be
-    /// switched off); if so, it counts as sent, if not, it is held back.
+    /// switched off); if so, its drive counts as polled, if not, it is
+    /// held back.
     pub fn admit(&mut self, item: PollItem, off: bool, now: Instant) -> bool {
-        if off && let Some(t) = self.last(item) {
+        let ds = item.ds();
+        if off && let Some(t) = self.last(ds) {
             let due = t + OFF_POLL_EVERY;
             if now < due {
                 self.wake = Some(self.wake.map_or(due, |w| w.min(due)));
                 return false;
             }
         }
-        self.sent.retain(|(i, _)| *i != item);
-        self.sent.push((item, now));
+        self.sent.retain(|(d, _)| *d != ds);
+        self.sent.push((ds, now));
         true
     }
 
@@ -141,18 +145,22 @@ mod tests {
     fn a_drive_that_is_off_is_polled_once_a_second() {
         let t = Instant::now();
         let x = PollItem::Position(DriveAddress::SINGLE);
+        let x_io = PollItem::Io(DriveAddress::SINGLE);
         let mut off = OffDrives::default();
         assert!(off.admit(x, true, t), "the first poll goes");
         assert_eq!(off.wake(), None);
         assert!(!off.admit(x, true, t + Duration::from_millis(999)));
+        // Its other poll waits too: one frame a second for the drive.
+        assert!(!off.admit(x_io, true, t + Duration::from_millis(999)));
         assert_eq!(off.wake(), Some(t + OFF_POLL_EVERY));
         off.look();
         assert_eq!(off.wake(), None);
-        assert!(off.admit(x, true, t + OFF_POLL_EVERY));
+        assert!(off.admit(x_io, true, t + OFF_POLL_EVERY));
+        assert!(!off.admit(x, true, t + OFF_POLL_EVERY));
         // Switched on: at once, every time.
         let on = t + OFF_POLL_EVERY + Duration::from_millis(10);
         assert!(off.admit(x, false, on));
-        assert!(off.admit(x, false, on));
+        assert!(off.admit(x_io, false, on));
         // Off again: a second after the last poll.
         assert!(!off.admit(x, true, on + Duration::from_millis(500)));
         off.reset();
@@ -171,6 +179,17 @@ mod tests {
         let got: Vec<_> = (0..3).map(|_| p.next(t)).collect();
         let io = Some(PollItem::Io(DriveAddress::SINGLE));
         assert_eq!(got, [io, io, io]);
+    }
+
+    #[test]
+    fn drives_are_held_back_each_on_its_own() {
+        let t = Instant::now();
+        let y = DriveAddress::new(2, 1).expect("21");
+        let mut off = OffDrives::default();
+        assert!(off.admit(PollItem::Position(DriveAddress::SINGLE), true, t));
+        assert!(off.admit(PollItem::Position(y), true, t));
+        assert!(!off.admit(PollItem::Io(y), true, t));
+        assert!(off.admit(PollItem::Io(DriveAddress::SINGLE), false, t));
     }
 
     #[test]

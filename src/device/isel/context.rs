@@ -251,14 +251,18 @@ impl Context {
             InputPort::Status1 => {
                 self.state.estop = value & 0b11 != 0b11;
                 if self.state.estop {
-                    self.machine_fault(port, value, "An emergency stop circuit is open.");
+                    self.machine_fault(port, value, "An emergency stop circuit opened");
                 } else if value & 0b100 != 0 {
-                    self.machine_fault(port, value, "The power stages are over temperature.");
+                    self.machine_fault(port, value, "The power stages overheated");
+                } else {
+                    self.machine_fault_gone();
                 }
             }
             InputPort::Status2 => {
                 if value & 0b10 == 0 {
-                    self.machine_fault(port, value, "The power supply is not ok.");
+                    self.machine_fault(port, value, "The power supply failed");
+                } else {
+                    self.machine_fault_gone();
                 }
                 self.hood(value);
             }
@@ -309,6 +313,29 @@ impl Context {
                 self.state.fault = Some(fault.clone());
                 self.emit(Event::Fault(fault));
             }
+        }
+    }
+
+    /// The ports read last show no machine fault any more (E-stop circuits
+    /// closed, no over-temperature, power ok): a fault that asked to clear
+    /// it now asks only for what is left, initialising and referencing
+    /// (manual chapter 5, code 9); "release the emergency stop" would send
+    /// the operator looking for a circuit that is closed.
+    fn machine_fault_gone(&mut self) {
+        let port1_ok = self
+            .ports
+            .input(InputPort::Status1)
+            .is_some_and(|v| v & 0b111 == 0b011);
+        let port2_ok = self
+            .ports
+            .input(InputPort::Status2)
+            .is_none_or(|v| v & 0b10 != 0);
+        if let Some(f) = self.state.fault.as_mut()
+            && f.recovery == Recovery::ClearEmergencyStop
+            && port1_ok
+            && port2_ok
+        {
+            f.recovery = Recovery::ReinitialiseAndReference;
         }
     }
 

@@ -79,6 +79,12 @@ pub struct DriveConfig {
     /// The ADC jumper: `2x` then reads unipolar channel 3 and no negative
     /// voltages.
     pub adc_unipolar: bool,
+    /// Before `02` (and after `04`) `0A` is rejected too, like every other
+    /// request ("Ohne diesen Einschalt-Befehl werden keine Kommandos
+    /// angenommen", manual "02"; `../shared/protocols.md` "EMP before
+    /// `02`"); when false it answers with error `02`, so a console can
+    /// learn why (decision 2). `[sim] emp_rejects_0a_before_on`.
+    pub rejects_0a_before_on: bool,
 }
 
 /// The sample rate after power-up: 1 kHz, the manual's "0x3600 = 1 ms"
@@ -123,6 +129,7 @@ impl DriveConfig {
             // Modules count up from the example number.
             device_number: DEVICE_NUMBER + u16::from(ds.module_number()) - 1,
             adc_unipolar: false,
+            rejects_0a_before_on: false,
         }
     }
 
@@ -162,6 +169,7 @@ impl DriveConfig {
             )
             .starting_at(counts(sim.start_position));
         d.reference_cam = counts(sim.limit_margin / 2.0).max(1.0);
+        d.rejects_0a_before_on = sim.emp_rejects_0a_before_on;
         d.axis = Some(axis);
         d
     }

@@ -212,8 +212,14 @@ impl Drive {
     /// Carry out a request at `t` (when processing ends) and answer it.
     pub(crate) fn execute(&mut self, command: Command, t: Instant) -> Vec<Reply> {
         // "Ohne diesen Einschalt-Befehl werden keine Kommandos angenommen";
-        // `0A` still answers, or nobody could learn why (decision 2).
-        if !self.on && !matches!(command, Command::On(_) | Command::LastError) {
+        // `0A` still answers, or nobody could learn why (decision 2), unless
+        // the drive is the variant that takes the manual literally.
+        let taken_while_off = match command {
+            Command::On(_) => true,
+            Command::LastError => !self.cfg.rejects_0a_before_on,
+            _ => false,
+        };
+        if !self.on && !taken_while_off {
             return vec![self.reject(command.cmd(), ErrorCode::NOT_ON)];
         }
         match self.run(command, t) {

@@ -10,6 +10,8 @@
 //!   axes four pairs (x, y, z1, z2), the last one 0 (`../shared/protocols.md`
 //!   isel 5).
 //! - EMCU (manual 1.5.10, 1.5.6): `L<slot>,X…,Y…,Z…` (upper case absolute,
+//!   in machine coordinates from the reference point, `docs/protocols.md`
+//!   EMCU: jogterm's work zero is the console's own and no part of a job;
 //!   lower case relative) with the end-speed slot [`EMCU_TEACH_SLOT`], whose
 //!   speed `#E<slot>,<hz>` is set before the move when the job does not
 //!   already run it at that speed, and set back after it for a later move of
@@ -24,7 +26,7 @@ use thiserror::Error;
 
 use crate::axis::Axis;
 use crate::config::profile::AxisProfile;
-use crate::device::api::PerAxis;
+use crate::device::api::{MachineState, PerAxis};
 use crate::program::path::covering_config;
 use crate::program::{Command, Language, Program};
 use crate::proto::emcu;
@@ -57,6 +59,10 @@ pub enum TeachError {
         "the work zero of {0} is not known: set it (z) or reference the axes (h) before teaching absolute moves"
     )]
     ZeroUnknown(Axis),
+    #[error(
+        "{0} is not referenced: reference the axes (h) before teaching absolute moves (EMCU targets count from the reference point)"
+    )]
+    Unreferenced(Axis),
     #[error("no point taught yet: teach an absolute move (t) first, relative moves follow it")]
     NothingTaught,
     #[error("{axis}: {value} steps is beyond what the controller counts ({min}..{max})")]
@@ -191,14 +197,33 @@ fn in_range(axis: Axis, value: i64, (min, max): (i64, i64)) -> Result<i64, Teach
     }
 }
 
+/// Where the absolute targets of a stored program count from, machine steps
+/// per axis (an axis left out has none known yet):
+/// - isel `m` from the virtual zero of `@0n` in force (manual 2.2.19), which
+///   the driver tracks as its work zero (back at 0 after a reference run);
+/// - EMCU `L` from the reference point (manual 1.5.10): 0 on every
+///   referenced axis. jogterm's EMCU work zero (`z`) is the console's own
+///   offset for its go-to moves and the position display; a job never sees
+///   it (`docs/protocols.md` EMCU), so teaching must not subtract it.
+pub fn absolute_origin(language: Language, machine: &MachineState) -> PerAxis<i64> {
+    match language {
+        Language::Isel => machine.work_zero,
+        Language::Emcu => machine
+            .referenced
+            .iter()
+            .fold(PerAxis::new(), |origin, axis| origin.with(axis, 0)),
+    }
+}
+
 /// A taught move to `position` (machine steps) at `units_per_second`.
-/// `zero` is the work zero in machine steps (absolute moves), `previous` the
-/// point taught before (relative moves), `slot` the EMCU slot context.
+/// `origin` is where absolute targets count from ([`absolute_origin`]),
+/// `previous` the point taught before (relative moves), `slot` the EMCU slot
+/// context.
 pub fn taught_move(
     machine: &Machine,
     kind: MoveKind,
     position: &PerAxis<i64>,
-    zero: &PerAxis<i64>,
+    origin: &PerAxis<i64>,
     previous: Option<&PerAxis<i64>>,
     units_per_second: f64,
     slot: SlotContext,
@@ -208,8 +233,11 @@ pub fn taught_move(
         let here = position.get(*axis).ok_or(TeachError::NoPosition(*axis))?;
         let value = match kind {
             MoveKind::Absolute => {
-                let z = zero.get(*axis).ok_or(TeachError::ZeroUnknown(*axis))?;
-                here - z
+                let unknown = match machine.language {
+                    Language::Isel => TeachError::ZeroUnknown(*axis),
+                    Language::Emcu => TeachError::Unreferenced(*axis),
+                };
+                here - origin.get(*axis).ok_or(unknown)?
             }
             MoveKind::Relative => {
                 let from = previous.ok_or(TeachError::NothingTaught)?;
@@ -511,6 +539,53 @@ mod tests {
         )
         .expect("taught");
         assert_eq!(rel.lines, ["L8,x100,y0,z300"]);
+    }
+
+    /// Issue 20, finding 3: after `g X5`, `z` and a jog of 0.75 mm, `t`
+    /// taught the work position (`X150`), and right after `h` it said the
+    /// work zero was not known. EMCU `L` targets are machine coordinates.
+    #[test]
+    fn emcu_absolute_moves_are_taught_in_machine_coordinates_whatever_the_work_zero() {
+        let axes = xyz();
+        let m = Machine {
+            language: Language::Emcu,
+            axes: &axes,
+        };
+        let mut state = MachineState {
+            referenced: crate::axis::AxisSet::XYZ,
+            ..MachineState::default()
+        };
+        // `z` at machine X 5 mm (400 steps/mm in `xyz`), then 0.75 mm on.
+        state.work_zero = at(2000, 0, 0);
+        let here = at(2300, 0, 0);
+        let taught = |state: &MachineState| {
+            taught_move(
+                &m,
+                MoveKind::Absolute,
+                &here,
+                &absolute_origin(Language::Emcu, state),
+                None,
+                2.0,
+                SlotContext {
+                    before: Some(800),
+                    used_after: false,
+                },
+            )
+        };
+        assert_eq!(taught(&state).expect("taught").lines, ["L8,X2300,Y0,Z0"]);
+        // Right after a reference run, no work zero set: the same.
+        state.work_zero = PerAxis::new();
+        assert_eq!(taught(&state).expect("taught").lines, ["L8,X2300,Y0,Z0"]);
+        // Unreferenced, a machine position means nothing yet.
+        state.referenced = crate::axis::AxisSet::EMPTY;
+        assert_eq!(taught(&state), Err(TeachError::Unreferenced(Axis::X)));
+        // isel `m` counts from the virtual zero of `@0n`.
+        state.work_zero = at(2000, 0, 0);
+        assert_eq!(
+            absolute_origin(Language::Isel, &state),
+            state.work_zero,
+            "isel keeps the driver's virtual zero"
+        );
     }
 
     #[test]

@@ -362,16 +362,34 @@ fn teach_ready(model: &mut Model) -> bool {
         say(model, NoteLevel::Warning, why.to_string());
         return false;
     }
-    let language = model.editor.language();
-    if language.protocol() != model.setup.protocol {
-        let text = format!(
-            "teach-in refused: the program is an {language} program, the machine a {} controller",
-            model.setup.protocol
+    if let Some(why) = wrong_machine(model.editor.language(), model.setup.protocol) {
+        say(
+            model,
+            NoteLevel::Warning,
+            format!("teach-in refused: {why}"),
         );
-        say(model, NoteLevel::Warning, text);
         return false;
     }
     true
+}
+
+/// Why a program in `language` cannot be taught on or stored into a
+/// `protocol` controller, if it cannot.
+fn wrong_machine(language: Language, protocol: crate::proto::Protocol) -> Option<String> {
+    use crate::proto::Protocol;
+    if language.protocol() == protocol {
+        return None;
+    }
+    Some(match protocol {
+        // The editor has no EMP language: there is nothing to store.
+        Protocol::Emp => {
+            "EMP drives store no programs (EMP manual: every command runs at once)".to_string()
+        }
+        // Both families' names take "an".
+        Protocol::Isel | Protocol::Emcu => format!(
+            "the program is an {language} program and the machine has an {protocol} controller"
+        ),
+    })
 }
 
 /// Where taught lines go: after the cursor's line, but never after the
@@ -427,11 +445,12 @@ fn teach_move(model: &mut Model, kind: MoveKind) -> Vec<Effect> {
         axes: &model.setup.axes,
     };
     let slot = SlotContext::of(model.editor.buffer.program(), at);
+    let origin = teach::absolute_origin(machine.language, &model.machine);
     let taught = teach::taught_move(
         &machine,
         kind,
         &position,
-        &model.machine.work_zero,
+        &origin,
         model.editor.teach.previous.as_ref(),
         speed,
         slot,
@@ -631,12 +650,8 @@ fn upload(model: &mut Model) -> Vec<Effect> {
         return Vec::new();
     }
     let language = model.editor.language();
-    if language.protocol() != model.setup.protocol {
-        let text = format!(
-            "upload refused: the program is an {language} program, the machine a {} controller",
-            model.setup.protocol
-        );
-        say(model, NoteLevel::Danger, text);
+    if let Some(why) = wrong_machine(language, model.setup.protocol) {
+        say(model, NoteLevel::Danger, format!("upload refused: {why}"));
         return Vec::new();
     }
     // The verdict must be of this very text.
@@ -923,7 +938,7 @@ fn save_as_form(model: &Model, then: Option<Then>) -> Form {
 fn submit(model: &mut Model, mut f: Form) -> Vec<Effect> {
     let result: Result<Vec<Effect>, String> = match f.kind {
         FormKind::Open => {
-            let path = PathBuf::from(f.field(0).trim());
+            let path = typed_path(f.field(0));
             if path.as_os_str().is_empty() {
                 Err("name a file".into())
             } else if model.editor.modified() {
@@ -1025,6 +1040,16 @@ fn answer(model: &mut Model, answer: Answer) -> Vec<Effect> {
             None => Vec::new(),
         },
     }
+}
+
+/// The path typed into the open form. The form starts with the folder of
+/// the file open now; an absolute path typed after it (`/work//tmp/a.isel`)
+/// starts again at the root, as in Emacs' file prompts, instead of being
+/// looked for inside that folder.
+fn typed_path(text: &str) -> PathBuf {
+    let text = text.trim();
+    let from = text.rfind("//").map_or(0, |i| i + 1);
+    PathBuf::from(&text[from..])
 }
 
 fn continue_with(model: &mut Model, then: Then) -> Vec<Effect> {
@@ -1333,10 +1358,13 @@ fn loaded(
                 saved: model.editor.buffer.state(),
                 ..super::FileState::default()
             };
+            // A warning, not news: a mistyped name also ends here.
             say(
                 model,
-                NoteLevel::Info,
-                format!("{name} is a new {language} program: it is written when you save"),
+                NoteLevel::Warning,
+                format!(
+                    "{name} does not exist: a new, empty {language} program, written when you save"
+                ),
             );
             String::new()
         }

@@ -219,6 +219,16 @@ pub fn any_key(model: &mut Model, chord: KeyChord, phase: KeyPhase) -> Option<Ve
         .map(requests)
 }
 
+/// What the keypad shows that changes with the clock alone: the tenths of
+/// a second a reference run has taken. Nothing else may redraw the screen
+/// meanwhile (an isel controller is not polled during a reference run).
+pub fn clock_shown(model: &Model) -> Option<u64> {
+    model.keypad.homing.map(|h| {
+        let tenths = model.now.saturating_duration_since(h.since).as_millis() / 100;
+        u64::try_from(tenths).unwrap_or(u64::MAX)
+    })
+}
+
 /// The operator stopped everything.
 pub fn stopped(model: &mut Model) {
     let now = model.now;

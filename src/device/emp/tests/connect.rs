@@ -3,6 +3,7 @@
 use crate::axis::{Axis, AxisSet};
 use crate::device::api::{Event, PositionSource, Recovery, Refusal, Request};
 use crate::device::common::testing::refusal_reasons;
+use crate::device::driver::Driver;
 use crate::proto::emp::DriveAddress;
 
 use super::harness::{Harness, ms};
@@ -33,7 +34,13 @@ fn a_drive_that_is_not_on_is_not_initialised_and_motion_is_refused() {
     let mut h = Harness::emp(|_| {});
     h.connect(0, false);
     assert_eq!(h.state().initialised, AxisSet::EMPTY);
-    assert!(h.notices().iter().any(|n| n.contains("not switched on")));
+    assert!(
+        h.notices()
+            .iter()
+            .any(|n| n == "drive 11 is switched off: switch it on (i)"),
+        "{:?}",
+        h.notices()
+    );
     // No fault for what the read-back expected.
     assert!(h.faults().is_empty(), "{:?}", h.faults());
     h.request(Request::Home {
@@ -175,20 +182,18 @@ fn a_drive_known_to_be_off_is_polled_once_a_second_without_asking_again() {
     h.connect(0, false);
     h.poll();
     h.events.clear();
-    // The first cycle at line speed: position and inputs, both `EE`.
+    // The first poll at line speed, answered `EE`.
     h.expect_frame("2C 11 00 00 00000000");
     h.answer("2D 11 00 EE 00000000");
-    h.expect_frame("40 11 01 00 00000000");
-    h.answer("41 11 00 EE 00000000");
-    // Then nothing for a second (`OFF_POLL_EVERY`), and no `0A` again.
-    h.expect_nothing();
-    h.advance(OFF_POLL_EVERY - ms(1));
-    h.expect_nothing();
-    h.advance(ms(1));
-    h.expect_frame("2C 11 00 00 00000000");
-    h.answer("2D 11 00 EE 00000000");
-    h.expect_frame("40 11 01 00 00000000");
-    h.answer("41 11 00 EE 00000000");
+    // Then one poll a second (`OFF_POLL_EVERY`): the position or the
+    // inputs, whichever is due; no `0A` again.
+    for _ in 0..4 {
+        h.expect_nothing();
+        h.advance(OFF_POLL_EVERY - ms(1));
+        h.expect_nothing();
+        h.advance(ms(1));
+        h.reject_poll();
+    }
     h.expect_nothing();
     assert!(h.notices().is_empty(), "{:?}", h.notices());
     assert!(h.faults().is_empty());
@@ -214,6 +219,77 @@ fn a_drive_known_to_be_off_is_polled_once_a_second_without_asking_again() {
     assert!(reads >= 6, "{reads}");
 }
 
+/// A drive that takes nothing before `02`, `0A` included
+/// (../shared/protocols.md "EMP before 02"): the `EE` to `0A` says it is
+/// off. It used to be asked `0A` after every poll, at line speed.
+#[test]
+fn a_drive_that_rejects_0a_too_is_known_off_and_polled_once_a_second() {
+    let mut h = Harness::emp(|_| {});
+    h.driver.connected(h.now);
+    h.collect();
+    h.expect_frame("08 11 00 00 00000000");
+    h.answer("09 11 00 EE 00000000");
+    h.advance(ms(50));
+    h.expect_frame("0A 11 00 00 00000000");
+    h.answer("0B 11 00 EE 00000000");
+    // The read-back: its own `0A` is rejected as well; nothing is asked
+    // again.
+    h.expect_frame("0A 11 00 00 00000000");
+    h.answer("0B 11 00 EE 00000000");
+    h.expect_frame("2C 11 00 00 00000000");
+    h.answer("2D 11 00 EE 00000000");
+    h.expect_frame("40 11 01 00 00000000");
+    h.answer("41 11 00 EE 00000000");
+    h.expect_nothing();
+    h.poll();
+    let from = h.sent.len();
+    for _ in 0..5 {
+        h.reject_poll();
+        h.expect_nothing();
+        h.advance(OFF_POLL_EVERY);
+    }
+    assert_eq!(h.sent.len() - from, 5);
+    let told: Vec<String> = h
+        .notices()
+        .into_iter()
+        .filter(|n| !n.starts_with("state read back"))
+        .collect();
+    assert_eq!(told, vec!["drive 11 is switched off: switch it on (i)"]);
+    assert!(h.faults().is_empty(), "{:?}", h.faults());
+    assert!(!h.state().initialised.contains(Axis::X));
+    // `02` is answered: on, at the full rate.
+    h.request(Request::Initialise);
+    h.expect_frame("02 11 11 00 00000000");
+    h.answer("03 11 00 22 00000000");
+    h.expect_frame("22 11 03 00 00000000");
+    h.answer("23 11 00 22 00000000");
+    assert!(h.state().initialised.contains(Axis::X));
+}
+
+#[test]
+fn a_motion_command_to_a_drive_that_rejects_0a_too_asks_to_switch_it_on() {
+    let mut h = Harness::emp(|_| {});
+    h.connect(0, true);
+    h.request(Request::Raw {
+        line: "2A 11 00 05 00000000".into(),
+    });
+    h.expect_frame("2A 11 00 05 00000000");
+    h.answer("2B 11 00 EE 00000000");
+    h.expect_frame("0A 11 00 00 00000000");
+    h.answer("0B 11 00 EE 00000000");
+    h.expect_nothing();
+    let fault = h.state().fault.expect("a fault");
+    assert_eq!(fault.recovery, Recovery::SwitchOn);
+    assert_eq!(fault.code, "EE");
+    assert_eq!(fault.command, "2A11000500000000");
+    assert!(
+        fault.meaning.starts_with("drive 11: switched off"),
+        "{}",
+        fault.meaning
+    );
+    assert!(h.state().initialised.is_empty());
+}
+
 #[test]
 fn a_drive_switched_off_by_a_typed_04_is_polled_slowly_without_a_stale_position() {
     let mut h = Harness::emp(|_| {});
@@ -226,11 +302,8 @@ fn a_drive_switched_off_by_a_typed_04_is_polled_slowly_without_a_stale_position(
     h.poll();
     h.events.clear();
     let from = h.sent.len();
-    for _ in 0..2 {
-        h.expect_frame("2C 11 00 00 00000000");
-        h.answer("2D 11 00 EE 00000000");
-        h.expect_frame("40 11 01 00 00000000");
-        h.answer("41 11 00 EE 00000000");
+    for _ in 0..3 {
+        h.reject_poll();
         h.expect_nothing();
         h.advance(OFF_POLL_EVERY);
     }

@@ -783,7 +783,7 @@ fn a_drive_that_is_off_is_polled_once_a_second_and_the_others_at_full_rate() {
     assert!(
         b.events
             .iter()
-            .any(|e| matches!(e, Event::Notice(n) if n.contains("drive 21 is not switched on"))),
+            .any(|e| matches!(e, Event::Notice(n) if n.contains("drive 21 is switched off: switch it on (i)"))),
         "{:?}",
         b.events
     );
@@ -796,4 +796,52 @@ fn a_drive_that_is_off_is_polled_once_a_second_and_the_others_at_full_rate() {
     b.run(ms(1000));
     let (x, y) = position_polls(&b, from);
     assert!(x > 30 && y > 30 && x.abs_diff(y) <= 1, "X {x}, Y {y}");
+}
+
+/// The console on a drive that is switched off, polling at line speed:
+/// after the read-back, how many frames go out in `seconds`, and the
+/// notices it gave.
+fn frames_to_a_drive_that_is_off(rejects_0a: bool, seconds: u64) -> (usize, Vec<String>) {
+    let mut p = profile();
+    p.sim.emp_rejects_0a_before_on = rejects_0a;
+    let mut b = bench_for(&p, |_| {});
+    b.request(Request::Poll {
+        rate_hz: None,
+        ports_every: 4,
+    });
+    b.run(ms(500));
+    assert!(!b.sim.snapshot(DriveAddress::SINGLE, b.now).expect("X").on);
+    let from = b.sent.len();
+    b.run(Duration::from_secs(seconds));
+    let notices = b
+        .events
+        .iter()
+        .filter_map(|e| match e {
+            Event::Notice(n) => Some(n.clone()),
+            _ => None,
+        })
+        .collect();
+    (b.sent.len() - from, notices)
+}
+
+#[test]
+fn a_drive_that_rejects_0a_too_is_polled_once_a_second_and_told_once() {
+    for rejects_0a in [false, true] {
+        let (frames, notices) = frames_to_a_drive_that_is_off(rejects_0a, 10);
+        // One poll a second (either `2C` or `40 01`: both only show that
+        // the drive is still off), no `0A` loop.
+        assert!(
+            frames <= 11,
+            "rejects 0A {rejects_0a}: {frames} frames in 10 s"
+        );
+        let off: Vec<_> = notices
+            .iter()
+            .filter(|n| n.contains("drive 11 is switched off: switch it on (i)"))
+            .collect();
+        assert_eq!(off.len(), 1, "rejects 0A {rejects_0a}: {notices:?}");
+        assert!(
+            !notices.iter().any(|n| n.contains("cannot be read")),
+            "rejects 0A {rejects_0a}: {notices:?}"
+        );
+    }
 }

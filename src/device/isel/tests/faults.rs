@@ -165,15 +165,24 @@ fn a_stop_cancels_queued_requests() {
     assert_eq!(h.refusals(), ["raw @0b1: cancelled by stop"]);
 }
 
-#[test]
-fn an_open_hood_blocks_motion_while_it_is_open() {
+/// Connected and read back, polling at line speed with the ports read in
+/// every cycle.
+fn polling_the_ports_every_cycle() -> Harness {
     let mut h = Harness::with(|s| {
         s.poll.rate = crate::device::isel::PollRate::LineSpeed;
         s.poll.ports_every = 1;
+        // The safety ports; the user inputs (port 0) play no part here.
+        s.poll.ports = crate::device::isel::PollPlan::DEFAULT_PORTS.to_vec();
     });
     h.connect();
     h.readback(0, 0, 0, b"0");
     h.take_events();
+    h
+}
+
+#[test]
+fn an_open_hood_blocks_motion_while_it_is_open() {
+    let mut h = polling_the_ports_every_cycle();
     h.expect_text("@0P");
     h.reply(&position_reply(0, 0, 0));
     h.expect_text("@0b1");
@@ -183,8 +192,6 @@ fn an_open_hood_blocks_motion_while_it_is_open() {
     h.expect_text("@0b2");
     // Power ok, hood open, automatic.
     h.reply(b"002");
-    h.expect_text("@0b0");
-    h.reply(b"000");
     assert_eq!(
         h.state().fault.as_ref().map(|f| f.recovery),
         Some(Recovery::CloseHood)
@@ -199,14 +206,49 @@ fn an_open_hood_blocks_motion_while_it_is_open() {
         ["step X=10 Y=0 Z=0: controller error: close the hood"]
     );
     h.reply(&position_reply(0, 0, 0));
-    for (cmd, r) in [
-        ("@0b1", b"003"),
-        ("@0b3", b"000"),
-        ("@0b2", b"062"),
-        ("@0b0", b"000"),
-    ] {
+    for (cmd, r) in [("@0b1", b"003"), ("@0b3", b"000"), ("@0b2", b"062")] {
         h.expect_text(cmd);
         h.reply(r);
     }
     assert!(h.state().fault.is_none(), "closed again");
+}
+
+/// Issue 20, finding 6: once both E-stop circuits were closed again, the
+/// fault still asked to release the emergency stop (and read "open.:").
+#[test]
+fn an_estop_circuit_closed_again_leaves_initialise_and_reference_to_do() {
+    let mut h = polling_the_ports_every_cycle();
+    let cycle = |h: &mut Harness, port1: &[u8]| {
+        h.expect_text("@0P");
+        h.reply(&position_reply(0, 0, 0));
+        for (cmd, r) in [("@0b1", port1), ("@0b3", b"000"), ("@0b2", b"0E2")] {
+            h.expect_text(cmd);
+            h.reply(r);
+        }
+    };
+    // Circuit 2 opens.
+    cycle(&mut h, b"001");
+    let s = h.state();
+    assert!(s.estop);
+    let fault = s.fault.expect("a fault");
+    assert_eq!(fault.recovery, Recovery::ClearEmergencyStop);
+    assert_eq!(fault.meaning, "An emergency stop circuit opened");
+    // Closed again: what is left to do is initialise and reference.
+    cycle(&mut h, b"003");
+    let s = h.state();
+    assert!(!s.estop);
+    let fault = s.fault.expect("still a fault: the axes are lost");
+    assert_eq!(fault.recovery, Recovery::ReinitialiseAndReference);
+    assert_eq!(s.referenced, AxisSet::EMPTY);
+    // Over temperature keeps it asking to clear the fault first.
+    cycle(&mut h, b"007");
+    assert_eq!(
+        h.state().fault.map(|f| f.recovery),
+        Some(Recovery::ClearEmergencyStop)
+    );
+    cycle(&mut h, b"003");
+    assert_eq!(
+        h.state().fault.map(|f| f.recovery),
+        Some(Recovery::ReinitialiseAndReference)
+    );
 }

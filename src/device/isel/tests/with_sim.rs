@@ -81,6 +81,10 @@ fn initialise_and_home_reference_the_axes_at_zero() {
     let s = b.driver.state();
     assert_eq!(s.initialised, AxisSet::XYZ);
     assert!(s.fault.is_none());
+    // The virtual zero is back at the reference point (manual 2.2.19): a
+    // move taught now (`m`, counted from it) needs no `z` first.
+    assert_eq!(s.work_zero.axes(), AxisSet::XYZ);
+    assert!(s.work_zero.iter().all(|(_, z)| z == 0), "{:?}", s.work_zero);
 }
 
 #[test]

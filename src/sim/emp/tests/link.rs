@@ -36,6 +36,24 @@ fn nothing_is_accepted_before_unit_on_and_after_off() {
 }
 
 #[test]
+fn the_strict_variant_rejects_0a_too_until_unit_on() {
+    let mut d = DriveConfig::new(DriveAddress::SINGLE);
+    d.rejects_0a_before_on = true;
+    let mut c = Conversation::new(EmpSimConfig { drives: vec![d] });
+    c.exchange("2C11000000000000", "2D1100EE00000000");
+    // The reason cannot be read before `02` (../shared/protocols.md "EMP
+    // before 02").
+    c.exchange("0A11000000000000", "0B1100EE00000000");
+    c.exchange("0811000000000000", "091100EE00000000");
+    c.switch_on();
+    c.exchange("0A11000000000000", "0B11002200000000");
+    c.exchange("2C11000000000000", "2D11002200000000");
+    // Off again: as before `02`.
+    c.exchange("0411000000000000", "0511002200000000");
+    c.exchange("0A11000000000000", "0B1100EE00000000");
+}
+
+#[test]
 fn a_reply_is_produced_1_6_ms_after_the_eof() {
     let mut c = Conversation::new(EmpSimConfig::single());
     assert_eq!(c.sim.line(), crate::wire::LineSettings::new(38400));
