@@ -217,12 +217,15 @@ async fn commission(
     tokio::pin!(interrupted);
     let mut pending = walk.start(Instant::now());
     let mut code = 0u8;
+    // An output switched back must be on the wire before the port closes.
+    let mut requested = false;
     loop {
         let mut finished = false;
         for d in std::mem::take(&mut pending) {
             match d {
                 Do::Say(text) => out::say(format_args!("walk: {text}")),
                 Do::Request(r) => {
+                    requested = true;
                     if let Err(e) = session.handle.request(r) {
                         pending.extend(walk.refused(&e.to_string(), Instant::now()));
                     }
@@ -248,7 +251,7 @@ async fn commission(
                 // What ending asks (an output back off) still goes out.
                 for d in walk.end(Instant::now()) {
                     if let Do::Request(r) = d {
-                        let _ = session.handle.request(r);
+                        requested |= session.handle.request(r).is_ok();
                     }
                 }
                 session::say_interrupted("commission");
@@ -288,6 +291,9 @@ async fn commission(
             },
         }
     }
+    if requested && code != EXIT_LINK {
+        carried_out(&mut session).await;
+    }
     meta.read_every = inputs.read(|r| r.sampling()).map(|s| s.longest);
     let findings = report::findings(&walk);
     match write_report(base, &meta, &walk) {
@@ -318,6 +324,27 @@ async fn commission(
     }
     session.close().await;
     ExitCode::from(code)
+}
+
+/// Wait until the requests given have been carried out: the driver sends
+/// them between two polls, so two port cycles reported after them came
+/// after them (at most 2 s). Closing before would lose one still queued:
+/// an output switched on for its check and not yet off again.
+async fn carried_out(session: &mut Session) {
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(2);
+    let mut cycles = 0;
+    while cycles < 2 {
+        match tokio::time::timeout_at(deadline, session.next_event()).await {
+            Ok(Some(Event::Io(_))) => cycles += 1,
+            Ok(Some(_)) => {}
+            Ok(None) | Err(_) => {
+                out::say(
+                    "jogterm commission: the last output request was not confirmed on the wire; check the outputs",
+                );
+                return;
+            }
+        }
+    }
 }
 
 fn with_extension(base: &Path, ext: &str) -> PathBuf {
