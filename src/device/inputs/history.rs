@@ -197,11 +197,6 @@ impl InputHistory {
         }
     }
 
-    /// The inputs that changed, in the order they first did.
-    pub fn inputs(&self) -> impl Iterator<Item = &Arc<InputChannel>> {
-        self.lanes.iter().map(|l| &l.channel)
-    }
-
     /// How many changes of `key` are kept.
     pub fn count(&self, key: InputKey) -> usize {
         self.lane(key).map_or(0, |l| l.changes.len())
@@ -243,17 +238,6 @@ impl InputHistory {
         }
     }
 
-    /// The last change of `key`.
-    pub fn last(&self, key: InputKey) -> Option<Recorded> {
-        let lane = self.lane(key)?;
-        lane.changes.back().map(|s| Self::recorded(lane, s))
-    }
-
-    /// The newest `n` changes of all inputs, newest first.
-    pub fn newest(&self, n: usize) -> Vec<Recorded> {
-        self.newest_before(Duration::MAX, n)
-    }
-
     /// The newest `n` changes of all inputs first seen before `to`, newest
     /// first.
     pub fn newest_before(&self, to: Duration, n: usize) -> Vec<Recorded> {
@@ -278,15 +262,6 @@ impl InputHistory {
             }
         }
         out
-    }
-
-    /// The newest change of any input, first seen when.
-    pub fn latest(&self) -> Option<Duration> {
-        self.lanes
-            .iter()
-            .filter_map(|l| l.changes.back())
-            .map(|s| Duration::from_micros(s.seen_us))
-            .max()
     }
 
     /// The oldest change kept.
@@ -358,11 +333,14 @@ mod tests {
         assert_eq!(got.len(), 1);
         assert_eq!(got[0].t, ms(100));
         assert_eq!(got[0].window, ms(20));
-        let newest: Vec<_> = h.newest(2).iter().map(|r| r.t).collect();
+        let newest: Vec<_> = h
+            .newest_before(Duration::MAX, 2)
+            .iter()
+            .map(|r| r.t)
+            .collect();
         assert_eq!(newest, [ms(1100), ms(150)]);
         let before: Vec<_> = h.newest_before(ms(1100), 5).iter().map(|r| r.t).collect();
         assert_eq!(before, [ms(150), ms(100)]);
-        assert_eq!(h.latest(), Some(ms(1100)));
         assert_eq!(h.earliest(), Some(ms(100)));
     }
 

@@ -150,11 +150,6 @@ impl InputRecorder {
         &self.history
     }
 
-    /// When `t` counts from.
-    pub fn epoch(&self) -> Option<Instant> {
-        self.epoch
-    }
-
     /// How often the groups are read; `None` before any was read twice.
     pub fn sampling(&self) -> Option<Sampling> {
         let measured: Vec<&Group> = self
@@ -180,25 +175,6 @@ impl InputRecorder {
             .get(&key.source)
             .and_then(|g| g.levels.get(usize::from(key.bit)))
             .copied()
-    }
-
-    /// The channel for `key`: the profile's, else one named as the driver
-    /// names the bit.
-    pub fn channel(&self, key: InputKey) -> Option<&Arc<InputChannel>> {
-        self.known.get(&key)
-    }
-
-    /// Every input the recorder knows: the profile's, then those it met.
-    pub fn channels(&self) -> Vec<Arc<InputChannel>> {
-        let mut out: Vec<Arc<InputChannel>> = self.config.channels.clone();
-        let mut extra: Vec<&Arc<InputChannel>> = self
-            .known
-            .values()
-            .filter(|c| !self.config.channels.iter().any(|p| p.key == c.key))
-            .collect();
-        extra.sort_by_key(|c| c.key);
-        out.extend(extra.into_iter().cloned());
-        out
     }
 
     /// A snapshot the driver reported: every group read since the last one
