@@ -61,6 +61,7 @@ fn outputs_snapshot(at: Instant, spindle_on: bool) -> IoSnapshot {
                     value: false,
                     output: None,
                     hazardous: false,
+                    wiring: None,
                 }],
             },
             IoGroup {
@@ -75,6 +76,7 @@ fn outputs_snapshot(at: Instant, spindle_on: bool) -> IoSnapshot {
                             bit: Some(6),
                         }),
                         hazardous: false,
+                        wiring: None,
                     },
                     IoBit {
                         name: "spindle".into(),
@@ -84,6 +86,7 @@ fn outputs_snapshot(at: Instant, spindle_on: bool) -> IoSnapshot {
                             bit: None,
                         }),
                         hazardous: true,
+                        wiring: None,
                     },
                 ],
             },

@@ -99,7 +99,8 @@ fn driver(profile: &Profile, polling: Polling) -> Result<Box<dyn Driver>, StartE
 }
 
 /// isel: positions (`@0P`), with `ports` the input ports 1, 3, 2 every
-/// cycle. Without polling the profile's plan stays as it is.
+/// cycle (and 0 when the profile wires a user input to a role,
+/// `PollPlan::ports_for`). Without polling the profile's plan stays as it is.
 fn isel_settings(profile: &Profile, polling: Polling) -> Result<IselSettings, StartError> {
     let mut s =
         IselSettings::from_profile(profile).map_err(|e| StartError::Usage(e.to_string()))?;
@@ -107,7 +108,7 @@ fn isel_settings(profile: &Profile, polling: Polling) -> Result<IselSettings, St
     if polling.rate != PollRate::Off {
         s.poll.ports_every = 1;
         s.poll.ports = if polling.ports {
-            PollPlan::DEFAULT_PORTS.to_vec()
+            PollPlan::ports_for(&s.wiring)
         } else {
             Vec::new()
         };

@@ -564,6 +564,36 @@ fn toggle_output(model: &mut Model, t: OutputToggle) -> Vec<Effect> {
         output: t.output,
         value: t.value,
     })];
+    if let Some(byte) = &t.byte {
+        // One confirm for the whole byte: outputs cannot be read back, so
+        // the other bits are written too (off), each named.
+        let lines: Vec<String> = byte
+            .bits
+            .iter()
+            .map(|b| {
+                let now = match b.now {
+                    None => "?",
+                    Some(true) => "on",
+                    Some(false) => "off",
+                };
+                let then = if b.then { "ON" } else { "off" };
+                format!("{} {}: {now} -> {then}", b.bit, b.name)
+            })
+            .collect();
+        ask(
+            model,
+            "Switch an output",
+            format!(
+                "Write {} = {:02X}? Outputs cannot be read back and jogterm has not written this \
+                 port yet (? = unknown), so every bit is set:\n{}",
+                byte.port,
+                t.value,
+                lines.join("\n")
+            ),
+            effects,
+        );
+        return Vec::new();
+    }
     let state = if t.value == 0 { "off" } else { "on" };
     if t.hazardous {
         ask(

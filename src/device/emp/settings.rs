@@ -65,6 +65,8 @@ pub struct EmpSettings {
     pub poll: PollRate,
     pub ports_every: u32,
     pub timing: Timing,
+    /// What each drive's bits are wired to (`[io]`, `crate::wiring`).
+    pub wiring: crate::wiring::Wiring,
 }
 
 impl EmpSettings {
@@ -116,6 +118,7 @@ impl EmpSettings {
                 reply_margin: Duration::from_millis(100),
                 connect_settle: Duration::from_millis(50),
             },
+            wiring: crate::device::common::settings::wiring(profile)?,
         })
     }
 
