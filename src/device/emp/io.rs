@@ -11,6 +11,29 @@ use crate::wiring::Wiring;
 use super::context::{Context, DriveState};
 use super::output::output_id;
 
+/// The drive's wired inputs with a safety role (`estop`, `power`) that
+/// read active, once its `40` has been read: the only inputs jogterm
+/// refuses motion on itself (`docs/profiles.md`). Their names.
+pub fn interlocks(index: usize, d: &DriveState, wiring: &Wiring) -> Vec<String> {
+    if d.inputs.is_none() {
+        return Vec::new();
+    }
+    drive_group(index, d, wiring)
+        .bits
+        .iter()
+        .filter(|b| b.output.is_none() && b.active())
+        .filter_map(|b| b.wiring.as_ref())
+        .filter(|w| {
+            w.interlocks()
+                && matches!(
+                    w.role,
+                    crate::wiring::Role::Estop | crate::wiring::Role::Power
+                )
+        })
+        .map(|w| w.label())
+        .collect()
+}
+
 /// One drive's bits under the profile's names (`11.limit+` …,
 /// `crate::wiring`).
 fn drive_group(index: usize, d: &DriveState, wiring: &Wiring) -> IoGroup {

@@ -531,10 +531,18 @@ impl SimDevice for IselSim {
     }
 
     fn input_names(&self) -> Vec<&'static str> {
-        io::input_names()
+        // Without a hood circuit there is no hood and no key switch to set.
+        let mut names = io::input_names();
+        if !self.config.hood_circuit {
+            names.retain(|n| !matches!(*n, "hood" | "key-switch"));
+        }
+        names
     }
 
     fn input_level(&self, name: &str) -> Option<bool> {
+        if !self.config.hood_circuit && matches!(name, "hood" | "key-switch") {
+            return None;
+        }
         self.operator_level(name)
     }
 

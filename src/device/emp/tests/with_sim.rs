@@ -882,3 +882,57 @@ fn a_drive_that_rejects_0a_too_is_polled_once_a_second_and_told_once() {
         );
     }
 }
+
+/// An input the profile wires as an E-stop contact (`[io."11.I1"] role =
+/// "estop"`, normally closed: 0 = tripped): jogterm refuses motion while it
+/// reads tripped, and moves again once it reads closed. By default no EMP
+/// input has that role (decision 5), so nothing is refused on them.
+#[test]
+fn an_input_wired_as_an_estop_refuses_motion_while_it_is_tripped() {
+    use crate::sim::InputControl;
+    let mut p = profile();
+    p.io.insert(
+        "11.I1".into(),
+        crate::wiring::BitPatch {
+            name: Some("door contact".into()),
+            role: Some(crate::wiring::RoleName::Estop),
+            active: Some(crate::wiring::Level::Low),
+            ..Default::default()
+        },
+    );
+    let mut b = bench_for(&p, |s| s.jog.allow_unreferenced = true);
+    b.run(ms(300));
+    b.request(Request::Initialise);
+    b.run(ms(500));
+    assert!(b.driver.state().estop, "I1 reads 0: tripped");
+    b.request(Request::Jog {
+        id: JogId(5),
+        axes: vec![(Axis::X, Dir::Plus)],
+        speed_hz: x_speed(11_200.0),
+        lease: settings().jog.repeat_timeout,
+    });
+    b.run(ms(100));
+    assert!(
+        b.events.iter().any(|e| matches!(
+            e,
+            Event::JogEnded {
+                id: JogId(5),
+                end: JogEnd::Refused(crate::device::api::Refusal::EmergencyStop)
+            }
+        )),
+        "{:?}",
+        b.events
+    );
+    b.control(InputControl::Set {
+        name: "i1".into(),
+        level: true,
+    });
+    b.run(ms(500));
+    assert!(!b.driver.state().estop, "closed again");
+    // Without the profile's wiring the same input is only shown.
+    let mut plain = bench_for(&profile(), |_| {});
+    plain.run(ms(300));
+    plain.request(Request::Initialise);
+    plain.run(ms(500));
+    assert!(!plain.driver.state().estop);
+}

@@ -40,6 +40,8 @@ fn without_a_hood_circuit_its_bits_read_0_and_the_controller_moves() {
         )
         .unwrap_err();
     assert!(err.contains("no hood circuit"), "{err}");
+    assert!(!c.sim.input_names().contains(&"hood"));
+    assert_eq!(c.sim.input_level("hood"), None);
     // A hood supervision switched on where nothing is wired: the
     // controller refuses, as a real one set up so would.
     c.expect("@0IH2,64,64", "0");
