@@ -89,6 +89,7 @@ fn ports(at: Instant, k: u64) -> IoSnapshot {
             value: i == 1 && k % 40 < 2,
             output: None,
             hazardous: false,
+            wiring: None,
         })
         .collect();
     IoSnapshot {

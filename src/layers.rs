@@ -15,6 +15,7 @@ const LAYERS: &[&[&str]] = &[
     // shared arithmetic and types
     &["axis", "motion", "traffic", "wire"],
     &["proto"],
+    &["wiring"],
     &["config"],
     &["transport"],
     &["sim"],

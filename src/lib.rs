@@ -6,6 +6,8 @@
 //! - [`wire`], [`motion`], [`axis`], [`traffic`]: shared arithmetic and types
 //!   (step-motor ramps and the jog overrun caps in [`motion`]).
 //! - [`proto`]: sans-IO protocol cores, one per controller family.
+//! - [`wiring`]: what each controller bit is wired to (names, roles, limit
+//!   switches' axis and side), the manuals' tables patched by a profile.
 //! - [`config`]: machine profiles and themes.
 //! - [`transport`]: serial port, pseudo-terminal, in-process socket pair.
 //! - [`sim`]: built-in simulators of the three controllers.
@@ -36,3 +38,4 @@ pub mod traffic;
 pub mod transport;
 pub mod ui;
 pub mod wire;
+pub mod wiring;

@@ -153,8 +153,11 @@ fn inputs_show_in_poll_and_a_vanished_port_exits_3() {
     let out = sim.run(&["poll", "--count", "3", "--ports"]);
     let stdout = text(&out.stdout);
     assert!(out.status.success(), "{}", text(&out.stderr));
+    // The raw inputs, then the active ones by the profile's names.
     assert!(
-        stdout.lines().all(|l| l.ends_with(" drive11=02")),
+        stdout
+            .lines()
+            .all(|l| l.ends_with(" drive11=02 active: I2")),
         "{stdout}"
     );
     let child = sim

@@ -173,9 +173,11 @@ fn usage_errors_exit_2_and_failures_exit_1() {
     let port = run(&["sim", "--pty", "--port", "/dev/ttyUSB0"]);
     assert_eq!(port.status.code(), Some(1));
     // A variant of another family's simulator is refused, not ignored.
-    let variant = run(&["sim", "--pty", "--emp-rejects-0a-before-on"]);
+    let variant = run(&["sim", "--pty", "--variant", "emp-rejects-0a-before-on"]);
     assert_eq!(variant.status.code(), Some(1));
-    assert!(String::from_utf8_lossy(&variant.stderr).contains("models EMP drives"));
+    assert!(
+        String::from_utf8_lossy(&variant.stderr).contains("the isel simulator has no such variant")
+    );
     let help = run(&["--help"]);
     assert_eq!(help.status.code(), Some(0));
     let text = String::from_utf8_lossy(&help.stdout);

@@ -8,9 +8,6 @@
 //! reached the controller (its own record), the axis stands (read twice,
 //! unchanged) within the overrun bound, nothing resumes, and the exit.
 
-use std::thread;
-use std::time::{Duration, Instant};
-
 mod faults_support;
 use faults_support::console::Console;
 use faults_support::sim::{self as sim_process, SimProcess, WAIT};
@@ -18,60 +15,17 @@ mod stops_support;
 use faults_support::wire::{emcu_motion, isel_messages, isel_motion};
 use stops_support::{
     assert_a_new_connection_moves_nothing, assert_stands, emp_frames, isel_store_long_program,
-    moving, signal, wait_moving, x_steps,
+    moving, signal, wait_moving, write_profile, x_steps,
 };
 
-/// A profile on top of the family's shipped one: the longest dead-man
-/// lease a profile may give (1 s once repeats flow, 2 s before), so only
-/// the way out under test can stop a jog within the time the tests allow;
-/// EMCU and EMP home fast, so the reference run takes seconds, not half a
-/// minute.
-fn write_profile(sim: &SimProcess) -> &'static str {
-    let dir = sim.dir.path().join("profiles");
-    std::fs::create_dir_all(&dir).expect("profiles dir");
-    let family = match sim.family {
-        "emcu" => "[emcu]\nstart_speed_hz = 2000\nramp_ms = 200\n",
-        "emp" => "[emp]\nhome_fast = 127\nhome_slow = 32\n",
-        _ => "",
-    };
-    let text = format!(
-        "base = \"{}\"\nname = \"stop tests\"\n\n[jog]\nrepeat_timeout_ms = 1000\nfirst_repeat_grace_ms = 2000\n\n{family}",
-        sim.family
-    );
-    std::fs::write(dir.join("stoptest.toml"), text).expect("profile");
-    "stoptest"
-}
-
-/// The console on `family`'s simulator, initialised (`i`) and referenced
-/// (`h`, confirmed): READY, so jogs and go-to are allowed.
+/// The console on `family`'s simulator with the stop tests' profile
+/// (`stops_support::write_profile`), initialised and referenced: READY, so
+/// jogs and go-to are allowed.
 fn ready(family: &'static str) -> (SimProcess, Console) {
     let sim = SimProcess::start(family);
-    let profile = write_profile(&sim);
+    let profile = write_profile(&sim, "stoptest", "");
     let mut console = Console::start_with(&sim, &["--profile", profile]);
-    let end = Instant::now() + WAIT * 2;
-    loop {
-        let bar = console.status_bar();
-        if bar.contains("READY") {
-            break;
-        }
-        assert!(
-            Instant::now() < end,
-            "never READY:\n{}\n{}",
-            console.screen(),
-            console.log_tail()
-        );
-        if bar.contains("NOT INIT") {
-            console.keys(b"i");
-            console.shows_within("NOT REF", Duration::from_secs(5));
-        } else if bar.contains("NOT REF") {
-            console.keys(b"h");
-            console.wait_for("Start the reference run?");
-            console.keys(b"y");
-            console.shows_within("HOMING", Duration::from_secs(5));
-        } else {
-            thread::sleep(Duration::from_millis(100));
-        }
-    }
+    console.initialise_and_reference();
     (sim, console)
 }
 

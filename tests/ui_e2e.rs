@@ -184,7 +184,7 @@ fn the_built_in_simulator_runs_by_default_and_its_inputs_can_be_flipped() {
 fn an_emp_console_on_a_drive_that_is_switched_off_sends_at_most_2_frames_a_second() {
     const FRAME: u64 = jogterm::proto::emp::FRAME_WIRE_LEN as u64;
     let config = tempfile::tempdir().expect("tempdir");
-    let mut sim = SimProcess::start_with_args("emp", &["--emp-rejects-0a-before-on"]);
+    let mut sim = SimProcess::start_variant("emp", &[], &["emp-rejects-0a-before-on"]);
     let link = sim.link.display().to_string();
     let mut run = spawn(&["--protocol", "emp", "--port", &link], config.path());
     // Start-up is over once the state is read back.

@@ -61,6 +61,7 @@ fn scenario(theme: &str) -> Model {
     send(&mut model, [Event::Link(LinkState::Connected)]);
     let profile = load_profile("isel", &ConfigDirs::builtin_only()).expect("profile");
     let mut recorder = InputRecorder::new(RecorderConfig::from_profile(&profile));
+    let wiring = profile.wiring().expect("the shipped wiring");
     recorder.connected(t0);
     let mut t = ms(200);
     while t <= ms(6000) {
@@ -68,7 +69,7 @@ fn scenario(theme: &str) -> Model {
         let groups = ports(t)
             .into_iter()
             .map(|(port, value)| {
-                let mut g = input_group(port, value);
+                let mut g = input_group(port, value, &wiring);
                 g.read = Some(InputRead {
                     source: InputSource::IselPort(port.number()),
                     at,

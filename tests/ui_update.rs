@@ -61,6 +61,7 @@ fn outputs_snapshot(at: Instant, spindle_on: bool) -> IoSnapshot {
                     value: false,
                     output: None,
                     hazardous: false,
+                    wiring: None,
                 }],
                 read: None,
             },
@@ -76,6 +77,7 @@ fn outputs_snapshot(at: Instant, spindle_on: bool) -> IoSnapshot {
                             bit: Some(6),
                         }),
                         hazardous: false,
+                        wiring: None,
                     },
                     IoBit {
                         name: "spindle".into(),
@@ -85,6 +87,7 @@ fn outputs_snapshot(at: Instant, spindle_on: bool) -> IoSnapshot {
                             bit: None,
                         }),
                         hazardous: true,
+                        wiring: None,
                     },
                 ],
                 read: None,
@@ -485,6 +488,95 @@ fn a_text_reply_is_shown_line_by_line() {
     assert!(shown.contains("=  @0V = iMC-S8 V2.0"), "{shown}");
     assert!(shown.contains("=    serial 42"), "{shown}");
     assert!(shown.contains("@0V = iMC-S8 V2.0 / serial 42"), "{shown}");
+}
+
+/// The ports of an isel controller as the driver names them with the
+/// shipped `isel-rewired` profile (`config/isel-rewired.toml`): user inputs
+/// and outputs (none written yet), the hood's port.
+fn rewired_snapshot(at: Instant) -> IoSnapshot {
+    use jogterm::config::{ConfigDirs, load_profile};
+    use jogterm::device::isel::{input_group, output_group};
+    use jogterm::proto::isel::{InputPort, OutputPort};
+    let profile = load_profile("isel-rewired", &ConfigDirs::builtin_only()).expect("profile");
+    let wiring = profile.wiring().expect("wiring");
+    IoSnapshot {
+        at,
+        groups: vec![
+            input_group(InputPort::User, 0x00, &wiring),
+            input_group(InputPort::Status2, 0x02, &wiring),
+            output_group(OutputPort::User, None, &wiring),
+        ],
+    }
+}
+
+#[test]
+fn the_io_panel_names_bits_as_the_profile_wires_them() {
+    let mut m = ready(Protocol::Isel);
+    let t = m.now;
+    update(&mut m, Msg::Device(Event::Io(rewired_snapshot(t))));
+    press(&mut m, [key(KeyCode::Tab)]);
+    assert_eq!(m.focus, PanelId::Io);
+    // In 0: user input 0, 1, 2, then the tool setter.
+    press(&mut m, (0..3).map(|_| key(KeyCode::Right)));
+    let shown = screen(&m, 220, 30);
+    assert!(
+        shown.contains("> in 0: user inputs tool setter = 0 (input, in0.3 probe"),
+        "{shown}"
+    );
+    // The hood bits are there, marked as not wired; the key switch, unused
+    // on this machine, is left out.
+    press(&mut m, [key(KeyCode::Down)]);
+    let shown = screen(&m, 220, 30);
+    assert!(
+        shown.contains("hood closed or setup = 0 (input, in2.6 hood, not wired"),
+        "{shown}"
+    );
+    assert!(!shown.contains("key switch"), "{shown}");
+    press(&mut m, [key(KeyCode::Left), key(KeyCode::Left)]);
+    let shown = screen(&m, 220, 30);
+    assert!(
+        shown.contains("power ok = 1 (input, in2.1 power"),
+        "{shown}"
+    );
+}
+
+#[test]
+fn a_bit_of_an_output_byte_nobody_wrote_asks_once_for_the_whole_byte() {
+    let mut m = ready(Protocol::Isel);
+    let t = m.now;
+    update(&mut m, Msg::Device(Event::Io(rewired_snapshot(t))));
+    press(
+        &mut m,
+        [key(KeyCode::Tab), key(KeyCode::Down), key(KeyCode::Down)],
+    );
+    // out 0, bit 1: the coolant pump; its state and the others' unknown.
+    press(&mut m, [key(KeyCode::Right)]);
+    let shown = screen(&m, 120, 30);
+    assert!(
+        shown.contains("> out 0: user outputs coolant = ?"),
+        "{shown}"
+    );
+    let fx = press(&mut m, [key(KeyCode::Enter)]);
+    assert!(fx.is_empty(), "asks first: {fx:?}");
+    assert!(matches!(m.popup, Some(Popup::Confirm(_))));
+    let shown = screen(&m, 120, 40);
+    assert!(shown.contains("Write out 0: user outputs = 02?"), "{shown}");
+    assert!(shown.contains("1 coolant: ? -> ON"), "{shown}");
+    for n in [0, 2, 3, 4, 5, 6, 7] {
+        let line = format!("{n} user output {n}: ? -> off");
+        assert!(shown.contains(&line), "{line}:\n{shown}");
+    }
+    let fx = press(&mut m, [ch('y')]);
+    assert_eq!(
+        fx,
+        [Effect::Request(Request::SetOutput {
+            output: OutputId {
+                group: 0,
+                bit: None
+            },
+            value: 0x02
+        })]
+    );
 }
 
 /// Issue 20, finding 6: once the E-stop circuits were closed again, the

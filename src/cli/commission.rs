@@ -20,9 +20,9 @@ use crate::device::inputs::walk::{Do, STEP_TIME, WalkTest, outputs_of};
 use crate::device::log::utc_timestamp;
 
 pub const LONG_ABOUT: &str = "\
-Walk through every wired input of the machine profile, one at a time, and check that it is
-wired as the profile says: the command asks for the input (`[3/23] limit X1 (in3.0): trip it
-now, then let it go`), watches every input as fast as the line allows (as `jogterm watch`
+Walk through every wired input of the machine profile (its `[io]` wiring), one at a time, and
+check that it is wired as the profile says: the command asks for the input (`[2/18] limit X1
+(in3.0): trip the switch, then free it now`), watches every input as fast as the line allows (as `jogterm watch`
 does), and reports what it saw:
   ok                 the input went to its active level and back;
   inverted           it toggles, but is active at the other level (a normally-closed
@@ -326,10 +326,12 @@ async fn commission(
     ExitCode::from(code)
 }
 
-/// Wait until the requests given have been carried out: the driver sends
-/// them between two polls, so two port cycles reported after them came
-/// after them (at most 2 s). Closing before would lose one still queued:
-/// an output switched on for its check and not yet off again.
+/// Wait until the requests given have been carried out (at most 2 s). The
+/// driver sends a request between two polls, so of the port reports that
+/// follow it (`Event::Io`: one at the end of each poll cycle, one after an
+/// output is written) at most one, the cycle under way, comes before it is
+/// done: the second comes after. Closing before would lose a request still
+/// queued: an output switched on for its check and not yet off again.
 async fn carried_out(session: &mut Session) {
     let deadline = tokio::time::Instant::now() + Duration::from_secs(2);
     let mut cycles = 0;

@@ -18,8 +18,9 @@ use crate::proto::Protocol;
 pub const LONG_ABOUT: &str = "\
 Read the controller's position (isel `@0P`, EMCU `@LX @LY @LZ`) again and again and print one
 line per sample, in steps. With --ports the input ports 1 (E-stop circuits, keys), 3 (limit
-switches) and 2 (power, hood) of an isel controller, or the `@X` flags of an EMCU interface,
-are read every cycle too and printed with each sample.
+switches) and 2 (power, hood) of an isel controller (and 0, the user inputs, when the profile's
+[io] gives one a role such as probe; a port the controller answers `1` to is left out), or the
+`@X` flags of an EMCU interface, are read every cycle too and printed with each sample.
 
 EMP (--protocol emp): every drive's position (`2C`) per cycle, as fast as the line allows
 (10.8 ms per drive) or at the interval; with --ports the switches and inputs (`40 01`) of
@@ -31,8 +32,10 @@ goes away (`| head -5`), then stops and closes cleanly.";
 
 pub const AFTER_LONG_HELP: &str = "\
 Output: `t=0.012 X=16000 Y=16000 Z=16000` (t: seconds since the link came up), with --ports
-`… in1=03 in3=00 in2=62`; with --json one object per line:
-  {\"t\":0.012,\"source\":\"measured\",\"pos\":[16000,16000,16000],\"ports\":{\"1\":3,\"3\":0,\"2\":98}}
+`… in1=03 in3=10 in2=62 active: limit Z1`: the raw bytes, then the wired inputs that are active
+(a limit switch hit, an E-stop circuit open, a key pressed …) under the profile's names ([io],
+docs/profiles.md); with --json one object per line:
+  {\"t\":0.012,\"source\":\"measured\",\"pos\":[16000,16000,16000],\"ports\":{\"1\":3,\"3\":16,\"2\":98},\"active\":[\"limit Z1\"]}
 pos has one entry per axis of the machine (X, Y, Z, A as far as it has them; EMP: one per
 drive), in steps, as the controller reports them. EMCU with --ports: `… status=08`,
 {\"status\":8}: the `@X` flags as a byte, bit 0 moving, 1 waiting, 2 error, 3 position
@@ -95,6 +98,7 @@ pub fn format_sample(
                 .collect()
         })
         .unwrap_or_default();
+    let active = ports.map(active_inputs).unwrap_or_default();
     let source = match sample.source {
         PositionSource::Measured => "measured",
         PositionSource::Estimated => "estimated",
@@ -107,6 +111,7 @@ pub fn format_sample(
         if ports.is_some() {
             let map: BTreeMap<String, u8> = port_values.iter().cloned().collect();
             obj.insert("ports".into(), serde_json::json!(map));
+            obj.insert("active".into(), serde_json::json!(active));
         }
         serde_json::Value::Object(obj).to_string()
     } else {
@@ -124,22 +129,37 @@ pub fn format_sample(
                 line.push_str(&format!(" {key}={v:02X}"));
             }
         }
+        if !active.is_empty() {
+            line.push_str(&format!(" active: {}", active.join(", ")));
+        }
         line
     }
 }
 
+/// The wired inputs that read active, under the profile's names
+/// (`crate::wiring`: a limit switch hit, an E-stop open, a key pressed …).
+fn active_inputs(io: &IoSnapshot) -> Vec<String> {
+    io.groups
+        .iter()
+        .flat_map(|g| &g.bits)
+        .filter(|b| b.output.is_none() && b.wiring.is_some() && b.wired() && b.active())
+        .filter(|b| {
+            b.wiring
+                .as_ref()
+                .is_some_and(|w| w.role != crate::wiring::Role::Unused)
+        })
+        .map(|b| b.name.clone())
+        .collect()
+}
+
 /// How a port group is keyed in the output: isel input ports by number
-/// (`in 3: limit switches` -> `3`, port 0 left out), the EMCU status group
+/// (`in 3: limit switches` -> `3`; port 0 when the profile has it read), the EMCU status group
 /// by name (`status: @X flags` -> `status`), EMP drives by address
 /// (`drive 11 (X)` -> `drive11`).
 fn port_key(group: &str) -> Option<String> {
     let head = group.split(':').next()?.trim();
     if let Some(n) = head.strip_prefix("in ") {
-        return n
-            .parse::<u8>()
-            .ok()
-            .filter(|n| *n != 0)
-            .map(|n| n.to_string());
+        return n.parse::<u8>().ok().map(|n| n.to_string());
     }
     if head == "status" {
         return Some(head.to_owned());
@@ -275,11 +295,13 @@ mod tests {
 
     #[test]
     fn samples_as_text_and_json() {
+        let wiring =
+            crate::wiring::Wiring::defaults(Protocol::Isel, crate::axis::AxisSet::XYZ, &[]);
         let io = IoSnapshot {
             at: Instant::now(),
             groups: vec![
-                input_group(InputPort::Status1, 0x03),
-                input_group(InputPort::LimitSwitches, 0x10),
+                input_group(InputPort::Status1, 0x03, &wiring),
+                input_group(InputPort::LimitSwitches, 0x10, &wiring),
             ],
         };
         assert_eq!(
@@ -288,7 +310,7 @@ mod tests {
         );
         assert_eq!(
             format_sample(&sample(), 0.25, Some(&io), false),
-            "t=0.250 X=256 Y=131087 Z=-2 in1=03 in3=10"
+            "t=0.250 X=256 Y=131087 Z=-2 in1=03 in3=10 active: limit Z1"
         );
         let json: serde_json::Value =
             serde_json::from_str(&format_sample(&sample(), 1.5, Some(&io), true)).expect("json");
@@ -296,6 +318,7 @@ mod tests {
         assert_eq!(json["t"], serde_json::json!(1.5));
         assert_eq!(json["source"], "measured");
         assert_eq!(json["ports"], serde_json::json!({"1": 3, "3": 16}));
+        assert_eq!(json["active"], serde_json::json!(["limit Z1"]));
     }
 
     #[test]

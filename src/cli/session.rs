@@ -167,8 +167,9 @@ fn driver(profile: &Profile, polling: Polling) -> Result<Box<dyn Driver>, StartE
 }
 
 /// isel: positions (`@0P`), with `ports` the input ports 1, 3, 2 every
-/// cycle (inputs alone: 1, 3, 2, 0). Without polling the profile's plan
-/// stays as it is.
+/// cycle (and 0 when the profile wires a user input to a role,
+/// `PollPlan::ports_for`); the inputs alone: every input port, 1, 3, 2, 0.
+/// Without polling the profile's plan stays as it is.
 fn isel_settings(profile: &Profile, polling: Polling) -> Result<IselSettings, StartError> {
     let mut s =
         IselSettings::from_profile(profile).map_err(|e| StartError::Usage(e.to_string()))?;
@@ -178,7 +179,7 @@ fn isel_settings(profile: &Profile, polling: Polling) -> Result<IselSettings, St
         s.poll.positions = polling.positions;
         s.poll.ports = match (polling.ports, polling.positions) {
             (false, _) => Vec::new(),
-            (true, true) => PollPlan::DEFAULT_PORTS.to_vec(),
+            (true, true) => PollPlan::ports_for(&s.wiring),
             (true, false) => PollPlan::ALL_INPUT_PORTS.to_vec(),
         };
     }

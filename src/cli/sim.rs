@@ -9,8 +9,7 @@ use clap::Args;
 
 use super::out::WatchedStdout;
 use super::{GlobalArgs, profile};
-use crate::config::ConfigDirs;
-use crate::proto::Protocol;
+use crate::config::{ConfigDirs, SimVariant};
 use crate::sim::registry;
 use crate::sim::shell::{PtyOptions, run_pty_simulator_with};
 
@@ -22,7 +21,8 @@ pseudo-terminal's /dev/pts/N). Open it like a serial port; the simulator paces t
 the controller's baud rate (isel 19200). Clients may close it and open it again.
 
 The simulated machine is the one the profile describes (axes, soft limits, [sim]
-limit_margin, start_position and the variants such as emp_rejects_0a_before_on). The
+limit_margin and start_position), and the controller the one its [sim] variants and
+--variant describe: the range of real controllers (docs/simulator.md, Variants). The
 family is --protocol (or --sim), else the profile's connection.protocol; without
 --profile, --sim/--protocol pick the shipped profile of that family (isel, emcu, emp).
 
@@ -60,10 +60,11 @@ pub struct SimArgs {
     /// Keep a symbolic link at PATH that points at the pseudo-terminal
     #[arg(long, value_name = "PATH")]
     pub link: Option<PathBuf>,
-    /// EMP: drives not switched on reject `0A` too (as every request but
-    /// `02`); the profile's `[sim] emp_rejects_0a_before_on`
-    #[arg(long)]
-    pub emp_rejects_0a_before_on: bool,
+    /// Model a controller that differs from the default (repeatable, added to the
+    /// profile's [sim] variants): hood-unwired, no-port2, work-positions (isel),
+    /// memory=<commands> (isel, EMCU), emp-rejects-0a-before-on (EMP)
+    #[arg(long = "variant", value_name = "NAME[=N]")]
+    pub variants: Vec<SimVariant>,
 }
 
 /// Run `jogterm sim` until stdin closes.
@@ -76,12 +77,10 @@ pub fn run(global: &GlobalArgs, args: &SimArgs) -> anyhow::Result<()> {
     }
     let mut profile = profile::resolve(global, &ConfigDirs::from_env())?;
     let protocol = profile::family(&profile);
-    if args.emp_rejects_0a_before_on {
-        if protocol != Protocol::Emp {
-            bail!("--emp-rejects-0a-before-on models EMP drives: this simulator is {protocol}");
-        }
-        profile.sim.emp_rejects_0a_before_on = true;
+    if let Some(v) = args.variants.iter().find(|v| !v.applies_to(protocol)) {
+        bail!("--variant {v}: the {protocol} simulator has no such variant");
     }
+    profile.sim.variants.extend(args.variants.iter().copied());
     let device = registry::build(protocol, &profile)?;
     tracing::info!(%protocol, profile = %profile.name, "simulator starting");
     let mut stdout = WatchedStdout::new();

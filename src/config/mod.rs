@@ -14,6 +14,7 @@
 pub mod profile;
 pub mod source;
 pub mod theme;
+pub mod variant;
 
 use std::path::{Path, PathBuf};
 
@@ -22,6 +23,7 @@ use serde::de::DeserializeOwned;
 pub use profile::Profile;
 pub use source::{ConfigError, Origin, Source};
 pub use theme::Theme;
+pub use variant::SimVariant;
 
 /// Shipped profiles: name and TOML text.
 pub const BUILTIN_PROFILES: &[(&str, &str)] = &[
@@ -29,6 +31,10 @@ pub const BUILTIN_PROFILES: &[(&str, &str)] = &[
     ("isel", include_str!("../../config/isel.toml")),
     ("emcu", include_str!("../../config/emcu.toml")),
     ("emp", include_str!("../../config/emp.toml")),
+    (
+        "isel-rewired",
+        include_str!("../../config/isel-rewired.toml"),
+    ),
 ];
 
 /// Shipped themes: name and TOML text.
@@ -95,18 +101,46 @@ pub fn load_profile_with_sources(
     spec: &str,
     dirs: &ConfigDirs,
 ) -> Result<(Profile, Vec<Source>), ConfigError> {
-    let (mut profile, sources) = load_layered::<Profile>(spec, &PROFILES, dirs)?;
+    let (profile, sources, mut errors) = load_layered::<Profile>(spec, &PROFILES, dirs)?;
     let refs: Vec<&Source> = sources.iter().collect();
-    if let Some(problem) = profile.validate().into_iter().next() {
-        return Err(source::error_for_key(&refs, &problem.key, problem.message));
+    // Every problem at once: the fields serde refused, then the checks of
+    // the (repaired) profile as a whole.
+    if let Some(profile) = &profile {
+        errors.extend(
+            profile
+                .validate()
+                .into_iter()
+                .map(|problem| source::error_for_key(&refs, &problem.key, problem.message)),
+        );
     }
-    profile.retain_listed_axes();
-    Ok((profile, sources))
+    match (profile, ConfigError::all(errors)) {
+        (_, Some(errors)) => Err(errors),
+        (Some(mut profile), None) => {
+            profile.retain_listed_axes();
+            Ok((profile, sources))
+        }
+        (None, None) => Err(ConfigError::new(
+            sources
+                .first()
+                .map_or(Origin::Embedded("profile"), |s| s.origin.clone()),
+            "the profile cannot be read",
+        )),
+    }
 }
 
 /// Load a theme by name or path.
 pub fn load_theme(spec: &str, dirs: &ConfigDirs) -> Result<Theme, ConfigError> {
-    load_layered::<Theme>(spec, &THEMES, dirs).map(|(theme, _)| theme)
+    let (theme, sources, errors) = load_layered::<Theme>(spec, &THEMES, dirs)?;
+    match (theme, ConfigError::all(errors)) {
+        (Some(theme), None) => Ok(theme),
+        (_, Some(errors)) => Err(errors),
+        (None, None) => Err(ConfigError::new(
+            sources
+                .first()
+                .map_or(Origin::Embedded("theme"), |s| s.origin.clone()),
+            "the theme cannot be read",
+        )),
+    }
 }
 
 /// Names of shipped and user profiles (for `--help` texts and error messages).
@@ -137,12 +171,16 @@ fn names(kind: &Kind, dirs: &ConfigDirs) -> Vec<String> {
 }
 
 /// Read `spec` and the chain of files it patches, most specific first, merge
-/// them onto the root and deserialize.
+/// them onto the root and deserialize: the value (repaired where fields were
+/// wrong, `None` when it could not be), the sources, and every field's error
+/// (`source::deserialize_all`). A file that cannot be read or parsed is the
+/// error itself.
+#[allow(clippy::type_complexity)]
 fn load_layered<T: DeserializeOwned>(
     spec: &str,
     kind: &Kind,
     dirs: &ConfigDirs,
-) -> Result<(T, Vec<Source>), ConfigError> {
+) -> Result<(Option<T>, Vec<Source>, Vec<ConfigError>), ConfigError> {
     const MAX_DEPTH: usize = 8;
     let mut chain: Vec<(Source, toml::Table)> = Vec::new();
     let mut next = Some(spec.to_string());
@@ -178,14 +216,18 @@ fn load_layered<T: DeserializeOwned>(
     }
     let mut merged = toml::Table::new();
     let mut sources = Vec::with_capacity(chain.len());
+    let mut root: Option<toml::Table> = None;
     for (src, table) in chain.into_iter().rev() {
+        if root.is_none() && src.origin == Origin::Embedded(kind.root) {
+            root = Some(table.clone());
+        }
         source::merge(&mut merged, table);
         sources.push(src);
     }
     sources.reverse();
     let refs: Vec<&Source> = sources.iter().collect();
-    let value = source::deserialize::<T>(merged, &refs)?;
-    Ok((value, sources))
+    let (value, errors) = source::deserialize_all::<T>(merged, root.as_ref(), &refs);
+    Ok((value, sources, errors))
 }
 
 /// Largest configuration file jogterm reads. Profiles and themes are a few

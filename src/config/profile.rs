@@ -9,6 +9,9 @@ use serde::{Deserialize, Serialize};
 use crate::axis::{Axis, AxisSet};
 use crate::proto::Protocol;
 use crate::wire::LineSettings;
+use crate::wiring::{BitPatch, Wiring};
+
+use super::variant::SimVariant;
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -30,6 +33,11 @@ pub struct Profile {
     pub emcu: EmcuProfile,
     pub emp: EmpProfile,
     pub sim: SimProfile,
+    /// What the controller's bits are wired to, by address (`in2.5`,
+    /// `out0.3`, `11.limit+`): patches of the manuals' tables
+    /// (`crate::wiring`, `docs/profiles.md`).
+    #[serde(default)]
+    pub io: BTreeMap<String, BitPatch>,
     /// Keymap overrides: mode -> key -> action (validated by the UI's keymap).
     #[serde(default)]
     pub keys: BTreeMap<String, BTreeMap<String, String>>,
@@ -259,11 +267,10 @@ pub struct SimProfile {
     /// Position (units, machine coordinates) the simulated axes stand at when
     /// the simulator starts, before any reference run.
     pub start_position: f64,
-    /// EMP: a drive that is not switched on rejects `0A` too, as every other
-    /// request but `02` (EMP manual "02": "Ohne diesen Einschalt-Befehl
-    /// werden keine Kommandos angenommen"); by default it answers `0A` with
-    /// error `02` (`docs/simulator.md`, EMP variants).
-    pub emp_rejects_0a_before_on: bool,
+    /// How the simulated controller differs from the default one
+    /// (`hood-unwired`, `memory=64`, …: `config::variant`).
+    #[serde(default)]
+    pub variants: Vec<SimVariant>,
 }
 
 /// A profile problem found after parsing: the key path and what is wrong.
@@ -289,6 +296,50 @@ impl Profile {
 
     pub fn axis(&self, axis: Axis) -> Option<&AxisProfile> {
         self.axes.get(&axis)
+    }
+
+    /// The machine's axes as `machine.axes` lists them (all defined axes
+    /// when that list is broken, which `validate` reports).
+    fn listed_axes(&self) -> AxisSet {
+        self.machine.axis_set().unwrap_or_else(|_| self.axis_set())
+    }
+
+    /// The EMP drives of the listed axes, DS as two upper-case hex digits
+    /// (axes without a valid address are left out; `validate` reports them).
+    fn drives(&self) -> Vec<(String, Axis)> {
+        let listed = self.listed_axes();
+        self.axes
+            .iter()
+            .filter(|(axis, _)| listed.contains(**axis))
+            .filter_map(|(axis, p)| {
+                let ds = parse_drive_address(p.drive.as_deref()?).ok()?;
+                Some((format!("{ds:02X}"), *axis))
+            })
+            .collect()
+    }
+
+    /// The machine's wiring: the family's tables patched by `[io]`, or every
+    /// problem with the `[io]` entries.
+    pub fn wiring(&self) -> Result<Wiring, Vec<Invalid>> {
+        let axes = self.listed_axes();
+        let drives = if self.connection.protocol == Protocol::Emp {
+            self.drives()
+        } else {
+            Vec::new()
+        };
+        let (wiring, problems) =
+            Wiring::defaults(self.connection.protocol, axes, &drives).patched(&self.io, axes);
+        if problems.is_empty() {
+            Ok(wiring)
+        } else {
+            Err(problems
+                .into_iter()
+                .map(|p| Invalid {
+                    key: p.key,
+                    message: p.message,
+                })
+                .collect())
+        }
     }
 
     /// Keep only the axes `machine.axes` lists (after a successful `validate`).
@@ -498,6 +549,19 @@ impl Profile {
                 &["sim", "limit_margin"],
                 "must be zero or positive",
             ));
+        }
+        let family = self.connection.protocol;
+        for (i, variant) in self.sim.variants.iter().enumerate() {
+            if !variant.applies_to(family) {
+                let index = i.to_string();
+                out.push(Invalid::new(
+                    &["sim", "variants", index.as_str()],
+                    format!("the {family} simulator has no variant `{variant}`"),
+                ));
+            }
+        }
+        if let Err(problems) = self.wiring() {
+            out.extend(problems);
         }
         out
     }

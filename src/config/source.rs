@@ -37,9 +37,10 @@ pub struct Source {
     pub text: String,
 }
 
-/// A configuration problem, located in the file that caused it.
+/// A configuration problem, located in the file that caused it, and the
+/// further problems found in the same files (`more`): a file with several
+/// mistakes gets them all reported at once, each on a line of its own.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("{origin}{}: error: {message}{}", location(*.line, *.column), key_note(.key))]
 pub struct ConfigError {
     pub origin: Origin,
     /// 1-based line and column, when the problem has a place in the text.
@@ -48,6 +49,26 @@ pub struct ConfigError {
     /// Dotted key path of the offending field, e.g. `axes.X.steps_per_unit`.
     pub key: Option<String>,
     pub message: String,
+    /// The other problems, in the order of the files and lines (boxed: an
+    /// error travels in every `Result` of the loader).
+    pub more: Box<[ConfigError]>,
+}
+
+impl fmt::Display for ConfigError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "{}{}: error: {}{}",
+            self.origin,
+            location(self.line, self.column),
+            self.message,
+            key_note(&self.key)
+        )?;
+        for other in self.more.iter() {
+            write!(f, "\n{other}")?;
+        }
+        Ok(())
+    }
 }
 
 fn location(line: Option<usize>, column: Option<usize>) -> String {
@@ -72,7 +93,28 @@ impl ConfigError {
             column: None,
             key: None,
             message: message.into(),
+            more: Box::default(),
         }
+    }
+
+    /// One error carrying all of `errors`, sorted by file, line and column;
+    /// `None` when there are none.
+    pub fn all(mut errors: Vec<ConfigError>) -> Option<ConfigError> {
+        errors.sort_by(|a, b| {
+            (a.origin.to_string(), a.line, a.column).cmp(&(b.origin.to_string(), b.line, b.column))
+        });
+        errors.dedup();
+        let mut iter = errors.into_iter();
+        let mut first = iter.next()?;
+        first.more = iter.collect();
+        Some(first)
+    }
+
+    /// This problem and the further ones, each on its own.
+    pub fn each(&self) -> Vec<ConfigError> {
+        let mut head = self.clone();
+        let more = std::mem::take(&mut head.more);
+        std::iter::once(head).chain(more.into_vec()).collect()
     }
 
     /// An error about the field at `key`, placed on its line in `source` when
@@ -157,8 +199,42 @@ pub fn deserialize<T: DeserializeOwned>(
     table: toml::Table,
     sources: &[&Source],
 ) -> Result<T, ConfigError> {
-    let value = toml::Value::Table(table);
-    serde_path_to_error::deserialize::<_, T>(value).map_err(|err| {
+    match deserialize_all(table, None, sources) {
+        (Some(value), errors) if errors.is_empty() => Ok(value),
+        (_, errors) => Err(ConfigError::all(errors).unwrap_or_else(unlocated)),
+    }
+}
+
+fn unlocated() -> ConfigError {
+    ConfigError::new(Origin::Embedded("configuration"), "cannot be read")
+}
+
+/// Most problems one load reports: beyond it a file is more wrong than right.
+const MAX_PROBLEMS: usize = 50;
+
+/// Deserialize a merged table, collecting every field that fails rather than
+/// only the first: after each failure the field is set back to its value in
+/// `fallback` (the embedded defaults the file patches, known to be good) or
+/// left out when the defaults have none, and the table is tried again. So
+/// one wrong field cannot hide another. Each error is placed in the most
+/// specific source that sets its key. The value is the repaired one (for
+/// checks that look at more than one field), `None` when the table could
+/// not be repaired.
+pub fn deserialize_all<T: DeserializeOwned>(
+    mut table: toml::Table,
+    fallback: Option<&toml::Table>,
+    sources: &[&Source],
+) -> (Option<T>, Vec<ConfigError>) {
+    let mut errors: Vec<ConfigError> = Vec::new();
+    let mut seen: Vec<(Vec<String>, String)> = Vec::new();
+    // Fields left out by a repair: their "missing field" is no new problem.
+    let mut dropped: Vec<Vec<String>> = Vec::new();
+    loop {
+        let err = match serde_path_to_error::deserialize::<_, T>(toml::Value::Table(table.clone()))
+        {
+            Ok(value) => return (Some(value), errors),
+            Err(err) => err,
+        };
         let key: Vec<String> = err
             .path()
             .iter()
@@ -169,8 +245,95 @@ pub fn deserialize<T: DeserializeOwned>(
             })
             .collect();
         let message = err.inner().message().trim().to_string();
-        error_for_key(sources, &key, message)
-    })
+        let path = field_path(&table, &key, &message);
+        let again = seen.iter().any(|(k, m)| *k == key && *m == message);
+        if again || dropped.contains(&path) {
+            return (None, errors);
+        }
+        errors.push(error_for_key(sources, &key, message.clone()));
+        if errors.len() >= MAX_PROBLEMS {
+            return (None, errors);
+        }
+        match repair(&mut table, fallback, &path) {
+            Repair::Replaced => {}
+            Repair::Dropped => dropped.push(path),
+            Repair::Impossible => return (None, errors),
+        }
+        seen.push((key, message));
+    }
+}
+
+/// The field an error is about: the key path, or for a missing field the
+/// path of that field; cut at the first array (a bad element is repaired
+/// by replacing its whole array).
+fn field_path(table: &toml::Table, key: &[String], message: &str) -> Vec<String> {
+    let missing = message
+        .strip_prefix("missing field `")
+        .and_then(|rest| rest.split_once('`'))
+        .map(|(field, _)| field.to_string());
+    let full: Vec<String> = key.iter().cloned().chain(missing).collect();
+    let mut current = Some(table);
+    let mut out = Vec::new();
+    for part in full {
+        let Some(t) = current else { break };
+        current = match t.get(&part) {
+            Some(toml::Value::Table(inner)) => Some(inner),
+            _ => None,
+        };
+        out.push(part);
+    }
+    out
+}
+
+enum Repair {
+    Replaced,
+    Dropped,
+    Impossible,
+}
+
+/// Put the field at `path` back to what `fallback` has there, or drop it.
+fn repair(table: &mut toml::Table, fallback: Option<&toml::Table>, path: &[String]) -> Repair {
+    let Some((last, parents)) = path.split_last() else {
+        return Repair::Impossible;
+    };
+    let good = fallback.and_then(|f| lookup(f, path)).cloned();
+    let Some(parent) = lookup_table_mut(table, parents) else {
+        return Repair::Impossible;
+    };
+    match good {
+        Some(value) if parent.get(last) != Some(&value) => {
+            parent.insert(last.clone(), value);
+            Repair::Replaced
+        }
+        Some(_) => Repair::Impossible,
+        None => match parent.remove(last) {
+            Some(_) => Repair::Dropped,
+            None => Repair::Impossible,
+        },
+    }
+}
+
+fn lookup<'a>(table: &'a toml::Table, path: &[String]) -> Option<&'a toml::Value> {
+    let (first, rest) = path.split_first()?;
+    let value = table.get(first)?;
+    match (value, rest.is_empty()) {
+        (v, true) => Some(v),
+        (toml::Value::Table(t), false) => lookup(t, rest),
+        _ => None,
+    }
+}
+
+fn lookup_table_mut<'a>(
+    table: &'a mut toml::Table,
+    path: &[String],
+) -> Option<&'a mut toml::Table> {
+    let Some((first, rest)) = path.split_first() else {
+        return Some(table);
+    };
+    match table.get_mut(first)? {
+        toml::Value::Table(t) => lookup_table_mut(t, rest),
+        _ => None,
+    }
 }
 
 /// An error for `key`, placed in the most specific source that mentions it.

@@ -187,3 +187,147 @@ fn bad_colour_says_what_a_colour_is() {
     assert_eq!(err.line, Some(2), "{err}");
     assert!(err.message.contains("not a colour"), "{err}");
 }
+
+#[test]
+fn every_problem_of_a_profile_is_reported_with_its_place() {
+    let (dir, dirs) = user_dir();
+    let path = dir.path().join("profiles/many.toml");
+    // Two fields serde refuses, two checks of the whole, one bad [io]
+    // entry: all five, in the order of the lines, each file:line:col.
+    fs::write(
+        &path,
+        "name = \"many\"\n\
+         [axes.X]\n\
+         steps_per_unit = \"fast\"\n\
+         [jog]\n\
+         speeed = 3\n\
+         step = 9\n\
+         [axes.Z]\n\
+         min = 10.0\n\
+         max = 5.0\n\
+         [io.\"in9.0\"]\n\
+         wired = true\n",
+    )
+    .unwrap();
+    let err = load_profile("many", &dirs).unwrap_err();
+    let each = err.each();
+    let lines: Vec<Option<usize>> = each.iter().map(|e| e.line).collect();
+    assert_eq!(
+        lines,
+        [Some(3), Some(5), Some(6), Some(9), Some(10)],
+        "{err}"
+    );
+    assert!(each.iter().all(|e| e.origin == Origin::File(path.clone())));
+    assert!(each.iter().all(|e| e.column.is_some()), "{err}");
+    let text = err.to_string();
+    assert_eq!(text.lines().count(), 5, "{text}");
+    for needle in [
+        "expected f64",
+        "speeed",
+        "outside `steps`",
+        "min < max",
+        "in9.0",
+    ] {
+        assert!(text.contains(needle), "{needle}: {text}");
+    }
+    assert!(text.lines().all(|l| l.contains("many.toml:")), "{text}");
+}
+
+#[test]
+fn io_entries_patch_the_wiring_and_bad_ones_are_placed() {
+    use crate::wiring::{LimitSwitch, Role, Side};
+    let (dir, dirs) = user_dir();
+    fs::write(
+        dir.path().join("profiles/wired.toml"),
+        "[io.\"in0.3\"]\nname = \"tool setter\"\nrole = \"probe\"\n\
+         [io.\"in3.1\"]\nside = \"-\"\n",
+    )
+    .unwrap();
+    let p = load_profile("wired", &dirs).unwrap();
+    let wiring = p.wiring().expect("wiring");
+    let probe = wiring.bit("in0.3").expect("bit");
+    assert_eq!(
+        (probe.name.as_str(), probe.role),
+        ("tool setter", Role::Probe)
+    );
+    assert_eq!(
+        wiring.bit("in3.1").map(|b| b.role),
+        Some(Role::Limit(LimitSwitch {
+            axis: Axis::X,
+            side: Side::Min
+        }))
+    );
+    fs::write(
+        dir.path().join("profiles/badio.toml"),
+        "[io.\"in0.3\"]\nrole = \"limit\"\n[io.\"in1.0\"]\nactive = \"sideways\"\n\
+         [sim]\nvariants = [\"hood-unwired\", \"bogus\"]\n",
+    )
+    .unwrap();
+    let err = load_profile("badio", &dirs).unwrap_err();
+    let text = err.to_string();
+    assert_eq!(text.lines().count(), 3, "{text}");
+    assert!(text.contains("badio.toml:2:"), "{text}");
+    assert!(text.contains("`axis`"), "{text}");
+    assert!(text.contains("badio.toml:4:"), "{text}");
+    assert!(text.contains("sideways"), "{text}");
+    assert!(text.contains("unknown simulator variant `bogus`"), "{text}");
+    // A variant of another family is refused where it is written.
+    fs::write(
+        dir.path().join("profiles/emcuhood.toml"),
+        "base = \"emcu\"\n[sim]\nvariants = [\"hood-unwired\"]\n",
+    )
+    .unwrap();
+    let err = load_profile("emcuhood", &dirs).unwrap_err();
+    assert!(
+        err.message.contains("emcu simulator has no variant"),
+        "{err}"
+    );
+    assert_eq!(err.line, Some(3), "{err}");
+}
+
+#[test]
+fn the_rewired_example_profile_says_what_its_machine_has() {
+    use crate::wiring::{LimitSwitch, Role, Side};
+    let p = load_profile("isel-rewired", &ConfigDirs::builtin_only()).unwrap();
+    assert_eq!(p.connection.protocol, Protocol::Isel);
+    let w = p.wiring().expect("wiring");
+    let probe = w.bit("in0.3").expect("tool setter");
+    assert_eq!(
+        (probe.name.as_str(), probe.role),
+        ("tool setter", Role::Probe)
+    );
+    assert!(
+        probe.is_active(false) && !probe.is_active(true),
+        "normally closed"
+    );
+    assert!(w.bit("in2.1").expect("power").interlocks());
+    for hood in ["in2.5", "in2.6"] {
+        assert!(!w.bit(hood).expect(hood).wired, "{hood}");
+    }
+    assert_eq!(w.bit("in2.7").map(|b| b.role), Some(Role::Unused));
+    let y: Vec<(String, LimitSwitch)> = w
+        .limit_switches()
+        .filter(|(_, l)| l.axis == Axis::Y)
+        .map(|(b, l)| (b.name.clone(), l))
+        .collect();
+    assert_eq!(
+        y,
+        [
+            (
+                "Y end".to_string(),
+                LimitSwitch {
+                    axis: Axis::Y,
+                    side: Side::Max
+                }
+            ),
+            (
+                "Y home".to_string(),
+                LimitSwitch {
+                    axis: Axis::Y,
+                    side: Side::Min
+                }
+            ),
+        ]
+    );
+    assert_eq!(w.bit("out0.1").map(|b| b.name.as_str()), Some("coolant"));
+}

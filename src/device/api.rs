@@ -9,6 +9,7 @@ use std::time::{Duration, Instant};
 
 use crate::axis::{Axis, AxisSet};
 use crate::traffic::TrafficRecord;
+use crate::wiring::{BitKind, BitWiring, LimitSwitch, Side};
 
 /// A value per axis, in X, Y, Z, A order; `None` where the axis is absent.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
@@ -411,13 +412,61 @@ impl fmt::Display for Refusal {
 /// One named bit of a port or status word.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct IoBit {
+    /// The profile's name for the bit (`crate::wiring`), else the driver's.
     pub name: String,
+    /// The level as read, or as last written (outputs).
     pub value: bool,
     /// Set for outputs the operator may switch.
     pub output: Option<OutputId>,
     /// Switching it moves or powers something (spindle, motor currents,
     /// brake): the UI asks for confirmation.
     pub hazardous: bool,
+    /// What the machine profile says the bit is wired to; `None` for a
+    /// controller's status flag (EMCU `@X`), which is no wire.
+    pub wiring: Option<BitWiring>,
+}
+
+impl IoBit {
+    /// Whether the condition the bit's role names holds (a limit switch hit,
+    /// an E-stop tripped …; `crate::wiring::Role`); for a status flag, that
+    /// it is set.
+    pub fn active(&self) -> bool {
+        self.wiring
+            .as_ref()
+            .map_or(self.value, |w| w.is_active(self.value))
+    }
+
+    /// Whether the profile says something is connected (status flags are).
+    pub fn wired(&self) -> bool {
+        self.wiring.as_ref().is_none_or(|w| w.wired)
+    }
+
+    /// The limit switch this bit is, when it is a wired one.
+    pub fn limit(&self) -> Option<LimitSwitch> {
+        self.wiring.as_ref().and_then(BitWiring::limit)
+    }
+}
+
+/// A wired limit switch that reads active: which axis, which end of its
+/// travel, and what the profile calls it.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ActiveLimit {
+    pub axis: Axis,
+    pub side: Side,
+    pub name: String,
+    /// The bit's address (`in3.1`, `11.limit-`).
+    pub address: String,
+}
+
+impl ActiveLimit {
+    /// The direction that moves the axis out of the switch: plus off the
+    /// `min` switch, minus off the `max` switch.
+    pub fn away(&self) -> Dir {
+        match self.side {
+            Side::Min => Dir::Plus,
+            Side::Max => Dir::Minus,
+        }
+    }
 }
 
 /// A port, status word or drive I/O block as read from the controller.
@@ -568,6 +617,39 @@ impl InputChange {
 pub struct IoSnapshot {
     pub at: Instant,
     pub groups: Vec<IoGroup>,
+}
+
+impl IoSnapshot {
+    /// The wired limit switches that read active in this snapshot, with
+    /// their axis and side, in the order the controller numbers them. An
+    /// input the profile declares unwired never counts; an axis may have
+    /// both of its switches active (a switch wired to both ends). The jog
+    /// off a limit switch (issue 13) takes its axis and direction from here
+    /// ([`ActiveLimit::away`]).
+    pub fn active_limits(&self) -> Vec<ActiveLimit> {
+        self.groups
+            .iter()
+            .flat_map(|g| &g.bits)
+            .filter(|b| b.output.is_none() && b.active())
+            .filter_map(|b| {
+                let w = b.wiring.as_ref().filter(|w| w.kind == BitKind::Input)?;
+                let l = w.limit()?;
+                Some(ActiveLimit {
+                    axis: l.axis,
+                    side: l.side,
+                    name: w.name.clone(),
+                    address: w.address.clone(),
+                })
+            })
+            .collect()
+    }
+
+    /// The active limit switches of one axis.
+    pub fn active_limits_of(&self, axis: Axis) -> Vec<ActiveLimit> {
+        let mut all = self.active_limits();
+        all.retain(|l| l.axis == axis);
+        all
+    }
 }
 
 /// How a continuous jog ended.

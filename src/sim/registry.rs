@@ -6,7 +6,7 @@ use super::SimDevice;
 use super::emcu::EmcuSim;
 use super::emp::EmpSim;
 use super::isel::IselSim;
-use crate::config::Profile;
+use crate::config::{Profile, SimVariant};
 use crate::proto::Protocol;
 
 /// Why no simulator could be built.
@@ -18,8 +18,34 @@ pub enum RegistryError {
     Profile { protocol: Protocol, message: String },
 }
 
-/// The simulator of `protocol` for the machine `profile` describes.
+/// The simulator of `protocol` for the machine `profile` describes, as its
+/// `[sim] variants` say (`config::variant`): each family's config applies
+/// its own variants when it is built from the profile; `memory=` is the
+/// `memory` control of every family that stores programs.
 pub fn build(protocol: Protocol, profile: &Profile) -> Result<Box<dyn SimDevice>, RegistryError> {
+    let profile_error = |message: String| RegistryError::Profile { protocol, message };
+    if let Some(v) = profile
+        .sim
+        .variants
+        .iter()
+        .find(|v| !v.applies_to(protocol))
+    {
+        return Err(profile_error(format!(
+            "the {protocol} simulator has no variant `{v}`"
+        )));
+    }
+    let mut device = build_plain(protocol, profile)?;
+    for variant in &profile.sim.variants {
+        if let SimVariant::Memory(commands) = variant {
+            device
+                .set_program_memory(*commands)
+                .map_err(|e| profile_error(format!("variant `{variant}`: {e}")))?;
+        }
+    }
+    Ok(device)
+}
+
+fn build_plain(protocol: Protocol, profile: &Profile) -> Result<Box<dyn SimDevice>, RegistryError> {
     let profile_error = |message: String| RegistryError::Profile { protocol, message };
     match protocol {
         Protocol::Isel => IselSim::from_profile(profile)
@@ -62,6 +88,29 @@ mod tests {
             assert_eq!(device.line(), protocol.default_line());
             assert!(device.input_names().contains(&input), "{name}");
         }
+    }
+
+    #[test]
+    fn variants_shape_the_simulator_built() {
+        let mut emcu = load_profile("emcu", &ConfigDirs::builtin_only()).expect("profile");
+        emcu.sim.variants = vec![SimVariant::Memory(12)];
+        let device = build(Protocol::Emcu, &emcu).expect("EMCU with a small ROM");
+        assert!(
+            device
+                .describe(std::time::Instant::now())
+                .contains("(room for 12)")
+        );
+        emcu.sim.variants = vec![SimVariant::Memory(100_000)];
+        let err = build(Protocol::Emcu, &emcu).err().expect("too much");
+        assert!(err.to_string().contains("at most 256"), "{err}");
+        emcu.sim.variants = vec![SimVariant::HoodUnwired];
+        let err = build(Protocol::Emcu, &emcu)
+            .err()
+            .expect("no hood on an EMCU");
+        assert!(
+            err.to_string().contains("no variant `hood-unwired`"),
+            "{err}"
+        );
     }
 
     #[test]

@@ -23,13 +23,20 @@ pub struct BitState {
 pub struct GroupState {
     pub name: String,
     pub raw: Option<u8>,
+    /// The bits the panel shows (unused ones left out).
     pub bits: Vec<BitState>,
+    /// Every bit of the group as the driver sent it, unused ones included.
+    pub all_bits: Vec<IoBit>,
 }
 
-/// Bits the manual lists as "not used" carry nothing to look at or switch;
-/// they are left out of the panel (the raw byte still shows them).
+/// Bits the profile (or the manual) calls unused carry nothing to look at
+/// or switch; they are left out of the panel (the raw byte still shows
+/// them). A "not used" bit the profile gives a role is shown.
 fn is_unused(bit: &IoBit) -> bool {
-    bit.name.eq_ignore_ascii_case("not used")
+    match &bit.wiring {
+        Some(w) => w.role == crate::wiring::Role::Unused,
+        None => bit.name.eq_ignore_ascii_case("not used"),
+    }
 }
 
 /// Which bit is selected: group and bit index.
@@ -104,6 +111,7 @@ impl IoPanel {
             name: group.name.clone(),
             raw: group.raw,
             bits,
+            all_bits: group.bits.clone(),
         }
     }
 
@@ -239,27 +247,108 @@ impl IoPanel {
 pub struct OutputToggle {
     pub output: OutputId,
     pub name: String,
-    /// The value to write: the opposite of what the bit shows.
+    /// The value to write: the opposite of what the bit shows, or the
+    /// whole byte of [`OutputToggle::byte`].
     pub value: u8,
     pub hazardous: bool,
+    /// Set when the bit belongs to a byte-wide port whose other bits are
+    /// unknown (outputs cannot be read back, and jogterm has not written
+    /// the port yet): the whole byte is written, every bit named.
+    pub byte: Option<ByteWrite>,
+}
+
+/// A whole output byte to write instead of one bit of it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ByteWrite {
+    /// The port (group) name, `out 0: user outputs`.
+    pub port: String,
+    /// Every bit of the port, bit 0 first.
+    pub bits: Vec<ByteBit>,
+}
+
+/// One bit of a [`ByteWrite`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct ByteBit {
+    pub bit: u8,
+    pub name: String,
+    /// What jogterm believes it is now (on = its active level); `None`:
+    /// unknown.
+    pub now: Option<bool>,
+    /// What it will be: on for the bit switched, off for the others.
+    pub then: bool,
 }
 
 impl IoPanel {
     /// The toggle for the selected bit, or why there is none.
     pub fn toggle_selected(&self) -> Result<OutputToggle, String> {
-        let (_, bit) = self
+        let (group, bit) = self
             .selected_bit()
             .ok_or_else(|| "no port bits yet: nothing to switch".to_string())?;
         let output = bit
             .bit
             .output
             .ok_or_else(|| format!("{} is an input: it cannot be switched", bit.bit.name))?;
+        if let (Some(index), None) = (output.bit, group.raw)
+            && let Some(byte) = Self::unknown_byte(group, output)
+        {
+            // Switch the chosen bit on, every other one off (the state
+            // a machine is safe in), at the levels the profile gives.
+            let mut value = 0u8;
+            let bits = byte
+                .iter()
+                .map(|(n, b)| {
+                    let then = *n == index;
+                    let active_high = b
+                        .wiring
+                        .as_ref()
+                        .is_none_or(|w| w.active == crate::wiring::Level::High);
+                    if then == active_high {
+                        value |= 1 << n;
+                    }
+                    ByteBit {
+                        bit: *n,
+                        name: b.name.clone(),
+                        now: None,
+                        then,
+                    }
+                })
+                .collect();
+            return Ok(OutputToggle {
+                output: OutputId {
+                    group: output.group,
+                    bit: None,
+                },
+                name: group.name.clone(),
+                value,
+                hazardous: true,
+                byte: Some(ByteWrite {
+                    port: group.name.clone(),
+                    bits,
+                }),
+            });
+        }
         Ok(OutputToggle {
             output,
             name: bit.bit.name.clone(),
             value: u8::from(!bit.bit.value),
             hazardous: bit.bit.hazardous,
+            byte: None,
         })
+    }
+
+    /// The eight bits of a byte-wide output port that has not been
+    /// written (`raw: None`), from the snapshot's full list (the panel
+    /// leaves unused bits out; the byte has them all).
+    fn unknown_byte(group: &GroupState, output: OutputId) -> Option<Vec<(u8, IoBit)>> {
+        let bits: Vec<(u8, IoBit)> = group
+            .all_bits
+            .iter()
+            .filter_map(|b| match b.output {
+                Some(id) if id.group == output.group => id.bit.map(|n| (n, b.clone())),
+                _ => None,
+            })
+            .collect();
+        (bits.len() == 8 && bits.iter().all(|(n, _)| *n < 8)).then_some(bits)
     }
 }
 
@@ -273,6 +362,7 @@ mod tests {
             value,
             output: None,
             hazardous: false,
+            wiring: None,
         }
     }
 
@@ -379,6 +469,59 @@ mod tests {
             vec![("p1", vec![bit("probe", true), bit("not used", false)])],
         ));
         assert_eq!(panel.groups[0].bits.len(), 1);
+    }
+
+    #[test]
+    fn a_bit_of_an_unwritten_byte_port_writes_the_whole_byte() {
+        let t = Instant::now();
+        let mut panel = IoPanel::default();
+        let out = |n: u8| IoBit {
+            name: if n == 1 {
+                "coolant".into()
+            } else {
+                format!("user output {n}")
+            },
+            value: false,
+            output: Some(OutputId {
+                group: 0,
+                bit: Some(n),
+            }),
+            hazardous: true,
+            wiring: None,
+        };
+        let groups = |raw: Option<u8>| IoSnapshot {
+            at: t,
+            groups: vec![IoGroup {
+                name: "out 0: user outputs".into(),
+                raw,
+                bits: (0..8).map(out).collect(),
+                read: None,
+            }],
+        };
+        panel.apply(&groups(None));
+        panel.step_bit(1, t);
+        let toggle = panel.toggle_selected().expect("toggle");
+        assert_eq!(
+            toggle.output,
+            OutputId {
+                group: 0,
+                bit: None
+            }
+        );
+        assert_eq!(toggle.value, 0b10);
+        let byte = toggle.byte.expect("the whole byte");
+        assert_eq!(byte.bits.len(), 8);
+        assert_eq!(
+            (byte.bits[1].name.as_str(), byte.bits[1].then),
+            ("coolant", true)
+        );
+        assert!(byte.bits.iter().all(|b| b.now.is_none()));
+        assert!(byte.bits.iter().filter(|b| b.then).count() == 1);
+        // Once written, one bit is switched as usual.
+        panel.apply(&groups(Some(0)));
+        let toggle = panel.toggle_selected().expect("toggle");
+        assert_eq!(toggle.byte, None);
+        assert_eq!(toggle.output.bit, Some(1));
     }
 
     #[test]

@@ -93,6 +93,21 @@ impl Timeline {
         }
     }
 
+    /// The lanes to draw: of [`Timeline::lanes`], those read (their group
+    /// is polled) or changed. An input this session never reads (isel port
+    /// 0 when the profile gives no user input a role) would only say `?`.
+    pub fn shown(&self) -> Vec<&Arc<InputChannel>> {
+        self.lanes
+            .iter()
+            .filter(|c| self.levels.contains_key(&c.key) || self.history.count(c.key) > 0)
+            .collect()
+    }
+
+    /// Inputs of the profile this session does not read.
+    pub fn unread(&self) -> usize {
+        self.lanes.len() - self.shown().len()
+    }
+
     /// The longest interval between the last two readings of any group:
     /// pulses shorter than this may not show.
     pub fn read_every(&self) -> Option<Duration> {
@@ -192,7 +207,7 @@ mod tests {
             ]
         );
         assert!(t.lanes.iter().all(|c| c.wired));
-        assert_eq!(t.lanes.len(), 25);
+        assert_eq!(t.lanes.len(), 20);
     }
 
     #[test]
@@ -219,6 +234,31 @@ mod tests {
     }
 
     #[test]
+    fn inputs_never_read_get_no_lane() {
+        let (mut t, _) = timeline();
+        assert!(t.shown().is_empty(), "nothing read yet");
+        let profile = load_profile("isel", &ConfigDirs::builtin_only()).expect("profile");
+        let wiring = profile.wiring().expect("wiring");
+        let at = Instant::now();
+        let read = |port: crate::proto::isel::InputPort, v: u8| {
+            crate::device::isel::input_group(port, v, &wiring)
+                .read_from(InputSource::IselPort(port.number()), Some(at))
+        };
+        use crate::proto::isel::InputPort;
+        t.observe(&IoSnapshot {
+            at,
+            groups: vec![
+                read(InputPort::Status1, 3),
+                read(InputPort::LimitSwitches, 0),
+                read(InputPort::Status2, 0x62),
+            ],
+        });
+        // Port 0 is not polled: its eight user inputs have no lane.
+        assert_eq!((t.shown().len(), t.unread()), (12, 8));
+        assert!(t.shown().iter().all(|c| !c.address.starts_with("in0.")));
+    }
+
+    #[test]
     fn scrolling_zooming_and_going_live() {
         let (mut t, _) = timeline();
         let now = Instant::now();
@@ -238,7 +278,7 @@ mod tests {
         t.scroll(3, 10);
         assert_eq!(t.top, 3);
         t.scroll(100, 10);
-        assert_eq!(t.top, 15);
+        assert_eq!(t.top, 10);
         // Whole columns: 1.234 s at 100 ms a column ends at 1.3 s.
         t.zoom(-100);
         t.scale = DEFAULT_SCALE;

@@ -549,7 +549,7 @@ fn panel_action(model: &mut Model, panel: PanelId, action: Action) -> Vec<Effect
 
 /// Lanes the timeline shows at the terminal's size.
 fn timeline_lanes(model: &Model) -> usize {
-    let lanes = model.timeline.lanes.len();
+    let lanes = model.timeline.shown().len();
     usize::from(crate::ui::view::timeline::lane_rows(
         model.size.0,
         model.size.1,
@@ -601,6 +601,36 @@ fn toggle_output(model: &mut Model, t: OutputToggle) -> Vec<Effect> {
         output: t.output,
         value: t.value,
     })];
+    if let Some(byte) = &t.byte {
+        // One confirm for the whole byte: outputs cannot be read back, so
+        // the other bits are written too (off), each named.
+        let lines: Vec<String> = byte
+            .bits
+            .iter()
+            .map(|b| {
+                let now = match b.now {
+                    None => "?",
+                    Some(true) => "on",
+                    Some(false) => "off",
+                };
+                let then = if b.then { "ON" } else { "off" };
+                format!("{} {}: {now} -> {then}", b.bit, b.name)
+            })
+            .collect();
+        ask(
+            model,
+            "Switch an output",
+            format!(
+                "Write {} = {:02X}? Outputs cannot be read back and jogterm has not written this \
+                 port yet (? = unknown), so every bit is set:\n{}",
+                byte.port,
+                t.value,
+                lines.join("\n")
+            ),
+            effects,
+        );
+        return Vec::new();
+    }
     let state = if t.value == 0 { "off" } else { "on" };
     if t.hazardous {
         ask(

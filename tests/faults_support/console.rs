@@ -217,6 +217,36 @@ impl Console {
         }
     }
 
+    /// Initialise (`i`) and reference (`h`, confirmed) until the status bar
+    /// says READY, as an operator would; a step that a reconnect refused
+    /// is taken again. Bounded by twice [`WAIT`] (reference runs take time).
+    pub fn initialise_and_reference(&mut self) {
+        let end = Instant::now() + WAIT * 2;
+        loop {
+            let bar = self.status_bar();
+            if bar.contains("READY") {
+                return;
+            }
+            assert!(
+                Instant::now() < end,
+                "never READY:\n{}\n{}",
+                self.screen(),
+                self.log_tail()
+            );
+            if bar.contains("NOT INIT") {
+                self.keys(b"i");
+                self.shows_within("NOT REF", Duration::from_secs(5));
+            } else if bar.contains("NOT REF") {
+                self.keys(b"h");
+                self.wait_for("Start the reference run?");
+                self.keys(b"y");
+                self.shows_within("HOMING", Duration::from_secs(5));
+            } else {
+                std::thread::sleep(Duration::from_millis(100));
+            }
+        }
+    }
+
     pub fn log_tail(&self) -> String {
         let text = std::fs::read_to_string(&self.log).unwrap_or_default();
         let lines: Vec<&str> = text.lines().collect();

@@ -116,16 +116,17 @@ impl SimProcess {
     /// in `profiles/<name>.toml` patches the shipped one for the simulator
     /// and for every `jogterm` that shares the directory.
     pub fn start_with_files(family: &'static str, files: &[(&str, &str)]) -> SimProcess {
-        Self::start_with(family, files, &[])
+        Self::start_variant(family, files, &[])
     }
 
-    /// [`SimProcess::start`] with `args` after `jogterm sim --pty`: a
-    /// simulator variant (`--emp-rejects-0a-before-on`).
-    pub fn start_with_args(family: &'static str, args: &[&str]) -> SimProcess {
-        Self::start_with(family, &[], args)
-    }
-
-    fn start_with(family: &'static str, files: &[(&str, &str)], args: &[&str]) -> SimProcess {
+    /// [`SimProcess::start_with_files`] serving a controller that differs
+    /// from the default as `variants` say (`jogterm sim --variant`,
+    /// `docs/simulator.md`, "Variants": `hood-unwired`, `memory=64` …).
+    pub fn start_variant(
+        family: &'static str,
+        files: &[(&str, &str)],
+        variants: &[&str],
+    ) -> SimProcess {
         let dir = tempfile::tempdir().expect("temp dir");
         for (path, contents) in files {
             let path = dir.path().join(path);
@@ -138,7 +139,7 @@ impl SimProcess {
         let (mut child, stdin, lines) = spawn_with_lines(
             Command::new(JOGTERM)
                 .args(["sim", "--pty", "--protocol", family])
-                .args(args)
+                .args(variants.iter().flat_map(|v| ["--variant", v]))
                 .arg("--link")
                 .arg(&link)
                 .env("JOGTERM_CONFIG_DIR", dir.path())

@@ -11,6 +11,29 @@ use std::time::Duration;
 
 use crate::sim_process::{SimProcess, contains_panic, text, wait_child};
 
+/// A profile `name` on top of `sim`'s family's shipped one, in the
+/// simulator's configuration directory (which the console shares): the
+/// longest dead-man lease a profile may give (1 s once repeats flow, 2 s
+/// before), so only the stop under test ends a jog within the time the
+/// tests allow; EMCU and EMP home fast, so the reference run takes seconds,
+/// not half a minute; `jog` adds lines to its `[jog]` table. Its name, for
+/// `--profile`.
+pub fn write_profile(sim: &SimProcess, name: &'static str, jog: &str) -> &'static str {
+    let dir = sim.dir.path().join("profiles");
+    std::fs::create_dir_all(&dir).expect("profiles dir");
+    let family = match sim.family {
+        "emcu" => "[emcu]\nstart_speed_hz = 2000\nramp_ms = 200\n",
+        "emp" => "[emp]\nhome_fast = 127\nhome_slow = 32\n",
+        _ => "",
+    };
+    let text = format!(
+        "base = \"{}\"\nname = \"{name}\"\n\n[jog]\nrepeat_timeout_ms = 1000\nfirst_repeat_grace_ms = 2000\n{jog}\n{family}",
+        sim.family
+    );
+    std::fs::write(dir.join(format!("{name}.toml")), text).expect("profile");
+    name
+}
+
 /// How long an axis that stands is watched for motion.
 pub const STANDS_FOR: Duration = Duration::from_millis(600);
 

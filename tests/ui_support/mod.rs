@@ -100,6 +100,7 @@ fn bit(name: &str, value: bool) -> IoBit {
         value,
         output: None,
         hazardous: false,
+        wiring: None,
     }
 }
 
@@ -109,6 +110,7 @@ fn output(name: &str, value: bool, group: u16, bit: Option<u8>, hazardous: bool)
         value,
         output: Some(OutputId { group, bit }),
         hazardous,
+        wiring: None,
     }
 }
 

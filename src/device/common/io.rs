@@ -2,14 +2,27 @@
 //! controller, and outputs the operator may switch (with their `OutputId`).
 
 use crate::device::api::{IoBit, IoGroup, OutputId};
+use crate::wiring::BitWiring;
 
-/// A bit read from the controller (an input or a status flag).
+/// A bit read from the controller that is no wire (a status flag).
 pub fn input(name: impl Into<String>, value: bool) -> IoBit {
     IoBit {
         name: name.into(),
         value,
         output: None,
         hazardous: false,
+        wiring: None,
+    }
+}
+
+/// An input as the profile has it wired, under the profile's name.
+pub fn wired_input(wiring: &BitWiring, value: bool) -> IoBit {
+    IoBit {
+        name: wiring.name.clone(),
+        value,
+        output: None,
+        hazardous: false,
+        wiring: Some(wiring.clone()),
     }
 }
 
@@ -20,7 +33,44 @@ pub fn output(name: impl Into<String>, value: bool, id: OutputId, hazardous: boo
         value,
         output: Some(id),
         hazardous,
+        wiring: None,
     }
+}
+
+/// A switchable output as the profile has it wired, under its name.
+pub fn wired_output(wiring: &BitWiring, value: bool, id: OutputId, hazardous: bool) -> IoBit {
+    IoBit {
+        wiring: Some(wiring.clone()),
+        ..output(wiring.name.clone(), value, id, hazardous)
+    }
+}
+
+/// An input under the profile's name where the wiring knows `address`,
+/// else under `fallback`.
+pub fn input_at(
+    wiring: &crate::wiring::Wiring,
+    address: &str,
+    fallback: &str,
+    value: bool,
+) -> IoBit {
+    wiring
+        .bit(address)
+        .map_or_else(|| input(fallback, value), |w| wired_input(w, value))
+}
+
+/// An output under the profile's name where the wiring knows `address`.
+pub fn output_at(
+    wiring: &crate::wiring::Wiring,
+    address: &str,
+    fallback: &str,
+    value: bool,
+    id: OutputId,
+    hazardous: bool,
+) -> IoBit {
+    wiring.bit(address).map_or_else(
+        || output(fallback, value, id, hazardous),
+        |w| wired_output(w, value, id, hazardous),
+    )
 }
 
 /// A group of bits; `raw` is the byte as read (or written), shown in hex.

@@ -109,6 +109,17 @@ impl<I: Copy> Poller<I> {
         &self.ports
     }
 
+    /// Read these port items from now on (a controller that has not got
+    /// one of them, a reconnect that may have brought another controller).
+    pub fn set_ports(&mut self, ports: Vec<I>)
+    where
+        I: PartialEq,
+    {
+        self.items
+            .retain(|i| ports.contains(i) || self.positions.contains(i));
+        self.ports = ports;
+    }
+
     /// Start afresh (after a reconnect).
     pub fn reset(&mut self) {
         self.items.clear();

@@ -47,6 +47,20 @@ impl SettingsError {
     }
 }
 
+/// The profile's wiring (`crate::wiring`), or its first problem. A loaded
+/// profile has been checked already; this catches a profile changed after
+/// loading (`jogterm send --drive`).
+pub fn wiring(profile: &Profile) -> Result<crate::wiring::Wiring, SettingsError> {
+    profile.wiring().map_err(|problems| {
+        let text = problems
+            .iter()
+            .map(|p| format!("{}: {}", p.key.join("."), p.message))
+            .collect::<Vec<_>>()
+            .join("; ");
+        SettingsError::invalid(profile, text)
+    })
+}
+
 /// How jogs and steps behave (`[jog]` of the profile).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct JogSettings {

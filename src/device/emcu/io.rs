@@ -8,6 +8,7 @@ use std::time::Instant;
 use crate::device::api::{InputSource, IoGroup, IoSnapshot, OutputId};
 use crate::device::common::io;
 use crate::proto::emcu::{Output, Status, StatusFlag};
+use crate::wiring::Wiring;
 
 use super::context::Context;
 
@@ -37,14 +38,16 @@ pub fn status_group(status: &Status) -> IoGroup {
     io::group("status: @X flags", Some(status_byte(status)), bits)
 }
 
-fn outputs_group(outputs: [Option<bool>; 2]) -> IoGroup {
-    let bits = [(1u16, "A1 (K1)"), (2, "A2 (K2)")]
+fn outputs_group(outputs: [Option<bool>; 2], wiring: &Wiring) -> IoGroup {
+    let bits = [(1u16, "A1", "A1 (K1)"), (2, "A2", "A2 (K2)")]
         .into_iter()
         .zip(outputs)
-        .map(|((n, name), value)| {
+        .map(|((n, address, name), value)| {
             // Relais K1/K2 switch a drilling spindle or a coolant pump
             // (manual 1.5.15): the UI asks before switching them.
-            io::output(
+            io::output_at(
+                wiring,
+                address,
                 name,
                 value.unwrap_or(false),
                 OutputId {
@@ -77,7 +80,7 @@ pub fn snapshot(cx: &Context, at: Instant) -> IoSnapshot {
     if let Some(status) = &cx.status {
         groups.push(status_group(status).read_from(InputSource::EmcuStatus, cx.status_read));
     }
-    groups.push(outputs_group(cx.outputs));
+    groups.push(outputs_group(cx.outputs, &cx.settings.wiring));
     groups.push(link_group(cx.e1_link));
     IoSnapshot { at, groups }
 }
@@ -109,7 +112,9 @@ mod tests {
 
     #[test]
     fn outputs_show_what_jogterm_switched() {
-        let g = outputs_group([Some(true), None]);
+        let w = Wiring::defaults(crate::proto::Protocol::Emcu, crate::axis::AxisSet::XYZ, &[]);
+        let g = outputs_group([Some(true), None], &w);
+        assert_eq!(g.bits[0].name, "A1 (K1)");
         assert_eq!(g.raw, None);
         assert!(g.bits[0].value && g.bits.iter().all(|b| b.hazardous));
         assert_eq!(
@@ -119,6 +124,6 @@ mod tests {
                 bit: None
             })
         );
-        assert_eq!(outputs_group([Some(false), Some(true)]).raw, Some(2));
+        assert_eq!(outputs_group([Some(false), Some(true)], &w).raw, Some(2));
     }
 }

@@ -65,6 +65,8 @@ pub struct EmcuSettings {
     pub line: LineSettings,
     pub poll: PollPlan<StatusPoll>,
     pub timing: Timing,
+    /// What E1, A1 and A2 are wired to (`[io]`, `crate::wiring`).
+    pub wiring: crate::wiring::Wiring,
 }
 
 impl EmcuSettings {
@@ -105,6 +107,7 @@ impl EmcuSettings {
                 ports: vec![StatusPoll],
             },
             timing: Timing::default(),
+            wiring: crate::device::common::settings::wiring(profile)?,
         })
     }
 

@@ -205,6 +205,14 @@ impl Context {
             .drives
             .iter()
             .any(|d| d.limits.is_some_and(|l| l.plus || l.minus));
+        // An input the profile wires as an E-stop or power contact
+        // (`[io."11.I1"] role = "estop"`); none by default (decision 5).
+        let wiring = &self.settings.wiring;
+        self.state.estop = self
+            .drives
+            .iter()
+            .enumerate()
+            .any(|(i, d)| !super::io::interlocks(i, d, wiring).is_empty());
     }
 
     /// A reply (first answer or completion) to `request` carried `body`;

@@ -5,25 +5,62 @@
 use std::time::Instant;
 
 use crate::device::api::{InputSource, IoGroup, IoSnapshot};
-use crate::device::common::io::{group, input, output};
+use crate::device::common::io::{group, input_at, output_at};
+use crate::wiring::Wiring;
 
 use super::context::{Context, DriveState};
 use super::output::output_id;
 
-fn drive_group(index: usize, d: &DriveState) -> IoGroup {
+/// The drive's wired inputs with a safety role (`estop`, `power`) that
+/// read active, once its `40` has been read: the only inputs jogterm
+/// refuses motion on itself (`docs/profiles.md`). Their names.
+pub fn interlocks(index: usize, d: &DriveState, wiring: &Wiring) -> Vec<String> {
+    if d.inputs.is_none() {
+        return Vec::new();
+    }
+    drive_group(index, d, wiring)
+        .bits
+        .iter()
+        .filter(|b| b.output.is_none() && b.active())
+        .filter_map(|b| b.wiring.as_ref())
+        .filter(|w| {
+            w.interlocks()
+                && matches!(
+                    w.role,
+                    crate::wiring::Role::Estop | crate::wiring::Role::Power
+                )
+        })
+        .map(|w| w.label())
+        .collect()
+}
+
+/// One drive's bits under the profile's names (`11.limit+` …,
+/// `crate::wiring`).
+fn drive_group(index: usize, d: &DriveState, wiring: &Wiring) -> IoGroup {
     let mut bits = Vec::new();
+    let ds = d.ds.to_string();
+    let at = |suffix: &str| format!("{ds}.{suffix}");
     let limits = d.limits.unwrap_or_default();
-    bits.push(input("limit +", limits.plus));
-    bits.push(input("limit -", limits.minus));
-    bits.push(input("reference", limits.reference));
+    bits.push(input_at(wiring, &at("limit+"), "limit +", limits.plus));
+    bits.push(input_at(wiring, &at("limit-"), "limit -", limits.minus));
+    bits.push(input_at(wiring, &at("ref"), "reference", limits.reference));
     let inputs = d.inputs.map_or(0, |i| i.bits());
     for n in 1..=4u8 {
-        bits.push(input(format!("I{n}"), inputs & (1 << (n - 1)) != 0));
+        let name = format!("I{n}");
+        bits.push(input_at(
+            wiring,
+            &at(&name),
+            &name,
+            inputs & (1 << (n - 1)) != 0,
+        ));
     }
     let outputs = d.outputs.map_or(0, |o| o.bits());
     for n in 0..4u8 {
-        bits.push(output(
-            format!("O{}", n + 1),
+        let name = format!("O{}", n + 1);
+        bits.push(output_at(
+            wiring,
+            &at(&name),
+            &name,
             outputs & (1 << n) != 0,
             output_id(index, n),
             true,
@@ -49,7 +86,7 @@ pub fn snapshot(cx: &Context, now: Instant) -> IoSnapshot {
             .drives
             .iter()
             .enumerate()
-            .map(|(i, d)| drive_group(i, d))
+            .map(|(i, d)| drive_group(i, d, &cx.settings.wiring))
             .collect(),
     }
 }

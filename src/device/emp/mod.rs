@@ -409,10 +409,23 @@ impl EmpDriver {
         let Some(axis) = self.cx.settings.axis_of(ds) else {
             return;
         };
+        // The switches under the profile's names (`[io]`, `11.limit+`).
+        let wiring = &self.cx.settings.wiring;
+        let names: Vec<String> = [("limit+", limits.plus), ("limit-", limits.minus)]
+            .into_iter()
+            .filter(|(_, on)| *on)
+            .map(|(suffix, _)| {
+                let address = format!("{ds}.{suffix}");
+                wiring.bit(&address).map_or(address, |b| b.label())
+            })
+            .collect();
         let fault = crate::device::api::ControllerFault {
             command: format!("{ds}: 40 01"),
             code: "limit".into(),
-            meaning: format!("drive {ds} ({axis}): {limits}: the drive braked at the switch"),
+            meaning: format!(
+                "drive {ds} ({axis}): {}: the drive braked at the switch",
+                names.join(", ")
+            ),
             recovery: crate::device::api::Recovery::Reference,
         };
         self.cx.unreference(axis);

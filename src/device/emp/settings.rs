@@ -68,6 +68,8 @@ pub struct EmpSettings {
     pub poll_positions: bool,
     pub ports_every: u32,
     pub timing: Timing,
+    /// What each drive's bits are wired to (`[io]`, `crate::wiring`).
+    pub wiring: crate::wiring::Wiring,
 }
 
 impl EmpSettings {
@@ -120,6 +122,7 @@ impl EmpSettings {
                 reply_margin: Duration::from_millis(100),
                 connect_settle: Duration::from_millis(50),
             },
+            wiring: crate::device::common::settings::wiring(profile)?,
         })
     }
 

@@ -2,38 +2,39 @@
 //! says what each input bit the recorder sees is called, what it is for,
 //! whether something is wired to it and at which level it is active.
 //!
-//! Today the names and roles are the manuals' tables (isel manual 2.2.3,
-//! `../shared/protocols.md` isel 7; EMCU manual 1.5.3; EMP decision 5), as the
-//! drivers show them; a bit counts as wired unless the table marks it "not
-//! used" or it is the limit switch of an axis the machine does not have.
-//! Once profiles say how a machine is wired, this is the function that
-//! reads it.
+//! It reads the profile's wiring (`Profile::wiring`: the manuals' tables
+//! patched by `[io]`, `crate::wiring`) and keys each input bit by where it
+//! is read: isel `in<port>.<bit>` (`@0b<port>`), EMP `<DS>.limit+`,
+//! `.limit-`, `.ref`, `.I1`-`.I4` (`40 01`). The EMCU's `@X` flags are
+//! status, not wiring, and come from the manual's table (1.5.3); its input
+//! E1 cannot be read (`&V` only makes moves wait for it) and is left out.
 
 use std::sync::Arc;
 
-use crate::axis::AxisSet;
 use crate::config::Profile;
-use crate::config::profile::parse_drive_address;
 use crate::device::api::{InputChannel, InputKey, InputRole, InputSource};
 use crate::proto::Protocol;
 use crate::proto::emcu::StatusFlag;
-use crate::proto::isel::ports::{INPUT_BITS, InputRole as IselRole};
+use crate::wiring::{BitKind, BitWiring, Level, Role, Wiring};
 
 /// Every input of the profile's controller, in the controller's order
 /// (isel ports 0-3 bit by bit; the `@X` flags; per EMP drive limit +,
 /// limit -, reference, I1-I4).
 pub fn channels(profile: &Profile) -> Vec<InputChannel> {
-    match profile.connection.protocol {
-        Protocol::Isel => isel(profile.axis_set()),
-        Protocol::Emcu => emcu(),
-        Protocol::Emp => profile
-            .axes
-            .values()
-            .filter_map(|a| a.drive.as_deref())
-            .filter_map(|ds| parse_drive_address(ds).ok())
-            .flat_map(emp)
-            .collect(),
+    if profile.connection.protocol == Protocol::Emcu {
+        return emcu();
     }
+    // A profile that loaded has a valid wiring; should it not, the
+    // manuals' tables still name every bit.
+    let wiring = profile
+        .wiring()
+        .unwrap_or_else(|_| Wiring::defaults(profile.connection.protocol, profile.axis_set(), &[]));
+    wiring
+        .bits()
+        .iter()
+        .filter(|b| b.kind == BitKind::Input)
+        .filter_map(|b| Some(channel(key_of(&b.address)?, b)))
+        .collect()
 }
 
 /// The same, shared, as the recorder hands them out with every change.
@@ -41,44 +42,52 @@ pub fn shared(profile: &Profile) -> Vec<Arc<InputChannel>> {
     channels(profile).into_iter().map(Arc::new).collect()
 }
 
-fn isel(axes: AxisSet) -> Vec<InputChannel> {
-    INPUT_BITS
-        .iter()
-        .map(|b| {
-            // Active-high as read (isel 7), but E-stop circuits, power ok
-            // and the hood bits read 1 while all is well.
-            let (role, active) = match b.role {
-                IselRole::User => (InputRole::User, true),
-                IselRole::EmergencyStopCircuit => (InputRole::Estop, false),
-                IselRole::OverTemperature => (InputRole::Power, true),
-                IselRole::StartKey | IselRole::StopKey | IselRole::KeySwitch => {
-                    (InputRole::Key, true)
-                }
-                IselRole::ToolLengthProbe => (InputRole::Probe, true),
-                IselRole::Spindle => (InputRole::Feedback, true),
-                IselRole::PowerOk => (InputRole::Power, false),
-                IselRole::Hood => (InputRole::Hood, false),
-                IselRole::LimitSwitch { .. } => (InputRole::Limit, true),
-                IselRole::NotUsed => (InputRole::Unused, true),
-            };
-            let wired = match b.role {
-                IselRole::NotUsed => false,
-                IselRole::LimitSwitch { axis, .. } => axes.contains(axis),
-                _ => true,
-            };
-            InputChannel {
-                key: InputKey {
-                    source: InputSource::IselPort(b.port.number()),
-                    bit: b.bit,
-                },
-                address: format!("in{}.{}", b.port.number(), b.bit),
-                name: b.name.to_owned(),
-                role,
-                wired,
-                active,
-            }
-        })
-        .collect()
+/// The recorder's category of a wiring role.
+fn role(role: Role) -> InputRole {
+    match role {
+        Role::Limit(_) => InputRole::Limit,
+        Role::Estop => InputRole::Estop,
+        Role::Hood => InputRole::Hood,
+        Role::Probe | Role::Reference => InputRole::Probe,
+        Role::Start | Role::Stop => InputRole::Key,
+        // An input for the spindle follows what jogterm switches.
+        Role::Spindle => InputRole::Feedback,
+        Role::Power => InputRole::Power,
+        Role::User => InputRole::User,
+        Role::Unused => InputRole::Unused,
+    }
+}
+
+fn channel(key: InputKey, b: &BitWiring) -> InputChannel {
+    InputChannel {
+        key,
+        address: b.address.clone(),
+        name: b.name.clone(),
+        role: role(b.role),
+        wired: b.wired,
+        active: b.active == Level::High,
+    }
+}
+
+/// EMP decision 5: `40 01` answers the switches in PROP and I1-I4 in D0;
+/// the recorder numbers them in that order.
+const EMP_INPUTS: [&str; 7] = ["limit+", "limit-", "ref", "I1", "I2", "I3", "I4"];
+
+/// Where an input address is read: `in3.0`, `11.limit+`; `None` for one
+/// no command reads.
+fn key_of(address: &str) -> Option<InputKey> {
+    if let Some(rest) = address.strip_prefix("in") {
+        let (port, bit) = rest.split_once('.')?;
+        return Some(InputKey {
+            source: InputSource::IselPort(port.parse().ok()?),
+            bit: bit.parse().ok()?,
+        });
+    }
+    let (ds, input) = address.split_once('.')?;
+    Some(InputKey {
+        source: InputSource::EmpDrive(u8::from_str_radix(ds, 16).ok()?),
+        bit: u8::try_from(EMP_INPUTS.iter().position(|i| *i == input)?).ok()?,
+    })
 }
 
 fn emcu() -> Vec<InputChannel> {
@@ -92,33 +101,6 @@ fn emcu() -> Vec<InputChannel> {
             address: format!("@X.{bit}"),
             name: flag.to_string(),
             role: InputRole::Status,
-            wired: true,
-            active: true,
-        })
-        .collect()
-}
-
-/// EMP decision 5: `40 01` answers the switches in PROP and I1-I4 in D0.
-fn emp(ds: u8) -> Vec<InputChannel> {
-    let named = [
-        ("limit+", "limit +", InputRole::Limit),
-        ("limit-", "limit -", InputRole::Limit),
-        ("ref", "reference", InputRole::Probe),
-        ("I1", "I1", InputRole::User),
-        ("I2", "I2", InputRole::User),
-        ("I3", "I3", InputRole::User),
-        ("I4", "I4", InputRole::User),
-    ];
-    (0u8..)
-        .zip(named)
-        .map(|(bit, (suffix, name, role))| InputChannel {
-            key: InputKey {
-                source: InputSource::EmpDrive(ds),
-                bit,
-            },
-            address: format!("{ds:02X}.{suffix}"),
-            name: name.to_owned(),
-            role,
             wired: true,
             active: true,
         })
@@ -143,7 +125,10 @@ impl InputChannel {
             address: match key.source {
                 InputSource::IselPort(p) => format!("in{p}.{}", key.bit),
                 InputSource::EmcuStatus => format!("@X.{}", key.bit),
-                InputSource::EmpDrive(ds) => format!("{ds:02X}.{}", key.bit),
+                InputSource::EmpDrive(ds) => match EMP_INPUTS.get(usize::from(key.bit)) {
+                    Some(input) => format!("{ds:02X}.{input}"),
+                    None => format!("{ds:02X}.{}", key.bit),
+                },
             },
             name: name.to_owned(),
             role: InputRole::User,
@@ -212,5 +197,33 @@ mod tests {
         );
         assert_eq!(emp[6].address, "11.I4");
         assert_eq!(emp[6].key.bit, 6);
+        assert_eq!(emp[2].role, InputRole::Probe);
+    }
+
+    #[test]
+    fn the_profiles_io_names_and_wires_the_inputs() {
+        let mut profile = profile("isel");
+        profile.io = toml::from_str(
+            r#"
+            "in0.2" = { name = "door switch", role = "hood", active = "low" }
+            "in2.5" = { wired = true }
+            "#,
+        )
+        .expect("[io]");
+        let ch = channels(&profile);
+        let door = ch.iter().find(|c| c.address == "in0.2").expect("in0.2");
+        assert_eq!(door.name, "door switch");
+        assert_eq!(
+            (door.role, door.active, door.wired),
+            (InputRole::Hood, false, true)
+        );
+        assert!(ch.iter().any(|c| c.address == "in2.5" && c.wired));
+        assert_eq!(
+            door.key,
+            InputKey {
+                source: InputSource::IselPort(0),
+                bit: 2
+            }
+        );
     }
 }

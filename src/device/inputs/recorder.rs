@@ -352,8 +352,13 @@ mod tests {
     /// Ports 1 and 3 read at `t0 + at_ms`.
     fn snap(t0: Instant, at_ms: u64, port1: u8, port3: u8) -> IoSnapshot {
         let at = t0 + ms(at_ms);
+        let wiring = crate::wiring::Wiring::defaults(
+            crate::proto::Protocol::Isel,
+            crate::axis::AxisSet::XYZ,
+            &[],
+        );
         let read = |p: InputPort, v: u8| {
-            let mut g = input_group(p, v);
+            let mut g = input_group(p, v, &wiring);
             g.read = Some(InputRead {
                 source: InputSource::IselPort(p.number()),
                 at,

@@ -865,27 +865,28 @@ mod tests {
     fn the_estop_circuits_come_first_then_the_limits_then_every_wired_input() {
         let ch = isel();
         let w = WalkTest::new(&ch, Vec::new());
-        // Both circuits as one step, then 22 inputs: the wired ones but the
-        // spindle's feedback.
-        assert_eq!(w.steps(), 1 + 22);
+        // Both circuits as one step, then 17 inputs: the wired ones (the
+        // profile's wiring: no hood, power and temperature supervised by the
+        // controller, key switch not wired) but the spindle's feedback.
+        assert_eq!(w.steps(), 1 + 17);
         let mut w = w;
         let t0 = Instant::now();
         let out = w.start(t0);
         assert!(
             said(&out)
-                .starts_with("[1/23] E-stop circuit 1 (in1.0), E-stop circuit 2 (in1.1): press"),
+                .starts_with("[1/18] E-stop circuit 1 (in1.0), E-stop circuit 2 (in1.1): press"),
             "{}",
             said(&out)
         );
         let out = w.answer("", t0);
         assert!(
-            said(&out).contains("[2/23] limit X1 (in3.0)"),
+            said(&out).contains("[2/18] limit X1 (in3.0)"),
             "{}",
             said(&out)
         );
         let out = w.answer("", t0);
         assert!(
-            said(&out).contains("[3/23] limit X2 (in3.1)"),
+            said(&out).contains("[3/18] limit X2 (in3.1)"),
             "{}",
             said(&out)
         );
@@ -1023,7 +1024,7 @@ mod tests {
         let out = w.answer("q", t0);
         assert_eq!(out.last(), Some(&Do::Finished));
         assert!(w.ended_early);
-        assert_eq!(w.inputs.len(), 22);
+        assert_eq!(w.inputs.len(), 17);
         assert!(w.inputs.iter().all(|r| r.verdict == Verdict::Skipped));
         let e = w.estop().expect("estop");
         assert!(e.circuits.iter().all(|r| r.verdict == Verdict::Skipped));

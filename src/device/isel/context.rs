@@ -17,6 +17,7 @@ use crate::proto::isel::{
     Positions, Recovery as IselRecovery, ReplyCode,
 };
 use crate::traffic::readable;
+use crate::wiring::Role;
 
 use super::deadline;
 use super::estimate::RampParams;
@@ -111,6 +112,16 @@ pub struct Context {
     /// The controller is storing a program after a raw `@0i` (manual 3.1):
     /// it takes only CNC lines until `9` or an error.
     pub cnc_store: bool,
+    /// Input ports the controller answered `1` to: it does not have them
+    /// (a controller without port 2). They are not read again on this link.
+    pub absent_ports: Vec<InputPort>,
+    /// Added to what `@0P` reports to get machine positions: zero, unless
+    /// this controller was seen to report positions from the virtual zero
+    /// of `@0n` ([`Context::zero_set`]).
+    pub p_offset: PerAxis<i64>,
+    /// A virtual zero was set: the next `@0P` shows whether the controller
+    /// reports positions from it (axes, machine position before).
+    pub zero_check: Option<(AxisSet, PerAxis<i64>)>,
 }
 
 impl Sink for Context {
@@ -137,6 +148,9 @@ impl Context {
             quiet_request: None,
             readback_wanted: false,
             cnc_store: false,
+            absent_ports: Vec::new(),
+            p_offset: PerAxis::new(),
+            zero_check: None,
         }
     }
 
@@ -227,6 +241,14 @@ impl Context {
         if let Some(a) = p.a {
             steps.set(Axis::A, i64::from(a));
         }
+        if let Some((axes, before)) = self.zero_check.take() {
+            self.check_positions_after_zero(axes, &before, &steps);
+        }
+        for (axis, offset) in self.p_offset.iter() {
+            if let Some(v) = steps.get(axis) {
+                steps.set(axis, v + offset);
+            }
+        }
         self.position = Some(steps);
         self.emit(Event::Position(PositionSample {
             at: now,
@@ -244,46 +266,62 @@ impl Context {
     }
 
     /// An input port was read (its reply arrived `at`): keep it and update
-    /// the safety flags.
+    /// the safety flags from the bits the profile declares wired
+    /// (`crate::wiring`): an E-stop circuit or a power input that is active
+    /// is a machine fault, an open hood
+    /// blocks motion while it is open. A bit the profile does not declare
+    /// wired is shown, never acted on: the controller's reply decides
+    /// (binding rule "The controller decides what its wiring allows").
     pub fn port_read(&mut self, port: InputPort, value: u8, at: Instant) {
         self.ports.set_input(port, value, at);
-        match port {
-            InputPort::Status1 => {
-                self.state.estop = value & 0b11 != 0b11;
-                if self.state.estop {
-                    self.machine_fault(port, value, "An emergency stop circuit opened");
-                } else if value & 0b100 != 0 {
-                    self.machine_fault(port, value, "The power stages overheated");
-                } else {
-                    self.machine_fault_gone();
-                }
-            }
-            InputPort::Status2 => {
-                if value & 0b10 == 0 {
-                    self.machine_fault(port, value, "The power supply failed");
-                } else {
-                    self.machine_fault_gone();
-                }
-                self.hood(value);
-            }
-            InputPort::LimitSwitches => self.state.limit = value != 0,
-            _ => {}
+        let active = self.ports.active_inputs(&self.settings.wiring);
+        let labels = |role: Role| -> Vec<String> {
+            active
+                .iter()
+                .filter(|b| b.role == role)
+                .map(|b| b.label())
+                .collect()
+        };
+        let estop = labels(Role::Estop);
+        let power = labels(Role::Power);
+        self.state.limit = active.iter().any(|b| b.limit().is_some());
+        self.state.estop = !estop.is_empty();
+        let in_port = |b: &&&crate::wiring::BitWiring| {
+            b.address
+                .strip_prefix(&format!("in{}.", port.number()))
+                .is_some()
+        };
+        if active.iter().filter(in_port).any(|b| b.role == Role::Estop) {
+            self.machine_fault(port, value, &format!("{} opened", estop.join(", ")));
+        } else if active.iter().filter(in_port).any(|b| b.role == Role::Power) {
+            let meaning = format!(
+                "{}: the power supply or the power stages failed",
+                power.join(", ")
+            );
+            self.machine_fault(port, value, &meaning);
+        } else if estop.is_empty() && power.is_empty() {
+            self.machine_fault_gone();
         }
+        self.hood(port, value);
     }
 
-    /// Port 2 bit 6 reads 1 with the hood closed or in setup mode; otherwise
-    /// the controller refuses motion with `H` (manual 2.2.3, chapter 5). An
-    /// open hood blocks motion as a fault with `CloseHood` for as long as it
-    /// is open; it does not hide a fault that needs more.
-    fn hood(&mut self, value: u8) {
-        let open = value & 0b0100_0000 == 0;
+    /// The wired hood inputs: motion is blocked while every one of them
+    /// reads "hood open". isel has two (manual 2.2.3): bit 5 "hood closed and
+    /// automatic" and bit 6 "hood closed or setup"; with the hood open in
+    /// setup mode only bit 5 reads 0, and the controller moves (chapter 5,
+    /// `H`). An open hood blocks motion as a fault with `CloseHood` for as
+    /// long as it is open; it does not hide a fault that needs more.
+    fn hood(&mut self, port: InputPort, value: u8) {
+        let inputs = self.ports.hood_inputs(&self.settings.wiring);
+        let open = !inputs.is_empty() && inputs.iter().all(|(_, active)| *active);
         let is_hood = |f: &ControllerFault| f.recovery == Recovery::CloseHood;
         match self.state.fault.as_ref() {
             None if open => {
+                let names: Vec<String> = inputs.iter().map(|(b, _)| b.label()).collect();
                 let fault = ControllerFault {
-                    command: format!("@{}b2", self.device),
-                    code: format!("port 2 = {value:02X}"),
-                    meaning: "The hood is open (and the key switch is not on setup).".to_owned(),
+                    command: format!("@{}b{}", self.device, port.number()),
+                    code: format!("port {} = {value:02X}", port.number()),
+                    meaning: format!("The hood is open: {}.", names.join(", ")),
                     recovery: Recovery::CloseHood,
                 };
                 self.state.fault = Some(fault.clone());
@@ -294,6 +332,81 @@ impl Context {
         }
     }
 
+    /// What jogterm knows of the hood when the controller answered `H`: the
+    /// controller refuses while its hood supervision (`@0IH`, manual 4.2.13)
+    /// reports the hood open; the hood inputs as last read help find which
+    /// circuit that is.
+    fn hood_explanation(&self) -> String {
+        let read: Vec<String> = self
+            .ports
+            .read_inputs(&self.settings.wiring)
+            .into_iter()
+            .filter(|(w, _)| w.role == Role::Hood)
+            .map(|(w, level)| format!("{} reads {}", w.label(), u8::from(level)))
+            .collect();
+        let mut text = " The controller's hood supervision (@0IH, manual 4.2.13) reports the \
+                        hood open."
+            .to_owned();
+        if !read.is_empty() {
+            text.push_str(&format!(" Last read: {}.", read.join(", ")));
+        }
+        text
+    }
+
+    /// `@0n` made the current position the virtual zero of `axes` (manual
+    /// 2.2.19): the work zero is that machine position. The next `@0P`
+    /// (read right after) shows whether the controller now reports
+    /// positions from the new zero, which jogterm then allows for.
+    pub fn zero_set(&mut self, axes: AxisSet) {
+        match self.position {
+            Some(position) => {
+                for axis in axes.iter() {
+                    self.state
+                        .work_zero
+                        .set(axis, position.get(axis).unwrap_or(0));
+                }
+                self.zero_known = AxisSet::from_mask(self.zero_known.mask() | axes.mask());
+                self.zero_check = Some((axes, position));
+            }
+            None => {
+                self.zero_known = AxisSet::from_mask(self.zero_known.mask() & !axes.mask());
+            }
+        }
+    }
+
+    /// The first `@0P` after `@0n`: an axis that did not move reads what it
+    /// read before, if `@0P` reports machine positions as the manual says
+    /// (2.2.19, `../shared/protocols.md` "isel `@0P` reports machine
+    /// positions"). One that reads otherwise is reported from the virtual
+    /// zero: jogterm adds it back, so positions, soft limits and taught
+    /// targets stay machine coordinates.
+    fn check_positions_after_zero(
+        &mut self,
+        axes: AxisSet,
+        before: &PerAxis<i64>,
+        reported: &PerAxis<i64>,
+    ) {
+        let mut shifted = Vec::new();
+        for axis in axes.iter() {
+            let (Some(was), Some(now)) = (before.get(axis), reported.get(axis)) else {
+                continue;
+            };
+            let offset = self.p_offset.get(axis).unwrap_or(0);
+            if now + offset != was {
+                self.p_offset.set(axis, was - now);
+                shifted.push(format!("{axis} {was} -> {}", now + offset));
+            }
+        }
+        if !shifted.is_empty() {
+            self.notice(format!(
+                "this controller reports @{dev}P from the virtual zero of @{dev}n ({}), not from \
+                 the reference point: jogterm adds the zero back and shows machine positions",
+                shifted.join(", "),
+                dev = self.device
+            ));
+        }
+    }
+
     /// A machine fault seen in the ports (manual 2.2.3): whether or not a
     /// command was answered `9`, the power stages were off and the axes may
     /// have moved, so the controller must be initialised and referenced
@@ -301,6 +414,7 @@ impl Context {
     fn machine_fault(&mut self, port: InputPort, value: u8, meaning: &str) {
         self.set_config(None);
         self.state.referenced = AxisSet::EMPTY;
+        self.ports.forget_spindle();
         match self.state.fault.as_mut() {
             Some(f) => f.recovery = Recovery::ClearEmergencyStop,
             None => {
@@ -316,24 +430,16 @@ impl Context {
         }
     }
 
-    /// The ports read last show no machine fault any more (E-stop circuits
-    /// closed, no over-temperature, power ok): a fault that asked to clear
-    /// it now asks only for what is left, initialising and referencing
-    /// (manual chapter 5, code 9); "release the emergency stop" would send
-    /// the operator looking for a circuit that is closed.
+    /// The ports read show no machine fault any more (no wired E-stop or
+    /// power input active, port 1 with the E-stop circuits read): a fault
+    /// that asked to clear it now asks only for what is left, initialising
+    /// and referencing (manual chapter 5, code 9); "release the emergency
+    /// stop" would send the operator looking for a circuit that is closed.
     fn machine_fault_gone(&mut self) {
-        let port1_ok = self
-            .ports
-            .input(InputPort::Status1)
-            .is_some_and(|v| v & 0b111 == 0b011);
-        let port2_ok = self
-            .ports
-            .input(InputPort::Status2)
-            .is_none_or(|v| v & 0b10 != 0);
+        let port1_read = self.ports.input(InputPort::Status1).is_some();
         if let Some(f) = self.state.fault.as_mut()
             && f.recovery == Recovery::ClearEmergencyStop
-            && port1_ok
-            && port2_ok
+            && port1_read
         {
             f.recovery = Recovery::ReinitialiseAndReference;
         }
@@ -367,18 +473,36 @@ impl Context {
     }
 
     pub fn emit_io(&mut self, now: Instant) {
-        let snapshot = self.ports.snapshot(now);
+        let snapshot = self.ports.snapshot(now, &self.settings.wiring);
         self.emit(Event::Io(snapshot));
+    }
+
+    /// The controller answered `1` to a read of `port`: it has no such
+    /// port. Its bits are not shown and it is not read again on this link.
+    pub fn port_absent(&mut self, port: InputPort) {
+        if self.absent_ports.contains(&port) {
+            return;
+        }
+        self.absent_ports.push(port);
+        self.notice(format!(
+            "the controller has no input port {port} (@{}b{port} answered 1): its bits are not \
+             read",
+            self.device
+        ));
     }
 
     /// The controller answered `code` to `command`: apply what the code means
     /// for the machine (manual chapter 5, `../shared/protocols.md` isel 4)
     /// and tell the clients.
     pub fn controller_error(&mut self, command: &str, code: ReplyCode) -> ControllerFault {
+        let mut meaning = code.meaning().to_owned();
+        if code == ReplyCode::HoodOpen {
+            meaning.push_str(&self.hood_explanation());
+        }
         let fault = ControllerFault {
             command: command.to_owned(),
             code: code.char().to_string(),
-            meaning: code.meaning().to_owned(),
+            meaning,
             recovery: recovery_of(code),
         };
         match code {
@@ -392,6 +516,7 @@ impl Context {
             }
             ReplyCode::MachineFault => {
                 self.state.estop = true;
+                self.ports.forget_spindle();
                 self.set_config(None);
                 self.state.referenced = AxisSet::EMPTY;
                 self.state.fault = Some(fault.clone());
@@ -445,6 +570,8 @@ impl Context {
     pub fn zero_reset(&mut self, axes: AxisSet) {
         for axis in axes.iter() {
             self.state.work_zero.set(axis, 0);
+            // The controller counts from the reference point again.
+            self.p_offset.clear(axis);
         }
         self.zero_known = AxisSet::from_mask(self.zero_known.mask() | axes.mask());
     }
@@ -483,6 +610,8 @@ impl Context {
         self.reference_hz = self.settings.reference_speed_hz;
         self.position = None;
         self.zero_reset(self.settings.axis_set());
+        // Power-up outputs (manual 2.2.31): jogterm did not write them.
+        self.ports.forget_outputs();
         if self.cnc_store || self.state.activity == crate::device::api::Activity::Uploading {
             self.state.program = crate::device::api::ProgramState::Invalid;
         }

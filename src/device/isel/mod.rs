@@ -312,6 +312,7 @@ impl IselDriver {
             }
             // `@0P` even without axes: some controllers report positions
             // then, others answer `4`, which only updates the state.
+            self.drop_absent_ports();
             let item = self.poller.next(now)?;
             let cmd = match item {
                 PollItem::Position => self.cx.cmd(Command::ReadPosition),
@@ -387,6 +388,13 @@ impl IselDriver {
                     self.cx.emit_io(now);
                 }
             }
+            (PollItem::Port(port), Reply::Code(crate::proto::isel::ReplyCode::BadNumber)) => {
+                self.cx.port_absent(port);
+                self.drop_absent_ports();
+                if self.poller.cycle_done() {
+                    self.cx.emit_io(now);
+                }
+            }
             (_, Reply::Code(code)) => {
                 // Once per kind of trouble, not on every poll.
                 let key = format!("{text}{}", code.char());
@@ -399,6 +407,34 @@ impl IselDriver {
                 .cx
                 .notice(format!("unexpected reply to {text}: {other:?}")),
         }
+    }
+
+    /// Poll only the ports of the plan the controller has
+    /// (`Context::absent_ports`).
+    fn drop_absent_ports(&mut self) {
+        let absent = &self.cx.absent_ports;
+        if self
+            .poller
+            .ports()
+            .iter()
+            .any(|i| matches!(i, PollItem::Port(p) if absent.contains(p)))
+        {
+            self.poll_plan_ports();
+        }
+    }
+
+    fn poll_plan_ports(&mut self) {
+        let absent = &self.cx.absent_ports;
+        let ports = self
+            .cx
+            .settings
+            .poll
+            .ports
+            .iter()
+            .filter(|p| !absent.contains(p))
+            .map(|p| PollItem::Port(*p))
+            .collect();
+        self.poller.set_ports(ports);
     }
 
     fn reply_timeout(&mut self, now: Instant) {
@@ -711,6 +747,11 @@ impl Driver for IselDriver {
         self.go_down("reconnected");
         self.link_up = true;
         self.poller.reset();
+        // Another controller may be on the line now: every port is tried,
+        // no output is known (it may have been switched off and on).
+        self.cx.absent_ports.clear();
+        self.cx.ports.forget_outputs();
+        self.poll_plan_ports();
         self.poll_error = None;
         self.cx.send_stop();
         self.settling_after_connect = true;

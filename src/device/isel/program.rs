@@ -51,6 +51,8 @@ impl Operation for ProgramOp {
         match self.phase {
             Phase::Start => {
                 self.phase = Phase::Running;
+                // A stored program may write any port (CNC `p`, `@0Ia`).
+                cx.ports.forget_outputs();
                 Next::Send(cx.cmd(Command::Start))
             }
             Phase::Running => Next::Wait,

@@ -239,17 +239,7 @@ impl RawOp {
                     }
                 }
             }
-            Command::SetZero(mask) => match cx.position {
-                Some(position) => {
-                    for axis in mask.iter() {
-                        cx.state.work_zero.set(axis, position.get(axis).unwrap_or(0));
-                    }
-                    cx.zero_known = AxisSet::from_mask(cx.zero_known.mask() | mask.mask());
-                }
-                None => {
-                    cx.zero_known = AxisSet::from_mask(cx.zero_known.mask() & !mask.mask());
-                }
-            },
+            Command::SetZero(mask) => cx.zero_set(*mask),
             Command::ClearLimitSwitch(axis) => {
                 // The controller takes commands again only after a reference
                 // run (manual 2.2.9).
@@ -319,6 +309,10 @@ impl Operation for RawOp {
         match self.phase {
             Phase::Send => {
                 self.phase = Phase::Waiting;
+                if self.command() == Some(&Command::Start) {
+                    // A stored program may write any port (CNC `p`, `@0Ia`).
+                    cx.ports.forget_outputs();
+                }
                 Next::Send(self.cmd.clone())
             }
             Phase::Waiting => Next::Wait,
@@ -380,7 +374,7 @@ impl Operation for RawOp {
                 cx.measured(p, now);
                 cx.emit(Event::Reply {
                     command: text,
-                    text: reply_text(self.command(), &reply),
+                    text: reply_text(self.command(), &reply, &cx.settings.wiring),
                 });
             }
             Reply::Byte(v) => {
@@ -390,18 +384,22 @@ impl Operation for RawOp {
                 }
                 cx.emit(Event::Reply {
                     command: text,
-                    text: reply_text(self.command(), &reply),
+                    text: reply_text(self.command(), &reply, &cx.settings.wiring),
                 });
             }
             Reply::Text { .. } => cx.emit(Event::Reply {
                 command: text,
-                text: reply_text(self.command(), &reply),
+                text: reply_text(self.command(), &reply, &cx.settings.wiring),
             }),
         }
         if self.stopping {
             cx.quiet_request = Some(cx.settings.timing.resync_gap);
         }
-        self.phase = if self.cmd.may_move && !cx.cnc_store {
+        // After a move, and after `@0n`: whether `@0P` changed with the
+        // zero is read at once (`Context::zero_set`).
+        let zero_set = matches!(self.command(), Some(Command::SetZero(_)))
+            && reply == Reply::Code(ReplyCode::Ok);
+        self.phase = if (self.cmd.may_move || zero_set) && !cx.cnc_store {
             Phase::Measure
         } else {
             Phase::Done

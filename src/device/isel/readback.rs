@@ -6,7 +6,9 @@
 //!    2.2.21, `../shared/protocols.md` isel 2). `8` means the controller was
 //!    still storing a program (a previous session died during an upload):
 //!    that line ended the upload, so the read-back starts again.
-//! 2. Ports 1, 2, 3: E-stop circuits, hood and power, limit switches.
+//! 2. Ports 1, 2, 3: E-stop circuits, hood and power, limit switches. A
+//!    port answered `1` is one the controller does not have: it is left
+//!    out of polling on this link (`Context::port_absent`).
 //! 3. The reference probe: a relative move of zero steps for every axis.
 //!    It moves nothing and is answered `0` when the axes are referenced, `R`
 //!    when not, `7` when the number of pairs does not match the controller's
@@ -34,6 +36,14 @@ const PORTS: [InputPort; 3] = [
     InputPort::Status2,
     InputPort::LimitSwitches,
 ];
+
+/// The ports read back: 1, 2, 3, and those the poll plan adds (port 0 when
+/// the profile wires a user input to a role, `PollPlan::ports_for`).
+fn ports(cx: &Context) -> Vec<InputPort> {
+    let mut out = PORTS.to_vec();
+    out.extend(cx.settings.poll.ports.iter().filter(|p| !PORTS.contains(p)));
+    out
+}
 
 /// Read-backs started over after garbled replies before giving up.
 const MAX_RESTARTS: u32 = 3;
@@ -267,7 +277,7 @@ impl Operation for Readback {
                 cmd.expect = Expect::TextUntilSilence;
                 Next::Send(cmd)
             }
-            Stage::Port(i) => match PORTS.get(i) {
+            Stage::Port(i) => match ports(cx).get(i) {
                 Some(port) => Next::Send(cx.cmd(Command::ReadPort(*port))),
                 None => Next::Done,
             },
@@ -327,15 +337,19 @@ impl Operation for Readback {
                 _ => self.restart(cx, "unexpected reply to @0P"),
             },
             Stage::Port(i) => {
-                let port = PORTS.get(i).copied();
+                let all = ports(cx);
+                let port = all.get(i).copied();
                 match (reply, port) {
                     (Reply::Byte(v), Some(port)) => cx.port_read(port, v, now),
+                    // A port the controller does not have (manual 2.2.3
+                    // lists ports 0-3; a smaller controller may lack one).
+                    (Reply::Code(ReplyCode::BadNumber), Some(port)) => cx.port_absent(port),
                     (Reply::Code(code), Some(port)) => {
                         cx.controller_error(&format!("@{}b{}", cx.device, port.number()), code);
                     }
                     _ => {}
                 }
-                if i + 1 < PORTS.len() {
+                if i + 1 < all.len() {
                     self.stage = Stage::Port(i + 1);
                 } else {
                     cx.emit_io(now);

@@ -6,9 +6,11 @@ use crate::proto::isel::ports::limit_diagnosis_axes;
 use crate::proto::isel::{Command, DiagnosisKind, Reply, ReplyCode, TextEnd};
 
 use super::io::describe_input;
+use crate::wiring::Wiring;
 
-/// `0 X=256 Y=131087 Z=-2` and the like.
-pub fn reply_text(command: Option<&Command>, reply: &Reply) -> String {
+/// `0 X=256 Y=131087 Z=-2` and the like; port bits under the profile's
+/// names (`wiring`).
+pub fn reply_text(command: Option<&Command>, reply: &Reply, wiring: &Wiring) -> String {
     match reply {
         Reply::Code(code) => code_text(*code),
         Reply::Positions(p) => {
@@ -24,7 +26,7 @@ pub fn reply_text(command: Option<&Command>, reply: &Reply) -> String {
         }
         Reply::Byte(v) => {
             let meaning = match command {
-                Some(Command::ReadPort(port)) => describe_input(*port, *v),
+                Some(Command::ReadPort(port)) => describe_input(*port, *v, wiring),
                 Some(Command::Diagnose(d)) => match d.kind() {
                     DiagnosisKind::PositiveLimitSwitches | DiagnosisKind::NegativeLimitSwitches => {
                         let axes = limit_diagnosis_axes(*v);
@@ -80,35 +82,38 @@ mod tests {
 
     #[test]
     fn replies_read_as_text() {
+        let w = Wiring::defaults(crate::proto::Protocol::Isel, crate::axis::AxisSet::XYZ, &[]);
         let p = Reply::Positions(Positions {
             x: 256,
             y: 131_087,
             z: -2,
             a: None,
         });
-        assert_eq!(reply_text(None, &p), "0 X=256 Y=131087 Z=-2 (steps)");
+        assert_eq!(reply_text(None, &p, &w), "0 X=256 Y=131087 Z=-2 (steps)");
         assert_eq!(
             reply_text(
                 Some(&Command::ReadPort(InputPort::Status1)),
-                &Reply::Byte(0x03)
+                &Reply::Byte(0x03),
+                &w
             ),
             "0 0x03 (00000011): E-stop circuit 1, E-stop circuit 2"
         );
         assert_eq!(
             reply_text(
                 Some(&Command::Diagnose(Diagnosis::POSITIVE_LIMITS)),
-                &Reply::Byte(0x04)
+                &Reply::Byte(0x04),
+                &w
             ),
             "0 0x04 (00000100): limit switch active: Z"
         );
         assert_eq!(
-            reply_text(None, &Reply::Code(ReplyCode::LimitSwitch)),
+            reply_text(None, &Reply::Code(ReplyCode::LimitSwitch), &w),
             "2 limit switch"
         );
         let text = Reply::Text {
             lines: vec!["iMC-S8 \u{1b}V1".into()],
             end: TextEnd::Code(ReplyCode::Ok),
         };
-        assert_eq!(reply_text(None, &text), "iMC-S8 <1B>V1\n0 ok");
+        assert_eq!(reply_text(None, &text, &w), "iMC-S8 <1B>V1\n0 ok");
     }
 }

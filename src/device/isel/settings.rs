@@ -7,11 +7,12 @@ use std::time::Duration;
 use crate::axis::{Axis, AxisSet};
 use crate::config::Profile;
 use crate::device::api::PerAxis;
-use crate::device::common::settings::{axis_limits, listed_axes};
+use crate::device::common::settings::{axis_limits, listed_axes, wiring};
 use crate::motion::Ramp;
 use crate::proto::Protocol;
 use crate::proto::isel::{AxisConfig, DeviceNumber, InputPort, SPEED_HZ};
 use crate::wire::LineSettings;
+use crate::wiring::Wiring;
 
 pub use crate::device::common::{AxisLimits, JogSettings, PollRate, SettingsError};
 
@@ -34,6 +35,28 @@ impl PollPlan {
         InputPort::Status2,
         InputPort::User,
     ];
+
+    /// The default ports, and port 0 (the user inputs) when the profile
+    /// wires one of them to something jogterm watches or shows by role (a
+    /// probe, a key, an E-stop …; `crate::wiring`), last.
+    pub fn ports_for(wiring: &Wiring) -> Vec<InputPort> {
+        let mut ports = Self::DEFAULT_PORTS.to_vec();
+        let user_port_used = (0..8u8).any(|bit| {
+            wiring
+                .bit(&crate::wiring::isel_input_address(InputPort::User, bit))
+                .is_some_and(|b| {
+                    b.wired
+                        && !matches!(
+                            b.role,
+                            crate::wiring::Role::User | crate::wiring::Role::Unused
+                        )
+                })
+        });
+        if user_port_used {
+            ports.push(InputPort::User);
+        }
+        ports
+    }
 }
 
 /// Tuning of the driver's timing; the defaults are documented in
@@ -84,6 +107,9 @@ pub struct IselSettings {
     pub line: LineSettings,
     pub poll: PollPlan,
     pub timing: Timing,
+    /// What the machine's bits are wired to (`[io]`): names for every bit,
+    /// and the only inputs jogterm refuses motion on itself.
+    pub wiring: Wiring,
 }
 
 impl IselSettings {
@@ -101,6 +127,7 @@ impl IselSettings {
             })?;
         let device = DeviceNumber::new(profile.isel.device)
             .ok_or_else(|| SettingsError::invalid(profile, "isel device numbers are 0-9"))?;
+        let wiring = wiring(profile)?;
         // isel decision 13: 1..=40000 Hz.
         let hz = (f64::from(*SPEED_HZ.start()), f64::from(*SPEED_HZ.end()));
         Ok(IselSettings {
@@ -117,9 +144,10 @@ impl IselSettings {
                 rate: PollRate::from_profile(profile.poll.rate_hz),
                 positions: true,
                 ports_every: profile.poll.ports_every.max(1),
-                ports: PollPlan::ALL_INPUT_PORTS.to_vec(),
+                ports: PollPlan::ports_for(&wiring),
             },
             timing: Timing::default(),
+            wiring,
         })
     }
 

@@ -1,7 +1,9 @@
 //! `SetZero`: `@0n<mask>` makes the current position the virtual zero of the
 //! masked axes, A on its own (manual 2.2.19). `@0P` keeps reporting machine
 //! coordinates; the virtual zero shifts the targets of `@0M`, which the
-//! driver tracks as `work_zero` (machine steps).
+//! driver tracks as `work_zero` (machine steps). Each `@0n` is followed by
+//! a `@0P`, which shows a controller that reports positions from the new
+//! zero instead (checked at run time: `Context::zero_set`).
 
 use std::collections::VecDeque;
 use std::time::Instant;
@@ -18,6 +20,10 @@ use super::op::{Abandon, Next, Operation};
 pub struct ZeroOp {
     masks: VecDeque<AxisSet>,
     running: Option<AxisSet>,
+    /// `@0P` is read right after each `@0n`: whether the controller reports
+    /// positions from the new zero shows there (`Context::zero_set`).
+    measure: bool,
+    measuring: bool,
     done: bool,
 }
 
@@ -27,6 +33,8 @@ impl ZeroOp {
             // The same rule as for reference masks: A only on its own.
             masks: deadline::reference_masks(axes).into(),
             running: None,
+            measure: false,
+            measuring: false,
             done: false,
         }
     }
@@ -37,6 +45,10 @@ impl Operation for ZeroOp {
         if self.done {
             return Next::Done;
         }
+        if std::mem::take(&mut self.measure) {
+            self.measuring = true;
+            return Next::Send(cx.cmd(Command::ReadPosition));
+        }
         match self.masks.pop_front() {
             Some(mask) => {
                 self.running = Some(mask);
@@ -46,19 +58,20 @@ impl Operation for ZeroOp {
         }
     }
 
-    fn reply(&mut self, cx: &mut Context, reply: Reply, _now: Instant) {
+    fn reply(&mut self, cx: &mut Context, reply: Reply, now: Instant) {
+        if std::mem::take(&mut self.measuring) {
+            if !cx.position_reply(reply, now) {
+                self.done = true;
+            }
+            return;
+        }
         let Some(mask) = self.running.take() else {
             return;
         };
         match reply {
             Reply::Code(ReplyCode::Ok) => {
-                let position = cx.position.unwrap_or_default();
-                for axis in mask.iter() {
-                    cx.state
-                        .work_zero
-                        .set(axis, position.get(axis).unwrap_or(0));
-                }
-                cx.zero_known = AxisSet::from_mask(cx.zero_known.mask() | mask.mask());
+                cx.zero_set(mask);
+                self.measure = true;
             }
             Reply::Code(code) => {
                 let text = cx.cmd(Command::SetZero(mask)).text;
@@ -75,6 +88,11 @@ impl Operation for ZeroOp {
     }
 
     fn lost_reply(&mut self, cx: &mut Context, _now: Instant) {
+        if std::mem::take(&mut self.measuring) {
+            // The check waits for the next `@0P` (`Context::zero_check`).
+            self.done = true;
+            return;
+        }
         // Whether the zero moved is unknown.
         if let Some(mask) = self.running.take() {
             cx.zero_known = AxisSet::from_mask(cx.zero_known.mask() & !mask.mask());

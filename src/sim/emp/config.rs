@@ -7,8 +7,8 @@
 //! point is), speeds counts per second.
 
 use crate::axis::Axis;
-use crate::config::Profile;
 use crate::config::profile::{AxisProfile, SimProfile, parse_drive_address};
+use crate::config::{Profile, SimVariant};
 use crate::proto::Protocol;
 use crate::proto::emp::{DriveAddress, IdentText, ReloadValue};
 
@@ -83,7 +83,8 @@ pub struct DriveConfig {
     /// request ("Ohne diesen Einschalt-Befehl werden keine Kommandos
     /// angenommen", manual "02"; `../shared/protocols.md` "EMP before
     /// `02`"); when false it answers with error `02`, so a console can
-    /// learn why (decision 2). `[sim] emp_rejects_0a_before_on`.
+    /// learn why (decision 2). The variant `emp-rejects-0a-before-on`
+    /// (`[sim] variants`, `config::variant`).
     pub rejects_0a_before_on: bool,
 }
 
@@ -169,7 +170,7 @@ impl DriveConfig {
             )
             .starting_at(counts(sim.start_position));
         d.reference_cam = counts(sim.limit_margin / 2.0).max(1.0);
-        d.rejects_0a_before_on = sim.emp_rejects_0a_before_on;
+        d.rejects_0a_before_on = sim.variants.contains(&SimVariant::EmpRejects0aBeforeOn);
         d.axis = Some(axis);
         d
     }

@@ -17,8 +17,9 @@ use thiserror::Error;
 
 use crate::axis::{Axis, AxisSet};
 use crate::config::Profile;
+use crate::config::SimVariant;
 use crate::config::profile::Unit;
-use crate::proto::isel::{DeviceNumber, REFERENCE_CLEAR_STEPS};
+use crate::proto::isel::{DeviceNumber, InputPort, PortWatch, REFERENCE_CLEAR_STEPS};
 
 use super::flash::{Flash, InitValues};
 
@@ -73,7 +74,27 @@ pub struct IselSimConfig {
     pub program_capacity: usize,
     pub erase_time: Duration,
     pub program_step: Duration,
+    /// A hood circuit on port 2 (bit 5 hood closed and automatic, bit 6
+    /// hood closed or setup, bit 7 key switch), supervised by the factory
+    /// `@0IH` watch [`HOOD_WATCH`]; without one (variant `hood-unwired`)
+    /// those bits read 0 and nothing supervises a hood (manual 4.2.13).
+    pub hood_circuit: bool,
+    /// Input port 2 exists; without it (variant `no-port2`) `@0b2` answers
+    /// `1` and there is no hood circuit.
+    pub port2: bool,
+    /// `@0P` reports positions from the virtual zero of `@0n` (variant
+    /// `work-positions`) instead of from the reference point (manual 2.2.19).
+    pub work_positions: bool,
 }
+
+/// The factory hood supervision of a controller with a hood circuit: port 2
+/// bit 6 ("hood closed or setup") must read 1, else motion answers `H`
+/// (manual 2.2.3, 4.2.13, chapter 5). `@0IH` with mask 0 switches it off.
+pub const HOOD_WATCH: PortWatch = PortWatch {
+    port: InputPort::Status2,
+    mask: 0x40,
+    value: 0x40,
+};
 
 /// A profile the simulator cannot be built from.
 #[derive(Debug, Clone, PartialEq, Eq, Error)]
@@ -93,7 +114,8 @@ impl IselSimConfig {
 
     fn with_rotary(axes: [Option<AxisMechanics>; 4], rotary: AxisSet) -> IselSimConfig {
         let clear = axes.map(|a| a.map_or(0, |m| m.clear_steps()));
-        let factory = InitValues::factory(clear, rotary);
+        let mut factory = InitValues::factory(clear, rotary);
+        factory.hood_input = HOOD_WATCH;
         IselSimConfig {
             device: DeviceNumber::DEFAULT,
             axes,
@@ -102,7 +124,39 @@ impl IselSimConfig {
             program_capacity: PROGRAM_CAPACITY,
             erase_time: ERASE_TIME,
             program_step: PROGRAM_STEP,
+            hood_circuit: true,
+            port2: true,
+            work_positions: false,
         }
+    }
+
+    /// A controller that differs from the default one as `variant` says
+    /// (`config::variant`, `docs/simulator.md`). `memory=` is applied by
+    /// `sim::registry` for every family.
+    pub fn with_variant(mut self, variant: SimVariant) -> IselSimConfig {
+        match variant {
+            SimVariant::HoodUnwired => self.without_hood(),
+            SimVariant::NoPort2 => {
+                self.port2 = false;
+                self.without_hood();
+            }
+            SimVariant::WorkPositions => self.work_positions = true,
+            // Another family's (refused when the profile is checked), or
+            // applied by the registry.
+            SimVariant::Memory(_) | SimVariant::EmpRejects0aBeforeOn => {}
+        }
+        self
+    }
+
+    fn without_hood(&mut self) {
+        self.hood_circuit = false;
+        let off = PortWatch {
+            port: InputPort::User,
+            mask: 0,
+            value: 0,
+        };
+        self.factory.hood_input = off;
+        self.flash.init.hood_input = off;
     }
 
     /// The simulated machine a profile describes: its axes, soft limits,
@@ -151,7 +205,11 @@ impl IselSimConfig {
         }
         let mut config = IselSimConfig::with_rotary(axes, rotary);
         config.device = DeviceNumber::new(profile.isel.device).unwrap_or_default();
-        Ok(config)
+        Ok(profile
+            .sim
+            .variants
+            .iter()
+            .fold(config, |c, v| c.with_variant(*v)))
     }
 }
 

@@ -48,6 +48,16 @@ impl IselSim {
                 INPUT_NAMES.join(", ")
             )
         })?;
+        if !self.config.hood_circuit && matches!(input, InputName::Hood | InputName::KeySwitch) {
+            return Err(format!(
+                "`{name}`: this controller has no hood circuit (simulator variant {})",
+                if self.config.port2 {
+                    "hood-unwired"
+                } else {
+                    "no-port2"
+                }
+            ));
+        }
         if press && !matches!(input, InputName::Start | InputName::Stop) {
             return Err(format!(
                 "`{name}` is not a button (press works on start and stop): set {name} on|off"

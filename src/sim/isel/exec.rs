@@ -164,6 +164,11 @@ impl IselSim {
                 },
                 None => code(ReplyCode::NoAxes),
             },
+            // A controller without port 2 answers it like any port it has
+            // not got (manual 2.2.3, chapter 5 `1`).
+            Command::ReadPort(crate::proto::isel::InputPort::Status2) if !self.config.port2 => {
+                code(ReplyCode::BadNumber)
+            }
             Command::ReadPort(port) => Exec::Reply(Reply::Byte(self.port(*port))),
             Command::WritePort { port, value } => match self.write_output(*port, *value) {
                 Ok(()) => ok(),
@@ -288,14 +293,15 @@ impl IselSim {
     }
 
     /// Whether a command may move the axes now; the code it answers if not.
-    /// Order: machine fault `9`, hood `H`, and for moves (not for reference
-    /// runs and `@0F`, which start from inside a switch) reference `R` and a
-    /// limit switch that is already active `2` (chapter 5, decision 4).
+    /// Order: machine fault `9`, hood `H` (as the `@0IH` watch sees it,
+    /// manual 4.2.13), and for moves (not for reference runs and `@0F`,
+    /// which start from inside a switch) reference `R` and a limit switch
+    /// that is already active `2` (chapter 5, decision 4).
     pub(super) fn motion_gate(&mut self, is_move: bool) -> Result<(), ReplyCode> {
         if self.inputs.machine_fault() {
             return Err(ReplyCode::MachineFault);
         }
-        if !self.inputs.motion_allowed() {
+        if self.hood_watch_open() {
             return Err(ReplyCode::HoodOpen);
         }
         let all = self.axis_config.map_or(AxisSet::EMPTY, AxisConfig::axes);
@@ -440,7 +446,10 @@ impl IselSim {
     /// Write an output port (`@0B`, CNC `p`). Switching the spindle on with
     /// the hood open answers `H` (`docs/protocols.md`, isel).
     pub(super) fn write_output(&mut self, port: OutputPort, value: u8) -> Result<(), ReplyCode> {
-        if self.outputs.starts_spindle(port, value) && !self.inputs.hood_closed {
+        if self.config.hood_circuit
+            && self.outputs.starts_spindle(port, value)
+            && !self.inputs.hood_closed
+        {
             return Err(ReplyCode::HoodOpen);
         }
         self.outputs.write(port, value);

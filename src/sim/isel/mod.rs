@@ -293,6 +293,12 @@ impl IselSim {
         match port {
             InputPort::User => self.inputs.user,
             InputPort::Status1 => self.inputs.port1(),
+            // No port: nothing to read (`@0b2` answers `1`, `exec`). No
+            // hood circuit: its bits 5-7 read 0.
+            InputPort::Status2 if !self.config.port2 => 0,
+            InputPort::Status2 if !self.config.hood_circuit => {
+                self.inputs.port2(self.outputs.spindle()) & 0x1F
+            }
             InputPort::Status2 => self.inputs.port2(self.outputs.spindle()),
             InputPort::LimitSwitches => {
                 let mut byte = 0u8;
@@ -310,6 +316,19 @@ impl IselSim {
 
     fn ports(&self) -> [u8; 4] {
         InputPort::ALL.map(|p| self.port(p))
+    }
+
+    /// The hood supervision of `@0IH` (manual 4.2.13) reports the hood open:
+    /// the port under the mask differs from the set value. Mask 0: off.
+    fn hood_watch_open(&self) -> bool {
+        let w = self.init.hood_input;
+        w.mask != 0 && self.port(w.port) & w.mask != w.value & w.mask
+    }
+
+    /// Motion with the hood open stops the machine (code 9): only where a
+    /// hood circuit is wired, in automatic mode (port 2 bit 6).
+    fn hood_circuit_allows_motion(&self) -> bool {
+        !self.config.hood_circuit || self.inputs.motion_allowed()
     }
 
     /// The logical state of limit switch input `input` (0 = switch 1) of
@@ -362,8 +381,15 @@ impl IselSim {
 
     fn positions(&self) -> Positions {
         // The counters are 24 bits wide; the encoder keeps the low 24 bits
-        // (manual 2.2.21, decision 2).
-        let [x, y, z, a] = self.counters().map(|c| c as i32);
+        // (manual 2.2.21, decision 2). A `work-positions` controller counts
+        // from the virtual zero of `@0n` instead of the reference point.
+        let mut counters = self.counters();
+        if self.config.work_positions {
+            for (c, z) in counters.iter_mut().zip(self.virtual_zero) {
+                *c -= z;
+            }
+        }
+        let [x, y, z, a] = counters.map(|c| c as i32);
         Positions {
             x,
             y,
@@ -505,10 +531,18 @@ impl SimDevice for IselSim {
     }
 
     fn input_names(&self) -> Vec<&'static str> {
-        io::input_names()
+        // Without a hood circuit there is no hood and no key switch to set.
+        let mut names = io::input_names();
+        if !self.config.hood_circuit {
+            names.retain(|n| !matches!(*n, "hood" | "key-switch"));
+        }
+        names
     }
 
     fn input_level(&self, name: &str) -> Option<bool> {
+        if !self.config.hood_circuit && matches!(name, "hood" | "key-switch") {
+            return None;
+        }
         self.operator_level(name)
     }
 

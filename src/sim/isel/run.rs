@@ -134,7 +134,7 @@ impl IselSim {
             ports: self.ports(),
             monitored: self.monitored_byte(),
             fault: self.inputs.machine_fault(),
-            motion_allowed: self.inputs.motion_allowed(),
+            motion_allowed: self.hood_circuit_allows_motion(),
         }
     }
 

@@ -106,6 +106,10 @@ fn bit_spans(model: &Model, bit: &BitState, label: &str, selected: bool) -> Vec<
     } else {
         (p.symbols.unlit, p.unlit)
     };
+    // A bit the profile says nothing is connected to: shown, dimmed.
+    if !bit.bit.wired() {
+        style = style.patch(p.dim);
+    }
     if IoPanel::highlighted(bit, model.now) {
         style = style.patch(p.changed);
     }
@@ -223,10 +227,23 @@ fn detail(model: &Model) -> Line<'static> {
     } else {
         String::new()
     };
+    // What the profile says of it: address, role, and when nothing is
+    // connected (jogterm then never acts on it).
+    let wiring = bit.bit.wiring.as_ref().map_or(String::new(), |w| {
+        let wired = if w.wired { "" } else { ", not wired" };
+        format!(", {} {}{wired}", w.address, w.role)
+    });
+    // An output jogterm has not written: its state is unknown.
+    let outputs_only = group.all_bits.iter().all(|b| b.output.is_some());
+    let value = if bit.bit.output.is_some() && outputs_only && group.raw.is_none() {
+        "?".to_string()
+    } else {
+        u8::from(bit.bit.value).to_string()
+    };
     Line::from(vec![
         Span::styled("> ", p.key),
         Span::styled(full_name(&group.name, &bit.bit.name), p.text),
-        Span::styled(format!(" = {}", u8::from(bit.bit.value)), p.title),
-        Span::styled(format!(" ({what}{changes})"), p.dim),
+        Span::styled(format!(" = {value}"), p.title),
+        Span::styled(format!(" ({what}{wiring}{changes})"), p.dim),
     ])
 }

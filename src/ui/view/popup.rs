@@ -94,7 +94,13 @@ impl Widget for ConfirmView<'_> {
         let c = self.confirmation;
         let width = area.width.clamp(20, 60);
         let text_w = usize::from(width.saturating_sub(2)).max(1);
-        let text_rows = (c.question.chars().count().div_ceil(text_w) + 1) as u16;
+        // Each line of the question wraps on its own.
+        let text_rows = (c
+            .question
+            .split('\n')
+            .map(|l| l.chars().count().div_ceil(text_w).max(1))
+            .sum::<usize>()
+            + 1) as u16;
         // Borders, the question, a blank line, the answer keys.
         let box_area = centred(area, width, text_rows + 3);
         let inner = framed(model, &c.title, box_area, buf);
@@ -113,8 +119,12 @@ impl Widget for ConfirmView<'_> {
             Span::styled(keys(Action::Cancel), p.key),
             Span::styled(" no", p.text),
         ]);
-        let question =
-            Paragraph::new(Span::styled(c.question.clone(), p.warning)).wrap(Wrap { trim: true });
+        let lines: Vec<Line> = c
+            .question
+            .split('\n')
+            .map(|l| Line::from(Span::styled(l.to_string(), p.warning)))
+            .collect();
+        let question = Paragraph::new(lines).wrap(Wrap { trim: true });
         let q_area = Rect::new(
             inner.x,
             inner.y,

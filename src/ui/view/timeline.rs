@@ -108,7 +108,8 @@ impl Widget for TimelineScreen<'_> {
         let model = self.0;
         let p = &model.palette;
         let t = &model.timeline;
-        let parts = parts(area, t.lanes.len());
+        let all = t.shown();
+        let parts = parts(area, all.len());
         status::StatusBar(model).render(parts.status, buf);
         status::MessageLine(model).render(parts.message, buf);
         if let Some(h) = parts.hints {
@@ -116,9 +117,9 @@ impl Widget for TimelineScreen<'_> {
         }
 
         let shown = usize::from(parts.lanes.height);
-        let top = t.top.min(t.lanes.len().saturating_sub(shown.max(1)));
+        let top = t.top.min(all.len().saturating_sub(shown.max(1)));
         let lanes: Vec<&std::sync::Arc<InputChannel>> =
-            t.lanes.iter().skip(top).take(shown).collect();
+            all.iter().skip(top).take(shown).copied().collect();
         let scale = t.scale();
         let mut extra = vec![Span::styled(
             format!(" {} ms/column ", scale.as_millis()),
@@ -144,19 +145,21 @@ impl Widget for TimelineScreen<'_> {
                 p.warning,
             ),
         });
-        if t.lanes.len() > shown {
+        if all.len() > shown {
             extra.push(Span::styled(
-                format!(
-                    " lanes {}-{} of {} ",
-                    top + 1,
-                    top + lanes.len(),
-                    t.lanes.len()
-                ),
+                format!(" lanes {}-{} of {} ", top + 1, top + lanes.len(), all.len()),
                 p.dim,
             ));
         }
         if let Some(every) = t.read_every() {
             extra.push(Span::styled(format!(" read every {} ", ms(every)), p.dim));
+        }
+        let unread = t.unread();
+        if unread > 0 {
+            extra.push(Span::styled(
+                format!(" {unread} inputs not polled here (jogterm watch reads all) "),
+                p.dim,
+            ));
         }
         frame::panel("Port timeline", extra, true, p, parts.panel, buf);
         let col_start = |c: u16| left_us + i128::from(c) * scale_us;
@@ -222,12 +225,12 @@ impl Widget for TimelineScreen<'_> {
             };
             put(buf, parts.lanes.x + label_w + 1, y, text, style);
         }
-        if t.lanes.is_empty() {
+        if all.is_empty() {
             put(
                 buf,
                 parts.lanes.x,
                 parts.lanes.y,
-                "no inputs to show",
+                "no input read yet",
                 p.dim,
             );
         }

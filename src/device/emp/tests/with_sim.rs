@@ -259,7 +259,17 @@ fn outputs_are_written_and_shown() {
 
 #[test]
 fn a_limit_switch_ends_an_unreferenced_jog_with_a_fault() {
-    let mut b = bench_for(&profile(), |s| s.jog.allow_unreferenced = true);
+    // The profile names the switch (`[io."11.limit-"]`): messages and the
+    // I/O snapshots use its name, and tell its axis and side.
+    let mut p = profile();
+    p.io.insert(
+        "11.limit-".into(),
+        crate::wiring::BitPatch {
+            name: Some("X home switch".into()),
+            ..Default::default()
+        },
+    );
+    let mut b = bench_for(&p, |s| s.jog.allow_unreferenced = true);
     b.run(ms(300));
     b.request(Request::Initialise);
     b.run(ms(300));
@@ -281,6 +291,29 @@ fn a_limit_switch_ends_an_unreferenced_jog_with_a_fault() {
     );
     assert!(b.driver.state().limit);
     assert_eq!(speed(&b, DriveAddress::SINGLE), 0.0);
+    assert!(
+        b.events.iter().any(|e| matches!(
+            e,
+            Event::Fault(f) if f.meaning.contains("X home switch (11.limit-)")
+        )),
+        "{:?}",
+        b.events
+    );
+    let active = b
+        .events
+        .iter()
+        .rev()
+        .find_map(|e| match e {
+            Event::Io(io) => Some(io.active_limits()),
+            _ => None,
+        })
+        .expect("an I/O snapshot");
+    assert_eq!(active.len(), 1, "{active:?}");
+    assert_eq!(
+        (active[0].axis, active[0].side, active[0].name.as_str()),
+        (Axis::X, crate::wiring::Side::Min, "X home switch")
+    );
+    assert_eq!(active[0].away(), Dir::Plus);
     // A reference run clears it.
     b.request(Request::Home {
         axes: AxisSet::EMPTY.with(Axis::X),
@@ -803,7 +836,11 @@ fn a_drive_that_is_off_is_polled_once_a_second_and_the_others_at_full_rate() {
 /// notices it gave.
 fn frames_to_a_drive_that_is_off(rejects_0a: bool, seconds: u64) -> (usize, Vec<String>) {
     let mut p = profile();
-    p.sim.emp_rejects_0a_before_on = rejects_0a;
+    if rejects_0a {
+        p.sim
+            .variants
+            .push(crate::config::SimVariant::EmpRejects0aBeforeOn);
+    }
     let mut b = bench_for(&p, |_| {});
     b.request(Request::Poll {
         rate_hz: None,
@@ -844,4 +881,58 @@ fn a_drive_that_rejects_0a_too_is_polled_once_a_second_and_told_once() {
             "rejects 0A {rejects_0a}: {notices:?}"
         );
     }
+}
+
+/// An input the profile wires as an E-stop contact (`[io."11.I1"] role =
+/// "estop"`, normally closed: 0 = tripped): jogterm refuses motion while it
+/// reads tripped, and moves again once it reads closed. By default no EMP
+/// input has that role (decision 5), so nothing is refused on them.
+#[test]
+fn an_input_wired_as_an_estop_refuses_motion_while_it_is_tripped() {
+    use crate::sim::InputControl;
+    let mut p = profile();
+    p.io.insert(
+        "11.I1".into(),
+        crate::wiring::BitPatch {
+            name: Some("door contact".into()),
+            role: Some(crate::wiring::RoleName::Estop),
+            active: Some(crate::wiring::Level::Low),
+            ..Default::default()
+        },
+    );
+    let mut b = bench_for(&p, |s| s.jog.allow_unreferenced = true);
+    b.run(ms(300));
+    b.request(Request::Initialise);
+    b.run(ms(500));
+    assert!(b.driver.state().estop, "I1 reads 0: tripped");
+    b.request(Request::Jog {
+        id: JogId(5),
+        axes: vec![(Axis::X, Dir::Plus)],
+        speed_hz: x_speed(11_200.0),
+        lease: settings().jog.repeat_timeout,
+    });
+    b.run(ms(100));
+    assert!(
+        b.events.iter().any(|e| matches!(
+            e,
+            Event::JogEnded {
+                id: JogId(5),
+                end: JogEnd::Refused(crate::device::api::Refusal::EmergencyStop)
+            }
+        )),
+        "{:?}",
+        b.events
+    );
+    b.control(InputControl::Set {
+        name: "i1".into(),
+        level: true,
+    });
+    b.run(ms(500));
+    assert!(!b.driver.state().estop, "closed again");
+    // Without the profile's wiring the same input is only shown.
+    let mut plain = bench_for(&profile(), |_| {});
+    plain.run(ms(300));
+    plain.request(Request::Initialise);
+    plain.run(ms(500));
+    assert!(!plain.driver.state().estop);
 }

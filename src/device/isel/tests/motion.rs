@@ -161,6 +161,10 @@ fn move_to_uses_the_virtual_zero_and_checks_the_soft_limits() {
     h.expect_text("@0n7");
     h.reply(b"0");
     assert_eq!(h.state().work_zero, xyz(10_000, 20_000, 4_000));
+    // Read right after: the positions did not change (machine positions).
+    h.expect_text("@0P");
+    h.reply(&position_reply(10_000, 20_000, 4_000));
+    assert!(!h.notices().iter().any(|n| n.contains("virtual zero")));
     h.request(Request::MoveTo {
         target: PerAxis::new().with(Axis::X, 500),
         frame: Frame::Work,
@@ -587,4 +591,44 @@ fn homing_runs_xyz_then_a_and_a_stopped_run_does_not_count() {
     assert_eq!(h.state().referenced, AxisSet::XYZ, "A was stopped");
     h.advance(ms(10));
     h.expect_text("@0P");
+}
+
+#[test]
+fn a_controller_that_reports_positions_from_the_virtual_zero_is_noticed_and_allowed_for() {
+    let mut h = Harness::ready_at(10_000, 20_000, 4_000);
+    h.request(Request::SetZero { axes: AxisSet::XYZ });
+    h.expect_text("@0n7");
+    h.reply(b"0");
+    // Not what manual 2.2.19 says: `@0P` counts from the new zero.
+    h.expect_text("@0P");
+    h.reply(&position_reply(0, 0, 0));
+    assert!(
+        h.notices()
+            .iter()
+            .any(|n| n.contains("from the virtual zero of @0n") && n.contains("X 10000 -> 0")),
+        "{:?}",
+        h.notices()
+    );
+    // Machine positions are shown, soft limits checked on them, and the
+    // work zero is the machine position it was set at.
+    assert_eq!(h.state().work_zero, xyz(10_000, 20_000, 4_000));
+    h.request(Request::Step {
+        delta: PerAxis::new().with(Axis::X, 500),
+        speed_hz: speeds(2_000.0),
+    });
+    h.expect_text("@0A500,2000,0,300,0,300,0,300");
+    h.reply(b"0");
+    h.expect_text("@0P");
+    h.reply(&position_reply(500, 0, 0));
+    let at = h.positions().last().map(|p| p.steps);
+    assert_eq!(at, Some(xyz(10_500, 20_000, 4_000)));
+    // A reference run puts the zero back on the reference point: the
+    // controller counts from there again.
+    h.request(Request::Home { axes: AxisSet::XYZ });
+    h.expect_text("@0R7");
+    h.reply(b"0");
+    h.expect_text("@0P");
+    h.reply(&position_reply(0, 0, 0));
+    let at = h.positions().last().map(|p| p.steps);
+    assert_eq!(at, Some(xyz(0, 0, 0)));
 }

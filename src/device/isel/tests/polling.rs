@@ -169,3 +169,60 @@ fn an_uninitialised_controller_answering_4_is_no_fault() {
     h.expect_text("@0b1");
     assert!(h.faults().is_empty(), "{:?}", h.faults());
 }
+
+#[test]
+fn a_port_the_controller_has_not_got_is_left_out_of_polling() {
+    let mut h = Harness::with(|s| {
+        s.poll = PollPlan {
+            rate: PollRate::LineSpeed,
+            positions: true,
+            ports_every: 1,
+            ports: PollPlan::DEFAULT_PORTS.to_vec(),
+        };
+    });
+    h.connect();
+    h.expect_text("@0P");
+    h.reply(&position_reply(0, 0, 0));
+    h.advance(ms(60));
+    h.expect_text("@0b1");
+    h.reply(b"003");
+    // No port 2 on this controller (manual chapter 5, `1`).
+    h.expect_text("@0b2");
+    h.reply(b"1");
+    h.expect_text("@0b3");
+    h.reply(b"000");
+    h.expect_text("@0A0,300,0,300,0,300,0,300");
+    h.reply(b"0");
+    for (cmd, r) in [
+        ("@0j300", b"0"),
+        ("@0J100", b"0"),
+        ("@0d4000,4000,4000", b"0"),
+    ] {
+        h.expect_text(cmd);
+        h.reply(r);
+    }
+    assert!(
+        h.notices().iter().any(|n| n.contains("no input port 2")),
+        "{:?}",
+        h.notices()
+    );
+    assert!(h.state().fault.is_none(), "no fault: {:?}", h.state().fault);
+    // Two poll cycles: ports 1 and 3, never 2 again.
+    for _ in 0..2 {
+        h.expect_text("@0P");
+        h.reply(&position_reply(0, 0, 0));
+        h.expect_text("@0b1");
+        h.reply(b"003");
+        h.expect_text("@0b3");
+        h.reply(b"000");
+    }
+    h.expect_text("@0P");
+    // Moves are not held up by the missing port.
+    h.reply(&position_reply(0, 0, 0));
+    h.take_events();
+    h.request(Request::Step {
+        delta: PerAxis::new().with(Axis::X, 10),
+        speed_hz: speeds(500.0),
+    });
+    h.expect_text("@0A10,500,0,300,0,300,0,300");
+}

@@ -279,7 +279,7 @@ fn polling_at_line_speed_reaches_the_wire_limit() {
         })
         .collect();
     let last = stats.last().expect("stats");
-    // @0P and ports 1, 3, 2, 0 every 4th cycle: 23 + 32 / 4 = 31 bytes a cycle.
+    // @0P and ports 1, 3, 2 every 4th cycle: 23 + 24 / 4 = 29 bytes a cycle.
     assert!(
         last.position_rate_hz > 0.97 * last.wire_limit_hz,
         "{last:?}"

@@ -12,6 +12,7 @@ mod properties;
 mod reference;
 mod stops;
 mod texts;
+mod variants;
 
 use std::time::{Duration, Instant};
 
