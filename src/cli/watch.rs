@@ -51,8 +51,10 @@ the level is the input's active one (hit, open, pressed). A chattering input add
 \"chatter\":{\"changes\":6,\"within_ms\":100.0}; the second E-stop circuit to open adds
 \"estop_skew\":{\"after\":\"E-stop circuit 1\",\"ms\":34.0,\"min_ms\":17.0,\"max_ms\":51.0}.
 
-Without --all, inputs the profile says nothing is wired to (isel bits \"not used\", limit
-switches of axes the machine does not have) are left out.
+Names, active levels and what is wired come from the profile (`[io]`, docs/profiles.md).
+Without --all, inputs it does not declare wired are left out (by default: isel bits \"not
+used\", the hood, power-ok, over-temperature and key-switch bits, limit switches of axes the
+machine does not have).
 
 Exit status: 0 done (interrupted, or the reader of its output went away); 1 no input could be
 read, or stdout failed otherwise; 2 bad usage; 3 link failure.
