@@ -46,6 +46,7 @@ fn settings(rate: PollRate, ports: Vec<InputPort>) -> IselSettings {
     let mut s = IselSettings::from_profile(&profile()).expect("settings");
     s.poll = PollPlan {
         rate,
+        positions: true,
         ports_every: 1,
         ports,
     };

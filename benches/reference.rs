@@ -151,6 +151,7 @@ fn poll_driver(protocol: Protocol) -> Result<Box<dyn Driver>, String> {
             let mut s = IselSettings::from_profile(&profile).map_err(|e| e.to_string())?;
             s.poll = PollPlan {
                 rate: PollRate::LineSpeed,
+                positions: true,
                 ports_every: 1,
                 ports: Vec::new(),
             };

@@ -98,6 +98,7 @@ fn ports(at: Instant, k: u64) -> IoSnapshot {
             name: "in3".into(),
             raw: Some(0),
             bits,
+            read: None,
         }],
     }
 }

@@ -187,7 +187,7 @@ fn the_pty_simulator_prints_its_path_first_and_obeys_stdin() {
     stdin.write_all(b"\n# a comment\nbogus\n").expect("stdin");
     assert_eq!(
         recv(&err),
-        "error: line 5: unknown command `bogus`: expected set, press, value, fault, memory, show, help or quit"
+        "error: line 5: unknown command `bogus`: expected set, press, value, pulse, chatter, after, fault, memory, show, help or quit"
     );
     stdin.write_all(b"fault withhold\nshow\n").expect("stdin");
     assert_eq!(recv(&out), "ok");

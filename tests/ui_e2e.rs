@@ -84,6 +84,56 @@ fn a_limit_switch_flipped_on_the_simulator_lights_up() {
     quit_and_check(&mut run);
 }
 
+/// The port timeline (`w`) of the running console shows a pulse of limit X1
+/// with its times, as the device task's recorder saw it, and `--log` has
+/// the change decoded.
+#[test]
+fn the_port_timeline_shows_a_pulse_and_the_log_decodes_it() {
+    let config = tempfile::tempdir().expect("tempdir");
+    let log = config.path().join("traffic.log");
+    let mut sim = SimProcess::start("isel");
+    let mut run = spawn(
+        &[
+            "--port",
+            &sim.link.display().to_string(),
+            "--log",
+            &log.display().to_string(),
+        ],
+        config.path(),
+    );
+    wait_for(&run, "○X1");
+    run.send(b"w");
+    wait_for(&run, "Port timeline");
+    wait_for(&run, "no input has changed since the link came up");
+    sim.control("pulse limit-x1 500");
+    let screen = wait_for(&run, "limit X1 (in3.0) 0 free");
+    assert!(
+        screen.contains("limit X1 (in3.0) 1 hit"),
+        "both edges listed:\n{screen}"
+    );
+    let lane = row_with(&screen, "limit X1  ").expect("the limit X1 lane");
+    assert!(
+        lane.matches('│').count() >= 1,
+        "an edge in the lane: {lane}"
+    );
+    run.send(b"w");
+    wait_for(&run, "○X1");
+    quit_and_check(&mut run);
+    let text = std::fs::read_to_string(&log).expect("the log");
+    let lines: Vec<&str> = text.lines().filter(|l| l.contains(" # input ")).collect();
+    assert_eq!(lines.len(), 2, "{text}");
+    assert!(
+        lines[0].ends_with("ms") && lines[0].contains("limit X1 (in3.0) 1 hit, t "),
+        "{}",
+        lines[0]
+    );
+    assert!(
+        lines[1].contains("limit X1 (in3.0) 0 free, t "),
+        "{}",
+        lines[1]
+    );
+}
+
 #[test]
 fn the_built_in_simulator_runs_by_default_and_its_inputs_can_be_flipped() {
     let config = tempfile::tempdir().expect("tempdir");

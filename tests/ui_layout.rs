@@ -55,6 +55,23 @@ proptest! {
         // Drawing must not panic at any size.
         let _ = render(&m, w, h);
     }
+
+    #[test]
+    fn the_port_timeline_renders_at_any_size_and_zoom(
+        w in 1u16..220,
+        h in 1u16..70,
+        family in prop::sample::select(Protocol::ALL.to_vec()),
+        scale in 0usize..13,
+        top in 0usize..40,
+        back in prop::option::of(0u64..20_000),
+    ) {
+        let mut m = model_in(family, "mono16", State::Limit, Instant::now());
+        m.focus = PanelId::Timeline;
+        m.timeline.scale = scale;
+        m.timeline.top = top;
+        m.timeline.end = back.map(std::time::Duration::from_millis);
+        let _ = render(&m, w, h);
+    }
 }
 
 #[test]

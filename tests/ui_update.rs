@@ -63,6 +63,7 @@ fn outputs_snapshot(at: Instant, spindle_on: bool) -> IoSnapshot {
                     hazardous: false,
                     wiring: None,
                 }],
+                read: None,
             },
             IoGroup {
                 name: "out".into(),
@@ -89,6 +90,7 @@ fn outputs_snapshot(at: Instant, spindle_on: bool) -> IoSnapshot {
                         wiring: None,
                     },
                 ],
+                read: None,
             },
         ],
     }

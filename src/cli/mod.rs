@@ -4,14 +4,15 @@
 //! the root and may be given before or after the command; each command
 //! uses the ones that mean something to it and says so in its help. Without
 //! a command jogterm runs the console (`tui`); the commands are `sim`,
-//! `send`, `poll`, `check`, `arc` and `upload`.
+//! `send`, `poll`, `watch`, `commission`, `check`, `arc` and `upload`.
 //!
 //! Exit codes: 0 ok, 1 failure (a message on stderr), 2 bad usage (clap, and
-//! the console's configuration errors); `send`, `poll` and `upload` add 3 for a link
-//! failure.
+//! the console's configuration errors); `send`, `poll`, `watch`,
+//! `commission` and `upload` add 3 for a link failure.
 
 pub mod arc;
 pub mod check;
+pub mod commission;
 pub mod emp;
 pub mod out;
 pub mod poll;
@@ -21,6 +22,7 @@ mod session;
 pub mod sim;
 pub mod tui;
 pub mod upload;
+pub mod watch;
 
 use std::fs::OpenOptions;
 use std::path::PathBuf;
@@ -47,7 +49,7 @@ path. Without --profile the shipped `default` profile is used: the isel simulato
 
 const AFTER_LONG_HELP: &str = "\
 Exit status: 0 ok, 1 failure (the reason on stderr), 2 bad usage, 3 link failure
-(send, poll, upload).
+(send, poll, watch, commission, upload).
 
 Examples:
   jogterm sim --protocol isel --pty            serve the isel simulator on a new pty
@@ -55,6 +57,8 @@ Examples:
   jogterm sim --pty --profile mymachine        simulate the machine of a profile
   jogterm send --port /tmp/isel '@07' '@0P'    send commands, print the replies
   jogterm poll --port /tmp/isel --count 5      read the position five times
+  jogterm watch --port /tmp/isel --json        print every change of an input
+  jogterm commission --port /tmp/isel          walk every input, write the report
   jogterm check drill.isel                     check a CNC program for the default machine
   jogterm arc --radius 200 --start 135 --end 225 --ccw --speed 1500
   jogterm upload drill.isel --port /tmp/isel --erase --start
@@ -120,6 +124,12 @@ pub enum CliCommand {
     /// Read the position (and ports) repeatedly, one line per sample
     #[command(long_about = poll::LONG_ABOUT, after_long_help = poll::AFTER_LONG_HELP)]
     Poll(poll::PollArgs),
+    /// Read every input as fast as the line allows, one line per change
+    #[command(long_about = watch::LONG_ABOUT, after_long_help = watch::AFTER_LONG_HELP)]
+    Watch(watch::WatchArgs),
+    /// Walk through every wired input (and output), write a commissioning report
+    #[command(long_about = commission::LONG_ABOUT, after_long_help = commission::AFTER_LONG_HELP)]
+    Commission(commission::CommissionArgs),
     /// Check an isel CNC program or an EMCU job for a machine profile
     #[command(long_about = check::LONG_ABOUT, after_long_help = check::AFTER_LONG_HELP)]
     Check(check::CheckArgs),
@@ -147,6 +157,8 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         }
         Some(CliCommand::Send(args)) => send::run(&cli.global, args),
         Some(CliCommand::Poll(args)) => poll::run(&cli.global, args),
+        Some(CliCommand::Watch(args)) => watch::run(&cli.global, args),
+        Some(CliCommand::Commission(args)) => commission::run(&cli.global, args),
         Some(CliCommand::Check(args)) => check::run(&cli.global, args),
         Some(CliCommand::Arc(args)) => arc::run(args),
         Some(CliCommand::Upload(args)) => upload::run(&cli.global, args),

@@ -49,6 +49,21 @@ pub fn line(text: impl Display) -> Result<(), StdoutError> {
     Ok(())
 }
 
+/// The exit status of a command that reads until its reader goes away
+/// (`poll`, `watch`) when stdout cannot take a line: 0 when the reader went
+/// away (`| head -1` has what it wanted; as Ctrl-C, the session still stops
+/// and closes), 1 and `jogterm <command>: …; <stopped>` for any other
+/// failure.
+pub fn stdout_failed(e: StdoutError, command: &str, stopped: &str) -> u8 {
+    match e {
+        StdoutError::Closed => 0,
+        StdoutError::Failed(_) => {
+            say(format_args!("jogterm {command}: {e}; {stopped}"));
+            1
+        }
+    }
+}
+
 /// `text` and a newline on stderr; a failure is ignored.
 pub fn say(text: impl Display) {
     let mut err = io::stderr().lock();

@@ -7,9 +7,9 @@ use std::time::{Duration, Instant};
 
 use clap::Args;
 
-use super::out::{self, StdoutError};
-use super::session::{self, EXIT_LINK, EXIT_USAGE, Linked, Polling, Session, StartError};
-use super::{GlobalArgs, emp};
+use super::GlobalArgs;
+use super::out;
+use super::session::{self, EXIT_LINK, Polling, Session};
 use crate::axis::Axis;
 use crate::device::api::{Event, IoSnapshot, LinkState, PositionSample, PositionSource, Recovery};
 use crate::device::common::PollRate;
@@ -180,13 +180,9 @@ fn no_position_hint(family: Protocol) -> &'static str {
 }
 
 pub fn run(global: &GlobalArgs, args: &PollArgs) -> anyhow::Result<ExitCode> {
-    let mut profile = match session::resolve(global, args.baud) {
+    let profile = match session::command_profile("poll", global, args.baud, &args.drive) {
         Ok(p) => p,
-        Err(StartError::Usage(m)) => {
-            out::say(format_args!("jogterm poll: {m}"));
-            return Ok(ExitCode::from(EXIT_USAGE));
-        }
-        Err(StartError::Failed(e)) => return Err(e),
+        Err(ended) => return ended,
     };
     let rate = match args.interval_ms {
         0 => PollRate::LineSpeed,
@@ -195,37 +191,20 @@ pub fn run(global: &GlobalArgs, args: &PollArgs) -> anyhow::Result<ExitCode> {
     let polling = Polling {
         rate,
         ports: args.ports,
+        positions: true,
     };
     let family = profile.connection.protocol;
-    if family == Protocol::Emp
-        && let Err(m) = emp::apply_drives(&mut profile, &args.drive)
-    {
-        out::say(format_args!("jogterm poll: {m}"));
-        return Ok(ExitCode::from(EXIT_USAGE));
-    }
     let runtime = session::runtime()?;
     runtime.block_on(async {
-        let session = match session::start(global, profile, polling) {
-            Ok(s) => s,
-            Err(StartError::Usage(m)) => {
-                out::say(format_args!("jogterm poll: {m}"));
-                return Ok(ExitCode::from(EXIT_USAGE));
-            }
-            Err(StartError::Failed(e)) => return Err(e),
-        };
-        Ok(poll(session, args, family).await)
+        match session::command_session("poll", global, profile, polling).await {
+            Ok(session) => Ok(poll(session, args, family).await),
+            Err(ended) => ended,
+        }
     })
 }
 
+/// Samples until the count, an interrupt, a closed stdout or the link's end.
 async fn poll(mut session: Session, args: &PollArgs, family: Protocol) -> ExitCode {
-    if let Linked::Failed(reason) = session.linked(Duration::from_secs(10)).await {
-        out::say(format_args!(
-            "jogterm poll: link failure: {reason}; {}",
-            Recovery::CheckLink.instruction()
-        ));
-        session.close().await;
-        return ExitCode::from(EXIT_LINK);
-    }
     let start = Instant::now();
     // With a real isel controller that has no axes `@0P` answers `4`: give
     // up when no position has come for a while.
@@ -284,7 +263,7 @@ async fn poll(mut session: Session, args: &PollArgs, family: Protocol) -> ExitCo
                 let t = p.at.saturating_duration_since(start).as_secs_f64();
                 let io = if args.ports { ports.as_ref() } else { None };
                 if let Err(e) = out::line(format_sample(&p, t, io, args.json)) {
-                    code = stdout_failed(e);
+                    code = out::stdout_failed(e, "poll", "stopped polling");
                     break;
                 }
                 samples += 1;
@@ -294,19 +273,6 @@ async fn poll(mut session: Session, args: &PollArgs, family: Protocol) -> ExitCo
     }
     session.close().await;
     ExitCode::from(code)
-}
-
-/// The exit status when stdout cannot take a sample: 0 when its reader went
-/// away (`| head -1` has what it wanted; as Ctrl-C, the session still stops
-/// and closes), 1 and a message for any other failure.
-fn stdout_failed(e: StdoutError) -> u8 {
-    match e {
-        StdoutError::Closed => 0,
-        StdoutError::Failed(_) => {
-            out::say(format_args!("jogterm poll: {e}; stopped polling"));
-            1
-        }
-    }
 }
 
 #[cfg(test)]

@@ -14,9 +14,10 @@ use crate::device::common::PollRate;
 use crate::device::driver::Driver;
 use crate::device::emcu::{EmcuDriver, EmcuSettings};
 use crate::device::emp::{EmpDriver, EmpSettings};
+use crate::device::inputs::RecorderConfig;
 use crate::device::isel::{IselDriver, IselSettings, PollPlan};
 use crate::device::log::spawn_log;
-use crate::device::{Connector, DeviceHandle, EventReceiver, TaskOptions, spawn_with};
+use crate::device::{Connector, DeviceHandle, EventReceiver, TaskOptions, spawn_recording};
 use crate::proto::Protocol;
 use crate::sim::registry;
 use crate::sim::shell::{Shell, serve_socket};
@@ -68,6 +69,61 @@ pub fn resolve(global: &GlobalArgs, baud: Option<u32>) -> Result<Profile, StartE
     Ok(profile)
 }
 
+/// How a command ends early: its exit status, or a failure for `main`.
+pub type Ended = anyhow::Result<std::process::ExitCode>;
+
+fn usage(command: &str, message: &str) -> Ended {
+    super::out::say(format_args!("jogterm {command}: {message}"));
+    Ok(std::process::ExitCode::from(EXIT_USAGE))
+}
+
+/// What `poll`, `watch` and `commission` take first: the profile with
+/// `--baud` and, for EMP, the drives of `--drive`; bad usage is said as
+/// `jogterm <command>: …` and ends the command with status 2.
+pub fn command_profile(
+    command: &str,
+    global: &GlobalArgs,
+    baud: Option<u32>,
+    drives: &[String],
+) -> Result<Profile, Ended> {
+    let mut profile = match resolve(global, baud) {
+        Ok(p) => p,
+        Err(StartError::Usage(m)) => return Err(usage(command, &m)),
+        Err(StartError::Failed(e)) => return Err(Err(e)),
+    };
+    if profile.connection.protocol == Protocol::Emp
+        && let Err(m) = super::emp::apply_drives(&mut profile, drives)
+    {
+        return Err(usage(command, &m));
+    }
+    Ok(profile)
+}
+
+/// Then the session, up to the link: bad usage ends the command with
+/// status 2, a link that does not come up (within 10 s) with status 3, both
+/// said as `jogterm <command>: …`.
+pub async fn command_session(
+    command: &str,
+    global: &GlobalArgs,
+    profile: Profile,
+    polling: Polling,
+) -> Result<Session, Ended> {
+    let mut session = match start(global, profile, polling) {
+        Ok(s) => s,
+        Err(StartError::Usage(m)) => return Err(usage(command, &m)),
+        Err(StartError::Failed(e)) => return Err(Err(e)),
+    };
+    if let Linked::Failed(reason) = session.linked(Duration::from_secs(10)).await {
+        super::out::say(format_args!(
+            "jogterm {command}: link failure: {reason}; {}",
+            crate::device::api::Recovery::CheckLink.instruction()
+        ));
+        session.close().await;
+        return Err(Ok(std::process::ExitCode::from(EXIT_LINK)));
+    }
+    Ok(session)
+}
+
 /// The families `send` and `poll` talk.
 fn talks(protocol: Protocol) -> bool {
     matches!(protocol, Protocol::Isel | Protocol::Emcu | Protocol::Emp)
@@ -79,6 +135,9 @@ fn talks(protocol: Protocol) -> bool {
 pub struct Polling {
     pub rate: PollRate,
     pub ports: bool,
+    /// Without: the inputs alone, every one the controller has (isel ports
+    /// 1, 3, 2 and 0), as often as `rate` allows.
+    pub positions: bool,
 }
 
 impl Polling {
@@ -86,6 +145,15 @@ impl Polling {
     pub const OFF: Polling = Polling {
         rate: PollRate::Off,
         ports: false,
+        positions: true,
+    };
+
+    /// Every input as fast as the line allows, no positions (`watch`,
+    /// `commission`).
+    pub const INPUTS: Polling = Polling {
+        rate: PollRate::LineSpeed,
+        ports: true,
+        positions: false,
     };
 }
 
@@ -100,17 +168,19 @@ fn driver(profile: &Profile, polling: Polling) -> Result<Box<dyn Driver>, StartE
 
 /// isel: positions (`@0P`), with `ports` the input ports 1, 3, 2 every
 /// cycle (and 0 when the profile wires a user input to a role,
-/// `PollPlan::ports_for`). Without polling the profile's plan stays as it is.
+/// `PollPlan::ports_for`); the inputs alone: every input port, 1, 3, 2, 0.
+/// Without polling the profile's plan stays as it is.
 fn isel_settings(profile: &Profile, polling: Polling) -> Result<IselSettings, StartError> {
     let mut s =
         IselSettings::from_profile(profile).map_err(|e| StartError::Usage(e.to_string()))?;
     s.poll.rate = polling.rate;
     if polling.rate != PollRate::Off {
         s.poll.ports_every = 1;
-        s.poll.ports = if polling.ports {
-            PollPlan::ports_for(&s.wiring)
-        } else {
-            Vec::new()
+        s.poll.positions = polling.positions;
+        s.poll.ports = match (polling.ports, polling.positions) {
+            (false, _) => Vec::new(),
+            (true, true) => PollPlan::ports_for(&s.wiring),
+            (true, false) => PollPlan::ALL_INPUT_PORTS.to_vec(),
         };
     }
     Ok(s)
@@ -123,6 +193,7 @@ fn emcu_settings(profile: &Profile, polling: Polling) -> Result<EmcuSettings, St
     s.poll.rate = polling.rate;
     if polling.rate != PollRate::Off {
         s.poll.ports_every = 1;
+        s.poll.positions = polling.positions;
         if !polling.ports {
             s.poll.ports.clear();
         }
@@ -136,6 +207,7 @@ fn emp_settings(profile: &Profile, polling: Polling) -> Result<EmpSettings, Star
     s.poll = polling.rate;
     if polling.rate != PollRate::Off {
         s.ports_every = if polling.ports { 1 } else { u32::MAX };
+        s.poll_positions = polling.positions;
     }
     Ok(s)
 }
@@ -167,8 +239,9 @@ pub fn start(
             None,
         )
     };
-    let (handle, events) =
-        spawn_with(driver, connector, TaskOptions::default()).map_err(anyhow::Error::from)?;
+    let inputs = RecorderConfig::from_profile(&profile);
+    let (handle, events) = spawn_recording(driver, connector, TaskOptions::default(), inputs)
+        .map_err(anyhow::Error::from)?;
     if let Some(path) = &global.log {
         let file = OpenOptions::new()
             .create(true)

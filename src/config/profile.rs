@@ -28,6 +28,7 @@ pub struct Profile {
     pub axes: BTreeMap<Axis, AxisProfile>,
     pub jog: JogProfile,
     pub poll: PollProfile,
+    pub diagnostics: DiagnosticsProfile,
     pub isel: IselProfile,
     pub emcu: EmcuProfile,
     pub emp: EmpProfile,
@@ -190,6 +191,16 @@ pub struct PollProfile {
     pub rate_hz: f64,
     /// Read the port/status bits every Nth poll cycle.
     pub ports_every: u32,
+}
+
+/// The input recorder's judgement (`device::inputs`, `docs/ui.md`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DiagnosticsProfile {
+    /// An input that changes more often than this within `chatter_ms`
+    /// chatters (a loose wire, a bouncing contact).
+    pub chatter_changes: u32,
+    pub chatter_ms: u64,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -487,6 +498,19 @@ impl Profile {
         }
         if self.poll.ports_every == 0 {
             out.push(Invalid::new(&["poll", "ports_every"], "must be at least 1"));
+        }
+        // Two changes are one press and release: chatter needs more.
+        if !(2..=1000).contains(&self.diagnostics.chatter_changes) {
+            out.push(Invalid::new(
+                &["diagnostics", "chatter_changes"],
+                "must be between 2 and 1000 changes",
+            ));
+        }
+        if !(10..=60_000).contains(&self.diagnostics.chatter_ms) {
+            out.push(Invalid::new(
+                &["diagnostics", "chatter_ms"],
+                "must be between 10 and 60000 ms",
+            ));
         }
         let isel = &self.isel;
         if isel.device > 9 {

@@ -64,6 +64,12 @@ pub struct Symbols {
     pub referenced: &'static str,
     pub unreferenced: &'static str,
     pub moving: &'static str,
+    /// A port timeline lane: an input at 1, at 0, a column with one change,
+    /// with several.
+    pub high: &'static str,
+    pub low: &'static str,
+    pub edge: &'static str,
+    pub burst: &'static str,
 }
 
 impl SymbolSet {
@@ -77,6 +83,10 @@ impl SymbolSet {
                 referenced: "⌂",
                 unreferenced: "?",
                 moving: "»",
+                high: "▔",
+                low: "▁",
+                edge: "│",
+                burst: "▒",
             },
             SymbolSet::Ascii => Symbols {
                 lit: "#",
@@ -86,6 +96,10 @@ impl SymbolSet {
                 referenced: "R",
                 unreferenced: "?",
                 moving: ">",
+                high: "=",
+                low: "_",
+                edge: "|",
+                burst: "#",
             },
         }
     }

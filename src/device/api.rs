@@ -4,6 +4,7 @@
 //! steps, speeds in steps per second (Hz), axes by name.
 
 use std::fmt;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use crate::axis::{Axis, AxisSet};
@@ -475,6 +476,141 @@ pub struct IoGroup {
     /// The raw byte as read, shown in hex beside the bits.
     pub raw: Option<u8>,
     pub bits: Vec<IoBit>,
+    /// Where and when its input bits were read from the controller; `None`
+    /// for what jogterm cannot read back (outputs, settings). A snapshot
+    /// repeats a group until it is read again, so the input recorder takes
+    /// a group as a new sample only when `read.at` is newer.
+    pub read: Option<InputRead>,
+}
+
+impl IoGroup {
+    /// The group as read with `source` at `at` (`None`: not read yet).
+    pub fn read_from(mut self, source: InputSource, at: Option<Instant>) -> IoGroup {
+        self.read = at.map(|at| InputRead { source, at });
+        self
+    }
+}
+
+/// What an input group is read with.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum InputSource {
+    /// isel input port 0-3 (`@0b<n>`, manual 2.2.3).
+    IselPort(u8),
+    /// The EMCU's `@X` flags (manual 1.5.3).
+    EmcuStatus,
+    /// An EMP drive's switches and inputs I1-I4 (`40 01`), by its DS byte.
+    EmpDrive(u8),
+}
+
+/// One reading of an input group: the reply that carried it arrived `at`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct InputRead {
+    pub source: InputSource,
+    pub at: Instant,
+}
+
+/// One input bit: its group and its place among the group's input bits
+/// (isel: the port's bit number; EMCU: the `@X` flag, 0 moving … 5 job
+/// running; EMP: 0 limit +, 1 limit -, 2 reference, 3-6 I1-I4).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct InputKey {
+    pub source: InputSource,
+    pub bit: u8,
+}
+
+/// What an input is for, as far as diagnostics care.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum InputRole {
+    /// One channel of an emergency-stop circuit; active = open (tripped).
+    Estop,
+    /// A limit switch; active = hit.
+    Limit,
+    /// A start, stop or key switch the operator presses or turns.
+    Key,
+    /// A tool-length probe or a reference switch.
+    Probe,
+    /// A hood or door contact; active = open.
+    Hood,
+    /// Power supply or power-stage supervision; active = not ok.
+    Power,
+    /// Feedback of something jogterm switches (the isel spindle bit).
+    Feedback,
+    /// A user input.
+    User,
+    /// A status flag of the controller (EMCU `@X`).
+    Status,
+    /// Nothing is connected.
+    Unused,
+}
+
+/// One input as the profile names it (`device::inputs::channels`).
+#[derive(Debug, Clone, PartialEq, Eq, Hash)]
+pub struct InputChannel {
+    pub key: InputKey,
+    /// `in3.0`, `@X.3`, `11.limit+`.
+    pub address: String,
+    pub name: String,
+    pub role: InputRole,
+    /// Something is connected to it.
+    pub wired: bool,
+    /// The level read while the role's condition holds (a limit switch hit,
+    /// an E-stop circuit open, a key pressed): `true` = 1.
+    pub active: bool,
+}
+
+/// An input that changed more than the profile allows in its window
+/// (`[diagnostics] chatter_changes` within `chatter_ms`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Chatter {
+    /// Changes of the input within `within`, this one included.
+    pub changes: u32,
+    pub within: Duration,
+}
+
+/// The time between two E-stop channels opening, attached to the second.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EstopSkew {
+    /// The channel that opened first.
+    pub first: Arc<InputChannel>,
+    /// Between the first samples that saw each channel open.
+    pub measured: Duration,
+    /// The skew lies between these, given the two sampling windows.
+    pub min: Duration,
+    pub max: Duration,
+}
+
+/// One change of an input bit, as the input recorder saw it in the samples
+/// (`device::inputs`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct InputChange {
+    /// Every change the recorder saw, numbered from 1.
+    pub seq: u64,
+    pub channel: Arc<InputChannel>,
+    /// The level as read.
+    pub level: bool,
+    /// The first sample that read the new level.
+    pub seen: Instant,
+    /// The last sample that read the old level: the change happened after
+    /// it and at or before `seen`.
+    pub before: Instant,
+    /// `seen` since the link first came up.
+    pub t: Duration,
+    /// Set while the input chatters.
+    pub chatter: Option<Chatter>,
+    /// Set when this change opened the second E-stop channel.
+    pub skew: Option<EstopSkew>,
+}
+
+impl InputChange {
+    /// The window the change happened in: `before` to `seen`.
+    pub fn window(&self) -> Duration {
+        self.seen.saturating_duration_since(self.before)
+    }
+
+    /// Whether the input went to its active level (hit, open, pressed).
+    pub fn activated(&self) -> bool {
+        self.level == self.channel.active
+    }
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -569,6 +705,9 @@ pub enum Event {
     Link(LinkState),
     Position(PositionSample),
     Io(IoSnapshot),
+    /// An input bit changed (`device::inputs`). Never dropped: at most one
+    /// per input bit and port sample.
+    Input(InputChange),
     State(MachineState),
     Fault(ControllerFault),
     Refused {

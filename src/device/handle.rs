@@ -9,6 +9,7 @@ use tokio::sync::{mpsc, oneshot, watch};
 
 use super::api::Request;
 use super::events::{EventBus, EventReceiver};
+use super::inputs::InputRecorder;
 use crate::transport::{EmergencyStop, TransportError};
 
 /// A stop as it went out.
@@ -114,6 +115,29 @@ impl EmergencyHandle {
     }
 }
 
+/// The device task's input recorder, for a client that wants what it saw
+/// before the client subscribed (the changes themselves come as
+/// `Event::Input`), or how often the inputs are read.
+#[derive(Debug, Clone)]
+pub struct InputLog(pub(crate) Arc<Mutex<InputRecorder>>);
+
+impl InputLog {
+    pub(crate) fn new(recorder: InputRecorder) -> InputLog {
+        InputLog(Arc::new(Mutex::new(recorder)))
+    }
+
+    /// Look at the recorder. The device task waits meanwhile: keep it short.
+    pub fn read<R>(&self, f: impl FnOnce(&InputRecorder) -> R) -> R {
+        let recorder = self.0.lock().unwrap_or_else(|p| p.into_inner());
+        f(&recorder)
+    }
+
+    pub(crate) fn with<R>(&self, f: impl FnOnce(&mut InputRecorder) -> R) -> R {
+        let mut recorder = self.0.lock().unwrap_or_else(|p| p.into_inner());
+        f(&mut recorder)
+    }
+}
+
 /// What a client holds. Cheap to clone; the task ends (stopping motion
 /// first) when every handle is gone or [`DeviceHandle::shutdown`] is called.
 #[derive(Debug, Clone)]
@@ -123,6 +147,7 @@ pub struct DeviceHandle {
     pub(crate) bus: EventBus,
     pub(crate) emergency: EmergencyHandle,
     pub(crate) done: watch::Receiver<bool>,
+    pub(crate) inputs: InputLog,
 }
 
 impl DeviceHandle {
@@ -153,6 +178,11 @@ impl DeviceHandle {
 
     pub fn emergency(&self) -> EmergencyHandle {
         self.emergency.clone()
+    }
+
+    /// The input recorder the task feeds with every port reading.
+    pub fn inputs(&self) -> &InputLog {
+        &self.inputs
     }
 
     /// Stop motion, wait until the stop bytes have left, close the port and

@@ -1,11 +1,13 @@
 //! The traffic log (`--log FILE`): one line per traffic record, with its
 //! UTC time, its direction and its bytes in `traffic::readable` form, plus
-//! `#` lines for link changes, faults and events dropped for a slow log.
+//! `#` lines for link changes, faults, input changes (decoded by the input
+//! recorder, `device::inputs`) and events dropped for a slow log.
 //!
 //! ```text
 //! 2026-11-21T22:34:01.123456Z >> @0P<CR>
 //! 2026-11-21T22:34:01.135012Z << 0000100020000FFFFFE
 //! 2026-11-21T22:34:02.000001Z # link lost: no reply to @0P within 111 ms
+//! 2026-11-21T22:34:03.000002Z # input limit X1 (in3.0) 1 hit, t 2.017 s, within 16.7 ms
 //! ```
 
 use std::io::{self, Write};
@@ -67,6 +69,11 @@ pub fn log_line(event: &Event) -> Option<String> {
                 ),
                 LinkState::Closed => "closed".to_owned(),
             }
+        )),
+        Event::Input(change) => Some(format!(
+            "{} # input {}",
+            now(),
+            super::inputs::describe(change)
         )),
         Event::Fault(f) => Some(format!(
             "{} # fault: {} answered {}: {}",
@@ -155,5 +162,48 @@ mod tests {
         assert_eq!(lines[0], "2026-11-21T22:34:01.000000Z >> @0P<CR>");
         assert_eq!(lines[1], "2026-11-21T22:34:01.000000Z << F<FD>");
         assert!(lines[2].ends_with(" # link lost: gone"));
+    }
+
+    #[tokio::test]
+    async fn every_input_change_gets_a_decoded_line() {
+        use crate::device::api::{EstopSkew, InputChange};
+        use crate::device::inputs;
+        use std::sync::Arc;
+        use std::time::Instant;
+        let profile =
+            crate::config::load_profile("isel", &crate::config::ConfigDirs::builtin_only())
+                .expect("profile");
+        let ch = inputs::channels::shared(&profile);
+        let by = |a: &str| ch.iter().find(|c| c.address == a).cloned().expect(a);
+        let seen = Instant::now();
+        let ms = Duration::from_millis;
+        let bus = EventBus::new(16);
+        let rx = bus.subscribe();
+        bus.publish(Event::Input(InputChange {
+            seq: 1,
+            channel: by("in1.1"),
+            level: false,
+            seen,
+            before: seen - ms(17),
+            t: ms(2017),
+            chatter: None,
+            skew: Some(EstopSkew {
+                first: Arc::clone(&by("in1.0")),
+                measured: ms(34),
+                min: ms(17),
+                max: ms(51),
+            }),
+        }));
+        bus.close();
+        let mut out = Vec::new();
+        write_log(rx, &mut out).await.expect("log");
+        let text = String::from_utf8(out).expect("utf-8");
+        assert!(
+            text.trim_end().ends_with(
+                " # input E-stop circuit 2 (in1.1) 0 open, t 2.017 s, within 17.0 ms; \
+                 E-STOP SKEW 34.0 ms after E-stop circuit 1 (between 17.0 ms and 51.0 ms)"
+            ),
+            "{text}"
+        );
     }
 }

@@ -6,6 +6,8 @@
 //! - [`common`]: what the drivers of all families share (refusals, jog
 //!   vectors and leases, step coalescing, polling, the request queue).
 //! - [`isel`], [`emcu`], [`emp`]: the drivers of the three families.
+//! - [`inputs`]: the input recorder (every change of every input bit) and
+//!   the inputs a profile names.
 //! - [`task`]: the async task that owns the port ([`spawn`]); [`handle`]:
 //!   what clients hold ([`DeviceHandle`]); [`events`]: the fan-out of events
 //!   with its drop policy; [`log`]: the traffic log.
@@ -21,6 +23,7 @@ pub mod emcu;
 pub mod emp;
 pub mod events;
 pub mod handle;
+pub mod inputs;
 pub mod isel;
 pub mod log;
 pub mod task;
@@ -28,5 +31,5 @@ mod traffic_buffer;
 
 pub use connector::{Backoff, Connector};
 pub use events::{EventBus, EventReceiver, TryRecvError};
-pub use handle::{DeviceHandle, EmergencyHandle, RequestError, StopTicket, StopWritten};
-pub use task::{DeviceError, TaskOptions, driver_for, spawn, spawn_with};
+pub use handle::{DeviceHandle, EmergencyHandle, InputLog, RequestError, StopTicket, StopWritten};
+pub use task::{DeviceError, TaskOptions, driver_for, spawn, spawn_recording, spawn_with};

@@ -33,7 +33,10 @@ use super::api::{Activity, Event, LinkState, MachineState, Request};
 use super::connector::{Backoff, Connector};
 use super::driver::Driver;
 use super::events::{EventBus, EventReceiver};
-use super::handle::{DeviceHandle, EmergencyHandle, EmergencySlot, StopCall, StopWritten};
+use super::handle::{
+    DeviceHandle, EmergencyHandle, EmergencySlot, InputLog, StopCall, StopWritten,
+};
+use super::inputs::{InputRecorder, RecorderConfig};
 use super::isel::{IselDriver, SettingsError};
 use super::traffic_buffer::TrafficBuffer;
 use crate::config::Profile;
@@ -87,20 +90,37 @@ pub fn driver_for(profile: &Profile) -> Result<Box<dyn Driver>, DeviceError> {
 }
 
 /// Start the device task for `profile` on `port`. The receiver sees every
-/// event from the first one on.
+/// event from the first one on; inputs are recorded under the profile's
+/// names.
 pub fn spawn(
     profile: &Profile,
     port: PortSpec,
     options: TaskOptions,
 ) -> Result<(DeviceHandle, EventReceiver), DeviceError> {
-    spawn_with(driver_for(profile)?, Connector::from(port), options)
+    spawn_recording(
+        driver_for(profile)?,
+        Connector::from(port),
+        options,
+        RecorderConfig::from_profile(profile),
+    )
 }
 
-/// Start the device task with any driver and connector.
+/// Start the device task with any driver and connector (inputs recorded
+/// under the driver's names).
 pub fn spawn_with(
     driver: Box<dyn Driver>,
     connector: Connector,
     options: TaskOptions,
+) -> Result<(DeviceHandle, EventReceiver), DeviceError> {
+    spawn_recording(driver, connector, options, RecorderConfig::unnamed())
+}
+
+/// [`spawn_with`], its input recorder set up by `inputs`.
+pub fn spawn_recording(
+    driver: Box<dyn Driver>,
+    connector: Connector,
+    options: TaskOptions,
+    inputs: RecorderConfig,
 ) -> Result<(DeviceHandle, EventReceiver), DeviceError> {
     let runtime = tokio::runtime::Handle::try_current().map_err(|_| DeviceError::NoRuntime)?;
     let bus = EventBus::new(options.lossy_capacity);
@@ -110,7 +130,9 @@ pub fn spawn_with(
     let slot = Arc::new(Mutex::new(EmergencySlot::default()));
     let emergency = EmergencyHandle::new(slot.clone(), driver.emergency_stop_bytes());
     let (done_tx, done) = watch::channel(false);
+    let inputs = InputLog::new(InputRecorder::new(inputs));
     let task = Task {
+        inputs: inputs.clone(),
         driver,
         connector,
         bus: bus.clone(),
@@ -129,6 +151,7 @@ pub fn spawn_with(
             bus,
             emergency,
             done,
+            inputs,
         },
         first,
     ))
@@ -136,6 +159,8 @@ pub fn spawn_with(
 
 struct Task {
     driver: Box<dyn Driver>,
+    /// Fed with every port reading the driver reports, whoever listens.
+    inputs: InputLog,
     connector: Connector,
     bus: EventBus,
     requests: mpsc::Receiver<Request>,
@@ -291,7 +316,16 @@ impl Task {
             if let Event::State(state) = &event {
                 self.pace = pace_for(state);
             }
+            // Io events may be dropped for a slow client; the recorder sees
+            // every one, here, and its changes are never dropped.
+            let changes = match &event {
+                Event::Io(snapshot) => self.inputs.with(|r| r.observe(snapshot)),
+                _ => Vec::new(),
+            };
             self.bus.publish(event);
+            for change in changes {
+                self.bus.publish(Event::Input(change));
+            }
         }
         if dead { Err(()) } else { Ok(()) }
     }
@@ -358,7 +392,9 @@ impl Task {
             reports_after: None,
         };
         self.bus.publish(Event::Link(LinkState::Connected));
-        self.driver.connected(Instant::now());
+        let now = Instant::now();
+        self.inputs.with(|r| r.connected(now));
+        self.driver.connected(now);
         let mut last_fired: Option<Instant> = None;
         let ending = 'session: loop {
             // Reports that are there already, whether or not the task waits
@@ -450,6 +486,7 @@ impl Task {
         let records = s.traffic.flush();
         self.publish_traffic(records);
         s.writer.close();
+        self.inputs.with(InputRecorder::disconnected);
         self.driver.disconnected(&reason, Instant::now());
         let _ = self.publish_driver_events();
         if let End::Lost = end {

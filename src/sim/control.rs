@@ -5,6 +5,8 @@
 //!
 //! ```text
 //! set <input> on|off|open|closed|1|0     press <input>
+//! pulse <input> <ms>                     chatter <input> <changes> <every-ms>
+//! after <ms> set|press|pulse|chatter …
 //! fault drop-byte [<index>]              fault corrupt-byte [<index>]
 //! fault withhold                         fault garbage <text> | hex:<hex>
 //! fault delay <ms>                       fault close [<reopen-after-ms>]
@@ -16,9 +18,10 @@
 use std::io::{self, BufRead, Write};
 use std::time::Duration;
 
-use super::InputControl;
+use super::engine::MAX_CHATTER_CHANGES;
 use super::fault::{ByteIndex, Fault};
 use super::shell::{ShellControl, ShellError};
+use super::{InputControl, Timed, TimedControl};
 
 /// The longest delay or reopen time accepted: ten minutes.
 pub const MAX_MILLIS: u64 = 600_000;
@@ -27,6 +30,10 @@ pub const MAX_MILLIS: u64 = 600_000;
 #[derive(Debug, Clone, PartialEq)]
 pub enum ControlCommand {
     Input(InputControl),
+    /// `pulse`, `chatter`, `after`.
+    Timed(TimedControl),
+    /// Input controls joined by `;`, taken at one instant.
+    Together(Vec<TimedControl>),
     Fault(Fault),
     /// `memory <commands>`: the program store takes this many commands.
     Memory(usize),
@@ -45,7 +52,8 @@ pub struct ControlParseError {
     pub message: String,
 }
 
-const COMMANDS: &str = "set, press, value, fault, memory, show, help or quit";
+const COMMANDS: &str =
+    "set, press, value, pulse, chatter, after, fault, memory, show, help or quit";
 const LEVELS: &str = "on, off, open, closed, 1 or 0";
 const FAULTS: &str = "drop-byte, corrupt-byte, withhold, garbage, delay, close or stall";
 
@@ -59,27 +67,33 @@ pub fn parse_line(text: &str, line: usize) -> Result<Option<ControlCommand>, Con
     if word.starts_with('#') {
         return Ok(None);
     }
+    // Input controls joined by `;` are taken at one instant.
+    if text.contains(';') && parse_timed(word, rest).is_some() {
+        let all = text
+            .split(';')
+            .map(|part| {
+                let (word, rest) = next_word(part)
+                    .ok_or_else(|| "an empty command between two `;`".to_owned())?;
+                parse_timed(word, rest).unwrap_or_else(|| {
+                    Err(format!(
+                        "`{word}` cannot be joined with `;`: only set, press, pulse, chatter and after"
+                    ))
+                })
+            })
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(fail)?;
+        return Ok(Some(ControlCommand::Together(all)));
+    }
+    if let Some(timed) = parse_timed(word, rest) {
+        return match timed.map_err(fail)? {
+            TimedControl {
+                delay,
+                what: Timed::Input(control),
+            } if delay.is_zero() => Ok(Some(ControlCommand::Input(control))),
+            timed => Ok(Some(ControlCommand::Timed(timed))),
+        };
+    }
     let command = match word.to_ascii_lowercase().as_str() {
-        "set" => {
-            let usage = "`set` needs an input and a level: set <input> on|off|open|closed|1|0";
-            let (name, rest) = next_word(rest).ok_or_else(|| fail(usage.to_owned()))?;
-            let (level, rest) = next_word(rest).ok_or_else(|| fail(usage.to_owned()))?;
-            let level = parse_level(level)
-                .ok_or_else(|| fail(format!("unknown level `{level}`: expected {LEVELS}")))?;
-            end_of_line(rest, "the level").map_err(fail)?;
-            ControlCommand::Input(InputControl::Set {
-                name: name.to_owned(),
-                level,
-            })
-        }
-        "press" => {
-            let (name, rest) = next_word(rest)
-                .ok_or_else(|| fail("`press` needs an input: press <input>".to_owned()))?;
-            end_of_line(rest, "the input").map_err(fail)?;
-            ControlCommand::Input(InputControl::Press {
-                name: name.to_owned(),
-            })
-        }
         "value" => {
             let usage = "`value` needs an analogue input and a number: value <input> <number>";
             let (name, rest) = next_word(rest).ok_or_else(|| fail(usage.to_owned()))?;
@@ -132,6 +146,100 @@ pub fn parse_line(text: &str, line: usize) -> Result<Option<ControlCommand>, Con
         }
     };
     Ok(Some(command))
+}
+
+/// `set`, `press`, `pulse`, `chatter`, and any of them `after` a time;
+/// `None` for another command word.
+fn parse_timed(word: &str, rest: &str) -> Option<Result<TimedControl, String>> {
+    if !word.eq_ignore_ascii_case("after") {
+        return parse_input(word, rest).map(|what| {
+            what.map(|what| TimedControl {
+                delay: Duration::ZERO,
+                what,
+            })
+        });
+    }
+    let usage = "`after` needs a time and a command: after <ms> set|press|pulse|chatter …";
+    let parsed = (|| {
+        let (ms, rest) = next_word(rest).ok_or_else(|| usage.to_owned())?;
+        let delay = parse_millis(ms)?;
+        let (inner, rest) = next_word(rest).ok_or_else(|| usage.to_owned())?;
+        let what =
+            parse_input(inner, rest).ok_or_else(|| format!("`{inner}` cannot wait: {usage}"))??;
+        Ok(TimedControl { delay, what })
+    })();
+    Some(parsed)
+}
+
+/// `set`, `press`, `pulse` and `chatter` (also after `after`); `None` for
+/// another command word.
+fn parse_input(word: &str, rest: &str) -> Option<Result<Timed, String>> {
+    let parsed = match word.to_ascii_lowercase().as_str() {
+        "set" => parse_set(rest),
+        "press" => next_word(rest)
+            .ok_or_else(|| "`press` needs an input: press <input>".to_owned())
+            .and_then(|(name, rest)| {
+                end_of_line(rest, "the input")?;
+                Ok(Timed::Input(InputControl::Press {
+                    name: name.to_owned(),
+                }))
+            }),
+        "pulse" => parse_pulse(rest),
+        "chatter" => parse_chatter(rest),
+        _ => return None,
+    };
+    Some(parsed)
+}
+
+fn parse_set(rest: &str) -> Result<Timed, String> {
+    let usage = "`set` needs an input and a level: set <input> on|off|open|closed|1|0";
+    let (name, rest) = next_word(rest).ok_or_else(|| usage.to_owned())?;
+    let (level, rest) = next_word(rest).ok_or_else(|| usage.to_owned())?;
+    let level =
+        parse_level(level).ok_or_else(|| format!("unknown level `{level}`: expected {LEVELS}"))?;
+    end_of_line(rest, "the level")?;
+    Ok(Timed::Input(InputControl::Set {
+        name: name.to_owned(),
+        level,
+    }))
+}
+
+fn parse_pulse(rest: &str) -> Result<Timed, String> {
+    let usage = "`pulse` needs an input and a time: pulse <input> <ms>";
+    let (name, rest) = next_word(rest).ok_or_else(|| usage.to_owned())?;
+    let (ms, rest) = next_word(rest).ok_or_else(|| usage.to_owned())?;
+    let hold = parse_millis(ms)?;
+    end_of_line(rest, "the time")?;
+    Ok(Timed::Pulse {
+        name: name.to_owned(),
+        hold,
+    })
+}
+
+fn parse_chatter(rest: &str) -> Result<Timed, String> {
+    let usage = "`chatter` needs an input, a number of changes and a time: chatter <input> <changes> <every-ms>";
+    let (name, rest) = next_word(rest).ok_or_else(|| usage.to_owned())?;
+    let (n, rest) = next_word(rest).ok_or_else(|| usage.to_owned())?;
+    let changes = n
+        .parse::<u32>()
+        .ok()
+        .filter(|n| (1..=MAX_CHATTER_CHANGES).contains(n))
+        .ok_or_else(|| {
+            format!("`{n}` is not a number of changes: expected 1 to {MAX_CHATTER_CHANGES}")
+        })?;
+    let (ms, rest) = next_word(rest).ok_or_else(|| usage.to_owned())?;
+    let every = parse_millis(ms)?;
+    if every.is_zero() {
+        return Err(format!(
+            "`{ms}`: the changes need at least 1 ms between them"
+        ));
+    }
+    end_of_line(rest, "the time")?;
+    Ok(Timed::Chatter {
+        name: name.to_owned(),
+        changes,
+        every,
+    })
 }
 
 fn parse_fault(text: &str) -> Result<Fault, String> {
@@ -274,6 +382,10 @@ pub fn help_text(input_names: &[&str]) -> String {
         "commands:\n\
          \x20 set <input> on|off|open|closed|1|0   set an input (closed = 1, open = 0)\n\
          \x20 press <input>                        press and release a button\n\
+         \x20 pulse <input> <ms>                   flip an input, flip it back <ms> later\n\
+         \x20 chatter <input> <n> <every-ms>       flip an input n times, one flip every <every-ms>\n\
+         \x20 after <ms> set|press|pulse|chatter … do it <ms> from now\n\
+         \x20 <control>; <control> …               set, press, pulse, chatter, after at one instant\n\
          \x20 value <input> <number>               set an analogue input (EMP adc1-3: mV)\n\
          \x20 fault drop-byte [<index>|middle]     leave one byte out of the next message\n\
          \x20 fault corrupt-byte [<index>|middle]  flip bit 7 of one byte of the next message\n\
@@ -320,6 +432,8 @@ pub fn run_control_loop(
         let result = match command {
             ControlCommand::Quit => return Ok(()),
             ControlCommand::Input(control) => shell.input(control).map(|()| "ok".to_owned()),
+            ControlCommand::Timed(control) => shell.timed(vec![control]).map(|()| "ok".to_owned()),
+            ControlCommand::Together(all) => shell.timed(all).map(|()| "ok".to_owned()),
             ControlCommand::Fault(fault) => shell.fault(fault).map(|()| "ok".to_owned()),
             ControlCommand::Memory(n) => shell.program_memory(n).map(|()| "ok".to_owned()),
             ControlCommand::Show => shell.show(),
@@ -366,6 +480,113 @@ mod tests {
             name: name.into(),
             level,
         })
+    }
+
+    #[test]
+    fn pulse_chatter_and_after() {
+        let ms = Duration::from_millis;
+        assert_eq!(
+            parse("pulse limit-x1 1000"),
+            ControlCommand::Timed(TimedControl {
+                delay: Duration::ZERO,
+                what: Timed::Pulse {
+                    name: "limit-x1".into(),
+                    hold: ms(1000)
+                }
+            })
+        );
+        assert_eq!(
+            parse("CHATTER in0.3 12 15"),
+            ControlCommand::Timed(TimedControl {
+                delay: Duration::ZERO,
+                what: Timed::Chatter {
+                    name: "in0.3".into(),
+                    changes: 12,
+                    every: ms(15)
+                }
+            })
+        );
+        assert_eq!(
+            parse("after 30 set estop2 open"),
+            ControlCommand::Timed(TimedControl {
+                delay: ms(30),
+                what: Timed::Input(InputControl::Set {
+                    name: "estop2".into(),
+                    level: false
+                })
+            })
+        );
+        assert_eq!(
+            parse("after 5 pulse stop 200"),
+            ControlCommand::Timed(TimedControl {
+                delay: ms(5),
+                what: Timed::Pulse {
+                    name: "stop".into(),
+                    hold: ms(200)
+                }
+            })
+        );
+        assert_eq!(
+            error("pulse limit-x1"),
+            "line 7: `pulse` needs an input and a time: pulse <input> <ms>"
+        );
+        assert_eq!(
+            error("chatter a 0 10"),
+            "line 7: `0` is not a number of changes: expected 1 to 10000"
+        );
+        assert_eq!(
+            error("chatter a 3 0"),
+            "line 7: `0`: the changes need at least 1 ms between them"
+        );
+        assert_eq!(
+            error("after 10 fault withhold"),
+            "line 7: `fault` cannot wait: `after` needs a time and a command: after <ms> set|press|pulse|chatter …"
+        );
+        assert_eq!(
+            error("after soon set a on"),
+            "line 7: `soon` is not a time in ms: expected a whole number from 0 to 600000"
+        );
+        assert_eq!(
+            error("after 10 set a"),
+            "line 7: `set` needs an input and a level: set <input> on|off|open|closed|1|0"
+        );
+    }
+
+    #[test]
+    fn controls_joined_by_semicolons_are_taken_together() {
+        let ms = Duration::from_millis;
+        assert_eq!(
+            parse("set estop1 open; after 30 set estop2 open"),
+            ControlCommand::Together(vec![
+                TimedControl {
+                    delay: Duration::ZERO,
+                    what: Timed::Input(InputControl::Set {
+                        name: "estop1".into(),
+                        level: false
+                    })
+                },
+                TimedControl {
+                    delay: ms(30),
+                    what: Timed::Input(InputControl::Set {
+                        name: "estop2".into(),
+                        level: false
+                    })
+                },
+            ])
+        );
+        assert_eq!(
+            error("set a on; fault withhold"),
+            "line 7: `fault` cannot be joined with `;`: only set, press, pulse, chatter and after"
+        );
+        assert_eq!(
+            error("set a on;"),
+            "line 7: an empty command between two `;`"
+        );
+        // Garbage may hold a `;`: it is no input control.
+        assert_eq!(
+            parse("fault garbage a;b"),
+            ControlCommand::Fault(Fault::Garbage(b"a;b".to_vec()))
+        );
     }
 
     #[test]
@@ -515,7 +736,7 @@ mod tests {
     fn errors_name_the_line_and_what_was_expected() {
         assert_eq!(
             error("sett hood on"),
-            "line 7: unknown command `sett`: expected set, press, value, fault, memory, show, help or quit"
+            "line 7: unknown command `sett`: expected set, press, value, pulse, chatter, after, fault, memory, show, help or quit"
         );
         assert_eq!(
             error("set"),

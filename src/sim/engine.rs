@@ -20,11 +20,11 @@
 //! deadline), not the wall clock at which the thread got round to it, so the
 //! thread's wake-up latency does not add up from one cycle to the next.
 
-use std::collections::VecDeque;
+use std::collections::{BTreeMap, VecDeque};
 use std::time::{Duration, Instant};
 
 use super::fault::{ArmedFaults, Fault};
-use super::{InputControl, SimDevice};
+use super::{InputControl, SimDevice, Timed, TimedControl};
 use crate::wire::LineSettings;
 
 /// Counters for `show`.
@@ -72,7 +72,14 @@ pub struct Engine {
     /// misbehaving model cannot make the shell spin.
     stale_deadline: Option<Instant>,
     stats: WireStats,
+    /// Operator controls due later (`pulse`, `chatter`, `after`), by time,
+    /// ties in the order they were given.
+    scheduled: BTreeMap<(Instant, u64), InputControl>,
+    scheduled_count: u64,
 }
+
+/// Most changes one `chatter` may make.
+pub const MAX_CHATTER_CHANGES: u32 = 10_000;
 
 /// Bytes handed over together at most, unless a message ends first: the
 /// receive trigger level Linux sets on a 16550A (8 of its 16 bytes).
@@ -96,6 +103,8 @@ impl Engine {
             armed: ArmedFaults::default(),
             stale_deadline: None,
             stats: WireStats::default(),
+            scheduled: BTreeMap::new(),
+            scheduled_count: 0,
         }
     }
 
@@ -142,6 +151,7 @@ impl Engine {
         let other = [
             self.incoming.front().map(|&(_, t)| t),
             self.pending_deadline(),
+            self.next_scheduled(),
         ]
         .into_iter()
         .flatten()
@@ -160,10 +170,26 @@ impl Engine {
         for _ in 0..MAX_EVENTS_PER_RUN {
             let arrival = self.incoming.front().map(|&(_, t)| t).filter(|&t| t <= now);
             let deadline = self.pending_deadline().filter(|&d| d <= now);
+            let control = self.next_scheduled().filter(|&c| c <= now);
+            // An operator control goes before a deadline or an arrival at a
+            // later instant, after them at the same instant.
+            if let Some(c) = control
+                && arrival.is_none_or(|a| c < a)
+                && deadline.is_none_or(|d| c < d)
+            {
+                self.apply_scheduled();
+                continue;
+            }
             // A deadline at the same instant as an arrival goes first: the
             // model is brought up to date before it sees the byte.
             let arrival_first = match (arrival, deadline) {
-                (None, None) => break,
+                (None, None) => match control {
+                    Some(_) => {
+                        self.apply_scheduled();
+                        continue;
+                    }
+                    None => break,
+                },
                 (Some(a), Some(d)) => a < d,
                 (Some(_), None) => true,
                 (None, Some(_)) => false,
@@ -197,6 +223,80 @@ impl Engine {
         let result = self.device.control(control, t);
         self.advance(t);
         result
+    }
+
+    /// A timed control given at `now` (call `run_until(now)` first, as for
+    /// [`Engine::control`]): what is due at once is applied now (and its
+    /// error returned), the rest at its modelled time. The input
+    /// must be one with two levels (`SimDevice::input_level`), so that what
+    /// comes later cannot fail.
+    pub fn timed(&mut self, control: &TimedControl, now: Instant) -> Result<(), String> {
+        let start = self.clock.map_or(now, |c| c.max(now)) + control.delay;
+        let level_of = |name: &str, what: &str| {
+            self.device.input_level(name).ok_or_else(|| {
+                format!(
+                    "`{what}` needs an input with two levels: expected one of {}",
+                    self.device.input_names().join(", ")
+                )
+            })
+        };
+        let set = |name: &str, level: bool| InputControl::Set {
+            name: name.to_owned(),
+            level,
+        };
+        let steps: Vec<(Instant, InputControl)> = match &control.what {
+            Timed::Input(c) => {
+                if !control.delay.is_zero() {
+                    level_of(c.name(), "after")?;
+                }
+                vec![(start, c.clone())]
+            }
+            Timed::Pulse { name, hold } => {
+                let level = level_of(name, "pulse")?;
+                vec![
+                    (start, set(name, !level)),
+                    (start + *hold, set(name, level)),
+                ]
+            }
+            Timed::Chatter {
+                name,
+                changes,
+                every,
+            } => {
+                let level = level_of(name, "chatter")?;
+                (0..(*changes).min(MAX_CHATTER_CHANGES))
+                    .map(|k| (start + *every * k, set(name, (k % 2 == 0) != level)))
+                    .collect()
+            }
+        };
+        for (i, (at, c)) in steps.into_iter().enumerate() {
+            if i == 0 && control.delay.is_zero() {
+                self.control(&c, now)?;
+            } else {
+                self.scheduled.insert((at, self.scheduled_count), c);
+                self.scheduled_count += 1;
+            }
+        }
+        Ok(())
+    }
+
+    /// Operator controls still to come.
+    pub fn scheduled(&self) -> usize {
+        self.scheduled.len()
+    }
+
+    fn next_scheduled(&self) -> Option<Instant> {
+        self.scheduled.keys().next().map(|(t, _)| *t)
+    }
+
+    fn apply_scheduled(&mut self) {
+        if let Some(((at, _), c)) = self.scheduled.pop_first() {
+            let t = self.tick(at);
+            // Checked when it was scheduled: a device refusing it now has
+            // nobody to tell.
+            let _ = self.device.control(&c, t);
+            self.advance(t);
+        }
     }
 
     /// Arm a message fault, or queue garbage; `Stall` goes to the device.
@@ -675,6 +775,126 @@ mod tests {
         let err = e.fault(Fault::Stall, Instant::now()).unwrap_err();
         assert!(err.contains("EMP"), "{err}");
         assert!(e.armed().is_empty());
+    }
+
+    /// Every level `sw` was set to, and when.
+    type SwitchLog = Arc<Mutex<Vec<(Instant, bool)>>>;
+
+    /// One two-level input `sw`; records every level it is set to.
+    struct Switch {
+        level: bool,
+        log: SwitchLog,
+    }
+
+    impl SimDevice for Switch {
+        fn line(&self) -> LineSettings {
+            LineSettings::new(19_200)
+        }
+        fn on_byte(&mut self, _: u8, _: Instant) {}
+        fn advance(&mut self, _: Instant) {}
+        fn next_deadline(&self) -> Option<Instant> {
+            None
+        }
+        fn poll_output(&mut self) -> Option<Vec<u8>> {
+            None
+        }
+        fn control(&mut self, control: &InputControl, now: Instant) -> Result<(), String> {
+            match control {
+                InputControl::Set { name, level } if name == "sw" => {
+                    self.level = *level;
+                    self.log.lock().unwrap().push((now, *level));
+                    Ok(())
+                }
+                _ => Err("unknown input: expected sw".into()),
+            }
+        }
+        fn input_names(&self) -> Vec<&'static str> {
+            vec!["sw"]
+        }
+        fn input_level(&self, name: &str) -> Option<bool> {
+            (name == "sw").then_some(self.level)
+        }
+        fn describe(&self, _now: Instant) -> String {
+            String::new()
+        }
+    }
+
+    fn switch() -> (Engine, SwitchLog) {
+        let log = Arc::new(Mutex::new(Vec::new()));
+        let device = Switch {
+            level: false,
+            log: log.clone(),
+        };
+        (Engine::new(Box::new(device)), log)
+    }
+
+    #[test]
+    fn a_pulse_lasts_exactly_its_time_on_the_modelled_clock() {
+        let (mut e, log) = switch();
+        let t0 = Instant::now();
+        let ms = Duration::from_millis;
+        let pulse = TimedControl {
+            delay: Duration::ZERO,
+            what: Timed::Pulse {
+                name: "sw".into(),
+                hold: ms(1000),
+            },
+        };
+        assert_eq!(e.timed(&pulse, t0), Ok(()));
+        assert_eq!(*log.lock().unwrap(), [(t0, true)], "the first edge at once");
+        assert_eq!(e.scheduled(), 1);
+        assert_eq!(e.next_wake().map(|w| w.at), Some(t0 + ms(1000)));
+        let mut out = Vec::new();
+        // Served late by the thread: the device still sees the modelled time.
+        e.run_until(t0 + ms(1003), &mut out);
+        assert_eq!(*log.lock().unwrap(), [(t0, true), (t0 + ms(1000), false)]);
+        assert_eq!(e.scheduled(), 0);
+    }
+
+    #[test]
+    fn chatter_and_after_follow_their_schedule() {
+        let (mut e, log) = switch();
+        let t0 = Instant::now();
+        let ms = Duration::from_millis;
+        let chatter = TimedControl {
+            delay: ms(30),
+            what: Timed::Chatter {
+                name: "sw".into(),
+                changes: 4,
+                every: ms(10),
+            },
+        };
+        assert_eq!(e.timed(&chatter, t0), Ok(()));
+        assert!(log.lock().unwrap().is_empty(), "nothing before its delay");
+        let mut out = Vec::new();
+        e.run_until(t0 + ms(100), &mut out);
+        let got: Vec<(Duration, bool)> = log
+            .lock()
+            .unwrap()
+            .iter()
+            .map(|(t, l)| (*t - t0, *l))
+            .collect();
+        assert_eq!(
+            got,
+            [
+                (ms(30), true),
+                (ms(40), false),
+                (ms(50), true),
+                (ms(60), false)
+            ]
+        );
+        let unknown = TimedControl {
+            delay: ms(5),
+            what: Timed::Input(InputControl::Set {
+                name: "door".into(),
+                level: true,
+            }),
+        };
+        assert_eq!(
+            e.timed(&unknown, t0),
+            Err("`after` needs an input with two levels: expected one of sw".into())
+        );
+        assert_eq!(e.scheduled(), 0, "a refused control leaves nothing behind");
     }
 
     #[test]

@@ -24,7 +24,7 @@ pub mod received;
 pub mod registry;
 pub mod shell;
 
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use crate::wire::LineSettings;
 
@@ -40,6 +40,34 @@ pub enum InputControl {
     Press { name: String },
     /// Set an analogue input to a value in its own unit (EMP ADC channels: mV).
     Value { name: String, value: f64 },
+}
+
+/// What a timed operator control does (`pulse`, `chatter`, or a plain
+/// control `after` a delay).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Timed {
+    Input(InputControl),
+    /// Flip the input, and flip it back `hold` later.
+    Pulse {
+        name: String,
+        hold: Duration,
+    },
+    /// Flip the input `changes` times, one flip every `every`, the first at
+    /// once: an even number leaves it as it was.
+    Chatter {
+        name: String,
+        changes: u32,
+        every: Duration,
+    },
+}
+
+/// A timed control, starting `delay` after it is given. Its changes happen
+/// at their modelled times, not when a thread gets round to them, so a
+/// pulse lasts exactly `hold` on the simulated machine.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TimedControl {
+    pub delay: Duration,
+    pub what: Timed,
 }
 
 impl InputControl {

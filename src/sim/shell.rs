@@ -21,7 +21,7 @@ use super::fault::Fault;
 use super::line::{Line, PtyShared, ReadOutcome};
 use super::pty::{self, StableLink};
 use super::received::{Received, ReceivedLog};
-use super::{InputControl, SimDevice};
+use super::{InputControl, SimDevice, TimedControl};
 use crate::transport::fd;
 use crate::wire::LineSettings;
 
@@ -60,6 +60,7 @@ type Reply<T> = mpsc::Sender<T>;
 
 enum Request {
     Input(InputControl, Reply<Result<(), String>>),
+    Timed(Vec<TimedControl>, Reply<Result<(), String>>),
     Fault(Fault, Reply<Result<(), String>>),
     Memory(usize, Reply<Result<(), String>>),
     Show(Reply<String>),
@@ -86,6 +87,13 @@ impl ShellControl {
     /// Flip an input or press a button on the simulated machine.
     pub fn input(&self, control: InputControl) -> Result<(), ShellError> {
         self.ask(|reply| Request::Input(control, reply))?
+            .map_err(ShellError::Rejected)
+    }
+
+    /// Pulse an input, make it chatter, or set it later (`pulse`,
+    /// `chatter`, `after`); several are given at one instant (`;`).
+    pub fn timed(&self, controls: Vec<TimedControl>) -> Result<(), ShellError> {
+        self.ask(|reply| Request::Timed(controls, reply))?
             .map_err(ShellError::Rejected)
     }
 
@@ -441,6 +449,10 @@ impl Worker {
         match request {
             Request::Input(control, reply) => {
                 let _ = reply.send(self.engine.control(&control, now));
+            }
+            Request::Timed(controls, reply) => {
+                let result = controls.iter().try_for_each(|c| self.engine.timed(c, now));
+                let _ = reply.send(result);
             }
             Request::Fault(Fault::Close { reopen_after }, reply) => {
                 let _ = reply.send(self.line.close(reopen_after, now));

@@ -375,6 +375,7 @@ mod tests {
                     name: name.into(),
                     raw: None,
                     bits,
+                    read: None,
                 })
                 .collect(),
         }
@@ -494,6 +495,7 @@ mod tests {
                 name: "out 0: user outputs".into(),
                 raw,
                 bits: (0..8).map(out).collect(),
+                read: None,
             }],
         };
         panel.apply(&groups(None));

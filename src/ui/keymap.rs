@@ -99,6 +99,8 @@ named_enum! {
         GoTo = "goto", "Go-to prompt (other characters are typed)";
         /// The choice of an axis (reference run or work zero of one axis).
         Axes = "axes", "Choice of an axis";
+        /// The port timeline is shown.
+        Timeline = "timeline", "Port timeline (shown)";
     }
 }
 
@@ -206,6 +208,12 @@ named_enum! {
         AxisY = "axis-y", "axis Y";
         AxisZ = "axis-z", "axis Z";
         AxisA = "axis-a", "axis A";
+        Timeline = "timeline", "show or hide the port timeline (every input change)";
+        TimeEarlier = "earlier", "timeline: back in time";
+        TimeLater = "later", "timeline: forward in time";
+        TimeLive = "live", "timeline: follow the newest readings";
+        ZoomIn = "zoom-in", "timeline: fewer milliseconds per column";
+        ZoomOut = "zoom-out", "timeline: more milliseconds per column";
     }
 }
 

@@ -8,8 +8,8 @@
 //!
 //! The state behind the panels lives in small modules of its own
 //! ([`position`], [`io`], [`traffic_log`], [`line_edit`], [`sim_panel`],
-//! [`jog`] for the jog keypad, and the program [`editor`] with its own
-//! screen);
+//! [`jog`] for the jog keypad, the program [`editor`] and the port
+//! [`timeline`] with screens of their own);
 //! [`raw`] checks typed commands with each family's parser.
 //!
 //! Around it: [`terminal`] owns the terminal (restored on drop, error and
@@ -33,6 +33,7 @@ pub mod runtime;
 pub mod sim_panel;
 pub mod summary;
 pub mod terminal;
+pub mod timeline;
 pub mod traffic_log;
 pub mod update;
 pub mod view;

@@ -2,12 +2,13 @@
 //! reported, what the operator selected and typed, what is open and focused.
 //! `update` is the only thing that changes it; the view only reads it.
 
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use crate::axis::{Axis, AxisSet};
 use crate::config::Profile;
 use crate::config::profile::AxisProfile;
-use crate::device::api::{LinkState, MachineState, PollStats, UploadEvent};
+use crate::device::api::{InputChannel, LinkState, MachineState, PollStats, UploadEvent};
 use crate::jog::JogSettings;
 use crate::proto::Protocol;
 use crate::wire::LineSettings;
@@ -25,6 +26,7 @@ use super::palette::Palette;
 use super::position::Positions;
 use super::raw::RawContext;
 use super::sim_panel::SimPanel;
+use super::timeline::Timeline;
 use super::traffic_log::{NoteLevel, TrafficLog};
 
 /// How long a message stays in the message line before the machine's own
@@ -51,6 +53,9 @@ pub struct Setup {
     pub simulator_inputs: Option<Vec<(String, Option<bool>)>>,
     /// Everything jogging needs from the profile (`crate::jog`).
     pub jog: JogSettings,
+    /// The controller's inputs as the profile names them
+    /// (`device::inputs::channels`).
+    pub inputs: Vec<Arc<InputChannel>>,
 }
 
 impl Setup {
@@ -72,6 +77,7 @@ impl Setup {
             isel_device: profile.isel.device,
             simulator_inputs,
             jog: JogSettings::from_profile(profile),
+            inputs: crate::device::inputs::channels::shared(profile),
         }
     }
 
@@ -99,6 +105,9 @@ pub enum PanelId {
     /// The program editor: while it has focus the program screen is shown
     /// (not in the Tab ring; `e`/F4 opens and closes it).
     Editor,
+    /// The port timeline: while it has focus it takes the machine screen's
+    /// place (not in the Tab ring; `w`/F7 opens and closes it).
+    Timeline,
 }
 
 impl PanelId {
@@ -110,6 +119,7 @@ impl PanelId {
             PanelId::Console => Mode::Console,
             PanelId::Sim => Mode::Sim,
             PanelId::Editor => Mode::Editor,
+            PanelId::Timeline => Mode::Timeline,
         }
     }
 }
@@ -187,6 +197,11 @@ pub struct Model {
     pub popup: Option<Popup>,
     /// The program being edited (`docs/editor.md`).
     pub editor: Editor,
+    /// Every input change since the link came up (`docs/ui.md`, "Port
+    /// timeline").
+    pub timeline: Timeline,
+    /// Where the focus goes back to when the timeline closes.
+    pub before_timeline: PanelId,
     pub size: (u16, u16),
     /// Something the view shows has changed since the last frame.
     pub dirty: bool,
@@ -212,6 +227,8 @@ impl Model {
         };
         Model {
             editor: Editor::new(&setup, now),
+            timeline: Timeline::new(&setup.inputs),
+            before_timeline: PanelId::Jog,
             traffic: TrafficLog::new(setup.protocol),
             keypad: Keypad::new(setup.jog.clone()),
             setup,

@@ -345,6 +345,13 @@ fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
             model.traffic.show_polls = !model.traffic.show_polls;
             Vec::new()
         }
+        Action::Timeline => {
+            if model.focus != PanelId::Timeline {
+                model.before_timeline = model.focus;
+                model.focus = PanelId::Timeline;
+            }
+            Vec::new()
+        }
         // The program editor's actions on the main screen (teach-in,
         // upload, run); actions of other modes never reach here (the
         // keymap refuses them).
@@ -536,7 +543,37 @@ fn panel_action(model: &mut Model, panel: PanelId, action: Action) -> Vec<Effect
         PanelId::Console => console_action(model, action),
         PanelId::Sim => sim_action(model, action),
         PanelId::Editor => editor::update::action(model, action),
+        PanelId::Timeline => timeline_action(model, action),
     }
+}
+
+/// Lanes the timeline shows at the terminal's size.
+fn timeline_lanes(model: &Model) -> usize {
+    let lanes = model.timeline.shown().len();
+    usize::from(crate::ui::view::timeline::lane_rows(
+        model.size.0,
+        model.size.1,
+        lanes,
+    ))
+}
+
+fn timeline_action(model: &mut Model, action: Action) -> Vec<Effect> {
+    // A quarter of the picture per key.
+    let step = crate::ui::view::timeline::lane_columns(model.size.0) / 4;
+    let shown = timeline_lanes(model);
+    let (t, now) = (&mut model.timeline, model.now);
+    match action {
+        Action::Timeline => model.focus = model.before_timeline,
+        Action::TimeEarlier => t.earlier(step, now),
+        Action::TimeLater => t.later(step, now),
+        Action::TimeLive => t.live(),
+        Action::ZoomIn => t.zoom(-1),
+        Action::ZoomOut => t.zoom(1),
+        Action::ScrollUp => t.scroll(-1, shown),
+        Action::ScrollDown => t.scroll(1, shown),
+        _ => {}
+    }
+    Vec::new()
 }
 
 fn io_action(model: &mut Model, action: Action) -> Vec<Effect> {
@@ -682,7 +719,9 @@ fn tick(model: &mut Model, now: Instant) {
         model.fresh_message().is_some(),
         keypad::clock_shown(model),
     );
-    if flushed || before != after {
+    // A timeline that follows the readings moves with the clock.
+    let timeline_moves = model.focus == PanelId::Timeline && model.timeline.end.is_none();
+    if flushed || before != after || timeline_moves {
         model.dirty = true;
     }
     refresh_quit_question(model);
@@ -695,7 +734,11 @@ fn device_event(model: &mut Model, event: Event) {
     match event {
         Event::Link(state) => link_changed(model, state),
         Event::Position(sample) => model.positions.apply(&sample),
-        Event::Io(snapshot) => model.io.apply(&snapshot),
+        Event::Io(snapshot) => {
+            model.timeline.observe(&snapshot);
+            model.io.apply(&snapshot);
+        }
+        Event::Input(change) => model.timeline.record(&change),
         Event::State(state) => {
             let released = model.machine.estop && !state.estop && state.link_up;
             model.machine = state;
@@ -767,6 +810,9 @@ fn estop_released(model: &mut Model) {
 fn link_changed(model: &mut Model, state: LinkState) {
     if model.link == state {
         return;
+    }
+    if state == LinkState::Connected {
+        model.timeline.connected(model.now);
     }
     let note = match &state {
         LinkState::Connecting => None,

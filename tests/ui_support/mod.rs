@@ -170,6 +170,7 @@ fn isel_io(inputs: Inputs) -> Vec<IoGroup> {
             name: format!("in {}: {title}", port.number()),
             raw: Some(raw),
             bits,
+            read: None,
         });
     }
     for info in OUTPUT_PORTS.iter() {
@@ -209,6 +210,7 @@ fn isel_io(inputs: Inputs) -> Vec<IoGroup> {
             name: format!("out {number}: {}", info.name),
             raw: written,
             bits,
+            read: None,
         });
     }
     groups
@@ -230,6 +232,7 @@ fn emcu_io(inputs: Inputs) -> Vec<IoGroup> {
                     bit(&f.to_string(), value)
                 })
                 .collect(),
+            read: None,
         },
         IoGroup {
             name: "out".into(),
@@ -238,6 +241,7 @@ fn emcu_io(inputs: Inputs) -> Vec<IoGroup> {
                 output("A1", inputs.spindle, 1, None, true),
                 output("A2", false, 2, None, true),
             ],
+            read: None,
         },
     ]
 }
@@ -258,11 +262,13 @@ fn emp_io(inputs: Inputs) -> Vec<IoGroup> {
             name: "11 limits".into(),
             raw: Some(raw),
             bits: limits.iter().map(|(n, v)| bit(n, *v)).collect(),
+            read: None,
         },
         IoGroup {
             name: "11 in".into(),
             raw: Some(0x01),
             bits: (1..=4).map(|i| bit(&format!("I{i}"), i == 1)).collect(),
+            read: None,
         },
         IoGroup {
             name: "11 out".into(),
@@ -270,6 +276,7 @@ fn emp_io(inputs: Inputs) -> Vec<IoGroup> {
             bits: (1..=4)
                 .map(|i| output(&format!("O{i}"), false, 0x11, Some(i - 1), false))
                 .collect(),
+            read: None,
         },
     ]
 }

@@ -74,11 +74,14 @@ pub fn output_at(
 }
 
 /// A group of bits; `raw` is the byte as read (or written), shown in hex.
+/// Not marked as read from the controller: inputs add that with
+/// `IoGroup::read_from`.
 pub fn group(name: impl Into<String>, raw: Option<u8>, bits: Vec<IoBit>) -> IoGroup {
     IoGroup {
         name: name.into(),
         raw,
         bits,
+        read: None,
     }
 }
 

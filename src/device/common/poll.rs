@@ -48,6 +48,9 @@ impl PollRate {
 #[derive(Debug, Clone, PartialEq)]
 pub struct PollPlan<P> {
     pub rate: PollRate,
+    /// Read the positions every cycle; without, a cycle is its port items
+    /// alone (`jogterm watch`: the inputs as often as the line allows).
+    pub positions: bool,
     /// Read `ports` every Nth cycle (at least 1).
     pub ports_every: u32,
     /// Read on a port cycle, in this order; empty = never.

@@ -77,6 +77,8 @@ pub struct Context {
     reading: PerAxis<i64>,
     /// The last `@X`.
     pub status: Option<Status>,
+    /// When it arrived, for the input recorder.
+    pub status_read: Option<Instant>,
     /// What jogterm last set the move slot's end speed to (`#E`), Hz.
     pub slot_hz: Option<u16>,
     /// jogterm has set `#S` and `#R` from the profile since it connected.
@@ -118,6 +120,7 @@ impl Context {
             position: None,
             reading: PerAxis::new(),
             status: None,
+            status_read: None,
             slot_hz: None,
             ramp_set: false,
             outputs: [None; 2],
@@ -230,6 +233,7 @@ impl Context {
     /// the clients get the flags as an `IoSnapshot`.
     pub fn status_read(&mut self, status: Status, now: Instant) {
         self.status = Some(status);
+        self.status_read = Some(now);
         self.error_flag(status.error, status.position_unknown);
         if status.position_unknown && !self.state.referenced.is_empty() {
             // The interface lost the positions (`@S`, `@R`, a reference run

@@ -5,7 +5,7 @@
 
 use std::time::Instant;
 
-use crate::device::api::{IoGroup, IoSnapshot, OutputId};
+use crate::device::api::{InputSource, IoGroup, IoSnapshot, OutputId};
 use crate::device::common::io;
 use crate::proto::emcu::{Output, Status, StatusFlag};
 use crate::wiring::Wiring;
@@ -78,7 +78,7 @@ fn link_group(e1_link: Option<bool>) -> IoGroup {
 pub fn snapshot(cx: &Context, at: Instant) -> IoSnapshot {
     let mut groups = Vec::new();
     if let Some(status) = &cx.status {
-        groups.push(status_group(status));
+        groups.push(status_group(status).read_from(InputSource::EmcuStatus, cx.status_read));
     }
     groups.push(outputs_group(cx.outputs, &cx.settings.wiring));
     groups.push(link_group(cx.e1_link));

@@ -21,7 +21,7 @@ pub enum PollItem {
 pub fn poller(settings: &EmcuSettings) -> Poller<PollItem> {
     let positions = EmcuAxis::ALL
         .into_iter()
-        .filter(|a| settings.axes.contains(a.axis()))
+        .filter(|a| settings.poll.positions && settings.axes.contains(a.axis()))
         .map(PollItem::Position)
         .collect();
     let ports = settings
@@ -66,6 +66,19 @@ mod tests {
     use crate::config::{ConfigDirs, load_profile};
     use crate::device::common::PollRate;
     use std::time::Instant;
+
+    #[test]
+    fn without_positions_a_cycle_is_the_status_alone() {
+        let profile = load_profile("emcu", &ConfigDirs::builtin_only()).expect("profile");
+        let mut s = EmcuSettings::from_profile(&profile).expect("settings");
+        s.poll.rate = PollRate::LineSpeed;
+        s.poll.ports_every = 1;
+        s.poll.positions = false;
+        let mut p = poller(&s);
+        let t = Instant::now();
+        let got: Vec<_> = (0..3).map(|_| p.next(t)).collect();
+        assert_eq!(got, [Some(PollItem::Status); 3]);
+    }
 
     #[test]
     fn a_cycle_reads_every_axis_then_the_status() {

@@ -102,6 +102,7 @@ impl EmcuSettings {
             line: profile.connection.line(),
             poll: PollPlan {
                 rate: PollRate::from_profile(profile.poll.rate_hz),
+                positions: true,
                 ports_every: profile.poll.ports_every.max(1),
                 ports: vec![StatusPoll],
             },

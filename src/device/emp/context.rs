@@ -34,6 +34,9 @@ pub struct DriveState {
     pub position: Option<i64>,
     pub limits: Option<Limits>,
     pub inputs: Option<Inputs>,
+    /// When the last `41` (switches and inputs) arrived, for the input
+    /// recorder.
+    pub inputs_read: Option<Instant>,
     /// Outputs as last written (no query reads them back: manual "42").
     pub outputs: Option<Outputs>,
 }
@@ -49,6 +52,7 @@ impl DriveState {
             position: None,
             limits: None,
             inputs: None,
+            inputs_read: None,
             outputs: None,
         }
     }
@@ -62,6 +66,7 @@ impl DriveState {
         self.position = None;
         self.limits = None;
         self.inputs = None;
+        self.inputs_read = None;
     }
 }
 
@@ -210,8 +215,9 @@ impl Context {
             .any(|(i, d)| !super::io::interlocks(i, d, wiring).is_empty());
     }
 
-    /// A reply (first answer or completion) to `request` carried `body`.
-    pub fn observe(&mut self, request: &Request, body: &ReplyBody) {
+    /// A reply (first answer or completion) to `request` carried `body`;
+    /// it arrived `at`.
+    pub fn observe(&mut self, request: &Request, body: &ReplyBody, at: Instant) {
         let axis = self.settings.axis_of(request.ds);
         let Some(d) = self.drive_mut(request.ds) else {
             return;
@@ -243,6 +249,7 @@ impl Context {
             (_, ReplyBody::Inputs { limits, inputs }) => {
                 d.limits = Some(*limits);
                 d.inputs = Some(*inputs);
+                d.inputs_read = Some(at);
             }
             (_, ReplyBody::Outputs { limits, outputs }) => {
                 d.limits = Some(*limits);

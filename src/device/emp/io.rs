@@ -4,7 +4,7 @@
 
 use std::time::Instant;
 
-use crate::device::api::{IoGroup, IoSnapshot};
+use crate::device::api::{InputSource, IoGroup, IoSnapshot};
 use crate::device::common::io::{group, input_at, output_at};
 use crate::wiring::Wiring;
 
@@ -76,6 +76,7 @@ fn drive_group(index: usize, d: &DriveState, wiring: &Wiring) -> IoGroup {
         d.inputs.map(|i| i.bits()),
         bits,
     )
+    .read_from(InputSource::EmpDrive(d.ds.byte()), d.inputs_read)
 }
 
 pub fn snapshot(cx: &Context, now: Instant) -> IoSnapshot {

@@ -329,17 +329,17 @@ impl EmpDriver {
         match m {
             Matched::Answered { request, reply } => {
                 let owner = self.take_owner(&request);
-                self.observe(&request, &reply);
+                self.observe(&request, &reply, now);
                 self.dispatch(owner, &request, Outcome::Answered, Some(&reply), now);
             }
             Matched::Started { request, reply } => {
                 let owner = self.owner_of(&request);
-                self.observe(&request, &reply);
+                self.observe(&request, &reply, now);
                 self.dispatch(owner, &request, Outcome::Started, Some(&reply), now);
             }
             Matched::Completed { request, reply } => {
                 let owner = self.take_owner(&request);
-                self.observe(&request, &reply);
+                self.observe(&request, &reply, now);
                 if owner.is_none() {
                     self.cx
                         .notice(format!("{} completed: {reply}", frame_text(&request)));
@@ -390,10 +390,10 @@ impl EmpDriver {
         }
     }
 
-    fn observe(&mut self, request: &Frame, reply: &Reply) {
+    fn observe(&mut self, request: &Frame, reply: &Reply, now: Instant) {
         if let Some(body) = reply.body() {
             let limits_before = self.cx.drive(request.ds).and_then(|d| d.limits);
-            self.cx.observe(request, body);
+            self.cx.observe(request, body, now);
             if let ReplyBody::Inputs { limits, .. } | ReplyBody::Outputs { limits, .. } = body {
                 let was = limits_before.is_some_and(|l| l.plus || l.minus);
                 if (limits.plus || limits.minus) && !was {

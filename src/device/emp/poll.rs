@@ -41,7 +41,10 @@ pub fn poller(settings: &EmpSettings) -> Poller<PollItem> {
     Poller::new(
         settings.poll,
         settings.ports_every,
-        ds.iter().map(|d| PollItem::Position(*d)).collect(),
+        ds.iter()
+            .filter(|_| settings.poll_positions)
+            .map(|d| PollItem::Position(*d))
+            .collect(),
         ds.iter().map(|d| PollItem::Io(*d)).collect(),
     )
 }
@@ -162,6 +165,20 @@ mod tests {
         assert!(!off.admit(x, true, on + Duration::from_millis(500)));
         off.reset();
         assert!(off.admit(x, true, on + Duration::from_millis(500)));
+    }
+
+    #[test]
+    fn without_positions_a_cycle_reads_the_inputs_alone() {
+        let profile = load_profile("emp", &ConfigDirs::builtin_only()).expect("profile");
+        let mut s = EmpSettings::from_profile(&profile).expect("settings");
+        s.poll = crate::device::common::PollRate::LineSpeed;
+        s.ports_every = 1;
+        s.poll_positions = false;
+        let mut p = poller(&s);
+        let t = Instant::now();
+        let got: Vec<_> = (0..3).map(|_| p.next(t)).collect();
+        let io = Some(PollItem::Io(DriveAddress::SINGLE));
+        assert_eq!(got, [io, io, io]);
     }
 
     #[test]

@@ -63,6 +63,9 @@ pub struct EmpSettings {
     pub home_slow: Speed,
     /// Position polls (the profile's `poll.rate_hz`, 0 = line speed).
     pub poll: PollRate,
+    /// Read the positions every cycle; without, a cycle reads every drive's
+    /// inputs only (`jogterm watch`).
+    pub poll_positions: bool,
     pub ports_every: u32,
     pub timing: Timing,
     /// What each drive's bits are wired to (`[io]`, `crate::wiring`).
@@ -112,6 +115,7 @@ impl EmpSettings {
             home_fast: speed("home_fast", profile.emp.home_fast)?,
             home_slow: speed("home_slow", profile.emp.home_slow)?,
             poll: PollRate::from_profile(profile.poll.rate_hz),
+            poll_positions: true,
             ports_every: profile.poll.ports_every,
             timing: Timing {
                 round_trip,

@@ -265,14 +265,15 @@ impl Context {
         }));
     }
 
-    /// An input port was read: keep it and update the safety flags from the
-    /// bits the profile declares wired (`crate::wiring`): an E-stop circuit
-    /// or a power input that is active is a machine fault, an open hood
+    /// An input port was read (its reply arrived `at`): keep it and update
+    /// the safety flags from the bits the profile declares wired
+    /// (`crate::wiring`): an E-stop circuit or a power input that is active
+    /// is a machine fault, an open hood
     /// blocks motion while it is open. A bit the profile does not declare
     /// wired is shown, never acted on: the controller's reply decides
     /// (binding rule "The controller decides what its wiring allows").
-    pub fn port_read(&mut self, port: InputPort, value: u8) {
-        self.ports.set_input(port, value);
+    pub fn port_read(&mut self, port: InputPort, value: u8, at: Instant) {
+        self.ports.set_input(port, value, at);
         let active = self.ports.active_inputs(&self.settings.wiring);
         let labels = |role: Role| -> Vec<String> {
             active

@@ -14,7 +14,7 @@
 use std::collections::BTreeMap;
 use std::time::Instant;
 
-use crate::device::api::{IoGroup, IoSnapshot, OutputId};
+use crate::device::api::{InputSource, IoGroup, IoSnapshot, OutputId};
 use crate::device::common::io;
 use crate::proto::isel::ports::{InputRole, OUTPUT_PORTS};
 use crate::proto::isel::{InputPort, OutputPort};
@@ -25,6 +25,8 @@ use crate::wiring::{BitWiring, Role, Wiring, isel_input_address, isel_output_add
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct PortImage {
     pub inputs: [Option<u8>; 4],
+    /// When each input port's reply arrived, for the input recorder.
+    pub read_at: [Option<Instant>; 4],
     pub outputs: BTreeMap<u8, u8>,
 }
 
@@ -36,10 +38,20 @@ impl PortImage {
             .flatten()
     }
 
-    pub fn set_input(&mut self, port: InputPort, value: u8) {
-        if let Some(slot) = self.inputs.get_mut(usize::from(port.number())) {
+    /// The port's byte as read at `at` (when its reply arrived).
+    pub fn set_input(&mut self, port: InputPort, value: u8, at: Instant) {
+        let i = usize::from(port.number());
+        if let (Some(slot), Some(read)) = (self.inputs.get_mut(i), self.read_at.get_mut(i)) {
             *slot = Some(value);
+            *read = Some(at);
         }
+    }
+
+    fn read_at(&self, port: InputPort) -> Option<Instant> {
+        self.read_at
+            .get(usize::from(port.number()))
+            .copied()
+            .flatten()
     }
 
     pub fn output(&self, port: OutputPort) -> Option<u8> {
@@ -66,7 +78,12 @@ impl PortImage {
     pub fn snapshot(&self, at: Instant, wiring: &Wiring) -> IoSnapshot {
         let mut groups: Vec<IoGroup> = InputPort::ALL
             .into_iter()
-            .filter_map(|p| self.input(p).map(|v| input_group(p, v, wiring)))
+            .filter_map(|p| {
+                self.input(p).map(|v| {
+                    input_group(p, v, wiring)
+                        .read_from(InputSource::IselPort(p.number()), self.read_at(p))
+                })
+            })
             .collect();
         groups.extend(
             OutputPort::ALL
@@ -312,8 +329,9 @@ mod tests {
         let mut image = PortImage::default();
         // E-stop circuit 2 open; hood open (port 2 = 02): only the E-stop
         // counts, the hood is not declared wired.
-        image.set_input(InputPort::Status1, 0b01);
-        image.set_input(InputPort::Status2, 0x02);
+        let t = Instant::now();
+        image.set_input(InputPort::Status1, 0b01, t);
+        image.set_input(InputPort::Status2, 0x02, t);
         let active: Vec<&str> = image
             .active_inputs(&w)
             .iter()
@@ -321,7 +339,23 @@ mod tests {
             .collect();
         assert_eq!(active, ["in1.1"]);
         assert!(image.hood_inputs(&w).is_empty());
-        let snap = image.snapshot(Instant::now(), &w);
+        let snap = image.snapshot(t + std::time::Duration::from_millis(5), &w);
         assert_eq!(snap.groups.len(), 2 + OutputPort::ALL.len());
+        // Inputs say when they were read, outputs are never read.
+        let read: Vec<_> = snap.groups.iter().map(|g| g.read).collect();
+        assert_eq!(
+            read[..2],
+            [
+                Some(crate::device::api::InputRead {
+                    source: InputSource::IselPort(1),
+                    at: t
+                }),
+                Some(crate::device::api::InputRead {
+                    source: InputSource::IselPort(2),
+                    at: t
+                })
+            ]
+        );
+        assert!(read[2..].iter().all(Option::is_none));
     }
 }

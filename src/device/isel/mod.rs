@@ -383,7 +383,7 @@ impl IselDriver {
                 self.cx.set_config(None);
             }
             (PollItem::Port(port), Reply::Byte(v)) => {
-                self.cx.port_read(port, v);
+                self.cx.port_read(port, v, now);
                 if self.poller.cycle_done() {
                     self.cx.emit_io(now);
                 }

@@ -16,10 +16,15 @@ pub enum PollItem {
 
 /// The poller for a plan.
 pub fn poller(plan: &PollPlan) -> Poller<PollItem> {
+    let positions = if plan.positions {
+        vec![PollItem::Position]
+    } else {
+        Vec::new()
+    };
     Poller::new(
         plan.rate,
         plan.ports_every,
-        vec![PollItem::Position],
+        positions,
         plan.ports.iter().map(|p| PollItem::Port(*p)).collect(),
     )
 }
@@ -41,6 +46,7 @@ mod tests {
     fn plan(rate: PollRate, every: u32, ports: Vec<InputPort>) -> PollPlan {
         PollPlan {
             rate,
+            positions: true,
             ports_every: every,
             ports,
         }
@@ -65,6 +71,26 @@ mod tests {
                 Some(Port(InputPort::Status2)),
                 Some(Position),
                 Some(Position),
+            ]
+        );
+    }
+
+    #[test]
+    fn without_positions_a_cycle_is_the_ports_alone() {
+        let t = Instant::now();
+        let mut plan = plan(PollRate::LineSpeed, 1, PollPlan::ALL_INPUT_PORTS.to_vec());
+        plan.positions = false;
+        let mut p = poller(&plan);
+        let got: Vec<_> = (0..5).map(|_| p.next(t)).collect();
+        use PollItem::*;
+        assert_eq!(
+            got,
+            [
+                Some(Port(InputPort::Status1)),
+                Some(Port(InputPort::LimitSwitches)),
+                Some(Port(InputPort::Status2)),
+                Some(Port(InputPort::User)),
+                Some(Port(InputPort::Status1)),
             ]
         );
     }

@@ -379,7 +379,7 @@ impl Operation for RawOp {
             }
             Reply::Byte(v) => {
                 if let Some(Command::ReadPort(port)) = self.command() {
-                    cx.port_read(*port, *v);
+                    cx.port_read(*port, *v, now);
                     cx.emit_io(now);
                 }
                 cx.emit(Event::Reply {

@@ -340,7 +340,7 @@ impl Operation for Readback {
                 let all = ports(cx);
                 let port = all.get(i).copied();
                 match (reply, port) {
-                    (Reply::Byte(v), Some(port)) => cx.port_read(port, v),
+                    (Reply::Byte(v), Some(port)) => cx.port_read(port, v, now),
                     // A port the controller does not have (manual 2.2.3
                     // lists ports 0-3; a smaller controller may lack one).
                     (Reply::Code(ReplyCode::BadNumber), Some(port)) => cx.port_absent(port),

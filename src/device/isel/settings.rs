@@ -28,6 +28,14 @@ impl PollPlan {
         InputPort::Status2,
     ];
 
+    /// Every input port, safety first: what `jogterm watch` reads.
+    pub const ALL_INPUT_PORTS: [InputPort; 4] = [
+        InputPort::Status1,
+        InputPort::LimitSwitches,
+        InputPort::Status2,
+        InputPort::User,
+    ];
+
     /// The default ports, and port 0 (the user inputs) when the profile
     /// wires one of them to something jogterm watches or shows by role (a
     /// probe, a key, an E-stop …; `crate::wiring`), last.
@@ -134,6 +142,7 @@ impl IselSettings {
             line: profile.connection.line(),
             poll: PollPlan {
                 rate: PollRate::from_profile(profile.poll.rate_hz),
+                positions: true,
                 ports_every: profile.poll.ports_every.max(1),
                 ports: PollPlan::ports_for(&wiring),
             },

@@ -12,6 +12,7 @@ pub mod layout;
 pub mod popup;
 pub mod sim;
 pub mod status;
+pub mod timeline;
 
 use ratatui::buffer::Buffer;
 use ratatui::layout::Rect;
@@ -30,6 +31,8 @@ impl Widget for Screen<'_> {
         buf.set_style(area, model.palette.text);
         if model.focus == PanelId::Editor {
             editor::view::ProgramScreen(model).render(area, buf);
+        } else if model.focus == PanelId::Timeline {
+            timeline::TimelineScreen(model).render(area, buf);
         } else {
             machine_screen(model, area, buf);
         }

@@ -208,6 +208,15 @@ impl Widget for Hints<'_> {
                     (Mode::Editor, Action::Undo, "undo"),
                     (Mode::Editor, Action::TypeBlank, "blank"),
                 ],
+                Mode::Timeline => &[
+                    (Mode::Timeline, Action::Timeline, "machine"),
+                    (Mode::Timeline, Action::TimeEarlier, "earlier"),
+                    (Mode::Timeline, Action::TimeLater, "later"),
+                    (Mode::Timeline, Action::TimeLive, "live"),
+                    (Mode::Timeline, Action::ZoomIn, "zoom in"),
+                    (Mode::Timeline, Action::ZoomOut, "zoom out"),
+                    (Mode::Timeline, Action::ScrollDown, "lanes"),
+                ],
                 Mode::Sim => &[
                     (Mode::Sim, Action::SimToggle, "flip"),
                     (Mode::Sim, Action::SimOn, "on"),

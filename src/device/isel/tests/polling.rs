@@ -11,6 +11,7 @@ fn polling(rate: PollRate, every: u32) -> Harness {
     let mut h = Harness::with(|s| {
         s.poll = PollPlan {
             rate,
+            positions: true,
             ports_every: every,
             ports: PollPlan::DEFAULT_PORTS.to_vec(),
         };
@@ -174,6 +175,7 @@ fn a_port_the_controller_has_not_got_is_left_out_of_polling() {
     let mut h = Harness::with(|s| {
         s.poll = PollPlan {
             rate: PollRate::LineSpeed,
+            positions: true,
             ports_every: 1,
             ports: PollPlan::DEFAULT_PORTS.to_vec(),
         };
