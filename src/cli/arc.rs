@@ -1,6 +1,6 @@
 //! `jogterm arc`: the isel commands of a circular arc or helix (manual 2.3,
-//! `../shared/protocols.md` isel 12), computed by the protocol core's
-//! [`circle`]/[`helix`].
+//! `../shared/protocols.md` isel 12): the lines of [`ArcSteps`], which the
+//! editor's circle helper inserts too (`program::circle`).
 //!
 //! stdout: the direction command and the arc command, one per line, as DNC
 //! frames (`@0f-1`, `@0y…`/`@0w…`) or with `--cnc` as stored program lines
@@ -12,9 +12,8 @@ use std::io::Write;
 use std::process::ExitCode;
 
 use super::out::closed_is_ok;
-use crate::proto::isel::{
-    CircleDirection, CncCommand, Command, DeviceNumber, Frame, arc_end, circle, helix,
-};
+use crate::program::circle::ArcSteps;
+use crate::proto::isel::{CircleDirection, CncCommand, Command, DeviceNumber, Frame, arc_end};
 
 pub const LONG_ABOUT: &str = "\
 Print the isel commands of a circular arc or a helix (manual 2.3).
@@ -86,13 +85,15 @@ pub fn run_to(
     } else {
         CircleDirection::Cw
     };
-    let computed = match args.helix_steps {
-        None => circle(args.radius, args.start, args.end, direction, args.speed)
-            .map(|arc| arc.cnc_lines()),
-        Some(s3) => helix(args.radius, args.start, args.end, direction, args.speed, s3)
-            .map(|h| h.cnc_lines()),
+    let arc = ArcSteps {
+        radius: args.radius,
+        start: args.start,
+        end: args.end,
+        direction,
+        speed: args.speed,
+        helix: args.helix_steps,
     };
-    let lines: [CncCommand; 2] = match computed {
+    let lines: [CncCommand; 2] = match arc.lines() {
         Ok(lines) => lines,
         Err(e) => {
             let _ = writeln!(err, "jogterm arc: {e}");

@@ -16,6 +16,10 @@
 //!   source lines, and the predicted end position.
 //! - [`format()`]: the canonical text, comments kept.
 //! - [`store`]: program files on disk: atomic saves and recovery files.
+//! - [`teach`], [`circle`]: program text generated from the machine and
+//!   the operator's numbers: taught moves, dwells and outputs; the lines of
+//!   an arc or helix (the editor's teach-in and circle helper, `jogterm
+//!   arc`).
 //!
 //! The language rules (comments, file extensions, what the simulation
 //! assumes) are in `docs/programs.md`.
@@ -33,6 +37,7 @@
 //! assert_eq!(end, [1000, 0, 0, 0]);
 //! ```
 
+pub mod circle;
 mod emcu_line;
 mod flow;
 mod format;
@@ -43,6 +48,7 @@ pub mod path;
 mod run;
 pub mod source;
 pub mod store;
+pub mod teach;
 
 pub use format::format;
 pub use lint::{AxisLimit, DEFAULT_BUDGET, Diagnostic, Fix, LintConfig, Rule, Severity, lint};

@@ -71,6 +71,25 @@ impl Language {
         }
     }
 
+    /// Why a program in this language cannot be taught on or stored into a
+    /// `protocol` controller, if it cannot (the editor's teach-in and
+    /// upload say it).
+    pub fn wrong_machine(self, protocol: Protocol) -> Option<String> {
+        if self.protocol() == protocol {
+            return None;
+        }
+        Some(match protocol {
+            // There is no EMP language: there is nothing to store.
+            Protocol::Emp => {
+                "EMP drives store no programs (EMP manual: every command runs at once)".to_string()
+            }
+            // Both families' names take "an".
+            Protocol::Isel | Protocol::Emcu => format!(
+                "the program is an {self} program and the machine has an {protocol} controller"
+            ),
+        })
+    }
+
     pub fn from_path(path: &Path) -> Option<Language> {
         path.extension()
             .and_then(|e| e.to_str())

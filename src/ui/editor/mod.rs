@@ -4,7 +4,6 @@
 //!
 //! - [`buffer`]: the text (the parsed program itself), cursor, undo/redo.
 //! - [`checks`]: live lint and toolpath on a snapshot, off the UI thread.
-//! - [`teach`]: taught moves, dwells and outputs from the machine's position.
 //! - [`upload`]: an upload's progress and the line the controller refused.
 //! - [`search`], [`dialog`]: find, go to, forms and questions.
 //! - [`update`]: what keys, device events and results do to the model.
@@ -24,7 +23,6 @@ pub mod highlight;
 pub mod io;
 pub mod layout;
 pub mod search;
-pub mod teach;
 pub mod update;
 pub mod upload;
 pub mod view;

@@ -7,9 +7,10 @@ use std::path::{Path, PathBuf};
 use std::time::{Instant, SystemTime, UNIX_EPOCH};
 
 use crate::device::api::{Activity, Event, PerAxis, PositionSource, ProgramState, Request};
+use crate::program::circle::{self, CircleLines, TypedArc};
 use crate::program::store::{Origin, Recovery};
-use crate::program::{Command, Language, Position, Severity, Start, format};
-use crate::proto::isel::{CircleDirection, CncCommand, Plane, circle, helix};
+use crate::program::teach::{self, Machine, MoveKind, SlotContext};
+use crate::program::{Language, Position, Severity, Start, format};
 use crate::ui::keymap::Action;
 use crate::ui::model::{Model, PanelId, Popup};
 use crate::ui::msg::Effect;
@@ -20,7 +21,6 @@ use super::buffer::{Buffer, Cursor};
 use super::checks::LintJob;
 use super::dialog::{Answer, Dialog, Field, Form, FormKind, Question, Then};
 use super::io::{EditorIo, EditorMsg, SaveFailure};
-use super::teach::{self, Machine, MoveKind, SlotContext};
 use super::upload::Report;
 use super::{AUTOSAVE_EVERY, layout, search};
 
@@ -362,7 +362,7 @@ fn teach_ready(model: &mut Model) -> bool {
         say(model, NoteLevel::Warning, why.to_string());
         return false;
     }
-    if let Some(why) = wrong_machine(model.editor.language(), model.setup.protocol) {
+    if let Some(why) = model.editor.language().wrong_machine(model.setup.protocol) {
         say(
             model,
             NoteLevel::Warning,
@@ -373,34 +373,10 @@ fn teach_ready(model: &mut Model) -> bool {
     true
 }
 
-/// Why a program in `language` cannot be taught on or stored into a
-/// `protocol` controller, if it cannot.
-fn wrong_machine(language: Language, protocol: crate::proto::Protocol) -> Option<String> {
-    use crate::proto::Protocol;
-    if language.protocol() == protocol {
-        return None;
-    }
-    Some(match protocol {
-        // The editor has no EMP language: there is nothing to store.
-        Protocol::Emp => {
-            "EMP drives store no programs (EMP manual: every command runs at once)".to_string()
-        }
-        // Both families' names take "an".
-        Protocol::Isel | Protocol::Emcu => format!(
-            "the program is an {language} program and the machine has an {protocol} controller"
-        ),
-    })
-}
-
-/// Where taught lines go: after the cursor's line, but never after the
-/// program's end `9` (they would be refused as commands after the end).
+/// Where taught lines go: after the cursor's line, never after the end.
 fn insertion_point(model: &Model) -> usize {
     let b = &model.editor.buffer;
-    let at = b.cursor().line + 1;
-    let end = b.program().statements().find_map(|(line, s)| {
-        matches!(&s.command, Ok(Command::Isel(CncCommand::End))).then_some(line)
-    });
-    end.map_or(at, |e| at.min(e))
+    teach::insertion_point(b.program(), b.cursor().line)
 }
 
 fn insert_taught(model: &mut Model, lines: Vec<String>) {
@@ -487,23 +463,6 @@ fn teach_form(model: &mut Model, kind: FormKind) -> Vec<Effect> {
 
 // ---- the circle helper ----
 
-/// The plane circles run in at line `at`: the last `e` before it (XY
-/// before any, manual 3.2.11).
-fn plane_at(model: &Model, at: usize) -> Plane {
-    model
-        .editor
-        .buffer
-        .program()
-        .statements()
-        .take_while(|(line, _)| *line < at)
-        .filter_map(|(_, s)| match &s.command {
-            Ok(Command::Isel(CncCommand::SetPlane(p))) => Some(*p),
-            _ => None,
-        })
-        .last()
-        .unwrap_or_default()
-}
-
 fn circle_form(model: &mut Model) {
     if model.editor.language() != Language::Isel {
         say(
@@ -530,66 +489,24 @@ fn circle_form(model: &mut Model) {
     form(model, f);
 }
 
-fn number(text: &str, what: &str) -> Result<f64, String> {
-    text.trim()
-        .replace(',', ".")
-        .parse::<f64>()
-        .ok()
-        .filter(|v| v.is_finite())
-        .ok_or_else(|| format!("the {what} is no number: `{}`", text.trim()))
-}
-
 /// The arc's lines from the form, in the plane at the insertion point.
-fn circle_lines(model: &Model, f: &Form) -> Result<(Vec<String>, String), String> {
-    let at = insertion_point(model);
-    let plane = plane_at(model, at);
-    let (a1, _) = plane.axes();
-    let spu = |axis| {
-        model
-            .setup
-            .axis(axis)
-            .map(|p| p.steps_per_unit)
-            .ok_or_else(|| format!("the machine has no {axis} axis for the {plane:?} plane"))
+fn circle_lines(model: &Model, f: &Form) -> Result<CircleLines, String> {
+    let typed = TypedArc {
+        radius: f.field(0),
+        start: f.field(1),
+        end: f.field(2),
+        direction: f.field(3),
+        speed: f.field(4),
+        helix: f.field(5),
     };
-    let spu1 = spu(a1)?;
-    let radius = number(f.field(0), "radius")? * spu1;
-    let start = number(f.field(1), "start angle")?;
-    let end = number(f.field(2), "end angle")?;
-    let direction = match f.field(3).trim().to_ascii_lowercase().as_str() {
-        "cw" => CircleDirection::Cw,
-        "ccw" => CircleDirection::Ccw,
-        other => return Err(format!("the direction is cw or ccw, not `{other}`")),
-    };
-    let speed = number(f.field(4), "speed")? * spu1;
-    let radius = u32::try_from(radius.round() as i64)
-        .map_err(|_| "the radius must be positive".to_string())?;
-    let speed = u32::try_from(speed.round() as i64)
-        .map_err(|_| "the speed must be positive".to_string())?;
-    let lines: [CncCommand; 2] = if f.field(5).trim().is_empty() {
-        circle(radius, start, end, direction, speed)
-            .map_err(|e| e.to_string())?
-            .cnc_lines()
-    } else {
-        let third = plane.third_axis();
-        let s3 = (number(f.field(5), "helix height")? * spu(third)?).round() as i64;
-        let s3 = i32::try_from(s3).map_err(|_| "the helix height is too large".to_string())?;
-        helix(radius, start, end, direction, speed, s3)
-            .map_err(|e| e.to_string())?
-            .cnc_lines()
-    };
-    let text: Vec<String> = lines.iter().map(ToString::to_string).collect();
-    let note = format!(
-        "{:?} plane, R {radius} steps, {speed} Hz: {}",
-        plane,
-        text.join("  ")
-    );
-    Ok((text, note))
+    let b = &model.editor.buffer;
+    circle::typed(b.program(), b.cursor().line, &model.setup.axes, &typed)
 }
 
 fn circle_note(model: &Model, f: &mut Form) {
     match circle_lines(model, f) {
-        Ok((_, note)) => {
-            f.note = Some(note);
+        Ok(lines) => {
+            f.note = Some(lines.note);
             f.error = None;
         }
         Err(e) => {
@@ -650,7 +567,7 @@ fn upload(model: &mut Model) -> Vec<Effect> {
         return Vec::new();
     }
     let language = model.editor.language();
-    if let Some(why) = wrong_machine(language, model.setup.protocol) {
+    if let Some(why) = language.wrong_machine(model.setup.protocol) {
         say(model, NoteLevel::Danger, format!("upload refused: {why}"));
         return Vec::new();
     }
@@ -971,8 +888,8 @@ fn submit(model: &mut Model, mut f: Form) -> Vec<Effect> {
                 Ok(Vec::new())
             }
         }
-        FormKind::Circle => circle_lines(model, &f).map(|(lines, _)| {
-            insert_taught(model, lines);
+        FormKind::Circle => circle_lines(model, &f).map(|circle| {
+            insert_taught(model, circle.lines);
             Vec::new()
         }),
         FormKind::Dwell => {
@@ -980,7 +897,7 @@ fn submit(model: &mut Model, mut f: Form) -> Vec<Effect> {
                 language: model.editor.language(),
                 axes: &model.setup.axes,
             };
-            number(f.field(0), "time")
+            teach::number(f.field(0), "time")
                 .and_then(|s| teach::dwell(&machine, s))
                 .map(|line| {
                     insert_taught(model, vec![line]);

@@ -1,6 +1,7 @@
 //! Teach-in: program lines from where the machine stands (`docs/editor.md`,
 //! "Teach-in"). Pure: the position, work zero and speed come in, checked
-//! command lines in the program's language go out.
+//! command lines in the program's language go out. The editor asks for them
+//! (`ui::editor`); it builds no command text of its own.
 //!
 //! - isel (manual 3.2.16, 3.2.2): an absolute move `m` to the position in
 //!   work coordinates (the virtual zero of `@0n` in force when taught,
@@ -24,11 +25,11 @@
 
 use thiserror::Error;
 
+use super::path::covering_config;
+use super::{Command, Language, Program};
 use crate::axis::Axis;
 use crate::config::profile::AxisProfile;
 use crate::device::api::{MachineState, PerAxis};
-use crate::program::path::covering_config;
-use crate::program::{Command, Language, Program};
 use crate::proto::emcu;
 use crate::proto::isel::{AxisConfig, CncCommand, validate_cnc};
 
@@ -155,6 +156,28 @@ impl SlotContext {
         }
         ctx
     }
+}
+
+/// Where taught lines go in `program` when the cursor is on line `cursor`:
+/// after the cursor's line, but never after the program's end `9` (they
+/// would be refused as commands after the end).
+pub fn insertion_point(program: &Program, cursor: usize) -> usize {
+    let at = cursor + 1;
+    let end = program.statements().find_map(|(line, s)| {
+        matches!(&s.command, Ok(Command::Isel(CncCommand::End))).then_some(line)
+    });
+    end.map_or(at, |e| at.min(e))
+}
+
+/// A number as the operator types it into a form (a decimal comma is a
+/// point); `what` names it in the error.
+pub fn number(text: &str, what: &str) -> Result<f64, String> {
+    text.trim()
+        .replace(',', ".")
+        .parse::<f64>()
+        .ok()
+        .filter(|v| v.is_finite())
+        .ok_or_else(|| format!("the {what} is no number: `{}`", text.trim()))
 }
 
 /// Taught lines and the point they leave the machine at.
