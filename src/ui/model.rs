@@ -13,8 +13,8 @@ use crate::jog::JogSettings;
 use crate::proto::Protocol;
 use crate::wire::LineSettings;
 
-use super::editor::Editor;
 use super::editor::dialog::Dialog;
+use super::editor::{self, Editor};
 use super::io::IoPanel;
 use super::jog::Keypad;
 use super::jog::axes::AxisChoice;
@@ -173,6 +173,24 @@ pub struct JogSelection {
     pub speed: usize,
 }
 
+/// The editor's context from a model's fields: a macro, not a method, so
+/// that [`Model::editor_parts`] can borrow the editor mutably beside it.
+macro_rules! editor_context {
+    ($model:expr) => {
+        editor::Context {
+            setup: &$model.setup,
+            machine: &$model.machine,
+            positions: &$model.positions,
+            now: $model.now,
+            palette: &$model.palette,
+            keymap: &$model.keymap,
+            size: $model.size,
+            focused: $model.focus == PanelId::Editor,
+            popup_open: $model.popup.is_some(),
+        }
+    };
+}
+
 #[derive(Debug, Clone)]
 pub struct Model {
     pub setup: Setup,
@@ -202,6 +220,8 @@ pub struct Model {
     pub timeline: Timeline,
     /// Where the focus goes back to when the timeline closes.
     pub before_timeline: PanelId,
+    /// Where the focus goes back to when the program screen closes.
+    pub before_editor: Option<PanelId>,
     pub size: (u16, u16),
     /// Something the view shows has changed since the last frame.
     pub dirty: bool,
@@ -229,6 +249,7 @@ impl Model {
             editor: Editor::new(&setup, now),
             timeline: Timeline::new(&setup.inputs),
             before_timeline: PanelId::Jog,
+            before_editor: None,
             traffic: TrafficLog::new(setup.protocol),
             keypad: Keypad::new(setup.jog.clone()),
             setup,
@@ -251,6 +272,19 @@ impl Model {
             dirty: true,
             quitting: false,
         }
+    }
+
+    /// What the program editor may read of the model (its view draws from
+    /// the editor and this).
+    pub fn editor_context(&self) -> editor::Context<'_> {
+        editor_context!(self)
+    }
+
+    /// The program editor and its context, borrowed together (disjoint
+    /// fields) for `Editor::update`.
+    pub fn editor_parts(&mut self) -> (&mut Editor, editor::Context<'_>) {
+        let context = editor_context!(self);
+        (&mut self.editor, context)
     }
 
     /// The panels Tab cycles through, in order.

@@ -37,14 +37,14 @@ pub fn update(model: &mut Model, msg: Msg) -> Vec<Effect> {
             tick(model, now);
             // Toggle jogs live on the console's ticks.
             let mut effects = keypad::tick(model);
-            effects.extend(editor::update::tick(model, now));
+            effects.extend(editor_update(model, editor::Input::Tick));
             effects
         }
         Msg::Device(event) => {
-            editor::update::device_event(model, &event);
+            let effects = editor_update(model, editor::Input::Device(&event));
             device_event(model, event);
             model.dirty = true;
-            Vec::new()
+            effects
         }
         Msg::Resize { width, height } => {
             model.size = (width, height);
@@ -81,13 +81,13 @@ pub fn update(model: &mut Model, msg: Msg) -> Vec<Effect> {
             keypad::stopped(model);
             // The last edits go to the recovery file before leaving.
             let mut effects = vec![Effect::Stop];
-            effects.extend(editor::update::terminate(model));
+            effects.extend(editor_update(model, editor::Input::Terminate));
             effects.push(Effect::Quit);
             effects
         }
         Msg::Editor(msg) => {
             model.dirty = true;
-            editor::update::message(model, msg)
+            editor_update(model, editor::Input::Msg(msg))
         }
     }
 }
@@ -149,7 +149,7 @@ fn route(model: &mut Model, chord: KeyChord, phase: KeyPhase) -> Vec<Effect> {
         let editor_form = matches!(popup, Popup::Editor(editor::dialog::Dialog::Form(_)));
         return match (model.keymap.lookup(mode, &chord), chord.typed_char()) {
             (Some(action), _) => popup_action(model, action),
-            (None, Some(c)) if editor_form => editor::update::form_char(model, c),
+            (None, Some(c)) if editor_form => editor_dialog_char(model, c),
             (None, typed) => {
                 if let (Some(Popup::GoTo(prompt)), Some(c)) = (model.popup.as_mut(), typed) {
                     prompt.line.insert(c);
@@ -173,7 +173,7 @@ fn route(model: &mut Model, chord: KeyChord, phase: KeyPhase) -> Vec<Effect> {
     if focus == PanelId::Editor
         && let Some(c) = chord.typed_char()
     {
-        return editor::update::type_char(model, c);
+        return editor_update(model, editor::Input::Char(c));
     }
     match model.keymap.lookup(Mode::Main, &chord) {
         Some(action) => main_action(model, action),
@@ -196,8 +196,9 @@ fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
         Action::Stop => stop(model),
         Action::Quit => {
             // Unsaved edits ask first.
-            if let Some(effects) = editor::update::before_quit(model) {
-                return effects;
+            let held = editor_outcome(model, editor::Input::Quit);
+            if held.dialog.is_some() {
+                return apply_editor(model, held);
             }
             if keypad::moving(model) {
                 // Quitting stops the machine; a slip of the finger must not
@@ -355,7 +356,7 @@ fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
         // The program editor's actions on the main screen (teach-in,
         // upload, run); actions of other modes never reach here (the
         // keymap refuses them).
-        other => editor::update::main_action(model, other).unwrap_or_default(),
+        other => editor_update(model, editor::Input::Main(other)),
     }
 }
 
@@ -420,7 +421,7 @@ fn popup_action(model: &mut Model, action: Action) -> Vec<Effect> {
             Vec::new()
         }
         (Some(Popup::Editor(dialog)), action) => {
-            editor::update::dialog_action(model, dialog, action)
+            editor_update(model, editor::Input::Dialog(dialog, action))
         }
         (Some(Popup::Help { .. }), Action::Close) => Vec::new(),
         (Some(Popup::GoTo(prompt)), action) => goto_action(model, prompt, action),
@@ -542,9 +543,69 @@ fn panel_action(model: &mut Model, panel: PanelId, action: Action) -> Vec<Effect
         PanelId::Io => io_action(model, action),
         PanelId::Console => console_action(model, action),
         PanelId::Sim => sim_action(model, action),
-        PanelId::Editor => editor::update::action(model, action),
+        PanelId::Editor => editor_update(model, editor::Input::Key(action)),
         PanelId::Timeline => timeline_action(model, action),
     }
+}
+
+/// A character typed while an editor form is open.
+fn editor_dialog_char(model: &mut Model, c: char) -> Vec<Effect> {
+    match model.popup.take() {
+        Some(Popup::Editor(dialog)) => editor_update(model, editor::Input::DialogChar(dialog, c)),
+        other => {
+            model.popup = other;
+            Vec::new()
+        }
+    }
+}
+
+/// The program editor's update: `input` in its context, the outcome
+/// applied.
+fn editor_update(model: &mut Model, input: editor::Input) -> Vec<Effect> {
+    let outcome = editor_outcome(model, input);
+    apply_editor(model, outcome)
+}
+
+/// The program editor's outcome of `input`, not applied yet.
+fn editor_outcome(model: &mut Model, input: editor::Input) -> editor::Outcome {
+    let (editor, context) = model.editor_parts();
+    editor.update(&context, input)
+}
+
+/// Everything the editor's outcome asks of the rest of the console, in one
+/// place: focus, notes, its dialog (in place of any popup), the effects in
+/// order, a quit last.
+fn apply_editor(model: &mut Model, outcome: editor::Outcome) -> Vec<Effect> {
+    let editor::Outcome {
+        effects,
+        notes,
+        dialog,
+        focus,
+        quit,
+    } = outcome;
+    match focus {
+        Some(editor::Focus::Editor) if model.focus != PanelId::Editor => {
+            model.before_editor = Some(model.focus);
+            model.focus = PanelId::Editor;
+        }
+        Some(editor::Focus::Back) if model.focus == PanelId::Editor => {
+            model.focus = model.before_editor.take().unwrap_or(PanelId::Io);
+        }
+        _ => {}
+    }
+    for note in notes {
+        say(model, note.level, note.text);
+    }
+    if let Some(dialog) = dialog {
+        model.popup = Some(Popup::Editor(dialog));
+        model.dirty = true;
+    }
+    let mut effects: Vec<Effect> = effects.into_iter().map(Effect::from).collect();
+    if quit {
+        model.quitting = true;
+        effects.extend([Effect::Stop, Effect::Quit]);
+    }
+    effects
 }
 
 /// Lanes the timeline shows at the terminal's size.
@@ -757,18 +818,9 @@ fn device_event(model: &mut Model, event: Event) {
                 jog_ended(model, end);
             }
         }
-        Event::Upload(upload) => {
-            // The editor knows which line each uploaded command came from.
-            if let Some(report) = editor::update::upload_event(model, &upload) {
-                let level = if report.danger {
-                    NoteLevel::Danger
-                } else {
-                    NoteLevel::Info
-                };
-                say(model, level, report.text);
-            }
-            model.upload = Some(upload);
-        }
+        // The editor has said how it went (it knows which line each
+        // uploaded command came from).
+        Event::Upload(upload) => model.upload = Some(upload),
         Event::Traffic(record) => model.traffic.record(&record, model.now),
         Event::Reply { command, text } => {
             // Text replies (isel `@0V`, `@0H`) come in several lines.

@@ -7,10 +7,8 @@
 
 use ratatui::layout::Rect;
 
-use crate::ui::model::Model;
-
-use super::Planes;
 use super::upload::Phase;
+use super::{Editor, Planes};
 
 /// Narrowest terminal with a preview beside the editor.
 pub const PREVIEW_FROM: u16 = 70;
@@ -35,14 +33,14 @@ fn row(area: Rect, y: u16) -> Rect {
     Rect::new(area.x, y, area.width, u16::from(y < area.bottom()))
 }
 
-pub fn areas(model: &Model, area: Rect) -> ProgramAreas {
+pub fn areas(e: &Editor, area: Rect) -> ProgramAreas {
     let status = row(area, area.y);
     let message = row(area, area.y + 1);
     let hints = (area.height >= 12).then(|| row(area, area.bottom().saturating_sub(1)));
     let top = (area.y + 2).min(area.bottom());
     let bottom = hints.map_or(area.bottom(), |h| h.y).max(top);
     let body = Rect::new(area.x, top, area.width, bottom - top);
-    let show_preview = model.editor.planes != Planes::Off && body.width >= PREVIEW_FROM;
+    let show_preview = e.planes != Planes::Off && body.width >= PREVIEW_FROM;
     let preview_w = if !show_preview {
         0
     } else if body.width >= 120 {
@@ -62,7 +60,7 @@ pub fn areas(model: &Model, area: Rect) -> ProgramAreas {
     // Title rule, then the text, the upload bar, the line info.
     let inner_top = (editor.y + 1).min(editor.bottom());
     let line_info = row(editor, editor.bottom().saturating_sub(1).max(inner_top));
-    let has_upload = model.editor.upload.phase != Phase::Idle;
+    let has_upload = e.upload.phase != Phase::Idle;
     let upload = (has_upload && line_info.y > inner_top).then(|| row(editor, line_info.y - 1));
     let text_bottom = upload.map_or(line_info.y, |u| u.y).max(inner_top);
     let text = Rect::new(editor.x, inner_top, editor.width, text_bottom - inner_top);
@@ -78,22 +76,20 @@ pub fn areas(model: &Model, area: Rect) -> ProgramAreas {
     }
 }
 
-/// The text rows of the editor at the model's terminal size.
-pub fn text_rows(model: &Model) -> usize {
-    let (w, h) = model.size;
-    usize::from(areas(model, Rect::new(0, 0, w, h)).text.height)
+/// The text rows of the editor at a terminal of `size`.
+pub fn text_rows(editor: &Editor, (w, h): (u16, u16)) -> usize {
+    usize::from(areas(editor, Rect::new(0, 0, w, h)).text.height)
 }
 
-/// The text columns (after the gutter) at the model's terminal size.
-pub fn text_cols(model: &Model) -> usize {
-    let (w, h) = model.size;
-    let text = areas(model, Rect::new(0, 0, w, h)).text;
-    usize::from(text.width).saturating_sub(gutter_width(model))
+/// The text columns (after the gutter) at a terminal of `size`.
+pub fn text_cols(editor: &Editor, (w, h): (u16, u16)) -> usize {
+    let text = areas(editor, Rect::new(0, 0, w, h)).text;
+    usize::from(text.width).saturating_sub(gutter_width(editor))
 }
 
 /// Columns of the gutter: the command number (as many digits as the
 /// largest needs), a mark, a blank.
-pub fn gutter_width(model: &Model) -> usize {
-    let commands = model.editor.buffer.program().command_count().max(1);
+pub fn gutter_width(editor: &Editor) -> usize {
+    let commands = editor.buffer.program().command_count().max(1);
     commands.to_string().len().max(2) + 2
 }

@@ -2,11 +2,19 @@
 //! written and fixed at the machine, taught by jogging, previewed as a
 //! toolpath, uploaded and run.
 //!
+//! A component: [`Editor`] is its state, [`Editor::update`] takes a
+//! read-only [`Context`] and an [`Input`] and returns an [`Outcome`]
+//! (effects, notes, a dialog, a focus change, a quit) that `ui::update`
+//! applies; the view draws from the editor and the same context
+//! ([`component`], `docs/architecture.md`).
+//!
 //! - [`buffer`]: the text (the parsed program itself), cursor, undo/redo.
 //! - [`checks`]: live lint and toolpath on a snapshot, off the UI thread.
 //! - [`upload`]: an upload's progress and the line the controller refused.
 //! - [`search`], [`dialog`]: find, go to, forms and questions.
-//! - [`update`]: what keys, device events and results do to the model.
+//! - [`update`]: what keys, device events and results do to the editor.
+//!   Taught lines and circle lines come from `program::teach` and
+//!   `program::circle`; the editor writes no command text itself.
 //! - [`io`], [`worker`]: files and lint as effects, carried out on threads.
 //! - [`layout`], [`highlight`], [`view`]: the program screen.
 //!
@@ -18,6 +26,7 @@
 
 pub mod buffer;
 pub mod checks;
+pub mod component;
 pub mod dialog;
 pub mod highlight;
 pub mod io;
@@ -40,7 +49,9 @@ use buffer::Buffer;
 use checks::{Checks, EDITOR_BUDGET};
 use upload::Upload;
 
-use super::model::{PanelId, Setup};
+use super::model::Setup;
+
+pub use component::{Context, Effect, Focus, Input, Note, Outcome};
 
 /// Unsaved edits are written to the recovery file at most this often while
 /// they keep changing (and within this time of the first change).
@@ -109,8 +120,6 @@ pub struct Editor {
     /// First line and column shown (kept so the cursor stays in view).
     pub top: usize,
     pub left: usize,
-    /// The panel to return to when the editor is closed.
-    pub came_from: Option<PanelId>,
     /// Recovered edits waiting to be offered.
     pub offers: VecDeque<Recovery>,
     /// Where unsaved edits are written; `None` switches that off.
@@ -119,6 +128,12 @@ pub struct Editor {
     pub session: String,
     /// The machine as the linter sees it (start position added per lint).
     pub lint_config: LintConfig,
+}
+
+/// The unit all axes of `setup` share (`mm`), else `units`.
+pub fn unit_label(setup: &Setup) -> String {
+    crate::ui::position::common_unit(setup.axes.iter().map(|(_, p)| p))
+        .map_or_else(|| "units".to_string(), |u| u.symbol().to_string())
 }
 
 /// The linter's view of the machine of `setup`: its axes, soft limits and
@@ -164,7 +179,6 @@ impl Editor {
             query: None,
             top: 0,
             left: 0,
-            came_from: None,
             offers: VecDeque::new(),
             store: None,
             session: "session".into(),
@@ -206,6 +220,31 @@ impl Editor {
             None => Origin::Untitled {
                 tag: self.session.clone(),
             },
+        }
+    }
+
+    /// The speed taught moves get, in units per second: the profile's jog
+    /// speed chosen with `<`/`>`.
+    pub fn teach_speed(&self, setup: &Setup) -> Option<f64> {
+        setup.jog_speeds.get(self.teach.speed).copied()
+    }
+
+    /// Keep the cursor within the rows and columns shown at a terminal of
+    /// `size`.
+    pub fn scroll_into_view(&mut self, size: (u16, u16)) {
+        let rows = layout::text_rows(self, size).max(1);
+        let cols = layout::text_cols(self, size).max(1);
+        let c = self.buffer.cursor();
+        if c.line < self.top {
+            self.top = c.line;
+        } else if c.line >= self.top + rows {
+            self.top = c.line + 1 - rows;
+        }
+        // A little context to the left when scrolling sideways.
+        if c.col < self.left {
+            self.left = c.col.saturating_sub(cols / 4);
+        } else if c.col >= self.left + cols {
+            self.left = c.col + 1 - cols;
         }
     }
 

@@ -1,7 +1,9 @@
 //! The view: a pure function of the model. [`Screen`] draws everything;
 //! each panel is its own widget so later panels (jog keypad) slot in beside
-//! them. While the program editor has focus the program screen
-//! (`ui::editor::view`) takes the place of the machine screen.
+//! them. While the program editor has focus the program screen takes the
+//! place of the machine screen: the editor's own view (`ui::editor::view`,
+//! drawn from the editor and its context) inside the status bar, message
+//! line and key hints.
 
 pub mod console;
 pub mod dro;
@@ -30,7 +32,7 @@ impl Widget for Screen<'_> {
         let model = self.0;
         buf.set_style(area, model.palette.text);
         if model.focus == PanelId::Editor {
-            editor::view::ProgramScreen(model).render(area, buf);
+            program_screen(model, area, buf);
         } else if model.focus == PanelId::Timeline {
             timeline::TimelineScreen(model).render(area, buf);
         } else {
@@ -47,13 +49,33 @@ impl Widget for Screen<'_> {
                 confirmation,
             }
             .render(area, buf),
-            Some(Popup::Editor(dialog)) => {
-                editor::view::dialog::DialogView { model, dialog }.render(area, buf)
+            Some(Popup::Editor(dialog)) => editor::view::dialog::DialogView {
+                editor: &model.editor,
+                context: &model.editor_context(),
+                dialog,
             }
+            .render(area, buf),
             Some(Popup::GoTo(prompt)) => GoToView { model, prompt }.render(area, buf),
             Some(Popup::Axes(choice)) => AxesView { model, choice }.render(area, buf),
             None => {}
         }
+    }
+}
+
+/// The program screen: status bar and message line as on the machine
+/// screen, the editor panel and the toolpath preview, the key hints.
+fn program_screen(model: &Model, area: Rect, buf: &mut Buffer) {
+    let a = editor::layout::areas(&model.editor, area);
+    status::StatusBar(model).render(a.status, buf);
+    status::MessageLine(model).render(a.message, buf);
+    editor::view::ProgramView {
+        editor: &model.editor,
+        context: &model.editor_context(),
+        areas: &a,
+    }
+    .render(a.editor, buf);
+    if let Some(hints) = a.hints {
+        status::Hints(model).render(hints, buf);
     }
 }
 

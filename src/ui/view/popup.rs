@@ -7,8 +7,9 @@ use ratatui::text::{Line, Span};
 use ratatui::widgets::{Block, Borders, Clear, Paragraph, Widget, Wrap};
 
 use crate::ui::help::{HelpLine, help_lines};
-use crate::ui::keymap::{Action, Mode};
+use crate::ui::keymap::{Action, Keymap, Mode};
 use crate::ui::model::{Confirmation, Model};
+use crate::ui::palette::Palette;
 
 use super::flow::fit;
 
@@ -26,7 +27,11 @@ pub fn centred(area: Rect, width: u16, height: u16) -> Rect {
 
 /// Clear `area` and draw a popup's frame with `title`; the area inside.
 pub fn framed(model: &Model, title: &str, area: Rect, buf: &mut Buffer) -> Rect {
-    let p = &model.palette;
+    frame_in(&model.palette, title, area, buf)
+}
+
+/// [`framed`] in the colours of `p` (for a component that has no model).
+pub fn frame_in(p: &Palette, title: &str, area: Rect, buf: &mut Buffer) -> Rect {
     Clear.render(area, buf);
     let block = Block::new()
         .borders(Borders::ALL)
@@ -89,8 +94,27 @@ pub struct ConfirmView<'a> {
 
 impl Widget for ConfirmView<'_> {
     fn render(self, area: Rect, buf: &mut Buffer) {
-        let model = self.model;
-        let p = &model.palette;
+        QuestionView {
+            palette: &self.model.palette,
+            keymap: &self.model.keymap,
+            confirmation: self.confirmation,
+        }
+        .render(area, buf);
+    }
+}
+
+/// A yes/no question box: the confirmation's title and question, the keys
+/// that answer it. [`ConfirmView`] draws with it, and so do the editor's
+/// questions (which have no model, only the palette and keymap).
+pub struct QuestionView<'a> {
+    pub palette: &'a Palette,
+    pub keymap: &'a Keymap,
+    pub confirmation: &'a Confirmation,
+}
+
+impl Widget for QuestionView<'_> {
+    fn render(self, area: Rect, buf: &mut Buffer) {
+        let p = self.palette;
         let c = self.confirmation;
         let width = area.width.clamp(20, 60);
         let text_w = usize::from(width.saturating_sub(2)).max(1);
@@ -103,10 +127,9 @@ impl Widget for ConfirmView<'_> {
             + 1) as u16;
         // Borders, the question, a blank line, the answer keys.
         let box_area = centred(area, width, text_rows + 3);
-        let inner = framed(model, &c.title, box_area, buf);
+        let inner = frame_in(p, &c.title, box_area, buf);
         let keys = |action| {
-            model
-                .keymap
+            self.keymap
                 .keys_for(Mode::Confirm, action)
                 .iter()
                 .map(ToString::to_string)

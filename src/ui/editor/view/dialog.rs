@@ -8,19 +8,20 @@ use ratatui::text::{Line, Span};
 use ratatui::widgets::{Paragraph, Widget, Wrap};
 
 use crate::ui::editor::dialog::{Dialog, Form};
+use crate::ui::editor::{Context, Editor};
 use crate::ui::keymap::{Action, Mode};
-use crate::ui::model::{Confirmation, Model};
+use crate::ui::model::Confirmation;
 use crate::ui::view::flow::fit;
-use crate::ui::view::popup::{ConfirmView, centred, framed};
+use crate::ui::view::popup::{QuestionView, centred, frame_in};
 
 pub struct DialogView<'a> {
-    pub model: &'a Model,
+    pub editor: &'a Editor,
+    pub context: &'a Context<'a>,
     pub dialog: &'a Dialog,
 }
 
-fn keys(model: &Model, mode: Mode, action: Action) -> String {
-    model
-        .keymap
+fn keys(ctx: &Context, mode: Mode, action: Action) -> String {
+    ctx.keymap
         .keys_for(mode, action)
         .iter()
         .map(ToString::to_string)
@@ -30,10 +31,11 @@ fn keys(model: &Model, mode: Mode, action: Action) -> String {
 
 impl Widget for DialogView<'_> {
     fn render(self, area: Rect, buf: &mut Buffer) {
-        let model = self.model;
+        let ctx = self.context;
         match self.dialog {
-            Dialog::Ask(q) => ConfirmView {
-                model,
+            Dialog::Ask(q) => QuestionView {
+                palette: ctx.palette,
+                keymap: ctx.keymap,
                 confirmation: &Confirmation {
                     title: q.title.clone(),
                     question: q.text.clone(),
@@ -41,20 +43,20 @@ impl Widget for DialogView<'_> {
                 },
             }
             .render(area, buf),
-            Dialog::Unsaved(_) => unsaved(model, area, buf),
-            Dialog::Form(form) => form_view(model, form, area, buf),
+            Dialog::Unsaved(_) => unsaved(self.editor, ctx, area, buf),
+            Dialog::Form(form) => form_view(ctx, form, area, buf),
         }
     }
 }
 
-fn unsaved(model: &Model, area: Rect, buf: &mut Buffer) {
-    let p = &model.palette;
+fn unsaved(editor: &Editor, ctx: &Context, area: Rect, buf: &mut Buffer) {
+    let p = ctx.palette;
     let width = area.width.clamp(20, 60);
     let box_area = centred(area, width, 7);
-    let inner = framed(model, "Unsaved changes", box_area, buf);
+    let inner = frame_in(p, "Unsaved changes", box_area, buf);
     let text = format!(
         "{} has changes that are not saved. Save them first?",
-        model.editor.name()
+        editor.name()
     );
     Paragraph::new(Span::styled(text, p.warning))
         .wrap(Wrap { trim: true })
@@ -69,19 +71,19 @@ fn unsaved(model: &Model, area: Rect, buf: &mut Buffer) {
         );
     if inner.height > 0 {
         Line::from(vec![
-            Span::styled(keys(model, Mode::Unsaved, Action::Save), p.key),
+            Span::styled(keys(ctx, Mode::Unsaved, Action::Save), p.key),
             Span::styled(" save  ", p.text),
-            Span::styled(keys(model, Mode::Unsaved, Action::Discard), p.key),
+            Span::styled(keys(ctx, Mode::Unsaved, Action::Discard), p.key),
             Span::styled(" discard  ", p.text),
-            Span::styled(keys(model, Mode::Unsaved, Action::Cancel), p.key),
+            Span::styled(keys(ctx, Mode::Unsaved, Action::Cancel), p.key),
             Span::styled(" back", p.text),
         ])
         .render(Rect::new(inner.x, inner.bottom() - 1, inner.width, 1), buf);
     }
 }
 
-fn form_view(model: &Model, form: &Form, area: Rect, buf: &mut Buffer) {
-    let p = &model.palette;
+fn form_view(ctx: &Context, form: &Form, area: Rect, buf: &mut Buffer) {
+    let p = ctx.palette;
     let width = area.width.clamp(24, 72);
     let inner_w = usize::from(width.saturating_sub(2));
     let label_w = form
@@ -94,7 +96,7 @@ fn form_view(model: &Model, form: &Form, area: Rect, buf: &mut Buffer) {
     let extra = u16::from(form.error.is_some()) + u16::from(form.note.is_some());
     let height = form.fields.len() as u16 + extra + 4;
     let box_area = centred(area, width, height);
-    let inner = framed(model, form.kind.title(), box_area, buf);
+    let inner = frame_in(p, form.kind.title(), box_area, buf);
     let mut y = inner.y;
     for (i, field) in form.fields.iter().enumerate() {
         if y >= inner.bottom() {
@@ -143,11 +145,11 @@ fn form_view(model: &Model, form: &Form, area: Rect, buf: &mut Buffer) {
     }
     if inner.height > 0 {
         Line::from(vec![
-            Span::styled(keys(model, Mode::Form, Action::Submit), p.key),
+            Span::styled(keys(ctx, Mode::Form, Action::Submit), p.key),
             Span::styled(" ok  ", p.text),
-            Span::styled(keys(model, Mode::Form, Action::NextField), p.key),
+            Span::styled(keys(ctx, Mode::Form, Action::NextField), p.key),
             Span::styled(" next field  ", p.text),
-            Span::styled(keys(model, Mode::Form, Action::Cancel), p.key),
+            Span::styled(keys(ctx, Mode::Form, Action::Cancel), p.key),
             Span::styled(" cancel", p.text),
         ])
         .render(Rect::new(inner.x, inner.bottom() - 1, inner.width, 1), buf);

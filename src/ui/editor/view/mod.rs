@@ -1,5 +1,8 @@
-//! The program screen: status bar and message line as on the machine
-//! screen, the editor panel, the toolpath preview beside it, the key hints.
+//! The editor's part of the program screen, drawn from the editor and its
+//! read-only [`Context`] (nothing else of the model): the editor panel and
+//! the toolpath preview beside it ([`ProgramView`]), and the editor's
+//! dialogs. `ui::view` puts the status bar, message line and key hints
+//! around it and the dialogs over it.
 
 pub mod dialog;
 pub mod panel;
@@ -9,26 +12,28 @@ use ratatui::buffer::Buffer;
 use ratatui::layout::Rect;
 use ratatui::widgets::Widget;
 
-use crate::ui::model::Model;
-use crate::ui::view::status;
+use super::layout::ProgramAreas;
+use super::{Context, Editor};
 
-use super::layout;
+/// The editor panel and the preview in the program screen's `areas`
+/// (`layout::areas`); the area given to `render` is not used.
+pub struct ProgramView<'a> {
+    pub editor: &'a Editor,
+    pub context: &'a Context<'a>,
+    pub areas: &'a ProgramAreas,
+}
 
-/// The whole program screen (popups are drawn over it by `view::Screen`).
-pub struct ProgramScreen<'a>(pub &'a Model);
-
-impl Widget for ProgramScreen<'_> {
-    fn render(self, area: Rect, buf: &mut Buffer) {
-        let model = self.0;
-        let a = layout::areas(model, area);
-        status::StatusBar(model).render(a.status, buf);
-        status::MessageLine(model).render(a.message, buf);
-        panel::EditorView { model, areas: &a }.render(a.editor, buf);
-        if let Some(preview) = a.preview {
-            preview::PreviewView(model).render(preview, buf);
+impl Widget for ProgramView<'_> {
+    fn render(self, _area: Rect, buf: &mut Buffer) {
+        let (editor, context, a) = (self.editor, self.context, self.areas);
+        panel::EditorView {
+            editor,
+            context,
+            areas: a,
         }
-        if let Some(hints) = a.hints {
-            status::Hints(model).render(hints, buf);
+        .render(a.editor, buf);
+        if let Some(preview) = a.preview {
+            preview::PreviewView { editor, context }.render(preview, buf);
         }
     }
 }

@@ -13,16 +13,16 @@ use crate::device::api::Activity;
 use crate::program::Severity;
 use crate::ui::editor::highlight::{Class, Mark, runs};
 use crate::ui::editor::layout::{ProgramAreas, gutter_width};
-use crate::ui::editor::update::{teach_speed, unit_label};
 use crate::ui::editor::upload::Phase;
-use crate::ui::model::{Model, PanelId};
+use crate::ui::editor::{Context, Editor, unit_label};
 use crate::ui::palette::Palette;
 use crate::ui::position::format_amount;
 use crate::ui::view::flow::fit;
 use crate::ui::view::frame;
 
 pub struct EditorView<'a> {
-    pub model: &'a Model,
+    pub editor: &'a Editor,
+    pub context: &'a Context<'a>,
     pub areas: &'a ProgramAreas,
 }
 
@@ -49,9 +49,7 @@ fn mark_style(p: &Palette, mark: Mark) -> Style {
 
 /// The problem shown for a line: the controller's refusal first, then the
 /// worst diagnostic, then (for a line not yet linted) its syntax error.
-fn problem(model: &Model, line: usize) -> Option<(char, Style, String)> {
-    let p = &model.palette;
-    let e = &model.editor;
+fn problem(e: &Editor, p: &Palette, line: usize) -> Option<(char, Style, String)> {
     if let Some(mark) = e.upload.mark.as_ref().filter(|m| m.line == line) {
         return Some(('!', p.danger, mark.message.clone()));
     }
@@ -76,9 +74,8 @@ fn problem(model: &Model, line: usize) -> Option<(char, Style, String)> {
     None
 }
 
-fn title_extra(model: &Model) -> Vec<Span<'static>> {
-    let p = &model.palette;
-    let e = &model.editor;
+fn title_extra(e: &Editor, ctx: &Context) -> Vec<Span<'static>> {
+    let p = ctx.palette;
     let mut out = Vec::new();
     let modified = if e.modified() { "[+]" } else { "" };
     out.push(Span::styled(format!("{}{modified} ", e.name()), p.title));
@@ -102,11 +99,11 @@ fn title_extra(model: &Model) -> Vec<Span<'static>> {
     if e.read_only().is_some() {
         out.push(Span::styled("read-only while uploading ", p.warning));
     }
-    if model.machine.activity == Activity::RunningProgram {
+    if ctx.machine.activity == Activity::RunningProgram {
         out.push(Span::styled("RUNNING ", p.ok));
     }
-    if let Some(speed) = teach_speed(model) {
-        let unit = unit_label(model);
+    if let Some(speed) = e.teach_speed(ctx.setup) {
+        let unit = unit_label(ctx.setup);
         out.push(Span::styled(
             format!("teach {} {unit}/s ", format_amount(speed)),
             p.dim,
@@ -117,25 +114,23 @@ fn title_extra(model: &Model) -> Vec<Span<'static>> {
 
 impl Widget for EditorView<'_> {
     fn render(self, _area: Rect, buf: &mut Buffer) {
-        let model = self.model;
-        let p = &model.palette;
+        let (e, ctx) = (self.editor, self.context);
+        let p = ctx.palette;
         let a = self.areas;
-        let focused = model.focus == PanelId::Editor && model.popup.is_none();
-        frame::panel("Program", title_extra(model), focused, p, a.editor, buf);
-        text(model, a.text, focused, buf);
+        let focused = ctx.focused && !ctx.popup_open;
+        frame::panel("Program", title_extra(e, ctx), focused, p, a.editor, buf);
+        text(e, p, a.text, focused, buf);
         if let Some(bar) = a.upload {
-            upload_bar(model, bar, buf);
+            upload_bar(e, ctx, bar, buf);
         }
-        line_info(model, a.line_info, buf);
+        line_info(e, p, a.line_info, buf);
     }
 }
 
-fn text(model: &Model, area: Rect, focused: bool, buf: &mut Buffer) {
-    let p = &model.palette;
-    let e = &model.editor;
+fn text(e: &Editor, p: &Palette, area: Rect, focused: bool, buf: &mut Buffer) {
     let b = &e.buffer;
     let program = b.program();
-    let gutter = gutter_width(model);
+    let gutter = gutter_width(e);
     let width = usize::from(area.width);
     let room = width.saturating_sub(gutter);
     let rows = usize::from(area.height);
@@ -166,7 +161,7 @@ fn text(model: &Model, area: Rect, focused: bool, buf: &mut Buffer) {
             format!("{number:>w$}", w = gutter.saturating_sub(2)),
             number_style,
         ));
-        let problem = problem(model, index);
+        let problem = problem(e, p, index);
         match &problem {
             Some((letter, style, _)) => spans.push(Span::styled(format!("{letter} "), *style)),
             None => spans.push(Span::raw("  ")),
@@ -214,9 +209,9 @@ fn text(model: &Model, area: Rect, focused: bool, buf: &mut Buffer) {
     }
 }
 
-fn upload_bar(model: &Model, area: Rect, buf: &mut Buffer) {
-    let p = &model.palette;
-    let u = &model.editor.upload;
+fn upload_bar(e: &Editor, ctx: &Context, area: Rect, buf: &mut Buffer) {
+    let p = ctx.palette;
+    let u = &e.upload;
     let width = usize::from(area.width);
     let line = match &u.phase {
         Phase::Idle => return,
@@ -253,7 +248,7 @@ fn upload_bar(model: &Model, area: Rect, buf: &mut Buffer) {
             ])
         }
         Phase::Finished { total, elapsed } => {
-            let run = model
+            let run = ctx
                 .keymap
                 .key_for(
                     crate::ui::keymap::Mode::Main,
@@ -301,9 +296,7 @@ fn upload_bar(model: &Model, area: Rect, buf: &mut Buffer) {
     line.render(area, buf);
 }
 
-fn line_info(model: &Model, area: Rect, buf: &mut Buffer) {
-    let p = &model.palette;
-    let e = &model.editor;
+fn line_info(e: &Editor, p: &Palette, area: Rect, buf: &mut Buffer) {
     let b = &e.buffer;
     let c = b.cursor();
     let mut text = format!("Ln {}/{} Col {}", c.line + 1, b.line_count(), c.col + 1);
@@ -312,7 +305,7 @@ fn line_info(model: &Model, area: Rect, buf: &mut Buffer) {
     }
     let width = usize::from(area.width);
     let mut spans = vec![Span::styled(text.clone(), p.dim)];
-    match problem(model, c.line) {
+    match problem(e, p, c.line) {
         Some((letter, style, message)) => {
             let free = width.saturating_sub(text.chars().count() + 4);
             spans.push(Span::styled(format!("  {letter} "), style));

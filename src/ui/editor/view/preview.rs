@@ -16,8 +16,7 @@ use ratatui::widgets::canvas::{Canvas, Context, Line, Rectangle};
 
 use crate::axis::Axis;
 use crate::program::{PathEnd, Segment, SegmentKind};
-use crate::ui::editor::Planes;
-use crate::ui::model::Model;
+use crate::ui::editor::{Context as EditorContext, Editor, Planes};
 use crate::ui::position::format_units;
 use crate::ui::view::flow::fit;
 use crate::ui::view::frame;
@@ -25,19 +24,22 @@ use crate::ui::view::frame;
 /// Rows a plane needs to be worth drawing.
 const MIN_ROWS: u16 = 6;
 
-pub struct PreviewView<'a>(pub &'a Model);
+pub struct PreviewView<'a> {
+    pub editor: &'a Editor,
+    pub context: &'a EditorContext<'a>,
+}
 
 fn colour(style: Style) -> Color {
     style.fg.unwrap_or(Color::Reset)
 }
 
 /// The planes to draw, each with its horizontal and vertical axis.
-fn planes(model: &Model, rows: u16) -> Vec<(Axis, Axis)> {
-    let has = |a| model.setup.axis(a).is_some();
+fn planes(view: &PreviewView, rows: u16) -> Vec<(Axis, Axis)> {
+    let has = |a| view.context.setup.axis(a).is_some();
     let xy = has(Axis::X) && has(Axis::Y);
     let xz = has(Axis::X) && has(Axis::Z);
     let mut out = Vec::new();
-    match model.editor.planes {
+    match view.editor.planes {
         Planes::Off => {}
         Planes::Both => {
             if xy {
@@ -59,8 +61,8 @@ fn planes(model: &Model, rows: u16) -> Vec<(Axis, Axis)> {
 }
 
 /// Steps of `axis` in its unit.
-fn units(model: &Model, axis: Axis, steps: f64) -> f64 {
-    model
+fn units(view: &PreviewView, axis: Axis, steps: f64) -> f64 {
+    view.context
         .setup
         .axis(axis)
         .map_or(steps, |p| steps / p.steps_per_unit)
@@ -143,12 +145,13 @@ fn bounds(extent: [(f64, f64); 2], width: u16, height: u16) -> ([f64; 2], [f64; 
 
 impl Widget for PreviewView<'_> {
     fn render(self, area: Rect, buf: &mut Buffer) {
-        let model = self.0;
-        let p = &model.palette;
-        let path = model.editor.checks.path.as_ref();
+        let view = &self;
+        let p = view.context.palette;
+        let path = view.editor.checks.path.as_ref();
         let mut extra = Vec::new();
         if let Some(path) = path {
-            let end: Vec<String> = model
+            let end: Vec<String> = view
+                .context
                 .setup
                 .axes
                 .iter()
@@ -181,7 +184,7 @@ impl Widget for PreviewView<'_> {
             .render(inner, buf);
             return;
         };
-        let shown = planes(model, inner.height);
+        let shown = planes(view, inner.height);
         let count = shown.len().max(1) as u16;
         let each = inner.height / count;
         for (i, (h, v)) in shown.into_iter().enumerate() {
@@ -192,7 +195,7 @@ impl Widget for PreviewView<'_> {
                 each
             };
             plane(
-                model,
+                view,
                 path,
                 h,
                 v,
@@ -204,14 +207,14 @@ impl Widget for PreviewView<'_> {
 }
 
 fn plane(
-    model: &Model,
+    view: &PreviewView,
     path: &crate::program::Path,
     h: Axis,
     v: Axis,
     area: Rect,
     buf: &mut Buffer,
 ) {
-    let p = &model.palette;
+    let p = view.context.palette;
     if area.height < 2 {
         return;
     }
@@ -226,19 +229,24 @@ fn plane(
     let area = Rect::new(area.x, area.y + 1, area.width, area.height - 1);
     let flat = h == v;
     let coord = |pt: &[f64; 4]| -> (f64, f64) {
-        let x = units(model, h, pt.get(h.index()).copied().unwrap_or(0.0));
+        let x = units(view, h, pt.get(h.index()).copied().unwrap_or(0.0));
         let y = if flat {
             0.0
         } else {
-            units(model, v, pt.get(v.index()).copied().unwrap_or(0.0))
+            units(view, v, pt.get(v.index()).copied().unwrap_or(0.0))
         };
         (x, y)
     };
     let drawn = |s: &&Segment| !matches!(s.kind, SegmentKind::SimulatedReference(_));
-    let cursor_line = model.editor.buffer.cursor().line;
+    let cursor_line = view.editor.buffer.cursor().line;
     let start = coord(&path.start.map(|v| v as f64));
     let end = coord(&path.end.map(|v| v as f64));
-    let limit = |axis: Axis| model.setup.axis(axis).map(|prof| (prof.min, prof.max));
+    let limit = |axis: Axis| {
+        view.context
+            .setup
+            .axis(axis)
+            .map(|prof| (prof.min, prof.max))
+    };
     let (hl, vl) = (limit(h), if flat { Some((0.0, 0.0)) } else { limit(v) });
     let mut lo = [start.0.min(end.0), start.1.min(end.1)];
     let mut hi = [start.0.max(end.0), start.1.max(end.1)];
@@ -266,11 +274,11 @@ fn plane(
         colour(p.ok),
     );
     let position: Option<(f64, f64)> = {
-        let get = |a: Axis| model.positions.get(a).map(|r| r.steps as f64);
+        let get = |a: Axis| view.context.positions.get(a).map(|r| r.steps as f64);
         match (get(h), if flat { Some(0.0) } else { get(v) }) {
             (Some(x), Some(y)) => Some((
-                units(model, h, x),
-                if flat { 0.0 } else { units(model, v, y) },
+                units(view, h, x),
+                if flat { 0.0 } else { units(view, v, y) },
             )),
             _ => None,
         }

@@ -1,0 +1,136 @@
+//! The editor as a component (`docs/architecture.md`, "The editor
+//! component"): its state is [`Editor`](super::Editor), and everything else
+//! crosses one boundary. [`Editor::update`](super::Editor::update) takes a
+//! read-only [`Context`] (what the editor needs to know of the console and
+//! the machine) and an [`Input`], changes nothing but the editor, and
+//! returns an [`Outcome`]: what the rest of the console is to do (effects
+//! for the device and the worker threads, notes for the message line, a
+//! dialog to show, a focus change, a quit). `ui::update` builds the context
+//! (`Model::editor_parts`) and applies the outcome in one place; the
+//! editor's view draws from the editor and the same context.
+//!
+//! Later features of the program screen (a compact position display beside
+//! the text, program check-out runs that pause, resume and run from a line)
+//! read the machine from the context and ask the device through
+//! [`Effect::Device`], so that they too need nothing from the model.
+
+use std::time::Instant;
+
+use crate::device::api::{Event, MachineState, Request};
+use crate::ui::keymap::{Action, Keymap};
+use crate::ui::model::Setup;
+use crate::ui::palette::Palette;
+use crate::ui::position::Positions;
+use crate::ui::traffic_log::NoteLevel;
+
+use super::dialog::Dialog;
+use super::io::{EditorIo, EditorMsg};
+
+/// What the editor may read of the rest of the console, for one update or
+/// one frame. Built fresh each time from the model; never kept.
+#[derive(Debug, Clone, Copy)]
+pub struct Context<'a> {
+    /// The machine as the profile describes it: protocol, axes (units,
+    /// soft limits, speeds), the jog speeds taught moves choose from.
+    pub setup: &'a Setup,
+    /// What the controller last reported: activity, references, work zero,
+    /// the stored program.
+    pub machine: &'a MachineState,
+    /// The axes' positions as last reported (measured or estimated).
+    pub positions: &'a Positions,
+    /// The model's time (the last tick or key).
+    pub now: Instant,
+    pub palette: &'a Palette,
+    /// For the keys the view names (upload bar, dialogs).
+    pub keymap: &'a Keymap,
+    /// The terminal's size, columns and rows: what scrolling keeps in view.
+    pub size: (u16, u16),
+    /// The program screen is shown (the editor has the focus).
+    pub focused: bool,
+    /// A popup is open (one of the editor's or another): recovered edits
+    /// and the erase offer wait until it is closed.
+    pub popup_open: bool,
+}
+
+/// What reaches the editor.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Input<'a> {
+    /// A key action of the editor panel (it has the focus).
+    Key(Action),
+    /// A character typed into the text.
+    Char(char),
+    /// A main-screen action the editor owns: the program screen, teach-in,
+    /// upload, run. Other actions do nothing.
+    Main(Action),
+    /// A key action while the editor's `Dialog` is open; the caller took it
+    /// out of the popup slot, the outcome gives it back if it stays open.
+    Dialog(Dialog, Action),
+    /// A character typed while the editor's `Dialog` is open (into a form's
+    /// focused field).
+    DialogChar(Dialog, char),
+    /// A result of the editor's effects, or a request from outside.
+    Msg(EditorMsg),
+    /// Time passed (the context's `now`): lint, recovery file, offers.
+    Tick,
+    /// An event of the device task, before the model takes it (the
+    /// context's machine state is the one before the event).
+    Device(&'a Event),
+    /// The operator asks to quit: unsaved edits ask first (the outcome
+    /// shows that dialog; without one nothing holds the quit).
+    Quit,
+    /// The session ends without asking (signal, hang-up): the last edits
+    /// go to the recovery file.
+    Terminate,
+}
+
+/// An effect the editor asks for, carried out outside `update`.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Effect {
+    /// A file or lint job for the editor's worker threads; the result comes
+    /// back as [`Input::Msg`].
+    Io(EditorIo),
+    /// A request to the device task (upload, run).
+    Device(Request),
+}
+
+/// A line for the message line and the console.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Note {
+    pub level: NoteLevel,
+    pub text: String,
+}
+
+/// Where the focus goes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Focus {
+    /// To the editor: the program screen is shown.
+    Editor,
+    /// Back to the panel that had it before the editor.
+    Back,
+}
+
+/// What the rest of the console is to do after an update, applied by
+/// `ui::update` in one place, in this order: focus, notes, dialog, effects
+/// (a quit last).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Outcome {
+    /// In the order asked for.
+    pub effects: Vec<Effect>,
+    /// Said in order: the last one stays in the message line.
+    pub notes: Vec<Note>,
+    /// A dialog to show, in place of whatever popup is open.
+    pub dialog: Option<Dialog>,
+    pub focus: Option<Focus>,
+    /// Stop the machine and leave, after the effects (unsaved edits dealt
+    /// with on the way out).
+    pub quit: bool,
+}
+
+impl From<Effect> for crate::ui::msg::Effect {
+    fn from(effect: Effect) -> Self {
+        match effect {
+            Effect::Io(io) => crate::ui::msg::Effect::Editor(io),
+            Effect::Device(request) => crate::ui::msg::Effect::Request(request),
+        }
+    }
+}
