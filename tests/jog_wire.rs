@@ -246,6 +246,9 @@ async fn ten_presses_at_once_move_at_most_one_plus_the_step_queue() {
         let bound = (1 + rig.settings.step_queue) as f64;
         println!("{rate:?}: {moved:.3} mm in {moves} moves (bound {bound} mm)");
         assert!(moved <= bound + 1e-6, "{rate:?}: {moved} mm");
-        assert!(moved >= 1.0 - 1e-6, "{rate:?}: the first press moved {moved} mm");
+        assert!(
+            moved >= 1.0 - 1e-6,
+            "{rate:?}: the first press moved {moved} mm"
+        );
     }
 }

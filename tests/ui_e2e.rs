@@ -264,6 +264,14 @@ fn a_terminate_signal_stops_and_gives_the_terminal_back() {
     let screen = run.screen();
     assert!(!screen.screen().alternate_screen());
     assert!(!screen.screen().hide_cursor());
+    assert!(
+        contains(&run.output(), b"\x1b[?2004h"),
+        "bracketed paste was never switched on"
+    );
+    assert!(
+        !screen.screen().bracketed_paste(),
+        "bracketed paste left on after SIGTERM"
+    );
 }
 
 #[test]

@@ -222,6 +222,26 @@ pub fn type_char(model: &mut Model, c: char) -> Vec<Effect> {
     Vec::new()
 }
 
+/// Pasted text (bracketed paste), the one way a paste reaches the editor:
+/// into the program at the cursor, its lines as they are (one undo step),
+/// or into the open form's field, which takes one line
+/// (`line_edit::one_line`).
+pub fn paste(model: &mut Model, text: &str) -> Vec<Effect> {
+    if let Some(Popup::Editor(Dialog::Form(mut f))) = model.popup.take() {
+        let refused = f.focused().and_then(|edit| edit.paste(text).err());
+        form_changed(model, &mut f);
+        model.popup = Some(Popup::Editor(Dialog::Form(f)));
+        if let Some(refused) = refused {
+            say(model, NoteLevel::Warning, refused.to_string());
+        }
+        return Vec::new();
+    }
+    let text = crate::ui::typing::editor_text(text);
+    edit(model, |b| b.insert_text(&text));
+    scroll_into_view(model);
+    Vec::new()
+}
+
 /// Change the text, unless it is being uploaded (then say why not).
 fn edit(model: &mut Model, f: impl FnOnce(&mut Buffer)) {
     if let Some(why) = model.editor.read_only() {
