@@ -9,7 +9,11 @@
 //!   at once, the axis stands, and a later `@0S` does not move it;
 //! - a terminal with the kitty keyboard protocol (the test answers the
 //!   query as one would): a key release stops the jog at once, and the
-//!   protocol's flags are popped on the way out.
+//!   protocol's flags are popped on the way out;
+//! - in step jogging (issue 13): a bracketed paste of ten `6` moves
+//!   nothing, ten jog keys written at once (a burst) move at most
+//!   `1 + step_queue` steps, and Space in the program editor types a blank
+//!   while the machine stands but stops a step that runs.
 
 mod jog_support;
 mod ui_pty;
@@ -18,7 +22,7 @@ use std::path::Path;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use jog_support::{BREAK, DISCARD, Probe, first_break, ms, profile};
+use jog_support::{BREAK, DISCARD, Probe, first_break, moves, ms, profile};
 use jogterm::sim::SimDevice;
 use jogterm::sim::isel::IselSim;
 use jogterm::sim::shell::{PtyOptions, serve_pty};
@@ -63,7 +67,7 @@ fn a_terminate_signal_during_a_jog_writes_the_stop_at_once() {
 }
 
 /// jogterm in a pty on the recorded simulator, initialised, referenced,
-/// the keypad focused in continuous (hold) jogging.
+/// the keypad focused in continuous (hold) jogging, or in step jogging.
 struct Session {
     _config: tempfile::TempDir,
     probe: Arc<Mutex<Probe>>,
@@ -74,6 +78,12 @@ struct Session {
 /// `kitty`: answer the keyboard protocol query as a kitty-protocol terminal
 /// would, so jogterm turns key release reports on.
 fn session(kitty: bool) -> Session {
+    session_in(kitty, true)
+}
+
+/// As [`session`]; `continuous`: switched to continuous jogging (`c`), else
+/// left in step jogging (1 mm steps at 2 mm/s, the profile's defaults).
+fn session_in(kitty: bool, continuous: bool) -> Session {
     let config = tempfile::tempdir().expect("tempdir");
     let profiles = config.path().join("profiles");
     std::fs::create_dir_all(&profiles).expect("profiles dir");
@@ -99,8 +109,11 @@ fn session(kitty: bool) -> Session {
     .expect("serve the simulator");
 
     let config_dir = config.path().to_str().expect("utf-8 path").to_string();
+    // Recovery files of the editor stay in this test's own directory.
+    let state_dir = config.path().join("state").display().to_string();
     let mut env = vec![
         ("JOGTERM_CONFIG_DIR", config_dir.as_str()),
+        ("JOGTERM_STATE_DIR", state_dir.as_str()),
         ("RUST_BACKTRACE", "0"),
     ];
     if !kitty {
@@ -126,17 +139,25 @@ fn session(kitty: bool) -> Session {
         run.send(b"\x1b[?0u\x1b[?62;22c");
     }
     wait_for(&run, "connected");
-    // Initialise, and reference without travel (`@0N7`) from the console.
-    run.send(b"i");
+    // Initialise, and reference without travel (`@0N7`) from the console,
+    // typed key by key: keys written together are a burst, and a burst's
+    // Enter sends nothing.
+    run.type_keys(&[b"i"]);
     std::thread::sleep(Duration::from_millis(500));
-    run.send(b":");
-    run.send(b"@0N7\r");
-    wait_for(&run, "@0N7");
-    // Back to the keypad (past the console), continuous jogging.
-    run.send(b"\t");
+    run.type_keys(&[b":"]);
+    run.type_text("@0N7");
+    wait_for(&run, "> @0N7");
+    run.type_keys(&[b"\r"]);
+    wait_for(&run, ">> @0N7");
+    // Back to the keypad (Tab leaves the command line).
+    run.type_keys(&[b"\t"]);
     std::thread::sleep(Duration::from_millis(300));
-    run.send(b"c");
-    wait_for(&run, "HOLD");
+    if continuous {
+        run.type_keys(&[b"c"]);
+        wait_for(&run, "HOLD");
+    } else {
+        wait_for(&run, "READY");
+    }
     Session {
         _config: config,
         probe,
@@ -282,5 +303,141 @@ fn with_the_kitty_keyboard_protocol_a_release_stops_the_jog_at_once() {
         ui_pty::contains(&run.output(), b"\x1b[<1u"),
         "the keyboard flags were not popped"
     );
+    shell.shutdown();
+}
+
+/// How many steps of the profile's 1 mm the simulated controller's X
+/// counter moved between `x0` and now.
+fn mm(probe: &Arc<Mutex<Probe>>, x0: f64) -> f64 {
+    let spu = profile()
+        .axis(jogterm::axis::Axis::X)
+        .map_or(1.0, |a| a.steps_per_unit);
+    (counter_x(probe) - x0) / spu
+}
+
+/// Bytes that reached the simulated controller at or after `t`.
+fn arrivals_since(probe: &Arc<Mutex<Probe>>, t: Instant) -> Vec<(Instant, u8)> {
+    lock(probe)
+        .arrivals
+        .iter()
+        .filter(|(at, _)| *at >= t)
+        .copied()
+        .collect()
+}
+
+/// Issue 13: pasting ten `6` into the console (a stray right-click in
+/// PuTTY) made ten 1 mm steps. With bracketed paste the paste is text: on
+/// the keypad it moves nothing and says so; a `6` typed alone afterwards
+/// steps as ever.
+#[test]
+fn a_bracketed_paste_of_ten_jog_keys_moves_nothing() {
+    let Session {
+        _config,
+        probe,
+        shell,
+        mut run,
+    } = session_in(false, false);
+    let x0 = counter_x(&probe);
+    // As a terminal pastes: bracketed only when the program asked for it
+    // (`CSI ? 2004 h`), else as the bare keys.
+    let bracketed = run.screen().screen().bracketed_paste();
+    let paste: &[u8] = if bracketed {
+        b"\x1b[200~6666666666\x1b[201~"
+    } else {
+        b"6666666666"
+    };
+    let pasted = Instant::now();
+    run.send(paste);
+    std::thread::sleep(Duration::from_millis(2500));
+    let moved = moves(&arrivals_since(&probe, pasted));
+    println!(
+        "bracketed paste of ten `6`: {moved} moves, {:.3} mm",
+        mm(&probe, x0)
+    );
+    assert_eq!(moved, 0, "a paste moved the machine");
+    assert_eq!(counter_x(&probe), x0);
+    assert!(bracketed, "jogterm did not ask for bracketed paste");
+    let screen = wait_for(&run, "paste ignored");
+    assert!(
+        screen.contains("paste ignored: jogterm moves only on keys"),
+        "{screen}"
+    );
+    // The keypad still steps on a key typed alone.
+    run.type_keys(&[b"6"]);
+    std::thread::sleep(Duration::from_millis(1500));
+    assert!((mm(&probe, x0) - 1.0).abs() < 1e-6, "{} mm", mm(&probe, x0));
+    shell.shutdown();
+}
+
+/// Issue 13: ten jog keys written at once (tmux `send-keys`, a terminal
+/// without bracketed paste) made ten steps. Now at most `1 + step_queue`
+/// (3 with the profile's `step_queue = 2`) reach the controller; the
+/// console catches the burst and moves none.
+#[test]
+fn ten_jog_keys_in_one_write_move_at_most_one_plus_the_step_queue() {
+    let Session {
+        _config,
+        probe,
+        shell,
+        mut run,
+    } = session_in(false, false);
+    let bound = 1 + profile().jog.step_queue;
+    for keys in [b"6".repeat(10), b"\x1b[C".repeat(10)] {
+        let x0 = counter_x(&probe);
+        let written = Instant::now();
+        run.send(&keys);
+        std::thread::sleep(Duration::from_millis(2500));
+        let moved = moves(&arrivals_since(&probe, written));
+        let travel = mm(&probe, x0);
+        println!(
+            "ten keys in one write ({}): {moved} moves, {travel:.3} mm (bound {bound})",
+            String::from_utf8_lossy(&keys[..3]).escape_debug()
+        );
+        assert!(moved <= bound, "{moved} moves");
+        assert!(travel <= bound as f64 + 1e-6, "{travel} mm");
+        let screen = wait_for(&run, "burst ignored");
+        assert!(screen.contains("10 keys"), "{screen}");
+    }
+    shell.shutdown();
+}
+
+/// The Space rule in the program editor: while the machine stands Space
+/// types a blank; while a step runs it stops it (the stop bytes reach the
+/// controller at once) and types nothing.
+#[test]
+fn space_in_the_editor_types_while_the_machine_stands_and_stops_a_step() {
+    let Session {
+        _config,
+        probe,
+        shell,
+        mut run,
+    } = session_in(false, false);
+    // More than a second after the last request that could move (`@0N7`).
+    std::thread::sleep(Duration::from_millis(1200));
+    run.type_keys(&[b"e"]);
+    wait_for(&run, "Program");
+    run.type_text("7 7");
+    let screen = wait_for(&run, "Col 4");
+    assert!(screen.contains("7 7"), "{screen}");
+    // Back to the keypad: a 1 mm step at 2 mm/s takes half a second.
+    run.type_keys(&[b"\x1bOS"]);
+    wait_for(&run, " Jog ");
+    let x0 = counter_x(&probe);
+    run.type_keys(&[b"\x1b[C", b"\x1bOS"]);
+    wait_for(&run, "Program");
+    let space = Instant::now();
+    run.send(b" ");
+    let screen = wait_for(&run, "Space stops, not types");
+    assert!(screen.contains("Col 4"), "a blank was typed:\n{screen}");
+    let stop = first_break(&arrivals_since(&probe, space)).expect("the stop reached the wire");
+    let latency = stop.saturating_duration_since(space);
+    println!(
+        "Space in the editor during a step -> break: {:.2} ms",
+        ms(latency)
+    );
+    assert!(latency < BOUND, "{latency:?}");
+    std::thread::sleep(Duration::from_millis(800));
+    let travel = mm(&probe, x0);
+    assert!(travel < 1.0 - 1e-6, "the step ran to its end: {travel} mm");
     shell.shutdown();
 }

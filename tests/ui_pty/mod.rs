@@ -16,6 +16,9 @@ use std::time::{Duration, Instant};
 
 use portable_pty::{Child, CommandBuilder, MasterPty, PtySize, native_pty_system};
 
+/// The pause between two keys a test types one by one.
+pub const KEY_GAP: Duration = Duration::from_millis(40);
+
 pub struct PtyRun {
     master: Option<Box<dyn MasterPty + Send>>,
     pub child: Box<dyn Child + Send + Sync>,
@@ -121,6 +124,29 @@ impl PtyRun {
         let writer = self.writer.as_mut().expect("the pty is open");
         writer.write_all(bytes).expect("write to the pty");
         writer.flush().expect("flush the pty");
+    }
+
+    /// Type `keys` as a person does: one key per write, far enough apart
+    /// that no two are read together or within the console's burst gap
+    /// (5 ms, `ui::typing`), with room for a loaded machine. Keys written
+    /// together are a burst: they type into a text field but never move,
+    /// answer, send or switch anything.
+    pub fn type_keys(&mut self, keys: &[&[u8]]) {
+        for key in keys {
+            thread::sleep(KEY_GAP);
+            self.send(key);
+        }
+        thread::sleep(KEY_GAP);
+    }
+
+    /// `text` typed one character at a time (see [`PtyRun::type_keys`]).
+    pub fn type_text(&mut self, text: &str) {
+        let mut buf = [0u8; 4];
+        for c in text.chars() {
+            thread::sleep(KEY_GAP);
+            self.send(c.encode_utf8(&mut buf).as_bytes());
+        }
+        thread::sleep(KEY_GAP);
     }
 
     /// Everything the program wrote so far.
