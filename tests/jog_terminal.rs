@@ -441,3 +441,142 @@ fn space_in_the_editor_types_while_the_machine_stands_and_stops_a_step() {
     assert!(travel < 1.0 - 1e-6, "the step ran to its end: {travel} mm");
     shell.shutdown();
 }
+
+/// A real terminal in between: jogterm in tmux (which passes a paste on
+/// bracketed only to a program that asked for it: `paste-buffer -p`), on
+/// the recorded simulator, in step jogging. A paste of ten `6` and ten `6`
+/// sent as one burst (`send-keys -l`) move nothing.
+#[test]
+fn in_tmux_a_paste_and_a_burst_of_ten_jog_keys_move_nothing() {
+    if std::process::Command::new("tmux")
+        .arg("-V")
+        .output()
+        .is_err()
+    {
+        println!("tmux is not installed: the pty tests above cover the same ground");
+        return;
+    }
+    let config = tempfile::tempdir().expect("tempdir");
+    let sim = IselSim::from_profile(&profile()).expect("simulator");
+    let probe = Arc::new(Mutex::new(Probe {
+        sim,
+        arrivals: Vec::new(),
+    }));
+    let link = config.path().join("isel-link");
+    let shell = serve_pty(
+        Box::new(jog_support::Recorder(probe.clone())) as Box<dyn SimDevice>,
+        PtyOptions {
+            link: Some(link.clone()),
+        },
+    )
+    .expect("serve the simulator");
+    let tmux = Tmux::start(
+        &format!("jogterm-test-{}", std::process::id()),
+        &[
+            ("JOGTERM_CONFIG_DIR", config.path().display().to_string()),
+            (
+                "JOGTERM_STATE_DIR",
+                config.path().join("state").display().to_string(),
+            ),
+            ("JOGTERM_NO_KEYBOARD_QUERY", "1".into()),
+        ],
+        &format!("'{JOGTERM}' --port '{}'", link.display()),
+    );
+    tmux.wait_for("connected");
+    tmux.keys(&["i"]);
+    std::thread::sleep(Duration::from_millis(500));
+    tmux.keys(&[":", "@", "0", "N", "7"]);
+    tmux.wait_for("> @0N7");
+    tmux.keys(&["Enter"]);
+    tmux.wait_for(">> @0N7");
+    tmux.keys(&["Tab"]);
+    tmux.wait_for("READY");
+    let x0 = counter_x(&probe);
+
+    let pasted = Instant::now();
+    tmux.run(&["set-buffer", "-b", "jogterm", "6666666666"]);
+    tmux.run(&["paste-buffer", "-p", "-d", "-b", "jogterm"]);
+    tmux.wait_for("paste ignored: jogterm moves only on keys");
+    std::thread::sleep(Duration::from_millis(2000));
+    let moved = moves(&arrivals_since(&probe, pasted));
+    println!("tmux paste-buffer -p of ten `6`: {moved} moves");
+    assert_eq!(moved, 0);
+
+    std::thread::sleep(Duration::from_millis(300));
+    let burst = Instant::now();
+    tmux.run(&["send-keys", "-l", "6666666666"]);
+    tmux.wait_for("burst ignored");
+    std::thread::sleep(Duration::from_millis(2000));
+    let moved = moves(&arrivals_since(&probe, burst));
+    println!("tmux send-keys -l of ten `6`: {moved} moves");
+    assert!(moved <= 1 + profile().jog.step_queue, "{moved} moves");
+    assert_eq!(moved, 0, "the console caught the burst");
+    assert_eq!(counter_x(&probe), x0, "the axis moved");
+    tmux.keys(&["q"]);
+    drop(tmux);
+    shell.shutdown();
+}
+
+/// A tmux server of this test's own (its socket), ended when dropped.
+struct Tmux {
+    socket: String,
+}
+
+impl Tmux {
+    fn start(socket: &str, env: &[(&str, String)], command: &str) -> Tmux {
+        let tmux = Tmux {
+            socket: socket.to_string(),
+        };
+        let mut args = vec!["new-session", "-d", "-x", "80", "-y", "24"];
+        let pairs: Vec<String> = env.iter().map(|(k, v)| format!("{k}={v}")).collect();
+        for pair in &pairs {
+            args.extend(["-e", pair.as_str()]);
+        }
+        args.push(command);
+        tmux.run(&args);
+        tmux
+    }
+
+    fn run(&self, args: &[&str]) -> String {
+        let out = std::process::Command::new("tmux")
+            .args(["-L", &self.socket])
+            .args(args)
+            .output()
+            .expect("run tmux");
+        assert!(out.status.success(), "tmux {args:?}: {out:?}");
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    }
+
+    /// Keys one at a time (tmux key names: `Enter`, `Tab`; `-l` for text).
+    fn keys(&self, keys: &[&str]) {
+        for key in keys {
+            std::thread::sleep(ui_pty::KEY_GAP);
+            if key.chars().count() == 1 {
+                self.run(&["send-keys", "-l", key]);
+            } else {
+                self.run(&["send-keys", key]);
+            }
+        }
+        std::thread::sleep(ui_pty::KEY_GAP);
+    }
+
+    fn wait_for(&self, needle: &str) -> String {
+        let end = Instant::now() + WAIT;
+        loop {
+            let screen = self.run(&["capture-pane", "-p"]);
+            if screen.contains(needle) {
+                return screen;
+            }
+            assert!(Instant::now() < end, "`{needle}` never appeared:\n{screen}");
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+}
+
+impl Drop for Tmux {
+    fn drop(&mut self) {
+        let _ = std::process::Command::new("tmux")
+            .args(["-L", &self.socket, "kill-server"])
+            .output();
+    }
+}
