@@ -75,6 +75,31 @@ struct Session {
     run: PtyRun,
 }
 
+/// The isel simulator recording every byte's arrival, served on a pty
+/// linked at `dir/isel-link`.
+fn recorded_simulator(
+    dir: &Path,
+) -> (
+    Arc<Mutex<Probe>>,
+    jogterm::sim::shell::Shell,
+    std::path::PathBuf,
+) {
+    let sim = IselSim::from_profile(&profile()).expect("simulator");
+    let probe = Arc::new(Mutex::new(Probe {
+        sim,
+        arrivals: Vec::new(),
+    }));
+    let link = dir.join("isel-link");
+    let shell = serve_pty(
+        Box::new(jog_support::Recorder(probe.clone())) as Box<dyn SimDevice>,
+        PtyOptions {
+            link: Some(link.clone()),
+        },
+    )
+    .expect("serve the simulator");
+    (probe, shell, link)
+}
+
 /// `kitty`: answer the keyboard protocol query as a kitty-protocol terminal
 /// would, so jogterm turns key release reports on.
 fn session(kitty: bool) -> Session {
@@ -94,19 +119,7 @@ fn session_in(kitty: bool, continuous: bool) -> Session {
     )
     .expect("profile");
 
-    let sim = IselSim::from_profile(&profile()).expect("simulator");
-    let probe = Arc::new(Mutex::new(Probe {
-        sim,
-        arrivals: Vec::new(),
-    }));
-    let link = config.path().join("isel-link");
-    let shell = serve_pty(
-        Box::new(jog_support::Recorder(probe.clone())) as Box<dyn SimDevice>,
-        PtyOptions {
-            link: Some(link.clone()),
-        },
-    )
-    .expect("serve the simulator");
+    let (probe, shell, link) = recorded_simulator(config.path());
 
     let config_dir = config.path().to_str().expect("utf-8 path").to_string();
     // Recovery files of the editor stay in this test's own directory.
@@ -457,19 +470,7 @@ fn in_tmux_a_paste_and_a_burst_of_ten_jog_keys_move_nothing() {
         return;
     }
     let config = tempfile::tempdir().expect("tempdir");
-    let sim = IselSim::from_profile(&profile()).expect("simulator");
-    let probe = Arc::new(Mutex::new(Probe {
-        sim,
-        arrivals: Vec::new(),
-    }));
-    let link = config.path().join("isel-link");
-    let shell = serve_pty(
-        Box::new(jog_support::Recorder(probe.clone())) as Box<dyn SimDevice>,
-        PtyOptions {
-            link: Some(link.clone()),
-        },
-    )
-    .expect("serve the simulator");
+    let (probe, shell, link) = recorded_simulator(config.path());
     let tmux = Tmux::start(
         &format!("jogterm-test-{}", std::process::id()),
         &[
