@@ -103,17 +103,7 @@ pub fn may_move(model: &Model) -> Option<String> {
     if model.link != LinkState::Connected || !model.machine.link_up {
         return Some("the link is down, so the machine's state is unknown".into());
     }
-    let running = match model.machine.activity {
-        Activity::Idle => None,
-        Activity::Jogging => Some("jogging"),
-        Activity::Stepping => Some("stepping"),
-        Activity::Moving => Some("moving to a position"),
-        Activity::Homing => Some("running a reference run"),
-        Activity::RunningProgram => Some("running a program"),
-        Activity::Uploading => Some("storing a program"),
-        Activity::Stopping => Some("stopping"),
-    };
-    if let Some(what) = running {
+    if let Some(what) = doing(model.machine.activity) {
         return Some(format!("the machine is {what}"));
     }
     if model.keypad.jogger.active().is_some() {
@@ -131,19 +121,24 @@ pub fn may_move(model: &Model) -> Option<String> {
     None
 }
 
-/// Whether handing `request` on may set the machine moving. Raw lines
-/// count: a typed command may be a move.
+/// What the machine is doing, in words ("the machine is …"); `None` idle.
+pub fn doing(activity: Activity) -> Option<&'static str> {
+    match activity {
+        Activity::Idle => None,
+        Activity::Jogging => Some("jogging"),
+        Activity::Stepping => Some("stepping"),
+        Activity::Moving => Some("moving to a position"),
+        Activity::Homing => Some("running a reference run"),
+        Activity::RunningProgram => Some("running a program"),
+        Activity::Uploading => Some("storing a program"),
+        Activity::Stopping => Some("stopping"),
+    }
+}
+
+/// Whether handing `request` on may keep or set the machine moving (raw
+/// lines count: a typed command may be a move; a renewal keeps a jog going).
 pub fn may_start_motion(request: &Request) -> bool {
-    matches!(
-        request,
-        Request::Jog { .. }
-            | Request::JogRenew { .. }
-            | Request::Step { .. }
-            | Request::MoveTo { .. }
-            | Request::Home { .. }
-            | Request::RunProgram
-            | Request::Raw { .. }
-    )
+    request.may_move() || matches!(request, Request::JogRenew { .. })
 }
 
 /// Actions that only edit the text of the field that has the input, or

@@ -585,19 +585,10 @@ const QUIT_WHILE_MOVING: &str = "Quit while moving";
 /// (the dead-man stopped the jog meanwhile, a reference run ended), that it
 /// has stopped: the question must not go on claiming motion.
 fn quit_question(model: &Model) -> String {
-    use crate::device::api::Activity;
-    let what = match model.machine.activity {
-        Activity::Idle if keypad::moving(model) => "jogging",
-        Activity::Idle => {
-            return "The machine has stopped. Close the port and quit?".to_string();
-        }
-        Activity::Jogging => "jogging",
-        Activity::Stepping => "stepping",
-        Activity::Moving => "moving to a position",
-        Activity::Homing => "running a reference run",
-        Activity::RunningProgram => "running a program",
-        Activity::Uploading => "storing a program",
-        Activity::Stopping => "stopping",
+    let what = match typing::doing(model.machine.activity) {
+        Some(what) => what,
+        None if keypad::moving(model) => "jogging",
+        None => return "The machine has stopped. Close the port and quit?".to_string(),
     };
     format!("The machine is {what}. Stop all motion, close the port and quit?")
 }
