@@ -56,9 +56,9 @@ fn spawn_on(sim: &SimProcess, file: &str, config: &Path, state: &Path) -> PtyRun
 
 /// The machine screen (F4), where `i` initialises the axes: not referenced.
 fn initialise(run: &mut PtyRun) {
-    run.send(b"\x1bOS");
+    run.type_keys(&[b"\x1bOS"]);
     wait_for(run, "Position");
-    run.send(b"i");
+    run.type_keys(&[b"i"]);
     wait_for(run, "NOT REF");
 }
 
@@ -100,19 +100,19 @@ fn edits_survive_a_kill_and_are_offered_back() {
     let mut run = spawn(&[], &config, &state);
     let screen = wait_for(&run, "Recovered edits");
     assert!(screen.contains("drill.isel"), "{screen}");
-    run.send(b"y");
+    run.type_keys(&[b"y"]);
     let screen = wait_for(&run, "kept-after-kill");
     assert!(screen.contains("m8000,8000,8000,8000"), "{screen}");
     // Saved, the file has the edits and the recovery is gone.
-    run.send(b"\x13");
+    run.type_keys(&[b"\x13"]);
     wait_until("the save", || {
         fs::read_to_string(&file).is_ok_and(|t| t.starts_with("; kept-after-kill\n; drill"))
     });
     wait_until("the recovery removed", || recoveries(&state).is_empty());
     // Nothing unsaved: F4 back to the machine screen, and q quits at once.
-    run.send(b"\x1bOS");
+    run.type_keys(&[b"\x1bOS"]);
     wait_for(&run, "Position");
-    run.send(b"q");
+    run.type_keys(&[b"q"]);
     assert_eq!(run.wait_exit(WAIT), Some(0));
 }
 
@@ -128,12 +128,12 @@ fn quitting_with_unsaved_edits_asks_first() {
     run.send(b";\tunsaved\r");
     wait_for(&run, "unsaved");
     // Back on the machine screen, q asks instead of quitting.
-    run.send(b"\x1bOS");
+    run.type_keys(&[b"\x1bOS"]);
     wait_for(&run, "Position");
-    run.send(b"q");
+    run.type_keys(&[b"q"]);
     wait_for(&run, "Unsaved");
     // Save, then go on (quit): the file holds the edits.
-    run.send(b"s");
+    run.type_keys(&[b"s"]);
     assert_eq!(run.wait_exit(WAIT), Some(0));
     assert!(
         fs::read_to_string(&file)
@@ -197,29 +197,29 @@ fn edit_upload_and_run_on_the_simulator_end_where_the_preview_said() {
     wait_for(&run, "connected");
     wait_for(&run, " 1 E ");
     // F5 is refused while the error is there, and the cursor goes to it.
-    run.send(b"\x1b[15~");
+    run.type_keys(&[b"\x1b[15~"]);
     wait_for(&run, "upload refused");
     // End of the line, take back the `,7`, save.
-    run.send(b"\x1b[F\x7f\x7f\x13");
+    run.type_keys(&[b"\x1b[F", b"\x7f", b"\x7f", b"\x13"]);
     wait_until("the save", || {
         fs::read_to_string(&file).is_ok_and(|t| t == LOOP_AND_BRANCH)
     });
     // The machine screen: initialise, reference (asks), back to the editor.
     initialise(&mut run);
-    run.send(b"h");
-    run.send(b"y");
+    run.type_keys(&[b"h"]);
+    run.type_keys(&[b"y"]);
     wait_for(&run, "READY");
-    run.send(b"e");
+    run.type_keys(&[b"e"]);
     wait_for(&run, "Toolpath ends X");
     // Upload, then run (asks first).
-    run.send(b"\x1b[15~");
+    run.type_keys(&[b"\x1b[15~"]);
     wait_for(&run, "upload finished: 10 commands stored");
-    run.send(b"\x1b[17~");
+    run.type_keys(&[b"\x1b[17~"]);
     wait_for(&run, "Run the program");
-    run.send(b"y");
+    run.type_keys(&[b"y"]);
     wait_for(&run, "program has ended");
     // The machine screen shows where it stands, in steps.
-    run.send(b"\x1bOS");
+    run.type_keys(&[b"\x1bOS"]);
     wait_for(&run, "Position");
     // `X⌂    8.000 mm    8.000    3200 …`: work, unit, machine, steps.
     let steps = |screen: &str, axis: &str| -> Option<String> {
@@ -239,7 +239,7 @@ fn edit_upload_and_run_on_the_simulator_end_where_the_preview_said() {
         assert!(Instant::now() < end, "{at:?}\n{screen}");
         std::thread::sleep(Duration::from_millis(50));
     }
-    run.send(b"q");
+    run.type_keys(&[b"q"]);
     assert_eq!(run.wait_exit(WAIT), Some(0));
 }
 
@@ -259,9 +259,9 @@ fn a_line_the_controller_has_no_room_for_is_marked_and_erase_and_retry_stores_it
     wait_for(&run, "moves.isel");
     // The machine screen: initialise (the upload needs the axes), back.
     initialise(&mut run);
-    run.send(b"e");
+    run.type_keys(&[b"e"]);
     wait_for(&run, "moves.isel");
-    run.send(b"\x1b[15~");
+    run.type_keys(&[b"\x1b[15~"]);
     // `7 7` and the first move fit; command 3 is the second move, line 4.
     let screen = wait_for(&run, "upload failed at command 3 (line 4)");
     assert!(screen.contains("`6`"), "{screen}");
@@ -282,9 +282,9 @@ fn a_line_the_controller_has_no_room_for_is_marked_and_erase_and_retry_stores_it
     assert_eq!(fs::read_to_string(&file).expect("read"), PROGRAM);
     // Room again (the operator freed the memory); F5 offers erase-and-retry.
     sim.control("memory 2000");
-    run.send(b"\x1b[15~");
+    run.type_keys(&[b"\x1b[15~"]);
     wait_for(&run, "invalid program");
-    run.send(b"y");
+    run.type_keys(&[b"y"]);
     wait_for(&run, "upload finished: 5 commands stored");
     let received = sim.received();
     assert!(received.contains("@0k"), "erased first: {received}");
@@ -295,9 +295,9 @@ fn a_line_the_controller_has_no_room_for_is_marked_and_erase_and_retry_stores_it
         "{screen}"
     );
     assert_eq!(fs::read_to_string(&file).expect("read"), PROGRAM);
-    run.send(b"\x1bOS");
+    run.type_keys(&[b"\x1bOS"]);
     wait_for(&run, "Position");
-    run.send(b"q");
+    run.type_keys(&[b"q"]);
     assert_eq!(run.wait_exit(WAIT), Some(0));
 }
 
@@ -357,47 +357,47 @@ fn an_emcu_job_taught_after_a_work_zero_drives_back_to_where_the_machine_stood()
     );
     wait_for(&run, "connected");
     initialise(&mut run);
-    run.send(b"h");
-    run.send(b"y");
+    run.type_keys(&[b"h"]);
+    run.type_keys(&[b"y"]);
     wait_for(&run, "READY");
     wait_x_steps(&run, "0");
     // Taught at once after the reference run: machine 0.
-    run.send(b"t");
+    run.type_keys(&[b"t"]);
     wait_for(&run, "L8,X0,Y0,Z0");
     // Machine X 5 mm (200 steps/mm), the work zero there, one 1 mm step on.
-    run.send(b"gX5\r");
+    run.type_keys(&[b"g", b"X", b"5", b"\r"]);
     wait_x_steps(&run, "1000");
-    run.send(b"z");
+    run.type_keys(&[b"z"]);
     wait_for(&run, "work zero of XYZ set");
-    run.send(b"\x1b[C");
+    run.type_keys(&[b"\x1b[C"]);
     wait_x_steps(&run, "1200");
-    run.send(b"t");
+    run.type_keys(&[b"t"]);
     wait_for(&run, "L8,X1200,Y0,Z0");
     // Away to the work zero (machine 5 mm), then the job runs.
-    run.send(b"G");
+    run.type_keys(&[b"G"]);
     wait_for(&run, "Go to the work zero");
-    run.send(b"y");
+    run.type_keys(&[b"y"]);
     wait_x_steps(&run, "1000");
-    run.send(b"\x1b[15~");
+    run.type_keys(&[b"\x1b[15~"]);
     wait_for(&run, "upload finished");
-    run.send(b"\x1b[17~");
+    run.type_keys(&[b"\x1b[17~"]);
     wait_for(&run, "Run the program");
-    run.send(b"y");
+    run.type_keys(&[b"y"]);
     wait_for(&run, "the job has ended");
     // The controller's own count: X back at machine 6 mm.
     let device = sim.device_state();
     assert!(device.contains("X 1200 "), "{device}");
     wait_x_steps(&run, "1200");
     // Saved from the editor: both taught moves, in machine coordinates.
-    run.send(b"e");
+    run.type_keys(&[b"e"]);
     wait_for(&run, "taught.emcu");
-    run.send(b"\x13");
+    run.type_keys(&[b"\x13"]);
     wait_until("the save", || {
         fs::read_to_string(&file)
             .is_ok_and(|t| t.contains("L8,X0,Y0,Z0\n") && t.contains("L8,X1200,Y0,Z0\n"))
     });
-    run.send(b"\x1bOS");
+    run.type_keys(&[b"\x1bOS"]);
     wait_for(&run, "Position");
-    run.send(b"q");
+    run.type_keys(&[b"q"]);
     assert_eq!(run.wait_exit(WAIT), Some(0));
 }

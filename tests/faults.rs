@@ -516,12 +516,21 @@ fn sigkill_mid_edit(t: &mut Tally) {
     let file_arg = file.display().to_string();
     let mut console = Console::start_with(&sim, &["--program", &file_arg]);
     console.wait_for("drill.isel");
-    // A new comment on the first line (Tab types the blank: Space stops).
+    // A new comment on the first line (Tab types the blank whatever moves).
+    // Typed key by key (a burst would type too, but is no person typing):
+    // the recovery file may be written after the first key already, so wait
+    // until it holds the whole line.
     console.keys(b";\tkept-after-kill\r");
     console.wait_for("kept-after-kill");
     let end = Instant::now() + WAIT;
-    while recoveries(&sim).is_empty() {
-        assert!(Instant::now() < end, "no recovery file was written");
+    let state = sim.dir.path().join("state").join("recovery");
+    let kept = || {
+        recoveries(&sim).iter().any(|name| {
+            std::fs::read_to_string(state.join(name)).is_ok_and(|t| t.contains("kept-after-kill"))
+        })
+    };
+    while !kept() {
+        assert!(Instant::now() < end, "no recovery file holds the edit");
         std::thread::sleep(Duration::from_millis(50));
     }
     let pid = console.run.child.process_id().expect("pid");

@@ -9,7 +9,11 @@
 //!   at once, the axis stands, and a later `@0S` does not move it;
 //! - a terminal with the kitty keyboard protocol (the test answers the
 //!   query as one would): a key release stops the jog at once, and the
-//!   protocol's flags are popped on the way out.
+//!   protocol's flags are popped on the way out;
+//! - in step jogging (issue 13): a bracketed paste of ten `6` moves
+//!   nothing, ten jog keys written at once (a burst) move at most
+//!   `1 + step_queue` steps, and Space in the program editor types a blank
+//!   while the machine stands but stops a step that runs.
 
 mod jog_support;
 mod ui_pty;
@@ -18,7 +22,7 @@ use std::path::Path;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use jog_support::{BREAK, DISCARD, Probe, first_break, ms, profile};
+use jog_support::{BREAK, DISCARD, Probe, first_break, moves, ms, profile};
 use jogterm::sim::SimDevice;
 use jogterm::sim::isel::IselSim;
 use jogterm::sim::shell::{PtyOptions, serve_pty};
@@ -63,7 +67,7 @@ fn a_terminate_signal_during_a_jog_writes_the_stop_at_once() {
 }
 
 /// jogterm in a pty on the recorded simulator, initialised, referenced,
-/// the keypad focused in continuous (hold) jogging.
+/// the keypad focused in continuous (hold) jogging, or in step jogging.
 struct Session {
     _config: tempfile::TempDir,
     probe: Arc<Mutex<Probe>>,
@@ -71,9 +75,40 @@ struct Session {
     run: PtyRun,
 }
 
+/// The isel simulator recording every byte's arrival, served on a pty
+/// linked at `dir/isel-link`.
+fn recorded_simulator(
+    dir: &Path,
+) -> (
+    Arc<Mutex<Probe>>,
+    jogterm::sim::shell::Shell,
+    std::path::PathBuf,
+) {
+    let sim = IselSim::from_profile(&profile()).expect("simulator");
+    let probe = Arc::new(Mutex::new(Probe {
+        sim,
+        arrivals: Vec::new(),
+    }));
+    let link = dir.join("isel-link");
+    let shell = serve_pty(
+        Box::new(jog_support::Recorder(probe.clone())) as Box<dyn SimDevice>,
+        PtyOptions {
+            link: Some(link.clone()),
+        },
+    )
+    .expect("serve the simulator");
+    (probe, shell, link)
+}
+
 /// `kitty`: answer the keyboard protocol query as a kitty-protocol terminal
 /// would, so jogterm turns key release reports on.
 fn session(kitty: bool) -> Session {
+    session_in(kitty, true)
+}
+
+/// As [`session`]; `continuous`: switched to continuous jogging (`c`), else
+/// left in step jogging (1 mm steps at 2 mm/s, the profile's defaults).
+fn session_in(kitty: bool, continuous: bool) -> Session {
     let config = tempfile::tempdir().expect("tempdir");
     let profiles = config.path().join("profiles");
     std::fs::create_dir_all(&profiles).expect("profiles dir");
@@ -84,23 +119,14 @@ fn session(kitty: bool) -> Session {
     )
     .expect("profile");
 
-    let sim = IselSim::from_profile(&profile()).expect("simulator");
-    let probe = Arc::new(Mutex::new(Probe {
-        sim,
-        arrivals: Vec::new(),
-    }));
-    let link = config.path().join("isel-link");
-    let shell = serve_pty(
-        Box::new(jog_support::Recorder(probe.clone())) as Box<dyn SimDevice>,
-        PtyOptions {
-            link: Some(link.clone()),
-        },
-    )
-    .expect("serve the simulator");
+    let (probe, shell, link) = recorded_simulator(config.path());
 
     let config_dir = config.path().to_str().expect("utf-8 path").to_string();
+    // Recovery files of the editor stay in this test's own directory.
+    let state_dir = config.path().join("state").display().to_string();
     let mut env = vec![
         ("JOGTERM_CONFIG_DIR", config_dir.as_str()),
+        ("JOGTERM_STATE_DIR", state_dir.as_str()),
         ("RUST_BACKTRACE", "0"),
     ];
     if !kitty {
@@ -126,17 +152,25 @@ fn session(kitty: bool) -> Session {
         run.send(b"\x1b[?0u\x1b[?62;22c");
     }
     wait_for(&run, "connected");
-    // Initialise, and reference without travel (`@0N7`) from the console.
-    run.send(b"i");
+    // Initialise, and reference without travel (`@0N7`) from the console,
+    // typed key by key: keys written together are a burst, and a burst's
+    // Enter sends nothing.
+    run.type_keys(&[b"i"]);
     std::thread::sleep(Duration::from_millis(500));
-    run.send(b":");
-    run.send(b"@0N7\r");
-    wait_for(&run, "@0N7");
-    // Back to the keypad (past the console), continuous jogging.
-    run.send(b"\t");
+    run.type_keys(&[b":"]);
+    run.type_text("@0N7");
+    wait_for(&run, "> @0N7");
+    run.type_keys(&[b"\r"]);
+    wait_for(&run, ">> @0N7");
+    // Back to the keypad (Tab leaves the command line).
+    run.type_keys(&[b"\t"]);
     std::thread::sleep(Duration::from_millis(300));
-    run.send(b"c");
-    wait_for(&run, "HOLD");
+    if continuous {
+        run.type_keys(&[b"c"]);
+        wait_for(&run, "HOLD");
+    } else {
+        wait_for(&run, "READY");
+    }
     Session {
         _config: config,
         probe,
@@ -283,4 +317,267 @@ fn with_the_kitty_keyboard_protocol_a_release_stops_the_jog_at_once() {
         "the keyboard flags were not popped"
     );
     shell.shutdown();
+}
+
+/// How many steps of the profile's 1 mm the simulated controller's X
+/// counter moved between `x0` and now.
+fn mm(probe: &Arc<Mutex<Probe>>, x0: f64) -> f64 {
+    let spu = profile()
+        .axis(jogterm::axis::Axis::X)
+        .map_or(1.0, |a| a.steps_per_unit);
+    (counter_x(probe) - x0) / spu
+}
+
+/// Bytes that reached the simulated controller at or after `t`.
+fn arrivals_since(probe: &Arc<Mutex<Probe>>, t: Instant) -> Vec<(Instant, u8)> {
+    lock(probe)
+        .arrivals
+        .iter()
+        .filter(|(at, _)| *at >= t)
+        .copied()
+        .collect()
+}
+
+/// Issue 13: pasting ten `6` into the console (a stray right-click in
+/// PuTTY) made ten 1 mm steps. With bracketed paste the paste is text: on
+/// the keypad it moves nothing and says so; a `6` typed alone afterwards
+/// steps as ever.
+#[test]
+fn a_bracketed_paste_of_ten_jog_keys_moves_nothing() {
+    let Session {
+        _config,
+        probe,
+        shell,
+        mut run,
+    } = session_in(false, false);
+    let x0 = counter_x(&probe);
+    // As a terminal pastes: bracketed only when the program asked for it
+    // (`CSI ? 2004 h`), else as the bare keys.
+    let bracketed = run.screen().screen().bracketed_paste();
+    let paste: &[u8] = if bracketed {
+        b"\x1b[200~6666666666\x1b[201~"
+    } else {
+        b"6666666666"
+    };
+    let pasted = Instant::now();
+    run.send(paste);
+    std::thread::sleep(Duration::from_millis(2500));
+    let moved = moves(&arrivals_since(&probe, pasted));
+    println!(
+        "bracketed paste of ten `6`: {moved} moves, {:.3} mm",
+        mm(&probe, x0)
+    );
+    assert_eq!(moved, 0, "a paste moved the machine");
+    assert_eq!(counter_x(&probe), x0);
+    assert!(bracketed, "jogterm did not ask for bracketed paste");
+    let screen = wait_for(&run, "paste ignored");
+    assert!(
+        screen.contains("paste ignored: jogterm moves only on keys"),
+        "{screen}"
+    );
+    // The keypad still steps on a key typed alone.
+    run.type_keys(&[b"6"]);
+    std::thread::sleep(Duration::from_millis(1500));
+    assert!((mm(&probe, x0) - 1.0).abs() < 1e-6, "{} mm", mm(&probe, x0));
+    shell.shutdown();
+}
+
+/// Issue 13: ten jog keys written at once (tmux `send-keys`, a terminal
+/// without bracketed paste) made ten steps. Now at most `1 + step_queue`
+/// (3 with the profile's `step_queue = 2`) reach the controller; the
+/// console catches the burst and moves none.
+#[test]
+fn ten_jog_keys_in_one_write_move_at_most_one_plus_the_step_queue() {
+    let Session {
+        _config,
+        probe,
+        shell,
+        mut run,
+    } = session_in(false, false);
+    let bound = 1 + profile().jog.step_queue;
+    for keys in [b"6".repeat(10), b"\x1b[C".repeat(10)] {
+        let x0 = counter_x(&probe);
+        let written = Instant::now();
+        run.send(&keys);
+        std::thread::sleep(Duration::from_millis(2500));
+        let moved = moves(&arrivals_since(&probe, written));
+        let travel = mm(&probe, x0);
+        println!(
+            "ten keys in one write ({}): {moved} moves, {travel:.3} mm (bound {bound})",
+            String::from_utf8_lossy(&keys[..3]).escape_debug()
+        );
+        assert!(moved <= bound, "{moved} moves");
+        assert!(travel <= bound as f64 + 1e-6, "{travel} mm");
+        let screen = wait_for(&run, "burst ignored");
+        assert!(screen.contains("10 keys"), "{screen}");
+    }
+    shell.shutdown();
+}
+
+/// The Space rule in the program editor: while the machine stands Space
+/// types a blank; while a step runs it stops it (the stop bytes reach the
+/// controller at once) and types nothing.
+#[test]
+fn space_in_the_editor_types_while_the_machine_stands_and_stops_a_step() {
+    let Session {
+        _config,
+        probe,
+        shell,
+        mut run,
+    } = session_in(false, false);
+    // More than a second after the last request that could move (`@0N7`).
+    std::thread::sleep(Duration::from_millis(1200));
+    run.type_keys(&[b"e"]);
+    wait_for(&run, "Program");
+    run.type_text("7 7");
+    let screen = wait_for(&run, "Col 4");
+    assert!(screen.contains("7 7"), "{screen}");
+    // Back to the keypad: a 1 mm step at 2 mm/s takes half a second.
+    run.type_keys(&[b"\x1bOS"]);
+    wait_for(&run, " Jog ");
+    let x0 = counter_x(&probe);
+    run.type_keys(&[b"\x1b[C", b"\x1bOS"]);
+    wait_for(&run, "Program");
+    let space = Instant::now();
+    run.send(b" ");
+    let screen = wait_for(&run, "Space stops, not types");
+    assert!(screen.contains("Col 4"), "a blank was typed:\n{screen}");
+    let stop = first_break(&arrivals_since(&probe, space)).expect("the stop reached the wire");
+    let latency = stop.saturating_duration_since(space);
+    println!(
+        "Space in the editor during a step -> break: {:.2} ms",
+        ms(latency)
+    );
+    assert!(latency < BOUND, "{latency:?}");
+    std::thread::sleep(Duration::from_millis(800));
+    let travel = mm(&probe, x0);
+    assert!(travel < 1.0 - 1e-6, "the step ran to its end: {travel} mm");
+    shell.shutdown();
+}
+
+/// A real terminal in between: jogterm in tmux (which passes a paste on
+/// bracketed only to a program that asked for it: `paste-buffer -p`), on
+/// the recorded simulator, in step jogging. A paste of ten `6` and ten `6`
+/// sent as one burst (`send-keys -l`) move nothing.
+#[test]
+fn in_tmux_a_paste_and_a_burst_of_ten_jog_keys_move_nothing() {
+    if std::process::Command::new("tmux")
+        .arg("-V")
+        .output()
+        .is_err()
+    {
+        println!("tmux is not installed: the pty tests above cover the same ground");
+        return;
+    }
+    let config = tempfile::tempdir().expect("tempdir");
+    let (probe, shell, link) = recorded_simulator(config.path());
+    let tmux = Tmux::start(
+        &format!("jogterm-test-{}", std::process::id()),
+        &[
+            ("JOGTERM_CONFIG_DIR", config.path().display().to_string()),
+            (
+                "JOGTERM_STATE_DIR",
+                config.path().join("state").display().to_string(),
+            ),
+            ("JOGTERM_NO_KEYBOARD_QUERY", "1".into()),
+        ],
+        &format!("'{JOGTERM}' --port '{}'", link.display()),
+    );
+    tmux.wait_for("connected");
+    tmux.keys(&["i"]);
+    std::thread::sleep(Duration::from_millis(500));
+    tmux.keys(&[":", "@", "0", "N", "7"]);
+    tmux.wait_for("> @0N7");
+    tmux.keys(&["Enter"]);
+    tmux.wait_for(">> @0N7");
+    tmux.keys(&["Tab"]);
+    tmux.wait_for("READY");
+    let x0 = counter_x(&probe);
+
+    let pasted = Instant::now();
+    tmux.run(&["set-buffer", "-b", "jogterm", "6666666666"]);
+    tmux.run(&["paste-buffer", "-p", "-d", "-b", "jogterm"]);
+    tmux.wait_for("paste ignored: jogterm moves only on keys");
+    std::thread::sleep(Duration::from_millis(2000));
+    let moved = moves(&arrivals_since(&probe, pasted));
+    println!("tmux paste-buffer -p of ten `6`: {moved} moves");
+    assert_eq!(moved, 0);
+
+    std::thread::sleep(Duration::from_millis(300));
+    let burst = Instant::now();
+    tmux.run(&["send-keys", "-l", "6666666666"]);
+    tmux.wait_for("burst ignored");
+    std::thread::sleep(Duration::from_millis(2000));
+    let moved = moves(&arrivals_since(&probe, burst));
+    println!("tmux send-keys -l of ten `6`: {moved} moves");
+    assert!(moved <= 1 + profile().jog.step_queue, "{moved} moves");
+    assert_eq!(moved, 0, "the console caught the burst");
+    assert_eq!(counter_x(&probe), x0, "the axis moved");
+    tmux.keys(&["q"]);
+    drop(tmux);
+    shell.shutdown();
+}
+
+/// A tmux server of this test's own (its socket), ended when dropped.
+struct Tmux {
+    socket: String,
+}
+
+impl Tmux {
+    fn start(socket: &str, env: &[(&str, String)], command: &str) -> Tmux {
+        let tmux = Tmux {
+            socket: socket.to_string(),
+        };
+        let mut args = vec!["new-session", "-d", "-x", "80", "-y", "24"];
+        let pairs: Vec<String> = env.iter().map(|(k, v)| format!("{k}={v}")).collect();
+        for pair in &pairs {
+            args.extend(["-e", pair.as_str()]);
+        }
+        args.push(command);
+        tmux.run(&args);
+        tmux
+    }
+
+    fn run(&self, args: &[&str]) -> String {
+        let out = std::process::Command::new("tmux")
+            .args(["-L", &self.socket])
+            .args(args)
+            .output()
+            .expect("run tmux");
+        assert!(out.status.success(), "tmux {args:?}: {out:?}");
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    }
+
+    /// Keys one at a time (tmux key names: `Enter`, `Tab`; `-l` for text).
+    fn keys(&self, keys: &[&str]) {
+        for key in keys {
+            std::thread::sleep(ui_pty::KEY_GAP);
+            if key.chars().count() == 1 {
+                self.run(&["send-keys", "-l", key]);
+            } else {
+                self.run(&["send-keys", key]);
+            }
+        }
+        std::thread::sleep(ui_pty::KEY_GAP);
+    }
+
+    fn wait_for(&self, needle: &str) -> String {
+        let end = Instant::now() + WAIT;
+        loop {
+            let screen = self.run(&["capture-pane", "-p"]);
+            if screen.contains(needle) {
+                return screen;
+            }
+            assert!(Instant::now() < end, "`{needle}` never appeared:\n{screen}");
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+}
+
+impl Drop for Tmux {
+    fn drop(&mut self) {
+        let _ = std::process::Command::new("tmux")
+            .args(["-L", &self.socket, "kill-server"])
+            .output();
+    }
 }

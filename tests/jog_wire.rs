@@ -216,3 +216,39 @@ async fn holding_a_step_key_leaves_no_queue_behind() {
         "most presses dropped, not queued: {dropped}"
     );
 }
+
+/// Ten step presses that reach the device task together (a burst the
+/// console did not catch, or fast taps), with polling at line speed, so a
+/// poll is usually being answered when they arrive: at most
+/// `1 + step_queue` steps move, the rest are refused (issue 13: all ten
+/// waited in the request queue and ran, 10 mm for ten 1 mm presses).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn ten_presses_at_once_move_at_most_one_plus_the_step_queue() {
+    let _serial = SERIAL.lock().await;
+    for rate in [PollRate::LineSpeed, PollRate::Off] {
+        let mut rig = WireRig::start(rate, JogKind::Step);
+        rig.ready().await;
+        rig.run_for(Duration::from_millis(200)).await;
+        let spu = rig.steps_per_unit(Axis::X);
+        let x0 = rig.counters()[0];
+        let start = Instant::now();
+        for _ in 0..10 {
+            let out = rig.step_key(KEY, X_PLUS, 1.0, 10.0);
+            assert!(matches!(out.as_slice(), [Request::Step { .. }]), "{out:?}");
+        }
+        rig.run_for(Duration::from_secs(3)).await;
+        let moved = (rig.counters()[0] - x0) / spu;
+        let moves = rig
+            .arrivals_since(start)
+            .iter()
+            .filter(|(_, b)| matches!(b, b'A' | b'a'))
+            .count();
+        let bound = (1 + rig.settings.step_queue) as f64;
+        println!("{rate:?}: {moved:.3} mm in {moves} moves (bound {bound} mm)");
+        assert!(moved <= bound + 1e-6, "{rate:?}: {moved} mm");
+        assert!(
+            moved >= 1.0 - 1e-6,
+            "{rate:?}: the first press moved {moved} mm"
+        );
+    }
+}

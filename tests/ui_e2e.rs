@@ -21,6 +21,10 @@ fn env(config: &Path) -> Vec<(&'static str, String)> {
     vec![
         ("JOGTERM_NO_KEYBOARD_QUERY", "1".into()),
         ("JOGTERM_CONFIG_DIR", config.display().to_string()),
+        (
+            "JOGTERM_STATE_DIR",
+            config.join("state").display().to_string(),
+        ),
         ("RUST_BACKTRACE", "0".into()),
     ]
 }
@@ -46,7 +50,7 @@ fn row_with(screen: &str, needle: &str) -> Option<String> {
 
 /// Quit with `q` and check the terminal is back: main screen, cursor shown.
 fn quit_and_check(run: &mut PtyRun) {
-    run.send(b"q");
+    run.type_keys(&[b"q"]);
     let code = run.wait_exit(WAIT);
     run.drain(Duration::from_secs(5));
     let screen = run.screen();
@@ -102,7 +106,7 @@ fn the_port_timeline_shows_a_pulse_and_the_log_decodes_it() {
         config.path(),
     );
     wait_for(&run, "○X1");
-    run.send(b"w");
+    run.type_keys(&[b"w"]);
     wait_for(&run, "Port timeline");
     wait_for(&run, "no input has changed since the link came up");
     sim.control("pulse limit-x1 500");
@@ -116,7 +120,7 @@ fn the_port_timeline_shows_a_pulse_and_the_log_decodes_it() {
         lane.matches('│').count() >= 1,
         "an edge in the lane: {lane}"
     );
-    run.send(b"w");
+    run.type_keys(&[b"w"]);
     wait_for(&run, "○X1");
     quit_and_check(&mut run);
     let text = std::fs::read_to_string(&log).expect("the log");
@@ -144,9 +148,10 @@ fn the_built_in_simulator_runs_by_default_and_its_inputs_can_be_flipped() {
         screen.contains("limit-x1=0") && screen.contains("estop1=1"),
         "the simulator's levels are shown from the start:\n{screen}"
     );
-    // Tab to the simulator panel (past the port bits and the console; the
-    // jog keypad has focus at start), walk to limit-x1 and set it.
-    run.send(b"\t\t\t");
+    // Tab to the simulator panel (past the port bits; the jog keypad has
+    // focus at start, the command line is not in the ring), walk to
+    // limit-x1 and set it, key by key (keys written together are a burst).
+    run.type_keys(&[b"\t", b"\t"]);
     wait_for(&run, "flip");
     let names = screen
         .lines()
@@ -164,13 +169,13 @@ fn the_built_in_simulator_runs_by_default_and_its_inputs_can_be_flipped() {
         .position(|n| n == "limit-x1")
         .expect("limit-x1 is listed");
     for _ in 0..steps {
-        run.send(b"\x1b[B");
+        run.type_keys(&[b"\x1b[B"]);
     }
-    run.send(b"1");
+    run.type_keys(&[b"1"]);
     wait_for(&run, "limit-x1=1");
     wait_for(&run, "●X1");
     // Enter flips it back.
-    run.send(b"\r");
+    run.type_keys(&[b"\r"]);
     wait_for(&run, "limit-x1=0");
     wait_for(&run, "○X1");
     quit_and_check(&mut run);
@@ -211,18 +216,21 @@ fn a_typed_command_is_refused_with_its_reason_then_sent() {
     let mut run = spawn(&[], config.path());
     wait_for(&run, "connected");
     // Initialised, the controller's axes are known to the check.
-    run.send(b"i");
+    run.type_keys(&[b"i"]);
     wait_for(&run, "NOT REF");
-    run.send(b":@0A5000,900");
+    run.type_keys(&[b":"]);
+    run.type_text("@0A5000,900");
     wait_for(&run, "> @0A5000,900");
-    run.send(b"\r");
+    run.type_keys(&[b"\r"]);
     let screen = wait_for(&run, "^ ");
     assert!(screen.contains("pairs"), "{screen}");
     // Ctrl-U clears; the version query goes out and its answer is shown.
-    run.send(b"\x15@0V\r");
+    run.type_keys(&[b"\x15"]);
+    run.type_text("@0V");
+    run.type_keys(&[b"\r"]);
     // The answer is in the message line (the console may have scrolled on).
     wait_for(&run, "@0V = isel");
-    run.send(b"\t");
+    run.type_keys(&[b"\t"]);
     quit_and_check(&mut run);
 }
 
@@ -264,6 +272,14 @@ fn a_terminate_signal_stops_and_gives_the_terminal_back() {
     let screen = run.screen();
     assert!(!screen.screen().alternate_screen());
     assert!(!screen.screen().hide_cursor());
+    assert!(
+        contains(&run.output(), b"\x1b[?2004h"),
+        "bracketed paste was never switched on"
+    );
+    assert!(
+        !screen.screen().bracketed_paste(),
+        "bracketed paste left on after SIGTERM"
+    );
 }
 
 #[test]
@@ -302,4 +318,62 @@ fn a_broken_configuration_exits_2_before_touching_the_terminal() {
         !contains(&output, b"\x1b[?1049h"),
         "the alternate screen was entered"
     );
+}
+
+/// Issue 13: the command line takes every printable key, so it is entered
+/// only with `:`, never by Tab; while it has the keys the console says so
+/// and the terminal's cursor stands where the next character goes; Tab
+/// leaves it, the cursor is hidden again, and `i` reaches the main keys.
+#[test]
+fn the_command_line_is_entered_only_with_colon_and_shows_where_typing_lands() {
+    let config = tempfile::tempdir().expect("tempdir");
+    let mut run = spawn(&[], config.path());
+    wait_for(&run, "connected");
+    for _ in 0..4 {
+        run.type_keys(&[b"\t"]);
+        let screen = run.screen();
+        assert!(
+            !screen.screen().contents().contains("TYPING"),
+            "Tab reached the command line:\n{}",
+            screen.screen().contents()
+        );
+        assert!(
+            screen.screen().hide_cursor(),
+            "a cursor off the command line"
+        );
+    }
+    run.type_keys(&[b":"]);
+    wait_for(&run, "TYPING, Tab leaves");
+    run.type_text("@0P");
+    let screen = wait_for(&run, "> @0P");
+    let row = screen
+        .lines()
+        .position(|l| l.starts_with("> @0P"))
+        .expect("the command line row");
+    let parser = run.screen();
+    assert!(
+        !parser.screen().hide_cursor(),
+        "no cursor on the command line"
+    );
+    assert_eq!(
+        parser.screen().cursor_position(),
+        (row as u16, 5),
+        "the cursor after `@0P`"
+    );
+    run.type_keys(&[b"\t"]);
+    let end = Instant::now() + WAIT;
+    while run.screen().screen().contents().contains("TYPING") {
+        assert!(Instant::now() < end, "Tab did not leave the command line");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    assert!(run.screen().screen().hide_cursor(), "the cursor stayed");
+    // `i` is the main key again: the controller is initialised.
+    run.type_keys(&[b"i"]);
+    wait_for(&run, "NOT REF");
+    let screen = run.screen().screen().contents();
+    assert!(
+        screen.contains("> @0P"),
+        "the typed line is kept:\n{screen}"
+    );
+    quit_and_check(&mut run);
 }

@@ -1,6 +1,7 @@
 //! The terminal guard in a real pseudo-terminal: after a normal exit, an
 //! error and a panic, the terminal is back in cooked mode (ICANON, ECHO), on
-//! the main screen, with a visible cursor; on a panic the emergency stop
+//! the main screen, with a visible cursor and bracketed paste off again
+//! (on while the TUI runs, so a paste is text, not keys); on a panic the emergency stop
 //! runs before the terminal is restored; after a hang-up leaving panics not.
 //!
 //! Each case runs this test binary again as a child in a pty, running only
@@ -126,6 +127,10 @@ fn run_case(case: &str) -> (Option<u32>, Vec<u8>, String) {
         !screen.screen().hide_cursor(),
         "{case}: cursor still hidden"
     );
+    assert!(
+        !screen.screen().bracketed_paste(),
+        "{case}: bracketed paste left on (a shell would see ESC[200~)"
+    );
     (code, output, screen.screen().contents())
 }
 
@@ -146,6 +151,12 @@ fn assert_restored(case: &str, output: &[u8], screen: &str) {
     assert!(
         tui.screen().contents().contains("IN THE TUI"),
         "{case}: the TUI never drew"
+    );
+    // Switched on with the TUI (and off again on the way out, before the
+    // alternate screen is left: `run_case` checks the end).
+    assert!(
+        contains(&output[..leave], b"\x1b[?2004h"),
+        "{case}: pastes would arrive as keys (bracketed paste never on)"
     );
     assert!(contains(output, SHOW_CURSOR), "{case}: cursor shown");
     let after = &output[leave..];

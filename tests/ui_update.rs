@@ -7,8 +7,8 @@ use std::time::{Duration, Instant};
 
 use jogterm::axis::{Axis, AxisSet};
 use jogterm::device::api::{
-    Event, IoBit, IoGroup, IoSnapshot, JogEnd, JogId, LinkState, OutputId, Refusal, Request,
-    UploadEvent,
+    Activity, Event, IoBit, IoGroup, IoSnapshot, JogEnd, JogId, LinkState, MachineState, OutputId,
+    Refusal, Request, UploadEvent,
 };
 use jogterm::proto::Protocol;
 use jogterm::sim::InputControl;
@@ -209,9 +209,17 @@ fn raw_commands_are_checked_before_they_are_sent() {
     assert!(shown.contains("^ `A` with XYZ takes 4"), "{shown}");
     assert!(shown.contains("> @0A5000,900"), "{shown}");
 
-    // Space never types: it stops, and the line is unchanged.
+    // The machine stands still: Space types a blank.
+    assert!(press(&mut m, [ch(' ')]).is_empty());
+    assert_eq!(m.command.text(), "@0A5000,900 ");
+    // While it moves Space stops, and the line is unchanged.
+    let moving = MachineState {
+        activity: Activity::Jogging,
+        ..m.machine.clone()
+    };
+    update(&mut m, Msg::Device(Event::State(moving)));
     assert_eq!(press(&mut m, [ch(' ')]), [Effect::Stop]);
-    assert_eq!(m.command.text(), "@0A5000,900");
+    assert_eq!(m.command.text(), "@0A5000,900 ");
 
     press(&mut m, [ctrl('u')]);
     typed(&mut m, "@0P");
@@ -377,10 +385,8 @@ fn a_changed_bit_is_highlighted_then_fades_with_a_redraw() {
 #[test]
 fn simulator_inputs_are_flipped_through_effects() {
     let mut m = ready(Protocol::Isel);
-    press(
-        &mut m,
-        [key(KeyCode::Tab), key(KeyCode::Tab), key(KeyCode::Tab)],
-    );
+    // Tab passes the command line by: keypad, I/O, simulator.
+    press(&mut m, [key(KeyCode::Tab), key(KeyCode::Tab)]);
     assert_eq!(m.focus, PanelId::Sim);
     // The simulator reported the circuit closed at start: Enter opens it.
     assert!(screen(&m, 80, 24).contains("estop1=1"));

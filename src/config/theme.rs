@@ -70,6 +70,9 @@ pub struct Symbols {
     pub low: &'static str,
     pub edge: &'static str,
     pub burst: &'static str,
+    /// The title rule of the panel that has the focus (the others are
+    /// drawn with a thin line), so focus shows without colour.
+    pub focus_rule: &'static str,
 }
 
 impl SymbolSet {
@@ -87,6 +90,7 @@ impl SymbolSet {
                 low: "▁",
                 edge: "│",
                 burst: "▒",
+                focus_rule: "━",
             },
             SymbolSet::Ascii => Symbols {
                 lit: "#",
@@ -100,6 +104,7 @@ impl SymbolSet {
                 low: "_",
                 edge: "|",
                 burst: "#",
+                focus_rule: "=",
             },
         }
     }

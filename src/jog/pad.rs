@@ -16,6 +16,9 @@
 //!   driver runs one and coalesces what comes meanwhile up to
 //!   `jog.step_queue`, dropping the rest, so a held key never leaves a queue.
 //!
+//! - **a burst** (keys that came together, `burst_key`): never motion; it
+//!   may renew the held jog it belongs to, and latches its other keys.
+//!
 //! A key whose jog ended other than by its release (dead-man, soft limit,
 //! refusal, stop) is *latched*: its repeats do nothing until it has been let
 //! go (a release event, or a pause in its repeats longer than the repeat
@@ -209,6 +212,37 @@ impl<K: Copy + Eq + Debug> Jogger<K> {
                 self.toggle(gate, key, vector, phase, selection, now)
             }
         }
+    }
+
+    /// A motion key that came in a burst: with other keys in one read of the
+    /// terminal, or faster than a person or a key repeat types (a paste
+    /// without bracketed paste, keys a program sent; `ui::typing`). It never
+    /// starts motion or steps. The keys of a held jog that runs renew it:
+    /// over SSH a held key's repeats can arrive bunched, and a renewal is no
+    /// new motion. A toggle jog's own key is its repeat; another key stops
+    /// it, as a press would. Any other key is latched, so the rest of the
+    /// burst, read a moment later, does nothing either until the key has
+    /// been let go (its repeats pause longer than the repeat timeout).
+    pub fn burst_key(&mut self, key: K, phase: KeyPhase, now: Instant) -> Vec<Request> {
+        if phase == KeyPhase::Release {
+            return self.released(key, now);
+        }
+        if let Some(a) = self.active.as_mut()
+            && a.keys.contains(&key)
+        {
+            if a.toggle {
+                a.last_seen = now;
+                return Vec::new();
+            }
+            return self.renew(now);
+        }
+        let out = if self.active.as_ref().is_some_and(|a| a.toggle) {
+            self.release_active(now)
+        } else {
+            Vec::new()
+        };
+        self.latch(key, now);
+        out
     }
 
     /// Any key that is not a motion key. In toggle mode, while a jog runs, it

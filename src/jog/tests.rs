@@ -390,6 +390,58 @@ fn ends() -> [JogEnd; 5] {
     ]
 }
 
+#[test]
+fn a_burst_never_moves_and_its_keys_stay_latched_until_let_go() {
+    let mut p = Pad::new(JogMode::Hold, JogKind::Step, false);
+    let now = p.now;
+    for _ in 0..10 {
+        assert!(p.jog.burst_key(RIGHT, KeyPhase::Press, now).is_empty());
+    }
+    // The rest of a paste, read a moment later, as a lone key: latched.
+    assert!(p.at(3).press(RIGHT).is_empty());
+    assert!(p.at(100).press(RIGHT).is_empty());
+    // Let go (no key for longer than the repeat timeout): a press steps.
+    assert!(matches!(
+        p.at(200).press(RIGHT).as_slice(),
+        [Request::Step { .. }]
+    ));
+}
+
+#[test]
+fn a_burst_renews_the_held_jog_it_belongs_to_and_starts_no_other() {
+    let mut p = Pad::new(JogMode::Hold, JogKind::Continuous, false);
+    let id = jog_id(&p.press(RIGHT));
+    let now = p.at(500).now;
+    // Repeats bunched by the network: each renews, nothing new starts.
+    for _ in 0..3 {
+        assert_eq!(
+            p.jog.burst_key(RIGHT, KeyPhase::Press, now),
+            [Request::JogRenew { id, lease: ms(150) }]
+        );
+    }
+    assert!(p.jog.burst_key(UP, KeyPhase::Press, now).is_empty());
+    assert_eq!(p.jog.active().map(|a| a.id), Some(id));
+    // Up stays latched while it repeats.
+    assert!(p.at(30).press(UP).is_empty());
+}
+
+#[test]
+fn a_burst_in_toggle_mode_is_the_jogs_own_repeat_or_stops_it() {
+    let mut p = Pad::new(JogMode::Toggle, JogKind::Continuous, false);
+    let id = jog_id(&p.press(RIGHT));
+    let now = p.at(20).now;
+    assert!(p.jog.burst_key(RIGHT, KeyPhase::Press, now).is_empty());
+    assert!(p.jog.active().is_some());
+    assert_eq!(
+        p.jog.burst_key(UP, KeyPhase::Press, now),
+        [Request::JogRelease { id }]
+    );
+    assert!(p.jog.active().is_none());
+    // With nothing running a burst starts nothing.
+    assert!(p.jog.burst_key(UP, KeyPhase::Press, now).is_empty());
+    assert!(p.jog.active().is_none());
+}
+
 proptest! {
     /// Whatever the keys do: every renewal and release names a jog the pad
     /// started and has not let go of; at most one of its jogs is alive at

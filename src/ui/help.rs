@@ -19,11 +19,26 @@ pub enum HelpLine {
 fn notes(keymap: &Keymap, mode: Mode) -> &'static [&'static str] {
     let esc_stops = keymap.lookup(Mode::Main, &KeyChord::plain(KeyCode::Esc)) == Some(Action::Stop);
     match mode {
-        Mode::Safety => &["Space never types a space: raw commands are written without blanks."],
-        Mode::Main if esc_stops => &["Esc stops too, unless a popup is open (Esc then closes it)."],
-        Mode::Console => {
-            &["Commands are checked with the controller's own rules before they are sent."]
-        }
+        Mode::Safety => &[
+            "Space stops whenever anything moves or may move, in every mode and popup.",
+            "In the editor, the command line and typed prompts Space types a blank only",
+            "while the machine is known to stand still (connected, idle, no move asked",
+            "for in the last second); otherwise it stops and says why.",
+        ],
+        Mode::Main if esc_stops => &[
+            "Esc stops too, unless a popup is open (Esc then closes it).",
+            "A paste is text: typed into the editor or a typed line, ignored elsewhere.",
+            "Keys that arrive together (a paste, a burst) never move the machine.",
+        ],
+        Mode::Main => &[
+            "A paste is text: typed into the editor or a typed line, ignored elsewhere.",
+            "Keys that arrive together (a paste, a burst) never move the machine.",
+        ],
+        Mode::Console => &[
+            "Only : enters the command line (Tab passes it by), so keys meant for the",
+            "keypad never land here. Commands are checked with the controller's own",
+            "rules before they are sent; a paste goes in but is never sent by itself.",
+        ],
         Mode::Sim => &["Simulator inputs exist only on the built-in simulator."],
         Mode::Editor => &[
             "Gutter numbers are the controller's command numbers; #N in go-to finds command N.",

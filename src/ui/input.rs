@@ -14,7 +14,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::thread::{self, JoinHandle};
 use std::time::{Duration, Instant};
 
-use ratatui::crossterm::event::{self, Event as TermEvent};
+use ratatui::crossterm::event::{self, Event as TermEvent, KeyEvent};
 use tokio::sync::mpsc::UnboundedSender;
 
 use super::msg::Msg;
@@ -67,25 +67,95 @@ impl Drop for InputThreads {
     }
 }
 
+/// Most events taken in one batch; a paste without bracketed paste is
+/// read in pieces of this many keys (each a burst of its own).
+const MAX_BATCH: usize = 4096;
+
 fn read_loop(tx: &UnboundedSender<Msg>, stop: &AtomicBool) {
     while !stop.load(Ordering::SeqCst) {
-        let msg = match event::poll(POLL) {
+        let msgs = match event::poll(POLL) {
             Ok(false) => continue,
-            Ok(true) => match event::read() {
-                // The time it was read: what the jog keypad's dead-man
-                // arithmetic counts from.
-                Ok(TermEvent::Key(key)) => Msg::KeyAt(key, Instant::now()),
-                Ok(TermEvent::Resize(width, height)) => Msg::Resize { width, height },
-                Ok(_) => continue,
-                Err(e) => terminate(format!("terminal input failed: {e}")),
-            },
-            Err(e) => terminate(format!("terminal input failed: {e}")),
+            Ok(true) => read_batch(),
+            Err(e) => vec![terminate(format!("terminal input failed: {e}"))],
         };
-        let ending = matches!(msg, Msg::Terminate { .. });
-        if tx.send(msg).is_err() || ending {
-            return;
+        for msg in msgs {
+            let ending = matches!(msg, Msg::Terminate { .. });
+            if tx.send(msg).is_err() || ending {
+                return;
+            }
         }
     }
+}
+
+/// The event that is ready and every event already behind it: what one
+/// read of the terminal delivered (crossterm parses a whole read into its
+/// queue), or what arrived while it was parsed. Keys that come together
+/// are handed on together, so `update` can tell a burst (a paste without
+/// bracketed paste, keys a program typed) from keys a person types
+/// (`ui::typing`, `docs/jogging.md`).
+fn read_batch() -> Vec<Msg> {
+    let mut events = Vec::new();
+    let mut failed = None;
+    loop {
+        match event::read() {
+            // The time it was read: what the jog keypad's dead-man
+            // arithmetic and the burst rule count from.
+            Ok(e) => events.push((e, Instant::now())),
+            Err(e) => {
+                failed = Some(e);
+                break;
+            }
+        }
+        if events.len() >= MAX_BATCH {
+            break;
+        }
+        match event::poll(Duration::ZERO) {
+            Ok(true) => continue,
+            Ok(false) => break,
+            Err(e) => {
+                failed = Some(e);
+                break;
+            }
+        }
+    }
+    let mut msgs = messages(events);
+    if let Some(e) = failed {
+        msgs.push(terminate(format!("terminal input failed: {e}")));
+    }
+    msgs
+}
+
+/// Terminal events as messages, in order: keys next to each other form one
+/// batch (`KeyAt` for a lone key, `KeysAt` for several), a paste is
+/// `Paste`, a resize `Resize`; other events (focus, mouse) are dropped.
+pub fn messages(events: Vec<(TermEvent, Instant)>) -> Vec<Msg> {
+    let mut out = Vec::new();
+    let mut keys: Vec<(KeyEvent, Instant)> = Vec::new();
+    let flush = |keys: &mut Vec<(KeyEvent, Instant)>, out: &mut Vec<Msg>| match keys.len() {
+        0 => {}
+        1 => {
+            if let Some((key, at)) = keys.pop() {
+                out.push(Msg::KeyAt(key, at));
+            }
+        }
+        _ => out.push(Msg::KeysAt(std::mem::take(keys))),
+    };
+    for (event, at) in events {
+        match event {
+            TermEvent::Key(key) => keys.push((key, at)),
+            TermEvent::Paste(text) => {
+                flush(&mut keys, &mut out);
+                out.push(Msg::Paste(text));
+            }
+            TermEvent::Resize(width, height) => {
+                flush(&mut keys, &mut out);
+                out.push(Msg::Resize { width, height });
+            }
+            _ => {}
+        }
+    }
+    flush(&mut keys, &mut out);
+    out
 }
 
 fn terminate(reason: String) -> Msg {
@@ -121,4 +191,44 @@ fn watch_hangup(tx: &UnboundedSender<Msg>, stop: &AtomicBool) {
 fn is_tty(fd: BorrowedFd<'_>) -> bool {
     // SAFETY: isatty only inspects the descriptor.
     unsafe { libc::isatty(fd.as_raw_fd()) == 1 }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ratatui::crossterm::event::{KeyCode, KeyModifiers};
+
+    fn key(c: char) -> TermEvent {
+        TermEvent::Key(KeyEvent::new(KeyCode::Char(c), KeyModifiers::NONE))
+    }
+
+    #[test]
+    fn keys_read_together_are_one_batch_and_a_lone_key_is_a_key() {
+        let t = Instant::now();
+        let later = t + Duration::from_micros(30);
+        let events = vec![
+            (key('6'), t),
+            (key('6'), later),
+            (TermEvent::Resize(100, 30), later),
+            (key('q'), later),
+            (TermEvent::Paste("666".into()), later),
+            (TermEvent::FocusGained, later),
+        ];
+        let msgs = messages(events);
+        let six = KeyEvent::new(KeyCode::Char('6'), KeyModifiers::NONE);
+        let q = KeyEvent::new(KeyCode::Char('q'), KeyModifiers::NONE);
+        assert_eq!(
+            msgs,
+            vec![
+                Msg::KeysAt(vec![(six, t), (six, later)]),
+                Msg::Resize {
+                    width: 100,
+                    height: 30
+                },
+                Msg::KeyAt(q, later),
+                Msg::Paste("666".into()),
+            ]
+        );
+        assert!(messages(Vec::new()).is_empty());
+    }
 }

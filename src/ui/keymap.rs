@@ -80,8 +80,8 @@ named_enum! {
         Jog = "jog", "Jog keypad (focused)";
         /// The I/O panel has focus.
         Io = "io", "I/O panel (focused)";
-        /// The traffic console's command line has focus.
-        Console = "console", "Console command line (focused; other characters are typed)";
+        /// The traffic console's command line has focus (entered with `:`).
+        Console = "console", "Console command line (entered with :, Tab leaves; other characters are typed)";
         /// The simulator panel has focus.
         Sim = "sim", "Simulator panel (focused)";
         /// The program editor has focus (the program screen is shown).
@@ -165,7 +165,7 @@ named_enum! {
         CursorTop = "cursor-top", "cursor to the first line";
         CursorBottom = "cursor-bottom", "cursor to the last line";
         NewLine = "new-line", "split the line";
-        TypeBlank = "type-blank", "type a blank (Space stops and never types)";
+        TypeBlank = "type-blank", "type a blank (Space too, while the machine stands)";
         DeleteLine = "delete-line", "delete the line";
         Undo = "undo", "undo";
         Redo = "redo", "redo";

@@ -148,6 +148,23 @@ impl LineEdit {
         self.error = None;
     }
 
+    /// Pasted text at the cursor, if it is one line that fits (see
+    /// [`one_line`]); nothing changes otherwise. Never sends anything: the
+    /// operator checks the line and presses Enter.
+    pub fn paste(&mut self, text: &str) -> Result<(), PasteRefused> {
+        let line = one_line(text)?;
+        let room = MAX_LEN - self.len().min(MAX_LEN);
+        let chars = line.chars().count();
+        if chars > room {
+            return Err(PasteRefused::TooLong { chars, room });
+        }
+        let at = self.byte_at(self.cursor);
+        self.text.insert_str(at, &line);
+        self.cursor += chars;
+        self.edited();
+        Ok(())
+    }
+
     /// The line was sent: remember it (not twice in a row) and start afresh.
     pub fn accept(&mut self) -> String {
         let line = std::mem::take(&mut self.text);
@@ -163,6 +180,40 @@ impl LineEdit {
         self.error = None;
         line
     }
+}
+
+/// Why pasted text did not go into a one-line field.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum PasteRefused {
+    #[error(
+        "paste refused: this line takes one line, the paste has {lines} \
+         (programs go into the editor)"
+    )]
+    Lines { lines: usize },
+    #[error("paste refused: {chars} characters, the line has room for {room}")]
+    TooLong { chars: usize, room: usize },
+}
+
+/// Pasted text as one line for a one-line field (the command line, the
+/// go-to prompt, an editor form): line ends at its end are dropped (a line
+/// copied with its newline), a tab becomes a blank, other control
+/// characters go. Text of more than one line is refused as a whole rather
+/// than cut at the first line end: what the operator sees in the field is
+/// then all of what was pasted, and nothing is left out unnoticed.
+pub fn one_line(text: &str) -> Result<String, PasteRefused> {
+    let body = text.trim_end_matches(['\r', '\n']);
+    let lines = body.split(['\r', '\n']).filter(|l| !l.is_empty()).count();
+    if lines > 1 {
+        return Err(PasteRefused::Lines { lines });
+    }
+    Ok(body
+        .chars()
+        .filter_map(|c| match c {
+            '\t' => Some(' '),
+            c if c.is_control() => None,
+            c => Some(c),
+        })
+        .collect())
 }
 
 /// A byte range of `text` as a character range (for a line that may hold
@@ -237,6 +288,35 @@ mod tests {
             e.insert('a');
         }
         assert_eq!(e.text().len(), MAX_LEN);
+    }
+
+    #[test]
+    fn a_pasted_line_goes_in_at_the_cursor_without_its_line_end() {
+        let mut e = typed("@0");
+        e.paste("M5000,900\r\n").expect("one line");
+        assert_eq!((e.text(), e.cursor()), ("@0M5000,900", 11));
+        e.home();
+        e.paste("\tx\u{1b}").expect("one line");
+        assert_eq!(e.text(), " x@0M5000,900", "tab a blank, ESC dropped");
+        let before = e.clone();
+        assert_eq!(
+            e.paste("@0A100,900\n@0A-100,900\n"),
+            Err(PasteRefused::Lines { lines: 2 })
+        );
+        assert_eq!(
+            e.paste("a\r\rb"),
+            Err(PasteRefused::Lines { lines: 2 }),
+            "CR alone ends a line too"
+        );
+        assert_eq!(e, before, "a refused paste changes nothing");
+        let long = "a".repeat(MAX_LEN);
+        assert!(matches!(e.paste(&long), Err(PasteRefused::TooLong { .. })));
+        assert_eq!(e, before);
+        assert!(
+            PasteRefused::Lines { lines: 2 }
+                .to_string()
+                .contains("takes one line")
+        );
     }
 
     #[test]

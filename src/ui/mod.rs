@@ -10,7 +10,9 @@
 //! ([`position`], [`io`], [`traffic_log`], [`line_edit`], [`sim_panel`],
 //! [`jog`] for the jog keypad, the program [`editor`] and the port
 //! [`timeline`] with screens of their own);
-//! [`raw`] checks typed commands with each family's parser.
+//! [`raw`] checks typed commands with each family's parser; [`typing`]
+//! decides where typed and pasted text goes, what keys that arrive together
+//! may do, and when Space types rather than stops.
 //!
 //! Around it: [`terminal`] owns the terminal (restored on drop, error and
 //! panic), [`input`] reads keys on its own thread, [`runtime`] runs the loop
@@ -35,6 +37,7 @@ pub mod summary;
 pub mod terminal;
 pub mod timeline;
 pub mod traffic_log;
+pub mod typing;
 pub mod update;
 pub mod view;
 

@@ -222,6 +222,15 @@ pub struct Model {
     pub before_timeline: PanelId,
     /// Where the focus goes back to when the program screen closes.
     pub before_editor: Option<PanelId>,
+    /// Where the focus goes back to when the command line is left (it is
+    /// entered only with `:`, never by Tab: `ui::typing`).
+    pub before_console: PanelId,
+    /// When the last key press (or repeat) was read: a key within
+    /// `typing::BURST_GAP` of it belongs to the same burst.
+    pub last_key_at: Option<Instant>,
+    /// When a request that may move the machine was last handed on: Space
+    /// types in a text field only a while after it (`typing::may_move`).
+    pub motion_asked: Option<Instant>,
     pub size: (u16, u16),
     /// Something the view shows has changed since the last frame.
     pub dirty: bool,
@@ -250,6 +259,9 @@ impl Model {
             timeline: Timeline::new(&setup.inputs),
             before_timeline: PanelId::Jog,
             before_editor: None,
+            before_console: PanelId::Jog,
+            last_key_at: None,
+            motion_asked: None,
             traffic: TrafficLog::new(setup.protocol),
             keypad: Keypad::new(setup.jog.clone()),
             setup,
@@ -287,9 +299,11 @@ impl Model {
         (&mut self.editor, context)
     }
 
-    /// The panels Tab cycles through, in order.
+    /// The panels Tab cycles through, in order. Not the command line: it
+    /// takes every printable key, so it is entered deliberately with `:`
+    /// (and Tab leaves it), never reached by cycling past it.
     pub fn focus_ring(&self) -> Vec<PanelId> {
-        let mut ring = vec![PanelId::Jog, PanelId::Io, PanelId::Console];
+        let mut ring = vec![PanelId::Jog, PanelId::Io];
         if self.sim.is_some() {
             ring.push(PanelId::Sim);
         }

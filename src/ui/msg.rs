@@ -18,6 +18,13 @@ pub enum Msg {
     /// A key as the input thread read it, and when: the jog keypad's
     /// dead-man arithmetic needs the key's own time, not the last tick's.
     KeyAt(KeyEvent, Instant),
+    /// Keys the input thread found waiting together (one read of the
+    /// terminal), each with the time it was read: more than one key press
+    /// in one batch is a burst, never motion (`ui::typing`).
+    KeysAt(Vec<(KeyEvent, Instant)>),
+    /// Text the terminal pasted (bracketed paste): text where text is typed,
+    /// never keys.
+    Paste(String),
     /// Time passes: highlights fade, messages age, half-read replies are
     /// shown. Sent by the runtime a few times a second.
     Tick(Instant),

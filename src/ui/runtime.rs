@@ -216,7 +216,7 @@ async fn late_edits(model: &mut Model, input: &mut UnboundedReceiver<Msg>, worke
     let until = tokio::time::Instant::now() + LATE_INPUT;
     loop {
         let msg = match tokio::time::timeout_at(until, input.recv()).await {
-            Ok(Some(msg @ (Msg::Key(_) | Msg::KeyAt(..)))) => msg,
+            Ok(Some(msg @ (Msg::Key(_) | Msg::KeyAt(..) | Msg::KeysAt(_) | Msg::Paste(_)))) => msg,
             Ok(Some(Msg::Terminate { .. }) | None) | Err(_) => return,
             Ok(Some(_)) => continue,
         };
@@ -272,7 +272,14 @@ fn watch_signals(tx: UnboundedSender<Msg>) -> Result<tokio::task::JoinHandle<()>
 
 fn draw<B: Backend>(terminal: &mut Terminal<B>, model: &mut Model) -> Result<(), RunError> {
     terminal
-        .draw(|frame| frame.render_widget(Screen(model), frame.area()))
+        .draw(|frame| {
+            let area = frame.area();
+            frame.render_widget(Screen(&*model), area);
+            // Shown only where typing lands; ratatui hides it otherwise.
+            if let Some(at) = super::view::cursor(model, area) {
+                frame.set_cursor_position(at);
+            }
+        })
         .map_err(|e| RunError::Draw(e.to_string()))?;
     model.dirty = false;
     Ok(())

@@ -1,7 +1,8 @@
 //! The one owner of the terminal: raw mode, the alternate screen, a hidden
-//! cursor and (where the terminal supports it) the kitty keyboard flags that
-//! report key releases, all undone by a guard on drop, on error and in the
-//! panic hook.
+//! cursor, bracketed paste (a paste arrives as text, `Event::Paste`, never as
+//! keys that could jog) and (where the terminal supports it) the kitty
+//! keyboard flags that report key releases, all undone by a guard on drop,
+//! on error and in the panic hook.
 //!
 //! Restoring ignores every error: it may run on a terminal that has hung up,
 //! where writes fail, and a failing `eprintln!` would turn a clean exit into
@@ -19,7 +20,8 @@ use ratatui::Terminal;
 use ratatui::backend::CrosstermBackend;
 use ratatui::crossterm::cursor::{Hide, Show};
 use ratatui::crossterm::event::{
-    KeyboardEnhancementFlags, PopKeyboardEnhancementFlags, PushKeyboardEnhancementFlags,
+    DisableBracketedPaste, EnableBracketedPaste, KeyboardEnhancementFlags,
+    PopKeyboardEnhancementFlags, PushKeyboardEnhancementFlags,
 };
 use ratatui::crossterm::execute;
 use ratatui::crossterm::terminal::{
@@ -36,6 +38,7 @@ pub type EmergencyFn = Arc<dyn Fn() + Send + Sync>;
 
 static ACTIVE: AtomicBool = AtomicBool::new(false);
 static KEYBOARD_PUSHED: AtomicBool = AtomicBool::new(false);
+static PASTE_ENABLED: AtomicBool = AtomicBool::new(false);
 static EMERGENCY: Mutex<Option<EmergencyFn>> = Mutex::new(None);
 static HOOK: Once = Once::new();
 
@@ -95,6 +98,12 @@ impl TerminalGuard {
         let guard = TerminalGuard { _private: () };
         let mut stdout = io::stdout();
         execute!(stdout, EnterAlternateScreen, Hide)?;
+        // Pastes as text: without it a terminal types pasted text as keys,
+        // and ten pasted `6` were ten jog steps (issue 13). A terminal that
+        // does not know the mode ignores it; bursts are caught then
+        // (`ui::typing`).
+        PASTE_ENABLED.store(true, Ordering::SeqCst);
+        execute!(stdout, EnableBracketedPaste)?;
         if options.keyboard_query && supports_keyboard_enhancement().unwrap_or(false) {
             execute!(
                 stdout,
@@ -136,6 +145,11 @@ pub fn restore() {
     let mut stdout = io::stdout();
     if KEYBOARD_PUSHED.swap(false, Ordering::SeqCst) {
         let _ = execute!(stdout, PopKeyboardEnhancementFlags);
+    }
+    // A shell left in bracketed paste mode would see `ESC[200~` around
+    // every paste.
+    if PASTE_ENABLED.swap(false, Ordering::SeqCst) {
+        let _ = execute!(stdout, DisableBracketedPaste);
     }
     let _ = execute!(stdout, LeaveAlternateScreen, Show);
     let _ = disable_raw_mode();

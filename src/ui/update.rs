@@ -23,16 +23,25 @@ use super::model::{Confirmation, Message, Model, PanelId, Popup};
 use super::msg::{Effect, Msg};
 use super::raw;
 use super::traffic_log::{LineKind, NoteLevel};
+use super::typing;
 
 pub fn update(model: &mut Model, msg: Msg) -> Vec<Effect> {
+    let effects = dispatch(model, msg);
+    // What Space in a text field must know: something may move although
+    // no state report says so yet (`typing::may_move`).
+    let moving = |e: &Effect| matches!(e, Effect::Request(r) if typing::may_start_motion(r));
+    if effects.iter().any(moving) {
+        model.motion_asked = Some(model.now);
+    }
+    effects
+}
+
+fn dispatch(model: &mut Model, msg: Msg) -> Vec<Effect> {
     match msg {
         Msg::Key(event) => key_event(model, event),
-        Msg::KeyAt(event, at) => {
-            if at > model.now {
-                model.now = at;
-            }
-            key_event(model, event)
-        }
+        Msg::KeyAt(event, at) => keys_at(model, vec![(event, at)]),
+        Msg::KeysAt(batch) => keys_at(model, batch),
+        Msg::Paste(text) => paste(model, &text),
         Msg::Tick(now) => {
             tick(model, now);
             // Toggle jogs live on the console's ticks.
@@ -93,11 +102,7 @@ pub fn update(model: &mut Model, msg: Msg) -> Vec<Effect> {
 }
 
 fn key_event(model: &mut Model, event: KeyEvent) -> Vec<Effect> {
-    let phase = match event.kind {
-        KeyEventKind::Press => KeyPhase::Press,
-        KeyEventKind::Repeat => KeyPhase::Repeat,
-        KeyEventKind::Release => KeyPhase::Release,
-    };
+    let phase = phase_of(event.kind);
     if phase == KeyPhase::Release {
         // Releases matter to the jog keypad only (kitty keyboard protocol).
         let mut pressed = event;
@@ -121,6 +126,180 @@ fn key_event(model: &mut Model, event: KeyEvent) -> Vec<Effect> {
     effects
 }
 
+/// Keys as the input thread read them, with their arrival times: one by
+/// one as typed, or, for a burst (`typing::is_burst`), each through
+/// [`burst_key`], which lets none of them move the machine.
+fn keys_at(model: &mut Model, batch: Vec<(KeyEvent, Instant)>) -> Vec<Effect> {
+    let burst = typing::is_burst(&batch, model.last_key_at);
+    if let Some(last) = typing::last_press(&batch) {
+        model.last_key_at = Some(model.last_key_at.map_or(last, |t| t.max(last)));
+    }
+    let mut effects = Vec::new();
+    let mut ignored = Ignored::default();
+    for (event, at) in batch {
+        if at > model.now {
+            model.now = at;
+        }
+        if burst {
+            effects.extend(burst_key(model, event, &mut ignored));
+        } else {
+            effects.extend(key_event(model, event));
+        }
+        if model.quitting {
+            break;
+        }
+    }
+    ignored.say(model);
+    effects
+}
+
+/// Keys of a burst that did nothing, for one message after the burst.
+#[derive(Debug, Default)]
+struct Ignored {
+    keys: usize,
+    /// One of them was Enter in a text field: nothing was sent or confirmed.
+    enter_in_field: bool,
+}
+
+impl Ignored {
+    fn note(&mut self, model: &Model, chord: KeyChord) {
+        self.keys += 1;
+        self.enter_in_field |= chord == KeyChord::plain(super::key::KeyCode::Enter)
+            && typing::text_field(model).is_some();
+    }
+
+    fn say(self, model: &mut Model) {
+        if self.enter_in_field {
+            say(
+                model,
+                NoteLevel::Warning,
+                "Enter came together with other keys (a paste?): nothing was sent; \
+                 check the line and press Enter again"
+                    .to_string(),
+            );
+        } else if self.keys > 0 {
+            let keys = if self.keys == 1 { "key" } else { "keys" };
+            say(
+                model,
+                NoteLevel::Warning,
+                format!(
+                    "burst ignored: {} {keys} came together with others (a paste?); \
+                     jogterm moves only on keys typed one at a time",
+                    self.keys
+                ),
+            );
+        }
+    }
+}
+
+/// One key of a burst. Releases act as ever (they only stop). A press
+/// goes on only where it cannot move the machine, answer a question or
+/// send anything: a stop key (the Space rule included), a motion key of
+/// the keypad as [`keypad::burst_key`] takes it (renewing the held jog it
+/// belongs to, never starting one), and in a text field the characters it
+/// types and the keys that edit it; a key that only closes a popup. The
+/// rest is ignored and counted in `ignored`.
+fn burst_key(model: &mut Model, event: KeyEvent, ignored: &mut Ignored) -> Vec<Effect> {
+    let phase = phase_of(event.kind);
+    if phase == KeyPhase::Release {
+        return key_event(model, event);
+    }
+    let Some(chord) = KeyChord::from_event(&event) else {
+        return Vec::new();
+    };
+    model.dirty = true;
+    let effects = match burst_route(model, chord, phase) {
+        Some(effects) => effects,
+        None => {
+            ignored.note(model, chord);
+            Vec::new()
+        }
+    };
+    model.keypad.issued(&effects, model.now);
+    effects
+}
+
+fn burst_route(model: &mut Model, chord: KeyChord, phase: KeyPhase) -> Option<Vec<Effect>> {
+    if model.keymap.lookup(Mode::Safety, &chord) == Some(Action::Stop) {
+        return Some(route(model, chord, phase));
+    }
+    let focus = model.focus;
+    if model.popup.is_none()
+        && focus == PanelId::Jog
+        && model
+            .keymap
+            .lookup(Mode::Jog, &chord)
+            .and_then(keypad::vector_of)
+            .is_some()
+    {
+        return keypad::burst_key(model, chord, phase);
+    }
+    if let Some(effects) = keypad::any_key(model, chord, phase) {
+        say(model, NoteLevel::Info, "jog stopped".to_string());
+        return Some(effects);
+    }
+    let field = typing::text_field(model);
+    let mode = model.popup.as_ref().map_or(focus.mode(), Popup::mode);
+    let passes = match model.keymap.lookup(mode, &chord) {
+        Some(action) => {
+            typing::only_stops_or_closes(action) || (field.is_some() && typing::edits_text(action))
+        }
+        None if field.is_some() && chord.typed_char().is_some() => true,
+        None => {
+            model.popup.is_none() && model.keymap.lookup(Mode::Main, &chord) == Some(Action::Stop)
+        }
+    };
+    passes.then(|| route(model, chord, phase))
+}
+
+/// Pasted text (bracketed paste): into the text field that has the input,
+/// never anywhere else. Multi-line text goes into the program editor as it
+/// is; a one-line field takes one line (`line_edit::one_line`).
+fn paste(model: &mut Model, text: &str) -> Vec<Effect> {
+    model.dirty = true;
+    let refused = match typing::text_field(model) {
+        Some(typing::TextField::Editor) => {
+            return editor_update(model, editor::Input::Paste(text));
+        }
+        Some(typing::TextField::Form) => {
+            return match model.popup.take() {
+                Some(Popup::Editor(dialog)) => {
+                    editor_update(model, editor::Input::DialogPaste(dialog, text))
+                }
+                other => {
+                    model.popup = other;
+                    Vec::new()
+                }
+            };
+        }
+        Some(typing::TextField::CommandLine) => model.command.paste(text).err(),
+        Some(typing::TextField::GoTo) => match model.popup.as_mut() {
+            Some(Popup::GoTo(prompt)) => prompt.line.paste(text).err(),
+            _ => None,
+        },
+        None => {
+            say(
+                model,
+                NoteLevel::Warning,
+                "paste ignored: jogterm moves only on keys".to_string(),
+            );
+            return Vec::new();
+        }
+    };
+    if let Some(refused) = refused {
+        say(model, NoteLevel::Warning, refused.to_string());
+    }
+    Vec::new()
+}
+
+fn phase_of(kind: KeyEventKind) -> KeyPhase {
+    match kind {
+        KeyEventKind::Press => KeyPhase::Press,
+        KeyEventKind::Repeat => KeyPhase::Repeat,
+        KeyEventKind::Release => KeyPhase::Release,
+    }
+}
+
 /// Safety keys first, whatever is open or focused; then the popup (modal:
 /// it takes every other key), the focused panel, typing, the main screen.
 pub fn route_key(model: &mut Model, chord: KeyChord) -> Vec<Effect> {
@@ -129,7 +308,7 @@ pub fn route_key(model: &mut Model, chord: KeyChord) -> Vec<Effect> {
 
 fn route(model: &mut Model, chord: KeyChord, phase: KeyPhase) -> Vec<Effect> {
     if model.keymap.lookup(Mode::Safety, &chord) == Some(Action::Stop) {
-        return stop(model);
+        return safety_stop(model, chord);
     }
     let focus = model.focus;
     let motion_key = model.popup.is_none()
@@ -144,18 +323,13 @@ fn route(model: &mut Model, chord: KeyChord, phase: KeyPhase) -> Vec<Effect> {
         say(model, NoteLevel::Info, "jog stopped".to_string());
         return effects;
     }
+    let field = typing::text_field(model);
     if let Some(popup) = &model.popup {
         let mode = popup.mode();
-        let editor_form = matches!(popup, Popup::Editor(editor::dialog::Dialog::Form(_)));
-        return match (model.keymap.lookup(mode, &chord), chord.typed_char()) {
-            (Some(action), _) => popup_action(model, action),
-            (None, Some(c)) if editor_form => editor_dialog_char(model, c),
-            (None, typed) => {
-                if let (Some(Popup::GoTo(prompt)), Some(c)) = (model.popup.as_mut(), typed) {
-                    prompt.line.insert(c);
-                }
-                Vec::new()
-            }
+        return match (model.keymap.lookup(mode, &chord), chord.typed_char(), field) {
+            (Some(action), _, _) => popup_action(model, action),
+            (None, Some(c), Some(field)) => type_into(model, field, c),
+            (None, _, _) => Vec::new(),
         };
     }
     if let Some(action) = model.keymap.lookup(focus.mode(), &chord) {
@@ -164,21 +338,56 @@ fn route(model: &mut Model, chord: KeyChord, phase: KeyPhase) -> Vec<Effect> {
         }
         return panel_action(model, focus, action);
     }
-    if focus == PanelId::Console
-        && let Some(c) = chord.typed_char()
-    {
-        model.command.insert(c);
-        return Vec::new();
-    }
-    if focus == PanelId::Editor
-        && let Some(c) = chord.typed_char()
-    {
-        return editor_update(model, editor::Input::Char(c));
+    if let (Some(field), Some(c)) = (field, chord.typed_char()) {
+        return type_into(model, field, c);
     }
     match model.keymap.lookup(Mode::Main, &chord) {
         Some(action) => main_action(model, action),
         None => Vec::new(),
     }
+}
+
+/// A character into the text field that has the input.
+fn type_into(model: &mut Model, field: typing::TextField, c: char) -> Vec<Effect> {
+    match field {
+        typing::TextField::Editor => editor_update(model, editor::Input::Char(c)),
+        typing::TextField::Form => editor_dialog_char(model, c),
+        typing::TextField::CommandLine => {
+            model.command.insert(c);
+            Vec::new()
+        }
+        typing::TextField::GoTo => {
+            if let Some(Popup::GoTo(prompt)) = model.popup.as_mut() {
+                prompt.line.insert(c);
+            }
+            Vec::new()
+        }
+    }
+}
+
+/// A stop key. Space in a text field types a blank while the machine is
+/// known to stand still, and stops otherwise, saying why it did not type
+/// (`typing::may_move`); every other stop key always stops.
+fn safety_stop(model: &mut Model, chord: KeyChord) -> Vec<Effect> {
+    let Some(field) = typing::text_field(model).filter(|_| chord == KeyChord::SPACE) else {
+        return stop(model);
+    };
+    let Some(reason) = typing::may_move(model) else {
+        return type_into(model, field, ' ');
+    };
+    let effects = stop(model);
+    let mode = model.popup.as_ref().map_or(model.focus.mode(), Popup::mode);
+    let blank = model
+        .keymap
+        .key_for(mode, Action::TypeBlank)
+        .map(|k| format!("; {k} types a blank"))
+        .unwrap_or_default();
+    say(
+        model,
+        NoteLevel::Info,
+        format!("stop: all motion stopped (Space stops, not types, while {reason}{blank})"),
+    );
+    effects
 }
 
 fn stop(model: &mut Model) -> Vec<Effect> {
@@ -287,6 +496,9 @@ fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
             Vec::new()
         }
         Action::FocusConsole => {
+            if model.focus != PanelId::Console {
+                model.before_console = model.focus;
+            }
             model.focus = PanelId::Console;
             Vec::new()
         }
@@ -362,6 +574,15 @@ fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
 
 fn cycle_focus(model: &mut Model, delta: isize) {
     let ring = model.focus_ring();
+    if model.focus == PanelId::Console {
+        // Tab leaves the command line for the panel it was opened from.
+        model.focus = if ring.contains(&model.before_console) {
+            model.before_console
+        } else {
+            PanelId::Jog
+        };
+        return;
+    }
     let len = ring.len() as isize;
     let at = ring.iter().position(|p| *p == model.focus).unwrap_or(0) as isize;
     if let Some(next) = ring.get((at + delta).rem_euclid(len.max(1)) as usize) {
@@ -376,19 +597,10 @@ const QUIT_WHILE_MOVING: &str = "Quit while moving";
 /// (the dead-man stopped the jog meanwhile, a reference run ended), that it
 /// has stopped: the question must not go on claiming motion.
 fn quit_question(model: &Model) -> String {
-    use crate::device::api::Activity;
-    let what = match model.machine.activity {
-        Activity::Idle if keypad::moving(model) => "jogging",
-        Activity::Idle => {
-            return "The machine has stopped. Close the port and quit?".to_string();
-        }
-        Activity::Jogging => "jogging",
-        Activity::Stepping => "stepping",
-        Activity::Moving => "moving to a position",
-        Activity::Homing => "running a reference run",
-        Activity::RunningProgram => "running a program",
-        Activity::Uploading => "storing a program",
-        Activity::Stopping => "stopping",
+    let what = match typing::doing(model.machine.activity) {
+        Some(what) => what,
+        None if keypad::moving(model) => "jogging",
+        None => return "The machine has stopped. Close the port and quit?".to_string(),
     };
     format!("The machine is {what}. Stop all motion, close the port and quit?")
 }
@@ -522,6 +734,7 @@ fn goto_action(model: &mut Model, mut prompt: GoToPrompt, action: Action) -> Vec
         Action::DeleteBack => line.delete_back(),
         Action::DeleteForward => line.delete_forward(),
         Action::ClearLine => line.clear(),
+        Action::TypeBlank => line.insert(' '),
         _ => {}
     }
     model.popup = Some(Popup::GoTo(prompt));
@@ -734,6 +947,7 @@ fn console_action(model: &mut Model, action: Action) -> Vec<Effect> {
         Action::DeleteBack => line.delete_back(),
         Action::DeleteForward => line.delete_forward(),
         Action::ClearLine => line.clear(),
+        Action::TypeBlank => line.insert(' '),
         _ => {}
     }
     Vec::new()

@@ -145,16 +145,19 @@ impl Console {
             .to_string()
     }
 
+    /// Type `bytes` key by key, as a person does: keys written together
+    /// are a burst, which never moves, answers or sends anything.
     pub fn keys(&mut self, bytes: &[u8]) {
-        self.run.send(bytes);
+        self.run.type_bytes(bytes);
     }
 
     /// In continuous jog mode, hold `key` as a terminal repeats it (every
     /// 30 ms) until the status bar says JOGGING, then `more` repeats.
     pub fn hold_until_jogging(&mut self, key: &[u8], more: usize) {
         let end = Instant::now() + WAIT;
+        // A held key's repeats: one write each, 30 ms apart.
         loop {
-            self.keys(key);
+            self.run.send(key);
             std::thread::sleep(Duration::from_millis(30));
             if self.status_bar().contains("JOGGING") {
                 break;
@@ -166,14 +169,15 @@ impl Console {
             );
         }
         for _ in 0..more {
-            self.keys(key);
+            self.run.send(key);
             std::thread::sleep(Duration::from_millis(30));
         }
     }
 
     /// Type a raw command on the console's command line and send it, then
-    /// give the focus back to the port bits (where `i`, `q` reach the main
-    /// keys). Commands never contain a blank: Space is the stop key.
+    /// leave the command line (Tab: back to the panel `:` was typed in,
+    /// where `i`, `q` reach the main keys). Commands never contain a blank:
+    /// Space stops whenever the machine may move.
     pub fn command(&mut self, line: &str) {
         assert!(!line.contains(' '), "Space would stop, not type: {line}");
         self.keys(b":\x15");

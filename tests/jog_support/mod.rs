@@ -354,6 +354,14 @@ pub fn first_move(arrivals: &[(Instant, u8)]) -> Option<Instant> {
     })
 }
 
+/// How many move commands (`@0A`, `@0M`, `@0a`, `@0m`) began to arrive.
+pub fn moves(arrivals: &[(Instant, u8)]) -> usize {
+    arrivals
+        .windows(3)
+        .filter(|w| matches!(w, [(_, b'@'), (_, b'0'), (_, b'A' | b'a' | b'M' | b'm')]))
+        .count()
+}
+
 /// When the first break byte (253) at or after `t` arrived.
 pub fn first_break(arrivals: &[(Instant, u8)]) -> Option<Instant> {
     arrivals

@@ -16,6 +16,9 @@ use std::time::{Duration, Instant};
 
 use portable_pty::{Child, CommandBuilder, MasterPty, PtySize, native_pty_system};
 
+/// The pause between two keys a test types one by one.
+pub const KEY_GAP: Duration = Duration::from_millis(40);
+
 pub struct PtyRun {
     master: Option<Box<dyn MasterPty + Send>>,
     pub child: Box<dyn Child + Send + Sync>,
@@ -123,6 +126,35 @@ impl PtyRun {
         writer.flush().expect("flush the pty");
     }
 
+    /// Type `keys` as a person does: one key per write, far enough apart
+    /// that no two are read together or within the console's burst gap
+    /// (5 ms, `ui::typing`), with room for a loaded machine. Keys written
+    /// together are a burst: they type into a text field but never move,
+    /// answer, send or switch anything.
+    pub fn type_keys(&mut self, keys: &[&[u8]]) {
+        for key in keys {
+            thread::sleep(KEY_GAP);
+            self.send(key);
+        }
+        thread::sleep(KEY_GAP);
+    }
+
+    /// `bytes` as the keys they encode, typed one by one (see
+    /// [`PtyRun::type_keys`] and [`split_keys`]).
+    pub fn type_bytes(&mut self, bytes: &[u8]) {
+        self.type_keys(&split_keys(bytes));
+    }
+
+    /// `text` typed one character at a time (see [`PtyRun::type_keys`]).
+    pub fn type_text(&mut self, text: &str) {
+        let mut buf = [0u8; 4];
+        for c in text.chars() {
+            thread::sleep(KEY_GAP);
+            self.send(c.encode_utf8(&mut buf).as_bytes());
+        }
+        thread::sleep(KEY_GAP);
+    }
+
     /// Everything the program wrote so far.
     pub fn output(&self) -> Vec<u8> {
         self.output
@@ -204,6 +236,35 @@ impl Drop for PtyRun {
         self.stop_reading.store(true, Ordering::SeqCst);
         let _ = self.child.kill();
     }
+}
+
+/// The keys a terminal's input bytes encode, each as its bytes: an escape
+/// sequence (`ESC [ … final`, `ESC O x`), a UTF-8 character, or a byte.
+pub fn split_keys(bytes: &[u8]) -> Vec<&[u8]> {
+    let mut keys = Vec::new();
+    let mut i = 0;
+    while i < bytes.len() {
+        let rest = &bytes[i..];
+        let len = match rest {
+            [0x1b, b'[', tail @ ..] => {
+                2 + tail
+                    .iter()
+                    .position(|b| (0x40..=0x7e).contains(b))
+                    .map_or(tail.len(), |p| p + 1)
+            }
+            [0x1b, b'O', _, ..] => 3,
+            [b, ..] if *b >= 0xc0 => {
+                1 + rest[1..]
+                    .iter()
+                    .take_while(|b| (0x80..0xc0).contains(*b))
+                    .count()
+            }
+            _ => 1,
+        };
+        keys.push(&rest[..len.min(rest.len())]);
+        i += len.min(rest.len()).max(1);
+    }
+    keys
 }
 
 /// Whether `haystack` contains `needle`.

@@ -5,12 +5,21 @@
 //! jog brakes (it waits, a newer one replaces it, and it starts only if its
 //! lease is still alive). Other requests queue, at most [`MAX_QUEUED`], and
 //! are checked against the state when it is their turn.
+//!
+//! Step presses are bounded here too: presses that arrive while the driver
+//! is between moves (a poll being answered, the position read after a step)
+//! are merged into one waiting step of at most `jog.step_queue` presses;
+//! more are refused `StepQueueFull`, as the running step's own coalescing
+//! refuses them. Ten presses that came together while a poll was answered
+//! used to wait as ten moves and all ran (issue 13); now at most
+//! `step_queue` presses wait, wherever they wait (`docs/jogging.md`).
 
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};
 
 use crate::device::api::{Activity, Event, JogEnd, JogId, PerAxis, Refusal, Request};
 
+use super::limits::shifted;
 use super::sink::{Sink, refuse};
 
 /// Requests waiting for their turn; more are refused.
@@ -22,6 +31,8 @@ pub struct Queued {
     pub request: Request,
     /// For a jog: when its lease runs out while it waits.
     pub lease_until: Option<Instant>,
+    /// For a step: the presses merged into it (its delta is their sum).
+    pub presses: usize,
 }
 
 impl Queued {
@@ -48,12 +59,29 @@ pub enum Running {
     },
 }
 
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct RequestQueue {
     items: VecDeque<Queued>,
+    /// Step presses that may wait (`jog.step_queue`, at least 1).
+    step_bound: usize,
+}
+
+/// The least motion: one press may wait.
+impl Default for RequestQueue {
+    fn default() -> Self {
+        RequestQueue::new(1)
+    }
 }
 
 impl RequestQueue {
+    /// A queue in which at most `step_queue` step presses wait.
+    pub fn new(step_queue: usize) -> Self {
+        RequestQueue {
+            items: VecDeque::new(),
+            step_bound: step_queue.max(1),
+        }
+    }
+
     pub fn is_empty(&self) -> bool {
         self.items.is_empty()
     }
@@ -93,9 +121,32 @@ impl RequestQueue {
                     self.items.push_front(Queued {
                         request,
                         lease_until,
+                        presses: 0,
                     });
                 }
                 request => refuse(sink, &request, Refusal::Busy { activity }),
+            }
+            return None;
+        }
+        if let Request::Step { delta, speed_hz } = &request
+            && let Some(waiting) = self
+                .items
+                .iter_mut()
+                .find(|q| matches!(q.request, Request::Step { .. }))
+        {
+            if waiting.presses >= self.step_bound {
+                refuse(sink, &request, Refusal::StepQueueFull);
+            } else if let Request::Step {
+                delta: total,
+                speed_hz: speeds,
+            } = &mut waiting.request
+            {
+                // One move for them all, at the speeds of the last press
+                // (as `StepQueue::take_merged`); its soft limits are
+                // checked when it starts.
+                *total = shifted(total, delta);
+                *speeds = *speed_hz;
+                waiting.presses += 1;
             }
             return None;
         }
@@ -109,9 +160,11 @@ impl RequestQueue {
             );
             return None;
         }
+        let presses = usize::from(matches!(request, Request::Step { .. }));
         self.items.push_back(Queued {
             request,
             lease_until,
+            presses,
         });
         None
     }
@@ -210,6 +263,7 @@ mod tests {
         let queued = Queued {
             request: jog(1),
             lease_until: Some(given + Duration::from_millis(100)),
+            presses: 0,
         };
         let at = |ms| given + Duration::from_millis(ms);
         assert_eq!(queued.held_lease(at(30)).1, Duration::from_millis(70));
@@ -238,6 +292,64 @@ mod tests {
         };
         assert!(q.admit(step, now, BUSY, &mut events).is_some());
         assert!(q.is_empty() && events.is_empty());
+    }
+
+    fn step_x(n: i64) -> Request {
+        Request::Step {
+            delta: PerAxis::new().with(Axis::X, n),
+            speed_hz: PerAxis::new().with(Axis::X, n as f64),
+        }
+    }
+
+    /// Ten presses while a poll is answered: one waiting step of
+    /// `step_queue` presses, the rest refused, whatever waits beside it.
+    #[test]
+    fn presses_between_moves_merge_into_one_bounded_step() {
+        let mut q = RequestQueue::new(2);
+        let mut events = VecDeque::new();
+        let now = Instant::now();
+        q.admit(Request::Initialise, now, Running::Idle, &mut events);
+        for _ in 0..10 {
+            assert_eq!(q.admit(step_x(1), now, Running::Idle, &mut events), None);
+        }
+        let refused: Vec<_> = events.drain(..).collect();
+        assert_eq!(refused.len(), 8, "{refused:?}");
+        assert!(refused.iter().all(|e| matches!(
+            e,
+            Event::Refused {
+                reason: Refusal::StepQueueFull,
+                ..
+            }
+        )));
+        assert_eq!(
+            q.pop(now, &mut events).map(|q| q.request),
+            Some(Request::Initialise)
+        );
+        let step = q.pop(now, &mut events).expect("the merged step");
+        assert_eq!(step.presses, 2);
+        assert_eq!(
+            step.request,
+            Request::Step {
+                delta: PerAxis::new().with(Axis::X, 2),
+                speed_hz: PerAxis::new().with(Axis::X, 1.0),
+            }
+        );
+        assert!(q.pop(now, &mut events).is_none());
+        // Once it has left the queue, presses wait again.
+        q.admit(step_x(3), now, Running::Idle, &mut events);
+        assert!(events.is_empty());
+        assert_eq!(q.pop(now, &mut events).map(|q| q.presses), Some(1));
+    }
+
+    #[test]
+    fn the_default_queue_keeps_one_press() {
+        let mut q = RequestQueue::default();
+        let mut events = VecDeque::new();
+        let now = Instant::now();
+        q.admit(step_x(1), now, Running::Idle, &mut events);
+        q.admit(step_x(1), now, Running::Idle, &mut events);
+        assert_eq!(events.len(), 1);
+        assert_eq!(RequestQueue::new(0), RequestQueue::default());
     }
 
     #[test]

@@ -212,6 +212,7 @@ pub struct EmcuDriver {
 
 impl EmcuDriver {
     pub fn new(settings: EmcuSettings) -> EmcuDriver {
+        let step_queue = settings.jog.step_queue;
         EmcuDriver {
             poller: poll::poller(&settings),
             cx: Context::new(settings),
@@ -221,7 +222,7 @@ impl EmcuDriver {
             decoder: ReplyDecoder::new(),
             unsent: VecDeque::new(),
             op: None,
-            queue: RequestQueue::default(),
+            queue: RequestQueue::new(step_queue),
             side: VecDeque::new(),
             quiet_until: None,
             acks: ControlAcks::default(),

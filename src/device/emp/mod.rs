@@ -165,6 +165,7 @@ pub struct EmpDriver {
 
 impl EmpDriver {
     pub fn new(settings: EmpSettings) -> EmpDriver {
+        let step_queue = settings.jog.step_queue;
         let timeout = settings.reply_timeout();
         EmpDriver {
             poller: poll::poller(&settings),
@@ -175,7 +176,7 @@ impl EmpDriver {
             correlator: Correlator::new(timeout),
             owners: Vec::new(),
             op: None,
-            queue: RequestQueue::default(),
+            queue: RequestQueue::new(step_queue),
             side: VecDeque::new(),
             errors: VecDeque::new(),
             stops: VecDeque::new(),

@@ -179,6 +179,7 @@ pub struct IselDriver {
 
 impl IselDriver {
     pub fn new(settings: IselSettings) -> IselDriver {
+        let step_queue = settings.jog.step_queue;
         IselDriver {
             poller: poll::poller(&settings.poll),
             cx: Context::new(settings),
@@ -188,7 +189,7 @@ impl IselDriver {
             decoder: ReplyDecoder::new(),
             unsent: VecDeque::new(),
             op: None,
-            queue: RequestQueue::default(),
+            queue: RequestQueue::new(step_queue),
             quiet_until: None,
             stray: Vec::new(),
             settling_after_connect: false,

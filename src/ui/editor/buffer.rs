@@ -378,6 +378,32 @@ impl Buffer {
         );
     }
 
+    /// Insert `text` at the cursor, `\n` splitting lines, as one undo step;
+    /// the cursor ends after it (a paste).
+    pub fn insert_text(&mut self, text: &str) {
+        if text.is_empty() {
+            return;
+        }
+        let Cursor { line, col } = self.cursor;
+        let current = self.line(line);
+        let (head, tail) = current
+            .split_at_checked(byte_of(current, col))
+            .unwrap_or((current, ""));
+        let (head, tail) = (head.to_string(), tail.to_string());
+        let mut lines: Vec<String> = text.split('\n').map(str::to_string).collect();
+        let last = lines.len() - 1;
+        let end_col = char_count(&lines[last]) + if last == 0 { col } else { 0 };
+        lines[0].insert_str(0, &head);
+        lines[last].push_str(&tail);
+        self.apply(
+            line,
+            1,
+            lines,
+            Cursor::new(line + last, end_col),
+            Kind::Other,
+        );
+    }
+
     /// Split the line at the cursor.
     pub fn newline(&mut self) {
         let Cursor { line, col } = self.cursor;

@@ -68,6 +68,13 @@ pub enum Input<'a> {
     /// A character typed while the editor's `Dialog` is open (into a form's
     /// focused field).
     DialogChar(Dialog, char),
+    /// Pasted text (bracketed paste), the one way a paste reaches the
+    /// editor: into the program at the cursor, its lines as they are (one
+    /// undo step).
+    Paste(&'a str),
+    /// Pasted text while the editor's `Dialog` is open: a form's focused
+    /// field takes one line (`line_edit::one_line`).
+    DialogPaste(Dialog, &'a str),
     /// A result of the editor's effects, or a request from outside.
     Msg(EditorMsg),
     /// Time passed (the context's `now`): lint, recovery file, offers.

@@ -43,6 +43,8 @@ impl Editor {
             Input::Main(action) => step.main_action(action),
             Input::Dialog(dialog, action) => step.dialog_action(dialog, action),
             Input::DialogChar(dialog, c) => step.dialog_char(dialog, c),
+            Input::Paste(text) => step.paste(text),
+            Input::DialogPaste(dialog, text) => step.dialog_paste(dialog, text),
             Input::Msg(msg) => step.message(msg),
             Input::Tick => step.tick(),
             Input::Device(event) => step.device_event(event),
@@ -272,6 +274,13 @@ impl Step<'_, '_> {
         self.scroll_into_view();
     }
 
+    /// Pasted text into the program at the cursor, one undo step.
+    fn paste(&mut self, text: &str) {
+        let text = crate::ui::typing::editor_text(text);
+        self.edit(|b| b.insert_text(&text));
+        self.scroll_into_view();
+    }
+
     /// Change the text, unless it is being uploaded (then say why not).
     fn edit(&mut self, f: impl FnOnce(&mut Buffer)) {
         if let Some(why) = self.e.read_only() {
@@ -435,6 +444,21 @@ impl Step<'_, '_> {
         }
         self.form_changed(&mut f);
         self.form(f);
+    }
+
+    /// Text pasted while a dialog is open: into a form's focused field,
+    /// which takes one line; questions take no text.
+    fn dialog_paste(&mut self, dialog: Dialog, text: &str) {
+        let Dialog::Form(mut f) = dialog else {
+            self.show(dialog);
+            return;
+        };
+        let refused = f.focused().and_then(|edit| edit.paste(text).err());
+        self.form_changed(&mut f);
+        self.form(f);
+        if let Some(refused) = refused {
+            self.say(NoteLevel::Warning, refused.to_string());
+        }
     }
 
     fn form_changed(&self, f: &mut Form) {

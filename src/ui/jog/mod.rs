@@ -208,6 +208,21 @@ pub fn released(model: &mut Model, chord: KeyChord) -> Vec<Effect> {
     requests(out)
 }
 
+/// A motion key of the focused keypad that came in a burst: never motion
+/// (`Jogger::burst_key`). `None` when it did nothing but latch the key (the
+/// burst's message counts it); renewing the held jog it belongs to, or
+/// stopping a toggle jog, is something.
+pub fn burst_key(model: &mut Model, chord: KeyChord, phase: KeyPhase) -> Option<Vec<Effect>> {
+    let now = model.now;
+    let out = model.keypad.jogger.burst_key(chord, phase, now);
+    let own = model
+        .keypad
+        .jogger
+        .active()
+        .is_some_and(|a| a.keys.contains(&chord));
+    (own || !out.is_empty()).then(|| requests(out))
+}
+
 /// Any key other than a stop key, before it is routed: in toggle mode a
 /// running jog stops and the key is used up.
 pub fn any_key(model: &mut Model, chord: KeyChord, phase: KeyPhase) -> Option<Vec<Effect>> {

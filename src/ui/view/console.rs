@@ -3,7 +3,7 @@
 //! the reason a typed command was refused, the offending characters marked.
 
 use ratatui::buffer::Buffer;
-use ratatui::layout::Rect;
+use ratatui::layout::{Position, Rect};
 use ratatui::style::Style;
 use ratatui::text::{Line, Span};
 use ratatui::widgets::Widget;
@@ -81,14 +81,18 @@ impl Widget for ConsoleView<'_> {
         } else {
             format!("polls hidden: {}{toggle} ", log.poll_count)
         };
-        let inner = frame::panel(
-            "Traffic",
-            vec![Span::styled(polls, p.dim)],
-            focused,
-            p,
-            area,
-            buf,
-        );
+        let mut extra = Vec::new();
+        if focused {
+            // Typing goes to the command line now, not to the keypad.
+            let leave = model
+                .keymap
+                .key_for(Mode::Main, Action::FocusNext)
+                .map(|k| format!(", {k} leaves"))
+                .unwrap_or_default();
+            extra.push(Span::styled(format!(" TYPING{leave} "), p.selected));
+        }
+        extra.push(Span::styled(polls, p.dim));
+        let inner = frame::panel("Traffic", extra, focused, p, area, buf);
         if inner.height == 0 || inner.width < 4 {
             return;
         }
@@ -160,11 +164,12 @@ fn input_line(model: &Model, focused: bool, width: usize) -> Line<'static> {
         ]);
     }
     let chars: Vec<char> = edit.text().chars().collect();
+    let start = scrolled(edit.cursor(), width);
     let room = width.saturating_sub(3).max(1);
-    // Scroll the line so the cursor stays visible.
-    let start = edit.cursor().saturating_sub(room.saturating_sub(1));
     let span = edit.error.as_ref().and_then(|e| e.span.clone());
-    let mut spans = vec![Span::styled("> ", p.key)];
+    // The prompt reversed while typing: the line has the keys now.
+    let prompt = if focused { p.selected } else { p.key };
+    let mut spans = vec![Span::styled("> ", prompt)];
     for (i, c) in chars.iter().enumerate().skip(start).take(room) {
         let mut style = p.text;
         if span.as_ref().is_some_and(|s| s.contains(&i)) {
@@ -179,6 +184,30 @@ fn input_line(model: &Model, focused: bool, width: usize) -> Line<'static> {
         spans.push(Span::styled(" ", p.selected));
     }
     Line::from(spans)
+}
+
+/// The first character shown of a line `width` columns wide (the prompt
+/// and a cell for the cursor at the end take three): scrolled so the
+/// cursor stays visible.
+fn scrolled(cursor: usize, width: usize) -> usize {
+    let room = width.saturating_sub(3).max(1);
+    cursor.saturating_sub(room.saturating_sub(1))
+}
+
+/// Where the terminal's cursor goes while the command line has the focus
+/// (the console panel drawn in `area`): at the insertion point, so typing
+/// is seen where it lands, in every theme.
+pub fn cursor(model: &Model, area: Rect) -> Option<Position> {
+    let focused = model.focus == PanelId::Console && model.popup.is_none();
+    // The title rule takes the panel's first row.
+    if !focused || area.height < 2 || area.width < 4 {
+        return None;
+    }
+    let width = usize::from(area.width);
+    let cursor = model.command.cursor();
+    let column = 2 + cursor - scrolled(cursor, width);
+    let x = area.x + u16::try_from(column).ok()?.min(area.width - 1);
+    Some(Position::new(x, area.bottom() - 1))
 }
 
 #[cfg(test)]

@@ -17,7 +17,7 @@ pub mod status;
 pub mod timeline;
 
 use ratatui::buffer::Buffer;
-use ratatui::layout::Rect;
+use ratatui::layout::{Position, Rect};
 use ratatui::widgets::Widget;
 
 use super::editor;
@@ -77,6 +77,16 @@ fn program_screen(model: &Model, area: Rect, buf: &mut Buffer) {
     if let Some(hints) = a.hints {
         status::Hints(model).render(hints, buf);
     }
+}
+
+/// Where the terminal shows its cursor on a screen of `area`: at the
+/// insertion point of the command line while it has the focus; nowhere
+/// (hidden) otherwise.
+pub fn cursor(model: &Model, area: Rect) -> Option<Position> {
+    if matches!(model.focus, PanelId::Editor | PanelId::Timeline) {
+        return None;
+    }
+    console::cursor(model, layout::areas(model, area).console)
 }
 
 /// The machine screen: position, jog keypad, ports, simulator inputs,

@@ -152,8 +152,16 @@ impl Widget for Hints<'_> {
         let model = self.0;
         let p = &model.palette;
         let map = &model.keymap;
-        let mut hints: Vec<(Option<KeyChord>, &str)> =
-            vec![(map.key_for(Mode::Safety, Action::Stop), "stop")];
+        // On the command line and in the editor Space may type a blank
+        // (`ui::typing`): the stop key that always stops there is shown.
+        // (In a popup Esc closes it; Space is the one shown.)
+        let stop_key = match crate::ui::typing::text_field(model) {
+            Some(_) if model.popup.is_none() => map
+                .key_for(Mode::Main, Action::Stop)
+                .or_else(|| map.key_for(Mode::Safety, Action::Stop)),
+            _ => map.key_for(Mode::Safety, Action::Stop),
+        };
+        let mut hints: Vec<(Option<KeyChord>, &str)> = vec![(stop_key, "stop")];
         let context: &[(Mode, Action, &str)] = match &model.popup {
             Some(popup) => match popup.mode() {
                 Mode::Confirm => &[
@@ -196,7 +204,7 @@ impl Widget for Hints<'_> {
                 Mode::Console => &[
                     (Mode::Console, Action::Submit, "send"),
                     (Mode::Console, Action::HistoryPrev, "history"),
-                    (Mode::Main, Action::FocusNext, "focus"),
+                    (Mode::Main, Action::FocusNext, "leave the command line"),
                 ],
                 Mode::Editor => &[
                     (Mode::Editor, Action::CloseEditor, "machine"),
