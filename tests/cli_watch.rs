@@ -158,7 +158,11 @@ fn a_one_second_pulse_of_limit_x1_is_one_second_within_one_window() {
     );
     let received = sim.received();
     for line in received.split("<CR>").filter(|l| !l.is_empty()) {
-        let command = line.trim_start_matches("<FD>").trim_start_matches("<FF>");
+        // The closing stop's control bytes may land between any two bytes
+        // of a read on its way: the controller takes them in its receive
+        // interrupt, apart from the command (isel manual 2.2.31).
+        let command = line.replace("<FD>", "").replace("<FF>", "");
+        let command = command.as_str();
         assert!(
             command.is_empty() || reads_or_moves_nothing(command),
             "watch sent {command:?}: {received}"
