@@ -851,6 +851,8 @@ fn jog_ended(model: &mut Model, end: JogEnd) {
         JogEnd::Refused(reason) => Some((NoteLevel::Danger, format!("jog refused: {reason}"))),
         JogEnd::Fault(f) => Some((NoteLevel::Danger, format!("jog ended: {}", fault_text(&f)))),
         JogEnd::LinkLost => Some((NoteLevel::Danger, "jog ended: link lost".to_string())),
+        // The driver's notice says where it stopped and what to do.
+        JogEnd::OffLimit | JogEnd::StillOnLimit => None,
     };
     if let Some((level, text)) = note {
         say(model, level, text);

@@ -349,6 +349,8 @@ fn end_words(end: &crate::device::api::JogEnd) -> String {
         JogEnd::Refused(r) => r.to_string(),
         JogEnd::Fault(f) => f.meaning.clone(),
         JogEnd::LinkLost => "link lost".into(),
+        JogEnd::OffLimit => "off the limit switch: reference the axes (h)".into(),
+        JogEnd::StillOnLimit => "the limit switch still reads active".into(),
     }
 }
 

@@ -460,3 +460,25 @@ fn a_renewal_is_granted_no_longer_lease_than_the_speed_allows() {
     h.positions_read(10_400, 0, 0);
     assert_eq!(h.jog_ends(), [(1, JogEnd::DeadMan)]);
 }
+
+#[test]
+fn a_jog_off_a_limit_switch_is_refused_with_its_reason_and_nothing_moves() {
+    let mut h = Harness::ready_at(0, 0, 0);
+    h.request(Request::LimitJog {
+        id: JogId(5),
+        axis: Axis::X,
+        dir: Dir::Plus,
+    });
+    h.expect_nothing();
+    assert_eq!(
+        h.jog_ends(),
+        [(5, JogEnd::Refused(refusal_reasons(&h.events)[0].clone()))]
+    );
+    let refusals = h.refusals();
+    assert!(
+        refusals
+            .iter()
+            .any(|r| r.contains("the EMCU reports no limit switches")),
+        "{refusals:?}"
+    );
+}

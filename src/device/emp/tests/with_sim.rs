@@ -17,16 +17,16 @@ use crate::sim::emp::EmpSim;
 
 use super::harness::{profile, settings, x_speed};
 
-type Bench = crate::device::common::testing::Bench<EmpDriver, EmpSim>;
+pub(super) type Bench = crate::device::common::testing::Bench<EmpDriver, EmpSim>;
 
-fn bench_for(profile: &Profile, adjust: impl FnOnce(&mut EmpSettings)) -> Bench {
+pub(super) fn bench_for(profile: &Profile, adjust: impl FnOnce(&mut EmpSettings)) -> Bench {
     let mut settings = EmpSettings::from_profile(profile).expect("settings");
     adjust(&mut settings);
     let sim = EmpSim::from_profile(profile).expect("simulator");
     Bench::new(EmpDriver::new(settings), sim, crate::proto::emp::LINE)
 }
 
-fn counter(b: &Bench, ds: DriveAddress) -> i64 {
+pub(super) fn counter(b: &Bench, ds: DriveAddress) -> i64 {
     let s = b.sim.snapshot(ds, b.now).expect("drive");
     i64::from(s.counter.increments())
 }
@@ -37,7 +37,7 @@ fn speed(b: &Bench, ds: DriveAddress) -> f64 {
 
 /// Hold the key of jog `id`: a renewal with the profile's repeat timeout
 /// every 100 ms, until the jog ends or `within` has passed. The end, if any.
-fn hold(b: &mut Bench, id: JogId, within: Duration) -> Option<JogEnd> {
+pub(super) fn hold(b: &mut Bench, id: JogId, within: Duration) -> Option<JogEnd> {
     let lease = settings().jog.repeat_timeout;
     let end = b.now + within;
     while b.now < end {

@@ -18,9 +18,9 @@ use crate::wire::LineSettings;
 use super::harness::{ms, speeds};
 
 /// The isel driver and simulator joined by a modelled wire at 19200 baud.
-type Bench = crate::device::common::testing::Bench<IselDriver, IselSim>;
+pub(super) type Bench = crate::device::common::testing::Bench<IselDriver, IselSim>;
 
-fn bench(rate: PollRate) -> Bench {
+pub(super) fn bench(rate: PollRate) -> Bench {
     let profile = load_profile("default", &ConfigDirs::builtin_only()).expect("profile");
     let mut settings = IselSettings::from_profile(&profile).expect("settings");
     settings.poll.rate = rate;
@@ -28,7 +28,7 @@ fn bench(rate: PollRate) -> Bench {
     Bench::new(IselDriver::new(settings), sim, LineSettings::new(19200))
 }
 
-trait IselBench {
+pub(super) trait IselBench {
     fn counters(&self) -> [f64; 4];
     fn set(&mut self, name: &str, level: bool);
 }
@@ -47,7 +47,7 @@ impl IselBench for Bench {
 }
 
 /// Initialise and reference a fresh controller.
-fn homed(rate: PollRate) -> Bench {
+pub(super) fn homed(rate: PollRate) -> Bench {
     let mut b = bench(rate);
     b.run(ms(500));
     b.request(Request::Initialise);
