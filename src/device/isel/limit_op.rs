@@ -414,7 +414,9 @@ impl Operation for LimitJogOp {
     fn activity(&self) -> Activity {
         match self.stage {
             Stage::Moving if self.stopping => Activity::Stopping,
-            Stage::Done => Activity::Idle,
+            // Idle only once its end is told: a client sees the end before
+            // the machine at rest.
+            Stage::Done if self.reported => Activity::Idle,
             _ => Activity::Jogging,
         }
     }

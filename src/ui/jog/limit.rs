@@ -31,6 +31,9 @@ pub struct LimitRun {
     pub since: Instant,
     /// The device task has reported it running.
     pub seen: bool,
+    /// Seen running, then the machine at rest: its end was missed (it
+    /// comes before the rest); not shown as running any more.
+    pub idle: bool,
 }
 
 /// What the keypad keeps for the jog off a limit switch.
@@ -149,6 +152,7 @@ impl LimitState {
                 limit,
                 since: now,
                 seen: false,
+                idle: false,
             });
         }
     }
@@ -162,8 +166,7 @@ impl LimitState {
                     if state.activity != crate::device::api::Activity::Idle {
                         run.seen = true;
                     } else if run.seen {
-                        // Its end was missed: the machine stands.
-                        self.run = None;
+                        run.idle = true;
                     }
                 }
             }
@@ -213,7 +216,7 @@ pub fn after(run: &LimitRun, end: &JogEnd) -> AfterEnd {
 
 /// The keypad's status line while it runs.
 pub fn status(model: &Model) -> Option<String> {
-    let run = model.keypad.limit.run.as_ref()?;
+    let run = model.keypad.limit.run.as_ref().filter(|r| !r.idle)?;
     let axis = run.limit.axis;
     let s = model.keypad.settings();
     let u = unit(model, axis);
