@@ -17,6 +17,7 @@ use jogterm::device::api::{Activity, Dir, Event, JogEnd, JogId, MachineState, Pe
 use jogterm::device::{
     Connector, DeviceHandle, EventReceiver, TaskOptions, driver_for, spawn_with,
 };
+use jogterm::motion::standstill::standstill;
 use jogterm::proto::emcu::EmcuAxis;
 use jogterm::proto::emp::DriveAddress;
 use jogterm::sim::SimDevice;
@@ -269,35 +270,6 @@ impl Sampler {
         self.stop.store(true, std::sync::atomic::Ordering::Relaxed);
         self.thread.join().expect("sampler")
     }
-}
-
-/// The longest time the position stood still between the first and the
-/// last movement of `trace`: from the first to the last of a run of equal
-/// readings (what was seen standing; a late sample, the machine being
-/// loaded, widens no standstill). A run still open at the end (the axis at
-/// rest after the last movement) is no standstill between movements. At
-/// the slowest speeds one step period looks like a standstill too (the
-/// EMCU counter at its 200 Hz start speed: 5 ms).
-pub fn standstill(trace: &[(Instant, f64)]) -> Duration {
-    let Some(&(_, first)) = trace.first() else {
-        return Duration::ZERO;
-    };
-    let Some(moved) = trace.iter().position(|(_, x)| *x != first) else {
-        return Duration::ZERO;
-    };
-    let mut longest = Duration::ZERO;
-    // (first sample of the run, last sample of the run, its reading)
-    let (t, x) = trace[moved];
-    let mut run = (t, t, x);
-    for &(t, x) in &trace[moved + 1..] {
-        if x == run.2 {
-            run.1 = t;
-        } else {
-            longest = longest.max(run.1.saturating_duration_since(run.0));
-            run = (t, t, x);
-        }
-    }
-    longest
 }
 
 /// isel, EMCU and EMP: the simulator for the shipped profile.

@@ -936,3 +936,28 @@ fn an_input_wired_as_an_estop_refuses_motion_while_it_is_tripped() {
     plain.run(ms(500));
     assert!(!plain.driver.state().estop);
 }
+
+/// EMP changes a running jog's speed without a stop: it never stands.
+#[test]
+fn a_hold_never_stands_still_at_its_first_repeat() {
+    let mut b = homed(|_| {});
+    let (_, top, grace, repeat) = jog_figures();
+    b.request(Request::MoveTo {
+        target: PerAxis::new().with(Axis::X, 20 * 11_200),
+        frame: Frame::Machine,
+        speed_hz: x_speed(top),
+    });
+    b.run(Duration::from_secs(10));
+    b.request(Request::Jog {
+        id: JogId(1),
+        axes: vec![(Axis::X, Dir::Plus)],
+        speed_hz: x_speed(top),
+        lease: grace,
+    });
+    let trace = b.hold_trace(JogId(1), repeat, ms(500), ms(1500), |sim, t| {
+        sim.snapshot(DriveAddress::SINGLE, t)
+            .map_or(f64::NAN, |s| s.physical)
+    });
+    let still = crate::motion::standstill::standstill(&trace);
+    assert_eq!(still, Duration::ZERO);
+}

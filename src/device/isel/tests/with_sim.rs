@@ -337,3 +337,24 @@ fn a_stop_during_a_running_program_halts_it_and_nothing_resumes() {
     assert_eq!(at[1], 0.0, "the second line never ran");
     assert_eq!(b.driver.state().activity, Activity::Idle);
 }
+
+/// The speed-up at the first repeat stops the move and sends a faster one
+/// from where it ended (manual 2.2.2): the axis stands between them for
+/// the `F`, the quiet after it, `@0P` and the faster move's bytes, all at
+/// 19200 baud (`docs/jogging.md`, "Speed caps").
+#[test]
+fn a_hold_stands_still_once_and_briefly_at_its_first_repeat() {
+    let mut b = homed(PollRate::LineSpeed);
+    b.request(Request::Jog {
+        id: JogId(1),
+        axes: vec![(Axis::X, Dir::Plus)],
+        speed_hz: speeds(6_000.0),
+        lease: ms(750),
+    });
+    let trace = b.hold_trace(JogId(1), ms(150), ms(500), ms(1500), |sim, t| {
+        sim.counters_at(t)[0]
+    });
+    let still = crate::motion::standstill::standstill(&trace);
+    eprintln!("isel: standing still {still:?} at the first repeat");
+    assert!(still > ms(5) && still < ms(60), "{still:?}");
+}
