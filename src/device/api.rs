@@ -80,6 +80,14 @@ impl Dir {
             Dir::Plus => 1,
         }
     }
+
+    /// `+` or `-`, as in `X+`.
+    pub fn symbol(self) -> char {
+        match self {
+            Dir::Minus => '-',
+            Dir::Plus => '+',
+        }
+    }
 }
 
 /// Identifies one continuous jog, so a late renewal or release for an older

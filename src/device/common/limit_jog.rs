@@ -11,10 +11,11 @@
 //! judged as the profile's `[io]` wires them (`IoSnapshot::active_limits`):
 //! the switch's `side` says which way leads out of it.
 
-use crate::axis::Axis;
-use crate::device::api::{ActiveLimit, ControllerFault, Dir, MachineState, Recovery, Refusal};
+use crate::axis::{Axis, AxisSet};
+use crate::device::api::{ActiveLimit, ControllerFault, Dir, MachineState, Refusal};
 use crate::wiring::Side;
 
+use super::gate;
 use super::limits::invalid;
 
 fn names(limits: &[ActiveLimit]) -> String {
@@ -26,7 +27,7 @@ fn names(limits: &[ActiveLimit]) -> String {
 }
 
 fn dir_text(axis: Axis, dir: Dir) -> String {
-    format!("{axis}{}", if dir.sign() > 0 { '+' } else { '-' })
+    format!("{axis}{}", dir.symbol())
 }
 
 /// Whether a jog of `axis` in `dir` off its limit switch may start, given
@@ -43,23 +44,14 @@ pub fn check(
     active: &[ActiveLimit],
     is_limit: impl Fn(&ControllerFault) -> bool,
 ) -> Result<ActiveLimit, Refusal> {
-    if !state.link_up {
-        return Err(Refusal::NotConnected);
-    }
-    if state.estop {
-        return Err(Refusal::EmergencyStop);
-    }
-    if let Some(f) = &state.fault {
-        match f.recovery {
-            Recovery::Reference => {}
-            Recovery::ClearEmergencyStop => return Err(Refusal::EmergencyStop),
-            // The fault the switch caused is what this jog overrides.
-            _ if is_limit(f) => {}
-            recovery => return Err(Refusal::Fault { recovery }),
-        }
-    }
-    if !ready {
-        return Err(Refusal::NotInitialised);
+    // What blocks every move (`gate::motion_allowed`; no axis asks for
+    // its reference), but the fault the switch caused: that is what this
+    // jog overrides.
+    match gate::motion_allowed(state, ready, AxisSet::EMPTY, true, &is_limit) {
+        Ok(()) => {}
+        Err(Refusal::LimitSwitch) if !ready => return Err(Refusal::NotInitialised),
+        Err(Refusal::LimitSwitch) => {}
+        Err(other) => return Err(other),
     }
     let own: Vec<ActiveLimit> = active.iter().filter(|l| l.axis == axis).cloned().collect();
     match own.as_slice() {
@@ -134,7 +126,7 @@ pub fn end_notice(axis: Axis, left: &ActiveLimit, travelled: f64, end: &Reading)
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::axis::AxisSet;
+    use crate::device::api::Recovery;
 
     fn limit(axis: Axis, side: Side) -> ActiveLimit {
         ActiveLimit {

@@ -85,6 +85,13 @@ pub struct LimitJog {
 }
 
 impl JogSettings {
+    /// The jog off a limit switch of `axis`, or why there is none.
+    pub fn limit_jog_of(&self, axis: Axis) -> Result<LimitJog, crate::device::api::Refusal> {
+        self.limit_jog
+            .get(axis)
+            .ok_or_else(|| super::limits::invalid(format!("the profile has no [axes.{axis}]")))
+    }
+
     pub fn from_profile(profile: &Profile) -> JogSettings {
         let jog = &profile.jog;
         let limit_jog = profile

@@ -213,12 +213,7 @@ pub fn jog(
 /// active switch itself (`05`, manual introduction: "die Position kann nur
 /// in der entgegengesetzten Richtung wieder verlassen werden").
 pub fn limit_jog(cx: &Context, axis: Axis, dir: Dir) -> Result<Plan, Refusal> {
-    let limit = cx
-        .settings
-        .jog
-        .limit_jog
-        .get(axis)
-        .ok_or_else(|| invalid(format!("the profile has no [axes.{axis}]")))?;
+    let limit = cx.settings.jog.limit_jog_of(axis)?;
     let here = cx.positions().ok_or(Refusal::NotInitialised)?;
     let pos = here.get(axis).unwrap_or(0);
     let hz = capped_speed(&cx.settings.limits, axis, Some(limit.hz))?;

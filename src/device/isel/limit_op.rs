@@ -33,7 +33,7 @@ use std::time::{Duration, Instant};
 use crate::axis::{Axis, AxisSet};
 use crate::device::api::{ActiveLimit, Activity, Dir, Event, JogEnd, JogId, Refusal};
 use crate::device::common::limit_jog::{self, Reading};
-use crate::device::common::limits::{invalid, machine_has};
+use crate::device::common::limits::machine_has;
 use crate::device::common::link;
 use crate::proto::isel::{Command, ControlByte, InputPort, Reply, ReplyCode};
 
@@ -116,12 +116,7 @@ impl LimitJogOp {
             &active,
             is_limit_fault,
         )?;
-        let limit = cx
-            .settings
-            .jog
-            .limit_jog
-            .get(axis)
-            .ok_or_else(|| invalid(format!("the profile has no [axes.{axis}]")))?;
+        let limit = cx.settings.jog.limit_jog_of(axis)?;
         let hz = plan::speed_hz(cx, axis, Some(limit.hz))?;
         let step = ((f64::from(hz) * STEP_TIME.as_secs_f64()).round() as i64).max(1);
         Ok(LimitJogOp {

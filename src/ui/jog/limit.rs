@@ -58,7 +58,7 @@ fn unit(model: &Model, axis: Axis) -> &'static str {
 }
 
 fn dir_text(axis: Axis, dir: Dir) -> String {
-    format!("{axis}{}", if dir.sign() > 0 { '+' } else { '-' })
+    format!("{axis}{}", dir.symbol())
 }
 
 /// The switch `L` would leave: the first axis with one switch active; or
