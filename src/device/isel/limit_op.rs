@@ -223,7 +223,12 @@ impl Operation for LimitJogOp {
                 Stage::Check | Stage::Read => {
                     Next::Send(cx.cmd(Command::ReadPort(InputPort::LimitSwitches)))
                 }
-                Stage::TestOn => Next::Send(cx.cmd(Command::SetTestMode(true))),
+                Stage::TestOn => {
+                    // From the moment it may arrive: an answer lost with
+                    // the link must still be followed by `@0T0`.
+                    cx.test_mode_left_on = true;
+                    Next::Send(cx.cmd(Command::SetTestMode(true)))
+                }
                 Stage::Move => match self.plan_move(cx) {
                     Ok(planned) => {
                         let cmd = planned.cmd.clone();
@@ -287,7 +292,6 @@ impl Operation for LimitJogOp {
             }
             (Stage::TestOn, Reply::Code(ReplyCode::Ok)) => {
                 self.test_mode_on = true;
-                cx.test_mode_left_on = true;
                 self.stage = if self.end.is_some() || self.stopping {
                     Stage::TestOff
                 } else {
@@ -295,6 +299,7 @@ impl Operation for LimitJogOp {
                 };
             }
             (Stage::TestOn, Reply::Code(code)) => {
+                cx.test_mode_left_on = false;
                 let text = cx.cmd(Command::SetTestMode(true)).text;
                 self.controller_fault(cx, &text, code);
             }

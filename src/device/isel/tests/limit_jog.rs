@@ -355,3 +355,20 @@ fn against_the_simulator_a_forced_switch_is_left_at_the_bound() {
         b.events
     );
 }
+
+#[test]
+fn a_link_lost_before_test_mode_was_confirmed_still_switches_it_off_next_time() {
+    let mut h = Harness::new();
+    in_switch(&mut h, -800, b"001");
+    h.request(limit_jog(Axis::X, Dir::Plus));
+    h.expect_text("@0b3");
+    h.reply(b"001");
+    h.expect_text("@0T1");
+    // The answer never comes: the link is declared dead.
+    h.driver.disconnected("no answer", h.now);
+    h.collect();
+    assert_eq!(ends(&h), [JogEnd::LinkLost]);
+    h.take_events();
+    h.connect();
+    h.expect_text("@0T0");
+}
