@@ -9,9 +9,11 @@
 //! - travel after the last repeat at the profile's top jog speed, against
 //!   `jog.max_overrun`;
 //! - travel after letting go of a step key held for 3 s at 30 Hz;
-//! - EMCU and EMP (their simulators, `jog_family`): travel after a tap
-//!   (press, no repeat, no release) and after the last repeat of a hold, at
-//!   the axis's top speed, against `jog.max_overrun`.
+//! - per family (isel, EMCU and EMP, their simulators, `jog_family`): travel
+//!   after a tap (press, no repeat, no release) and after the last repeat of
+//!   a hold, at the axis's top speed, against `jog.max_overrun`; and the
+//!   time the axis stands still at the hold's first repeat, where the jog
+//!   speeds up from the first lease's cap to the repeats' (< 100 ms).
 //!
 //! `cargo bench --bench jog` (or `cargo test --bench jog` in a debug build)
 //! prints a table; `docs/jogging.md` has the figures.
@@ -50,7 +52,7 @@ async fn settle(rig: &mut WireRig) {
 }
 
 struct Row {
-    what: &'static str,
+    what: String,
     unit: &'static str,
     values: Vec<f64>,
     limit: String,
@@ -101,13 +103,13 @@ async fn release_trials(rate: PollRate, what: &'static str) -> (Row, Option<Row>
     }
     rig.handle.shutdown().await;
     let press = Row {
-        what,
+        what: what.into(),
         unit: "ms",
         values: press,
         limit: "< 5 ms at p99".into(),
     };
     let release = (rate == PollRate::Off).then(|| Row {
-        what: "release -> break",
+        what: "release -> break".into(),
         unit: "ms",
         values: release,
         limit: "< 5 ms".into(),
@@ -155,13 +157,13 @@ async fn dead_man_trials() -> (Row, Row, f64) {
     rig.handle.shutdown().await;
     (
         Row {
-            what: "last repeat -> break, beyond the timeout",
+            what: "last repeat -> break, beyond the timeout".into(),
             unit: "ms",
             values: late,
             limit: format!("< 5 ms (timeout {} ms)", timeout.as_millis()),
         },
         Row {
-            what: "travel after the last repeat, top speed",
+            what: "travel after the last repeat, top speed".into(),
             unit: "mm",
             values: overrun,
             limit: format!("<= {bound} mm (jog.max_overrun)"),
@@ -194,7 +196,7 @@ async fn step_hold() -> Row {
     rig.handle.shutdown().await;
     let bound = 2.0 * rig.settings.step_queue as f64 * step;
     Row {
-        what: "step key held 3 s at 30 Hz: travel after release",
+        what: "step key held 3 s at 30 Hz: travel after release".into(),
         unit: "mm",
         values: past,
         limit: format!(
@@ -204,41 +206,57 @@ async fn step_hold() -> Row {
     }
 }
 
-/// Tap and hold rows of one family (5 trials each, back and forth).
-async fn family_rows<S: jog_family::XCounter>(mut rig: jog_family::FamilyRig<S>) -> [Row; 2] {
+/// Tap, hold and first-repeat standstill rows of one family (5 trials
+/// each, back and forth).
+async fn family_rows<S: jog_family::XCounter>(mut rig: jog_family::FamilyRig<S>) -> [Row; 3] {
     rig.ready().await;
-    let (mut tap, mut hold) = (Vec::new(), Vec::new());
+    let (mut tap, mut hold, mut still) = (Vec::new(), Vec::new(), Vec::new());
     for i in 0..5 {
         let dir = vector(i).first().map_or(Dir::Plus, |(_, d)| *d);
         tap.push(rig.tap(dir).await);
-        hold.push(rig.hold(dir).await);
+        let (travel, standstill) = rig.hold(dir).await;
+        hold.push(travel);
+        still.push(ms(standstill));
     }
     let limit = format!("<= {} mm (jog.max_overrun)", rig.bound_mm);
     let top = rig.top_hz / rig.spu;
+    let name = rig.name;
+    let what = |row: &str| format!("{name} {row}");
     let rows = [
         Row {
-            what: if rig.name == "EMCU" {
-                "EMCU tap at top speed: travel after the press"
-            } else {
-                "EMP tap at top speed: travel after the press"
-            },
+            what: what("tap at top speed: travel after the press"),
             unit: "mm",
             values: tap,
             limit: format!("{limit}, {top} mm/s asked"),
         },
         Row {
-            what: if rig.name == "EMCU" {
-                "EMCU hold: travel after the last repeat"
-            } else {
-                "EMP hold: travel after the last repeat"
-            },
+            what: what("hold: travel after the last repeat"),
             unit: "mm",
             values: hold,
             limit,
         },
+        Row {
+            what: what("hold: standstill at the first repeat"),
+            unit: "ms",
+            values: still,
+            limit: "< 100 ms".into(),
+        },
     ];
     rig.shutdown().await;
     rows
+}
+
+/// The per-family rows, isel first.
+async fn all_family_rows() {
+    for row in family_rows(jog_family::isel()).await {
+        row.print();
+    }
+    for row in family_rows(jog_family::emcu()).await {
+        row.print();
+    }
+    for row in family_rows(jog_family::emp()).await {
+        row.print();
+    }
 }
 
 fn main() {
@@ -253,12 +271,7 @@ fn main() {
             "jog, isel simulator at 19200 baud", "n", "p50", "p99", "max"
         );
         if std::env::var_os("JOG_BENCH_FAMILIES_ONLY").is_some() {
-            for row in family_rows(jog_family::emcu()).await {
-                row.print();
-            }
-            for row in family_rows(jog_family::emp()).await {
-                row.print();
-            }
+            all_family_rows().await;
             return;
         }
         let (press_off, release) =
@@ -275,11 +288,6 @@ fn main() {
         overrun.print();
         println!("  (top jog speed asked for: {speed} mm/s; the driver caps it)");
         step_hold().await.print();
-        for row in family_rows(jog_family::emcu()).await {
-            row.print();
-        }
-        for row in family_rows(jog_family::emp()).await {
-            row.print();
-        }
+        all_family_rows().await;
     });
 }

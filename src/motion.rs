@@ -12,6 +12,7 @@
 use std::time::Duration;
 
 pub mod overrun;
+pub mod standstill;
 
 pub use overrun::{Braking, STOP_REACTION, lease_cap, reaction_speed_cap, speed_cap, travel};
 

@@ -1,9 +1,12 @@
-//! The EMCU and EMP rows of `benches/jog.rs`: the device task in front of
+//! The per-family rows of `benches/jog.rs`: the device task in front of
 //! the family's simulator behind a socket pair (the shell models the wire
 //! both ways), jog requests as the keypad sends them, and the overrun read
 //! from the simulated axis: a tap (press, no repeat, no release: travel
 //! from the press) and a hold (first repeat after 500 ms, then 30 Hz for
-//! 1 s: travel from the last repeat), at the axis's top speed.
+//! 1 s: travel from the last repeat), at the axis's top speed. During the
+//! hold a sampler thread reads the simulated axis every millisecond: the
+//! longest time it stood still between its first movement and the last
+//! repeat is the standstill of the speed-up at the first repeat.
 
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
@@ -14,11 +17,13 @@ use jogterm::device::api::{Activity, Dir, Event, JogEnd, JogId, MachineState, Pe
 use jogterm::device::{
     Connector, DeviceHandle, EventReceiver, TaskOptions, driver_for, spawn_with,
 };
+use jogterm::motion::standstill::standstill;
 use jogterm::proto::emcu::EmcuAxis;
 use jogterm::proto::emp::DriveAddress;
 use jogterm::sim::SimDevice;
 use jogterm::sim::emcu::EmcuSim;
 use jogterm::sim::emp::EmpSim;
+use jogterm::sim::isel::IselSim;
 use jogterm::sim::shell::{Shell, serve_socket};
 use jogterm::transport::PortSpec;
 
@@ -27,6 +32,12 @@ use crate::jog_support::{Probe, Recorder, Shared, lock};
 /// The X counter of a family's simulator.
 pub trait XCounter: SimDevice + Send + 'static {
     fn x(&mut self, now: Instant) -> f64;
+}
+
+impl XCounter for IselSim {
+    fn x(&mut self, now: Instant) -> f64 {
+        self.counters_at(now)[0]
+    }
 }
 
 impl XCounter for EmcuSim {
@@ -202,8 +213,10 @@ impl<S: XCounter> FamilyRig<S> {
         (self.x() - from).abs() / self.spu
     }
 
-    /// Travel (mm) after the last repeat of a hold.
-    pub async fn hold(&mut self, dir: Dir) -> f64 {
+    /// Travel (mm) after the last repeat of a hold, and the longest time
+    /// the axis stood still between its first movement and the last repeat.
+    pub async fn hold(&mut self, dir: Dir) -> (f64, Duration) {
+        let sampler = Sampler::start(self.probe.clone());
         let start = Instant::now();
         let id = self.jog(dir);
         let mut next = start + Duration::from_millis(500);
@@ -217,8 +230,9 @@ impl<S: XCounter> FamilyRig<S> {
             last = self.x();
             next += Duration::from_millis(33);
         }
+        let trace = sampler.finish();
         self.settled(id).await;
-        (self.x() - last).abs() / self.spu
+        ((self.x() - last).abs() / self.spu, standstill(&trace))
     }
 
     pub async fn shutdown(self) {
@@ -226,7 +240,45 @@ impl<S: XCounter> FamilyRig<S> {
     }
 }
 
-/// EMCU and EMP: the simulator for the shipped profile.
+/// Reads the simulated axis every millisecond on a thread of its own, so
+/// a late wake-up of the async side cannot hide a standstill.
+struct Sampler {
+    stop: Arc<std::sync::atomic::AtomicBool>,
+    thread: std::thread::JoinHandle<Vec<(Instant, f64)>>,
+}
+
+impl Sampler {
+    fn start<S: XCounter>(probe: Shared<S>) -> Sampler {
+        let stop = Arc::new(std::sync::atomic::AtomicBool::new(false));
+        let flag = stop.clone();
+        let thread = std::thread::spawn(move || {
+            let mut trace = Vec::new();
+            while !flag.load(std::sync::atomic::Ordering::Relaxed) {
+                let mut p = lock(&probe);
+                let now = Instant::now();
+                let x = p.sim.x(now);
+                drop(p);
+                trace.push((now, x));
+                std::thread::sleep(Duration::from_millis(1));
+            }
+            trace
+        });
+        Sampler { stop, thread }
+    }
+
+    fn finish(self) -> Vec<(Instant, f64)> {
+        self.stop.store(true, std::sync::atomic::Ordering::Relaxed);
+        self.thread.join().expect("sampler")
+    }
+}
+
+/// isel, EMCU and EMP: the simulator for the shipped profile.
+pub fn isel() -> FamilyRig<IselSim> {
+    let p = profile("default");
+    let sim = IselSim::from_profile(&p).expect("isel simulator");
+    FamilyRig::start("isel", &p, sim)
+}
+
 pub fn emcu() -> FamilyRig<EmcuSim> {
     let p = profile("emcu");
     let sim = EmcuSim::from_profile(&p).expect("EMCU simulator");

@@ -182,6 +182,13 @@ pub struct JogProfile {
     pub step_queue: usize,
     /// Allow jogging axes that have not been referenced.
     pub allow_unreferenced: bool,
+    /// The jog off a limit switch (`L`, `docs/jogging.md`): the most it
+    /// travels away from the switch, units. It stops there if the switch has
+    /// not released by then (a switch stuck or wired the other way round).
+    pub limit_jog_distance: f64,
+    /// The jog off a limit switch: its speed, units per second (at most the
+    /// axis's `max_speed`).
+    pub limit_jog_speed: f64,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -488,6 +495,18 @@ impl Profile {
             out.push(Invalid::new(
                 &["jog", "step_queue"],
                 "must be between 1 and 10",
+            ));
+        }
+        if !(jog.limit_jog_distance.is_finite() && jog.limit_jog_distance > 0.0) {
+            out.push(Invalid::new(
+                &["jog", "limit_jog_distance"],
+                "must be a positive distance",
+            ));
+        }
+        if !(jog.limit_jog_speed.is_finite() && jog.limit_jog_speed > 0.0) {
+            out.push(Invalid::new(
+                &["jog", "limit_jog_speed"],
+                "must be a positive speed",
             ));
         }
         if !(self.poll.rate_hz.is_finite() && self.poll.rate_hz >= 0.0) {

@@ -80,6 +80,14 @@ impl Dir {
             Dir::Plus => 1,
         }
     }
+
+    /// `+` or `-`, as in `X+`.
+    pub fn symbol(self) -> char {
+        match self {
+            Dir::Minus => '-',
+            Dir::Plus => '+',
+        }
+    }
 }
 
 /// Identifies one continuous jog, so a late renewal or release for an older
@@ -135,6 +143,23 @@ pub enum Request {
     /// The key was released (or any key in toggle mode): stop jog `id`.
     JogRelease {
         id: JogId,
+    },
+    /// Jog `axis` off the limit switch it stands in (what LinuxCNC calls
+    /// "override limits"; `docs/jogging.md`, "Jog off a limit switch"):
+    /// slowly (`jog.limit_jog_speed`) in `dir`, until the switch releases
+    /// or `jog.limit_jog_distance` has been travelled. The operator has
+    /// confirmed it; it holds no lease and ends on its own, or on a stop.
+    /// Refused like any motion, except that the active limit switch (and a
+    /// controller's limit-switch fault) does not block `axis` in `dir`,
+    /// and no reference is needed; refused unless a wired limit switch of
+    /// `axis` reads active and `dir` leads away from it (the switch's
+    /// `side` in the profile's `[io]`). Ends with `Event::JogEnded { id,
+    /// OffLimit | StillOnLimit | Stopped | Fault | LinkLost | Refused }`;
+    /// the axis counts as not referenced afterwards.
+    LimitJog {
+        id: JogId,
+        axis: Axis,
+        dir: Dir,
     },
     /// A relative step. Steps requested while one runs are coalesced up to the
     /// configured bound; beyond it they are dropped with `Event::Refused`.
@@ -195,12 +220,22 @@ impl Request {
         matches!(
             self,
             Request::Jog { .. }
+                | Request::LimitJog { .. }
                 | Request::Step { .. }
                 | Request::MoveTo { .. }
                 | Request::Home { .. }
                 | Request::RunProgram
                 | Request::Raw { .. }
         )
+    }
+
+    /// The jog a request starts, which ends with `Event::JogEnded` (also
+    /// when it is refused): a continuous jog or a jog off a limit switch.
+    pub fn jog_id(&self) -> Option<JogId> {
+        match self {
+            Request::Jog { id, .. } | Request::LimitJog { id, .. } => Some(*id),
+            _ => None,
+        }
     }
 }
 
@@ -663,6 +698,13 @@ pub enum JogEnd {
     Refused(Refusal),
     Fault(ControllerFault),
     LinkLost,
+    /// A jog off a limit switch: the switch released; the axis stands off
+    /// it and needs a reference run.
+    OffLimit,
+    /// A jog off a limit switch travelled `jog.limit_jog_distance` and the
+    /// switch still reads active (stuck, or wired other than the profile
+    /// says): it stopped there.
+    StillOnLimit,
 }
 
 #[derive(Debug, Clone, PartialEq)]

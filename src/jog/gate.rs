@@ -6,7 +6,10 @@
 //!
 //! The order is the driver's (`docs/device.md`, "Refusals"): no link, the
 //! emergency stop, a limit switch or controller error until its recovery is
-//! done, something else running, not initialised, not referenced.
+//! done, something else running, not initialised, not referenced. The jog
+//! off a limit switch is judged the same, but the limit switch (and its
+//! fault) and the reference do not block it (`device::common::limit_jog`,
+//! which also checks the switch and the direction).
 
 use crate::axis::AxisSet;
 use crate::device::api::{Activity, LinkState, MachineState, Recovery, Refusal};
@@ -24,6 +27,9 @@ pub enum Motion {
     Home,
     /// Setting the work zero (moves nothing, needs the position).
     SetZero,
+    /// The jog off a limit switch (`L`): the switch it leaves and the
+    /// controller's limit fault do not count, nor the reference.
+    OffLimit,
 }
 
 /// The check's inputs: the link and machine state as last reported, and
@@ -55,16 +61,19 @@ impl Gate<'_> {
                 // reference run is the recovery, and the checks below say so.
                 Recovery::Reference => {}
                 Recovery::ClearEmergencyStop => return Err(Refusal::EmergencyStop),
-                // isel chapter 5, code 2: a limit switch was hit.
+                // isel chapter 5, code 2: a limit switch was hit; what
+                // the jog off a limit switch is for (after initialising).
                 Recovery::ReinitialiseAndReference if f.code == "2" => {
-                    return Err(Refusal::LimitSwitch);
+                    if motion != Motion::OffLimit {
+                        return Err(Refusal::LimitSwitch);
+                    }
                 }
                 recovery => return Err(Refusal::Fault { recovery }),
             }
         }
         // Test mode may drive over a limit switch (isel manual 2.2.24):
         // that is what it is for.
-        if m.limit && !m.test_mode {
+        if m.limit && !m.test_mode && motion != Motion::OffLimit {
             return Err(Refusal::LimitSwitch);
         }
         let busy = match (m.activity, motion) {
@@ -97,7 +106,7 @@ impl Gate<'_> {
         let waived = match motion {
             Motion::Jog | Motion::Step => m.test_mode || (self.allow_unreferenced && !after_fault),
             Motion::GoTo => m.test_mode,
-            Motion::Home | Motion::SetZero => true,
+            Motion::Home | Motion::SetZero | Motion::OffLimit => true,
         };
         let missing_ref: AxisSet = self
             .axes
@@ -207,6 +216,33 @@ mod tests {
         m.initialised = AxisSet::EMPTY;
         m.referenced = AxisSet::EMPTY;
         assert_eq!(check(&m, Motion::Jog), Err(Refusal::NotInitialised));
+    }
+
+    #[test]
+    fn the_jog_off_a_limit_switch_overrides_the_switch_and_the_reference_only() {
+        let mut m = ready();
+        m.limit = true;
+        m.referenced = AxisSet::EMPTY;
+        assert_eq!(check(&m, Motion::Jog), Err(Refusal::LimitSwitch));
+        assert_eq!(check(&m, Motion::OffLimit), Ok(()));
+        // After a `2` the controller must be initialised first.
+        m.fault = fault("2", Recovery::ReinitialiseAndReference);
+        m.initialised = AxisSet::EMPTY;
+        assert_eq!(check(&m, Motion::OffLimit), Err(Refusal::NotInitialised));
+        m.initialised = AxisSet::XYZ;
+        m.fault = fault("2", Recovery::Reference);
+        assert_eq!(check(&m, Motion::OffLimit), Ok(()));
+        // Everything else still refuses.
+        m.fault = fault("9", Recovery::ClearEmergencyStop);
+        assert_eq!(check(&m, Motion::OffLimit), Err(Refusal::EmergencyStop));
+        m.fault = None;
+        m.activity = Activity::Homing;
+        assert_eq!(
+            check(&m, Motion::OffLimit),
+            Err(Refusal::Busy {
+                activity: Activity::Homing
+            })
+        );
     }
 
     #[test]

@@ -60,6 +60,10 @@ pub struct JogSettings {
     pub allow_unreferenced: bool,
     /// How the controller brakes, where the profile says (isel, EMCU).
     pub braking: Option<Braking>,
+    /// The jog off a limit switch: the most it travels (units) and its
+    /// speed (units per second), `jog.limit_jog_distance`/`_speed`.
+    pub limit_distance: f64,
+    pub limit_speed: f64,
 }
 
 impl JogSettings {
@@ -105,6 +109,8 @@ impl JogSettings {
             step_queue: jog.step_queue,
             allow_unreferenced: jog.allow_unreferenced,
             braking,
+            limit_distance: jog.limit_jog_distance,
+            limit_speed: jog.limit_jog_speed,
         }
     }
 

@@ -201,6 +201,7 @@ named_enum! {
         JogKind = "jog-kind", "switch between step and continuous jogging";
         GoTo = "go-to", "go to a typed position (work coordinates)";
         GoZero = "go-zero", "go to the work zero (asks first)";
+        JogOffLimit = "jog-off-limit", "jog the axis off its active limit switch (asks first)";
         HomeAxis = "home-axis", "reference run of one axis";
         ZeroAxis = "zero-axis", "make the current position the work zero of one axis";
         AxisAll = "axis-all", "all axes";

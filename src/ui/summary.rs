@@ -82,14 +82,25 @@ pub fn summarise(model: &Model) -> Summary {
         );
     }
     if m.limit {
-        return Summary::new(
-            Danger,
-            "LIMIT",
-            Some(format!(
+        // The jog off a limit switch (`ui::jog::limit`) is the way out,
+        // where the family does it.
+        let key = model
+            .keymap
+            .key_for(
+                super::keymap::Mode::Main,
+                super::keymap::Action::JogOffLimit,
+            )
+            .filter(|_| model.setup.protocol != crate::proto::Protocol::Emcu);
+        let detail = match key {
+            Some(key) => format!(
+                "a limit switch is active: initialise (i), jog off it ({key}), reference (h)"
+            ),
+            None => format!(
                 "a limit switch is active: {}",
                 Recovery::ReinitialiseAndReference.instruction()
-            )),
-        );
+            ),
+        };
+        return Summary::new(Danger, "LIMIT", Some(detail));
     }
     if let Some(f) = &m.fault {
         return Summary::new(Danger, "ERROR", Some(super::update::fault_text(f)));

@@ -467,6 +467,18 @@ fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
             }
             Vec::new()
         }
+        Action::JogOffLimit => {
+            match keypad::limit::ask(model) {
+                Ok(q) => ask(
+                    model,
+                    &q.title,
+                    q.question,
+                    vec![Effect::Request(q.request)],
+                ),
+                Err(text) => say(model, NoteLevel::Danger, text),
+            }
+            Vec::new()
+        }
         Action::HomeAxis | Action::ZeroAxis => {
             let (purpose, motion) = if action == Action::HomeAxis {
                 (Purpose::Home, Motion::Home)
@@ -1027,8 +1039,10 @@ fn device_event(model: &mut Model, event: Event) {
             NoteLevel::Danger,
             format!("refused {request}: {reason}"),
         ),
-        Event::JogEnded { end, .. } => {
-            if keypad::end_is_news(model, &end) {
+        Event::JogEnded { id, end } => {
+            if let Some(run) = model.keypad.limit.ended(id) {
+                limit_jog_ended(model, &run, &end);
+            } else if keypad::end_is_news(model, &end) {
                 jog_ended(model, end);
             }
         }
@@ -1117,9 +1131,37 @@ fn jog_ended(model: &mut Model, end: JogEnd) {
         JogEnd::Refused(reason) => Some((NoteLevel::Danger, format!("jog refused: {reason}"))),
         JogEnd::Fault(f) => Some((NoteLevel::Danger, format!("jog ended: {}", fault_text(&f)))),
         JogEnd::LinkLost => Some((NoteLevel::Danger, "jog ended: link lost".to_string())),
+        // The driver's notice says where it stopped and what to do.
+        JogEnd::OffLimit | JogEnd::StillOnLimit => None,
     };
     if let Some((level, text)) = note {
         say(model, level, text);
+    }
+}
+
+/// The jog off a limit switch has ended: off the switch, the reference run
+/// is asked for (as `h` asks), unless another question is open.
+fn limit_jog_ended(model: &mut Model, run: &keypad::limit::LimitRun, end: &JogEnd) {
+    match keypad::limit::after(run, end) {
+        keypad::limit::AfterEnd::Reference if model.popup.is_none() => {
+            main_action(model, Action::Home);
+        }
+        keypad::limit::AfterEnd::Reference => say(
+            model,
+            NoteLevel::Warning,
+            format!(
+                "{} is off its limit switch: reference the axes (h)",
+                run.limit.axis
+            ),
+        ),
+        keypad::limit::AfterEnd::Say { danger, text } => {
+            let level = if danger {
+                NoteLevel::Danger
+            } else {
+                NoteLevel::Info
+            };
+            say(model, level, text);
+        }
     }
 }
 

@@ -20,6 +20,8 @@
 //! - [`jog_speed`]: a jog's speed following its lease (granted leases, the
 //!   speed-up at the first short renewal).
 //! - [`gate`]: refusals of motion from the machine state.
+//! - [`limit_jog`]: the jog off a limit switch: its refusals, where it
+//!   stands after a reading of the switches.
 //! - [`queue`]: requests waiting for their turn, and what is refused at once.
 //! - [`poll`]: poll rates, cycles, statistics.
 //! - [`upload`]: progress of a program upload.
@@ -33,6 +35,7 @@ pub mod deadline;
 pub mod gate;
 pub mod io;
 pub mod jog_speed;
+pub mod limit_jog;
 pub mod limits;
 pub mod link;
 pub mod motion;

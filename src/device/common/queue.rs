@@ -222,7 +222,7 @@ impl RequestQueue {
         sink: &mut impl Sink,
     ) {
         for q in std::mem::take(&mut self.items) {
-            if let Request::Jog { id, .. } = q.request {
+            if let Some(id) = q.request.jog_id() {
                 sink.emit(Event::JogEnded {
                     id,
                     end: jog_end.clone(),

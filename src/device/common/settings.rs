@@ -69,14 +69,48 @@ pub struct JogSettings {
     pub step_queue: usize,
     /// Dead-man timeout once key repeats flow; with `max_overrun` it caps jog speeds.
     pub repeat_timeout: Duration,
+    /// The jog off a limit switch, per axis of the profile.
+    pub limit_jog: PerAxis<LimitJog>,
+}
+
+/// The jog off a limit switch of one axis (`jog.limit_jog_distance`,
+/// `jog.limit_jog_speed`) in steps and Hz.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LimitJog {
+    /// The most it travels, steps (at least 1).
+    pub distance: i64,
+    /// Its speed, Hz: the profile's, at most the axis's `max_speed`; the
+    /// family caps it to what its controller runs.
+    pub hz: f64,
 }
 
 impl JogSettings {
+    /// The jog off a limit switch of `axis`, or why there is none.
+    pub fn limit_jog_of(&self, axis: Axis) -> Result<LimitJog, crate::device::api::Refusal> {
+        self.limit_jog
+            .get(axis)
+            .ok_or_else(|| super::limits::invalid(format!("the profile has no [axes.{axis}]")))
+    }
+
     pub fn from_profile(profile: &Profile) -> JogSettings {
+        let jog = &profile.jog;
+        let limit_jog = profile
+            .axes
+            .iter()
+            .map(|(axis, p)| {
+                let spu = p.steps_per_unit.abs();
+                let limit = LimitJog {
+                    distance: ((jog.limit_jog_distance * spu).round() as i64).max(1),
+                    hz: jog.limit_jog_speed.min(p.max_speed) * spu,
+                };
+                (*axis, limit)
+            })
+            .collect();
         JogSettings {
-            allow_unreferenced: profile.jog.allow_unreferenced,
-            step_queue: profile.jog.step_queue.max(1),
-            repeat_timeout: Duration::from_millis(profile.jog.repeat_timeout_ms),
+            allow_unreferenced: jog.allow_unreferenced,
+            step_queue: jog.step_queue.max(1),
+            repeat_timeout: Duration::from_millis(jog.repeat_timeout_ms),
+            limit_jog,
         }
     }
 }

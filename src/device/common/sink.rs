@@ -28,9 +28,9 @@ impl Sink for VecDeque<Event> {
 
 /// `request` was not carried out: why, and for a jog its end.
 pub fn refuse(sink: &mut impl Sink, request: &Request, reason: Refusal) {
-    if let Request::Jog { id, .. } = request {
+    if let Some(id) = request.jog_id() {
         sink.emit(Event::JogEnded {
-            id: *id,
+            id,
             end: JogEnd::Refused(reason.clone()),
         });
     }

@@ -404,6 +404,32 @@ impl<D: Driver, S: SimDevice> Bench<D, S> {
         false
     }
 
+    /// Hold jog `id` as a terminal does: its first repeat `first` after
+    /// now, then one every 33 ms until `until`, each renewing for `lease`;
+    /// the simulated position `x` read every millisecond meanwhile.
+    pub fn hold_trace(
+        &mut self,
+        id: crate::device::api::JogId,
+        lease: Duration,
+        first: Duration,
+        until: Duration,
+        x: impl Fn(&mut S, Instant) -> f64,
+    ) -> Vec<(Instant, f64)> {
+        let start = self.now;
+        let mut next = start + first;
+        let mut trace = Vec::new();
+        while self.now < start + until {
+            if self.now >= next {
+                self.request(Request::JogRenew { id, lease });
+                next += ms(33);
+            }
+            self.run(ms(1));
+            let now = self.now;
+            trace.push((now, x(&mut self.sim, now)));
+        }
+        trace
+    }
+
     pub fn last_measured(&self) -> Option<PerAxis<i64>> {
         self.events.iter().rev().find_map(|e| match e {
             Event::Position(p) if p.source == PositionSource::Measured => Some(p.steps),

@@ -21,6 +21,17 @@ impl Measure {
         }
     }
 
+    /// Only `axes` of the machine's (a jog halted to speed up: the axes
+    /// it does not move have not moved, and their last readings stand).
+    pub fn of(cx: &Context, axes: crate::axis::AxisSet) -> Measure {
+        let mut all = cx.axes();
+        all.retain(|a| axes.contains(a.axis()));
+        Measure {
+            axes: all,
+            index: 0,
+        }
+    }
+
     pub fn is_done(&self) -> bool {
         self.index >= self.axes.len()
     }

@@ -659,6 +659,7 @@ impl EmcuDriver {
                     ))))
                 })
             }
+            Request::LimitJog { .. } => Err(plan::no_limit_jog()),
             Request::Step { delta, speed_hz } => match cx.position {
                 Some(base) => plan::step(cx, &base, delta, speed_hz)
                     .map(|p| Some(Op::Motion(Box::new(MotionOp::step(cx, p))))),

@@ -219,8 +219,19 @@ impl MotionOp {
     fn finish_move(&mut self, cx: &mut Context) {
         if !self.is_speeding_up() {
             self.kind.report_jog(cx);
+            self.phase = Phase::Measure(Measure::new(cx));
+            return;
         }
-        self.phase = Phase::Measure(Measure::new(cx));
+        // The restart waits for this: only the jog's own axes are read
+        // (the others stood still and were polled meanwhile), which keeps
+        // the standstill at the first repeat to `@X`, their `@L`, `#E` and
+        // `L` (`docs/jogging.md`, "Speed caps").
+        let axes = self
+            .jog_speed
+            .as_ref()
+            .map(|s| s.axes.iter().map(|(a, _)| *a).collect())
+            .unwrap_or_default();
+        self.phase = Phase::Measure(Measure::of(cx, axes));
     }
 
     fn failed(&mut self, cx: &mut Context, what: &str) {

@@ -303,6 +303,20 @@ pub fn brake_time(cx: &Context) -> Duration {
     Duration::from_millis(u64::from(cx.settings.ramp.get()))
 }
 
+/// Why the EMCU does no jog off a limit switch (`Request::LimitJog`,
+/// `docs/jogging.md`): jogterm cannot read a limit switch on it. Its status
+/// (`@X`, manual 1.5.3) has no limit flag and E1 (1.5.19) cannot be read;
+/// what the SMC3000's switches do is the card's, unreported. So jogterm
+/// could neither tell which way leads out of a switch nor when it has
+/// released, and a jog on a guess might drive deeper in.
+pub fn no_limit_jog() -> Refusal {
+    invalid(
+        "the EMCU reports no limit switches (its @X status has no limit flag, manual 1.5.3): \
+         jogterm cannot tell which way leads off a switch nor when it releases. Free the axis \
+         by hand with the power off, then reset (ctrl-r) and reference (h)",
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

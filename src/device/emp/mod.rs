@@ -31,6 +31,7 @@ mod guard;
 mod home;
 mod init;
 mod io;
+mod limit_op;
 mod motion_op;
 mod op;
 mod output;
@@ -73,6 +74,7 @@ use crate::proto::emp::{
 use context::Context;
 use home::Home;
 use init::Init;
+use limit_op::LimitJogOp;
 use motion_op::MotionOp;
 use op::Operation;
 use output::{Switch, output_request};
@@ -87,6 +89,7 @@ enum Op {
     Home(Home),
     Output(Switch),
     Motion(Box<MotionOp>),
+    Limit(Box<LimitJogOp>),
     Raw(RawOp),
 }
 
@@ -98,6 +101,7 @@ impl Op {
             Op::Home(o) => o,
             Op::Output(o) => o,
             Op::Motion(o) => o.as_mut(),
+            Op::Limit(o) => o.as_mut(),
             Op::Raw(o) => o,
         }
     }
@@ -109,6 +113,7 @@ impl Op {
             Op::Home(o) => o,
             Op::Output(o) => o,
             Op::Motion(o) => o.as_ref(),
+            Op::Limit(o) => o.as_ref(),
             Op::Raw(o) => o,
         }
     }
@@ -642,6 +647,9 @@ impl EmpDriver {
                         until,
                     ))))
                 })
+            }
+            Request::LimitJog { id, axis, dir } => {
+                LimitJogOp::new(cx, *id, *axis, *dir, now).map(|op| Some(Op::Limit(Box::new(op))))
             }
             Request::Step { delta, speed_hz } => match cx.positions() {
                 Some(base) => plan::step(cx, &base, delta, speed_hz)

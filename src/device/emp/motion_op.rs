@@ -55,7 +55,7 @@ pub struct MotionOp {
     timeout: Duration,
 }
 
-fn script_for(cx: &Context, plan: &Plan) -> Script {
+pub(super) fn script_for(cx: &Context, plan: &Plan) -> Script {
     let mode = match plan.style {
         Style::Velocity => OperatingMode::Iv,
         Style::Position => OperatingMode::Tpwm,
@@ -104,7 +104,7 @@ fn leg_steps(
 
 /// How long a positioning may take: the longest leg at its speed, with the
 /// margins of `emp::deadline::positioning`.
-fn timeout_for(cx: &Context, plan: &Plan) -> Duration {
+pub(super) fn timeout_for(cx: &Context, plan: &Plan) -> Duration {
     let secs = plan
         .legs
         .iter()

@@ -206,6 +206,30 @@ pub fn jog(
     Ok(Plan { style, legs })
 }
 
+/// The one TP move of a jog off a limit switch (`limit_op`): `axis`
+/// positions `jog.limit_jog_distance` in `dir` from where it stands, at the
+/// jog's speed. The drive stops there on its own if the switch never
+/// releases, also when the link is gone; and it refuses a move into an
+/// active switch itself (`05`, manual introduction: "die Position kann nur
+/// in der entgegengesetzten Richtung wieder verlassen werden").
+pub fn limit_jog(cx: &Context, axis: Axis, dir: Dir) -> Result<Plan, Refusal> {
+    let limit = cx.settings.jog.limit_jog_of(axis)?;
+    let here = cx.positions().ok_or(Refusal::NotInitialised)?;
+    let pos = here.get(axis).unwrap_or(0);
+    let hz = capped_speed(&cx.settings.limits, axis, Some(limit.hz))?;
+    Ok(Plan {
+        style: Style::Position,
+        legs: vec![Leg {
+            axis,
+            ds: ds_of(cx, axis)?,
+            speed: speed_of(hz, axis)?,
+            dir,
+            target: Some(position(pos + dir.sign() * limit.distance)?),
+            distance: limit.distance.unsigned_abs(),
+        }],
+    })
+}
+
 /// TP legs from `from` to `to` for the axes that move.
 fn positioning(
     cx: &Context,

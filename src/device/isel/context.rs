@@ -59,7 +59,7 @@ pub fn control_outgoing(control: ControlByte) -> Outgoing {
 
 /// A `2` reply: a limit switch, refused as such until the axes are
 /// initialised again (manual chapter 5).
-fn is_limit_fault(fault: &ControllerFault) -> bool {
+pub fn is_limit_fault(fault: &ControllerFault) -> bool {
     fault.recovery == Recovery::ReinitialiseAndReference && fault.code == "2"
 }
 
@@ -122,6 +122,10 @@ pub struct Context {
     /// A virtual zero was set: the next `@0P` shows whether the controller
     /// reports positions from it (axes, machine position before).
     pub zero_check: Option<(AxisSet, PerAxis<i64>)>,
+    /// A jog off a limit switch switched test mode on (`@0T1`, manual
+    /// 2.2.24) and its `@0T0` has not been answered: the next read-back
+    /// sends `@0T0` first (`limit_op`).
+    pub test_mode_left_on: bool,
 }
 
 impl Sink for Context {
@@ -151,6 +155,7 @@ impl Context {
             absent_ports: Vec::new(),
             p_offset: PerAxis::new(),
             zero_check: None,
+            test_mode_left_on: false,
         }
     }
 
@@ -605,6 +610,7 @@ impl Context {
         self.set_config(None);
         self.state.referenced = AxisSet::EMPTY;
         self.state.test_mode = false;
+        self.test_mode_left_on = false;
         self.three_d = false;
         self.ramp = RampParams::CONTROLLER_DEFAULT;
         self.reference_hz = self.settings.reference_speed_hz;

@@ -29,6 +29,7 @@ mod estimate;
 mod home;
 mod init;
 mod io;
+mod limit_op;
 mod motion_op;
 mod op;
 mod output;
@@ -74,6 +75,7 @@ use crate::traffic::readable;
 use context::{Cmd, Context, control_outgoing, stop_outgoing};
 use home::HomeOp;
 use init::InitOp;
+use limit_op::LimitJogOp;
 use motion_op::MotionOp;
 use op::{Abandon, Next, Operation};
 use output::OutputOp;
@@ -91,6 +93,7 @@ enum Op {
     Zero(ZeroOp),
     Output(OutputOp),
     Motion(MotionOp),
+    Limit(LimitJogOp),
     Raw(RawOp),
     Upload(UploadOp),
     Program(ProgramOp),
@@ -105,6 +108,7 @@ impl Op {
             Op::Zero(o) => o,
             Op::Output(o) => o,
             Op::Motion(o) => o,
+            Op::Limit(o) => o,
             Op::Raw(o) => o,
             Op::Upload(o) => o,
             Op::Program(o) => o,
@@ -119,6 +123,7 @@ impl Op {
             Op::Zero(o) => o,
             Op::Output(o) => o,
             Op::Motion(o) => o,
+            Op::Limit(o) => o,
             Op::Raw(o) => o,
             Op::Upload(o) => o,
             Op::Program(o) => o,
@@ -640,6 +645,9 @@ impl IselDriver {
                         lease_until,
                     ))
                 })
+            }
+            Request::LimitJog { id, axis, dir } => {
+                LimitJogOp::new(cx, *id, *axis, *dir, now).map(Op::Limit)
             }
             Request::Step { delta, speed_hz } => match cx.position {
                 Some(base) => {

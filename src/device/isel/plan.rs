@@ -237,6 +237,19 @@ pub fn move_to(
     })
 }
 
+/// One short move of a jog off a limit switch (`limit_op`): `steps` of
+/// `axis` at `hz`, relative. Nothing but the axis is checked here: the
+/// switch it leaves and the bound are the op's, the rest was checked when
+/// it started (`common::limit_jog::check`); the controller is in test mode.
+pub fn limit_step(cx: &Context, axis: Axis, steps: i64, hz: u32) -> Result<Planned, Refusal> {
+    check_axes(cx, AxisSet::EMPTY.with(axis))?;
+    relative(
+        cx,
+        &PerAxis::new().with(axis, steps),
+        &PerAxis::new().with(axis, hz),
+    )
+}
+
 /// A continuous jog: one long relative move at jog speed towards the soft
 /// limits, along the vector of the axes' speeds and ending where the first
 /// axis reaches its limit. Unreferenced axes (only with

@@ -50,6 +50,10 @@ const MAX_RESTARTS: u32 = 3;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Stage {
+    /// `@0T0` before anything else, when a jog off a limit switch switched
+    /// test mode on and the link broke before it was off again
+    /// (`Context::test_mode_left_on`, `limit_op`).
+    TestOff,
     Position,
     Port(usize),
     Probe(usize),
@@ -270,7 +274,11 @@ fn positions_from_text(bytes: &[u8]) -> Option<(crate::proto::isel::Positions, b
 
 impl Operation for Readback {
     fn next(&mut self, cx: &mut Context, _now: Instant) -> Next {
+        if self.stage == Stage::Position && cx.test_mode_left_on {
+            self.stage = Stage::TestOff;
+        }
         match self.stage {
+            Stage::TestOff => Next::Send(cx.cmd(Command::SetTestMode(false))),
             Stage::Position => {
                 let mut cmd = cx.cmd(Command::ReadPosition);
                 // Read until silence: the reply's length tells the axis count.
@@ -302,6 +310,20 @@ impl Operation for Readback {
 
     fn reply(&mut self, cx: &mut Context, reply: Reply, now: Instant) {
         match self.stage {
+            Stage::TestOff => {
+                cx.test_mode_left_on = false;
+                cx.notice(if reply == Reply::Code(ReplyCode::Ok) {
+                    "test mode switched off (@0T0): a jog off a limit switch had it on when the \
+                     link was lost"
+                        .to_owned()
+                } else {
+                    format!(
+                        "test mode may still be on (@0T0 answered {reply:?}): reset the \
+                         controller (ctrl-r) before moving"
+                    )
+                });
+                self.stage = Stage::Position;
+            }
             Stage::Position => match reply {
                 Reply::Text { lines, .. } => {
                     let bytes: Vec<u8> = lines.concat().chars().map(|c| c as u32 as u8).collect();

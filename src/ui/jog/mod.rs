@@ -9,6 +9,7 @@
 
 pub mod axes;
 pub mod goto;
+pub mod limit;
 pub mod view;
 
 use std::time::Instant;
@@ -43,6 +44,8 @@ pub struct Homing {
 pub struct Keypad {
     pub jogger: Jogger<KeyChord>,
     pub homing: Option<Homing>,
+    /// The jog off a limit switch (`L`, [`limit`]).
+    pub limit: limit::LimitState,
 }
 
 impl Keypad {
@@ -50,6 +53,7 @@ impl Keypad {
         Keypad {
             jogger: Jogger::new(settings),
             homing: None,
+            limit: limit::LimitState::default(),
         }
     }
 
@@ -67,13 +71,17 @@ impl Keypad {
     /// progress display.
     pub fn issued(&mut self, effects: &[Effect], now: Instant) {
         for effect in effects {
-            if let Effect::Request(Request::Home { axes }) = effect {
-                self.homing = Some(Homing {
-                    axes: *axes,
-                    since: now,
-                    seen: false,
-                    before: AxisSet::EMPTY,
-                });
+            match effect {
+                Effect::Request(Request::Home { axes }) => {
+                    self.homing = Some(Homing {
+                        axes: *axes,
+                        since: now,
+                        seen: false,
+                        before: AxisSet::EMPTY,
+                    });
+                }
+                Effect::Request(r @ Request::LimitJog { .. }) => self.limit.issued(r, now),
+                _ => {}
             }
         }
     }
@@ -285,6 +293,7 @@ pub fn tick(model: &mut Model) -> Vec<Effect> {
 /// should not repeat.
 pub fn device_event(model: &mut Model, event: &Event) -> bool {
     let now = model.now;
+    model.keypad.limit.device_event(event);
     match event {
         Event::JogEnded { id, end } => {
             model.keypad.jogger.ended(*id, end, now);

@@ -260,12 +260,19 @@ fn status_line(model: &Model, width: usize) -> Line<'static> {
     let jogger = &model.keypad.jogger;
     let now = model.now;
     let fresh = |at: std::time::Instant| now.saturating_duration_since(at) < REFUSAL_SHOWN;
+    let moving = model.palette.symbols.moving;
+    // The jog off a limit switch first: it runs without a key held.
+    if let Some(text) = super::limit::status(model) {
+        return Line::from(Span::styled(
+            fit(&format!("{moving} {text}"), width),
+            p.warning,
+        ));
+    }
     if let Some(LastOutcome::Refused { reason, at }) = jogger.last()
         && fresh(*at)
     {
         return Line::from(Span::styled(fit(&format!("!! {reason}"), width), p.danger));
     }
-    let moving = model.palette.symbols.moving;
     if let Some(a) = jogger.active() {
         let how = if a.toggle {
             "any key stops"
@@ -349,6 +356,8 @@ fn end_words(end: &crate::device::api::JogEnd) -> String {
         JogEnd::Refused(r) => r.to_string(),
         JogEnd::Fault(f) => f.meaning.clone(),
         JogEnd::LinkLost => "link lost".into(),
+        JogEnd::OffLimit => "off the limit switch: reference the axes (h)".into(),
+        JogEnd::StillOnLimit => "the limit switch still reads active".into(),
     }
 }
 

@@ -365,7 +365,9 @@ fn a_jog_speeds_up_once_at_the_first_short_renewal() {
     h.reply(b"\r");
     assert_eq!(h.state().activity, Activity::Jogging);
     h.run_ends();
-    h.positions_read(10_300, 0, 0);
+    // Only the jog's axis is read before the restart: Y and Z stood.
+    h.expect_text("@LX");
+    h.reply(b"@LX10300\r");
     assert!(h.jog_ends().is_empty());
     // From where it stopped, as fast as asked: 1000 Hz is below cap(150 ms).
     assert!(cap(ms(150)) > 1_000);
@@ -459,4 +461,26 @@ fn a_renewal_is_granted_no_longer_lease_than_the_speed_allows() {
     h.run_ends();
     h.positions_read(10_400, 0, 0);
     assert_eq!(h.jog_ends(), [(1, JogEnd::DeadMan)]);
+}
+
+#[test]
+fn a_jog_off_a_limit_switch_is_refused_with_its_reason_and_nothing_moves() {
+    let mut h = Harness::ready_at(0, 0, 0);
+    h.request(Request::LimitJog {
+        id: JogId(5),
+        axis: Axis::X,
+        dir: Dir::Plus,
+    });
+    h.expect_nothing();
+    assert_eq!(
+        h.jog_ends(),
+        [(5, JogEnd::Refused(refusal_reasons(&h.events)[0].clone()))]
+    );
+    let refusals = h.refusals();
+    assert!(
+        refusals
+            .iter()
+            .any(|r| r.contains("the EMCU reports no limit switches")),
+        "{refusals:?}"
+    );
 }

@@ -495,3 +495,25 @@ fn a_stop_during_a_running_job_halts_it_and_nothing_resumes() {
     assert_eq!(at[1], 0, "the second line never ran");
     assert_eq!(b.driver.state().activity, Activity::Idle);
 }
+
+/// The speed-up at the first repeat halts the batch and sends a faster one
+/// (`#E` is buffered, manual 1.4.2): the axis stands between them for the
+/// run's end, `@X`, the jog's own `@LX`, `#E` and `L` (`docs/jogging.md`).
+#[test]
+fn a_hold_stands_still_once_and_briefly_at_its_first_repeat() {
+    let mut b = homed(PollRate::LineSpeed);
+    let (_, top) = bound_and_top(Axis::X);
+    let (grace, repeat) = leases();
+    b.request(Request::Jog {
+        id: JogId(1),
+        axes: vec![(Axis::X, Dir::Plus)],
+        speed_hz: speeds(top),
+        lease: grace,
+    });
+    let trace = b.hold_trace(JogId(1), repeat, ms(500), ms(2500), |sim, t| {
+        sim.machine_position(EmcuAxis::X, t) as f64
+    });
+    let still = crate::motion::standstill::standstill(&trace);
+    eprintln!("EMCU: standing still {still:?} at the first repeat");
+    assert!(still < ms(50), "{still:?}");
+}

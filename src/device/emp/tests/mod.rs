@@ -5,6 +5,7 @@
 mod connect;
 mod faults;
 mod harness;
+mod limit_jog;
 mod long_actions;
 mod motion;
 mod properties;

@@ -17,16 +17,16 @@ use crate::sim::emp::EmpSim;
 
 use super::harness::{profile, settings, x_speed};
 
-type Bench = crate::device::common::testing::Bench<EmpDriver, EmpSim>;
+pub(super) type Bench = crate::device::common::testing::Bench<EmpDriver, EmpSim>;
 
-fn bench_for(profile: &Profile, adjust: impl FnOnce(&mut EmpSettings)) -> Bench {
+pub(super) fn bench_for(profile: &Profile, adjust: impl FnOnce(&mut EmpSettings)) -> Bench {
     let mut settings = EmpSettings::from_profile(profile).expect("settings");
     adjust(&mut settings);
     let sim = EmpSim::from_profile(profile).expect("simulator");
     Bench::new(EmpDriver::new(settings), sim, crate::proto::emp::LINE)
 }
 
-fn counter(b: &Bench, ds: DriveAddress) -> i64 {
+pub(super) fn counter(b: &Bench, ds: DriveAddress) -> i64 {
     let s = b.sim.snapshot(ds, b.now).expect("drive");
     i64::from(s.counter.increments())
 }
@@ -37,7 +37,7 @@ fn speed(b: &Bench, ds: DriveAddress) -> f64 {
 
 /// Hold the key of jog `id`: a renewal with the profile's repeat timeout
 /// every 100 ms, until the jog ends or `within` has passed. The end, if any.
-fn hold(b: &mut Bench, id: JogId, within: Duration) -> Option<JogEnd> {
+pub(super) fn hold(b: &mut Bench, id: JogId, within: Duration) -> Option<JogEnd> {
     let lease = settings().jog.repeat_timeout;
     let end = b.now + within;
     while b.now < end {
@@ -935,4 +935,29 @@ fn an_input_wired_as_an_estop_refuses_motion_while_it_is_tripped() {
     plain.request(Request::Initialise);
     plain.run(ms(500));
     assert!(!plain.driver.state().estop);
+}
+
+/// EMP changes a running jog's speed without a stop: it never stands.
+#[test]
+fn a_hold_never_stands_still_at_its_first_repeat() {
+    let mut b = homed(|_| {});
+    let (_, top, grace, repeat) = jog_figures();
+    b.request(Request::MoveTo {
+        target: PerAxis::new().with(Axis::X, 20 * 11_200),
+        frame: Frame::Machine,
+        speed_hz: x_speed(top),
+    });
+    b.run(Duration::from_secs(10));
+    b.request(Request::Jog {
+        id: JogId(1),
+        axes: vec![(Axis::X, Dir::Plus)],
+        speed_hz: x_speed(top),
+        lease: grace,
+    });
+    let trace = b.hold_trace(JogId(1), repeat, ms(500), ms(1500), |sim, t| {
+        sim.snapshot(DriveAddress::SINGLE, t)
+            .map_or(f64::NAN, |s| s.physical)
+    });
+    let still = crate::motion::standstill::standstill(&trace);
+    assert_eq!(still, Duration::ZERO);
 }

@@ -5,6 +5,7 @@ mod harness;
 
 mod connect;
 mod faults;
+mod limit_jog;
 mod motion;
 mod polling;
 mod properties;

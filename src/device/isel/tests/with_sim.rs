@@ -18,9 +18,9 @@ use crate::wire::LineSettings;
 use super::harness::{ms, speeds};
 
 /// The isel driver and simulator joined by a modelled wire at 19200 baud.
-type Bench = crate::device::common::testing::Bench<IselDriver, IselSim>;
+pub(super) type Bench = crate::device::common::testing::Bench<IselDriver, IselSim>;
 
-fn bench(rate: PollRate) -> Bench {
+pub(super) fn bench(rate: PollRate) -> Bench {
     let profile = load_profile("default", &ConfigDirs::builtin_only()).expect("profile");
     let mut settings = IselSettings::from_profile(&profile).expect("settings");
     settings.poll.rate = rate;
@@ -28,7 +28,7 @@ fn bench(rate: PollRate) -> Bench {
     Bench::new(IselDriver::new(settings), sim, LineSettings::new(19200))
 }
 
-trait IselBench {
+pub(super) trait IselBench {
     fn counters(&self) -> [f64; 4];
     fn set(&mut self, name: &str, level: bool);
 }
@@ -47,7 +47,7 @@ impl IselBench for Bench {
 }
 
 /// Initialise and reference a fresh controller.
-fn homed(rate: PollRate) -> Bench {
+pub(super) fn homed(rate: PollRate) -> Bench {
     let mut b = bench(rate);
     b.run(ms(500));
     b.request(Request::Initialise);
@@ -336,4 +336,25 @@ fn a_stop_during_a_running_program_halts_it_and_nothing_resumes() {
     assert_eq!(b.counters(), at, "nothing resumed");
     assert_eq!(at[1], 0.0, "the second line never ran");
     assert_eq!(b.driver.state().activity, Activity::Idle);
+}
+
+/// The speed-up at the first repeat stops the move and sends a faster one
+/// from where it ended (manual 2.2.2): the axis stands between them for
+/// the `F`, the quiet after it, `@0P` and the faster move's bytes, all at
+/// 19200 baud (`docs/jogging.md`, "Speed caps").
+#[test]
+fn a_hold_stands_still_once_and_briefly_at_its_first_repeat() {
+    let mut b = homed(PollRate::LineSpeed);
+    b.request(Request::Jog {
+        id: JogId(1),
+        axes: vec![(Axis::X, Dir::Plus)],
+        speed_hz: speeds(6_000.0),
+        lease: ms(750),
+    });
+    let trace = b.hold_trace(JogId(1), ms(150), ms(500), ms(1500), |sim, t| {
+        sim.counters_at(t)[0]
+    });
+    let still = crate::motion::standstill::standstill(&trace);
+    eprintln!("isel: standing still {still:?} at the first repeat");
+    assert!(still > ms(5) && still < ms(60), "{still:?}");
 }
