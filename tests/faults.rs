@@ -4,6 +4,10 @@
 //! (no motion command repeated), and that nothing panicked or hung (every
 //! wait is bounded). Its own runner prints the totals.
 
+// Test code: a failed unwrap, expect or panic is the test failing, with its
+// message (Cargo.toml [lints] denies them in the crate itself).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
 mod faults_support;
 
 use std::process::{Command, ExitCode};

@@ -11,6 +11,10 @@
 //!   query as one would): a key release stops the jog at once, and the
 //!   protocol's flags are popped on the way out.
 
+// Test code: a failed unwrap, expect or panic is the test failing, with its
+// message (Cargo.toml [lints] denies them in the crate itself).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
 mod jog_support;
 mod ui_pty;
 

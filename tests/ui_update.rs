@@ -1,6 +1,10 @@
 //! `update()` driven with message sequences, no terminal: what the operator
 //! does, what the UI asks the device for, and what the screen then says.
 
+// Test code: a failed unwrap, expect or panic is the test failing, with its
+// message (Cargo.toml [lints] denies them in the crate itself).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
 mod ui_support;
 
 use std::time::{Duration, Instant};
