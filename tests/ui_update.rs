@@ -484,6 +484,7 @@ fn a_text_reply_is_shown_line_by_line() {
     update(
         &mut m,
         Msg::Device(Event::Reply {
+            kind: jogterm::device::api::ReplyKind::Answer,
             command: "@0V".into(),
             text: "iMC-S8 V2.0\r\nserial 42\r\n".into(),
         }),

@@ -229,7 +229,7 @@ impl Model {
             editor: Editor::new(&setup, now),
             timeline: Timeline::new(&setup.inputs),
             before_timeline: PanelId::Jog,
-            traffic: TrafficLog::new(setup.protocol),
+            traffic: TrafficLog::new(),
             keypad: Keypad::new(setup.jog.clone()),
             setup,
             keymap,

@@ -15,12 +15,15 @@
 //!   limits in steps, jog settings), and the settings error.
 //! - [`limits`]: axes of the machine, soft limits, speed caps.
 //! - [`vector`]: a jog's travel towards the soft limits along its speed vector.
+//! - [`op`]: the skeleton of the operations a driver runs one at a time
+//!   ([`op::Next`], [`op::Abandon`], the enum of them: `operations!`).
 //! - [`motion`]: a running move's kind (step, go-to, jog), its jog lease and
 //!   its end, and the steps coalesced behind it.
 //! - [`jog_speed`]: a jog's speed following its lease (granted leases, the
 //!   speed-up at the first short renewal).
 //! - [`gate`]: refusals of motion from the machine state.
 //! - [`queue`]: requests waiting for their turn, and what is refused at once.
+//! - [`route`]: where each request goes in a driver (`Driver::request`).
 //! - [`poll`]: poll rates, cycles, statistics.
 //! - [`upload`]: progress of a program upload.
 //! - [`link`]: declaring a silent link dead.
@@ -36,8 +39,10 @@ pub mod jog_speed;
 pub mod limits;
 pub mod link;
 pub mod motion;
+pub mod op;
 pub mod poll;
 pub mod queue;
+pub mod route;
 pub mod settings;
 pub mod sink;
 pub mod state;

@@ -8,4 +8,5 @@ mod harness;
 mod long_actions;
 mod motion;
 mod properties;
+mod traffic;
 mod with_sim;
