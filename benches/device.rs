@@ -11,6 +11,10 @@
 //! (debug build); add `-- --quick` for shorter runs, `-- --only cpu` (or
 //! `bare`, `poll`, `stop`, `emcu`, `emp`) for one measure, e.g. under a profiler.
 
+// A benchmark's setup that fails cannot measure anything: it stops with its
+// message (Cargo.toml [lints] denies these in the crate itself).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
 use std::io::{BufRead, BufReader};
 use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};

@@ -1,6 +1,10 @@
 //! `jogterm arc` through its clap arguments and `run_to`: the manual's
 //! circle example (2.3.6), CNC lines, helices, and clear errors.
 
+// Test code: a failed unwrap, expect or panic is the test failing, with its
+// message (Cargo.toml [lints] denies them in the crate itself).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
 use std::process::ExitCode;
 
 use clap::Parser;

@@ -1,6 +1,10 @@
 //! `jogterm check` through its clap arguments and `run_to`: output format,
 //! sorting, summary, exit codes, language and profile selection.
 
+// Test code: a failed unwrap, expect or panic is the test failing, with its
+// message (Cargo.toml [lints] denies them in the crate itself).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
 use std::path::Path;
 use std::process::ExitCode;
 

@@ -4,6 +4,10 @@
 //! port close with their stop (the controller's own record), and every
 //! exit status is the one the command's `--help` gives.
 
+// Test code: a failed unwrap, expect or panic is the test failing, with its
+// message (Cargo.toml [lints] denies them in the crate itself).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
 use std::io::{BufRead, BufReader, Write};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};

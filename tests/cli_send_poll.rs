@@ -1,6 +1,10 @@
 //! End to end: `jogterm send` and `jogterm poll` against the real
 //! `jogterm sim --protocol isel --pty`, operated on its stdin.
 
+// Test code: a failed unwrap, expect or panic is the test failing, with its
+// message (Cargo.toml [lints] denies them in the crate itself).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
 use std::path::Path;
 use std::process::Stdio;
 use std::thread;

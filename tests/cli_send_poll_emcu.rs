@@ -3,6 +3,10 @@
 //! its stdin: reset, initialise, home, move, positions during the move, the
 //! `@X` flags, stop, and a port that vanishes mid-move.
 
+// Test code: a failed unwrap, expect or panic is the test failing, with its
+// message (Cargo.toml [lints] denies them in the crate itself).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
 use std::process::Stdio;
 use std::thread;
 use std::time::{Duration, Instant};

@@ -2,6 +2,10 @@
 //! against the real `jogterm sim --protocol emp --pty`: switch on, home,
 //! move, read the position during a move, read I/O, stop.
 
+// Test code: a failed unwrap, expect or panic is the test failing, with its
+// message (Cargo.toml [lints] denies them in the crate itself).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
 use std::process::Stdio;
 use std::thread;
 use std::time::Duration;

@@ -7,6 +7,10 @@
 //! stdin) refuses the command that does not fit, and the upload names its
 //! file line.
 
+// Test code: a failed unwrap, expect or panic is the test failing, with its
+// message (Cargo.toml [lints] denies them in the crate itself).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
 use std::path::Path;
 use std::process::{Output, Stdio};
 

@@ -9,6 +9,10 @@
 //! - A profile with several mistakes gets every one reported, each with its
 //!   file, line and column.
 
+// Test code: a failed unwrap, expect or panic is the test failing, with its
+// message (Cargo.toml [lints] denies them in the crate itself).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
 use std::path::Path;
 
 mod sim_process;

@@ -3,6 +3,10 @@
 //! I/O snapshot, outputs, stop, faults on the line, and a line that is
 //! closed mid-move and brought back.
 
+// Test code: a failed unwrap, expect or panic is the test failing, with its
+// message (Cargo.toml [lints] denies them in the crate itself).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
 mod device_support;
 
 use std::time::Duration;

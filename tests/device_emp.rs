@@ -4,6 +4,10 @@
 //! (`fault close`): the drive is stopped first, read back, and the jog is
 //! not resumed.
 
+// Test code: a failed unwrap, expect or panic is the test failing, with its
+// message (Cargo.toml [lints] denies them in the crate itself).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
 use std::path::Path;
 use std::time::Duration;
 

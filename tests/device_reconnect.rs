@@ -1,6 +1,10 @@
 //! Link loss and reconnect over a pseudo-terminal: the simulator's line is
 //! closed under the device task and brought back at the same path.
 
+// Test code: a failed unwrap, expect or panic is the test failing, with its
+// message (Cargo.toml [lints] denies them in the crate itself).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
 mod device_support;
 
 use std::time::Duration;

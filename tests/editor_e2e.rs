@@ -5,6 +5,10 @@
 //! the linter let through (less program memory than assumed) gets that line
 //! marked, and erase-and-retry stores the program once there is room.
 
+// Test code: a failed unwrap, expect or panic is the test failing, with its
+// message (Cargo.toml [lints] denies them in the crate itself).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
 mod sim_process;
 mod ui_pty;
 

@@ -6,6 +6,10 @@
 //! N with the text untouched, teach-in from the measured position. Snapshots
 //! at 80x24 and 160x48 (review with `cargo insta review`).
 
+// Test code: a failed unwrap, expect or panic is the test failing, with its
+// message (Cargo.toml [lints] denies them in the crate itself).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
 mod ui_support;
 
 use std::path::PathBuf;

@@ -5,6 +5,10 @@
 //! cargo-fuzz targets in `fuzz/` check). `JOGTERM_FUZZ_CASES` sets the number
 //! of cases.
 
+// Test code: a failed unwrap, expect or panic is the test failing, with its
+// message (Cargo.toml [lints] denies them in the crate itself).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
 mod fuzz_checks;
 mod fuzz_inputs;
 

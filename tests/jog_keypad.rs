@@ -3,6 +3,10 @@
 //! reason, homing), for each family's shipped profile (their axes and
 //! units differ), plus a style check that the moving key is lit.
 
+// Test code: a failed unwrap, expect or panic is the test failing, with its
+// message (Cargo.toml [lints] denies them in the crate itself).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
 mod ui_support;
 
 use std::time::{Duration, Instant};

@@ -4,6 +4,10 @@
 //! reference run asked for once the axis is off the switch; refusals and
 //! the EMCU, which cannot do it.
 
+// Test code: a failed unwrap, expect or panic is the test failing, with its
+// message (Cargo.toml [lints] denies them in the crate itself).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
 mod ui_support;
 
 use std::time::Instant;

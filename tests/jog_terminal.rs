@@ -15,6 +15,10 @@
 //!   `1 + step_queue` steps, and Space in the program editor types a blank
 //!   while the machine stands but stops a step that runs.
 
+// Test code: a failed unwrap, expect or panic is the test failing, with its
+// message (Cargo.toml [lints] denies them in the crate itself).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
 mod jog_support;
 mod ui_pty;
 

@@ -3,6 +3,10 @@
 //! the stop key; refusals with their reason on the keypad; the axis choice
 //! for homing and zeroing; the go-to prompt; quitting while moving.
 
+// Test code: a failed unwrap, expect or panic is the test failing, with its
+// message (Cargo.toml [lints] denies them in the crate itself).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
 mod ui_support;
 
 use std::time::{Duration, Instant};

@@ -5,6 +5,10 @@
 //! switch released while it runs (the jog ends by itself and the reference
 //! run is asked for), and a switch that stays active (the bound).
 
+// Test code: a failed unwrap, expect or panic is the test failing, with its
+// message (Cargo.toml [lints] denies them in the crate itself).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
 mod sim_process;
 mod ui_pty;
 

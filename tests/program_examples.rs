@@ -1,6 +1,10 @@
 //! The example programs in `examples/programs` are clean for the machine
 //! profiles they are written for, and end where their comments say.
 
+// Test code: a failed unwrap, expect or panic is the test failing, with its
+// message (Cargo.toml [lints] denies them in the crate itself).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
 use std::path::Path;
 
 use jogterm::axis::AxisSet;

@@ -2,6 +2,10 @@
 //! generated and arbitrary text: `parse(format(p)) == p`, formatting is
 //! idempotent, and nothing panics on any input.
 
+// Test code: a failed unwrap, expect or panic is the test failing, with its
+// message (Cargo.toml [lints] denies them in the crate itself).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
 use jogterm::axis::AxisSet;
 use jogterm::program::{AxisLimit, Language, LintConfig, Program, Start, format, lint, path_with};
 use proptest::prelude::*;

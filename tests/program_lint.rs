@@ -1,6 +1,10 @@
 //! One test per diagnostic: it fires where it should, nowhere else in that
 //! program, and not in a program that differs only where it matters.
 
+// Test code: a failed unwrap, expect or panic is the test failing, with its
+// message (Cargo.toml [lints] denies them in the crate itself).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
 use jogterm::axis::AxisSet;
 use jogterm::program::{
     AxisLimit, Diagnostic, Fix, Language, LintConfig, Program, Rule, Severity, Span, lint,

@@ -3,6 +3,10 @@
 //! manual, comments and blank lines, spans, and the map between source lines
 //! and the controller's command indices.
 
+// Test code: a failed unwrap, expect or panic is the test failing, with its
+// message (Cargo.toml [lints] denies them in the crate itself).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
 use jogterm::axis::AxisSet;
 use jogterm::program::{Command, Item, Language, LineKind, LintConfig, Program, Rule, Span, lint};
 use jogterm::proto::emcu;

@@ -3,6 +3,10 @@
 //! circles and helices (manual 2.3, 3.2.22, 3.2.23), zero points and
 //! reference runs, EMCU jobs.
 
+// Test code: a failed unwrap, expect or panic is the test failing, with its
+// message (Cargo.toml [lints] denies them in the crate itself).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
 use jogterm::axis::{Axis, AxisSet};
 use jogterm::program::{Language, PathEnd, Program, SegmentKind, Start, path, path_with};
 use jogterm::proto::isel::{CircleDirection, CircleParams, Sign};

@@ -1,6 +1,10 @@
 //! Serving on a pseudo-terminal: clients come and go, the stable link, and
 //! the control loop as `jogterm sim --pty` runs it.
 
+// Test code: a failed unwrap, expect or panic is the test failing, with its
+// message (Cargo.toml [lints] denies them in the crate itself).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
 mod sim_shell_support;
 
 use std::io::{BufReader, Cursor, Write};

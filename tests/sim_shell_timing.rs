@@ -4,6 +4,10 @@
 //! that is what the shell guarantees. How close it gets to the wire limit
 //! depends on the machine's load, so it is printed, not asserted.
 
+// Test code: a failed unwrap, expect or panic is the test failing, with its
+// message (Cargo.toml [lints] denies them in the crate itself).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
 mod sim_shell_support;
 
 use std::io::{Read, Write};

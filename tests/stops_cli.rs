@@ -6,6 +6,10 @@
 //! the stop bytes reached the controller (its own record), the axis stands
 //! (read twice, unchanged), nothing resumes, no panic, and the exit status.
 
+// Test code: a failed unwrap, expect or panic is the test failing, with its
+// message (Cargo.toml [lints] denies them in the crate itself).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
 use std::process::{Child, Stdio};
 
 mod sim_process;

@@ -8,6 +8,10 @@
 //! reached the controller (its own record), the axis stands (read twice,
 //! unchanged) within the overrun bound, nothing resumes, and the exit.
 
+// Test code: a failed unwrap, expect or panic is the test failing, with its
+// message (Cargo.toml [lints] denies them in the crate itself).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
 mod faults_support;
 use faults_support::console::Console;
 use faults_support::sim::{self as sim_process, SimProcess, WAIT};

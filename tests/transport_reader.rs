@@ -1,6 +1,10 @@
 //! Opening ports and reading from them: data, a vanished port as `LinkLost`,
 //! and the errors of `open` naming the port.
 
+// Test code: a failed unwrap, expect or panic is the test failing, with its
+// message (Cargo.toml [lints] denies them in the crate itself).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
 use std::io::Write;
 use std::os::unix::net::UnixStream;
 use std::pin::pin;

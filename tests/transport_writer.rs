@@ -1,6 +1,10 @@
 //! The paced writer and the emergency stop handle, over a socket pair whose
 //! other end the test reads (and over a pty where a terminal is needed).
 
+// Test code: a failed unwrap, expect or panic is the test failing, with its
+// message (Cargo.toml [lints] denies them in the crate itself).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
 use std::io::Read;
 use std::os::unix::net::UnixStream;
 use std::sync::Mutex;

@@ -4,6 +4,10 @@
 //! terminal is given back after `q`, a terminating signal and a hang-up; a
 //! broken configuration exits with status 2 before the terminal is touched.
 
+// Test code: a failed unwrap, expect or panic is the test failing, with its
+// message (Cargo.toml [lints] denies them in the crate itself).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
 mod sim_process;
 mod ui_pty;
 

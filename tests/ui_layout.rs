@@ -2,6 +2,10 @@
 //! each other, nothing panics from 1x1 to 220x70, and the small sizes an SSH
 //! session may have (60x20) still show every panel.
 
+// Test code: a failed unwrap, expect or panic is the test failing, with its
+// message (Cargo.toml [lints] denies them in the crate itself).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
 mod ui_support;
 
 use std::time::Instant;

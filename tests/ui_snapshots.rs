@@ -4,6 +4,10 @@
 //! `cargo insta review`), plus explicit style checks where the theme is what
 //! carries the meaning.
 
+// Test code: a failed unwrap, expect or panic is the test failing, with its
+// message (Cargo.toml [lints] denies them in the crate itself).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
 mod ui_support;
 
 use std::time::Instant;

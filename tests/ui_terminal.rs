@@ -7,6 +7,10 @@
 //! Each case runs this test binary again as a child in a pty, running only
 //! the ignored `child` test with the case in `JOGTERM_GUARD_CASE`.
 
+// Test code: a failed unwrap, expect or panic is the test failing, with its
+// message (Cargo.toml [lints] denies them in the crate itself).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
 mod ui_pty;
 
 use std::io::Write;

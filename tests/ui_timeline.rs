@@ -4,6 +4,10 @@
 //! opening 30 ms apart), then drawn at 80x24 and 160x48 in every theme.
 //! Text snapshots, plus style checks where the theme carries the meaning.
 
+// Test code: a failed unwrap, expect or panic is the test failing, with its
+// message (Cargo.toml [lints] denies them in the crate itself).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
 mod ui_support;
 
 use std::time::{Duration, Instant};

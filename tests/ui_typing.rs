@@ -6,6 +6,10 @@
 //! rule, reversed prompt, the terminal's cursor), snapshots of it at 80x24
 //! and 160x48.
 
+// Test code: a failed unwrap, expect or panic is the test failing, with its
+// message (Cargo.toml [lints] denies them in the crate itself).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
 mod ui_support;
 
 use std::time::{Duration, Instant};

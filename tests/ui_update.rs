@@ -1,6 +1,10 @@
 //! `update()` driven with message sequences, no terminal: what the operator
 //! does, what the UI asks the device for, and what the screen then says.
 
+// Test code: a failed unwrap, expect or panic is the test failing, with its
+// message (Cargo.toml [lints] denies them in the crate itself).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
 mod ui_support;
 
 use std::time::{Duration, Instant};
@@ -486,6 +490,7 @@ fn a_text_reply_is_shown_line_by_line() {
     update(
         &mut m,
         Msg::Device(Event::Reply {
+            kind: jogterm::device::api::ReplyKind::Answer,
             command: "@0V".into(),
             text: "iMC-S8 V2.0\r\nserial 42\r\n".into(),
         }),

@@ -11,6 +11,10 @@
 //! positions), not only on the screen: the program taught and run ends
 //! where the machine stood when it was taught, in machine coordinates.
 
+// Test code: a failed unwrap, expect or panic is the test failing, with its
+// message (Cargo.toml [lints] denies them in the crate itself).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
 use std::path::PathBuf;
 
 use jogterm::config::SimVariant;

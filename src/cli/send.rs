@@ -10,10 +10,9 @@ use super::out::{self, StdoutError};
 use super::session::{self, EXIT_LINK, EXIT_USAGE, Linked, Polling, Session, StartError};
 use super::{GlobalArgs, emp};
 use crate::config::Profile;
-use crate::device::api::{Activity, Event, LinkState, Recovery, Refusal, Request};
+use crate::device::api::{Activity, Event, LinkState, Recovery, Refusal, ReplyKind, Request};
 use crate::device::describe::describe;
 use crate::device::emcu::{RUN_MARK, RawKind, parse_raw};
-use crate::device::emp::STARTED;
 use crate::proto::Protocol;
 use crate::proto::emcu::{Command as EmcuCommand, Terminator};
 use crate::proto::isel::{
@@ -225,7 +224,12 @@ pub fn plan(args: &[String]) -> Result<Vec<Item>, String> {
 
 /// How one command ended.
 enum Outcome {
-    Answered(String),
+    /// The reply (`kind`: the answer, or a long action's start, whose
+    /// completion follows).
+    Answered {
+        text: String,
+        kind: ReplyKind,
+    },
     ControllerError {
         code: String,
         meaning: String,
@@ -327,8 +331,10 @@ async fn send_items(session: &mut Session, items: &[Item]) -> ExitCode {
                     let mut outcome =
                         await_line(session, text, canonical, *may_move, &controls).await;
                     // EMP: a long action's `55`; its completion follows.
-                    while let Outcome::Answered(t) = &outcome
-                        && t.starts_with(STARTED)
+                    while let Outcome::Answered {
+                        text: t,
+                        kind: ReplyKind::Started,
+                    } = &outcome
                     {
                         if let Err(e) = out::line(format_args!("<< {t}")) {
                             outcome = Outcome::Unwritable(e);
@@ -341,7 +347,7 @@ async fn send_items(session: &mut Session, items: &[Item]) -> ExitCode {
             }
         };
         code = match outcome {
-            Outcome::Answered(text) => {
+            Outcome::Answered { text, .. } => {
                 match text
                     .lines()
                     .try_for_each(|line| out::line(format_args!("<< {line}")))
@@ -503,9 +509,14 @@ async fn wait_outcome(session: &mut Session, text: &str, canonical: &str) -> Out
 /// driver names it).
 fn outcome_of(event: &Event, text: &str, canonical: &str) -> Option<Outcome> {
     match event {
-        Event::Reply { command, text: t } if command == canonical => {
-            Some(Outcome::Answered(t.clone()))
-        }
+        Event::Reply {
+            command,
+            text: t,
+            kind,
+        } if command == canonical => Some(Outcome::Answered {
+            text: t.clone(),
+            kind: *kind,
+        }),
         Event::Fault(f) if f.command == canonical => Some(fault_outcome(f.clone())),
         Event::Refused { request, reason }
             if *request

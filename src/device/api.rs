@@ -741,6 +741,17 @@ pub struct PollStats {
     pub wire_limit_hz: f64,
 }
 
+/// What an `Event::Reply` is to the command it answers.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ReplyKind {
+    /// Its answer: nothing more comes for the command (for a control byte,
+    /// which has none, that it was sent).
+    Answer,
+    /// A long action has begun (EMP `55`, decision 1): its completion
+    /// follows as another reply to the same command.
+    Started,
+}
+
 /// Events out of the device task.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Event {
@@ -766,6 +777,7 @@ pub enum Event {
     Reply {
         command: String,
         text: String,
+        kind: ReplyKind,
     },
     Stats(PollStats),
     /// Something worth telling the operator that is none of the above.

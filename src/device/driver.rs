@@ -11,8 +11,10 @@
 use std::time::Instant;
 
 use super::api::{Event, Request};
+use crate::traffic::{MessageEnd, Owner};
 
-/// A message for the paced writer.
+/// Bytes for the paced writer: one message of the protocol, or several
+/// back to back (a stop sequence), and whose they are.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Outgoing {
     pub bytes: Vec<u8>,
@@ -20,6 +22,31 @@ pub struct Outgoing {
     /// the controller reads 0xFD/0xFE/0xFF in its receive routine, manual
     /// 2.2.31). EMCU lines and EMP frames cannot be interleaved.
     pub interruptible: bool,
+    /// Where each message in `bytes` ends, and whose it is: the traffic
+    /// records say so (`TrafficRecord::messages`).
+    pub messages: Vec<MessageEnd>,
+}
+
+impl Outgoing {
+    /// One message of `owner`.
+    pub fn message(bytes: Vec<u8>, interruptible: bool, owner: Owner) -> Outgoing {
+        let end = bytes.len();
+        Outgoing {
+            bytes,
+            interruptible,
+            messages: vec![MessageEnd::new(end, owner)],
+        }
+    }
+
+    /// Messages of `owner` that end at `ends` (in order, the last at the
+    /// end of `bytes`).
+    pub fn messages(bytes: Vec<u8>, interruptible: bool, owner: Owner, ends: &[usize]) -> Outgoing {
+        Outgoing {
+            bytes,
+            interruptible,
+            messages: ends.iter().map(|e| MessageEnd::new(*e, owner)).collect(),
+        }
+    }
 }
 
 pub trait Driver: Send {
@@ -41,10 +68,14 @@ pub trait Driver: Send {
 
     /// The stop sequence for the emergency handle (panic hook, hang-up path),
     /// written without the driver's involvement. Harmless when nothing moves.
-    fn emergency_stop_bytes(&self) -> Vec<u8>;
+    fn emergency_stop(&self) -> Outgoing;
 
-    /// Bytes read from the port.
-    fn received(&mut self, bytes: &[u8], now: Instant);
+    /// Bytes read from the port. Returns where messages ended in them and
+    /// whose they were (the answer to a poll, to a typed line, something
+    /// the controller sent on its own), for the traffic records; bytes after
+    /// the last end belong to a message that is not complete yet, or that
+    /// only silence ends.
+    fn received(&mut self, bytes: &[u8], now: Instant) -> Vec<MessageEnd>;
 
     /// The writer has handed the last byte of the current message to the line
     /// (reply timeouts are measured from here).

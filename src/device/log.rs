@@ -143,11 +143,13 @@ mod tests {
             at,
             direction: Direction::Sent,
             bytes: b"@0P\r".to_vec(),
+            messages: Vec::new(),
         }));
         bus.publish(Event::Traffic(TrafficRecord {
             at,
             direction: Direction::Received,
             bytes: vec![b'F', 0xFD],
+            messages: Vec::new(),
         }));
         bus.publish(Event::Link(LinkState::Lost {
             reason: "gone".into(),

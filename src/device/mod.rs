@@ -23,6 +23,8 @@ pub mod emcu;
 pub mod emp;
 pub mod events;
 pub mod handle;
+#[cfg(test)]
+mod imports;
 pub mod inputs;
 pub mod isel;
 pub mod log;

@@ -31,7 +31,7 @@ use tokio::time::{sleep_until, timeout_at};
 
 use super::api::{Activity, Event, LinkState, MachineState, Request};
 use super::connector::{Backoff, Connector};
-use super::driver::Driver;
+use super::driver::{Driver, Outgoing};
 use super::events::{EventBus, EventReceiver};
 use super::handle::{
     DeviceHandle, EmergencyHandle, EmergencySlot, InputLog, StopCall, StopWritten,
@@ -128,7 +128,7 @@ pub fn spawn_recording(
     let (requests_tx, requests) = mpsc::channel(options.request_capacity.max(1));
     let (stops_tx, stops) = mpsc::unbounded_channel();
     let slot = Arc::new(Mutex::new(EmergencySlot::default()));
-    let emergency = EmergencyHandle::new(slot.clone(), driver.emergency_stop_bytes());
+    let emergency = EmergencyHandle::new(slot.clone(), driver.emergency_stop().bytes);
     let (done_tx, done) = watch::channel(false);
     let inputs = InputLog::new(InputRecorder::new(inputs));
     let task = Task {
@@ -280,10 +280,13 @@ impl Task {
             let due = now + s.line.transfer_time(out.bytes.len().saturating_sub(1));
             s.reports_after = Some(s.reports_after.map_or(due, |t| t.max(due)));
             // A writer that has ended reports `Failed`; the loop sees it.
-            let _ = match self.pace {
+            let sent = match self.pace {
                 Pace::Tight => s.writer.send(out.bytes, interleave),
                 Pace::Bulk => s.writer.send_bulk(out.bytes, interleave),
             };
+            if let Ok(id) = sent {
+                s.traffic.sending(id, out.messages);
+            }
         }
         self.publish_driver_events()
     }
@@ -369,6 +372,7 @@ impl Task {
         // A failed writer has reported `Failed` or will; the calls' senders
         // are dropped with it and their tickets say nothing was written.
         if let Ok(id) = s.writer.stop(out.bytes) {
+            s.traffic.sending(id, out.messages);
             s.stop_waiters.push((id, calls));
         }
         // Whatever follows the stop is read and reported at once.
@@ -434,9 +438,9 @@ impl Task {
                 }
                 read = reader.read_chunk() => match read {
                     Ok(chunk) => {
-                        let records = s.traffic.read(&chunk);
+                        let messages = self.driver.received(&chunk.bytes, chunk.at);
+                        let records = s.traffic.read(&chunk, messages);
                         self.publish_traffic(records);
-                        self.driver.received(&chunk.bytes, chunk.at);
                     }
                     Err(e) => break Ending::PortGone(e.to_string()),
                 },
@@ -468,14 +472,14 @@ impl Task {
         let (end, reason) = match ending {
             Ending::Shutdown => {
                 let out = self.driver.stop(now);
-                self.flush_stop(&mut s, out.bytes).await;
+                self.flush_stop(&mut s, out).await;
                 (End::Shutdown, "the port was closed".to_owned())
             }
             Ending::DeadLink => {
                 // The controller may still be moving: stop it while the port
                 // is open.
-                let bytes = self.driver.emergency_stop_bytes();
-                self.flush_stop(&mut s, bytes).await;
+                let out = self.driver.emergency_stop();
+                self.flush_stop(&mut s, out).await;
                 let reason = self.last_lost.clone().unwrap_or_default();
                 (End::Lost, reason)
             }
@@ -497,10 +501,11 @@ impl Task {
 
     /// Write stop bytes on the stop lane and wait (bounded) until the
     /// writer reports them written, which for a terminal includes `tcdrain`.
-    async fn flush_stop(&mut self, s: &mut Session, bytes: Vec<u8>) {
-        let Ok(id) = s.writer.stop(bytes) else {
+    async fn flush_stop(&mut self, s: &mut Session, out: Outgoing) {
+        let Ok(id) = s.writer.stop(out.bytes) else {
             return;
         };
+        s.traffic.sending(id, out.messages);
         let deadline = Instant::now() + self.options.stop_flush;
         loop {
             match timeout_at(deadline.into(), s.written.recv()).await {

@@ -25,6 +25,7 @@ impl ReadChunk {
             at: self.wall,
             direction: Direction::Received,
             bytes: self.bytes.clone(),
+            messages: Vec::new(),
         }
     }
 }

@@ -72,6 +72,7 @@ impl WrittenChunk {
             at: self.wall,
             direction: Direction::Sent,
             bytes: self.bytes.clone(),
+            messages: Vec::new(),
         }
     }
 }

@@ -262,7 +262,7 @@ impl Model {
             before_console: PanelId::Jog,
             last_key_at: None,
             motion_asked: None,
-            traffic: TrafficLog::new(setup.protocol),
+            traffic: TrafficLog::new(),
             keypad: Keypad::new(setup.jog.clone()),
             setup,
             keymap,

@@ -1,33 +1,25 @@
-//! The traffic console's log: the chunks the device task reports
-//! (`Event::Traffic`, cut wherever the writer paced or the reader woke) put
-//! back together into whole messages per protocol, each shown readable
-//! (`traffic::readable`), and the routine polls kept apart so that the
+//! The traffic console's log: the records the device task reports
+//! (`Event::Traffic`) shown as whole messages, each readable
+//! (`traffic::readable`), with the routine polls kept apart so that the
 //! console does not scroll eighty times a second while the DRO runs.
 //!
-//! Framing per family (messages end after):
-//! - isel: commands after CR (or LF); the control bytes 0xFD/0xFE/0xFF are
-//!   messages of their own even between two bytes of a command (isel manual
-//!   2.2.31). Text replies after each CR LF line; the other replies have no
-//!   terminator (`0`, `0` + hex digits): a reply ends when the next command
-//!   goes out or the line is quiet (`flush_idle`).
-//! - EMCU: CR, or 0x01 for a command that runs the buffer (manual 1.3).
-//! - EMP: EOF 0x1A (EMP document, frame format).
-//!
-//! Routine polls are the reads a driver repeats: isel `P`, `b`, `D`; EMCU
-//! `@X`, `@L…`; EMP `2C`, `40`, and their answers. Lines the operator typed
-//! are never routine.
+//! The driver says where each message ends and whose it is
+//! (`TrafficRecord::messages`, `docs/device.md` "Traffic"): a record's
+//! bytes after its last end are held until the message goes on in a later
+//! record, the next command goes out, or the line is quiet (`flush_idle`:
+//! an isel reply that only silence ends). Routine polls are the messages
+//! the driver owns as polls, sent and answered; lines the operator typed
+//! are the operator's, never routine, whatever they read like.
 
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};
 
-use crate::proto::Protocol;
-use crate::proto::{emcu, emp, isel};
-use crate::traffic::{Direction, TrafficRecord, readable};
+use crate::traffic::{Direction, MessageEnd, Owner, TrafficRecord, readable};
 
 /// Lines kept for scrolling back; polls kept apart, fewer.
 pub const MAX_LINES: usize = 500;
 pub const MAX_POLL_LINES: usize = 100;
-/// A message without a terminator is complete after this much quiet.
+/// A message without a known end is complete after this much quiet.
 pub const IDLE_FLUSH: Duration = Duration::from_millis(100);
 
 /// What a console line shows.
@@ -62,74 +54,50 @@ struct Pending {
     since: Option<Instant>,
 }
 
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Default)]
 pub struct TrafficLog {
-    protocol: Protocol,
     lines: VecDeque<ConsoleLine>,
     polls: VecDeque<ConsoleLine>,
     next_seq: u64,
     sent: Pending,
     received: Pending,
-    /// Whether the last complete command sent was a routine poll.
-    last_sent_routine: bool,
     /// The last rejection of a routine poll (EMP INFO `EE`), shown once: the
     /// same rejection again is counted with the polls, so a drive that is
     /// switched off and rejects every poll does not flood the console.
     last_rejection: Option<Vec<u8>>,
-    /// Typed lines sent and not yet seen on the wire (whitespace removed,
-    /// upper case), so they show even when they read like polls.
-    typed: VecDeque<Vec<u8>>,
     /// Routine polls sent (shown or not).
     pub poll_count: u64,
     pub show_polls: bool,
 }
 
 impl TrafficLog {
-    pub fn new(protocol: Protocol) -> Self {
-        Self {
-            protocol,
-            lines: VecDeque::new(),
-            polls: VecDeque::new(),
-            next_seq: 0,
-            sent: Pending::default(),
-            received: Pending::default(),
-            last_sent_routine: false,
-            last_rejection: None,
-            typed: VecDeque::new(),
-            poll_count: 0,
-            show_polls: false,
-        }
+    pub fn new() -> Self {
+        Self::default()
     }
 
-    /// A chunk from the device task, arrived at `now`.
+    /// A record from the device task, arrived at `now`.
     pub fn record(&mut self, record: &TrafficRecord, now: Instant) {
-        match record.direction {
-            Direction::Sent => {
-                // A new command ends whatever answer was being read.
-                self.flush_received();
-                for &byte in &record.bytes {
-                    if self.protocol == Protocol::Isel && (0xFD..=0xFF).contains(&byte) {
-                        self.push_message(Direction::Sent, &[byte]);
-                        continue;
-                    }
-                    self.sent.bytes.push(byte);
-                    if self.ends_message(Direction::Sent, byte) {
-                        let bytes = std::mem::take(&mut self.sent.bytes);
-                        self.push_message(Direction::Sent, &bytes);
-                    }
-                }
-                self.sent.since = (!self.sent.bytes.is_empty()).then_some(now);
+        let direction = record.direction;
+        if direction == Direction::Sent {
+            // A new command ends whatever answer was being read.
+            self.flush_received();
+        }
+        for (part, end) in record.parts() {
+            let pending = self.pending(direction);
+            pending.bytes.extend_from_slice(part);
+            if end.is_some() {
+                let bytes = std::mem::take(&mut pending.bytes);
+                self.push_message(direction, &bytes, end);
             }
-            Direction::Received => {
-                for &byte in &record.bytes {
-                    self.received.bytes.push(byte);
-                    if self.ends_message(Direction::Received, byte) {
-                        let bytes = std::mem::take(&mut self.received.bytes);
-                        self.push_message(Direction::Received, &bytes);
-                    }
-                }
-                self.received.since = (!self.received.bytes.is_empty()).then_some(now);
-            }
+        }
+        let pending = self.pending(direction);
+        pending.since = (!pending.bytes.is_empty()).then_some(now);
+    }
+
+    fn pending(&mut self, direction: Direction) -> &mut Pending {
+        match direction {
+            Direction::Sent => &mut self.sent,
+            Direction::Received => &mut self.received,
         }
     }
 
@@ -143,7 +111,7 @@ impl TrafficLog {
         {
             let bytes = std::mem::take(&mut self.sent.bytes);
             self.sent.since = None;
-            changed |= self.push_message(Direction::Sent, &bytes);
+            changed |= self.push_message(Direction::Sent, &bytes, None);
         }
         if self
             .received
@@ -158,26 +126,7 @@ impl TrafficLog {
     fn flush_received(&mut self) -> bool {
         let bytes = std::mem::take(&mut self.received.bytes);
         self.received.since = None;
-        self.push_message(Direction::Received, &bytes)
-    }
-
-    fn ends_message(&self, direction: Direction, byte: u8) -> bool {
-        match (self.protocol, direction) {
-            (Protocol::Isel, Direction::Sent) => byte == b'\r' || byte == b'\n',
-            // Text replies end their lines with CR LF (protocols.md isel 8).
-            (Protocol::Isel, Direction::Received) => byte == b'\n',
-            (Protocol::Emcu, Direction::Sent) => byte == b'\r' || byte == 0x01,
-            (Protocol::Emcu, Direction::Received) => byte == b'\r',
-            (Protocol::Emp, _) => byte == emp::EOF,
-        }
-    }
-
-    /// The operator sent `line` as a raw command: show it whatever it is.
-    pub fn typed(&mut self, line: &str) {
-        self.typed.push_back(normalise(line.as_bytes()));
-        while self.typed.len() > 8 {
-            self.typed.pop_front();
-        }
+        self.push_message(Direction::Received, &bytes, None)
     }
 
     /// A line of jogterm's own (a decoded reply, a refusal, a notice).
@@ -186,58 +135,47 @@ impl TrafficLog {
         push_capped(&mut self.lines, line, MAX_LINES);
     }
 
-    /// Returns whether a visible line was added.
-    fn push_message(&mut self, direction: Direction, bytes: &[u8]) -> bool {
+    /// A whole message (`end`: its end as the driver knows it; `None` for
+    /// one that ended by quiet or the next command). Returns whether a
+    /// visible line was added.
+    fn push_message(
+        &mut self,
+        direction: Direction,
+        bytes: &[u8],
+        end: Option<MessageEnd>,
+    ) -> bool {
         if bytes.is_empty() {
             return false;
         }
-        let routine = match direction {
-            Direction::Sent => {
-                let typed = self.take_typed(bytes);
-                let routine = !typed && is_routine_command(self.protocol, bytes);
-                self.last_sent_routine = routine;
-                routine
+        let poll = end.is_some_and(|e| e.owner == Owner::Poll);
+        let rejected = end.is_some_and(|e| e.rejected);
+        let routine = if !poll {
+            false
+        } else if !rejected {
+            if direction == Direction::Received {
+                self.last_rejection = None;
             }
-            Direction::Received if self.last_sent_routine => {
-                if is_routine_answer(self.protocol, bytes) {
-                    self.last_rejection = None;
-                    true
-                } else if !is_poll_rejection(self.protocol, bytes) {
-                    false
-                } else if self.last_rejection.as_deref() == Some(bytes) {
-                    true
-                } else {
-                    self.last_rejection = Some(bytes.to_vec());
-                    false
-                }
-            }
-            Direction::Received => false,
+            true
+        } else if self.last_rejection.as_deref() == Some(bytes) {
+            true
+        } else {
+            self.last_rejection = Some(bytes.to_vec());
+            false
         };
         let kind = match direction {
             Direction::Sent => LineKind::Sent,
             Direction::Received => LineKind::Received,
         };
         let line = self.line(kind, readable(bytes));
+        if direction == Direction::Sent && poll {
+            self.poll_count = self.poll_count.saturating_add(1);
+        }
         if routine {
-            if direction == Direction::Sent {
-                self.poll_count = self.poll_count.saturating_add(1);
-            }
             push_capped(&mut self.polls, line, MAX_POLL_LINES);
             self.show_polls
         } else {
             push_capped(&mut self.lines, line, MAX_LINES);
             true
-        }
-    }
-
-    fn take_typed(&mut self, bytes: &[u8]) -> bool {
-        let wire = normalise(bytes);
-        match self.typed.iter().position(|t| *t == wire) {
-            Some(i) => {
-                self.typed.remove(i);
-                true
-            }
-            None => false,
         }
     }
 
@@ -269,85 +207,37 @@ fn push_capped(list: &mut VecDeque<ConsoleLine>, line: ConsoleLine, cap: usize) 
     }
 }
 
-/// Bytes as compared with a typed line: no terminators, no blanks, upper case.
-fn normalise(bytes: &[u8]) -> Vec<u8> {
-    bytes
-        .iter()
-        .filter(|b| !b.is_ascii_whitespace() && **b != emp::EOF && **b != 0x01)
-        .map(u8::to_ascii_uppercase)
-        .collect()
-}
-
-fn body(bytes: &[u8]) -> &[u8] {
-    let end = bytes
-        .iter()
-        .rposition(|&b| !matches!(b, b'\r' | b'\n' | 0x01 | emp::EOF))
-        .map_or(0, |i| i + 1);
-    bytes.get(..end).unwrap_or_default()
-}
-
-/// Whether a command is one of the reads a driver repeats.
-pub fn is_routine_command(protocol: Protocol, bytes: &[u8]) -> bool {
-    let body = body(bytes);
-    match protocol {
-        Protocol::Isel => isel::parse_frame(body).is_ok_and(|p| {
-            matches!(
-                p.value.command,
-                isel::Command::ReadPosition
-                    | isel::Command::ReadPort(_)
-                    | isel::Command::Diagnose(_)
-            )
-        }),
-        Protocol::Emcu => emcu::parse_bytes(body)
-            .is_ok_and(|c| matches!(c, emcu::Command::Status | emcu::Command::Position(_))),
-        Protocol::Emp => std::str::from_utf8(body)
-            .ok()
-            .and_then(|s| s.parse::<emp::Request>().ok())
-            .is_some_and(|r| {
-                matches!(
-                    r.command,
-                    emp::Command::ReadPosition | emp::Command::ReadInputs
-                )
-            }),
-    }
-}
-
-/// Whether a message read after a routine command is its answer (and not
-/// something the controller sent on its own).
-pub fn is_routine_answer(protocol: Protocol, bytes: &[u8]) -> bool {
-    let body = body(bytes);
-    match protocol {
-        // One command at a time (protocols.md isel): what follows a poll is its answer.
-        Protocol::Isel => true,
-        // Query replies repeat the command (EMCU manual 1.5.3, 1.5.4); 0x02 /
-        // 0x03 are the buffer's own reports.
-        Protocol::Emcu => body.starts_with(b"@X") || body.starts_with(b"@L"),
-        // Replies to 2C and 40 (CMD + 1); a rejection (INFO EE) is worth seeing.
-        Protocol::Emp => {
-            emp::Frame::from_hex(body).is_ok_and(|f| matches!(f.cmd, 0x2D | 0x41) && f.info != 0xEE)
-        }
-    }
-}
-
-/// Whether a message is a controller's refusal of a routine poll (EMP
-/// INFO `EE` to `2C` / `40`): shown, but its repeats are not news.
-fn is_poll_rejection(protocol: Protocol, bytes: &[u8]) -> bool {
-    protocol == Protocol::Emp
-        && emp::Frame::from_hex(body(bytes))
-            .is_ok_and(|f| matches!(f.cmd, 0x2D | 0x41) && f.info == 0xEE)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use proptest::prelude::*;
 
-    fn sent(bytes: &[u8]) -> TrafficRecord {
+    /// Whole messages of `owner`, as the device task reports what it sent.
+    fn sent(bytes: &[u8], owner: Owner) -> TrafficRecord {
+        TrafficRecord::messages(Direction::Sent, bytes, owner, &[bytes.len()])
+    }
+
+    /// Part of a message, its end in a later record.
+    fn sent_part(bytes: &[u8]) -> TrafficRecord {
         TrafficRecord::new(Direction::Sent, bytes)
     }
 
-    fn received(bytes: &[u8]) -> TrafficRecord {
-        TrafficRecord::new(Direction::Received, bytes)
+    /// Bytes read, with the messages the driver found ending in them.
+    fn received(bytes: &[u8], ends: &[(usize, Owner)]) -> TrafficRecord {
+        TrafficRecord {
+            messages: ends.iter().map(|(e, o)| MessageEnd::new(*e, *o)).collect(),
+            ..TrafficRecord::new(Direction::Received, bytes)
+        }
+    }
+
+    fn rejection(bytes: &[u8]) -> TrafficRecord {
+        TrafficRecord {
+            messages: vec![MessageEnd {
+                rejected: true,
+                ..MessageEnd::new(bytes.len(), Owner::Poll)
+            }],
+            ..TrafficRecord::new(Direction::Received, bytes)
+        }
     }
 
     fn texts(log: &TrafficLog) -> Vec<String> {
@@ -355,54 +245,64 @@ mod tests {
     }
 
     #[test]
-    fn paced_chunks_become_whole_messages() {
+    fn a_message_goes_on_across_records_until_its_end() {
         let t = Instant::now();
-        let mut log = TrafficLog::new(Protocol::Isel);
-        for chunk in [&b"@0A5"[..], b"000,9", b"00\r"] {
-            log.record(&sent(chunk), t);
-        }
-        log.record(&received(b"0"), t);
-        log.record(&sent(b"@0M10,9\r"), t);
-        log.record(&received(b"F"), t);
+        let mut log = TrafficLog::new();
+        log.record(&sent_part(b"@0A5"), t);
+        log.record(&sent_part(b"000,9"), t);
+        log.record(&sent(b"00\r", Owner::Motion), t);
+        log.record(&received(b"0", &[(1, Owner::Motion)]), t);
+        log.record(&sent(b"@0M10,9\r", Owner::User), t);
+        // Ended by nothing the driver saw: the quiet completes it.
+        log.record(&received(b"F", &[]), t);
+        assert!(!log.flush_idle(t + IDLE_FLUSH / 2));
         assert!(log.flush_idle(t + IDLE_FLUSH));
         assert_eq!(texts(&log), ["@0A5000,900<CR>", "0", "@0M10,9<CR>", "F"]);
         assert_eq!(log.tail(2).len(), 2);
     }
 
     #[test]
-    fn isel_text_replies_are_one_line_each_with_their_cr_lf() {
+    fn a_message_ends_where_the_driver_says_and_the_next_command_ends_the_rest() {
         let t = Instant::now();
-        let mut log = TrafficLog::new(Protocol::Isel);
-        log.record(&sent(b"@0V\r"), t);
-        log.record(&received(b"iMC-S8\r"), t);
-        log.record(&received(b"\nV2.0\r\n0"), t);
-        log.record(&sent(b"@0P\r"), t);
+        let mut log = TrafficLog::new();
+        log.record(&sent(b"@0V\r", Owner::User), t);
+        log.record(&received(b"iMC-S8\r", &[]), t);
+        log.record(
+            &received(
+                b"\nV2.0\r\n0X",
+                &[(1, Owner::User), (7, Owner::User), (8, Owner::User)],
+            ),
+            t,
+        );
+        log.record(&sent(b"@0P\r", Owner::Poll), t);
         assert_eq!(
             texts(&log),
-            ["@0V<CR>", "iMC-S8<CR><LF>", "V2.0<CR><LF>", "0"]
+            ["@0V<CR>", "iMC-S8<CR><LF>", "V2.0<CR><LF>", "0", "X"]
         );
     }
 
     #[test]
-    fn isel_stop_bytes_show_at_once_even_inside_a_command() {
+    fn a_stop_sequence_is_a_line_per_control_byte() {
         let t = Instant::now();
-        let mut log = TrafficLog::new(Protocol::Isel);
-        log.record(&sent(b"@0A50"), t);
-        log.record(&sent(&[0xFD]), t);
-        log.record(&sent(b"00,900\r"), t);
-        assert_eq!(texts(&log), ["<FD>", "@0A5000,900<CR>"]);
+        let mut log = TrafficLog::new();
+        log.record(
+            &TrafficRecord::messages(Direction::Sent, [0xFD, 0xFF], Owner::Stop, &[1, 2]),
+            t,
+        );
+        log.record(&sent(b"@0A5000,900\r", Owner::Motion), t);
+        assert_eq!(texts(&log), ["<FD>", "<FF>", "@0A5000,900<CR>"]);
     }
 
     #[test]
     fn polls_are_counted_apart_and_shown_on_request() {
         let t = Instant::now();
-        let mut log = TrafficLog::new(Protocol::Isel);
-        log.record(&sent(b"@0P\r"), t);
-        log.record(&received(b"0000100000000000000"), t);
-        log.record(&sent(b"@0b3\r"), t);
-        log.record(&received(b"001"), t);
-        log.record(&sent(b"@0R7\r"), t);
-        log.record(&received(b"0"), t);
+        let mut log = TrafficLog::new();
+        log.record(&sent(b"@0P\r", Owner::Poll), t);
+        log.record(&received(b"0000100000000000000", &[(19, Owner::Poll)]), t);
+        log.record(&sent(b"@0b3\r", Owner::Poll), t);
+        log.record(&received(b"001", &[(3, Owner::Poll)]), t);
+        log.record(&sent(b"@0R7\r", Owner::User), t);
+        log.record(&received(b"0", &[]), t);
         log.flush_idle(t + IDLE_FLUSH);
         assert_eq!(texts(&log), ["@0R7<CR>", "0"]);
         assert_eq!(log.poll_count, 2);
@@ -412,28 +312,40 @@ mod tests {
     }
 
     #[test]
-    fn a_typed_poll_is_shown_with_its_answer() {
+    fn a_typed_poll_is_the_operators_and_shown_with_its_answer() {
         let t = Instant::now();
-        let mut log = TrafficLog::new(Protocol::Emcu);
-        log.typed("@LX");
-        log.record(&sent(b"@LX\r"), t);
-        log.record(&received(b"@LX1234\r"), t);
-        log.record(&sent(b"@LY\r"), t);
-        log.record(&received(b"@LY5\r"), t);
+        let mut log = TrafficLog::new();
+        log.record(&sent(b"@LX\r", Owner::User), t);
+        log.record(&received(b"@LX1234\r", &[(8, Owner::User)]), t);
+        log.record(&sent(b"@LY\r", Owner::Poll), t);
+        log.record(&received(b"@LY5\r", &[(5, Owner::Poll)]), t);
         assert_eq!(texts(&log), ["@LX<CR>", "@LX1234<CR>"]);
+        assert_eq!(log.poll_count, 1);
     }
 
     #[test]
-    fn emcu_and_emp_unsolicited_messages_are_never_hidden() {
+    fn what_the_controller_sends_on_its_own_is_never_hidden() {
         let t = Instant::now();
-        let mut log = TrafficLog::new(Protocol::Emcu);
-        log.record(&sent(b"@X\r"), t);
-        log.record(&received(b"@X000000\r\x02\r"), t);
+        let mut log = TrafficLog::new();
+        log.record(&sent(b"@X\r", Owner::Poll), t);
+        log.record(
+            &received(
+                b"@X000000\r\x02\r",
+                &[(9, Owner::Poll), (11, Owner::Controller)],
+            ),
+            t,
+        );
         assert_eq!(texts(&log), ["<02><CR>"]);
 
-        let mut log = TrafficLog::new(Protocol::Emp);
-        log.record(&sent(b"2C11000000000000\x1a"), t);
-        log.record(&received(b"2D11002200000100\x1a2B11002200000000\x1a"), t);
+        let mut log = TrafficLog::new();
+        log.record(&sent(b"2C11000000000000\x1a", Owner::Poll), t);
+        log.record(
+            &received(
+                b"2D11002200000100\x1a2B11002200000000\x1a",
+                &[(17, Owner::Poll), (34, Owner::Controller)],
+            ),
+            t,
+        );
         assert_eq!(texts(&log), ["2B11002200000000<EOF>"]);
         assert_eq!(log.poll_count, 1);
     }
@@ -441,26 +353,30 @@ mod tests {
     #[test]
     fn a_rejected_poll_is_shown_once_until_something_else_is_answered() {
         let t = Instant::now();
-        let mut log = TrafficLog::new(Protocol::Emp);
+        let mut log = TrafficLog::new();
+        let poll = || sent(b"2C11000000000000\x1a", Owner::Poll);
         for _ in 0..5 {
-            log.record(&sent(b"2C11000000000000\x1a"), t);
-            log.record(&received(b"2D1100EE00000000\x1a"), t);
+            log.record(&poll(), t);
+            log.record(&rejection(b"2D1100EE00000000\x1a"), t);
         }
         assert_eq!(texts(&log), ["2D1100EE00000000<EOF>"]);
         assert_eq!(log.poll_count, 5);
         // Switched on: positions come; a later rejection is news again.
-        log.record(&sent(b"2C11000000000000\x1a"), t);
-        log.record(&received(b"2D11002200000100\x1a"), t);
-        log.record(&sent(b"2C11000000000000\x1a"), t);
-        log.record(&received(b"2D1100EE00000000\x1a"), t);
+        log.record(&poll(), t);
+        log.record(&received(b"2D11002200000100\x1a", &[(17, Owner::Poll)]), t);
+        log.record(&poll(), t);
+        log.record(&rejection(b"2D1100EE00000000\x1a"), t);
         assert_eq!(
             texts(&log),
             ["2D1100EE00000000<EOF>", "2D1100EE00000000<EOF>"]
         );
         // Unsolicited frames are never folded, however often they repeat.
         for _ in 0..2 {
-            log.record(&sent(b"2C11000000000000\x1a"), t);
-            log.record(&received(b"2B11002200000000\x1a"), t);
+            log.record(&poll(), t);
+            log.record(
+                &received(b"2B11002200000000\x1a", &[(17, Owner::Controller)]),
+                t,
+            );
         }
         assert_eq!(texts(&log).len(), 4);
     }
@@ -468,10 +384,10 @@ mod tests {
     #[test]
     fn lists_are_bounded() {
         let t = Instant::now();
-        let mut log = TrafficLog::new(Protocol::Isel);
+        let mut log = TrafficLog::new();
         for _ in 0..(MAX_LINES + 10) {
-            log.record(&sent(b"@0R1\r"), t);
-            log.record(&sent(b"@0P\r"), t);
+            log.record(&sent(b"@0R1\r", Owner::User), t);
+            log.record(&sent(b"@0P\r", Owner::Poll), t);
         }
         log.show_polls = true;
         assert_eq!(log.tail(usize::MAX).len(), MAX_LINES + MAX_POLL_LINES);
@@ -501,35 +417,72 @@ mod tests {
         out
     }
 
+    const OWNERS: [Owner; 8] = [
+        Owner::Poll,
+        Owner::User,
+        Owner::Motion,
+        Owner::Upload,
+        Owner::Program,
+        Owner::Stop,
+        Owner::Setup,
+        Owner::Controller,
+    ];
+
+    /// A record of `bytes` whose messages end at the `cuts` (offsets, any
+    /// order, out of range ones dropped), with owners and rejections.
+    fn tagged(sent: bool, bytes: &[u8], cuts: &[(usize, usize, bool)]) -> TrafficRecord {
+        let mut ends: Vec<MessageEnd> = cuts
+            .iter()
+            .filter(|(at, _, _)| (1..=bytes.len()).contains(at))
+            .map(|(at, owner, rejected)| MessageEnd {
+                rejected: *rejected,
+                ..MessageEnd::new(*at, OWNERS[owner % OWNERS.len()])
+            })
+            .collect();
+        ends.sort_by_key(|m| m.end);
+        ends.dedup_by_key(|m| m.end);
+        let direction = if sent {
+            Direction::Sent
+        } else {
+            Direction::Received
+        };
+        TrafficRecord {
+            messages: ends,
+            ..TrafficRecord::new(direction, bytes)
+        }
+    }
+
     proptest! {
         #[test]
-        fn any_bytes_in_any_split_are_all_shown_in_order(
-            protocol in prop::sample::select(Protocol::ALL.to_vec()),
-            chunks in prop::collection::vec(
-                (any::<bool>(), prop::collection::vec(any::<u8>(), 0..16)), 0..16),
+        fn any_bytes_in_any_messages_are_all_shown_in_order(
+            records in prop::collection::vec(
+                (
+                    any::<bool>(),
+                    prop::collection::vec(any::<u8>(), 0..16),
+                    prop::collection::vec((0usize..17, 0usize..8, any::<bool>()), 0..4),
+                ),
+                0..16,
+            ),
         ) {
             let t = Instant::now();
-            let mut log = TrafficLog::new(protocol);
+            let mut log = TrafficLog::new();
             log.show_polls = true;
-            let is_stop = |b: &u8| protocol == Protocol::Isel && (0xFD..=0xFF).contains(b);
-            let (mut sent_in, mut received_in, mut stops_in) = (Vec::new(), Vec::new(), Vec::new());
-            for (is_sent, bytes) in &chunks {
+            let (mut sent_in, mut received_in) = (Vec::new(), Vec::new());
+            for (is_sent, bytes, cuts) in &records {
+                let record = tagged(*is_sent, bytes, cuts);
                 if *is_sent {
-                    stops_in.extend(bytes.iter().copied().filter(is_stop));
-                    sent_in.extend(bytes.iter().copied().filter(|b| !is_stop(b)));
-                    log.record(&sent(bytes), t);
+                    sent_in.extend_from_slice(bytes);
                 } else {
                     received_in.extend_from_slice(bytes);
-                    log.record(&received(bytes), t);
                 }
+                log.record(&record, t);
             }
             log.flush_idle(t + IDLE_FLUSH);
             prop_assume!(log.polls.len() < MAX_POLL_LINES && log.lines.len() < MAX_LINES);
-            let (mut sent_out, mut received_out, mut stops_out) = (Vec::new(), Vec::new(), Vec::new());
+            let (mut sent_out, mut received_out) = (Vec::new(), Vec::new());
             for line in log.tail(usize::MAX) {
                 let bytes = unreadable(&line.text);
                 match line.kind {
-                    LineKind::Sent if bytes.len() == 1 && is_stop(&bytes[0]) => stops_out.extend(bytes),
                     LineKind::Sent => sent_out.extend(bytes),
                     LineKind::Received => received_out.extend(bytes),
                     _ => prop_assert!(false, "only traffic lines were recorded"),
@@ -537,7 +490,6 @@ mod tests {
             }
             prop_assert_eq!(sent_out, sent_in);
             prop_assert_eq!(received_out, received_in);
-            prop_assert_eq!(stops_out, stops_in);
         }
     }
 }

@@ -941,7 +941,6 @@ fn console_action(model: &mut Model, action: Action) -> Vec<Effect> {
             return match raw::validate(&model.raw_context(), model.command.text()) {
                 Ok(checked) => {
                     model.command.accept();
-                    model.traffic.typed(&checked);
                     vec![Effect::Request(Request::Raw { line: checked })]
                 }
                 Err(e) => {
@@ -1050,7 +1049,7 @@ fn device_event(model: &mut Model, event: Event) {
         // uploaded command came from).
         Event::Upload(upload) => model.upload = Some(upload),
         Event::Traffic(record) => model.traffic.record(&record, model.now),
-        Event::Reply { command, text } => {
+        Event::Reply { command, text, .. } => {
             // Text replies (isel `@0V`, `@0H`) come in several lines.
             let lines: Vec<&str> = text
                 .lines()

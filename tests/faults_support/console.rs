@@ -189,36 +189,30 @@ impl Console {
     /// Initialise (`i`) and set the reference where the axes stand (`@0N7`),
     /// so moves are allowed; waits for READY.
     ///
-    /// A link lost meanwhile (the isel driver gives a query 100 ms beyond
-    /// its wire time, which a heavily loaded machine can miss) refuses the
-    /// request; the steps are then tried again once the link is back.
+    /// Each step is taken once: no fault has been injected yet, so a link
+    /// lost meanwhile (a reply that missed its deadline) is a failure to
+    /// fix, not something to try again.
     pub fn make_ready(&mut self) {
-        let end = Instant::now() + WAIT;
-        let ready = |s: &str| s.lines().next().is_some_and(|l| l.contains("READY"));
-        while !ready(&self.screen()) {
+        let bar_has =
+            |word: &'static str| move |s: &str| s.lines().next().is_some_and(|l| l.contains(word));
+        self.wait_ready_step("NOT INIT", bar_has("NOT INIT"));
+        self.keys(b"i");
+        self.wait_ready_step("NOT REF after `i`", bar_has("NOT REF"));
+        self.command("@0N7");
+        self.wait_ready_step("READY after @0N7", bar_has("READY"));
+    }
+
+    /// [`Console::wait_until`], failing at once when the link was lost.
+    fn wait_ready_step(&self, what: &str, done: impl Fn(&str) -> bool) {
+        self.wait_until(what, |s| {
             assert!(
-                Instant::now() < end,
-                "the console never became READY:\n{}\n--- traffic log (tail):\n{}",
-                self.screen(),
+                !s.contains("link lost"),
+                "the link was lost before any fault was injected (waiting for {what}):\n{s}\n\
+                 --- traffic log (tail):\n{}",
                 self.log_tail()
             );
-            self.wait_until("connected", |s| {
-                s.lines().next().is_some_and(|l| l.contains("connected"))
-            });
-            let status = self.status_bar();
-            if status.contains("NOT INIT") {
-                self.keys(b"i");
-                self.shows_within("NOT REF", Duration::from_secs(3));
-            } else if status.contains("NOT REF") {
-                self.command("@0N7");
-                let t = Instant::now() + Duration::from_secs(3);
-                while !ready(&self.screen()) && Instant::now() < t {
-                    std::thread::sleep(Duration::from_millis(20));
-                }
-            } else {
-                std::thread::sleep(Duration::from_millis(50));
-            }
-        }
+            done(s)
+        });
     }
 
     /// Initialise (`i`) and reference (`h`, confirmed) until the status bar

@@ -17,7 +17,7 @@ use jogterm::device::api::{
 use jogterm::proto::Protocol;
 use jogterm::proto::emcu::StatusFlag;
 use jogterm::proto::isel::ports::{INPUT_BITS, InputPort, InputRole, OUTPUT_PORTS};
-use jogterm::traffic::{Direction, TrafficRecord};
+use jogterm::traffic::{Direction, MessageEnd, Owner, TrafficRecord};
 use jogterm::ui::keymap::Keymap;
 use jogterm::ui::palette::Palette;
 use jogterm::ui::{Model, Msg, Screen, Setup, update};
@@ -292,29 +292,41 @@ fn steps(protocol: Protocol, moving: bool) -> PerAxis<i64> {
     }
 }
 
-fn traffic(protocol: Protocol) -> Vec<(Direction, &'static [u8])> {
+/// A conversation as the device task reports it: whole messages, each with
+/// whose it is (`TrafficRecord::messages`).
+fn traffic(protocol: Protocol) -> Vec<TrafficRecord> {
+    let whole = |direction, bytes: &[u8], owner| {
+        TrafficRecord::messages(direction, bytes, owner, &[bytes.len()])
+    };
+    let (sent, received) = (Direction::Sent, Direction::Received);
     match protocol {
         Protocol::Isel => vec![
-            (Direction::Sent, b"@07\r"),
-            (Direction::Received, b"0"),
-            (Direction::Sent, b"@0R7\r"),
-            (Direction::Received, b"0"),
-            (Direction::Sent, b"@0P\r"),
-            (Direction::Received, b"000AF8A004E20FFFFFF"),
+            whole(sent, b"@07\r", Owner::Setup),
+            whole(received, b"0", Owner::Setup),
+            whole(sent, b"@0R7\r", Owner::Setup),
+            whole(received, b"0", Owner::Setup),
+            whole(sent, b"@0P\r", Owner::Poll),
+            whole(received, b"000AF8A004E20FFFFFF", Owner::Poll),
         ],
         Protocol::Emcu => vec![
-            (Direction::Sent, b"#S200\r"),
-            (Direction::Received, b"\r"),
-            (Direction::Sent, b"$HZYX\x01"),
-            (Direction::Received, b"\r\x02\r"),
-            (Direction::Sent, b"@X\r"),
-            (Direction::Received, b"@X000000\r"),
+            whole(sent, b"#S200\r", Owner::Setup),
+            whole(received, b"\r", Owner::Setup),
+            whole(sent, b"$HZYX\x01", Owner::Setup),
+            TrafficRecord {
+                messages: vec![
+                    MessageEnd::new(1, Owner::Setup),
+                    MessageEnd::new(3, Owner::Controller),
+                ],
+                ..TrafficRecord::new(received, &b"\r\x02\r"[..])
+            },
+            whole(sent, b"@X\r", Owner::Poll),
+            whole(received, b"@X000000\r", Owner::Poll),
         ],
         Protocol::Emp => vec![
-            (Direction::Sent, b"0211110000000000\x1a"),
-            (Direction::Received, b"0311112200000000\x1a"),
-            (Direction::Sent, b"2C11000000000000\x1a"),
-            (Direction::Received, b"2D11002200111700\x1a"),
+            whole(sent, b"0211110000000000\x1a", Owner::Setup),
+            whole(received, b"0311112200000000\x1a", Owner::Setup),
+            whole(sent, b"2C11000000000000\x1a", Owner::Poll),
+            whole(received, b"2D11002200111700\x1a", Owner::Poll),
         ],
     }
 }
@@ -339,11 +351,8 @@ pub fn model_in(protocol: Protocol, theme: &str, state: State, t0: Instant) -> M
             Event::State(ready.clone()),
         ],
     );
-    for (direction, bytes) in traffic(protocol) {
-        send(
-            &mut model,
-            [Event::Traffic(TrafficRecord::new(direction, bytes))],
-        );
+    for record in traffic(protocol) {
+        send(&mut model, [Event::Traffic(record)]);
     }
     send(
         &mut model,

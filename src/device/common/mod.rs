@@ -15,6 +15,8 @@
 //!   limits in steps, jog settings), and the settings error.
 //! - [`limits`]: axes of the machine, soft limits, speed caps.
 //! - [`vector`]: a jog's travel towards the soft limits along its speed vector.
+//! - [`op`]: the skeleton of the operations a driver runs one at a time
+//!   ([`op::Next`], [`op::Abandon`], the enum of them: `operations!`).
 //! - [`motion`]: a running move's kind (step, go-to, jog), its jog lease and
 //!   its end, and the steps coalesced behind it.
 //! - [`jog_speed`]: a jog's speed following its lease (granted leases, the
@@ -23,6 +25,7 @@
 //! - [`limit_jog`]: the jog off a limit switch: its refusals, where it
 //!   stands after a reading of the switches.
 //! - [`queue`]: requests waiting for their turn, and what is refused at once.
+//! - [`route`]: where each request goes in a driver (`Driver::request`).
 //! - [`poll`]: poll rates, cycles, statistics.
 //! - [`upload`]: progress of a program upload.
 //! - [`link`]: declaring a silent link dead.
@@ -39,8 +42,10 @@ pub mod limit_jog;
 pub mod limits;
 pub mod link;
 pub mod motion;
+pub mod op;
 pub mod poll;
 pub mod queue;
+pub mod route;
 pub mod settings;
 pub mod sink;
 pub mod state;

@@ -14,9 +14,9 @@ use std::time::{Duration, Instant};
 use crate::device::api::{
     Event, JogEnd, PerAxis, PositionSample, PositionSource, Refusal, Request,
 };
-use crate::device::driver::Driver;
+use crate::device::driver::{Driver, Outgoing};
 use crate::sim::{InputControl, SimDevice};
-use crate::traffic::readable;
+use crate::traffic::{MessageEnd, Owner, readable};
 use crate::wire::LineSettings;
 
 pub fn ms(n: u64) -> Duration {
@@ -30,6 +30,10 @@ pub struct Harness<D> {
     pub events: Vec<Event>,
     /// Every message the driver handed out, in order.
     pub sent: Vec<Vec<u8>>,
+    /// The same with whose they are and where their messages end.
+    pub outgoing: Vec<Outgoing>,
+    /// Where messages ended in the last bytes `reply` fed in.
+    pub ends: Vec<MessageEnd>,
 }
 
 impl<D: Driver> Harness<D> {
@@ -39,6 +43,8 @@ impl<D: Driver> Harness<D> {
             now: Instant::now(),
             events: Vec::new(),
             sent: Vec::new(),
+            outgoing: Vec::new(),
+            ends: Vec::new(),
         }
     }
 
@@ -71,12 +77,14 @@ impl<D: Driver> Harness<D> {
 
     /// The next message, not yet reported written.
     pub fn take(&mut self) -> Option<Vec<u8>> {
-        let out = self.driver.poll_transmit(self.now).map(|o| o.bytes);
+        let out = self.driver.poll_transmit(self.now);
         self.collect();
-        if let Some(bytes) = &out {
-            self.sent.push(bytes.clone());
+        let bytes = out.as_ref().map(|o| o.bytes.clone());
+        if let Some(out) = out {
+            self.sent.push(out.bytes.clone());
+            self.outgoing.push(out);
         }
-        out
+        bytes
     }
 
     /// Whether a message starting with `prefix` was handed out.
@@ -125,8 +133,25 @@ impl<D: Driver> Harness<D> {
     }
 
     pub fn reply(&mut self, bytes: &[u8]) {
-        self.driver.received(bytes, self.now);
+        self.ends = self.driver.received(bytes, self.now);
         self.collect();
+    }
+
+    /// The owner of the last message handed out, and where its messages
+    /// end.
+    pub fn last_owner(&self) -> Option<(Owner, Vec<usize>)> {
+        let out = self.outgoing.last()?;
+        let owner = out.messages.first()?.owner;
+        assert!(
+            out.messages.iter().all(|m| m.owner == owner),
+            "one owner per message handed out"
+        );
+        Some((owner, out.messages.iter().map(|m| m.end).collect()))
+    }
+
+    /// Where messages ended in the last reply, and whose they were.
+    pub fn reply_ends(&self) -> Vec<(usize, Owner)> {
+        self.ends.iter().map(|m| (m.end, m.owner)).collect()
     }
 
     pub fn request(&mut self, r: Request) {
@@ -180,7 +205,7 @@ impl<D: Driver> Harness<D> {
         self.events
             .iter()
             .filter_map(|e| match e {
-                Event::Reply { command, text } => Some((command.clone(), text.clone())),
+                Event::Reply { command, text, .. } => Some((command.clone(), text.clone())),
                 _ => None,
             })
             .collect()

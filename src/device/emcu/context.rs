@@ -49,6 +49,16 @@ pub const HALT: &[u8] = b"@B\r";
 /// a malformed one, which would leave the axes running.
 pub const CONNECT_HALT: &[u8] = b"\r@B\r";
 
+/// How the driver names a line in its events: the command, and `<01>` for
+/// a 0x01 at its end (`@LX`, `L1,x500<01>`).
+pub fn line_text(command: &Command, end: Terminator) -> String {
+    let mut bytes = command.to_string().into_bytes();
+    if end != Terminator::Cr {
+        bytes.push(end.byte());
+    }
+    crate::traffic::readable(&bytes)
+}
+
 /// Lines in a message, each of which is answered: one per terminator.
 pub fn lines_in(bytes: &[u8]) -> u32 {
     let n = bytes.iter().filter(|b| matches!(**b, b'\r' | 0x01)).count();
@@ -56,10 +66,7 @@ pub fn lines_in(bytes: &[u8]) -> u32 {
 }
 
 pub fn halt_outgoing() -> Outgoing {
-    Outgoing {
-        bytes: HALT.to_vec(),
-        interruptible: false,
-    }
+    Outgoing::message(HALT.to_vec(), false, crate::traffic::Owner::Stop)
 }
 
 #[derive(Debug)]
@@ -149,7 +156,7 @@ impl Context {
         bytes.push(end.byte());
         let expect = command.expect();
         Cmd {
-            text: super::raw::line_text(command, end),
+            text: line_text(command, end),
             timeout: self.ack_timeout(bytes.len(), expect),
             may_move: command.may_move() && (end == Terminator::RunBuffer || command.is_master()),
             bytes,
@@ -299,7 +306,14 @@ impl Context {
     }
 
     pub fn io_snapshot(&self, at: Instant) -> IoSnapshot {
-        io::snapshot(self, at)
+        let known = io::Known {
+            status: self.status.as_ref(),
+            status_read: self.status_read,
+            outputs: self.outputs,
+            e1_link: self.e1_link,
+            wiring: &self.settings.wiring,
+        };
+        io::snapshot(known, at)
     }
 
     pub fn emit_io(&mut self, now: Instant) {

@@ -10,8 +10,6 @@ use crate::device::common::io;
 use crate::proto::emcu::{Output, Status, StatusFlag};
 use crate::wiring::Wiring;
 
-use super::context::Context;
-
 /// The `@X` flags as a byte, bit 0 the first character (moving).
 pub fn status_byte(status: &Status) -> u8 {
     StatusFlag::ALL
@@ -73,15 +71,27 @@ fn link_group(e1_link: Option<bool>) -> IoGroup {
     )
 }
 
+/// What jogterm knows of the interface's bits (the driver's context holds
+/// it): the last `@X` and when it was read, the outputs it wrote, the E1
+/// link.
+#[derive(Debug, Clone, Copy)]
+pub struct Known<'a> {
+    pub status: Option<&'a Status>,
+    pub status_read: Option<Instant>,
+    pub outputs: [Option<bool>; 2],
+    pub e1_link: Option<bool>,
+    pub wiring: &'a Wiring,
+}
+
 /// Everything jogterm knows: the flags once `@X` was read, then the outputs
 /// and the E1 link.
-pub fn snapshot(cx: &Context, at: Instant) -> IoSnapshot {
+pub fn snapshot(known: Known<'_>, at: Instant) -> IoSnapshot {
     let mut groups = Vec::new();
-    if let Some(status) = &cx.status {
-        groups.push(status_group(status).read_from(InputSource::EmcuStatus, cx.status_read));
+    if let Some(status) = known.status {
+        groups.push(status_group(status).read_from(InputSource::EmcuStatus, known.status_read));
     }
-    groups.push(outputs_group(cx.outputs, &cx.settings.wiring));
-    groups.push(link_group(cx.e1_link));
+    groups.push(outputs_group(known.outputs, known.wiring));
+    groups.push(link_group(known.e1_link));
     IoSnapshot { at, groups }
 }
 

@@ -60,9 +60,11 @@ pub use raw::{RUN_MARK, RawKind, RawLine, line_text, parse_raw};
 pub use settings::{EmcuSettings, StatusPoll, Timing};
 
 use crate::config::Profile;
-use crate::device::api::{Event, JogEnd, JogId, MachineState, Refusal, Request};
+use crate::device::api::{Event, JogEnd, JogId, MachineState, Refusal, ReplyKind, Request};
 use crate::device::common::admit::{admit, parse_raw_request};
 use crate::device::common::limits::{invalid, named_axes};
+use crate::device::common::op::operations;
+use crate::device::common::route::{Requests, route};
 use crate::device::common::sink::refuse;
 use crate::device::common::{
     PollRate, Poller, Queued, RequestQueue, SettingsError, Sink, StateReport, link,
@@ -71,6 +73,7 @@ use crate::device::driver::{Driver, Outgoing};
 use crate::proto::emcu::{
     Command, Disposition, Expect, Garbage, Reply, ReplyDecoder, ReplyEvent, Terminator,
 };
+use crate::traffic::{self, MessageEnd};
 
 use context::{CONNECT_HALT, Cmd, Context, halt_outgoing, lines_in, reply_len};
 use home::{Home, home_op};
@@ -84,44 +87,18 @@ use readback::Readback;
 use run_op::RunOp;
 use upload::UploadOp;
 
-#[derive(Debug)]
-enum Op {
-    Readback(Readback),
-    Init(RunOp<Init>),
-    Home(RunOp<Home>),
-    Output(RunOp<Switch>),
-    Job(RunOp<Job>),
-    // Boxed: a jog's speed bookkeeping makes it the largest by far.
-    Motion(Box<MotionOp>),
-    Raw(RawOp),
-    Upload(UploadOp),
-}
-
-impl Op {
-    fn get(&mut self) -> &mut dyn Operation {
-        match self {
-            Op::Readback(o) => o,
-            Op::Init(o) => o,
-            Op::Home(o) => o,
-            Op::Output(o) => o,
-            Op::Job(o) => o,
-            Op::Motion(o) => o.as_mut(),
-            Op::Raw(o) => o,
-            Op::Upload(o) => o,
-        }
-    }
-
-    fn peek(&self) -> &dyn Operation {
-        match self {
-            Op::Readback(o) => o,
-            Op::Init(o) => o,
-            Op::Home(o) => o,
-            Op::Output(o) => o,
-            Op::Job(o) => o,
-            Op::Motion(o) => o.as_ref(),
-            Op::Raw(o) => o,
-            Op::Upload(o) => o,
-        }
+operations! {
+    #[derive(Debug)]
+    enum Op: Operation {
+        Readback(Readback) => Setup,
+        Init(RunOp<Init>) => Setup,
+        Home(RunOp<Home>) => Setup,
+        Output(RunOp<Switch>) => Setup,
+        Job(RunOp<Job>) => Program,
+        // Boxed: a jog's speed bookkeeping makes it the largest by far.
+        Motion(Box<MotionOp> as MotionOp) => Motion,
+        Raw(RawOp) => User,
+        Upload(UploadOp) => Upload,
     }
 }
 
@@ -141,6 +118,8 @@ struct Exchange {
     text: String,
     expect: Expect,
     owner: Owner,
+    /// Whose the line and its answer are, for the traffic records.
+    shown_as: traffic::Owner,
     timeout: Duration,
     /// Set once the last byte has gone out.
     deadline: Option<Instant>,
@@ -250,11 +229,17 @@ impl EmcuDriver {
     fn start(&mut self, cmd: Cmd, owner: Owner) -> Outgoing {
         self.seq += 1;
         self.unsent.push_back(Some(self.seq));
+        let shown_as = match owner {
+            Owner::Poll(_) => traffic::Owner::Poll,
+            Owner::Op => self.op.as_ref().map_or(traffic::Owner::Setup, Op::owner),
+            Owner::Side => traffic::Owner::User,
+        };
         self.exchange = Some(Exchange {
             seq: self.seq,
             text: cmd.text,
             expect: cmd.expect,
             owner,
+            shown_as,
             timeout: cmd.timeout,
             deadline: None,
             transmitted_at: None,
@@ -262,10 +247,7 @@ impl EmcuDriver {
             doubt: None,
             restop: false,
         });
-        Outgoing {
-            bytes: cmd.bytes,
-            interruptible: false,
-        }
+        Outgoing::message(cmd.bytes, false, shown_as)
     }
 
     fn quiet(&self, now: Instant) -> bool {
@@ -327,16 +309,18 @@ impl EmcuDriver {
         Some(self.start(cmd, Owner::Poll(item)))
     }
 
-    fn route(&mut self, reply: Reply, now: Instant) {
+    /// An answer to whoever awaits it; whose it was.
+    fn route(&mut self, reply: Reply, now: Instant) -> traffic::Owner {
         if let Some(ex) = &self.exchange
             && ex.expect.classify(&reply) == Disposition::Answer
             && let Some(ex) = self.exchange.take()
         {
+            let owner = ex.shown_as;
             self.answered(ex, reply, now);
-            return;
+            return owner;
         }
         if reply == Reply::Ack && self.acks.take() {
-            return;
+            return traffic::Owner::Stop;
         }
         let quiet = self.quiet(now);
         match self.exchange.as_mut() {
@@ -351,6 +335,7 @@ impl EmcuDriver {
             None if !quiet => self.cx.stray(&reply.to_string()),
             None => {}
         }
+        traffic::Owner::Controller
     }
 
     fn garbage(&mut self, garbage: Garbage, now: Instant) {
@@ -392,6 +377,7 @@ impl EmcuDriver {
                 }
                 let text = raw::query_text(&reply);
                 self.cx.emit(Event::Reply {
+                    kind: ReplyKind::Answer,
                     command: ex.text,
                     text,
                 });
@@ -530,10 +516,9 @@ impl EmcuDriver {
     /// `@R` (manual 1.5.1) or `@S` (manual 1.5.12): everything ends at once.
     fn abort(&mut self, command: Command, now: Instant) {
         let cmd = self.cx.cmd(&command, Terminator::Cr);
-        self.cx.control.push_back(Outgoing {
-            bytes: cmd.bytes,
-            interruptible: false,
-        });
+        self.cx
+            .control
+            .push_back(Outgoing::message(cmd.bytes, false, traffic::Owner::Stop));
         self.exchange = None;
         self.decoder.reset();
         if let Some(mut op) = self.op.take() {
@@ -595,6 +580,7 @@ impl EmcuDriver {
         let text = self.cx.cmd(&parsed.command, parsed.end).text;
         let answer = |cx: &mut Context, what: &str| {
             cx.emit(Event::Reply {
+                kind: ReplyKind::Answer,
                 command: text.clone(),
                 text: what.to_owned(),
             })
@@ -782,6 +768,47 @@ fn raw_request(cmd: &Cmd) -> Request {
     }
 }
 
+impl Requests for EmcuDriver {
+    fn set_poll(&mut self, rate: PollRate, ports_every: u32) {
+        self.poller.set_rate(rate, ports_every);
+    }
+
+    fn renew_jog(&mut self, id: JogId, lease: Duration, now: Instant) {
+        self.renew(id, lease, now);
+    }
+
+    fn release_jog(&mut self, id: JogId, now: Instant) {
+        self.release(id, now);
+    }
+
+    /// `@R` (manual 1.5.1).
+    fn reset(&mut self, now: Instant) {
+        if self.link_up {
+            self.abort(Command::Reset, now);
+        } else {
+            refuse(&mut self.cx, &Request::Reset, Refusal::NotConnected);
+        }
+    }
+
+    fn raw_line(&mut self, line: String, now: Instant) {
+        self.raw(line, now);
+    }
+
+    fn admit_request(&mut self, request: Request, now: Instant) {
+        self.admit(request, now);
+    }
+
+    fn after_request(&mut self, now: Instant) {
+        self.settle(now);
+    }
+}
+
+/// What opens every connection ([`CONNECT_HALT`]): the CR and `@B` are
+/// two lines, each answered.
+fn connect_halt() -> Outgoing {
+    Outgoing::messages(CONNECT_HALT.to_vec(), false, traffic::Owner::Stop, &[1, 4])
+}
+
 impl Driver for EmcuDriver {
     /// The first line on every connection is `@B` (after a CR that ends any
     /// line the broken link cut, [`CONNECT_HALT`]): whatever the interface
@@ -795,16 +822,12 @@ impl Driver for EmcuDriver {
         self.link_up = true;
         self.poller.reset();
         self.poll_error = None;
-        self.cx.control.push_back(Outgoing {
-            bytes: CONNECT_HALT.to_vec(),
-            interruptible: false,
-        });
+        self.cx.control.push_back(connect_halt());
         if std::mem::take(&mut self.cx.transfer_left_open) {
             let end = upload::transfer_end(&self.cx);
-            self.cx.control.push_back(Outgoing {
-                bytes: end.bytes,
-                interruptible: false,
-            });
+            self.cx
+                .control
+                .push_back(Outgoing::message(end.bytes, false, traffic::Owner::Stop));
             self.cx.state.program = crate::device::api::ProgramState::Invalid;
             self.cx.notice(
                 "a job transfer was open when the link was lost: it was ended with a bare 0x01 \
@@ -822,27 +845,7 @@ impl Driver for EmcuDriver {
     }
 
     fn request(&mut self, request: Request, now: Instant) {
-        match request {
-            Request::Shutdown => {}
-            Request::Poll {
-                rate_hz,
-                ports_every,
-            } => self
-                .poller
-                .set_rate(PollRate::from_request(rate_hz), ports_every),
-            Request::JogRenew { id, lease } => self.renew(id, lease, now),
-            Request::JogRelease { id } => self.release(id, now),
-            Request::Reset => {
-                if self.link_up {
-                    self.abort(Command::Reset, now);
-                } else {
-                    refuse(&mut self.cx, &Request::Reset, Refusal::NotConnected);
-                }
-            }
-            Request::Raw { line } => self.raw(line, now),
-            other => self.admit(other, now),
-        }
-        self.settle(now);
+        route(self, request, now);
     }
 
     fn stop(&mut self, now: Instant) -> Outgoing {
@@ -864,13 +867,13 @@ impl Driver for EmcuDriver {
     /// `@B` CR + `Z` CR would be the malformed line `@L@B`, the stop lost
     /// and the axes left running. The CR first ends the cut line, so `@B`
     /// is a line of its own, as on every connection ([`CONNECT_HALT`]).
-    fn emergency_stop_bytes(&self) -> Vec<u8> {
-        CONNECT_HALT.to_vec()
+    fn emergency_stop(&self) -> Outgoing {
+        connect_halt()
     }
 
-    fn received(&mut self, bytes: &[u8], now: Instant) {
+    fn received(&mut self, bytes: &[u8], now: Instant) -> Vec<MessageEnd> {
         if !self.link_up || bytes.is_empty() {
-            return;
+            return Vec::new();
         }
         self.last_byte = Some(now);
         if let Some(ex) = self.exchange.as_mut()
@@ -881,14 +884,27 @@ impl Driver for EmcuDriver {
                 + self.cx.settings.timing.reply_margin;
             ex.deadline = Some(d.max(now + rest));
         }
-        for event in self.decoder.feed(bytes) {
-            match event {
-                ReplyEvent::Reply(Reply::Ready) => self.ready(now),
-                ReplyEvent::Reply(reply) => self.route(reply, now),
-                ReplyEvent::Garbage(g) => self.garbage(g, now),
+        // A byte at a time, so that each answer's end is known (the
+        // decoder gives the same events for any split, `fuzz_emcu`).
+        let mut ends = Vec::new();
+        for (i, byte) in bytes.iter().enumerate() {
+            for event in self.decoder.feed(std::slice::from_ref(byte)) {
+                let owner = match event {
+                    ReplyEvent::Reply(Reply::Ready) => {
+                        self.ready(now);
+                        traffic::Owner::Controller
+                    }
+                    ReplyEvent::Reply(reply) => self.route(reply, now),
+                    ReplyEvent::Garbage(g) => {
+                        self.garbage(g, now);
+                        traffic::Owner::Controller
+                    }
+                };
+                ends.push(MessageEnd::new(i + 1, owner));
             }
         }
         self.settle(now);
+        ends
     }
 
     fn transmitted(&mut self, now: Instant) {

@@ -11,31 +11,10 @@ use crate::proto::emcu::{Reply, Status};
 
 use super::context::{Cmd, Context};
 
-/// Why an operation ends early.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum Abandon {
-    LinkLost(String),
-    /// `@R` or `@S`: the interface dropped everything (manual 1.5.1, 1.5.12).
-    Reset,
-}
+pub use crate::device::common::op::Abandon;
 
-impl Abandon {
-    pub fn reason(&self) -> String {
-        match self {
-            Abandon::LinkLost(r) => format!("link lost: {r}"),
-            Abandon::Reset => "the interface was reset".to_owned(),
-        }
-    }
-}
-
-/// What an operation wants next.
-#[derive(Debug, Clone, PartialEq)]
-pub enum Next {
-    Send(Cmd),
-    /// Nothing to send now: its run is under way (polls may go meanwhile).
-    Wait,
-    Done,
-}
+/// What an operation wants next: a command line ([`Cmd`]) to send.
+pub type Next = crate::device::common::op::Next<Cmd>;
 
 pub trait Operation: Send + std::fmt::Debug {
     fn next(&mut self, cx: &mut Context, now: Instant) -> Next;

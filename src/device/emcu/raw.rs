@@ -23,11 +23,12 @@
 use std::time::Instant;
 
 use crate::axis::AxisSet;
-use crate::device::api::{Activity, Event, ProgramState, Recovery, Refusal};
+use crate::device::api::{Activity, Event, ProgramState, Recovery, Refusal, ReplyKind};
 use crate::device::common::limits::invalid;
 use crate::device::common::{Sink, gate};
 use crate::proto::emcu::{Command, Reply, Status, Terminator, parse_line};
 
+pub use super::context::line_text;
 use super::context::{Cmd, Context, ERROR_FLAG};
 use super::effects;
 use super::io::describe_status;
@@ -70,16 +71,6 @@ impl RawLine {
             _ => RawKind::Other,
         }
     }
-}
-
-/// How the driver names a line in its events: the command, and `<01>` for
-/// a 0x01 at its end (`@LX`, `L1,x500<01>`).
-pub fn line_text(command: &Command, end: Terminator) -> String {
-    let mut bytes = command.to_string().into_bytes();
-    if end != Terminator::Cr {
-        bytes.push(end.byte());
-    }
-    crate::traffic::readable(&bytes)
 }
 
 impl RawLine {
@@ -359,6 +350,7 @@ impl Operation for RawOp {
                 let text = self.reply_text(cx, &reply);
                 self.answered(cx, &reply, now);
                 cx.emit(Event::Reply {
+                    kind: ReplyKind::Answer,
                     command: self.cmd.text.clone(),
                     text,
                 });

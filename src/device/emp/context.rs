@@ -14,61 +14,12 @@ use crate::device::api::{
 };
 use crate::device::common::{Sink, gate};
 use crate::proto::emp::{
-    Command, DriveAddress, ErrorCode, Inputs, Limits, OnScope, OperatingMode, Outputs, ReloadValue,
-    ReplyBody, Request,
+    Command, DriveAddress, ErrorCode, OnScope, OperatingMode, ReplyBody, Request,
 };
 
+pub use super::drive::DriveState;
+use super::io;
 use super::settings::EmpSettings;
-
-/// One drive as last seen.
-#[derive(Debug, Clone, PartialEq)]
-pub struct DriveState {
-    pub ds: DriveAddress,
-    pub axis: Axis,
-    /// `Some(true)` after `02` was answered or a command other than `0A` was
-    /// taken; `Some(false)` after `04` or a "not switched on" error.
-    pub on: Option<bool>,
-    pub mode: Option<OperatingMode>,
-    pub reload: Option<ReloadValue>,
-    /// The position counter (encoder counts).
-    pub position: Option<i64>,
-    pub limits: Option<Limits>,
-    pub inputs: Option<Inputs>,
-    /// When the last `41` (switches and inputs) arrived, for the input
-    /// recorder.
-    pub inputs_read: Option<Instant>,
-    /// Outputs as last written (no query reads them back: manual "42").
-    pub outputs: Option<Outputs>,
-}
-
-impl DriveState {
-    fn new(ds: DriveAddress, axis: Axis) -> DriveState {
-        DriveState {
-            ds,
-            axis,
-            on: None,
-            mode: None,
-            reload: None,
-            position: None,
-            limits: None,
-            inputs: None,
-            inputs_read: None,
-            outputs: None,
-        }
-    }
-
-    /// Forget what may have changed while the link was down; the outputs
-    /// stay as written (a drive keeps them through `04`, docs/protocols.md).
-    fn unknown(&mut self) {
-        self.on = None;
-        self.mode = None;
-        self.reload = None;
-        self.position = None;
-        self.limits = None;
-        self.inputs = None;
-        self.inputs_read = None;
-    }
-}
 
 #[derive(Debug)]
 pub struct Context {
@@ -212,7 +163,7 @@ impl Context {
             .drives
             .iter()
             .enumerate()
-            .any(|(i, d)| !super::io::interlocks(i, d, wiring).is_empty());
+            .any(|(i, d)| !io::interlocks(i, d, wiring).is_empty());
     }
 
     /// A reply (first answer or completion) to `request` carried `body`;

@@ -23,7 +23,7 @@ use crate::proto::emp::reload::TIMER_HZ;
 use crate::proto::emp::{Command, DriveAddress, Position, Request};
 
 use super::context::Context;
-use super::raw::frame_text;
+use super::script::frame_text;
 
 /// The slowest sample rate: one sample every 65535 timer ticks.
 const SLOWEST_RATE_HZ: f64 = TIMER_HZ as f64 / 65535.0;

@@ -8,8 +8,7 @@ use crate::device::api::{InputSource, IoGroup, IoSnapshot};
 use crate::device::common::io::{group, input_at, output_at};
 use crate::wiring::Wiring;
 
-use super::context::{Context, DriveState};
-use super::output::output_id;
+use super::drive::{DriveState, output_id};
 
 /// The drive's wired inputs with a safety role (`estop`, `power`) that
 /// read active, once its `40` has been read: the only inputs jogterm
@@ -79,14 +78,14 @@ fn drive_group(index: usize, d: &DriveState, wiring: &Wiring) -> IoGroup {
     .read_from(InputSource::EmpDrive(d.ds.byte()), d.inputs_read)
 }
 
-pub fn snapshot(cx: &Context, now: Instant) -> IoSnapshot {
+/// The bits of every drive (`drives`, in the profile's order) at `now`.
+pub fn snapshot(drives: &[DriveState], wiring: &Wiring, now: Instant) -> IoSnapshot {
     IoSnapshot {
         at: now,
-        groups: cx
-            .drives
+        groups: drives
             .iter()
             .enumerate()
-            .map(|(i, d)| drive_group(i, d, &cx.settings.wiring))
+            .map(|(i, d)| drive_group(i, d, wiring))
             .collect(),
     }
 }

@@ -72,7 +72,7 @@ impl LimitJogOp {
         now: Instant,
     ) -> Result<LimitJogOp, Refusal> {
         named_axes(cx.settings.axes, AxisSet::EMPTY.with(axis))?;
-        let active = io::snapshot(cx, now).active_limits();
+        let active = io::snapshot(&cx.drives, &cx.settings.wiring, now).active_limits();
         let switch = limit_jog::check(&cx.state, cx.ready(), axis, dir, &active, is_limit)?;
         let plan = plan::limit_jog(cx, axis, dir)?;
         let ds = plan
@@ -153,7 +153,11 @@ impl LimitJogOp {
                 &r,
             ));
         }
-        cx.emit(Event::Io(io::snapshot(cx, now)));
+        cx.emit(Event::Io(io::snapshot(
+            &cx.drives,
+            &cx.settings.wiring,
+            now,
+        )));
         cx.emit(Event::JogEnded { id: self.id, end });
     }
 
@@ -163,7 +167,7 @@ impl LimitJogOp {
         self.last_at = now;
         self.reading = false;
         self.next_read = Some(now + READ_EVERY);
-        let active = io::snapshot(cx, now).active_limits();
+        let active = io::snapshot(&cx.drives, &cx.settings.wiring, now).active_limits();
         let reading = limit_jog::reading(self.axis, self.switch.side, &active);
         self.reading_result = Some(reading);
         if self.last_read {

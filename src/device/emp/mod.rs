@@ -27,6 +27,7 @@
 
 mod context;
 mod deadline;
+mod drive;
 mod guard;
 mod home;
 mod init;
@@ -58,9 +59,13 @@ pub use speed::DriveSpeed;
 
 use crate::axis::AxisSet;
 use crate::config::Profile;
-use crate::device::api::{Activity, Event, JogEnd, JogId, MachineState, Refusal, Request};
+use crate::device::api::{
+    Activity, Event, JogEnd, JogId, MachineState, Refusal, ReplyKind, Request,
+};
 use crate::device::common::admit::{admit, parse_raw_request};
 use crate::device::common::limits::{invalid, named_axes};
+use crate::device::common::op::operations;
+use crate::device::common::route::{Requests, route};
 use crate::device::common::sink::refuse;
 use crate::device::common::{
     PollRate, Poller, Queued, RequestQueue, SettingsError, Sink, StateReport, link,
@@ -70,6 +75,7 @@ use crate::proto::emp::{
     Command, Correlator, DriveAddress, Event as Matched, FrameDecoder, Incoming, Reply, ReplyBody,
     Request as Frame,
 };
+use crate::traffic::{self, MessageEnd};
 
 use context::Context;
 use home::Home;
@@ -82,40 +88,16 @@ use raw::{RawOp, frame_text, is_query};
 use readback::Readback;
 use script::{Next, Outcome};
 
-#[derive(Debug)]
-enum Op {
-    Readback(Readback),
-    Init(Init),
-    Home(Home),
-    Output(Switch),
-    Motion(Box<MotionOp>),
-    Limit(Box<LimitJogOp>),
-    Raw(RawOp),
-}
-
-impl Op {
-    fn get(&mut self) -> &mut dyn Operation {
-        match self {
-            Op::Readback(o) => o,
-            Op::Init(o) => o,
-            Op::Home(o) => o,
-            Op::Output(o) => o,
-            Op::Motion(o) => o.as_mut(),
-            Op::Limit(o) => o.as_mut(),
-            Op::Raw(o) => o,
-        }
-    }
-
-    fn peek(&self) -> &dyn Operation {
-        match self {
-            Op::Readback(o) => o,
-            Op::Init(o) => o,
-            Op::Home(o) => o,
-            Op::Output(o) => o,
-            Op::Motion(o) => o.as_ref(),
-            Op::Limit(o) => o.as_ref(),
-            Op::Raw(o) => o,
-        }
+operations! {
+    #[derive(Debug)]
+    enum Op: Operation {
+        Readback(Readback) => Setup,
+        Init(Init) => Setup,
+        Home(Home) => Setup,
+        Output(Switch) => Setup,
+        Motion(Box<MotionOp> as MotionOp) => Motion,
+        Limit(Box<LimitJogOp> as LimitJogOp) => Motion,
+        Raw(RawOp) => User,
     }
 }
 
@@ -165,6 +147,10 @@ pub struct EmpDriver {
     /// writer's queue): stop its drive again once it is written.
     restop: Vec<Frame>,
     quiet_until: Option<Instant>,
+    /// Bytes of an answer are arriving: the first answers awaited are not
+    /// overdue before this (the rest of a frame, and the margin), as the
+    /// isel and EMCU drivers give a reply its length once it flows.
+    arriving_until: Option<Instant>,
     report: StateReport,
 }
 
@@ -189,6 +175,7 @@ impl EmpDriver {
             unsent: VecDeque::new(),
             restop: Vec::new(),
             quiet_until: None,
+            arriving_until: None,
             report: StateReport::default(),
         }
     }
@@ -214,11 +201,39 @@ impl EmpDriver {
 
     /// Hand a frame to the writer and expect its answers.
     fn send(&mut self, frame: Frame, owner: Owner, now: Instant) -> Outgoing {
+        let shown_as = self.shown_as(Some(owner));
         self.register(frame, owner, now);
         self.unsent.push_back(frame);
-        Outgoing {
-            bytes: frame.encode().to_vec(),
-            interruptible: false,
+        Outgoing::message(frame.encode().to_vec(), false, shown_as)
+    }
+
+    /// Whose frames of `owner` are, for the traffic records.
+    fn shown_as(&self, owner: Option<Owner>) -> traffic::Owner {
+        match owner {
+            Some(Owner::Poll(_)) => traffic::Owner::Poll,
+            Some(Owner::Op) => self.op.as_ref().map_or(traffic::Owner::Setup, Op::owner),
+            Some(Owner::Side) => traffic::Owner::User,
+            Some(Owner::ErrorQuery { .. }) => traffic::Owner::Setup,
+            Some(Owner::Stop | Owner::RawStop) => traffic::Owner::Stop,
+            None => traffic::Owner::Controller,
+        }
+    }
+
+    /// Whose a frame that came is (the request it answers), and whether
+    /// it is a rejection (INFO `EE`); what answers nothing, or could not
+    /// be read, is the controller's own.
+    fn answer_of(&self, m: &Matched) -> (traffic::Owner, bool) {
+        match m {
+            Matched::Answered { request, .. }
+            | Matched::Started { request, .. }
+            | Matched::Completed { request, .. }
+            | Matched::Ended { request, .. } => (self.shown_as(self.owner_of(request)), false),
+            Matched::Rejected { request, .. } | Matched::Failed { request, .. } => {
+                (self.shown_as(self.owner_of(request)), true)
+            }
+            Matched::TimedOut { .. } | Matched::Malformed { .. } | Matched::Unexpected { .. } => {
+                (traffic::Owner::Controller, false)
+            }
         }
     }
 
@@ -325,9 +340,12 @@ impl EmpDriver {
         }
     }
 
-    fn incoming(&mut self, incoming: Incoming, now: Instant) {
+    /// A frame that came; whose it was, and whether a rejection.
+    fn incoming(&mut self, incoming: Incoming, now: Instant) -> (traffic::Owner, bool) {
         let m = self.correlator.received(incoming);
+        let answer = self.answer_of(&m);
         self.matched(m, now);
+        answer
     }
 
     /// What the correlator made of a frame (or of a frame sent).
@@ -489,6 +507,7 @@ impl EmpDriver {
             Some(Owner::Side) => {
                 if let Some(r) = reply {
                     self.cx.emit(Event::Reply {
+                        kind: ReplyKind::Answer,
                         command: frame_text(request),
                         text: reply_text(r),
                     });
@@ -514,6 +533,7 @@ impl EmpDriver {
                 }
                 if let Some(r) = reply {
                     self.cx.emit(Event::Reply {
+                        kind: ReplyKind::Answer,
                         command: frame_text(request),
                         text: reply_text(r),
                     });
@@ -549,7 +569,7 @@ impl EmpDriver {
             PollItem::Io(ds) => {
                 let last = self.poller.ports().last().copied();
                 if last == Some(PollItem::Io(ds)) {
-                    let snapshot = io::snapshot(&self.cx, now);
+                    let snapshot = io::snapshot(&self.cx.drives, &self.cx.settings.wiring, now);
                     self.cx.emit(Event::Io(snapshot));
                 }
             }
@@ -571,6 +591,7 @@ impl EmpDriver {
         self.errors.clear();
         self.side.clear();
         self.quiet_until = None;
+        self.arriving_until = None;
         self.off_polls.reset();
         if let Some(mut op) = self.op.take() {
             op.get().link_lost(&mut self.cx);
@@ -748,13 +769,51 @@ impl EmpDriver {
         self.report.publish(&self.cx.state, &mut self.cx.events);
     }
 
-    /// The stop frames for every drive, as one message.
-    fn stop_bytes(&self) -> Vec<u8> {
-        self.cx
-            .addresses()
-            .into_iter()
-            .flat_map(|ds| self.cx.stop_request(ds).encode())
-            .collect()
+    /// The stop frames for every drive, after `head`, as one message for
+    /// the writer (each frame a message on the line).
+    fn stop_frames(&self, head: Vec<u8>) -> Outgoing {
+        let mut bytes = head;
+        let mut ends = Vec::new();
+        if !bytes.is_empty() {
+            ends.push(bytes.len());
+        }
+        for ds in self.cx.addresses() {
+            bytes.extend(self.cx.stop_request(ds).encode());
+            ends.push(bytes.len());
+        }
+        Outgoing::messages(bytes, false, traffic::Owner::Stop, &ends)
+    }
+}
+
+impl Requests for EmpDriver {
+    fn set_poll(&mut self, rate: PollRate, ports_every: u32) {
+        self.poller.set_rate(rate, ports_every);
+    }
+
+    fn renew_jog(&mut self, id: JogId, lease: Duration, now: Instant) {
+        self.renew(id, lease, now);
+    }
+
+    fn release_jog(&mut self, id: JogId, _now: Instant) {
+        self.release(id);
+    }
+
+    /// EMP drives have no reset command: admitted, and refused with what
+    /// to do instead when its turn comes (`begin`).
+    fn reset(&mut self, now: Instant) {
+        self.admit(Request::Reset, now);
+    }
+
+    fn raw_line(&mut self, line: String, now: Instant) {
+        self.raw(line, now);
+    }
+
+    fn admit_request(&mut self, request: Request, now: Instant) {
+        self.admit(request, now);
+    }
+
+    fn after_request(&mut self, now: Instant) {
+        self.settle(now);
     }
 }
 
@@ -782,20 +841,7 @@ impl Driver for EmpDriver {
     }
 
     fn request(&mut self, request: Request, now: Instant) {
-        match request {
-            Request::Shutdown => {}
-            Request::Poll {
-                rate_hz,
-                ports_every,
-            } => self
-                .poller
-                .set_rate(PollRate::from_request(rate_hz), ports_every),
-            Request::JogRenew { id, lease } => self.renew(id, lease, now),
-            Request::JogRelease { id } => self.release(id),
-            Request::Raw { line } => self.raw(line, now),
-            other => self.admit(other, now),
-        }
-        self.settle(now);
+        route(self, request, now);
     }
 
     fn stop(&mut self, now: Instant) -> Outgoing {
@@ -827,10 +873,7 @@ impl Driver for EmpDriver {
             }
         }
         self.settle(now);
-        Outgoing {
-            bytes: self.stop_bytes(),
-            interruptible: false,
-        }
+        self.stop_frames(Vec::new())
     }
 
     /// The emergency handle writes from another thread, between any two
@@ -839,31 +882,53 @@ impl Driver for EmpDriver {
     /// EMP framing) and the drive left running. An EOF first ends the cut
     /// frame (dropped as a short run; a lone EOF, when nothing was cut, is
     /// dropped too), so the stop frames are read as frames of their own.
-    fn emergency_stop_bytes(&self) -> Vec<u8> {
-        let mut bytes = vec![crate::proto::emp::EOF];
-        bytes.extend(self.stop_bytes());
-        bytes
+    fn emergency_stop(&self) -> Outgoing {
+        self.stop_frames(vec![crate::proto::emp::EOF])
     }
 
-    fn received(&mut self, bytes: &[u8], now: Instant) {
+    fn received(&mut self, bytes: &[u8], now: Instant) -> Vec<MessageEnd> {
         if !self.link_up || bytes.is_empty() {
-            return;
+            return Vec::new();
         }
-        for result in self.decoder.feed(bytes) {
-            match result {
-                Ok(incoming) => self.incoming(incoming, now),
-                Err(e) => {
-                    if !self.quiet(now) {
-                        self.cx.notice(format!("framing error on the line: {e}"));
+        if self.correlator.next_deadline().is_some() {
+            let rest = self
+                .cx
+                .settings
+                .line
+                .transfer_time(crate::proto::emp::FRAME_WIRE_LEN)
+                + self.cx.settings.timing.reply_margin;
+            self.arriving_until = Some(now + rest);
+        }
+        // A byte at a time, so that each frame's end is known (the decoder
+        // gives the same frames for any split, `fuzz_emp`).
+        let mut ends = Vec::new();
+        for (i, byte) in bytes.iter().enumerate() {
+            for result in self.decoder.feed(std::slice::from_ref(byte)) {
+                let (owner, rejected) = match result {
+                    Ok(incoming) => self.incoming(incoming, now),
+                    Err(e) => {
+                        if !self.quiet(now) {
+                            self.cx.notice(format!("framing error on the line: {e}"));
+                        }
+                        (traffic::Owner::Controller, false)
                     }
-                }
+                };
+                ends.push(MessageEnd {
+                    rejected,
+                    ..MessageEnd::new(i + 1, owner)
+                });
             }
         }
         self.settle(now);
+        ends
     }
 
     fn transmitted(&mut self, now: Instant) {
-        if let Some(frame) = self.unsent.pop_front()
+        let frame = self.unsent.pop_front();
+        if let Some(frame) = &frame {
+            self.correlator.transmitted(frame, now);
+        }
+        if let Some(frame) = frame
             && let Some(i) = self.restop.iter().position(|f| *f == frame)
         {
             self.restop.remove(i);
@@ -885,11 +950,11 @@ impl Driver for EmpDriver {
     }
 
     fn next_timeout(&self) -> Option<Instant> {
-        let mut times = vec![
-            self.quiet_until,
-            self.correlator.next_deadline(),
-            self.poller.stats_due(),
-        ];
+        let overdue = self
+            .correlator
+            .next_deadline()
+            .map(|d| self.arriving_until.map_or(d, |a| d.max(a)));
+        let mut times = vec![self.quiet_until, overdue, self.poller.stats_due()];
         if let Some(op) = &self.op {
             times.push(op.peek().timer());
         }
@@ -907,7 +972,10 @@ impl Driver for EmpDriver {
         if self.quiet_until.is_some_and(|q| now >= q) {
             self.quiet_until = None;
         }
-        if self.link_up {
+        if self.arriving_until.is_some_and(|a| now >= a) {
+            self.arriving_until = None;
+        }
+        if self.link_up && self.arriving_until.is_none() {
             let timed_out = self.correlator.poll_timeouts(now);
             if let Some(first) = timed_out.into_iter().next() {
                 self.matched(first, now);

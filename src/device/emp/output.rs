@@ -13,13 +13,7 @@ use super::context::Context;
 use super::op::Operation;
 use super::script::{Next, Outcome, Script};
 
-/// The id of output `n` (0-3 = O1-O4) of the drive at `index` in the profile.
-pub fn output_id(index: usize, n: u8) -> OutputId {
-    OutputId {
-        group: u16::try_from(index).unwrap_or(u16::MAX),
-        bit: Some(n),
-    }
-}
+pub use super::drive::output_id;
 
 /// The frame that sets `output` to `value`: one output (bit 0-3) to on or
 /// off, or with `bit: None` all four from the low nibble of `value`.

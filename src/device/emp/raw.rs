@@ -9,7 +9,7 @@
 
 use std::time::Instant;
 
-use crate::device::api::{Activity, Event, Refusal};
+use crate::device::api::{Activity, Event, Refusal, ReplyKind};
 use crate::proto::emp::{Command, DriveAddress, Reply, Request};
 
 use crate::device::common::Sink;
@@ -21,7 +21,8 @@ use super::op::Operation;
 use super::script::{Next, Outcome, Script};
 
 /// How the first answer of a long action (`55`) starts its `Event::Reply`
-/// text; the completion follows as another reply to the same frame.
+/// text (of kind `ReplyKind::Started`); the completion follows as another
+/// reply to the same frame.
 pub const STARTED: &str = "started: ";
 
 /// Parse a raw line; the error names what is wrong with it.
@@ -48,10 +49,7 @@ pub fn is_query(command: &Command) -> bool {
     )
 }
 
-/// The frame as typed, for replies and faults.
-pub fn frame_text(request: &Request) -> String {
-    request.to_frame().to_string()
-}
+pub use super::script::frame_text;
 
 #[derive(Debug)]
 pub struct RawOp {
@@ -133,17 +131,25 @@ impl Operation for RawOp {
         }
         self.script.outcome(request, outcome);
         let command = frame_text(request);
-        let text = match (outcome, reply) {
-            (Outcome::Answered, Some(r)) => reply_text(r),
-            (Outcome::Started, Some(r)) => format!("{STARTED}{}", reply_text(r)),
-            (Outcome::Completed, Some(r)) => format!("completed: {}", reply_text(r)),
+        let (text, kind) = match (outcome, reply) {
+            (Outcome::Answered, Some(r)) => (reply_text(r), ReplyKind::Answer),
+            (Outcome::Started, Some(r)) => {
+                (format!("{STARTED}{}", reply_text(r)), ReplyKind::Started)
+            }
+            (Outcome::Completed, Some(r)) => {
+                (format!("completed: {}", reply_text(r)), ReplyKind::Answer)
+            }
             // Given up: the fault has told what happened.
             (Outcome::Ended, _) if self.given_up() => return,
-            (Outcome::Ended, _) => "ended by a later request".to_owned(),
+            (Outcome::Ended, _) => ("ended by a later request".to_owned(), ReplyKind::Answer),
             // A rejection is told by the fault with the error code (`0A`).
             _ => return,
         };
-        cx.emit(Event::Reply { command, text });
+        cx.emit(Event::Reply {
+            command,
+            text,
+            kind,
+        });
     }
 
     fn owns(&self, request: &Request) -> bool {

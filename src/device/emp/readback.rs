@@ -48,7 +48,7 @@ impl Readback {
         }
         cx.refresh();
         cx.position_complete(now);
-        let io = snapshot(cx, now);
+        let io = snapshot(&cx.drives, &cx.settings.wiring, now);
         cx.emit(crate::device::api::Event::Io(io));
         let drives: Vec<String> = cx
             .drives

@@ -7,6 +7,11 @@ use std::collections::VecDeque;
 
 use crate::proto::emp::Request;
 
+/// The frame as typed, for replies and faults.
+pub fn frame_text(request: &Request) -> String {
+    request.to_frame().to_string()
+}
+
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Step {
     Send(Request),
@@ -14,12 +19,8 @@ pub enum Step {
     Barrier,
 }
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Next {
-    Send(Request),
-    Wait,
-    Done,
-}
+/// What a script or operation wants next: a frame to send.
+pub type Next = crate::device::common::op::Next<Request>;
 
 /// How a request the script sent ended.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -16,7 +16,7 @@ use crate::proto::isel::{
     AxisConfig, CncCommand, Command, ControlByte, DeviceNumber, Expect, Frame, InputPort,
     Positions, Recovery as IselRecovery, ReplyCode,
 };
-use crate::traffic::readable;
+use crate::traffic::{Owner, readable};
 use crate::wiring::Role;
 
 use super::deadline;
@@ -43,18 +43,28 @@ pub struct Cmd {
 /// (`../shared/protocols.md` isel 6, manual 2.2.31).
 pub const STOP_BYTES: [u8; 2] = [0xFD, 0xFF];
 
+/// The stop sequence: each control byte is a message of its own (they act
+/// at once, even between the bytes of a command, manual 2.2.31).
 pub fn stop_outgoing() -> Outgoing {
-    Outgoing {
-        bytes: STOP_BYTES.to_vec(),
-        interruptible: true,
-    }
+    Outgoing::messages(STOP_BYTES.to_vec(), true, Owner::Stop, &[1, 2])
 }
 
+/// A control byte jogterm decides on (a jog's break, the reset).
 pub fn control_outgoing(control: ControlByte) -> Outgoing {
-    Outgoing {
-        bytes: control.encode().to_vec(),
-        interruptible: true,
-    }
+    Outgoing::message(control.encode().to_vec(), true, Owner::Stop)
+}
+
+/// What a reply to `@0P` said ([`Context::read_position`]).
+#[derive(Debug, Clone, PartialEq)]
+pub enum PositionRead {
+    /// A position, now the one the context holds.
+    Measured,
+    /// `4`: no axes initialised.
+    NoAxes,
+    /// Another code: for the reader to report.
+    Refused(ReplyCode),
+    /// Not an answer to `@0P`.
+    Unexpected(crate::proto::isel::Reply),
 }
 
 /// A `2` reply: a limit switch, refused as such until the axes are
@@ -450,27 +460,43 @@ impl Context {
         }
     }
 
-    /// The reply to a `@0P` the driver sent to learn the position: `4`
-    /// only says that no axes are initialised (some controllers report
-    /// positions anyway); any other code is a fault.
-    pub fn position_reply(&mut self, reply: crate::proto::isel::Reply, now: Instant) -> bool {
+    /// What a reply to `@0P` says, once the position it holds (if any) is
+    /// taken: `4` only says that no axes are initialised (some controllers
+    /// report positions anyway, `../shared/protocols.md`), and the axis
+    /// configuration is forgotten.
+    pub fn read_position(
+        &mut self,
+        reply: crate::proto::isel::Reply,
+        now: Instant,
+    ) -> PositionRead {
         use crate::proto::isel::Reply;
         match reply {
             Reply::Positions(p) => {
                 self.measured(&p, now);
-                true
+                PositionRead::Measured
             }
             Reply::Code(ReplyCode::NoAxes) => {
                 self.set_config(None);
-                false
+                PositionRead::NoAxes
             }
-            Reply::Code(code) => {
-                let text = format!("@{}P", self.device);
+            Reply::Code(code) => PositionRead::Refused(code),
+            other => PositionRead::Unexpected(other),
+        }
+    }
+
+    /// The reply to a `@0P` an operation sent to learn the position
+    /// ([`Context::read_position`]); any other code is a fault at once.
+    /// Whether a position was measured.
+    pub fn position_reply(&mut self, reply: crate::proto::isel::Reply, now: Instant) -> bool {
+        let text = format!("@{}P", self.device);
+        match self.read_position(reply, now) {
+            PositionRead::Measured => true,
+            PositionRead::NoAxes => false,
+            PositionRead::Refused(code) => {
                 self.controller_error(&text, code);
                 false
             }
-            other => {
-                let text = format!("@{}P", self.device);
+            PositionRead::Unexpected(other) => {
                 self.link_suspect(&text, &format!("{other:?}"));
                 false
             }

@@ -61,18 +61,20 @@ pub use settings::{
 pub use upload::abort_line;
 
 use crate::config::Profile;
-use crate::device::api::{Event, JogEnd, MachineState, Refusal, Request};
+use crate::device::api::{Event, JogEnd, MachineState, Refusal, ReplyKind, Request};
 use crate::device::common::admit::admit;
 use crate::device::common::limits::named_axes;
+use crate::device::common::op::operations;
+use crate::device::common::route::{Requests, route};
 use crate::device::common::sink::refuse;
 use crate::device::common::{Poller, Queued, RequestQueue, StateReport, link};
 use crate::device::driver::{Driver, Outgoing};
 use crate::proto::isel::{
     Command, ControlByte, Event as Decoded, Expect, Reply, ReplyDecoder, TEXT_SILENCE,
 };
-use crate::traffic::readable;
+use crate::traffic::{self, MessageEnd, readable};
 
-use context::{Cmd, Context, control_outgoing, stop_outgoing};
+use context::{Cmd, Context, PositionRead, control_outgoing, stop_outgoing};
 use home::HomeOp;
 use init::InitOp;
 use limit_op::LimitJogOp;
@@ -85,49 +87,19 @@ use readback::Readback;
 use upload::UploadOp;
 use zero::ZeroOp;
 
-#[derive(Debug)]
-enum Op {
-    Readback(Readback),
-    Init(InitOp),
-    Home(HomeOp),
-    Zero(ZeroOp),
-    Output(OutputOp),
-    Motion(MotionOp),
-    Limit(LimitJogOp),
-    Raw(RawOp),
-    Upload(UploadOp),
-    Program(ProgramOp),
-}
-
-impl Op {
-    fn get(&mut self) -> &mut dyn Operation {
-        match self {
-            Op::Readback(o) => o,
-            Op::Init(o) => o,
-            Op::Home(o) => o,
-            Op::Zero(o) => o,
-            Op::Output(o) => o,
-            Op::Motion(o) => o,
-            Op::Limit(o) => o,
-            Op::Raw(o) => o,
-            Op::Upload(o) => o,
-            Op::Program(o) => o,
-        }
-    }
-
-    fn peek(&self) -> &dyn Operation {
-        match self {
-            Op::Readback(o) => o,
-            Op::Init(o) => o,
-            Op::Home(o) => o,
-            Op::Zero(o) => o,
-            Op::Output(o) => o,
-            Op::Motion(o) => o,
-            Op::Limit(o) => o,
-            Op::Raw(o) => o,
-            Op::Upload(o) => o,
-            Op::Program(o) => o,
-        }
+operations! {
+    #[derive(Debug)]
+    enum Op: Operation {
+        Readback(Readback) => Setup,
+        Init(InitOp) => Setup,
+        Home(HomeOp) => Setup,
+        Zero(ZeroOp) => Setup,
+        Output(OutputOp) => Setup,
+        Motion(MotionOp) => Motion,
+        Limit(LimitJogOp) => Motion,
+        Raw(RawOp) => User,
+        Upload(UploadOp) => Upload,
+        Program(ProgramOp) => Program,
     }
 }
 
@@ -145,6 +117,8 @@ struct Exchange {
     text: String,
     expect: Expect,
     owner: Owner,
+    /// Whose the command and its reply are, for the traffic records.
+    shown_as: traffic::Owner,
     may_move: bool,
     timeout: Option<Duration>,
     /// Set once the last byte has gone out.
@@ -226,11 +200,16 @@ impl IselDriver {
         }
         self.seq += 1;
         self.unsent.push_back(Some(self.seq));
+        let shown_as = match owner {
+            Owner::Poll(_) => traffic::Owner::Poll,
+            Owner::Op => self.op.as_ref().map_or(traffic::Owner::Setup, Op::owner),
+        };
         self.exchange = Some(Exchange {
             seq: self.seq,
             text: cmd.text,
             expect: cmd.expect,
             owner,
+            shown_as,
             may_move: cmd.may_move,
             timeout: cmd.timeout,
             deadline: None,
@@ -239,10 +218,7 @@ impl IselDriver {
             last_byte: None,
             restop: false,
         });
-        Outgoing {
-            bytes: cmd.bytes,
-            interruptible: true,
-        }
+        Outgoing::message(cmd.bytes, true, shown_as)
     }
 
     fn quiet(&self, now: Instant) -> bool {
@@ -328,6 +304,39 @@ impl IselDriver {
         }
     }
 
+    /// `bytes` through the decoder, and where messages ended in them: where
+    /// a reply was complete, and after each line of a text reply (CR LF,
+    /// protocols.md isel 8), owned by the command on the wire; a reply found
+    /// garbled, and whatever follows a reply, is the controller's own. Fed
+    /// a byte at a time, which gives the events a whole feed gives (the
+    /// decoder's split property, `fuzz_isel`).
+    fn decode(&mut self, bytes: &[u8]) -> (Vec<Decoded>, Vec<MessageEnd>) {
+        let mut owner = self
+            .exchange
+            .as_ref()
+            .map_or(traffic::Owner::Controller, |ex| ex.shown_as);
+        let mut events = Vec::new();
+        let mut ends = Vec::new();
+        for (i, byte) in bytes.iter().enumerate() {
+            let fed = self.decoder.feed(std::slice::from_ref(byte));
+            let replied = fed.iter().any(|e| matches!(e, Decoded::Reply(_)));
+            let garbled = fed.iter().any(|e| matches!(e, Decoded::Error(_)));
+            if replied || garbled || *byte == b'\n' {
+                let whose = if garbled && !replied {
+                    traffic::Owner::Controller
+                } else {
+                    owner
+                };
+                ends.push(MessageEnd::new(i + 1, whose));
+            }
+            if replied || garbled {
+                owner = traffic::Owner::Controller;
+            }
+            events.extend(fed);
+        }
+        (events, ends)
+    }
+
     fn decoded(&mut self, events: Vec<Decoded>, now: Instant) {
         for event in events {
             match event {
@@ -379,20 +388,26 @@ impl IselDriver {
     }
 
     fn poll_reply(&mut self, item: PollItem, text: &str, reply: Reply, now: Instant) {
-        match (item, reply) {
-            (PollItem::Position, Reply::Positions(p)) => {
-                self.cx.measured(&p, now);
-                self.poller.position_read(now);
-                self.poll_error = None;
-            }
-            (PollItem::Position, Reply::Code(crate::proto::isel::ReplyCode::NoAxes)) => {
-                self.cx.set_config(None);
-            }
+        let trouble = match (item, reply) {
+            // What a `@0P` says is read as for every operation that reads
+            // the position (`Context::read_position`); only the reporting
+            // of trouble is the poller's own.
+            (PollItem::Position, reply) => match self.cx.read_position(reply, now) {
+                PositionRead::Measured => {
+                    self.poller.position_read(now);
+                    self.poll_error = None;
+                    None
+                }
+                PositionRead::NoAxes => None,
+                PositionRead::Refused(code) => Some(Reply::Code(code)),
+                PositionRead::Unexpected(other) => Some(other),
+            },
             (PollItem::Port(port), Reply::Byte(v)) => {
                 self.cx.port_read(port, v, now);
                 if self.poller.cycle_done() {
                     self.cx.emit_io(now);
                 }
+                None
             }
             (PollItem::Port(port), Reply::Code(crate::proto::isel::ReplyCode::BadNumber)) => {
                 self.cx.port_absent(port);
@@ -400,8 +415,12 @@ impl IselDriver {
                 if self.poller.cycle_done() {
                     self.cx.emit_io(now);
                 }
+                None
             }
-            (_, Reply::Code(code)) => {
+            (PollItem::Port(_), other) => Some(other),
+        };
+        match trouble {
+            Some(Reply::Code(code)) => {
                 // Once per kind of trouble, not on every poll.
                 let key = format!("{text}{}", code.char());
                 if self.poll_error.as_deref() != Some(&key) {
@@ -409,9 +428,10 @@ impl IselDriver {
                     self.cx.controller_error(text, code);
                 }
             }
-            (_, other) => self
+            Some(other) => self
                 .cx
                 .notice(format!("unexpected reply to {text}: {other:?}")),
+            None => {}
         }
     }
 
@@ -534,7 +554,7 @@ impl IselDriver {
         }
     }
 
-    fn reset(&mut self, now: Instant) {
+    fn reset_controller(&mut self, now: Instant) {
         self.cx
             .control
             .push_back(control_outgoing(ControlByte::Reset));
@@ -566,7 +586,7 @@ impl IselDriver {
             return;
         }
         match control {
-            ControlByte::Reset => self.reset(now),
+            ControlByte::Reset => self.reset_controller(now),
             ControlByte::SoftStop | ControlByte::Break => {
                 let own_motion = match self.op.as_mut() {
                     // The operator's own move: exactly the byte asked for
@@ -586,11 +606,14 @@ impl IselDriver {
                     // A move jogterm planned is always broken off completely.
                     self.halt(now);
                 } else {
-                    self.cx.control.push_back(control_outgoing(control));
+                    let typed =
+                        Outgoing::message(control.encode().to_vec(), true, traffic::Owner::User);
+                    self.cx.control.push_back(typed);
                 }
             }
         }
         self.cx.emit(Event::Reply {
+            kind: ReplyKind::Answer,
             command: text,
             text: format!("{} sent (control bytes have no reply)", control.name()),
         });
@@ -747,6 +770,45 @@ impl IselDriver {
     }
 }
 
+impl Requests for IselDriver {
+    fn set_poll(&mut self, rate: PollRate, ports_every: u32) {
+        self.poller.set_rate(rate, ports_every);
+    }
+
+    fn renew_jog(&mut self, id: crate::device::api::JogId, lease: Duration, now: Instant) {
+        self.renew(id, lease, now);
+    }
+
+    fn release_jog(&mut self, id: crate::device::api::JogId, now: Instant) {
+        self.release(id, now);
+    }
+
+    fn reset(&mut self, now: Instant) {
+        if self.link_up {
+            self.reset_controller(now);
+        } else {
+            self.refuse(&Request::Reset, Refusal::NotConnected);
+        }
+    }
+
+    /// A control byte goes at once (manual 2.2.31); any other line is
+    /// admitted like every request.
+    fn raw_line(&mut self, line: String, now: Instant) {
+        match control_of(&line) {
+            Some(control) => self.raw_control(control, now),
+            None => self.admit(Request::Raw { line }, now),
+        }
+    }
+
+    fn admit_request(&mut self, request: Request, now: Instant) {
+        self.admit(request, now);
+    }
+
+    fn after_request(&mut self, _now: Instant) {
+        self.settle();
+    }
+}
+
 impl Driver for IselDriver {
     /// The first bytes on every connection are the stop sequence: whatever
     /// the controller was doing (a move sent before the link broke), it must
@@ -775,31 +837,7 @@ impl Driver for IselDriver {
     }
 
     fn request(&mut self, request: Request, now: Instant) {
-        match request {
-            Request::Shutdown => {}
-            Request::Poll {
-                rate_hz,
-                ports_every,
-            } => self
-                .poller
-                .set_rate(PollRate::from_request(rate_hz), ports_every),
-            Request::JogRenew { id, lease } => self.renew(id, lease, now),
-            Request::JogRelease { id } => self.release(id, now),
-            Request::Reset => {
-                if self.link_up {
-                    self.reset(now);
-                } else {
-                    self.refuse(&Request::Reset, Refusal::NotConnected);
-                }
-            }
-            Request::Raw { line } if control_of(&line).is_some() => {
-                if let Some(control) = control_of(&line) {
-                    self.raw_control(control, now);
-                }
-            }
-            other => self.admit(other, now),
-        }
-        self.settle();
+        route(self, request, now);
     }
 
     fn stop(&mut self, now: Instant) -> Outgoing {
@@ -815,19 +853,19 @@ impl Driver for IselDriver {
         stop_outgoing()
     }
 
-    fn emergency_stop_bytes(&self) -> Vec<u8> {
-        STOP_BYTES.to_vec()
+    fn emergency_stop(&self) -> Outgoing {
+        stop_outgoing()
     }
 
-    fn received(&mut self, bytes: &[u8], now: Instant) {
+    fn received(&mut self, bytes: &[u8], now: Instant) -> Vec<MessageEnd> {
         if !self.link_up || bytes.is_empty() {
-            return;
+            return line_ends(bytes, traffic::Owner::Controller);
         }
         if self.exchange.is_none() && self.quiet(now) {
             // Stray bytes while the line settles: keep it quiet a little longer.
             self.stray.extend_from_slice(bytes);
             self.quiet_until = Some(now + self.cx.settings.timing.resync_gap);
-            return;
+            return line_ends(bytes, traffic::Owner::Controller);
         }
         if let Some(ex) = self.exchange.as_mut() {
             ex.last_byte = Some(now);
@@ -844,10 +882,11 @@ impl Driver for IselDriver {
                 ex.deadline = Some(d.max(now + rest));
             }
         }
-        let events = self.decoder.feed(bytes);
+        let (events, ends) = self.decode(bytes);
         self.decoded(events, now);
         self.take_quiet_request(now);
         self.settle();
+        ends
     }
 
     fn transmitted(&mut self, now: Instant) {
@@ -944,4 +983,15 @@ impl Driver for IselDriver {
         self.take_quiet_request(now);
         self.settle();
     }
+}
+
+/// Messages of `owner` in bytes no command awaits: each line ends one (CR
+/// LF); the rest ends when the next command goes out or the line is quiet.
+fn line_ends(bytes: &[u8], owner: traffic::Owner) -> Vec<MessageEnd> {
+    bytes
+        .iter()
+        .enumerate()
+        .filter(|(_, b)| **b == b'\n')
+        .map(|(i, _)| MessageEnd::new(i + 1, owner))
+        .collect()
 }

@@ -10,31 +10,10 @@ use crate::proto::isel::{Reply, SyncChar};
 
 use super::context::{Cmd, Context};
 
-/// Why an operation ends early.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum Abandon {
-    LinkLost(String),
-    /// 0xFE: the controller dropped everything (manual 2.2.31).
-    Reset,
-}
+pub use crate::device::common::op::Abandon;
 
-impl Abandon {
-    pub fn reason(&self) -> String {
-        match self {
-            Abandon::LinkLost(r) => format!("link lost: {r}"),
-            Abandon::Reset => "the controller was reset".to_owned(),
-        }
-    }
-}
-
-/// What an operation wants next.
-#[derive(Debug, Clone, PartialEq)]
-pub enum Next {
-    Send(Cmd),
-    /// Nothing to send now (waiting for a timer).
-    Wait,
-    Done,
-}
+/// What an operation wants next: a command line ([`Cmd`]) to send.
+pub type Next = crate::device::common::op::Next<Cmd>;
 
 pub trait Operation: Send + std::fmt::Debug {
     fn next(&mut self, cx: &mut Context, now: Instant) -> Next;

@@ -17,7 +17,7 @@
 use std::time::{Duration, Instant};
 
 use crate::axis::AxisSet;
-use crate::device::api::{Activity, Event, ProgramState, Refusal};
+use crate::device::api::{Activity, Event, ProgramState, Refusal, ReplyKind};
 use crate::proto::isel::{
     AxisConfig, CncCommand, Command, ControlByte, InitCommand, Rejection, Reply, ReplyCode,
     SyncChar, check_with, parse_frame, validate_cnc,
@@ -350,11 +350,13 @@ impl Operation for RawOp {
                     shown.push_str(&format!(" (sync characters: {})", self.syncs));
                 }
                 cx.emit(Event::Reply {
+                    kind: ReplyKind::Answer,
                     command: text,
                     text: shown,
                 });
             }
             Reply::Code(ReplyCode::UserStop) if self.broken_off => cx.emit(Event::Reply {
+                kind: ReplyKind::Answer,
                 command: text,
                 text: format!(
                     "{}: stopped, the rest was discarded",
@@ -373,6 +375,7 @@ impl Operation for RawOp {
             Reply::Positions(p) => {
                 cx.measured(p, now);
                 cx.emit(Event::Reply {
+                    kind: ReplyKind::Answer,
                     command: text,
                     text: reply_text(self.command(), &reply, &cx.settings.wiring),
                 });
@@ -383,11 +386,13 @@ impl Operation for RawOp {
                     cx.emit_io(now);
                 }
                 cx.emit(Event::Reply {
+                    kind: ReplyKind::Answer,
                     command: text,
                     text: reply_text(self.command(), &reply, &cx.settings.wiring),
                 });
             }
             Reply::Text { .. } => cx.emit(Event::Reply {
+                kind: ReplyKind::Answer,
                 command: text,
                 text: reply_text(self.command(), &reply, &cx.settings.wiring),
             }),

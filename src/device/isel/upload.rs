@@ -246,7 +246,7 @@ impl Operation for UploadOp {
             if self.storing {
                 cx.state.program = ProgramState::Invalid;
             }
-            self.aborted(cx, cause.reason());
+            self.aborted(cx, cause.reason("controller"));
         }
     }
 

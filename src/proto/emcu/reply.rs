@@ -31,6 +31,23 @@ impl VersionText {
     /// Most characters: the line limit less `@V `.
     pub const MAX_LEN: usize = MAX_REPLY_LINE - 3;
 
+    /// Whether `text` makes a version text: at compile time, for a text
+    /// jogterm itself sends (the simulator's `VERSION`).
+    pub const fn is_valid(text: &str) -> bool {
+        let bytes = text.as_bytes();
+        if bytes.is_empty() || bytes.len() > Self::MAX_LEN {
+            return false;
+        }
+        let mut i = 0;
+        while i < bytes.len() {
+            if bytes[i] < 0x20 || bytes[i] > 0x7E {
+                return false;
+            }
+            i += 1;
+        }
+        true
+    }
+
     pub fn new(text: &str) -> Result<VersionText, ReplyError> {
         if text.is_empty() {
             return Err(ReplyError::VersionEmpty);
@@ -180,6 +197,19 @@ mod tests {
     #[test]
     fn version_text_is_one_printable_line() {
         assert!(VersionText::new("SMC3000i 1.00").is_ok());
+        for text in [
+            "SMC3000i 1.00",
+            "",
+            "a\rb",
+            "ä",
+            &"v".repeat(VersionText::MAX_LEN + 1),
+        ] {
+            assert_eq!(
+                VersionText::is_valid(text),
+                VersionText::new(text).is_ok(),
+                "{text:?}"
+            );
+        }
         assert_eq!(VersionText::new(""), Err(ReplyError::VersionEmpty));
         assert_eq!(
             VersionText::new("a\rb"),

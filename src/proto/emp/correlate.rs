@@ -156,6 +156,19 @@ impl Correlator {
         events
     }
 
+    /// `request` has left the writer at `now` (its last byte is on the
+    /// line): its first reply is awaited from then, not from when it was
+    /// handed over, which may be a frame or a busy moment earlier.
+    pub fn transmitted(&mut self, request: &Request, now: Instant) {
+        if let Some(p) = self
+            .pending
+            .iter_mut()
+            .find(|p| p.request == *request && !p.busy)
+        {
+            p.sent_at = p.sent_at.max(now);
+        }
+    }
+
     /// Match one incoming message.
     pub fn received(&mut self, incoming: Incoming) -> Event {
         let index = match self.find(&incoming) {
@@ -601,6 +614,26 @@ mod tests {
         assert_eq!(c.next_deadline(), Some(t + Duration::from_millis(130)));
         assert_eq!(c.clear(), [read_position(drive(2))]);
         assert!(c.is_idle());
+    }
+
+    #[test]
+    fn the_wait_for_a_first_reply_starts_when_the_request_is_on_the_line() {
+        let t = Instant::now();
+        let mut c = Correlator::new(TIMEOUT);
+        c.sent(read_position(drive(1)), t);
+        // The writer took 40 ms to get it out (a busy machine).
+        c.transmitted(&read_position(drive(1)), t + Duration::from_millis(40));
+        assert_eq!(
+            c.next_deadline(),
+            Some(t + Duration::from_millis(40) + TIMEOUT)
+        );
+        assert!(c.poll_timeouts(t + TIMEOUT).is_empty());
+        // Never earlier than handed over.
+        c.transmitted(&read_position(drive(1)), t);
+        assert_eq!(
+            c.next_deadline(),
+            Some(t + Duration::from_millis(40) + TIMEOUT)
+        );
     }
 
     #[test]

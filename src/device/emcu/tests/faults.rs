@@ -192,7 +192,7 @@ fn stops_expect_their_own_cr() {
 #[test]
 fn an_emergency_stop_cut_into_a_line_is_still_a_halt_of_its_own() {
     let h = Harness::new();
-    let stop = h.driver.emergency_stop_bytes();
+    let stop = h.driver.emergency_stop().bytes;
     for line in [&b"@LZ\r"[..], b"#E9,200\r", b"L9,x30000\x01"] {
         for cut in 0..=line.len() {
             let mut wire = line[..cut].to_vec();

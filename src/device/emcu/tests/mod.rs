@@ -9,5 +9,6 @@ mod motion;
 mod polling;
 mod properties;
 mod raw;
+mod traffic;
 mod upload;
 mod with_sim;

@@ -9,4 +9,5 @@ mod limit_jog;
 mod long_actions;
 mod motion;
 mod properties;
+mod traffic;
 mod with_sim;

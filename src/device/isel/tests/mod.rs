@@ -11,5 +11,6 @@ mod polling;
 mod properties;
 mod raw;
 mod timeouts;
+mod traffic;
 mod upload;
 mod with_sim;

@@ -14,7 +14,7 @@ fn replies(h: &Harness) -> Vec<(String, String)> {
     h.events
         .iter()
         .filter_map(|e| match e {
-            Event::Reply { command, text } => Some((command.clone(), text.clone())),
+            Event::Reply { command, text, .. } => Some((command.clone(), text.clone())),
             _ => None,
         })
         .collect()

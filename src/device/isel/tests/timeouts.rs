@@ -118,6 +118,6 @@ fn a_text_reply_ends_on_silence() {
     h.advance(ms(1));
     assert!(h.events.iter().any(|e| matches!(
         e,
-        Event::Reply { command, text } if command == "@0V" && text == "iMC-S8 V1.0\n(c) isel"
+        Event::Reply { command, text, .. } if command == "@0V" && text == "iMC-S8 V1.0\n(c) isel"
     )));
 }
