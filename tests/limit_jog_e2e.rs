@@ -34,7 +34,7 @@ fn wait_for(run: &PtyRun, needle: &str) -> String {
 }
 
 fn quit(run: &mut PtyRun) {
-    run.send(b"q");
+    run.type_keys(&[b"q"]);
     let code = run.wait_exit(WAIT);
     assert_eq!(code, Some(0), "{}", run.screen().screen().contents());
 }
@@ -46,7 +46,7 @@ fn isel_jogging_off_x1(sim: &mut SimProcess, config: &Path) -> PtyRun {
     wait_for(&run, "○X1");
     sim.control("set limit-x1 on");
     wait_for(&run, "●X1");
-    run.send(b"i");
+    run.type_keys(&[b"i"]);
     sim.wait_received("the initialisation's probe", |r| {
         r.contains("@0A0,300,0,300,0,300,0,300<CR>")
     });
@@ -54,7 +54,7 @@ fn isel_jogging_off_x1(sim: &mut SimProcess, config: &Path) -> PtyRun {
     // state: on a loaded machine `L` may still be refused once.
     let mut screen = String::new();
     for _ in 0..10 {
-        run.send(b"L");
+        run.type_keys(&[b"L"]);
         match run.wait_for("Jog X off its limit switch", Duration::from_secs(2)) {
             Ok(s) => {
                 screen = s;
@@ -67,7 +67,7 @@ fn isel_jogging_off_x1(sim: &mut SimProcess, config: &Path) -> PtyRun {
         screen.contains("X stands in its min limit switch limit X1"),
         "{screen}"
     );
-    run.send(b"\r");
+    run.type_keys(&[b"\r"]);
     wait_for(&run, "off limit X1: X+ at most 2 mm");
     run
 }
@@ -101,7 +101,7 @@ fn isel_the_axis_leaves_its_switch_test_mode_goes_off_and_a_reference_is_asked_f
     let state = sim.device_state();
     assert!(!state.contains("test mode"), "{state}");
     // The reference question is the `h` one: yes runs it.
-    run.send(b"\r");
+    run.type_keys(&[b"\r"]);
     sim.wait_received("the reference run", |r| r.contains("@0R7<CR>"));
     wait_for(&run, "READY");
     quit(&mut run);
@@ -131,7 +131,7 @@ fn isel_space_stops_it_and_nothing_moves_afterwards() {
     let mut sim = SimProcess::start("isel");
     let mut run = isel_jogging_off_x1(&mut sim, config.path());
     sim.wait_received("a short move", |r| r.contains("@0A20,200"));
-    run.send(b" ");
+    run.type_keys(&[b" "]);
     wait_for(&run, "off its limit switch stopped");
     let received = sim.received();
     assert!(received.contains("<FD><FF>"), "{received}");
@@ -154,14 +154,14 @@ fn emp_the_drive_positions_off_its_switch_and_stops_once_it_releases() {
     let config = sim.dir.path().to_path_buf();
     let mut run = spawn(&["--protocol", "emp", "--port", &link], &config);
     wait_for(&run, "state read back");
-    run.send(b"i");
+    run.type_keys(&[b"i"]);
     sim.wait_device("switched on", |s| !s.contains("off"));
     sim.control("set i1 on");
     std::thread::sleep(Duration::from_millis(800));
-    run.send(b"L");
+    run.type_keys(&[b"L"]);
     let screen = wait_for(&run, "Jog X off its limit switch");
     assert!(screen.contains("min limit switch"), "{screen}");
-    run.send(b"\r");
+    run.type_keys(&[b"\r"]);
     sim.wait_received("the positioning", |r| r.contains("2A1101"));
     std::thread::sleep(Duration::from_millis(500));
     sim.control("set i1 off");
@@ -169,7 +169,7 @@ fn emp_the_drive_positions_off_its_switch_and_stops_once_it_releases() {
     let received = sim.received();
     let from = received.find("2A1101").unwrap_or(0);
     assert!(received[from..].contains("081100"), "stopped: {received}");
-    run.send(b"n");
+    run.type_keys(&[b"n"]);
     wait_for(&run, "Reference run: cancelled");
     quit(&mut run);
 }
