@@ -8,8 +8,10 @@ use anyhow::bail;
 
 use super::GlobalArgs;
 use crate::config::profile::Connection;
+use crate::config::source::error_for_key;
 use crate::config::{ConfigDirs, Profile, Source, load_profile_with_sources};
 use crate::proto::Protocol;
+use crate::transport::PortAddress;
 
 /// The profile the command line asks for, with `--sim`, `--protocol` and
 /// `--port` applied.
@@ -64,7 +66,26 @@ pub fn resolve_with_sources(
     if let Some(port) = &global.port {
         profile.connection.port = port.clone();
     }
+    check_port(&profile, global, &sources)?;
     Ok((profile, sources))
+}
+
+/// The port must be `sim`, a device path or a serial port server's URL
+/// (`tcp://HOST:PORT`, `rfc2217://HOST:PORT`); a bad one is refused before
+/// anything opens, at its line in the profile or as the option it came from.
+fn check_port(profile: &Profile, global: &GlobalArgs, sources: &[Source]) -> anyhow::Result<()> {
+    if profile.connection.is_simulator() {
+        return Ok(());
+    }
+    let Err(e) = PortAddress::parse(&profile.connection.port) else {
+        return Ok(());
+    };
+    if global.port.is_some() {
+        bail!("--port {e}");
+    }
+    let refs: Vec<&Source> = sources.iter().collect();
+    let key = ["connection".to_owned(), "port".to_owned()];
+    Err(error_for_key(&refs, &key, format!("`{}`: {}", e.given, e.problem)).into())
 }
 
 /// The family a profile resolved by [`resolve`] talks.
