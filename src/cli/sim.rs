@@ -48,6 +48,7 @@ Control language (one command per line, docs/simulator.md):
   fault stall                          the next long action stays busy, unmoving (EMP)
   show                                 device state, line, counters
   show received                        the bytes the simulator received (readable)
+  show received times                  each read of them, with its time (s since 1970)
   help                                 commands and the device's inputs
   quit                                 end the simulator
 

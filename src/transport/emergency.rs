@@ -109,7 +109,15 @@ impl EmergencyStop {
         let left = deadline.saturating_duration_since(Instant::now());
         if !inner.sink.is_tty() {
             return match inner.sink.wait_acknowledged(left) {
-                Ok(true) => Ok(()),
+                Ok(true) => {
+                    if inner.sink.info().tcp {
+                        // The process may end next: input left unread would
+                        // make its close a reset, and the server would drop
+                        // the stop it has not read yet (`sink.rs`).
+                        super::sink::discard_arrived(inner.sink.fd());
+                    }
+                    Ok(())
+                }
                 Ok(false) => Err(TransportError::DrainTimeout {
                     port: inner.port.clone(),
                     waited: inner.timeout,

@@ -45,7 +45,7 @@ enum LockKind {
     /// A UUCP lock file we created; removed on drop.
     Uucp,
     /// A file we hold an `flock` on; the lock ends when it is closed.
-    Flock(#[allow(dead_code)] File),
+    Flock(File),
 }
 
 impl OwnerLock {
@@ -56,10 +56,22 @@ impl OwnerLock {
 
 impl Drop for OwnerLock {
     fn drop(&mut self) {
-        if let LockKind::Uucp = self.kind
-            && read_pid(&self.path) == Some(std::process::id())
-        {
-            let _ = fs::remove_file(&self.path);
+        match &self.kind {
+            LockKind::Uucp => {
+                if read_pid(&self.path) == Some(std::process::id()) {
+                    let _ = fs::remove_file(&self.path);
+                }
+            }
+            // Removed while still held, and only if it is still the file we
+            // locked: one that another process opened meanwhile is then a
+            // file of its own, locked by it alone.
+            LockKind::Flock(file) => {
+                let ours = file.metadata().ok().map(|m| (m.dev(), m.ino()));
+                let there = fs::metadata(&self.path).ok().map(|m| (m.dev(), m.ino()));
+                if ours.is_some() && ours == there {
+                    let _ = fs::remove_file(&self.path);
+                }
+            }
         }
         if let Ok(mut held) = HELD.lock() {
             held.retain(|_, weak| weak.strong_count() > 0);
@@ -426,6 +438,8 @@ mod tests {
         let _ = child.wait();
         let lock = lock_network_in(dir.path(), &addr).expect("free now");
         assert_eq!(read_pid(lock.path()), Some(std::process::id()));
+        drop(lock);
+        assert!(!path.exists(), "no lock file left behind");
     }
 
     #[test]

@@ -162,7 +162,7 @@ impl Port {
         let reader_fd = self.dup("duplicating the fd for reading")?;
         let emergency_fd = self.dup("duplicating the fd for emergency stops")?;
         let emergency = sink::Sink::new(emergency_fd, self.link, self.owner.clone());
-        let sink = sink::Sink::new(self.fd, self.link, self.owner);
+        let sink = sink::Sink::new(self.fd, self.link, self.owner).closing_gracefully();
         let (writer, events) = PacedWriter::spawn(sink, self.name.clone(), self.line, config)?;
         Ok(PortParts {
             reader: PortReader::new(reader_fd, self.name.clone(), self.decoder),

@@ -17,8 +17,12 @@
 //!   buffer); `false` where the link cannot (raw TCP, a socket pair). A tty
 //!   could `tcflush(TCOFLUSH)` here; the writer decides when it may;
 //! - dropping a TCP sink waits (bounded) until the server has acknowledged
-//!   every byte: a socket closed with unread input is reset by Linux, and a
-//!   reset discards a stop still in the send queue.
+//!   every byte, and the writer's sink closes gracefully: `shutdown(SHUT_WR)`
+//!   (a FIN behind the last stop), then what the server still sends is
+//!   read and dropped until it closes too. Linux resets a socket that is
+//!   closed with unread input, and a reset makes the server drop what it
+//!   has received and not yet read: the close's stop, seen lost through
+//!   ser2net before this.
 
 use std::borrow::Cow;
 use std::io;
@@ -69,6 +73,13 @@ impl LinkInfo {
 /// How long a closing TCP sink waits for the server's acknowledgement.
 pub(crate) const CLOSE_LINGER: Duration = Duration::from_millis(250);
 
+/// How long the writer's sink keeps a connection after the server has
+/// acknowledged the last bytes, before it closes its side: a stop's wire
+/// time (1 ms at 19200 baud), a USB adapter's latency timer (16 ms) and the
+/// server's scheduling. Seen without it: ser2net let go of the port with
+/// the close's stop still unread by the controller on the other end.
+pub(crate) const CLOSE_SETTLE: Duration = Duration::from_millis(50);
+
 /// The writing end of a port.
 #[derive(Debug)]
 pub(crate) struct Sink {
@@ -79,6 +90,9 @@ pub(crate) struct Sink {
     owed: Vec<u8>,
     /// Keeps the port's ownership lock while the sink lives.
     _owner: Option<Arc<OwnerLock>>,
+    /// Close the connection gracefully when dropped (the writer's sink,
+    /// which writes the last bytes of a session).
+    graceful: bool,
 }
 
 impl Sink {
@@ -88,7 +102,14 @@ impl Sink {
             info,
             owed: Vec::new(),
             _owner: owner,
+            graceful: false,
         }
+    }
+
+    /// Close a TCP connection gracefully on drop (see the module).
+    pub fn closing_gracefully(mut self) -> Self {
+        self.graceful = true;
+        self
     }
 
     /// A second sink on a dup of the fd (nothing owed).
@@ -98,6 +119,7 @@ impl Sink {
             info: self.info,
             owed: Vec::new(),
             _owner: self._owner.clone(),
+            graceful: false,
         })
     }
 
@@ -221,8 +243,46 @@ impl Drop for Sink {
                 let _ = fd::write_all_until(self.fd.as_fd(), self.info.kind, &self.owed, deadline);
             }
             let _ = wait_acknowledged(self.fd(), CLOSE_LINGER);
+            if self.graceful {
+                // The server has the last bytes; give it time to put them on
+                // the serial line before it learns the client is gone: a
+                // server may close (and flush) its device at once then.
+                thread::sleep(CLOSE_SETTLE);
+                // SAFETY: shutdown on a socket fd we own.
+                unsafe {
+                    libc::shutdown(self.fd.as_raw_fd(), libc::SHUT_WR);
+                }
+                drain_input(self.fd(), Instant::now() + CLOSE_LINGER);
+            }
         }
     }
+}
+
+/// Read and drop what the peer sends until it closes or `deadline`.
+pub(crate) fn drain_input(fd: BorrowedFd<'_>, deadline: Instant) {
+    let mut buf = [0u8; 512];
+    loop {
+        match fd::read_some(fd, &mut buf) {
+            Ok(0) => return,
+            Ok(_) => {}
+            Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+            Err(e) if e.kind() == io::ErrorKind::WouldBlock => {
+                if Instant::now() >= deadline {
+                    return;
+                }
+                let mut fds = [fd::pollfd(fd, libc::POLLIN)];
+                if fd::poll_until(&mut fds, Some(deadline)).is_err() {
+                    return;
+                }
+            }
+            Err(_) => return,
+        }
+    }
+}
+
+/// Read and drop what has arrived, without waiting.
+pub(crate) fn discard_arrived(fd: BorrowedFd<'_>) {
+    drain_input(fd, Instant::now());
 }
 
 /// Bytes written to a TCP socket and not yet acknowledged by the peer
