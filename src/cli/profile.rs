@@ -139,6 +139,51 @@ mod tests {
     }
 
     #[test]
+    fn network_ports_are_taken_and_bad_ones_refused_where_they_were_given() {
+        let p = resolved(GlobalArgs {
+            protocol: Some(Protocol::Isel),
+            port: Some("rfc2217://pi.local:2001".into()),
+            ..Default::default()
+        })
+        .expect("an RFC 2217 server");
+        assert_eq!(p.connection.port, "rfc2217://pi.local:2001");
+        let err = resolved(GlobalArgs {
+            protocol: Some(Protocol::Isel),
+            port: Some("tcp://pi.local".into()),
+            ..Default::default()
+        })
+        .expect_err("no TCP port");
+        assert!(
+            err.to_string()
+                .starts_with("--port port `tcp://pi.local`: expected HOST:PORT"),
+            "{err}"
+        );
+        // In a profile: at its line.
+        let dir = tempfile::tempdir().expect("dir");
+        std::fs::create_dir(dir.path().join("profiles")).expect("dir");
+        std::fs::write(
+            dir.path().join("profiles/mill.toml"),
+            "base = \"isel\"\n\n[connection]\nport = \"telnet://pi:23\"\n",
+        )
+        .expect("profile");
+        let dirs = ConfigDirs {
+            user: Some(dir.path().to_path_buf()),
+        };
+        let err = resolve(
+            &GlobalArgs {
+                profile: Some("mill".into()),
+                ..Default::default()
+            },
+            &dirs,
+        )
+        .expect_err("a bad scheme");
+        let text = format!("{err:#}");
+        assert!(text.contains("mill.toml:4:"), "{text}");
+        assert!(text.contains("unknown scheme"), "{text}");
+        assert!(text.contains("connection.port"), "{text}");
+    }
+
+    #[test]
     fn contradictions_are_refused_with_the_reason() {
         let err = resolved(GlobalArgs {
             protocol: Some(Protocol::Isel),
