@@ -147,23 +147,7 @@ fn measure(address: &str, shell: &Shell, bulk: bool, stops: usize) -> Vec<(Durat
     // Each 0xFD read after `before`, in order, belongs to the next stop;
     // the bytes read after the stop was asked for and before the 0xFD were
     // still on their way (writer, socket, server, pty) when it was.
-    let received = shell.control().received().expect("received");
-    let first_kept = received.not_kept();
-    let mut timed: Vec<(u8, SystemTime)> = Vec::new();
-    for (i, (offset, at)) in received.reads.iter().enumerate() {
-        let end = received
-            .reads
-            .get(i + 1)
-            .map_or(received.total, |(n, _)| *n);
-        if end <= before {
-            continue;
-        }
-        let bytes = received
-            .bytes
-            .get((offset - first_kept) as usize..(end - first_kept) as usize)
-            .unwrap_or_default();
-        timed.extend(bytes.iter().map(|b| (*b, *at)));
-    }
+    let timed = timed_bytes(shell, before);
     let mut out = Vec::new();
     let mut from = 0;
     for asked_at in asked {
@@ -209,6 +193,29 @@ fn throughput(address: &str, shell: &Shell) -> f64 {
     let took = start.elapsed();
     drop(parts);
     LineSettings::new(BAUD).transfer_time(4000).as_secs_f64() / took.as_secs_f64()
+}
+
+/// Every byte the simulator read since it had read `before` bytes, with
+/// the time of the read that brought it.
+fn timed_bytes(shell: &Shell, before: u64) -> Vec<(u8, SystemTime)> {
+    let received = shell.control().received().expect("received");
+    let first_kept = received.not_kept();
+    let mut timed: Vec<(u8, SystemTime)> = Vec::new();
+    for (i, (offset, at)) in received.reads.iter().enumerate() {
+        let end = received
+            .reads
+            .get(i + 1)
+            .map_or(received.total, |(n, _)| *n);
+        if end <= before {
+            continue;
+        }
+        let bytes = received
+            .bytes
+            .get((offset - first_kept) as usize..(end - first_kept) as usize)
+            .unwrap_or_default();
+        timed.extend(bytes.iter().map(|b| (*b, *at)));
+    }
+    timed
 }
 
 fn spec_for(address: &str) -> PortSpec {
@@ -260,23 +267,7 @@ fn stall_once(shell: &Shell, options: NetOptions) -> (usize, Duration) {
     thread::sleep(Duration::from_millis(50));
     tc("qdisc del dev lo root");
     thread::sleep(Duration::from_millis(1500));
-    let received = shell.control().received().expect("received");
-    let first_kept = received.not_kept();
-    let mut timed: Vec<(u8, SystemTime)> = Vec::new();
-    for (i, (offset, at)) in received.reads.iter().enumerate() {
-        let end = received
-            .reads
-            .get(i + 1)
-            .map_or(received.total, |(n, _)| *n);
-        if end <= before {
-            continue;
-        }
-        let bytes = received
-            .bytes
-            .get((offset - first_kept) as usize..(end - first_kept) as usize)
-            .unwrap_or_default();
-        timed.extend(bytes.iter().map(|b| (*b, *at)));
-    }
+    let timed = timed_bytes(shell, before);
     let p = timed
         .iter()
         .position(|(b, _)| *b == 0xFD)
