@@ -365,7 +365,13 @@ fn main() {
         .iter()
         .map(|(name, address, shell)| (*name, throughput(address, shell)))
         .collect();
-    let _ = s2n.kill();
+    // SIGTERM: ser2net removes its lock files as it ends.
+    if let Ok(pid) = libc::pid_t::try_from(s2n.id()) {
+        // SAFETY: a signal to the child this bench started.
+        unsafe {
+            libc::kill(pid, libc::SIGTERM);
+        }
+    }
     let _ = s2n.wait();
     let byte = LineSettings::new(BAUD).byte_time();
     println!(

@@ -147,7 +147,19 @@ impl Ser2net {
 }
 
 impl Drop for Ser2net {
+    /// SIGTERM first: ser2net then removes the UUCP lock files it holds
+    /// for the device (`/run/lock/LCK..…`); killed after a second.
     fn drop(&mut self) {
+        if let Ok(pid) = libc::pid_t::try_from(self.child.id()) {
+            // SAFETY: a signal to the child this value started.
+            unsafe {
+                libc::kill(pid, libc::SIGTERM);
+            }
+        }
+        let end = Instant::now() + Duration::from_secs(1);
+        while matches!(self.child.try_wait(), Ok(None)) && Instant::now() < end {
+            thread::sleep(Duration::from_millis(10));
+        }
         let _ = self.child.kill();
         let _ = self.child.wait();
     }
