@@ -237,7 +237,7 @@ fn the_control_loop_prints_help_with_the_device_inputs_and_stops_at_quit() {
     .expect("loop");
     assert_eq!(
         String::from_utf8(err).expect("utf8"),
-        "error: line 1: reopening needs a pseudo-terminal line; this one is a socket\n\
+        "error: line 1: reopening needs a pseudo-terminal or TCP line; this one is a socket pair\n\
          error: line 2: `x` is not a time in ms: expected a whole number from 0 to 600000\n\
          error: line 3: not valid UTF-8 text\n"
     );

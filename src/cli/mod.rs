@@ -4,7 +4,8 @@
 //! the root and may be given before or after the command; each command
 //! uses the ones that mean something to it and says so in its help. Without
 //! a command jogterm runs the console (`tui`); the commands are `sim`,
-//! `send`, `poll`, `watch`, `commission`, `check`, `arc` and `upload`.
+//! `send`, `poll`, `watch`, `commission`, `check`, `arc`, `upload` and
+//! `ports`.
 //!
 //! Exit codes: 0 ok, 1 failure (a message on stderr), 2 bad usage (clap, and
 //! the console's configuration errors); `send`, `poll`, `watch`,
@@ -16,6 +17,7 @@ pub mod commission;
 pub mod emp;
 pub mod out;
 pub mod poll;
+pub mod ports;
 pub mod profile;
 pub mod send;
 mod session;
@@ -41,6 +43,10 @@ jogterm drives stepper and servo machines through serial motion controllers of t
 families: isel @-format (iMC-M, iMC-MP, iMC-S8), EMCU (SMC3000 interface) and EMP
 (MSR DRS-500-ECS). Built-in simulators of the controllers let it run without hardware.
 
+The controller is reached on a serial device (--port /dev/serial/by-id/…, see `jogterm
+ports`) or on a serial port server such as ser2net (--port tcp://HOST:PORT raw, or
+rfc2217://HOST:PORT, which also sets the remote port's baud rate; docs/network.md).
+
 Machine profiles (--profile) say how to reach the controller and describe the machine:
 axes, steps per unit, soft limits, jog settings. A name is looked up as
 $JOGTERM_CONFIG_DIR/profiles/NAME.toml (default ~/.config/jogterm/profiles), then among the
@@ -55,6 +61,10 @@ Examples:
   jogterm sim --protocol isel --pty            serve the isel simulator on a new pty
   jogterm sim --pty --link /tmp/isel           the same, reachable as /tmp/isel
   jogterm sim --pty --profile mymachine        simulate the machine of a profile
+  jogterm sim --tcp 127.0.0.1:0                serve it like a serial port server (prints tcp://…)
+  jogterm ports                                the serial ports here, by-id names, who has them
+  jogterm --profile isel --port tcp://pi.local:2000        a controller behind ser2net (raw)
+  jogterm send --port rfc2217://pi.local:2001 '@0P'        … behind ser2net telnet(rfc2217)
   jogterm send --port /tmp/isel '@07' '@0P'    send commands, print the replies
   jogterm poll --port /tmp/isel --count 5      read the position five times
   jogterm watch --port /tmp/isel --json        print every change of an input
@@ -91,9 +101,12 @@ pub struct GlobalArgs {
     /// path to a .toml file [default: default]
     #[arg(long, global = true, value_name = "NAME")]
     pub profile: Option<String>,
-    /// Serial device of the controller, instead of the profile's connection.port
-    /// (the console and the talking commands; `sim` serves a port and refuses it)
-    #[arg(long, global = true, value_name = "PATH")]
+    /// The controller's port, instead of the profile's connection.port: a serial device
+    /// (best its /dev/serial/by-id name, `jogterm ports`), tcp://HOST:PORT (a serial port
+    /// server in raw mode, ser2net `accepter: tcp,PORT`) or rfc2217://HOST:PORT (ser2net
+    /// `telnet(rfc2217)`: also sets the remote baud rate). The console and the talking
+    /// commands; `sim` serves a port and refuses it
+    #[arg(long, global = true, value_name = "PORT")]
     pub port: Option<String>,
     /// Controller family, instead of the profile's connection.protocol
     #[arg(long, global = true, value_enum, value_name = "FAMILY")]
@@ -115,7 +128,7 @@ pub struct GlobalArgs {
 /// The commands.
 #[derive(Debug, Subcommand)]
 pub enum CliCommand {
-    /// Serve a built-in controller simulator on a new pseudo-terminal
+    /// Serve a built-in controller simulator on a new pseudo-terminal or a TCP port
     #[command(long_about = sim::LONG_ABOUT, after_long_help = sim::AFTER_LONG_HELP)]
     Sim(sim::SimArgs),
     /// Send commands to the controller one by one and print the replies decoded
@@ -139,6 +152,9 @@ pub enum CliCommand {
     /// Store a program in the controller (checked first), with progress; --start runs it
     #[command(long_about = upload::LONG_ABOUT, after_long_help = upload::AFTER_LONG_HELP)]
     Upload(upload::UploadArgs),
+    /// List the serial ports of this machine: by-id names, USB vendor and product, in use
+    #[command(long_about = ports::LONG_ABOUT, after_long_help = ports::AFTER_LONG_HELP)]
+    Ports(ports::PortsArgs),
 }
 
 /// Run what the command line asks for.
@@ -162,6 +178,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Some(CliCommand::Check(args)) => check::run(&cli.global, args),
         Some(CliCommand::Arc(args)) => arc::run(args),
         Some(CliCommand::Upload(args)) => upload::run(&cli.global, args),
+        Some(CliCommand::Ports(args)) => ports::run(args),
         None => tui::run(&cli.global, cli.program.as_deref()),
     }
 }

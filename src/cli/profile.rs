@@ -8,8 +8,10 @@ use anyhow::bail;
 
 use super::GlobalArgs;
 use crate::config::profile::Connection;
+use crate::config::source::error_for_key;
 use crate::config::{ConfigDirs, Profile, Source, load_profile_with_sources};
 use crate::proto::Protocol;
+use crate::transport::PortAddress;
 
 /// The profile the command line asks for, with `--sim`, `--protocol` and
 /// `--port` applied.
@@ -64,7 +66,26 @@ pub fn resolve_with_sources(
     if let Some(port) = &global.port {
         profile.connection.port = port.clone();
     }
+    check_port(&profile, global, &sources)?;
     Ok((profile, sources))
+}
+
+/// The port must be `sim`, a device path or a serial port server's URL
+/// (`tcp://HOST:PORT`, `rfc2217://HOST:PORT`); a bad one is refused before
+/// anything opens, at its line in the profile or as the option it came from.
+fn check_port(profile: &Profile, global: &GlobalArgs, sources: &[Source]) -> anyhow::Result<()> {
+    if profile.connection.is_simulator() {
+        return Ok(());
+    }
+    let Err(e) = PortAddress::parse(&profile.connection.port) else {
+        return Ok(());
+    };
+    if global.port.is_some() {
+        bail!("--port {e}");
+    }
+    let refs: Vec<&Source> = sources.iter().collect();
+    let key = ["connection".to_owned(), "port".to_owned()];
+    Err(error_for_key(&refs, &key, format!("`{}`: {}", e.given, e.problem)).into())
 }
 
 /// The family a profile resolved by [`resolve`] talks.
@@ -115,6 +136,51 @@ mod tests {
         })
         .unwrap();
         assert_eq!(p.connection.port, "/dev/ttyS3");
+    }
+
+    #[test]
+    fn network_ports_are_taken_and_bad_ones_refused_where_they_were_given() {
+        let p = resolved(GlobalArgs {
+            protocol: Some(Protocol::Isel),
+            port: Some("rfc2217://pi.local:2001".into()),
+            ..Default::default()
+        })
+        .expect("an RFC 2217 server");
+        assert_eq!(p.connection.port, "rfc2217://pi.local:2001");
+        let err = resolved(GlobalArgs {
+            protocol: Some(Protocol::Isel),
+            port: Some("tcp://pi.local".into()),
+            ..Default::default()
+        })
+        .expect_err("no TCP port");
+        assert!(
+            err.to_string()
+                .starts_with("--port port `tcp://pi.local`: expected HOST:PORT"),
+            "{err}"
+        );
+        // In a profile: at its line.
+        let dir = tempfile::tempdir().expect("dir");
+        std::fs::create_dir(dir.path().join("profiles")).expect("dir");
+        std::fs::write(
+            dir.path().join("profiles/mill.toml"),
+            "base = \"isel\"\n\n[connection]\nport = \"telnet://pi:23\"\n",
+        )
+        .expect("profile");
+        let dirs = ConfigDirs {
+            user: Some(dir.path().to_path_buf()),
+        };
+        let err = resolve(
+            &GlobalArgs {
+                profile: Some("mill".into()),
+                ..Default::default()
+            },
+            &dirs,
+        )
+        .expect_err("a bad scheme");
+        let text = format!("{err:#}");
+        assert!(text.contains("mill.toml:4:"), "{text}");
+        assert!(text.contains("unknown scheme"), "{text}");
+        assert!(text.contains("connection.port"), "{text}");
     }
 
     #[test]

@@ -231,13 +231,9 @@ pub fn start(
         };
         (Connector::from(spec), Some(shell))
     } else {
-        (
-            Connector::Serial {
-                path: profile.connection.port.clone().into(),
-                line,
-            },
-            None,
-        )
+        let spec = PortSpec::from_address(&profile.connection.port, line)
+            .map_err(|e| StartError::Usage(e.to_string()))?;
+        (Connector::from(spec), None)
     };
     let inputs = RecorderConfig::from_profile(&profile);
     let (handle, events) = spawn_recording(driver, connector, TaskOptions::default(), inputs)

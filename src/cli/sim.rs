@@ -1,24 +1,29 @@
 //! `jogterm sim`: serve a built-in controller simulator on a new
-//! pseudo-terminal (`sim::shell::run_pty_simulator_with`) until stdin or
-//! stdout closes.
+//! pseudo-terminal or a TCP port (`sim::shell::run_simulator_with`) until
+//! stdin or stdout closes.
 
+use std::net::SocketAddr;
 use std::path::PathBuf;
 
 use anyhow::{Context as _, bail};
-use clap::Args;
+use clap::{ArgGroup, Args};
 
 use super::out::WatchedStdout;
 use super::{GlobalArgs, profile};
 use crate::config::{ConfigDirs, SimVariant};
 use crate::sim::registry;
-use crate::sim::shell::{PtyOptions, run_pty_simulator_with};
+use crate::sim::shell::{PtyOptions, Serve, run_simulator_with};
 
 pub const LONG_ABOUT: &str = "\
-Serve a built-in controller simulator on a new pseudo-terminal.
+Serve a built-in controller simulator on a new pseudo-terminal or a TCP port.
 
-The first line on stdout is the path to open (the --link path if given, else the
-pseudo-terminal's /dev/pts/N). Open it like a serial port; the simulator paces the line at
-the controller's baud rate (isel 19200). Clients may close it and open it again.
+With --pty the first line on stdout is the path to open (the --link path if given, else
+the pseudo-terminal's /dev/pts/N). Open it like a serial port; the simulator paces the line
+at the controller's baud rate (isel 19200). Clients may close it and open it again.
+
+With --tcp ADDR:PORT it serves like a serial port server in raw mode (ser2net's `accepter:
+tcp,PORT`): the first line is the URL to give --port (tcp://127.0.0.1:PORT; port 0 picks a
+free one); one client at a time, a second one is told `Port already in use` and closed.
 
 The simulated machine is the one the profile describes (axes, soft limits, [sim]
 limit_margin and start_position), and the controller the one its [sim] variants and
@@ -43,6 +48,7 @@ Control language (one command per line, docs/simulator.md):
   fault stall                          the next long action stays busy, unmoving (EMP)
   show                                 device state, line, counters
   show received                        the bytes the simulator received (readable)
+  show received times                  each read of them, with its time (s since 1970)
   help                                 commands and the device's inputs
   quit                                 end the simulator
 
@@ -53,12 +59,17 @@ isel inputs: limit-x1 limit-x2 limit-y1 limit-y2 limit-z1 limit-z2 limit-a1 limi
 
 /// Options of `jogterm sim`.
 #[derive(Debug, Args)]
+#[command(group(ArgGroup::new("serve").required(true).args(["pty", "tcp"])))]
 pub struct SimArgs {
-    /// Serve on a new pseudo-terminal (the only way to serve for now)
-    #[arg(long, required = true)]
+    /// Serve on a new pseudo-terminal
+    #[arg(long)]
     pub pty: bool,
+    /// Serve on a TCP port, raw, like a serial port server (ADDR:PORT; port 0 picks a
+    /// free one, printed as tcp://ADDR:PORT)
+    #[arg(long, value_name = "ADDR:PORT", conflicts_with_all = ["pty", "link"])]
+    pub tcp: Option<SocketAddr>,
     /// Keep a symbolic link at PATH that points at the pseudo-terminal
-    #[arg(long, value_name = "PATH")]
+    #[arg(long, value_name = "PATH", requires = "pty")]
     pub link: Option<PathBuf>,
     /// Model a controller that differs from the default (repeatable, added to the
     /// profile's [sim] variants): hood-unwired, no-port2, work-positions (isel),
@@ -71,8 +82,9 @@ pub struct SimArgs {
 pub fn run(global: &GlobalArgs, args: &SimArgs) -> anyhow::Result<()> {
     if let Some(port) = &global.port {
         bail!(
-            "--port {port}: `jogterm sim` serves a new pseudo-terminal instead of opening a \
-             port; use --link PATH for a fixed path"
+            "--port {port}: `jogterm sim` serves a new pseudo-terminal or TCP port instead \
+             of opening a port; use --link PATH for a fixed path, --tcp ADDR:PORT for a \
+             network one"
         );
     }
     let mut profile = profile::resolve(global, &ConfigDirs::from_env())?;
@@ -84,11 +96,15 @@ pub fn run(global: &GlobalArgs, args: &SimArgs) -> anyhow::Result<()> {
     let device = registry::build(protocol, &profile)?;
     tracing::info!(%protocol, profile = %profile.name, "simulator starting");
     let mut stdout = WatchedStdout::new();
-    let result = run_pty_simulator_with(
-        device,
-        PtyOptions {
+    let serve = match args.tcp {
+        Some(addr) => Serve::Tcp(addr),
+        None => Serve::Pty(PtyOptions {
             link: args.link.clone(),
-        },
+        }),
+    };
+    let result = run_simulator_with(
+        device,
+        serve,
         std::io::stdin().lock(),
         &mut stdout,
         &mut std::io::stderr(),

@@ -9,7 +9,7 @@
 
 use std::fs::OpenOptions;
 use std::future::Future;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::ExitCode;
 use std::sync::Arc;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
@@ -111,10 +111,7 @@ struct Simulator {
 fn open_line(profile: &Profile) -> anyhow::Result<(PortSpec, Option<Simulator>)> {
     let protocol = profile.connection.protocol;
     if !profile.connection.is_simulator() {
-        let spec = PortSpec::Serial {
-            path: PathBuf::from(&profile.connection.port),
-            line: profile.connection.line(),
-        };
+        let spec = PortSpec::from_address(&profile.connection.port, profile.connection.line())?;
         return Ok((spec, None));
     }
     let device = registry::build(protocol, profile)?;

@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 use std::time::Duration;
 
-use crate::transport::{PortSpec, TransportError};
+use crate::transport::{NetOptions, NetTarget, PortSpec, TransportError};
 use crate::wire::LineSettings;
 
 /// How the task gets a port, the first time and after every loss.
@@ -12,6 +12,13 @@ pub enum Connector {
     /// A serial device or pty by path: reopened by path after a loss (a
     /// vanished adapter gives `NotFound` until it is back).
     Serial { path: PathBuf, line: LineSettings },
+    /// A serial port server: connected again by address after a loss (a
+    /// server that is down refuses until it is back).
+    Network {
+        target: NetTarget,
+        line: LineSettings,
+        options: NetOptions,
+    },
     /// One end of a socket pair: usable once; a lost in-process line cannot
     /// be reopened, so later attempts fail (and keep being retried).
     Once {
@@ -28,6 +35,9 @@ impl std::fmt::Debug for Connector {
             Connector::Serial { path, line } => {
                 write!(f, "Serial({}, {} baud)", path.display(), line.baud)
             }
+            Connector::Network { target, line, .. } => {
+                write!(f, "Network({target}, {} baud)", line.baud)
+            }
             Connector::Once { name, .. } => write!(f, "Once({name})"),
             Connector::Factory(_) => f.write_str("Factory"),
         }
@@ -38,6 +48,15 @@ impl From<PortSpec> for Connector {
     fn from(spec: PortSpec) -> Connector {
         match spec {
             PortSpec::Serial { path, line } => Connector::Serial { path, line },
+            PortSpec::Network {
+                target,
+                line,
+                options,
+            } => Connector::Network {
+                target,
+                line,
+                options,
+            },
             PortSpec::InProcess { stream, line, name } => Connector::Once {
                 name: name.clone(),
                 spec: Some(PortSpec::InProcess { stream, line, name }),
@@ -53,6 +72,15 @@ impl Connector {
             Connector::Serial { path, line } => Ok(PortSpec::Serial {
                 path: path.clone(),
                 line: *line,
+            }),
+            Connector::Network {
+                target,
+                line,
+                options,
+            } => Ok(PortSpec::Network {
+                target: target.clone(),
+                line: *line,
+                options: *options,
             }),
             Connector::Once { spec, name } => spec.take().ok_or_else(|| TransportError::Open {
                 port: name.clone(),

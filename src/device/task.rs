@@ -43,7 +43,7 @@ use crate::config::Profile;
 use crate::proto::Protocol;
 use crate::transport::{
     self, EmergencyStop, Interleave, Lane, MessageId, Pace, PacedWriter, PortParts, PortSpec,
-    WriterConfig, WriterEvent,
+    TransportError, WriterConfig, WriterEvent,
 };
 use crate::wire::LineSettings;
 
@@ -213,19 +213,44 @@ fn pace_for(state: &MachineState) -> Pace {
     }
 }
 
+/// Open and split a port. A serial port server is connected on a blocking
+/// thread: a connect and an RFC 2217 negotiation may take seconds when the
+/// network is bad, and the runtime's timers and signal handlers must go on
+/// meanwhile (a current-thread runtime would stand still).
+async fn open_port(
+    spec: PortSpec,
+    writer: WriterConfig,
+) -> Result<(PortParts, LineSettings), TransportError> {
+    let open = move |spec: PortSpec| {
+        let port = transport::open(spec)?;
+        let line = port.line();
+        port.split(writer).map(|parts| (parts, line))
+    };
+    match spec {
+        PortSpec::Network { ref target, .. } => {
+            let name = target.to_string();
+            tokio::task::spawn_blocking(move || open(spec))
+                .await
+                .unwrap_or_else(|e| {
+                    Err(TransportError::Open {
+                        port: name,
+                        message: format!("connecting ended early: {e}"),
+                    })
+                })
+        }
+        _ => open(spec),
+    }
+}
+
 impl Task {
     async fn run(mut self, done: watch::Sender<bool>) {
         let mut attempt: u32 = 0;
         loop {
             self.bus.publish(Event::Link(LinkState::Connecting));
-            let opened = self
-                .connector
-                .port()
-                .and_then(transport::open)
-                .and_then(|port| {
-                    let line = port.line();
-                    port.split(self.options.writer).map(|parts| (parts, line))
-                });
+            let opened = match self.connector.port() {
+                Ok(spec) => open_port(spec, self.options.writer).await,
+                Err(e) => Err(e),
+            };
             match opened {
                 Ok((parts, line)) => {
                     attempt = 0;

@@ -12,7 +12,7 @@
 //! fault delay <ms>                       fault close [<reopen-after-ms>]
 //! fault stall
 //! memory <commands>
-//! show      show received      help      quit
+//! show      show received [times]      help      quit
 //! ```
 
 use std::io::{self, BufRead, Write};
@@ -40,6 +40,8 @@ pub enum ControlCommand {
     Show,
     /// `show received`: the bytes the device received, readable.
     ShowReceived,
+    /// `show received times`: each read with its wall-clock time.
+    ShowReceivedTimes,
     Help,
     Quit,
 }
@@ -121,10 +123,17 @@ pub fn parse_line(text: &str, line: usize) -> Result<Option<ControlCommand>, Con
         }
         "show" => match next_word(rest) {
             None => ControlCommand::Show,
-            Some((what, rest)) if what.eq_ignore_ascii_case("received") => {
-                end_of_line(rest, "`show received`").map_err(fail)?;
-                ControlCommand::ShowReceived
-            }
+            Some((what, rest)) if what.eq_ignore_ascii_case("received") => match next_word(rest) {
+                None => ControlCommand::ShowReceived,
+                Some((times, rest)) if times.eq_ignore_ascii_case("times") => {
+                    end_of_line(rest, "`show received times`").map_err(fail)?;
+                    ControlCommand::ShowReceivedTimes
+                }
+                Some(_) => {
+                    end_of_line(rest, "`show received`").map_err(fail)?;
+                    ControlCommand::ShowReceived
+                }
+            },
             Some((what, _)) => {
                 return Err(fail(format!(
                     "unknown `show {what}`: expected `show` or `show received`"
@@ -397,6 +406,7 @@ pub fn help_text(input_names: &[&str]) -> String {
          \x20 memory <commands>                    the program store takes this many commands\n\
          \x20 show                                 device state, line, counters\n\
          \x20 show received                        the bytes the device received\n\
+         \x20 show received times                  each read of them with its time (s since 1970)\n\
          \x20 help                                 this text\n\
          \x20 quit                                 end the simulator\n\
          inputs: {inputs}"
@@ -438,6 +448,7 @@ pub fn run_control_loop(
             ControlCommand::Memory(n) => shell.program_memory(n).map(|()| "ok".to_owned()),
             ControlCommand::Show => shell.show(),
             ControlCommand::ShowReceived => shell.received().map(|r| r.to_string()),
+            ControlCommand::ShowReceivedTimes => shell.received().map(|r| r.timed()),
             ControlCommand::Help => shell.input_names().map(|names| help_text(&names)),
         };
         match result {
@@ -761,6 +772,10 @@ mod tests {
         assert_eq!(
             error("show received all"),
             "line 7: unexpected `all` after `show received`: expected the end of the line"
+        );
+        assert_eq!(
+            parse("show received times"),
+            ControlCommand::ShowReceivedTimes
         );
         assert_eq!(
             error("press"),

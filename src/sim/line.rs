@@ -1,12 +1,20 @@
-//! The simulator's end of the line: a socket (in-process) or a pty master,
+//! The simulator's end of the line: a socket (in-process), a pty master or
+//! a TCP listener (`jogterm sim --tcp`, a serial port server in raw mode),
 //! whether a client is there, and closing and reopening it on request.
 //!
 //! A pty master reads `EIO` and polls as hung up while no process has the
 //! slave open. That is the normal "no client" state: the shell keeps the
 //! device running, discards what it transmits (a real line carries it into
 //! nothing) and looks every few milliseconds for a client to appear.
+//!
+//! A TCP line has one client at a time, as ser2net's raw accepter: a second
+//! connection is told `Port already in use` and closed; a client that
+//! leaves makes room for the next. While the line is closed (`fault
+//! close`), every connection is closed at once, as a server whose serial
+//! device has gone does.
 
-use std::io;
+use std::io::{self, Write};
+use std::net::TcpListener;
 use std::os::fd::{AsFd, BorrowedFd, OwnedFd};
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
@@ -40,7 +48,11 @@ impl PtyShared {
 enum Kind {
     Socket,
     Pty(Arc<PtyShared>),
+    Tcp(TcpListener),
 }
+
+/// What ser2net says to a connection when another client has the port.
+pub(crate) const TCP_IN_USE: &[u8] = b"Port already in use\r\n";
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum State {
@@ -93,6 +105,54 @@ impl Line {
         }
     }
 
+    /// Serve on a TCP listener (non-blocking); clients connect to it.
+    pub fn tcp(listener: TcpListener) -> Self {
+        Self {
+            fd: None,
+            kind: Kind::Tcp(listener),
+            state: State::NoClient {
+                check_at: far_future(),
+            },
+            lost_bytes: 0,
+            overrun_bytes: 0,
+        }
+    }
+
+    /// The listener to wait on for connections (a TCP line).
+    pub fn listener_fd(&self) -> Option<BorrowedFd<'_>> {
+        match &self.kind {
+            Kind::Tcp(listener) => Some(listener.as_fd()),
+            _ => None,
+        }
+    }
+
+    /// Take the connections waiting on a TCP line: the first becomes the
+    /// client when there is none; every other is refused and closed.
+    pub fn accept(&mut self) {
+        let Kind::Tcp(listener) = &self.kind else {
+            return;
+        };
+        while let Ok((mut stream, _)) = listener.accept() {
+            let free = matches!(self.state, State::NoClient { .. });
+            if !free {
+                let refusal = match self.state {
+                    State::Closed { .. } => &b""[..],
+                    _ => TCP_IN_USE,
+                };
+                let _ = stream.write_all(refusal);
+                continue;
+            }
+            if stream.set_nonblocking(true).is_err() {
+                continue;
+            }
+            // Replies go out as the wire model releases them, byte by byte:
+            // no Nagle wait between them.
+            let _ = stream.set_nodelay(true);
+            self.fd = Some(OwnedFd::from(stream));
+            self.state = State::Connected;
+        }
+    }
+
     /// The fd to wait on for input, while a client is connected.
     pub fn readable_fd(&self) -> Option<BorrowedFd<'_>> {
         match self.state {
@@ -103,6 +163,10 @@ impl Line {
 
     /// When `tick` next has something to do.
     pub fn timer(&self) -> Option<Instant> {
+        if let (Kind::Tcp(_), State::NoClient { .. }) = (&self.kind, self.state) {
+            // A TCP line learns of clients from its listener, not by looking.
+            return None;
+        }
         match self.state {
             State::Connected => None,
             State::NoClient { check_at } => Some(check_at),
@@ -182,7 +246,7 @@ impl Line {
             return;
         };
         let kind = match self.kind {
-            Kind::Socket => FdKind::Socket,
+            Kind::Socket | Kind::Tcp(_) => FdKind::Socket,
             Kind::Pty(_) => FdKind::Tty,
         };
         let mut rest = bytes;
@@ -205,10 +269,13 @@ impl Line {
     /// Close the line; a pty may come back after `reopen_after`.
     pub fn close(&mut self, reopen_after: Option<Duration>, now: Instant) -> Result<(), String> {
         if reopen_after.is_some() && matches!(self.kind, Kind::Socket) {
-            return Err("reopening needs a pseudo-terminal line; this one is a socket".to_owned());
+            return Err(
+                "reopening needs a pseudo-terminal or TCP line; this one is a socket pair"
+                    .to_owned(),
+            );
         }
         let fd = self.fd.take();
-        if let (Some(fd), Kind::Socket) = (&fd, &self.kind) {
+        if let (Some(fd), Kind::Socket | Kind::Tcp(_)) = (&fd, &self.kind) {
             // SAFETY: shutdown on a socket fd we own; the peer reads EOF even
             // if another copy of the fd were still open somewhere.
             unsafe {
@@ -242,6 +309,10 @@ impl Line {
                     None => format!("pty {slave}"),
                 }
             }
+            Kind::Tcp(listener) => match listener.local_addr() {
+                Ok(addr) => format!("tcp {addr}"),
+                Err(_) => "tcp".to_owned(),
+            },
         };
         let state = match self.state {
             State::Connected => "client connected".to_owned(),
@@ -281,6 +352,13 @@ impl Line {
                 self.fd = None;
                 self.state = State::Closed { reopen_at: None };
             }
+            Kind::Tcp(_) => {
+                // The next client may connect; nothing is kept for it.
+                self.fd = None;
+                self.state = State::NoClient {
+                    check_at: far_future(),
+                };
+            }
             Kind::Pty(_) => {
                 if let Some(fd) = &self.fd {
                     // Bytes written in the moment the client left would be
@@ -298,6 +376,12 @@ impl Line {
     }
 
     fn reopen(&mut self, now: Instant) -> io::Result<()> {
+        if let Kind::Tcp(_) = self.kind {
+            self.state = State::NoClient {
+                check_at: far_future(),
+            };
+            return Ok(());
+        }
         let Kind::Pty(shared) = &self.kind else {
             return Ok(());
         };
@@ -310,4 +394,12 @@ impl Line {
         self.state = State::NoClient { check_at: now };
         Ok(())
     }
+}
+
+/// A time that never comes within a session (a TCP line's "no client"
+/// state has nothing to look at on a timer).
+fn far_future() -> Instant {
+    let now = Instant::now();
+    now.checked_add(Duration::from_secs(86_400 * 365))
+        .unwrap_or(now)
 }

@@ -7,6 +7,7 @@
 //! a [`ShellControl`]; `docs/simulator.md` describes the behaviour.
 
 use std::io::{self, Read, Write};
+use std::net::{SocketAddr, TcpListener};
 use std::os::fd::{AsFd, OwnedFd};
 use std::os::unix::net::UnixStream;
 use std::path::{Path, PathBuf};
@@ -153,6 +154,8 @@ pub struct Shell {
     control: ShellControl,
     line: LineSettings,
     pty: Option<Arc<PtyShared>>,
+    /// The address a TCP line listens on.
+    tcp: Option<SocketAddr>,
     thread: Option<JoinHandle<()>>,
 }
 
@@ -177,6 +180,11 @@ impl Shell {
             .as_ref()
             .and_then(|p| p.link.as_ref())
             .map(|l| l.path())
+    }
+
+    /// The address a TCP line listens on (`None` for a pty or socket pair).
+    pub fn tcp_addr(&self) -> Option<SocketAddr> {
+        self.tcp
     }
 
     /// The path a client should open: the link if there is one, else the slave.
@@ -219,6 +227,26 @@ pub fn serve_socket(device: Box<dyn SimDevice>) -> Result<(Shell, UnixStream), S
     })?;
     let shell = spawn(device, Line::socket(fd), None)?;
     Ok((shell, theirs))
+}
+
+/// Serve `device` on a TCP port, raw, one client at a time (as ser2net's
+/// `accepter: tcp,…`); `addr` may give port 0 for any free one. The client
+/// connects to [`Shell::tcp_addr`].
+pub fn serve_tcp(device: Box<dyn SimDevice>, addr: SocketAddr) -> Result<Shell, ShellError> {
+    let listener = TcpListener::bind(addr).map_err(|source| ShellError::Io {
+        action: "listening on the TCP port",
+        source,
+    })?;
+    listener
+        .set_nonblocking(true)
+        .map_err(|source| ShellError::Io {
+            action: "setting the listener non-blocking",
+            source,
+        })?;
+    let tcp = listener.local_addr().ok();
+    let mut shell = spawn(device, Line::tcp(listener), None)?;
+    shell.tcp = tcp;
+    Ok(shell)
 }
 
 /// Serve `device` on a new pseudo-terminal. The client opens
@@ -270,12 +298,44 @@ pub fn run_pty_simulator_with(
     out: &mut impl Write,
     err: &mut impl Write,
 ) -> Result<(), ShellError> {
-    let shell = serve_pty(device, options)?;
-    let path = shell.client_path().ok_or(ShellError::Stopped)?;
-    writeln!(out, "{}", path.display())
+    run_simulator_with(device, Serve::Pty(options), input, out, err)
+}
+
+/// Where `jogterm sim` serves.
+#[derive(Debug, Clone)]
+pub enum Serve {
+    Pty(PtyOptions),
+    Tcp(SocketAddr),
+}
+
+/// What `jogterm sim` runs: serve `device`, print where a client finds it
+/// as the first line of stdout (the pty's link or slave path, or
+/// `tcp://ADDR:PORT`), then read control commands from `input` until it
+/// closes (or `quit`).
+pub fn run_simulator_with(
+    device: Box<dyn SimDevice>,
+    serve: Serve,
+    input: impl io::BufRead,
+    out: &mut impl Write,
+    err: &mut impl Write,
+) -> Result<(), ShellError> {
+    let (shell, first) = match serve {
+        Serve::Pty(options) => {
+            let shell = serve_pty(device, options)?;
+            let path = shell.client_path().ok_or(ShellError::Stopped)?;
+            let first = path.display().to_string();
+            (shell, first)
+        }
+        Serve::Tcp(addr) => {
+            let shell = serve_tcp(device, addr)?;
+            let addr = shell.tcp_addr().ok_or(ShellError::Stopped)?;
+            (shell, format!("tcp://{addr}"))
+        }
+    };
+    writeln!(out, "{first}")
         .and_then(|()| out.flush())
         .map_err(|source| ShellError::Io {
-            action: "writing the device path",
+            action: "writing where to connect",
             source,
         })?;
     let result = run_control_loop(input, out, err, &shell.control());
@@ -327,6 +387,7 @@ fn spawn(
         },
         line: settings,
         pty,
+        tcp: None,
         thread: Some(thread),
     })
 }
@@ -391,16 +452,20 @@ impl Worker {
                 .into_iter()
                 .flatten()
                 .min();
-            let wake_fd = fd::pollfd(self.wake.as_fd(), libc::POLLIN);
-            let mut fds = match self.line.readable_fd() {
-                Some(line_fd) => [wake_fd, fd::pollfd(line_fd, libc::POLLIN)],
-                None => [wake_fd, wake_fd],
-            };
-            let watched = if self.line.readable_fd().is_some() {
-                2
-            } else {
-                1
-            };
+            // The wake socket, the line while a client is on it, and a TCP
+            // line's listener.
+            let mut fds = [fd::pollfd(self.wake.as_fd(), libc::POLLIN); 3];
+            let mut watched = 1;
+            let line_at = self.line.readable_fd().map(|line_fd| {
+                fds[watched] = fd::pollfd(line_fd, libc::POLLIN);
+                watched += 1;
+                watched - 1
+            });
+            let listener_at = self.line.listener_fd().map(|l| {
+                fds[watched] = fd::pollfd(l, libc::POLLIN);
+                watched += 1;
+                watched - 1
+            });
             let ready = match fd::poll_until(fds.get_mut(..watched).unwrap_or_default(), deadline) {
                 Ok(n) => n,
                 Err(_) => {
@@ -424,12 +489,17 @@ impl Worker {
                 let mut sink = [0u8; 64];
                 while matches!((&self.wake).read(&mut sink), Ok(n) if n > 0) {}
             }
-            if watched == 2 && fds.get(1).is_some_and(|p| p.revents != 0) {
+            let ready_at =
+                |at: Option<usize>| at.and_then(|i| fds.get(i)).is_some_and(|p| p.revents != 0);
+            if ready_at(line_at) {
                 while let ReadOutcome::Data(n) = self.line.read(&mut buf, read_at) {
                     let bytes = buf.get(..n).unwrap_or_default();
                     self.received.record(bytes);
                     self.engine.receive(bytes, read_at);
                 }
+            }
+            if ready_at(listener_at) {
+                self.line.accept();
             }
         }
     }

@@ -6,13 +6,13 @@
 //! (`../shared/field-notes.md`, "Serial ports" and "Order on hang-up").
 //! So it never panics and never blocks longer than its bound.
 
-use std::os::fd::{AsFd, OwnedFd};
 use std::sync::{Arc, Mutex, TryLockError};
 use std::thread;
 use std::time::{Duration, Instant};
 
 use super::error::TransportError;
-use super::fd::{self, FdKind};
+use super::fd;
+use super::sink::Sink;
 use crate::wire::LineSettings;
 
 /// `Send + Sync + Clone`; every clone writes through the same reserved fd.
@@ -23,8 +23,9 @@ pub struct EmergencyStop {
 
 #[derive(Debug)]
 struct Inner {
-    fd: OwnedFd,
-    kind: FdKind,
+    /// Writes through the escaping of the link (an RFC 2217 link doubles
+    /// isel's 0xFF break byte), never through the writer's queue.
+    sink: Sink,
     port: String,
     line: LineSettings,
     timeout: Duration,
@@ -36,12 +37,10 @@ impl EmergencyStop {
     /// Default bound on one `write_now`, on top of the bytes' own wire time.
     pub const DEFAULT_TIMEOUT: Duration = Duration::from_millis(200);
 
-    pub(crate) fn new(fd: OwnedFd, port: String, line: LineSettings) -> Self {
-        let kind = fd::kind_of(fd.as_fd());
+    pub(crate) fn new(sink: Sink, port: String, line: LineSettings) -> Self {
         Self {
             inner: Arc::new(Inner {
-                fd,
-                kind,
+                sink,
                 port,
                 line,
                 timeout: Self::DEFAULT_TIMEOUT,
@@ -52,9 +51,9 @@ impl EmergencyStop {
 
     /// A handle with a different bound (shares nothing with `self` but the port).
     pub fn with_timeout(&self, timeout: Duration) -> Result<Self, TransportError> {
-        let fd = self
+        let sink = self
             .inner
-            .fd
+            .sink
             .try_clone()
             .map_err(|source| TransportError::Io {
                 port: self.inner.port.clone(),
@@ -63,8 +62,7 @@ impl EmergencyStop {
             })?;
         Ok(Self {
             inner: Arc::new(Inner {
-                fd,
-                kind: self.inner.kind,
+                sink,
                 port: self.inner.port.clone(),
                 line: self.inner.line,
                 timeout,
@@ -78,8 +76,11 @@ impl EmergencyStop {
     }
 
     /// Write `bytes` now (`write_all`), then wait until a terminal has sent
-    /// them (`tcdrain`). Gives up after the handle's timeout plus the bytes'
-    /// wire time; bytes may then still be in flight.
+    /// them (`tcdrain`), or a serial port server has acknowledged them (the
+    /// process may end next, and closing a socket with unread input resets
+    /// it, which drops what is not yet acknowledged). Gives up after the
+    /// handle's timeout plus the bytes' wire time; bytes may then still be
+    /// in flight.
     ///
     /// The bytes go between whatever the paced writer has already handed to
     /// the OS and what it writes next: for isel's control bytes that is
@@ -90,21 +91,45 @@ impl EmergencyStop {
         let inner = &*self.inner;
         let deadline = Instant::now() + inner.timeout + inner.line.transfer_time(bytes.len());
         let _guard = lock_until(&inner.busy, deadline);
-        fd::write_all_until(inner.fd.as_fd(), inner.kind, bytes, deadline).map_err(|e| {
-            if e.kind() == std::io::ErrorKind::TimedOut {
-                TransportError::DrainTimeout {
+        // One write of the whole encoded stop: no emergency writer leaves
+        // half an escape pair for another to continue.
+        let encoded = inner.sink.encode(bytes);
+        fd::write_all_until(inner.sink.fd(), inner.sink.info().kind, &encoded, deadline).map_err(
+            |e| {
+                if e.kind() == std::io::ErrorKind::TimedOut {
+                    TransportError::DrainTimeout {
+                        port: inner.port.clone(),
+                        waited: inner.timeout,
+                    }
+                } else {
+                    TransportError::from_io(&inner.port, "emergency write", e)
+                }
+            },
+        )?;
+        let left = deadline.saturating_duration_since(Instant::now());
+        if !inner.sink.is_tty() {
+            return match inner.sink.wait_acknowledged(left) {
+                Ok(true) => {
+                    if inner.sink.info().tcp {
+                        // The process may end next: input left unread would
+                        // make its close a reset, and the server would drop
+                        // the stop it has not read yet (`sink.rs`).
+                        super::sink::discard_arrived(inner.sink.fd());
+                    }
+                    Ok(())
+                }
+                Ok(false) => Err(TransportError::DrainTimeout {
                     port: inner.port.clone(),
                     waited: inner.timeout,
-                }
-            } else {
-                TransportError::from_io(&inner.port, "emergency write", e)
-            }
-        })?;
-        if inner.kind != FdKind::Tty {
-            return Ok(());
+                }),
+                Err(e) => Err(TransportError::from_io(
+                    &inner.port,
+                    "waiting for the server",
+                    e,
+                )),
+            };
         }
-        let left = deadline.saturating_duration_since(Instant::now());
-        match fd::drain_bounded(inner.fd.as_fd(), left) {
+        match fd::drain_bounded(inner.sink.fd(), left) {
             Ok(true) => Ok(()),
             Ok(false) => Err(TransportError::DrainTimeout {
                 port: inner.port.clone(),

@@ -12,8 +12,15 @@ pub enum TransportError {
     #[error("{port}: no such port")]
     NotFound { port: String },
 
-    #[error("{port}: busy: another process has the port open or locked")]
-    Busy { port: String },
+    /// Another process owns the port (a tty's lock, or this machine's lock
+    /// of a serial port server); `holder` says who, as far as it can be told.
+    #[error("{port}: busy: {holder}; one console per machine")]
+    Busy { port: String, holder: String },
+
+    /// A serial port server turned the connection away (ser2net: "Port
+    /// already in use" when another client has the port).
+    #[error("{port}: refused by the server: {message}")]
+    Refused { port: String, message: String },
 
     #[error("{port}: permission denied (is the user in the `dialout` group?)")]
     PermissionDenied { port: String },

@@ -113,7 +113,10 @@ pub(crate) fn write_all_until(
 
 /// Errors that mean the other end is gone for good: a USB adapter unplugged
 /// (`EIO`, `ENXIO`, `ENODEV`), a pseudo-terminal whose other side closed
-/// (`EIO`), a socket whose peer closed (`EPIPE`, `ECONNRESET`, `ENOTCONN`).
+/// (`EIO`), a socket whose peer closed (`EPIPE`, `ECONNRESET`, `ENOTCONN`),
+/// a TCP connection that keep-alive or `TCP_USER_TIMEOUT` gave up on
+/// (`ETIMEDOUT`) or whose network went away (`EHOSTUNREACH`, `ENETUNREACH`,
+/// `ENETDOWN`, `EHOSTDOWN`, `ECONNABORTED`).
 pub(crate) fn is_link_gone(err: &io::Error) -> bool {
     matches!(
         err.raw_os_error(),
@@ -125,6 +128,12 @@ pub(crate) fn is_link_gone(err: &io::Error) -> bool {
                 | libc::ECONNRESET
                 | libc::ENOTCONN
                 | libc::ESHUTDOWN
+                | libc::ETIMEDOUT
+                | libc::EHOSTUNREACH
+                | libc::ENETUNREACH
+                | libc::ENETDOWN
+                | libc::EHOSTDOWN
+                | libc::ECONNABORTED
         )
     ) || matches!(
         err.kind(),

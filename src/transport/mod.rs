@@ -1,6 +1,7 @@
 //! Byte transports between jogterm and a controller: a real serial port, a
-//! pseudo-terminal, or an in-process socket pair to a built-in simulator. The
-//! protocol code above never knows which one it talks through.
+//! pseudo-terminal, a serial port server on the network (raw TCP or RFC
+//! 2217, `docs/network.md`), or an in-process socket pair to a built-in
+//! simulator. The protocol code above never knows which one it talks through.
 //!
 //! All of them are file descriptors, so there is one code path: [`open`] gives
 //! a [`Port`], and [`Port::split`] turns it into
@@ -12,26 +13,40 @@
 //! - an [`EmergencyStop`] (own dup of the fd): synchronous, bounded
 //!   `write_now` for the panic hook and the hang-up path.
 //!
+//! What a link does to the bytes (Telnet's IAC doubling, a TCP socket's
+//! unacknowledged bytes, RFC 2217's PURGE-DATA) is the writing side's
+//! `sink` and the reader's Telnet decoder; the writer paces serial bytes
+//! whatever the link. One owner per port: `lock`.
+//!
 //! Linux/unix only.
 
+mod address;
 mod emergency;
 mod error;
 pub(crate) mod fd;
 mod list;
+pub mod lock;
 mod pacing;
 mod reader;
+pub mod rfc2217;
+mod sink;
+mod tcp;
+pub mod telnet;
 mod writer;
 
 use std::os::fd::{AsFd, FromRawFd, IntoRawFd, OwnedFd};
 use std::os::unix::net::UnixStream;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::Duration;
 
+pub use address::{AddressError, NetMode, NetTarget, PortAddress};
 pub use emergency::EmergencyStop;
 pub use error::TransportError;
-pub use list::{PortInfo, list_ports};
+pub use list::{PortInfo, PortUse, list_ports};
 pub use pacing::{Pace, Pacer};
 pub use reader::{PortReader, ReadChunk};
+pub use tcp::NetOptions;
 pub use writer::{
     Interleave, Lane, MessageId, PacedWriter, WriterConfig, WriterEvent, WrittenChunk,
 };
@@ -51,6 +66,26 @@ pub enum PortSpec {
         line: LineSettings,
         name: String,
     },
+    /// A serial port server (`tcp://`, `rfc2217://`), reconnected by address.
+    Network {
+        target: NetTarget,
+        line: LineSettings,
+        options: NetOptions,
+    },
+}
+
+impl PortSpec {
+    /// The port an address names (`--port`, a profile's `connection.port`).
+    pub fn from_address(address: &str, line: LineSettings) -> Result<PortSpec, AddressError> {
+        Ok(match PortAddress::parse(address)? {
+            PortAddress::Device(path) => PortSpec::Serial { path, line },
+            PortAddress::Network(target) => PortSpec::Network {
+                target,
+                line,
+                options: NetOptions::default(),
+            },
+        })
+    }
 }
 
 /// An open port, not yet split into its reading and writing parts.
@@ -59,6 +94,9 @@ pub struct Port {
     fd: OwnedFd,
     name: String,
     line: LineSettings,
+    link: sink::LinkInfo,
+    decoder: Option<telnet::Decoder>,
+    owner: Option<Arc<lock::OwnerLock>>,
 }
 
 /// The parts of an open port. Each owns its own dup of the fd: the port stays
@@ -71,7 +109,8 @@ pub struct PortParts {
     pub emergency: EmergencyStop,
 }
 
-/// Open a port. No runtime needed; see [`Port::split`].
+/// Open a port. No runtime needed; see [`Port::split`]. Blocks while a
+/// network port connects (bounded by its [`NetOptions`]).
 pub fn open(spec: PortSpec) -> Result<Port, TransportError> {
     match spec {
         PortSpec::Serial { path, line } => open_serial(&path, line),
@@ -82,7 +121,29 @@ pub fn open(spec: PortSpec) -> Result<Port, TransportError> {
                 action: "setting non-blocking mode",
                 source,
             })?;
-            Ok(Port { fd, name, line })
+            Ok(Port {
+                link: sink::LinkInfo::plain(fd::kind_of(fd.as_fd())),
+                fd,
+                name,
+                line,
+                decoder: None,
+                owner: None,
+            })
+        }
+        PortSpec::Network {
+            target,
+            line,
+            options,
+        } => {
+            let c = tcp::connect(&target, line, &options)?;
+            Ok(Port {
+                fd: c.fd,
+                name: target.to_string(),
+                line,
+                link: c.link,
+                decoder: c.decoder,
+                owner: Some(c.owner),
+            })
         }
     }
 }
@@ -100,12 +161,14 @@ impl Port {
     pub fn split(self, config: WriterConfig) -> Result<PortParts, TransportError> {
         let reader_fd = self.dup("duplicating the fd for reading")?;
         let emergency_fd = self.dup("duplicating the fd for emergency stops")?;
-        let (writer, events) = PacedWriter::spawn(self.fd, self.name.clone(), self.line, config)?;
+        let emergency = sink::Sink::new(emergency_fd, self.link, self.owner.clone());
+        let sink = sink::Sink::new(self.fd, self.link, self.owner).closing_gracefully();
+        let (writer, events) = PacedWriter::spawn(sink, self.name.clone(), self.line, config)?;
         Ok(PortParts {
-            reader: PortReader::new(reader_fd, self.name.clone()),
+            reader: PortReader::new(reader_fd, self.name.clone(), self.decoder),
             writer,
             events,
-            emergency: EmergencyStop::new(emergency_fd, self.name, self.line),
+            emergency: EmergencyStop::new(emergency, self.name, self.line),
         })
     }
 
@@ -126,6 +189,12 @@ fn open_serial(path: &Path, line: LineSettings) -> Result<Port, TransportError> 
             message: "the path is not valid UTF-8".to_owned(),
         });
     };
+    // The lock file first: it names an owner that the device's own flock
+    // (taken by the open below) cannot.
+    let owner = lock::lock_tty(path).map_err(|holder| TransportError::Busy {
+        port: port.clone(),
+        holder: holder.to_string(),
+    })?;
     let tty = serialport::new(path_str, line.baud)
         .data_bits(serialport::DataBits::Eight)
         .parity(serialport::Parity::None)
@@ -149,9 +218,12 @@ fn open_serial(path: &Path, line: LineSettings) -> Result<Port, TransportError> 
         source,
     })?;
     Ok(Port {
+        link: sink::LinkInfo::plain(fd::kind_of(fd.as_fd())),
         fd,
         name: port,
         line,
+        decoder: None,
+        owner,
     })
 }
 
@@ -160,7 +232,10 @@ fn open_error(port: &str, path: &Path, e: serialport::Error) -> TransportError {
     let port = port.to_owned();
     match e.kind() {
         // serialport reports EBUSY (TIOCEXCL) and a held flock as NoDevice.
-        K::NoDevice => TransportError::Busy { port },
+        K::NoDevice => TransportError::Busy {
+            holder: busy_holder(path),
+            port,
+        },
         K::Io(std::io::ErrorKind::NotFound) => TransportError::NotFound { port },
         K::Io(std::io::ErrorKind::PermissionDenied) => TransportError::PermissionDenied { port },
         _ if !path.exists() => TransportError::NotFound { port },
@@ -168,5 +243,20 @@ fn open_error(port: &str, path: &Path, e: serialport::Error) -> TransportError {
             port,
             message: e.to_string(),
         },
+    }
+}
+
+/// Who has a busy tty: the `flock` holder, else a process that has it open.
+fn busy_holder(path: &Path) -> String {
+    let real = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
+    if let Some(holder) = lock::flock_holder(&real) {
+        return holder.to_string();
+    }
+    match lock::openers(&real).first() {
+        Some((pid, name)) => format!(
+            "held by {} (pid {pid}, /proc/{pid}/fd)",
+            name.as_deref().unwrap_or("a process")
+        ),
+        None => "another process has the port open or locked".to_owned(),
     }
 }

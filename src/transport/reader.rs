@@ -1,5 +1,7 @@
 //! Async reading from a port: tokio's `AsyncFd` on the port's own fd (a
-//! serial device, a pseudo-terminal or a socket, all the same here).
+//! serial device, a pseudo-terminal or a socket, all the same here). On an
+//! RFC 2217 link the Telnet stream is decoded on the way: the caller sees
+//! the serial bytes only, never the server's notifications.
 
 use std::os::fd::{AsFd, OwnedFd};
 use std::time::{Instant, SystemTime};
@@ -9,6 +11,7 @@ use tokio::io::unix::AsyncFd;
 
 use super::error::TransportError;
 use super::fd;
+use super::telnet;
 use crate::traffic::{Direction, TrafficRecord};
 
 /// Bytes as they were read, with the moment they were read.
@@ -38,6 +41,18 @@ impl ReadChunk {
 pub struct PortReader {
     port: String,
     state: State,
+    /// The Telnet decoder of an RFC 2217 link.
+    telnet: Option<Telnet>,
+}
+
+/// Decoding state and scratch space, kept across reads (a command may be
+/// cut between two).
+#[derive(Debug)]
+struct Telnet {
+    decoder: telnet::Decoder,
+    raw: Vec<u8>,
+    data: Vec<u8>,
+    commands: Vec<telnet::Command>,
 }
 
 #[derive(Debug)]
@@ -52,11 +67,17 @@ enum State {
 }
 
 impl PortReader {
-    /// `fd` must be in non-blocking mode.
-    pub(crate) fn new(fd: OwnedFd, port: String) -> Self {
+    /// `fd` must be in non-blocking mode. `decoder`: the link is Telnet.
+    pub(crate) fn new(fd: OwnedFd, port: String, decoder: Option<telnet::Decoder>) -> Self {
         Self {
             port,
             state: State::Unregistered(fd),
+            telnet: decoder.map(|decoder| Telnet {
+                decoder,
+                raw: Vec::new(),
+                data: Vec::new(),
+                commands: Vec::new(),
+            }),
         }
     }
 
@@ -82,15 +103,28 @@ impl PortReader {
                     .readable()
                     .await
                     .map_err(|e| TransportError::from_io(&self.port, "waiting for input", e))?;
+                // Telnet: read into scratch space no larger than `buf`;
+                // decoding never makes bytes more.
+                let target: &mut [u8] = match &mut self.telnet {
+                    Some(t) => {
+                        t.raw.resize(buf.len(), 0);
+                        &mut t.raw
+                    }
+                    None => &mut *buf,
+                };
                 // Err: spurious readiness, cleared by try_io; wait again.
                 guard
-                    .try_io(|inner| fd::read_some(inner.get_ref().as_fd(), buf))
+                    .try_io(|inner| fd::read_some(inner.get_ref().as_fd(), target))
                     .ok()
             };
             match attempt {
                 None => continue,
                 Some(Ok(0)) => return Err(self.lose(TransportError::end_of_stream(&self.port))),
-                Some(Ok(n)) => return Ok(n),
+                Some(Ok(n)) => match self.decode(n, buf) {
+                    // Only Telnet commands came: wait for serial bytes.
+                    0 => continue,
+                    n => return Ok(n),
+                },
                 Some(Err(e)) if e.kind() == std::io::ErrorKind::Interrupted => continue,
                 Some(Err(e)) => {
                     let err = TransportError::from_io(&self.port, "read", e);
@@ -98,6 +132,28 @@ impl PortReader {
                 }
             }
         }
+    }
+
+    /// The `n` bytes just read: as they are, or decoded from Telnet into
+    /// `buf`. Returns the serial bytes now in `buf`.
+    fn decode(&mut self, n: usize, buf: &mut [u8]) -> usize {
+        let Some(t) = &mut self.telnet else {
+            return n;
+        };
+        t.data.clear();
+        t.commands.clear();
+        let raw = t.raw.get(..n).unwrap_or_default();
+        t.decoder.feed(raw, &mut t.data, &mut t.commands);
+        for command in &t.commands {
+            // Line and modem state notifications were masked off in the
+            // negotiation; whatever still comes is of no use to a driver.
+            tracing::debug!(port = %self.port, ?command, "telnet command from the server");
+        }
+        let len = t.data.len().min(buf.len());
+        if let (Some(dst), Some(src)) = (buf.get_mut(..len), t.data.get(..len)) {
+            dst.copy_from_slice(src);
+        }
+        len
     }
 
     /// Read whatever is available (at least one byte), timestamped.

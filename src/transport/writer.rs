@@ -10,7 +10,6 @@
 
 use std::collections::VecDeque;
 use std::io;
-use std::os::fd::{AsFd, OwnedFd};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::{self, RecvTimeoutError, TryRecvError};
 use std::thread::{self, JoinHandle};
@@ -19,8 +18,9 @@ use std::time::{Duration, Instant, SystemTime};
 use tokio::sync::mpsc::{UnboundedReceiver, UnboundedSender, unbounded_channel};
 
 use super::error::TransportError;
-use super::fd::{self, FdKind};
+use super::fd;
 use super::pacing::{Pace, Pacer};
+use super::sink::Sink;
 use crate::traffic::{Direction, TrafficRecord};
 use crate::wire::LineSettings;
 
@@ -162,17 +162,16 @@ impl std::fmt::Debug for Command {
 
 impl PacedWriter {
     pub(crate) fn spawn(
-        fd: OwnedFd,
+        sink: Sink,
         port: String,
         line: LineSettings,
         config: WriterConfig,
     ) -> Result<(Self, UnboundedReceiver<WriterEvent>), TransportError> {
-        let kind = fd::kind_of(fd.as_fd());
         let (commands, command_rx) = mpsc::channel();
         let (events, event_rx) = unbounded_channel();
         let worker = Worker {
-            fd,
-            kind,
+            sink,
+            last_interleave: None,
             port: port.clone(),
             pacer: Pacer::new(line, config.max_backlog).with_bulk_backlog(config.bulk_backlog),
             drain_timeout: config.drain_timeout,
@@ -298,8 +297,11 @@ struct Current {
 }
 
 struct Worker {
-    fd: OwnedFd,
-    kind: FdKind,
+    /// The port's fd and what its link does to the bytes (`sink.rs`).
+    sink: Sink,
+    /// How the last message handed over whole may be cut: decides whether
+    /// the far end may drop what it still holds before a stop.
+    last_interleave: Option<Interleave>,
     port: String,
     pacer: Pacer,
     drain_timeout: Duration,
@@ -404,6 +406,7 @@ impl Worker {
         if whole {
             self.finish_current_at_once()?;
         }
+        self.discard_remote_queue()?;
         while let Some(stop) = self.stops.pop_front() {
             self.write_stop(stop)?;
         }
@@ -480,7 +483,7 @@ impl Worker {
             return Ok(false);
         }
         let chunk = rest.get(..n).unwrap_or_default();
-        match fd::write_some(self.fd.as_fd(), self.kind, chunk) {
+        match self.sink.write_some(chunk) {
             Ok(0) => {
                 self.blocked_until = Some(now + self.pacer.byte_time());
                 Ok(false)
@@ -492,6 +495,7 @@ impl Worker {
                 cur.written += w;
                 let done = cur.written >= cur.pending.bytes.len();
                 if done {
+                    self.last_interleave = Some(cur.pending.interleave);
                     self.current = None;
                 }
                 let at = Instant::now();
@@ -513,15 +517,40 @@ impl Worker {
             return Ok(());
         };
         let rest = cur.pending.bytes.get(cur.written..).unwrap_or_default();
+        self.last_interleave = Some(cur.pending.interleave);
         self.write_whole(cur.pending.id, Lane::Normal, rest)
+    }
+
+    /// Before a stop, ask the far end to drop what it has not yet put on
+    /// the serial line (RFC 2217 PURGE-DATA; `Sink::discard_queued`), when
+    /// that cannot hurt: only at a message boundary on our side (a message
+    /// we are still handing over would lose its middle and be completed
+    /// into another command), and only after messages whose stop may cut
+    /// them (isel: 0xFD/0xFF act between any two bytes, manual 2.2.31; a
+    /// cut EMCU line or EMP frame would swallow the stop frame behind it).
+    /// What the far end held is then never completed by us. Failure to ask
+    /// is no reason to hold the stop back.
+    fn discard_remote_queue(&mut self) -> Result<(), TransportError> {
+        if self.current.is_some()
+            || self.last_interleave != Some(Interleave::BetweenBytes)
+            || !self.sink.can_discard()
+        {
+            return Ok(());
+        }
+        let deadline = Instant::now() + self.drain_timeout;
+        match self.sink.discard_queued(deadline) {
+            Ok(_) => Ok(()),
+            Err(e) if e.kind() == io::ErrorKind::TimedOut => Ok(()),
+            Err(e) => Err(TransportError::from_io(&self.port, "purge", e)),
+        }
     }
 
     fn write_stop(&mut self, stop: Pending) -> Result<(), TransportError> {
         self.write_whole(stop.id, Lane::Stop, &stop.bytes)?;
-        if self.kind == FdKind::Tty {
+        if self.sink.is_tty() {
             // To be sure a stop has left: write_all, then tcdrain
             // (`../shared/field-notes.md`, "Serial ports").
-            match fd::drain_bounded(self.fd.as_fd(), self.drain_timeout) {
+            match fd::drain_bounded(self.sink.fd(), self.drain_timeout) {
                 Ok(true) => {}
                 Ok(false) => self.report(WriterEvent::DrainTimedOut {
                     id: stop.id,
@@ -542,7 +571,7 @@ impl Worker {
         bytes: &[u8],
     ) -> Result<(), TransportError> {
         let deadline = Instant::now() + self.drain_timeout;
-        fd::write_all_until(self.fd.as_fd(), self.kind, bytes, deadline).map_err(|e| {
+        self.sink.write_all_until(bytes, deadline).map_err(|e| {
             if e.kind() == io::ErrorKind::TimedOut {
                 TransportError::DrainTimeout {
                     port: self.port.clone(),

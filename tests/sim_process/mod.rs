@@ -1,4 +1,5 @@
-//! `jogterm sim --pty --link <tmp>/tty<family>` as a child process, shared
+//! `jogterm sim --pty --link <tmp>/tty<family>` (or `--tcp 127.0.0.1:0`,
+//! [`SimProcess::start_tcp`]) as a child process, shared
 //! by the end-to-end tests (`mod sim_process;`) and the fault suite: its
 //! stdin is the control channel (`set`, `press`, `fault …`; kept open, as a
 //! closed stdin ends the simulator), `show received` is the controller's own
@@ -101,8 +102,15 @@ pub struct SimProcess {
     lines: Receiver<String>,
     stderr: Arc<Mutex<Vec<u8>>>,
     pub family: &'static str,
+    /// What `--port` takes: the pty's link, or `tcp://127.0.0.1:PORT`.
     pub link: PathBuf,
     pub dir: tempfile::TempDir,
+}
+
+/// Where a simulator serves.
+enum Serving {
+    Pty,
+    Tcp,
 }
 
 impl SimProcess {
@@ -127,6 +135,22 @@ impl SimProcess {
         files: &[(&str, &str)],
         variants: &[&str],
     ) -> SimProcess {
+        Self::start_serving(family, files, variants, Serving::Pty)
+    }
+
+    /// The simulator of `family` as a serial port server in raw mode
+    /// (`jogterm sim --tcp 127.0.0.1:0`): [`SimProcess::link`] is the
+    /// `tcp://127.0.0.1:PORT` it printed.
+    pub fn start_tcp(family: &'static str) -> SimProcess {
+        Self::start_serving(family, &[], &[], Serving::Tcp)
+    }
+
+    fn start_serving(
+        family: &'static str,
+        files: &[(&str, &str)],
+        variants: &[&str],
+        serving: Serving,
+    ) -> SimProcess {
         let dir = tempfile::tempdir().expect("temp dir");
         for (path, contents) in files {
             let path = dir.path().join(path);
@@ -135,13 +159,17 @@ impl SimProcess {
             }
             std::fs::write(&path, contents).expect("write a config file");
         }
-        let link = dir.path().join(format!("tty{family}"));
+        let mut link = dir.path().join(format!("tty{family}"));
+        let mut command = Command::new(JOGTERM);
+        command
+            .args(["sim", "--protocol", family])
+            .args(variants.iter().flat_map(|v| ["--variant", v]));
+        match serving {
+            Serving::Pty => command.arg("--pty").arg("--link").arg(&link),
+            Serving::Tcp => command.args(["--tcp", "127.0.0.1:0"]),
+        };
         let (mut child, stdin, lines) = spawn_with_lines(
-            Command::new(JOGTERM)
-                .args(["sim", "--pty", "--protocol", family])
-                .args(variants.iter().flat_map(|v| ["--variant", v]))
-                .arg("--link")
-                .arg(&link)
+            command
                 .env("JOGTERM_CONFIG_DIR", dir.path())
                 .env("RUST_BACKTRACE", "0")
                 .stderr(Stdio::piped()),
@@ -160,18 +188,55 @@ impl SimProcess {
                     .extend_from_slice(&buf[..n]);
             }
         });
-        let sim = SimProcess {
+        let mut sim = SimProcess {
             child,
             stdin,
             lines,
             stderr,
             family,
-            link,
+            link: link.clone(),
             dir,
         };
         let first = sim.line("the link path");
-        assert_eq!(Path::new(&first), sim.link, "the first line is the link");
+        match serving {
+            Serving::Pty => {
+                assert_eq!(Path::new(&first), sim.link, "the first line is the link")
+            }
+            Serving::Tcp => {
+                assert!(first.starts_with("tcp://127.0.0.1:"), "{first}");
+                link = PathBuf::from(first);
+                sim.link = link;
+            }
+        }
         sim
+    }
+
+    /// The process id of the simulator.
+    pub fn pid(&self) -> u32 {
+        self.child.id()
+    }
+
+    /// `show received times`: each read of the line with the wall-clock time
+    /// it was read, and its bytes in readable form.
+    pub fn received_times(&mut self) -> Vec<(std::time::SystemTime, String)> {
+        self.write("show received times");
+        let head = self.line("show received times");
+        let count: usize = head
+            .split_once(" in ")
+            .and_then(|(_, rest)| rest.split_once(" reads"))
+            .and_then(|(n, _)| n.parse().ok())
+            .unwrap_or_else(|| panic!("unexpected answer to `show received times`: {head}"));
+        (0..count)
+            .map(|_| {
+                let line = self.line("a read");
+                let (at, bytes) = line.split_once(' ').unwrap_or((line.as_str(), ""));
+                let (secs, micros) = at.split_once('.').expect("seconds.micros");
+                let at = std::time::UNIX_EPOCH
+                    + Duration::from_secs(secs.parse().expect("seconds"))
+                    + Duration::from_micros(micros.parse().expect("micros"));
+                (at, bytes.to_string())
+            })
+            .collect()
     }
 
     fn line(&self, what: &str) -> String {
