@@ -29,6 +29,7 @@ use std::os::fd::AsRawFd;
 use std::os::unix::fs::{MetadataExt, OpenOptionsExt};
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, Weak};
+use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 /// Where lock files go, in order of preference.
 const LOCK_DIRS: [&str; 2] = ["/run/lock", "/var/lock"];
@@ -145,7 +146,7 @@ pub fn uucp_name(device: &Path) -> String {
 pub fn uucp_holder(real: &Path) -> Option<Holder> {
     LOCK_DIRS.iter().find_map(|dir| {
         let path = Path::new(dir).join(uucp_name(real));
-        let pid = read_pid(&path).filter(|pid| alive(*pid))?;
+        let pid = read_pid(&path).filter(|pid| holds(*pid, &path))?;
         Some(Holder {
             pid: Some(pid),
             name: process_name(pid),
@@ -180,7 +181,7 @@ fn lock_tty_in(dir: &Path, real: &Path) -> Result<Option<Arc<OwnerLock>>, Holder
             }
             Err(e) if e.kind() == io::ErrorKind::AlreadyExists => {
                 match read_pid(&path) {
-                    Some(pid) if pid != me && alive(pid) => {
+                    Some(pid) if pid != me && holds(pid, &path) => {
                         return Err(Holder {
                             pid: Some(pid),
                             name: process_name(pid),
@@ -223,6 +224,77 @@ fn read_pid(path: &Path) -> Option<u32> {
     let mut text = String::new();
     File::open(path).ok()?.read_to_string(&mut text).ok()?;
     text.trim().parse().ok()
+}
+
+/// Whether `pid` still holds the lock file at `path`: it runs (a zombie
+/// has closed its port: a console killed by a signal leaves its lock file
+/// behind, and its parent may not have reaped it yet), and it is the
+/// process that wrote the file, not a later one that was given the same pid
+/// (it started before the file was written). Where `/proc` cannot tell, a
+/// process that exists holds it.
+fn holds(pid: u32, path: &Path) -> bool {
+    if !alive(pid) {
+        return false;
+    }
+    let Some(stat) = ProcStat::read(pid) else {
+        return true;
+    };
+    if stat.zombie {
+        return false;
+    }
+    let written = fs::metadata(path).and_then(|m| m.modified()).ok();
+    match (stat.started(), written) {
+        // A second of slack: the start time has clock-tick resolution and
+        // the boot time whole seconds.
+        (Some(started), Some(written)) => started <= written + Duration::from_secs(1),
+        _ => true,
+    }
+}
+
+/// What `/proc/<pid>/stat` says of a process that a lock needs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct ProcStat {
+    zombie: bool,
+    /// Field 22: clock ticks after boot.
+    start_ticks: u64,
+}
+
+impl ProcStat {
+    fn read(pid: u32) -> Option<ProcStat> {
+        ProcStat::parse(&fs::read_to_string(format!("/proc/{pid}/stat")).ok()?)
+    }
+
+    /// The name (field 2) is in parentheses and may hold spaces and `)`:
+    /// the fields after it start after the last `)`.
+    fn parse(line: &str) -> Option<ProcStat> {
+        let rest = &line[line.rfind(')')? + 1..];
+        let mut fields = rest.split_whitespace();
+        let state = fields.next()?;
+        // After the state (field 3), field 22 is the 19th.
+        let start_ticks = fields.nth(18)?.parse().ok()?;
+        Some(ProcStat {
+            zombie: state == "Z" || state == "X",
+            start_ticks,
+        })
+    }
+
+    /// When the process started, on the wall clock.
+    fn started(&self) -> Option<SystemTime> {
+        let boot: u64 = fs::read_to_string("/proc/stat")
+            .ok()?
+            .lines()
+            .find_map(|l| l.strip_prefix("btime "))?
+            .trim()
+            .parse()
+            .ok()?;
+        // SAFETY: sysconf reads a constant of the system.
+        let hz = u64::try_from(unsafe { libc::sysconf(libc::_SC_CLK_TCK) }).ok()?;
+        if hz == 0 {
+            return None;
+        }
+        let after_boot = Duration::from_millis(self.start_ticks.saturating_mul(1000) / hz);
+        Some(UNIX_EPOCH + Duration::from_secs(boot) + after_boot)
+    }
 }
 
 /// Whether a process exists (`kill(pid, 0)`: `EPERM` means it does, as
@@ -355,6 +427,56 @@ pub fn openers(device: &Path) -> Vec<(u32, Option<String>)> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn proc_stat_gives_the_state_and_the_start_time() {
+        let line = "4242 (jog term) x) S 1 4242 4242 0 -1 4194560 100 0 0 0 5 3 0 0 20 0 4 0 123456 1000 10";
+        assert_eq!(
+            ProcStat::parse(line),
+            Some(ProcStat {
+                zombie: false,
+                start_ticks: 123456
+            })
+        );
+        let zombie = line.replace(") S ", ") Z ");
+        assert!(ProcStat::parse(&zombie).is_some_and(|s| s.zombie));
+        assert_eq!(ProcStat::parse("4242 (jogterm) S 1 2"), None);
+        let me = ProcStat::read(std::process::id()).expect("our own stat");
+        assert!(!me.zombie);
+        let started = me.started().expect("a start time");
+        assert!(started <= SystemTime::now(), "{started:?}");
+    }
+
+    #[test]
+    fn a_lock_of_a_zombie_or_older_than_its_pid_is_stale() {
+        let dir = tempfile::tempdir().expect("dir");
+        // A child that has ended and is not reaped yet: a zombie.
+        let mut child = std::process::Command::new("true")
+            .spawn()
+            .expect("spawn true");
+        let pid = child.id();
+        let path = dir.path().join("LCK..ttyTEST_zombie");
+        fs::write(&path, format!("{pid:>10}\n")).expect("write");
+        let end = std::time::Instant::now() + Duration::from_secs(5);
+        while ProcStat::read(pid).is_some_and(|s| !s.zombie) {
+            assert!(std::time::Instant::now() < end, "the child never ended");
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        assert!(!holds(pid, &path), "a zombie holds no port");
+        let _ = child.wait();
+
+        // Our own pid, in a file written long before this process started:
+        // the pid was given again, the writer has gone.
+        let old = dir.path().join("LCK..ttyTEST_old");
+        fs::write(&old, format!("{:>10}\n", std::process::id())).expect("write");
+        let file = File::options().write(true).open(&old).expect("open");
+        file.set_modified(UNIX_EPOCH + Duration::from_secs(1_000_000))
+            .expect("set mtime");
+        assert!(!holds(std::process::id(), &old));
+        // Written now, by a process that runs: it holds it.
+        fs::write(&old, format!("{:>10}\n", std::process::id())).expect("write");
+        assert!(holds(std::process::id(), &old));
+    }
 
     #[test]
     fn uucp_names_follow_the_convention() {
