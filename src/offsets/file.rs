@@ -208,9 +208,9 @@ fn read(source: &Source, identity: &Identity) -> Result<WorkOffsets, String> {
     let differences = identity.differences(&file);
     if !differences.is_empty() {
         return Err(format!(
-            "{}: saved for another machine or other steps per unit: {}",
-            source.origin,
-            differences.join("; ")
+            "saved for another machine or other steps per unit: {} (file {})",
+            differences.join("; "),
+            source.origin
         ));
     }
     let mut table = WorkOffsets::default();
@@ -352,8 +352,9 @@ mod tests {
         let Loaded::Refused(why) = decode(&source(&text), &other) else {
             panic!("applied")
         };
+        assert!(why.starts_with("saved for another machine"), "{why}");
         assert!(
-            why.starts_with("/state/offsets/default@sim.toml: "),
+            why.ends_with("(file /state/offsets/default@sim.toml)"),
             "{why}"
         );
         assert!(why.contains("port sim, this session /dev/ttyUSB0"), "{why}");

@@ -259,7 +259,7 @@ pub fn set_here(model: &mut Model, target: &Target) -> Result<(Vec<Effect>, Note
             .ok_or_else(|| format!("the machine has no {axis} axis"))?;
         let work = profile.to_steps(*value);
         let zero = WorkOffsets::zero_for(*steps, work).ok_or_else(|| {
-            format!("{axis}{value} puts the work zero farther away than any controller counts")
+            format!("{axis}: that puts the work zero beyond any controller's count")
         })?;
         zeros.push((*axis, zero, *value));
     }

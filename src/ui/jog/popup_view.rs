@@ -73,6 +73,48 @@ pub fn typed_line(
     Line::from(spans)
 }
 
+/// The most rows a popup gives a refusal; a longer one ends in `…`.
+const ERROR_ROWS: usize = 3;
+
+/// `message` broken at blanks into at most [`ERROR_ROWS`] rows of at most
+/// `w` characters (a longer one ends in `…`).
+fn wrap(message: &str, w: usize) -> Vec<String> {
+    let w = w.max(1);
+    let mut rows: Vec<String> = Vec::new();
+    let mut current = String::new();
+    for word in message.split(' ') {
+        let len = current.chars().count();
+        if len > 0 && len + 1 + word.chars().count() > w {
+            rows.push(std::mem::take(&mut current));
+        }
+        if !current.is_empty() {
+            current.push(' ');
+        }
+        current.push_str(word);
+    }
+    rows.push(current);
+    let more = rows.len() > ERROR_ROWS;
+    rows.truncate(ERROR_ROWS);
+    if more && let Some(last) = rows.last_mut() {
+        last.push('…');
+    }
+    rows
+}
+
+/// A refusal in the danger style, wrapped: it names its limit, which must
+/// not be cut off.
+pub fn error_rows(model: &Model, message: &str, w: usize) -> Vec<Line<'static>> {
+    wrap(message, w)
+        .into_iter()
+        .map(|r| Line::from(Span::styled(fit(&r, w), model.palette.danger)))
+        .collect()
+}
+
+/// The rows a popup of inner width `w` needs for its line's refusal.
+pub fn error_height(message: Option<&str>, w: usize) -> u16 {
+    message.map_or(0, |m| wrap(m, w).len() as u16)
+}
+
 fn draw_rows(rows: Vec<Line<'static>>, inner: Rect, buf: &mut Buffer) {
     for (i, row) in rows.into_iter().enumerate() {
         let y = inner.y + i as u16;
@@ -182,7 +224,9 @@ fn set_position(model: &Model, line: &LineEdit, area: Rect, buf: &mut Buffer) {
     let p = &model.palette;
     let system = model.offsets.table.active();
     let width = area.width.clamp(24, 64);
-    let box_area = centred(area, width, 6);
+    let error = line.error.as_ref().map(|e| e.message.as_str());
+    let height = 5 + error_height(error, usize::from(width.saturating_sub(2)));
+    let box_area = centred(area, width, height);
     let inner = framed(
         model,
         &format!("Set the work position here ({system})"),
@@ -200,8 +244,8 @@ fn set_position(model: &Model, line: &LineEdit, area: Rect, buf: &mut Buffer) {
         )),
         typed_line(model, "> ", line, true, w),
     ];
-    if let Some(e) = &line.error {
-        rows.push(Line::from(Span::styled(fit(&e.message, w), p.danger)));
+    if let Some(e) = error {
+        rows.extend(error_rows(model, e, w));
     }
     rows.push(hints(
         model,
@@ -214,7 +258,14 @@ fn set_position(model: &Model, line: &LineEdit, area: Rect, buf: &mut Buffer) {
 fn values(model: &Model, form: &ValuesForm, area: Rect, buf: &mut Buffer) {
     let p = &model.palette;
     let width = area.width.clamp(24, 64);
-    let box_area = centred(area, width, 7);
+    let error = form
+        .step
+        .error
+        .as_ref()
+        .or(form.speed.error.as_ref())
+        .map(|e| e.message.as_str());
+    let height = 6 + error_height(error, usize::from(width.saturating_sub(2)));
+    let box_area = centred(area, width, height);
     let inner = framed(model, "Jog step and speed", box_area, buf);
     let w = usize::from(inner.width);
     let unit = super::view::unit_label(model);
@@ -249,8 +300,8 @@ fn values(model: &Model, form: &ValuesForm, area: Rect, buf: &mut Buffer) {
             w,
         ),
     ];
-    if let Some(e) = form.step.error.as_ref().or(form.speed.error.as_ref()) {
-        rows.push(Line::from(Span::styled(fit(&e.message, w), p.danger)));
+    if let Some(e) = error {
+        rows.extend(error_rows(model, e, w));
     }
     rows.push(hints(
         model,

@@ -428,7 +428,9 @@ impl Widget for GoToView<'_> {
         let model = self.model;
         let p = &model.palette;
         let width = area.width.clamp(20, 60);
-        let box_area = centred(area, width, 6);
+        let error = self.prompt.line.error.as_ref().map(|e| e.message.as_str());
+        let height = 5 + super::popup_view::error_height(error, usize::from(width - 2));
+        let box_area = centred(area, width, height);
         let title = match self.prompt.frame {
             Frame::Work => format!("Go to ({} work coordinates)", model.offsets.table.active()),
             Frame::Machine => "Go to (machine coordinates)".to_string(),
@@ -442,8 +444,8 @@ impl Widget for GoToView<'_> {
             Line::from(Span::styled(fit(&help, w), p.dim)),
             super::popup_view::typed_line(model, "> ", &self.prompt.line, true, w),
         ];
-        if let Some(e) = &self.prompt.line.error {
-            rows.push(Line::from(Span::styled(fit(&e.message, w), p.danger)));
+        if let Some(e) = error {
+            rows.extend(super::popup_view::error_rows(model, e, w));
         }
         let keys = |action| {
             model
