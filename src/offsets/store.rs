@@ -345,7 +345,7 @@ mod tests {
             .filter(|n| n.starts_with("default@sim.toml.refused-"))
             .collect();
         assert_eq!(aside.len(), 1, "{aside:?}");
-        assert_eq!(finer.load().refused, false);
+        assert!(!finer.load().refused);
     }
 
     #[test]

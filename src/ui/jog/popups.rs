@@ -253,7 +253,7 @@ fn submit_position(model: &mut Model, line: &mut LineEdit) -> Option<Outcome> {
 /// Enter in the step-and-speed popup.
 fn submit_values(model: &mut Model, form: &mut ValuesForm) -> Option<Outcome> {
     let settings = model.keypad.settings().clone();
-    let (step, speed) = form.check(&settings).ok()?;
+    let values::Typed { step, speed } = form.check(&settings)?;
     let mut notes = Vec::new();
     let mut said = Vec::new();
     if let Some((step, inexact)) = step {

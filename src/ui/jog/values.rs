@@ -117,7 +117,7 @@ fn number(text: &str, what: &str) -> Result<f64, String> {
 }
 
 /// A typed step (units): at least one step of every axis, at most the
-/// travel of the shortest. The note says where an axis cannot step it
+/// travel of the shortest (named when it is more). The note says where an axis cannot step it
 /// exactly (not a whole number of its steps).
 pub fn parse_step(text: &str, settings: &JogSettings) -> Result<(f64, Option<String>), String> {
     let step = number(text, "step")?;
@@ -132,16 +132,26 @@ pub fn parse_step(text: &str, settings: &JogSettings) -> Result<(f64, Option<Str
                 a.unit.symbol()
             ));
         }
-        let travel = a.max - a.min;
-        if travel.is_finite() && step > travel {
-            return Err(format!(
-                "a step of {} is more than the travel of {} ({} {})",
-                format_amount(step),
-                a.axis,
-                format_amount(travel),
-                a.unit.symbol()
-            ));
-        }
+    }
+    // The limit is the shortest travel: name that axis.
+    let shortest = settings
+        .axes
+        .iter()
+        .filter(|a| (a.max - a.min).is_finite())
+        .fold(None, |best: Option<&JogAxis>, a| match best {
+            Some(b) if b.max - b.min <= a.max - a.min => Some(b),
+            _ => Some(a),
+        });
+    if let Some(a) = shortest
+        && step > a.max - a.min
+    {
+        return Err(format!(
+            "a step of {} is more than the travel of {} ({} {})",
+            format_amount(step),
+            a.axis,
+            format_amount(a.max - a.min),
+            a.unit.symbol()
+        ));
     }
     let inexact: Vec<String> = settings
         .axes
@@ -201,6 +211,14 @@ pub fn parse_speed(text: &str, settings: &JogSettings) -> Result<f64, String> {
     Ok(speed)
 }
 
+/// What the `J` popup's fields hold, checked: a step (with the note of
+/// [`parse_step`]) and a speed, `None` where the field was left empty.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Typed {
+    pub step: Option<(f64, Option<String>)>,
+    pub speed: Option<f64>,
+}
+
 /// The `J` popup: a step and a speed, typed; an empty field keeps what is
 /// chosen.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -224,11 +242,9 @@ impl ValuesForm {
         self.field = 1 - self.field.min(1);
     }
 
-    /// The values typed, checked; the field at fault gets the error.
-    pub fn check(
-        &mut self,
-        settings: &JogSettings,
-    ) -> Result<(Option<(f64, Option<String>)>, Option<f64>), ()> {
+    /// The values typed, checked; `None` when one is refused: the field at
+    /// fault gets the error and the input.
+    pub fn check(&mut self, settings: &JogSettings) -> Option<Typed> {
         let fail = |line: &mut LineEdit, message: String| {
             line.error = Some(super::super::line_edit::LineError {
                 message,
@@ -245,7 +261,7 @@ impl ValuesForm {
                 Err(e) => {
                     fail(&mut self.step, e);
                     self.field = 0;
-                    return Err(());
+                    return None;
                 }
             }
         };
@@ -257,11 +273,11 @@ impl ValuesForm {
                 Err(e) => {
                     fail(&mut self.speed, e);
                     self.field = 1;
-                    return Err(());
+                    return None;
                 }
             }
         };
-        Ok((step, speed))
+        Some(Typed { step, speed })
     }
 }
 
