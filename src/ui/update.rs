@@ -748,15 +748,7 @@ fn goto_action(model: &mut Model, mut prompt: GoToPrompt, action: Action) -> Vec
                 }
             }
         }
-        Action::CursorLeft => line.left(),
-        Action::CursorRight => line.right(),
-        Action::CursorHome => line.home(),
-        Action::CursorEnd => line.end(),
-        Action::DeleteBack => line.delete_back(),
-        Action::DeleteForward => line.delete_forward(),
-        Action::ClearLine => line.clear(),
-        Action::TypeBlank => line.insert(' '),
-        _ => {}
+        other => super::line_edit::edit_line(line, other),
     }
     model.popup = Some(Popup::GoTo(prompt));
     Vec::new()

@@ -8,7 +8,7 @@ use crate::axis::AxisSet;
 use crate::jog::Motion;
 
 use super::super::keymap::{Action, Mode};
-use super::super::line_edit::{LineEdit, LineError};
+use super::super::line_edit::{LineEdit, LineError, edit_line};
 use super::super::model::{Model, Popup};
 use super::super::msg::Effect;
 use super::super::traffic_log::NoteLevel;
@@ -99,23 +99,16 @@ pub fn main_action(model: &mut Model, action: Action) -> Option<Outcome> {
             note(NoteLevel::Info, "jog speed override 100 %".into())
         }
         Action::StepSmaller | Action::StepLarger => {
+            let typed = model.keypad.values.step.take();
             let up = action == Action::StepLarger;
-            let list = &model.setup.jog_steps;
-            model.jog.step = match model.keypad.values.step.take() {
-                Some(typed) => values::preset_beside(list, typed, up).unwrap_or(model.jog.step),
-                None if up => (model.jog.step + 1).min(list.len().saturating_sub(1)),
-                None => model.jog.step.saturating_sub(1),
-            };
+            model.jog.step = values::next_preset(&model.setup.jog_steps, model.jog.step, typed, up);
             (Vec::new(), Vec::new())
         }
         Action::SpeedSlower | Action::SpeedFaster => {
+            let typed = model.keypad.values.speed.take();
             let up = action == Action::SpeedFaster;
-            let list = &model.setup.jog_speeds;
-            model.jog.speed = match model.keypad.values.speed.take() {
-                Some(typed) => values::preset_beside(list, typed, up).unwrap_or(model.jog.speed),
-                None if up => (model.jog.speed + 1).min(list.len().saturating_sub(1)),
-                None => model.jog.speed.saturating_sub(1),
-            };
+            model.jog.speed =
+                values::next_preset(&model.setup.jog_speeds, model.jog.speed, typed, up);
             (Vec::new(), Vec::new())
         }
         _ => return None,
@@ -178,7 +171,7 @@ pub fn popup_action(model: &mut Model, mut popup: JogPopup, action: Action) -> O
         }
         (p, a) => {
             if let Some(line) = p.line() {
-                edit(line, a);
+                edit_line(line, a);
             }
             None
         }
@@ -204,21 +197,6 @@ fn system_of(action: Action) -> Option<System> {
         _ => return None,
     };
     System::from_index(index)
-}
-
-/// The editing keys of a typed line.
-fn edit(line: &mut LineEdit, action: Action) {
-    match action {
-        Action::CursorLeft => line.left(),
-        Action::CursorRight => line.right(),
-        Action::CursorHome => line.home(),
-        Action::CursorEnd => line.end(),
-        Action::DeleteBack => line.delete_back(),
-        Action::DeleteForward => line.delete_forward(),
-        Action::ClearLine => line.clear(),
-        Action::TypeBlank => line.insert(' '),
-        _ => {}
-    }
 }
 
 /// Enter in the set-position prompt: `None` keeps it open (with the

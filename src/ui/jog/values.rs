@@ -281,6 +281,17 @@ impl ValuesForm {
     }
 }
 
+/// The preset a step or speed key chooses in `list` (sorted ascending):
+/// the next one from the preset `current`, or from a `typed` value the one
+/// beside it ([`preset_beside`]).
+pub fn next_preset(list: &[f64], current: usize, typed: Option<f64>, up: bool) -> usize {
+    match typed {
+        Some(value) => preset_beside(list, value, up).unwrap_or(current),
+        None if up => (current + 1).min(list.len().saturating_sub(1)),
+        None => current.saturating_sub(1),
+    }
+}
+
 /// The preset after (`up`) or before a typed `value` in `list` (sorted
 /// ascending): `[` from a typed 0.25 goes to 0.1, `]` to 1.
 pub fn preset_beside(list: &[f64], value: f64, up: bool) -> Option<usize> {
