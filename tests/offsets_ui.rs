@@ -106,6 +106,28 @@ fn another_offset_is_chosen_shown_and_saved() {
     let fx = press(&mut m, [ch('O'), ch('5'), ch('O'), key(KeyCode::Esc)]);
     assert_eq!(saves(&fx), 1);
     assert_eq!(m.offsets.table.active(), System::ALL[4]);
+    // The EMCU and EMP have no zero of their own: nothing to differ from,
+    // and go-to goes in machine steps there too.
+    for protocol in [Protocol::Emcu, Protocol::Emp] {
+        let mut m = model_in(protocol, "dark", State::Idle, Instant::now());
+        press(&mut m, [ch('O'), ch('2')]);
+        let s = screen(&m);
+        assert!(s.contains("Position G55 ─"), "{protocol}: {s}");
+        let fx = press(
+            &mut m,
+            [ch('g')]
+                .into_iter()
+                .chain(typed("X1"))
+                .chain([key(KeyCode::Enter)]),
+        );
+        let rs = requests(&fx);
+        let [Request::MoveTo { target, frame, .. }] = rs.as_slice() else {
+            panic!("{protocol}: {fx:?}")
+        };
+        let spu = m.setup.axis(Axis::X).map_or(0.0, |a| a.steps_per_unit);
+        assert_eq!(*frame, Frame::Machine);
+        assert_eq!(target.get(Axis::X), Some(spu as i64), "{protocol}");
+    }
 }
 
 #[test]
