@@ -21,7 +21,7 @@ const LAYERS: &[&[&str]] = &[
     &["sim"],
     &["device"],
     &["program"],
-    &["jog"],
+    &["jog", "offsets"],
     &["ui"],
     &["cli"],
 ];

@@ -15,6 +15,7 @@
 //! - [`program`]: isel CNC programs and EMCU jobs as code: parser, linter,
 //!   formatter, path simulation.
 //! - [`jog`]: jogging as pure logic: keys to requests, leases.
+//! - [`offsets`]: work offsets G54-G59 and their state file.
 //! - [`ui`]: the terminal UI (Elm architecture: model, update, view).
 //! - [`cli`]: the commands.
 
@@ -31,6 +32,7 @@ pub mod jog;
 #[cfg(test)]
 mod layers;
 pub mod motion;
+pub mod offsets;
 pub mod program;
 pub mod proto;
 pub mod sim;

@@ -342,10 +342,11 @@ fn go_to_checks_the_soft_limits_then_moves_in_work_coordinates() {
     let [Request::MoveTo { target, frame, .. }] = rs.as_slice() else {
         panic!("{fx:?}")
     };
-    assert_eq!(*frame, Frame::Work);
+    // Sent in machine coordinates: the work offsets are jogterm's.
+    assert_eq!(*frame, Frame::Machine);
     assert_eq!(
         (target.get(Axis::X), target.get(Axis::Y)),
-        (Some(2000), Some(800))
+        (Some(6000), Some(800))
     );
     assert!(m.popup.is_none());
 

@@ -23,6 +23,8 @@ use crate::config::{ConfigDirs, ConfigError, Profile, Source, Theme, load_theme}
 use crate::device::api::{Event, Request};
 use crate::device::log::spawn_log;
 use crate::device::{DeviceHandle, EventReceiver, TaskOptions};
+use crate::offsets::Identity;
+use crate::offsets::store::OffsetsFile;
 use crate::program::store::RecoveryStore;
 use crate::sim::registry;
 use crate::sim::shell::{Shell, ShellControl, serve_socket};
@@ -41,6 +43,9 @@ pub struct Resolved {
     pub profile: Profile,
     pub theme: Theme,
     pub keymap: Keymap,
+    /// The name the profile was chosen by, for its work offsets file
+    /// (`offsets::store::profile_key`).
+    pub profile_key: String,
 }
 
 /// Why the console cannot start.
@@ -75,10 +80,12 @@ pub fn resolve(global: &GlobalArgs, dirs: &ConfigDirs) -> Result<Resolved, Setup
     let theme = load_theme(global.theme.as_deref().unwrap_or(DEFAULT_THEME), dirs)?;
     let refs: Vec<&Source> = sources.iter().collect();
     let keymap = Keymap::builtin()?.with_overrides(&profile.keys, &refs)?;
+    let profile_key = crate::offsets::store::profile_key(&sources);
     Ok(Resolved {
         profile,
         theme,
         keymap,
+        profile_key,
     })
 }
 
@@ -167,6 +174,7 @@ async fn session(
         profile,
         theme,
         keymap,
+        profile_key,
     } = resolved;
     let (spec, simulator) = open_line(&profile)?;
     let (handle, events) = crate::device::spawn(&profile, spec, TaskOptions::default())?;
@@ -184,6 +192,10 @@ async fn session(
             .editor
             .keep_recoveries(store, session_tag(std::process::id(), SystemTime::now()));
     }
+    // Work offsets: the state directory's file for this profile and port,
+    // applied only if it is this machine's (`docs/jogging.md`).
+    let file = OffsetsFile::from_env(Identity::of(&profile_key, &profile));
+    crate::ui::jog::offsets::start(&mut model, file.map(|f| (f.load(), f)));
     let device = Device {
         handle: handle.clone(),
         events,

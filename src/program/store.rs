@@ -306,6 +306,21 @@ const MAGIC: &str = "jogterm recovery 1";
 /// Recovery file names end with this.
 pub const RECOVERY_EXTENSION: &str = "jogterm-recovery";
 
+/// jogterm's state directory: `$JOGTERM_STATE_DIR`, else the user's state
+/// directory (`~/.local/state/jogterm` on Linux), else the local data
+/// directory; `None` without a home directory. Recovery files and work
+/// offsets (`crate::offsets::store`) live below it.
+pub fn state_dir() -> Option<PathBuf> {
+    if let Some(dir) = std::env::var_os(STATE_DIR_ENV).filter(|d| !d.is_empty()) {
+        return Some(PathBuf::from(dir));
+    }
+    let dirs = directories::ProjectDirs::from("", "", "jogterm")?;
+    Some(
+        dirs.state_dir()
+            .map_or_else(|| dirs.data_local_dir().to_path_buf(), Path::to_path_buf),
+    )
+}
+
 /// The directory of recovery files: `$JOGTERM_STATE_DIR/recovery`, else the
 /// user's state directory (`~/.local/state/jogterm/recovery` on Linux), else
 /// the local data directory.
@@ -322,14 +337,7 @@ impl RecoveryStore {
     /// Where this user's recovery files live; `None` when there is no home
     /// directory to put them in.
     pub fn from_env() -> Option<RecoveryStore> {
-        if let Some(dir) = std::env::var_os(STATE_DIR_ENV).filter(|d| !d.is_empty()) {
-            return Some(RecoveryStore::new(PathBuf::from(dir).join("recovery")));
-        }
-        let dirs = directories::ProjectDirs::from("", "", "jogterm")?;
-        let base = dirs
-            .state_dir()
-            .map_or_else(|| dirs.data_local_dir().to_path_buf(), Path::to_path_buf);
-        Some(RecoveryStore::new(base.join("recovery")))
+        state_dir().map(|base| RecoveryStore::new(base.join("recovery")))
     }
 
     pub fn dir(&self) -> &Path {
@@ -426,7 +434,7 @@ impl RecoveryStore {
 
 /// A name for a file name: letters, digits, `.`, `-`, `_` kept, the rest `_`,
 /// at most 40 characters.
-fn sanitise(name: &str) -> String {
+pub fn sanitise(name: &str) -> String {
     name.chars()
         .map(|c| {
             if c.is_ascii_alphanumeric() || matches!(c, '.' | '-' | '_') {

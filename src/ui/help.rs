@@ -40,6 +40,20 @@ fn notes(keymap: &Keymap, mode: Mode) -> &'static [&'static str] {
             "rules before they are sent; a paste goes in but is never sent by itself.",
         ],
         Mode::Sim => &["Simulator inputs exist only on the built-in simulator."],
+        Mode::GoTo => &[
+            "Typed in the active work offset's coordinates; Tab or a typed G53: machine",
+            "coordinates. F is the path speed in units per minute (as in G-code), else the",
+            "jog speed (with its override).",
+        ],
+        Mode::Offsets => &[
+            "Each zero is a machine position; the active offset (G54 at first) is shown in",
+            "the position panel's title. Offsets are saved per profile and port and come",
+            "back at the next start, unless the file is another machine's (then refused).",
+        ],
+        Mode::Entry => &[
+            "Set position: X0 or X10 Y-2.5 makes where the machine stands read that in the",
+            "active offset. Step and speed: checked against the axes; ( ) override +-10 %.",
+        ],
         Mode::Editor => &[
             "Gutter numbers are the controller's command numbers; #N in go-to finds command N.",
             "Unsaved edits are kept in a recovery file every few seconds (docs/editor.md).",

@@ -99,6 +99,11 @@ named_enum! {
         GoTo = "goto", "Go-to prompt (other characters are typed)";
         /// The choice of an axis (reference run or work zero of one axis).
         Axes = "axes", "Choice of an axis";
+        /// The choice of the active work offset (G54-G59).
+        Offsets = "offsets", "Work offsets";
+        /// A typed value of the keypad's: the work position here, the jog
+        /// step and speed.
+        Entry = "entry", "Set position, jog step and speed (other characters are typed)";
         /// The port timeline is shown.
         Timeline = "timeline", "Port timeline (shown)";
     }
@@ -115,7 +120,7 @@ named_enum! {
         FocusConsole = "focus-console", "type a raw command";
         Initialise = "initialise", "initialise the controller";
         Home = "home", "reference run of all axes (asks first)";
-        SetZero = "set-zero", "make the current position the work zero";
+        SetZero = "set-zero", "make the current position the work zero (active offset)";
         Reset = "reset", "reset the controller (asks first)";
         StepSmaller = "step-smaller", "smaller jog step";
         StepLarger = "step-larger", "larger jog step";
@@ -199,7 +204,7 @@ named_enum! {
         JogXPlusYMinus = "jog-x-plus-y-minus", "jog diagonally X+ Y-";
         JogXMinusYMinus = "jog-x-minus-y-minus", "jog diagonally X- Y-";
         JogKind = "jog-kind", "switch between step and continuous jogging";
-        GoTo = "go-to", "go to a typed position (work coordinates)";
+        GoTo = "go-to", "go to a typed position (work or machine coordinates)";
         GoZero = "go-zero", "go to the work zero (asks first)";
         JogOffLimit = "jog-off-limit", "jog the axis off its active limit switch (asks first)";
         HomeAxis = "home-axis", "reference run of one axis";
@@ -210,6 +215,20 @@ named_enum! {
         AxisZ = "axis-z", "axis Z";
         AxisA = "axis-a", "axis A";
         Timeline = "timeline", "show or hide the port timeline (every input change)";
+        WorkOffsets = "work-offsets", "choose the work offset G54-G59 (shows their zeros)";
+        SetPosition = "set-position", "set the work position here, typed (X10 Y0)";
+        JogValues = "jog-values", "type a jog step and speed";
+        OverrideSlower = "override-slower", "jog speed override -10 %";
+        OverrideFaster = "override-faster", "jog speed override +10 %";
+        OverrideReset = "override-reset", "jog speed override back to 100 %";
+        ToggleFrame = "toggle-frame", "switch between work and machine coordinates";
+        Activate = "activate", "make the selected work offset the active one";
+        G54 = "g54", "make G54 the active work offset";
+        G55 = "g55", "make G55 the active work offset";
+        G56 = "g56", "make G56 the active work offset";
+        G57 = "g57", "make G57 the active work offset";
+        G58 = "g58", "make G58 the active work offset";
+        G59 = "g59", "make G59 the active work offset";
         TimeEarlier = "earlier", "timeline: back in time";
         TimeLater = "later", "timeline: forward in time";
         TimeLive = "live", "timeline: follow the newest readings";

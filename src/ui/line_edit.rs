@@ -225,6 +225,23 @@ pub fn char_span(text: &str, bytes: Range<usize>) -> Range<usize> {
     start..end
 }
 
+/// The editing keys of a one-line field (the go-to prompt, the keypad's
+/// typed values); other actions do nothing here.
+pub fn edit_line(line: &mut LineEdit, action: super::keymap::Action) {
+    use super::keymap::Action;
+    match action {
+        Action::CursorLeft => line.left(),
+        Action::CursorRight => line.right(),
+        Action::CursorHome => line.home(),
+        Action::CursorEnd => line.end(),
+        Action::DeleteBack => line.delete_back(),
+        Action::DeleteForward => line.delete_forward(),
+        Action::ClearLine => line.clear(),
+        Action::TypeBlank => line.insert(' '),
+        _ => {}
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -19,6 +19,8 @@ use super::io::IoPanel;
 use super::jog::Keypad;
 use super::jog::axes::AxisChoice;
 use super::jog::goto::GoToPrompt;
+use super::jog::offsets::OffsetsState;
+use super::jog::popups::JogPopup;
 use super::keymap::{Keymap, Mode};
 use super::line_edit::LineEdit;
 use super::msg::Effect;
@@ -144,6 +146,8 @@ pub enum Popup {
     GoTo(GoToPrompt),
     /// An axis for a reference run or a work zero.
     Axes(AxisChoice),
+    /// The keypad's work offsets, set position, typed step and speed.
+    Jog(JogPopup),
 }
 
 impl Popup {
@@ -154,6 +158,7 @@ impl Popup {
             Popup::Editor(dialog) => dialog.mode(),
             Popup::GoTo(_) => Mode::GoTo,
             Popup::Axes(_) => Mode::Axes,
+            Popup::Jog(p) => p.mode(),
         }
     }
 }
@@ -211,6 +216,9 @@ pub struct Model {
     pub jog: JogSelection,
     /// The jog keypad: jogging state, homing progress.
     pub keypad: Keypad,
+    /// Work offsets G54-G59 (`ui::jog::offsets`): the position panel,
+    /// go-to and the work zero count from the active one.
+    pub offsets: OffsetsState,
     pub focus: PanelId,
     pub popup: Option<Popup>,
     /// The program being edited (`docs/editor.md`).
@@ -264,6 +272,7 @@ impl Model {
             motion_asked: None,
             traffic: TrafficLog::new(),
             keypad: Keypad::new(setup.jog.clone()),
+            offsets: OffsetsState::default(),
             setup,
             keymap,
             palette,
@@ -325,11 +334,26 @@ impl Model {
             .filter(|m| self.now.saturating_duration_since(m.at) < MESSAGE_FRESH)
     }
 
+    /// The jog step in units: typed, else the preset selected.
     pub fn jog_step(&self) -> Option<f64> {
-        self.setup.jog_steps.get(self.jog.step).copied()
+        self.keypad
+            .values
+            .step
+            .or_else(|| self.setup.jog_steps.get(self.jog.step).copied())
     }
 
+    /// The jog speed in units per second: typed, else the preset selected,
+    /// with the speed override (at most the fastest axis' top speed).
     pub fn jog_speed(&self) -> Option<f64> {
-        self.setup.jog_speeds.get(self.jog.speed).copied()
+        let base = self
+            .keypad
+            .values
+            .speed
+            .or_else(|| self.setup.jog_speeds.get(self.jog.speed).copied())?;
+        Some(
+            self.keypad
+                .values
+                .speed_with_override(base, self.keypad.settings()),
+        )
     }
 }

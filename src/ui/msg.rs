@@ -8,6 +8,7 @@ use crate::device::api::{Event, Request};
 use crate::sim::InputControl;
 
 use super::editor::io::{EditorIo, EditorMsg};
+use crate::offsets::store::{SaveJob, Saved};
 
 /// Everything that can change the model.
 #[derive(Debug, Clone, PartialEq)]
@@ -44,6 +45,8 @@ pub enum Msg {
     Terminate { reason: String },
     /// A file or lint result for the program editor, or a request to it.
     Editor(EditorMsg),
+    /// How a write of the work offsets file went.
+    OffsetsSaved(Saved),
 }
 
 /// What `update` asks the runtime to do. The runtime carries effects out in
@@ -59,6 +62,8 @@ pub enum Effect {
     /// A file or lint request of the program editor (carried out off the
     /// loop; the result comes back as `Msg::Editor`).
     Editor(EditorIo),
+    /// Write the work offsets file (on its own thread, in order).
+    SaveOffsets(SaveJob),
     /// Close the device and leave (after the effects before it).
     Quit,
 }

@@ -30,6 +30,7 @@ use super::msg::{Effect, Msg};
 use super::terminal::run_emergency;
 use super::update::update;
 use super::view::Screen;
+use crate::offsets::store::Writer;
 
 /// The device task as the UI needs it. Implemented for the real device
 /// handle and for test doubles.
@@ -66,7 +67,7 @@ pub enum RunError {
     Draw(String),
     #[error("cannot watch for signals: {0}")]
     Signals(#[source] std::io::Error),
-    #[error("cannot start the editor's file and lint threads: {0}")]
+    #[error("cannot start the editor's file and lint threads or the offsets writer: {0}")]
     Worker(#[source] std::io::Error),
 }
 
@@ -101,7 +102,13 @@ pub async fn run<B: Backend, D: DeviceLink>(
     let watcher = watch_signals(signal_tx)?;
     let (sim_tx, mut sim_rx) = mpsc::unbounded_channel::<Msg>();
     let (editor_tx, mut editor_rx) = mpsc::unbounded_channel::<Msg>();
-    let worker = EditorWorker::spawn(editor_tx).map_err(RunError::Worker)?;
+    let worker = EditorWorker::spawn(editor_tx.clone()).map_err(RunError::Worker)?;
+    // The work offsets file is written on a thread of its own; how it went
+    // comes back on the editor's channel, which is only a channel of `Msg`.
+    let offsets = Writer::spawn(move |saved| {
+        let _ = editor_tx.send(Msg::OffsetsSaved(saved));
+    })
+    .map_err(RunError::Worker)?;
     let mut ticks = tokio::time::interval(options.frame_interval);
     ticks.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
     let mut last_draw: Option<Instant> = None;
@@ -169,6 +176,7 @@ pub async fn run<B: Backend, D: DeviceLink>(
                 // the order asked (`finish_files` waits for them).
                 Effect::Editor(crate::ui::editor::io::EditorIo::Lint(_)) if leaving => {}
                 Effect::Editor(io) => worker.submit(io),
+                Effect::SaveOffsets(job) => offsets.submit(job),
                 Effect::Quit => quit = true,
             }
         }
@@ -181,6 +189,7 @@ pub async fn run<B: Backend, D: DeviceLink>(
             // files are written, so neither waits on the other.
             tokio::join!(
                 finish_files(worker),
+                finish_offsets(offsets),
                 shutdown(device, options.shutdown_timeout)
             );
             watcher.abort();
@@ -239,6 +248,11 @@ const FILES_BOUND: Duration = Duration::from_secs(10);
 /// Let the editor's file thread finish what it was handed (bounded).
 async fn finish_files(worker: EditorWorker) {
     let _ = tokio::task::spawn_blocking(move || worker.finish(FILES_BOUND)).await;
+}
+
+/// Let the work offsets' writer finish what it was handed (bounded).
+async fn finish_offsets(writer: Writer) {
+    let _ = tokio::task::spawn_blocking(move || writer.finish(FILES_BOUND)).await;
 }
 
 /// Watch HUP, TERM and INT on a task of their own. Their default action

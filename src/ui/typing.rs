@@ -53,6 +53,8 @@ pub enum TextField {
     GoTo,
     /// A form of the editor (file name, find, go to line, arc, …).
     Form,
+    /// A typed value of the keypad's (set position, jog step and speed).
+    Prompt,
 }
 
 /// The text field that has the input now, if any.
@@ -60,6 +62,7 @@ pub fn text_field(model: &Model) -> Option<TextField> {
     match &model.popup {
         Some(Popup::GoTo(_)) => Some(TextField::GoTo),
         Some(Popup::Editor(Dialog::Form(_))) => Some(TextField::Form),
+        Some(Popup::Jog(p)) if p.types() => Some(TextField::Prompt),
         Some(_) => None,
         None => match model.focus {
             PanelId::Editor => Some(TextField::Editor),

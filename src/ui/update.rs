@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use ratatui::crossterm::event::{KeyEvent, KeyEventKind};
 
-use crate::device::api::{ControllerFault, Event, JogEnd, LinkState, Request};
+use crate::device::api::{ControllerFault, Event, Frame, JogEnd, LinkState, Request};
 use crate::jog::{KeyPhase, Motion};
 
 use super::editor;
@@ -97,6 +97,13 @@ fn dispatch(model: &mut Model, msg: Msg) -> Vec<Effect> {
         Msg::Editor(msg) => {
             model.dirty = true;
             editor_update(model, editor::Input::Msg(msg))
+        }
+        Msg::OffsetsSaved(saved) => {
+            if let Some((level, text)) = keypad::offsets::saved(&saved) {
+                say(model, level, text);
+                model.dirty = true;
+            }
+            Vec::new()
         }
     }
 }
@@ -277,6 +284,12 @@ fn paste(model: &mut Model, text: &str) -> Vec<Effect> {
             Some(Popup::GoTo(prompt)) => prompt.line.paste(text).err(),
             _ => None,
         },
+        Some(typing::TextField::Prompt) => {
+            if let Some(refused) = keypad::popups::paste(model, text) {
+                say(model, NoteLevel::Warning, refused);
+            }
+            return Vec::new();
+        }
         None => {
             say(
                 model,
@@ -362,6 +375,10 @@ fn type_into(model: &mut Model, field: typing::TextField, c: char) -> Vec<Effect
             }
             Vec::new()
         }
+        typing::TextField::Prompt => {
+            keypad::popups::type_char(model, c);
+            Vec::new()
+        }
     }
 }
 
@@ -401,6 +418,10 @@ fn stop(model: &mut Model) -> Vec<Effect> {
 }
 
 fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
+    // Work offsets, the step and speed (typed, presets, override).
+    if let Some(outcome) = keypad::popups::main_action(model, action) {
+        return said(model, outcome);
+    }
     match action {
         Action::Stop => stop(model),
         Action::Quit => {
@@ -448,19 +469,21 @@ fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
             let settings = model.keypad.settings();
             let target = goto::zero_target(settings);
             let speed = keypad::selection(model).speed;
-            match goto::request(&target, settings, &model.machine, speed) {
-                Ok(request) => {
+            let offsets = &model.offsets.table;
+            match goto::request(&target, Frame::Work, settings, offsets, speed) {
+                Ok(planned) => {
                     let axes = settings.axis_set();
                     let speed = crate::ui::position::format_amount(speed);
+                    let system = offsets.active();
                     ask(
                         model,
                         "Go to the work zero",
                         format!(
-                            "Axes {axes} will move to the work zero ({}) at {speed} per second. \
-                             Keep clear of the machine. Go?",
+                            "Axes {axes} will move to the work zero of {system} ({}) at {speed} \
+                             per second. Keep clear of the machine. Go?",
                             goto::describe(&target)
                         ),
-                        vec![Effect::Request(request)],
+                        vec![Effect::Request(planned.request)],
                     );
                 }
                 Err(e) => say(model, NoteLevel::Danger, format!("go to zero refused: {e}")),
@@ -528,15 +551,6 @@ fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
             );
             Vec::new()
         }
-        Action::SetZero => {
-            let axes = model.setup.axis_set();
-            say(
-                model,
-                NoteLevel::Info,
-                format!("work zero of {axes} set to the current position"),
-            );
-            vec![Effect::Request(Request::SetZero { axes })]
-        }
         Action::Reset => {
             ask(
                 model,
@@ -546,24 +560,6 @@ fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
                     .to_string(),
                 vec![Effect::Request(Request::Reset)],
             );
-            Vec::new()
-        }
-        Action::StepSmaller => {
-            model.jog.step = model.jog.step.saturating_sub(1);
-            Vec::new()
-        }
-        Action::StepLarger => {
-            let last = model.setup.jog_steps.len().saturating_sub(1);
-            model.jog.step = (model.jog.step + 1).min(last);
-            Vec::new()
-        }
-        Action::SpeedSlower => {
-            model.jog.speed = model.jog.speed.saturating_sub(1);
-            Vec::new()
-        }
-        Action::SpeedFaster => {
-            let last = model.setup.jog_speeds.len().saturating_sub(1);
-            model.jog.speed = (model.jog.speed + 1).min(last);
             Vec::new()
         }
         Action::TogglePolls => {
@@ -649,6 +645,10 @@ fn popup_action(model: &mut Model, action: Action) -> Vec<Effect> {
         }
         (Some(Popup::Help { .. }), Action::Close) => Vec::new(),
         (Some(Popup::GoTo(prompt)), action) => goto_action(model, prompt, action),
+        (Some(Popup::Jog(popup)), action) => {
+            let outcome = keypad::popups::popup_action(model, popup, action);
+            said(model, outcome)
+        }
         (Some(Popup::Axes(choice)), Action::Cancel) => {
             say(
                 model,
@@ -658,17 +658,11 @@ fn popup_action(model: &mut Model, action: Action) -> Vec<Effect> {
             Vec::new()
         }
         (Some(Popup::Axes(choice)), action) => match choice.chosen(action) {
-            Some(axes) => {
-                let request = choice.request(axes);
-                if let Request::SetZero { .. } = request {
-                    say(
-                        model,
-                        NoteLevel::Info,
-                        format!("work zero of {axes} set to the current position"),
-                    );
-                }
-                vec![Effect::Request(request)]
+            Some(axes) if choice.purpose == Purpose::Zero => {
+                let outcome = keypad::popups::zero_axes(model, axes);
+                said(model, outcome)
             }
+            Some(axes) => vec![Effect::Request(choice.request(axes))],
             None => {
                 say(
                     model,
@@ -703,10 +697,16 @@ fn popup_action(model: &mut Model, action: Action) -> Vec<Effect> {
 
 /// A typed go-to prompt: editing keys, Enter checks and goes, Esc cancels.
 fn goto_action(model: &mut Model, mut prompt: GoToPrompt, action: Action) -> Vec<Effect> {
+    let frame = prompt.frame;
     let line = &mut prompt.line;
     match action {
         Action::Cancel => {
             say(model, NoteLevel::Info, "go to: cancelled".to_string());
+            return Vec::new();
+        }
+        Action::ToggleFrame => {
+            prompt.toggle_frame();
+            model.popup = Some(Popup::GoTo(prompt));
             return Vec::new();
         }
         Action::Submit => {
@@ -718,18 +718,27 @@ fn goto_action(model: &mut Model, mut prompt: GoToPrompt, action: Action) -> Vec
                 .and_then(|()| {
                     goto::parse(line.text(), settings)
                         .and_then(|t| {
-                            goto::request(&t, settings, &model.machine, speed).map(|r| (t, r))
+                            goto::request(&t, frame, settings, &model.offsets.table, speed)
+                                .map(|r| (t, r))
                         })
                         .map_err(|e| e.to_string())
                 });
             match checked {
-                Ok((target, request)) => {
+                Ok((target, planned)) => {
+                    let frame = match planned.frame {
+                        Frame::Work => format!("{} work coordinates", model.offsets.table.active()),
+                        Frame::Machine => "machine coordinates".to_string(),
+                    };
+                    let speed = crate::ui::position::format_amount(planned.speed);
                     say(
                         model,
                         NoteLevel::Info,
-                        format!("go to {} (work coordinates)", goto::describe(&target)),
+                        format!(
+                            "go to {} ({frame}) at {speed} per second",
+                            goto::describe(&target)
+                        ),
                     );
-                    return vec![Effect::Request(request)];
+                    return vec![Effect::Request(planned.request)];
                 }
                 Err(message) => {
                     line.error = Some(LineError {
@@ -739,15 +748,7 @@ fn goto_action(model: &mut Model, mut prompt: GoToPrompt, action: Action) -> Vec
                 }
             }
         }
-        Action::CursorLeft => line.left(),
-        Action::CursorRight => line.right(),
-        Action::CursorHome => line.home(),
-        Action::CursorEnd => line.end(),
-        Action::DeleteBack => line.delete_back(),
-        Action::DeleteForward => line.delete_forward(),
-        Action::ClearLine => line.clear(),
-        Action::TypeBlank => line.insert(' '),
-        _ => {}
+        other => super::line_edit::edit_line(line, other),
     }
     model.popup = Some(Popup::GoTo(prompt));
     Vec::new()
@@ -1176,6 +1177,14 @@ pub fn fault_text(f: &ControllerFault) -> String {
         f.code,
         f.command
     )
+}
+
+/// Say the notes of an outcome, hand on its effects.
+fn said(model: &mut Model, (effects, notes): keypad::popups::Outcome) -> Vec<Effect> {
+    for (level, text) in notes {
+        say(model, level, text);
+    }
+    effects
 }
 
 /// Show a message in the message line and keep it in the console.

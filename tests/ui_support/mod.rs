@@ -337,6 +337,11 @@ pub fn model_in(protocol: Protocol, theme: &str, state: State, t0: Instant) -> M
     let t1 = t0 + Duration::from_millis(500);
     let t2 = t0 + Duration::from_secs(2);
     let axes: AxisSet = model.setup.axis_set();
+    // The work zero (G54) at X 4000 steps, and the controller's there too.
+    model
+        .offsets
+        .table
+        .set(jogterm::offsets::System::G54, Axis::X, 4_000);
     let ready = MachineState {
         link_up: true,
         initialised: axes,

@@ -2,7 +2,9 @@
 //! `crate::jog` with the keys it was pressed with, homing progress), the
 //! glue `update` calls for motion keys, key releases, ticks and device
 //! events, and the go-to prompt ([`goto`]) and axis choice ([`axes`])
-//! popups. Drawing is in [`view`].
+//! popups; work offsets ([`offsets`]), the typed step and speed and the
+//! speed override ([`values`]) and their popups ([`popups`]). Drawing is
+//! in [`view`].
 //!
 //! Nothing here sends anything: it returns `Effect`s, and notes for the
 //! message line, which `update` carries out.
@@ -10,6 +12,10 @@
 pub mod axes;
 pub mod goto;
 pub mod limit;
+pub mod offsets;
+pub mod popup_view;
+pub mod popups;
+pub mod values;
 pub mod view;
 
 use std::time::Instant;
@@ -46,6 +52,8 @@ pub struct Keypad {
     pub homing: Option<Homing>,
     /// The jog off a limit switch (`L`, [`limit`]).
     pub limit: limit::LimitState,
+    /// A typed step and speed, the speed override ([`values`]).
+    pub values: values::JogValues,
 }
 
 impl Keypad {
@@ -54,6 +62,7 @@ impl Keypad {
             jogger: Jogger::new(settings),
             homing: None,
             limit: limit::LimitState::default(),
+            values: values::JogValues::default(),
         }
     }
 

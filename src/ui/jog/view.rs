@@ -15,7 +15,7 @@ use ratatui::widgets::{Paragraph, Widget, Wrap};
 
 use crate::axis::Axis;
 use crate::config::profile::JogMode;
-use crate::device::api::Activity;
+use crate::device::api::{Activity, Frame};
 use crate::jog::{JogKind, LastOutcome, Vector};
 use crate::ui::key::{KeyChord, KeyCode};
 use crate::ui::keymap::{Action, Mode};
@@ -147,7 +147,7 @@ fn lit_vector(model: &Model) -> Option<Vector> {
     }
 }
 
-fn unit_label(model: &Model) -> &'static str {
+pub(super) fn unit_label(model: &Model) -> &'static str {
     common_unit(model.setup.axes.iter().map(|(_, p)| p)).map_or("units", |u| u.symbol())
 }
 
@@ -178,6 +178,11 @@ impl Widget for KeypadView<'_> {
             )],
         };
         extra.push(Span::styled(format!(" {speed} {unit}/s "), p.dim));
+        let pct = model.keypad.values.override_pct;
+        if pct != 100 {
+            // The override changes every jog's speed: not to be missed.
+            extra.push(Span::styled(format!(" {pct}% "), p.warning));
+        }
         let focused = model.focus == PanelId::Jog && model.popup.is_none();
         let inner = frame::panel("Jog", extra, focused, p, area, buf);
         if inner.height == 0 {
@@ -423,23 +428,24 @@ impl Widget for GoToView<'_> {
         let model = self.model;
         let p = &model.palette;
         let width = area.width.clamp(20, 60);
-        let box_area = centred(area, width, 6);
-        let inner = framed(model, "Go to (work coordinates)", box_area, buf);
+        let error = self.prompt.line.error.as_ref().map(|e| e.message.as_str());
+        let height = 5 + super::popup_view::error_height(error, usize::from(width - 2));
+        let box_area = centred(area, width, height);
+        let title = match self.prompt.frame {
+            Frame::Work => format!("Go to ({} work coordinates)", model.offsets.table.active()),
+            Frame::Machine => "Go to (machine coordinates)".to_string(),
+        };
+        let inner = framed(model, &title, box_area, buf);
         let unit = unit_label(model);
         let speed = model.jog_speed().map(format_amount).unwrap_or_default();
         let w = usize::from(inner.width);
-        let help = format!("e.g. X10 Y-2.5, in {unit}, at {speed} {unit}/s");
-        let line = self.prompt.line.text();
+        let help = format!("e.g. X10 Y-2.5 F120: {unit}, F {unit}/min; else {speed} {unit}/s");
         let mut rows = vec![
             Line::from(Span::styled(fit(&help, w), p.dim)),
-            Line::from(vec![
-                Span::styled("> ", p.key),
-                Span::styled(fit(line, w.saturating_sub(3)), p.text),
-                Span::styled(" ", p.selected),
-            ]),
+            super::popup_view::typed_line(model, "> ", &self.prompt.line, true, w),
         ];
-        if let Some(e) = &self.prompt.line.error {
-            rows.push(Line::from(Span::styled(fit(&e.message, w), p.danger)));
+        if let Some(e) = error {
+            rows.extend(super::popup_view::error_rows(model, e, w));
         }
         let keys = |action| {
             model
@@ -448,9 +454,15 @@ impl Widget for GoToView<'_> {
                 .map(|k| k.to_string())
                 .unwrap_or_default()
         };
+        let other = match self.prompt.frame {
+            Frame::Work => " machine   ",
+            Frame::Machine => " work   ",
+        };
         rows.push(Line::from(vec![
             Span::styled(keys(Action::Submit), p.key),
             Span::styled(" go   ", p.text),
+            Span::styled(keys(Action::ToggleFrame), p.key),
+            Span::styled(other, p.text),
             Span::styled(keys(Action::Cancel), p.key),
             Span::styled(" cancel", p.text),
         ]));

@@ -1,9 +1,11 @@
 //! The position panel (DRO): every axis of the machine in its units (work
-//! position from the virtual zero, machine position from the reference
-//! point) and in steps; estimated positions (isel while moving) marked with
-//! their own symbol and style; referenced or not per axis (the jog step and
-//! speed are on the jog keypad). Columns are dropped from the right when the
-//! panel is narrow.
+//! position from the active work offset's zero, named in the title, machine
+//! position from the reference point) and in steps; estimated positions
+//! (isel while moving) marked with their own symbol and style; referenced
+//! or not per axis (the jog step and speed are on the jog keypad). On isel,
+//! the title says when stored programs count from another zero than the
+//! active offset's (`ui::jog::offsets::programs_differ`). Columns are
+//! dropped from the right when the panel is narrow.
 
 use ratatui::buffer::Buffer;
 use ratatui::layout::Rect;
@@ -109,12 +111,24 @@ impl Widget for DroView<'_> {
                 .get(*a)
                 .is_some_and(|r| r.source == PositionSource::Estimated)
         });
-        let mut extra = Vec::new();
+        let offsets = &model.offsets;
+        let name = offsets.table.active().name();
+        let mut extra = vec![if offsets.refused {
+            // The file was refused at start: `O` says why.
+            Span::styled(format!("{name}! "), p.warning)
+        } else {
+            Span::styled(format!("{name} "), p.title)
+        }];
+        let differ = crate::ui::jog::offsets::programs_differ(model);
         if any_estimated {
             extra.push(Span::styled(
                 format!("{} estimated ", sym.estimated),
                 p.estimated,
             ));
+        }
+        if !differ.is_empty() {
+            let ne = if sym.lit.is_ascii() { "!=" } else { "≠" };
+            extra.push(Span::styled(format!("programs {ne} {name} "), p.warning));
         }
         let inner = frame::panel("Position", extra, false, p, area, buf);
         if inner.height == 0 {
@@ -142,7 +156,7 @@ impl Widget for DroView<'_> {
                     (true, false) => (sym.measured, p.measured),
                 };
                 let other_style = if live { p.text } else { p.dim };
-                let zero = m.work_zero.get(*axis).unwrap_or(0);
+                let zero = offsets.table.active_zero(*axis);
                 let (work, machine, steps) = match reading {
                     Some(r) => (
                         format_units(profile, r.steps.saturating_sub(zero)),

@@ -21,6 +21,7 @@ use ratatui::layout::{Position, Rect};
 use ratatui::widgets::Widget;
 
 use super::editor;
+use super::jog::popup_view::JogPopupView;
 use super::jog::view::{AxesView, GoToView, KeypadView};
 use super::model::{Model, PanelId, Popup};
 
@@ -57,6 +58,7 @@ impl Widget for Screen<'_> {
             .render(area, buf),
             Some(Popup::GoTo(prompt)) => GoToView { model, prompt }.render(area, buf),
             Some(Popup::Axes(choice)) => AxesView { model, choice }.render(area, buf),
+            Some(Popup::Jog(popup)) => JogPopupView { model, popup }.render(area, buf),
             None => {}
         }
     }

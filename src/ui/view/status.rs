@@ -182,6 +182,14 @@ impl Widget for Hints<'_> {
                     (Mode::GoTo, Action::Submit, "go"),
                     (Mode::GoTo, Action::Cancel, "cancel"),
                 ],
+                Mode::Offsets => &[
+                    (Mode::Offsets, Action::Activate, "activate"),
+                    (Mode::Offsets, Action::Cancel, "close"),
+                ],
+                Mode::Entry => &[
+                    (Mode::Entry, Action::Submit, "ok"),
+                    (Mode::Entry, Action::Cancel, "cancel"),
+                ],
                 Mode::Axes => &[
                     (Mode::Axes, Action::AxisAll, "all axes"),
                     (Mode::Axes, Action::Cancel, "cancel"),
