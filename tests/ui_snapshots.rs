@@ -218,7 +218,7 @@ fn help_overlay() {
     use jogterm::ui::model::Popup;
     let t0 = Instant::now();
     let mut model = model_in(Protocol::Isel, "dark", State::Idle, t0);
-    let lines = help_lines(&model.keymap);
+    let lines = help_lines(&model.keymap, &model.setup.macros);
     let listing: Vec<String> = lines
         .iter()
         .map(|line| match line {

@@ -7,6 +7,7 @@ use std::time::{Duration, Instant};
 
 use crate::axis::{Axis, AxisSet};
 use crate::config::Profile;
+use crate::config::macros::Macro;
 use crate::config::profile::AxisProfile;
 use crate::device::api::{InputChannel, LinkState, MachineState, PollStats, UploadEvent};
 use crate::jog::JogSettings;
@@ -23,6 +24,7 @@ use super::jog::offsets::OffsetsState;
 use super::jog::popups::JogPopup;
 use super::keymap::{Keymap, Mode};
 use super::line_edit::LineEdit;
+use super::macros::MacroRun;
 use super::msg::Effect;
 use super::palette::Palette;
 use super::position::Positions;
@@ -55,6 +57,8 @@ pub struct Setup {
     pub simulator_inputs: Option<Vec<(String, Option<bool>)>>,
     /// Everything jogging needs from the profile (`crate::jog`).
     pub jog: JogSettings,
+    /// The profile's macros, their lines checked (`config::macros`).
+    pub macros: Vec<Macro>,
     /// The controller's inputs as the profile names them
     /// (`device::inputs::channels`).
     pub inputs: Vec<Arc<InputChannel>>,
@@ -79,6 +83,8 @@ impl Setup {
             isel_device: profile.isel.device,
             simulator_inputs,
             jog: JogSettings::from_profile(profile),
+            // Refused at load when broken: a profile here has passed.
+            macros: profile.macros().unwrap_or_default(),
             inputs: crate::device::inputs::channels::shared(profile),
         }
     }
@@ -132,6 +138,9 @@ pub struct Confirmation {
     pub title: String,
     pub question: String,
     pub effects: Vec<Effect>,
+    /// The profile's macro to run once confirmed (`ui::macros`), after
+    /// `effects`.
+    pub run_macro: Option<String>,
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -244,6 +253,8 @@ pub struct Model {
     pub dirty: bool,
     /// `Quit` has been given; the runtime is closing down.
     pub quitting: bool,
+    /// The profile's macro being run, line by line (`ui::macros`).
+    pub macro_run: Option<MacroRun>,
 }
 
 impl Model {
@@ -292,6 +303,7 @@ impl Model {
             size: (80, 24),
             dirty: true,
             quitting: false,
+            macro_run: None,
         }
     }
 

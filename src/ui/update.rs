@@ -19,6 +19,7 @@ use super::jog::{self as keypad};
 use super::key::KeyChord;
 use super::keymap::{Action, Mode};
 use super::line_edit::LineError;
+use super::macros;
 use super::model::{Confirmation, Message, Model, PanelId, Popup};
 use super::msg::{Effect, Msg};
 use super::raw;
@@ -50,8 +51,13 @@ fn dispatch(model: &mut Model, msg: Msg) -> Vec<Effect> {
             effects
         }
         Msg::Device(event) => {
-            let effects = editor_update(model, editor::Input::Device(&event));
+            let mut effects = editor_update(model, editor::Input::Device(&event));
+            let (next, notes) = macros::device_event(model, &event);
+            effects.extend(next);
             device_event(model, event);
+            for (level, text) in notes {
+                say(model, level, text);
+            }
             model.dirty = true;
             effects
         }
@@ -88,6 +94,7 @@ fn dispatch(model: &mut Model, msg: Msg) -> Vec<Effect> {
             model.quitting = true;
             model.dirty = true;
             keypad::stopped(model);
+            model.macro_run = None;
             // The last edits go to the recovery file before leaving.
             let mut effects = vec![Effect::Stop];
             effects.extend(editor_update(model, editor::Input::Terminate));
@@ -354,6 +361,14 @@ fn route(model: &mut Model, chord: KeyChord, phase: KeyPhase) -> Vec<Effect> {
     if let (Some(field), Some(c)) = (field, chord.typed_char()) {
         return type_into(model, field, c);
     }
+    if let Some(name) = model.keymap.lookup_macro(Mode::Main, &chord) {
+        let name = name.to_string();
+        let (effects, notes) = macros::key(model, &name);
+        for (level, text) in notes {
+            say(model, level, text);
+        }
+        return effects;
+    }
     match model.keymap.lookup(Mode::Main, &chord) {
         Some(action) => main_action(model, action),
         None => Vec::new(),
@@ -414,6 +429,9 @@ fn stop(model: &mut Model) -> Vec<Effect> {
         NoteLevel::Info,
         "stop: all motion stopped".to_string(),
     );
+    if let Some((level, text)) = macros::stopped(model) {
+        say(model, level, text);
+    }
     vec![Effect::Stop]
 }
 
@@ -630,12 +648,23 @@ fn ask(model: &mut Model, title: &str, question: String, effects: Vec<Effect>) {
         title: title.to_string(),
         question,
         effects,
+        run_macro: None,
     }));
 }
 
 fn popup_action(model: &mut Model, action: Action) -> Vec<Effect> {
     match (model.popup.take(), action) {
-        (Some(Popup::Confirm(c)), Action::Confirm) => c.effects,
+        (Some(Popup::Confirm(c)), Action::Confirm) => {
+            let mut effects = c.effects;
+            if let Some(name) = c.run_macro {
+                let (started, notes) = macros::start(model, &name);
+                effects.extend(started);
+                for (level, text) in notes {
+                    say(model, level, text);
+                }
+            }
+            effects
+        }
         (Some(Popup::Confirm(c)), Action::Cancel) => {
             say(model, NoteLevel::Info, format!("{}: cancelled", c.title));
             Vec::new()
@@ -675,7 +704,9 @@ fn popup_action(model: &mut Model, action: Action) -> Vec<Effect> {
         },
         (Some(Popup::Help { scroll }), scroll_action) => {
             let page = usize::from(model.size.1.saturating_sub(6)).max(1);
-            let last = help_lines(&model.keymap).len().saturating_sub(1);
+            let last = help_lines(&model.keymap, &model.setup.macros)
+                .len()
+                .saturating_sub(1);
             let scroll = match scroll_action {
                 Action::ScrollUp => scroll.saturating_sub(1),
                 Action::ScrollDown => scroll + 1,
@@ -939,6 +970,12 @@ fn console_action(model: &mut Model, action: Action) -> Vec<Effect> {
     let line = &mut model.command;
     match action {
         Action::Submit => {
+            if let Some(run) = &model.macro_run {
+                // Its answers would be taken for the macro's.
+                let text = format!("not sent: {} is running (Space stops it)", run.place());
+                say(model, NoteLevel::Warning, text);
+                return Vec::new();
+            }
             return match raw::validate(&model.raw_context(), model.command.text()) {
                 Ok(checked) => {
                     model.command.accept();
