@@ -1,7 +1,10 @@
 //! What an operator of another console expects besides work offsets (issue
 //! 16, second part), through `update()`: macros of the profile run line by
 //! line through the device task, asked first when they move, stopped by
-//! Space, ended by a refusal; their keys in `?`.
+//! Space, ended by a refusal, their keys in `?`; the named outputs popup
+//! (switched by name, asked first where hazardous); the message history
+//! (long messages whole, the message line saying more is there); snapshots
+//! at 80x24 and 160x48, in `mono16` too.
 
 // Test code: a failed unwrap, expect or panic is the run failing, with its
 // message (Cargo.toml [lints] denies them in the crate itself).
@@ -12,7 +15,10 @@ mod ui_support;
 use std::time::Instant;
 
 use jogterm::config::{ConfigDirs, Source, load_profile_with_sources};
-use jogterm::device::api::{ControllerFault, Event, Recovery, Refusal, ReplyKind, Request};
+use jogterm::device::api::{
+    ControllerFault, Event, IoSnapshot, OutputId, Recovery, Refusal, ReplyKind, Request,
+};
+use jogterm::device::common::io;
 use jogterm::device::describe::describe;
 use jogterm::proto::Protocol;
 use jogterm::ui::help::{HelpLine, help_lines};
@@ -20,7 +26,7 @@ use jogterm::ui::keymap::Keymap;
 use jogterm::ui::model::{Popup, Setup};
 use jogterm::ui::{Effect, Model, Msg, update};
 use ratatui::crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
-use ui_support::{State, model_in, send};
+use ui_support::{SIZES, State, model_in, render, send, text};
 
 fn ch(c: char) -> Msg {
     Msg::Key(KeyEvent::new(KeyCode::Char(c), KeyModifiers::NONE))
@@ -52,10 +58,25 @@ const MACROS: &str = "base = \"default\"\n\
     lines = [\"@0P\", \"@0b1\"]\n\
     [keys.main]\n\
     \"f8\" = \"macro:park\"\n\
-    \"f9\" = \"macro:where\"\n";
+    \"f9\" = \"macro:where\"\n\
+    [io.\"out0.1\"]\n\
+    name = \"coolant\"\n\
+    role = \"coolant\"\n\
+    hazardous = false\n\
+    [io.\"out0.2\"]\n\
+    name = \"clamp\"\n\
+    role = \"clamp\"\n\
+    [io.\"out0.3\"]\n\
+    name = \"vacuum table\"\n\
+    role = \"vacuum\"\n\
+    wired = false\n";
 
-/// The isel console, ready, with the macros of [`MACROS`].
+/// The isel console, ready, with the macros and outputs of [`MACROS`].
 fn ready() -> Model {
+    ready_in("dark")
+}
+
+fn ready_in(theme: &str) -> Model {
     let dir = tempfile::tempdir().unwrap();
     let file = dir.path().join("mill.toml");
     std::fs::write(&file, MACROS).unwrap();
@@ -64,13 +85,53 @@ fn ready() -> Model {
             .unwrap();
     let refs: Vec<&Source> = sources.iter().collect();
     let names: Vec<&str> = profile.macros.keys().map(String::as_str).collect();
-    let mut model = model_in(Protocol::Isel, "dark", State::Idle, Instant::now());
+    let mut model = model_in(Protocol::Isel, theme, State::Idle, Instant::now());
     model.keymap = Keymap::builtin()
         .unwrap()
         .with_overrides(&profile.keys, &names, &refs)
         .unwrap();
     model.setup.macros = Setup::from_profile(&profile, None).macros;
+    let now = model.now;
+    send(&mut model, [Event::Io(outputs(&profile, now))]);
     model
+}
+
+/// isel output port 0 as the driver reports it with the profile's wiring
+/// (`out0.1` coolant on), and the spindle port.
+fn outputs(profile: &jogterm::config::Profile, at: Instant) -> IoSnapshot {
+    let wiring = profile.wiring().unwrap();
+    let bits = (0..8)
+        .map(|n| {
+            let w = wiring.bit(&format!("out0.{n}")).unwrap();
+            let id = OutputId {
+                group: 0,
+                bit: Some(n),
+            };
+            // The manual's table: user outputs may switch any load.
+            io::wired_output(w, n == 1, id, true)
+        })
+        .collect();
+    // The spindle port (a whole port of its own, isel manual 2.2.4).
+    let spindle = wiring
+        .bits()
+        .iter()
+        .find(|b| b.name == "spindle" && !b.address.contains('.'))
+        .unwrap();
+    let spindle_id = OutputId {
+        group: 2,
+        bit: None,
+    };
+    IoSnapshot {
+        at,
+        groups: vec![
+            io::group("out 0: user outputs", Some(0x02), bits),
+            io::group(
+                format!("{}: spindle", spindle.address.replace("out", "out ")),
+                Some(0),
+                vec![io::wired_output(spindle, false, spindle_id, true)],
+            ),
+        ],
+    }
 }
 
 fn answer(line: &str) -> Event {
@@ -238,4 +299,182 @@ fn the_help_lists_the_macros_with_their_keys() {
     };
     assert_eq!(entry("park: Z up").as_deref(), Some("F8"));
     assert_eq!(entry("where (2 lines)").as_deref(), Some("F9"));
+}
+
+fn set_outputs(effects: &[Effect]) -> Vec<(OutputId, u8)> {
+    effects
+        .iter()
+        .filter_map(|e| match e {
+            Effect::Request(Request::SetOutput { output, value }) => Some((*output, *value)),
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn named_outputs_switch_by_name_and_the_hazardous_ones_ask_first() {
+    let mut model = ready();
+    update(&mut model, ch('x'));
+    assert!(matches!(model.popup, Some(Popup::Outputs { selected: 0 })));
+    let whole = text(render(&model, 80, 24).backend().buffer());
+    let screen = &whole[whole.find("Named outputs").expect("the popup")..];
+    // The wired outputs with a role, in the panel's order; the unwired
+    // vacuum table and the plain user outputs are not among them.
+    let coolant = screen.find("coolant").expect("coolant listed");
+    let clamp = screen.find("clamp").expect("clamp listed");
+    let spindle = screen.rfind("spindle").expect("spindle");
+    assert!(coolant < clamp && clamp < spindle, "{screen}");
+    assert!(!screen.contains("vacuum table"), "{screen}");
+    assert!(!screen.contains("user output"), "{screen}");
+    // Coolant: the profile says not hazardous; it is on, Enter switches it off.
+    let effects = update(&mut model, key(KeyCode::Enter));
+    assert_eq!(
+        set_outputs(&effects),
+        [(
+            OutputId {
+                group: 0,
+                bit: Some(1)
+            },
+            0
+        )]
+    );
+    assert!(matches!(model.popup, Some(Popup::Outputs { selected: 0 })));
+    // Clamp: the manual's table calls user outputs hazardous: asks first.
+    update(&mut model, key(KeyCode::Down));
+    let effects = update(&mut model, key(KeyCode::Enter));
+    assert!(set_outputs(&effects).is_empty());
+    let Some(Popup::Confirm(q)) = &model.popup else {
+        panic!("no question: {:?}", model.popup);
+    };
+    assert!(q.question.contains("Switch clamp on?"), "{}", q.question);
+    let effects = update(&mut model, ch('y'));
+    assert_eq!(
+        set_outputs(&effects),
+        [(
+            OutputId {
+                group: 0,
+                bit: Some(2)
+            },
+            1
+        )]
+    );
+    // Space still stops from the popup.
+    update(&mut model, ch('x'));
+    assert_eq!(update(&mut model, ch(' ')), [Effect::Stop]);
+}
+
+#[test]
+fn without_named_outputs_x_says_how_to_get_them() {
+    let mut model = model_in(Protocol::Isel, "dark", State::Idle, Instant::now());
+    update(&mut model, ch('x'));
+    assert!(model.popup.is_none());
+    assert!(
+        message(&model).contains("give outputs a role"),
+        "{}",
+        message(&model)
+    );
+}
+
+/// A message longer than any line: a refusal with its whole reason.
+const LONG: &str = "macro park, line 2 of 3: refused: emergency stop active: release it, \
+    then initialise (i) and reference (h); the last line was not sent, and this sentence \
+    goes on so that it is longer than even a 160 column terminal can show in its one \
+    message line: the end of it is WHOLE-AT-THE-END";
+
+fn refused_long() -> Event {
+    Event::Refused {
+        request: describe(&Request::Raw {
+            line: "@0P".to_string(),
+        }),
+        reason: Refusal::Invalid {
+            reason: LONG.to_string(),
+        },
+    }
+}
+
+#[test]
+fn long_messages_are_read_whole_in_the_history() {
+    let mut model = ready();
+    update(&mut model, key(KeyCode::F(9)));
+    update(&mut model, Msg::Device(refused_long()));
+    for (w, h) in SIZES {
+        let screen = text(render(&model, w, h).backend().buffer());
+        let line = screen.lines().nth(1).unwrap_or_default();
+        assert!(line.ends_with("[M: all]"), "{w}x{h}:\n{screen}");
+        assert!(!line.contains("WHOLE-AT-THE-END"), "{screen}");
+    }
+    update(
+        &mut model,
+        Msg::Resize {
+            width: 80,
+            height: 24,
+        },
+    );
+    update(&mut model, ch('M'));
+    let screen = text(render(&model, 80, 24).backend().buffer());
+    assert!(screen.contains("WHOLE-AT-THE-END"), "{screen}");
+    // Older messages above: scroll back to the first, then to the newest.
+    update(&mut model, key(KeyCode::Esc));
+    for i in 0..30 {
+        update(&mut model, key(KeyCode::F(9)));
+        update(&mut model, ch(' '));
+        assert!(model.history.len() > i);
+    }
+    update(&mut model, Msg::Device(refused_long()));
+    update(&mut model, ch('M'));
+    update(&mut model, key(KeyCode::Home));
+    let screen = text(render(&model, 80, 24).backend().buffer());
+    assert!(screen.contains("lines back"), "{screen}");
+    let first = model.history.iter().next().unwrap().text.clone();
+    assert!(
+        screen.contains(&first[..first.len().min(30)]),
+        "{first}\n{screen}"
+    );
+    update(&mut model, key(KeyCode::End));
+    let screen = text(render(&model, 80, 24).backend().buffer());
+    assert!(screen.contains("WHOLE-AT-THE-END"), "{screen}");
+    update(&mut model, key(KeyCode::Esc));
+    assert!(model.popup.is_none());
+}
+
+#[test]
+fn snapshots_of_outputs_and_the_message_history() {
+    for theme in ["dark", "mono16"] {
+        let mut model = ready_in(theme);
+        update(&mut model, ch('x'));
+        for (w, h) in SIZES {
+            insta::assert_snapshot!(
+                format!("operator_outputs_{theme}_{w}x{h}"),
+                render(&model, w, h).backend()
+            );
+        }
+        update(&mut model, key(KeyCode::Esc));
+        let refused = Event::Refused {
+            request: "raw @0P".to_string(),
+            reason: Refusal::Invalid {
+                reason: LONG.to_string(),
+            },
+        };
+        update(&mut model, Msg::Device(refused));
+        for (w, h) in SIZES {
+            insta::assert_snapshot!(
+                format!("operator_message_cut_{theme}_{w}x{h}"),
+                render(&model, w, h).backend()
+            );
+        }
+        update(&mut model, ch('M'));
+        for (w, h) in SIZES {
+            update(
+                &mut model,
+                Msg::Resize {
+                    width: w,
+                    height: h,
+                },
+            );
+            insta::assert_snapshot!(
+                format!("operator_messages_{theme}_{w}x{h}"),
+                render(&model, w, h).backend()
+            );
+        }
+    }
 }

@@ -298,7 +298,10 @@ fn help_lists_every_key_of_every_mode() {
     }
     for line in &lines {
         if let HelpLine::Entry { description, .. } = line {
-            assert!(seen.contains(description.as_ref()), "{description} never shown");
+            assert!(
+                seen.contains(description.as_ref()),
+                "{description} never shown"
+            );
         }
     }
     // Esc closes the help without stopping anything.

@@ -106,6 +106,10 @@ named_enum! {
         Entry = "entry", "Set position, jog step and speed (other characters are typed)";
         /// The port timeline is shown.
         Timeline = "timeline", "Port timeline (shown)";
+        /// The named outputs (spindle, coolant, clamp …) popup.
+        Outputs = "outputs", "Named outputs";
+        /// The message history is shown.
+        Messages = "messages", "Message history";
     }
 }
 
@@ -234,6 +238,12 @@ named_enum! {
         TimeLive = "live", "timeline: follow the newest readings";
         ZoomIn = "zoom-in", "timeline: fewer milliseconds per column";
         ZoomOut = "zoom-out", "timeline: more milliseconds per column";
+        // Operator screen (issue 16): named outputs, message history, large DRO.
+        Outputs = "outputs", "switch the named outputs (spindle, coolant, clamp …)";
+        Messages = "messages", "message history: every message whole, with scrollback";
+        LargeDro = "large-dro", "large position display (readable from across the workshop)";
+        ScrollTop = "scroll-top", "to the oldest";
+        ScrollBottom = "scroll-bottom", "to the newest";
     }
 }
 

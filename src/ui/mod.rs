@@ -27,6 +27,7 @@ pub mod key;
 pub mod keymap;
 pub mod line_edit;
 pub mod macros;
+pub mod messages;
 pub mod model;
 pub mod msg;
 pub mod palette;

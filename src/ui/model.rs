@@ -25,6 +25,7 @@ use super::jog::popups::JogPopup;
 use super::keymap::{Keymap, Mode};
 use super::line_edit::LineEdit;
 use super::macros::MacroRun;
+use super::messages::MessageHistory;
 use super::msg::Effect;
 use super::palette::Palette;
 use super::position::Positions;
@@ -157,6 +158,16 @@ pub enum Popup {
     Axes(AxisChoice),
     /// The keypad's work offsets, set position, typed step and speed.
     Jog(JogPopup),
+    /// The named outputs (spindle, coolant …); `selected` indexes
+    /// `IoPanel::named_outputs`.
+    Outputs {
+        selected: usize,
+    },
+    /// The message history; `back` is how many lines it is scrolled back
+    /// from the newest.
+    Messages {
+        back: usize,
+    },
 }
 
 impl Popup {
@@ -168,6 +179,8 @@ impl Popup {
             Popup::GoTo(_) => Mode::GoTo,
             Popup::Axes(_) => Mode::Axes,
             Popup::Jog(p) => p.mode(),
+            Popup::Outputs { .. } => Mode::Outputs,
+            Popup::Messages { .. } => Mode::Messages,
         }
     }
 }
@@ -255,6 +268,10 @@ pub struct Model {
     pub quitting: bool,
     /// The profile's macro being run, line by line (`ui::macros`).
     pub macro_run: Option<MacroRun>,
+    /// Every message of the session, newest last (`M` shows them whole).
+    pub history: MessageHistory,
+    /// The machine screen shows the large position display (`D`).
+    pub large_dro: bool,
 }
 
 impl Model {
@@ -304,6 +321,8 @@ impl Model {
             dirty: true,
             quitting: false,
             macro_run: None,
+            history: MessageHistory::default(),
+            large_dro: false,
         }
     }
 

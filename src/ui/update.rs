@@ -442,6 +442,28 @@ fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
     }
     match action {
         Action::Stop => stop(model),
+        Action::Outputs => {
+            if model.io.named_outputs().is_empty() {
+                say(
+                    model,
+                    NoteLevel::Info,
+                    "no named outputs: give outputs a role in the profile's [io] (spindle, \
+                     coolant, clamp, vacuum, lamp; docs/profiles.md)"
+                        .to_string(),
+                );
+            } else {
+                model.popup = Some(Popup::Outputs { selected: 0 });
+            }
+            Vec::new()
+        }
+        Action::Messages => {
+            model.popup = Some(Popup::Messages { back: 0 });
+            Vec::new()
+        }
+        Action::LargeDro => {
+            model.large_dro = !model.large_dro;
+            Vec::new()
+        }
         Action::Quit => {
             // Unsaved edits ask first.
             let held = editor_outcome(model, editor::Input::Quit);
@@ -702,6 +724,11 @@ fn popup_action(model: &mut Model, action: Action) -> Vec<Effect> {
                 Vec::new()
             }
         },
+        (Some(Popup::Outputs { selected }), action) => outputs_action(model, selected, action),
+        (Some(Popup::Messages { back }), action) => {
+            model.popup = messages_scroll(model, back, action).map(|back| Popup::Messages { back });
+            Vec::new()
+        }
         (Some(Popup::Help { scroll }), scroll_action) => {
             let page = usize::from(model.size.1.saturating_sub(6)).max(1);
             let last = help_lines(&model.keymap, &model.setup.macros)
@@ -724,6 +751,65 @@ fn popup_action(model: &mut Model, action: Action) -> Vec<Effect> {
             Vec::new()
         }
     }
+}
+
+/// The named outputs popup: choose one, Enter switches it (through the
+/// same toggle as the I/O panel's, asked first when hazardous); the popup
+/// stays open for the next unless a question took its place.
+fn outputs_action(model: &mut Model, selected: usize, action: Action) -> Vec<Effect> {
+    let entries = model.io.named_outputs();
+    let last = entries.len().saturating_sub(1);
+    let selected = selected.min(last);
+    let keep = |model: &mut Model, selected| model.popup = Some(Popup::Outputs { selected });
+    match action {
+        Action::Close => Vec::new(),
+        Action::SelectPrev => {
+            keep(model, selected.saturating_sub(1));
+            Vec::new()
+        }
+        Action::SelectNext => {
+            keep(model, (selected + 1).min(last));
+            Vec::new()
+        }
+        Action::ToggleOutput => {
+            let toggle = entries
+                .get(selected)
+                .ok_or_else(|| "no named outputs yet".to_string())
+                .and_then(|s| model.io.toggle_at(*s));
+            match toggle {
+                Ok(t) => {
+                    keep(model, selected);
+                    toggle_output(model, t)
+                }
+                Err(reason) => {
+                    keep(model, selected);
+                    say(model, NoteLevel::Warning, reason);
+                    Vec::new()
+                }
+            }
+        }
+        _ => {
+            keep(model, selected);
+            Vec::new()
+        }
+    }
+}
+
+/// The message history scrolled by `action`, `None` to close it.
+fn messages_scroll(model: &Model, back: usize, action: Action) -> Option<usize> {
+    let page = usize::from(model.size.1.saturating_sub(8)).max(1);
+    let oldest = super::view::messages::max_back(model);
+    let back = match action {
+        Action::Close => return None,
+        Action::ScrollUp => back + 1,
+        Action::ScrollDown => back.saturating_sub(1),
+        Action::PageUp => back + page,
+        Action::PageDown => back.saturating_sub(page),
+        Action::ScrollTop => oldest,
+        Action::ScrollBottom => 0,
+        _ => back,
+    };
+    Some(back.min(oldest))
 }
 
 /// A typed go-to prompt: editing keys, Enter checks and goes, Esc cancels.
@@ -1227,9 +1313,11 @@ fn said(model: &mut Model, (effects, notes): keypad::popups::Outcome) -> Vec<Eff
 /// Show a message in the message line and keep it in the console.
 pub(crate) fn say(model: &mut Model, level: NoteLevel, text: String) {
     model.traffic.note(LineKind::Note(level), text.clone());
-    model.message = Some(Message {
+    let message = Message {
         at: model.now,
         level,
         text,
-    });
+    };
+    model.history.push(message.clone());
+    model.message = Some(message);
 }

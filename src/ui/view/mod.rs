@@ -11,6 +11,8 @@ pub mod flow;
 pub mod frame;
 pub mod io;
 pub mod layout;
+pub mod messages;
+pub mod outputs;
 pub mod popup;
 pub mod sim;
 pub mod status;
@@ -59,6 +61,14 @@ impl Widget for Screen<'_> {
             Some(Popup::GoTo(prompt)) => GoToView { model, prompt }.render(area, buf),
             Some(Popup::Axes(choice)) => AxesView { model, choice }.render(area, buf),
             Some(Popup::Jog(popup)) => JogPopupView { model, popup }.render(area, buf),
+            Some(Popup::Outputs { selected }) => outputs::OutputsView {
+                model,
+                selected: *selected,
+            }
+            .render(area, buf),
+            Some(Popup::Messages { back }) => {
+                messages::MessagesView { model, back: *back }.render(area, buf)
+            }
             None => {}
         }
     }
