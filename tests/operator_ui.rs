@@ -478,3 +478,92 @@ fn snapshots_of_outputs_and_the_message_history() {
         }
     }
 }
+
+fn rows_of(screen: &str, needle: &str) -> usize {
+    screen.lines().filter(|l| l.contains(needle)).count()
+}
+
+#[test]
+fn the_large_position_display_is_readable_and_the_keys_still_work() {
+    for theme in ["dark", "mono16"] {
+        let mut model = ready_in(theme);
+        update(&mut model, ch('D'));
+        assert!(model.large_dro);
+        let ink = if theme == "mono16" {
+            "###"
+        } else {
+            "███"
+        };
+        for (w, h) in SIZES {
+            let screen = text(render(&model, w, h).backend().buffer());
+            assert!(rows_of(&screen, ink) >= 9, "{theme} {w}x{h}:\n{screen}");
+            assert!(!screen.contains("Traffic"), "{screen}");
+            assert!(screen.contains("machine 112.345"), "{screen}");
+            insta::assert_snapshot!(
+                format!("operator_large_dro_{theme}_{w}x{h}"),
+                render(&model, w, h).backend()
+            );
+        }
+        // The keypad jogs from here; Space stops.
+        let effects = update(&mut model, key(KeyCode::Right));
+        assert!(
+            effects
+                .iter()
+                .any(|e| matches!(e, Effect::Request(Request::Step { .. }))),
+            "{effects:?}"
+        );
+        assert_eq!(update(&mut model, ch(' ')), [Effect::Stop]);
+        // Tab finds no hidden panel; `:` leaves for the command line.
+        update(&mut model, key(KeyCode::Tab));
+        assert_eq!(model.focus, jogterm::ui::model::PanelId::Jog);
+        update(&mut model, ch(':'));
+        assert!(!model.large_dro);
+        update(&mut model, key(KeyCode::Tab));
+        update(&mut model, ch('D'));
+        update(&mut model, ch('D'));
+        assert!(!model.large_dro);
+    }
+}
+
+#[test]
+fn the_program_screen_keeps_the_position_in_sight() {
+    for theme in ["dark", "mono16"] {
+        let mut model = ready_in(theme);
+        update(&mut model, ch('e'));
+        for (w, h) in SIZES {
+            let screen = text(render(&model, w, h).backend().buffer());
+            let line = screen.lines().nth(2).unwrap_or_default();
+            assert!(line.contains("Position G54"), "{screen}");
+            assert!(
+                line.contains("102.345") && line.contains("-0.003"),
+                "{line}"
+            );
+            // The machine's state stays in the status bar.
+            assert!(screen.lines().next().unwrap().contains("READY"));
+            insta::assert_snapshot!(
+                format!("operator_program_screen_{theme}_{w}x{h}"),
+                render(&model, w, h).backend()
+            );
+        }
+    }
+}
+
+#[test]
+fn at_160x48_the_room_goes_to_what_the_operator_watches() {
+    let model = ready();
+    let screen = text(render(&model, 160, 48).backend().buffer());
+    let lines: Vec<&str> = screen.lines().collect();
+    let traffic = lines
+        .iter()
+        .position(|l| l.contains(" Traffic"))
+        .expect("the traffic console");
+    // The console: a few lines at the bottom, not half the screen.
+    assert!(lines.len() - traffic <= 12, "{screen}");
+    // The position in large digits, the toolpath preview beside.
+    assert!(rows_of(&screen, "███") >= 9, "{screen}");
+    assert!(screen.contains("machine 112.345"), "{screen}");
+    assert!(
+        screen.contains("Toolpath"),
+        "the toolpath preview:\n{screen}"
+    );
+}

@@ -343,6 +343,10 @@ impl Model {
     /// takes every printable key, so it is entered deliberately with `:`
     /// (and Tab leaves it), never reached by cycling past it.
     pub fn focus_ring(&self) -> Vec<PanelId> {
+        // The large position display shows no other panel.
+        if self.large_dro {
+            return vec![PanelId::Jog];
+        }
         let mut ring = vec![PanelId::Jog, PanelId::Io];
         if self.sim.is_some() {
             ring.push(PanelId::Sim);

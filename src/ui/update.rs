@@ -462,6 +462,13 @@ fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
         }
         Action::LargeDro => {
             model.large_dro = !model.large_dro;
+            // The panels it hides cannot keep the focus: keys must not
+            // switch outputs or type commands nobody sees.
+            if model.large_dro
+                && matches!(model.focus, PanelId::Io | PanelId::Console | PanelId::Sim)
+            {
+                model.focus = PanelId::Jog;
+            }
             Vec::new()
         }
         Action::Quit => {
@@ -571,6 +578,8 @@ fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
             Vec::new()
         }
         Action::FocusConsole => {
+            // The command line is typed where it can be seen.
+            model.large_dro = false;
             if model.focus != PanelId::Console {
                 model.before_console = model.focus;
             }
