@@ -8,13 +8,12 @@
 // message (Cargo.toml [lints] denies them in the crate itself).
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
+mod console_pty;
 mod sim_process;
 mod ui_pty;
 
-use std::path::Path;
-
-use sim_process::{JOGTERM, SimProcess, WAIT};
-use ui_pty::PtyRun;
+use console_pty::{quit, reference, spawn, wait_for};
+use sim_process::SimProcess;
 
 /// F8 runs `park` (a short move and a read-back), F9 `long` (a 100 mm
 /// move at 900 Hz, some 45 s, then a move to a place nothing else uses).
@@ -34,43 +33,6 @@ const PROFILE: (&str, &str) = (
 
 const F8: &[u8] = b"\x1b[19~";
 const F9: &[u8] = b"\x1b[20~";
-
-fn spawn(sim: &SimProcess, state: &Path) -> PtyRun {
-    let env = [
-        ("JOGTERM_NO_KEYBOARD_QUERY", "1".to_string()),
-        ("JOGTERM_CONFIG_DIR", sim.dir.path().display().to_string()),
-        ("JOGTERM_STATE_DIR", state.display().to_string()),
-        ("RUST_BACKTRACE", "0".to_string()),
-    ];
-    let env: Vec<(&str, &str)> = env.iter().map(|(k, v)| (*k, v.as_str())).collect();
-    let link = sim.link.display().to_string();
-    PtyRun::spawn_sized(Path::new(JOGTERM), &["--port", &link], &env, 40, 200)
-}
-
-fn wait_for(run: &PtyRun, needle: &str) -> String {
-    run.wait_for(needle, WAIT)
-        .unwrap_or_else(|screen| panic!("`{needle}` never appeared:\n{screen}"))
-}
-
-fn reference(run: &mut PtyRun) {
-    wait_for(run, "connected");
-    run.type_keys(&[b"i"]);
-    wait_for(run, "NOT REF");
-    run.type_keys(&[b"h"]);
-    wait_for(run, "Reference run");
-    run.type_keys(&[b"y"]);
-    wait_for(run, "READY");
-}
-
-fn quit(run: &mut PtyRun) {
-    run.type_keys(&[b"q"]);
-    assert_eq!(
-        run.wait_exit(WAIT),
-        Some(0),
-        "{}",
-        run.screen().screen().contents()
-    );
-}
 
 #[test]
 fn a_macro_asks_first_and_its_lines_go_out_one_after_the_other() {

@@ -567,3 +567,27 @@ fn at_160x48_the_room_goes_to_what_the_operator_watches() {
         "the toolpath preview:\n{screen}"
     );
 }
+
+#[test]
+fn snapshots_of_a_macro_question_and_the_help() {
+    let mut model = ready();
+    update(&mut model, key(KeyCode::F(8)));
+    for (w, h) in SIZES {
+        insta::assert_snapshot!(
+            format!("operator_macro_question_{w}x{h}"),
+            render(&model, w, h).backend()
+        );
+    }
+    update(&mut model, ch('n'));
+    update(&mut model, ch('?'));
+    // The end of the help: the macros with their keys.
+    for _ in 0..400 {
+        update(&mut model, key(KeyCode::Down));
+    }
+    for (w, h) in SIZES {
+        insta::assert_snapshot!(
+            format!("operator_help_macros_{w}x{h}"),
+            render(&model, w, h).backend()
+        );
+    }
+}

@@ -330,6 +330,10 @@ fn the_rewired_example_profile_says_what_its_machine_has() {
         ]
     );
     assert_eq!(w.bit("out0.1").map(|b| b.name.as_str()), Some("coolant"));
+    assert_eq!(
+        w.bit("out0.1").map(|b| b.role),
+        Some(crate::wiring::Role::Coolant)
+    );
 }
 
 #[test]
