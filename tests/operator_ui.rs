@@ -591,3 +591,24 @@ fn snapshots_of_a_macro_question_and_the_help() {
         );
     }
 }
+
+#[test]
+fn a_line_answered_while_the_machine_still_runs_waits_for_it_to_stand() {
+    let mut model = ready();
+    update(&mut model, key(KeyCode::F(8)));
+    update(&mut model, ch('y'));
+    update(&mut model, Msg::Device(answer("@0P")));
+    // The move runs; its answer comes before the state says it stands
+    // (an EMCU batch runs on after its acknowledgement).
+    let mut moving = model.machine.clone();
+    moving.activity = jogterm::device::api::Activity::Moving;
+    send(&mut model, [Event::State(moving.clone())]);
+    let effects = update(&mut model, Msg::Device(answer(PARK)));
+    assert!(raws(&effects).is_empty(), "{effects:?}");
+    let effects = update(&mut model, Msg::Device(Event::State(moving.clone())));
+    assert!(raws(&effects).is_empty(), "{effects:?}");
+    let mut idle = moving;
+    idle.activity = jogterm::device::api::Activity::Idle;
+    let effects = update(&mut model, Msg::Device(Event::State(idle)));
+    assert_eq!(raws(&effects), ["@0P"]);
+}

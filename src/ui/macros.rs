@@ -21,6 +21,10 @@ pub struct MacroRun {
     pub lines: Vec<String>,
     /// The line sent last (index into `lines`), whose answer is awaited.
     pub current: usize,
+    /// Its answer came while the machine was still busy (an EMCU batch
+    /// runs on after its acknowledgement): the next line waits for the
+    /// machine to stand, or the device task would refuse it as busy.
+    pub answered: bool,
 }
 
 impl MacroRun {
@@ -128,6 +132,7 @@ pub fn start(model: &mut Model, name: &str) -> (Vec<Effect>, Vec<(NoteLevel, Str
         name: m.name,
         lines: m.lines,
         current: 0,
+        answered: false,
     };
     let note = (NoteLevel::Info, format!("{}: {}", run.place(), run.line()));
     let effect = Effect::Request(Request::Raw {
@@ -138,7 +143,8 @@ pub fn start(model: &mut Model, name: &str) -> (Vec<Effect>, Vec<(NoteLevel, Str
 }
 
 /// A device event while a macro runs: the answer to its line sends the
-/// next; a refusal, an error or a lost link ends it.
+/// next (once the machine stands); a refusal, an error or a lost link ends
+/// it.
 pub fn device_event(model: &mut Model, event: &Event) -> (Vec<Effect>, Vec<(NoteLevel, String)>) {
     let Some(run) = model.macro_run.as_mut() else {
         return (Vec::new(), Vec::new());
@@ -155,22 +161,31 @@ pub fn device_event(model: &mut Model, event: &Event) -> (Vec<Effect>, Vec<(Note
         };
         (NoteLevel::Danger, format!("{}: {why}{rest}", run.place()))
     };
-    match event {
+    let next = match event {
         Event::Reply {
             kind: ReplyKind::Answer,
             ..
-        } => {
-            if run.current + 1 < run.lines.len() {
-                run.current += 1;
-                let line = run.line().to_string();
-                let note = (NoteLevel::Info, format!("{}: {line}", run.place()));
-                (vec![Effect::Request(Request::Raw { line })], vec![note])
-            } else {
-                let done = format!("macro {} done ({} lines)", run.name, run.lines.len());
-                model.macro_run = None;
-                (Vec::new(), vec![(NoteLevel::Info, done)])
-            }
+        } if !run.answered => {
+            run.answered = true;
+            model.machine.activity == Activity::Idle
         }
+        Event::State(state) => run.answered && state.activity == Activity::Idle,
+        _ => false,
+    };
+    if next {
+        return if run.current + 1 < run.lines.len() {
+            run.current += 1;
+            run.answered = false;
+            let line = run.line().to_string();
+            let note = (NoteLevel::Info, format!("{}: {line}", run.place()));
+            (vec![Effect::Request(Request::Raw { line })], vec![note])
+        } else {
+            let done = format!("macro {} done ({} lines)", run.name, run.lines.len());
+            model.macro_run = None;
+            (Vec::new(), vec![(NoteLevel::Info, done)])
+        };
+    }
+    match event {
         Event::Refused { request, reason } if *request == sent => {
             let note = ended(run, format!("refused: {reason}"));
             model.macro_run = None;
