@@ -136,6 +136,12 @@ pub struct Context {
     /// 2.2.24) and its `@0T0` has not been answered: the next read-back
     /// sends `@0T0` first (`limit_op`).
     pub test_mode_left_on: bool,
+    /// The controller was out of sight (a new link): test mode (`@0T1`)
+    /// cannot be read back, and another program or a jogterm that died
+    /// mid jog off a limit switch may have left it on; a controller in test
+    /// mode takes a reference run for "set the reference here" (2.2.24).
+    /// The read-back sends `@0T0` first unless the profile allows test mode.
+    pub test_mode_unknown: bool,
 }
 
 impl Sink for Context {
@@ -166,6 +172,7 @@ impl Context {
             p_offset: PerAxis::new(),
             zero_check: None,
             test_mode_left_on: false,
+            test_mode_unknown: false,
         }
     }
 
@@ -637,6 +644,7 @@ impl Context {
         self.state.referenced = AxisSet::EMPTY;
         self.state.test_mode = false;
         self.test_mode_left_on = false;
+        self.test_mode_unknown = false;
         self.three_d = false;
         self.ramp = RampParams::CONTROLLER_DEFAULT;
         self.reference_hz = self.settings.reference_speed_hz;
