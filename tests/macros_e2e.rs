@@ -17,6 +17,9 @@ use sim_process::SimProcess;
 
 /// F8 runs `park` (a short move and a read-back), F9 `long` (a 100 mm
 /// move at 900 Hz, some 45 s, then a move to a place nothing else uses).
+/// A third test: a macro refused before anything is sent (no axes yet,
+/// and after an E-stop), as a typed command would be (the device task's
+/// own refusals: `tests/operator_ui.rs`).
 const PROFILE: (&str, &str) = (
     "profiles/default.toml",
     "base = \"default\"\n\
@@ -93,6 +96,35 @@ fn space_stops_a_macro_and_its_next_line_never_goes_out() {
         !received[before..].contains("1234,900"),
         "the line after the stopped one went out:\n{}",
         &received[before..]
+    );
+    quit(&mut run);
+}
+
+#[test]
+fn a_macro_meets_the_refusals_of_a_typed_command() {
+    let mut sim = SimProcess::start_with_files("isel", &[PROFILE]);
+    let state = tempfile::tempdir().expect("state dir");
+    let mut run = spawn(&sim, state.path());
+    // Connected, no axes initialised: the command line's own check refuses
+    // the move before anything is asked or sent.
+    wait_for(&run, "connected");
+    run.type_keys(&[F9]);
+    let screen = wait_for(&run, "macro long not started: line 1");
+    assert!(screen.contains("no axes are initialised"), "{screen}");
+    // Ready, then the emergency stop trips: the controller forgets its
+    // axes, and the macro is refused as a typed move would be, saying why.
+    reference(&mut run);
+    sim.control("set estop1 open; set estop2 open");
+    wait_for(&run, "E-STOP");
+    run.type_keys(&[F8]);
+    let screen = wait_for(&run, "macro park not started: line 1");
+    assert!(!screen.contains("Run macro park"), "{screen}");
+    let received = sim.received();
+    assert!(
+        !received.contains("40000,900")
+            && !received.contains("1234,900")
+            && !received.contains("4000,2000"),
+        "a refused macro line went out:\n{received}"
     );
     quit(&mut run);
 }
