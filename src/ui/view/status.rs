@@ -226,6 +226,10 @@ impl Widget for Hints<'_> {
                     (Mode::Main, Action::Initialise, "init"),
                     (Mode::Main, Action::Home, "home"),
                     (Mode::Main, Action::Quit, "quit"),
+                    // Shown where the line has room (wide terminals).
+                    (Mode::Main, Action::LargeDro, "large DRO"),
+                    (Mode::Main, Action::Outputs, "outputs"),
+                    (Mode::Main, Action::Messages, "messages"),
                 ],
                 Mode::Console => &[
                     (Mode::Console, Action::Submit, "send"),
