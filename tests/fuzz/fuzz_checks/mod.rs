@@ -1,6 +1,6 @@
 //! The properties every fuzz input is checked against, one function per
 //! target, each taking the raw input bytes. Two engines drive them: the
-//! proptest suites `tests/fuzz_*.rs` (stable, in `cargo test` and CI) and the
+//! proptest suites `tests/fuzz/` (stable, in `cargo test` and CI) and the
 //! cargo-fuzz targets in `fuzz/` (nightly, coverage-guided), which include
 //! this directory by path. A property that fails panics with what it saw, so
 //! a crash found by either engine is reproduced by calling the same function
@@ -11,8 +11,6 @@
 //! loop; what it buffers is bounded by a constant of the protocol, so no input
 //! grows its memory; decoding does not depend on how the bytes were split;
 //! what decodes re-encodes to bytes that decode to the same value.
-#![allow(dead_code)]
-
 pub mod config;
 pub mod emcu;
 pub mod emp;

@@ -1,16 +1,7 @@
 //! EMCU: reply decoder and the interface's side (command framer and parser).
-//!
-//! Proptest engine of the fuzz suite (`docs/fuzzing.md`): inputs from
-//! `tests/fuzz_inputs`, properties from `tests/fuzz_checks` (the same ones the
-//! cargo-fuzz targets in `fuzz/` check). `JOGTERM_FUZZ_CASES` sets the number
-//! of cases.
 
-// Test code: a failed unwrap, expect or panic is the test failing, with its
-// message (Cargo.toml [lints] denies them in the crate itself).
-#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
-
-mod fuzz_checks;
-mod fuzz_inputs;
+use crate::fuzz_checks;
+use crate::fuzz_inputs;
 
 use proptest::prelude::*;
 

@@ -5,8 +5,6 @@
 //!
 //! Cases per suite: `JOGTERM_FUZZ_CASES` (`.ci/run` sets a large count),
 //! else [`DEFAULT_CASES`], few enough for a quick `cargo test`.
-#![allow(dead_code)]
-
 use std::path::PathBuf;
 
 use proptest::collection::vec;
