@@ -170,7 +170,7 @@ fn a_hang_up_writes_the_last_edits_before_leaving() {
 }
 
 /// A loop and a branch; referenced, the path ends at X 3200, Y 1800, Z 400
-/// steps (`tests/cli_upload.rs` checks the same against `program::path`).
+/// steps (`tests/e2e/cli_upload.rs` checks the same against `program::path`).
 const LOOP_AND_BRANCH: &str = "\
 ; a loop and a branch
 j300

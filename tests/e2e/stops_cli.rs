@@ -25,7 +25,7 @@ const ISEL_LONG_MOVE: &str = "@0M60000,4000,0,4000,0,4000,0,4000";
 const ISEL_READY: [&str; 2] = ["@07", "@0N7"];
 
 /// EMCU: reset, start speed and ramp, a fast reference run (as
-/// `tests/cli_send_poll_emcu.rs`), then a move of 20 s at 2 kHz.
+/// `tests/e2e/cli_send_poll_emcu.rs`), then a move of 20 s at 2 kHz.
 const EMCU_LONG_MOVE: [&str; 6] = [
     "@R",
     "#S2000",

@@ -3,7 +3,7 @@
 //! stops first), a hang-up (the pty master closed: SIGHUP) during a
 //! continuous jog, SIGTERM during a go-to move, on the EMCU and EMP
 //! consoles against the real `jogterm sim --pty` (isel has these in
-//! `tests/jog_terminal.rs` and `tests/faults.rs`); and a program the isel
+//! `tests/e2e/jog_terminal.rs` and `tests/e2e/faults.rs`); and a program the isel
 //! simulator's start key runs, stopped with Space. Each test shows the stop
 //! reached the controller (its own record), the axis stands (read twice,
 //! unchanged) within the overrun bound, nothing resumes, and the exit.

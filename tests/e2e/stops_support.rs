@@ -1,4 +1,4 @@
-//! What the stop tests (`tests/stops_cli.rs`, `tests/stops_console.rs`)
+//! What the stop tests (`tests/e2e/stops_cli.rs`, `tests/e2e/stops_console.rs`)
 //! share: signals to a child, bounded waits for it, and the simulator's
 //! state line read per family (moving or not, the X position), so "the axis
 //! stands" is the same check everywhere.
