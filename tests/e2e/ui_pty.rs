@@ -67,8 +67,18 @@ impl PtyRun {
         // can let go of it when the test hangs up (every master fd must be
         // closed for the kernel to hang the terminal up).
         let fd = pty.master.as_raw_fd().expect("master fd");
+        // Closed on exec: a process another test thread spawns (they share
+        // this binary) must not inherit it, or it would hold the terminal
+        // open after `close_master` and the hang-up would never come.
         // SAFETY: dup of an open fd; the File owns the copy.
-        let mut file = unsafe { File::from_raw_fd(libc::dup(fd)) };
+        let copy = unsafe { libc::fcntl(fd, libc::F_DUPFD_CLOEXEC, 0) };
+        assert!(
+            copy >= 0,
+            "dup the pty master: {}",
+            std::io::Error::last_os_error()
+        );
+        // SAFETY: `copy` is a fresh descriptor nobody else owns.
+        let mut file = unsafe { File::from_raw_fd(copy) };
         let writer = pty.master.take_writer().expect("writer");
         let output = Arc::new(Mutex::new(Vec::new()));
         let stop_reading = Arc::new(AtomicBool::new(false));
