@@ -22,14 +22,16 @@
 // message (Cargo.toml [lints] denies these in the crate itself).
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
-#[path = "../tests/jog_support/mod.rs"]
+// The jog wire tests' rig; the bench uses part of it.
+#[allow(dead_code)]
+#[path = "../tests/e2e/jog_support.rs"]
 mod jog_support;
 
 mod jog_family;
 
 use std::time::{Duration, Instant};
 
-use jog_support::{WireRig, first_break, first_move, ms, percentile};
+use jog_support::{WireRig, first_break, first_move, ms};
 use jogterm::axis::Axis;
 use jogterm::device::api::{Dir, Request};
 use jogterm::device::isel::PollRate;
@@ -51,8 +53,53 @@ async fn sleep_until(t: Instant) {
     tokio::time::sleep_until(tokio::time::Instant::from_std(t)).await;
 }
 
+/// Move X to `units` (machine coordinates), so jogs both ways stay
+/// inside the soft limits; returns once the controller is there.
+async fn park_x(rig: &mut WireRig, units: f64) {
+    let spu = rig.steps_per_unit(Axis::X);
+    let target = (units * spu).round() as i64;
+    rig.request(Request::MoveTo {
+        target: jogterm::device::api::PerAxis::new().with(Axis::X, target),
+        frame: jogterm::device::api::Frame::Machine,
+        speed_hz: rig.settings.speeds_hz(&[(Axis::X, Dir::Plus)], 50.0),
+    });
+    let deadline = Instant::now() + Duration::from_secs(30);
+    while (rig.counters()[0] - target as f64).abs() > 0.5
+        || rig.machine.activity != jogterm::device::api::Activity::Idle
+    {
+        assert!(
+            Instant::now() < deadline,
+            "never parked: {:?}",
+            rig.counters()
+        );
+        rig.run_for(Duration::from_millis(20)).await;
+    }
+}
+
+/// Wait until the keypad's jog has ended and the axis stands.
 async fn settle(rig: &mut WireRig) {
-    rig.settle().await;
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while rig.jogger.active().is_some()
+        || rig.machine.activity != jogterm::device::api::Activity::Idle
+    {
+        assert!(
+            Instant::now() < deadline,
+            "the jog never ended: {:?}",
+            rig.machine
+        );
+        rig.run_for(Duration::from_millis(10)).await;
+    }
+    rig.run_for(Duration::from_millis(100)).await;
+}
+
+/// The `p`th percentile (0..=100) of `values` (sorted here).
+fn percentile(values: &mut [f64], p: f64) -> f64 {
+    if values.is_empty() {
+        return f64::NAN;
+    }
+    values.sort_by(f64::total_cmp);
+    let i = ((p / 100.0) * (values.len() - 1) as f64).round() as usize;
+    values[i.min(values.len() - 1)]
 }
 
 struct Row {
@@ -80,7 +127,7 @@ async fn release_trials(rate: PollRate, what: &'static str) -> (Row, Option<Row>
     let mut rig = WireRig::start(rate, JogKind::Continuous);
     rig.jogger.set_releases(true);
     rig.ready().await;
-    rig.park_x(100.0).await;
+    park_x(&mut rig, 100.0).await;
     let speed = rig.top_speed();
     let mut press = Vec::new();
     let mut release = Vec::new();
@@ -127,7 +174,7 @@ async fn release_trials(rate: PollRate, what: &'static str) -> (Row, Option<Row>
 async fn dead_man_trials() -> (Row, Row, f64) {
     let mut rig = WireRig::start(PollRate::Off, JogKind::Continuous);
     rig.ready().await;
-    rig.park_x(100.0).await;
+    park_x(&mut rig, 100.0).await;
     let speed = rig.top_speed();
     let spu = rig.steps_per_unit(Axis::X);
     let timeout = rig.settings.repeat_timeout;
@@ -180,7 +227,7 @@ async fn dead_man_trials() -> (Row, Row, f64) {
 async fn step_hold() -> Row {
     let mut rig = WireRig::start(PollRate::Off, JogKind::Step);
     rig.ready().await;
-    rig.park_x(100.0).await;
+    park_x(&mut rig, 100.0).await;
     let spu = rig.steps_per_unit(Axis::X);
     let (step, speed) = (1.0, 2.0);
     let mut past = Vec::new();

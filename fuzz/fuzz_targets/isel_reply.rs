@@ -1,9 +1,11 @@
 //! cargo-fuzz target: isel reply decoder, every kind of reply.
-//! The properties are in `tests/fuzz_checks`, shared with the proptest
+//! The properties are in `tests/fuzz/fuzz_checks`, shared with the proptest
 //! suites (`docs/fuzzing.md`).
 #![no_main]
 
-#[path = "../../tests/fuzz_checks/mod.rs"]
+// One target checks one property of the shared set.
+#[allow(dead_code)]
+#[path = "../../tests/fuzz/fuzz_checks/mod.rs"]
 mod fuzz_checks;
 
 libfuzzer_sys::fuzz_target!(|data: &[u8]| fuzz_checks::isel::reply(data));

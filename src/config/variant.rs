@@ -8,7 +8,7 @@
 //! Adding a variant: a [`SimVariant`] case and its line in [`VARIANTS`]
 //! (name, families, help, how to build it from the value), then its effect
 //! where the family's simulator is built from the profile (`sim::*::config`).
-//! The end-to-end workflow matrix (`tests/workflow_variants.rs`) runs every
+//! The end-to-end workflow matrix (`tests/e2e/workflow_variants.rs`) runs every
 //! variant of [`VARIANTS`] by itself.
 
 use std::fmt;

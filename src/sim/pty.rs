@@ -6,7 +6,7 @@
 
 use std::fs;
 use std::io;
-use std::os::fd::{AsFd, FromRawFd, IntoRawFd, OwnedFd};
+use std::os::fd::{AsFd, AsRawFd, FromRawFd, IntoRawFd, OwnedFd, RawFd};
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
@@ -21,7 +21,24 @@ static PAIR_LOCK: Mutex<()> = Mutex::new(());
 /// `pair()` directly.
 pub fn pty_pair() -> Result<(TTYPort, TTYPort), serialport::Error> {
     let _guard = PAIR_LOCK.lock().unwrap_or_else(|p| p.into_inner());
-    TTYPort::pair()
+    let (master, slave) = TTYPort::pair()?;
+    // `pair()` opens both ends without O_CLOEXEC: a process that another
+    // thread spawns (the test binaries run the real jogterm beside in-process
+    // ptys) would inherit them and keep the line open after this side closes
+    // it, so its other end never sees the hang-up. Only the moment between
+    // `pair()`'s opens and these calls is left.
+    close_on_exec(master.as_raw_fd())?;
+    close_on_exec(slave.as_raw_fd())?;
+    Ok((master, slave))
+}
+
+fn close_on_exec(fd: RawFd) -> io::Result<()> {
+    // SAFETY: fcntl on a descriptor the caller owns and keeps open.
+    let flags = unsafe { libc::fcntl(fd, libc::F_GETFD) };
+    if flags < 0 || unsafe { libc::fcntl(fd, libc::F_SETFD, flags | libc::FD_CLOEXEC) } < 0 {
+        return Err(io::Error::last_os_error());
+    }
+    Ok(())
 }
 
 /// The master side of a fresh pty whose slave nobody has open yet.
@@ -120,6 +137,16 @@ mod tests {
         assert!(fs::symlink_metadata(link.path()).is_err());
         // No temporary files left behind.
         assert_eq!(fs::read_dir(dir.path()).expect("dir").count(), 0);
+    }
+
+    #[test]
+    fn both_ends_of_a_pair_are_closed_on_exec() {
+        let (master, slave) = pty_pair().expect("pair");
+        for fd in [master.as_raw_fd(), slave.as_raw_fd()] {
+            // SAFETY: F_GETFD on a descriptor the ports keep open.
+            let flags = unsafe { libc::fcntl(fd, libc::F_GETFD) };
+            assert!(flags >= 0 && flags & libc::FD_CLOEXEC != 0, "{fd}: {flags}");
+        }
     }
 
     #[test]

@@ -52,7 +52,7 @@ pub struct NetOptions {
     /// RFC 2217: send PURGE-DATA (the server's transmit buffer) right before
     /// a stop where it cannot cut a command (`PacedWriter`). Off: ser2net
     /// 4.3 applied the purge after the stop bytes that followed it and
-    /// dropped them, in 2 of 6 runs of `tests/network.rs` under load (none
+    /// dropped them, in 2 of 6 runs of `tests/e2e/network.rs` under load (none
     /// of 9 without; `docs/network.md`). Only for a server known to apply
     /// it in order.
     pub purge_before_stop: bool,

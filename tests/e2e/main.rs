@@ -1,0 +1,64 @@
+//! Tests in real time: the real `jogterm` binary in a pseudo-terminal or
+//! with its standard streams (the console, `send`, `poll`, `upload`,
+//! `watch`, `sim`), ser2net in between, and in-process device tasks,
+//! transports and simulators over sockets and ptys against the wall clock.
+//! Each test waits for what it expects with a bound, never for a fixed time.
+//! Tests that time the wire or open ptys take [`timing::SERIAL`] and so run
+//! one at a time; the rest run beside each other, two at a time on two
+//! cores (libtest's default threads).
+//!
+//! One test crate: each crate links the whole of jogterm, so these share one
+//! binary (docs/architecture.md, "Tests"). The fault-injection suite
+//! (`faults.rs`) is a second crate in this directory with its own runner
+//! (`harness = false` in Cargo.toml); it declares the support modules it uses
+//! itself.
+
+// Test code: a failed unwrap, expect or panic is the test failing, with its
+// message (Cargo.toml [lints] denies them in the crate itself).
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
+mod console_pty;
+mod device_support;
+mod faults_support;
+mod jog_support;
+mod ser2net_support;
+mod sim_process;
+mod sim_shell_support;
+mod stops_support;
+mod timing;
+mod ui_pty;
+
+mod cli_arc;
+mod cli_check;
+mod cli_closed_output;
+mod cli_commission;
+mod cli_send_poll;
+mod cli_send_poll_emcu;
+mod cli_send_poll_emp;
+mod cli_sim_isel;
+mod cli_upload;
+mod cli_watch;
+mod cli_wiring;
+mod device_emcu;
+mod device_emp;
+mod device_reconnect;
+mod device_task;
+mod editor_e2e;
+mod jog_terminal;
+mod jog_wire;
+mod limit_jog_e2e;
+mod macros_e2e;
+mod network;
+mod network_transport;
+mod offsets_e2e;
+mod sim_shell_faults;
+mod sim_shell_pty;
+mod sim_shell_timing;
+mod stops_cli;
+mod stops_console;
+mod transport_reader;
+mod transport_sim_rate;
+mod transport_writer;
+mod ui_e2e;
+mod ui_terminal;
+mod workflow_variants;

@@ -1,0 +1,478 @@
+//! Every way the command-line tools start motion has a tested way to stop it
+//! (`docs/safety-tests.md`): `jogterm send`, `poll` and `upload --start`
+//! against the real `jogterm sim --pty`, interrupted by a signal (SIGINT,
+//! SIGTERM, SIGHUP: `src/cli/session.rs::interrupted`), and a program the
+//! isel simulator's start key runs, stopped from jogterm. Each test shows
+//! the stop bytes reached the controller (its own record), the axis stands
+//! (read twice, unchanged), nothing resumes, no panic, and the exit status.
+
+use std::process::{Child, Stdio};
+
+use crate::sim_process;
+use crate::stops_support;
+use sim_process::{SimProcess, text, wait_child};
+use stops_support::{
+    assert_a_new_connection_moves_nothing, assert_exit, assert_stands, emp_frames, interrupt,
+    isel_store_long_program, moving, signal, wait_moving, x_steps,
+};
+
+use crate::faults_support::wire;
+use wire::{emcu_motion, isel_messages, isel_motion};
+
+/// isel: a long X move (15 s at 4000 Hz) for a signal to interrupt.
+const ISEL_LONG_MOVE: &str = "@0M60000,4000,0,4000,0,4000,0,4000";
+/// isel: the axes and the reference where they stand, so moves are allowed.
+const ISEL_READY: [&str; 2] = ["@07", "@0N7"];
+
+/// EMCU: reset, start speed and ramp, a fast reference run (as
+/// `tests/e2e/cli_send_poll_emcu.rs`), then a move of 20 s at 2 kHz.
+const EMCU_LONG_MOVE: [&str; 6] = [
+    "@R",
+    "#S2000",
+    "#R200\\x01",
+    "$HZYX\\x01",
+    "#E1,2000",
+    "L1,x40000\\x01",
+];
+
+/// EMP drive 11: switch on, enable in TP mode, home, then position far away
+/// slowly (`send` waits for the positioning's completion).
+const EMP_LONG_MOVE: [&str; 4] = [
+    "02 11 00 00000000",
+    "22 07 00 00000000",
+    "26 00 00 007F2000",
+    "2A 01 10 00400000",
+];
+
+fn spawn(sim: &SimProcess, args: &[&str]) -> Child {
+    sim.jogterm(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run jogterm")
+}
+
+fn isel_x(state: &str) -> i64 {
+    x_steps("isel", state)
+}
+
+/// isel: the axis stands short of the end of [`ISEL_LONG_PROGRAM`]'s move
+/// (60 000 steps) and past its start; where it stands (X steps).
+fn isel_stands_mid_program(sim: &mut SimProcess) -> i64 {
+    let state = assert_stands(sim);
+    let x = isel_x(&state);
+    assert!(
+        x > 0 && x < 60_000,
+        "stopped mid-program: {state}\n{}",
+        sim.received()
+    );
+    x
+}
+
+/// isel: what the controller received after `command` (the messages).
+fn isel_after(received: &str, command: &str) -> Vec<String> {
+    isel_messages(received)
+        .into_iter()
+        .skip_while(|m| m != command)
+        .skip(1)
+        .collect()
+}
+
+/// isel: the stop after `command` is 0xFD and then 0xFF (docs/protocols.md:
+/// every stop is both, the break makes sure nothing is left to resume).
+fn assert_isel_stopped_after(received: &str, command: &str) {
+    let after = isel_after(received, command);
+    assert_eq!(
+        after.get(..2),
+        Some(&["<FD>".to_string(), "<FF>".to_string()][..]),
+        "the stop right after {command}:\n{received}"
+    );
+}
+
+/// isel: a later `@0S` is answered `G` (nothing to resume) and moves
+/// nothing; `state` is where the axes stood before.
+fn assert_isel_nothing_resumes(sim: &mut SimProcess, state: &str) {
+    let out = sim.run(&["send", "@0S"]);
+    assert_exit(&out, 1, "send @0S");
+    assert!(text(&out.stdout).contains("<< G"), "{}", text(&out.stdout));
+    assert_eq!(isel_x(&assert_stands(sim)), isel_x(state), "resumed");
+}
+
+/// `jogterm send` of a long isel move, interrupted by `sig` mid-move: the
+/// stop goes out at once (0xFD 0xFF), the command says so and exits 1, the
+/// axis stands short of the target and `@0S` does not resume it.
+fn isel_send_interrupted_by(sig: libc::c_int) {
+    let mut sim = SimProcess::start("isel");
+    let mut args = vec!["send"];
+    args.extend(ISEL_READY);
+    args.push(ISEL_LONG_MOVE);
+    let child = spawn(&sim, &args);
+    sim.wait_received("the move", |r| {
+        isel_messages(r).iter().any(|m| m == ISEL_LONG_MOVE)
+    });
+    wait_moving(&mut sim, "moving");
+    interrupt(child, sig, "send");
+    let state = assert_stands(&mut sim);
+    let x = isel_x(&state);
+    assert!(x > 0 && x < 60_000, "stopped mid-move: {state}");
+    let received = sim.received();
+    assert_isel_stopped_after(&received, ISEL_LONG_MOVE);
+    assert_eq!(isel_motion(&received), [ISEL_LONG_MOVE], "{received}");
+    assert_isel_nothing_resumes(&mut sim, &state);
+    sim.assert_alive();
+}
+
+#[test]
+fn isel_send_ctrl_c_mid_move_stops_and_nothing_resumes() {
+    isel_send_interrupted_by(libc::SIGINT);
+}
+
+#[test]
+fn isel_send_sigterm_mid_move_stops_and_nothing_resumes() {
+    isel_send_interrupted_by(libc::SIGTERM);
+}
+
+#[test]
+fn isel_send_sighup_mid_move_stops_and_nothing_resumes() {
+    isel_send_interrupted_by(libc::SIGHUP);
+}
+
+/// A hang-up of the terminal `send` runs in: SIGHUP, and stderr is gone.
+/// The stop goes out, then the orderly close (its stop sequence too), and
+/// saying so on the dead stderr does not panic: status 1, not 101.
+#[test]
+fn isel_send_hang_up_with_its_stderr_gone_stops_closes_and_exits_1() {
+    let mut sim = SimProcess::start("isel");
+    let (reader, writer) = std::io::pipe().expect("a pipe");
+    drop(reader);
+    let mut args = vec!["send"];
+    args.extend(ISEL_READY);
+    args.push(ISEL_LONG_MOVE);
+    let child = sim
+        .jogterm(&args)
+        .stdout(Stdio::null())
+        .stderr(writer)
+        .spawn()
+        .expect("run jogterm");
+    wait_moving(&mut sim, "moving");
+    signal(child.id(), libc::SIGHUP);
+    let out = wait_child(child, "jogterm send");
+    assert_eq!(out.status.code(), Some(1));
+    let state = assert_stands(&mut sim);
+    let received = sim.received();
+    let after = isel_after(&received, ISEL_LONG_MOVE);
+    assert_eq!(
+        after,
+        ["<FD>", "<FF>", "<FD>", "<FF>"],
+        "the stop, then the close's stop sequence:\n{received}"
+    );
+    assert_isel_nothing_resumes(&mut sim, &state);
+}
+
+/// EMCU: `send` of a long move interrupted with Ctrl-C: `@B` reaches the
+/// interface right after the move, the axis stands short of the target and
+/// a later connection does not move it.
+#[test]
+fn emcu_send_ctrl_c_mid_move_stops_and_nothing_resumes() {
+    let mut sim = SimProcess::start("emcu");
+    let mut args = vec!["send"];
+    args.extend(EMCU_LONG_MOVE);
+    let child = spawn(&sim, &args);
+    // The move runs once the reference run has ended.
+    sim.wait_device("moving after the reference run", |d| {
+        d.contains("moving") && !d.contains("referencing") && !d.contains("position unknown")
+    });
+    interrupt(child, libc::SIGINT, "send");
+    let state = assert_stands(&mut sim);
+    let x = x_steps("emcu", &state);
+    assert!(x > 0 && x < 40_000, "stopped mid-move: {state}");
+    let received = sim.received();
+    let after = received
+        .split_once("L1,x40000<01>")
+        .map(|(_, rest)| rest)
+        .unwrap_or_else(|| panic!("the move was not received:\n{received}"));
+    assert!(
+        after.trim_start_matches("@X<CR>").starts_with("@B<CR>"),
+        "the stop right after the move (queries aside):\n{received}"
+    );
+    assert_eq!(
+        emcu_motion(&received).last().map(String::as_str),
+        Some("L1,x40000")
+    );
+    assert_a_new_connection_moves_nothing(&mut sim, x);
+    sim.assert_alive();
+}
+
+/// EMP: `send` of a long positioning (`2A 01`, the command waits for its
+/// completion) interrupted with Ctrl-C: the stop frame `08` (the profile's
+/// `emp.stop = "hold"`) reaches the drive right after, it stands short of
+/// the target, and a later connection does not move it.
+#[test]
+fn emp_send_ctrl_c_mid_positioning_stops_and_nothing_resumes() {
+    let mut sim = SimProcess::start("emp");
+    let mut args = vec!["send", "--drive", "11"];
+    args.extend(EMP_LONG_MOVE);
+    let child = spawn(&sim, &args);
+    sim.wait_received("the positioning", |r| r.contains("2A11011000400000"));
+    wait_moving(&mut sim, "positioning");
+    interrupt(child, libc::SIGINT, "send");
+    let state = assert_stands(&mut sim);
+    assert!(
+        x_steps("emp", &state) < 0x40_0000,
+        "stopped mid-move: {state}"
+    );
+    let received = sim.received();
+    let frames = emp_frames(&received);
+    let after: Vec<&str> = frames
+        .iter()
+        .skip_while(|f| **f != "2A11011000400000")
+        .skip(1)
+        .copied()
+        .filter(|f| !f.starts_with("2C") && !f.starts_with("0A"))
+        .collect();
+    assert_eq!(
+        after.first().copied(),
+        Some("0811000000000000"),
+        "the stop right after the positioning (reads aside):\n{received}"
+    );
+    assert_a_new_connection_moves_nothing(&mut sim, x_steps("emp", &state));
+    sim.assert_alive();
+}
+
+/// `jogterm poll` never starts motion, and interrupted (Ctrl-C) it stops
+/// and closes as its help says ("then stops and closes cleanly"): the stop
+/// ends what the controller received, the status is 0.
+fn poll_interrupted(family: &'static str, prepare: &[&str], poll: &str, stop: &str) {
+    let mut sim = SimProcess::start(family);
+    if !prepare.is_empty() {
+        let mut args = vec!["send"];
+        args.extend(prepare);
+        let out = sim.run(&args);
+        assert_exit(&out, 0, "send (prepare)");
+    }
+    let before = sim.received();
+    let child = spawn(&sim, &["poll", "--interval-ms", "0"]);
+    sim.wait_received("a few polls", |r| {
+        r.len() > before.len() && r[before.len()..].matches(poll).count() >= 5
+    });
+    signal(child.id(), libc::SIGINT);
+    let out = wait_child(child, "jogterm poll");
+    assert_exit(&out, 0, "poll interrupted");
+    assert!(text(&out.stdout).lines().count() >= 1, "samples printed");
+    let received = sim.received();
+    let polled = &received[before.len()..];
+    // The stop goes out at once, isel's control bytes even between two bytes
+    // of a poll (`@0<FD><FF>P<CR>`): at most the poll in flight ends after it.
+    let tail = polled
+        .rfind(stop)
+        .map(|at| &polled[at + stop.len()..])
+        .unwrap_or_else(|| panic!("no stop received:\n{polled}"));
+    assert!(
+        tail.matches("<CR>").count() + tail.matches("<EOF>").count() <= 1,
+        "the stop ends the traffic (but the poll in flight):\n{polled}"
+    );
+    match family {
+        "isel" => assert!(isel_motion(polled).is_empty(), "{polled}"),
+        "emcu" => assert!(emcu_motion(polled).is_empty(), "{polled}"),
+        _ => assert!(
+            emp_frames(polled)
+                .iter()
+                .all(|f| !f.starts_with("2A") && !f.starts_with("26")),
+            "{polled}"
+        ),
+    }
+    assert_stands(&mut sim);
+    sim.assert_alive();
+}
+
+#[test]
+fn isel_poll_ctrl_c_stops_closes_and_never_moves() {
+    poll_interrupted("isel", &ISEL_READY, "@0P<CR>", "<FD><FF>");
+}
+
+#[test]
+fn emcu_poll_ctrl_c_stops_closes_and_never_moves() {
+    poll_interrupted("emcu", &[], "@LX<CR>", "@B<CR>");
+}
+
+#[test]
+fn emp_poll_ctrl_c_stops_closes_and_never_moves() {
+    poll_interrupted(
+        "emp",
+        &["--drive", "11", "02 11 00 00000000"],
+        "2C11000000000000<EOF>",
+        "0811000000000000<EOF>",
+    );
+}
+
+/// A program with one long X move (relative, 15 s at 4000 Hz).
+const ISEL_LONG_PROGRAM: &str = "; one long move\n7 7\n060000,4000,0,4000,0,4000,0,4000\n9\n";
+
+/// `jogterm upload FILE --start` interrupted with Ctrl-C while the stored
+/// program runs: 0xFD 0xFF right after the start, the axis stands short of
+/// the program's end, status 1. A later connection moves nothing (a later
+/// `@0S` would be a new run of the stored program from its start, manual
+/// 2.2.23, not a resume).
+#[test]
+fn isel_upload_start_ctrl_c_stops_the_running_program() {
+    let mut sim = SimProcess::start("isel");
+    let out = sim.run(&["send", "@07", "@0N7"]);
+    assert_exit(&out, 0, "send (reference)");
+    let file = sim.dir.path().join("long.isel");
+    std::fs::write(&file, ISEL_LONG_PROGRAM).expect("write the program");
+    let file_arg = file.display().to_string();
+    let child = spawn(&sim, &["upload", &file_arg, "--start"]);
+    sim.wait_received("the start", |r| isel_messages(r).iter().any(|m| m == "@0S"));
+    wait_moving(&mut sim, "the program running");
+    interrupt(child, libc::SIGINT, "upload");
+    let x = isel_stands_mid_program(&mut sim);
+    let received = sim.received();
+    assert_isel_stopped_after(&received, "@0S");
+    assert_a_new_connection_moves_nothing(&mut sim, x);
+    assert_eq!(isel_motion(&sim.received()), ["@0S"], "one start only");
+    sim.assert_alive();
+}
+
+/// Store [`ISEL_LONG_PROGRAM`]'s move with `send` and run it with the
+/// simulator's start key (isel manual 3.1: the key starts the stored program,
+/// the controller sends no answer but the sync character).
+fn isel_program_started_by_the_key(sim: &mut SimProcess) {
+    let out = isel_store_long_program(sim);
+    assert_exit(&out, 0, "send (store)");
+    // The closing stop sequence may still be on its way through the line:
+    // pressed before it arrives, the start would be stopped by it.
+    sim.wait_received("the closing stop", |r| r.ends_with("9<CR><FD><FF>"));
+    // `received` records bytes when the simulator reads them; the modelled
+    // controller gets each one byte time later (about 0.5 ms at 19200 baud).
+    // A start pressed in between would be broken off by the 0xFF.
+    std::thread::sleep(std::time::Duration::from_millis(50));
+    sim.control("press start");
+    sim.wait_device("the program started by the key, under way", |d| {
+        moving("isel", d) && isel_x(d) > 1000
+    });
+}
+
+/// The machine's start key runs the stored program; `jogterm send break`
+/// stops it: 0xFD 0xFF reach the controller first (every connection opens
+/// with the stop sequence, docs/protocols.md), the program halts mid-move,
+/// jogterm starts nothing, and a later connection moves nothing.
+#[test]
+fn isel_start_key_program_is_stopped_by_send_break() {
+    let mut sim = SimProcess::start("isel");
+    isel_program_started_by_the_key(&mut sim);
+    let before = sim.received();
+    let out = sim.run(&["send", "break"]);
+    assert_exit(&out, 0, "send break");
+    let x = isel_stands_mid_program(&mut sim);
+    let received = sim.received();
+    let sent = isel_messages(received.get(before.len()..).unwrap_or_default());
+    // The stop sequence reached the controller (that it leads every
+    // connection is the driver's unit test `connect`); nothing that moves.
+    let stop = sent.iter().position(|m| m == "<FD>");
+    assert!(
+        stop.is_some_and(|i| sent.get(i + 1).is_some_and(|m| m == "<FF>")),
+        "0xFD 0xFF after the key's start: {sent:?}\n{received}"
+    );
+    assert!(isel_motion(&received).is_empty(), "jogterm started nothing");
+    assert_a_new_connection_moves_nothing(&mut sim, x);
+    sim.assert_alive();
+}
+
+/// A failure reported to a stderr that is gone (the terminal hung up, its
+/// reader ended) still ends with status 1, not a panic's 101: a console
+/// whose last frame failed on a dead terminal leaves this way after it has
+/// stopped the machine. Here the simulator cannot make its link.
+#[test]
+fn a_failure_on_a_stderr_that_is_gone_exits_1_not_with_a_panic() {
+    let (reader, writer) = std::io::pipe().expect("a pipe");
+    drop(reader);
+    let dir = tempfile::tempdir().expect("temp dir");
+    let out = std::process::Command::new(sim_process::JOGTERM)
+        .args(["sim", "--pty", "--protocol", "isel", "--link"])
+        .arg(dir.path().join("missing").join("tty"))
+        .env("JOGTERM_CONFIG_DIR", dir.path())
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(writer)
+        .status()
+        .expect("run jogterm sim");
+    assert_eq!(out.code(), Some(1));
+}
+
+/// `poll` while the machine's start key runs the stored program: the
+/// controller answers nothing while a program runs (isel manual 3.1), so
+/// poll cannot be interrupted mid-move; it ends by itself with a link
+/// failure (status 3), and its close stops the program (0xFD 0xFF), which
+/// then stands short of its end. Poll never started it.
+#[test]
+fn isel_poll_during_a_start_key_program_gives_up_and_stops_it() {
+    let mut sim = SimProcess::start("isel");
+    let out = isel_store_long_program(&sim);
+    assert_exit(&out, 0, "send (store)");
+    let before = sim.received();
+    let child = spawn(&sim, &["poll"]);
+    sim.wait_received("a few polls", |r| {
+        r.len() > before.len() && r[before.len()..].matches("@0P<CR>").count() >= 5
+    });
+    sim.control("press start");
+    let out = wait_child(child, "jogterm poll");
+    assert_exit(&out, 3, "poll during a program");
+    assert!(
+        text(&out.stderr).contains("link failure: no reply to @0P"),
+        "{}",
+        text(&out.stderr)
+    );
+    let state = assert_stands(&mut sim);
+    let x = isel_x(&state);
+    assert!(x < 60_000, "the program ran to its end: {state}");
+    let received = sim.received();
+    let polled = isel_messages(&received[before.len()..]);
+    assert_eq!(
+        polled.get(polled.len().saturating_sub(2)..),
+        Some(&["<FD>".to_string(), "<FF>".to_string()][..]),
+        "the close stops last: {polled:?}"
+    );
+    assert!(isel_motion(&received).is_empty(), "poll started nothing");
+    assert_a_new_connection_moves_nothing(&mut sim, x);
+}
+
+/// EMCU: `jogterm upload JOB --start` interrupted with Ctrl-C while the
+/// stored job runs (`@J`): `@B` reaches the interface after the start, the
+/// axis stands short of the job's end, status 1, and a later connection
+/// moves nothing.
+#[test]
+fn emcu_upload_start_ctrl_c_stops_the_running_job() {
+    let mut sim = SimProcess::start("emcu");
+    let mut reference = vec!["send"];
+    reference.extend(&EMCU_LONG_MOVE[..4]);
+    let out = sim.run(&reference);
+    assert_exit(&out, 0, "send (reset, ramp, reference)");
+    let file = sim.dir.path().join("long.emcu");
+    std::fs::write(&file, "; 20 s at 2 kHz\n#E1,2000\nL1,x40000\n").expect("write the job");
+    let file_arg = file.display().to_string();
+    let child = spawn(&sim, &["upload", &file_arg, "--start"]);
+    sim.wait_received("the start", |r| r.contains("@J"));
+    sim.wait_device("the job running", |d| {
+        d.contains("moving") && x_steps("emcu", d) > 0
+    });
+    interrupt(child, libc::SIGINT, "upload");
+    let state = assert_stands(&mut sim);
+    let x = x_steps("emcu", &state);
+    assert!(x > 0 && x < 40_000, "stopped mid-job: {state}");
+    let received = sim.received();
+    let after = received
+        .rsplit_once("@J")
+        .map(|(_, rest)| rest)
+        .unwrap_or_else(|| panic!("the start was not received:\n{received}"));
+    assert!(
+        after.contains("@B<CR>"),
+        "the stop after the start:\n{received}"
+    );
+    assert_eq!(
+        received.matches("@J").count(),
+        1,
+        "one start only:\n{received}"
+    );
+    assert_a_new_connection_moves_nothing(&mut sim, x);
+    sim.assert_alive();
+}
