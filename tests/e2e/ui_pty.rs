@@ -26,6 +26,10 @@ pub struct PtyRun {
     reader: Option<thread::JoinHandle<()>>,
     rows: u16,
     cols: u16,
+    /// The child's state directory (recovery files, offsets) when the test
+    /// gave none: a console under test never reads the user's own, where a
+    /// recovery file from an earlier session would greet it with a popup.
+    _state: Option<tempfile::TempDir>,
 }
 
 impl PtyRun {
@@ -57,6 +61,13 @@ impl PtyRun {
         for (k, v) in env {
             cmd.env(k, v);
         }
+        let state = if env.iter().any(|(k, _)| *k == "JOGTERM_STATE_DIR") {
+            None
+        } else {
+            let dir = tempfile::tempdir().expect("a state directory");
+            cmd.env("JOGTERM_STATE_DIR", dir.path());
+            Some(dir)
+        };
         if let Ok(dir) = std::env::current_dir() {
             cmd.cwd(dir);
         }
@@ -115,6 +126,7 @@ impl PtyRun {
             reader: Some(reader),
             rows,
             cols,
+            _state: state,
         }
     }
 
