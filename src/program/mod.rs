@@ -37,6 +37,7 @@
 //! assert_eq!(end, [1000, 0, 0, 0]);
 //! ```
 
+pub mod checkout;
 pub mod circle;
 mod emcu_line;
 mod flow;
