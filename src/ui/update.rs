@@ -1073,6 +1073,8 @@ fn device_event(model: &mut Model, event: Event) {
         }
         Event::Stats(stats) => model.stats = Some(stats),
         Event::Notice(text) => say(model, NoteLevel::Info, text),
+        // The editor's check-out took it (`editor::update::checkout`).
+        Event::Checkout { .. } => {}
     }
     refresh_quit_question(model);
 }

@@ -675,6 +675,11 @@ impl EmcuDriver {
                 UploadOp::new(cx, lines).map(|op| Some(Op::Upload(op)))
             }
             Request::RunProgram => job_op(cx).map(|op| Some(Op::Job(op))),
+            // The check-out of EMCU jobs from the editor is not built yet
+            // (`docs/editor.md`, "What each family can do").
+            Request::Checkout { .. } => Err(crate::device::api::Refusal::Invalid {
+                reason: "the check-out runs isel programs only so far".into(),
+            }),
             Request::Initialise => cx.memory_free().map(|()| Some(Op::Init(init_op(cx)))),
             Request::SetZero { .. }
             | Request::JogRenew { .. }

@@ -135,6 +135,9 @@ pub struct Context {
     /// A jog off a limit switch switched test mode on (`@0T1`, manual
     /// 2.2.24) and its `@0T0` has not been answered: the next read-back
     /// sends `@0T0` first (`limit_op`).
+    /// The check-out line whose paused move's rest the controller holds
+    /// (`checkout_op`): taken by whatever runs next.
+    pub checkout_rest: Option<crate::device::api::JogId>,
     pub test_mode_left_on: bool,
 }
 
@@ -166,6 +169,7 @@ impl Context {
             p_offset: PerAxis::new(),
             zero_check: None,
             test_mode_left_on: false,
+            checkout_rest: None,
         }
     }
 
