@@ -131,6 +131,11 @@ impl Plan {
             .flatten()
     }
 
+    /// The controller's axis setting the plan was made for.
+    pub fn config(&self) -> AxisConfig {
+        self.config
+    }
+
     pub fn finish(&self) -> Option<&Finish> {
         self.finish.as_ref()
     }
@@ -162,12 +167,12 @@ impl Plan {
             CncCommand::MoveRelative(p) => send(Command::MoveRelative(pairs(p)), true),
             CncCommand::MoveAbsolute(p) => send(Command::MoveAbsolute(pairs(p)), true),
             CncCommand::Circle(c) => {
-                let mut c = c.clone();
+                let mut c = *c;
                 c.speed = arc_speed(c.speed);
                 send(Command::Circle(c), true)
             }
             CncCommand::Helix(h) => {
-                let mut h = h.clone();
+                let mut h = *h;
                 h.circle.speed = arc_speed(h.circle.speed);
                 send(Command::Helix(h), true)
             }

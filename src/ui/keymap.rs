@@ -106,6 +106,9 @@ named_enum! {
         Entry = "entry", "Set position, jog step and speed (other characters are typed)";
         /// The port timeline is shown.
         Timeline = "timeline", "Port timeline (shown)";
+        /// The program screen during a check-out (issue 15,
+        /// `docs/editor.md`): the text is read-only.
+        Checkout = "checkout", "Program check-out (program screen; the text is read-only)";
     }
 }
 
@@ -234,6 +237,14 @@ named_enum! {
         TimeLive = "live", "timeline: follow the newest readings";
         ZoomIn = "zoom-in", "timeline: fewer milliseconds per column";
         ZoomOut = "zoom-out", "timeline: more milliseconds per column";
+        // Program check-out (issue 15, `docs/editor.md`, "Check-out").
+        Checkout = "checkout", "check-out: run the program line by line while a key is held (asks)";
+        CheckoutFromLine = "checkout-from-line", "check-out from the cursor's line (shows where it starts, asks)";
+        CheckoutHold = "checkout-hold", "hold to run the check-out; let go: pause";
+        CheckoutSingle = "checkout-single", "single step on/off: one line per press";
+        CheckoutSlower = "checkout-slower", "check-out speed factor -10 %";
+        CheckoutFaster = "checkout-faster", "check-out speed factor +10 %";
+        CheckoutAbort = "checkout-abort", "end the check-out: stop, discard a paused move's rest (0xFF)";
     }
 }
 

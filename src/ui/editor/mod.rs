@@ -25,6 +25,7 @@
 //! text and key handling, which would have to be mirrored on every edit.
 
 pub mod buffer;
+pub mod checkout;
 pub mod checks;
 pub mod component;
 pub mod dialog;
@@ -128,6 +129,8 @@ pub struct Editor {
     pub session: String,
     /// The machine as the linter sees it (start position added per lint).
     pub lint_config: LintConfig,
+    /// A program check-out under way (`checkout`).
+    pub checkout: Option<checkout::Checkout>,
 }
 
 /// The unit all axes of `setup` share (`mm`), else `units`.
@@ -183,6 +186,7 @@ impl Editor {
             store: None,
             session: "session".into(),
             lint_config: lint_config(setup),
+            checkout: None,
         }
     }
 
@@ -250,6 +254,9 @@ impl Editor {
 
     /// Why the text cannot be changed now, if it cannot.
     pub fn read_only(&self) -> Option<&'static str> {
+        if self.checkout.is_some() {
+            return Some("a check-out is under way: edits wait until it ends (x)");
+        }
         self.upload
             .busy()
             .then_some("the program is being uploaded: edits wait until the upload ends")

@@ -374,6 +374,7 @@ impl Step<'_, '_> {
     /// A device event, before the model takes it: an upload's progress,
     /// mark and report; a stored program the erase offer waited for.
     pub(super) fn device_event(&mut self, event: &Event) {
+        self.checkout_event(event);
         match event {
             Event::State(state) => self.offer_erase(state.program),
             Event::Upload(upload) => {

@@ -182,7 +182,7 @@ fn requests(out: &Outcome) -> Vec<&Request> {
         .iter()
         .filter_map(|e| match e {
             Effect::Device(r) => Some(r),
-            Effect::Io(_) => None,
+            _ => None,
         })
         .collect()
 }
@@ -515,3 +515,5 @@ fn the_program_screen_opens_and_closes_and_forms_take_characters() {
     assert!(lines[3].starts_with('y'), "{text}");
     assert_eq!(lines.last(), Some(&"9"));
 }
+
+mod checkout;

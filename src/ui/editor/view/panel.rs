@@ -11,6 +11,7 @@ use ratatui::widgets::Widget;
 
 use crate::device::api::Activity;
 use crate::program::Severity;
+use crate::ui::editor::checkout::RunState;
 use crate::ui::editor::highlight::{Class, Mark, runs};
 use crate::ui::editor::layout::{ProgramAreas, gutter_width};
 use crate::ui::editor::upload::Phase;
@@ -96,7 +97,27 @@ fn title_extra(e: &Editor, ctx: &Context) -> Vec<Span<'static>> {
     if warnings > 0 {
         out.push(Span::styled(format!("{warnings} W "), p.warning));
     }
-    if e.read_only().is_some() {
+    if let Some(c) = &e.checkout {
+        let style = match c.state {
+            RunState::Paused { .. } | RunState::Stopped { .. } => p.danger,
+            RunState::Running | RunState::Dwelling { .. } => p.ok,
+            RunState::Ready | RunState::Finished => p.warning,
+        };
+        let line = c
+            .current_line()
+            .map(|l| format!(" line {}", l + 1))
+            .unwrap_or_default();
+        let elapsed = ctx.now.saturating_duration_since(c.started).as_secs();
+        let single = if c.single { " single step" } else { "" };
+        out.push(Span::styled(
+            format!(
+                "CHECK-OUT {}{line} {} %{single} {elapsed} s ",
+                c.label(),
+                c.factor
+            ),
+            style,
+        ));
+    } else if e.read_only().is_some() {
         out.push(Span::styled("read-only while uploading ", p.warning));
     }
     if ctx.machine.activity == Activity::RunningProgram {
@@ -162,7 +183,15 @@ fn text(e: &Editor, p: &Palette, area: Rect, focused: bool, buf: &mut Buffer) {
             number_style,
         ));
         let problem = problem(e, p, index);
+        // The check-out's current line: marked in the gutter (for themes
+        // without colour) and shown reversed.
+        let current = e
+            .checkout
+            .as_ref()
+            .and_then(|c| c.current_line())
+            .is_some_and(|l| l == index);
         match &problem {
+            _ if current => spans.push(Span::styled("> ", p.warning)),
             Some((letter, style, _)) => spans.push(Span::styled(format!("{letter} "), *style)),
             None => spans.push(Span::raw("  ")),
         }
@@ -180,7 +209,7 @@ fn text(e: &Editor, p: &Palette, area: Rect, focused: bool, buf: &mut Buffer) {
             for ch in piece.chars() {
                 if col >= left && used < room {
                     let mut s = style;
-                    if focused && here && col == cursor.col {
+                    if current || (focused && here && col == cursor.col) {
                         s = s.patch(p.selected);
                     }
                     let shown = if ch.is_control() { ' ' } else { ch };

@@ -1,0 +1,595 @@
+//! The check-out's keys, device events and ticks (`docs/editor.md`,
+//! "Check-out"): started from the editor after the linter and the DNC form
+//! have passed the program, run line by line while the hold key is held,
+//! paused when it is let go, ended with the abort key or a stop.
+
+use std::fmt::Write as _;
+
+use crate::axis::Axis;
+use crate::device::api::{Activity, CheckoutEnd, Event, LinkState, Request};
+use crate::jog::KeyPhase;
+use crate::motion::overrun::speed_cap;
+use crate::program::checkout::{DncStep, Finish, Plan, config_of, pair_axes, unexpressible};
+use crate::program::{Language, Severity};
+use crate::proto::isel::{Command, DeviceNumber, Frame, MovePair};
+use crate::ui::editor::buffer::Cursor;
+use crate::ui::editor::checkout::{Checkout, RunState, scaled};
+use crate::ui::editor::component::Effect;
+use crate::ui::editor::dialog::Answer;
+use crate::ui::keymap::Action;
+use crate::ui::traffic_log::NoteLevel;
+
+use super::Step;
+
+/// What a check-out starts with, for the question and for the start.
+struct Prepared {
+    plan: Plan,
+    preamble: Vec<(Command, usize)>,
+    summary: String,
+}
+
+impl Step<'_, '_> {
+    /// F10 / Shift-F10 in the editor: check, then ask.
+    pub(super) fn checkout_ask(&mut self, from_cursor: bool) {
+        let from = from_cursor.then(|| self.e.buffer.cursor().line);
+        match self.checkout_prepare(from) {
+            Ok(p) => {
+                let hold = self.key_name(Action::CheckoutHold);
+                let text = format!(
+                    "{}\n\nThe machine moves only while {hold} is held; let go, it pauses. \
+                     Space stops.",
+                    p.summary
+                );
+                self.ask(
+                    "Check-out",
+                    text,
+                    Answer::Checkout { from },
+                    Answer::Nothing,
+                );
+            }
+            Err(why) => self.say(NoteLevel::Danger, format!("check-out refused: {why}")),
+        }
+    }
+
+    fn key_name(&self, action: Action) -> String {
+        self.ctx
+            .keymap
+            .key_for(crate::ui::keymap::Mode::Checkout, action)
+            .map_or_else(|| action.to_string(), |k| k.to_string())
+    }
+
+    /// The answer was yes: the check-out is on (nothing moves yet).
+    pub(super) fn checkout_begin(&mut self, from: Option<usize>) {
+        match self.checkout_prepare(from) {
+            Ok(p) => {
+                let c = Checkout::new(p.plan, p.preamble, self.ctx.now);
+                let line = c.current_line().map_or(0, |l| l + 1);
+                self.e.checkout = Some(c);
+                self.checkout_follow();
+                let hold = self.key_name(Action::CheckoutHold);
+                self.say(
+                    NoteLevel::Info,
+                    format!("check-out at line {line}: hold {hold} to run"),
+                );
+            }
+            Err(why) => self.say(NoteLevel::Danger, format!("check-out refused: {why}")),
+        }
+    }
+
+    fn checkout_prepare(&mut self, from: Option<usize>) -> Result<Prepared, String> {
+        let ctx = self.ctx;
+        if self.e.language() != Language::Isel || ctx.setup.protocol != crate::proto::Protocol::Isel
+        {
+            return Err(
+                "the check-out runs isel CNC programs on an isel controller (EMCU and \
+                        EMP: docs/editor.md, \"What each family can do\")"
+                    .into(),
+            );
+        }
+        if self.e.upload.busy() {
+            return Err("an upload is running".into());
+        }
+        if !ctx.machine.link_up {
+            return Err("not connected to the controller".into());
+        }
+        if ctx.machine.activity != Activity::Idle {
+            return Err("the machine is busy: wait until it stands still".into());
+        }
+        // The linter's verdict of this very text, soft limits included.
+        let state = self.e.buffer.state();
+        if !self.e.checks.fresh(state) {
+            let job = self.lint_job();
+            let lines = self.e.buffer.line_count();
+            self.e.checks.apply_now(&job, lines, ctx.now);
+        }
+        let first_error = self
+            .e
+            .checks
+            .all()
+            .iter()
+            .find(|d| d.severity == Severity::Error)
+            .map(|d| (d.span, d.message.clone()));
+        if let Some((span, message)) = first_error {
+            let (errors, _) = self.e.checks.counts();
+            let text = self.e.buffer.line(span.line).to_string();
+            let col = crate::ui::editor::buffer::col_of(&text, span.start);
+            self.e.buffer.move_to(Cursor::new(span.line, col));
+            self.scroll_into_view();
+            return Err(format!(
+                "{errors} error{} to fix first; line {}: {message}",
+                if errors == 1 { "" } else { "s" },
+                span.line + 1
+            ));
+        }
+        let program = self.e.buffer.program();
+        let named = unexpressible(program);
+        if !named.is_empty() {
+            let mut text = String::from("lines without an exact DNC form:");
+            for u in &named {
+                let _ = write!(text, " line {}: {};", u.line + 1, u.reason);
+            }
+            if let Some(first) = named.first() {
+                self.e.buffer.move_to(Cursor::new(first.line, 0));
+                self.scroll_into_view();
+            }
+            return Err(text.trim_end_matches(';').to_string());
+        }
+        let config = config_of(ctx.setup.axis_set())
+            .ok_or_else(|| "the machine's axes are no isel axis setting".to_string())?;
+        let mut plan = Plan::new(program, config);
+        let name = self.e.name();
+        let Some(from) = from else {
+            return Ok(Prepared {
+                plan,
+                preamble: Vec::new(),
+                summary: format!(
+                    "Check out {name} from its first line, line by line in DNC form, at {} %.",
+                    100
+                ),
+            });
+        };
+        if program.index_of(from).is_none() {
+            return Err(format!("line {} is no command", from + 1));
+        }
+        let (_, start) = self.starts();
+        let position = start.position;
+        let zero = start.zero;
+        let skipped = plan.skip_to(from, position, zero)?;
+        let units = crate::ui::editor::unit_label(ctx.setup);
+        let speed = self.e.teach_speed(ctx.setup).unwrap_or(1.0);
+        let mut pairs = Vec::new();
+        let mut shown = String::new();
+        for (i, axis) in pair_axes(config).iter().enumerate() {
+            let target = skipped.position[axis.index()];
+            let z2 = config == crate::proto::isel::AxisConfig::XYZ && i == 3;
+            let steps = if z2 { 0 } else { target - zero[axis.index()] };
+            let hz = self.axis_hz(*axis, speed);
+            pairs.push(MovePair::new(i32::try_from(steps).unwrap_or(0), hz));
+            if !z2 {
+                let _ = write!(
+                    shown,
+                    " {axis}{}",
+                    self.units_of(*axis, target - zero[axis.index()])
+                );
+            }
+        }
+        let mut preamble = skipped.settings.clone();
+        let settings: Vec<String> = preamble
+            .iter()
+            .map(|(c, l)| format!("{c} (line {})", l + 1))
+            .collect();
+        preamble.push((Command::MoveAbsolute(pairs), from));
+        let summary = format!(
+            "Check out {name} from line {}: {} move{} before it skipped.\n\
+             Start position (work):{shown}; the axes go there first (@0M at {speed} {units}/s, \
+             held like every line).\n\
+             Settings in force there, sent first: {}.\n\
+             Moves count from the work zero in force now; absolute and relative moves as written.",
+            from + 1,
+            skipped.skipped_moves,
+            if skipped.skipped_moves == 1 { "" } else { "s" },
+            if settings.is_empty() {
+                "none (the controller's own)".to_string()
+            } else {
+                settings.join(", ")
+            }
+        );
+        Ok(Prepared {
+            plan,
+            preamble,
+            summary,
+        })
+    }
+
+    fn units_of(&self, axis: Axis, steps: i64) -> String {
+        self.ctx
+            .setup
+            .axes
+            .iter()
+            .find(|(a, _)| *a == axis)
+            .map_or_else(
+                || steps.to_string(),
+                |(_, p)| crate::ui::position::format_amount(steps as f64 / p.steps_per_unit),
+            )
+    }
+
+    /// Hz of `axis` for `units_per_second`.
+    fn axis_hz(&self, axis: Axis, units_per_second: f64) -> u32 {
+        self.ctx
+            .setup
+            .axes
+            .iter()
+            .find(|(a, _)| *a == axis)
+            .map_or(1, |(_, p)| {
+                p.speed_hz(units_per_second).round().max(1.0) as u32
+            })
+    }
+
+    /// The fastest Hz of `axis` that keeps the overrun bound for the hold's
+    /// lease (as a continuous jog's, `docs/jogging.md`).
+    fn cap_hz(&self, axis: Axis) -> Option<u32> {
+        let jog = &self.ctx.setup.jog;
+        let braking = jog.braking?;
+        let a = jog.axis(axis)?;
+        let hz = speed_cap(&braking, jog.repeat_timeout, a.max_overrun_steps)
+            .min(a.max_speed * a.steps_per_unit);
+        Some(hz.floor().max(1.0) as u32)
+    }
+
+    /// Keep the current line in view and the cursor on it.
+    fn checkout_follow(&mut self) {
+        if let Some(line) = self.e.checkout.as_ref().and_then(Checkout::current_line) {
+            self.e.buffer.move_to(Cursor::new(line, 0));
+            self.scroll_into_view();
+        }
+    }
+
+    /// A key of the check-out's mode.
+    pub(super) fn checkout_key(&mut self, action: Action, phase: KeyPhase) {
+        let ctx = self.ctx;
+        let Some(c) = self.e.checkout.as_mut() else {
+            return;
+        };
+        match action {
+            Action::CheckoutHold => match phase {
+                KeyPhase::Release => {
+                    c.released();
+                    if let Some(id) = c.line_id
+                        && c.state == RunState::Running
+                    {
+                        self.out
+                            .effects
+                            .push(Effect::Device(Request::JogRelease { id }));
+                    }
+                }
+                KeyPhase::Press | KeyPhase::Repeat => {
+                    if !c.key(ctx.now, ctx.setup.jog.grace) {
+                        return;
+                    }
+                    match (&c.state, c.line_id) {
+                        (RunState::Running, Some(id)) => {
+                            let lease = ctx.setup.jog.repeat_timeout;
+                            self.out
+                                .effects
+                                .push(Effect::Device(Request::JogRenew { id, lease }));
+                        }
+                        (RunState::Stopped { why }, _) => {
+                            let why = why.clone();
+                            c.latched = true;
+                            self.say(
+                                NoteLevel::Warning,
+                                format!(
+                                    "check-out stopped ({why}): Shift-F10 on a line runs from \
+                                     there, x ends the check-out"
+                                ),
+                            );
+                        }
+                        (RunState::Finished, _) => {
+                            c.latched = true;
+                            self.say(
+                                NoteLevel::Info,
+                                "the check-out has ended: x leaves it".into(),
+                            );
+                        }
+                        (RunState::Dwelling { .. }, _) => {}
+                        _ => self.checkout_next(),
+                    }
+                }
+            },
+            Action::CheckoutSingle => {
+                c.single = !c.single;
+                let text = if c.single {
+                    "single step: one line per press"
+                } else {
+                    "continuous: lines follow while the key is held"
+                };
+                self.say(NoteLevel::Info, text.into());
+            }
+            Action::CheckoutSlower | Action::CheckoutFaster => {
+                c.change_factor(action == Action::CheckoutFaster);
+                let factor = c.factor;
+                self.say(
+                    NoteLevel::Info,
+                    format!("check-out speed {factor} % (from the next line on)"),
+                );
+            }
+            Action::CheckoutAbort => self.checkout_end(),
+            _ => {}
+        }
+    }
+
+    /// Leave the check-out: whatever runs is stopped, a paused rest is
+    /// discarded (0xFF).
+    fn checkout_end(&mut self) {
+        let Some(c) = self.e.checkout.take() else {
+            return;
+        };
+        match c.state {
+            RunState::Running => self.out.effects.push(Effect::Stop),
+            RunState::Paused { rest: Some(_) } => {
+                // The break (manual 2.2.31): the rest is forgotten.
+                self.out.effects.push(Effect::Device(Request::Raw {
+                    line: "\u{ff}".into(),
+                }));
+            }
+            _ => {}
+        }
+        let elapsed = self.ctx.now.saturating_duration_since(c.started).as_secs();
+        self.say(
+            NoteLevel::Info,
+            format!(
+                "check-out ended: {} line{} run in {elapsed} s",
+                c.lines_done,
+                if c.lines_done == 1 { "" } else { "s" }
+            ),
+        );
+    }
+
+    /// Send the next line (or resume the paused one).
+    fn checkout_next(&mut self) {
+        let ctx = self.ctx;
+        let caps: Vec<(Axis, Option<u32>)> = crate::axis::Axis::ALL
+            .into_iter()
+            .map(|a| (a, self.cap_hz(a)))
+            .collect();
+        let device = DeviceNumber::new(ctx.setup.isel_device).unwrap_or(DeviceNumber::DEFAULT);
+        loop {
+            let Some(c) = self.e.checkout.as_mut() else {
+                return;
+            };
+            let factor = c.factor;
+            let speed = |axis: Axis, hz: u32| {
+                let cap = caps.iter().find(|(a, _)| *a == axis).and_then(|(_, c)| *c);
+                scaled(hz, factor, cap)
+            };
+            if let RunState::Paused { rest } = c.state.clone() {
+                let Some(text) = c.line_text.clone() else {
+                    c.state = RunState::Ready;
+                    continue;
+                };
+                let id = c.new_id();
+                c.line_id = Some(id);
+                c.state = RunState::Running;
+                self.out.effects.push(Effect::Device(Request::Checkout {
+                    id,
+                    line: text,
+                    lease: ctx.setup.jog.repeat_timeout,
+                    resume: rest,
+                }));
+                return;
+            }
+            let (command, line) = if let Some((command, line)) = c.preamble.first().cloned() {
+                let command = match command {
+                    Command::MoveAbsolute(pairs) => Command::MoveAbsolute(
+                        pairs
+                            .iter()
+                            .zip(pair_axes(c.plan.config()))
+                            .map(|(p, a)| MovePair::new(p.steps, speed(*a, p.speed)))
+                            .collect(),
+                    ),
+                    other => other,
+                };
+                (command, line)
+            } else {
+                let Some(line) = c.plan.line() else {
+                    self.checkout_finished();
+                    return;
+                };
+                match c.plan.step(&speed) {
+                    Some(DncStep::Send { command, .. } | DncStep::ReadPort { command }) => {
+                        (command, line)
+                    }
+                    Some(DncStep::Dwell(d)) => {
+                        c.at_line = Some(line);
+                        c.state = RunState::Dwelling { left: d };
+                        c.dwell_tick = Some(ctx.now);
+                        self.checkout_follow();
+                        return;
+                    }
+                    Some(DncStep::Nothing) => {
+                        c.plan.advance(None);
+                        c.at_line = c.plan.line();
+                        continue;
+                    }
+                    None => {
+                        self.checkout_finished();
+                        return;
+                    }
+                }
+            };
+            let text = Frame::new(device, command).to_string();
+            let id = c.new_id();
+            c.line_id = Some(id);
+            c.line_text = Some(text.clone());
+            c.at_line = Some(line);
+            c.state = RunState::Running;
+            self.out.effects.push(Effect::Device(Request::Checkout {
+                id,
+                line: text,
+                lease: ctx.setup.jog.repeat_timeout,
+                resume: None,
+            }));
+            self.checkout_follow();
+            return;
+        }
+    }
+
+    fn checkout_finished(&mut self) {
+        let Some(c) = self.e.checkout.as_mut() else {
+            return;
+        };
+        c.state = RunState::Finished;
+        c.line_id = None;
+        let why = match c.plan.finish() {
+            Some(Finish::LoopStack { line }) => format!(
+                "line {}: a loop needs an eighth counter (the controller would answer 6)",
+                line + 1
+            ),
+            Some(Finish::OutOfProgram { line }) => {
+                format!("line {}: the jump leads out of the program", line + 1)
+            }
+            Some(Finish::Broken { line }) => format!("line {} does not parse", line + 1),
+            Some(Finish::End) | None => "the program's end".to_string(),
+        };
+        let elapsed = self.ctx.now.saturating_duration_since(c.started).as_secs();
+        let done = c.lines_done;
+        self.say(
+            NoteLevel::Info,
+            format!("check-out done: {done} lines in {elapsed} s, at {why}"),
+        );
+    }
+
+    /// A device event: the line's end, a lost link.
+    pub(super) fn checkout_event(&mut self, event: &Event) {
+        let ctx = self.ctx;
+        let Some(c) = self.e.checkout.as_mut() else {
+            return;
+        };
+        match event {
+            Event::Checkout { id, end } if Some(*id) == c.line_id => {
+                c.line_id = None;
+                let line = c.at_line.map_or(0, |l| l + 1);
+                match end {
+                    CheckoutEnd::Done { byte } => {
+                        c.lines_done += 1;
+                        if c.preamble.is_empty() {
+                            c.plan.advance(*byte);
+                        } else {
+                            c.preamble.remove(0);
+                        }
+                        c.at_line = c.preamble.first().map(|(_, l)| *l).or(c.plan.line());
+                        c.line_text = None;
+                        c.state = RunState::Ready;
+                        if c.single {
+                            c.latched = true;
+                        }
+                        let go_on = c.holding(ctx.now, ctx.setup.jog.repeat_timeout);
+                        if go_on {
+                            self.checkout_next();
+                        } else if c.plan.line().is_none() && c.preamble.is_empty() {
+                            self.checkout_finished();
+                        }
+                        self.checkout_follow();
+                    }
+                    CheckoutEnd::Paused { rest, dead_man } => {
+                        c.state = RunState::Paused {
+                            rest: rest.then_some(*id),
+                        };
+                        let why = if *dead_man {
+                            "the key's repeats stopped"
+                        } else {
+                            "the key was let go"
+                        };
+                        let at = self.position_text();
+                        self.say(
+                            NoteLevel::Warning,
+                            format!(
+                                "PAUSED at line {line} ({why}) at {at}: hold to resume, x ends \
+                                 the check-out"
+                            ),
+                        );
+                    }
+                    CheckoutEnd::Stopped => {
+                        self.checkout_stopped(format!("stopped in line {line}"))
+                    }
+                    CheckoutEnd::Fault(f) => self.checkout_stopped(format!(
+                        "line {line}: the controller answered {} ({}); {}",
+                        f.code,
+                        f.meaning,
+                        f.recovery.instruction()
+                    )),
+                    CheckoutEnd::Refused(r) => {
+                        self.checkout_stopped(format!("line {line} refused: {r}"))
+                    }
+                    CheckoutEnd::LinkLost => self.checkout_stopped(format!(
+                        "the link was lost in line {line}; nothing resumes by itself"
+                    )),
+                }
+            }
+            Event::Link(LinkState::Lost { .. } | LinkState::Closed)
+                if !matches!(c.state, RunState::Stopped { .. } | RunState::Finished) =>
+            {
+                let line = c.at_line.map_or(0, |l| l + 1);
+                self.checkout_stopped(format!(
+                    "the link was lost at line {line}; nothing resumes by itself"
+                ));
+            }
+            _ => {}
+        }
+    }
+
+    fn checkout_stopped(&mut self, why: String) {
+        if let Some(c) = self.e.checkout.as_mut() {
+            c.state = RunState::Stopped { why: why.clone() };
+            c.line_id = None;
+            c.latched = true;
+        }
+        self.say(NoteLevel::Danger, format!("check-out: {why}"));
+    }
+
+    /// Where the axes are, in work coordinates.
+    fn position_text(&self) -> String {
+        let ctx = self.ctx;
+        let mut out = Vec::new();
+        for (axis, p) in &ctx.setup.axes {
+            if let Some(r) = ctx.positions.get(*axis) {
+                let zero = ctx.machine.work_zero.get(*axis).unwrap_or(0);
+                out.push(format!(
+                    "{axis}{}",
+                    crate::ui::position::format_amount((r.steps - zero) as f64 / p.steps_per_unit)
+                ));
+            }
+        }
+        out.join(" ")
+    }
+
+    /// Time passes: a dwell counts down while the key is held.
+    pub(super) fn checkout_tick(&mut self) {
+        let ctx = self.ctx;
+        let Some(c) = self.e.checkout.as_mut() else {
+            return;
+        };
+        let RunState::Dwelling { left } = c.state else {
+            return;
+        };
+        let last = c.dwell_tick.replace(ctx.now).unwrap_or(ctx.now);
+        if !c.holding(ctx.now, ctx.setup.jog.repeat_timeout) {
+            return;
+        }
+        let left = left.saturating_sub(ctx.now.saturating_duration_since(last));
+        if left.is_zero() {
+            c.plan.advance(None);
+            c.lines_done += 1;
+            c.at_line = c.plan.line();
+            c.state = RunState::Ready;
+            if c.single {
+                c.latched = true;
+            } else {
+                self.checkout_next();
+            }
+            self.checkout_follow();
+        } else {
+            c.state = RunState::Dwelling { left };
+        }
+    }
+}
