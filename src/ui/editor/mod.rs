@@ -131,6 +131,9 @@ pub struct Editor {
     pub lint_config: LintConfig,
     /// A program check-out under way (`checkout`).
     pub checkout: Option<checkout::Checkout>,
+    /// When the stored program's run began, while it runs (its elapsed
+    /// time is shown; `docs/editor.md`, "Upload and run").
+    pub run_started: Option<Instant>,
 }
 
 /// The unit all axes of `setup` share (`mm`), else `units`.
@@ -187,6 +190,7 @@ impl Editor {
             session: "session".into(),
             lint_config: lint_config(setup),
             checkout: None,
+            run_started: None,
         }
     }
 

@@ -62,6 +62,15 @@ impl Step<'_, '_> {
     pub(super) fn checkout_begin(&mut self, from: Option<usize>) {
         match self.checkout_prepare(from) {
             Ok(p) => {
+                if let Some(RunState::Paused { rest: Some(_) }) =
+                    self.e.checkout.as_ref().map(|c| &c.state)
+                {
+                    // Started again elsewhere: the paused rest is forgotten
+                    // (0xFF, manual 2.2.31).
+                    self.out.effects.push(Effect::Device(Request::Raw {
+                        line: "\u{ff}".into(),
+                    }));
+                }
                 let c = Checkout::new(p.plan, p.preamble, self.ctx.now);
                 let line = c.current_line().map_or(0, |l| l + 1);
                 self.e.checkout = Some(c);
@@ -279,8 +288,8 @@ impl Step<'_, '_> {
                             self.say(
                                 NoteLevel::Warning,
                                 format!(
-                                    "check-out stopped ({why}): Shift-F10 on a line runs from \
-                                     there, x ends the check-out"
+                                    "check-out stopped ({why}): Shift-F10 starts again from \
+                                     this line, x ends the check-out"
                                 ),
                             );
                         }
@@ -314,6 +323,19 @@ impl Step<'_, '_> {
                 );
             }
             Action::CheckoutAbort => self.checkout_end(),
+            Action::CheckoutFromLine => {
+                if c.state == RunState::Running {
+                    self.say(
+                        NoteLevel::Warning,
+                        "a line is running: let the key go first".into(),
+                    );
+                    return;
+                }
+                if let Some(line) = c.current_line() {
+                    self.e.buffer.move_to(Cursor::new(line, 0));
+                }
+                self.checkout_ask(true);
+            }
             _ => {}
         }
     }

@@ -373,10 +373,28 @@ impl Step<'_, '_> {
 
     /// A device event, before the model takes it: an upload's progress,
     /// mark and report; a stored program the erase offer waited for.
+    /// The stored program's run: its start, and its time when it ends.
+    fn run_clock(&mut self, activity: Activity) {
+        let now = self.ctx.now;
+        match (activity, self.e.run_started) {
+            (Activity::RunningProgram, None) => self.e.run_started = Some(now),
+            (Activity::RunningProgram | Activity::Stopping, Some(_)) => {}
+            (_, Some(started)) => {
+                self.e.run_started = None;
+                let secs = now.saturating_duration_since(started).as_secs_f64();
+                self.say(NoteLevel::Info, format!("the program ran {secs:.1} s"));
+            }
+            (_, None) => {}
+        }
+    }
+
     pub(super) fn device_event(&mut self, event: &Event) {
         self.checkout_event(event);
         match event {
-            Event::State(state) => self.offer_erase(state.program),
+            Event::State(state) => {
+                self.run_clock(state.activity);
+                self.offer_erase(state.program);
+            }
             Event::Upload(upload) => {
                 // The editor knows which line each uploaded command came
                 // from: its report is said instead of the device's words.

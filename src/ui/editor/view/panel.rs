@@ -121,7 +121,11 @@ fn title_extra(e: &Editor, ctx: &Context) -> Vec<Span<'static>> {
         out.push(Span::styled("read-only while uploading ", p.warning));
     }
     if ctx.machine.activity == Activity::RunningProgram {
-        out.push(Span::styled("RUNNING ", p.ok));
+        let elapsed = e
+            .run_started
+            .map(|t| format!("{} s ", ctx.now.saturating_duration_since(t).as_secs()))
+            .unwrap_or_default();
+        out.push(Span::styled(format!("RUNNING {elapsed}"), p.ok));
     }
     if let Some(speed) = e.teach_speed(ctx.setup) {
         let unit = unit_label(ctx.setup);

@@ -261,3 +261,40 @@ fn run_from_a_line_shows_the_start_and_goes_there_first() {
         "@0A0,2000,4000,2000,0,2000,0,2000"
     );
 }
+
+#[test]
+fn a_stored_program_run_shows_its_elapsed_time() {
+    let mut host = Host::isel();
+    let mut e = editing(&mut host, PROGRAM);
+    let mut state = host.machine.clone();
+    state.activity = Activity::RunningProgram;
+    host.send(&mut e, Input::Device(&Event::State(state.clone())));
+    assert!(e.run_started.is_some());
+    host.now += Duration::from_millis(3200);
+    state.activity = Activity::Idle;
+    let out = host.send(&mut e, Input::Device(&Event::State(state)));
+    assert!(
+        said(&out).contains(&"the program ran 3.2 s"),
+        "{:?}",
+        said(&out)
+    );
+    assert!(e.run_started.is_none());
+}
+
+#[test]
+fn after_a_stop_the_check_out_starts_again_from_its_line_when_asked() {
+    let mut host = Host::isel();
+    let mut e = started(&mut host, PROGRAM);
+    hold(&mut host, &mut e, 0);
+    let (id, ..) = checkout_lines(&hold(&mut host, &mut e, 500)).remove(0);
+    end(&mut host, &mut e, id, CheckoutEnd::Stopped);
+    host.now += Duration::from_secs(2);
+    let out = host.send(
+        &mut e,
+        Input::Checkout(Action::CheckoutFromLine, KeyPhase::Press),
+    );
+    let Some(Dialog::Ask(q)) = &out.dialog else {
+        panic!("{:?}", said(&out));
+    };
+    assert!(q.text.contains("from line 2: 0 moves"), "{}", q.text);
+}
