@@ -164,7 +164,7 @@ named_enum! {
         TeachSlower = "teach-slower", "slower speed for taught moves";
         TeachFaster = "teach-faster", "faster speed for taught moves";
         Upload = "upload", "upload the program (asks to erase a stored one)";
-        RunProgram = "run-program", "start the stored program (asks first)";
+        RunProgram = "run-program", "start the stored program (asks first); while an EMCU job runs: pause / continue";
         CloseEditor = "close-editor", "back to the machine screen";
         CursorUp = "cursor-up", "cursor up";
         CursorDown = "cursor-down", "cursor down";

@@ -134,6 +134,8 @@ pub struct Editor {
     /// When the stored program's run began, while it runs (its elapsed
     /// time is shown; `docs/editor.md`, "Upload and run").
     pub run_started: Option<Instant>,
+    /// The running stored job was paused from here (EMCU `@A`).
+    pub run_paused: bool,
 }
 
 /// The unit all axes of `setup` share (`mm`), else `units`.
@@ -191,6 +193,7 @@ impl Editor {
             lint_config: lint_config(setup),
             checkout: None,
             run_started: None,
+            run_paused: false,
         }
     }
 

@@ -410,6 +410,32 @@ fn an_uploaded_job_runs_and_ends() {
     assert_eq!(last.get(Axis::Y), Some(500));
 }
 
+/// A running stored job paused with `@A` stands and keeps its rest; `@C`
+/// takes it on to its target (manual 1.5.13, 1.5.14; `docs/editor.md`, "What
+/// each family can do").
+#[test]
+fn a_stored_job_paused_with_at_a_stands_and_at_c_takes_it_to_its_end() {
+    let mut b = homed(PollRate::LineSpeed);
+    b.request(Request::Upload {
+        lines: vec!["#E1,1000".into(), "L1,x4000".into()],
+        erase_first: false,
+    });
+    b.run(ms(500));
+    b.request(Request::RunProgram);
+    b.run(ms(1500));
+    b.request(Request::Raw { line: "@A".into() });
+    b.run(ms(1500));
+    let paused = counters(&mut b);
+    assert!(paused[0] > 0 && paused[0] < 4_000, "{paused:?}");
+    b.run(ms(1000));
+    assert_eq!(counters(&mut b), paused, "it stands while paused");
+    assert_eq!(b.driver.state().activity, Activity::RunningProgram);
+    b.request(Request::Raw { line: "@C".into() });
+    b.run(secs(10));
+    assert_eq!(b.driver.state().activity, Activity::Idle);
+    assert_eq!(counters(&mut b), [4_000, 0, 0]);
+}
+
 #[test]
 fn a_bad_raw_line_is_refused_and_never_reaches_the_interface() {
     let mut b = homed(PollRate::Off);

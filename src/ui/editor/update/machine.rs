@@ -330,8 +330,41 @@ impl Step<'_, '_> {
         }));
     }
 
+    /// F6 while the stored program runs: pause or continue it where the
+    /// manual allows (`docs/editor.md`, "What each family can do").
+    fn pause_stored(&mut self) {
+        match self.ctx.setup.protocol {
+            crate::proto::Protocol::Emcu => {
+                // `@A` ramps down and keeps the rest, `@C` goes on (EMCU
+                // manual 1.5.13, 1.5.14); both are master commands the
+                // interface takes during a job.
+                let (line, text) = if self.e.run_paused {
+                    ("@C", "the job goes on (@C)")
+                } else {
+                    ("@A", "job PAUSED (@A): F6 continues, Space ends it")
+                };
+                self.e.run_paused = !self.e.run_paused;
+                self.out
+                    .effects
+                    .push(Effect::Device(Request::Raw { line: line.into() }));
+                self.say(NoteLevel::Warning, text.into());
+            }
+            _ => self.say(
+                NoteLevel::Warning,
+                "a stored isel program cannot be paused and resumed: the manual describes the \
+                 soft stop and @0S for DNC moves only (2.2.31); Space stops it (its rest is \
+                 discarded)"
+                    .into(),
+            ),
+        }
+    }
+
     pub(super) fn run(&mut self) {
         let ctx = self.ctx;
+        if ctx.machine.activity == Activity::RunningProgram {
+            self.pause_stored();
+            return;
+        }
         let language = self.e.language();
         if Language::of_protocol(ctx.setup.protocol).is_none() {
             self.say(
@@ -377,10 +410,14 @@ impl Step<'_, '_> {
     fn run_clock(&mut self, activity: Activity) {
         let now = self.ctx.now;
         match (activity, self.e.run_started) {
-            (Activity::RunningProgram, None) => self.e.run_started = Some(now),
+            (Activity::RunningProgram, None) => {
+                self.e.run_started = Some(now);
+                self.e.run_paused = false;
+            }
             (Activity::RunningProgram | Activity::Stopping, Some(_)) => {}
             (_, Some(started)) => {
                 self.e.run_started = None;
+                self.e.run_paused = false;
                 let secs = now.saturating_duration_since(started).as_secs_f64();
                 self.say(NoteLevel::Info, format!("the program ran {secs:.1} s"));
             }

@@ -125,7 +125,11 @@ fn title_extra(e: &Editor, ctx: &Context) -> Vec<Span<'static>> {
             .run_started
             .map(|t| format!("{} s ", ctx.now.saturating_duration_since(t).as_secs()))
             .unwrap_or_default();
-        out.push(Span::styled(format!("RUNNING {elapsed}"), p.ok));
+        if e.run_paused {
+            out.push(Span::styled(format!("PAUSED {elapsed}"), p.danger));
+        } else {
+            out.push(Span::styled(format!("RUNNING {elapsed}"), p.ok));
+        }
     }
     if let Some(speed) = e.teach_speed(ctx.setup) {
         let unit = unit_label(ctx.setup);

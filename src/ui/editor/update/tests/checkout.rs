@@ -298,3 +298,27 @@ fn after_a_stop_the_check_out_starts_again_from_its_line_when_asked() {
     };
     assert!(q.text.contains("from line 2: 0 moves"), "{}", q.text);
 }
+
+#[test]
+fn f6_while_a_stored_program_runs_pauses_an_emcu_job_and_says_why_not_for_isel() {
+    let mut host = Host::isel();
+    let mut e = editing(&mut host, PROGRAM);
+    host.machine.activity = Activity::RunningProgram;
+    let out = host.send(&mut e, Input::Main(Action::RunProgram));
+    assert!(requests(&out).is_empty());
+    assert!(
+        said(&out)[0].contains("cannot be paused"),
+        "{:?}",
+        said(&out)
+    );
+
+    let mut host = Host::with_profile("emcu");
+    let mut e = Editor::new(&host.setup, host.now);
+    host.machine.activity = Activity::RunningProgram;
+    let out = host.send(&mut e, Input::Main(Action::RunProgram));
+    assert_eq!(requests(&out), [&Request::Raw { line: "@A".into() }]);
+    assert!(e.run_paused);
+    let out = host.send(&mut e, Input::Main(Action::RunProgram));
+    assert_eq!(requests(&out), [&Request::Raw { line: "@C".into() }]);
+    assert!(!e.run_paused);
+}
