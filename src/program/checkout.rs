@@ -28,6 +28,68 @@ use crate::proto::isel::{
 use super::flow::{self, Flow};
 use super::model::{Command as ProgramCommand, Program};
 
+/// A DNC command of the plan, as the editor keeps it (the editor imports
+/// no protocol module, `docs/architecture.md`).
+pub use crate::proto::isel::Command as DncCommand;
+
+/// The DNC line of `command` for the controller with device number
+/// `device` (`@0A…`), without its CR.
+pub fn line_text(device: u8, command: &Command) -> String {
+    let device = crate::proto::isel::DeviceNumber::new(device)
+        .unwrap_or(crate::proto::isel::DeviceNumber::DEFAULT);
+    crate::proto::isel::Frame::new(device, command.clone()).to_string()
+}
+
+/// An `@0M` to the controller counters `target`, counted from the virtual
+/// zero `zero` (manual 2.2.18), each axis at `hz(axis)`; with 3 axes the
+/// z2 pair is 0 (`../shared/protocols.md` isel 5).
+pub fn go_to(
+    config: AxisConfig,
+    target: [i64; 4],
+    zero: [i64; 4],
+    hz: &dyn Fn(Axis) -> u32,
+) -> Command {
+    let pairs = pair_axes(config)
+        .iter()
+        .enumerate()
+        .map(|(i, axis)| {
+            let z2 = config == AxisConfig::XYZ && i == 3;
+            let k = axis.index();
+            let steps = if z2 {
+                0
+            } else {
+                target.get(k).copied().unwrap_or(0) - zero.get(k).copied().unwrap_or(0)
+            };
+            MovePair::new(
+                i32::try_from(steps).unwrap_or(if steps < 0 { i32::MIN } else { i32::MAX }),
+                hz(*axis),
+            )
+        })
+        .collect();
+    Command::MoveAbsolute(pairs)
+}
+
+/// `command` with the speeds of its pairs through `speed` (axis, Hz asked →
+/// Hz on the wire); other commands as they are.
+pub fn with_speeds(
+    command: Command,
+    config: AxisConfig,
+    speed: &dyn Fn(Axis, u32) -> u32,
+) -> Command {
+    let scale = |pairs: Vec<MovePair>| -> Vec<MovePair> {
+        pairs
+            .iter()
+            .zip(pair_axes(config))
+            .map(|(p, a)| MovePair::new(p.steps, speed(*a, p.speed)))
+            .collect()
+    };
+    match command {
+        Command::MoveAbsolute(p) => Command::MoveAbsolute(scale(p)),
+        Command::MoveRelative(p) => Command::MoveRelative(scale(p)),
+        other => other,
+    }
+}
+
 /// Loop counters the controller has (manual 3.2.5).
 const LOOP_SLOTS: usize = 7;
 

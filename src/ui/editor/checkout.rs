@@ -14,8 +14,7 @@
 use std::time::{Duration, Instant};
 
 use crate::device::api::JogId;
-use crate::program::checkout::Plan;
-use crate::proto::isel::Command;
+use crate::program::checkout::{DncCommand as Command, Plan};
 
 /// Check-out line ids are far from the keypad's jog ids (which count from
 /// 1), so that a renewal of one never reaches the other.
@@ -192,7 +191,7 @@ mod tests {
         let grace = Duration::from_millis(750);
         let plan = Plan::new(
             &crate::program::Program::parse(crate::program::Language::Isel, "9\n"),
-            crate::proto::isel::AxisConfig::XYZ,
+            crate::program::checkout::config_of(crate::axis::AxisSet::XYZ).unwrap(),
         );
         let mut c = Checkout::new(plan, Vec::new(), t0);
         assert!(!c.key(t0, grace), "the press arms");

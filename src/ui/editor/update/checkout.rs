@@ -9,9 +9,11 @@ use crate::axis::Axis;
 use crate::device::api::{Activity, CheckoutEnd, Event, LinkState, Request};
 use crate::jog::KeyPhase;
 use crate::motion::overrun::speed_cap;
-use crate::program::checkout::{DncStep, Finish, Plan, config_of, pair_axes, unexpressible};
+use crate::program::checkout::{
+    DncCommand, DncStep, Finish, Plan, config_of, go_to, line_text, pair_axes, unexpressible,
+    with_speeds,
+};
 use crate::program::{Language, Severity};
-use crate::proto::isel::{Command, DeviceNumber, Frame, MovePair};
 use crate::ui::editor::buffer::Cursor;
 use crate::ui::editor::checkout::{Checkout, RunState, scaled};
 use crate::ui::editor::component::Effect;
@@ -24,7 +26,7 @@ use super::Step;
 /// What a check-out starts with, for the question and for the start.
 struct Prepared {
     plan: Plan,
-    preamble: Vec<(Command, usize)>,
+    preamble: Vec<(DncCommand, usize)>,
     summary: String,
 }
 
@@ -166,28 +168,20 @@ impl Step<'_, '_> {
         let skipped = plan.skip_to(from, position, zero)?;
         let units = crate::ui::editor::unit_label(ctx.setup);
         let speed = self.e.teach_speed(ctx.setup).unwrap_or(1.0);
-        let mut pairs = Vec::new();
         let mut shown = String::new();
-        for (i, axis) in pair_axes(config).iter().enumerate() {
-            let target = skipped.position[axis.index()];
-            let z2 = config == crate::proto::isel::AxisConfig::XYZ && i == 3;
-            let steps = if z2 { 0 } else { target - zero[axis.index()] };
-            let hz = self.axis_hz(*axis, speed);
-            pairs.push(MovePair::new(i32::try_from(steps).unwrap_or(0), hz));
-            if !z2 {
-                let _ = write!(
-                    shown,
-                    " {axis}{}",
-                    self.units_of(*axis, target - zero[axis.index()])
-                );
-            }
+        for axis in pair_axes(config).iter().take(config.axis_count()) {
+            let work = skipped.position[axis.index()] - zero[axis.index()];
+            let _ = write!(shown, " {axis}{}", self.units_of(*axis, work));
         }
+        let go = go_to(config, skipped.position, zero, &|axis| {
+            self.axis_hz(axis, speed)
+        });
         let mut preamble = skipped.settings.clone();
         let settings: Vec<String> = preamble
             .iter()
             .map(|(c, l)| format!("{c} (line {})", l + 1))
             .collect();
-        preamble.push((Command::MoveAbsolute(pairs), from));
+        preamble.push((go, from));
         let summary = format!(
             "Check out {name} from line {}: {} move{} before it skipped.\n\
              Start position (work):{shown}; the axes go there first (@0M at {speed} {units}/s, \
@@ -374,7 +368,6 @@ impl Step<'_, '_> {
             .into_iter()
             .map(|a| (a, self.cap_hz(a)))
             .collect();
-        let device = DeviceNumber::new(ctx.setup.isel_device).unwrap_or(DeviceNumber::DEFAULT);
         loop {
             let Some(c) = self.e.checkout.as_mut() else {
                 return;
@@ -401,17 +394,7 @@ impl Step<'_, '_> {
                 return;
             }
             let (command, line) = if let Some((command, line)) = c.preamble.first().cloned() {
-                let command = match command {
-                    Command::MoveAbsolute(pairs) => Command::MoveAbsolute(
-                        pairs
-                            .iter()
-                            .zip(pair_axes(c.plan.config()))
-                            .map(|(p, a)| MovePair::new(p.steps, speed(*a, p.speed)))
-                            .collect(),
-                    ),
-                    other => other,
-                };
-                (command, line)
+                (with_speeds(command, c.plan.config(), &speed), line)
             } else {
                 let Some(line) = c.plan.line() else {
                     self.checkout_finished();
@@ -439,7 +422,7 @@ impl Step<'_, '_> {
                     }
                 }
             };
-            let text = Frame::new(device, command).to_string();
+            let text = line_text(ctx.setup.isel_device, &command);
             let id = c.new_id();
             c.line_id = Some(id);
             c.line_text = Some(text.clone());
