@@ -164,7 +164,7 @@ named_enum! {
         TeachSlower = "teach-slower", "slower speed for taught moves";
         TeachFaster = "teach-faster", "faster speed for taught moves";
         Upload = "upload", "upload the program (asks to erase a stored one)";
-        RunProgram = "run-program", "start the stored program (asks first); while an EMCU job runs: pause / continue";
+        RunProgram = "run-program", "start the stored program (asks); EMCU job: pause / go on";
         CloseEditor = "close-editor", "back to the machine screen";
         CursorUp = "cursor-up", "cursor up";
         CursorDown = "cursor-down", "cursor down";
@@ -238,13 +238,13 @@ named_enum! {
         ZoomIn = "zoom-in", "timeline: fewer milliseconds per column";
         ZoomOut = "zoom-out", "timeline: more milliseconds per column";
         // Program check-out (issue 15, `docs/editor.md`, "Check-out").
-        Checkout = "checkout", "check-out: run the program line by line while a key is held (asks)";
-        CheckoutFromLine = "checkout-from-line", "check-out from the cursor's line (shows where it starts, asks)";
+        Checkout = "checkout", "check-out: run line by line while the key is held (asks)";
+        CheckoutFromLine = "checkout-from-line", "check-out from the cursor's line (shows the start, asks)";
         CheckoutHold = "checkout-hold", "hold to run the check-out; let go: pause";
         CheckoutSingle = "checkout-single", "single step on/off: one line per press";
         CheckoutSlower = "checkout-slower", "check-out speed factor -10 %";
         CheckoutFaster = "checkout-faster", "check-out speed factor +10 %";
-        CheckoutAbort = "checkout-abort", "end the check-out: stop, discard a paused move's rest (0xFF)";
+        CheckoutAbort = "checkout-abort", "end the check-out (stop; a paused rest is discarded, 0xFF)";
     }
 }
 

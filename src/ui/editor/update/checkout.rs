@@ -373,9 +373,14 @@ impl Step<'_, '_> {
                 return;
             };
             let factor = c.factor;
+            let capped = std::cell::Cell::new(false);
             let speed = |axis: Axis, hz: u32| {
                 let cap = caps.iter().find(|(a, _)| *a == axis).and_then(|(_, c)| *c);
-                scaled(hz, factor, cap)
+                let v = scaled(hz, factor, cap);
+                if v < scaled(hz, factor, None) {
+                    capped.set(true);
+                }
+                v
             };
             if let RunState::Paused { rest } = c.state.clone() {
                 let Some(text) = c.line_text.clone() else {
@@ -434,6 +439,16 @@ impl Step<'_, '_> {
                 lease: ctx.setup.jog.repeat_timeout,
                 resume: None,
             }));
+            if capped.get() {
+                self.say(
+                    NoteLevel::Warning,
+                    format!(
+                        "line {}: speed capped to keep the dead-man bound (jog.max_overrun), \
+                         as a continuous jog's",
+                        line + 1
+                    ),
+                );
+            }
             self.checkout_follow();
             return;
         }

@@ -322,3 +322,24 @@ fn f6_while_a_stored_program_runs_pauses_an_emcu_job_and_says_why_not_for_isel()
     assert_eq!(requests(&out), [&Request::Raw { line: "@C".into() }]);
     assert!(!e.run_paused);
 }
+
+#[test]
+fn a_speed_above_the_dead_man_cap_is_capped_as_a_jogs_and_said() {
+    let mut host = Host::isel();
+    let mut e = started(&mut host, "0 4000,10000,0,10000,0,10000,0,10000\n9\n");
+    hold(&mut host, &mut e, 0);
+    let out = hold(&mut host, &mut e, 500);
+    let (_, text, _) = checkout_lines(&out).remove(0);
+    let hz: u32 = text
+        .trim_start_matches("@0A4000,")
+        .split(',')
+        .next()
+        .and_then(|s| s.parse().ok())
+        .expect("a speed");
+    assert!(hz < 10_000 && hz > 1_000, "{text}");
+    assert!(
+        said(&out).iter().any(|s| s.contains("speed capped")),
+        "{:?}",
+        said(&out)
+    );
+}
