@@ -80,24 +80,8 @@ fn title_extra(e: &Editor, ctx: &Context) -> Vec<Span<'static>> {
     let mut out = Vec::new();
     let modified = if e.modified() { "[+]" } else { "" };
     out.push(Span::styled(format!("{}{modified} ", e.name()), p.title));
-    let commands = e.buffer.program().command_count();
-    out.push(Span::styled(
-        format!(
-            "{} {} command{} ",
-            e.language(),
-            commands,
-            if commands == 1 { "" } else { "s" }
-        ),
-        p.dim,
-    ));
-    let (errors, warnings) = e.checks.counts();
-    if errors > 0 {
-        out.push(Span::styled(format!("{errors} E "), p.danger));
-    }
-    if warnings > 0 {
-        out.push(Span::styled(format!("{warnings} W "), p.warning));
-    }
     if let Some(c) = &e.checkout {
+        // First, and alone: at 80 columns the state must not be cut off.
         let style = match c.state {
             RunState::Paused { .. } | RunState::Stopped { .. } => p.danger,
             RunState::Running | RunState::Dwelling { .. } => p.ok,
@@ -117,7 +101,26 @@ fn title_extra(e: &Editor, ctx: &Context) -> Vec<Span<'static>> {
             ),
             style,
         ));
-    } else if e.read_only().is_some() {
+        return out;
+    }
+    let commands = e.buffer.program().command_count();
+    out.push(Span::styled(
+        format!(
+            "{} {} command{} ",
+            e.language(),
+            commands,
+            if commands == 1 { "" } else { "s" }
+        ),
+        p.dim,
+    ));
+    let (errors, warnings) = e.checks.counts();
+    if errors > 0 {
+        out.push(Span::styled(format!("{errors} E "), p.danger));
+    }
+    if warnings > 0 {
+        out.push(Span::styled(format!("{warnings} W "), p.warning));
+    }
+    if e.read_only().is_some() {
         out.push(Span::styled("read-only while uploading ", p.warning));
     }
     if ctx.machine.activity == Activity::RunningProgram {
