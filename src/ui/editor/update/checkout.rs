@@ -9,11 +9,11 @@ use crate::axis::Axis;
 use crate::device::api::{Activity, CheckoutEnd, Event, LinkState, Request};
 use crate::jog::KeyPhase;
 use crate::motion::overrun::speed_cap;
+use crate::program::Language;
 use crate::program::checkout::{
     DncCommand, DncStep, Finish, Plan, config_of, go_to, line_text, pair_axes, unexpressible,
     with_speeds,
 };
-use crate::program::{Language, Severity};
 use crate::ui::editor::buffer::Cursor;
 use crate::ui::editor::checkout::{Checkout, RunState, scaled};
 use crate::ui::editor::component::Effect;
@@ -107,30 +107,8 @@ impl Step<'_, '_> {
             return Err("the machine is busy: wait until it stands still".into());
         }
         // The linter's verdict of this very text, soft limits included.
-        let state = self.e.buffer.state();
-        if !self.e.checks.fresh(state) {
-            let job = self.lint_job();
-            let lines = self.e.buffer.line_count();
-            self.e.checks.apply_now(&job, lines, ctx.now);
-        }
-        let first_error = self
-            .e
-            .checks
-            .all()
-            .iter()
-            .find(|d| d.severity == Severity::Error)
-            .map(|d| (d.span, d.message.clone()));
-        if let Some((span, message)) = first_error {
-            let (errors, _) = self.e.checks.counts();
-            let text = self.e.buffer.line(span.line).to_string();
-            let col = crate::ui::editor::buffer::col_of(&text, span.start);
-            self.e.buffer.move_to(Cursor::new(span.line, col));
-            self.scroll_into_view();
-            return Err(format!(
-                "{errors} error{} to fix first; line {}: {message}",
-                if errors == 1 { "" } else { "s" },
-                span.line + 1
-            ));
+        if let Some(why) = self.first_error() {
+            return Err(why);
         }
         let program = self.e.buffer.program();
         let named = unexpressible(program);
@@ -387,15 +365,7 @@ impl Step<'_, '_> {
                     c.state = RunState::Ready;
                     continue;
                 };
-                let id = c.new_id();
-                c.line_id = Some(id);
-                c.state = RunState::Running;
-                self.out.effects.push(Effect::Device(Request::Checkout {
-                    id,
-                    line: text,
-                    lease: ctx.setup.jog.repeat_timeout,
-                    resume: rest,
-                }));
+                self.checkout_send(text, rest);
                 return;
             }
             let (command, line) = if let Some((command, line)) = c.preamble.first().cloned() {
@@ -428,17 +398,9 @@ impl Step<'_, '_> {
                 }
             };
             let text = line_text(ctx.setup.isel_device, &command);
-            let id = c.new_id();
-            c.line_id = Some(id);
             c.line_text = Some(text.clone());
             c.at_line = Some(line);
-            c.state = RunState::Running;
-            self.out.effects.push(Effect::Device(Request::Checkout {
-                id,
-                line: text,
-                lease: ctx.setup.jog.repeat_timeout,
-                resume: None,
-            }));
+            self.checkout_send(text, None);
             if capped.get() {
                 self.say(
                     NoteLevel::Warning,
@@ -452,6 +414,24 @@ impl Step<'_, '_> {
             self.checkout_follow();
             return;
         }
+    }
+
+    /// `text` to the device task as the check-out's line, held by the
+    /// repeat timeout's lease; `resume`: the paused line whose rest it
+    /// finishes.
+    fn checkout_send(&mut self, text: String, resume: Option<crate::device::api::JogId>) {
+        let Some(c) = self.e.checkout.as_mut() else {
+            return;
+        };
+        let id = c.new_id();
+        c.line_id = Some(id);
+        c.state = RunState::Running;
+        self.out.effects.push(Effect::Device(Request::Checkout {
+            id,
+            line: text,
+            lease: self.ctx.setup.jog.repeat_timeout,
+            resume,
+        }));
     }
 
     fn checkout_finished(&mut self) {
