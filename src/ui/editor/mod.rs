@@ -136,6 +136,11 @@ pub struct Editor {
     pub run_started: Option<Instant>,
     /// The running stored job was paused from here (EMCU `@A`).
     pub run_paused: bool,
+    /// The toolpath of the running program (when it is the editor's text
+    /// as uploaded from here) and the segment the last position read lies
+    /// on: its progress.
+    pub run_path: Option<Vec<crate::program::Segment>>,
+    pub run_segment: Option<usize>,
 }
 
 /// The unit all axes of `setup` share (`mm`), else `units`.
@@ -194,6 +199,8 @@ impl Editor {
             checkout: None,
             run_started: None,
             run_paused: false,
+            run_path: None,
+            run_segment: None,
         }
     }
 

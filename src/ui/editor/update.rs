@@ -11,6 +11,7 @@
 mod checkout;
 mod files;
 mod machine;
+mod run;
 
 use std::path::{Path, PathBuf};
 

@@ -423,6 +423,14 @@ fn a_stored_job_paused_with_at_a_stands_and_at_c_takes_it_to_its_end() {
     b.run(ms(500));
     b.request(Request::RunProgram);
     b.run(ms(1500));
+    // Positions are read between the job's lines while it runs: its
+    // progress (`docs/editor.md`).
+    assert!(
+        b.events.iter().any(|e| matches!(e,
+            Event::Position(p) if p.source == PositionSource::Measured
+                && p.steps.get(Axis::X).is_some_and(|x| x > 0 && x < 4_000))),
+        "no position read during the job"
+    );
     b.request(Request::Raw { line: "@A".into() });
     b.run(ms(1500));
     let paused = counters(&mut b);

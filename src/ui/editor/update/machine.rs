@@ -336,35 +336,6 @@ impl Step<'_, '_> {
         }));
     }
 
-    /// F6 while the stored program runs: pause or continue it where the
-    /// manual allows (`docs/editor.md`, "What each family can do").
-    fn pause_stored(&mut self) {
-        match self.ctx.setup.protocol {
-            crate::proto::Protocol::Emcu => {
-                // `@A` ramps down and keeps the rest, `@C` goes on (EMCU
-                // manual 1.5.13, 1.5.14); both are master commands the
-                // interface takes during a job.
-                let (line, text) = if self.e.run_paused {
-                    ("@C", "the job goes on (@C)")
-                } else {
-                    ("@A", "job PAUSED (@A): F6 continues, Space ends it")
-                };
-                self.e.run_paused = !self.e.run_paused;
-                self.out
-                    .effects
-                    .push(Effect::Device(Request::Raw { line: line.into() }));
-                self.say(NoteLevel::Warning, text.into());
-            }
-            _ => self.say(
-                NoteLevel::Warning,
-                "a stored isel program cannot be paused and resumed: the manual describes the \
-                 soft stop and @0S for DNC moves only (2.2.31); Space stops it (its rest is \
-                 discarded)"
-                    .into(),
-            ),
-        }
-    }
-
     pub(super) fn run(&mut self) {
         let ctx = self.ctx;
         if ctx.machine.activity == Activity::RunningProgram {
@@ -411,26 +382,8 @@ impl Step<'_, '_> {
     }
 
     /// A device event, before the model takes it: an upload's progress,
-    /// mark and report; a stored program the erase offer waited for.
-    /// The stored program's run: its start, and its time when it ends.
-    fn run_clock(&mut self, activity: Activity) {
-        let now = self.ctx.now;
-        match (activity, self.e.run_started) {
-            (Activity::RunningProgram, None) => {
-                self.e.run_started = Some(now);
-                self.e.run_paused = false;
-            }
-            (Activity::RunningProgram | Activity::Stopping, Some(_)) => {}
-            (_, Some(started)) => {
-                self.e.run_started = None;
-                self.e.run_paused = false;
-                let secs = now.saturating_duration_since(started).as_secs_f64();
-                self.say(NoteLevel::Info, format!("the program ran {secs:.1} s"));
-            }
-            (_, None) => {}
-        }
-    }
-
+    /// mark and report; a stored program the erase offer waited for; a
+    /// check-out line's end; a stored program's run and its progress.
     pub(super) fn device_event(&mut self, event: &Event) {
         self.checkout_event(event);
         match event {
@@ -438,6 +391,7 @@ impl Step<'_, '_> {
                 self.run_clock(state.activity);
                 self.offer_erase(state.program);
             }
+            Event::Position(sample) => self.run_progress(sample),
             Event::Upload(upload) => {
                 // The editor knows which line each uploaded command came
                 // from: its report is said instead of the device's words.

@@ -124,10 +124,21 @@ fn title_extra(e: &Editor, ctx: &Context) -> Vec<Span<'static>> {
         out.push(Span::styled("read-only while uploading ", p.warning));
     }
     if ctx.machine.activity == Activity::RunningProgram {
-        let elapsed = e
+        let mut elapsed = e
             .run_started
             .map(|t| format!("{} s ", ctx.now.saturating_duration_since(t).as_secs()))
             .unwrap_or_default();
+        // Progress where positions are read while it runs (EMCU).
+        if let (Some(path), Some(k)) = (&e.run_path, e.run_segment)
+            && let Some(segment) = path.get(k)
+        {
+            elapsed.push_str(&format!(
+                "line {} ({}/{}) ",
+                segment.line + 1,
+                k + 1,
+                path.len()
+            ));
+        }
         if e.run_paused {
             out.push(Span::styled(format!("PAUSED {elapsed}"), p.danger));
         } else {

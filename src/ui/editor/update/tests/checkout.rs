@@ -343,3 +343,41 @@ fn a_speed_above_the_dead_man_cap_is_capped_as_a_jogs_and_said() {
         said(&out)
     );
 }
+
+#[test]
+fn positions_read_while_a_stored_job_runs_show_its_progress_along_the_path() {
+    let mut host = Host::isel();
+    host.measured(
+        PerAxis::new()
+            .with(Axis::X, 0)
+            .with(Axis::Y, 0)
+            .with(Axis::Z, 0),
+    );
+    let mut e = editing(&mut host, PROGRAM);
+    // As uploaded from here.
+    e.upload.state = Some(e.buffer.state());
+    let mut state = host.machine.clone();
+    state.activity = Activity::RunningProgram;
+    host.send(&mut e, Input::Device(&Event::State(state)));
+    let path = e.run_path.clone().expect("the path of the run");
+    assert_eq!(path.len(), 2);
+    let now = host.now;
+    let at = |x: i64, y: i64| PositionSample {
+        at: now,
+        steps: PerAxis::new()
+            .with(Axis::X, x)
+            .with(Axis::Y, y)
+            .with(Axis::Z, 0),
+        source: PositionSource::Measured,
+    };
+    host.send(&mut e, Input::Device(&Event::Position(at(2000, 0))));
+    assert_eq!(e.run_segment, Some(0));
+    host.send(&mut e, Input::Device(&Event::Position(at(4000, 1500))));
+    assert_eq!(e.run_segment, Some(1));
+    assert_eq!(path[1].line, 2);
+    // Estimated positions say nothing.
+    let mut estimate = at(0, 0);
+    estimate.source = PositionSource::Estimated;
+    host.send(&mut e, Input::Device(&Event::Position(estimate)));
+    assert_eq!(e.run_segment, Some(1));
+}
