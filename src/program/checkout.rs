@@ -424,6 +424,7 @@ impl Plan {
         let mut s = Skipped {
             position,
             settings: Vec::new(),
+            outputs: Vec::new(),
             skipped_moves: 0,
         };
         let mut budget = 1_000_000usize;
@@ -496,6 +497,12 @@ impl Plan {
                         at + 1
                     ));
                 }
+                Some(CncCommand::SetPort { .. }) => {
+                    // Outputs switch things (a spindle): named, not sent.
+                    if let Some(DncStep::Send { command, .. }) = self.step(&|_, hz| hz) {
+                        s.outputs.push((command, at));
+                    }
+                }
                 _ => {
                     if let Some(DncStep::Send {
                         command,
@@ -551,6 +558,9 @@ impl Plan {
 pub struct Skipped {
     pub position: [i64; 4],
     pub settings: Vec<(Command, usize)>,
+    /// Outputs the skipped lines write: named to the operator, not sent
+    /// (they switch things, a spindle; the operator decides).
+    pub outputs: Vec<(Command, usize)>,
     pub skipped_moves: usize,
 }
 
@@ -727,15 +737,17 @@ mod tests {
     #[test]
     fn skipping_to_a_line_gives_the_position_and_settings_it_implies() {
         let text = "e1\nf0\n0 100,900,50,900,0,900,0,900\nf-1\nm 10,900,20,900,30,900,0,900\n\
-                    0 1,900,1,900,1,900,0,900\n9\n";
+                    p 100,128,3\n0 1,900,1,900,1,900,0,900\n9\n";
         let program = Program::parse(Language::Isel, text);
         let mut p = Plan::new(&program, AxisConfig::XYZ);
-        let s = p.skip_to(5, [0, 0, 0, 0], [1000, 0, 0, 0]).unwrap();
+        let s = p.skip_to(6, [0, 0, 0, 0], [1000, 0, 0, 0]).unwrap();
         assert_eq!(s.position, [1010, 20, 30, 0]);
         assert_eq!(s.skipped_moves, 2);
         let settings: Vec<String> = s.settings.iter().map(|(c, _)| c.to_string()).collect();
         assert_eq!(settings, ["e1", "f-1"]);
-        assert_eq!(p.line(), Some(5));
+        let outputs: Vec<String> = s.outputs.iter().map(|(c, _)| c.to_string()).collect();
+        assert_eq!(outputs, ["B100,3"]);
+        assert_eq!(p.line(), Some(6));
         // Inside a loop: the counter it would hold comes along.
         let text = "0 1,900,0,900,0,900,0,900\n0 2,900,0,900,0,900,0,900\n3 1,-2\n9\n";
         let program = Program::parse(Language::Isel, text);

@@ -160,11 +160,17 @@ impl Step<'_, '_> {
             .map(|(c, l)| format!("{c} (line {})", l + 1))
             .collect();
         preamble.push((go, from));
+        let outputs: Vec<String> = skipped
+            .outputs
+            .iter()
+            .map(|(c, l)| format!("{c} (line {})", l + 1))
+            .collect();
         let summary = format!(
             "Check out {name} from line {}: {} move{} before it skipped.\n\
              Start position (work):{shown}; the axes go there first (@0M at {speed} {units}/s, \
              held like every line).\n\
              Settings in force there, sent first: {}.\n\
+             Outputs the skipped lines set are not sent: {}.\n\
              Moves count from the work zero in force now; absolute and relative moves as written.",
             from + 1,
             skipped.skipped_moves,
@@ -173,6 +179,11 @@ impl Step<'_, '_> {
                 "none (the controller's own)".to_string()
             } else {
                 settings.join(", ")
+            },
+            if outputs.is_empty() {
+                "none".to_string()
+            } else {
+                outputs.join(", ")
             }
         );
         Ok(Prepared {
