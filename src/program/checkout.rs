@@ -725,6 +725,44 @@ mod tests {
     }
 
     #[test]
+    fn eight_nested_loops_end_the_plan_as_the_controller_would() {
+        // `3 1,-k` at index k, each jumping back to the move: in the repeat
+        // pass of every outer loop the inner one takes its own counter, so
+        // the innermost needs an eighth (manual 3.2.5: seven).
+        let mut text = String::from("0 1,900,0,900,0,900,0,900\n");
+        for k in 1..=8 {
+            text.push_str(&format!("3 1,-{k}\n"));
+        }
+        text.push_str("9\n");
+        let mut p = plan(&text);
+        for _ in 0..100_000 {
+            if p.finish().is_some() {
+                break;
+            }
+            p.advance(None);
+        }
+        assert!(
+            matches!(p.finish(), Some(Finish::LoopStack { line: 1 })),
+            "{:?}",
+            p.finish()
+        );
+        // Seven are allowed.
+        let mut text = String::from("0 1,900,0,900,0,900,0,900\n");
+        for k in 1..=7 {
+            text.push_str(&format!("3 1,-{k}\n"));
+        }
+        text.push_str("9\n");
+        let mut p = plan(&text);
+        for _ in 0..100_000 {
+            if p.finish().is_some() {
+                break;
+            }
+            p.advance(None);
+        }
+        assert_eq!(p.finish(), Some(&Finish::End));
+    }
+
+    #[test]
     fn lines_without_an_exact_dnc_form_are_named() {
         let program = Program::parse(
             Language::Isel,
