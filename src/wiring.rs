@@ -102,10 +102,14 @@ pub enum RoleName {
     Reference,
     User,
     Unused,
+    Coolant,
+    Clamp,
+    Vacuum,
+    Lamp,
 }
 
 impl RoleName {
-    const ALL: [RoleName; 11] = [
+    const ALL: [RoleName; 15] = [
         RoleName::Limit,
         RoleName::Estop,
         RoleName::Hood,
@@ -117,6 +121,10 @@ impl RoleName {
         RoleName::Reference,
         RoleName::User,
         RoleName::Unused,
+        RoleName::Coolant,
+        RoleName::Clamp,
+        RoleName::Vacuum,
+        RoleName::Lamp,
     ];
 
     fn word(self) -> &'static str {
@@ -132,6 +140,10 @@ impl RoleName {
             RoleName::Reference => "reference",
             RoleName::User => "user",
             RoleName::Unused => "unused",
+            RoleName::Coolant => "coolant",
+            RoleName::Clamp => "clamp",
+            RoleName::Vacuum => "vacuum",
+            RoleName::Lamp => "lamp",
         }
     }
 
@@ -144,6 +156,10 @@ impl RoleName {
                 | RoleName::Hood
                 | RoleName::User
                 | RoleName::Unused
+                | RoleName::Coolant
+                | RoleName::Clamp
+                | RoleName::Vacuum
+                | RoleName::Lamp
         )
     }
 }
@@ -166,6 +182,12 @@ pub enum Role {
     Reference,
     User,
     Unused,
+    /// Outputs only: what an operator switches by name (`docs/ui.md`,
+    /// "Named outputs").
+    Coolant,
+    Clamp,
+    Vacuum,
+    Lamp,
 }
 
 impl Role {
@@ -182,6 +204,10 @@ impl Role {
             Role::Reference => RoleName::Reference,
             Role::User => RoleName::User,
             Role::Unused => RoleName::Unused,
+            Role::Coolant => RoleName::Coolant,
+            Role::Clamp => RoleName::Clamp,
+            Role::Vacuum => RoleName::Vacuum,
+            Role::Lamp => RoleName::Lamp,
         }
     }
 
@@ -198,6 +224,10 @@ impl Role {
             RoleName::Reference => Role::Reference,
             RoleName::User => Role::User,
             RoleName::Unused => Role::Unused,
+            RoleName::Coolant => Role::Coolant,
+            RoleName::Clamp => Role::Clamp,
+            RoleName::Vacuum => Role::Vacuum,
+            RoleName::Lamp => Role::Lamp,
         })
     }
 
@@ -205,6 +235,17 @@ impl Role {
     /// jogterm refuse motion itself.
     pub fn is_interlock(self) -> bool {
         matches!(self, Role::Estop | Role::Power | Role::Hood)
+    }
+
+    /// An output with this role is something an operator switches by its
+    /// name (spindle, coolant, clamp, vacuum, lamp, hood unlock): it gets a
+    /// place in the outputs popup. Power stages and plain user outputs
+    /// stay in the I/O panel only.
+    pub fn is_named_output(self) -> bool {
+        matches!(
+            self,
+            Role::Spindle | Role::Hood | Role::Coolant | Role::Clamp | Role::Vacuum | Role::Lamp
+        )
     }
 }
 
@@ -236,6 +277,9 @@ pub struct BitWiring {
     /// Something is connected: jogterm acts on the bit only then.
     pub wired: bool,
     pub kind: BitKind,
+    /// Outputs: whether switching it asks first, as the profile says
+    /// (`hazardous = true`); `None` leaves it to the manual's table.
+    pub hazardous: Option<bool>,
 }
 
 impl BitWiring {
@@ -282,6 +326,10 @@ pub struct BitPatch {
     pub active: Option<Level>,
     #[serde(default)]
     pub wired: Option<bool>,
+    /// Outputs: ask before switching it (`true`) or not (`false`);
+    /// absent, the manual's table decides.
+    #[serde(default)]
+    pub hazardous: Option<bool>,
 }
 
 /// A problem with one `[io]` entry: the key path below the profile's root
@@ -488,6 +536,18 @@ fn apply(
     if let Some(wired) = patch.wired {
         bit.wired = wired;
     }
+    if let Some(hazardous) = patch.hazardous {
+        if bit.kind != BitKind::Output {
+            return Err((
+                Some("hazardous"),
+                format!(
+                    "`{}` is an input: only switching an output can be hazardous",
+                    base.address
+                ),
+            ));
+        }
+        bit.hazardous = Some(hazardous);
+    }
     Ok(bit)
 }
 
@@ -547,6 +607,7 @@ fn isel_defaults(axes: AxisSet) -> Vec<BitWiring> {
                 active,
                 wired,
                 kind: BitKind::Input,
+                hazardous: None,
             }
         })
         .collect();
@@ -591,6 +652,7 @@ fn output_bit(address: String, name: &str, role: Role) -> BitWiring {
         role,
         active: Level::High,
         kind: BitKind::Output,
+        hazardous: None,
     }
 }
 
@@ -605,6 +667,7 @@ fn emcu_defaults() -> Vec<BitWiring> {
             active: Level::High,
             wired: true,
             kind: BitKind::Input,
+            hazardous: None,
         },
         output_bit("A1".into(), "A1 (K1)", Role::User),
         output_bit("A2".into(), "A2 (K2)", Role::User),
@@ -621,6 +684,7 @@ fn emp_defaults(ds: &str, axis: Axis) -> Vec<BitWiring> {
         active: Level::High,
         wired: true,
         kind: BitKind::Input,
+        hazardous: None,
     };
     let mut bits = vec![
         input(

@@ -177,7 +177,8 @@ fn a_one_second_pulse_of_limit_x1_is_one_second_within_one_window() {
 /// A read (`@0P`, `@0b`), or the read-back's reference probe: a relative
 /// move of zero steps on every axis (`docs/protocols.md`, isel).
 fn reads_or_moves_nothing(command: &str) -> bool {
-    if command == "@0P" || command.starts_with("@0b") {
+    // `@0T0`: test mode off, at every connect (docs/device.md).
+    if command == "@0P" || command == "@0T0" || command.starts_with("@0b") {
         return true;
     }
     command.strip_prefix("@0A").is_some_and(|params| {

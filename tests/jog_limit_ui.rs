@@ -254,7 +254,7 @@ fn space_stops_it_and_the_driver_says_stopped() {
 fn help_lists_the_key() {
     let mut m = model_in(Protocol::Isel, "dark", State::Idle, Instant::now());
     update(&mut m, ch('?'));
-    let lines = jogterm::ui::help::help_lines(&m.keymap);
+    let lines = jogterm::ui::help::help_lines(&m.keymap, &m.setup.macros);
     assert!(
         lines.iter().any(|l| matches!(
             l,

@@ -10,6 +10,7 @@
 // message (Cargo.toml [lints] denies them in the crate itself).
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
+mod console_pty;
 mod sim_process;
 mod ui_pty;
 
@@ -17,7 +18,8 @@ use std::fs;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use sim_process::{JOGTERM, SimProcess, WAIT};
+use console_pty::{quit, spawn, wait_for};
+use sim_process::{SimProcess, WAIT};
 use ui_pty::PtyRun;
 
 /// The default profile, the axes 5 mm from the reference point at power-up
@@ -26,24 +28,6 @@ const PROFILE: (&str, &str) = (
     "profiles/default.toml",
     "base = \"default\"\n[sim]\nstart_position = 5.0\n",
 );
-
-fn spawn(sim: &SimProcess, state: &Path) -> PtyRun {
-    let env = [
-        ("JOGTERM_NO_KEYBOARD_QUERY", "1".to_string()),
-        ("JOGTERM_CONFIG_DIR", sim.dir.path().display().to_string()),
-        ("JOGTERM_STATE_DIR", state.display().to_string()),
-        ("RUST_BACKTRACE", "0".to_string()),
-    ];
-    let env: Vec<(&str, &str)> = env.iter().map(|(k, v)| (*k, v.as_str())).collect();
-    let link = sim.link.display().to_string();
-    // Wide, so that whole messages and the traffic console show.
-    PtyRun::spawn_sized(Path::new(JOGTERM), &["--port", &link], &env, 40, 200)
-}
-
-fn wait_for(run: &PtyRun, needle: &str) -> String {
-    run.wait_for(needle, WAIT)
-        .unwrap_or_else(|screen| panic!("`{needle}` never appeared:\n{screen}"))
-}
 
 /// The X line of the position panel: (work, steps).
 fn x_line(run: &PtyRun) -> (String, String) {
@@ -76,25 +60,9 @@ fn wait_x(run: &PtyRun, what: &str, ok: impl Fn(&str, &str) -> bool) {
     }
 }
 
-fn quit(run: &mut PtyRun) {
-    run.type_keys(&[b"q"]);
-    assert_eq!(
-        run.wait_exit(WAIT),
-        Some(0),
-        "{}",
-        run.screen().screen().contents()
-    );
-}
-
 /// Initialise and reference; the axes stand at machine 0.
 fn reference(run: &mut PtyRun) {
-    wait_for(run, "connected");
-    run.type_keys(&[b"i"]);
-    wait_for(run, "NOT REF");
-    run.type_keys(&[b"h"]);
-    wait_for(run, "Reference run");
-    run.type_keys(&[b"y"]);
-    wait_for(run, "READY");
+    console_pty::reference(run);
     wait_x(run, "at 0", |_, steps| steps == "0");
 }
 

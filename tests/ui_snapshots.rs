@@ -158,14 +158,28 @@ fn a_lost_link_greys_the_last_known_positions() {
     let t0 = Instant::now();
     for theme in THEMES {
         let m = model_in(Protocol::Emcu, theme, State::LinkLost, t0);
-        let buf = checked(&m, 160, 48);
-        assert!(!find(&buf, "last known").is_empty(), "{theme}");
+        let buf = checked(&m, 80, 24);
         // The X row of the position panel starts the line.
         let (x, y) = *find(&buf, "X")
             .iter()
             .find(|(x, _)| *x == 0)
             .expect("the X row");
         assert!(shows(style_at(&buf, (x + 4, y)), m.palette.dim), "{theme}");
+        // At 160x48 the large digits and the machine position beside them.
+        let buf = checked(&m, 160, 48);
+        assert!(!find(&buf, "last known").is_empty(), "{theme}");
+        let (x, y) = first(&buf, "machine ");
+        assert!(shows(style_at(&buf, (x + 8, y)), m.palette.dim), "{theme}");
+        let ink = if m.palette.symbols.lit.is_ascii() {
+            "#"
+        } else {
+            "█"
+        };
+        let (x, y) = *find(&buf, ink)
+            .iter()
+            .find(|(x, y)| *x > 8 && *y == 3)
+            .expect("the digits of X");
+        assert!(shows(style_at(&buf, (x, y)), m.palette.dim), "{theme}");
     }
 }
 
@@ -218,7 +232,7 @@ fn help_overlay() {
     use jogterm::ui::model::Popup;
     let t0 = Instant::now();
     let mut model = model_in(Protocol::Isel, "dark", State::Idle, t0);
-    let lines = help_lines(&model.keymap);
+    let lines = help_lines(&model.keymap, &model.setup.macros);
     let listing: Vec<String> = lines
         .iter()
         .map(|line| match line {

@@ -191,7 +191,7 @@ fn w_opens_and_closes_it_and_the_help_lists_its_keys() {
         Msg::Key(KeyEvent::new(KeyCode::Char(' '), KeyModifiers::NONE)),
     );
     assert_eq!(effects, [jogterm::ui::Effect::Stop]);
-    let help = jogterm::ui::help::help_lines(&model.keymap);
+    let help = jogterm::ui::help::help_lines(&model.keymap, &model.setup.macros);
     for action in [Action::Timeline, Action::TimeEarlier, Action::ZoomIn] {
         assert!(
             help.iter().any(|l| matches!(

@@ -79,7 +79,8 @@ pub fn resolve(global: &GlobalArgs, dirs: &ConfigDirs) -> Result<Resolved, Setup
         })?;
     let theme = load_theme(global.theme.as_deref().unwrap_or(DEFAULT_THEME), dirs)?;
     let refs: Vec<&Source> = sources.iter().collect();
-    let keymap = Keymap::builtin()?.with_overrides(&profile.keys, &refs)?;
+    let macro_names: Vec<&str> = profile.macros.keys().map(String::as_str).collect();
+    let keymap = Keymap::builtin()?.with_overrides(&profile.keys, &macro_names, &refs)?;
     let profile_key = crate::offsets::store::profile_key(&sources);
     Ok(Resolved {
         profile,

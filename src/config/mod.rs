@@ -11,6 +11,7 @@
 //! `default` profile (`dark` theme). A broken file stops jogterm before anything
 //! starts, with the file, line and what was expected.
 
+pub mod macros;
 pub mod profile;
 pub mod source;
 pub mod theme;
@@ -110,7 +111,12 @@ pub fn load_profile_with_sources(
             profile
                 .validate()
                 .into_iter()
-                .map(|problem| source::error_for_key(&refs, &problem.key, problem.message)),
+                .map(|problem| match problem.offset {
+                    Some(offset) => {
+                        source::error_in_string(&refs, &problem.key, offset, problem.message)
+                    }
+                    None => source::error_for_key(&refs, &problem.key, problem.message),
+                }),
         );
     }
     match (profile, ConfigError::all(errors)) {

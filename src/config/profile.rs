@@ -11,6 +11,7 @@ use crate::proto::Protocol;
 use crate::wire::LineSettings;
 use crate::wiring::{BitPatch, Wiring};
 
+use super::macros::{self, Macro, MacroProfile};
 use super::variant::SimVariant;
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -41,6 +42,9 @@ pub struct Profile {
     /// Keymap overrides: mode -> key -> action (validated by the UI's keymap).
     #[serde(default)]
     pub keys: BTreeMap<String, BTreeMap<String, String>>,
+    /// Named command sequences in the family's syntax (`config::macros`).
+    #[serde(default)]
+    pub macros: BTreeMap<String, MacroProfile>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -285,6 +289,9 @@ pub struct SimProfile {
 pub struct Invalid {
     pub key: Vec<String>,
     pub message: String,
+    /// For a string value: the byte offset in the string where the problem
+    /// is (a macro's bad line), so the error names its column.
+    pub offset: Option<usize>,
 }
 
 impl Invalid {
@@ -292,6 +299,7 @@ impl Invalid {
         Self {
             key: key.iter().map(|s| s.to_string()).collect(),
             message: message.into(),
+            offset: None,
         }
     }
 }
@@ -344,9 +352,31 @@ impl Profile {
                 .map(|p| Invalid {
                     key: p.key,
                     message: p.message,
+                    offset: None,
                 })
                 .collect())
         }
+    }
+
+    /// The macros, every line checked with the family's parser for the
+    /// machine's axes, or every problem with them.
+    pub fn macros(&self) -> Result<Vec<Macro>, Vec<Invalid>> {
+        macros::check(
+            &self.macros,
+            self.connection.protocol,
+            self.isel.device,
+            self.listed_axes(),
+        )
+        .map_err(|problems| {
+            problems
+                .into_iter()
+                .map(|p| Invalid {
+                    key: p.key,
+                    message: p.message,
+                    offset: p.offset,
+                })
+                .collect()
+        })
     }
 
     /// Keep only the axes `machine.axes` lists (after a successful `validate`).
@@ -580,6 +610,9 @@ impl Profile {
             }
         }
         if let Err(problems) = self.wiring() {
+            out.extend(problems);
+        }
+        if let Err(problems) = self.macros() {
             out.extend(problems);
         }
         out

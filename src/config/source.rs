@@ -150,23 +150,70 @@ fn line_column(text: &str, offset: usize) -> (usize, usize) {
     (line, column)
 }
 
-/// Byte offset of the value at `key` in `text`, or of the deepest table on the
-/// path that the text does contain.
+/// Byte offset of the value at `key` in `text`, when the text sets it.
 fn locate_key(text: &str, key: &[String]) -> Option<usize> {
+    locate_value(text, key).map(|span| span.start)
+}
+
+/// Byte range of the value at `key` (tables by key, arrays by index), when
+/// the text sets it.
+fn locate_value(text: &str, key: &[String]) -> Option<std::ops::Range<usize>> {
     let doc = DeTable::parse(text).ok()?;
-    let mut table = doc.get_ref();
-    let mut found = None;
-    for part in key {
-        let (_, value) = table
-            .iter()
-            .find(|(k, _)| k.get_ref().as_ref() == part.as_str())?;
-        found = Some(value.span().start);
-        match value.get_ref() {
-            DeValue::Table(inner) => table = inner,
-            _ => break,
+    let (first, rest) = key.split_first()?;
+    let (_, mut value) = doc
+        .get_ref()
+        .iter()
+        .find(|(k, _)| k.get_ref().as_ref() == first.as_str())?;
+    for part in rest {
+        let inner = match value.get_ref() {
+            DeValue::Table(table) => table
+                .iter()
+                .find(|(k, _)| k.get_ref().as_ref() == part.as_str())
+                .map(|(_, v)| v),
+            DeValue::Array(items) => part.parse::<usize>().ok().and_then(|i| items.get(i)),
+            _ => None,
+        };
+        value = inner?;
+    }
+    Some(value.span())
+}
+
+/// Byte offset in `raw` (a TOML string literal with its quotes) of the
+/// character at byte `offset` of its decoded value. Escapes count as the
+/// characters they are written with.
+fn offset_in_literal(raw: &str, offset: usize) -> usize {
+    let quote_len = if raw.starts_with("\"\"\"") || raw.starts_with("'''") {
+        3
+    } else {
+        1
+    };
+    let literal = raw.starts_with('\'');
+    let body = raw.get(quote_len..).unwrap_or("");
+    let mut decoded = 0;
+    let mut chars = body.char_indices().peekable();
+    while let Some((i, c)) = chars.next() {
+        if decoded >= offset {
+            return quote_len + i;
+        }
+        if c == '\\' && !literal {
+            let skip = match chars.peek().map(|(_, e)| *e) {
+                Some('u') => 5,
+                Some('U') => 9,
+                Some('x') => 3,
+                _ => 1,
+            };
+            for _ in 0..skip {
+                chars.next();
+            }
+            // An escape stands for one character; its UTF-8 length is not
+            // known here and does not matter for the column of later ones
+            // within the usual ASCII command text.
+            decoded += 1;
+        } else {
+            decoded += c.len_utf8();
         }
     }
-    found
+    quote_len + body.len()
 }
 
 /// Parse a source as a TOML table, with syntax errors located.
@@ -354,6 +401,30 @@ pub fn error_for_key(
     }
 }
 
+/// An error about a place inside the string at `key` (byte `offset` of its
+/// value): the file, line and the column of that character.
+pub fn error_in_string(
+    sources: &[&Source],
+    key: &[String],
+    offset: usize,
+    message: impl Into<String>,
+) -> ConfigError {
+    let mut err = error_for_key(sources, key, message);
+    let source = sources
+        .iter()
+        .find(|s| s.origin == err.origin && locate_key(&s.text, key).is_some());
+    if let Some(source) = source
+        && let Some(span) = locate_value(&source.text, key)
+        && let Some(raw) = source.text.get(span.clone())
+        && (raw.starts_with('"') || raw.starts_with('\''))
+    {
+        let (line, column) = line_column(&source.text, span.start + offset_in_literal(raw, offset));
+        err.line = Some(line);
+        err.column = Some(column);
+    }
+    err
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -401,5 +472,17 @@ mod tests {
         assert_eq!(err.line, Some(3), "{err}");
         assert_eq!(err.key.as_deref(), Some("axis.steps"));
         assert!(err.message.contains("expected f64"), "{err}");
+    }
+
+    #[test]
+    fn a_place_in_a_string_of_an_array_has_its_own_column() {
+        let user = source("[macros.park]\nlines = [\n  \"@0P\",\n  \"@0M 1,x\",\n]\n");
+        let key: Vec<String> = ["macros", "park", "lines", "1"].map(String::from).to_vec();
+        let err = error_in_string(&[&user], &key, 6, "bad");
+        assert_eq!((err.line, err.column), (Some(4), Some(10)), "{err}");
+        let literal = source("[m]\nl = ['ab', \"\\u0041xy\"]\n");
+        let key: Vec<String> = ["m", "l", "1"].map(String::from).to_vec();
+        let err = error_in_string(&[&literal], &key, 1, "bad");
+        assert_eq!((err.line, err.column), (Some(2), Some(19)), "{err}");
     }
 }

@@ -330,4 +330,66 @@ fn the_rewired_example_profile_says_what_its_machine_has() {
         ]
     );
     assert_eq!(w.bit("out0.1").map(|b| b.name.as_str()), Some("coolant"));
+    assert_eq!(
+        w.bit("out0.1").map(|b| b.role),
+        Some(crate::wiring::Role::Coolant)
+    );
+}
+
+#[test]
+fn macros_are_checked_at_load_and_a_bad_line_names_file_line_and_column() {
+    let (dir, dirs) = user_dir();
+    let file = dir.path().join("profiles/mill.toml");
+    fs::write(
+        &file,
+        "name = \"mill\"\n\
+         [macros.park]\n\
+         description = \"Z up, then to the park position\"\n\
+         lines = [\"@0P\", \"@0M 0,900,0,900,8000,900,0,900\"]\n\
+         [macros.probe]\n\
+         confirm = false\n\
+         lines = [\n  \"@0b1\",\n]\n",
+    )
+    .unwrap();
+    let p = load_profile("mill", &dirs).unwrap();
+    let macros = p.macros().unwrap();
+    assert_eq!(macros.len(), 2);
+    assert_eq!(macros[0].name, "park");
+    assert!(macros[0].moves && macros[0].confirm);
+    assert!(!macros[1].moves && !macros[1].confirm);
+
+    // Line 8 is the second line of `lines`; `@0M` with XYZ takes four
+    // pairs, and the column is that of the place the parser names.
+    fs::write(
+        &file,
+        "name = \"mill\"\n\
+         [macros.park]\n\
+         lines = [\n  \"@0P\",\n  \"@0M 0,900\",\n]\n\
+         [macros.bad]\n\
+         lines = [\"@0Q\"]\n",
+    )
+    .unwrap();
+    let err = load_profile("mill", &dirs).unwrap_err();
+    let all = err.each();
+    assert_eq!(all.len(), 2, "{err}");
+    let text = err.to_string();
+    let bad = all.iter().find(|e| e.message.contains("`bad`")).unwrap();
+    assert_eq!((bad.line, bad.column), (Some(8), Some(13)), "{text}");
+    assert!(bad.message.contains("isel command expected"), "{text}");
+    let park = all.iter().find(|e| e.message.contains("`park`")).unwrap();
+    assert_eq!(park.line, Some(5), "{text}");
+    assert!(park.column.unwrap() > 3, "{text}");
+    assert!(park.message.contains("line 2"), "{text}");
+    assert!(text.contains("mill.toml:5:"), "{text}");
+
+    // A macro for another family's syntax is refused too.
+    fs::write(
+        &file,
+        "name = \"mill\"\n[connection]\nprotocol = \"emcu\"\nport = \"sim\"\n\
+         [macros.x]\nlines = [\"@0P\"]\n",
+    )
+    .unwrap();
+    let err = load_profile("mill", &dirs).unwrap_err();
+    assert_eq!(err.line, Some(6), "{err}");
+    assert!(err.message.contains("emcu command expected"), "{err}");
 }

@@ -5,6 +5,7 @@
 pub mod emcu;
 pub mod emp;
 pub mod isel;
+pub mod typed;
 
 use std::fmt;
 use std::str::FromStr;

@@ -1,6 +1,10 @@
 //! The help overlay's content, generated from the keymap so it lists every
 //! key that is bound, and nothing that is not.
 
+use std::borrow::Cow;
+
+use crate::config::macros::Macro;
+
 use super::key::{KeyChord, KeyCode};
 use super::keymap::{Action, Keymap, Mode};
 
@@ -9,7 +13,7 @@ pub enum HelpLine {
     Heading(&'static str),
     Entry {
         keys: String,
-        description: &'static str,
+        description: Cow<'static, str>,
     },
     Text(&'static str),
     Blank,
@@ -62,7 +66,8 @@ fn notes(keymap: &Keymap, mode: Mode) -> &'static [&'static str] {
     }
 }
 
-pub fn help_lines(keymap: &Keymap) -> Vec<HelpLine> {
+/// The help: every mode's keys, then the profile's macros.
+pub fn help_lines(keymap: &Keymap, macros: &[Macro]) -> Vec<HelpLine> {
     let mut out = Vec::new();
     for mode in Mode::ALL {
         let entries = keymap.help(mode);
@@ -82,12 +87,37 @@ pub fn help_lines(keymap: &Keymap) -> Vec<HelpLine> {
                 .join(" ");
             out.push(HelpLine::Entry {
                 keys,
-                description: entry.action.description(),
+                description: Cow::Borrowed(entry.action.description()),
             });
         }
         for note in notes(keymap, mode) {
             out.push(HelpLine::Text(note));
         }
+    }
+    if !macros.is_empty() {
+        out.push(HelpLine::Blank);
+        out.push(HelpLine::Heading(
+            "Macros of the profile (machine screen; Space stops one)",
+        ));
+        for m in macros {
+            let keys = keymap
+                .keys_for_macro(Mode::Main, &m.name)
+                .iter()
+                .map(ToString::to_string)
+                .collect::<Vec<_>>()
+                .join(" ");
+            let asks = if m.confirm { ", asks first" } else { "" };
+            let what = m.description.as_deref().unwrap_or("");
+            let sep = if what.is_empty() { "" } else { ": " };
+            let lines = m.lines.len();
+            out.push(HelpLine::Entry {
+                keys,
+                description: Cow::Owned(format!("{}{sep}{what} ({lines} lines{asks})", m.name)),
+            });
+        }
+        out.push(HelpLine::Text(
+            "Bound in the profile: [keys.main] \"f8\" = \"macro:NAME\" (docs/ui.md).",
+        ));
     }
     out
 }

@@ -141,9 +141,33 @@ impl IoPanel {
     }
 
     pub fn selected_bit(&self) -> Option<(&GroupState, &BitState)> {
-        let s = self.selected?;
+        self.bit_at(self.selected?)
+    }
+
+    pub fn bit_at(&self, s: Selection) -> Option<(&GroupState, &BitState)> {
         let group = self.groups.get(s.group)?;
         Some((group, group.bits.get(s.bit)?))
+    }
+
+    /// The outputs an operator switches by name: wired, with a role such
+    /// as spindle, coolant, clamp, vacuum or lamp
+    /// (`wiring::Role::is_named_output`), in the panel's order.
+    pub fn named_outputs(&self) -> Vec<Selection> {
+        self.groups
+            .iter()
+            .enumerate()
+            .flat_map(|(g, group)| {
+                group.bits.iter().enumerate().filter_map(move |(b, bit)| {
+                    let named = bit.bit.output.is_some()
+                        && bit
+                            .bit
+                            .wiring
+                            .as_ref()
+                            .is_some_and(|w| w.wired && w.role.is_named_output());
+                    named.then_some(Selection { group: g, bit: b })
+                })
+            })
+            .collect()
     }
 
     /// Whether the bit is in its highlight time at `now`.
@@ -281,8 +305,16 @@ pub struct ByteBit {
 impl IoPanel {
     /// The toggle for the selected bit, or why there is none.
     pub fn toggle_selected(&self) -> Result<OutputToggle, String> {
+        match self.selected {
+            Some(s) => self.toggle_at(s),
+            None => Err("no port bits yet: nothing to switch".to_string()),
+        }
+    }
+
+    /// The toggle for the bit at `s`, or why there is none.
+    pub fn toggle_at(&self, s: Selection) -> Result<OutputToggle, String> {
         let (group, bit) = self
-            .selected_bit()
+            .bit_at(s)
             .ok_or_else(|| "no port bits yet: nothing to switch".to_string())?;
         let output = bit
             .bit

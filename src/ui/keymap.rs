@@ -106,6 +106,10 @@ named_enum! {
         Entry = "entry", "Set position, jog step and speed (other characters are typed)";
         /// The port timeline is shown.
         Timeline = "timeline", "Port timeline (shown)";
+        /// The named outputs (spindle, coolant, clamp …) popup.
+        Outputs = "outputs", "Named outputs";
+        /// The message history is shown.
+        Messages = "messages", "Message history";
         /// The program screen during a check-out (issue 15,
         /// `docs/editor.md`): the text is read-only.
         Checkout = "checkout", "Program check-out (program screen; the text is read-only)";
@@ -237,6 +241,12 @@ named_enum! {
         TimeLive = "live", "timeline: follow the newest readings";
         ZoomIn = "zoom-in", "timeline: fewer milliseconds per column";
         ZoomOut = "zoom-out", "timeline: more milliseconds per column";
+        // Operator screen (issue 16): named outputs, message history, large DRO.
+        Outputs = "outputs", "switch the named outputs (spindle, coolant, clamp …)";
+        Messages = "messages", "message history: every message whole, with scrollback";
+        LargeDro = "large-dro", "large position display (readable from across the workshop)";
+        ScrollTop = "scroll-top", "to the oldest";
+        ScrollBottom = "scroll-bottom", "to the newest";
         // Program check-out (issue 15, `docs/editor.md`, "Check-out").
         Checkout = "checkout", "check-out: run line by line while the key is held (asks)";
         CheckoutFromLine = "checkout-from-line", "check-out from the cursor's line (shows the start, asks)";
@@ -250,6 +260,9 @@ named_enum! {
 
 /// The word that removes a binding in a profile.
 pub const UNBIND: &str = "none";
+
+/// What binds a key to a profile's macro: `"f8" = "macro:park"`.
+pub const MACRO_PREFIX: &str = "macro:";
 
 /// jogterm's default keys (`config/keys.toml`).
 pub const DEFAULT_KEYS: &str = include_str!("../../config/keys.toml");
@@ -265,6 +278,9 @@ struct ModeKeys {
     /// The actions a key may be bound to in this mode, in the help's order.
     actions: Vec<Action>,
     keys: BTreeMap<KeyChord, Action>,
+    /// Keys bound to a profile's macros, by name (mode `main` only); a key
+    /// is in `keys` or here, never in both.
+    macros: BTreeMap<KeyChord, String>,
 }
 
 /// One line of the help: the keys bound to an action in a mode.
@@ -367,6 +383,26 @@ impl Keymap {
         self.modes.get(&mode).and_then(|m| m.keys.get(key)).copied()
     }
 
+    /// The macro `key` is bound to in `mode` (`"macro:park"` in a
+    /// profile's `[keys.main]`).
+    pub fn lookup_macro(&self, mode: Mode, key: &KeyChord) -> Option<&str> {
+        self.modes
+            .get(&mode)
+            .and_then(|m| m.macros.get(key))
+            .map(String::as_str)
+    }
+
+    /// The keys bound to the macro `name` in `mode`, in key order.
+    pub fn keys_for_macro(&self, mode: Mode, name: &str) -> Vec<KeyChord> {
+        self.modes.get(&mode).map_or(Vec::new(), |m| {
+            m.macros
+                .iter()
+                .filter(|(_, n)| n.as_str() == name)
+                .map(|(k, _)| *k)
+                .collect()
+        })
+    }
+
     /// Every binding of `mode`, by key.
     pub fn bindings(&self, mode: Mode) -> impl Iterator<Item = (KeyChord, Action)> + '_ {
         self.modes
@@ -411,11 +447,14 @@ impl Keymap {
     }
 
     /// Apply a profile's `[keys]` table: `mode -> key -> action` (or
-    /// `"none"` to unbind). `sources` are the profile's files, most specific
-    /// first, so an error names the line that caused it.
+    /// `"none"` to unbind, or in mode `main` `"macro:NAME"` for one of
+    /// `macros`, the profile's macro names). `sources` are the profile's
+    /// files, most specific first, so an error names the line that caused
+    /// it.
     pub fn with_overrides(
         mut self,
         table: &BTreeMap<String, BTreeMap<String, String>>,
+        macros: &[&str],
         sources: &[&Source],
     ) -> Result<Keymap, ConfigError> {
         let fail = |path: &[&str], message: String| {
@@ -425,6 +464,7 @@ impl Keymap {
         // Parse everything first, so the safety keys are known before other
         // modes are checked against them.
         let mut parsed: Vec<(Mode, &str, KeyChord, Option<Action>)> = Vec::new();
+        let mut macro_keys: Vec<(&str, KeyChord, &str)> = Vec::new();
         for (mode_name, keys) in table {
             let mode = Mode::from_name(mode_name).ok_or_else(|| {
                 fail(
@@ -435,6 +475,27 @@ impl Keymap {
             for (key_text, action_name) in keys {
                 let path = ["keys", mode_name.as_str(), key_text.as_str()];
                 let chord = KeyChord::parse(key_text).map_err(|e| fail(&path, e.to_string()))?;
+                if let Some(name) = action_name.strip_prefix(MACRO_PREFIX) {
+                    if mode != Mode::Main {
+                        return Err(fail(
+                            &path,
+                            format!(
+                                "macros are bound in [keys.main], not in mode `{mode}` \
+                                 (they run from the machine screen)"
+                            ),
+                        ));
+                    }
+                    if !macros.contains(&name) {
+                        let known = if macros.is_empty() {
+                            "the profile has no [macros]".to_string()
+                        } else {
+                            format!("expected one of {}", macros.join(", "))
+                        };
+                        return Err(fail(&path, format!("no macro `{name}`: {known}")));
+                    }
+                    macro_keys.push((key_text, chord, name));
+                    continue;
+                }
                 let action = if action_name == UNBIND {
                     None
                 } else {
@@ -471,11 +532,17 @@ impl Keymap {
             }
         }
         for (mode, _, chord, action) in &parsed {
-            let map = &mut self.modes.entry(*mode).or_default().keys;
+            let entry = self.modes.entry(*mode).or_default();
+            entry.macros.remove(chord);
             match action {
-                Some(a) => map.insert(*chord, *a),
-                None => map.remove(chord),
+                Some(a) => entry.keys.insert(*chord, *a),
+                None => entry.keys.remove(chord),
             };
+        }
+        for (_, chord, name) in &macro_keys {
+            let entry = self.modes.entry(Mode::Main).or_default();
+            entry.keys.remove(chord);
+            entry.macros.insert(*chord, (*name).to_string());
         }
         // A stop key reaches no other mode: a binding the user wrote there
         // is a mistake; a default one simply gives way.
@@ -487,6 +554,14 @@ impl Keymap {
                     format!(
                         "`{key_text}` is a stop key ([keys.safety]) and never reaches mode `{mode}`"
                     ),
+                ));
+            }
+        }
+        for (key_text, chord, _) in &macro_keys {
+            if safety.contains(chord) {
+                return Err(fail(
+                    &["keys", Mode::Main.name(), key_text],
+                    format!("`{key_text}` is a stop key ([keys.safety]) and runs no macro"),
                 ));
             }
         }
@@ -541,7 +616,44 @@ mod tests {
             .unwrap_or_default();
         Keymap::builtin()
             .expect("built-in keys")
-            .with_overrides(&keys, &[&src])
+            .with_overrides(&keys, &["park", "probe"], &[&src])
+    }
+
+    #[test]
+    fn macros_are_bound_in_the_main_mode_by_name() {
+        let map =
+            apply("[keys.main]\n\"f8\" = \"macro:park\"\n\"h\" = \"macro:probe\"\n").expect("ok");
+        let f8 = KeyChord::parse("f8").expect("key");
+        assert_eq!(map.lookup_macro(Mode::Main, &f8), Some("park"));
+        // A key runs a macro or an action, never both.
+        assert_eq!(map.lookup(Mode::Main, &KeyChord::char('h')), None);
+        assert_eq!(
+            map.lookup_macro(Mode::Main, &KeyChord::char('h')),
+            Some("probe")
+        );
+        assert_eq!(map.keys_for_macro(Mode::Main, "park"), [f8]);
+        let cases = [
+            (
+                "[keys.main]\n\"f8\" = \"macro:fly\"\n",
+                2,
+                "no macro `fly`: expected one of park, probe",
+            ),
+            (
+                "[keys.jog]\n\"f8\" = \"macro:park\"\n",
+                2,
+                "macros are bound in [keys.main]",
+            ),
+            (
+                "[keys.main]\n\"esc\" = \"macro:park\"\n[keys.safety]\n\"esc\" = \"stop\"\n",
+                2,
+                "runs no macro",
+            ),
+        ];
+        for (text, line, needle) in cases {
+            let err = apply(text).expect_err(text);
+            assert_eq!(err.line, Some(line), "{text}: {err}");
+            assert!(err.message.contains(needle), "{text}: {err}");
+        }
     }
 
     #[test]

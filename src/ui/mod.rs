@@ -26,6 +26,8 @@ pub mod jog;
 pub mod key;
 pub mod keymap;
 pub mod line_edit;
+pub mod macros;
+pub mod messages;
 pub mod model;
 pub mod msg;
 pub mod palette;

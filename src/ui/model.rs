@@ -7,6 +7,7 @@ use std::time::{Duration, Instant};
 
 use crate::axis::{Axis, AxisSet};
 use crate::config::Profile;
+use crate::config::macros::Macro;
 use crate::config::profile::AxisProfile;
 use crate::device::api::{InputChannel, LinkState, MachineState, PollStats, UploadEvent};
 use crate::jog::JogSettings;
@@ -23,6 +24,8 @@ use super::jog::offsets::OffsetsState;
 use super::jog::popups::JogPopup;
 use super::keymap::{Keymap, Mode};
 use super::line_edit::LineEdit;
+use super::macros::MacroRun;
+use super::messages::MessageHistory;
 use super::msg::Effect;
 use super::palette::Palette;
 use super::position::Positions;
@@ -55,6 +58,8 @@ pub struct Setup {
     pub simulator_inputs: Option<Vec<(String, Option<bool>)>>,
     /// Everything jogging needs from the profile (`crate::jog`).
     pub jog: JogSettings,
+    /// The profile's macros, their lines checked (`config::macros`).
+    pub macros: Vec<Macro>,
     /// The controller's inputs as the profile names them
     /// (`device::inputs::channels`).
     pub inputs: Vec<Arc<InputChannel>>,
@@ -79,6 +84,8 @@ impl Setup {
             isel_device: profile.isel.device,
             simulator_inputs,
             jog: JogSettings::from_profile(profile),
+            // Refused at load when broken: a profile here has passed.
+            macros: profile.macros().unwrap_or_default(),
             inputs: crate::device::inputs::channels::shared(profile),
         }
     }
@@ -132,6 +139,9 @@ pub struct Confirmation {
     pub title: String,
     pub question: String,
     pub effects: Vec<Effect>,
+    /// The profile's macro to run once confirmed (`ui::macros`), after
+    /// `effects`.
+    pub run_macro: Option<String>,
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -148,6 +158,16 @@ pub enum Popup {
     Axes(AxisChoice),
     /// The keypad's work offsets, set position, typed step and speed.
     Jog(JogPopup),
+    /// The named outputs (spindle, coolant …); `selected` indexes
+    /// `IoPanel::named_outputs`.
+    Outputs {
+        selected: usize,
+    },
+    /// The message history; `back` is how many lines it is scrolled back
+    /// from the newest.
+    Messages {
+        back: usize,
+    },
 }
 
 impl Popup {
@@ -159,6 +179,8 @@ impl Popup {
             Popup::GoTo(_) => Mode::GoTo,
             Popup::Axes(_) => Mode::Axes,
             Popup::Jog(p) => p.mode(),
+            Popup::Outputs { .. } => Mode::Outputs,
+            Popup::Messages { .. } => Mode::Messages,
         }
     }
 }
@@ -244,6 +266,12 @@ pub struct Model {
     pub dirty: bool,
     /// `Quit` has been given; the runtime is closing down.
     pub quitting: bool,
+    /// The profile's macro being run, line by line (`ui::macros`).
+    pub macro_run: Option<MacroRun>,
+    /// Every message of the session, newest last (`M` shows them whole).
+    pub history: MessageHistory,
+    /// The machine screen shows the large position display (`D`).
+    pub large_dro: bool,
 }
 
 impl Model {
@@ -292,6 +320,9 @@ impl Model {
             size: (80, 24),
             dirty: true,
             quitting: false,
+            macro_run: None,
+            history: MessageHistory::default(),
+            large_dro: false,
         }
     }
 
@@ -321,6 +352,10 @@ impl Model {
     /// takes every printable key, so it is entered deliberately with `:`
     /// (and Tab leaves it), never reached by cycling past it.
     pub fn focus_ring(&self) -> Vec<PanelId> {
+        // The large position display shows no other panel.
+        if self.large_dro {
+            return vec![PanelId::Jog];
+        }
         let mut ring = vec![PanelId::Jog, PanelId::Io];
         if self.sim.is_some() {
             ring.push(PanelId::Sim);

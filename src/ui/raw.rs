@@ -3,106 +3,26 @@
 //! controller's one-letter answer, or, on EMCU, nothing at all (EMCU decision
 //! 4: the interface acknowledges everything).
 
-use crate::axis::AxisSet;
-use crate::proto::Protocol;
-use crate::proto::isel::AxisConfig;
-use crate::proto::{emcu, emp, isel};
+use crate::proto::typed;
+pub use crate::proto::typed::LineContext as RawContext;
 
 use super::line_edit::{LineError, char_span};
 
-/// What the check needs to know about the controller.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct RawContext {
-    pub protocol: Protocol,
-    /// The isel device number (the digit after `@`) from the profile.
-    pub isel_device: u8,
-    /// The axes the controller has been initialised with, as the driver
-    /// reports them.
-    pub initialised: AxisSet,
-}
-
 /// Check `line`; `Ok` is the line to send (surrounding blanks removed).
 pub fn validate(ctx: &RawContext, line: &str) -> Result<String, LineError> {
-    let trimmed = line.trim();
-    let lead = line.len() - line.trim_start().len();
-    if trimmed.is_empty() {
-        return Err(LineError {
-            message: "type a command first".into(),
-            span: None,
-        });
-    }
-    let at =
-        |range: std::ops::Range<usize>| Some(char_span(line, range.start + lead..range.end + lead));
-    match ctx.protocol {
-        Protocol::Isel => {
-            let config = isel_config(ctx.initialised);
-            match isel::validate_frame(trimmed, config) {
-                Ok(parsed) if parsed.value.device.get() != ctx.isel_device => Err(LineError {
-                    message: format!(
-                        "addressed to device {}, but this controller is device {} \
-                         (profile: isel.device); it would not answer",
-                        parsed.value.device.get(),
-                        ctx.isel_device
-                    ),
-                    span: at(1..2),
-                }),
-                Ok(_) => Ok(trimmed.to_string()),
-                Err(rejection) => Err(LineError {
-                    message: format!(
-                        "{} (the controller would answer {})",
-                        rejection.message, rejection.code
-                    ),
-                    span: rejection.span.and_then(at),
-                }),
-            }
-        }
-        Protocol::Emcu => match emcu::parse_line(trimmed) {
-            Ok(_) => Ok(trimmed.to_string()),
-            Err(e) => Err(LineError {
-                message: e.kind.to_string(),
-                span: at(e.offset..e.offset + 1),
-            }),
-        },
-        Protocol::Emp => match trimmed.parse::<emp::Request>() {
-            Ok(_) => Ok(trimmed.to_string()),
-            Err(emp::ParseRequestError::Frame(e)) => {
-                // The fault's index counts the hex characters only (blanks
-                // are skipped when typed text is read as a frame).
-                let index = match e.fault {
-                    emp::FrameFault::LowerCase { at } | emp::FrameFault::NotHex { at, .. } => {
-                        Some(at)
-                    }
-                    _ => None,
-                };
-                let span = index.and_then(|n| {
-                    trimmed
-                        .char_indices()
-                        .filter(|(_, c)| !c.is_ascii_whitespace())
-                        .nth(n)
-                        .map(|(i, c)| i..i + c.len_utf8())
-                });
-                Err(LineError {
-                    message: e.fault.to_string(),
-                    span: span.and_then(at),
-                })
-            }
-            Err(emp::ParseRequestError::Request(e)) => Err(LineError {
-                message: e.to_string(),
-                span: None,
-            }),
-        },
-    }
-}
-
-/// The isel axis configuration for the initialised axes, `None` before the
-/// axes are set (isel manual 2.2.1).
-pub fn isel_config(axes: AxisSet) -> Option<AxisConfig> {
-    AxisConfig::ALL.into_iter().find(|c| c.axes() == axes)
+    typed::check_line(ctx, line)
+        .map(|checked| checked.text)
+        .map_err(|fault| LineError {
+            message: fault.message,
+            span: fault.span.map(|bytes| char_span(line, bytes)),
+        })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::axis::AxisSet;
+    use crate::proto::Protocol;
 
     fn ctx(protocol: Protocol, initialised: AxisSet) -> RawContext {
         RawContext {
@@ -154,12 +74,5 @@ mod tests {
         for p in Protocol::ALL {
             assert!(validate(&ctx(p, AxisSet::EMPTY), "   ").is_err());
         }
-    }
-
-    #[test]
-    fn axis_sets_map_to_isel_configurations() {
-        assert_eq!(isel_config(AxisSet::XYZ), Some(AxisConfig::XYZ));
-        assert_eq!(isel_config(AxisSet::EMPTY), None);
-        assert_eq!(isel_config(AxisSet::from_mask(0b0101)), None);
     }
 }

@@ -19,6 +19,7 @@ use super::jog::{self as keypad};
 use super::key::KeyChord;
 use super::keymap::{Action, Mode};
 use super::line_edit::LineError;
+use super::macros;
 use super::model::{Confirmation, Message, Model, PanelId, Popup};
 use super::msg::{Effect, Msg};
 use super::raw;
@@ -50,8 +51,13 @@ fn dispatch(model: &mut Model, msg: Msg) -> Vec<Effect> {
             effects
         }
         Msg::Device(event) => {
-            let effects = editor_update(model, editor::Input::Device(&event));
+            let mut effects = editor_update(model, editor::Input::Device(&event));
+            let (next, notes) = macros::device_event(model, &event);
+            effects.extend(next);
             device_event(model, event);
+            for (level, text) in notes {
+                say(model, level, text);
+            }
             model.dirty = true;
             effects
         }
@@ -88,6 +94,7 @@ fn dispatch(model: &mut Model, msg: Msg) -> Vec<Effect> {
             model.quitting = true;
             model.dirty = true;
             keypad::stopped(model);
+            model.macro_run = None;
             // The last edits go to the recovery file before leaving.
             let mut effects = vec![Effect::Stop];
             effects.extend(editor_update(model, editor::Input::Terminate));
@@ -366,6 +373,14 @@ fn route(model: &mut Model, chord: KeyChord, phase: KeyPhase) -> Vec<Effect> {
     if let (Some(field), Some(c)) = (field, chord.typed_char()) {
         return type_into(model, field, c);
     }
+    if let Some(name) = model.keymap.lookup_macro(Mode::Main, &chord) {
+        let name = name.to_string();
+        let (effects, notes) = macros::key(model, &name);
+        for (level, text) in notes {
+            say(model, level, text);
+        }
+        return effects;
+    }
     match model.keymap.lookup(Mode::Main, &chord) {
         Some(action) => main_action(model, action),
         None => Vec::new(),
@@ -426,6 +441,9 @@ fn stop(model: &mut Model) -> Vec<Effect> {
         NoteLevel::Info,
         "stop: all motion stopped".to_string(),
     );
+    if let Some((level, text)) = macros::stopped(model) {
+        say(model, level, text);
+    }
     vec![Effect::Stop]
 }
 
@@ -436,6 +454,35 @@ fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
     }
     match action {
         Action::Stop => stop(model),
+        Action::Outputs => {
+            if model.io.named_outputs().is_empty() {
+                say(
+                    model,
+                    NoteLevel::Info,
+                    "no named outputs: give outputs a role in the profile's [io] (spindle, \
+                     coolant, clamp, vacuum, lamp; docs/profiles.md)"
+                        .to_string(),
+                );
+            } else {
+                model.popup = Some(Popup::Outputs { selected: 0 });
+            }
+            Vec::new()
+        }
+        Action::Messages => {
+            model.popup = Some(Popup::Messages { back: 0 });
+            Vec::new()
+        }
+        Action::LargeDro => {
+            model.large_dro = !model.large_dro;
+            // The panels it hides cannot keep the focus: keys must not
+            // switch outputs or type commands nobody sees.
+            if model.large_dro
+                && matches!(model.focus, PanelId::Io | PanelId::Console | PanelId::Sim)
+            {
+                model.focus = PanelId::Jog;
+            }
+            Vec::new()
+        }
         Action::Quit => {
             // Unsaved edits ask first.
             let held = editor_outcome(model, editor::Input::Quit);
@@ -543,6 +590,8 @@ fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
             Vec::new()
         }
         Action::FocusConsole => {
+            // The command line is typed where it can be seen.
+            model.large_dro = false;
             if model.focus != PanelId::Console {
                 model.before_console = model.focus;
             }
@@ -642,12 +691,23 @@ fn ask(model: &mut Model, title: &str, question: String, effects: Vec<Effect>) {
         title: title.to_string(),
         question,
         effects,
+        run_macro: None,
     }));
 }
 
 fn popup_action(model: &mut Model, action: Action) -> Vec<Effect> {
     match (model.popup.take(), action) {
-        (Some(Popup::Confirm(c)), Action::Confirm) => c.effects,
+        (Some(Popup::Confirm(c)), Action::Confirm) => {
+            let mut effects = c.effects;
+            if let Some(name) = c.run_macro {
+                let (started, notes) = macros::start(model, &name);
+                effects.extend(started);
+                for (level, text) in notes {
+                    say(model, level, text);
+                }
+            }
+            effects
+        }
         (Some(Popup::Confirm(c)), Action::Cancel) => {
             say(model, NoteLevel::Info, format!("{}: cancelled", c.title));
             Vec::new()
@@ -685,9 +745,16 @@ fn popup_action(model: &mut Model, action: Action) -> Vec<Effect> {
                 Vec::new()
             }
         },
+        (Some(Popup::Outputs { selected }), action) => outputs_action(model, selected, action),
+        (Some(Popup::Messages { back }), action) => {
+            model.popup = messages_scroll(model, back, action).map(|back| Popup::Messages { back });
+            Vec::new()
+        }
         (Some(Popup::Help { scroll }), scroll_action) => {
             let page = usize::from(model.size.1.saturating_sub(6)).max(1);
-            let last = help_lines(&model.keymap).len().saturating_sub(1);
+            let last = help_lines(&model.keymap, &model.setup.macros)
+                .len()
+                .saturating_sub(1);
             let scroll = match scroll_action {
                 Action::ScrollUp => scroll.saturating_sub(1),
                 Action::ScrollDown => scroll + 1,
@@ -705,6 +772,65 @@ fn popup_action(model: &mut Model, action: Action) -> Vec<Effect> {
             Vec::new()
         }
     }
+}
+
+/// The named outputs popup: choose one, Enter switches it (through the
+/// same toggle as the I/O panel's, asked first when hazardous); the popup
+/// stays open for the next unless a question took its place.
+fn outputs_action(model: &mut Model, selected: usize, action: Action) -> Vec<Effect> {
+    let entries = model.io.named_outputs();
+    let last = entries.len().saturating_sub(1);
+    let selected = selected.min(last);
+    let keep = |model: &mut Model, selected| model.popup = Some(Popup::Outputs { selected });
+    match action {
+        Action::Close => Vec::new(),
+        Action::SelectPrev => {
+            keep(model, selected.saturating_sub(1));
+            Vec::new()
+        }
+        Action::SelectNext => {
+            keep(model, (selected + 1).min(last));
+            Vec::new()
+        }
+        Action::ToggleOutput => {
+            let toggle = entries
+                .get(selected)
+                .ok_or_else(|| "no named outputs yet".to_string())
+                .and_then(|s| model.io.toggle_at(*s));
+            match toggle {
+                Ok(t) => {
+                    keep(model, selected);
+                    toggle_output(model, t)
+                }
+                Err(reason) => {
+                    keep(model, selected);
+                    say(model, NoteLevel::Warning, reason);
+                    Vec::new()
+                }
+            }
+        }
+        _ => {
+            keep(model, selected);
+            Vec::new()
+        }
+    }
+}
+
+/// The message history scrolled by `action`, `None` to close it.
+fn messages_scroll(model: &Model, back: usize, action: Action) -> Option<usize> {
+    let page = usize::from(model.size.1.saturating_sub(8)).max(1);
+    let oldest = super::view::messages::max_back(model);
+    let back = match action {
+        Action::Close => return None,
+        Action::ScrollUp => back + 1,
+        Action::ScrollDown => back.saturating_sub(1),
+        Action::PageUp => back + page,
+        Action::PageDown => back.saturating_sub(page),
+        Action::ScrollTop => oldest,
+        Action::ScrollBottom => 0,
+        _ => back,
+    };
+    Some(back.min(oldest))
 }
 
 /// A typed go-to prompt: editing keys, Enter checks and goes, Esc cancels.
@@ -951,6 +1077,12 @@ fn console_action(model: &mut Model, action: Action) -> Vec<Effect> {
     let line = &mut model.command;
     match action {
         Action::Submit => {
+            if let Some(run) = &model.macro_run {
+                // Its answers would be taken for the macro's.
+                let text = format!("not sent: {} is running (Space stops it)", run.place());
+                say(model, NoteLevel::Warning, text);
+                return Vec::new();
+            }
             return match raw::validate(&model.raw_context(), model.command.text()) {
                 Ok(checked) => {
                     model.command.accept();
@@ -1204,9 +1336,11 @@ fn said(model: &mut Model, (effects, notes): keypad::popups::Outcome) -> Vec<Eff
 /// Show a message in the message line and keep it in the console.
 pub(crate) fn say(model: &mut Model, level: NoteLevel, text: String) {
     model.traffic.note(LineKind::Note(level), text.clone());
-    model.message = Some(Message {
+    let message = Message {
         at: model.now,
         level,
         text,
-    });
+    };
+    model.history.push(message.clone());
+    model.message = Some(message);
 }

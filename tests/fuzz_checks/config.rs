@@ -46,7 +46,8 @@ pub fn config(data: &[u8]) {
                 // Everything jogterm builds from a profile it accepted.
                 let refs: Vec<_> = sources.iter().collect();
                 let keymap = Keymap::builtin().expect("built-in keys");
-                let _ = keymap.with_overrides(&profile.keys, &refs);
+                let macros: Vec<&str> = profile.macros.keys().map(String::as_str).collect();
+                let _ = keymap.with_overrides(&profile.keys, &macros, &refs);
                 let _ = registry::build(profile.connection.protocol, &profile);
                 let _ = LintConfig::from_profile(&profile);
                 let _ = Setup::from_profile(&profile, None);

@@ -38,10 +38,16 @@ pub fn output(name: impl Into<String>, value: bool, id: OutputId, hazardous: boo
 }
 
 /// A switchable output as the profile has it wired, under its name.
+/// The profile's `hazardous` overrides the manual's.
 pub fn wired_output(wiring: &BitWiring, value: bool, id: OutputId, hazardous: bool) -> IoBit {
     IoBit {
         wiring: Some(wiring.clone()),
-        ..output(wiring.name.clone(), value, id, hazardous)
+        ..output(
+            wiring.name.clone(),
+            value,
+            id,
+            wiring.hazardous.unwrap_or(hazardous),
+        )
     }
 }
 

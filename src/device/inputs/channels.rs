@@ -50,8 +50,11 @@ fn role(role: Role) -> InputRole {
         Role::Hood => InputRole::Hood,
         Role::Probe | Role::Reference => InputRole::Probe,
         Role::Start | Role::Stop => InputRole::Key,
-        // An input for the spindle follows what jogterm switches.
-        Role::Spindle => InputRole::Feedback,
+        // An input for the spindle (coolant, a clamp …) follows what
+        // jogterm switches.
+        Role::Spindle | Role::Coolant | Role::Clamp | Role::Vacuum | Role::Lamp => {
+            InputRole::Feedback
+        }
         Role::Power => InputRole::Power,
         Role::User => InputRole::User,
         Role::Unused => InputRole::Unused,

@@ -135,10 +135,16 @@ pub struct Context {
     /// A jog off a limit switch switched test mode on (`@0T1`, manual
     /// 2.2.24) and its `@0T0` has not been answered: the next read-back
     /// sends `@0T0` first (`limit_op`).
+    pub test_mode_left_on: bool,
+    /// The controller was out of sight (a new link): test mode (`@0T1`)
+    /// cannot be read back, and another program or a jogterm that died
+    /// mid jog off a limit switch may have left it on; a controller in test
+    /// mode takes a reference run for "set the reference here" (2.2.24).
+    /// The read-back sends `@0T0` first unless the profile allows test mode.
+    pub test_mode_unknown: bool,
     /// The check-out line whose paused move's rest the controller holds
     /// (`checkout_op`): taken by whatever runs next.
     pub checkout_rest: Option<crate::device::api::JogId>,
-    pub test_mode_left_on: bool,
 }
 
 impl Sink for Context {
@@ -169,6 +175,7 @@ impl Context {
             p_offset: PerAxis::new(),
             zero_check: None,
             test_mode_left_on: false,
+            test_mode_unknown: false,
             checkout_rest: None,
         }
     }
@@ -641,6 +648,7 @@ impl Context {
         self.state.referenced = AxisSet::EMPTY;
         self.state.test_mode = false;
         self.test_mode_left_on = false;
+        self.test_mode_unknown = false;
         self.three_d = false;
         self.ramp = RampParams::CONTROLLER_DEFAULT;
         self.reference_hz = self.settings.reference_speed_hz;

@@ -847,6 +847,7 @@ impl Driver for IselDriver {
         // no output is known (it may have been switched off and on).
         self.cx.absent_ports.clear();
         self.cx.ports.forget_outputs();
+        self.cx.test_mode_unknown = !self.cx.settings.test_mode_allowed;
         self.poll_plan_ports();
         self.poll_error = None;
         self.cx.send_stop();

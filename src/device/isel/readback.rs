@@ -1,6 +1,11 @@
 //! Reading the controller's state back after every (re)connect: the console
 //! knows nothing about a controller it was not talking to.
 //!
+//! 0. `@0T0`, unless the profile allows test mode (`isel.test_mode`): test
+//!    mode cannot be read back, and a controller left in it (by another
+//!    program, or a jogterm that died in a jog off a limit switch) passes the
+//!    reference probe and takes a reference run for "reference here"
+//!    (manual 2.2.24).
 //! 1. `@0P`, read until 50 ms of silence: `4` means no axes are initialised;
 //!    18 hex digits mean up to three axes, 24 mean X, Y, Z and A (manual
 //!    2.2.21, `../shared/protocols.md` isel 2). `8` means the controller was
@@ -50,9 +55,10 @@ const MAX_RESTARTS: u32 = 3;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Stage {
-    /// `@0T0` before anything else, when a jog off a limit switch switched
-    /// test mode on and the link broke before it was off again
-    /// (`Context::test_mode_left_on`, `limit_op`).
+    /// `@0T0` before anything else on a new link (`Context::test_mode_unknown`:
+    /// nobody can read test mode back) unless the profile allows test mode,
+    /// and always when a jog off a limit switch switched it on and the link
+    /// broke before it was off again (`Context::test_mode_left_on`, `limit_op`).
     TestOff,
     Position,
     Port(usize),
@@ -274,7 +280,7 @@ fn positions_from_text(bytes: &[u8]) -> Option<(crate::proto::isel::Positions, b
 
 impl Operation for Readback {
     fn next(&mut self, cx: &mut Context, _now: Instant) -> Next {
-        if self.stage == Stage::Position && cx.test_mode_left_on {
+        if self.stage == Stage::Position && (cx.test_mode_left_on || cx.test_mode_unknown) {
             self.stage = Stage::TestOff;
         }
         match self.stage {
@@ -311,17 +317,23 @@ impl Operation for Readback {
     fn reply(&mut self, cx: &mut Context, reply: Reply, now: Instant) {
         match self.stage {
             Stage::TestOff => {
+                let ours = cx.test_mode_left_on;
                 cx.test_mode_left_on = false;
-                cx.notice(if reply == Reply::Code(ReplyCode::Ok) {
-                    "test mode switched off (@0T0): a jog off a limit switch had it on when the \
-                     link was lost"
-                        .to_owned()
+                cx.test_mode_unknown = false;
+                if reply == Reply::Code(ReplyCode::Ok) {
+                    if ours {
+                        cx.notice(
+                            "test mode switched off (@0T0): a jog off a limit switch had it on \
+                             when the link was lost",
+                        );
+                    }
                 } else {
-                    format!(
-                        "test mode may still be on (@0T0 answered {reply:?}): reset the \
+                    cx.notice(format!(
+                        "test mode may still be on (@0T0 answered {reply:?}): a controller in \
+                         test mode takes a reference run for \"reference here\"; reset the \
                          controller (ctrl-r) before moving"
-                    )
-                });
+                    ));
+                }
                 self.stage = Stage::Position;
             }
             Stage::Position => match reply {

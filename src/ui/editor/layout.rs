@@ -1,5 +1,7 @@
 //! Where the program screen's parts go: status bar and message line on top
-//! (as on the machine screen), the key hints at the bottom, the editor on
+//! (as on the machine screen), a line with the machine's position below
+//! them (the machine stays in sight while a program is edited), the key
+//! hints at the bottom, the editor on
 //! the left and the toolpath preview on the right when the terminal is wide
 //! enough (at 70 columns and more; 80x24 gives the editor 50 columns).
 //! Inside the editor panel: the title rule, the text, the upload bar while
@@ -17,6 +19,8 @@ pub const PREVIEW_FROM: u16 = 70;
 pub struct ProgramAreas {
     pub status: Rect,
     pub message: Rect,
+    /// The machine's position in one line (`ui::view::dro::compact_line`).
+    pub machine: Rect,
     /// The editor panel, frame included.
     pub editor: Rect,
     /// Inside the editor: the lines of text (gutter included).
@@ -36,8 +40,9 @@ fn row(area: Rect, y: u16) -> Rect {
 pub fn areas(e: &Editor, area: Rect) -> ProgramAreas {
     let status = row(area, area.y);
     let message = row(area, area.y + 1);
+    let machine = row(area, area.y + 2);
     let hints = (area.height >= 12).then(|| row(area, area.bottom().saturating_sub(1)));
-    let top = (area.y + 2).min(area.bottom());
+    let top = (area.y + 3).min(area.bottom());
     let bottom = hints.map_or(area.bottom(), |h| h.y).max(top);
     let body = Rect::new(area.x, top, area.width, bottom - top);
     let show_preview = e.planes != Planes::Off && body.width >= PREVIEW_FROM;
@@ -67,6 +72,7 @@ pub fn areas(e: &Editor, area: Rect) -> ProgramAreas {
     ProgramAreas {
         status,
         message,
+        machine,
         editor,
         text,
         upload,

@@ -80,6 +80,30 @@ const WORDS: [&str; 5] = [
     "referenced",
 ];
 
+/// Characters the work value of any axis may take (sign, digits, point,
+/// decimals), from the profile: the large display sizes its digits by it.
+pub fn work_chars(model: &Model) -> usize {
+    widths(model).work
+}
+
+/// The position in one line, for the program screen: the active offset,
+/// each axis with its marks and work value (columns from the profile, so
+/// nothing shifts while an axis runs).
+pub fn compact_line(model: &Model) -> Line<'static> {
+    let p = &model.palette;
+    let w = widths(model).work;
+    let mut spans = vec![Span::styled(" Position ", p.title)];
+    spans.extend(title_extra(model));
+    for ((axis, r), (_, profile)) in readings(model).into_iter().zip(&model.setup.axes) {
+        spans.push(Span::styled(format!(" {axis}"), p.title));
+        spans.push(Span::styled(r.referenced.0, r.referenced.1));
+        spans.push(Span::styled(r.source.0, r.source.1));
+        spans.push(Span::styled(format!("{:>w$}", r.work), r.value_style));
+        spans.push(Span::styled(format!(" {}", profile.unit.symbol()), p.dim));
+    }
+    Line::from(spans)
+}
+
 /// Columns wide: marks, work, unit, machine, steps, with one blank between.
 pub fn width(model: &Model) -> u16 {
     let w = widths(model);
@@ -100,90 +124,135 @@ enum Col {
     Words,
 }
 
+/// The panel's title after its name: the active work offset (`G54!` when
+/// its file was refused), `≈ estimated`, `programs ≠ G55`.
+pub fn title_extra(model: &Model) -> Vec<Span<'static>> {
+    let p = &model.palette;
+    let sym = p.symbols;
+    let any_estimated = model.setup.axes.iter().any(|(a, _)| {
+        model
+            .positions
+            .get(*a)
+            .is_some_and(|r| r.source == PositionSource::Estimated)
+    });
+    let offsets = &model.offsets;
+    let name = offsets.table.active().name();
+    let mut extra = vec![if offsets.refused {
+        // The file was refused at start: `O` says why.
+        Span::styled(format!("{name}! "), p.warning)
+    } else {
+        Span::styled(format!("{name} "), p.title)
+    }];
+    let differ = crate::ui::jog::offsets::programs_differ(model);
+    if any_estimated {
+        extra.push(Span::styled(
+            format!("{} estimated ", sym.estimated),
+            p.estimated,
+        ));
+    }
+    if !differ.is_empty() {
+        let ne = if sym.lit.is_ascii() { "!=" } else { "≠" };
+        extra.push(Span::styled(format!("programs {ne} {name} "), p.warning));
+    }
+    extra
+}
+
+/// One axis as every position display shows it: its marks (referenced,
+/// measured or estimated) with their styles, the work, machine and step
+/// values, and the state in words.
+pub struct AxisReading {
+    pub referenced: (&'static str, Style),
+    pub source: (&'static str, Style),
+    pub value_style: Style,
+    pub other_style: Style,
+    pub work: String,
+    pub machine: String,
+    pub steps: String,
+    pub words: &'static str,
+}
+
+pub fn readings(model: &Model) -> Vec<(crate::axis::Axis, AxisReading)> {
+    let p = &model.palette;
+    let sym = p.symbols;
+    let offsets = &model.offsets;
+    let live = matches!(model.link, LinkState::Connected);
+    let m = &model.machine;
+    model
+        .setup
+        .axes
+        .iter()
+        .map(|(axis, profile)| {
+            let reading = model.positions.get(*axis);
+            let initialised = m.initialised.contains(*axis);
+            let referenced = initialised && m.referenced.contains(*axis);
+            let (ref_sym, ref_style) = if referenced {
+                (sym.referenced, p.ok)
+            } else {
+                (sym.unreferenced, p.warning)
+            };
+            let estimated = reading.is_some_and(|r| r.source == PositionSource::Estimated);
+            let (src_sym, value_style) = match (live, estimated) {
+                (false, _) => (" ", p.dim),
+                (true, true) => (sym.estimated, p.estimated),
+                (true, false) => (sym.measured, p.measured),
+            };
+            let other_style = if live { p.text } else { p.dim };
+            let zero = offsets.table.active_zero(*axis);
+            let (work, machine, steps) = match reading {
+                Some(r) => (
+                    format_units(profile, r.steps.saturating_sub(zero)),
+                    format_units(profile, r.steps),
+                    r.steps.to_string(),
+                ),
+                None => ("-".into(), "-".into(), "-".into()),
+            };
+            let words = match (initialised, referenced, live, estimated) {
+                (_, _, false, _) => "last known",
+                (false, _, _, _) => "not initialised",
+                (true, false, _, _) => "not referenced",
+                (true, true, _, true) => "referenced, estimated",
+                (true, true, _, false) => "referenced",
+            };
+            (
+                *axis,
+                AxisReading {
+                    referenced: (ref_sym, ref_style),
+                    source: (src_sym, value_style),
+                    value_style,
+                    other_style,
+                    work,
+                    machine,
+                    steps,
+                    words,
+                },
+            )
+        })
+        .collect()
+}
+
 impl Widget for DroView<'_> {
     fn render(self, area: Rect, buf: &mut Buffer) {
         let model = self.0;
         let p = &model.palette;
-        let sym = p.symbols;
-        let any_estimated = model.setup.axes.iter().any(|(a, _)| {
-            model
-                .positions
-                .get(*a)
-                .is_some_and(|r| r.source == PositionSource::Estimated)
-        });
-        let offsets = &model.offsets;
-        let name = offsets.table.active().name();
-        let mut extra = vec![if offsets.refused {
-            // The file was refused at start: `O` says why.
-            Span::styled(format!("{name}! "), p.warning)
-        } else {
-            Span::styled(format!("{name} "), p.title)
-        }];
-        let differ = crate::ui::jog::offsets::programs_differ(model);
-        if any_estimated {
-            extra.push(Span::styled(
-                format!("{} estimated ", sym.estimated),
-                p.estimated,
-            ));
-        }
-        if !differ.is_empty() {
-            let ne = if sym.lit.is_ascii() { "!=" } else { "≠" };
-            extra.push(Span::styled(format!("programs {ne} {name} "), p.warning));
-        }
+        let extra = title_extra(model);
         let inner = frame::panel("Position", extra, false, p, area, buf);
         if inner.height == 0 {
             return;
         }
-        let live = matches!(model.link, LinkState::Connected);
-        let m = &model.machine;
-        let rows: Vec<Row> = model
-            .setup
-            .axes
-            .iter()
-            .map(|(axis, profile)| {
-                let reading = model.positions.get(*axis);
-                let initialised = m.initialised.contains(*axis);
-                let referenced = initialised && m.referenced.contains(*axis);
-                let (ref_sym, ref_style) = if referenced {
-                    (sym.referenced, p.ok)
-                } else {
-                    (sym.unreferenced, p.warning)
-                };
-                let estimated = reading.is_some_and(|r| r.source == PositionSource::Estimated);
-                let (src_sym, value_style) = match (live, estimated) {
-                    (false, _) => (" ", p.dim),
-                    (true, true) => (sym.estimated, p.estimated),
-                    (true, false) => (sym.measured, p.measured),
-                };
-                let other_style = if live { p.text } else { p.dim };
-                let zero = offsets.table.active_zero(*axis);
-                let (work, machine, steps) = match reading {
-                    Some(r) => (
-                        format_units(profile, r.steps.saturating_sub(zero)),
-                        format_units(profile, r.steps),
-                        r.steps.to_string(),
-                    ),
-                    None => ("-".into(), "-".into(), "-".into()),
-                };
-                let words = match (initialised, referenced, live, estimated) {
-                    (_, _, false, _) => "last known",
-                    (false, _, _, _) => "not initialised",
-                    (true, false, _, _) => "not referenced",
-                    (true, true, _, true) => "referenced, estimated",
-                    (true, true, _, false) => "referenced",
-                };
-                Row {
-                    cells: vec![
-                        (axis.to_string(), p.title),
-                        (ref_sym.to_string(), ref_style),
-                        (src_sym.to_string(), value_style),
-                        (work, value_style),
-                        (profile.unit.symbol().to_string(), p.dim),
-                        (machine, other_style),
-                        (steps, other_style),
-                        (words.to_string(), p.dim),
-                    ],
-                }
+        let rows: Vec<Row> = readings(model)
+            .into_iter()
+            .zip(&model.setup.axes)
+            .map(|((axis, r), (_, profile))| Row {
+                cells: vec![
+                    (axis.to_string(), p.title),
+                    (r.referenced.0.to_string(), r.referenced.1),
+                    (r.source.0.to_string(), r.source.1),
+                    (r.work, r.value_style),
+                    (profile.unit.symbol().to_string(), p.dim),
+                    (r.machine, r.other_style),
+                    (r.steps, r.other_style),
+                    (r.words.to_string(), p.dim),
+                ],
             })
             .collect();
         let w = widths(model);

@@ -3,17 +3,32 @@
 //! traffic below),
 //! stacked below that. The status bar and message line are always on top,
 //! the key hints at the bottom; the traffic console gets what is left, and
-//! never less than a few lines.
+//! never less than a few lines. On a large terminal (from 120x44) the room
+//! goes to what the operator watches: the position in large digits, the
+//! port bits and the toolpath preview below them; the traffic console is
+//! held to a few lines.
 
 use ratatui::layout::Rect;
 
 use crate::ui::jog::view as keypad;
 use crate::ui::model::{Model, PanelId};
 
-use super::{dro, io, sim};
+use super::{big_dro, dro, io, sim};
 
 /// Narrowest terminal that gets panels side by side.
 pub const SIDE_BY_SIDE: u16 = 76;
+
+/// The smallest terminal that is large: the position in large digits and
+/// the toolpath preview, the traffic console held to [`LARGE_CONSOLE`].
+/// 44 rows hold four axes' digits, the keypad and a console of six lines
+/// (a 200x40 terminal keeps the position table).
+pub const LARGE: (u16, u16) = (120, 44);
+
+/// Most rows the traffic console gets on a large terminal.
+pub const LARGE_CONSOLE: u16 = 10;
+
+/// Fewest rows worth a toolpath preview.
+const PREVIEW_ROWS: u16 = 8;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Areas {
@@ -25,6 +40,10 @@ pub struct Areas {
     pub sim: Option<Rect>,
     pub console: Rect,
     pub hints: Option<Rect>,
+    /// The toolpath preview (large terminals, where there is room).
+    pub preview: Option<Rect>,
+    /// The position panel is drawn in large digits.
+    pub big_dro: bool,
 }
 
 fn rows(area: Rect, y: u16, height: u16) -> Rect {
@@ -39,7 +58,9 @@ pub fn areas(model: &Model, area: Rect) -> Areas {
     let body_top = area.y + 2;
     let body_bottom = hints.map_or(area.bottom(), |h| h.y).max(body_top);
     let body = Rect::new(area.x, body_top, area.width, body_bottom - body_top);
-    if area.width >= SIDE_BY_SIDE {
+    if area.width >= LARGE.0 && area.height >= LARGE.1 {
+        large(model, body, status, message, hints)
+    } else if area.width >= SIDE_BY_SIDE {
         side_by_side(model, body, status, message, hints)
     } else {
         stacked(model, body, status, message, hints)
@@ -88,6 +109,51 @@ fn side_by_side(
         sim: sim_rect,
         console,
         hints,
+        preview: None,
+        big_dro: false,
+    }
+}
+
+/// A large terminal: the left column has the position in large digits,
+/// the keypad and the simulator's inputs; the right one the port bits and,
+/// below them, the toolpath preview; the traffic console a few lines at
+/// the bottom (all of it with `p`/F2 or `:` still, and `M` for messages).
+fn large(model: &Model, body: Rect, status: Rect, message: Rect, hints: Option<Rect>) -> Areas {
+    let console_h = (body.height / 5).clamp(6, LARGE_CONSOLE);
+    let top = body.height.saturating_sub(console_h);
+    let left_w = big_dro::width(model)
+        .max(dro::width(model))
+        .max((body.width * 2 / 5).min(72))
+        .min(body.width / 2);
+    let right_x = body.x + left_w + 1;
+    let right_w = body.right().saturating_sub(right_x);
+    let dro_h = big_dro::height(model, true).min(top);
+    let pad_h = keypad::height(model).min(top - dro_h);
+    let used = dro_h + pad_h;
+    let sim_h = sim::height(model, left_w);
+    let sim_rect = (sim_h > 0 && top > used + 1)
+        .then(|| Rect::new(body.x, body.y + used, left_w, (top - used).min(sim_h + 1)));
+    let io_h = io::height(model, right_w).min(top);
+    let preview_h = top - io_h;
+    let preview =
+        (preview_h >= PREVIEW_ROWS).then(|| Rect::new(right_x, body.y + io_h, right_w, preview_h));
+    let io_rect = Rect::new(
+        right_x,
+        body.y,
+        right_w,
+        if preview.is_some() { io_h } else { top },
+    );
+    Areas {
+        status,
+        message,
+        dro: Rect::new(body.x, body.y, left_w, dro_h),
+        keypad: Rect::new(body.x, body.y + dro_h, left_w, pad_h),
+        io: io_rect,
+        sim: sim_rect,
+        console: Rect::new(body.x, body.y + top, body.width, body.height - top),
+        hints,
+        preview,
+        big_dro: true,
     }
 }
 
@@ -128,5 +194,7 @@ fn stacked(model: &Model, body: Rect, status: Rect, message: Rect, hints: Option
         sim: sim_rect,
         console,
         hints,
+        preview: None,
+        big_dro: false,
     }
 }

@@ -52,7 +52,7 @@ impl Widget for HelpView<'_> {
     fn render(self, area: Rect, buf: &mut Buffer) {
         let model = self.model;
         let p = &model.palette;
-        let lines = help_lines(&model.keymap);
+        let lines = help_lines(&model.keymap, &model.setup.macros);
         let key_w = lines
             .iter()
             .filter_map(|l| match l {

@@ -120,12 +120,19 @@ impl Widget for MessageLine<'_> {
         let width = usize::from(area.width);
         let line = if let Some(m) = model.fresh_message() {
             let marker = note_marker(m.level);
+            let room = width.saturating_sub(marker.len() + 1);
+            // A message cut to the line says where it is whole.
+            let whole = model
+                .keymap
+                .key_for(Mode::Main, Action::Messages)
+                .map(|k| format!(" [{k}: all]"))
+                .filter(|_| Span::raw(m.text.as_str()).width() > room)
+                .unwrap_or_default();
+            let room = room.saturating_sub(whole.chars().count());
             Line::from(vec![
                 Span::styled(format!("{marker} "), note_style(p, m.level)),
-                Span::styled(
-                    fit(&m.text, width.saturating_sub(marker.len() + 1)),
-                    note_style(p, m.level),
-                ),
+                Span::styled(fit(&m.text, room), note_style(p, m.level)),
+                Span::styled(whole, p.key),
             ])
         } else {
             let summary = summarise(model);
@@ -194,6 +201,17 @@ impl Widget for Hints<'_> {
                     (Mode::Axes, Action::AxisAll, "all axes"),
                     (Mode::Axes, Action::Cancel, "cancel"),
                 ],
+                Mode::Outputs => &[
+                    (Mode::Outputs, Action::ToggleOutput, "switch"),
+                    (Mode::Outputs, Action::SelectNext, "next"),
+                    (Mode::Outputs, Action::Close, "close"),
+                ],
+                Mode::Messages => &[
+                    (Mode::Messages, Action::ScrollUp, "older"),
+                    (Mode::Messages, Action::PageUp, "page"),
+                    (Mode::Messages, Action::ScrollBottom, "newest"),
+                    (Mode::Messages, Action::Close, "close"),
+                ],
                 _ => &[
                     (Mode::Help, Action::ScrollDown, "scroll"),
                     (Mode::Help, Action::Close, "close"),
@@ -208,6 +226,10 @@ impl Widget for Hints<'_> {
                     (Mode::Main, Action::Initialise, "init"),
                     (Mode::Main, Action::Home, "home"),
                     (Mode::Main, Action::Quit, "quit"),
+                    // Shown where the line has room (wide terminals).
+                    (Mode::Main, Action::LargeDro, "large DRO"),
+                    (Mode::Main, Action::Outputs, "outputs"),
+                    (Mode::Main, Action::Messages, "messages"),
                 ],
                 Mode::Console => &[
                     (Mode::Console, Action::Submit, "send"),

@@ -121,8 +121,11 @@ impl Widget for TimelineScreen<'_> {
         let lanes: Vec<&std::sync::Arc<InputChannel>> =
             all.iter().skip(top).take(shown).copied().collect();
         let scale = t.scale();
-        let mut extra = vec![Span::styled(
+        // Each title part in a long and a short form: at 80 columns the
+        // short forms keep every part in sight rather than cutting the last.
+        let mut parts_title: Vec<(String, String, ratatui::style::Style)> = vec![(
             format!(" {} ms/column ", scale.as_millis()),
+            format!(" {} ms/col ", scale.as_millis()),
             p.text,
         )];
         let label_w = label_width(area.width);
@@ -134,33 +137,52 @@ impl Widget for TimelineScreen<'_> {
         let span_us = i128::from(columns) * scale_us;
         let left_us = (t.right_edge(model.now).as_micros() as i128 - span_us).max(0);
         let right_us = left_us + span_us;
-        extra.push(match t.end {
-            None => Span::styled(" live ", p.ok),
-            Some(_) => Span::styled(
-                format!(
-                    " held: {:.1}-{:.1} s (End: live) ",
+        parts_title.push(match t.end {
+            None => (" live ".to_owned(), " live ".to_owned(), p.ok),
+            Some(_) => {
+                let held = format!(
+                    " held: {:.1}-{:.1} s",
                     left_us as f64 / 1e6,
                     right_us as f64 / 1e6
-                ),
-                p.warning,
-            ),
+                );
+                (
+                    format!("{held} (End: live) "),
+                    format!("{held} "),
+                    p.warning,
+                )
+            }
         });
         if all.len() > shown {
-            extra.push(Span::styled(
-                format!(" lanes {}-{} of {} ", top + 1, top + lanes.len(), all.len()),
-                p.dim,
-            ));
+            let lanes_shown = format!(" lanes {}-{} of {} ", top + 1, top + lanes.len(), all.len());
+            parts_title.push((lanes_shown.clone(), lanes_shown, p.dim));
         }
         if let Some(every) = t.read_every() {
-            extra.push(Span::styled(format!(" read every {} ", ms(every)), p.dim));
+            parts_title.push((
+                format!(" read every {} ", ms(every)),
+                format!(" every {} ", ms(every)),
+                p.dim,
+            ));
         }
         let unread = t.unread();
         if unread > 0 {
-            extra.push(Span::styled(
+            parts_title.push((
                 format!(" {unread} inputs not polled here (jogterm watch reads all) "),
+                format!(" {unread} not polled "),
                 p.dim,
             ));
         }
+        let full_width: usize = parts_title
+            .iter()
+            .map(|(full, _, _)| full.chars().count())
+            .sum();
+        // The panel's own name and its border corners take the rest.
+        let room = usize::from(area.width).saturating_sub(" Port timeline ".len() + 4);
+        let extra: Vec<Span> = parts_title
+            .into_iter()
+            .map(|(full, short, style)| {
+                Span::styled(if full_width <= room { full } else { short }, style)
+            })
+            .collect();
         frame::panel("Port timeline", extra, true, p, parts.panel, buf);
         let col_start = |c: u16| left_us + i128::from(c) * scale_us;
         let to_duration = |us: i128| std::time::Duration::from_micros(us.max(0) as u64);

@@ -325,6 +325,44 @@ fn notices_after_a_connect_answered(answer: &[u8]) -> Vec<String> {
     h.expect(&[0xFD, 0xFF]);
     h.reply(answer);
     h.advance(ms(100));
+    h.expect_text("@0T0");
+    h.reply(b"0");
     h.readback(0, 0, 0, b"0");
     h.notices()
+}
+
+#[test]
+fn every_connect_switches_test_mode_off_first_and_quietly() {
+    // Test mode cannot be read back, and a controller left in it passes the
+    // reference probe (manual 2.2.24): `@0T0` before the read-back.
+    let mut h = Harness::new();
+    h.connect_stop();
+    h.expect_text("@0T0");
+    h.reply(b"0");
+    h.readback(0, 0, 0, b"0");
+    let notices = h.notices().join("\n");
+    assert!(!notices.contains("test mode"), "{notices}");
+    // And again on every new link: the controller was out of sight.
+    h.driver.disconnected("cable pulled", h.now);
+    h.collect();
+    h.connect_stop();
+    h.expect_text("@0T0");
+}
+
+#[test]
+fn a_refused_test_mode_off_is_said_with_what_it_means() {
+    let mut h = Harness::new();
+    h.connect_stop();
+    h.expect_text("@0T0");
+    h.reply(b"3");
+    h.expect_text("@0P");
+    let notices = h.notices().join("\n");
+    assert!(notices.contains("test mode may still be on"), "{notices}");
+}
+
+#[test]
+fn a_profile_that_allows_test_mode_leaves_it_as_it_is() {
+    let mut h = Harness::with(|s| s.test_mode_allowed = true);
+    h.connect_stop();
+    h.expect_text("@0P");
 }

@@ -47,8 +47,16 @@ impl Harness {
         self.driver.state().clone()
     }
 
-    /// Connected: the stop sequence goes first, then the line settles.
+    /// Connected: the stop sequence goes first, then the line settles;
+    /// then test mode goes off (it cannot be read back), answered `0`.
     pub fn connect(&mut self) {
+        self.connect_stop();
+        self.expect_text("@0T0");
+        self.reply(b"0");
+    }
+
+    /// Connected, up to the settled line: the stop sequence only.
+    pub fn connect_stop(&mut self) {
         self.driver.connected(self.now);
         self.collect();
         self.expect(&[0xFD, 0xFF]);

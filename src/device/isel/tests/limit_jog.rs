@@ -251,7 +251,7 @@ fn a_lost_link_ends_it_and_the_next_connection_switches_test_mode_off_first() {
     h.take_events();
     // Nothing resumes: the stop goes first, then test mode off, then the
     // read-back.
-    h.connect();
+    h.connect_stop();
     h.expect_text("@0T0");
     h.reply(b"0");
     h.expect_text("@0P");
@@ -369,6 +369,6 @@ fn a_link_lost_before_test_mode_was_confirmed_still_switches_it_off_next_time() 
     h.collect();
     assert_eq!(ends(&h), [JogEnd::LinkLost]);
     h.take_events();
-    h.connect();
+    h.connect_stop();
     h.expect_text("@0T0");
 }

@@ -40,6 +40,7 @@ impl Widget for DialogView<'_> {
                     title: q.title.clone(),
                     question: q.text.clone(),
                     effects: Vec::new(),
+                    run_macro: None,
                 },
             }
             .render(area, buf),
