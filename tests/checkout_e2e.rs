@@ -142,6 +142,7 @@ fn a_hold_let_go_mid_line_pauses_and_the_next_hold_finishes_that_line_exactly() 
     assert!(!after[fd..].contains("<FF>"), "no break: {after}");
     // Stopped in the middle of the line, without a step lost: it stays.
     let paused = wait_counter(&mut sim, "X", |x| x > 0 && x < 8000);
+    eprintln!("paused at X {paused} of 8000 steps");
     thread::sleep(Duration::from_millis(300));
     assert_eq!(counter(&mut sim, "X"), paused, "it stands while paused");
     let shown = screen(&run);
