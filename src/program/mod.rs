@@ -38,6 +38,7 @@
 //! ```
 
 pub mod checkout;
+pub mod checkout_emcu;
 pub mod circle;
 mod emcu_line;
 mod flow;

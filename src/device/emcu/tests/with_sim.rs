@@ -21,7 +21,7 @@ use crate::wire::LineSettings;
 
 use super::harness::{ms, speeds};
 
-type Bench = crate::device::common::testing::Bench<EmcuDriver, EmcuSim>;
+pub(super) type Bench = crate::device::common::testing::Bench<EmcuDriver, EmcuSim>;
 
 fn bench(rate: PollRate) -> Bench {
     let profile = load_profile("emcu", &ConfigDirs::builtin_only()).expect("profile");
@@ -31,7 +31,7 @@ fn bench(rate: PollRate) -> Bench {
     Bench::new(EmcuDriver::new(settings), sim, LineSettings::new(19200))
 }
 
-fn counters(b: &mut Bench) -> [i32; 3] {
+pub(super) fn counters(b: &mut Bench) -> [i32; 3] {
     let now = b.now;
     EmcuAxis::ALL.map(|a| b.sim.counter(a, now))
 }
@@ -49,7 +49,7 @@ fn secs(n: u64) -> Duration {
 }
 
 /// Initialised and referenced.
-fn homed(rate: PollRate) -> Bench {
+pub(super) fn homed(rate: PollRate) -> Bench {
     let mut b = bench(rate);
     b.run(ms(500));
     b.request(Request::Initialise);
