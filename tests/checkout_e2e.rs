@@ -212,3 +212,74 @@ fn run_from_a_line_shows_where_it_starts_and_goes_there_first() {
     assert_eq!(wait_counter(&mut sim, "X", |x| x == 8000), 8000);
     assert_eq!(wait_counter(&mut sim, "Y", |y| y == 800), 800);
 }
+
+/// An EMCU job in the check-out: each line sent as a command with 0x01; a
+/// hold let go in the middle of a move halts it (`@B`, manual 1.5.11), and
+/// the next hold sends what is left of it, which ends exactly where the
+/// line would have.
+#[test]
+fn an_emcu_job_line_let_go_halts_and_the_next_hold_ends_it_exactly() {
+    // Axes 1 mm from machine 0 at power-up: the reference run is short.
+    let near_zero = (
+        "profiles/emcu.toml",
+        "base = \"emcu\"\n[sim]\nstart_position = 1.0\n",
+    );
+    let mut sim = SimProcess::start_with_files("emcu", &[near_zero]);
+    let dir = tempfile::tempdir().unwrap();
+    let config = dir.path().join("config");
+    fs::create_dir_all(config.join("profiles")).unwrap();
+    fs::write(config.join(near_zero.0), near_zero.1).unwrap();
+    let file = dir.path().join("job.emcu");
+    // X 20 mm (200 steps/mm) at 1000 Hz: 4 s.
+    fs::write(&file, "; check-out\n#E1,1000\nL1,x4000\n").unwrap();
+    let env = [
+        ("JOGTERM_NO_KEYBOARD_QUERY", "1".to_string()),
+        ("JOGTERM_CONFIG_DIR", config.display().to_string()),
+        (
+            "JOGTERM_STATE_DIR",
+            dir.path().join("state").display().to_string(),
+        ),
+        ("RUST_BACKTRACE", "0".into()),
+    ];
+    let env: Vec<(&str, &str)> = env.iter().map(|(k, v)| (*k, v.as_str())).collect();
+    let link = sim.link.display().to_string();
+    let file = file.display().to_string();
+    let mut run = PtyRun::spawn_sized(
+        Path::new(JOGTERM),
+        &["--port", &link, "--protocol", "emcu", "--program", &file],
+        &env,
+        48,
+        160,
+    );
+    wait_for(&run, "connected");
+    run.type_keys(&[F4]);
+    wait_for(&run, "Position");
+    run.type_keys(&[b"i"]);
+    wait_for(&run, "NOT REF");
+    run.type_keys(&[b"h"]);
+    run.type_keys(&[b"y"]);
+    wait_for(&run, "READY");
+    let start = wait_counter(&mut sim, "X", |x| x == 0);
+    run.type_keys(&[F4]);
+    wait_for(&run, "job.emcu");
+    start_checkout(&mut run, F10);
+    // Held: the slot speed, then the move; let go after a moment.
+    hold(&mut run, Duration::from_millis(1800), |_| false);
+    wait_for(&run, "PAUSED at line 3");
+    let paused = wait_counter(&mut sim, "X", |x| x > start && x < 4000);
+    eprintln!("EMCU paused at X {paused} of 4000 steps");
+    thread::sleep(Duration::from_millis(300));
+    assert_eq!(counter(&mut sim, "X"), paused, "it stands while paused");
+    let wire = sim.received();
+    assert!(wire.contains("#E1,1000"), "{wire}");
+    let sent = wire.find("L1,x4000").unwrap_or_else(|| panic!("{wire}"));
+    assert!(wire[sent..].contains("@B"), "halted: {wire}");
+    thread::sleep(Duration::from_millis(900));
+    hold(&mut run, Duration::from_secs(20), |run| {
+        screen(run).contains("check-out done")
+    });
+    let wire = sim.received();
+    let rest = format!("L1,x{}", 4000 - paused);
+    assert!(wire[sent..].contains(&rest), "{rest} not sent: {wire}");
+    assert_eq!(wait_counter(&mut sim, "X", |x| x == 4000), 4000);
+}

@@ -90,6 +90,14 @@ impl EmcuPlan {
         })
     }
 
+    /// Whether the current line is a move.
+    pub fn is_move(&self) -> bool {
+        matches!(
+            self.commands.get(self.pc).copied().flatten(),
+            Some(Command::Move(_))
+        )
+    }
+
     /// The current line is done.
     pub fn advance(&mut self) {
         if self.line().is_some() {
@@ -112,6 +120,8 @@ impl EmcuPlan {
                     .filter_map(|(axis, steps)| {
                         let i = axis.axis().index();
                         let left = start.get(i)? + i64::from(steps.get()) - now.get(i)?;
+                        // An axis already there moves no more.
+                        (left != 0).then_some(())?;
                         Some((axis, Steps::new(i32::try_from(left).ok()?).ok()?))
                     })
                     .collect();

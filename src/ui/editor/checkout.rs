@@ -15,6 +15,33 @@ use std::time::{Duration, Instant};
 
 use crate::device::api::JogId;
 use crate::program::checkout::{DncCommand as Command, Plan};
+use crate::program::checkout_emcu::EmcuPlan;
+
+/// The program the check-out runs: an isel CNC program in DNC form, or an
+/// EMCU job line by line.
+#[derive(Debug, Clone, PartialEq)]
+pub enum RunPlan {
+    Isel(Plan),
+    Emcu(EmcuPlan),
+}
+
+impl RunPlan {
+    /// The source line to run next; `None` once ended.
+    pub fn line(&self) -> Option<usize> {
+        match self {
+            RunPlan::Isel(p) => p.line(),
+            RunPlan::Emcu(p) => p.line(),
+        }
+    }
+
+    /// The current line is done (`byte`: the port an isel `o` read).
+    pub fn advance(&mut self, byte: Option<u8>) {
+        match self {
+            RunPlan::Isel(p) => p.advance(byte),
+            RunPlan::Emcu(p) => p.advance(),
+        }
+    }
+}
 
 /// Check-out line ids are far from the keypad's jog ids (which count from
 /// 1), so that a renewal of one never reaches the other.
@@ -43,7 +70,7 @@ pub enum RunState {
 /// A check-out under way.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Checkout {
-    pub plan: Plan,
+    pub plan: RunPlan,
     /// Speed factor in percent, 10-100.
     pub factor: u32,
     /// Single step: one line per press.
@@ -54,6 +81,9 @@ pub struct Checkout {
     pub line_text: Option<String>,
     /// The source line the current DNC line belongs to.
     pub at_line: Option<usize>,
+    /// Where the axes stood (machine steps) when the current move was
+    /// sent: what is left of an EMCU move is counted from it.
+    pub line_start: Option<[i64; 4]>,
     /// Lines to send before the plan's (run from a line: settings and the
     /// move to the start position), with the source line they stand for.
     pub preamble: Vec<(Command, usize)>,
@@ -72,7 +102,7 @@ pub struct Checkout {
 }
 
 impl Checkout {
-    pub fn new(plan: Plan, preamble: Vec<(Command, usize)>, now: Instant) -> Checkout {
+    pub fn new(plan: RunPlan, preamble: Vec<(Command, usize)>, now: Instant) -> Checkout {
         let at_line = preamble.first().map(|(_, l)| *l).or(plan.line());
         Checkout {
             plan,
@@ -82,6 +112,7 @@ impl Checkout {
             line_id: None,
             line_text: None,
             at_line,
+            line_start: None,
             preamble,
             next_id: 0,
             last_key: None,
@@ -193,7 +224,7 @@ mod tests {
             &crate::program::Program::parse(crate::program::Language::Isel, "9\n"),
             crate::program::checkout::config_of(crate::axis::AxisSet::XYZ).unwrap(),
         );
-        let mut c = Checkout::new(plan, Vec::new(), t0);
+        let mut c = Checkout::new(RunPlan::Isel(plan), Vec::new(), t0);
         assert!(!c.key(t0, grace), "the press arms");
         assert!(
             c.key(t0 + Duration::from_millis(500), grace),

@@ -14,8 +14,9 @@ use crate::program::checkout::{
     DncCommand, DncStep, Finish, Plan, config_of, go_to, line_text, pair_axes, unexpressible,
     with_speeds,
 };
+use crate::program::checkout_emcu::{self, EmcuPlan, EmcuStep};
 use crate::ui::editor::buffer::Cursor;
-use crate::ui::editor::checkout::{Checkout, RunState, scaled};
+use crate::ui::editor::checkout::{Checkout, RunPlan, RunState, scaled};
 use crate::ui::editor::component::Effect;
 use crate::ui::editor::dialog::Answer;
 use crate::ui::keymap::Action;
@@ -25,7 +26,7 @@ use super::Step;
 
 /// What a check-out starts with, for the question and for the start.
 struct Prepared {
-    plan: Plan,
+    plan: RunPlan,
     preamble: Vec<(DncCommand, usize)>,
     summary: String,
 }
@@ -89,13 +90,13 @@ impl Step<'_, '_> {
 
     fn checkout_prepare(&mut self, from: Option<usize>) -> Result<Prepared, String> {
         let ctx = self.ctx;
-        if self.e.language() != Language::Isel || ctx.setup.protocol != crate::proto::Protocol::Isel
-        {
-            return Err(
-                "the check-out runs isel CNC programs on an isel controller (EMCU and \
-                        EMP: docs/editor.md, \"What each family can do\")"
-                    .into(),
-            );
+        let language = self.e.language();
+        if language.protocol() != ctx.setup.protocol {
+            return Err(format!(
+                "the check-out runs isel CNC programs on an isel controller and EMCU jobs on an \
+                 EMCU; this is {} on {} (docs/editor.md, \"What each family can do\")",
+                language, ctx.setup.protocol
+            ));
         }
         if self.e.upload.busy() {
             return Err("an upload is running".into());
@@ -111,7 +112,10 @@ impl Step<'_, '_> {
             return Err(why);
         }
         let program = self.e.buffer.program();
-        let named = unexpressible(program);
+        let named = match language {
+            Language::Isel => unexpressible(program),
+            Language::Emcu => checkout_emcu::unexpressible(program),
+        };
         if !named.is_empty() {
             let mut text = String::from("lines without an exact DNC form:");
             for u in &named {
@@ -123,13 +127,26 @@ impl Step<'_, '_> {
             }
             return Err(text.trim_end_matches(';').to_string());
         }
+        let name = self.e.name();
+        if language == Language::Emcu {
+            if from.is_some() {
+                return Err("run from a line is built for isel programs only".into());
+            }
+            return Ok(Prepared {
+                plan: RunPlan::Emcu(EmcuPlan::new(program)),
+                preamble: Vec::new(),
+                summary: format!(
+                    "Check out {name} from its first line, each job line sent as a command \
+                     (0x01), at 100 %."
+                ),
+            });
+        }
         let config = config_of(ctx.setup.axis_set())
             .ok_or_else(|| "the machine's axes are no isel axis setting".to_string())?;
         let mut plan = Plan::new(program, config);
-        let name = self.e.name();
         let Some(from) = from else {
             return Ok(Prepared {
-                plan,
+                plan: RunPlan::Isel(plan),
                 preamble: Vec::new(),
                 summary: format!(
                     "Check out {name} from its first line, line by line in DNC form, at {} %.",
@@ -187,7 +204,7 @@ impl Step<'_, '_> {
             }
         );
         Ok(Prepared {
-            plan,
+            plan: RunPlan::Isel(plan),
             preamble,
             summary,
         })
@@ -376,28 +393,67 @@ impl Step<'_, '_> {
                     c.state = RunState::Ready;
                     continue;
                 };
+                let text = match &c.plan {
+                    // An EMCU keeps no rest: what is left of the move,
+                    // from where the axes stand.
+                    RunPlan::Emcu(p) if p.is_move() => {
+                        let start = c.line_start.unwrap_or_default();
+                        match p.rest_of_move(start, machine_now(ctx)) {
+                            Some(rest) => rest,
+                            None => {
+                                // Nothing is left: the line is done.
+                                c.plan.advance(None);
+                                c.at_line = c.plan.line();
+                                c.line_text = None;
+                                c.state = RunState::Ready;
+                                continue;
+                            }
+                        }
+                    }
+                    _ => text,
+                };
                 self.checkout_send(text, rest);
                 return;
             }
-            let (command, line) = if let Some((command, line)) = c.preamble.first().cloned() {
-                (with_speeds(command, c.plan.config(), &speed), line)
+            let (text, line) = if let Some((command, line)) = c.preamble.first().cloned() {
+                let RunPlan::Isel(plan) = &c.plan else {
+                    c.preamble.clear();
+                    continue;
+                };
+                let command = with_speeds(command, plan.config(), &speed);
+                (line_text(ctx.setup.isel_device, &command), line)
             } else {
                 let Some(line) = c.plan.line() else {
                     self.checkout_finished();
                     return;
                 };
-                match c.plan.step(&speed) {
-                    Some(DncStep::Send { command, .. } | DncStep::ReadPort { command }) => {
-                        (command, line)
-                    }
-                    Some(DncStep::Dwell(d)) => {
+                let step = match &c.plan {
+                    RunPlan::Isel(plan) => plan.step(&speed).map(|s| match s {
+                        DncStep::Send { command, .. } | DncStep::ReadPort { command } => {
+                            EmcuStep::Send {
+                                line: line_text(ctx.setup.isel_device, &command),
+                                moves: false,
+                            }
+                        }
+                        DncStep::Dwell(d) => EmcuStep::Dwell(d),
+                        DncStep::Nothing => EmcuStep::Nothing,
+                    }),
+                    // Slot speeds serve every axis: the lowest cap.
+                    RunPlan::Emcu(plan) => plan.step(&|hz| {
+                        let v = caps.iter().map(|(a, _)| speed(*a, hz)).min().unwrap_or(hz);
+                        v.max(1)
+                    }),
+                };
+                match step {
+                    Some(EmcuStep::Send { line: text, .. }) => (text, line),
+                    Some(EmcuStep::Dwell(d)) => {
                         c.at_line = Some(line);
                         c.state = RunState::Dwelling { left: d };
                         c.dwell_tick = Some(ctx.now);
                         self.checkout_follow();
                         return;
                     }
-                    Some(DncStep::Nothing) => {
+                    Some(EmcuStep::Nothing) => {
                         c.plan.advance(None);
                         c.at_line = c.plan.line();
                         continue;
@@ -408,9 +464,9 @@ impl Step<'_, '_> {
                     }
                 }
             };
-            let text = line_text(ctx.setup.isel_device, &command);
             c.line_text = Some(text.clone());
             c.at_line = Some(line);
+            c.line_start = Some(machine_now(ctx));
             self.checkout_send(text, None);
             if capped.get() {
                 self.say(
@@ -451,7 +507,11 @@ impl Step<'_, '_> {
         };
         c.state = RunState::Finished;
         c.line_id = None;
-        let why = match c.plan.finish() {
+        let finish = match &c.plan {
+            RunPlan::Isel(p) => p.finish().cloned(),
+            RunPlan::Emcu(_) => None,
+        };
+        let why = match finish {
             Some(Finish::LoopStack { line }) => format!(
                 "line {}: a loop needs an eighth counter (the controller would answer 6)",
                 line + 1
@@ -603,4 +663,15 @@ impl Step<'_, '_> {
             c.state = RunState::Dwelling { left };
         }
     }
+}
+
+/// Where the axes stand now, machine steps (an EMCU's counters).
+fn machine_now(ctx: &crate::ui::editor::component::Context) -> [i64; 4] {
+    let mut at = [0i64; 4];
+    for (axis, _) in &ctx.setup.axes {
+        if let (Some(r), Some(slot)) = (ctx.positions.get(*axis), at.get_mut(axis.index())) {
+            *slot = r.steps;
+        }
+    }
+    at
 }
