@@ -381,3 +381,74 @@ fn positions_read_while_a_stored_job_runs_show_its_progress_along_the_path() {
     host.send(&mut e, Input::Device(&Event::Position(estimate)));
     assert_eq!(e.run_segment, Some(1));
 }
+
+#[test]
+fn an_emcu_job_checks_out_line_by_line_and_a_halted_move_goes_on_with_what_is_left() {
+    let mut host = Host::with_profile("emcu");
+    host.measured(
+        PerAxis::new()
+            .with(Axis::X, 0)
+            .with(Axis::Y, 0)
+            .with(Axis::Z, 0),
+    );
+    let mut e = Editor::new(&host.setup, host.now);
+    let text = "#E1,1000\nL1,x4000\n";
+    let path = PathBuf::from("/work/job.emcu");
+    host.send(&mut e, Input::Msg(EditorMsg::Open(path.clone())));
+    let loaded = Loaded {
+        path: path.clone(),
+        text: text.to_string(),
+        fingerprint: Fingerprint::of(text.as_bytes()),
+        lossy: false,
+    };
+    host.send(
+        &mut e,
+        Input::Msg(EditorMsg::Loaded {
+            path,
+            result: Ok(Some(loaded)),
+            recovery: None,
+        }),
+    );
+    host.settle(&mut e);
+    let out = host.key(&mut e, Action::Checkout);
+    assert!(
+        matches!(&out.dialog, Some(Dialog::Ask(_))),
+        "{:?}",
+        said(&out)
+    );
+    host.key(&mut e, Action::Confirm);
+    for _ in 0..3 {
+        host.send(
+            &mut e,
+            Input::Checkout(Action::CheckoutSlower, KeyPhase::Press),
+        );
+    }
+    hold(&mut host, &mut e, 0);
+    let (id, line, _) = checkout_lines(&hold(&mut host, &mut e, 500)).remove(0);
+    assert_eq!(line, "#E1,700\u{1}", "the slot speed through the factor");
+    let out = end(&mut host, &mut e, id, CheckoutEnd::Done { byte: None });
+    let (id, line, _) = checkout_lines(&out).remove(0);
+    assert_eq!(line, "L1,x4000\u{1}");
+    // Halted at X 1500 (the EMCU keeps no rest).
+    host.measured(
+        PerAxis::new()
+            .with(Axis::X, 1500)
+            .with(Axis::Y, 0)
+            .with(Axis::Z, 0),
+    );
+    end(
+        &mut host,
+        &mut e,
+        id,
+        CheckoutEnd::Paused {
+            dead_man: true,
+            rest: false,
+        },
+    );
+    host.now += Duration::from_secs(2);
+    hold(&mut host, &mut e, 0);
+    let out = hold(&mut host, &mut e, 500);
+    let resumed = checkout_lines(&out);
+    assert_eq!(resumed[0].1, "L1,x2500\u{1}", "what is left of it");
+    assert_eq!(resumed[0].2, None);
+}
