@@ -283,3 +283,55 @@ fn an_emcu_job_line_let_go_halts_and_the_next_hold_ends_it_exactly() {
     assert!(wire[sent..].contains(&rest), "{rest} not sent: {wire}");
     assert_eq!(wait_counter(&mut sim, "X", |x| x == 4000), 4000);
 }
+
+/// A line the controller refuses stops the check-out at that line with
+/// the code explained (here `R`: the axes were initialised, not
+/// referenced), and holding on moves nothing.
+#[test]
+fn a_line_the_controller_refuses_stops_the_check_out_there_with_its_code() {
+    let mut sim = SimProcess::start("isel");
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("part.isel");
+    fs::write(&file, PROGRAM).unwrap();
+    let config = dir.path().join("config");
+    fs::create_dir_all(&config).unwrap();
+    let env = [
+        ("JOGTERM_NO_KEYBOARD_QUERY", "1".to_string()),
+        ("JOGTERM_CONFIG_DIR", config.display().to_string()),
+        (
+            "JOGTERM_STATE_DIR",
+            dir.path().join("state").display().to_string(),
+        ),
+        ("RUST_BACKTRACE", "0".into()),
+    ];
+    let env: Vec<(&str, &str)> = env.iter().map(|(k, v)| (*k, v.as_str())).collect();
+    let link = sim.link.display().to_string();
+    let file = file.display().to_string();
+    let mut run = PtyRun::spawn_sized(
+        Path::new(JOGTERM),
+        &["--port", &link, "--protocol", "isel", "--program", &file],
+        &env,
+        48,
+        160,
+    );
+    wait_for(&run, "connected");
+    run.type_keys(&[F4]);
+    wait_for(&run, "Position");
+    run.type_keys(&[b"i"]);
+    wait_for(&run, "NOT REF");
+    run.type_keys(&[F4]);
+    wait_for(&run, "part.isel");
+    let before = counter(&mut sim, "X");
+    start_checkout(&mut run, F10);
+    hold(&mut run, Duration::from_millis(1500), |run| {
+        screen(run).contains("CHECK-OUT STOPPED")
+    });
+    let shown = wait_for(&run, "the controller answered R");
+    assert!(shown.contains("line 2"), "{shown}");
+    assert!(shown.contains("CHECK-OUT STOPPED line 2"), "{shown}");
+    // Held on: nothing more goes out, nothing moves.
+    let sent = sim.received().matches("@0A").count();
+    hold(&mut run, Duration::from_millis(1000), |_| false);
+    assert_eq!(sim.received().matches("@0A").count(), sent);
+    assert_eq!(counter(&mut sim, "X"), before);
+}
