@@ -198,6 +198,22 @@ pub enum Request {
     },
     /// Start the stored program (isel `@0S`, EMCU `@J`).
     RunProgram,
+    /// One line of a program check-out from the editor (`docs/editor.md`,
+    /// "Check-out"): a DNC `line` of the family's syntax, checked like a
+    /// raw line. A line that moves is held like a continuous jog: by
+    /// `lease`, renewed with `JogRenew { id }`, let go with `JogRelease {
+    /// id }`; when the lease runs out or the key is let go the move is
+    /// paused without step loss (isel 0xFD alone, manual 2.2.31), its rest
+    /// kept by the controller. `resume`: the id of the line that paused,
+    /// whose rest this line's `@0S` finishes (refused unless that rest is
+    /// still held: nothing else ran since). Ends with `Event::Checkout {
+    /// id, .. }`, also when refused.
+    Checkout {
+        id: JogId,
+        line: String,
+        lease: Duration,
+        resume: Option<JogId>,
+    },
     /// Bring the controller into a known, ready state (isel: axes and ramp
     /// parameters; EMP: unit on and mode; EMCU: read status).
     Initialise,
@@ -226,7 +242,16 @@ impl Request {
                 | Request::Home { .. }
                 | Request::RunProgram
                 | Request::Raw { .. }
+                | Request::Checkout { .. }
         )
+    }
+
+    /// The check-out line a request is, which ends with `Event::Checkout`.
+    pub fn checkout_id(&self) -> Option<JogId> {
+        match self {
+            Request::Checkout { id, .. } => Some(*id),
+            _ => None,
+        }
     }
 
     /// The jog a request starts, which ends with `Event::JogEnded` (also
@@ -707,6 +732,30 @@ pub enum JogEnd {
     StillOnLimit,
 }
 
+/// How one line of a program check-out ended (`Request::Checkout`).
+#[derive(Debug, Clone, PartialEq)]
+pub enum CheckoutEnd {
+    /// The controller answered that the line is done; `byte`: the port
+    /// byte a port read answered.
+    Done {
+        byte: Option<u8>,
+    },
+    /// The key was let go (`dead_man`: its repeats stopped coming) and the
+    /// move paused. `rest`: the controller keeps the rest of the move for
+    /// a resume (it answered `F` to the 0xFD); false when the line never
+    /// started. The position was read after it.
+    Paused {
+        dead_man: bool,
+        rest: bool,
+    },
+    /// Stopped (0xFD 0xFF, the stop key, a reset): nothing is kept.
+    Stopped,
+    /// The controller refused the line, or a fault ended it.
+    Fault(ControllerFault),
+    Refused(Refusal),
+    LinkLost,
+}
+
 #[derive(Debug, Clone, PartialEq)]
 pub enum UploadEvent {
     Started {
@@ -770,6 +819,11 @@ pub enum Event {
     JogEnded {
         id: JogId,
         end: JogEnd,
+    },
+    /// A check-out line ended (`Request::Checkout`).
+    Checkout {
+        id: JogId,
+        end: CheckoutEnd,
     },
     Upload(UploadEvent),
     Traffic(TrafficRecord),

@@ -51,6 +51,13 @@ pub fn describe(request: &Request) -> String {
         Request::Raw { line } => format!("raw {}", crate::traffic::readable(&latin1(line))),
         Request::Upload { lines, .. } => format!("upload ({} lines)", lines.len()),
         Request::RunProgram => "run program".to_owned(),
+        Request::Checkout { line, resume, .. } => match resume {
+            Some(_) => format!(
+                "check-out resume {}",
+                crate::traffic::readable(&latin1(line))
+            ),
+            None => format!("check-out {}", crate::traffic::readable(&latin1(line))),
+        },
         Request::Initialise => "initialise".to_owned(),
         Request::Reset => "reset".to_owned(),
         Request::Poll { .. } => "poll settings".to_owned(),

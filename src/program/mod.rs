@@ -37,6 +37,8 @@
 //! assert_eq!(end, [1000, 0, 0, 0]);
 //! ```
 
+pub mod checkout;
+pub mod checkout_emcu;
 pub mod circle;
 mod emcu_line;
 mod flow;

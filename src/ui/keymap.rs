@@ -110,6 +110,9 @@ named_enum! {
         Outputs = "outputs", "Named outputs";
         /// The message history is shown.
         Messages = "messages", "Message history";
+        /// The program screen during a check-out (issue 15,
+        /// `docs/editor.md`): the text is read-only.
+        Checkout = "checkout", "Program check-out (program screen; the text is read-only)";
     }
 }
 
@@ -165,7 +168,7 @@ named_enum! {
         TeachSlower = "teach-slower", "slower speed for taught moves";
         TeachFaster = "teach-faster", "faster speed for taught moves";
         Upload = "upload", "upload the program (asks to erase a stored one)";
-        RunProgram = "run-program", "start the stored program (asks first)";
+        RunProgram = "run-program", "start the stored program (asks); EMCU job: pause / go on";
         CloseEditor = "close-editor", "back to the machine screen";
         CursorUp = "cursor-up", "cursor up";
         CursorDown = "cursor-down", "cursor down";
@@ -244,6 +247,14 @@ named_enum! {
         LargeDro = "large-dro", "large position display (readable from across the workshop)";
         ScrollTop = "scroll-top", "to the oldest";
         ScrollBottom = "scroll-bottom", "to the newest";
+        // Program check-out (issue 15, `docs/editor.md`, "Check-out").
+        Checkout = "checkout", "check-out: run line by line while the key is held (asks)";
+        CheckoutFromLine = "checkout-from-line", "check-out from the cursor's line (shows the start, asks)";
+        CheckoutHold = "checkout-hold", "hold to run the check-out; let go: pause";
+        CheckoutSingle = "checkout-single", "single step on/off: one line per press";
+        CheckoutSlower = "checkout-slower", "check-out speed factor -10 %";
+        CheckoutFaster = "checkout-faster", "check-out speed factor +10 %";
+        CheckoutAbort = "checkout-abort", "end the check-out (stop; a paused rest is discarded, 0xFF)";
     }
 }
 

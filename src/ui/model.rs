@@ -328,6 +328,15 @@ impl Model {
 
     /// What the program editor may read of the model (its view draws from
     /// the editor and this).
+    /// The key mode of the focused panel: the program screen during a
+    /// check-out has keys of its own (its text is read-only then).
+    pub fn panel_mode(&self) -> Mode {
+        match self.focus {
+            PanelId::Editor if self.editor.checkout.is_some() => Mode::Checkout,
+            focus => focus.mode(),
+        }
+    }
+
     pub fn editor_context(&self) -> editor::Context<'_> {
         editor_context!(self)
     }

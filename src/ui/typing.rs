@@ -65,6 +65,7 @@ pub fn text_field(model: &Model) -> Option<TextField> {
         Some(Popup::Jog(p)) if p.types() => Some(TextField::Prompt),
         Some(_) => None,
         None => match model.focus {
+            PanelId::Editor if model.editor.checkout.is_some() => None,
             PanelId::Editor => Some(TextField::Editor),
             PanelId::Console => Some(TextField::CommandLine),
             _ => None,

@@ -124,6 +124,14 @@ fn key_event(model: &mut Model, event: KeyEvent) -> Vec<Effect> {
         let Some(chord) = KeyChord::from_event(&pressed) else {
             return Vec::new();
         };
+        if model.popup.is_none()
+            && model.panel_mode() == Mode::Checkout
+            && let Some(action) = model.keymap.lookup(Mode::Checkout, &chord)
+        {
+            let effects = editor_update(model, editor::Input::Checkout(action, KeyPhase::Release));
+            model.dirty = true;
+            return effects;
+        }
         let effects = keypad::released(model, chord);
         model.dirty |= !effects.is_empty();
         return effects;
@@ -253,7 +261,7 @@ fn burst_route(model: &mut Model, chord: KeyChord, phase: KeyPhase) -> Option<Ve
         return Some(effects);
     }
     let field = typing::text_field(model);
-    let mode = model.popup.as_ref().map_or(focus.mode(), Popup::mode);
+    let mode = model.popup.as_ref().map_or(model.panel_mode(), Popup::mode);
     let passes = match model.keymap.lookup(mode, &chord) {
         Some(action) => {
             typing::only_stops_or_closes(action) || (field.is_some() && typing::edits_text(action))
@@ -331,10 +339,11 @@ fn route(model: &mut Model, chord: KeyChord, phase: KeyPhase) -> Vec<Effect> {
         return safety_stop(model, chord);
     }
     let focus = model.focus;
+    let panel_mode = model.panel_mode();
     let motion_key = model.popup.is_none()
         && model
             .keymap
-            .lookup(focus.mode(), &chord)
+            .lookup(panel_mode, &chord)
             .and_then(keypad::vector_of)
             .is_some();
     // Toggle jogging: any key stops the jog and does nothing else (the
@@ -352,7 +361,10 @@ fn route(model: &mut Model, chord: KeyChord, phase: KeyPhase) -> Vec<Effect> {
             (None, _, _) => Vec::new(),
         };
     }
-    if let Some(action) = model.keymap.lookup(focus.mode(), &chord) {
+    if let Some(action) = model.keymap.lookup(panel_mode, &chord) {
+        if panel_mode == Mode::Checkout {
+            return editor_update(model, editor::Input::Checkout(action, phase));
+        }
         if focus == PanelId::Jog {
             return jog_action(model, action, chord, phase);
         }
@@ -408,7 +420,7 @@ fn safety_stop(model: &mut Model, chord: KeyChord) -> Vec<Effect> {
         return type_into(model, field, ' ');
     };
     let effects = stop(model);
-    let mode = model.popup.as_ref().map_or(model.focus.mode(), Popup::mode);
+    let mode = model.popup.as_ref().map_or(model.panel_mode(), Popup::mode);
     let blank = model
         .keymap
         .key_for(mode, Action::TypeBlank)
@@ -1205,6 +1217,8 @@ fn device_event(model: &mut Model, event: Event) {
         }
         Event::Stats(stats) => model.stats = Some(stats),
         Event::Notice(text) => say(model, NoteLevel::Info, text),
+        // The editor's check-out took it (`editor::update::checkout`).
+        Event::Checkout { .. } => {}
     }
     refresh_quit_question(model);
 }

@@ -28,6 +28,7 @@ mod stops_support;
 mod timing;
 mod ui_pty;
 
+mod checkout_e2e;
 mod cli_arc;
 mod cli_check;
 mod cli_closed_output;

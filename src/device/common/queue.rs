@@ -96,7 +96,7 @@ impl RequestQueue {
         sink: &mut impl Sink,
     ) -> Option<(PerAxis<i64>, PerAxis<f64>)> {
         let lease_until = match &request {
-            Request::Jog { lease, .. } => Some(now + *lease),
+            Request::Jog { lease, .. } | Request::Checkout { lease, .. } => Some(now + *lease),
             _ => None,
         };
         if let Running::Busy {
@@ -190,7 +190,8 @@ impl RequestQueue {
     /// A renewal for a jog that is still waiting.
     pub fn renew(&mut self, id: JogId, lease: Duration, now: Instant) {
         for q in self.items.iter_mut() {
-            if matches!(q.request, Request::Jog { id: qid, .. } if qid == id) {
+            if matches!(q.request, Request::Jog { id: qid, .. } | Request::Checkout { id: qid, .. } if qid == id)
+            {
                 q.lease_until = Some(now + lease);
             }
         }
@@ -227,6 +228,13 @@ impl RequestQueue {
                     id,
                     end: jog_end.clone(),
                 });
+            }
+            if let Some(id) = q.request.checkout_id() {
+                let end = match jog_end {
+                    JogEnd::LinkLost => crate::device::api::CheckoutEnd::LinkLost,
+                    _ => crate::device::api::CheckoutEnd::Refused(reason()),
+                };
+                sink.emit(Event::Checkout { id, end });
             }
             sink.emit(Event::Refused {
                 request: crate::device::describe::describe(&q.request),

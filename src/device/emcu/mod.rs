@@ -28,6 +28,7 @@
 //! is still taken, and after a moment of quiet the answer counts as lost
 //! and the operation decides (`docs/device.md`).
 
+mod checkout_op;
 mod context;
 mod effects;
 mod home;
@@ -75,6 +76,7 @@ use crate::proto::emcu::{
 };
 use crate::traffic::{self, MessageEnd};
 
+use checkout_op::CheckoutOp;
 use context::{CONNECT_HALT, Cmd, Context, halt_outgoing, lines_in, reply_len};
 use home::{Home, home_op};
 use init::{Init, init_op};
@@ -98,6 +100,7 @@ operations! {
         // Boxed: a jog's speed bookkeeping makes it the largest by far.
         Motion(Box<MotionOp> as MotionOp) => Motion,
         Raw(RawOp) => User,
+        Checkout(CheckoutOp) => Motion,
         Upload(UploadOp) => Upload,
     }
 }
@@ -675,6 +678,10 @@ impl EmcuDriver {
                 UploadOp::new(cx, lines).map(|op| Some(Op::Upload(op)))
             }
             Request::RunProgram => job_op(cx).map(|op| Some(Op::Job(op))),
+            Request::Checkout {
+                id, line, resume, ..
+            } => CheckoutOp::new(cx, *id, line, *resume, queued.held_lease(now))
+                .map(|op| Some(Op::Checkout(op))),
             Request::Initialise => cx.memory_free().map(|()| Some(Op::Init(init_op(cx)))),
             Request::SetZero { .. }
             | Request::JogRenew { .. }
@@ -705,6 +712,11 @@ impl EmcuDriver {
     }
 
     fn renew(&mut self, id: JogId, lease: Duration, now: Instant) {
+        if let Some(Op::Checkout(c)) = self.op.as_mut()
+            && c.renew(id, lease, now)
+        {
+            return;
+        }
         if let Some(Op::Motion(m)) = self.op.as_mut()
             && let Some(speed_up) = m.renew(&self.cx, id, lease, now)
         {
@@ -728,6 +740,14 @@ impl EmcuDriver {
     }
 
     fn release(&mut self, id: JogId, now: Instant) {
+        if let Some(Op::Checkout(c)) = self.op.as_mut()
+            && let Some(halt) = c.release(id)
+        {
+            if halt {
+                self.halt(now);
+            }
+            return;
+        }
         if let Some(Op::Motion(m)) = self.op.as_mut()
             && let Some(halt) = m.release(&mut self.cx, id, now)
         {

@@ -49,7 +49,9 @@ pub struct RawLine {
 /// What the driver does with a raw line before it is its turn.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum RawKind {
-    /// Answered at once, also while something runs.
+    /// Answered at once, also while something runs: queries, and `@A` /
+    /// `@C`, the pause and continue of a running job (manual 1.5.13,
+    /// 1.5.14: master commands, taken during a job).
     Query,
     /// `@B`: jogterm's stop.
     Halt,
@@ -64,7 +66,11 @@ pub enum RawKind {
 impl RawLine {
     pub fn kind(&self) -> RawKind {
         match self.command {
-            Command::Status | Command::Version | Command::Position(_) => RawKind::Query,
+            Command::Status
+            | Command::Version
+            | Command::Position(_)
+            | Command::Pause
+            | Command::Resume => RawKind::Query,
             Command::Halt => RawKind::Halt,
             Command::Stop => RawKind::Abort,
             Command::Reset => RawKind::Reset,

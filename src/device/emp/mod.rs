@@ -698,9 +698,9 @@ impl EmpDriver {
                 .and_then(|f| RawOp::new(cx, f))
                 .map(|op| Some(Op::Raw(op))),
             Request::Initialise => Ok(Some(Op::Init(Init::new(cx)))),
-            Request::Upload { .. } | Request::RunProgram => Err(invalid(
-                "EMP drives store no programs (EMP manual: every command runs at once)",
-            )),
+            Request::Upload { .. } | Request::RunProgram | Request::Checkout { .. } => Err(
+                invalid("EMP drives store no programs (EMP manual: every command runs at once)"),
+            ),
             Request::Reset => Err(invalid(
                 "EMP drives have no reset command: stop, then initialise (i)",
             )),

@@ -142,6 +142,9 @@ pub struct Context {
     /// mode takes a reference run for "set the reference here" (2.2.24).
     /// The read-back sends `@0T0` first unless the profile allows test mode.
     pub test_mode_unknown: bool,
+    /// The check-out line whose paused move's rest the controller holds
+    /// (`checkout_op`): taken by whatever runs next.
+    pub checkout_rest: Option<crate::device::api::JogId>,
 }
 
 impl Sink for Context {
@@ -173,6 +176,7 @@ impl Context {
             zero_check: None,
             test_mode_left_on: false,
             test_mode_unknown: false,
+            checkout_rest: None,
         }
     }
 

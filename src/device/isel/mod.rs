@@ -23,6 +23,7 @@
 //! a moment before the next command, so stray bytes are never taken for an
 //! answer. See `docs/device.md` for the behaviour as a whole.
 
+mod checkout_op;
 mod context;
 mod deadline;
 mod estimate;
@@ -74,6 +75,7 @@ use crate::proto::isel::{
 };
 use crate::traffic::{self, MessageEnd, readable};
 
+use checkout_op::CheckoutOp;
 use context::{Cmd, Context, PositionRead, control_outgoing, stop_outgoing};
 use home::HomeOp;
 use init::InitOp;
@@ -98,6 +100,7 @@ operations! {
         Motion(MotionOp) => Motion,
         Limit(LimitJogOp) => Motion,
         Raw(RawOp) => User,
+        Checkout(CheckoutOp) => Motion,
         Upload(UploadOp) => Upload,
         Program(ProgramOp) => Program,
     }
@@ -501,6 +504,7 @@ impl IselDriver {
         self.cx.position = None;
         self.cx.cnc_store = false;
         self.cx.readback_wanted = false;
+        self.cx.checkout_rest = None;
     }
 
     // ----- stopping ------------------------------------------------------
@@ -528,6 +532,7 @@ impl IselDriver {
 
     /// A stop the driver decides on (dead-man, release).
     fn halt(&mut self, now: Instant) {
+        self.cx.checkout_rest = None;
         self.cx.send_stop();
         self.stop_bookkeeping(now);
     }
@@ -555,6 +560,7 @@ impl IselDriver {
     }
 
     fn reset_controller(&mut self, now: Instant) {
+        self.cx.checkout_rest = None;
         self.cx
             .control
             .push_back(control_outgoing(ControlByte::Reset));
@@ -585,6 +591,8 @@ impl IselDriver {
             });
             return;
         }
+        // 0xFF discards a paused move's rest, 0xFD may stop what resumed it.
+        self.cx.checkout_rest = None;
         match control {
             ControlByte::Reset => self.reset_controller(now),
             ControlByte::SoftStop | ControlByte::Break => {
@@ -652,6 +660,9 @@ impl IselDriver {
 
     /// A queued request's turn has come: check it against the state now.
     fn begin(&mut self, queued: Queued, now: Instant) {
+        // Whatever runs now, a paused check-out move's rest is the
+        // controller's no longer, unless this resumes it.
+        let held = self.cx.checkout_rest.take();
         let cx = &self.cx;
         let started: Result<Op, Refusal> = match &queued.request {
             Request::Jog {
@@ -705,6 +716,10 @@ impl IselDriver {
                 UploadOp::new(cx, lines, *erase_first).map(Op::Upload)
             }
             Request::RunProgram => ProgramOp::new(cx).map(Op::Program),
+            Request::Checkout {
+                id, line, resume, ..
+            } => CheckoutOp::new(cx, *id, line, *resume, held, queued.held_lease(now))
+                .map(Op::Checkout),
             Request::Initialise => Ok(Op::Init(InitOp::new(cx))),
             Request::JogRenew { .. }
             | Request::JogRelease { .. }
@@ -719,6 +734,11 @@ impl IselDriver {
     }
 
     fn renew(&mut self, id: crate::device::api::JogId, lease: Duration, now: Instant) {
+        if let Some(Op::Checkout(c)) = self.op.as_mut()
+            && c.renew(id, lease, now)
+        {
+            return;
+        }
         if let Some(Op::Motion(m)) = self.op.as_mut()
             && let Some(speed_up) = m.renew(&self.cx, id, lease, now)
         {
@@ -731,6 +751,11 @@ impl IselDriver {
     }
 
     fn release(&mut self, id: crate::device::api::JogId, now: Instant) {
+        if let Some(Op::Checkout(c)) = self.op.as_mut()
+            && c.release(&mut self.cx, id, false)
+        {
+            return;
+        }
         if let Some(Op::Motion(m)) = self.op.as_mut()
             && let Some(stop) = m.release(&mut self.cx, id)
         {
@@ -842,6 +867,7 @@ impl Driver for IselDriver {
     }
 
     fn stop(&mut self, now: Instant) -> Outgoing {
+        self.cx.checkout_rest = None;
         self.queue.refuse_all(
             || Refusal::Invalid {
                 reason: "cancelled by stop".into(),

@@ -65,6 +65,10 @@ pub struct RawOp {
     broken_off: bool,
     syncs: String,
     next_estimate: Option<Instant>,
+    /// A line of a program check-out (`checkout_op`): its answers are the
+    /// check-out's to tell, not replies for the console, and an `F` after
+    /// its own 0xFD is the pause it asked for, no fault.
+    checkout: bool,
 }
 
 fn invalid(reason: String) -> Refusal {
@@ -114,6 +118,7 @@ impl RawOp {
             broken_off: false,
             syncs: String::new(),
             next_estimate: None,
+            checkout: false,
         })
     }
 
@@ -136,6 +141,7 @@ impl RawOp {
             broken_off: false,
             syncs: String::new(),
             next_estimate: None,
+            checkout: false,
         })
     }
 
@@ -169,6 +175,41 @@ impl RawOp {
                 Command::MoveAbsolute(_) => cx.config.is_some_and(known),
                 _ => false,
             }
+    }
+
+    /// A check-out line (`checkout_op`): a DNC line, quiet.
+    pub fn for_checkout(cx: &Context, text: &str) -> Result<RawOp, Refusal> {
+        if cx.cnc_store {
+            return Err(invalid(
+                "the controller is storing a program: a check-out sends DNC lines".to_owned(),
+            ));
+        }
+        let mut op = RawOp::new(cx, text)?;
+        op.checkout = true;
+        Ok(op)
+    }
+
+    /// The deadline of the line's answer, once sent.
+    pub fn timeout(&self) -> Option<Duration> {
+        self.cmd.timeout
+    }
+
+    /// Resuming with `@0S` waits as long as the move it resumes may take.
+    pub fn set_timeout(&mut self, timeout: Option<Duration>) {
+        self.cmd.timeout = timeout;
+    }
+
+    /// The line's answer is awaited.
+    pub fn waiting(&self) -> bool {
+        self.phase == Phase::Waiting
+    }
+
+    pub fn moves(&self) -> bool {
+        self.cmd.may_move
+    }
+
+    pub fn text(&self) -> &str {
+        &self.cmd.text
     }
 
     /// Whether this is a move the operator may stop with a bare 0xFD.
@@ -343,6 +384,14 @@ impl Operation for RawOp {
         self.next_estimate = None;
         let text = self.cmd.text.clone();
         match &reply {
+            Reply::Code(ReplyCode::Ok) if self.checkout => self.ok_effects(cx, now),
+            Reply::Code(ReplyCode::UserStop) if self.checkout => {}
+            Reply::Byte(v) if self.checkout => {
+                if let Some(Command::ReadPort(port)) = self.command() {
+                    cx.port_read(*port, *v, now);
+                    cx.emit_io(now);
+                }
+            }
             Reply::Code(ReplyCode::Ok) => {
                 self.ok_effects(cx, now);
                 let mut shown = code_text(ReplyCode::Ok);

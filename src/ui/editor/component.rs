@@ -68,6 +68,9 @@ pub enum Input<'a> {
     /// A character typed while the editor's `Dialog` is open (into a form's
     /// focused field).
     DialogChar(Dialog, char),
+    /// A key of the check-out's mode with its phase (press, repeat, or the
+    /// release a kitty-protocol terminal reports).
+    Checkout(Action, crate::jog::KeyPhase),
     /// Pasted text (bracketed paste), the one way a paste reaches the
     /// editor: into the program at the cursor, its lines as they are (one
     /// undo step).
@@ -98,6 +101,8 @@ pub enum Effect {
     Io(EditorIo),
     /// A request to the device task (upload, run).
     Device(Request),
+    /// Stop all motion (the stop lane), as the stop key does.
+    Stop,
 }
 
 /// A line for the message line and the console.
@@ -138,6 +143,7 @@ impl From<Effect> for crate::ui::msg::Effect {
         match effect {
             Effect::Io(io) => crate::ui::msg::Effect::Editor(io),
             Effect::Device(request) => crate::ui::msg::Effect::Request(request),
+            Effect::Stop => crate::ui::msg::Effect::Stop,
         }
     }
 }

@@ -111,6 +111,10 @@ pub enum Answer {
     },
     /// Start the stored program.
     Run,
+    /// Start a check-out, from the program's start or from a line.
+    Checkout {
+        from: Option<usize>,
+    },
     /// Save to `path` whatever is there now (a file that changed on disk,
     /// that exists, or that held bytes that were not UTF-8).
     Overwrite {

@@ -25,6 +25,7 @@
 //! text and key handling, which would have to be mirrored on every edit.
 
 pub mod buffer;
+pub mod checkout;
 pub mod checks;
 pub mod component;
 pub mod dialog;
@@ -128,6 +129,18 @@ pub struct Editor {
     pub session: String,
     /// The machine as the linter sees it (start position added per lint).
     pub lint_config: LintConfig,
+    /// A program check-out under way (`checkout`).
+    pub checkout: Option<checkout::Checkout>,
+    /// When the stored program's run began, while it runs (its elapsed
+    /// time is shown; `docs/editor.md`, "Upload and run").
+    pub run_started: Option<Instant>,
+    /// The running stored job was paused from here (EMCU `@A`).
+    pub run_paused: bool,
+    /// The toolpath of the running program (when it is the editor's text
+    /// as uploaded from here) and the segment the last position read lies
+    /// on: its progress.
+    pub run_path: Option<Vec<crate::program::Segment>>,
+    pub run_segment: Option<usize>,
 }
 
 /// The unit all axes of `setup` share (`mm`), else `units`.
@@ -183,6 +196,11 @@ impl Editor {
             store: None,
             session: "session".into(),
             lint_config: lint_config(setup),
+            checkout: None,
+            run_started: None,
+            run_paused: false,
+            run_path: None,
+            run_segment: None,
         }
     }
 
@@ -250,6 +268,9 @@ impl Editor {
 
     /// Why the text cannot be changed now, if it cannot.
     pub fn read_only(&self) -> Option<&'static str> {
+        if self.checkout.is_some() {
+            return Some("a check-out is under way: edits wait until it ends (x)");
+        }
         self.upload
             .busy()
             .then_some("the program is being uploaded: edits wait until the upload ends")

@@ -8,8 +8,10 @@
 //! - [`files`]: open, save, recovery files, offers of recovered edits;
 //! - [`machine`]: teach-in, the circle helper, upload and run.
 
+mod checkout;
 mod files;
 mod machine;
+mod run;
 
 use std::path::{Path, PathBuf};
 
@@ -39,6 +41,7 @@ impl Editor {
         };
         match input {
             Input::Key(action) => step.action(action),
+            Input::Checkout(action, phase) => step.checkout_key(action, phase),
             Input::Char(c) => step.type_char(c),
             Input::Main(action) => step.main_action(action),
             Input::Dialog(dialog, action) => step.dialog_action(dialog, action),
@@ -263,6 +266,8 @@ impl Step<'_, '_> {
             Action::Circle => self.circle_form(),
             Action::JumpTarget => self.jump_target(),
             Action::TogglePreview => self.e.planes = self.e.planes.next(),
+            Action::Checkout => self.checkout_ask(false),
+            Action::CheckoutFromLine => self.checkout_ask(true),
             _ => {}
         }
         self.scroll_into_view();
@@ -570,6 +575,7 @@ impl Step<'_, '_> {
             Answer::Nothing => {}
             Answer::Upload { erase } => self.start_upload(erase),
             Answer::Run => self.out.effects.push(Effect::Device(Request::RunProgram)),
+            Answer::Checkout { from } => self.checkout_begin(from),
             Answer::Overwrite { path, then } => self.save_to(path, then, None, false),
             Answer::Restore(recovery) => self.restore(*recovery),
             Answer::Discard(origin) => {

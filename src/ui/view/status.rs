@@ -217,7 +217,7 @@ impl Widget for Hints<'_> {
                     (Mode::Help, Action::Close, "close"),
                 ],
             },
-            None => match model.focus.mode() {
+            None => match model.panel_mode() {
                 Mode::Jog => &[
                     (Mode::Main, Action::Help, "help"),
                     (Mode::Main, Action::FocusNext, "focus"),
@@ -245,6 +245,13 @@ impl Widget for Hints<'_> {
                     (Mode::Editor, Action::NextProblem, "problem"),
                     (Mode::Editor, Action::Undo, "undo"),
                     (Mode::Editor, Action::TypeBlank, "blank"),
+                ],
+                Mode::Checkout => &[
+                    (Mode::Checkout, Action::CheckoutHold, "hold: run"),
+                    (Mode::Checkout, Action::CheckoutSingle, "single step"),
+                    (Mode::Checkout, Action::CheckoutSlower, "slower"),
+                    (Mode::Checkout, Action::CheckoutFaster, "faster"),
+                    (Mode::Checkout, Action::CheckoutAbort, "end"),
                 ],
                 Mode::Timeline => &[
                     (Mode::Timeline, Action::Timeline, "machine"),

@@ -21,7 +21,7 @@ use crate::wire::LineSettings;
 
 use super::harness::{ms, speeds};
 
-type Bench = crate::device::common::testing::Bench<EmcuDriver, EmcuSim>;
+pub(super) type Bench = crate::device::common::testing::Bench<EmcuDriver, EmcuSim>;
 
 fn bench(rate: PollRate) -> Bench {
     let profile = load_profile("emcu", &ConfigDirs::builtin_only()).expect("profile");
@@ -31,7 +31,7 @@ fn bench(rate: PollRate) -> Bench {
     Bench::new(EmcuDriver::new(settings), sim, LineSettings::new(19200))
 }
 
-fn counters(b: &mut Bench) -> [i32; 3] {
+pub(super) fn counters(b: &mut Bench) -> [i32; 3] {
     let now = b.now;
     EmcuAxis::ALL.map(|a| b.sim.counter(a, now))
 }
@@ -49,7 +49,7 @@ fn secs(n: u64) -> Duration {
 }
 
 /// Initialised and referenced.
-fn homed(rate: PollRate) -> Bench {
+pub(super) fn homed(rate: PollRate) -> Bench {
     let mut b = bench(rate);
     b.run(ms(500));
     b.request(Request::Initialise);
@@ -408,6 +408,40 @@ fn an_uploaded_job_runs_and_ends() {
     let last = b.last_measured().expect("measured");
     assert_eq!(last.get(Axis::X), Some(1_000));
     assert_eq!(last.get(Axis::Y), Some(500));
+}
+
+/// A running stored job paused with `@A` stands and keeps its rest; `@C`
+/// takes it on to its target (manual 1.5.13, 1.5.14; `docs/editor.md`, "What
+/// each family can do").
+#[test]
+fn a_stored_job_paused_with_at_a_stands_and_at_c_takes_it_to_its_end() {
+    let mut b = homed(PollRate::LineSpeed);
+    b.request(Request::Upload {
+        lines: vec!["#E1,1000".into(), "L1,x4000".into()],
+        erase_first: false,
+    });
+    b.run(ms(500));
+    b.request(Request::RunProgram);
+    b.run(ms(1500));
+    // Positions are read between the job's lines while it runs: its
+    // progress (`docs/editor.md`).
+    assert!(
+        b.events.iter().any(|e| matches!(e,
+            Event::Position(p) if p.source == PositionSource::Measured
+                && p.steps.get(Axis::X).is_some_and(|x| x > 0 && x < 4_000))),
+        "no position read during the job"
+    );
+    b.request(Request::Raw { line: "@A".into() });
+    b.run(ms(1500));
+    let paused = counters(&mut b);
+    assert!(paused[0] > 0 && paused[0] < 4_000, "{paused:?}");
+    b.run(ms(1000));
+    assert_eq!(counters(&mut b), paused, "it stands while paused");
+    assert_eq!(b.driver.state().activity, Activity::RunningProgram);
+    b.request(Request::Raw { line: "@C".into() });
+    b.run(secs(10));
+    assert_eq!(b.driver.state().activity, Activity::Idle);
+    assert_eq!(counters(&mut b), [4_000, 0, 0]);
 }
 
 #[test]

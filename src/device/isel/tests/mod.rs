@@ -3,6 +3,7 @@
 
 mod harness;
 
+mod checkout;
 mod connect;
 mod faults;
 mod limit_jog;

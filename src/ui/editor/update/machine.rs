@@ -220,6 +220,35 @@ impl Step<'_, '_> {
         }
     }
 
+    /// The linter's verdict of this very text (a pending lint runs
+    /// first): the first error, with the cursor put on it, in words; `None`
+    /// when there is none. Upload and check-out start only without one.
+    pub(super) fn first_error(&mut self) -> Option<String> {
+        let state = self.e.buffer.state();
+        if !self.e.checks.fresh(state) {
+            let job = self.lint_job();
+            let lines = self.e.buffer.line_count();
+            self.e.checks.apply_now(&job, lines, self.ctx.now);
+        }
+        let (span, message) = self
+            .e
+            .checks
+            .all()
+            .iter()
+            .find(|d| d.severity == Severity::Error)
+            .map(|d| (d.span, d.message.clone()))?;
+        let (errors, _) = self.e.checks.counts();
+        let text = self.e.buffer.line(span.line).to_string();
+        let col = crate::ui::editor::buffer::col_of(&text, span.start);
+        self.e.buffer.move_to(Cursor::new(span.line, col));
+        self.scroll_into_view();
+        Some(format!(
+            "{errors} error{} to fix first; line {}: {message}",
+            if errors == 1 { "" } else { "s" },
+            span.line + 1
+        ))
+    }
+
     pub(super) fn upload(&mut self) {
         if self.e.upload.busy() {
             self.say(NoteLevel::Warning, "an upload is running already".into());
@@ -230,32 +259,9 @@ impl Step<'_, '_> {
             self.say(NoteLevel::Danger, format!("upload refused: {why}"));
             return;
         }
-        // The verdict must be of this very text.
-        let state = self.e.buffer.state();
-        if !self.e.checks.fresh(state) {
-            let job = self.lint_job();
-            let lines = self.e.buffer.line_count();
-            self.e.checks.apply_now(&job, lines, self.ctx.now);
-        }
-        let first_error = self
-            .e
-            .checks
-            .all()
-            .iter()
-            .find(|d| d.severity == Severity::Error)
-            .map(|d| (d.span, d.message.clone()));
-        if let Some((span, message)) = first_error {
-            let (errors, _) = self.e.checks.counts();
-            let text = self.e.buffer.line(span.line).to_string();
-            let col = crate::ui::editor::buffer::col_of(&text, span.start);
-            self.e.buffer.move_to(Cursor::new(span.line, col));
+        if let Some(why) = self.first_error() {
             self.open();
-            let text = format!(
-                "upload refused: {errors} error{} to fix first; line {}: {message}",
-                if errors == 1 { "" } else { "s" },
-                span.line + 1
-            );
-            self.say(NoteLevel::Danger, text);
+            self.say(NoteLevel::Danger, format!("upload refused: {why}"));
             return;
         }
         match self.ctx.machine.program {
@@ -332,6 +338,10 @@ impl Step<'_, '_> {
 
     pub(super) fn run(&mut self) {
         let ctx = self.ctx;
+        if ctx.machine.activity == Activity::RunningProgram {
+            self.pause_stored();
+            return;
+        }
         let language = self.e.language();
         if Language::of_protocol(ctx.setup.protocol).is_none() {
             self.say(
@@ -372,10 +382,16 @@ impl Step<'_, '_> {
     }
 
     /// A device event, before the model takes it: an upload's progress,
-    /// mark and report; a stored program the erase offer waited for.
+    /// mark and report; a stored program the erase offer waited for; a
+    /// check-out line's end; a stored program's run and its progress.
     pub(super) fn device_event(&mut self, event: &Event) {
+        self.checkout_event(event);
         match event {
-            Event::State(state) => self.offer_erase(state.program),
+            Event::State(state) => {
+                self.run_clock(state.activity);
+                self.offer_erase(state.program);
+            }
+            Event::Position(sample) => self.run_progress(sample),
             Event::Upload(upload) => {
                 // The editor knows which line each uploaded command came
                 // from: its report is said instead of the device's words.

@@ -45,8 +45,13 @@ impl Host {
     /// A ready isel machine (initialised, referenced, work zero at the
     /// reference point, nothing stored), standing still.
     fn isel() -> Host {
+        Host::with_profile("isel")
+    }
+
+    /// The same for another shipped profile.
+    fn with_profile(name: &str) -> Host {
         let dirs = ConfigDirs::builtin_only();
-        let profile = load_profile("isel", &dirs).expect("shipped profile");
+        let profile = load_profile(name, &dirs).expect("shipped profile");
         let theme = load_theme("dark", &dirs).expect("shipped theme");
         let setup = Setup::from_profile(&profile, None);
         let axes = setup.axis_set();
@@ -182,7 +187,7 @@ fn requests(out: &Outcome) -> Vec<&Request> {
         .iter()
         .filter_map(|e| match e {
             Effect::Device(r) => Some(r),
-            Effect::Io(_) => None,
+            _ => None,
         })
         .collect()
 }
@@ -515,3 +520,5 @@ fn the_program_screen_opens_and_closes_and_forms_take_characters() {
     assert!(lines[3].starts_with('y'), "{text}");
     assert_eq!(lines.last(), Some(&"9"));
 }
+
+mod checkout;

@@ -11,6 +11,7 @@ use ratatui::widgets::Widget;
 
 use crate::device::api::Activity;
 use crate::program::Severity;
+use crate::ui::editor::checkout::RunState;
 use crate::ui::editor::highlight::{Class, Mark, runs};
 use crate::ui::editor::layout::{ProgramAreas, gutter_width};
 use crate::ui::editor::upload::Phase;
@@ -79,6 +80,29 @@ fn title_extra(e: &Editor, ctx: &Context) -> Vec<Span<'static>> {
     let mut out = Vec::new();
     let modified = if e.modified() { "[+]" } else { "" };
     out.push(Span::styled(format!("{}{modified} ", e.name()), p.title));
+    if let Some(c) = &e.checkout {
+        // First, and alone: at 80 columns the state must not be cut off.
+        let style = match c.state {
+            RunState::Paused { .. } | RunState::Stopped { .. } => p.danger,
+            RunState::Running | RunState::Dwelling { .. } => p.ok,
+            RunState::Ready | RunState::Finished => p.warning,
+        };
+        let line = c
+            .current_line()
+            .map(|l| format!(" line {}", l + 1))
+            .unwrap_or_default();
+        let elapsed = ctx.now.saturating_duration_since(c.started).as_secs();
+        let single = if c.single { " single step" } else { "" };
+        out.push(Span::styled(
+            format!(
+                "CHECK-OUT {}{line} {} %{single} {elapsed} s ",
+                c.label(),
+                c.factor
+            ),
+            style,
+        ));
+        return out;
+    }
     let commands = e.buffer.program().command_count();
     out.push(Span::styled(
         format!(
@@ -100,7 +124,26 @@ fn title_extra(e: &Editor, ctx: &Context) -> Vec<Span<'static>> {
         out.push(Span::styled("read-only while uploading ", p.warning));
     }
     if ctx.machine.activity == Activity::RunningProgram {
-        out.push(Span::styled("RUNNING ", p.ok));
+        let mut elapsed = e
+            .run_started
+            .map(|t| format!("{} s ", ctx.now.saturating_duration_since(t).as_secs()))
+            .unwrap_or_default();
+        // Progress where positions are read while it runs (EMCU).
+        if let (Some(path), Some(k)) = (&e.run_path, e.run_segment)
+            && let Some(segment) = path.get(k)
+        {
+            elapsed.push_str(&format!(
+                "line {} ({}/{}) ",
+                segment.line + 1,
+                k + 1,
+                path.len()
+            ));
+        }
+        if e.run_paused {
+            out.push(Span::styled(format!("PAUSED {elapsed}"), p.danger));
+        } else {
+            out.push(Span::styled(format!("RUNNING {elapsed}"), p.ok));
+        }
     }
     if let Some(speed) = e.teach_speed(ctx.setup) {
         let unit = unit_label(ctx.setup);
@@ -162,7 +205,15 @@ fn text(e: &Editor, p: &Palette, area: Rect, focused: bool, buf: &mut Buffer) {
             number_style,
         ));
         let problem = problem(e, p, index);
+        // The check-out's current line: marked in the gutter (for themes
+        // without colour) and shown reversed.
+        let current = e
+            .checkout
+            .as_ref()
+            .and_then(|c| c.current_line())
+            .is_some_and(|l| l == index);
         match &problem {
+            _ if current => spans.push(Span::styled("> ", p.warning)),
             Some((letter, style, _)) => spans.push(Span::styled(format!("{letter} "), *style)),
             None => spans.push(Span::raw("  ")),
         }
@@ -180,7 +231,7 @@ fn text(e: &Editor, p: &Palette, area: Rect, focused: bool, buf: &mut Buffer) {
             for ch in piece.chars() {
                 if col >= left && used < room {
                     let mut s = style;
-                    if focused && here && col == cursor.col {
+                    if current || (focused && here && col == cursor.col) {
                         s = s.patch(p.selected);
                     }
                     let shown = if ch.is_control() { ' ' } else { ch };
