@@ -361,17 +361,18 @@ fn a_close_completes_the_message_on_the_wire_and_drops_the_queue() {
     drop((reader, emergency));
     let peer = read_to_end(peer);
     // 200 bytes take about 100 ms at 19200 baud: the close comes while
-    // the frame is partly written.
+    // the message is partly written (one that may be cut: a frame that
+    // may not goes in one write).
     let first = long_message(200);
     let a = writer
-        .send(first.clone(), Interleave::WholeMessage)
+        .send(first.clone(), Interleave::BetweenBytes)
         .expect("send");
     writer
         .send(b"@X\r".to_vec(), Interleave::WholeMessage)
         .expect("send");
     let started = first_chunk(&mut events);
     assert_eq!(started.id, a);
-    assert!(!started.done, "the frame went out at once");
+    assert!(!started.done, "the message went out at once");
     writer.close();
     assert_eq!(peer.join().expect("peer"), first);
 }
@@ -544,4 +545,83 @@ fn the_emergency_handle_gives_up_in_bounded_time_when_nothing_drains() {
         "gave up after {:?}",
         err.1
     );
+}
+
+/// Issue 20, the EMCU hang-up stop: the emergency handle writes from another
+/// thread while the writer has a line on its way. The bytes on the wire must
+/// be whole lines and whole stops, however the two meet (seen before:
+/// `@` CR `@B` CR `X` CR, a cut `@X` poll the interface took as two
+/// malformed commands). Likewise EMP frames around its EOF-led stop.
+#[test]
+fn an_emergency_stop_never_cuts_a_line_or_frame_on_its_way() {
+    // EMCU: `@LX` CR polls, the stop CR `@B` CR; every line between CRs is
+    // a poll, the stop, or empty (the stop's leading CR).
+    let emcu = wire_under_emergency_stops(b"@LX\r", b"\r@B\r", b'\r');
+    for line in emcu.split(|&b| b == b'\r') {
+        assert!(
+            matches!(line, b"@LX" | b"@B" | b""),
+            "a cut line {:?} in {:?}",
+            String::from_utf8_lossy(line),
+            String::from_utf8_lossy(&emcu)
+        );
+    }
+    // EMP: `2C` frames ended by EOF, the stop an EOF then a stop frame.
+    let frame = b"2C11000000000000\x1a";
+    let stop = b"\x1a2A11030000000000\x1a";
+    let emp = wire_under_emergency_stops(frame, stop, 0x1A);
+    for piece in emp.split(|&b| b == 0x1A) {
+        assert!(
+            matches!(piece, b"2C11000000000000" | b"2A11030000000000" | b""),
+            "a cut frame {:?}",
+            String::from_utf8_lossy(piece)
+        );
+    }
+}
+
+/// `lines` copies of `line` queued as frames that must not be cut, and
+/// emergency stops fired from another thread 0.2-2.5 ms apart while they
+/// go out: everything the peer received.
+fn wire_under_emergency_stops(line: &[u8], stop: &[u8], end: u8) -> Vec<u8> {
+    const LINES: usize = 150;
+    let (parts, peer) = socket_port();
+    let PortParts {
+        reader,
+        writer,
+        mut events,
+        emergency,
+    } = parts;
+    drop(reader);
+    let peer = read_to_end(peer);
+    let stop_bytes = stop.to_vec();
+    let mut last = None;
+    for _ in 0..LINES {
+        last = Some(
+            writer
+                .send(line.to_vec(), Interleave::WholeMessage)
+                .expect("send"),
+        );
+    }
+    first_chunk(&mut events);
+    let stopper = thread::spawn(move || {
+        let mut seed: u64 = 0x2545_F491_4F6C_DD1D;
+        let mut fired = 0usize;
+        let until = Instant::now() + LineSettings::new(BAUD).transfer_time(LINES * 4);
+        while Instant::now() < until {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            thread::sleep(Duration::from_micros(200 + seed % 2300));
+            emergency.write_now(&stop_bytes).expect("emergency stop");
+            fired += 1;
+        }
+        fired
+    });
+    let fired = stopper.join().expect("stopper");
+    assert!(fired > 20, "{fired} stops");
+    chunks_until_done(&mut events, last.expect("sent"));
+    writer.close();
+    let got = peer.join().expect("peer");
+    assert_eq!(got.len(), LINES * line.len() + fired * stop.len());
+    assert_eq!(got.last(), Some(&end));
+    got
 }

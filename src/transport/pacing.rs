@@ -31,6 +31,7 @@ pub struct Pacer {
     byte_time: Duration,
     max_backlog: Duration,
     bulk_backlog: Duration,
+    whole_backlog: Duration,
     wire_free: Option<Instant>,
 }
 
@@ -46,6 +47,7 @@ impl Pacer {
             byte_time,
             max_backlog,
             bulk_backlog: max_backlog,
+            whole_backlog: max_backlog,
             wire_free: None,
         }
     }
@@ -55,6 +57,24 @@ impl Pacer {
     pub fn with_bulk_backlog(mut self, bulk_backlog: Duration) -> Self {
         self.bulk_backlog = bulk_backlog.max(self.max_backlog);
         self
+    }
+
+    /// The backlog allowed when the rest of a message goes in one write
+    /// (never below the tight one): [`Pacer::fits_whole`].
+    pub fn with_whole_backlog(mut self, whole_backlog: Duration) -> Self {
+        self.whole_backlog = whole_backlog.max(self.max_backlog);
+        self
+    }
+
+    /// Whether the `len` bytes left of a message paced `pace` may be handed
+    /// over at `now` in one write: the backlog stays within the whole
+    /// backlog (or the pace's own, if larger). A short command then goes
+    /// out in one write on an idle line instead of one byte per writer
+    /// wake-up, and a stop still waits for at most that backlog.
+    pub fn fits_whole(&self, pace: Pace, len: usize, now: Instant) -> bool {
+        let bits = len as u128 * self.byte_time.as_nanos();
+        let need = Duration::from_nanos(bits.min(u64::MAX as u128) as u64);
+        self.backlog(now) + need <= self.whole_backlog.max(self.limit(pace))
     }
 
     fn limit(&self, pace: Pace) -> Duration {
@@ -217,5 +237,25 @@ mod tests {
         }
         // 100+ bytes at 0.52 ms each: the wire was never idle.
         assert!(p.wire_free_at(now) - t0 >= LineSettings::new(19200).transfer_time(100));
+    }
+
+    #[test]
+    fn a_short_command_fits_whole_on_an_idle_line_only() {
+        let t0 = Instant::now();
+        let line = LineSettings::new(19200);
+        let mut p = Pacer::new(line, Duration::from_millis(1))
+            .with_whole_backlog(Duration::from_micros(2100));
+        assert!(p.fits_whole(Pace::Tight, 4, t0), "@0P CR: 2.08 ms");
+        assert!(!p.fits_whole(Pace::Tight, 5, t0), "2.6 ms is more");
+        p.wrote(1, t0);
+        assert!(
+            !p.fits_whole(Pace::Tight, 4, t0),
+            "behind a byte on the wire"
+        );
+        assert!(p.fits_whole(Pace::Tight, 3, t0));
+        // Never below the tight bound.
+        let q = Pacer::new(line, Duration::from_millis(1)).with_whole_backlog(Duration::ZERO);
+        assert!(q.fits_whole(Pace::Tight, 1, t0));
+        assert!(!q.fits_whole(Pace::Tight, 2, t0));
     }
 }

@@ -20,7 +20,7 @@ use tokio::sync::mpsc::{UnboundedReceiver, UnboundedSender, unbounded_channel};
 use super::error::TransportError;
 use super::fd;
 use super::pacing::{Pace, Pacer};
-use super::sink::Sink;
+use super::sink::{Sink, Taken};
 use crate::traffic::{Direction, TrafficRecord};
 use crate::wire::LineSettings;
 
@@ -106,6 +106,11 @@ pub struct WriterConfig {
     /// The same for [`Pace::Bulk`] messages (sent with
     /// [`PacedWriter::send_bulk`]).
     pub bulk_backlog: Duration,
+    /// Most not-yet-transmitted time the OS buffer may hold when the rest
+    /// of a message goes in one write ([`Pacer::fits_whole`]): a short
+    /// command on an idle line is written whole, so no late writer wake-up
+    /// between its bytes stretches a poll cycle.
+    pub whole_backlog: Duration,
     /// Bound on waiting for stop bytes to drain from a terminal.
     pub drain_timeout: Duration,
 }
@@ -119,6 +124,11 @@ impl Default for WriterConfig {
             // 1000-line isel upload at 19200): 1 ms keeps 92–94 % of the
             // wire limit, 4 ms 98.6 %.
             bulk_backlog: Duration::from_millis(4),
+            // `@0P` CR and `@LX` CR at 19200 baud (2.08 ms), the commands
+            // polled back to back; a 5-byte isel port read (2.6 ms) goes in
+            // two writes. See docs/performance.md, "Whole commands", for
+            // what it does to a stop's latency.
+            whole_backlog: Duration::from_micros(2100),
             drain_timeout: Duration::from_millis(250),
         }
     }
@@ -173,7 +183,9 @@ impl PacedWriter {
             sink,
             last_interleave: None,
             port: port.clone(),
-            pacer: Pacer::new(line, config.max_backlog).with_bulk_backlog(config.bulk_backlog),
+            pacer: Pacer::new(line, config.max_backlog)
+                .with_bulk_backlog(config.bulk_backlog)
+                .with_whole_backlog(config.whole_backlog),
             drain_timeout: config.drain_timeout,
             queue: VecDeque::new(),
             stops: VecDeque::new(),
@@ -294,6 +306,13 @@ impl Drop for PacedWriter {
 struct Current {
     pending: Pending,
     written: usize,
+}
+
+impl Current {
+    /// The sink's tag for a message that must not be cut (`Sink::write_part`).
+    fn frame(&self) -> Option<u64> {
+        (self.pending.interleave == Interleave::WholeMessage).then_some(self.pending.id.0)
+    }
 }
 
 struct Worker {
@@ -475,22 +494,28 @@ impl Worker {
             self.report_chunk(id, Lane::Normal, Vec::new(), now, true);
             return Ok(true);
         }
-        let n = self
-            .pacer
-            .allowance_for(cur.pending.pace, now)
-            .min(rest.len());
-        if n == 0 {
+        let pace = cur.pending.pace;
+        let frame = cur.frame();
+        let allowance = self.pacer.allowance_for(pace, now);
+        if allowance == 0 {
             return Ok(false);
         }
-        let chunk = rest.get(..n).unwrap_or_default();
-        match self.sink.write_some(chunk) {
-            Ok(0) => {
+        // A frame that must not be cut goes in one write: a stop waits for
+        // its end anyway. Any other message's rest does when it fits
+        // the whole backlog; else it goes as the pacer allows.
+        let n = if frame.is_some() || self.pacer.fits_whole(pace, rest.len(), now) {
+            rest.len()
+        } else {
+            allowance.min(rest.len())
+        };
+        match self.sink.write_part(frame, rest, n) {
+            Ok(Taken::Bytes(0)) => {
                 self.blocked_until = Some(now + self.pacer.byte_time());
                 Ok(false)
             }
-            Ok(w) => {
+            Ok(Taken::Bytes(w)) => {
                 self.blocked_until = None;
-                let bytes = chunk.get(..w).unwrap_or_default().to_vec();
+                let bytes = rest.get(..w).unwrap_or_default().to_vec();
                 let id = cur.pending.id;
                 cur.written += w;
                 let done = cur.written >= cur.pending.bytes.len();
@@ -503,6 +528,10 @@ impl Worker {
                 self.send_chunk(id, Lane::Normal, bytes, at, wire_start, wire_end, done);
                 Ok(done)
             }
+            Ok(Taken::CompletedElsewhere) => {
+                self.completed_elsewhere();
+                Ok(true)
+            }
             Err(e) if e.kind() == io::ErrorKind::WouldBlock => {
                 self.blocked_until = Some(now + self.pacer.byte_time());
                 Ok(false)
@@ -512,13 +541,36 @@ impl Worker {
         }
     }
 
+    /// The emergency handle wrote the rest of the current frame ahead of
+    /// its stop: report it written (the device task counts on every
+    /// message's end) and go on with the next.
+    fn completed_elsewhere(&mut self) {
+        let Some(cur) = self.current.take() else {
+            return;
+        };
+        let rest = cur.pending.bytes.get(cur.written..).unwrap_or_default();
+        self.last_interleave = Some(cur.pending.interleave);
+        let at = Instant::now();
+        let (wire_start, wire_end) = self.pacer.wrote(rest.len(), at);
+        self.send_chunk(
+            cur.pending.id,
+            Lane::Normal,
+            rest.to_vec(),
+            at,
+            wire_start,
+            wire_end,
+            true,
+        );
+    }
+
     fn finish_current_at_once(&mut self) -> Result<(), TransportError> {
         let Some(cur) = self.current.take() else {
             return Ok(());
         };
         let rest = cur.pending.bytes.get(cur.written..).unwrap_or_default();
+        let frame = cur.frame();
         self.last_interleave = Some(cur.pending.interleave);
-        self.write_whole(cur.pending.id, Lane::Normal, rest)
+        self.write_whole(cur.pending.id, frame, Lane::Normal, rest)
     }
 
     /// Before a stop, ask the far end to drop what it has not yet put on
@@ -546,7 +598,7 @@ impl Worker {
     }
 
     fn write_stop(&mut self, stop: Pending) -> Result<(), TransportError> {
-        self.write_whole(stop.id, Lane::Stop, &stop.bytes)?;
+        self.write_whole(stop.id, None, Lane::Stop, &stop.bytes)?;
         if self.sink.is_tty() {
             // To be sure a stop has left: write_all, then tcdrain
             // (`../shared/field-notes.md`, "Serial ports").
@@ -567,11 +619,13 @@ impl Worker {
     fn write_whole(
         &mut self,
         id: MessageId,
+        frame: Option<u64>,
         lane: Lane,
         bytes: &[u8],
     ) -> Result<(), TransportError> {
         let deadline = Instant::now() + self.drain_timeout;
-        self.sink.write_all_until(bytes, deadline).map_err(|e| {
+        let taken = self.sink.write_rest_until(frame, bytes, deadline);
+        taken.map_err(|e| {
             if e.kind() == io::ErrorKind::TimedOut {
                 TransportError::DrainTimeout {
                     port: self.port.clone(),
