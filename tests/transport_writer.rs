@@ -625,3 +625,45 @@ fn wire_under_emergency_stops(line: &[u8], stop: &[u8], end: u8) -> Vec<u8> {
     assert_eq!(got.last(), Some(&end));
     got
 }
+
+/// Issue 18: a short command on an idle line goes in one write, from the
+/// caller's thread, before `send` returns (no writer wake-up per byte, no
+/// thread hand-over); one sent while the line is busy queues behind it and
+/// follows in order.
+#[test]
+fn a_short_command_on_an_idle_line_is_written_whole_before_send_returns() {
+    let (parts, peer) = socket_port();
+    let PortParts {
+        writer, mut events, ..
+    } = parts;
+    let peer = collect_peer(peer, 13);
+    let first = writer
+        .send(b"@0P\r".to_vec(), Interleave::BetweenBytes)
+        .expect("send");
+    match events.try_recv() {
+        Ok(WriterEvent::Written(c)) => {
+            assert_eq!(
+                (c.id, c.done, c.bytes.as_slice()),
+                (first, true, &b"@0P\r"[..])
+            );
+            assert_eq!(c.wire_end - c.wire_start, byte_time() * 4);
+        }
+        other => panic!("not written at once: {other:?}"),
+    }
+    // The line holds 2.08 ms of it: the next waits for the writer.
+    let second = writer
+        .send(b"@0b1\r".to_vec(), Interleave::BetweenBytes)
+        .expect("send");
+    let chunks = chunks_until_done(&mut events, second);
+    assert!(chunks.iter().all(|c| c.id == second));
+    // Idle again: the next goes directly once more.
+    thread::sleep(Duration::from_millis(20));
+    let third = writer
+        .send(b"@LX\r".to_vec(), Interleave::WholeMessage)
+        .expect("send");
+    assert!(
+        matches!(events.try_recv(), Ok(WriterEvent::Written(c)) if c.id == third && c.done),
+        "a frame on an idle line goes at once"
+    );
+    assert_eq!(peer.join().expect("peer"), b"@0P\r@0b1\r@LX\r");
+}

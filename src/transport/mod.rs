@@ -7,11 +7,13 @@
 //! a [`Port`], and [`Port::split`] turns it into
 //! - a [`PortReader`] (async, tokio `AsyncFd`): a vanished port is
 //!   [`TransportError::LinkLost`], never data, never a panic;
-//! - a [`PacedWriter`] (std thread, own dup of the fd): writes at line speed
-//!   with at most about 1 ms in the OS buffer, a stop lane that overtakes the
-//!   queue, and reports of every chunk written ([`WriterEvent`]);
+//! - a [`PacedWriter`] (std thread, own dup of the fd): writes at line speed,
+//!   a short command whole (at most about 2 ms in the OS buffer), a long
+//!   message paced (about 1 ms), a stop lane that overtakes the queue, and
+//!   reports of every chunk written ([`WriterEvent`]);
 //! - an [`EmergencyStop`] (own dup of the fd): synchronous, bounded
-//!   `write_now` for the panic hook and the hang-up path.
+//!   `write_now` for the panic hook and the hang-up path; it completes an
+//!   EMCU line or EMP frame the writer has begun before its stop bytes.
 //!
 //! What a link does to the bytes (Telnet's IAC doubling, a TCP socket's
 //! unacknowledged bytes, RFC 2217's PURGE-DATA) is the writing side's

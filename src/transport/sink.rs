@@ -205,7 +205,7 @@ impl Sink {
     /// so; while part of it is still to come, an emergency write on a clone
     /// of this sink writes that part ahead of its stop, and this sink then
     /// answers [`Taken::CompletedElsewhere`] for the tag.
-    pub fn write_part(&mut self, frame: Option<u64>, rest: &[u8], n: usize) -> io::Result<Taken> {
+    pub fn write_part(&self, frame: Option<u64>, rest: &[u8], n: usize) -> io::Result<Taken> {
         let mut shared = self.lock();
         if let Some(tag) = frame
             && shared.completed == Some(tag)
@@ -259,7 +259,7 @@ impl Sink {
     /// (a frame ahead of a stop, a message on the line at close). `frame`
     /// as for [`Sink::write_part`].
     pub fn write_rest_until(
-        &mut self,
+        &self,
         frame: Option<u64>,
         rest: &[u8],
         deadline: Instant,
@@ -573,7 +573,7 @@ mod tests {
         let (client, mut server) = tcp_pair();
         let fd = OwnedFd::from(client);
         fd::set_nonblocking(fd.as_fd()).expect("nonblocking");
-        let mut writer = Sink::new(fd, LinkInfo::plain(FdKind::Socket), None);
+        let writer = Sink::new(fd, LinkInfo::plain(FdKind::Socket), None);
         let emergency = writer.try_clone().expect("clone");
         let deadline = Instant::now() + Duration::from_secs(1);
         // The writer has handed over the head of a line that must not be cut.
