@@ -9,7 +9,10 @@
 //!
 //! `cargo bench --bench device` (optimised) or `cargo test --bench device`
 //! (debug build); add `-- --quick` for shorter runs, `-- --only cpu` (or
-//! `bare`, `poll`, `stop`, `emcu`, `emp`) for one measure, e.g. under a profiler.
+//! `bare`, `poll`, `stop`, `tcp`, `emcu`, `emp`) for one measure, e.g. under a profiler.
+//!
+//! TCP rows: the isel poll rates and stop latency again through the network
+//! transport (`tcp://`) to the simulator served as a raw serial port server.
 
 // A benchmark's setup that fails cannot measure anything: it stops with its
 // message (Cargo.toml [lints] denies these in the crate itself).
@@ -31,7 +34,7 @@ use jogterm::device::{Connector, DeviceHandle, EventReceiver, TaskOptions, spawn
 use jogterm::proto::Protocol;
 use jogterm::proto::isel::InputPort;
 use jogterm::sim::registry;
-use jogterm::sim::shell::{Shell, serve_socket};
+use jogterm::sim::shell::{Shell, serve_socket, serve_tcp};
 use jogterm::transport::PortSpec;
 use jogterm::wire::LineSettings;
 
@@ -76,6 +79,24 @@ fn socket_task_for(
     };
     let (handle, events) =
         spawn_with(driver, Connector::from(spec), TaskOptions::default()).expect("device task");
+    (shell, handle, events)
+}
+
+/// The device task talking to the isel simulator served on TCP in-process
+/// (as `jogterm sim --tcp` does: a serial port server in raw mode), through
+/// the network transport (`tcp://`, docs/network.md).
+fn tcp_task(settings: IselSettings) -> (Shell, DeviceHandle, EventReceiver) {
+    let profile = profile();
+    let device = registry::build(profile.connection.protocol, &profile).expect("simulator");
+    let shell = serve_tcp(device, "127.0.0.1:0".parse().expect("addr")).expect("serve");
+    let url = format!("tcp://{}", shell.tcp_addr().expect("addr"));
+    let spec = PortSpec::from_address(&url, shell.line()).expect("address");
+    let (handle, events) = spawn_with(
+        Box::new(IselDriver::new(settings)),
+        Connector::from(spec),
+        TaskOptions::default(),
+    )
+    .expect("device task");
     (shell, handle, events)
 }
 
@@ -196,6 +217,54 @@ async fn measure_stops(
     drop(shell);
     latencies.sort();
     latencies
+}
+
+/// The isel rows again over the TCP transport: poll rates and the stop
+/// latency (the modelled start of the first stop byte on the server's
+/// serial line, as on a tty: the loopback adds microseconds).
+async fn tcp_rows(span: Duration, stops: usize, p_limit: f64, p13_limit: f64, rows: &mut Vec<Row>) {
+    for (what, ports, limit) in [
+        ("@0P", Vec::new(), p_limit),
+        (
+            "@0P + ports 1, 3",
+            vec![InputPort::Status1, InputPort::LimitSwitches],
+            p13_limit,
+        ),
+    ] {
+        let (shell, handle, mut events) = tcp_task(settings(PollRate::LineSpeed, ports));
+        read_back(&mut events).await;
+        let (rate, _) = measure_rate((shell, handle, events), span).await;
+        rows.push(Row {
+            what: format!("TCP: {what} poll rate"),
+            result: format!(
+                "{rate:.1}/s = {:.1} % of {limit:.1}/s",
+                100.0 * rate / limit
+            ),
+            target: ">= 97 %".into(),
+            ok: rate >= 0.97 * limit,
+        });
+    }
+    let (shell, handle, mut events) = tcp_task(settings(PollRate::LineSpeed, Vec::new()));
+    read_back(&mut events).await;
+    let lat = measure_stops((shell, handle, events), stops).await;
+    let ms = |d: Duration| d.as_secs_f64() * 1000.0;
+    let (p50, p99) = (percentile(&lat, 0.5), percentile(&lat, 0.99));
+    rows.push(Row {
+        what: format!("TCP: stop -> first stop byte, p50 ({})", lat.len()),
+        result: format!("{:.3} ms", ms(p50)),
+        target: "< 1 ms".into(),
+        ok: p50 < Duration::from_millis(1),
+    });
+    rows.push(Row {
+        what: "TCP: stop -> first stop byte, p99".into(),
+        result: format!(
+            "{:.3} ms (max {:.3} ms)",
+            ms(p99),
+            ms(lat.last().copied().unwrap_or_default())
+        ),
+        target: "< 2 ms".into(),
+        ok: p99 < Duration::from_millis(2),
+    });
 }
 
 // ----- EMCU ------------------------------------------------------------
@@ -650,6 +719,9 @@ fn main() {
                 target: "< 2 ms".into(),
                 ok: p99 < Duration::from_millis(2),
             });
+        }
+        if wanted("tcp") {
+            tcp_rows(span, stops, p_limit, p13_limit, &mut rows).await;
         }
         if wanted("emcu") {
             emcu_rows(span, stops, &mut rows).await;

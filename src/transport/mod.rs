@@ -7,9 +7,10 @@
 //! a [`Port`], and [`Port::split`] turns it into
 //! - a [`PortReader`] (async, tokio `AsyncFd`): a vanished port is
 //!   [`TransportError::LinkLost`], never data, never a panic;
-//! - a [`PacedWriter`] (std thread, own dup of the fd): writes at line speed,
-//!   a short command whole (at most about 2 ms in the OS buffer), a long
-//!   message paced (about 1 ms), a stop lane that overtakes the queue, and
+//! - a [`PacedWriter`] (std thread, own dup of the fd): writes at line speed
+//!   in few writes (an EMCU line or EMP frame whole, isel commands with at
+//!   most 1.6 ms in the OS buffer, the first write from the caller's thread
+//!   when the line is idle), a stop lane that overtakes the queue, and
 //!   reports of every chunk written ([`WriterEvent`]);
 //! - an [`EmergencyStop`] (own dup of the fd): synchronous, bounded
 //!   `write_now` for the panic hook and the hang-up path; it completes an

@@ -59,22 +59,38 @@ impl Pacer {
         self
     }
 
-    /// The backlog allowed when the rest of a message goes in one write
-    /// (never below the tight one): [`Pacer::fits_whole`].
+    /// The backlog a message that may be cut runs up to, in as few writes
+    /// as fit (never below the tight one): [`Pacer::chunk_allowance`].
     pub fn with_whole_backlog(mut self, whole_backlog: Duration) -> Self {
         self.whole_backlog = whole_backlog.max(self.max_backlog);
         self
     }
 
-    /// Whether the `len` bytes left of a message paced `pace` may be handed
-    /// over at `now` in one write: the backlog stays within the whole
-    /// backlog (or the pace's own, if larger). A short command then goes
-    /// out in one write on an idle line instead of one byte per writer
-    /// wake-up, and a stop still waits for at most that backlog.
-    pub fn fits_whole(&self, pace: Pace, len: usize, now: Instant) -> bool {
-        let bits = len as u128 * self.byte_time.as_nanos();
-        let need = Duration::from_nanos(bits.min(u64::MAX as u128) as u64);
-        self.backlog(now) + need <= self.whole_backlog.max(self.limit(pace))
+    fn chunk_limit(&self, pace: Pace) -> Duration {
+        self.whole_backlog.max(self.limit(pace))
+    }
+
+    /// Bytes of a message paced `pace` that may go in one write at `now`
+    /// when what is left of it is written in as few writes as possible:
+    /// the backlog stays within the whole backlog (or the pace's own, if
+    /// larger). A short command on an idle line then goes in one or two
+    /// writes instead of one per byte, and a stop still waits for at most
+    /// that backlog.
+    pub fn chunk_allowance(&self, pace: Pace, now: Instant) -> usize {
+        let room = self.chunk_limit(pace).saturating_sub(self.backlog(now));
+        (room.as_nanos() / self.byte_time.as_nanos()) as usize
+    }
+
+    /// The earliest time at which [`Pacer::chunk_allowance`] is at least
+    /// one byte: a writer that wakes then has the rest of the whole backlog
+    /// before the line idles.
+    pub fn chunk_ready_at(&self, pace: Pace, now: Instant) -> Instant {
+        if self.chunk_allowance(pace, now) > 0 {
+            return now;
+        }
+        let keep = self.chunk_limit(pace).saturating_sub(self.byte_time);
+        let free = self.wire_free_at(now);
+        free.checked_sub(keep).map_or(now, |t| t.max(now))
     }
 
     fn limit(&self, pace: Pace) -> Duration {
@@ -240,22 +256,30 @@ mod tests {
     }
 
     #[test]
-    fn a_short_command_fits_whole_on_an_idle_line_only() {
+    fn a_command_goes_in_chunks_of_the_whole_backlog_and_the_next_well_before_the_line_idles() {
         let t0 = Instant::now();
         let line = LineSettings::new(19200);
         let mut p = Pacer::new(line, Duration::from_millis(1))
-            .with_whole_backlog(Duration::from_micros(2100));
-        assert!(p.fits_whole(Pace::Tight, 4, t0), "@0P CR: 2.08 ms");
-        assert!(!p.fits_whole(Pace::Tight, 5, t0), "2.6 ms is more");
-        p.wrote(1, t0);
+            .with_whole_backlog(Duration::from_micros(1600));
+        assert_eq!(p.chunk_allowance(Pace::Tight, t0), 3, "@0P of @0P CR");
+        let (_, end) = p.wrote(3, t0);
+        assert_eq!(p.chunk_allowance(Pace::Tight, t0), 0);
+        // The CR may go once a byte fits again: 1.08 ms before the line
+        // would idle, where the tight bound alone leaves 0.48 ms.
+        let ready = p.chunk_ready_at(Pace::Tight, t0);
+        assert_eq!(p.chunk_allowance(Pace::Tight, ready), 1);
         assert!(
-            !p.fits_whole(Pace::Tight, 4, t0),
-            "behind a byte on the wire"
+            end - ready > Duration::from_micros(1000),
+            "{:?}",
+            end - ready
         );
-        assert!(p.fits_whole(Pace::Tight, 3, t0));
-        // Never below the tight bound.
+        assert!(ready < p.ready_at(t0));
+        // Never below the tight bound; bulk keeps its own.
         let q = Pacer::new(line, Duration::from_millis(1)).with_whole_backlog(Duration::ZERO);
-        assert!(q.fits_whole(Pace::Tight, 1, t0));
-        assert!(!q.fits_whole(Pace::Tight, 2, t0));
+        assert_eq!(q.chunk_allowance(Pace::Tight, t0), q.allowance(t0));
+        let r = Pacer::new(line, Duration::from_millis(1))
+            .with_bulk_backlog(Duration::from_millis(4))
+            .with_whole_backlog(Duration::from_micros(1600));
+        assert_eq!(r.chunk_allowance(Pace::Bulk, t0), 7);
     }
 }

@@ -8,14 +8,15 @@
 //! the device task knows when a command has left and the traffic console sees
 //! the bytes as they went out.
 //!
-//! What goes in one write (issue 18, `docs/performance.md`, "Whole
-//! commands"): a frame that must not be cut (an EMCU line, an EMP frame),
-//! since a stop waits for its end anyway; and the rest of any other message
-//! when it fits the whole backlog (2.1 ms: `@0P` CR at 19200 baud). A
-//! message sent while the thread is idle and the line takes it whole is
-//! written from the caller's thread before `send` returns: a poll then
-//! costs no thread hand-over. Longer messages are paced as before, at most
-//! `max_backlog` ahead of the wire, so a stop overtakes them.
+//! How much goes in one write (issue 18, `docs/performance.md`, "Whole
+//! commands"): a frame that must not be cut (an EMCU line, an EMP frame)
+//! whole, since a stop waits for its end anyway; any other message (isel)
+//! in chunks that keep at most the whole backlog (1.6 ms, three bytes at
+//! 19200 baud) ahead of the wire, so a stop overtakes it within that. A
+//! message sent while the thread is idle has its first write made from the
+//! caller's thread before `send` returns: a poll then costs no thread
+//! hand-over (an EMCU or EMP poll none at all, an isel `@0P` CR one, for
+//! its CR, with 1 ms to spare before the line would idle).
 
 use std::collections::VecDeque;
 use std::io;
@@ -116,10 +117,12 @@ pub struct WriterConfig {
     /// The same for [`Pace::Bulk`] messages (sent with
     /// [`PacedWriter::send_bulk`]).
     pub bulk_backlog: Duration,
-    /// Most not-yet-transmitted time the OS buffer may hold when the rest
-    /// of a message goes in one write ([`Pacer::fits_whole`]): a short
-    /// command on an idle line is written whole, so no late writer wake-up
-    /// between its bytes stretches a poll cycle.
+    /// Most not-yet-transmitted time the OS buffer may hold of a message
+    /// that may be cut (isel), written in as few writes as fit
+    /// ([`Pacer::chunk_allowance`]): `@0P` CR at 19200 baud goes as `@0P`
+    /// and, 0.5 ms later, CR, instead of one byte per writer wake-up, and
+    /// a late wake-up has 1 ms before the line idles. A stop waits for at
+    /// most this. Frames that must not be cut go whole regardless.
     pub whole_backlog: Duration,
     /// Bound on waiting for stop bytes to drain from a terminal.
     pub drain_timeout: Duration,
@@ -134,11 +137,12 @@ impl Default for WriterConfig {
             // 1000-line isel upload at 19200): 1 ms keeps 92–94 % of the
             // wire limit, 4 ms 98.6 %.
             bulk_backlog: Duration::from_millis(4),
-            // `@0P` CR and `@LX` CR at 19200 baud (2.08 ms), the commands
-            // polled back to back; a 5-byte isel port read (2.6 ms) goes in
-            // two writes. See docs/performance.md, "Whole commands", for
-            // what it does to a stop's latency.
-            whole_backlog: Duration::from_micros(2100),
+            // Three bytes at 19200 baud: a stop still reaches the wire
+            // within 2 ms at p99 (the first draft wrote `@0P` CR whole,
+            // 2.1 ms, and measured p99 2.06 ms: a stop asked for just
+            // after a command was written waits for all of it).
+            // docs/performance.md, "Whole commands".
+            whole_backlog: Duration::from_micros(1600),
             drain_timeout: Duration::from_millis(250),
         }
     }
@@ -324,24 +328,28 @@ impl PacedWriter {
         Ok(id)
     }
 
-    /// The thread is idle: write `pending` now if the line takes it whole
-    /// (`Pacer::fits_whole`; a frame that must not be cut whenever a byte
-    /// may go). What is left (nothing fitted, the OS took part, an error:
-    /// the thread meets it again and reports it) goes to the thread, with
-    /// how much of it was written.
+    /// The thread is idle: write what the line takes of `pending` now (a
+    /// frame that must not be cut whole, whenever a byte may go; any other
+    /// message as much as `Pacer::chunk_allowance` lets). What is left (the
+    /// rest, nothing fitted, an error: the thread meets it again and
+    /// reports it) goes to the thread, with how much was written.
     fn write_directly(&self, line: &mut Line, pending: Pending) -> Option<(Pending, usize)> {
         let now = Instant::now();
         let len = pending.bytes.len();
         let frame = (pending.interleave == Interleave::WholeMessage).then_some(pending.id.0);
-        let fits = if frame.is_some() {
-            line.pacer.allowance_for(pending.pace, now) > 0
+        let n = if frame.is_some() {
+            if line.pacer.allowance_for(pending.pace, now) > 0 {
+                len
+            } else {
+                0
+            }
         } else {
-            line.pacer.fits_whole(pending.pace, len, now)
+            line.pacer.chunk_allowance(pending.pace, now).min(len)
         };
-        if len == 0 || !fits {
+        if n == 0 {
             return Some((pending, 0));
         }
-        let written = match self.direct.sink.write_part(frame, &pending.bytes, len) {
+        let written = match self.direct.sink.write_part(frame, &pending.bytes, n) {
             Ok(Taken::Bytes(w)) => w,
             Ok(Taken::CompletedElsewhere) | Err(_) => 0,
         };
@@ -595,13 +603,17 @@ impl Worker {
             return None;
         }
         let now = Instant::now();
-        let pace = self
+        let head = self
             .current
             .as_ref()
             .map(|c| &c.pending)
-            .or(self.queue.front())
-            .map_or(Pace::Tight, |p| p.pace);
-        let ready = lock(&self.line).pacer.ready_at_for(pace, now);
+            .or(self.queue.front());
+        let pace = head.map_or(Pace::Tight, |p| p.pace);
+        let line = lock(&self.line);
+        let ready = match head.map(|p| p.interleave) {
+            Some(Interleave::BetweenBytes) => line.pacer.chunk_ready_at(pace, now),
+            _ => line.pacer.ready_at_for(pace, now),
+        };
         Some(self.blocked_until.map_or(ready, |b| b.max(ready)))
     }
 
@@ -654,18 +666,20 @@ impl Worker {
         }
         let pace = cur.pending.pace;
         let frame = cur.frame();
-        let allowance = lock(&self.line).pacer.allowance_for(pace, now);
-        if allowance == 0 {
+        // A frame that must not be cut goes in one write once a byte may go:
+        // a stop waits for its end anyway. Any other message goes in chunks
+        // of the whole backlog.
+        let n = {
+            let line = lock(&self.line);
+            match frame {
+                Some(_) if line.pacer.allowance_for(pace, now) > 0 => rest.len(),
+                Some(_) => 0,
+                None => line.pacer.chunk_allowance(pace, now).min(rest.len()),
+            }
+        };
+        if n == 0 {
             return Ok(false);
         }
-        // A frame that must not be cut goes in one write: a stop waits for
-        // its end anyway. Any other message's rest does when it fits
-        // the whole backlog; else it goes as the pacer allows.
-        let n = if frame.is_some() || lock(&self.line).pacer.fits_whole(pace, rest.len(), now) {
-            rest.len()
-        } else {
-            allowance.min(rest.len())
-        };
         match self.sink.write_part(frame, rest, n) {
             Ok(Taken::Bytes(0)) => {
                 self.blocked_until = Some(now + lock(&self.line).pacer.byte_time());
