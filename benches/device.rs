@@ -247,23 +247,41 @@ async fn tcp_rows(span: Duration, stops: usize, p_limit: f64, p13_limit: f64, ro
     let (shell, handle, mut events) = tcp_task(settings(PollRate::LineSpeed, Vec::new()));
     read_back(&mut events).await;
     let lat = measure_stops((shell, handle, events), stops).await;
+    stop_rows(
+        rows,
+        "TCP: stop -> first stop byte",
+        &lat,
+        Duration::from_millis(1),
+        Duration::from_millis(2),
+    );
+}
+
+/// The p50 and p99 rows of a stop latency measure: `what` names the
+/// stop's first byte, the targets are p50 and p99 bounds.
+fn stop_rows(
+    rows: &mut Vec<Row>,
+    what: &str,
+    lat: &[Duration],
+    p50_max: Duration,
+    p99_max: Duration,
+) {
     let ms = |d: Duration| d.as_secs_f64() * 1000.0;
-    let (p50, p99) = (percentile(&lat, 0.5), percentile(&lat, 0.99));
+    let (p50, p99) = (percentile(lat, 0.5), percentile(lat, 0.99));
     rows.push(Row {
-        what: format!("TCP: stop -> first stop byte, p50 ({})", lat.len()),
+        what: format!("{what}, p50 ({} stops)", lat.len()),
         result: format!("{:.3} ms", ms(p50)),
-        target: "< 1 ms".into(),
-        ok: p50 < Duration::from_millis(1),
+        target: format!("< {:.1} ms", ms(p50_max)),
+        ok: p50 < p50_max,
     });
     rows.push(Row {
-        what: "TCP: stop -> first stop byte, p99".into(),
+        what: format!("{what}, p99"),
         result: format!(
             "{:.3} ms (max {:.3} ms)",
             ms(p99),
             ms(lat.last().copied().unwrap_or_default())
         ),
-        target: "< 2 ms".into(),
-        ok: p99 < Duration::from_millis(2),
+        target: format!("< {:.1} ms", ms(p99_max)),
+        ok: p99 < p99_max,
     });
 }
 
@@ -415,24 +433,13 @@ async fn emcu_rows(span: Duration, stops: usize, rows: &mut Vec<Row>) {
         ok: true,
     });
     let lat = emcu_stop_latency(stops).await;
-    let ms = |d: Duration| d.as_secs_f64() * 1000.0;
-    let (p50, p99) = (percentile(&lat, 0.5), percentile(&lat, 0.99));
-    rows.push(Row {
-        what: format!("EMCU stop -> first @B byte, p50 ({})", lat.len()),
-        result: format!("{:.3} ms", ms(p50)),
-        target: "< 2.1 ms".into(),
-        ok: p50 < Duration::from_micros(2_100),
-    });
-    rows.push(Row {
-        what: "EMCU stop -> first @B byte, p99".into(),
-        result: format!(
-            "{:.3} ms (max {:.3} ms)",
-            ms(p99),
-            ms(lat.last().copied().unwrap_or_default())
-        ),
-        target: "< 3.1 ms".into(),
-        ok: p99 < Duration::from_micros(3_100),
-    });
+    stop_rows(
+        rows,
+        "EMCU stop -> first @B byte",
+        &lat,
+        Duration::from_micros(2_100),
+        Duration::from_micros(3_100),
+    );
 }
 
 fn percentile(sorted: &[Duration], p: f64) -> Duration {
@@ -611,26 +618,15 @@ async fn emp_rows(span: Duration, stops: usize, rows: &mut Vec<Row>) {
         ok: true,
     });
     let lat = measure_stops(emp_task().await, stops).await;
-    let ms = |d: Duration| d.as_secs_f64() * 1000.0;
-    let (p50, p99) = (percentile(&lat, 0.5), percentile(&lat, 0.99));
     // A stop frame waits for the frame on the wire (17 bytes, 4.4 ms).
     let frame = line.transfer_time(jogterm::proto::emp::FRAME_WIRE_LEN);
-    rows.push(Row {
-        what: format!("EMP stop -> first byte, p50 ({} stops)", lat.len()),
-        result: format!("{:.3} ms", ms(p50)),
-        target: format!("< {:.1} ms", ms(frame)),
-        ok: p50 < frame,
-    });
-    rows.push(Row {
-        what: "EMP stop -> first byte, p99".into(),
-        result: format!(
-            "{:.3} ms (max {:.3} ms)",
-            ms(p99),
-            ms(lat.last().copied().unwrap_or_default())
-        ),
-        target: format!("< {:.1} ms", ms(frame + Duration::from_millis(1))),
-        ok: p99 < frame + Duration::from_millis(1),
-    });
+    stop_rows(
+        rows,
+        "EMP stop -> first byte",
+        &lat,
+        frame,
+        frame + Duration::from_millis(1),
+    );
 }
 
 fn main() {
@@ -701,24 +697,13 @@ fn main() {
         }
         if wanted("stop") {
             let lat = stop_latency(stops).await;
-            let ms = |d: Duration| d.as_secs_f64() * 1000.0;
-            let (p50, p99) = (percentile(&lat, 0.5), percentile(&lat, 0.99));
-            rows.push(Row {
-                what: format!("stop -> first stop byte, p50 ({} stops)", lat.len()),
-                result: format!("{:.3} ms", ms(p50)),
-                target: "< 1 ms".into(),
-                ok: p50 < Duration::from_millis(1),
-            });
-            rows.push(Row {
-                what: "stop -> first stop byte, p99".into(),
-                result: format!(
-                    "{:.3} ms (max {:.3} ms)",
-                    ms(p99),
-                    ms(lat.last().copied().unwrap_or_default())
-                ),
-                target: "< 2 ms".into(),
-                ok: p99 < Duration::from_millis(2),
-            });
+            stop_rows(
+                &mut rows,
+                "stop -> first stop byte",
+                &lat,
+                Duration::from_millis(1),
+                Duration::from_millis(2),
+            );
         }
         if wanted("tcp") {
             tcp_rows(span, stops, p_limit, p13_limit, &mut rows).await;
