@@ -9,7 +9,10 @@
 //!
 //! `cargo bench --bench device` (optimised) or `cargo test --bench device`
 //! (debug build); add `-- --quick` for shorter runs, `-- --only cpu` (or
-//! `bare`, `poll`, `stop`, `emcu`, `emp`) for one measure, e.g. under a profiler.
+//! `bare`, `poll`, `stop`, `tcp`, `emcu`, `emp`) for one measure, e.g. under a profiler.
+//!
+//! TCP rows: the isel poll rates and stop latency again through the network
+//! transport (`tcp://`) to the simulator served as a raw serial port server.
 
 // A benchmark's setup that fails cannot measure anything: it stops with its
 // message (Cargo.toml [lints] denies these in the crate itself).
@@ -31,7 +34,7 @@ use jogterm::device::{Connector, DeviceHandle, EventReceiver, TaskOptions, spawn
 use jogterm::proto::Protocol;
 use jogterm::proto::isel::InputPort;
 use jogterm::sim::registry;
-use jogterm::sim::shell::{Shell, serve_socket};
+use jogterm::sim::shell::{Shell, serve_socket, serve_tcp};
 use jogterm::transport::PortSpec;
 use jogterm::wire::LineSettings;
 
@@ -76,6 +79,24 @@ fn socket_task_for(
     };
     let (handle, events) =
         spawn_with(driver, Connector::from(spec), TaskOptions::default()).expect("device task");
+    (shell, handle, events)
+}
+
+/// The device task talking to the isel simulator served on TCP in-process
+/// (as `jogterm sim --tcp` does: a serial port server in raw mode), through
+/// the network transport (`tcp://`, docs/network.md).
+fn tcp_task(settings: IselSettings) -> (Shell, DeviceHandle, EventReceiver) {
+    let profile = profile();
+    let device = registry::build(profile.connection.protocol, &profile).expect("simulator");
+    let shell = serve_tcp(device, "127.0.0.1:0".parse().expect("addr")).expect("serve");
+    let url = format!("tcp://{}", shell.tcp_addr().expect("addr"));
+    let spec = PortSpec::from_address(&url, shell.line()).expect("address");
+    let (handle, events) = spawn_with(
+        Box::new(IselDriver::new(settings)),
+        Connector::from(spec),
+        TaskOptions::default(),
+    )
+    .expect("device task");
     (shell, handle, events)
 }
 
@@ -196,6 +217,72 @@ async fn measure_stops(
     drop(shell);
     latencies.sort();
     latencies
+}
+
+/// The isel rows again over the TCP transport: poll rates and the stop
+/// latency (the modelled start of the first stop byte on the server's
+/// serial line, as on a tty: the loopback adds microseconds).
+async fn tcp_rows(span: Duration, stops: usize, p_limit: f64, p13_limit: f64, rows: &mut Vec<Row>) {
+    for (what, ports, limit) in [
+        ("@0P", Vec::new(), p_limit),
+        (
+            "@0P + ports 1, 3",
+            vec![InputPort::Status1, InputPort::LimitSwitches],
+            p13_limit,
+        ),
+    ] {
+        let (shell, handle, mut events) = tcp_task(settings(PollRate::LineSpeed, ports));
+        read_back(&mut events).await;
+        let (rate, _) = measure_rate((shell, handle, events), span).await;
+        rows.push(Row {
+            what: format!("TCP: {what} poll rate"),
+            result: format!(
+                "{rate:.1}/s = {:.1} % of {limit:.1}/s",
+                100.0 * rate / limit
+            ),
+            target: ">= 97 %".into(),
+            ok: rate >= 0.97 * limit,
+        });
+    }
+    let (shell, handle, mut events) = tcp_task(settings(PollRate::LineSpeed, Vec::new()));
+    read_back(&mut events).await;
+    let lat = measure_stops((shell, handle, events), stops).await;
+    stop_rows(
+        rows,
+        "TCP: stop -> first stop byte",
+        &lat,
+        Duration::from_millis(1),
+        Duration::from_millis(2),
+    );
+}
+
+/// The p50 and p99 rows of a stop latency measure: `what` names the
+/// stop's first byte, the targets are p50 and p99 bounds.
+fn stop_rows(
+    rows: &mut Vec<Row>,
+    what: &str,
+    lat: &[Duration],
+    p50_max: Duration,
+    p99_max: Duration,
+) {
+    let ms = |d: Duration| d.as_secs_f64() * 1000.0;
+    let (p50, p99) = (percentile(lat, 0.5), percentile(lat, 0.99));
+    rows.push(Row {
+        what: format!("{what}, p50 ({} stops)", lat.len()),
+        result: format!("{:.3} ms", ms(p50)),
+        target: format!("< {:.1} ms", ms(p50_max)),
+        ok: p50 < p50_max,
+    });
+    rows.push(Row {
+        what: format!("{what}, p99"),
+        result: format!(
+            "{:.3} ms (max {:.3} ms)",
+            ms(p99),
+            ms(lat.last().copied().unwrap_or_default())
+        ),
+        target: format!("< {:.1} ms", ms(p99_max)),
+        ok: p99 < p99_max,
+    });
 }
 
 // ----- EMCU ------------------------------------------------------------
@@ -346,24 +433,13 @@ async fn emcu_rows(span: Duration, stops: usize, rows: &mut Vec<Row>) {
         ok: true,
     });
     let lat = emcu_stop_latency(stops).await;
-    let ms = |d: Duration| d.as_secs_f64() * 1000.0;
-    let (p50, p99) = (percentile(&lat, 0.5), percentile(&lat, 0.99));
-    rows.push(Row {
-        what: format!("EMCU stop -> first @B byte, p50 ({})", lat.len()),
-        result: format!("{:.3} ms", ms(p50)),
-        target: "< 2.1 ms".into(),
-        ok: p50 < Duration::from_micros(2_100),
-    });
-    rows.push(Row {
-        what: "EMCU stop -> first @B byte, p99".into(),
-        result: format!(
-            "{:.3} ms (max {:.3} ms)",
-            ms(p99),
-            ms(lat.last().copied().unwrap_or_default())
-        ),
-        target: "< 3.1 ms".into(),
-        ok: p99 < Duration::from_micros(3_100),
-    });
+    stop_rows(
+        rows,
+        "EMCU stop -> first @B byte",
+        &lat,
+        Duration::from_micros(2_100),
+        Duration::from_micros(3_100),
+    );
 }
 
 fn percentile(sorted: &[Duration], p: f64) -> Duration {
@@ -542,26 +618,15 @@ async fn emp_rows(span: Duration, stops: usize, rows: &mut Vec<Row>) {
         ok: true,
     });
     let lat = measure_stops(emp_task().await, stops).await;
-    let ms = |d: Duration| d.as_secs_f64() * 1000.0;
-    let (p50, p99) = (percentile(&lat, 0.5), percentile(&lat, 0.99));
     // A stop frame waits for the frame on the wire (17 bytes, 4.4 ms).
     let frame = line.transfer_time(jogterm::proto::emp::FRAME_WIRE_LEN);
-    rows.push(Row {
-        what: format!("EMP stop -> first byte, p50 ({} stops)", lat.len()),
-        result: format!("{:.3} ms", ms(p50)),
-        target: format!("< {:.1} ms", ms(frame)),
-        ok: p50 < frame,
-    });
-    rows.push(Row {
-        what: "EMP stop -> first byte, p99".into(),
-        result: format!(
-            "{:.3} ms (max {:.3} ms)",
-            ms(p99),
-            ms(lat.last().copied().unwrap_or_default())
-        ),
-        target: format!("< {:.1} ms", ms(frame + Duration::from_millis(1))),
-        ok: p99 < frame + Duration::from_millis(1),
-    });
+    stop_rows(
+        rows,
+        "EMP stop -> first byte",
+        &lat,
+        frame,
+        frame + Duration::from_millis(1),
+    );
 }
 
 fn main() {
@@ -632,24 +697,16 @@ fn main() {
         }
         if wanted("stop") {
             let lat = stop_latency(stops).await;
-            let ms = |d: Duration| d.as_secs_f64() * 1000.0;
-            let (p50, p99) = (percentile(&lat, 0.5), percentile(&lat, 0.99));
-            rows.push(Row {
-                what: format!("stop -> first stop byte, p50 ({} stops)", lat.len()),
-                result: format!("{:.3} ms", ms(p50)),
-                target: "< 1 ms".into(),
-                ok: p50 < Duration::from_millis(1),
-            });
-            rows.push(Row {
-                what: "stop -> first stop byte, p99".into(),
-                result: format!(
-                    "{:.3} ms (max {:.3} ms)",
-                    ms(p99),
-                    ms(lat.last().copied().unwrap_or_default())
-                ),
-                target: "< 2 ms".into(),
-                ok: p99 < Duration::from_millis(2),
-            });
+            stop_rows(
+                &mut rows,
+                "stop -> first stop byte",
+                &lat,
+                Duration::from_millis(1),
+                Duration::from_millis(2),
+            );
+        }
+        if wanted("tcp") {
+            tcp_rows(span, stops, p_limit, p13_limit, &mut rows).await;
         }
         if wanted("emcu") {
             emcu_rows(span, stops, &mut rows).await;

@@ -433,6 +433,12 @@ impl Task {
                     break 'session end;
                 }
             }
+            // A stop asked for while the last event was handled goes before
+            // what the driver sends next: a poll line written whole now
+            // would otherwise sit on the wire in front of it.
+            if let Ok(call) = self.stops.try_recv() {
+                self.stop_now(&mut s, call);
+            }
             if self.pump(&mut s).is_err() {
                 break Ending::DeadLink;
             }

@@ -6,8 +6,7 @@
 //! (`../shared/field-notes.md`, "Serial ports" and "Order on hang-up").
 //! So it never panics and never blocks longer than its bound.
 
-use std::sync::{Arc, Mutex, TryLockError};
-use std::thread;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use super::error::TransportError;
@@ -29,8 +28,6 @@ struct Inner {
     port: String,
     line: LineSettings,
     timeout: Duration,
-    /// Keeps two emergency writers from mixing their bytes.
-    busy: Mutex<()>,
 }
 
 impl EmergencyStop {
@@ -44,7 +41,6 @@ impl EmergencyStop {
                 port,
                 line,
                 timeout: Self::DEFAULT_TIMEOUT,
-                busy: Mutex::new(()),
             }),
         }
     }
@@ -66,7 +62,6 @@ impl EmergencyStop {
                 port: self.inner.port.clone(),
                 line: self.inner.line,
                 timeout,
-                busy: Mutex::new(()),
             }),
         })
     }
@@ -83,29 +78,28 @@ impl EmergencyStop {
     /// in flight.
     ///
     /// The bytes go between whatever the paced writer has already handed to
-    /// the OS and what it writes next: for isel's control bytes that is
-    /// exactly right (they may go between any two bytes of a command). For
-    /// EMCU and EMP it may split a frame being written: this handle is for
-    /// when the writer can no longer be relied on, not for normal stops.
+    /// the OS and what it writes next, as one write (two emergency writers
+    /// never mix their bytes). A frame that must not be cut (an EMCU line,
+    /// an EMP frame: [`super::Interleave::WholeMessage`]) and that the
+    /// writer has begun is completed first, in the same write: the stop
+    /// waits for at most the rest of one line, and the line reaches the
+    /// controller whole (issue 20; a cut `@X` with the stop's CR `@B` CR in
+    /// it set the EMCU's error flag). isel's messages may be cut: its
+    /// control bytes act between any two bytes of a command. This handle is
+    /// for when the writer can no longer be relied on, not for normal stops.
     pub fn write_now(&self, bytes: &[u8]) -> Result<(), TransportError> {
         let inner = &*self.inner;
         let deadline = Instant::now() + inner.timeout + inner.line.transfer_time(bytes.len());
-        let _guard = lock_until(&inner.busy, deadline);
-        // One write of the whole encoded stop: no emergency writer leaves
-        // half an escape pair for another to continue.
-        let encoded = inner.sink.encode(bytes);
-        fd::write_all_until(inner.sink.fd(), inner.sink.info().kind, &encoded, deadline).map_err(
-            |e| {
-                if e.kind() == std::io::ErrorKind::TimedOut {
-                    TransportError::DrainTimeout {
-                        port: inner.port.clone(),
-                        waited: inner.timeout,
-                    }
-                } else {
-                    TransportError::from_io(&inner.port, "emergency write", e)
+        inner.sink.write_stop_now(bytes, deadline).map_err(|e| {
+            if e.kind() == std::io::ErrorKind::TimedOut {
+                TransportError::DrainTimeout {
+                    port: inner.port.clone(),
+                    waited: inner.timeout,
                 }
-            },
-        )?;
+            } else {
+                TransportError::from_io(&inner.port, "emergency write", e)
+            }
+        })?;
         let left = deadline.saturating_duration_since(Instant::now());
         if !inner.sink.is_tty() {
             return match inner.sink.wait_acknowledged(left) {
@@ -136,24 +130,6 @@ impl EmergencyStop {
                 waited: inner.timeout,
             }),
             Err(e) => Err(TransportError::from_io(&inner.port, "tcdrain", e)),
-        }
-    }
-}
-
-/// Take the lock if it comes free before `deadline`; past it, go on without
-/// (a stop that interleaves with another stop beats no stop). A poisoned lock
-/// is still a lock.
-fn lock_until(lock: &Mutex<()>, deadline: Instant) -> Option<std::sync::MutexGuard<'_, ()>> {
-    loop {
-        match lock.try_lock() {
-            Ok(guard) => return Some(guard),
-            Err(TryLockError::Poisoned(p)) => return Some(p.into_inner()),
-            Err(TryLockError::WouldBlock) => {
-                if Instant::now() >= deadline {
-                    return None;
-                }
-                thread::sleep(Duration::from_micros(50));
-            }
         }
     }
 }

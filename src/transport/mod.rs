@@ -8,10 +8,13 @@
 //! - a [`PortReader`] (async, tokio `AsyncFd`): a vanished port is
 //!   [`TransportError::LinkLost`], never data, never a panic;
 //! - a [`PacedWriter`] (std thread, own dup of the fd): writes at line speed
-//!   with at most about 1 ms in the OS buffer, a stop lane that overtakes the
-//!   queue, and reports of every chunk written ([`WriterEvent`]);
+//!   in few writes (an EMCU line or EMP frame whole, isel commands with at
+//!   most 1.6 ms in the OS buffer, the first write from the caller's thread
+//!   when the line is idle), a stop lane that overtakes the queue, and
+//!   reports of every chunk written ([`WriterEvent`]);
 //! - an [`EmergencyStop`] (own dup of the fd): synchronous, bounded
-//!   `write_now` for the panic hook and the hang-up path.
+//!   `write_now` for the panic hook and the hang-up path; it completes an
+//!   EMCU line or EMP frame the writer has begun before its stop bytes.
 //!
 //! What a link does to the bytes (Telnet's IAC doubling, a TCP socket's
 //! unacknowledged bytes, RFC 2217's PURGE-DATA) is the writing side's

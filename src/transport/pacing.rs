@@ -31,6 +31,7 @@ pub struct Pacer {
     byte_time: Duration,
     max_backlog: Duration,
     bulk_backlog: Duration,
+    whole_backlog: Duration,
     wire_free: Option<Instant>,
 }
 
@@ -46,6 +47,7 @@ impl Pacer {
             byte_time,
             max_backlog,
             bulk_backlog: max_backlog,
+            whole_backlog: max_backlog,
             wire_free: None,
         }
     }
@@ -55,6 +57,40 @@ impl Pacer {
     pub fn with_bulk_backlog(mut self, bulk_backlog: Duration) -> Self {
         self.bulk_backlog = bulk_backlog.max(self.max_backlog);
         self
+    }
+
+    /// The backlog a message that may be cut runs up to, in as few writes
+    /// as fit (never below the tight one): [`Pacer::chunk_allowance`].
+    pub fn with_whole_backlog(mut self, whole_backlog: Duration) -> Self {
+        self.whole_backlog = whole_backlog.max(self.max_backlog);
+        self
+    }
+
+    fn chunk_limit(&self, pace: Pace) -> Duration {
+        self.whole_backlog.max(self.limit(pace))
+    }
+
+    /// Bytes of a message paced `pace` that may go in one write at `now`
+    /// when what is left of it is written in as few writes as possible:
+    /// the backlog stays within the whole backlog (or the pace's own, if
+    /// larger). A short command on an idle line then goes in one or two
+    /// writes instead of one per byte, and a stop still waits for at most
+    /// that backlog.
+    pub fn chunk_allowance(&self, pace: Pace, now: Instant) -> usize {
+        let room = self.chunk_limit(pace).saturating_sub(self.backlog(now));
+        (room.as_nanos() / self.byte_time.as_nanos()) as usize
+    }
+
+    /// The earliest time at which [`Pacer::chunk_allowance`] is at least
+    /// one byte: a writer that wakes then has the rest of the whole backlog
+    /// before the line idles.
+    pub fn chunk_ready_at(&self, pace: Pace, now: Instant) -> Instant {
+        if self.chunk_allowance(pace, now) > 0 {
+            return now;
+        }
+        let keep = self.chunk_limit(pace).saturating_sub(self.byte_time);
+        let free = self.wire_free_at(now);
+        free.checked_sub(keep).map_or(now, |t| t.max(now))
     }
 
     fn limit(&self, pace: Pace) -> Duration {
@@ -217,5 +253,33 @@ mod tests {
         }
         // 100+ bytes at 0.52 ms each: the wire was never idle.
         assert!(p.wire_free_at(now) - t0 >= LineSettings::new(19200).transfer_time(100));
+    }
+
+    #[test]
+    fn a_command_goes_in_chunks_of_the_whole_backlog_and_the_next_well_before_the_line_idles() {
+        let t0 = Instant::now();
+        let line = LineSettings::new(19200);
+        let mut p = Pacer::new(line, Duration::from_millis(1))
+            .with_whole_backlog(Duration::from_micros(1600));
+        assert_eq!(p.chunk_allowance(Pace::Tight, t0), 3, "@0P of @0P CR");
+        let (_, end) = p.wrote(3, t0);
+        assert_eq!(p.chunk_allowance(Pace::Tight, t0), 0);
+        // The CR may go once a byte fits again: 1.08 ms before the line
+        // would idle, where the tight bound alone leaves 0.48 ms.
+        let ready = p.chunk_ready_at(Pace::Tight, t0);
+        assert_eq!(p.chunk_allowance(Pace::Tight, ready), 1);
+        assert!(
+            end - ready > Duration::from_micros(1000),
+            "{:?}",
+            end - ready
+        );
+        assert!(ready < p.ready_at(t0));
+        // Never below the tight bound; bulk keeps its own.
+        let q = Pacer::new(line, Duration::from_millis(1)).with_whole_backlog(Duration::ZERO);
+        assert_eq!(q.chunk_allowance(Pace::Tight, t0), q.allowance(t0));
+        let r = Pacer::new(line, Duration::from_millis(1))
+            .with_bulk_backlog(Duration::from_millis(4))
+            .with_whole_backlog(Duration::from_micros(1600));
+        assert_eq!(r.chunk_allowance(Pace::Bulk, t0), 7);
     }
 }

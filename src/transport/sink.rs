@@ -14,8 +14,13 @@
 //!   network does not pile up a second of commands in front of the next
 //!   stop (`docs/network.md`, "What can sit between jogterm and the line");
 //! - [`Sink::discard_queued`]: RFC 2217 PURGE-DATA (the server's transmit
-//!   buffer); `false` where the link cannot (raw TCP, a socket pair). A tty
-//!   could `tcflush(TCOFLUSH)` here; the writer decides when it may;
+//!   buffer); `false` where the link cannot (raw TCP, a socket pair, and a
+//!   tty, on purpose: see the method); the writer decides when it may;
+//! - the writer's sink and the emergency handle's share what is owed and
+//!   the rest of a frame that must not be cut ([`Sink::write_part`],
+//!   [`Sink::write_stop_now`]): an emergency stop from another thread goes
+//!   behind the rest of the EMCU line or EMP frame on its way, never into
+//!   it (issue 20, the hang-up stop seen as `@` CR `@B` CR `X` CR);
 //! - dropping a TCP sink waits (bounded) until the server has acknowledged
 //!   every byte, and the writer's sink closes gracefully: `shutdown(SHUT_WR)`
 //!   (a FIN behind the last stop), then what the server still sends is
@@ -27,7 +32,7 @@
 use std::borrow::Cow;
 use std::io;
 use std::os::fd::{AsFd, AsRawFd, BorrowedFd, OwnedFd};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex, MutexGuard, TryLockError};
 use std::thread;
 use std::time::{Duration, Instant};
 
@@ -80,14 +85,39 @@ pub(crate) const CLOSE_LINGER: Duration = Duration::from_millis(250);
 /// the close's stop still unread by the controller on the other end.
 pub(crate) const CLOSE_SETTLE: Duration = Duration::from_millis(50);
 
+/// What the sinks on dups of one fd share: the paced writer's and the
+/// emergency handle's write from two threads onto one line, and neither may
+/// cut what the other has begun.
+#[derive(Debug, Default)]
+struct Shared {
+    /// Encoded bytes that must go before anything else (the rest of an
+    /// escaped chunk the socket did not take whole).
+    owed: Vec<u8>,
+    /// A frame that must not be cut ([`Sink::write_part`] with `whole`),
+    /// partly handed over: its tag and the serial bytes still to come.
+    unfinished: Option<(u64, Vec<u8>)>,
+    /// The tag of an unfinished frame another sink has completed, for the
+    /// one that began it to learn.
+    completed: Option<u64>,
+}
+
+/// How much of a message [`Sink::write_part`] took.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Taken {
+    /// This many serial bytes (0: none fit now).
+    Bytes(usize),
+    /// None: another sink (the emergency handle) has already written the
+    /// whole rest of this frame, ahead of its stop.
+    CompletedElsewhere,
+}
+
 /// The writing end of a port.
 #[derive(Debug)]
 pub(crate) struct Sink {
     fd: OwnedFd,
     info: LinkInfo,
-    /// Encoded bytes that must go before anything else (the rest of an
-    /// escaped chunk the socket did not take whole).
-    owed: Vec<u8>,
+    /// Shared by every sink cloned from this one ([`Sink::try_clone`]).
+    shared: Arc<Mutex<Shared>>,
     /// Keeps the port's ownership lock while the sink lives.
     _owner: Option<Arc<OwnerLock>>,
     /// Close the connection gracefully when dropped (the writer's sink,
@@ -100,7 +130,7 @@ impl Sink {
         Self {
             fd,
             info,
-            owed: Vec::new(),
+            shared: Arc::default(),
             _owner: owner,
             graceful: false,
         }
@@ -112,15 +142,23 @@ impl Sink {
         self
     }
 
-    /// A second sink on a dup of the fd (nothing owed).
+    /// A second sink on a dup of the fd. It shares what is owed and what is
+    /// unfinished with this one: writes through either never cut a frame
+    /// or an escape pair the other has begun.
     pub fn try_clone(&self) -> io::Result<Sink> {
         Ok(Sink {
             fd: self.fd.try_clone()?,
             info: self.info,
-            owed: Vec::new(),
+            shared: self.shared.clone(),
             _owner: self._owner.clone(),
             graceful: false,
         })
+    }
+
+    /// The shared state, held for one write. A thread that panicked while
+    /// holding it left it consistent between two writes: still usable.
+    fn lock(&self) -> MutexGuard<'_, Shared> {
+        self.shared.lock().unwrap_or_else(|p| p.into_inner())
     }
 
     pub fn fd(&self) -> BorrowedFd<'_> {
@@ -148,11 +186,34 @@ impl Sink {
         }
     }
 
-    /// Hand over what the link takes now. Returns how many serial bytes of
-    /// `data` were taken (then they are on their way, whole); `WouldBlock`
-    /// when nothing could be, so the caller retries later.
+    /// Hand over what the link takes now (tests; the writer uses
+    /// [`Sink::write_part`]).
+    #[cfg(test)]
     pub fn write_some(&mut self, data: &[u8]) -> io::Result<usize> {
-        if !self.flush_owed()? {
+        match self.write_part(None, data, data.len())? {
+            Taken::Bytes(n) => Ok(n),
+            Taken::CompletedElsewhere => Ok(0),
+        }
+    }
+
+    /// Hand over up to `n` serial bytes of `rest`, what the link takes now.
+    /// [`Taken::Bytes`] counts serial bytes taken (then they are on their
+    /// way, whole); `WouldBlock` when nothing could be, so the caller
+    /// retries later.
+    ///
+    /// `frame`: `rest` is (the rest of) a frame that must not be cut, tagged
+    /// so; while part of it is still to come, an emergency write on a clone
+    /// of this sink writes that part ahead of its stop, and this sink then
+    /// answers [`Taken::CompletedElsewhere`] for the tag.
+    pub fn write_part(&self, frame: Option<u64>, rest: &[u8], n: usize) -> io::Result<Taken> {
+        let mut shared = self.lock();
+        if let Some(tag) = frame
+            && shared.completed == Some(tag)
+        {
+            shared.completed = None;
+            return Ok(Taken::CompletedElsewhere);
+        }
+        if !flush_owed(self.fd(), self.info.kind, &mut shared.owed)? {
             return Err(io::Error::from(io::ErrorKind::WouldBlock));
         }
         if let (true, Some(limit)) = (self.info.tcp, self.info.queue_limit)
@@ -160,46 +221,107 @@ impl Sink {
         {
             return Err(io::Error::from(io::ErrorKind::WouldBlock));
         }
-        match self.info.framing {
-            Framing::Raw => fd::write_some(self.fd.as_fd(), self.info.kind, data),
+        let data = rest.get(..n.min(rest.len())).unwrap_or_default();
+        let taken = match self.info.framing {
+            Framing::Raw => fd::write_some(self.fd(), self.info.kind, data)?,
             Framing::Telnet { binary, .. } => {
                 let encoded = telnet::escape(data, binary);
-                let n = fd::write_some(self.fd.as_fd(), self.info.kind, &encoded)?;
-                if n == 0 {
-                    return Ok(0);
+                let w = fd::write_some(self.fd(), self.info.kind, &encoded)?;
+                if w == 0 {
+                    0
+                } else {
+                    shared
+                        .owed
+                        .extend_from_slice(encoded.get(w..).unwrap_or_default());
+                    data.len()
                 }
-                self.owed
-                    .extend_from_slice(encoded.get(n..).unwrap_or_default());
-                Ok(data.len())
             }
+        };
+        if let Some(tag) = frame
+            && taken > 0
+        {
+            shared.unfinished = rest
+                .get(taken..)
+                .filter(|left| !left.is_empty())
+                .map(|left| (tag, left.to_vec()));
         }
+        Ok(Taken::Bytes(taken))
     }
 
     /// Every serial byte of `data` before `deadline`, past the queue limit
-    /// (for stops and the rest of a frame ahead of a stop).
+    /// (tests; the writer uses [`Sink::write_rest_until`]).
+    #[cfg(test)]
     pub fn write_all_until(&mut self, data: &[u8], deadline: Instant) -> io::Result<()> {
-        if !self.owed.is_empty() {
-            let owed = std::mem::take(&mut self.owed);
-            fd::write_all_until(self.fd.as_fd(), self.info.kind, &owed, deadline)?;
+        self.write_rest_until(None, data, deadline).map(|_| ())
+    }
+
+    /// The whole rest of a message before `deadline`, past the queue limit
+    /// (a frame ahead of a stop, a message on the line at close). `frame`
+    /// as for [`Sink::write_part`].
+    pub fn write_rest_until(
+        &self,
+        frame: Option<u64>,
+        rest: &[u8],
+        deadline: Instant,
+    ) -> io::Result<Taken> {
+        let mut shared = self.lock();
+        if let Some(tag) = frame {
+            if shared.completed == Some(tag) {
+                shared.completed = None;
+                return Ok(Taken::CompletedElsewhere);
+            }
+            shared.unfinished = None;
         }
-        let encoded = self.encode(data);
-        fd::write_all_until(self.fd.as_fd(), self.info.kind, &encoded, deadline)
+        let owed = std::mem::take(&mut shared.owed);
+        fd::write_all_until(self.fd(), self.info.kind, &owed, deadline)?;
+        let encoded = self.encode(rest);
+        fd::write_all_until(self.fd(), self.info.kind, &encoded, deadline)?;
+        Ok(Taken::Bytes(rest.len()))
+    }
+
+    /// An emergency stop: `stop` as one write, behind the rest of a frame a
+    /// clone of this sink has begun (at most one line or frame: an EMCU
+    /// line or an EMP frame cut by stop bytes is a malformed command, or
+    /// swallows the stop), or right away when none is. The shared state is
+    /// waited for until `deadline` only (the other writer holds it for one
+    /// write); past it the stop goes without, as a stop that may cut beats
+    /// no stop.
+    pub fn write_stop_now(&self, stop: &[u8], deadline: Instant) -> io::Result<()> {
+        let mut out = Vec::new();
+        let shared = lock_until(&self.shared, deadline);
+        if let Some(mut shared) = shared {
+            out.append(&mut shared.owed);
+            if let Some((tag, rest)) = shared.unfinished.take() {
+                out.extend_from_slice(&self.encode(&rest));
+                shared.completed = Some(tag);
+            }
+            out.extend_from_slice(&self.encode(stop));
+            return fd::write_all_until(self.fd(), self.info.kind, &out, deadline);
+        }
+        out.extend_from_slice(&self.encode(stop));
+        fd::write_all_until(self.fd(), self.info.kind, &out, deadline)
     }
 
     /// Ask the far end to drop what it holds for the serial line and has not
     /// sent yet (RFC 2217 PURGE-DATA, transmit buffer). `Ok(false)` when the
     /// link cannot. The request travels behind the bytes already written,
     /// so it drops those the server has not yet put on the line.
+    ///
+    /// A tty has no arm here on purpose (`docs/performance.md`, "Whole
+    /// commands"): `tcflush(TCOFLUSH)` reaches neither a UART's FIFO nor a
+    /// USB transfer already submitted, which is where a short command is
+    /// once written, and what it does drop cannot be counted exactly (a
+    /// byte may leave between `TIOCOUTQ` and the flush), so the cut line
+    /// could not be repaired exactly.
     pub fn discard_queued(&mut self, deadline: Instant) -> io::Result<bool> {
         if !self.can_discard() {
             return Ok(false);
         }
-        if !self.owed.is_empty() {
-            let owed = std::mem::take(&mut self.owed);
-            fd::write_all_until(self.fd.as_fd(), self.info.kind, &owed, deadline)?;
-        }
+        let mut shared = self.lock();
+        let owed = std::mem::take(&mut shared.owed);
+        fd::write_all_until(self.fd(), self.info.kind, &owed, deadline)?;
         fd::write_all_until(
-            self.fd.as_fd(),
+            self.fd(),
             self.info.kind,
             &rfc2217::purge_transmit(),
             deadline,
@@ -215,21 +337,38 @@ impl Sink {
         }
         wait_acknowledged(self.fd(), timeout)
     }
+}
 
-    /// Write the owed bytes that fit now; true when none are left.
-    fn flush_owed(&mut self) -> io::Result<bool> {
-        while !self.owed.is_empty() {
-            match fd::write_some(self.fd.as_fd(), self.info.kind, &self.owed) {
-                Ok(0) => return Ok(false),
-                Ok(n) => {
-                    self.owed.drain(..n.min(self.owed.len()));
+/// Write the owed bytes that fit now; true when none are left.
+fn flush_owed(fd: BorrowedFd<'_>, kind: FdKind, owed: &mut Vec<u8>) -> io::Result<bool> {
+    while !owed.is_empty() {
+        match fd::write_some(fd, kind, owed) {
+            Ok(0) => return Ok(false),
+            Ok(n) => {
+                owed.drain(..n.min(owed.len()));
+            }
+            Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+            Err(e) if e.kind() == io::ErrorKind::WouldBlock => return Ok(false),
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(true)
+}
+
+/// Take the lock if it comes free before `deadline`; past it, go on without.
+/// A poisoned lock is still a lock.
+fn lock_until<T>(lock: &Mutex<T>, deadline: Instant) -> Option<MutexGuard<'_, T>> {
+    loop {
+        match lock.try_lock() {
+            Ok(guard) => return Some(guard),
+            Err(TryLockError::Poisoned(p)) => return Some(p.into_inner()),
+            Err(TryLockError::WouldBlock) => {
+                if Instant::now() >= deadline {
+                    return None;
                 }
-                Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
-                Err(e) if e.kind() == io::ErrorKind::WouldBlock => return Ok(false),
-                Err(e) => return Err(e),
+                thread::sleep(Duration::from_micros(50));
             }
         }
-        Ok(true)
     }
 }
 
@@ -239,9 +378,8 @@ impl Drop for Sink {
             // Bounded; an error means the link is gone and nothing can be
             // waited for.
             let deadline = Instant::now() + CLOSE_LINGER;
-            if !self.owed.is_empty() {
-                let _ = fd::write_all_until(self.fd.as_fd(), self.info.kind, &self.owed, deadline);
-            }
+            let owed = std::mem::take(&mut self.lock().owed);
+            let _ = fd::write_all_until(self.fd(), self.info.kind, &owed, deadline);
             let _ = wait_acknowledged(self.fd(), CLOSE_LINGER);
             if self.graceful {
                 // The server has the last bytes; give it time to put them on
@@ -428,5 +566,51 @@ mod tests {
         sink.write_all_until(&[0xFD], Instant::now() + Duration::from_secs(1))
             .expect("a stop is not held back");
         drop(server);
+    }
+
+    #[test]
+    fn an_emergency_stop_completes_the_frame_another_sink_has_begun() {
+        let (client, mut server) = tcp_pair();
+        let fd = OwnedFd::from(client);
+        fd::set_nonblocking(fd.as_fd()).expect("nonblocking");
+        let writer = Sink::new(fd, LinkInfo::plain(FdKind::Socket), None);
+        let emergency = writer.try_clone().expect("clone");
+        let deadline = Instant::now() + Duration::from_secs(1);
+        // The writer has handed over the head of a line that must not be cut.
+        let line = b"@LX\r";
+        assert_eq!(
+            writer.write_part(Some(7), line, 1).expect("head"),
+            Taken::Bytes(1)
+        );
+        emergency.write_stop_now(b"\r@B\r", deadline).expect("stop");
+        // The line's rest went first; the writer learns it has nothing left.
+        assert_eq!(read_exactly(&mut server, 8), *b"@LX\r\r@B\r");
+        let rest = line.get(1..).unwrap_or_default();
+        assert_eq!(
+            writer.write_part(Some(7), rest, rest.len()).expect("rest"),
+            Taken::CompletedElsewhere
+        );
+        // A message that may be cut (isel) is not completed: the stop goes
+        // at once, and the writer writes its own rest.
+        assert_eq!(
+            writer.write_part(None, b"@0P\r", 2).expect("head"),
+            Taken::Bytes(2)
+        );
+        emergency.write_stop_now(&[0xFD], deadline).expect("stop");
+        assert_eq!(
+            writer.write_part(None, b"P\r", 2).expect("rest"),
+            Taken::Bytes(2)
+        );
+        assert_eq!(
+            read_exactly(&mut server, 5),
+            [b'@', b'0', 0xFD, b'P', b'\r']
+        );
+        // A frame written whole leaves nothing for a stop to complete.
+        assert_eq!(
+            writer.write_part(Some(8), line, 4).expect("whole"),
+            Taken::Bytes(4)
+        );
+        emergency.write_stop_now(b"\r@B\r", deadline).expect("stop");
+        assert_eq!(read_exactly(&mut server, 8), *b"@LX\r\r@B\r");
     }
 }

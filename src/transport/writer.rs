@@ -7,11 +7,22 @@
 //! "Timing decisions"). Everything it does is reported back on a channel, so
 //! the device task knows when a command has left and the traffic console sees
 //! the bytes as they went out.
+//!
+//! How much goes in one write (issue 18, `docs/performance.md`, "Whole
+//! commands"): a frame that must not be cut (an EMCU line, an EMP frame)
+//! whole, since a stop waits for its end anyway; any other message (isel)
+//! in chunks that keep at most the whole backlog (1.6 ms, three bytes at
+//! 19200 baud) ahead of the wire, so a stop overtakes it within that. A
+//! message sent while the thread is idle has its first write made from the
+//! caller's thread before `send` returns: a poll then costs no thread
+//! hand-over (an EMCU or EMP poll none at all, an isel `@0P` CR one, for
+//! its CR, with 1 ms to spare before the line would idle).
 
 use std::collections::VecDeque;
 use std::io;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::{self, RecvTimeoutError, TryRecvError};
+use std::sync::{Arc, Mutex, MutexGuard};
 use std::thread::{self, JoinHandle};
 use std::time::{Duration, Instant, SystemTime};
 
@@ -20,7 +31,7 @@ use tokio::sync::mpsc::{UnboundedReceiver, UnboundedSender, unbounded_channel};
 use super::error::TransportError;
 use super::fd;
 use super::pacing::{Pace, Pacer};
-use super::sink::Sink;
+use super::sink::{Sink, Taken};
 use crate::traffic::{Direction, TrafficRecord};
 use crate::wire::LineSettings;
 
@@ -106,6 +117,13 @@ pub struct WriterConfig {
     /// The same for [`Pace::Bulk`] messages (sent with
     /// [`PacedWriter::send_bulk`]).
     pub bulk_backlog: Duration,
+    /// Most not-yet-transmitted time the OS buffer may hold of a message
+    /// that may be cut (isel), written in as few writes as fit
+    /// ([`Pacer::chunk_allowance`]): `@0P` CR at 19200 baud goes as `@0P`
+    /// and, 0.5 ms later, CR, instead of one byte per writer wake-up, and
+    /// a late wake-up has 1 ms before the line idles. A stop waits for at
+    /// most this. Frames that must not be cut go whole regardless.
+    pub whole_backlog: Duration,
     /// Bound on waiting for stop bytes to drain from a terminal.
     pub drain_timeout: Duration,
 }
@@ -119,6 +137,12 @@ impl Default for WriterConfig {
             // 1000-line isel upload at 19200): 1 ms keeps 92–94 % of the
             // wire limit, 4 ms 98.6 %.
             bulk_backlog: Duration::from_millis(4),
+            // Three bytes at 19200 baud: a stop still reaches the wire
+            // within 2 ms at p99 (the first draft wrote `@0P` CR whole,
+            // 2.1 ms, and measured p99 2.06 ms: a stop asked for just
+            // after a command was written waits for all of it).
+            // docs/performance.md, "Whole commands".
+            whole_backlog: Duration::from_micros(1600),
             drain_timeout: Duration::from_millis(250),
         }
     }
@@ -126,6 +150,9 @@ impl Default for WriterConfig {
 
 enum Command {
     Send(Pending),
+    /// A message the handle has begun writing directly: its rest, from
+    /// the given offset, goes before anything sent later.
+    Resume(Pending, usize),
     Stop(Pending),
     Cancel,
     Shutdown,
@@ -145,14 +172,47 @@ struct Pending {
 pub struct PacedWriter {
     port: String,
     commands: mpsc::Sender<Command>,
+    line: Arc<Mutex<Line>>,
+    direct: Direct,
     next_id: AtomicU64,
     thread: Option<JoinHandle<()>>,
+}
+
+/// What the handle and the writer thread share. Whoever writes holds it
+/// for the write and the model's update.
+#[derive(Debug)]
+struct Line {
+    pacer: Pacer,
+    /// How the last message handed over whole may be cut: decides whether
+    /// the far end may drop what it still holds before a stop.
+    last_interleave: Option<Interleave>,
+    /// The thread has something to do (a message, a stop, a command on
+    /// the channel): a message sent now queues behind it. Set by the handle
+    /// as it hands the thread a command, cleared by the thread when it has
+    /// nothing left and the channel is empty, both under this lock.
+    busy: bool,
+}
+
+fn lock(line: &Mutex<Line>) -> MutexGuard<'_, Line> {
+    line.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+/// The handle's own way to the port: a message sent while the thread is
+/// idle and the line can take it whole is written at once from the
+/// caller's thread, instead of waking the writer thread to write it. On a
+/// request/reply poll that saves one thread hand-over per exchange (about
+/// 0.1-0.2 ms, issue 18: up to 4 % of an EMCU `@LX` exchange).
+#[derive(Debug)]
+struct Direct {
+    sink: Sink,
+    events: UnboundedSender<WriterEvent>,
 }
 
 impl std::fmt::Debug for Command {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             Command::Send(p) => write!(f, "Send({:?})", p.id),
+            Command::Resume(p, n) => write!(f, "Resume({:?}, {n})", p.id),
             Command::Stop(p) => write!(f, "Stop({:?})", p.id),
             Command::Cancel => f.write_str("Cancel"),
             Command::Shutdown => f.write_str("Shutdown"),
@@ -169,11 +229,25 @@ impl PacedWriter {
     ) -> Result<(Self, UnboundedReceiver<WriterEvent>), TransportError> {
         let (commands, command_rx) = mpsc::channel();
         let (events, event_rx) = unbounded_channel();
+        let shared = Arc::new(Mutex::new(Line {
+            pacer: Pacer::new(line, config.max_backlog)
+                .with_bulk_backlog(config.bulk_backlog)
+                .with_whole_backlog(config.whole_backlog),
+            last_interleave: None,
+            busy: false,
+        }));
+        let direct = Direct {
+            sink: sink.try_clone().map_err(|source| TransportError::Io {
+                port: port.clone(),
+                action: "duplicating the fd for direct writes",
+                source,
+            })?,
+            events: events.clone(),
+        };
         let worker = Worker {
             sink,
-            last_interleave: None,
+            line: shared.clone(),
             port: port.clone(),
-            pacer: Pacer::new(line, config.max_backlog).with_bulk_backlog(config.bulk_backlog),
             drain_timeout: config.drain_timeout,
             queue: VecDeque::new(),
             stops: VecDeque::new(),
@@ -194,6 +268,8 @@ impl PacedWriter {
             Self {
                 port,
                 commands,
+                line: shared,
+                direct,
                 next_id: AtomicU64::new(1),
                 thread: Some(thread),
             },
@@ -227,13 +303,76 @@ impl PacedWriter {
         pace: Pace,
     ) -> Result<MessageId, TransportError> {
         let id = self.id();
-        self.command(Command::Send(Pending {
+        let pending = Pending {
             id,
             bytes,
             interleave,
             pace,
-        }))?;
+        };
+        let mut line = lock(&self.line);
+        let pending = if line.busy {
+            Some((pending, 0))
+        } else {
+            self.write_directly(&mut line, pending)
+        };
+        if let Some((pending, written)) = pending {
+            line.busy = true;
+            // Sent under the lock: the thread cannot go idle between.
+            let command = if written == 0 {
+                Command::Send(pending)
+            } else {
+                Command::Resume(pending, written)
+            };
+            self.command(command)?;
+        }
         Ok(id)
+    }
+
+    /// The thread is idle: write what the line takes of `pending` now (a
+    /// frame that must not be cut whole, whenever a byte may go; any other
+    /// message as much as `Pacer::chunk_allowance` lets). What is left (the
+    /// rest, nothing fitted, an error: the thread meets it again and
+    /// reports it) goes to the thread, with how much was written.
+    fn write_directly(&self, line: &mut Line, pending: Pending) -> Option<(Pending, usize)> {
+        let now = Instant::now();
+        let len = pending.bytes.len();
+        let frame = (pending.interleave == Interleave::WholeMessage).then_some(pending.id.0);
+        let n = if frame.is_some() {
+            if line.pacer.allowance_for(pending.pace, now) > 0 {
+                len
+            } else {
+                0
+            }
+        } else {
+            line.pacer.chunk_allowance(pending.pace, now).min(len)
+        };
+        if n == 0 {
+            return Some((pending, 0));
+        }
+        let written = match self.direct.sink.write_part(frame, &pending.bytes, n) {
+            Ok(Taken::Bytes(w)) => w,
+            Ok(Taken::CompletedElsewhere) | Err(_) => 0,
+        };
+        if written == 0 {
+            return Some((pending, 0));
+        }
+        let at = Instant::now();
+        let (wire_start, wire_end) = line.pacer.wrote(written, at);
+        let done = written >= len;
+        if done {
+            line.last_interleave = Some(pending.interleave);
+        }
+        let _ = self.direct.events.send(WriterEvent::Written(WrittenChunk {
+            id: pending.id,
+            lane: Lane::Normal,
+            bytes: pending.bytes.get(..written).unwrap_or_default().to_vec(),
+            at,
+            wall: SystemTime::now(),
+            wire_start,
+            wire_end,
+            done,
+        }));
+        (!done).then_some((pending, written))
     }
 
     /// Write stop bytes ahead of everything queued: at once between two bytes
@@ -242,7 +381,7 @@ impl PacedWriter {
     /// drained (`tcdrain` on a terminal, bounded) before the report is sent.
     pub fn stop(&self, bytes: impl Into<Vec<u8>>) -> Result<MessageId, TransportError> {
         let id = self.id();
-        self.command(Command::Stop(Pending {
+        self.command_busy(Command::Stop(Pending {
             id,
             bytes: bytes.into(),
             interleave: Interleave::WholeMessage,
@@ -255,7 +394,7 @@ impl PacedWriter {
     /// [`WriterEvent::Cancelled`]. A message already partly written is
     /// finished, so the line never carries a truncated command or frame.
     pub fn cancel_queued(&self) -> Result<(), TransportError> {
-        self.command(Command::Cancel)
+        self.command_busy(Command::Cancel)
     }
 
     /// End the thread and wait for it: the stops handed over are written
@@ -269,6 +408,13 @@ impl PacedWriter {
         MessageId(self.next_id.fetch_add(1, Ordering::Relaxed))
     }
 
+    /// Hand the thread a command (the line marked busy first).
+    fn command_busy(&self, command: Command) -> Result<(), TransportError> {
+        let mut line = lock(&self.line);
+        line.busy = true;
+        self.command(command)
+    }
+
     fn command(&self, command: Command) -> Result<(), TransportError> {
         self.commands
             .send(command)
@@ -278,7 +424,7 @@ impl PacedWriter {
     }
 
     fn shut_down(&mut self) {
-        let _ = self.commands.send(Command::Shutdown);
+        let _ = self.command_busy(Command::Shutdown);
         if let Some(thread) = self.thread.take() {
             let _ = thread.join();
         }
@@ -296,14 +442,19 @@ struct Current {
     written: usize,
 }
 
+impl Current {
+    /// The sink's tag for a message that must not be cut (`Sink::write_part`).
+    fn frame(&self) -> Option<u64> {
+        (self.pending.interleave == Interleave::WholeMessage).then_some(self.pending.id.0)
+    }
+}
+
 struct Worker {
     /// The port's fd and what its link does to the bytes (`sink.rs`).
     sink: Sink,
-    /// How the last message handed over whole may be cut: decides whether
-    /// the far end may drop what it still holds before a stop.
-    last_interleave: Option<Interleave>,
+    /// The line's model, shared with the handle's direct writes.
+    line: Arc<Mutex<Line>>,
     port: String,
-    pacer: Pacer,
     drain_timeout: Duration,
     queue: VecDeque<Pending>,
     stops: VecDeque<Pending>,
@@ -317,6 +468,8 @@ struct Worker {
 enum Flow {
     Continue,
     Exit,
+    /// Nothing to do; the handle may write directly.
+    Idle,
 }
 
 impl Worker {
@@ -339,10 +492,14 @@ impl Worker {
                 return;
             }
             let received = match self.wake_at() {
-                None => self
-                    .commands
-                    .recv()
-                    .map_err(|_| RecvTimeoutError::Disconnected),
+                None => match self.go_idle() {
+                    Flow::Continue => continue,
+                    Flow::Exit => return,
+                    Flow::Idle => self
+                        .commands
+                        .recv()
+                        .map_err(|_| RecvTimeoutError::Disconnected),
+                },
                 Some(at) => self
                     .commands
                     .recv_timeout(at.saturating_duration_since(Instant::now())),
@@ -359,9 +516,37 @@ impl Worker {
         }
     }
 
+    /// Nothing to do: let the handle write directly ([`Flow::Idle`]),
+    /// unless a command came meanwhile (it is taken; the thread goes on).
+    /// Under the line's lock, which the handle holds while it sends
+    /// commands.
+    fn go_idle(&mut self) -> Flow {
+        let mut line = lock(&self.line);
+        match self.commands.try_recv() {
+            Ok(command) => {
+                drop(line);
+                self.accept(command)
+            }
+            Err(TryRecvError::Empty) => {
+                line.busy = false;
+                Flow::Idle
+            }
+            Err(TryRecvError::Disconnected) => Flow::Exit,
+        }
+    }
+
     fn accept(&mut self, command: Command) -> Flow {
         match command {
             Command::Send(p) => self.queue.push_back(p),
+            // The thread was idle when the handle began it: nothing is
+            // current or queued ahead of it.
+            Command::Resume(pending, written) => match self.current.take() {
+                None => self.current = Some(Current { pending, written }),
+                Some(other) => {
+                    self.queue.push_front(other.pending);
+                    self.current = Some(Current { pending, written });
+                }
+            },
             Command::Stop(p) => self.stops.push_back(p),
             Command::Cancel => {
                 for p in std::mem::take(&mut self.queue) {
@@ -418,13 +603,17 @@ impl Worker {
             return None;
         }
         let now = Instant::now();
-        let pace = self
+        let head = self
             .current
             .as_ref()
             .map(|c| &c.pending)
-            .or(self.queue.front())
-            .map_or(Pace::Tight, |p| p.pace);
-        let ready = self.pacer.ready_at_for(pace, now);
+            .or(self.queue.front());
+        let pace = head.map_or(Pace::Tight, |p| p.pace);
+        let line = lock(&self.line);
+        let ready = match head.map(|p| p.interleave) {
+            Some(Interleave::BetweenBytes) => line.pacer.chunk_ready_at(pace, now),
+            _ => line.pacer.ready_at_for(pace, now),
+        };
         Some(self.blocked_until.map_or(ready, |b| b.max(ready)))
     }
 
@@ -475,36 +664,48 @@ impl Worker {
             self.report_chunk(id, Lane::Normal, Vec::new(), now, true);
             return Ok(true);
         }
-        let n = self
-            .pacer
-            .allowance_for(cur.pending.pace, now)
-            .min(rest.len());
+        let pace = cur.pending.pace;
+        let frame = cur.frame();
+        // A frame that must not be cut goes in one write once a byte may go:
+        // a stop waits for its end anyway. Any other message goes in chunks
+        // of the whole backlog.
+        let n = {
+            let line = lock(&self.line);
+            match frame {
+                Some(_) if line.pacer.allowance_for(pace, now) > 0 => rest.len(),
+                Some(_) => 0,
+                None => line.pacer.chunk_allowance(pace, now).min(rest.len()),
+            }
+        };
         if n == 0 {
             return Ok(false);
         }
-        let chunk = rest.get(..n).unwrap_or_default();
-        match self.sink.write_some(chunk) {
-            Ok(0) => {
-                self.blocked_until = Some(now + self.pacer.byte_time());
+        match self.sink.write_part(frame, rest, n) {
+            Ok(Taken::Bytes(0)) => {
+                self.blocked_until = Some(now + lock(&self.line).pacer.byte_time());
                 Ok(false)
             }
-            Ok(w) => {
+            Ok(Taken::Bytes(w)) => {
                 self.blocked_until = None;
-                let bytes = chunk.get(..w).unwrap_or_default().to_vec();
+                let bytes = rest.get(..w).unwrap_or_default().to_vec();
                 let id = cur.pending.id;
                 cur.written += w;
                 let done = cur.written >= cur.pending.bytes.len();
                 if done {
-                    self.last_interleave = Some(cur.pending.interleave);
+                    lock(&self.line).last_interleave = Some(cur.pending.interleave);
                     self.current = None;
                 }
                 let at = Instant::now();
-                let (wire_start, wire_end) = self.pacer.wrote(w, at);
+                let (wire_start, wire_end) = lock(&self.line).pacer.wrote(w, at);
                 self.send_chunk(id, Lane::Normal, bytes, at, wire_start, wire_end, done);
                 Ok(done)
             }
+            Ok(Taken::CompletedElsewhere) => {
+                self.completed_elsewhere();
+                Ok(true)
+            }
             Err(e) if e.kind() == io::ErrorKind::WouldBlock => {
-                self.blocked_until = Some(now + self.pacer.byte_time());
+                self.blocked_until = Some(now + lock(&self.line).pacer.byte_time());
                 Ok(false)
             }
             Err(e) if e.kind() == io::ErrorKind::Interrupted => Ok(false),
@@ -512,13 +713,36 @@ impl Worker {
         }
     }
 
+    /// The emergency handle wrote the rest of the current frame ahead of
+    /// its stop: report it written (the device task counts on every
+    /// message's end) and go on with the next.
+    fn completed_elsewhere(&mut self) {
+        let Some(cur) = self.current.take() else {
+            return;
+        };
+        let rest = cur.pending.bytes.get(cur.written..).unwrap_or_default();
+        lock(&self.line).last_interleave = Some(cur.pending.interleave);
+        let at = Instant::now();
+        let (wire_start, wire_end) = lock(&self.line).pacer.wrote(rest.len(), at);
+        self.send_chunk(
+            cur.pending.id,
+            Lane::Normal,
+            rest.to_vec(),
+            at,
+            wire_start,
+            wire_end,
+            true,
+        );
+    }
+
     fn finish_current_at_once(&mut self) -> Result<(), TransportError> {
         let Some(cur) = self.current.take() else {
             return Ok(());
         };
         let rest = cur.pending.bytes.get(cur.written..).unwrap_or_default();
-        self.last_interleave = Some(cur.pending.interleave);
-        self.write_whole(cur.pending.id, Lane::Normal, rest)
+        let frame = cur.frame();
+        lock(&self.line).last_interleave = Some(cur.pending.interleave);
+        self.write_whole(cur.pending.id, frame, Lane::Normal, rest)
     }
 
     /// Before a stop, ask the far end to drop what it has not yet put on
@@ -532,7 +756,7 @@ impl Worker {
     /// is no reason to hold the stop back.
     fn discard_remote_queue(&mut self) -> Result<(), TransportError> {
         if self.current.is_some()
-            || self.last_interleave != Some(Interleave::BetweenBytes)
+            || lock(&self.line).last_interleave != Some(Interleave::BetweenBytes)
             || !self.sink.can_discard()
         {
             return Ok(());
@@ -546,7 +770,7 @@ impl Worker {
     }
 
     fn write_stop(&mut self, stop: Pending) -> Result<(), TransportError> {
-        self.write_whole(stop.id, Lane::Stop, &stop.bytes)?;
+        self.write_whole(stop.id, None, Lane::Stop, &stop.bytes)?;
         if self.sink.is_tty() {
             // To be sure a stop has left: write_all, then tcdrain
             // (`../shared/field-notes.md`, "Serial ports").
@@ -567,11 +791,13 @@ impl Worker {
     fn write_whole(
         &mut self,
         id: MessageId,
+        frame: Option<u64>,
         lane: Lane,
         bytes: &[u8],
     ) -> Result<(), TransportError> {
         let deadline = Instant::now() + self.drain_timeout;
-        self.sink.write_all_until(bytes, deadline).map_err(|e| {
+        let taken = self.sink.write_rest_until(frame, bytes, deadline);
+        taken.map_err(|e| {
             if e.kind() == io::ErrorKind::TimedOut {
                 TransportError::DrainTimeout {
                     port: self.port.clone(),
@@ -582,13 +808,13 @@ impl Worker {
             }
         })?;
         let at = Instant::now();
-        let (wire_start, wire_end) = self.pacer.wrote(bytes.len(), at);
+        let (wire_start, wire_end) = lock(&self.line).pacer.wrote(bytes.len(), at);
         self.send_chunk(id, lane, bytes.to_vec(), at, wire_start, wire_end, true);
         Ok(())
     }
 
     fn report_chunk(&self, id: MessageId, lane: Lane, bytes: Vec<u8>, at: Instant, done: bool) {
-        let wire = self.pacer.wire_free_at(at);
+        let wire = lock(&self.line).pacer.wire_free_at(at);
         self.send_chunk(id, lane, bytes, at, wire, wire, done);
     }
 

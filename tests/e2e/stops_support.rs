@@ -109,8 +109,20 @@ pub fn assert_stands(sim: &mut SimProcess) -> String {
     let first = sim.wait_device("at rest", |d| !moving(family, d));
     thread::sleep(STANDS_FOR);
     let second = sim.device_state();
-    assert_eq!(first, second, "the axes moved on after the stop");
+    // The EMP simulator's counters of dropped frames are no motion: the
+    // emergency stop's leading EOF is one when nothing was cut
+    // (docs/protocols.md, EMP), and was once counted after the drive stood
+    // (seen under load: `dropped: 2 framing` then `3`).
+    assert_eq!(
+        without_counters(&first),
+        without_counters(&second),
+        "the axes moved on after the stop"
+    );
     second
+}
+
+fn without_counters(state: &str) -> &str {
+    state.split(" | dropped:").next().unwrap_or(state)
 }
 
 /// The X (or EMP: the drive's) position in steps of a state line: isel
