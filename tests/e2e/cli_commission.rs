@@ -189,15 +189,9 @@ fn the_walk_test_finds_a_swapped_wire_times_the_estop_and_writes_its_report() {
     for line in received.split("<CR>").filter(|l| !l.is_empty()) {
         let command = line;
         let moves_nothing = command.is_empty()
-            || command == "@0P"
-            // Test mode off, at every connect (docs/device.md).
-            || command == "@0T0"
-            || command.starts_with("@0b")
+            || sim_process::isel_reads_or_moves_nothing(command)
             || command == "@0B2,1"
-            || command == "@0B2,0"
-            || command
-                .strip_prefix("@0A")
-                .is_some_and(|p| p.split(',').step_by(2).all(|steps| steps.trim() == "0"));
+            || command == "@0B2,0";
         assert!(moves_nothing, "commission sent {command:?}: {received}");
     }
     sim.assert_alive();

@@ -164,25 +164,10 @@ fn a_one_second_pulse_of_limit_x1_is_one_second_within_one_window() {
         let command = line.replace("<FD>", "").replace("<FF>", "");
         let command = command.as_str();
         assert!(
-            command.is_empty() || reads_or_moves_nothing(command),
+            command.is_empty() || sim_process::isel_reads_or_moves_nothing(command),
             "watch sent {command:?}: {received}"
         );
     }
-}
-
-/// A read (`@0P`, `@0b`), or the read-back's reference probe: a relative
-/// move of zero steps on every axis (`docs/protocols.md`, isel).
-fn reads_or_moves_nothing(command: &str) -> bool {
-    // `@0T0`: test mode off, at every connect (docs/device.md).
-    if command == "@0P" || command == "@0T0" || command.starts_with("@0b") {
-        return true;
-    }
-    command.strip_prefix("@0A").is_some_and(|params| {
-        params
-            .split(',')
-            .step_by(2)
-            .all(|steps| steps.trim() == "0")
-    })
 }
 
 /// The default profile with a chatter window long enough that the flips

@@ -36,6 +36,22 @@ pub fn wait_child(mut child: Child, what: &str) -> Output {
 }
 
 /// Whether a process' output carries a Rust panic message.
+/// The isel commands a reading session sends, none of which moves an axis:
+/// reads (`@0P`, `@0b`), test mode off at every connect (`@0T0`,
+/// docs/device.md) and the read-back's reference probe, a relative move of
+/// zero steps on every axis (`docs/protocols.md`, isel).
+pub fn isel_reads_or_moves_nothing(command: &str) -> bool {
+    if command == "@0P" || command == "@0T0" || command.starts_with("@0b") {
+        return true;
+    }
+    command.strip_prefix("@0A").is_some_and(|params| {
+        params
+            .split(',')
+            .step_by(2)
+            .all(|steps| steps.trim() == "0")
+    })
+}
+
 pub fn contains_panic(output: &[u8]) -> bool {
     output.windows(b"panicked".len()).any(|w| w == b"panicked")
 }
