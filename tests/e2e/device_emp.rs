@@ -13,7 +13,7 @@ use jogterm::device::api::{
     Activity, Dir, Event, Frame, JogId, LinkState, PerAxis, PositionSource, Request,
 };
 use jogterm::device::emp::{EmpDriver, EmpSettings};
-use jogterm::device::{Connector, DeviceHandle, EventReceiver, TaskOptions, spawn_with};
+use jogterm::device::{Connector, TaskOptions, spawn_with};
 use jogterm::proto::Protocol;
 use jogterm::proto::emp::Speed;
 use jogterm::sim::InputControl;
@@ -22,6 +22,8 @@ use jogterm::sim::registry;
 use jogterm::sim::shell::{PtyOptions, Shell, serve_pty, serve_socket};
 use jogterm::traffic::{Direction, readable};
 use jogterm::transport::PortSpec;
+
+use crate::device_support::Rig;
 
 fn profile() -> Profile {
     load_profile("emp", &ConfigDirs::builtin_only()).expect("emp profile")
@@ -35,13 +37,6 @@ fn settings() -> EmpSettings {
     s.home_fast = Speed::new(127).expect("speed");
     s.home_slow = Speed::new(32).expect("speed");
     s
-}
-
-struct Rig {
-    shell: Shell,
-    handle: DeviceHandle,
-    events: EventReceiver,
-    seen: Vec<Event>,
 }
 
 fn rig(connector: Connector, shell: Shell) -> Rig {
@@ -87,30 +82,6 @@ fn pty_rig(link: &Path) -> Rig {
 }
 
 impl Rig {
-    async fn wait_for(
-        &mut self,
-        what: &str,
-        within: Duration,
-        pred: impl Fn(&Event) -> bool,
-    ) -> Event {
-        let deadline = tokio::time::Instant::now() + within;
-        loop {
-            match tokio::time::timeout_at(deadline, self.events.recv()).await {
-                Ok(Some(e)) => {
-                    self.seen.push(e.clone());
-                    if pred(&e) {
-                        return e;
-                    }
-                }
-                Ok(None) => panic!("the device task ended while waiting for {what}"),
-                Err(_) => panic!(
-                    "no {what} within {within:?}; seen: {:#?}",
-                    self.seen.iter().rev().take(30).collect::<Vec<_>>()
-                ),
-            }
-        }
-    }
-
     async fn state(
         &mut self,
         what: &str,
@@ -121,30 +92,9 @@ impl Rig {
             .await;
     }
 
-    /// Collect events for a while.
-    async fn run_for(&mut self, d: Duration) {
-        let deadline = tokio::time::Instant::now() + d;
-        while let Ok(Some(e)) = tokio::time::timeout_at(deadline, self.events.recv()).await {
-            self.seen.push(e);
-        }
-    }
-
-    fn request(&self, r: Request) {
-        self.handle.request(r).expect("request taken");
-    }
-
-    async fn read_back(&mut self) {
-        self.wait_for(
-            "the read-back",
-            Duration::from_secs(5),
-            |e| matches!(e, Event::Notice(n) if n.starts_with("state read back")),
-        )
-        .await;
-    }
-
     /// Switched on and referenced.
-    async fn ready(&mut self) {
-        self.read_back().await;
+    async fn emp_ready(&mut self) {
+        self.connected().await;
         self.request(Request::Initialise);
         self.state("initialised", Duration::from_secs(5), |s| {
             s.initialised.contains(Axis::X)
@@ -180,7 +130,7 @@ fn x(e: &Event) -> Option<i64> {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn switch_on_home_move_read_positions_and_io_then_stop() {
     let mut rig = socket_rig();
-    rig.ready().await;
+    rig.emp_ready().await;
     rig.request(Request::MoveTo {
         target: PerAxis::new().with(Axis::X, 1_000_000),
         frame: Frame::Machine,
@@ -232,7 +182,7 @@ async fn a_lost_line_is_reconnected_stopped_and_read_back_without_resuming_the_j
     let dir = tempfile::tempdir().expect("temp dir");
     let link = dir.path().join("emp");
     let mut rig = pty_rig(&link);
-    rig.ready().await;
+    rig.emp_ready().await;
     rig.request(Request::Jog {
         id: JogId(1),
         axes: vec![(Axis::X, Dir::Plus)],
@@ -259,7 +209,7 @@ async fn a_lost_line_is_reconnected_stopped_and_read_back_without_resuming_the_j
         matches!(e, Event::Link(LinkState::Connected))
     })
     .await;
-    rig.read_back().await;
+    rig.connected().await;
     let after = rig.sent_since(before);
     assert_eq!(
         after.first().map(String::as_str),
