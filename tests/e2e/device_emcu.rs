@@ -10,7 +10,7 @@ use std::time::Duration;
 use device_support::{Rig, pty_rig_for};
 use jogterm::axis::{Axis, AxisSet};
 use jogterm::config::{ConfigDirs, Profile, load_profile};
-use jogterm::device::api::{Activity, Event, Frame, LinkState, PerAxis, PositionSource, Request};
+use jogterm::device::api::{Activity, Event, Frame, PerAxis, PositionSource, Request};
 use jogterm::device::common::PollRate;
 use jogterm::device::emcu::{EmcuDriver, EmcuSettings, output_id};
 use jogterm::proto::emcu::Output;
@@ -219,22 +219,7 @@ async fn a_line_closed_mid_move_is_reconnected_halted_and_read_back() {
         |e| matches!(e, Event::Position(p) if p.steps.get(Axis::X).is_some_and(|x| x > 100)),
     )
     .await;
-    rig.shell
-        .control()
-        .fault(Fault::Close {
-            reopen_after: Some(Duration::from_millis(300)),
-        })
-        .expect("close");
-    rig.wait_for("the loss", secs(5), |e| {
-        matches!(e, Event::Link(LinkState::Lost { .. }))
-    })
-    .await;
-    let before = rig.seen.len();
-    rig.wait_for("the reconnect", secs(10), |e| {
-        matches!(e, Event::Link(LinkState::Connected))
-    })
-    .await;
-    rig.connected().await;
+    let before = rig.close_and_reconnect().await;
     let after = sent_after(&rig, before);
     assert_eq!(
         after.first().map(String::as_str),

@@ -9,7 +9,6 @@ use device_support::{pty_rig, settings};
 use jogterm::axis::Axis;
 use jogterm::device::api::{Event, LinkState, PerAxis, PositionSource, Request};
 use jogterm::device::isel::PollRate;
-use jogterm::sim::fault::Fault;
 
 fn secs(n: u64) -> Duration {
     Duration::from_secs(n)
@@ -47,22 +46,7 @@ async fn a_lost_line_is_reconnected_stopped_and_read_back_without_repeating_the_
         |e| matches!(e, Event::Position(p) if p.source == PositionSource::Estimated),
     )
     .await;
-    rig.shell
-        .control()
-        .fault(Fault::Close {
-            reopen_after: Some(Duration::from_millis(300)),
-        })
-        .expect("close");
-    rig.wait_for("the loss", secs(5), |e| {
-        matches!(e, Event::Link(LinkState::Lost { .. }))
-    })
-    .await;
-    let before = rig.seen.len();
-    rig.wait_for("the reconnect", secs(10), |e| {
-        matches!(e, Event::Link(LinkState::Connected))
-    })
-    .await;
-    rig.connected().await;
+    let before = rig.close_and_reconnect().await;
     let end = rig
         .wait_for(
             "a measured position",

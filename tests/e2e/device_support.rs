@@ -9,6 +9,7 @@ use jogterm::device::driver::Driver;
 use jogterm::device::isel::{IselDriver, IselSettings, PollRate};
 use jogterm::device::{Connector, DeviceHandle, EventReceiver, TaskOptions, spawn_with};
 use jogterm::proto::Protocol;
+use jogterm::sim::fault::Fault;
 use jogterm::sim::registry;
 use jogterm::sim::shell::{PtyOptions, Shell, serve_pty, serve_socket};
 use jogterm::traffic::Direction;
@@ -131,6 +132,29 @@ impl Rig {
             |e| matches!(e, Event::Notice(n) if n.starts_with("state read back")),
         )
         .await;
+    }
+
+    /// The line closes under the task (reopened 300 ms later): the loss,
+    /// the reconnect and its read-back. The number of events seen before
+    /// the reconnect, so that what was sent after it can be told apart.
+    pub async fn close_and_reconnect(&mut self) -> usize {
+        self.shell
+            .control()
+            .fault(Fault::Close {
+                reopen_after: Some(Duration::from_millis(300)),
+            })
+            .expect("close");
+        self.wait_for("the loss", Duration::from_secs(5), |e| {
+            matches!(e, Event::Link(LinkState::Lost { .. }))
+        })
+        .await;
+        let before = self.seen.len();
+        self.wait_for("the reconnect", Duration::from_secs(10), |e| {
+            matches!(e, Event::Link(LinkState::Connected))
+        })
+        .await;
+        self.connected().await;
+        before
     }
 
     pub fn request(&self, r: Request) {
