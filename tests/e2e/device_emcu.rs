@@ -15,7 +15,6 @@ use jogterm::device::common::PollRate;
 use jogterm::device::emcu::{EmcuDriver, EmcuSettings, output_id};
 use jogterm::proto::emcu::Output;
 use jogterm::sim::fault::{ByteIndex, Fault};
-use jogterm::traffic::Direction;
 
 fn secs(n: u64) -> Duration {
     Duration::from_secs(n)
@@ -54,18 +53,6 @@ async fn homed(rig: &mut Rig) {
     .await;
 }
 
-fn sent_after(rig: &Rig, from: usize) -> Vec<String> {
-    rig.seen[from..]
-        .iter()
-        .filter_map(|e| match e {
-            Event::Traffic(r) if r.direction == Direction::Sent => {
-                Some(jogterm::traffic::readable(&r.bytes))
-            }
-            _ => None,
-        })
-        .collect()
-}
-
 fn is_move(sent: &str) -> bool {
     sent.starts_with('L') || sent.starts_with("$H") || sent.starts_with("@J")
 }
@@ -75,7 +62,8 @@ async fn home_move_read_during_the_move_switch_and_stop() {
     let dir = tempfile::tempdir().expect("temp dir");
     let mut rig = rig(&dir.path().join("emcu"));
     homed(&mut rig).await;
-    let homes: Vec<String> = sent_after(&rig, 0)
+    let homes: Vec<String> = rig
+        .sent_since(0)
         .into_iter()
         .filter(|s| s.starts_with("$H"))
         .collect();
@@ -196,7 +184,8 @@ async fn a_corrupted_or_withheld_answer_costs_no_motion_and_no_hang() {
         |e| matches!(e, Event::Position(p) if p.source == PositionSource::Measured),
     )
     .await;
-    let moves: Vec<String> = sent_after(&rig, from)
+    let moves: Vec<String> = rig
+        .sent_since(from)
         .into_iter()
         .filter(|s| s.starts_with('L'))
         .collect();
@@ -220,7 +209,7 @@ async fn a_line_closed_mid_move_is_reconnected_halted_and_read_back() {
     )
     .await;
     let before = rig.close_and_reconnect().await;
-    let after = sent_after(&rig, before);
+    let after = rig.sent_since(before);
     assert_eq!(
         after.first().map(String::as_str),
         Some("<CR>@B<CR>"),

@@ -9,18 +9,14 @@ use std::time::Duration;
 
 use jogterm::axis::{Axis, AxisSet};
 use jogterm::config::{ConfigDirs, Profile, load_profile};
-use jogterm::device::api::{
-    Activity, Dir, Event, Frame, JogId, LinkState, PerAxis, PositionSource, Request,
-};
+use jogterm::device::api::{Activity, Dir, Event, Frame, JogId, PerAxis, PositionSource, Request};
 use jogterm::device::emp::{EmpDriver, EmpSettings};
 use jogterm::device::{Connector, TaskOptions, spawn_with};
 use jogterm::proto::Protocol;
 use jogterm::proto::emp::Speed;
 use jogterm::sim::InputControl;
-use jogterm::sim::fault::Fault;
 use jogterm::sim::registry;
 use jogterm::sim::shell::{PtyOptions, Shell, serve_pty, serve_socket};
-use jogterm::traffic::{Direction, readable};
 use jogterm::transport::PortSpec;
 
 use crate::device_support::Rig;
@@ -108,16 +104,6 @@ impl Rig {
         })
         .await;
     }
-
-    fn sent_since(&self, from: usize) -> Vec<String> {
-        self.seen[from..]
-            .iter()
-            .filter_map(|e| match e {
-                Event::Traffic(r) if r.direction == Direction::Sent => Some(readable(&r.bytes)),
-                _ => None,
-            })
-            .collect()
-    }
 }
 
 fn x(e: &Event) -> Option<i64> {
@@ -194,22 +180,7 @@ async fn a_lost_line_is_reconnected_stopped_and_read_back_without_resuming_the_j
     })
     .await;
     tokio::time::sleep(Duration::from_millis(300)).await;
-    rig.shell
-        .control()
-        .fault(Fault::Close {
-            reopen_after: Some(Duration::from_millis(300)),
-        })
-        .expect("close");
-    rig.wait_for("the loss", Duration::from_secs(5), |e| {
-        matches!(e, Event::Link(LinkState::Lost { .. }))
-    })
-    .await;
-    let before = rig.seen.len();
-    rig.wait_for("the reconnect", Duration::from_secs(10), |e| {
-        matches!(e, Event::Link(LinkState::Connected))
-    })
-    .await;
-    rig.connected().await;
+    let before = rig.close_and_reconnect().await;
     let after = rig.sent_since(before);
     assert_eq!(
         after.first().map(String::as_str),

@@ -178,15 +178,12 @@ impl Rig {
 
     /// What jogterm sent, as text, in order.
     pub fn sent(&self) -> Vec<String> {
-        self.seen
-            .iter()
-            .filter_map(|e| match e {
-                Event::Traffic(r) if r.direction == Direction::Sent => {
-                    Some(jogterm::traffic::readable(&r.bytes))
-                }
-                _ => None,
-            })
-            .collect()
+        sent_after(&self.seen, 0)
+    }
+
+    /// What jogterm sent after the first `from` events seen.
+    pub fn sent_since(&self, from: usize) -> Vec<String> {
+        sent_after(&self.seen, from)
     }
 
     pub fn link_states(&self) -> Vec<LinkState> {
@@ -198,4 +195,17 @@ impl Rig {
             })
             .collect()
     }
+}
+
+/// The device task's sent traffic among `seen` from `from` on, readable.
+pub fn sent_after(seen: &[Event], from: usize) -> Vec<String> {
+    seen[from..]
+        .iter()
+        .filter_map(|e| match e {
+            Event::Traffic(r) if r.direction == Direction::Sent => {
+                Some(jogterm::traffic::readable(&r.bytes))
+            }
+            _ => None,
+        })
+        .collect()
 }

@@ -19,7 +19,7 @@ use jogterm::proto::Protocol;
 use jogterm::sim::fault::Fault;
 use jogterm::sim::registry;
 use jogterm::sim::shell::{PtyOptions, serve_pty, serve_tcp};
-use jogterm::traffic::{Direction, readable};
+use jogterm::traffic::Direction;
 use jogterm::transport::rfc2217::{PURGE_DATA, SET_BAUDRATE, purge_transmit};
 use jogterm::transport::telnet::{self, Command, DO, IAC, OPT_BINARY, OPT_COM_PORT, WILL};
 use jogterm::transport::{self, Interleave, NetOptions, PortSpec, WriterConfig, WriterEvent};
@@ -281,17 +281,6 @@ fn a_server_that_sets_another_baud_rate_is_refused_with_why() {
     assert!(err.to_string().contains("9600 baud, not 19200"), "{err}");
 }
 
-/// The device task's sent traffic from `from` on, readable.
-fn sent_after(seen: &[Event], from: usize) -> Vec<String> {
-    seen[from..]
-        .iter()
-        .filter_map(|e| match e {
-            Event::Traffic(r) if r.direction == Direction::Sent => Some(readable(&r.bytes)),
-            _ => None,
-        })
-        .collect()
-}
-
 async fn wait_event(
     events: &mut jogterm::device::EventReceiver,
     seen: &mut Vec<Event>,
@@ -346,7 +335,7 @@ async fn reconnects_with_the_stop_first(connector: Connector, shell: &jogterm::s
         |e| matches!(e, Event::Traffic(r) if r.direction == Direction::Sent),
     )
     .await;
-    let after = sent_after(&seen, from);
+    let after = device_support::sent_after(&seen, from);
     assert_eq!(
         after.first().map(String::as_str),
         Some("<FD><FF>"),
