@@ -7,16 +7,12 @@
 
 use crate::ui_support;
 
-use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use crossterm::event::{KeyCode, KeyEvent, KeyEventKind, KeyEventState, KeyModifiers};
 use jogterm::device::api::{CheckoutEnd, Event, Request};
-use jogterm::program::store::Fingerprint;
-use jogterm::proto::Protocol;
-use jogterm::ui::editor::io::{EditorIo, EditorMsg, perform};
 use jogterm::ui::{Effect, Model, Msg, update};
-use ui_support::{SIZES, State, model_in, render, text};
+use ui_support::{SIZES, carry_out, render, text};
 
 const PROGRAM: &str = "; check-out\n\
     0 8000,2000,0,2000,0,2000,0,2000\n\
@@ -30,53 +26,6 @@ fn key_at(code: KeyCode, kind: KeyEventKind) -> Msg {
         kind,
         state: KeyEventState::NONE,
     })
-}
-
-fn carry_out(m: &mut Model, effects: Vec<Effect>) -> Vec<Effect> {
-    let mut rest = Vec::new();
-    for effect in effects {
-        match effect {
-            Effect::Editor(io) => {
-                let msg = match io {
-                    EditorIo::Lint(job) => EditorMsg::Linted(Box::new(job.run())),
-                    other => perform(other),
-                };
-                let more = update(m, Msg::Editor(msg));
-                rest.extend(carry_out(m, more));
-            }
-            other => rest.push(other),
-        }
-    }
-    rest
-}
-
-/// A ready isel machine, `PROGRAM` in the editor, the program screen shown.
-fn editing(t0: Instant) -> Model {
-    let mut m = model_in(Protocol::Isel, "dark", State::Idle, t0);
-    let loaded = jogterm::program::store::Loaded {
-        path: PathBuf::from("/work/part.isel"),
-        text: PROGRAM.to_string(),
-        fingerprint: Fingerprint::of(PROGRAM.as_bytes()),
-        lossy: false,
-    };
-    update(
-        &mut m,
-        Msg::Editor(EditorMsg::Open("/work/part.isel".into())),
-    );
-    let effects = update(
-        &mut m,
-        Msg::Editor(EditorMsg::Loaded {
-            path: "/work/part.isel".into(),
-            result: Ok(Some(loaded)),
-            recovery: None,
-        }),
-    );
-    carry_out(&mut m, effects);
-    for i in 1..=5 {
-        let effects = update(&mut m, Msg::Tick(t0 + Duration::from_secs(3 + i)));
-        carry_out(&mut m, effects);
-    }
-    m
 }
 
 fn press(m: &mut Model, code: KeyCode, at: Instant) -> Vec<Effect> {
@@ -143,4 +92,9 @@ fn a_paused_check_out_is_shown_with_its_line_and_space_stops_it() {
         "{effects:?}"
     );
     assert!(m.editor.checkout.is_none());
+}
+
+/// A ready isel machine, `PROGRAM` in the editor, the program screen shown.
+fn editing(t0: Instant) -> Model {
+    ui_support::editing_isel(PROGRAM, t0)
 }

@@ -9,7 +9,7 @@
 use crate::ui_support;
 
 use std::path::PathBuf;
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
 use jogterm::axis::Axis;
@@ -19,11 +19,11 @@ use jogterm::device::api::{
 };
 use jogterm::program::store::Fingerprint;
 use jogterm::proto::Protocol;
-use jogterm::ui::editor::io::{EditorIo, EditorMsg, perform};
+use jogterm::ui::editor::io::{EditorIo, EditorMsg};
 use jogterm::ui::editor::upload::Phase;
 use jogterm::ui::model::{PanelId, Popup};
 use jogterm::ui::{Effect, Model, Msg, update};
-use ui_support::{SIZES, State, model_in, render, text};
+use ui_support::{SIZES, State, carry_out, model_in, render, text};
 
 /// Three comments, a blank line and five commands; `m` on line 7 has too
 /// few pairs for XYZ.
@@ -55,56 +55,6 @@ fn key(code: KeyCode) -> Msg {
 
 fn ctrl(c: char) -> Msg {
     Msg::Key(KeyEvent::new(KeyCode::Char(c), KeyModifiers::CONTROL))
-}
-
-/// The model of a ready isel machine with `program` loaded in the editor.
-fn editing(program: &str) -> Model {
-    let t0 = Instant::now();
-    let mut m = model_in(Protocol::Isel, "dark", State::Idle, t0);
-    let loaded = jogterm::program::store::Loaded {
-        path: PathBuf::from("/work/part.isel"),
-        text: program.to_string(),
-        fingerprint: Fingerprint::of(program.as_bytes()),
-        lossy: false,
-    };
-    update(
-        &mut m,
-        Msg::Editor(EditorMsg::Open("/work/part.isel".into())),
-    );
-    let effects = update(
-        &mut m,
-        Msg::Editor(EditorMsg::Loaded {
-            path: "/work/part.isel".into(),
-            result: Ok(Some(loaded)),
-            recovery: None,
-        }),
-    );
-    carry_out(&mut m, effects);
-    settle(&mut m, t0);
-    m
-}
-
-/// Do what the runtime does with the editor's effects (no files here: the
-/// only file effects are recovery writes, which have no store in tests).
-fn carry_out(m: &mut Model, effects: Vec<Effect>) {
-    for effect in effects {
-        if let Effect::Editor(io) = effect {
-            let msg = match io {
-                EditorIo::Lint(job) => EditorMsg::Linted(Box::new(job.run())),
-                other => perform(other),
-            };
-            let more = update(m, Msg::Editor(msg));
-            carry_out(m, more);
-        }
-    }
-}
-
-/// Let time pass until the lint has run on the text as it is.
-fn settle(m: &mut Model, t0: Instant) {
-    for i in 1..=5 {
-        let effects = update(m, Msg::Tick(t0 + Duration::from_secs(3 + i)));
-        carry_out(m, effects);
-    }
 }
 
 fn screen(m: &Model, w: u16, h: u16) -> String {
@@ -460,4 +410,9 @@ fn ctrl_o_takes_an_absolute_path_typed_after_the_folder_and_says_when_nothing_is
         "{}",
         note.text
     );
+}
+
+/// The model of a ready isel machine with `program` loaded in the editor.
+fn editing(program: &str) -> Model {
+    ui_support::editing_isel(program, Instant::now())
 }

@@ -513,3 +513,62 @@ pub fn find(buf: &Buffer, needle: &str) -> Vec<(u16, u16)> {
     }
     hits
 }
+
+/// Carry out the editor's file and lint effects at once (in memory, the
+/// lint on this thread) and feed their answers back; the other effects are
+/// returned in order.
+pub fn carry_out(m: &mut Model, effects: Vec<jogterm::ui::Effect>) -> Vec<jogterm::ui::Effect> {
+    use jogterm::ui::Effect;
+    use jogterm::ui::editor::io::{EditorIo, EditorMsg, perform};
+    let mut rest = Vec::new();
+    for effect in effects {
+        match effect {
+            Effect::Editor(io) => {
+                let msg = match io {
+                    EditorIo::Lint(job) => EditorMsg::Linted(Box::new(job.run())),
+                    other => perform(other),
+                };
+                let more = update(m, Msg::Editor(msg));
+                rest.extend(carry_out(m, more));
+            }
+            other => rest.push(other),
+        }
+    }
+    rest
+}
+
+/// Let time pass until the lint has run on the text as it is.
+pub fn settle(m: &mut Model, t0: Instant) {
+    for i in 1..=5 {
+        let effects = update(m, Msg::Tick(t0 + Duration::from_secs(3 + i)));
+        carry_out(m, effects);
+    }
+}
+
+/// A ready isel machine with `program` loaded in the editor as
+/// `/work/part.isel`, linted, the program screen shown.
+pub fn editing_isel(program: &str, t0: Instant) -> Model {
+    use jogterm::ui::editor::io::EditorMsg;
+    let mut m = model_in(Protocol::Isel, "dark", State::Idle, t0);
+    let loaded = jogterm::program::store::Loaded {
+        path: std::path::PathBuf::from("/work/part.isel"),
+        text: program.to_string(),
+        fingerprint: jogterm::program::store::Fingerprint::of(program.as_bytes()),
+        lossy: false,
+    };
+    update(
+        &mut m,
+        Msg::Editor(EditorMsg::Open("/work/part.isel".into())),
+    );
+    let effects = update(
+        &mut m,
+        Msg::Editor(EditorMsg::Loaded {
+            path: "/work/part.isel".into(),
+            result: Ok(Some(loaded)),
+            recovery: None,
+        }),
+    );
+    carry_out(&mut m, effects);
+    settle(&mut m, t0);
+    m
+}
