@@ -366,3 +366,22 @@ fn a_profile_that_allows_test_mode_leaves_it_as_it_is() {
     h.connect_stop();
     h.expect_text("@0P");
 }
+
+#[test]
+fn an_unanswered_test_mode_off_is_a_dead_link_like_any_unanswered_command() {
+    // Every isel command answers a handshake character (manual 2.2): silence
+    // after `@0T0` is a dead line, and the task reconnects with the stop
+    // first, as after an unanswered `@0P`.
+    let mut h = Harness::new();
+    h.connect_stop();
+    h.expect_text("@0T0");
+    h.advance(ms(1000));
+    let lost = h.events.iter().find_map(|e| match e {
+        crate::device::api::Event::Link(crate::device::api::LinkState::Lost { reason }) => {
+            Some(reason.clone())
+        }
+        _ => None,
+    });
+    assert_eq!(lost.as_deref(), Some("no reply to @0T0 within 103 ms"));
+    h.expect_nothing();
+}
