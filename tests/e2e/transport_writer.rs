@@ -138,12 +138,7 @@ fn a_stop_overtakes_an_interruptible_message_within_the_whole_backlog() {
     // only for the ~1 ms of bytes already in the OS buffer.
     assert!(ahead <= handed_over + WriterConfig::default().whole_backlog + byte_time());
 
-    let received = peer.join().expect("peer");
-    let before: usize = chunks[..stop_at].iter().map(|c| c.bytes.len()).sum();
-    let mut expected = message[..before].to_vec();
-    expected.push(0xFD);
-    expected.extend_from_slice(&message[before..]);
-    assert_eq!(received, expected, "the message is intact around the stop");
+    assert_intact_around_the_stop(peer.join().expect("peer"), &chunks, stop_at, &message);
 }
 
 /// An upload's lines run further ahead of the wire (`send_bulk`): the
@@ -191,12 +186,7 @@ fn a_bulk_message_runs_up_to_its_backlog_ahead_and_a_stop_still_overtakes_it() {
     let handed_over = stop_chunk.at.saturating_duration_since(asked);
     assert!(ahead <= handed_over + bulk + byte_time());
 
-    let received = peer.join().expect("peer");
-    let before: usize = chunks[..stop_at].iter().map(|c| c.bytes.len()).sum();
-    let mut expected = message[..before].to_vec();
-    expected.push(0xFD);
-    expected.extend_from_slice(&message[before..]);
-    assert_eq!(received, expected, "the message is intact around the stop");
+    assert_intact_around_the_stop(peer.join().expect("peer"), &chunks, stop_at, &message);
 }
 
 #[test]
@@ -664,4 +654,19 @@ fn a_short_command_on_an_idle_line_goes_in_few_writes_the_first_before_send_retu
         "a frame on an idle line goes at once"
     );
     assert_eq!(peer.join().expect("peer"), b"@0P\r@0b1\r@LX\r");
+}
+
+/// What the peer received is the message with 0xFD where the stop overtook
+/// it (after the chunks written before the stop's), nothing lost or doubled.
+fn assert_intact_around_the_stop(
+    received: Vec<u8>,
+    chunks: &[WrittenChunk],
+    stop_at: usize,
+    message: &[u8],
+) {
+    let before: usize = chunks[..stop_at].iter().map(|c| c.bytes.len()).sum();
+    let mut expected = message[..before].to_vec();
+    expected.push(0xFD);
+    expected.extend_from_slice(&message[before..]);
+    assert_eq!(received, expected, "the message is intact around the stop");
 }
