@@ -444,6 +444,31 @@ fn a_stored_job_paused_with_at_a_stands_and_at_c_takes_it_to_its_end() {
     assert_eq!(counters(&mut b), [4_000, 0, 0]);
 }
 
+/// A job paused with `@A` is still motion that may start again: Space
+/// (the stop, `@B`) ends it, and a `@C` after that moves nothing.
+#[test]
+fn a_stored_job_paused_with_at_a_is_ended_by_the_stop_and_at_c_then_moves_nothing() {
+    let mut b = homed(PollRate::LineSpeed);
+    b.request(Request::Upload {
+        lines: vec!["#E1,1000".into(), "L1,x4000".into()],
+        erase_first: false,
+    });
+    b.run(ms(500));
+    b.request(Request::RunProgram);
+    b.run(ms(1500));
+    b.request(Request::Raw { line: "@A".into() });
+    b.run(ms(1500));
+    let paused = counters(&mut b);
+    assert!(paused[0] > 0 && paused[0] < 4_000, "{paused:?}");
+    b.stop();
+    b.run(ms(1000));
+    assert_eq!(b.driver.state().activity, Activity::Idle);
+    let stopped = counters(&mut b);
+    b.request(Request::Raw { line: "@C".into() });
+    b.run(secs(5));
+    assert_eq!(counters(&mut b), stopped, "nothing resumes the stopped job");
+}
+
 #[test]
 fn a_bad_raw_line_is_refused_and_never_reaches_the_interface() {
     let mut b = homed(PollRate::Off);
