@@ -374,6 +374,11 @@ fn route(model: &mut Model, chord: KeyChord, phase: KeyPhase) -> Vec<Effect> {
         return type_into(model, field, c);
     }
     if let Some(name) = model.keymap.lookup_macro(Mode::Main, &chord) {
+        // A held key runs its macro once: a repeat is not a new request
+        // (terminals that do not tell repeats apart: `docs/ui.md`, Macros).
+        if phase == KeyPhase::Repeat {
+            return Vec::new();
+        }
         let name = name.to_string();
         let (effects, notes) = macros::key(model, &name);
         for (level, text) in notes {

@@ -21,7 +21,7 @@ use jogterm::ui::help::{HelpLine, help_lines};
 use jogterm::ui::keymap::Keymap;
 use jogterm::ui::model::{Popup, Setup};
 use jogterm::ui::{Effect, Model, Msg, update};
-use ratatui::crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
+use ratatui::crossterm::event::{KeyCode, KeyEvent, KeyEventKind, KeyModifiers};
 use ui_support::{SIZES, State, model_in, render, send, text};
 
 fn ch(c: char) -> Msg {
@@ -607,4 +607,22 @@ fn a_line_answered_while_the_machine_still_runs_waits_for_it_to_stand() {
     idle.activity = jogterm::device::api::Activity::Idle;
     let effects = update(&mut model, Msg::Device(Event::State(idle)));
     assert_eq!(raws(&effects), ["@0P"]);
+}
+
+#[test]
+fn a_held_macro_key_runs_its_macro_once() {
+    let mut model = ready();
+    let effects = update(&mut model, key(KeyCode::F(9)));
+    assert_eq!(raws(&effects), ["@0P"]);
+    let effects = update(&mut model, Msg::Device(answer("@0P")));
+    assert_eq!(raws(&effects), ["@0b1"]);
+    update(&mut model, Msg::Device(answer("@0b1")));
+    assert!(model.macro_run.is_none());
+    // The key is still held: its repeats (kitty keyboard protocol) start
+    // nothing.
+    let mut repeat = KeyEvent::new(KeyCode::F(9), KeyModifiers::NONE);
+    repeat.kind = KeyEventKind::Repeat;
+    let effects = update(&mut model, Msg::Key(repeat));
+    assert!(raws(&effects).is_empty(), "{effects:?}");
+    assert!(model.macro_run.is_none());
 }
