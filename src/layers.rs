@@ -22,6 +22,7 @@ const LAYERS: &[&[&str]] = &[
     &["device"],
     &["program"],
     &["jog", "offsets"],
+    &["gcode"],
     &["ui"],
     &["cli"],
 ];

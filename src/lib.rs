@@ -16,6 +16,8 @@
 //!   formatter, path simulation.
 //! - [`jog`]: jogging as pure logic: keys to requests, leases.
 //! - [`offsets`]: work offsets G54-G59 and their state file.
+//! - [`gcode`]: G-code from CAM: reader, interpreter, the machine check and
+//!   each family's output.
 //! - [`ui`]: the terminal UI (Elm architecture: model, update, view).
 //! - [`cli`]: the commands.
 
@@ -28,6 +30,7 @@ pub mod axis;
 pub mod cli;
 pub mod config;
 pub mod device;
+pub mod gcode;
 pub mod jog;
 #[cfg(test)]
 mod layers;
