@@ -46,7 +46,9 @@ pub struct Line {
     pub origin: Origin,
 }
 
-/// The plane of an arc (G17 XY, G18 ZX, G19 YZ).
+/// The plane of an arc (G17 XY, G18 ZX, G19 YZ). Not isel's `proto::isel::Plane`:
+/// RS-274/NGC orders G18 as Z then X, which decides what clockwise means,
+/// and the IR serves the EMCU output too; the isel output maps between them.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Plane {
     #[default]
@@ -115,7 +117,10 @@ pub enum Op {
     Dwell(Dwell),
     Output(OutputSwitch),
     /// Spindle speed (S), rpm, for headers and for machines that set it.
-    SpindleSpeed { rpm: f64, origin: Origin },
+    SpindleSpeed {
+        rpm: f64,
+        origin: Origin,
+    },
     Pause(Pause),
     /// The work coordinate system in force from here on, with its zero in
     /// machine mm as the interpreter took it from jogterm's work offsets:
@@ -128,7 +133,9 @@ pub enum Op {
         origin: Origin,
     },
     /// M2 or M30, or the end of the file.
-    End { origin: Origin },
+    End {
+        origin: Origin,
+    },
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
