@@ -115,7 +115,10 @@ pub enum Op {
     Dwell(Dwell),
     Output(OutputSwitch),
     /// Spindle speed (S), rpm, for headers and for machines that set it.
-    SpindleSpeed { rpm: f64, origin: Origin },
+    SpindleSpeed {
+        rpm: f64,
+        origin: Origin,
+    },
     Pause(Pause),
     /// The work coordinate system in force from here on, with its zero in
     /// machine mm as the interpreter took it from jogterm's work offsets:
@@ -128,7 +131,9 @@ pub enum Op {
         origin: Origin,
     },
     /// M2 or M30, or the end of the file.
-    End { origin: Origin },
+    End {
+        origin: Origin,
+    },
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
