@@ -27,7 +27,8 @@ positions in steps, port bits by name, an error code with its meaning and what t
 Every command is checked before anything is sent (the whole list): a line the controller
 would refuse is bad usage. Lines after `@0i` are stored program lines (CNC commands such as
 `0100,900` or `9`) until `9`. Before the commands jogterm reads the controller's state back;
-it opens and closes every connection with the stop sequence 0xFD 0xFF.
+a list with a command that may move opens and closes its connection with the stop sequence
+0xFD 0xFF; a list of reads (and of stops you write) sends no stop of its own.
 
 Control bytes act at once, also during a move, and have no reply. Write them as
 `\\xFD`, `0xFD` or by name: `softstop` (0xFD: ramp down, the rest can be resumed with @0S),
