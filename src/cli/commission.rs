@@ -108,11 +108,18 @@ pub fn run(global: &GlobalArgs, args: &CommissionArgs) -> anyhow::Result<ExitCod
     let runtime = session::runtime()?;
     runtime.block_on(async {
         let channels = channels::shared(&profile);
-        let session =
-            match session::command_session("commission", global, profile, Polling::INPUTS).await {
-                Ok(s) => s,
-                Err(ended) => return ended,
-            };
+        let session = match session::command_session(
+            "commission",
+            global,
+            profile,
+            Polling::INPUTS,
+            session::Moves::No,
+        )
+        .await
+        {
+            Ok(s) => s,
+            Err(ended) => return ended,
+        };
         let step = Duration::from_secs(args.step_s);
         Ok(commission(session, args, &channels, step, meta, &base).await)
     })
@@ -254,7 +261,7 @@ async fn commission(
                         requested |= session.handle.request(r).is_ok();
                     }
                 }
-                session::say_interrupted("commission");
+                session::say_interrupted("commission", session::Moves::No);
                 code = 1;
                 break;
             }

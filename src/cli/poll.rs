@@ -196,7 +196,7 @@ pub fn run(global: &GlobalArgs, args: &PollArgs) -> anyhow::Result<ExitCode> {
     let family = profile.connection.protocol;
     let runtime = session::runtime()?;
     runtime.block_on(async {
-        match session::command_session("poll", global, profile, polling).await {
+        match session::command_session("poll", global, profile, polling, session::Moves::No).await {
             Ok(session) => Ok(poll(session, args, family).await),
             Err(ended) => ended,
         }

@@ -7,7 +7,7 @@ use std::time::Duration;
 use clap::Args;
 
 use super::out::{self, StdoutError};
-use super::session::{self, EXIT_LINK, EXIT_USAGE, Linked, Polling, Session, StartError};
+use super::session::{self, EXIT_LINK, EXIT_USAGE, Linked, Moves, Polling, Session, StartError};
 use super::{GlobalArgs, emp};
 use crate::config::Profile;
 use crate::device::api::{Activity, Event, LinkState, Recovery, Refusal, ReplyKind, Request};
@@ -27,7 +27,8 @@ positions in steps, port bits by name, an error code with its meaning and what t
 Every command is checked before anything is sent (the whole list): a line the controller
 would refuse is bad usage. Lines after `@0i` are stored program lines (CNC commands such as
 `0100,900` or `9`) until `9`. Before the commands jogterm reads the controller's state back;
-it opens and closes every connection with the stop sequence 0xFD 0xFF.
+a list with a command that may move opens and closes its connection with the stop sequence
+0xFD 0xFF; a list of reads (and of stops you write) sends no stop of its own.
 
 Control bytes act at once, also during a move, and have no reply. Write them as
 `\\xFD`, `0xFD` or by name: `softstop` (0xFD: ramp down, the rest can be resumed with @0S),
@@ -265,7 +266,7 @@ pub fn run(global: &GlobalArgs, args: &SendArgs) -> anyhow::Result<ExitCode> {
     };
     let runtime = session::runtime()?;
     runtime.block_on(async {
-        let session = match session::start(global, profile, Polling::OFF) {
+        let session = match session::start(global, profile, Polling::OFF, moves_of(&items)) {
             Ok(s) => s,
             Err(StartError::Usage(m)) => {
                 out::say(format_args!("jogterm send: {m}"));
@@ -277,17 +278,30 @@ pub fn run(global: &GlobalArgs, args: &SendArgs) -> anyhow::Result<ExitCode> {
     })
 }
 
+/// A list of reads (and of stops the operator wrote) asks for no motion:
+/// its session sends no stop of its own (`docs/device.md`, "Sessions that
+/// do not move").
+pub fn moves_of(items: &[Item]) -> Moves {
+    let moves = items
+        .iter()
+        .any(|i| matches!(i, Item::Line { may_move: true, .. }));
+    if moves { Moves::Yes } else { Moves::No }
+}
+
 async fn send_all(mut session: Session, items: &[Item]) -> ExitCode {
     let stopper = session.handle.clone();
+    let moves = session.moves;
     tokio::select! {
         code = send_items(&mut session, items) => {
             session.close().await;
             code
         }
         () = session::interrupted() => {
-            // Stop first, then the orderly close.
-            let _ = stopper.stop().written().await;
-            session::say_interrupted("send");
+            // Stop first, then the orderly close; reads stop nothing.
+            if moves == Moves::Yes {
+                let _ = stopper.stop().written().await;
+            }
+            session::say_interrupted("send", moves);
             session.close().await;
             ExitCode::from(1)
         }
@@ -353,10 +367,10 @@ async fn send_items(session: &mut Session, items: &[Item]) -> ExitCode {
                     .try_for_each(|line| out::line(format_args!("<< {line}")))
                 {
                     Ok(()) => continue,
-                    Err(e) => unwritable(e),
+                    Err(e) => unwritable(e, session.moves),
                 }
             }
-            Outcome::Unwritable(e) => unwritable(e),
+            Outcome::Unwritable(e) => unwritable(e, session.moves),
             Outcome::ControllerError {
                 code,
                 meaning,
@@ -482,12 +496,16 @@ async fn send_controls(session: &Session, controls: &[ControlByte]) -> Result<()
 }
 
 /// The exit status when stdout cannot take a line, said on stderr: nothing
-/// more is sent, and the session's close stops the machine. 1 also for a
-/// reader that went away on purpose (`| head -1`): commands may be left
-/// unsent, as after Ctrl-C.
-fn unwritable(e: StdoutError) -> u8 {
+/// more is sent, and the session's close stops the machine if it moved. 1
+/// also for a reader that went away on purpose (`| head -1`): commands may
+/// be left unsent, as after Ctrl-C.
+fn unwritable(e: StdoutError, moves: Moves) -> u8 {
+    let after = match moves {
+        Moves::Yes => "; the machine is stopped",
+        Moves::No => "",
+    };
     out::say(format_args!(
-        "jogterm send: {e}: nothing more is sent; the machine is stopped"
+        "jogterm send: {e}: nothing more is sent{after}"
     ));
     1
 }

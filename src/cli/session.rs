@@ -36,6 +36,8 @@ pub struct Session {
     pub events: EventReceiver,
     /// What the machine does, as the last state event said.
     pub activity: Activity,
+    /// Whether the command was asked to move.
+    pub moves: Moves,
     /// Kept alive as long as the session; `None` on a real port.
     _simulator: Option<Shell>,
 }
@@ -107,8 +109,9 @@ pub async fn command_session(
     global: &GlobalArgs,
     profile: Profile,
     polling: Polling,
+    moves: Moves,
 ) -> Result<Session, Ended> {
-    let mut session = match start(global, profile, polling) {
+    let mut session = match start(global, profile, polling, moves) {
         Ok(s) => s,
         Err(StartError::Usage(m)) => return Err(usage(command, &m)),
         Err(StartError::Failed(e)) => return Err(Err(e)),
@@ -155,6 +158,19 @@ impl Polling {
         ports: true,
         positions: false,
     };
+}
+
+/// Whether a command was asked to move (`docs/device.md`, "Sessions that
+/// do not move"): one that was not sends no stop of its own, at connect,
+/// at exit or on an interrupt; whatever the controller runs (a stored
+/// program started from its own start key) goes on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Moves {
+    /// Reads only (`watch`, `poll`, `send` of reads).
+    No,
+    /// Sends motion, or may: the stops at connect and on the interrupted
+    /// paths stay.
+    Yes,
 }
 
 /// The profile's driver, polling as the command wants.
@@ -217,6 +233,7 @@ pub fn start(
     global: &GlobalArgs,
     profile: Profile,
     polling: Polling,
+    moves: Moves,
 ) -> Result<Session, StartError> {
     let driver = driver(&profile, polling)?;
     let family = profile.connection.protocol;
@@ -236,8 +253,12 @@ pub fn start(
         (Connector::from(spec), None)
     };
     let inputs = RecorderConfig::from_profile(&profile);
-    let (handle, events) = spawn_recording(driver, connector, TaskOptions::default(), inputs)
-        .map_err(anyhow::Error::from)?;
+    let options = TaskOptions {
+        may_move: moves == Moves::Yes,
+        ..TaskOptions::default()
+    };
+    let (handle, events) =
+        spawn_recording(driver, connector, options, inputs).map_err(anyhow::Error::from)?;
     if let Some(path) = &global.log {
         let file = OpenOptions::new()
             .create(true)
@@ -250,6 +271,7 @@ pub fn start(
         handle,
         events,
         activity: Activity::Idle,
+        moves,
         _simulator: simulator,
     })
 }
@@ -285,7 +307,8 @@ impl Session {
         }
     }
 
-    /// Stop, flush, close.
+    /// Close: after a stop when the session moves, else with nothing sent
+    /// but what was on its way.
     pub async fn close(self) {
         self.handle.shutdown().await;
     }
@@ -319,10 +342,12 @@ pub async fn interrupted() {
 /// a hang-up stderr may be the dead terminal, where it panics (status 101,
 /// and the orderly close after it skipped; `../shared/field-notes.md`,
 /// "Order on hang-up").
-pub fn say_interrupted(command: &str) {
-    super::out::say(format_args!(
-        "jogterm {command}: interrupted: the machine was stopped"
-    ));
+pub fn say_interrupted(command: &str, moves: Moves) {
+    let after = match moves {
+        Moves::Yes => ": the machine was stopped",
+        Moves::No => "",
+    };
+    super::out::say(format_args!("jogterm {command}: interrupted{after}"));
 }
 
 /// A current-thread runtime for a command.

@@ -165,7 +165,7 @@ pub fn run(global: &GlobalArgs, args: &UploadArgs) -> anyhow::Result<ExitCode> {
     };
     let runtime = session::runtime()?;
     runtime.block_on(async {
-        let session = match session::start(global, profile, Polling::OFF) {
+        let session = match session::start(global, profile, Polling::OFF, session::Moves::Yes) {
             Ok(s) => s,
             Err(StartError::Usage(m)) => return usage(m),
             Err(StartError::Failed(e)) => return Err(e),
@@ -180,7 +180,7 @@ async fn upload_and_run(mut session: Session, prepared: &Prepared, args: &Upload
         code = steps(&mut session, prepared, args) => code,
         () = session::interrupted() => {
             let _ = stopper.stop().written().await;
-            session::say_interrupted("upload");
+            session::say_interrupted("upload", session::Moves::Yes);
             1
         }
     };

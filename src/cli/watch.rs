@@ -33,8 +33,8 @@ within `chatter_ms`, default more than 5 changes in 500 ms) is marked as chatter
 second E-stop circuit opens after the first, the skew between them is printed with the range
 the two windows allow.
 
-It never moves anything and switches nothing (connecting sends the family's stop, as every
-command does). It runs until interrupted (Ctrl-C) or until the reader of its output goes away
+It never moves anything and switches nothing, and sends no stop (it would end a program the
+machine runs from its own start key). It runs until interrupted (Ctrl-C) or until the reader of its output goes away
 (`| head -5`), then closes cleanly.";
 
 pub const AFTER_LONG_HELP: &str = "\
@@ -164,7 +164,15 @@ pub fn run(global: &GlobalArgs, args: &WatchArgs) -> anyhow::Result<ExitCode> {
     let family = profile.connection.protocol;
     let runtime = session::runtime()?;
     runtime.block_on(async {
-        match session::command_session("watch", global, profile, Polling::INPUTS).await {
+        match session::command_session(
+            "watch",
+            global,
+            profile,
+            Polling::INPUTS,
+            session::Moves::No,
+        )
+        .await
+        {
             Ok(session) => Ok(watch(session, args, family).await),
             Err(ended) => ended,
         }

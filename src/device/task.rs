@@ -58,6 +58,12 @@ pub struct TaskOptions {
     pub backoff: Backoff,
     /// Bound on waiting for stop bytes to be written before a port closes.
     pub stop_flush: Duration,
+    /// False for a session that was not asked to move (`watch`, `poll`,
+    /// `send` of reads): the task sends no stop of its own, neither at
+    /// connect nor at close nor before a dead link is closed, and arms no
+    /// emergency stop (panic hook, hang-up). Stops the client asks for still
+    /// go out. `docs/device.md`, "Sessions that do not move".
+    pub may_move: bool,
 }
 
 impl Default for TaskOptions {
@@ -68,6 +74,7 @@ impl Default for TaskOptions {
             request_capacity: 256,
             backoff: Backoff::default(),
             stop_flush: Duration::from_millis(500),
+            may_move: true,
         }
     }
 }
@@ -123,6 +130,10 @@ pub fn spawn_recording(
     inputs: RecorderConfig,
 ) -> Result<(DeviceHandle, EventReceiver), DeviceError> {
     let runtime = tokio::runtime::Handle::try_current().map_err(|_| DeviceError::NoRuntime)?;
+    let mut driver = driver;
+    if !options.may_move {
+        driver.without_connect_halt();
+    }
     let bus = EventBus::new(options.lossy_capacity);
     let first = bus.subscribe();
     let (requests_tx, requests) = mpsc::channel(options.request_capacity.max(1));
@@ -411,7 +422,9 @@ impl Task {
             events,
             emergency,
         } = parts;
-        self.set_emergency(Some(emergency));
+        if self.options.may_move {
+            self.set_emergency(Some(emergency));
+        }
         let mut s = Session {
             writer,
             written: events,
@@ -502,15 +515,21 @@ impl Task {
         let now = Instant::now();
         let (end, reason) = match ending {
             Ending::Shutdown => {
-                let out = self.driver.stop(now);
-                self.flush_stop(&mut s, out).await;
+                if self.options.may_move {
+                    let out = self.driver.stop(now);
+                    self.flush_stop(&mut s, out).await;
+                }
+                // Else nothing of ours moves and nothing is stopped; the
+                // writer's close completes a line partly written.
                 (End::Shutdown, "the port was closed".to_owned())
             }
             Ending::DeadLink => {
                 // The controller may still be moving: stop it while the port
-                // is open.
-                let out = self.driver.emergency_stop();
-                self.flush_stop(&mut s, out).await;
+                // is open (a session that moves nothing leaves it alone).
+                if self.options.may_move {
+                    let out = self.driver.emergency_stop();
+                    self.flush_stop(&mut s, out).await;
+                }
                 let reason = self.last_lost.clone().unwrap_or_default();
                 (End::Lost, reason)
             }

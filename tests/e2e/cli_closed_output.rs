@@ -11,7 +11,7 @@ use std::time::{Duration, Instant};
 use crate::sim_process;
 use crate::stops_support;
 use sim_process::{JOGTERM, SimProcess, contains_panic, text, wait_child};
-use stops_support::assert_exit;
+use stops_support::{assert_exit, session_traffic, stops_and_motion};
 
 use crate::faults_support::wire;
 use wire::isel_messages;
@@ -42,9 +42,10 @@ fn closed_pipe() -> std::io::PipeWriter {
 }
 
 /// `jogterm poll` with its stdout closed after the first sample: it ends at
-/// once, the close's `stop` is the last thing the controller received (but
-/// a poll in flight), status 0 as for `| head`, no panic.
-fn poll_with_stdout_closed(family: &'static str, args: &[&str], poll: &str, stop: &str) {
+/// once, status 0 as for `| head`, no panic, and it sends no stop (a
+/// session that moves nothing, `docs/device.md`): the controller received
+/// its polls, whole, and nothing else that stops or moves.
+fn poll_with_stdout_closed(family: &'static str, args: &[&str], poll: &str) {
     let mut sim = SimProcess::start(family);
     let before = sim.received();
     let mut command = vec!["poll", "--interval-ms", "0"];
@@ -62,32 +63,29 @@ fn poll_with_stdout_closed(family: &'static str, args: &[&str], poll: &str, stop
     );
     let out = wait_child(child, "jogterm poll with its stdout closed");
     assert_exit(&out, 0, "poll with its stdout closed");
-    let received = sim.wait_received("the closing stop", |r| {
-        r.get(before.len()..)
-            .and_then(|polled| polled.rfind(stop).map(|at| &polled[at..]))
-            .is_some_and(|tail| tail.matches(poll).count() <= 1)
-    });
-    let polled = &received[before.len()..];
-    assert!(
-        polled.matches(poll).count() >= 1,
-        "it polled before it stopped:\n{polled}"
+    let polled = session_traffic(&mut sim, before.len());
+    assert!(polled.matches(poll).count() >= 1, "it polled:\n{polled}");
+    assert_eq!(
+        stops_and_motion(family, &polled),
+        Vec::<String>::new(),
+        "poll stopped or moved:\n{polled}"
     );
     sim.assert_alive();
 }
 
 #[test]
-fn isel_poll_stops_and_closes_when_its_reader_goes_away() {
-    poll_with_stdout_closed("isel", &[], "@0P<CR>", "<FD><FF>");
+fn isel_poll_closes_without_a_stop_when_its_reader_goes_away() {
+    poll_with_stdout_closed("isel", &[], "@0P<CR>");
 }
 
 #[test]
-fn emcu_poll_json_stops_and_closes_when_its_reader_goes_away() {
-    poll_with_stdout_closed("emcu", &["--json", "--ports"], "@LX<CR>", "@B<CR>");
+fn emcu_poll_json_closes_without_a_stop_when_its_reader_goes_away() {
+    poll_with_stdout_closed("emcu", &["--json", "--ports"], "@LX<CR>");
 }
 
 /// `jogterm poll` at a long interval notices its reader has gone without
 /// waiting for the next sample to fail (`cli::out::stdout_gone`): it ends
-/// within moments, not at the next sample 15 s later, with the closing stop.
+/// within moments, not at the next sample 15 s later, and sends no stop.
 #[test]
 fn poll_at_a_long_interval_ends_at_once_when_its_reader_goes_away() {
     let mut sim = SimProcess::start("isel");
@@ -110,16 +108,19 @@ fn poll_at_a_long_interval_ends_at_once_when_its_reader_goes_away() {
         took < Duration::from_secs(5),
         "ended {took:?} after its reader went away"
     );
-    sim.wait_received("the closing stop", |r| {
-        isel_messages(r.get(before.len()..).unwrap_or_default())
-            .ends_with(&["<FD>".to_string(), "<FF>".to_string()])
-    });
+    let polled = session_traffic(&mut sim, before.len());
+    assert_eq!(
+        stops_and_motion("isel", &polled),
+        Vec::<String>::new(),
+        "{polled}"
+    );
     sim.assert_alive();
 }
 
-/// `jogterm send` with its stdout closed after the first line: nothing more
-/// is sent, the close's stop ends the traffic, status 1 with the reason on
-/// stderr (its help: "stdout closed or failed"), no panic.
+/// `jogterm send` of reads with its stdout closed after the first line:
+/// nothing more is sent, status 1 with the reason on stderr (its help:
+/// "stdout closed or failed"), no panic, and no stop (its lines move
+/// nothing, `docs/device.md`): the last query on the wire is whole.
 #[test]
 fn send_stops_sending_and_closes_when_its_reader_goes_away() {
     const QUERIES: usize = 300;
@@ -142,11 +143,13 @@ fn send_stops_sending_and_closes_when_its_reader_goes_away() {
         "{}",
         text(&out.stderr)
     );
-    let received = sim.wait_received("the closing stop", |r| {
-        let sent = isel_messages(r.get(before.len()..).unwrap_or_default());
-        sent.ends_with(&["<FD>".to_string(), "<FF>".to_string()])
-    });
-    let sent = isel_messages(&received[before.len()..]);
+    let received = session_traffic(&mut sim, before.len());
+    assert_eq!(
+        stops_and_motion("isel", &received),
+        Vec::<String>::new(),
+        "{received}"
+    );
+    let sent = isel_messages(&received);
     let queries = sent.iter().filter(|m| *m == "@0P").count();
     assert!(
         queries < QUERIES,

@@ -147,9 +147,10 @@ fn a_port_that_vanishes_mid_move_exits_3() {
     let out = child.wait_with_output().expect("send ends");
     assert_eq!(out.status.code(), Some(3), "{}", text(&out.stderr));
     assert!(text(&out.stderr).contains("link failure"));
-    // The line is back; the next connection's `@B` halts the move.
+    // The line is back; the operator's `@B` halts the move (a read would
+    // stop nothing, docs/device.md, "Sessions that do not move").
     thread::sleep(Duration::from_millis(800));
-    let out = sim.run(&["send", "@X"]);
+    let out = sim.run(&["send", "@B"]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     thread::sleep(Duration::from_millis(1_500));
     let d = sim.device_state();

@@ -52,6 +52,7 @@ mod macros_e2e;
 mod network;
 mod network_transport;
 mod offsets_e2e;
+mod quiet_sessions;
 mod sim_shell_faults;
 mod sim_shell_pty;
 mod sim_shell_timing;

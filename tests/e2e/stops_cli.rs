@@ -13,7 +13,8 @@ use crate::stops_support;
 use sim_process::{SimProcess, text, wait_child};
 use stops_support::{
     assert_a_new_connection_moves_nothing, assert_exit, assert_stands, emp_frames, interrupt,
-    isel_store_long_program, moving, signal, wait_moving, x_steps,
+    isel_store_long_program, moving, session_traffic, signal, stops_and_motion, wait_moving,
+    x_steps,
 };
 
 use crate::faults_support::wire;
@@ -239,10 +240,11 @@ fn emp_send_ctrl_c_mid_positioning_stops_and_nothing_resumes() {
     sim.assert_alive();
 }
 
-/// `jogterm poll` never starts motion, and interrupted (Ctrl-C) it stops
-/// and closes as its help says ("then stops and closes cleanly"): the stop
-/// ends what the controller received, the status is 0.
-fn poll_interrupted(family: &'static str, prepare: &[&str], poll: &str, stop: &str) {
+/// `jogterm poll` never starts motion, and interrupted (Ctrl-C) it closes
+/// without a stop (it moved nothing, `docs/device.md`, "Sessions that do
+/// not move"): the controller received polls and nothing that stops or
+/// moves, the status is 0.
+fn poll_interrupted(family: &'static str, prepare: &[&str], poll: &str) {
     let mut sim = SimProcess::start(family);
     if !prepare.is_empty() {
         let mut args = vec!["send"];
@@ -259,49 +261,33 @@ fn poll_interrupted(family: &'static str, prepare: &[&str], poll: &str, stop: &s
     let out = wait_child(child, "jogterm poll");
     assert_exit(&out, 0, "poll interrupted");
     assert!(text(&out.stdout).lines().count() >= 1, "samples printed");
-    let received = sim.received();
-    let polled = &received[before.len()..];
-    // The stop goes out at once, isel's control bytes even between two bytes
-    // of a poll (`@0<FD><FF>P<CR>`): at most the poll in flight ends after it.
-    let tail = polled
-        .rfind(stop)
-        .map(|at| &polled[at + stop.len()..])
-        .unwrap_or_else(|| panic!("no stop received:\n{polled}"));
-    assert!(
-        tail.matches("<CR>").count() + tail.matches("<EOF>").count() <= 1,
-        "the stop ends the traffic (but the poll in flight):\n{polled}"
+    let polled = session_traffic(&mut sim, before.len());
+    let polled = polled.as_str();
+    assert_eq!(
+        stops_and_motion(family, polled),
+        Vec::<String>::new(),
+        "poll sent a stop or motion:\n{polled}"
     );
-    match family {
-        "isel" => assert!(isel_motion(polled).is_empty(), "{polled}"),
-        "emcu" => assert!(emcu_motion(polled).is_empty(), "{polled}"),
-        _ => assert!(
-            emp_frames(polled)
-                .iter()
-                .all(|f| !f.starts_with("2A") && !f.starts_with("26")),
-            "{polled}"
-        ),
-    }
     assert_stands(&mut sim);
     sim.assert_alive();
 }
 
 #[test]
-fn isel_poll_ctrl_c_stops_closes_and_never_moves() {
-    poll_interrupted("isel", &ISEL_READY, "@0P<CR>", "<FD><FF>");
+fn isel_poll_ctrl_c_closes_without_a_stop_and_never_moves() {
+    poll_interrupted("isel", &ISEL_READY, "@0P<CR>");
 }
 
 #[test]
-fn emcu_poll_ctrl_c_stops_closes_and_never_moves() {
-    poll_interrupted("emcu", &[], "@LX<CR>", "@B<CR>");
+fn emcu_poll_ctrl_c_closes_without_a_stop_and_never_moves() {
+    poll_interrupted("emcu", &[], "@LX<CR>");
 }
 
 #[test]
-fn emp_poll_ctrl_c_stops_closes_and_never_moves() {
+fn emp_poll_ctrl_c_closes_without_a_stop_and_never_moves() {
     poll_interrupted(
         "emp",
         &["--drive", "11", "02 11 00 00000000"],
         "2C11000000000000<EOF>",
-        "0811000000000000<EOF>",
     );
 }
 
@@ -339,13 +325,8 @@ fn isel_upload_start_ctrl_c_stops_the_running_program() {
 fn isel_program_started_by_the_key(sim: &mut SimProcess) {
     let out = isel_store_long_program(sim);
     assert_exit(&out, 0, "send (store)");
-    // The closing stop sequence may still be on its way through the line:
-    // pressed before it arrives, the start would be stopped by it.
-    sim.wait_received("the closing stop", |r| r.ends_with("9<CR><FD><FF>"));
-    // `received` records bytes when the simulator reads them; the modelled
-    // controller gets each one byte time later (about 0.5 ms at 19200 baud).
-    // A start pressed in between would be broken off by the 0xFF.
-    std::thread::sleep(std::time::Duration::from_millis(50));
+    // Storing moves nothing: `send` closed without a stop that could break
+    // off the start (docs/device.md, "Sessions that do not move").
     sim.control("press start");
     sim.wait_device("the program started by the key, under way", |d| {
         moving("isel", d) && isel_x(d) > 1000
@@ -353,8 +334,7 @@ fn isel_program_started_by_the_key(sim: &mut SimProcess) {
 }
 
 /// The machine's start key runs the stored program; `jogterm send break`
-/// stops it: 0xFD 0xFF reach the controller first (every connection opens
-/// with the stop sequence, docs/protocols.md), the program halts mid-move,
+/// stops it: its 0xFF reaches the controller, the program halts mid-move,
 /// jogterm starts nothing, and a later connection moves nothing.
 #[test]
 fn isel_start_key_program_is_stopped_by_send_break() {
@@ -366,14 +346,10 @@ fn isel_start_key_program_is_stopped_by_send_break() {
     let x = isel_stands_mid_program(&mut sim);
     let received = sim.received();
     let sent = isel_messages(received.get(before.len()..).unwrap_or_default());
-    // The stop sequence reached the controller (that it leads every
-    // connection is the driver's unit test `connect`); nothing that moves.
-    // Two stop sequences may meet (the connect's and `break`'s): seen as
-    // `FD FD FF FF` when the connect's went byte by byte; each is a stop.
-    assert!(
-        sent.windows(2).any(|w| w[0] == "<FD>" && w[1] == "<FF>"),
-        "0xFD 0xFF after the key's start: {sent:?}\n{received}"
-    );
+    // The operator's break (0xFF, manual 2.2.31) reached the controller and
+    // is the one stop of the session: it asked for no motion, so its
+    // connect sent none (docs/device.md, "Sessions that do not move").
+    assert_eq!(sent, ["<FF>"], "{received}");
     assert!(isel_motion(&received).is_empty(), "jogterm started nothing");
     assert_a_new_connection_moves_nothing(&mut sim, x);
     sim.assert_alive();
@@ -401,12 +377,12 @@ fn a_failure_on_a_stderr_that_is_gone_exits_1_not_with_a_panic() {
 }
 
 /// `poll` while the machine's start key runs the stored program: the
-/// controller answers nothing while a program runs (isel manual 3.1), so
-/// poll cannot be interrupted mid-move; it ends by itself with a link
-/// failure (status 3), and its close stops the program (0xFD 0xFF), which
-/// then stands short of its end. Poll never started it.
+/// controller answers nothing while a program runs (isel manual 3.1); poll
+/// ends with a link failure (status 3) but stops nothing (it moved nothing,
+/// `docs/device.md`, "Sessions that do not move"): the program runs to its
+/// end. Poll never started it.
 #[test]
-fn isel_poll_during_a_start_key_program_gives_up_and_stops_it() {
+fn isel_poll_during_a_start_key_program_stops_nothing_and_the_program_ends() {
     let mut sim = SimProcess::start("isel");
     let out = isel_store_long_program(&sim);
     assert_exit(&out, 0, "send (store)");
@@ -423,18 +399,20 @@ fn isel_poll_during_a_start_key_program_gives_up_and_stops_it() {
         "{}",
         text(&out.stderr)
     );
-    let state = assert_stands(&mut sim);
-    let x = isel_x(&state);
-    assert!(x < 60_000, "the program ran to its end: {state}");
-    let received = sim.received();
-    let polled = isel_messages(&received[before.len()..]);
+    let polled = session_traffic(&mut sim, before.len());
     assert_eq!(
-        polled.get(polled.len().saturating_sub(2)..),
-        Some(&["<FD>".to_string(), "<FF>".to_string()][..]),
-        "the close stops last: {polled:?}"
+        stops_and_motion("isel", &polled),
+        Vec::<String>::new(),
+        "poll stopped nothing: {polled}"
     );
-    assert!(isel_motion(&received).is_empty(), "poll started nothing");
-    assert_a_new_connection_moves_nothing(&mut sim, x);
+    let end = sim.wait_device("the program at its end", |d| {
+        !moving("isel", d) && isel_x(d) == 60_000
+    });
+    assert_eq!(isel_x(&assert_stands(&mut sim)), 60_000, "{end}");
+    assert!(
+        isel_motion(&sim.received()).is_empty(),
+        "poll started nothing"
+    );
 }
 
 /// EMCU: `jogterm upload JOB --start` interrupted with Ctrl-C while the

@@ -7,6 +7,7 @@ use std::process::{Child, Output};
 use std::thread;
 use std::time::Duration;
 
+use crate::faults_support::wire;
 use crate::sim_process::{SimProcess, contains_panic, text, wait_child};
 
 /// A profile `name` on top of `sim`'s family's shipped one, in the
@@ -163,4 +164,46 @@ pub fn assert_a_new_connection_moves_nothing(sim: &mut SimProcess, x: i64) {
     let family = sim.family;
     let state = assert_stands(sim);
     assert_eq!(x_steps(family, &state), x, "moved on: {state}");
+}
+
+/// The stops, control bytes and motion in `traffic` (what the controller
+/// received from one session), in readable form; empty when it had none.
+pub fn stops_and_motion(family: &str, traffic: &str) -> Vec<String> {
+    match family {
+        "isel" => wire::isel_messages(traffic)
+            .into_iter()
+            .filter(|m| matches!(m.as_str(), "<FD>" | "<FE>" | "<FF>") || m.contains("<F"))
+            .chain(wire::isel_motion(traffic))
+            .collect(),
+        "emcu" => {
+            let mut found: Vec<String> = traffic
+                .split("<CR>")
+                .filter(|l| matches!(*l, "@B" | "@S" | "@R" | "@A"))
+                .map(str::to_owned)
+                .collect();
+            found.extend(wire::emcu_motion(traffic));
+            found
+        }
+        // EMP: 08 (hold), 2A (positioning, 2A 03 fast stop), 26 (homing),
+        // 02/22 (switch, enable): every frame that can change motion.
+        _ => wire::emp_frames(traffic)
+            .into_iter()
+            .filter(|f| {
+                ["08", "2A", "26", "02", "22"]
+                    .iter()
+                    .any(|c| f.starts_with(c))
+            })
+            .collect(),
+    }
+}
+
+/// What the controller received from a session that has ended, from
+/// `from` on: once it ends with a whole message (a session's bytes are all
+/// in the line before its process exits; the simulator reads them in order).
+pub fn session_traffic(sim: &mut SimProcess, from: usize) -> String {
+    let received = sim.wait_received("the session's last message whole", |r| {
+        let tail = r.get(from..).unwrap_or_default();
+        tail.is_empty() || tail.ends_with("<CR>") || tail.ends_with("<EOF>")
+    });
+    received.get(from..).unwrap_or_default().to_owned()
 }

@@ -190,6 +190,9 @@ pub struct EmcuDriver {
     report: StateReport,
     poll_error: Option<String>,
     last_byte: Option<Instant>,
+    /// Off for a session that was not asked to move: its connect sends no
+    /// `@B` (`docs/device.md`, "Sessions that do not move").
+    connect_halt: bool,
 }
 
 impl EmcuDriver {
@@ -198,6 +201,7 @@ impl EmcuDriver {
         EmcuDriver {
             poller: poll::poller(&settings),
             cx: Context::new(settings),
+            connect_halt: true,
             link_up: false,
             exchange: None,
             seq: 0,
@@ -842,7 +846,9 @@ impl Driver for EmcuDriver {
         self.link_up = true;
         self.poller.reset();
         self.poll_error = None;
-        self.cx.control.push_back(connect_halt());
+        if self.connect_halt {
+            self.cx.control.push_back(connect_halt());
+        }
         if std::mem::take(&mut self.cx.transfer_left_open) {
             let end = upload::transfer_end(&self.cx);
             self.cx
@@ -857,6 +863,10 @@ impl Driver for EmcuDriver {
         self.quiet_until = Some(now + self.cx.settings.timing.connect_settle);
         self.op = Some(Op::Readback(Readback::new()));
         self.settle(now);
+    }
+
+    fn without_connect_halt(&mut self) {
+        self.connect_halt = false;
     }
 
     fn disconnected(&mut self, reason: &str, now: Instant) {

@@ -152,6 +152,9 @@ pub struct EmpDriver {
     /// isel and EMCU drivers give a reply its length once it flows.
     arriving_until: Option<Instant>,
     report: StateReport,
+    /// Off for a session that was not asked to move: its connect stops no
+    /// drive (`docs/device.md`, "Sessions that do not move").
+    connect_halt: bool,
 }
 
 impl EmpDriver {
@@ -162,6 +165,7 @@ impl EmpDriver {
             poller: poll::poller(&settings),
             off_polls: poll::OffDrives::default(),
             cx: Context::new(settings),
+            connect_halt: true,
             link_up: false,
             decoder: FrameDecoder::new(),
             correlator: Correlator::new(timeout),
@@ -828,11 +832,17 @@ impl Driver for EmpDriver {
         self.link_up = true;
         self.poller.reset();
         self.off_polls.reset();
-        let all = self.cx.addresses();
-        self.stop_drives(&all);
+        if self.connect_halt {
+            let all = self.cx.addresses();
+            self.stop_drives(&all);
+        }
         self.quiet_until = Some(now + self.cx.settings.timing.connect_settle);
         self.op = Some(Op::Readback(Readback::new(&self.cx)));
         self.settle(now);
+    }
+
+    fn without_connect_halt(&mut self) {
+        self.connect_halt = false;
     }
 
     fn disconnected(&mut self, reason: &str, now: Instant) {

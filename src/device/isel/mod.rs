@@ -157,6 +157,9 @@ pub struct IselDriver {
     settling_after_connect: bool,
     report: StateReport,
     poll_error: Option<String>,
+    /// Off for a session that was not asked to move: its connect sends no
+    /// stop sequence (`docs/device.md`, "Sessions that do not move").
+    connect_halt: bool,
 }
 
 impl IselDriver {
@@ -177,6 +180,7 @@ impl IselDriver {
             settling_after_connect: false,
             report: StateReport::default(),
             poll_error: None,
+            connect_halt: true,
         }
     }
 
@@ -850,11 +854,17 @@ impl Driver for IselDriver {
         self.cx.test_mode_unknown = !self.cx.settings.test_mode_allowed;
         self.poll_plan_ports();
         self.poll_error = None;
-        self.cx.send_stop();
-        self.settling_after_connect = true;
+        if self.connect_halt {
+            self.cx.send_stop();
+        }
+        self.settling_after_connect = self.connect_halt;
         self.quiet_until = Some(now + self.cx.settings.timing.connect_settle);
         self.op = Some(Op::Readback(Readback::new()));
         self.settle();
+    }
+
+    fn without_connect_halt(&mut self) {
+        self.connect_halt = false;
     }
 
     fn disconnected(&mut self, reason: &str, _now: Instant) {
