@@ -4,8 +4,8 @@
 //! the root and may be given before or after the command; each command
 //! uses the ones that mean something to it and says so in its help. Without
 //! a command jogterm runs the console (`tui`); the commands are `sim`,
-//! `send`, `poll`, `watch`, `commission`, `check`, `arc`, `upload` and
-//! `ports`.
+//! `send`, `poll`, `watch`, `commission`, `check`, `import`, `arc`, `upload`
+//! and `ports`.
 //!
 //! Exit codes: 0 ok, 1 failure (a message on stderr), 2 bad usage (clap, and
 //! the console's configuration errors); `send`, `poll`, `watch`,
@@ -15,6 +15,7 @@ pub mod arc;
 pub mod check;
 pub mod commission;
 pub mod emp;
+pub mod import;
 pub mod out;
 pub mod poll;
 pub mod ports;
@@ -70,6 +71,7 @@ Examples:
   jogterm watch --port /tmp/isel --json        print every change of an input
   jogterm commission --port /tmp/isel          walk every input, write the report
   jogterm check drill.isel                     check a CNC program for the default machine
+  jogterm import part.nc -o part.isel          G-code from CAM: check it, convert it to a program
   jogterm arc --radius 200 --start 135 --end 225 --ccw --speed 1500
   jogterm upload drill.isel --port /tmp/isel --erase --start
   jogterm --program drill.isel                 the console, with the program in its editor";
@@ -146,6 +148,9 @@ pub enum CliCommand {
     /// Check an isel CNC program or an EMCU job for a machine profile
     #[command(long_about = check::LONG_ABOUT, after_long_help = check::AFTER_LONG_HELP)]
     Check(check::CheckArgs),
+    /// Import G-code from CAM: check it against the machine, convert it into the controller's program
+    #[command(long_about = import::LONG_ABOUT, after_long_help = import::AFTER_LONG_HELP)]
+    Import(import::ImportArgs),
     /// Print the isel commands of a circular arc or a helix
     #[command(long_about = arc::LONG_ABOUT, after_long_help = arc::AFTER_LONG_HELP)]
     Arc(arc::ArcArgs),
@@ -177,6 +182,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Some(CliCommand::Commission(args)) => commission::run(&cli.global, args),
         Some(CliCommand::Check(args)) => check::run(&cli.global, args),
         Some(CliCommand::Arc(args)) => arc::run(args),
+        Some(CliCommand::Import(args)) => import::run(&cli.global, args),
         Some(CliCommand::Upload(args)) => upload::run(&cli.global, args),
         Some(CliCommand::Ports(args)) => ports::run(args),
         None => tui::run(&cli.global, cli.program.as_deref()),

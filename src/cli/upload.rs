@@ -81,6 +81,20 @@ pub struct UploadArgs {
     /// Baud rate, instead of the profile's (isel and EMCU: 19200)
     #[arg(long, value_name = "N")]
     pub baud: Option<u32>,
+    /// The file is G-code (also known by its extension: .nc .ngc .gcode .tap .gc): it is
+    /// imported as `jogterm import` does and its controller program uploaded
+    #[arg(long)]
+    pub gcode: bool,
+    /// G-code: the active work offset's zero in machine units (`X50 Y50 Z60`), instead of
+    /// the console's stored one
+    #[arg(long, value_name = "POS")]
+    pub work_zero: Option<String>,
+}
+
+impl UploadArgs {
+    pub fn is_gcode(&self) -> bool {
+        self.gcode || crate::gcode::is_gcode_path(&self.file)
+    }
 }
 
 /// The program as it goes out: the commands and the file line of each.
@@ -88,6 +102,8 @@ struct Prepared {
     name: String,
     lines: Vec<String>,
     program: Program,
+    /// A program converted from G-code: its commands' G-code lines.
+    gcode: Option<crate::gcode::output::Program>,
 }
 
 impl Prepared {
@@ -114,7 +130,18 @@ fn prepare(args: &UploadArgs, language: Language, config: &LintConfig) -> Result
             "{name}: bytes that are not UTF-8 (the controller takes ASCII)"
         ));
     }
-    let program = Program::parse(language, &loaded.text);
+    checked(name, &loaded.text, language, config, None)
+}
+
+/// Program text (of a file, or converted from G-code), checked.
+fn checked(
+    name: String,
+    text: &str,
+    language: Language,
+    config: &LintConfig,
+    gcode: Option<crate::gcode::output::Program>,
+) -> Result<Prepared, String> {
+    let program = Program::parse(language, text);
     let diagnostics = lint(&program, config);
     let errors: Vec<_> = diagnostics
         .iter()
@@ -140,7 +167,58 @@ fn prepare(args: &UploadArgs, language: Language, config: &LintConfig) -> Result
         name,
         lines,
         program,
+        gcode,
     })
+}
+
+/// A G-code file, imported for the profile and checked as its program.
+fn prepare_gcode(
+    global: &GlobalArgs,
+    args: &UploadArgs,
+    profile: &crate::config::profile::Profile,
+    language: Language,
+    config: &LintConfig,
+) -> Result<Prepared, String> {
+    let target = crate::gcode::Target::of(profile.connection.protocol)?;
+    let dirs = crate::config::ConfigDirs::from_env();
+    let mut err = Vec::new();
+    let imported = super::import::convert(
+        global,
+        &dirs,
+        profile,
+        &args.file,
+        target,
+        args.work_zero.as_deref(),
+        &mut err,
+    );
+    let report = String::from_utf8_lossy(&err).trim_end().to_owned();
+    let imported = match imported {
+        Ok(i) => i,
+        Err(_) => return Err(report),
+    };
+    if !report.is_empty() {
+        out::say(&report);
+    }
+    for w in &imported.warnings {
+        out::say(crate::gcode::render(&args.file.display().to_string(), w));
+    }
+    if !imported.program.fits() {
+        return Err(format!(
+            "{}: the converted program has {} commands and the controller stores {}: nothing was sent (split the job in the CAM; running jobs bigger than the memory is `jogterm run`'s work)",
+            args.file.display(),
+            imported.program.commands,
+            imported.program.capacity
+        ));
+    }
+    let header = super::import::header_name(&args.file);
+    let text = imported.program.text(&header);
+    checked(
+        args.file.display().to_string(),
+        &text,
+        language,
+        config,
+        Some(imported.program),
+    )
 }
 
 pub fn run(global: &GlobalArgs, args: &UploadArgs) -> anyhow::Result<ExitCode> {
@@ -159,7 +237,13 @@ pub fn run(global: &GlobalArgs, args: &UploadArgs) -> anyhow::Result<ExitCode> {
             profile.connection.protocol
         ));
     };
-    let prepared = match prepare(args, language, &LintConfig::from_profile(&profile)) {
+    let config = LintConfig::from_profile(&profile);
+    let prepared = if args.is_gcode() {
+        prepare_gcode(global, args, &profile, language, &config)
+    } else {
+        prepare(args, language, &config)
+    };
+    let prepared = match prepared {
         Ok(p) => p,
         Err(m) => return usage(m),
     };
@@ -319,11 +403,20 @@ async fn idle(session: &mut Session) -> Status {
 /// `FILE:LINE: the controller refused command N `…`: code meaning; what
 /// it holds now`.
 fn failure(prepared: &Prepared, index: usize, fault: &ControllerFault) -> String {
-    let place = match (prepared.program.line_of(index), prepared.language()) {
-        (Some(line), _) => format!("{}:{}", prepared.name, line + 1),
+    let from_gcode = prepared
+        .gcode
+        .as_ref()
+        .and_then(|g| g.origin_of_command(index));
+    let place = match (
+        from_gcode,
+        prepared.program.line_of(index),
+        prepared.language(),
+    ) {
+        (Some(o), _, _) => format!("{}:{}:{}", prepared.name, o.line, o.col),
+        (None, Some(line), _) => format!("{}:{}", prepared.name, line + 1),
         // The `9` the driver appends to a program that lacks one.
-        (None, Language::Isel) => format!("{} (the closing 9)", prepared.name),
-        (None, Language::Emcu) => format!("{} (after its last command)", prepared.name),
+        (None, None, Language::Isel) => format!("{} (the closing 9)", prepared.name),
+        (None, None, Language::Emcu) => format!("{} (after its last command)", prepared.name),
     };
     let after = match prepared.language() {
         Language::Isel => {
@@ -526,6 +619,7 @@ mod tests {
             name: "p.isel".into(),
             lines: program.upload_lines().expect("lines"),
             program,
+            gcode: None,
         };
         let fault = ControllerFault {
             command: "m8000,8000".into(),
@@ -547,6 +641,7 @@ mod tests {
             name: "p.emcu".into(),
             lines: program.upload_lines().expect("lines"),
             program,
+            gcode: None,
         };
         let fault = ControllerFault {
             command: "L1,X200".into(),

@@ -45,6 +45,68 @@ pub struct Profile {
     /// Named command sequences in the family's syntax (`config::macros`).
     #[serde(default)]
     pub macros: BTreeMap<String, MacroProfile>,
+    /// G-code import (`docs/gcode.md`, "The profile's [gcode] table").
+    #[serde(default)]
+    pub gcode: GcodeProfile,
+}
+
+/// `[gcode]`: how G-code from CAM becomes this machine's program. Settings
+/// by name; every other key is a G or M code and what to do with it
+/// (`m8 = "ignore"`, `m3 = "output:spindle"`), checked by `gcode::Setup`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct GcodeProfile {
+    /// The unit of a file with neither G20 nor G21 (`mm`, `inch`); absent,
+    /// such a file is refused.
+    #[serde(default)]
+    pub unit: Option<String>,
+    /// Arcs the controller cannot run as arcs become chords that stay
+    /// this close to the arc, mm.
+    #[serde(default = "default_chord_tolerance")]
+    pub chord_tolerance: f64,
+    /// Consecutive straight cuts that stay this close to one line are
+    /// merged into one move, mm (0: never).
+    #[serde(default = "default_merge_tolerance")]
+    pub merge_tolerance: f64,
+    /// G0's path speed, units/s; absent, each rapid runs as fast as its
+    /// slowest moving axis' `max_speed` allows.
+    #[serde(default)]
+    pub rapid_speed: Option<f64>,
+    /// Begin the program with a reference run of its axes (and 3D mode
+    /// after it), so absolute moves count from the reference point.
+    #[serde(default = "default_true")]
+    pub reference_first: bool,
+    /// Program memory in commands, when it differs from the manual's
+    /// (isel 2000, EMCU 256).
+    #[serde(default)]
+    pub memory: Option<usize>,
+    #[serde(flatten)]
+    pub codes: BTreeMap<String, String>,
+}
+
+fn default_chord_tolerance() -> f64 {
+    0.01
+}
+
+fn default_merge_tolerance() -> f64 {
+    0.005
+}
+
+fn default_true() -> bool {
+    true
+}
+
+impl Default for GcodeProfile {
+    fn default() -> GcodeProfile {
+        GcodeProfile {
+            unit: None,
+            chord_tolerance: default_chord_tolerance(),
+            merge_tolerance: default_merge_tolerance(),
+            rapid_speed: None,
+            reference_first: true,
+            memory: None,
+            codes: BTreeMap::new(),
+        }
+    }
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -14,9 +14,43 @@
 //! Sans-IO: text in, values out; the CLI, the editor and the runs read the
 //! files and talk to the device.
 
+pub mod check;
+pub mod emcu;
+pub mod import;
+pub mod interp;
+pub mod isel;
+pub mod output;
+pub mod reader;
+pub mod setup;
 pub mod toolpath;
 
+pub use import::{Import, Target, import};
+pub use interp::interpret;
+pub use setup::{CodeRule, NamedOutput, Setup, Units};
 pub use toolpath::{
     Arc, Diagnostic, Dwell, Line, Op, Origin, OutputSwitch, Pause, Plane, Point, Rapid, Severity,
     Toolpath,
 };
+
+/// File extensions that mark a G-code file (`jogterm check`, `upload`, the
+/// editor); `--gcode` says so for any other name.
+pub const EXTENSIONS: [&str; 5] = ["nc", "ngc", "gcode", "tap", "gc"];
+
+/// Whether a path names a G-code file by its extension.
+pub fn is_gcode_path(path: &std::path::Path) -> bool {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| EXTENSIONS.iter().any(|g| g.eq_ignore_ascii_case(e)))
+}
+
+/// `FILE:LINE:COL: error: message`, as compilers print it.
+pub fn render(file: &str, d: &Diagnostic) -> String {
+    let kind = match d.severity {
+        Severity::Error => "error",
+        Severity::Warning => "warning",
+    };
+    format!(
+        "{file}:{}:{}: {kind}: {}",
+        d.origin.line, d.origin.col, d.message
+    )
+}

@@ -1,0 +1,351 @@
+//! `jogterm import FILE`: G-code from CAM, read, checked against the
+//! machine profile (soft limits over the whole toolpath, arcs included,
+//! through the work offset in force) and converted into the controller's
+//! own program (`docs/gcode.md`).
+//!
+//! stdout: the summary (or one JSON object with `--json`); with `-o` the
+//! program goes to that file, `-o -` prints it instead of the summary.
+//! stderr: `FILE:LINE:COL: error|warning: message`. Exit 0 converted, 1
+//! errors in the file (nothing written), 2 bad usage.
+
+use std::io::Write;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Args, ValueEnum};
+use serde_json::json;
+
+use super::out::closed_is_ok;
+use super::{GlobalArgs, profile};
+use crate::config::ConfigDirs;
+use crate::config::profile::Profile;
+use crate::gcode::{Import, Target, import, render};
+use crate::offsets::store::{OffsetsFile, profile_key};
+use crate::offsets::{Identity, WorkOffsets};
+
+pub const LONG_ABOUT: &str = "\
+Import G-code from CAM (Fusion 360, FreeCAD, Estlcam, LinuxCNC-style files) for a machine
+profile: read it, check the whole toolpath against the machine (every axis against its soft
+limits, arcs' bulges included, in machine coordinates through the work offset in force or
+the one the file selects) and convert it into the controller's own program: an isel CNC
+program (circles as the controller's circle interpolation) or an EMCU job (arcs as chords).
+
+The work offsets are the console's (`O`, `s`; saved per profile and port). The summary says
+what the file holds (moves, arcs, extents in the file's own coordinates, path length,
+estimated time), how many commands the program has and whether it fits the controller's
+memory. Every problem is reported as FILE:LINE:COL on stderr; with an error nothing is
+written. EMP drives are refused: they run independently and have no interpolated path.";
+
+pub const AFTER_LONG_HELP: &str = "\
+Exit status: 0 converted (warnings allowed), 1 errors in the file or the profile's [gcode]
+table (nothing written), 2 bad usage or an unreadable file.
+
+Examples:
+  jogterm import part.nc                          summary for the default (isel) machine
+  jogterm import part.nc --profile mymill -o part.isel   write the isel program
+  jogterm import part.nc --to emcu -o -           print the EMCU job
+  jogterm import part.nc --json                   the summary as one JSON object
+  jogterm import part.nc --work-zero 'X50 Y50 Z60'   G54's zero at machine X50 Y50 Z60";
+
+/// Which program to make.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum To {
+    Isel,
+    Emcu,
+}
+
+#[derive(Debug, Clone, Args)]
+pub struct ImportArgs {
+    /// The G-code file (.nc .ngc .gcode .tap .gc, or any name)
+    #[arg(value_name = "FILE")]
+    pub file: PathBuf,
+    /// The controller program to make [default: the profile's family]
+    #[arg(long, value_enum)]
+    pub to: Option<To>,
+    /// Write the program to OUT (`-`: to stdout instead of the summary)
+    #[arg(short = 'o', long = "output", value_name = "OUT")]
+    pub output: Option<PathBuf>,
+    /// Print the summary as one JSON object
+    #[arg(long)]
+    pub json: bool,
+    /// The active work offset's zero for this import, in machine units (`X50 Y50 Z60`),
+    /// instead of the console's stored one; axes not named keep theirs
+    #[arg(long, value_name = "POS")]
+    pub work_zero: Option<String>,
+}
+
+/// `X50 Y50 Z60` into the active system's zero.
+fn apply_work_zero(text: &str, profile: &Profile, offsets: &mut WorkOffsets) -> Result<(), String> {
+    for word in text.split_whitespace() {
+        let mut chars = word.chars();
+        let letter = chars.next().unwrap_or(' ').to_ascii_uppercase();
+        let axis = crate::axis::Axis::from_letter(letter)
+            .ok_or_else(|| format!("--work-zero: `{word}` is no axis and value (X50 Y50 Z60)"))?;
+        let value: f64 = chars
+            .as_str()
+            .parse()
+            .map_err(|_| format!("--work-zero: `{word}` is no axis and value (X50 Y50 Z60)"))?;
+        let p = profile
+            .axis(axis)
+            .ok_or_else(|| format!("--work-zero: this machine has no {axis} axis"))?;
+        let active = offsets.active();
+        offsets.set(active, axis, p.to_steps(value));
+    }
+    Ok(())
+}
+
+const ERRORS: u8 = 1;
+const USAGE: u8 = 2;
+
+pub fn run(global: &GlobalArgs, args: &ImportArgs) -> anyhow::Result<ExitCode> {
+    let stdout = std::io::stdout();
+    let stderr = std::io::stderr();
+    run_to(
+        global,
+        args,
+        &ConfigDirs::from_env(),
+        &mut stdout.lock(),
+        &mut stderr.lock(),
+    )
+}
+
+/// The work offsets the console would apply for this profile and port.
+fn offsets(
+    global: &GlobalArgs,
+    dirs: &ConfigDirs,
+    profile: &Profile,
+) -> (WorkOffsets, Option<String>) {
+    let Ok((_, sources)) = profile::resolve_with_sources(global, dirs) else {
+        return (WorkOffsets::default(), None);
+    };
+    let key = profile_key(&sources);
+    match OffsetsFile::from_env(Identity::of(&key, profile)) {
+        Some(file) => {
+            let startup = file.load();
+            (startup.offsets, startup.note)
+        }
+        None => (WorkOffsets::default(), None),
+    }
+}
+
+pub fn run_to(
+    global: &GlobalArgs,
+    args: &ImportArgs,
+    dirs: &ConfigDirs,
+    out: &mut dyn Write,
+    err: &mut dyn Write,
+) -> anyhow::Result<ExitCode> {
+    let profile = match profile::resolve(global, dirs) {
+        Ok(p) => p,
+        Err(e) => {
+            let _ = writeln!(err, "jogterm import: {e:#}");
+            return Ok(ExitCode::from(USAGE));
+        }
+    };
+    let target = match args.to {
+        Some(To::Isel) => Target::Isel,
+        Some(To::Emcu) => Target::Emcu,
+        None => match Target::of(profile.connection.protocol) {
+            Ok(t) => t,
+            Err(why) => {
+                let _ = writeln!(err, "jogterm import: {why}");
+                return Ok(ExitCode::from(USAGE));
+            }
+        },
+    };
+    let name = args.file.display().to_string();
+    let imported = match convert(
+        global,
+        dirs,
+        &profile,
+        &args.file,
+        target,
+        args.work_zero.as_deref(),
+        err,
+    ) {
+        Ok(i) => i,
+        Err(code) => return Ok(ExitCode::from(code)),
+    };
+    let header_name = header_name(&args.file);
+    for w in &imported.warnings {
+        let _ = writeln!(err, "{}", render(&name, w));
+    }
+    let program_text = imported.program.text(&header_name);
+    let mut to_stdout = false;
+    if let Some(path) = &args.output {
+        if path.as_os_str() == "-" {
+            to_stdout = true;
+        } else if let Err(e) = crate::program::store::save(path, &program_text, None) {
+            let _ = writeln!(err, "jogterm import: cannot write {}: {e}", path.display());
+            return Ok(ExitCode::from(USAGE));
+        }
+    }
+    let report = if to_stdout {
+        program_text
+    } else if args.json {
+        format!("{}\n", summary_json(&imported))
+    } else {
+        summary_text(&name, &profile, &imported, args.output.as_ref())
+    };
+    closed_is_ok(out.write_all(report.as_bytes()).and_then(|()| out.flush()))?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The name a program's header and `; FILE:LINE` comments give the file.
+pub fn header_name(path: &std::path::Path) -> String {
+    path.file_name().map_or_else(
+        || path.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    )
+}
+
+/// Reads and imports a G-code file for `profile` with the work offsets the
+/// console would apply (or `work_zero`'s). Every diagnostic goes to `err`
+/// as `FILE:LINE:COL`; `Err` is the exit status (1 errors in the file, 2 an
+/// unreadable file or a bad `work_zero`).
+pub fn convert(
+    global: &GlobalArgs,
+    dirs: &ConfigDirs,
+    profile: &Profile,
+    path: &std::path::Path,
+    target: Target,
+    work_zero: Option<&str>,
+    err: &mut dyn Write,
+) -> Result<Import, u8> {
+    let name = path.display().to_string();
+    let bytes = match std::fs::read(path) {
+        Ok(b) => b,
+        Err(e) => {
+            let _ = writeln!(err, "jogterm: cannot read {name}: {e}");
+            return Err(USAGE);
+        }
+    };
+    let text = String::from_utf8_lossy(&bytes);
+    let (mut offsets, note) = offsets(global, dirs, profile);
+    match work_zero {
+        Some(zero) => {
+            if let Err(why) = apply_work_zero(zero, profile, &mut offsets) {
+                let _ = writeln!(err, "jogterm: {why}");
+                return Err(USAGE);
+            }
+        }
+        None => {
+            if let Some(note) = note {
+                let _ = writeln!(err, "jogterm: {note}");
+            }
+        }
+    }
+    match import(&text, &header_name(path), profile, &offsets, target) {
+        Ok(i) => Ok(i),
+        Err(errors) => {
+            for e in &errors {
+                let _ = writeln!(err, "{}", render(&name, e));
+            }
+            let _ = writeln!(
+                err,
+                "jogterm: {name}: {} error{}; nothing written or sent",
+                errors.len(),
+                if errors.len() == 1 { "" } else { "s" }
+            );
+            Err(ERRORS)
+        }
+    }
+}
+
+fn range(min: f64, max: f64) -> [f64; 2] {
+    [round3(min), round3(max)]
+}
+
+fn round3(v: f64) -> f64 {
+    (v * 1000.0).round() / 1000.0
+}
+
+pub fn summary_json(i: &Import) -> serde_json::Value {
+    let e = &i.summary.extents;
+    let extents = if e.is_empty() {
+        serde_json::Value::Null
+    } else {
+        json!({
+            "x": range(e.min.x, e.max.x),
+            "y": range(e.min.y, e.max.y),
+            "z": range(e.min.z, e.max.z),
+        })
+    };
+    json!({
+        "lines": i.toolpath.lines,
+        "extents_mm": extents,
+        "length_mm": round3(i.summary.length_mm),
+        "moves": i.summary.moves,
+        "arcs": i.summary.arcs,
+        "estimated_s": round3(i.summary.estimated_s),
+        "output": i.target.name(),
+        "output_lines": i.program.commands,
+        "memory": i.program.capacity,
+        "fits_memory": i.program.fits(),
+        "work_offset": i.summary.system.to_string(),
+        "warnings": i.warnings.iter().map(|w| json!({
+            "line": w.origin.line,
+            "col": w.origin.col,
+            "message": w.message,
+        })).collect::<Vec<_>>(),
+    })
+}
+
+fn summary_text(name: &str, profile: &Profile, i: &Import, written: Option<&PathBuf>) -> String {
+    let s = &i.summary;
+    let e = &s.extents;
+    let mut out = String::new();
+    out.push_str(&format!(
+        "{name}: {} lines read for profile \"{}\"\n",
+        i.toolpath.lines, profile.name
+    ));
+    out.push_str(&format!(
+        "  moves {}, arcs {}, path {:.1} mm, estimated {} (feeds and rapids, no ramps)\n",
+        s.moves,
+        s.arcs,
+        s.length_mm,
+        duration(s.estimated_s)
+    ));
+    if !e.is_empty() {
+        out.push_str(&format!(
+            "  extents (work {}): X {:.3} .. {:.3}  Y {:.3} .. {:.3}  Z {:.3} .. {:.3} mm\n",
+            s.system, e.min.x, e.max.x, e.min.y, e.max.y, e.min.z, e.max.z
+        ));
+    }
+    out.push_str(&format!(
+        "  work offset {}: zero at machine X {:.3} Y {:.3} Z {:.3} mm; soft limits: all inside\n",
+        s.system, s.zero.x, s.zero.y, s.zero.z
+    ));
+    let fits = if i.program.fits() {
+        "fits the controller's memory".to_owned()
+    } else {
+        format!(
+            "does NOT fit the controller's memory ({} commands): run it as a stream or in parts (`jogterm run`), or split the file in the CAM",
+            i.program.capacity
+        )
+    };
+    out.push_str(&format!(
+        "  {} program: {} commands, {fits}\n",
+        i.target.name(),
+        i.program.commands
+    ));
+    out.push_str(&format!("  warnings: {}\n", i.warnings.len()));
+    if let Some(path) = written.filter(|p| p.as_os_str() != "-") {
+        out.push_str(&format!("  written to {}\n", path.display()));
+    }
+    out
+}
+
+fn duration(seconds: f64) -> String {
+    let total = seconds.round() as u64;
+    if total >= 3600 {
+        format!(
+            "{}:{:02}:{:02} h",
+            total / 3600,
+            total / 60 % 60,
+            total % 60
+        )
+    } else {
+        format!("{}:{:02} min", total / 60, total % 60)
+    }
+}

@@ -1,0 +1,268 @@
+//! The EMCU output: a job for the ROM job store (`@F`, manual 1.5.17),
+//! from a checked toolpath (`docs/gcode.md`, "EMCU").
+//!
+//! - `$HZXY` first (reference run, Z first so the tool leaves the part)
+//!   unless the profile says `reference_first = false`, so that absolute
+//!   moves (`L` with upper-case axes) count from the reference point.
+//! - Every move is an absolute vector move `L<slot>,X…,Y…,Z…` (1.5.10) at
+//!   the path speed of end-speed slot [`SLOT`], set with `#E` whenever the
+//!   speed changes (1-9999 Hz, capped by every moving axis' `max_speed`).
+//! - Arcs become chords within `gcode.chord_tolerance` (the EMCU has no
+//!   circle interpolation).
+//! - Dwells are `W` (ms, at most 9999 each), outputs `A1`/`A2`; a pause
+//!   (M0, M1, M6) makes the next move wait for input E1 (`&V1` … `&V0`,
+//!   1.5.19), the start key on the machines we know.
+
+use crate::axis::Axis;
+use crate::config::profile::{AxisProfile, Profile};
+use crate::proto::emcu::job::JOB_CAPACITY;
+
+use super::output::{Header, Program, chords, merge_lines};
+use super::toolpath::{Diagnostic, Op, Origin, Pause, Point, Severity, Toolpath};
+
+/// The end-speed slot of the import's moves (jogterm's own moves use
+/// `emcu.move_slot`, the teach-in slot 8).
+pub const SLOT: u8 = 7;
+
+const HZ_MIN: f64 = 1.0;
+const HZ_MAX: f64 = 9999.0;
+
+fn error(origin: Origin, message: impl Into<String>) -> Diagnostic {
+    Diagnostic {
+        severity: Severity::Error,
+        origin,
+        message: message.into(),
+    }
+}
+
+struct Writer<'a> {
+    axes: Vec<(Axis, AxisProfile)>,
+    program: Program,
+    profile: &'a Profile,
+    speed: Option<u32>,
+    at: Vec<i64>,
+    capped: usize,
+    first_capped: Option<Origin>,
+    wait_e1: bool,
+}
+
+pub fn convert(
+    path: &Toolpath,
+    profile: &Profile,
+    header: &Header,
+) -> Result<Program, Vec<Diagnostic>> {
+    let axes: Vec<(Axis, AxisProfile)> = [Axis::X, Axis::Y, Axis::Z]
+        .into_iter()
+        .filter_map(|a| profile.axis(a).map(|p| (a, p.clone())))
+        .collect();
+    if axes.is_empty() {
+        return Err(vec![error(
+            Origin { line: 1, col: 1 },
+            "the profile has no X, Y or Z axis",
+        )]);
+    }
+    let mut w = Writer {
+        at: vec![i64::MIN; axes.len()],
+        axes,
+        program: Program {
+            capacity: profile.gcode.memory.unwrap_or(JOB_CAPACITY),
+            ..Program::default()
+        },
+        profile,
+        speed: None,
+        capped: 0,
+        first_capped: None,
+        wait_e1: false,
+    };
+    for line in header.lines() {
+        w.program.comment(line);
+    }
+    if profile.gcode.reference_first {
+        let order: String = [Axis::Z, Axis::X, Axis::Y]
+            .into_iter()
+            .filter(|a| w.axes.iter().any(|(b, _)| b == a))
+            .map(|a| a.letter())
+            .collect();
+        w.program.command_noted(
+            format!("$H{order}"),
+            "reference run: absolute moves count from it",
+            None,
+        );
+    }
+    let mut errors = Vec::new();
+    for op in merge_lines(&path.ops, profile.gcode.merge_tolerance) {
+        if let Err(e) = w.op(&op) {
+            errors.push(e);
+        }
+    }
+    if !errors.is_empty() {
+        return Err(errors);
+    }
+    if w.capped > 0 {
+        w.program.warnings.push(Diagnostic {
+            severity: Severity::Warning,
+            origin: w.first_capped.unwrap_or_default(),
+            message: format!(
+                "{} moves asked for more speed than the machine gives (max_speed of an axis, or 9999 Hz): they run slower, the first at this line",
+                w.capped
+            ),
+        });
+    }
+    Ok(w.program)
+}
+
+impl Writer<'_> {
+    fn exact_steps(&self, p: Point) -> Vec<f64> {
+        self.axes
+            .iter()
+            .map(|(a, prof)| super::interp::get(p, *a) * prof.steps_per_unit)
+            .collect()
+    }
+
+    fn steps(&self, p: Point) -> Vec<i64> {
+        self.axes
+            .iter()
+            .map(|(a, prof)| prof.to_steps(super::interp::get(p, *a)))
+            .collect()
+    }
+
+    fn move_to(&mut self, from: Point, to: Point, mm_per_s: f64, origin: Origin) {
+        let target = self.steps(to);
+        if target == self.at {
+            return;
+        }
+        let hz = self.path_hz(from, to, mm_per_s, origin);
+        if self.speed != Some(hz) {
+            self.program.command(format!("#E{SLOT},{hz}"), Some(origin));
+            self.speed = Some(hz);
+        }
+        let words: Vec<String> = self
+            .axes
+            .iter()
+            .zip(&target)
+            .map(|((a, _), s)| format!("{}{s}", a.letter()))
+            .collect();
+        self.program
+            .command(format!("L{SLOT},{}", words.join(",")), Some(origin));
+        if self.wait_e1 {
+            self.program
+                .command_noted("&V0", "later moves start at once again", Some(origin));
+            self.wait_e1 = false;
+        }
+        self.at = target;
+    }
+
+    fn path_hz(&mut self, from: Point, to: Point, mm_per_s: f64, origin: Origin) -> u32 {
+        let d_mm =
+            ((to.x - from.x).powi(2) + (to.y - from.y).powi(2) + (to.z - from.z).powi(2)).sqrt();
+        // Unrounded steps: equal feeds give equal speeds, chord after chord.
+        let s0 = self.exact_steps(from);
+        let s1 = self.exact_steps(to);
+        let d_steps = s0
+            .iter()
+            .zip(&s1)
+            .map(|(a, b)| (b - a).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        if d_mm < 1e-12 || d_steps < 0.5 {
+            return HZ_MIN as u32;
+        }
+        let mut hz = if mm_per_s.is_finite() {
+            mm_per_s * d_steps / d_mm
+        } else {
+            HZ_MAX
+        };
+        let mut capped = false;
+        for (i, (_, p)) in self.axes.iter().enumerate() {
+            let share = (s1[i] - s0[i]).abs() / d_steps;
+            if share > 0.0 {
+                let limit = p.speed_hz(p.max_speed) / share;
+                if hz > limit + 0.5 {
+                    hz = limit;
+                    capped = mm_per_s.is_finite();
+                }
+            }
+        }
+        if hz > HZ_MAX {
+            hz = HZ_MAX;
+            capped |= mm_per_s.is_finite();
+        }
+        if capped {
+            self.capped += 1;
+            self.first_capped.get_or_insert(origin);
+        }
+        hz.round().clamp(HZ_MIN, HZ_MAX) as u32
+    }
+
+    fn op(&mut self, op: &Op) -> Result<(), Diagnostic> {
+        match op {
+            Op::Rapid(m) => {
+                let speed = self.profile.gcode.rapid_speed.unwrap_or(f64::INFINITY);
+                self.move_to(m.from, m.to, speed, m.origin);
+            }
+            Op::Line(m) => self.move_to(m.from, m.to, m.feed / 60.0, m.origin),
+            Op::Arc(a) => {
+                let mut from = a.from;
+                for p in chords(a, self.profile.gcode.chord_tolerance) {
+                    self.move_to(from, p, a.feed / 60.0, a.origin);
+                    from = p;
+                }
+            }
+            Op::Dwell(d) => {
+                let mut ms = (d.seconds * 1000.0).round() as u64;
+                while ms > 0 {
+                    let part = ms.min(9999);
+                    self.program.command(format!("W{part}"), Some(d.origin));
+                    ms -= part;
+                }
+            }
+            Op::Output(o) => {
+                let n = o
+                    .address
+                    .strip_prefix('A')
+                    .and_then(|n| n.parse::<u8>().ok())
+                    .filter(|n| (1..=2).contains(n))
+                    .ok_or_else(|| {
+                        error(
+                            o.origin,
+                            format!(
+                                "output {} ({}) is no EMCU output (A1, A2)",
+                                o.name, o.address
+                            ),
+                        )
+                    })?;
+                self.program.command_noted(
+                    format!("A{n},{}", u8::from(o.on)),
+                    &format!("{} {}", o.name, if o.on { "on" } else { "off" }),
+                    Some(o.origin),
+                );
+            }
+            Op::SpindleSpeed { rpm, origin } => {
+                self.program.lines.push(super::output::ProgramLine {
+                    command: String::new(),
+                    comment: Some(format!("S{rpm}: the controller sets no spindle speed")),
+                    origin: Some(*origin),
+                });
+            }
+            Op::Pause(p) => {
+                let origin = match p {
+                    Pause::Program { origin }
+                    | Pause::Optional { origin }
+                    | Pause::ToolChange { origin, .. } => *origin,
+                };
+                let why = match p {
+                    Pause::ToolChange { tool: Some(t), .. } => {
+                        format!("M6 T{t}: change the tool, then press start (E1)")
+                    }
+                    _ => "pause: press start (E1) to go on".to_owned(),
+                };
+                if !self.wait_e1 {
+                    self.program.command_noted("&V1", &why, Some(origin));
+                    self.wait_e1 = true;
+                }
+            }
+            Op::WorkOffset { .. } | Op::End { .. } => {}
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,490 @@
+//! The isel output: a CNC program as `jogterm upload` stores it (`@0i` …
+//! `9`, manual chapter 3), from a checked toolpath (`docs/gcode.md`,
+//! "isel").
+//!
+//! - The program begins with a reference run of its axes (`7`, 3.2.8)
+//!   unless the profile says `reference_first = false`: `m` counts from the
+//!   reference point (or a zero `n` set), and only the reference run makes
+//!   that the machine coordinates the toolpath was checked in.
+//! - 3D interpolation (`z1`, 2.2.29, 3.2.24) right after it: in the
+//!   default 2.5D mode X/Y run first and Z after, so a plunge or retract
+//!   combined with X/Y would be a staircase into the part. A reference run
+//!   ends 3D mode (2.2.22), so `z1` follows every `7`.
+//! - Straight moves as `m` (absolute, 3.2.16) at the path speed in steps/s
+//!   (in 3D the x speed is the path speed), capped by every moving axis'
+//!   `max_speed` and the manual's 1-40000 Hz, a capped speed is a warning at
+//!   its line; G0 at the profile's rapid speed.
+//! - Arcs and helices as the controller's circle interpolation (`e` plane,
+//!   `f` direction, `y`/`w`, manual 2.3, the same code as `jogterm arc`),
+//!   each followed by an `m` to its exact end as 2.3 advises; arcs in a
+//!   plane whose axes have different steps per mm become chords (the
+//!   controller's circle is round in steps), arcs too short for one step
+//!   become a line.
+//! - Dwells as `5` (tenths of a second), outputs as `p`, pauses (M0, M1,
+//!   M6) as `2` (wait for a character from the host, 3.2.4): the program
+//!   stands until jogterm sends it.
+
+use crate::axis::Axis;
+use crate::config::profile::{AxisProfile, Profile};
+use crate::program::ISEL_CAPACITY;
+use crate::proto::isel::{CircleDirection, CircleError, Plane as IselPlane, circle, helix};
+use crate::proto::typed::isel_config;
+
+use super::interp::{get, plane_axes, radius, sweep};
+use super::output::{Header, Program, chords, merge_lines};
+use super::toolpath::{Arc, Diagnostic, Op, Origin, Pause, Plane, Point, Severity, Toolpath};
+
+/// The character `2` waits for at a pause: `G` ("go"), sent by jogterm when
+/// the operator confirms.
+pub const PAUSE_SYNC: u8 = b'G';
+
+const HZ_MIN: f64 = 1.0;
+const HZ_MAX: f64 = 40_000.0;
+
+struct Axes {
+    x: AxisProfile,
+    y: AxisProfile,
+    z: AxisProfile,
+    /// Pairs per `m`: XYZ has x, y, z1, z2 (the z2 of `m` is ignored, 3.2.16).
+    pairs: usize,
+}
+
+impl Axes {
+    fn of(&self, axis: Axis) -> &AxisProfile {
+        match axis {
+            Axis::X => &self.x,
+            Axis::Y => &self.y,
+            _ => &self.z,
+        }
+    }
+
+    fn exact_steps(&self, p: Point) -> [f64; 3] {
+        [
+            p.x * self.x.steps_per_unit,
+            p.y * self.y.steps_per_unit,
+            p.z * self.z.steps_per_unit,
+        ]
+    }
+
+    fn steps(&self, p: Point) -> [i64; 3] {
+        [
+            self.x.to_steps(p.x),
+            self.y.to_steps(p.y),
+            self.z.to_steps(p.z),
+        ]
+    }
+}
+
+fn error(origin: Origin, message: impl Into<String>) -> Diagnostic {
+    Diagnostic {
+        severity: Severity::Error,
+        origin,
+        message: message.into(),
+    }
+}
+
+struct Writer<'a> {
+    axes: Axes,
+    program: Program,
+    profile: &'a Profile,
+    /// Steps where the tool stands (after the last command).
+    at: [i64; 3],
+    plane: IselPlane,
+    capped: usize,
+    first_capped: Option<Origin>,
+    spindle_speeds: Option<Origin>,
+}
+
+/// Converts a checked toolpath into an isel CNC program.
+pub fn convert(
+    path: &Toolpath,
+    profile: &Profile,
+    header: &Header,
+) -> Result<Program, Vec<Diagnostic>> {
+    let set = profile.axis_set();
+    let config = isel_config(set);
+    let axis = |a: Axis| profile.axis(a).cloned();
+    let (Some(x), Some(y), Some(z), Some(config)) =
+        (axis(Axis::X), axis(Axis::Y), axis(Axis::Z), config)
+    else {
+        return Err(vec![error(
+            Origin { line: 1, col: 1 },
+            format!(
+                "the isel output needs a machine with axes X, Y and Z (this profile has {set}): the G-code import moves all three"
+            ),
+        )]);
+    };
+    let pairs = config.axes().len() + usize::from(set.len() == 3);
+    let mut w = Writer {
+        axes: Axes { x, y, z, pairs },
+        program: Program {
+            capacity: profile.gcode.memory.unwrap_or(ISEL_CAPACITY),
+            ..Program::default()
+        },
+        profile,
+        at: [0; 3],
+        plane: IselPlane::XY,
+        capped: 0,
+        first_capped: None,
+        spindle_speeds: None,
+    };
+    for line in header.lines() {
+        w.program.comment(line);
+    }
+    let start = path.ops.iter().find_map(|op| match op {
+        Op::Rapid(m) => Some(m.from),
+        Op::Line(m) => Some(m.from),
+        Op::Arc(a) => Some(a.from),
+        _ => None,
+    });
+    w.at = w.axes.steps(start.unwrap_or_default());
+    if profile.gcode.reference_first {
+        w.program.command_noted(
+            "77",
+            "reference run of X, Y and Z: m counts from the reference point",
+            None,
+        );
+        w.at = [0; 3];
+    } else {
+        w.program.comment(
+            "no reference run (gcode.reference_first = false): m counts from the controller's zero point, which must be the reference point",
+        );
+    }
+    w.program
+        .command_noted("z1", "3D interpolation: X, Y and Z on one line", None);
+    let mut errors = Vec::new();
+    let ops = merge_lines(&path.ops, profile.gcode.merge_tolerance);
+    for op in &ops {
+        if let Err(e) = w.op(op) {
+            errors.push(e);
+        }
+    }
+    if !errors.is_empty() {
+        return Err(errors);
+    }
+    if w.capped > 0 {
+        let origin = w.first_capped.unwrap_or_default();
+        w.program.warnings.push(Diagnostic {
+            severity: Severity::Warning,
+            origin,
+            message: format!(
+                "{} moves asked for more speed than the machine gives (max_speed of an axis, or 40000 Hz): they run slower, the first at this line",
+                w.capped
+            ),
+        });
+    }
+    if let Some(origin) = w.spindle_speeds {
+        w.program.warnings.push(Diagnostic {
+            severity: Severity::Warning,
+            origin,
+            message: "the isel controller cannot set a spindle speed: S words (the first here) go into the program as comments only".into(),
+        });
+    }
+    Ok(w.program)
+}
+
+impl Writer<'_> {
+    /// `m` to `target` steps at `hz`.
+    fn move_to(&mut self, target: [i64; 3], hz: u32, origin: Origin, note: Option<&str>) {
+        let mut params: Vec<String> = target.iter().map(|s| format!("{s},{hz}")).collect();
+        params.truncate(self.axes.pairs.min(3));
+        while params.len() < self.axes.pairs {
+            params.push(format!("0,{hz}"));
+        }
+        let command = format!("m{}", params.join(","));
+        match note {
+            Some(n) => self.program.command_noted(command, n, Some(origin)),
+            None => self.program.command(command, Some(origin)),
+        }
+        self.at = target;
+    }
+
+    /// The path speed in steps/s for a move of `from` → `to` (mm) at
+    /// `mm_per_s`, capped by every moving axis' `max_speed`.
+    fn path_hz(&mut self, from: Point, to: Point, mm_per_s: f64, origin: Origin) -> u32 {
+        let d_mm =
+            ((to.x - from.x).powi(2) + (to.y - from.y).powi(2) + (to.z - from.z).powi(2)).sqrt();
+        // Unrounded steps: equal feeds give equal speeds, chord after chord.
+        let s0 = self.axes.exact_steps(from);
+        let s1 = self.axes.exact_steps(to);
+        let d_steps = s0
+            .iter()
+            .zip(&s1)
+            .map(|(a, b)| (b - a).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        if d_mm < 1e-12 || d_steps < 0.5 {
+            return HZ_MIN as u32;
+        }
+        let mut hz = mm_per_s * d_steps / d_mm;
+        let mut capped = false;
+        for (i, axis) in [Axis::X, Axis::Y, Axis::Z].into_iter().enumerate() {
+            let share = (s1[i] - s0[i]).abs() / d_steps;
+            if share > 0.0 {
+                let p = self.axes.of(axis);
+                let limit = p.speed_hz(p.max_speed) / share;
+                if hz > limit + 0.5 {
+                    hz = limit;
+                    capped = true;
+                }
+            }
+        }
+        if hz > HZ_MAX {
+            hz = HZ_MAX;
+            capped = true;
+        }
+        if capped {
+            self.capped += 1;
+            self.first_capped.get_or_insert(origin);
+        }
+        hz.round().clamp(HZ_MIN, HZ_MAX) as u32
+    }
+
+    fn rapid_mm_s(&self, from: Point, to: Point) -> f64 {
+        match self.profile.gcode.rapid_speed {
+            Some(s) => s,
+            // As fast as the slowest moving axis allows on the path: the
+            // cap in `path_hz` then holds every axis to its max_speed.
+            None => f64::INFINITY.min(
+                [Axis::X, Axis::Y, Axis::Z]
+                    .into_iter()
+                    .filter(|a| (get(to, *a) - get(from, *a)).abs() > 1e-12)
+                    .map(|a| self.axes.of(a).max_speed)
+                    .fold(f64::INFINITY, f64::max),
+            ),
+        }
+    }
+
+    fn op(&mut self, op: &Op) -> Result<(), Diagnostic> {
+        match op {
+            Op::Rapid(m) => {
+                let speed = self.rapid_mm_s(m.from, m.to);
+                let capped_before = self.capped;
+                let hz = self.path_hz(m.from, m.to, speed, m.origin);
+                // A rapid is meant to be as fast as allowed: no warning.
+                if self.profile.gcode.rapid_speed.is_none() {
+                    self.capped = capped_before;
+                }
+                let target = self.axes.steps(m.to);
+                if target != self.at {
+                    self.move_to(target, hz, m.origin, None);
+                }
+            }
+            Op::Line(m) => {
+                let hz = self.path_hz(m.from, m.to, m.feed / 60.0, m.origin);
+                let target = self.axes.steps(m.to);
+                if target != self.at {
+                    self.move_to(target, hz, m.origin, None);
+                }
+            }
+            Op::Arc(a) => self.arc(a)?,
+            Op::Dwell(d) => {
+                let mut tenths = (d.seconds * 10.0).round() as u64;
+                if d.seconds > 0.0 && tenths == 0 {
+                    tenths = 1;
+                }
+                while tenths > 0 {
+                    let part = tenths.min(u64::from(u16::MAX));
+                    self.program.command(format!("5{part}"), Some(d.origin));
+                    tenths -= part;
+                }
+            }
+            Op::Output(o) => {
+                let (port, bit) = isel_output(&o.address).ok_or_else(|| {
+                    error(
+                        o.origin,
+                        format!("output {} ({}) is no isel output port", o.name, o.address),
+                    )
+                })?;
+                let v = u8::from(o.on);
+                self.program.command_noted(
+                    format!("p{port},{bit},{v}"),
+                    &format!("{} {}", o.name, if o.on { "on" } else { "off" }),
+                    Some(o.origin),
+                );
+            }
+            Op::SpindleSpeed { rpm, origin } => {
+                self.spindle_speeds.get_or_insert(*origin);
+                self.program.lines.push(super::output::ProgramLine {
+                    command: String::new(),
+                    comment: Some(format!("S{rpm}: the controller sets no spindle speed")),
+                    origin: Some(*origin),
+                });
+            }
+            Op::Pause(p) => {
+                let (origin, why) = match p {
+                    Pause::Program { origin } => (*origin, "M0: program pause".to_owned()),
+                    Pause::Optional { origin } => (
+                        *origin,
+                        "M1: optional pause (jogterm always pauses)".to_owned(),
+                    ),
+                    Pause::ToolChange { tool, origin } => (
+                        *origin,
+                        match tool {
+                            Some(t) => format!("M6: change to tool T{t}"),
+                            None => "M6: tool change (no T given)".to_owned(),
+                        },
+                    ),
+                };
+                self.program.command_noted(
+                    format!("2{PAUSE_SYNC},1"),
+                    &format!("{why}; waits for `{}` from jogterm", char::from(PAUSE_SYNC)),
+                    Some(origin),
+                );
+            }
+            Op::WorkOffset { .. } => {}
+            Op::End { origin } => {
+                self.program.command("9", Some(*origin));
+            }
+        }
+        Ok(())
+    }
+
+    fn arc(&mut self, arc: &Arc) -> Result<(), Diagnostic> {
+        let (u, v, n) = plane_axes(arc.plane);
+        let (pu, pv) = (self.axes.of(u), self.axes.of(v));
+        let round = (pu.steps_per_unit - pv.steps_per_unit).abs() < 1e-9;
+        let isel_plane = match arc.plane {
+            Plane::Xy => IselPlane::XY,
+            Plane::Zx => IselPlane::XZ,
+            Plane::Yz => IselPlane::YZ,
+        };
+        if !round {
+            self.arc_as_chords(arc, "the plane's axes have different steps per unit");
+            return Ok(());
+        }
+        let spu = pu.steps_per_unit;
+        // isel's angles: counter-clockwise from axis 1 of its plane; G18's
+        // (Z, X) order is the other way round from isel's XZ.
+        let (a1, a2, flip) = match arc.plane {
+            Plane::Zx => (v, u, true),
+            _ => (u, v, false),
+        };
+        let angle = |p: Point| {
+            (get(p, a2) - get(arc.centre, a2))
+                .atan2(get(p, a1) - get(arc.centre, a1))
+                .to_degrees()
+        };
+        let cw = arc.clockwise != flip;
+        let direction = if cw {
+            CircleDirection::Cw
+        } else {
+            CircleDirection::Ccw
+        };
+        let r_steps = (radius(arc) * spu).round();
+        let start = angle(arc.from);
+        let end = angle(arc.to);
+        let total = sweep(arc);
+        let pieces = 1 + arc.extra_turns;
+        let mm_per_s = arc.feed / 60.0;
+        let mut hz = mm_per_s * spu;
+        let max_hz = pu.speed_hz(pu.max_speed).min(pv.speed_hz(pv.max_speed));
+        let capped = hz > max_hz + 0.5 || hz > HZ_MAX;
+        hz = hz.min(max_hz).clamp(HZ_MIN, HZ_MAX);
+        if capped {
+            self.capped += 1;
+            self.first_capped.get_or_insert(arc.origin);
+        }
+        let hz = hz.round() as u32;
+        let n_profile = self.axes.of(n).clone();
+        let rise_steps = n_profile.to_steps(get(arc.to, n)) - n_profile.to_steps(get(arc.from, n));
+        if r_steps < 1.0 {
+            self.line_instead(arc, hz);
+            return Ok(());
+        }
+        if self.plane != isel_plane {
+            self.program.command_noted(
+                format!("e{}", isel_plane.value()),
+                "circle plane",
+                Some(arc.origin),
+            );
+            self.plane = isel_plane;
+        }
+        // The first piece sweeps what is beyond whole turns, then whole turns.
+        let first = total - 2.0 * std::f64::consts::PI * f64::from(arc.extra_turns);
+        let mut done_rise = 0i64;
+        let mut swept = 0.0;
+        for k in 0..pieces {
+            let piece = if k == 0 {
+                first
+            } else {
+                2.0 * std::f64::consts::PI
+            };
+            swept += piece;
+            let (s_deg, e_deg) = if k == 0 { (start, end) } else { (end, end) };
+            let rise_here = if rise_steps == 0 {
+                0
+            } else {
+                let target = (rise_steps as f64 * swept / total).round() as i64;
+                let r = target - done_rise;
+                done_rise = target;
+                r
+            };
+            let lines = if rise_steps == 0 {
+                circle(r_steps as u32, s_deg, e_deg, direction, hz).map(|c| c.cnc_lines())
+            } else {
+                let s3 = i32::try_from(rise_here).unwrap_or(i32::MAX);
+                helix(r_steps as u32, s_deg, e_deg, direction, hz, s3).map(|h| h.cnc_lines())
+            };
+            match lines {
+                Ok([f, y]) => {
+                    self.program.command(f.to_string(), Some(arc.origin));
+                    self.program.command(y.to_string(), Some(arc.origin));
+                }
+                Err(CircleError::ArcTooShort) => {
+                    self.line_instead(arc, hz);
+                    return Ok(());
+                }
+                Err(e) => {
+                    self.arc_as_chords(arc, &e.to_string());
+                    return Ok(());
+                }
+            }
+        }
+        // The controller's step walk ends near, not always on, the end.
+        let target = self.axes.steps(arc.to);
+        self.move_to(target, hz, arc.origin, Some("to the arc's exact end"));
+        Ok(())
+    }
+
+    fn line_instead(&mut self, arc: &Arc, hz: u32) {
+        let target = self.axes.steps(arc.to);
+        if target != self.at {
+            self.move_to(
+                target,
+                hz,
+                arc.origin,
+                Some("an arc shorter than a step: a line"),
+            );
+        }
+    }
+
+    fn arc_as_chords(&mut self, arc: &Arc, why: &str) {
+        self.program.warnings.push(Diagnostic {
+            severity: Severity::Warning,
+            origin: arc.origin,
+            message: format!(
+                "arc as chords ({} mm): {why}",
+                self.profile.gcode.chord_tolerance
+            ),
+        });
+        let mut from = arc.from;
+        for p in chords(arc, self.profile.gcode.chord_tolerance) {
+            let hz = self.path_hz(from, p, arc.feed / 60.0, arc.origin);
+            let target = self.axes.steps(p);
+            if target != self.at {
+                self.move_to(target, hz, arc.origin, None);
+            }
+            from = p;
+        }
+    }
+}
+
+/// `out0.3` → port 0 bit 3; `out2` → port 2, bit 128 (the whole on/off port).
+fn isel_output(address: &str) -> Option<(u32, u32)> {
+    let rest = address.strip_prefix("out")?;
+    match rest.split_once('.') {
+        Some((port, bit)) => Some((port.parse().ok()?, bit.parse().ok()?)),
+        None => Some((rest.parse().ok()?, 128)),
+    }
+}

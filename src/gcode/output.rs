@@ -1,0 +1,222 @@
+//! What both controller outputs share: the converted program with the
+//! G-code line of every command, the header that says what it was made
+//! for, chords of arcs and the merging of near-collinear cuts.
+
+use std::f64::consts::PI;
+
+use super::interp::{arc_point, radius, sweep};
+use super::toolpath::{Arc, Diagnostic, Line, Op, Origin, Point};
+
+/// A converted program: controller lines (comments included), and for
+/// each its G-code origin.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Program {
+    pub lines: Vec<ProgramLine>,
+    pub warnings: Vec<Diagnostic>,
+    /// Commands the controller stores (comment lines not counted).
+    pub commands: usize,
+    /// Its program memory in commands.
+    pub capacity: usize,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct ProgramLine {
+    /// The command (empty for a comment-only line).
+    pub command: String,
+    pub comment: Option<String>,
+    pub origin: Option<Origin>,
+}
+
+impl Program {
+    pub fn fits(&self) -> bool {
+        self.commands <= self.capacity
+    }
+
+    /// The program as a file: the command, and `; FILE:LINE` after it.
+    pub fn text(&self, file: &str) -> String {
+        let mut out = String::new();
+        for line in &self.lines {
+            let mut comment = line.comment.clone();
+            if let Some(o) = line.origin {
+                let at = format!("{file}:{}", o.line);
+                comment = Some(match comment {
+                    Some(c) => format!("{at} {c}"),
+                    None => at,
+                });
+            }
+            match (line.command.is_empty(), comment) {
+                (true, Some(c)) => out.push_str(&format!("; {c}\n")),
+                (true, None) => out.push('\n'),
+                (false, Some(c)) => out.push_str(&format!("{:<40} ; {c}\n", line.command)),
+                (false, None) => out.push_str(&format!("{}\n", line.command)),
+            }
+        }
+        out
+    }
+
+    pub fn comment(&mut self, text: impl Into<String>) {
+        self.lines.push(ProgramLine {
+            command: String::new(),
+            comment: Some(text.into()),
+            origin: None,
+        });
+    }
+
+    pub fn command(&mut self, command: impl Into<String>, origin: Option<Origin>) {
+        self.commands += 1;
+        self.lines.push(ProgramLine {
+            command: command.into(),
+            comment: None,
+            origin,
+        });
+    }
+
+    pub fn command_noted(
+        &mut self,
+        command: impl Into<String>,
+        note: &str,
+        origin: Option<Origin>,
+    ) {
+        self.commands += 1;
+        self.lines.push(ProgramLine {
+            command: command.into(),
+            comment: Some(note.to_owned()),
+            origin,
+        });
+    }
+
+    /// The G-code origin of the `index`th stored command (0-based), for a
+    /// controller error that names a command.
+    pub fn origin_of_command(&self, index: usize) -> Option<Origin> {
+        self.lines
+            .iter()
+            .filter(|l| !l.command.is_empty())
+            .nth(index)
+            .and_then(|l| l.origin)
+    }
+}
+
+/// What a program was made for: it goes at the top of the program as
+/// comments, one `key=value` per line, so that a run can check it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Header {
+    pub file: String,
+    pub profile: String,
+    pub system: String,
+    /// Machine mm of the work zero the file was mapped through.
+    pub zero: Point,
+}
+
+impl Header {
+    pub const PREFIX: &'static str = "jogterm-gcode";
+
+    pub fn lines(&self) -> Vec<String> {
+        vec![
+            format!("{} file={}", Header::PREFIX, self.file),
+            format!("{} profile={}", Header::PREFIX, self.profile),
+            format!(
+                "{} offset={} zero={:.4},{:.4},{:.4}",
+                Header::PREFIX,
+                self.system,
+                self.zero.x,
+                self.zero.y,
+                self.zero.z
+            ),
+        ]
+    }
+
+    /// The offset line of a converted program's text: `(system, zero)`.
+    pub fn offset_of(text: &str) -> Option<(String, Point)> {
+        let marker = format!("{} offset=", Header::PREFIX);
+        let line = text.lines().find_map(|l| {
+            let l = l.trim_start_matches(';').trim();
+            l.strip_prefix(&marker)
+        })?;
+        let (system, zero) = line.split_once(" zero=")?;
+        let mut it = zero.split(',').map(|v| v.trim().parse::<f64>());
+        let (Some(Ok(x)), Some(Ok(y)), Some(Ok(z))) = (it.next(), it.next(), it.next()) else {
+            return None;
+        };
+        Some((system.to_owned(), Point { x, y, z }))
+    }
+}
+
+/// Points along an arc (its end included, its start not) so that no chord
+/// strays more than `tolerance` from it.
+pub fn chords(arc: &Arc, tolerance: f64) -> Vec<Point> {
+    let r = radius(arc).max(1e-9);
+    let total = sweep(arc);
+    let tol = tolerance.clamp(1e-6, r);
+    // A chord of angle a strays r (1 - cos(a/2)) from its arc.
+    let max_angle = 2.0 * (1.0 - tol / r).clamp(-1.0, 1.0).acos();
+    let max_angle = if max_angle.is_finite() && max_angle > 0.0 {
+        max_angle.min(PI / 2.0)
+    } else {
+        PI / 2.0
+    };
+    let n = (total / max_angle).ceil().max(1.0) as usize;
+    (1..=n)
+        .map(|k| arc_point(arc, k as f64 / n as f64))
+        .collect()
+}
+
+fn distance_to_segment(p: Point, a: Point, b: Point) -> f64 {
+    let (dx, dy, dz) = (b.x - a.x, b.y - a.y, b.z - a.z);
+    let len2 = dx * dx + dy * dy + dz * dz;
+    let t = if len2 < 1e-18 {
+        0.0
+    } else {
+        (((p.x - a.x) * dx + (p.y - a.y) * dy + (p.z - a.z) * dz) / len2).clamp(0.0, 1.0)
+    };
+    let (qx, qy, qz) = (a.x + t * dx, a.y + t * dy, a.z + t * dz);
+    ((p.x - qx).powi(2) + (p.y - qy).powi(2) + (p.z - qz).powi(2)).sqrt()
+}
+
+/// The most lines merged into one move, so that a merge stays cheap.
+const MERGE_RUN: usize = 64;
+
+/// Consecutive feed moves at one feed whose inner points all lie within
+/// `tolerance` of the merged line become one move (the first's origin):
+/// every isel command ramps down to the start-stop speed, so CAM's short
+/// collinear segments cost time and marks at the part.
+pub fn merge_lines(ops: &[Op], tolerance: f64) -> Vec<Op> {
+    let mut out: Vec<Op> = Vec::with_capacity(ops.len());
+    let mut run: Vec<Line> = Vec::new();
+    let flush = |run: &mut Vec<Line>, out: &mut Vec<Op>| {
+        if let (Some(first), Some(last)) = (run.first(), run.last()) {
+            out.push(Op::Line(Line {
+                from: first.from,
+                to: last.to,
+                feed: first.feed,
+                origin: first.origin,
+            }));
+        }
+        run.clear();
+    };
+    for op in ops {
+        match op {
+            Op::Line(line) if tolerance > 0.0 => {
+                let fits = match run.first() {
+                    None => true,
+                    Some(first) => {
+                        first.feed == line.feed
+                            && run.len() < MERGE_RUN
+                            && run.iter().all(|l| {
+                                distance_to_segment(l.to, first.from, line.to) <= tolerance
+                            })
+                    }
+                };
+                if !fits {
+                    flush(&mut run, &mut out);
+                }
+                run.push(*line);
+            }
+            other => {
+                flush(&mut run, &mut out);
+                out.push(other.clone());
+            }
+        }
+    }
+    flush(&mut run, &mut out);
+    out
+}

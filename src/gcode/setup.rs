@@ -1,0 +1,231 @@
+//! What the interpreter needs to know of the machine: units, work offsets,
+//! named outputs and the profile's `[gcode]` table, already resolved, so
+//! that interpreting is a pure function of text and setup.
+
+use std::collections::BTreeMap;
+
+use crate::axis::Axis;
+use crate::config::profile::{GcodeProfile, Profile};
+use crate::offsets::{System, WorkOffsets};
+use crate::wiring::{BitKind, Role, Wiring};
+
+use super::toolpath::Point;
+
+/// A file's unit, as G20/G21 select it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Units {
+    Mm,
+    Inch,
+}
+
+impl Units {
+    pub fn mm(self) -> f64 {
+        match self {
+            Units::Mm => 1.0,
+            Units::Inch => 25.4,
+        }
+    }
+}
+
+/// An output the file may switch.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NamedOutput {
+    pub address: String,
+    pub name: String,
+    pub role: Option<Role>,
+    /// The number `M62 P<n>` … `M65` give it: its place among the
+    /// profile's outputs (`docs/gcode.md`, "Outputs").
+    pub number: u32,
+}
+
+/// What the profile's `[gcode]` table says of one code.
+#[derive(Debug, Clone, PartialEq)]
+pub enum CodeRule {
+    /// Read and dropped, with a warning at every line that has it.
+    Ignore,
+    /// Switch this output (by role or address) on, or off for the codes
+    /// that switch off (M5, M9, M63, M65).
+    Output(String),
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Setup {
+    /// Axes the machine has, of X Y Z (a word of another is refused).
+    pub axes: Vec<Axis>,
+    /// The unit of a file that selects none.
+    pub default_units: Option<Units>,
+    /// The six work zeros in machine mm, and the one in force.
+    pub zeros: [Point; System::COUNT],
+    pub active: System,
+    /// Where the tool stands when the job starts (machine mm); the first
+    /// move starts here.
+    pub start: Point,
+    pub outputs: Vec<NamedOutput>,
+    /// `m8`, `g64`, … (lower case, as in the profile) to what they do.
+    pub codes: BTreeMap<String, CodeRule>,
+}
+
+impl Default for Setup {
+    fn default() -> Setup {
+        Setup {
+            axes: vec![Axis::X, Axis::Y, Axis::Z],
+            default_units: None,
+            zeros: [Point::default(); System::COUNT],
+            active: System::G54,
+            start: Point::default(),
+            outputs: Vec::new(),
+            codes: BTreeMap::new(),
+        }
+    }
+}
+
+/// A `[gcode]` entry that makes no sense.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SetupError {
+    pub key: String,
+    pub message: String,
+}
+
+impl Setup {
+    /// From a validated profile and the work offsets in force (steps).
+    pub fn from_profile(
+        profile: &Profile,
+        offsets: &WorkOffsets,
+    ) -> Result<Setup, Vec<SetupError>> {
+        let axes: Vec<Axis> = profile
+            .axis_set()
+            .iter()
+            .filter(|a| *a != Axis::A)
+            .collect();
+        let mut zeros = [Point::default(); System::COUNT];
+        for system in System::ALL {
+            let mm = |axis: Axis| {
+                profile
+                    .axis(axis)
+                    .map_or(0.0, |p| p.to_units(offsets.zero(system, axis)))
+            };
+            zeros[system.index()] = Point {
+                x: mm(Axis::X),
+                y: mm(Axis::Y),
+                z: mm(Axis::Z),
+            };
+        }
+        let outputs = profile.wiring().map(|w| outputs_of(&w)).unwrap_or_default();
+        let mut setup = Setup {
+            axes,
+            default_units: None,
+            zeros,
+            active: offsets.active(),
+            start: Point::default(),
+            outputs,
+            codes: BTreeMap::new(),
+        };
+        setup.apply(&profile.gcode)?;
+        Ok(setup)
+    }
+
+    fn apply(&mut self, table: &GcodeProfile) -> Result<(), Vec<SetupError>> {
+        let mut errors = Vec::new();
+        self.default_units = match table.unit.as_deref() {
+            None => None,
+            Some("mm") => Some(Units::Mm),
+            Some("inch") => Some(Units::Inch),
+            Some(other) => {
+                errors.push(SetupError {
+                    key: "gcode.unit".into(),
+                    message: format!("`{other}` is no unit: mm or inch"),
+                });
+                None
+            }
+        };
+        for (code, rule) in &table.codes {
+            let key = format!("gcode.{code}");
+            let lower = code.to_ascii_lowercase();
+            if !is_code_name(&lower) {
+                errors.push(SetupError {
+                    key,
+                    message: "not a G or M code (`m8`, `g64`) nor a [gcode] setting".into(),
+                });
+                continue;
+            }
+            let parsed = if rule == "ignore" {
+                Ok(CodeRule::Ignore)
+            } else if let Some(target) = rule.strip_prefix("output:") {
+                if self.output(target).is_some() {
+                    Ok(CodeRule::Output(target.to_owned()))
+                } else {
+                    Err(format!(
+                        "`{target}` is no output of this profile (roles and addresses: {})",
+                        self.output_names()
+                    ))
+                }
+            } else {
+                Err(format!(
+                    "`{rule}`: a code is mapped to \"ignore\" or \"output:<role or address>\""
+                ))
+            };
+            match parsed {
+                Ok(rule) => {
+                    self.codes.insert(lower, rule);
+                }
+                Err(message) => errors.push(SetupError { key, message }),
+            }
+        }
+        if errors.is_empty() {
+            Ok(())
+        } else {
+            Err(errors)
+        }
+    }
+
+    /// An output by role (`spindle`), address (`out0.3`) or name.
+    pub fn output(&self, key: &str) -> Option<&NamedOutput> {
+        self.outputs.iter().find(|o| {
+            o.address.eq_ignore_ascii_case(key)
+                || o.name.eq_ignore_ascii_case(key)
+                || o.role
+                    .is_some_and(|r| r.to_string().eq_ignore_ascii_case(key))
+        })
+    }
+
+    pub fn output_names(&self) -> String {
+        if self.outputs.is_empty() {
+            return "none".into();
+        }
+        self.outputs
+            .iter()
+            .map(|o| match o.role {
+                Some(r) => format!("{} ({r})", o.address),
+                None => o.address.clone(),
+            })
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+
+    pub fn zero(&self, system: System) -> Point {
+        self.zeros.get(system.index()).copied().unwrap_or_default()
+    }
+}
+
+fn is_code_name(s: &str) -> bool {
+    let mut chars = s.chars();
+    matches!(chars.next(), Some('g' | 'm'))
+        && !s[1..].is_empty()
+        && s[1..].chars().all(|c| c.is_ascii_digit() || c == '.')
+}
+
+/// The wiring's outputs (all but those marked unused), numbered in order.
+fn outputs_of(wiring: &Wiring) -> Vec<NamedOutput> {
+    wiring
+        .bits()
+        .iter()
+        .filter(|b| b.kind == BitKind::Output && b.role != Role::Unused)
+        .zip(0u32..)
+        .map(|(b, number)| NamedOutput {
+            address: b.address.clone(),
+            name: b.name.clone(),
+            role: (b.role != Role::User).then_some(b.role),
+            number,
+        })
+        .collect()
+}
