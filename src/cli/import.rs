@@ -252,8 +252,12 @@ pub fn convert(
     }
 }
 
-fn range(min: f64, max: f64) -> [f64; 2] {
-    [round3(min), round3(max)]
+/// An axis' extents as JSON: `[min, max]`, or null when the file never
+/// moves it.
+fn range(e: &crate::gcode::check::Extents, axis: usize) -> serde_json::Value {
+    e.range(axis).map_or(serde_json::Value::Null, |(min, max)| {
+        json!([round3(min), round3(max)])
+    })
 }
 
 fn round3(v: f64) -> f64 {
@@ -265,11 +269,7 @@ pub fn summary_json(i: &Import) -> serde_json::Value {
     let extents = if e.is_empty() {
         serde_json::Value::Null
     } else {
-        json!({
-            "x": range(e.min.x, e.max.x),
-            "y": range(e.min.y, e.max.y),
-            "z": range(e.min.z, e.max.z),
-        })
+        json!({ "x": range(e, 0), "y": range(e, 1), "z": range(e, 2) })
     };
     json!({
         "lines": i.toolpath.lines,
@@ -307,9 +307,18 @@ fn summary_text(name: &str, profile: &Profile, i: &Import, written: Option<&Path
         duration(s.estimated_s)
     ));
     if !e.is_empty() {
+        let axes: Vec<String> = ["X", "Y", "Z"]
+            .iter()
+            .enumerate()
+            .filter_map(|(i, name)| {
+                e.range(i)
+                    .map(|(min, max)| format!("{name} {min:.3} .. {max:.3}"))
+            })
+            .collect();
         out.push_str(&format!(
-            "  extents (work {}): X {:.3} .. {:.3}  Y {:.3} .. {:.3}  Z {:.3} .. {:.3} mm\n",
-            s.system, e.min.x, e.max.x, e.min.y, e.max.y, e.min.z, e.max.z
+            "  extents (work {}): {} mm\n",
+            s.system,
+            axes.join("  ")
         ));
     }
     out.push_str(&format!(

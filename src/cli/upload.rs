@@ -171,15 +171,17 @@ fn checked(
     })
 }
 
-/// A G-code file, imported for the profile and checked as its program.
+/// A G-code file, imported for the profile and checked as its program;
+/// on failure the exit status and what to say (the diagnostics included).
 fn prepare_gcode(
     global: &GlobalArgs,
     args: &UploadArgs,
     profile: &crate::config::profile::Profile,
     language: Language,
     config: &LintConfig,
-) -> Result<Prepared, String> {
-    let target = crate::gcode::Target::of(profile.connection.protocol)?;
+) -> Result<Prepared, (u8, String)> {
+    let target = crate::gcode::Target::of(profile.connection.protocol)
+        .map_err(|why| (EXIT_USAGE, format!("jogterm upload: {why}")))?;
     let dirs = crate::config::ConfigDirs::from_env();
     let mut err = Vec::new();
     let imported = super::import::convert(
@@ -194,7 +196,7 @@ fn prepare_gcode(
     let report = String::from_utf8_lossy(&err).trim_end().to_owned();
     let imported = match imported {
         Ok(i) => i,
-        Err(_) => return Err(report),
+        Err(code) => return Err((code, report)),
     };
     if !report.is_empty() {
         out::say(&report);
@@ -203,11 +205,14 @@ fn prepare_gcode(
         out::say(crate::gcode::render(&args.file.display().to_string(), w));
     }
     if !imported.program.fits() {
-        return Err(format!(
-            "{}: the converted program has {} commands and the controller stores {}: nothing was sent (split the job in the CAM; running jobs bigger than the memory is `jogterm run`'s work)",
-            args.file.display(),
-            imported.program.commands,
-            imported.program.capacity
+        return Err((
+            1,
+            format!(
+                "{}: the converted program has {} commands and the controller stores {}: nothing was sent (split the job in the CAM; running jobs bigger than the memory is `jogterm run`'s work)",
+                args.file.display(),
+                imported.program.commands,
+                imported.program.capacity
+            ),
         ));
     }
     let header = super::import::header_name(&args.file);
@@ -219,6 +224,7 @@ fn prepare_gcode(
         config,
         Some(imported.program),
     )
+    .map_err(|m| (EXIT_USAGE, format!("jogterm upload: {m}")))
 }
 
 pub fn run(global: &GlobalArgs, args: &UploadArgs) -> anyhow::Result<ExitCode> {
@@ -239,13 +245,20 @@ pub fn run(global: &GlobalArgs, args: &UploadArgs) -> anyhow::Result<ExitCode> {
     };
     let config = LintConfig::from_profile(&profile);
     let prepared = if args.is_gcode() {
-        prepare_gcode(global, args, &profile, language, &config)
+        // G-code that does not import is the file's fault, exit 1 as for
+        // `jogterm import`; an unreadable file is 2.
+        match prepare_gcode(global, args, &profile, language, &config) {
+            Ok(p) => p,
+            Err((code, m)) => {
+                out::say(m);
+                return Ok(ExitCode::from(code));
+            }
+        }
     } else {
-        prepare(args, language, &config)
-    };
-    let prepared = match prepared {
-        Ok(p) => p,
-        Err(m) => return usage(m),
+        match prepare(args, language, &config) {
+            Ok(p) => p,
+            Err(m) => return usage(m),
+        }
     };
     let runtime = session::runtime()?;
     runtime.block_on(async {

@@ -63,17 +63,35 @@ impl Extents {
         }
     }
 
-    fn add(&mut self, p: Point) {
-        self.min.x = self.min.x.min(p.x);
-        self.min.y = self.min.y.min(p.y);
-        self.min.z = self.min.z.min(p.z);
-        self.max.x = self.max.x.max(p.x);
-        self.max.y = self.max.y.max(p.y);
-        self.max.z = self.max.z.max(p.z);
+    /// Adds the coordinates of `p` the file has named by op `index`.
+    fn add(&mut self, path: &Toolpath, index: usize, p: Point) {
+        for (axis, v) in [p.x, p.y, p.z].into_iter().enumerate() {
+            if !path.named(axis, index) {
+                continue;
+            }
+            let (min, max) = match axis {
+                0 => (&mut self.min.x, &mut self.max.x),
+                1 => (&mut self.min.y, &mut self.max.y),
+                _ => (&mut self.min.z, &mut self.max.z),
+            };
+            *min = min.min(v);
+            *max = max.max(v);
+        }
     }
 
+    /// Whether the file moves no axis at all.
     pub fn is_empty(&self) -> bool {
-        self.min.x > self.max.x
+        self.min.x > self.max.x && self.min.y > self.max.y && self.min.z > self.max.z
+    }
+
+    /// An axis' range, if the file moves it.
+    pub fn range(&self, axis: usize) -> Option<(f64, f64)> {
+        let (min, max) = match axis {
+            0 => (self.min.x, self.max.x),
+            1 => (self.min.y, self.max.y),
+            _ => (self.min.z, self.max.z),
+        };
+        (min <= max).then_some((min, max))
     }
 }
 
@@ -188,7 +206,7 @@ pub fn summarise(path: &Toolpath, machine: &Machine) -> Summary {
     let mut moves = 0;
     let mut arcs = 0;
     let mut time = 0.0;
-    for op in &path.ops {
+    for (index, op) in path.ops.iter().enumerate() {
         match op {
             Op::WorkOffset {
                 system, zero: z, ..
@@ -198,14 +216,14 @@ pub fn summarise(path: &Toolpath, machine: &Machine) -> Summary {
             }
             Op::Rapid(m) => {
                 moves += 1;
-                extents.add(sub(m.to, zero));
+                extents.add(path, index, sub(m.to, zero));
                 let d = distance(m.from, m.to);
                 length += d;
                 time += rapid_time(m.from, m.to, machine);
             }
             Op::Line(m) => {
                 moves += 1;
-                extents.add(sub(m.to, zero));
+                extents.add(path, index, sub(m.to, zero));
                 let d = distance(m.from, m.to);
                 length += d;
                 time += d / (m.feed / 60.0);
@@ -213,7 +231,7 @@ pub fn summarise(path: &Toolpath, machine: &Machine) -> Summary {
             Op::Arc(a) => {
                 arcs += 1;
                 for p in arc_extreme_points(a) {
-                    extents.add(sub(p, zero));
+                    extents.add(path, index, sub(p, zero));
                 }
                 let (_, _, n) = plane_axes(a.plane);
                 let planar = radius(a) * sweep(a);

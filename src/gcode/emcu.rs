@@ -256,6 +256,14 @@ impl Writer<'_> {
                     }
                     _ => "pause: press start (E1) to go on".to_owned(),
                 };
+                if !start_key_is_e1(self.profile) {
+                    return Err(error(
+                        origin,
+                        format!(
+                            "{why}: an EMCU pause waits for input E1 (`&V1`, manual 1.5.19), and this profile does not wire E1 as the start key (role \"start\" in [io])"
+                        ),
+                    ));
+                }
                 if !self.wait_e1 {
                     self.program.command_noted("&V1", &why, Some(origin));
                     self.wait_e1 = true;
@@ -265,4 +273,12 @@ impl Writer<'_> {
         }
         Ok(())
     }
+}
+
+/// Whether the profile wires E1, the input `&V1` waits for, as the start key.
+fn start_key_is_e1(profile: &Profile) -> bool {
+    profile.wiring().is_ok_and(|w| {
+        w.bit("E1")
+            .is_some_and(|b| b.wired && b.role == crate::wiring::Role::Start)
+    })
 }

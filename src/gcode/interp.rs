@@ -150,6 +150,8 @@ pub struct Interpreter<'a> {
     more_errors: usize,
     warned_block_delete: bool,
     warned_ignored: Vec<u32>,
+    /// `Toolpath::named_from` as it grows.
+    named_from: [Option<usize>; 3],
 }
 
 /// Interprets a read file (the reader's errors first).
@@ -209,6 +211,7 @@ impl<'a> Interpreter<'a> {
             more_errors: 0,
             warned_block_delete: false,
             warned_ignored: Vec::new(),
+            named_from: [None; 3],
         }
     }
 
@@ -232,7 +235,9 @@ impl<'a> Interpreter<'a> {
                 },
             });
         }
+        let never = self.ops.len();
         Ok(Toolpath {
+            named_from: self.named_from.map(|n| n.unwrap_or(never)),
             ops: self.ops,
             lines,
             warnings: self.warnings,
@@ -632,6 +637,14 @@ impl<'a> Interpreter<'a> {
         }
     }
 
+    /// The file names `axis` from the next op on.
+    fn name_axis(&mut self, axis: Axis) {
+        let index = self.ops.len();
+        if let Some(slot) = self.named_from.get_mut(axis_index(axis)) {
+            slot.get_or_insert(index);
+        }
+    }
+
     /// The target of the block's axis words in machine mm.
     fn target(&mut self, w: &Words, machine: bool) -> Option<Point> {
         let scale = self.units_at(w.first_axis()?.origin)?;
@@ -649,6 +662,7 @@ impl<'a> Interpreter<'a> {
                 self.error(word.origin, format!("this machine has no {axis} axis"));
                 return None;
             }
+            self.name_axis(axis);
             let v = word.value * scale;
             let c = if self.state.absolute || machine {
                 v + get(zero, axis)
@@ -810,6 +824,8 @@ impl<'a> Interpreter<'a> {
         set(&mut centre, v_axis, cv);
         set(&mut centre, n_axis, get(from, n_axis));
         self.ensure_offset(at);
+        self.name_axis(u_axis);
+        self.name_axis(v_axis);
         self.ops.push(Op::Arc(Arc {
             from,
             to,
@@ -888,8 +904,10 @@ impl<'a> Interpreter<'a> {
             .get_or_insert(self.state.position.z);
         // The hole's XY: the block's (work coordinates), else where it stands.
         let mut hole = self.state.position;
+        self.name_axis(Axis::Z);
         for axis in [Axis::X, Axis::Y] {
             if let Some(v) = w.value(axis.letter()) {
+                self.name_axis(axis);
                 set(&mut hole, axis, v.value * scale + get(zero, axis));
             }
         }
@@ -1079,6 +1097,15 @@ impl Words {
 
     fn has_any(&self, letters: &[char]) -> bool {
         self.values.iter().any(|w| letters.contains(&w.letter))
+    }
+}
+
+/// X 0, Y 1, Z 2 (the IR's axes).
+pub fn axis_index(axis: Axis) -> usize {
+    match axis {
+        Axis::X => 0,
+        Axis::Y => 1,
+        _ => 2,
     }
 }
 

@@ -21,22 +21,22 @@
 //!   controller's circle is round in steps), arcs too short for one step
 //!   become a line.
 //! - Dwells as `5` (tenths of a second), outputs as `p`, pauses (M0, M1,
-//!   M6) as `2` (wait for a character from the host, 3.2.4): the program
-//!   stands until jogterm sends it.
+//!   M6) as a wait for the machine's start key: `o<port>,<bit>,<released>,0`
+//!   (3.2.19) branches to itself while the key reads released, so the
+//!   program stands until the operator presses it at the machine. Not the
+//!   sync character `2` (3.2.4): any byte on the line ends that wait, and a
+//!   console polling the position would end it at once.
 
 use crate::axis::Axis;
 use crate::config::profile::{AxisProfile, Profile};
 use crate::program::ISEL_CAPACITY;
 use crate::proto::isel::{CircleDirection, CircleError, Plane as IselPlane, circle, helix};
 use crate::proto::typed::isel_config;
+use crate::wiring::{BitKind, Level, Role};
 
 use super::interp::{get, plane_axes, radius, sweep};
 use super::output::{Header, Program, chords, merge_lines};
 use super::toolpath::{Arc, Diagnostic, Op, Origin, Pause, Plane, Point, Severity, Toolpath};
-
-/// The character `2` waits for at a pause: `G` ("go"), sent by jogterm when
-/// the operator confirms.
-pub const PAUSE_SYNC: u8 = b'G';
 
 const HZ_MIN: f64 = 1.0;
 const HZ_MAX: f64 = 40_000.0;
@@ -93,6 +93,9 @@ struct Writer<'a> {
     capped: usize,
     first_capped: Option<Origin>,
     spindle_speeds: Option<Origin>,
+    /// The start key a pause waits for: input port, bit, the level it
+    /// reads released, and its name.
+    start_key: Option<(u32, u32, u8, String)>,
 }
 
 /// Converts a checked toolpath into an isel CNC program.
@@ -127,6 +130,7 @@ pub fn convert(
         capped: 0,
         first_capped: None,
         spindle_speeds: None,
+        start_key: start_key(profile),
     };
     for line in header.lines() {
         w.program.comment(line);
@@ -186,7 +190,18 @@ pub fn convert(
 impl Writer<'_> {
     /// `m` to `target` steps at `hz`.
     fn move_to(&mut self, target: [i64; 3], hz: u32, origin: Origin, note: Option<&str>) {
-        let mut params: Vec<String> = target.iter().map(|s| format!("{s},{hz}")).collect();
+        // In 3D mode the x pair's speed is the path speed and the others
+        // are ignored (2.2.29); they carry what their axis allows, so that
+        // a reader (and `jogterm check`) sees no speed above an axis' max.
+        let mut params: Vec<String> = target
+            .iter()
+            .zip([Axis::X, Axis::Y, Axis::Z])
+            .map(|(s, axis)| {
+                let p = self.axes.of(axis);
+                let cap = p.speed_hz(p.max_speed).round().max(HZ_MIN) as u32;
+                format!("{s},{}", hz.min(cap))
+            })
+            .collect();
         params.truncate(self.axes.pairs.min(3));
         while params.len() < self.axes.pairs {
             params.push(format!("0,{hz}"));
@@ -228,6 +243,13 @@ impl Writer<'_> {
                     capped = true;
                 }
             }
+        }
+        // The path speed is given as the x pair's (2.2.29): never above
+        // X's own max_speed, whatever the direction.
+        let x_max = self.axes.x.speed_hz(self.axes.x.max_speed);
+        if hz > x_max + 0.5 {
+            hz = x_max;
+            capped = true;
         }
         if hz > HZ_MAX {
             hz = HZ_MAX;
@@ -326,9 +348,17 @@ impl Writer<'_> {
                         },
                     ),
                 };
+                let Some((port, bit, released, name)) = self.start_key.clone() else {
+                    return Err(error(
+                        origin,
+                        format!(
+                            "{why}: a pause waits for the machine's start key, and this profile wires none (an input with role \"start\" in [io])"
+                        ),
+                    ));
+                };
                 self.program.command_noted(
-                    format!("2{PAUSE_SYNC},1"),
-                    &format!("{why}; waits for `{}` from jogterm", char::from(PAUSE_SYNC)),
+                    format!("o{port},{bit},{released},0"),
+                    &format!("{why}; waits for the start key ({name})"),
                     Some(origin),
                 );
             }
@@ -478,6 +508,27 @@ impl Writer<'_> {
             from = p;
         }
     }
+}
+
+/// The wired start key of the profile: `in1.3` → port 1, bit 3, and the
+/// level it reads while released.
+fn start_key(profile: &Profile) -> Option<(u32, u32, u8, String)> {
+    let wiring = profile.wiring().ok()?;
+    let key = wiring
+        .bits()
+        .iter()
+        .find(|b| b.role == Role::Start && b.kind == BitKind::Input && b.wired)?;
+    let (port, bit) = key.address.strip_prefix("in")?.split_once('.')?;
+    let released = match key.active {
+        Level::High => 0,
+        Level::Low => 1,
+    };
+    Some((
+        port.parse().ok()?,
+        bit.parse().ok()?,
+        released,
+        key.name.clone(),
+    ))
 }
 
 /// `out0.3` → port 0 bit 3; `out2` → port 2, bit 128 (the whole on/off port).

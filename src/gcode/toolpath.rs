@@ -161,4 +161,16 @@ pub struct Toolpath {
     pub lines: u32,
     /// Warnings (errors make no toolpath).
     pub warnings: Vec<Diagnostic>,
+    /// For X, Y and Z: the index of the first op from which the file has
+    /// named that axis (`ops.len()` if never). Before it the axis stands
+    /// where the job started, which is the machine's, not the file's: the
+    /// file's extents leave it out (a first `G0 Z5` says nothing of X).
+    pub named_from: [usize; 3],
+}
+
+impl Toolpath {
+    /// Whether the file had named `axis` (0 X, 1 Y, 2 Z) by op `index`.
+    pub fn named(&self, axis: usize, index: usize) -> bool {
+        self.named_from.get(axis).is_some_and(|&from| index >= from)
+    }
 }

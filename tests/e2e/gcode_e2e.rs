@@ -1,0 +1,311 @@
+//! End to end: G-code from CAM through the real binary. The project's
+//! sample files in the styles of three CAM posts and of LinuxCNC
+//! (`examples/gcode/`) are imported, uploaded and run on `jogterm sim --pty`,
+//! and the simulated machine ends exactly at the G-code's last point in steps
+//! (worked out here by hand from the file, not by jogterm); the program the
+//! controller received is the one `jogterm import` writes. Bad G-code is an
+//! error at FILE:LINE:COL, exit 1, and nothing reaches the controller.
+//!
+//! These tests check logic, not the wire's timing: they hold no lock and run
+//! beside the others.
+
+use std::process::{Child, Output, Stdio};
+use std::time::{Duration, Instant};
+
+use crate::sim_process::{SimProcess, contains_panic, text};
+
+/// The samples and where each ends, in steps of the default profile (400
+/// steps/mm) with G54's zero at machine X50 Y50 Z60 mm.
+const WORK_ZERO: &str = "X50 Y50 Z60";
+
+fn sample(name: &str) -> String {
+    format!("{}/examples/gcode/{name}", env!("CARGO_MANIFEST_DIR"))
+}
+
+fn steps(work_mm: [f64; 3]) -> [i64; 3] {
+    let zero = [50.0, 50.0, 60.0];
+    [0, 1, 2].map(|i| ((work_mm[i] + zero[i]) * 400.0).round() as i64)
+}
+
+fn run(sim: &SimProcess, args: &[&str]) -> Output {
+    sim.jogterm(args)
+        .env("JOGTERM_CONFIG_DIR", sim.dir.path())
+        .stdin(Stdio::null())
+        .output()
+        .expect("run jogterm")
+}
+
+fn spawn(sim: &SimProcess, args: &[&str]) -> Child {
+    sim.jogterm(args)
+        .env("JOGTERM_CONFIG_DIR", sim.dir.path())
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn jogterm")
+}
+
+/// The samples cut for about ten seconds each at the test profile's speeds:
+/// longer than the usual bound on a child.
+const RUN_BOUND: Duration = Duration::from_secs(90);
+
+/// A test profile of a faster machine (the default's speeds would make each
+/// sample run half a minute): X and Y 60 mm/s, Z 30 mm/s.
+const FAST_MACHINE: (&str, &str) = (
+    "profiles/default.toml",
+    "[axes.X]\nmax_speed = 60.0\n[axes.Y]\nmax_speed = 60.0\n[axes.Z]\nmax_speed = 30.0\n",
+);
+
+fn wait_run(mut child: Child, what: &str) -> Output {
+    let end = Instant::now() + RUN_BOUND;
+    while matches!(child.try_wait(), Ok(None)) {
+        if Instant::now() > end {
+            let _ = child.kill();
+            let out = child.wait_with_output();
+            panic!("{what} did not end within {RUN_BOUND:?}: {out:?}");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    child.wait_with_output().expect("the output")
+}
+
+/// The position `upload --start` says the program ended at.
+fn ended_at(said: &str) -> [i64; 3] {
+    let line = said
+        .lines()
+        .find_map(|l| l.strip_prefix("the program ended; position (steps): "))
+        .unwrap_or_else(|| panic!("no end position in:\n{said}"));
+    let values: Vec<i64> = line
+        .split(", ")
+        .map(|part| part[2..].parse().expect("steps"))
+        .collect();
+    [values[0], values[1], values[2]]
+}
+
+/// The commands of a program file as `jogterm import -o` writes it.
+fn commands_of(program: &str) -> Vec<String> {
+    program
+        .lines()
+        .map(|l| l.split(';').next().unwrap_or("").trim().to_owned())
+        .filter(|c| !c.is_empty())
+        .collect()
+}
+
+/// Reference the simulator, import the sample, upload and run it, and
+/// check the end point and the stored program on the wire. `during` runs
+/// while the program runs (a pause to answer).
+fn import_upload_and_run(
+    name: &str,
+    end_work_mm: [f64; 3],
+    during: impl FnOnce(&mut SimProcess),
+) -> String {
+    let mut sim = SimProcess::start_with_files("isel", &[FAST_MACHINE]);
+    let file = sample(name);
+    let program = sim.dir.path().join("out.isel");
+    let program_path = program.display().to_string();
+    let imported = run(
+        &sim,
+        &[
+            "import",
+            &file,
+            "--work-zero",
+            WORK_ZERO,
+            "-o",
+            &program_path,
+        ],
+    );
+    assert_eq!(
+        imported.status.code(),
+        Some(0),
+        "{}",
+        text(&imported.stderr)
+    );
+    let commands = commands_of(&std::fs::read_to_string(&program).expect("the program"));
+    assert_eq!(commands.first().map(String::as_str), Some("77"));
+    assert_eq!(commands.get(1).map(String::as_str), Some("z1"));
+
+    let reference = run(&sim, &["send", "@07", "@0R7"]);
+    assert!(reference.status.success(), "{}", text(&reference.stderr));
+    let before = sim.received().len();
+    let child = spawn(
+        &sim,
+        &[
+            "upload",
+            &file,
+            "--work-zero",
+            WORK_ZERO,
+            "--erase",
+            "--start",
+        ],
+    );
+    during(&mut sim);
+    let out = wait_run(child, "upload --start");
+    let said = text(&out.stderr);
+    assert!(!contains_panic(&out.stderr), "{said}");
+    assert_eq!(out.status.code(), Some(0), "{said}");
+    assert_eq!(ended_at(&said), steps(end_work_mm), "{said}");
+
+    // The controller stored exactly the commands `import` wrote, in order.
+    let received = sim.received();
+    let upload = &received[before..];
+    let stored: Vec<&str> = upload
+        .split("<CR>")
+        .map(|c| c.trim_start_matches("@0i"))
+        .collect();
+    let mut at = 0;
+    for command in &commands {
+        let found = stored[at..]
+            .iter()
+            .position(|c| c == command)
+            .unwrap_or_else(|| panic!("`{command}` not stored in order; received: {upload}"));
+        at += found + 1;
+    }
+    said
+}
+
+#[test]
+fn fusion_360_grbl_style_ends_at_its_last_point() {
+    // G2 X20 Y15 I5 J0 (a full circle), then G0 Z15.
+    let said = import_upload_and_run("fusion-grbl.nc", [20.0, 15.0, 15.0], |_| {});
+    assert!(
+        said.contains(
+            "fusion-grbl.nc:13:1: warning: the isel controller cannot set a spindle speed"
+        ),
+        "{said}"
+    );
+}
+
+#[test]
+fn estlcam_style_ends_at_its_last_point() {
+    import_upload_and_run("estlcam.nc", [2.0, 2.0, 5.0], |_| {});
+}
+
+#[test]
+fn linuxcnc_inch_file_with_r_arcs_and_g18_g19_circles_ends_at_its_last_point() {
+    // G19 G3 Y1.2 Z0.3 from X1.0 (after the G18 arc), then G0 Z0.5; inches.
+    import_upload_and_run("linuxcnc-inch.ngc", [25.4, 30.48, 12.7], |_| {});
+}
+
+#[test]
+fn freecad_drilling_cycles_wait_at_the_tool_change_for_the_start_key() {
+    // M6 T2 comes before any move: the program stands at the reference
+    // point until the start key is pressed, then drills the four holes and
+    // ends above the last one (X10 Y25) at G0 Z10.
+    let said = import_upload_and_run("freecad-path.ngc", [10.0, 25.0, 10.0], |sim| {
+        let deadline = Instant::now() + Duration::from_secs(20);
+        let running = loop {
+            let state = sim.device_state();
+            if state.contains("program running") {
+                break state;
+            }
+            assert!(Instant::now() < deadline, "the program never ran: {state}");
+            std::thread::sleep(Duration::from_millis(100));
+        };
+        // Standing at the pause, at the reference point: a second later it
+        // has not moved on.
+        std::thread::sleep(Duration::from_secs(1));
+        let still = sim.device_state();
+        assert!(still.contains("program running"), "{running}\n{still}");
+        assert!(
+            still.starts_with("device: X 0 Y 0 Z 0 "),
+            "no move before the start key: {still}"
+        );
+        // Held as an operator holds a key: a press and release at one instant
+        // falls between two reads of the port by the waiting `o`.
+        sim.control("pulse start 300");
+    });
+    assert!(said.contains("running the program"), "{said}");
+}
+
+/// Bad G-code: the import's error at FILE:LINE:COL, exit 1; `upload`
+/// of the same file the same, with nothing on the wire. What went wrong.
+fn refused(sim: &mut SimProcess, name: &str, gcode: &str, expected: &str) -> Option<String> {
+    let path = sim.dir.path().join(name);
+    std::fs::write(&path, gcode).expect("write the G-code");
+    let file = path.display().to_string();
+    for command in ["import", "upload"] {
+        let out = run(sim, &[command, &file, "--work-zero", WORK_ZERO]);
+        let said = text(&out.stderr);
+        if contains_panic(&out.stderr)
+            || out.status.code() != Some(1)
+            || !said.contains(&format!("{file}:"))
+            || !said.contains(expected)
+        {
+            return Some(format!(
+                "{command} {name}: expected exit 1 and `{expected}`, got {:?}:\n{said}",
+                out.status.code()
+            ));
+        }
+    }
+    None
+}
+
+#[test]
+fn bad_gcode_is_an_error_at_file_line_col_and_nothing_is_sent() {
+    let mut sim = SimProcess::start("isel");
+    let cases: &[(&str, &str, &str)] = &[
+        ("empty.nc", "", ":1:1: error: the file holds no G-code"),
+        (
+            "garbage.nc",
+            "G21\nG0 X1\n\u{0}\u{1}\u{2}\u{ff}binary\n",
+            ":3:1: error: U+0000 cannot stand here",
+        ),
+        (
+            "comp.nc",
+            "G21\nG0 X1 Y1\nG41 D1 X2\n",
+            ":3:1: error: G41: cutter radius compensation is refused",
+        ),
+        (
+            "g43.nc",
+            "G21\nG43 H1 Z5\n",
+            ":2:1: error: G43: tool length offsets are refused",
+        ),
+        (
+            "g93.nc",
+            "G21 G93\n",
+            ":1:5: error: G93: inverse time feed is refused",
+        ),
+        (
+            "g28.nc",
+            "G21\nG28 Z0\n",
+            ":2:1: error: G28: G28/G30 go to a position this profile does not name",
+        ),
+        ("oword.nc", "G21\no100 sub\n", ":2:1: error: O-words"),
+        (
+            "param.nc",
+            "G21\nG0 X#1\n",
+            ":2:5: error: `#` parameters are refused",
+        ),
+        (
+            "modal.nc",
+            "G21\nG0 G1 X5 F100\n",
+            ":2:4: error: G1 and G0 (column 1) are of one modal group",
+        ),
+        (
+            "arc.nc",
+            "G21 G17\nG0 X10 Y10 Z5\nG2 X20 Y10 I4 J0 F300\n",
+            ":3:1: error: the arc's end is not on its circle",
+        ),
+        (
+            "limit.nc",
+            "G21\nG0 X0 Y0 Z5\nG1 Z-1 F100\nG1 Z-61 F100\nG1 Z-70\n",
+            ":4:1: error: Z -1.000 mm is below the soft limit 0.000 mm of axis Z",
+        ),
+        (
+            "output.nc",
+            "G21\nM64 P42\n",
+            ":2:5: error: M64 P42: no output 42 on this machine",
+        ),
+        (
+            "unit.nc",
+            "G0 X1\n",
+            ":1:4: error: the file sets no unit (G20 inch or G21 mm)",
+        ),
+    ];
+    let wrong: Vec<String> = cases
+        .iter()
+        .filter_map(|(name, gcode, expected)| refused(&mut sim, name, gcode, expected))
+        .collect();
+    assert!(wrong.is_empty(), "{}", wrong.join("\n"));
+    assert_eq!(sim.received_total(), 0, "nothing reached the controller");
+}
