@@ -10,6 +10,10 @@
 
 use std::f64::consts::PI;
 
+#[cfg(test)]
+#[path = "interp_tests.rs"]
+mod tests;
+
 use crate::axis::Axis;
 use crate::offsets::System;
 
@@ -21,8 +25,10 @@ use super::toolpath::{
 };
 
 /// LinuxCNC's rule for an arc's end on its circle: the radii to start and
-/// to end may differ by at most 2 x 0.01 x sqrt 2 (mm, or inches in G20).
-const ARC_RADIUS_TOLERANCE: f64 = 0.028_284_271;
+/// to end may differ by at most 2 x 0.01 x sqrt 2 mm, or 2 x 0.001 x sqrt 2
+/// in in G20 (CENTER_ARC_RADIUS_TOLERANCE_MM/_INCH, rs274ngc).
+const ARC_RADIUS_TOLERANCE_MM: f64 = 0.028_284_271;
+const ARC_RADIUS_TOLERANCE_INCH: f64 = 0.002_828_427;
 
 /// G83's retract clearance above the last depth (LinuxCNC: 0.010 in).
 const PECK_CLEARANCE_MM: f64 = 0.254;
@@ -752,7 +758,11 @@ impl<'a> Interpreter<'a> {
             );
             return;
         }
-        let tolerance = ARC_RADIUS_TOLERANCE * scale;
+        let tolerance = if scale > 1.0 {
+            ARC_RADIUS_TOLERANCE_INCH * scale
+        } else {
+            ARC_RADIUS_TOLERANCE_MM
+        };
         let (cu, cv) = match (radius_word, ijk.is_empty()) {
             (Some(r), true) => {
                 match r_centre(su, sv, eu, ev, r.value * scale, clockwise, tolerance) {
