@@ -191,6 +191,8 @@ fn main() {
                 let args = check::CheckArgs {
                     file: file.clone(),
                     axes: None,
+                    gcode: false,
+                    work_zero: None,
                 };
                 let global = GlobalArgs::default();
                 let dirs = ConfigDirs::builtin_only();

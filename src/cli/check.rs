@@ -56,6 +56,14 @@ pub struct CheckArgs {
     /// most 3) [default: the profile's axes]
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u8).range(1..=4))]
     pub axes: Option<u8>,
+    /// The file is G-code from CAM (also known by its extension: .nc .ngc .gcode .tap .gc):
+    /// it is checked as `jogterm import` checks it, against the profile's machine
+    #[arg(long)]
+    pub gcode: bool,
+    /// G-code: the active work offset's zero in machine units (`X50 Y50 Z60`), instead of
+    /// the console's stored one
+    #[arg(long, value_name = "POS")]
+    pub work_zero: Option<String>,
 }
 
 /// Exit codes.
@@ -83,6 +91,9 @@ pub fn run_to(
     out: &mut dyn Write,
     err: &mut dyn Write,
 ) -> anyhow::Result<ExitCode> {
+    if args.gcode || crate::gcode::is_gcode_path(&args.file) {
+        return check_gcode(global, args, dirs, out, err);
+    }
     let (language, config, machine) = match setup(global, args, dirs) {
         Ok(s) => s,
         Err(message) => {
@@ -131,6 +142,72 @@ pub fn run_to(
     } else {
         ExitCode::SUCCESS
     })
+}
+
+/// A G-code file: imported for the profile (the same check as `jogterm
+/// import`, soft limits through the work offset included), every
+/// diagnostic at FILE:LINE:COL on `out`, the verdict on `err`.
+fn check_gcode(
+    global: &GlobalArgs,
+    args: &CheckArgs,
+    dirs: &ConfigDirs,
+    out: &mut dyn Write,
+    err: &mut dyn Write,
+) -> anyhow::Result<ExitCode> {
+    let name = args.file.display().to_string();
+    let profile = match profile::resolve(global, dirs) {
+        Ok(p) => p,
+        Err(e) => {
+            let _ = writeln!(err, "jogterm check: {name}: {e:#}");
+            return Ok(ExitCode::from(USAGE));
+        }
+    };
+    let target = match crate::gcode::Target::of(profile::family(&profile)) {
+        Ok(t) => t,
+        Err(why) => {
+            let _ = writeln!(err, "jogterm check: {name}: {why}");
+            return Ok(ExitCode::from(USAGE));
+        }
+    };
+    let mut diagnostics = Vec::new();
+    let imported = super::import::convert(
+        global,
+        dirs,
+        &profile,
+        &args.file,
+        target,
+        args.work_zero.as_deref(),
+        &mut diagnostics,
+    );
+    let mut report = String::from_utf8_lossy(&diagnostics).into_owned();
+    match imported {
+        Ok(imported) => {
+            for w in &imported.warnings {
+                report.push_str(&crate::gcode::render(&name, w));
+                report.push('\n');
+            }
+            closed_is_ok(out.write_all(report.as_bytes()).and_then(|()| out.flush()))?;
+            let fits = if imported.program.fits() {
+                "fits the controller's memory"
+            } else {
+                "does NOT fit the controller's memory"
+            };
+            let _ = writeln!(
+                err,
+                "{name}: 0 errors, {} in {} of G-code for `{}`: {} program of {}, {fits}",
+                plural(imported.warnings.len(), "warning"),
+                plural(imported.toolpath.lines as usize, "line"),
+                profile.name,
+                imported.target.name(),
+                plural(imported.program.commands, "command"),
+            );
+            Ok(ExitCode::SUCCESS)
+        }
+        Err(code) => {
+            closed_is_ok(out.write_all(report.as_bytes()).and_then(|()| out.flush()))?;
+            Ok(ExitCode::from(code))
+        }
+    }
 }
 
 /// The language, the lint configuration and the profile's name, or why

@@ -281,11 +281,11 @@ impl Writer<'_> {
         match op {
             Op::Rapid(m) => {
                 let speed = self.rapid_mm_s(m.from, m.to);
-                let capped_before = self.capped;
+                let capped_before = (self.capped, self.first_capped);
                 let hz = self.path_hz(m.from, m.to, speed, m.origin);
                 // A rapid is meant to be as fast as allowed: no warning.
                 if self.profile.gcode.rapid_speed.is_none() {
-                    self.capped = capped_before;
+                    (self.capped, self.first_capped) = capped_before;
                 }
                 let target = self.axes.steps(m.to);
                 if target != self.at {

@@ -282,6 +282,8 @@ fn arguments_built_without_the_parser_are_checked_too() {
     let args = check::CheckArgs {
         file: dir.path().join("p.isel"),
         axes: Some(9),
+        gcode: false,
+        work_zero: None,
     };
     let (mut out, mut err) = (Vec::new(), Vec::new());
     let global = jogterm::cli::GlobalArgs::default();

@@ -217,15 +217,16 @@ fn freecad_drilling_cycles_wait_at_the_tool_change_for_the_start_key() {
     assert!(said.contains("running the program"), "{said}");
 }
 
-/// Bad G-code: the import's error at FILE:LINE:COL, exit 1; `upload`
+/// Bad G-code: the import's error at FILE:LINE:COL, exit 1; `check` and `upload`
 /// of the same file the same, with nothing on the wire. What went wrong.
 fn refused(sim: &mut SimProcess, name: &str, gcode: &str, expected: &str) -> Option<String> {
     let path = sim.dir.path().join(name);
     std::fs::write(&path, gcode).expect("write the G-code");
     let file = path.display().to_string();
-    for command in ["import", "upload"] {
+    for command in ["import", "check", "upload"] {
         let out = run(sim, &[command, &file, "--work-zero", WORK_ZERO]);
-        let said = text(&out.stderr);
+        // `check` prints its diagnostics on stdout, the others on stderr.
+        let said = format!("{}{}", text(&out.stdout), text(&out.stderr));
         if contains_panic(&out.stderr)
             || out.status.code() != Some(1)
             || !said.contains(&format!("{file}:"))
