@@ -19,6 +19,7 @@ use super::out::closed_is_ok;
 use super::{GlobalArgs, profile};
 use crate::config::ConfigDirs;
 use crate::config::profile::Profile;
+use crate::gcode::output::Header;
 use crate::gcode::{Import, Target, import, render};
 use crate::offsets::store::{OffsetsFile, profile_key};
 use crate::offsets::{Identity, WorkOffsets};
@@ -107,6 +108,51 @@ pub fn run(global: &GlobalArgs, args: &ImportArgs) -> anyhow::Result<ExitCode> {
         &mut stdout.lock(),
         &mut stderr.lock(),
     )
+}
+
+/// Why a program converted from G-code (its `jogterm-gcode` header) may
+/// not run with the work offsets in force now: made for another profile,
+/// or for a work zero that has moved since. `None` for a program without
+/// the header, or one that still fits.
+pub fn stale_offset(global: &GlobalArgs, profile: &Profile, program: &str) -> Option<String> {
+    let header = Header::of(program)?;
+    if header.profile != profile.name {
+        return Some(format!(
+            "converted from {} for profile \"{}\", not for \"{}\": import the G-code again for this machine",
+            header.file, header.profile, profile.name
+        ));
+    }
+    let (offsets, _) = offsets(global, &ConfigDirs::from_env(), profile);
+    let system = crate::offsets::System::ALL
+        .into_iter()
+        .find(|s| s.to_string() == header.system)?;
+    let now = |axis: crate::axis::Axis| {
+        profile
+            .axis(axis)
+            .map_or(0.0, |p| p.to_units(offsets.zero(system, axis)))
+    };
+    let then = header.zero;
+    let moved = [
+        (crate::axis::Axis::X, then.x),
+        (crate::axis::Axis::Y, then.y),
+        (crate::axis::Axis::Z, then.z),
+    ]
+    .into_iter()
+    .filter(|(axis, was)| {
+        // Half a step is what the header's four decimals can say.
+        let step = profile.axis(*axis).map_or(0.0, |p| 0.5 / p.steps_per_unit);
+        (now(*axis) - was).abs() > step.max(1e-4)
+    })
+    .map(|(axis, was)| format!("{axis} {was:.3} mm then, {:.3} mm now", now(axis)))
+    .collect::<Vec<_>>();
+    (!moved.is_empty()).then(|| {
+        format!(
+            "converted from {} for work offset {} with its zero where it no longer is ({}): import the G-code again, or set the zero back",
+            header.file,
+            header.system,
+            moved.join(", ")
+        )
+    })
 }
 
 /// The work offsets the console would apply for this profile and port.

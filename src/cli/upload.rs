@@ -114,7 +114,13 @@ impl Prepared {
 
 /// The file, checked as a program of `language`; `Err` is the message for
 /// bad usage (printed already when it is a list of diagnostics).
-fn prepare(args: &UploadArgs, language: Language, config: &LintConfig) -> Result<Prepared, String> {
+fn prepare(
+    global: &GlobalArgs,
+    args: &UploadArgs,
+    profile: &crate::config::profile::Profile,
+    language: Language,
+    config: &LintConfig,
+) -> Result<Prepared, String> {
     let name = args.file.display().to_string();
     if let Some(other) = Language::from_path(&args.file).filter(|l| *l != language) {
         return Err(format!(
@@ -129,6 +135,9 @@ fn prepare(args: &UploadArgs, language: Language, config: &LintConfig) -> Result
         return Err(format!(
             "{name}: bytes that are not UTF-8 (the controller takes ASCII)"
         ));
+    }
+    if let Some(stale) = super::import::stale_offset(global, profile, &loaded.text) {
+        return Err(format!("{name}: {stale}; nothing was sent"));
     }
     checked(name, &loaded.text, language, config, None)
 }
@@ -255,7 +264,7 @@ pub fn run(global: &GlobalArgs, args: &UploadArgs) -> anyhow::Result<ExitCode> {
             }
         }
     } else {
-        match prepare(args, language, &config) {
+        match prepare(global, args, &profile, language, &config) {
             Ok(p) => p,
             Err(m) => return usage(m),
         }

@@ -125,19 +125,27 @@ impl Header {
         ]
     }
 
-    /// The offset line of a converted program's text: `(system, zero)`.
-    pub fn offset_of(text: &str) -> Option<(String, Point)> {
-        let marker = format!("{} offset=", Header::PREFIX);
-        let line = text.lines().find_map(|l| {
-            let l = l.trim_start_matches(';').trim();
-            l.strip_prefix(&marker)
-        })?;
-        let (system, zero) = line.split_once(" zero=")?;
+    /// The header of a converted program's text, if it has one whole.
+    pub fn of(text: &str) -> Option<Header> {
+        let value = |key: &str| {
+            let marker = format!("{} {key}=", Header::PREFIX);
+            text.lines().take(16).find_map(|l| {
+                let l = l.trim_start_matches(';').trim();
+                l.strip_prefix(&marker).map(str::to_owned)
+            })
+        };
+        let offset = value("offset")?;
+        let (system, zero) = offset.split_once(" zero=")?;
         let mut it = zero.split(',').map(|v| v.trim().parse::<f64>());
         let (Some(Ok(x)), Some(Ok(y)), Some(Ok(z))) = (it.next(), it.next(), it.next()) else {
             return None;
         };
-        Some((system.to_owned(), Point { x, y, z }))
+        Some(Header {
+            file: value("file")?,
+            profile: value("profile")?,
+            system: system.to_owned(),
+            zero: Point { x, y, z },
+        })
     }
 }
 
@@ -219,4 +227,30 @@ pub fn merge_lines(ops: &[Op], tolerance: f64) -> Vec<Op> {
     }
     flush(&mut run, &mut out);
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_header_reads_back_from_the_program_it_heads() {
+        let header = Header {
+            file: "part.nc".into(),
+            profile: "isel simulator".into(),
+            system: "G55".into(),
+            zero: Point {
+                x: 50.0,
+                y: -12.5,
+                z: 60.0,
+            },
+        };
+        let mut program = Program::default();
+        for line in header.lines() {
+            program.comment(line);
+        }
+        program.command("77", None);
+        assert_eq!(Header::of(&program.text("part.nc")), Some(header));
+        assert_eq!(Header::of("77\n9\n"), None);
+    }
 }

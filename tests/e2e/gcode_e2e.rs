@@ -310,3 +310,57 @@ fn bad_gcode_is_an_error_at_file_line_col_and_nothing_is_sent() {
     assert!(wrong.is_empty(), "{}", wrong.join("\n"));
     assert_eq!(sim.received_total(), 0, "nothing reached the controller");
 }
+
+#[test]
+fn a_program_converted_for_another_work_zero_is_refused_before_anything_is_sent() {
+    let mut sim = SimProcess::start("isel");
+    let gcode = sim.dir.path().join("small.nc");
+    std::fs::write(&gcode, "G21 G90\nG0 X10 Y10 Z10\nG1 X20 F600\nM30\n").expect("write");
+    let gcode = gcode.display().to_string();
+    let convert = |sim: &SimProcess, out: &str, zero: Option<&str>| {
+        let path = sim.dir.path().join(out).display().to_string();
+        let mut args = vec!["import", gcode.as_str(), "-o", path.as_str()];
+        if let Some(zero) = zero {
+            args.extend(["--work-zero", zero]);
+        }
+        let done = run(sim, &args);
+        assert_eq!(done.status.code(), Some(0), "{}", text(&done.stderr));
+        path
+    };
+    // Made for the work zero in force (none stored: machine 0): it stores.
+    let current = convert(&sim, "current.isel", None);
+    let out = run(&sim, &["upload", &current]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+    // Made for G54 at X50 Y50 Z60, which is not where G54 is: refused.
+    let before = sim.received_total();
+    let moved = convert(&sim, "moved.isel", Some(WORK_ZERO));
+    let out = run(&sim, &["upload", &moved, "--erase", "--start"]);
+    let said = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{said}");
+    assert!(
+        said.contains("converted from small.nc for work offset G54 with its zero where it no longer is (X 50.000 mm then, 0.000 mm now, Y 50.000 mm then, 0.000 mm now, Z 60.000 mm then, 0.000 mm now)"),
+        "{said}"
+    );
+    assert_eq!(sim.received_total(), before, "nothing sent");
+}
+
+#[test]
+fn a_command_the_controller_refuses_is_named_by_its_gcode_line() {
+    // A controller that stores fewer commands than the profile says: the
+    // one that does not fit is refused, and the upload names the G-code
+    // line it came from.
+    let mut sim = SimProcess::start("isel");
+    sim.control("memory 8");
+    let file = sample("fusion-grbl.nc");
+    let out = run(
+        &sim,
+        &["upload", &file, "--work-zero", WORK_ZERO, "--erase"],
+    );
+    let said = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{said}");
+    // The 9th command is the `m` of `X40` on line 20, its first word.
+    assert!(
+        said.contains(&format!("{file}:20:1: the controller refused command 9")),
+        "{said}"
+    );
+}
