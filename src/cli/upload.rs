@@ -305,6 +305,14 @@ async fn steps(session: &mut Session, prepared: &Prepared, args: &UploadArgs) ->
         }
         upload(session, prepared, args.erase).await?;
         if args.start {
+            if let Some(program) = &prepared.gcode {
+                for (origin, what) in &program.pauses {
+                    out::say(format_args!(
+                        "{}:{}:{}: the program pauses here: {what}",
+                        prepared.name, origin.line, origin.col
+                    ));
+                }
+            }
             start(session).await?;
         }
         Ok(())

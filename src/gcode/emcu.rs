@@ -264,6 +264,9 @@ impl Writer<'_> {
                         ),
                     ));
                 }
+                self.program
+                    .pauses
+                    .push((origin, format!("{why} at the machine")));
                 if !self.wait_e1 {
                     self.program.command_noted("&V1", &why, Some(origin));
                     self.wait_e1 = true;

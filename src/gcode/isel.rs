@@ -356,6 +356,10 @@ impl Writer<'_> {
                         ),
                     ));
                 };
+                self.program.pauses.push((
+                    origin,
+                    format!("{why}: press the start key ({name}) at the machine to go on"),
+                ));
                 self.program.command_noted(
                     format!("o{port},{bit},{released},0"),
                     &format!("{why}; waits for the start key ({name})"),

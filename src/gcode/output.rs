@@ -17,6 +17,9 @@ pub struct Program {
     pub commands: usize,
     /// Its program memory in commands.
     pub capacity: usize,
+    /// Where the program stops for the operator (M0, M1, M6) and what it
+    /// waits for, to be said before it starts.
+    pub pauses: Vec<(Origin, String)>,
 }
 
 #[derive(Debug, Clone, PartialEq)]

@@ -215,6 +215,10 @@ fn freecad_drilling_cycles_wait_at_the_tool_change_for_the_start_key() {
         sim.control("pulse start 300");
     });
     assert!(said.contains("running the program"), "{said}");
+    assert!(
+        said.contains("freecad-path.ngc:14:1: the program pauses here: M6: change to tool T2: press the start key"),
+        "{said}"
+    );
 }
 
 /// Bad G-code: the import's error at FILE:LINE:COL, exit 1; `check` and `upload`
@@ -363,4 +367,43 @@ fn a_command_the_controller_refuses_is_named_by_its_gcode_line() {
         said.contains(&format!("{file}:20:1: the controller refused command 9")),
         "{said}"
     );
+}
+
+/// The EMCU profile with faster axes, near machine 0 at power-up (a short
+/// reference run), and the spindle's M3/M5 mapped to relay A1 through the
+/// `[gcode]` table (the EMCU's outputs have no spindle role).
+const FAST_EMCU: (&str, &str) = (
+    "profiles/emcu.toml",
+    "base = \"emcu\"\n[axes.X]\nmax_speed = 40.0\n[axes.Y]\nmax_speed = 40.0\n[axes.Z]\nmax_speed = 20.0\n[sim]\nstart_position = 1.0\n[gcode]\nm3 = \"output:A1\"\nm5 = \"output:A1\"\n",
+);
+
+#[test]
+fn estlcam_style_as_an_emcu_job_ends_at_its_last_point() {
+    let mut sim = SimProcess::start_with_files("emcu", &[FAST_EMCU]);
+    let ready = run(&sim, &["send", "@R", "#S2000", "#R200\\x01", "$HZYX\\x01"]);
+    assert!(ready.status.success(), "{}", text(&ready.stderr));
+    sim.wait_device("referenced", |s| {
+        s.contains("X 0 ") && !s.contains("moving")
+    });
+    let file = sample("estlcam.nc");
+    let child = spawn(
+        &sim,
+        &["upload", &file, "--work-zero", WORK_ZERO, "--start"],
+    );
+    let out = wait_run(child, "upload --start");
+    let said = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{said}");
+    // G01 X2 Y2, G00 Z5 with G54 at X50 Y50 Z60, 200 steps/mm.
+    let expected = [52.0, 52.0, 65.0].map(|mm: f64| (mm * 200.0).round() as i64);
+    assert_eq!(ended_at(&said), expected, "{said}");
+    let received = sim.received();
+    // The job: the reference run, the spindle on relay A1, absolute vector
+    // moves at slot 7, the arcs as chords.
+    assert!(received.contains("@F<CR>$HZXY<CR>A1,1<CR>"), "{received}");
+    assert!(
+        received.contains("L7,X10400,Y10400,Z11900<CR>"),
+        "{received}"
+    );
+    assert!(received.contains("A1,0<01>"), "{received}");
+    assert!(received.contains("@J<CR>"), "{received}");
 }
