@@ -464,9 +464,12 @@ proptest! {
         cy in -50.0..50.0f64,
         r in 0.5..40.0f64,
         a0 in 0.0..(2.0 * PI),
-        span in 0.05..(2.0 * PI - 0.05),
+        span in prop_oneof![0.05..(PI - 0.1), (PI + 0.1)..(2.0 * PI - 0.05)],
         cw in any::<bool>(),
     ) {
+        // Near a half circle an R arc's centre is ill-conditioned (RS-274/NGC
+        // says so): the printed end's rounding of 1e-6 mm moves it by far
+        // more. Spans within 0.1 rad of pi are left out.
         let a1 = if cw { a0 - span } else { a0 + span };
         let (by_centre, by_radius) = arc_texts(cx, cy, r, a0, a1, cw);
         let c = arcs(&ops(&by_centre))[0];
