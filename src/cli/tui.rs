@@ -25,16 +25,19 @@ use crate::device::log::spawn_log;
 use crate::device::{DeviceHandle, EventReceiver, TaskOptions};
 use crate::offsets::Identity;
 use crate::offsets::store::OffsetsFile;
+use crate::program::Language;
 use crate::program::store::RecoveryStore;
 use crate::sim::registry;
 use crate::sim::shell::{Shell, ShellControl, serve_socket};
 use crate::transport::PortSpec;
+use crate::ui::editor::Note;
 use crate::ui::editor::io::EditorMsg;
 use crate::ui::input::InputThreads;
 use crate::ui::keymap::Keymap;
 use crate::ui::palette::Palette;
 use crate::ui::runtime::{self, DeviceLink, NotSent, RunOptions};
 use crate::ui::terminal::{TerminalGuard, TerminalOptions, set_emergency};
+use crate::ui::traffic_log::NoteLevel;
 use crate::ui::{Model, Msg, Setup};
 
 /// The console's configuration, checked.
@@ -99,13 +102,98 @@ pub fn run(global: &GlobalArgs, program: Option<&Path>) -> anyhow::Result<ExitCo
             return Ok(e.exit_code());
         }
     };
+    // G-code is converted before the terminal is taken: its errors are
+    // FILE:LINE:COL lines on stderr, and nothing opens.
+    let opening = match program {
+        Some(path) if crate::gcode::is_gcode_path(path) => {
+            match imported(global, &resolved.profile, path) {
+                Ok(msg) => Some(msg),
+                Err(code) => return Ok(ExitCode::from(code)),
+            }
+        }
+        Some(path) => Some(EditorMsg::Open(path.to_path_buf())),
+        None => None,
+    };
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
         .enable_all()
         .build()
         .context("starting the async runtime")?;
-    runtime.block_on(session(global, resolved, program))?;
+    runtime.block_on(session(global, resolved, opening))?;
     Ok(ExitCode::SUCCESS)
+}
+
+/// A G-code file imported for the profile with the console's work offsets,
+/// as the editor opens it: the controller program under the G-code's name
+/// with the family's extension, and the summary and warnings as notes.
+fn imported(global: &GlobalArgs, profile: &Profile, path: &Path) -> Result<EditorMsg, u8> {
+    let mut said = Vec::new();
+    let target = crate::gcode::Target::of(profile.connection.protocol).map_err(|why| {
+        out::say(format_args!("jogterm: {}: {why}", path.display()));
+        1
+    })?;
+    let result = super::import::convert(
+        global,
+        &ConfigDirs::from_env(),
+        profile,
+        path,
+        target,
+        None,
+        &mut said,
+    );
+    let said = String::from_utf8_lossy(&said).into_owned();
+    let import = result.map_err(|code| {
+        out::say(said.trim_end());
+        code
+    })?;
+    let name = path.display().to_string();
+    let (language, extension) = match target {
+        crate::gcode::Target::Isel => (Language::Isel, "isel"),
+        crate::gcode::Target::Emcu => (Language::Emcu, "emcu"),
+    };
+    let s = &import.summary;
+    let mut notes: Vec<Note> = said
+        .lines()
+        .map(|l| Note {
+            level: NoteLevel::Warning,
+            text: l.to_owned(),
+        })
+        .collect();
+    notes.extend(import.warnings.iter().map(|w| Note {
+        level: NoteLevel::Warning,
+        text: crate::gcode::render(&name, w),
+    }));
+    let fits = if import.program.fits() {
+        "fits the controller's memory".to_owned()
+    } else {
+        format!(
+            "does NOT fit the controller's memory ({} commands)",
+            import.program.capacity
+        )
+    };
+    notes.push(Note {
+        level: if import.program.fits() {
+            NoteLevel::Info
+        } else {
+            NoteLevel::Warning
+        },
+        text: format!(
+            "{name}: {} moves, {} arcs, {:.1} mm, about {:.0} s; work offset {}; {} commands, {fits}; unsaved until you save it",
+            s.moves,
+            s.arcs,
+            s.length_mm,
+            s.estimated_s,
+            s.system,
+            import.program.commands
+        ),
+    });
+    let header = super::import::header_name(path);
+    Ok(EditorMsg::Imported {
+        path: path.with_extension(extension),
+        language,
+        text: import.program.text(&header),
+        notes,
+    })
 }
 
 /// The built-in simulator a session runs on, and its inputs.
@@ -169,7 +257,7 @@ const CLOSE_WITHIN: Duration = Duration::from_secs(3);
 async fn session(
     global: &GlobalArgs,
     resolved: Resolved,
-    program: Option<&Path>,
+    opening: Option<EditorMsg>,
 ) -> anyhow::Result<()> {
     let Resolved {
         profile,
@@ -204,7 +292,7 @@ async fn session(
     let result = match start_log(global, &handle) {
         Ok(()) => {
             let control = simulator.as_ref().map(|s| s.shell.control());
-            in_terminal(model, device, control, program).await
+            in_terminal(model, device, control, opening).await
         }
         Err(e) => Err(e),
     };
@@ -246,7 +334,7 @@ async fn in_terminal(
     mut model: Model,
     mut device: Device,
     simulator: Option<ShellControl>,
-    program: Option<&Path>,
+    opening: Option<EditorMsg>,
 ) -> anyhow::Result<()> {
     let (guard, mut terminal) =
         TerminalGuard::enter(TerminalOptions::from_env()).context("taking the terminal")?;
@@ -260,8 +348,8 @@ async fn in_terminal(
     // The editor's first work: look for edits an earlier session left,
     // then open the command line's program (which may have some of them).
     let _ = tx.send(Msg::Editor(EditorMsg::Scan));
-    if let Some(path) = program {
-        let _ = tx.send(Msg::Editor(EditorMsg::Open(path.to_path_buf())));
+    if let Some(msg) = opening {
+        let _ = tx.send(Msg::Editor(msg));
     }
     let _input = InputThreads::spawn(tx).context("starting the input thread")?;
     runtime::run(

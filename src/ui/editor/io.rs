@@ -64,6 +64,15 @@ pub enum SaveFailure {
 pub enum EditorMsg {
     /// Open this program (the command line's `--program`).
     Open(PathBuf),
+    /// A program converted from G-code (the command line's `--program
+    /// part.nc`, `docs/gcode.md`): opened unsaved under `path`, with what
+    /// the import said of the G-code.
+    Imported {
+        path: PathBuf,
+        language: crate::program::Language,
+        text: String,
+        notes: Vec<crate::ui::editor::Note>,
+    },
     /// Look for unsaved edits of an earlier session (at start).
     Scan,
     Loaded {

@@ -26,6 +26,24 @@ impl Step<'_, '_> {
                 self.open();
                 self.load(path);
             }
+            EditorMsg::Imported {
+                path,
+                language,
+                text,
+                notes,
+            } => {
+                self.open();
+                self.e.replace(language, &text, now);
+                // Unsaved: the recovery file keeps it until it is saved.
+                self.e.file = FileState {
+                    path: Some(path),
+                    saved: self.e.buffer.state().wrapping_add(1),
+                    ..FileState::default()
+                };
+                for note in notes {
+                    self.say(note.level, note.text);
+                }
+            }
             EditorMsg::Scan => {
                 if let Some(store) = self.e.store.clone() {
                     self.io(EditorIo::ScanRecoveries { store });
