@@ -6,7 +6,9 @@
 //! Run: `cargo bench --bench gcode` (optimised build). Options:
 //! `--lines N` (default 500 000), `--runs N` (best of N, default 5),
 //! `--no-node` (skip CNCjs), `--write FILE` (write the generated file and
-//! stop; `jogterm import FILE` reads it with the offsets below set). Results:
+//! stop; `jogterm import FILE` reads it with the offsets below set),
+//! `--profile STAGE` (run only `read`, `interpret`, `check`, `isel` or
+//! `import`, `--runs` times, under a profiler). Results:
 //! `docs/gcode-bench.md`.
 //!
 //! - The file is generated deterministically (a fixed-seed generator): a
@@ -671,6 +673,42 @@ console.log(JSON.stringify({
     ))
 }
 
+/// `--profile STAGE`: only that stage, `runs` times, for a profiler
+/// (`perf record`, `valgrind --tool=callgrind` with `--lines 20000`).
+fn profile_stage(stage: &str, text: &str, profile: &Profile, offsets: &WorkOffsets, runs: usize) {
+    let setup = Setup::from_profile(profile, offsets).expect("setup");
+    let machine_ = Machine::from_profile(profile);
+    let toolpath = || interpret(text, &setup).expect("the bench file interprets");
+    let header = Header {
+        file: "bench.nc".into(),
+        profile: profile.name.clone(),
+        system: System::G54.to_string(),
+        zero: Default::default(),
+    };
+    let path = (!matches!(stage, "read" | "interpret" | "import")).then(toolpath);
+    let start = Instant::now();
+    for _ in 0..runs {
+        match (stage, &path) {
+            ("read", _) => drop(black_box(reader::read(text))),
+            ("interpret", _) => drop(black_box(interpret(text, &setup))),
+            ("check", Some(p)) => {
+                drop(black_box(check_limits(p, &machine_)));
+                black_box(summarise(p, &machine_));
+            }
+            ("isel", Some(p)) => drop(black_box(isel::convert(p, profile, &header))),
+            ("import", _) => drop(black_box(import(
+                text,
+                "bench.nc",
+                profile,
+                offsets,
+                Target::Isel,
+            ))),
+            _ => panic!("--profile read|interpret|check|isel|import"),
+        }
+    }
+    eprintln!("{stage}: {runs} runs in {:?}", start.elapsed());
+}
+
 fn load_average() -> String {
     std::fs::read_to_string("/proc/loadavg")
         .map(|l| l.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
@@ -695,6 +733,10 @@ fn main() {
         return;
     }
     let (profile, offsets) = machine("default");
+    if let Some(stage) = arg("--profile") {
+        profile_stage(&stage, &text, &profile, &offsets, runs);
+        return;
+    }
     let (emcu_profile, emcu_offsets) = machine("emcu");
     let count = reader::read(&text).lines as usize;
     let bytes = text.len() as f64;
