@@ -24,6 +24,8 @@
 //!   M6) as `2` (wait for a character from the host, 3.2.4): the program
 //!   stands until jogterm sends it.
 
+use std::fmt::Write as _;
+
 use crate::axis::Axis;
 use crate::config::profile::{AxisProfile, Profile};
 use crate::program::ISEL_CAPACITY;
@@ -186,12 +188,15 @@ pub fn convert(
 impl Writer<'_> {
     /// `m` to `target` steps at `hz`.
     fn move_to(&mut self, target: [i64; 3], hz: u32, origin: Origin, note: Option<&str>) {
-        let mut params: Vec<String> = target.iter().map(|s| format!("{s},{hz}")).collect();
-        params.truncate(self.axes.pairs.min(3));
-        while params.len() < self.axes.pairs {
-            params.push(format!("0,{hz}"));
+        // Written in place, one String a move (this runs for every move of
+        // the file): the pairs of X Y Z, then `0,hz` for the z2 pair.
+        let mut command = String::with_capacity(48);
+        command.push('m');
+        for k in 0..self.axes.pairs {
+            let steps = target.get(k).copied().unwrap_or(0);
+            let comma = if k == 0 { "" } else { "," };
+            let _ = write!(command, "{comma}{steps},{hz}");
         }
-        let command = format!("m{}", params.join(","));
         match note {
             Some(n) => self.program.command_noted(command, n, Some(origin)),
             None => self.program.command(command, Some(origin)),
