@@ -709,6 +709,14 @@ fn profile_stage(stage: &str, text: &str, profile: &Profile, offsets: &WorkOffse
     eprintln!("{stage}: {runs} runs in {:?}", start.elapsed());
 }
 
+/// FNV-1a of a converted program's text: the same file must convert to
+/// the same program before and after an optimisation.
+fn fnv(text: &str) -> u64 {
+    text.bytes().fold(0xcbf2_9ce4_8422_2325, |h, b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+    })
+}
+
 fn load_average() -> String {
     std::fs::read_to_string("/proc/loadavg")
         .map(|l| l.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
@@ -854,9 +862,10 @@ fn main() {
         import_isel.wall,
         import_isel.cpu,
         format!(
-            "{} output lines, {} warnings",
+            "{} output lines, {} warnings, text {:016x}",
             result.program.lines.len(),
-            result.warnings.len()
+            result.warnings.len(),
+            fnv(&result.program.text("bench.nc"))
         ),
     );
     let (t_import, c_import) = (import_isel.wall, import_isel.cpu);
@@ -897,15 +906,15 @@ fn main() {
             Target::Emcu,
         )
     });
-    let lines_out = match &import_emcu.out {
-        Ok(r) => r.program.lines.len(),
+    let (lines_out, hash) = match &import_emcu.out {
+        Ok(r) => (r.program.lines.len(), fnv(&r.program.text("bench.nc"))),
         Err(e) => panic!("import emcu: {:?}", &e[..e.len().min(5)]),
     };
     row(
         "**total: `import` to EMCU**",
         import_emcu.wall,
         import_emcu.cpu,
-        format!("{lines_out} output lines"),
+        format!("{lines_out} output lines, text {hash:016x}"),
     );
     drop(import_emcu);
 
