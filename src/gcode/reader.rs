@@ -78,15 +78,10 @@ pub struct Read {
 /// text; for the ASCII lines CAM posts write, a byte index is the column.
 pub fn read(text: &str) -> Read {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let lines = count_lines(text);
-    let mut out = Read {
-        // Nearly every line is a block: one allocation for the whole file
-        // instead of a doubling (and a copy) every time it fills.
-        blocks: Vec::with_capacity(lines as usize),
-        lines,
-        errors: Vec::new(),
-    };
+    let mut out = Read::default();
+    let mut pieces = 0usize;
     for (index, raw) in text.split('\n').enumerate() {
+        pieces = index + 1;
         let line_no = u32::try_from(index + 1).unwrap_or(u32::MAX);
         let raw = raw.strip_suffix('\r').unwrap_or(raw);
         match read_line(raw, line_no) {
@@ -95,19 +90,14 @@ pub fn read(text: &str) -> Read {
             Err(e) => out.errors.push(e),
         }
     }
-    out
-}
-
-fn count_lines(text: &str) -> u32 {
-    // A byte count the compiler vectorises; `'\n'` is never part of a
-    // multi-byte character.
-    let newlines = text.bytes().filter(|&b| b == b'\n').count();
+    // The piece after a final newline is no line (and an empty text has none).
     let lines = if text.is_empty() || text.ends_with('\n') {
-        newlines
+        pieces.saturating_sub(1)
     } else {
-        newlines + 1
+        pieces
     };
-    u32::try_from(lines).unwrap_or(u32::MAX)
+    out.lines = u32::try_from(lines).unwrap_or(u32::MAX);
+    out
 }
 
 fn error(line: u32, col: u32, message: impl Into<String>) -> Diagnostic {
