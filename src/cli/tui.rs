@@ -142,10 +142,7 @@ fn imported(global: &GlobalArgs, profile: &Profile, path: &Path) -> Result<Edito
         &mut said,
     );
     let said = String::from_utf8_lossy(&said).into_owned();
-    let import = result.map_err(|code| {
-        out::say(said.trim_end());
-        code
-    })?;
+    let import = result.inspect_err(|_| out::say(said.trim_end()))?;
     let name = path.display().to_string();
     let (language, extension) = match target {
         crate::gcode::Target::Isel => (Language::Isel, "isel"),

@@ -157,10 +157,16 @@ fn sub(a: Point, b: Point) -> Point {
 pub fn check_limits(path: &Toolpath, machine: &Machine) -> Result<(), Diagnostic> {
     let mut system = (System::G54, Point::default());
     for op in &path.ops {
-        let (points, origin): (Vec<Point>, Origin) = match op {
-            Op::Rapid(m) => (vec![m.to], m.origin),
-            Op::Line(m) => (vec![m.to], m.origin),
-            Op::Arc(a) => (arc_extreme_points(a), a.origin),
+        // A straight move's one point is borrowed, not put into a Vec of
+        // its own: this runs for every move of the file.
+        let arc_points;
+        let (points, origin): (&[Point], Origin) = match op {
+            Op::Rapid(m) => (std::slice::from_ref(&m.to), m.origin),
+            Op::Line(m) => (std::slice::from_ref(&m.to), m.origin),
+            Op::Arc(a) => {
+                arc_points = arc_extreme_points(a);
+                (&arc_points, a.origin)
+            }
             Op::WorkOffset {
                 system: s, zero, ..
             } => {
@@ -169,7 +175,7 @@ pub fn check_limits(path: &Toolpath, machine: &Machine) -> Result<(), Diagnostic
             }
             _ => continue,
         };
-        for p in points {
+        for &p in points {
             for (axis, min, max, _) in &machine.axes {
                 let v = get(p, *axis);
                 let (side, limit) = if v < min - 1e-9 {

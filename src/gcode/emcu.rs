@@ -13,6 +13,8 @@
 //!   (M0, M1, M6) makes the next move wait for input E1 (`&V1` … `&V0`,
 //!   1.5.19), the start key on the machines we know.
 
+use std::fmt::Write as _;
+
 use crate::axis::Axis;
 use crate::config::profile::{AxisProfile, Profile};
 use crate::proto::emcu::job::JOB_CAPACITY;
@@ -136,14 +138,14 @@ impl Writer<'_> {
             self.program.command(format!("#E{SLOT},{hz}"), Some(origin));
             self.speed = Some(hz);
         }
-        let words: Vec<String> = self
-            .axes
-            .iter()
-            .zip(&target)
-            .map(|((a, _), s)| format!("{}{s}", a.letter()))
-            .collect();
-        self.program
-            .command(format!("L{SLOT},{}", words.join(",")), Some(origin));
+        // Written in place, one String a move (this runs for every move
+        // and chord of the file).
+        let mut command = String::with_capacity(40);
+        let _ = write!(command, "L{SLOT}");
+        for ((a, _), s) in self.axes.iter().zip(&target) {
+            let _ = write!(command, ",{}{s}", a.letter());
+        }
+        self.program.command(command, Some(origin));
         if self.wait_e1 {
             self.program
                 .command_noted("&V0", "later moves start at once again", Some(origin));

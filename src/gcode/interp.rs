@@ -158,6 +158,9 @@ pub struct Interpreter<'a> {
     warned_ignored: Vec<u32>,
     /// `Toolpath::named_from` as it grows.
     named_from: [Option<usize>; 3],
+    /// The last block's `Words`, emptied and filled again by the next
+    /// block: one set of vectors for the file instead of new ones a block.
+    spare: Words,
 }
 
 /// Interprets a read file (the reader's errors first).
@@ -218,6 +221,7 @@ impl<'a> Interpreter<'a> {
             warned_block_delete: false,
             warned_ignored: Vec::new(),
             named_from: [None; 3],
+            spare: Words::default(),
         }
     }
 
@@ -290,12 +294,14 @@ impl<'a> Interpreter<'a> {
             return;
         }
         self.execute(block, &words);
+        self.spare = words;
     }
 
     /// Splits a block's words into codes and values, with the checks that
     /// need the whole block: one word of each letter, one code per group.
     fn sort(&mut self, block: &Block) -> Option<Words> {
-        let mut w = Words::default();
+        let mut w = std::mem::take(&mut self.spare);
+        w.clear();
         let mut g_groups: Vec<(u8, Word)> = Vec::new();
         let mut m_groups: Vec<(u8, Word)> = Vec::new();
         for word in &block.words {
@@ -1083,6 +1089,14 @@ struct Words {
 }
 
 impl Words {
+    /// Empty, its capacity kept.
+    fn clear(&mut self) {
+        self.g.clear();
+        self.m.clear();
+        self.values.clear();
+        self.mapped.clear();
+    }
+
     fn value(&self, letter: char) -> Option<&Word> {
         self.values.iter().find(|w| w.letter == letter)
     }

@@ -27,6 +27,8 @@
 //!   sync character `2` (3.2.4): any byte on the line ends that wait, and a
 //!   console polling the position would end it at once.
 
+use std::fmt::Write as _;
+
 use crate::axis::Axis;
 use crate::config::profile::{AxisProfile, Profile};
 use crate::program::ISEL_CAPACITY;
@@ -190,23 +192,25 @@ pub fn convert(
 impl Writer<'_> {
     /// `m` to `target` steps at `hz`.
     fn move_to(&mut self, target: [i64; 3], hz: u32, origin: Origin, note: Option<&str>) {
-        // In 3D mode the x pair's speed is the path speed and the others
-        // are ignored (2.2.29); they carry what their axis allows, so that
-        // a reader (and `jogterm check`) sees no speed above an axis' max.
-        let mut params: Vec<String> = target
-            .iter()
-            .zip([Axis::X, Axis::Y, Axis::Z])
-            .map(|(s, axis)| {
-                let p = self.axes.of(axis);
-                let cap = p.speed_hz(p.max_speed).round().max(HZ_MIN) as u32;
-                format!("{s},{}", hz.min(cap))
-            })
-            .collect();
-        params.truncate(self.axes.pairs.min(3));
-        while params.len() < self.axes.pairs {
-            params.push(format!("0,{hz}"));
+        // Written in place, one String a move (this runs for every move of
+        // the file): the pairs of X Y Z, then `0,hz` for the z2 pair. In 3D
+        // mode the x pair's speed is the path speed and the others are
+        // ignored (2.2.29); they carry what their axis allows, so that a
+        // reader (and `jogterm check`) sees no speed above an axis' max.
+        let mut command = String::with_capacity(48);
+        command.push('m');
+        for k in 0..self.axes.pairs {
+            let steps = target.get(k).copied().unwrap_or(0);
+            let speed = match [Axis::X, Axis::Y, Axis::Z].get(k) {
+                Some(axis) => {
+                    let p = self.axes.of(*axis);
+                    hz.min(p.speed_hz(p.max_speed).round().max(HZ_MIN) as u32)
+                }
+                None => hz,
+            };
+            let comma = if k == 0 { "" } else { "," };
+            let _ = write!(command, "{comma}{steps},{speed}");
         }
-        let command = format!("m{}", params.join(","));
         match note {
             Some(n) => self.program.command_noted(command, n, Some(origin)),
             None => self.program.command(command, Some(origin)),

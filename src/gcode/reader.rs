@@ -69,14 +69,19 @@ pub struct Read {
     pub errors: Vec<Diagnostic>,
 }
 
-/// Letters RS-274/NGC gives a meaning; `O` is refused separately.
-const WORD_LETTERS: &str = "ABCDEFGHIJKLMNPQRSTUVWXYZ";
-
 /// Reads a whole file.
+///
+/// The scanner works on the line's bytes: every byte that means something
+/// here is ASCII, and in UTF-8 no byte of a multi-byte character is ASCII,
+/// so a `(` or a digit found by byte is one. Columns are counted in
+/// characters (what an editor shows) only where a line holds non-ASCII
+/// text; for the ASCII lines CAM posts write, a byte index is the column.
 pub fn read(text: &str) -> Read {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut out = Read::default();
+    let mut pieces = 0usize;
     for (index, raw) in text.split('\n').enumerate() {
+        pieces = index + 1;
         let line_no = u32::try_from(index + 1).unwrap_or(u32::MAX);
         let raw = raw.strip_suffix('\r').unwrap_or(raw);
         match read_line(raw, line_no) {
@@ -85,130 +90,151 @@ pub fn read(text: &str) -> Read {
             Err(e) => out.errors.push(e),
         }
     }
-    out.lines = count_lines(text);
+    // The piece after a final newline is no line (and an empty text has none).
+    let lines = if text.is_empty() || text.ends_with('\n') {
+        pieces.saturating_sub(1)
+    } else {
+        pieces
+    };
+    out.lines = u32::try_from(lines).unwrap_or(u32::MAX);
     out
 }
 
-fn count_lines(text: &str) -> u32 {
-    let newlines = text.matches('\n').count();
-    let lines = if text.is_empty() || text.ends_with('\n') {
-        newlines
-    } else {
-        newlines + 1
-    };
-    u32::try_from(lines).unwrap_or(u32::MAX)
-}
-
-fn error(line: u32, col: usize, message: impl Into<String>) -> Diagnostic {
+fn error(line: u32, col: u32, message: impl Into<String>) -> Diagnostic {
     Diagnostic {
         severity: Severity::Error,
-        origin: Origin {
-            line,
-            col: u32::try_from(col).unwrap_or(u32::MAX),
-        },
+        origin: Origin { line, col },
         message: message.into(),
+    }
+}
+
+/// One line's text and how to turn its byte indices into columns.
+struct Line<'a> {
+    text: &'a str,
+    bytes: &'a [u8],
+    ascii: bool,
+    number: u32,
+}
+
+impl Line<'_> {
+    /// The 1-based column, in characters, of the character at byte `at`
+    /// (always the first byte of a character: the scanner stops only at
+    /// ASCII bytes and at the first byte of a character it refuses).
+    fn col(&self, at: usize) -> u32 {
+        let chars = if self.ascii {
+            at
+        } else {
+            self.text.get(..at).map_or(at, |s| s.chars().count())
+        };
+        u32::try_from(chars + 1).unwrap_or(u32::MAX)
+    }
+
+    fn error(&self, at: usize, message: impl Into<String>) -> Diagnostic {
+        error(self.number, self.col(at), message)
     }
 }
 
 /// One line to a block; `None` for a line with no words and no comment
 /// (blank, tape marker).
 fn read_line(raw: &str, line: u32) -> Result<Option<Block>, Diagnostic> {
-    let chars: Vec<char> = raw.chars().collect();
+    let l = Line {
+        text: raw,
+        bytes: raw.as_bytes(),
+        ascii: raw.is_ascii(),
+        number: line,
+    };
+    let bytes = l.bytes;
+    // One allocation of the right size for the words: a word starts with
+    // a letter, and the letters before any comment are at most the words
+    // (CAM lines hold 2-6; a Vec would start at 4 and double).
+    let letters = bytes
+        .iter()
+        .take_while(|&&b| b != b'(' && b != b';')
+        .filter(|b| b.is_ascii_alphabetic())
+        .count();
     let mut block = Block {
         line,
+        words: Vec::with_capacity(letters),
         ..Block::default()
     };
     let mut i = 0;
-    while i < chars.len() && is_blank(chars[i]) {
+    while i < bytes.len() && is_blank(bytes[i]) {
         i += 1;
     }
-    match chars.get(i) {
-        None => return Ok(None),
-        Some('%') => return Ok(None),
-        Some('/') => {
+    match bytes.get(i) {
+        None | Some(b'%') => return Ok(None),
+        Some(b'/') => {
             block.deleted = true;
             i += 1;
         }
         Some(_) => {}
     }
     let mut any = false;
-    while i < chars.len() {
-        let c = chars[i];
-        let col = i + 1;
-        match c {
-            c if is_blank(c) => i += 1,
-            '(' => {
-                let (text, next) = comment(&chars, i).ok_or_else(|| {
-                    error(
-                        line,
-                        col,
-                        "a comment opened with `(` is not closed on its line",
-                    )
+    while i < bytes.len() {
+        let b = bytes[i];
+        match b {
+            b if is_blank(b) => i += 1,
+            b'(' => {
+                let (text, next) = comment(raw, i).ok_or_else(|| {
+                    l.error(i, "a comment opened with `(` is not closed on its line")
                 })?;
-                block.comments.push(text);
+                block.comments.push(text.to_owned());
                 any = true;
                 i = next;
             }
-            ';' => {
-                block
-                    .comments
-                    .push(chars[i + 1..].iter().collect::<String>().trim().to_owned());
+            b';' => {
+                block.comments.push(raw[i + 1..].trim().to_owned());
                 any = true;
                 break;
             }
-            '*' => {
-                checksum(&chars, i, line)?;
+            b'*' => {
+                checksum(&l, i)?;
                 break;
             }
-            '#' => {
-                return Err(error(
-                    line,
-                    col,
-                    "`#` parameters are refused: jogterm runs no G-code variables (write the values out in the CAM post)",
-                ));
-            }
-            '[' => {
-                return Err(error(
-                    line,
-                    col,
-                    "`[` expressions are refused: jogterm evaluates no G-code expressions",
-                ));
-            }
-            c if c.eq_ignore_ascii_case(&'o') => {
-                return Err(error(
-                    line,
-                    col,
+            b'#' | b'[' => return Err(refused_value(&l, i)),
+            b'o' | b'O' => {
+                return Err(l.error(
+                    i,
                     "O-words (subroutines, loops, conditions) are refused: jogterm runs straight-line G-code as CAM posts write it",
                 ));
             }
-            c if c.is_ascii_alphabetic() => {
-                let letter = c.to_ascii_uppercase();
-                if !WORD_LETTERS.contains(letter) {
-                    return Err(error(line, col, format!("`{c}` is not a G-code word")));
+            b if b.is_ascii_alphabetic() => {
+                let letter = b.to_ascii_uppercase();
+                if !is_word_letter(letter) {
+                    return Err(l.error(i, format!("`{}` is not a G-code word", char::from(b))));
                 }
-                let (value, next) = number(&chars, i + 1).map_err(|why| {
-                    error(line, col, format!("`{letter}` must be followed by {why}"))
-                })?;
+                let letter = char::from(letter);
+                // `X#1`, `X[1+2]`: say what the value is, not only that it
+                // is no number.
+                if let Some(at) = (i + 1..bytes.len()).find(|&k| !is_blank(bytes[k]))
+                    && matches!(bytes[at], b'#' | b'[')
+                {
+                    return Err(refused_value(&l, at));
+                }
+                let (value, next) = number(raw, i + 1)
+                    .map_err(|why| l.error(i, format!("`{letter}` must be followed by {why}")))?;
                 block.words.push(Word {
                     letter,
                     value,
                     origin: Origin {
                         line,
-                        col: u32::try_from(col).unwrap_or(u32::MAX),
+                        col: l.col(i),
                     },
                 });
                 any = true;
                 i = next;
             }
-            c => {
+            _ => {
+                // `i` is the first byte of a character: every byte before
+                // it was ASCII or inside a comment, which ends at a `)`.
+                let c = raw.get(i..).and_then(|s| s.chars().next()).unwrap_or('?');
                 let shown = if c.is_control() || !c.is_ascii() {
                     format!("U+{:04X}", u32::from(c))
                 } else {
                     format!("`{c}`")
                 };
-                return Err(error(
-                    line,
-                    col,
+                return Err(l.error(
+                    i,
                     format!(
                         "{shown} cannot stand here: a G-code line holds words (letter and number) and comments"
                     ),
@@ -219,21 +245,42 @@ fn read_line(raw: &str, line: u32) -> Result<Option<Block>, Diagnostic> {
     Ok(any.then_some(block))
 }
 
-fn is_blank(c: char) -> bool {
-    c == ' ' || c == '\t'
+/// A `#` parameter or a `[` expression at byte `at`.
+fn refused_value(l: &Line<'_>, at: usize) -> Diagnostic {
+    if l.bytes.get(at) == Some(&b'#') {
+        l.error(
+            at,
+            "`#` parameters are refused: jogterm runs no G-code variables (write the values out in the CAM post)",
+        )
+    } else {
+        l.error(
+            at,
+            "`[` expressions are refused: jogterm evaluates no G-code expressions",
+        )
+    }
 }
 
-/// The comment opening at `open`: its text and the index after its `)`.
-fn comment(chars: &[char], open: usize) -> Option<(String, usize)> {
+fn is_blank(b: u8) -> bool {
+    b == b' ' || b == b'\t'
+}
+
+/// Letters RS-274/NGC gives a meaning (upper case); `O` is refused
+/// separately.
+fn is_word_letter(letter: u8) -> bool {
+    letter.is_ascii_uppercase() && letter != b'O'
+}
+
+/// The comment opening at byte `open`: its text (trimmed) and the byte
+/// index after its `)`.
+fn comment(raw: &str, open: usize) -> Option<(&str, usize)> {
     let mut depth = 0usize;
-    for (k, &c) in chars.iter().enumerate().skip(open) {
-        match c {
-            '(' => depth += 1,
-            ')' => {
+    for (k, &b) in raw.as_bytes().iter().enumerate().skip(open) {
+        match b {
+            b'(' => depth += 1,
+            b')' => {
                 depth -= 1;
                 if depth == 0 {
-                    let text: String = chars[open + 1..k].iter().collect();
-                    return Some((text.trim().to_owned(), k + 1));
+                    return Some((raw[open + 1..k].trim(), k + 1));
                 }
             }
             _ => {}
@@ -242,61 +289,101 @@ fn comment(chars: &[char], open: usize) -> Option<(String, usize)> {
     None
 }
 
-/// A number from `start`, blanks allowed inside: value and the index after.
-fn number(chars: &[char], start: usize) -> Result<(f64, usize), &'static str> {
-    let mut text = String::new();
+/// The longest number a word may spell with its blanks removed; longer is
+/// refused rather than copied (no CAM post writes 64 digits).
+const NUMBER_MAX: usize = 64;
+
+/// A number from byte `start`, blanks allowed inside: value and the byte
+/// index after it (trailing blanks belong to no word).
+///
+/// The value is the correctly rounded f64 of the decimal text, never
+/// through f32. CAM posts write at most a dozen digits, so the digits are
+/// gathered into an integer while scanning and the value is that integer
+/// divided by a power of ten (Clinger's fast path, the one `str::parse`
+/// takes for such numbers itself): when the integer is below 2^53 and the
+/// power at most 10^22, both are exact f64s and IEEE division rounds their
+/// exact quotient correctly, so the result is the exact decimal's nearest
+/// f64. Any other number goes to `str::parse::<f64>`.
+fn number(raw: &str, start: usize) -> Result<(f64, usize), &'static str> {
+    let bytes = raw.as_bytes();
     let mut i = start;
-    let mut digits = 0;
+    let mut first = None; // the first byte of the number (sign or digit)
+    let mut end = start; // after its last byte
+    let mut blanks_inside = false;
+    let mut negative = false;
+    let mut digits = 0usize;
+    let mut fraction_digits = 0usize;
+    let mut mantissa = 0u64; // the digits as an integer, while they fit
     let mut dot = false;
-    while i < chars.len() {
-        let c = chars[i];
-        match c {
-            c if is_blank(c) => {}
-            '+' | '-' if text.is_empty() => text.push(c),
-            '.' if !dot => {
-                dot = true;
-                text.push(c);
+    while i < bytes.len() {
+        let b = bytes[i];
+        match b {
+            b if is_blank(b) => {
+                i += 1;
+                continue;
             }
-            c if c.is_ascii_digit() => {
+            b'+' | b'-' if first.is_none() => negative = b == b'-',
+            b'.' if !dot => dot = true,
+            b if b.is_ascii_digit() => {
                 digits += 1;
-                text.push(c);
+                fraction_digits += usize::from(dot);
+                mantissa = mantissa.wrapping_mul(10).wrapping_add(u64::from(b - b'0'));
             }
             _ => break,
         }
+        if first.is_none() {
+            first = Some(i);
+        } else if end != i {
+            blanks_inside = true;
+        }
         i += 1;
+        end = i;
     }
-    if digits == 0 {
+    let Some(first) = first.filter(|_| digits > 0) else {
         return Err("a number");
+    };
+    // 19 digits always fit a u64 (the wrapping above never wrapped).
+    if digits <= 19 && mantissa < 1 << 53 && fraction_digits < POWERS_OF_TEN.len() {
+        let v = mantissa as f64 / POWERS_OF_TEN[fraction_digits];
+        return Ok((if negative { -v } else { v }, end));
     }
-    // Trailing blanks belong to no word.
-    while i > start && is_blank(chars[i - 1]) {
-        i -= 1;
-    }
-    text.parse::<f64>().map(|v| (v, i)).map_err(|_| "a number")
+    let parsed = if blanks_inside {
+        let mut buf = [0u8; NUMBER_MAX];
+        let mut n = 0;
+        for &b in bytes[first..end].iter().filter(|b| !is_blank(**b)) {
+            *buf.get_mut(n).ok_or("a number of at most 64 characters")? = b;
+            n += 1;
+        }
+        // Only ASCII sign, dot and digits were gathered.
+        std::str::from_utf8(&buf[..n])
+            .map_err(|_| "a number")?
+            .parse::<f64>()
+    } else {
+        raw[first..end].parse::<f64>()
+    };
+    parsed.map(|v| (v, end)).map_err(|_| "a number")
 }
 
-/// `*NN` at `star`: the XOR of every byte before it must be NN.
-fn checksum(chars: &[char], star: usize, line: u32) -> Result<(), Diagnostic> {
-    let digits: String = chars[star + 1..]
-        .iter()
-        .take_while(|c| c.is_ascii_digit())
-        .collect();
-    let after = star + 1 + digits.len();
-    let rest_blank = chars[after..].iter().all(|c| is_blank(*c));
-    let expected: Option<u8> = digits.parse().ok();
+/// 10^0 … 10^22: every one an exact f64 (10^22 = 2^22 x 5^22, and 5^22 <
+/// 2^53).
+const POWERS_OF_TEN: [f64; 23] = [
+    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
+    1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
+];
+
+/// `*NN` at byte `star`: the XOR of every byte before it must be NN.
+fn checksum(l: &Line<'_>, star: usize) -> Result<(), Diagnostic> {
+    let after_star = &l.bytes[star + 1..];
+    let digits = after_star.iter().take_while(|b| b.is_ascii_digit()).count();
+    let rest_blank = after_star[digits..].iter().all(|b| is_blank(*b));
+    let expected: Option<u8> = l.text[star + 1..star + 1 + digits].parse().ok();
     let (Some(expected), true) = (expected, rest_blank) else {
-        return Err(error(
-            line,
-            star + 1,
-            "`*` must end the line with a checksum (0-255)",
-        ));
+        return Err(l.error(star, "`*` must end the line with a checksum (0-255)"));
     };
-    let before: String = chars[..star].iter().collect();
-    let sum = before.bytes().fold(0u8, |acc, b| acc ^ b);
+    let sum = l.bytes[..star].iter().fold(0u8, |acc, b| acc ^ b);
     if sum != expected {
-        return Err(error(
-            line,
-            star + 1,
+        return Err(l.error(
+            star,
             format!(
                 "checksum {expected} does not match the line (its bytes give {sum}): the line was damaged"
             ),
@@ -417,6 +504,352 @@ mod tests {
         let (_, col, m) = first_error("G0 X1 \u{0}\u{7f}");
         assert_eq!(col, 7);
         assert!(m.contains("U+0000"), "{m}");
+    }
+
+    /// The reader as it was before it scanned bytes (a `Vec<char>` a line,
+    /// a `String` a number): the oracle the byte scanner must agree with.
+    mod reference {
+        use super::super::{Block, Diagnostic, Origin, Read, Severity, Word};
+
+        const WORD_LETTERS: &str = "ABCDEFGHIJKLMNPQRSTUVWXYZ";
+
+        /// Reads a whole file.
+        pub fn read(text: &str) -> Read {
+            let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+            let mut out = Read::default();
+            for (index, raw) in text.split('\n').enumerate() {
+                let line_no = u32::try_from(index + 1).unwrap_or(u32::MAX);
+                let raw = raw.strip_suffix('\r').unwrap_or(raw);
+                match read_line(raw, line_no) {
+                    Ok(Some(block)) => out.blocks.push(block),
+                    Ok(None) => {}
+                    Err(e) => out.errors.push(e),
+                }
+            }
+            out.lines = count_lines(text);
+            out
+        }
+
+        fn count_lines(text: &str) -> u32 {
+            let newlines = text.matches('\n').count();
+            let lines = if text.is_empty() || text.ends_with('\n') {
+                newlines
+            } else {
+                newlines + 1
+            };
+            u32::try_from(lines).unwrap_or(u32::MAX)
+        }
+
+        fn error(line: u32, col: usize, message: impl Into<String>) -> Diagnostic {
+            Diagnostic {
+                severity: Severity::Error,
+                origin: Origin {
+                    line,
+                    col: u32::try_from(col).unwrap_or(u32::MAX),
+                },
+                message: message.into(),
+            }
+        }
+
+        /// One line to a block; `None` for a line with no words and no comment
+        /// (blank, tape marker).
+        fn read_line(raw: &str, line: u32) -> Result<Option<Block>, Diagnostic> {
+            let chars: Vec<char> = raw.chars().collect();
+            let mut block = Block {
+                line,
+                ..Block::default()
+            };
+            let mut i = 0;
+            while i < chars.len() && is_blank(chars[i]) {
+                i += 1;
+            }
+            match chars.get(i) {
+                None => return Ok(None),
+                Some('%') => return Ok(None),
+                Some('/') => {
+                    block.deleted = true;
+                    i += 1;
+                }
+                Some(_) => {}
+            }
+            let mut any = false;
+            while i < chars.len() {
+                let c = chars[i];
+                let col = i + 1;
+                match c {
+                    c if is_blank(c) => i += 1,
+                    '(' => {
+                        let (text, next) = comment(&chars, i).ok_or_else(|| {
+                            error(
+                                line,
+                                col,
+                                "a comment opened with `(` is not closed on its line",
+                            )
+                        })?;
+                        block.comments.push(text);
+                        any = true;
+                        i = next;
+                    }
+                    ';' => {
+                        block
+                            .comments
+                            .push(chars[i + 1..].iter().collect::<String>().trim().to_owned());
+                        any = true;
+                        break;
+                    }
+                    '*' => {
+                        checksum(&chars, i, line)?;
+                        break;
+                    }
+                    '#' => {
+                        return Err(error(
+                            line,
+                            col,
+                            "`#` parameters are refused: jogterm runs no G-code variables (write the values out in the CAM post)",
+                        ));
+                    }
+                    '[' => {
+                        return Err(error(
+                            line,
+                            col,
+                            "`[` expressions are refused: jogterm evaluates no G-code expressions",
+                        ));
+                    }
+                    c if c.eq_ignore_ascii_case(&'o') => {
+                        return Err(error(
+                            line,
+                            col,
+                            "O-words (subroutines, loops, conditions) are refused: jogterm runs straight-line G-code as CAM posts write it",
+                        ));
+                    }
+                    c if c.is_ascii_alphabetic() => {
+                        let letter = c.to_ascii_uppercase();
+                        if !WORD_LETTERS.contains(letter) {
+                            return Err(error(line, col, format!("`{c}` is not a G-code word")));
+                        }
+                        // The one change to the old reader: `X#1` and `X[1]`
+                        // name the parameter or expression (its test asked
+                        // for that; it read "a number").
+                        if let Some(at) = (i + 1..chars.len()).find(|&k| !is_blank(chars[k]))
+                            && matches!(chars[at], '#' | '[')
+                        {
+                            let what = if chars[at] == '#' {
+                                "`#` parameters are refused: jogterm runs no G-code variables (write the values out in the CAM post)"
+                            } else {
+                                "`[` expressions are refused: jogterm evaluates no G-code expressions"
+                            };
+                            return Err(error(line, at + 1, what));
+                        }
+                        let (value, next) = number(&chars, i + 1).map_err(|why| {
+                            error(line, col, format!("`{letter}` must be followed by {why}"))
+                        })?;
+                        block.words.push(Word {
+                            letter,
+                            value,
+                            origin: Origin {
+                                line,
+                                col: u32::try_from(col).unwrap_or(u32::MAX),
+                            },
+                        });
+                        any = true;
+                        i = next;
+                    }
+                    c => {
+                        let shown = if c.is_control() || !c.is_ascii() {
+                            format!("U+{:04X}", u32::from(c))
+                        } else {
+                            format!("`{c}`")
+                        };
+                        return Err(error(
+                            line,
+                            col,
+                            format!(
+                                "{shown} cannot stand here: a G-code line holds words (letter and number) and comments"
+                            ),
+                        ));
+                    }
+                }
+            }
+            Ok(any.then_some(block))
+        }
+
+        fn is_blank(c: char) -> bool {
+            c == ' ' || c == '\t'
+        }
+
+        /// The comment opening at `open`: its text and the index after its `)`.
+        fn comment(chars: &[char], open: usize) -> Option<(String, usize)> {
+            let mut depth = 0usize;
+            for (k, &c) in chars.iter().enumerate().skip(open) {
+                match c {
+                    '(' => depth += 1,
+                    ')' => {
+                        depth -= 1;
+                        if depth == 0 {
+                            let text: String = chars[open + 1..k].iter().collect();
+                            return Some((text.trim().to_owned(), k + 1));
+                        }
+                    }
+                    _ => {}
+                }
+            }
+            None
+        }
+
+        /// A number from `start`, blanks allowed inside: value and the index after.
+        fn number(chars: &[char], start: usize) -> Result<(f64, usize), &'static str> {
+            let mut text = String::new();
+            let mut i = start;
+            let mut digits = 0;
+            let mut dot = false;
+            while i < chars.len() {
+                let c = chars[i];
+                match c {
+                    c if is_blank(c) => {}
+                    '+' | '-' if text.is_empty() => text.push(c),
+                    '.' if !dot => {
+                        dot = true;
+                        text.push(c);
+                    }
+                    c if c.is_ascii_digit() => {
+                        digits += 1;
+                        text.push(c);
+                    }
+                    _ => break,
+                }
+                i += 1;
+            }
+            if digits == 0 {
+                return Err("a number");
+            }
+            // Trailing blanks belong to no word.
+            while i > start && is_blank(chars[i - 1]) {
+                i -= 1;
+            }
+            text.parse::<f64>().map(|v| (v, i)).map_err(|_| "a number")
+        }
+
+        /// `*NN` at `star`: the XOR of every byte before it must be NN.
+        fn checksum(chars: &[char], star: usize, line: u32) -> Result<(), Diagnostic> {
+            let digits: String = chars[star + 1..]
+                .iter()
+                .take_while(|c| c.is_ascii_digit())
+                .collect();
+            let after = star + 1 + digits.len();
+            let rest_blank = chars[after..].iter().all(|c| is_blank(*c));
+            let expected: Option<u8> = digits.parse().ok();
+            let (Some(expected), true) = (expected, rest_blank) else {
+                return Err(error(
+                    line,
+                    star + 1,
+                    "`*` must end the line with a checksum (0-255)",
+                ));
+            };
+            let before: String = chars[..star].iter().collect();
+            let sum = before.bytes().fold(0u8, |acc, b| acc ^ b);
+            if sum != expected {
+                return Err(error(
+                    line,
+                    star + 1,
+                    format!(
+                        "checksum {expected} does not match the line (its bytes give {sum}): the line was damaged"
+                    ),
+                ));
+            }
+            Ok(())
+        }
+    }
+
+    proptest::proptest! {
+        /// On G-code-like text (words, blanks inside numbers, comments,
+        /// checksums, refused characters, non-ASCII), the byte scanner reads
+        /// exactly what the character-based reader read: the same blocks,
+        /// values, columns and errors.
+        #[test]
+        fn the_byte_scanner_reads_as_the_character_reader(
+            text in "[gGxXyYzZiIjJrRnNfFmMoO0-9 .+\\-()%;/*#\\[\tüé€\r\n]{0,80}",
+        ) {
+            proptest::prop_assert_eq!(read(&text), reference::read(&text));
+        }
+
+        /// The fast path gives what `str::parse::<f64>` gives, bit for bit,
+        /// from one digit to 25, with the dot anywhere.
+        #[test]
+        fn numbers_are_the_correctly_rounded_parse_of_their_text(
+            sign in "[+-]?",
+            int in "[0-9]{0,13}",
+            frac in "[0-9]{0,12}",
+            dot in proptest::bool::ANY,
+        ) {
+            let text = if dot || int.is_empty() {
+                format!("{sign}{int}.{frac}")
+            } else {
+                format!("{sign}{int}")
+            };
+            proptest::prop_assume!(text.bytes().any(|b| b.is_ascii_digit()));
+            let want: f64 = text.parse().unwrap();
+            let (got, _) = number(&text, 0).unwrap();
+            proptest::prop_assert_eq!(got.to_bits(), want.to_bits(), "{}", text);
+        }
+
+        /// Numbers with blanks anywhere inside read as without them.
+        #[test]
+        fn blanks_inside_a_number_change_nothing(
+            digits in "[0-9]{1,6}\\.[0-9]{0,4}",
+            sign in "[+-]?",
+            spaces in proptest::collection::vec(0..3usize, 12),
+        ) {
+            let plain = format!("{sign}{digits}");
+            let mut spaced = String::new();
+            for (k, c) in plain.chars().enumerate() {
+                spaced.push(c);
+                spaced.push_str(&" ".repeat(spaces[k % spaces.len()]));
+            }
+            let want: f64 = plain.parse().unwrap();
+            let w = words(&format!("X{spaced}Y1"));
+            proptest::prop_assert_eq!(w, vec![('X', want), ('Y', 1.0)]);
+        }
+    }
+
+    #[test]
+    fn columns_count_characters_after_non_ascii_text() {
+        let read = read("(Fräser Ø6) G0 X1\nG1 X2 (ü) Y3 \u{20ac}");
+        let b = &read.blocks[0];
+        assert_eq!(b.words[1].origin, Origin { line: 1, col: 16 });
+        assert_eq!(b.comments, vec!["Fräser Ø6"]);
+        let e = &read.errors[0];
+        assert_eq!(e.origin, Origin { line: 2, col: 14 });
+        assert!(e.message.contains("U+20AC"), "{}", e.message);
+    }
+
+    #[test]
+    fn numbers_off_the_fast_path_are_still_exact() {
+        for text in [
+            "9007199254740993",                     // 2^53 + 1: above the fast path's integers
+            "0.1000000000000000055511151231257827", // 34 digits
+            "1.00000000000000000000000001",         // 27 fraction digits
+            "12345678901234567890",                 // 20 digits
+            "-0",
+            "0.30000000000000004",
+        ] {
+            let (got, _) = number(text, 0).unwrap();
+            let want: f64 = text.parse().unwrap();
+            assert_eq!(got.to_bits(), want.to_bits(), "{text}");
+        }
+    }
+
+    #[test]
+    fn signs_and_dots_with_blanks_between() {
+        assert_eq!(
+            words("X - 1 . 5 Y+ 2 Z . 5 0"),
+            vec![('X', -1.5), ('Y', 2.0), ('Z', 0.5)]
+        );
+    }
+
+    #[test]
+    fn a_number_of_more_than_64_characters_is_refused_not_truncated() {
+        let long = format!("X{}", "1 ".repeat(70));
+        assert!(first_error(&long).2.contains("at most 64"));
     }
 
     #[test]
