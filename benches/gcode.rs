@@ -9,7 +9,7 @@
 //! stop; `jogterm import FILE` reads it with the offsets below set),
 //! `--profile STAGE` (run only `read`, `interpret`, `check`, `isel` or
 //! `import`, `--runs` times, under a profiler). Results:
-//! `docs/gcode-bench.md`.
+//! `docs/gcode.md`, "Performance".
 //!
 //! - The file is generated deterministically (a fixed-seed generator): a
 //!   Fusion 360 grbl-post header; 3D finishing passes with X Y Z on every
