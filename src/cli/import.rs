@@ -375,7 +375,7 @@ fn summary_text(name: &str, profile: &Profile, i: &Import, written: Option<&Path
         "fits the controller's memory".to_owned()
     } else {
         format!(
-            "does NOT fit the controller's memory ({} commands): run it as a stream or in parts (`jogterm run`), or split the file in the CAM",
+            "does NOT fit the controller's memory ({} commands): store and run it in parts (`jogterm upload FILE --start --chunked`, isel), or split the file in the CAM",
             i.program.capacity
         )
     };

@@ -89,6 +89,10 @@ pub struct UploadArgs {
     /// the console's stored one
     #[arg(long, value_name = "POS")]
     pub work_zero: Option<String>,
+    /// G-code bigger than the controller's memory: store and run it in parts, each cut
+    /// where the tool stands retracted at the job's safe height (needs --start; isel)
+    #[arg(long, requires = "start")]
+    pub chunked: bool,
 }
 
 impl UploadArgs {
@@ -188,7 +192,7 @@ fn prepare_gcode(
     profile: &crate::config::profile::Profile,
     language: Language,
     config: &LintConfig,
-) -> Result<Prepared, (u8, String)> {
+) -> Result<Vec<Prepared>, (u8, String)> {
     let target = crate::gcode::Target::of(profile.connection.protocol)
         .map_err(|why| (EXIT_USAGE, format!("jogterm upload: {why}")))?;
     let dirs = crate::config::ConfigDirs::from_env();
@@ -213,27 +217,69 @@ fn prepare_gcode(
     for w in &imported.warnings {
         out::say(crate::gcode::render(&args.file.display().to_string(), w));
     }
-    if !imported.program.fits() {
+    let name = args.file.display().to_string();
+    let header = super::import::header_name(&args.file);
+    let program = &imported.program;
+    let whole = |program: crate::gcode::output::Program| {
+        let text = program.text(&header);
+        checked(name.clone(), &text, language, config, Some(program))
+            .map_err(|m| (EXIT_USAGE, format!("jogterm upload: {m}")))
+    };
+    if program.fits() {
+        return Ok(vec![whole(imported.program)?]);
+    }
+    if !args.chunked || language != Language::Isel {
+        let how = if language == Language::Isel {
+            "store and run it in parts with --start --chunked, or split the job in the CAM"
+        } else {
+            "split the job in the CAM (EMCU jobs are not run in parts)"
+        };
         return Err((
             1,
             format!(
-                "{}: the converted program has {} commands and the controller stores {}: nothing was sent (split the job in the CAM; running jobs bigger than the memory is `jogterm run`'s work)",
-                args.file.display(),
-                imported.program.commands,
-                imported.program.capacity
+                "{name}: the converted program has {} commands and the controller stores {}: nothing was sent ({how})",
+                program.commands, program.capacity
             ),
         ));
     }
-    let header = super::import::header_name(&args.file);
-    let text = imported.program.text(&header);
-    checked(
-        args.file.display().to_string(),
-        &text,
-        language,
-        config,
-        Some(imported.program),
-    )
-    .map_err(|m| (EXIT_USAGE, format!("jogterm upload: {m}")))
+    let parts = program
+        .parts(program.capacity)
+        .map_err(|why| (1, format!("{name}: {why}; nothing was sent")))?;
+    say_parts(&imported, &parts, profile);
+    (0..parts.len())
+        .map(|k| whole(program.part(&parts, k)))
+        .collect()
+}
+
+/// What running in parts costs, before it starts: motion from the
+/// estimate, and per part the erase (`@0k`, about 2 s, manual 2.2.17) and
+/// the upload's wire time, while the tool stands retracted.
+fn say_parts(
+    imported: &crate::gcode::Import,
+    parts: &[crate::gcode::output::Part],
+    profile: &crate::config::profile::Profile,
+) {
+    let baud = f64::from(profile.connection.line().baud);
+    let bytes: usize = imported
+        .program
+        .lines
+        .iter()
+        .map(|l| l.command.len() + 1)
+        .sum();
+    // A byte is 10 bits; every command is answered with one byte.
+    let wire_s = (bytes + imported.program.commands) as f64 * 10.0 / baud;
+    let standing = parts.len() as f64 * 2.0 + wire_s;
+    out::say(format_args!(
+        "{} commands, the controller stores {}: storing and running it in {} parts, each cut where the tool stands retracted at the job's safe height",
+        imported.program.commands,
+        imported.program.capacity,
+        parts.len()
+    ));
+    out::say(format_args!(
+        "estimated: motion {:.0} s; the tool stands retracted while parts are stored: {} erases of about 2 s and {wire_s:.0} s on the wire at {baud:.0} baud, {standing:.0} s in all",
+        imported.summary.estimated_s,
+        parts.len()
+    ));
 }
 
 pub fn run(global: &GlobalArgs, args: &UploadArgs) -> anyhow::Result<ExitCode> {
@@ -263,9 +309,13 @@ pub fn run(global: &GlobalArgs, args: &UploadArgs) -> anyhow::Result<ExitCode> {
                 return Ok(ExitCode::from(code));
             }
         }
+    } else if args.chunked {
+        return usage(
+            "--chunked runs G-code in parts; a controller program is stored whole".into(),
+        );
     } else {
         match prepare(global, args, &profile, language, &config) {
-            Ok(p) => p,
+            Ok(p) => vec![p],
             Err(m) => return usage(m),
         }
     };
@@ -280,7 +330,11 @@ pub fn run(global: &GlobalArgs, args: &UploadArgs) -> anyhow::Result<ExitCode> {
     })
 }
 
-async fn upload_and_run(mut session: Session, prepared: &Prepared, args: &UploadArgs) -> ExitCode {
+async fn upload_and_run(
+    mut session: Session,
+    prepared: &[Prepared],
+    args: &UploadArgs,
+) -> ExitCode {
     let stopper = session.handle.clone();
     let code = tokio::select! {
         code = steps(&mut session, prepared, args) => code,
@@ -297,23 +351,33 @@ async fn upload_and_run(mut session: Session, prepared: &Prepared, args: &Upload
 /// How a step ended when it did not succeed: the exit status, said already.
 type Status = Result<(), u8>;
 
-async fn steps(session: &mut Session, prepared: &Prepared, args: &UploadArgs) -> u8 {
+/// Each part stored and (with --start) run in turn: one part unless a
+/// G-code job runs `--chunked`, when every part but the last ends with the
+/// tool retracted at the safe height, so that it stands clear of the part
+/// while the next is erased and stored.
+async fn steps(session: &mut Session, prepared: &[Prepared], args: &UploadArgs) -> u8 {
     let result = async {
         if let Linked::Failed(reason) = session.linked(Duration::from_secs(10)).await {
             out::say(format_args!("jogterm upload: link failure: {reason}"));
             return Err(EXIT_LINK);
         }
-        upload(session, prepared, args.erase).await?;
-        if args.start {
-            if let Some(program) = &prepared.gcode {
-                for (origin, what) in &program.pauses {
-                    out::say(format_args!(
-                        "{}:{}:{}: the program pauses here: {what}",
-                        prepared.name, origin.line, origin.col
-                    ));
-                }
+        for (k, part) in prepared.iter().enumerate() {
+            if prepared.len() > 1 {
+                out::say(format_args!("part {}/{}", k + 1, prepared.len()));
             }
-            start(session).await?;
+            // A part after the first replaces the one that just ran.
+            upload(session, part, args.erase || k > 0).await?;
+            if args.start {
+                if let Some(program) = &part.gcode {
+                    for (origin, what) in &program.pauses {
+                        out::say(format_args!(
+                            "{}:{}:{}: the program pauses here: {what}",
+                            part.name, origin.line, origin.col
+                        ));
+                    }
+                }
+                start(session).await?;
+            }
         }
         Ok(())
     }

@@ -98,6 +98,8 @@ struct Writer<'a> {
     /// The start key a pause waits for: input port, bit, the level it
     /// reads released, and its name.
     start_key: Option<(u32, u32, u8, String)>,
+    /// The job's safe height: the highest Z its rapids reach (machine mm).
+    safe_z: f64,
 }
 
 /// Converts a checked toolpath into an isel CNC program.
@@ -133,6 +135,17 @@ pub fn convert(
         first_capped: None,
         spindle_speeds: None,
         start_key: start_key(profile),
+        safe_z: path
+            .ops
+            .iter()
+            .filter_map(|op| match op {
+                Op::Rapid(m) => Some(m.to.z),
+                _ => None,
+            })
+            .fold(
+                f64::INFINITY,
+                |top, z| if top.is_finite() { top.max(z) } else { z },
+            ),
     };
     for line in header.lines() {
         w.program.comment(line);
@@ -294,6 +307,9 @@ impl Writer<'_> {
                 let target = self.axes.steps(m.to);
                 if target != self.at {
                     self.move_to(target, hz, m.origin, None);
+                    if m.to.z >= self.safe_z - 1e-9 {
+                        self.program.retracted.push(self.program.lines.len() - 1);
+                    }
                 }
             }
             Op::Line(m) => {

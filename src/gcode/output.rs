@@ -20,7 +20,24 @@ pub struct Program {
     /// Where the program stops for the operator (M0, M1, M6) and what it
     /// waits for, to be said before it starts.
     pub pauses: Vec<(Origin, String)>,
+    /// Indices into `lines` of the commands after which the tool stands at
+    /// the job's safe height (a rapid up to the highest Z the file's rapids
+    /// reach): the only places a job too big for the memory is cut.
+    pub retracted: Vec<usize>,
 }
+
+/// One part of a program cut to fit the controller's memory: a range of
+/// its lines.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Part {
+    pub lines: std::ops::Range<usize>,
+    /// Commands in it, with what the part adds (see [`Program::part_text`]).
+    pub commands: usize,
+}
+
+/// Commands a part after the first adds (`z1`: a new program starts in
+/// the controller's 2.5D mode) and every part may need (the closing `9`).
+pub const PART_OVERHEAD: usize = 2;
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct ProgramLine {
@@ -86,6 +103,90 @@ impl Program {
             comment: Some(note.to_owned()),
             origin,
         });
+    }
+
+    /// The program cut into parts of at most `capacity` commands, each
+    /// ending where the tool stands at the safe height (issue 27, "chunked
+    /// store-and-run"); why it cannot be cut otherwise.
+    pub fn parts(&self, capacity: usize) -> Result<Vec<Part>, String> {
+        let budget = capacity.saturating_sub(PART_OVERHEAD).max(1);
+        let mut parts = Vec::new();
+        let mut start = 0;
+        let mut count = 0;
+        let mut cut: Option<(usize, usize)> = None;
+        let mut retracted = self.retracted.iter().peekable();
+        for (index, line) in self.lines.iter().enumerate() {
+            if line.command.is_empty() {
+                continue;
+            }
+            count += 1;
+            if count > budget {
+                let Some((at, commands)) = cut.take() else {
+                    let origin = line
+                        .origin
+                        .map_or_else(String::new, |o| format!(" (G-code line {})", o.line));
+                    return Err(format!(
+                        "no retract to the safe height within {budget} commands before command {}{origin}: the job cannot be cut where the tool stands clear of the part",
+                        index + 1
+                    ));
+                };
+                parts.push(Part {
+                    lines: start..at + 1,
+                    commands: commands + PART_OVERHEAD,
+                });
+                start = at + 1;
+                count -= commands;
+            }
+            while retracted.next_if(|&&r| r < index).is_some() {}
+            if retracted.peek() == Some(&&index) {
+                cut = Some((index, count));
+            }
+        }
+        if count > 0 || parts.is_empty() {
+            parts.push(Part {
+                lines: start..self.lines.len(),
+                commands: count + PART_OVERHEAD,
+            });
+        }
+        Ok(parts)
+    }
+
+    /// Part `k` (0-based) of `parts` as a program of its own: the header,
+    /// which part it is, `z1` again for every part after the first (each
+    /// stored program starts in 2.5D), its lines with their origins, and
+    /// `9` where a part ends before the job does.
+    pub fn part(&self, parts: &[Part], k: usize) -> Program {
+        let mut head = Program::default();
+        let header_len = self
+            .lines
+            .iter()
+            .take_while(|l| l.command.is_empty() && l.origin.is_none())
+            .count();
+        head.lines.extend(self.lines[..header_len].iter().cloned());
+        head.comment(format!("{} part={}/{}", Header::PREFIX, k + 1, parts.len()));
+        head.capacity = self.capacity;
+        let Some(part) = parts.get(k) else {
+            return head;
+        };
+        if k > 0 {
+            head.command_noted("z1", "3D interpolation again: a new program", None);
+        }
+        let from = part.lines.start.max(header_len);
+        for line in &self.lines[from..part.lines.end.max(from)] {
+            if !line.command.is_empty() {
+                head.commands += 1;
+            }
+            if let Some(pause) = self.pauses.iter().find(|(o, _)| Some(*o) == line.origin)
+                && !head.pauses.contains(pause)
+            {
+                head.pauses.push(pause.clone());
+            }
+            head.lines.push(line.clone());
+        }
+        if k + 1 < parts.len() {
+            head.command_noted("9", "end of this part: the tool stands retracted", None);
+        }
+        head
     }
 
     /// The G-code origin of the `index`th stored command (0-based), for a
@@ -255,5 +356,59 @@ mod tests {
         program.command("77", None);
         assert_eq!(Header::of(&program.text("part.nc")), Some(header));
         assert_eq!(Header::of("77\n9\n"), None);
+    }
+}
+
+#[cfg(test)]
+mod part_tests {
+    use super::*;
+
+    fn program(commands: &[&str], retracted: &[usize]) -> Program {
+        let mut p = Program {
+            capacity: 6,
+            ..Program::default()
+        };
+        p.comment("jogterm-gcode file=x.nc");
+        for c in commands {
+            p.command(*c, Some(Origin { line: 1, col: 1 }));
+        }
+        p.retracted = retracted.to_vec();
+        p
+    }
+
+    #[test]
+    fn parts_end_only_where_the_tool_stands_retracted_and_fit_the_memory() {
+        // Lines: 0 the header, 1..=9 the commands; retracted after 3 and 6.
+        let p = program(
+            &["77", "z1", "mUP", "a", "b", "mUP", "c", "d", "9"],
+            &[3, 6],
+        );
+        let parts = p.parts(6).expect("parts");
+        assert_eq!(
+            parts.iter().map(|x| x.lines.clone()).collect::<Vec<_>>(),
+            vec![0..4, 4..7, 7..10]
+        );
+        for k in 0..parts.len() {
+            let part = p.part(&parts, k);
+            assert!(part.commands <= 6, "{part:?}");
+            let commands: Vec<&str> = part
+                .lines
+                .iter()
+                .map(|l| l.command.as_str())
+                .filter(|c| !c.is_empty())
+                .collect();
+            assert_eq!(commands.last(), Some(&"9"));
+            assert_eq!(commands.first(), Some(if k == 0 { &"77" } else { &"z1" }));
+        }
+    }
+
+    #[test]
+    fn a_job_with_no_retract_within_the_memory_cannot_be_cut() {
+        let p = program(&["77", "z1", "a", "b", "c", "d", "e", "9"], &[]);
+        let why = p.parts(6).expect_err("no place to cut");
+        assert!(
+            why.contains("no retract to the safe height within 4 commands"),
+            "{why}"
+        );
     }
 }

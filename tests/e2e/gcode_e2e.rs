@@ -407,3 +407,92 @@ fn estlcam_style_as_an_emcu_job_ends_at_its_last_point() {
     assert!(received.contains("A1,0<01>"), "{received}");
     assert!(received.contains("@J<CR>"), "{received}");
 }
+
+/// Twelve square pockets, each entered from and left to Z5: a job of 88
+/// commands for a controller that stores 30.
+fn pockets() -> String {
+    let mut text = String::from("%\n(pockets)\nG21 G90 G17\nG0 Z5\n");
+    for i in 0..12 {
+        let (x, y) = (10 + (i % 4) * 12, 10 + (i / 4) * 12);
+        text.push_str(&format!(
+            "G0 X{x} Y{y}\nG1 Z-1 F600\nG1 X{} F1500\nG1 Y{}\nG1 X{x}\nG1 Y{y}\nG0 Z5\n",
+            x + 5,
+            y + 5
+        ));
+    }
+    text.push_str("M30\n%\n");
+    text
+}
+
+#[test]
+fn a_job_bigger_than_the_memory_runs_in_parts_cut_only_where_the_tool_is_retracted() {
+    let small_memory = (
+        "profiles/default.toml",
+        "[axes.X]\nmax_speed = 60.0\n[axes.Y]\nmax_speed = 60.0\n[axes.Z]\nmax_speed = 30.0\n[gcode]\nmemory = 30\n",
+    );
+    let mut sim = SimProcess::start_variant("isel", &[small_memory], &["memory=30"]);
+    let file = sim.dir.path().join("pockets.nc");
+    std::fs::write(&file, pockets()).expect("write");
+    let file = file.display().to_string();
+    // Without --chunked it is refused, and nothing is sent.
+    let out = run(
+        &sim,
+        &["upload", &file, "--work-zero", WORK_ZERO, "--start"],
+    );
+    let said = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{said}");
+    assert!(
+        said.contains("the converted program has 88 commands and the controller stores 30"),
+        "{said}"
+    );
+    assert_eq!(sim.received_total(), 0);
+
+    let reference = run(&sim, &["send", "@07", "@0R7"]);
+    assert!(reference.status.success(), "{}", text(&reference.stderr));
+    let before = sim.received().len();
+    let child = spawn(
+        &sim,
+        &[
+            "upload",
+            &file,
+            "--work-zero",
+            WORK_ZERO,
+            "--start",
+            "--chunked",
+        ],
+    );
+    let out = wait_run(child, "upload --start --chunked");
+    let said = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{said}");
+    assert!(said.contains("storing and running it in 4 parts"), "{said}");
+    assert!(said.contains("part 4/4"), "{said}");
+    // The last pocket is at X46 Y34, left to Z5.
+    assert_eq!(
+        ended_at(said.lines().last().unwrap_or_default()),
+        steps([46.0, 34.0, 5.0]),
+        "{said}"
+    );
+    // Every stored part but the last ends, before its `9`, with the rapid
+    // up to the safe height Z5 (machine Z65: 26000 steps).
+    let received = sim.received();
+    // `@0i` also opens the driver's look at what is stored (answered `6`
+    // while a program is there, then `@0k`): those hold no commands.
+    let stored: Vec<Vec<&str>> = received[before..]
+        .split("@0i<CR>")
+        .skip(1)
+        .map(|program| program.split("<CR>").collect::<Vec<_>>())
+        .filter(|commands| commands.first().is_some_and(|c| !c.starts_with('@')))
+        .collect();
+    assert_eq!(stored.len(), 4, "{received}");
+    for (k, part) in stored.iter().enumerate() {
+        let end = part.iter().position(|c| *c == "9").expect("a 9");
+        let last = part[end - 1];
+        let fields: Vec<&str> = last.trim_start_matches('m').split(',').collect();
+        assert!(
+            last.starts_with('m') && fields.get(4) == Some(&"26000"),
+            "part {} ends with `{last}`, not at the safe height",
+            k + 1
+        );
+        assert!(end <= 30, "part {} holds {end} commands", k + 1);
+    }
+}
