@@ -143,3 +143,84 @@ fn isel_start_key_program_runs_to_its_end_while_watch_connects() {
     assert_eq!(x_steps("isel", &end), 60_000, "{end}");
     sim.assert_alive();
 }
+
+/// Write `text` as `name` in the simulator's directory; its path.
+fn program_file(sim: &SimProcess, name: &str, text: &str) -> String {
+    let path = sim.dir.path().join(name);
+    std::fs::write(&path, text).expect("write the program");
+    path.display().to_string()
+}
+
+/// Issue 24, item 1: `jogterm upload --start` of an isel program whose first
+/// line is the CNC reference run `7 7` (manual 3.2.8) on a controller that
+/// is not referenced starts, references and runs to its end. A program
+/// that moves before its reference run is still refused, and the refusal
+/// names the command line's remedy, not the console's key. Before: both
+/// refused with "reference them (h) first".
+#[test]
+fn isel_upload_start_of_a_program_that_references_itself_runs_unreferenced() {
+    let mut sim = SimProcess::start("isel");
+    let ok = program_file(
+        &sim,
+        "references.cnc",
+        "; references its axes first\n7 7\n0 4000,3000,0,3000,0,3000,0,3000\n9\n",
+    );
+    let out = sim.run(&["upload", &ok, "--erase", "--start"]);
+    assert_exit(&out, 0, "upload --start of a program beginning with 7 7");
+    let err = text(&out.stderr);
+    assert!(err.contains("the program ended"), "{err}");
+    let state = sim.wait_device("at rest", |d| !moving("isel", d));
+    assert_eq!(x_steps("isel", &state), 4000, "{state}");
+
+    // A fresh controller, not referenced: a program that moves first.
+    let mut sim = SimProcess::start("isel");
+    let moves_first = program_file(
+        &sim,
+        "moves-first.cnc",
+        "0 4000,3000,0,3000,0,3000,0,3000\n7 7\n9\n",
+    );
+    let out = sim.run(&["upload", &moves_first, "--erase", "--start"]);
+    assert_exit(&out, 1, "upload --start of a program that moves first");
+    let err = text(&out.stderr);
+    let link = sim.link.display().to_string();
+    assert!(
+        err.contains(&format!(
+            "starting the program refused: axes XYZ not referenced: reference them first \
+             (jogterm send --port {link} --protocol isel @0R7)"
+        )),
+        "{err}"
+    );
+    assert!(!err.contains("(h)"), "the console's key in the CLI:\n{err}");
+    let state = sim.device_state();
+    assert_eq!(x_steps("isel", &state), 0, "nothing moved: {state}");
+    sim.assert_alive();
+}
+
+/// The same for an EMCU job that begins with `$H` (manual 1.5.9; `#S`, the
+/// reference speed of 1.5.8, may come first): it runs on an interface whose
+/// positions are unknown (not referenced).
+#[test]
+fn emcu_upload_start_of_a_job_that_references_itself_runs_unreferenced() {
+    let mut sim = SimProcess::start("emcu");
+    let job = program_file(
+        &sim,
+        "references.emcu",
+        "#S2000\n#E1,2000\n$HZYX\nL1,X400\n",
+    );
+    let out = sim.run(&["upload", &job, "--start"]);
+    assert_exit(&out, 0, "upload --start of a job beginning with $HZYX");
+    let state = sim.wait_device("at rest", |d| !moving("emcu", d));
+    assert_eq!(x_steps("emcu", &state), 400, "{state}");
+    let moves_first = program_file(&sim, "moves-first.emcu", "L1,x400\n$HZYX\n");
+    let mut fresh = SimProcess::start("emcu");
+    let out = fresh.run(&["upload", &moves_first, "--start"]);
+    assert_exit(&out, 1, "upload --start of a job that moves first");
+    let err = text(&out.stderr);
+    assert!(
+        err.contains("reference them first (jogterm send --port")
+            && err.contains("--protocol emcu '$HZYX\\x01')"),
+        "{err}"
+    );
+    fresh.assert_alive();
+    sim.assert_alive();
+}

@@ -145,6 +145,10 @@ pub struct Context {
     /// The check-out line whose paused move's rest the controller holds
     /// (`checkout_op`): taken by whatever runs next.
     pub checkout_rest: Option<crate::device::api::JogId>,
+    /// The program jogterm stored in this session (`Upload`), as long as
+    /// nothing else was stored or erased since: the start gate reads its
+    /// first lines (`program::leading_reference`).
+    pub stored: Option<Vec<crate::proto::isel::CncCommand>>,
 }
 
 impl Sink for Context {
@@ -177,6 +181,7 @@ impl Context {
             test_mode_left_on: false,
             test_mode_unknown: false,
             checkout_rest: None,
+            stored: None,
         }
     }
 

@@ -296,8 +296,12 @@ impl RawOp {
             Command::StoreProgram => {
                 cx.cnc_store = true;
                 cx.state.program = ProgramState::Invalid;
+                cx.stored = None;
             }
-            Command::EraseProgram => cx.state.program = ProgramState::None,
+            Command::EraseProgram => {
+                cx.state.program = ProgramState::None;
+                cx.stored = None;
+            }
             Command::WritePort { port, value } => {
                 cx.ports.set_output(*port, *value);
                 cx.emit_io(now);
