@@ -144,6 +144,72 @@ fn isel_start_key_program_runs_to_its_end_while_watch_connects() {
     sim.assert_alive();
 }
 
+/// isel: store a program of one X move of `steps` at 4000 Hz (after the
+/// axes and a simulated reference, as `isel_store_long_program`).
+fn isel_store_program_of(sim: &SimProcess, steps: u32) {
+    let line = format!("0{steps},4000,0,4000,0,4000,0,4000");
+    let out = sim.run(&["send", "@07", "@0N7", "@0i", &line, "9"]);
+    assert_exit(&out, 0, "send (store)");
+}
+
+/// Issue 24: the isel controller answers nothing while a stored program
+/// runs (manual 3.1; its bytes are dropped, `docs/protocols.md`). `watch`
+/// and then `poll`, each connecting while the start key runs the program,
+/// say `the controller is busy: a program runs; waiting`, wait without
+/// giving up and without a stop or control byte, the program runs to its
+/// end each time, and both end normally on Ctrl-C (poll with its samples
+/// once the controller answers again). Before: `watch` gave up with
+/// "no reply to @0T0" (status 3), `poll` with "no position for 3 s".
+#[test]
+fn isel_watch_and_poll_say_the_controller_is_busy_and_wait_for_a_program() {
+    let mut sim = SimProcess::start("isel");
+    isel_store_program_of(&sim, 16_000);
+    for (run, args) in [
+        (1, &["watch"][..]),
+        (2, &["poll", "--interval-ms", "200"][..]),
+    ] {
+        sim.control("press start");
+        wait_moving(&mut sim, "the program started by the key");
+        let before = sim.received();
+        let child = spawn(&sim, args);
+        // Each run moves X by the program's 16 000 steps (a new start runs
+        // the program from its beginning, manual 2.2.23).
+        let end = sim.wait_device("the program at its end", |d| {
+            !moving("isel", d) && x_steps("isel", d) == 16_000 * run
+        });
+        // Answered again: a few more reads go out.
+        let answered = sim.received().len();
+        sim.wait_received("reads after the program", |r| {
+            r.len() > answered && r[answered..].matches("<CR>").count() >= 3
+        });
+        signal(child.id(), libc::SIGINT);
+        let out = wait_child(child, args[0]);
+        assert_exit(&out, 0, &format!("{args:?} interrupted"));
+        let err = text(&out.stderr);
+        assert!(
+            err.contains("the controller is busy: a program runs; waiting"),
+            "{args:?} said:\n{err}"
+        );
+        assert!(err.contains("the controller answers again"), "{err}");
+        if args[0] == "poll" {
+            assert!(
+                text(&out.stdout).contains(&format!("X={}", 16_000 * run)),
+                "samples after the program:\n{}",
+                text(&out.stdout)
+            );
+        }
+        let session = session_traffic(&mut sim, before.len());
+        let session = session.as_str();
+        assert_eq!(
+            stops_and_motion("isel", session),
+            Vec::<String>::new(),
+            "{args:?} sent stops or motion:\n{session}"
+        );
+        assert_eq!(x_steps("isel", &end), 16_000 * run, "{end}");
+    }
+    sim.assert_alive();
+}
+
 /// Write `text` as `name` in the simulator's directory; its path.
 fn program_file(sim: &SimProcess, name: &str, text: &str) -> String {
     let path = sim.dir.path().join(name);

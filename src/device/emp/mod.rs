@@ -841,8 +841,8 @@ impl Driver for EmpDriver {
         self.settle(now);
     }
 
-    fn without_connect_halt(&mut self) {
-        self.connect_halt = false;
+    fn set_connect_halt(&mut self, on: bool) {
+        self.connect_halt = on;
     }
 
     fn disconnected(&mut self, reason: &str, now: Instant) {

@@ -36,6 +36,10 @@ pub struct Cmd {
     pub timeout: Option<Duration>,
     /// Whether the controller may move while it is outstanding.
     pub may_move: bool,
+    /// Sending it again does what sending it once does and moves nothing (a
+    /// read, `@0T0`): a session that has not moved sends it again while the
+    /// controller is busy (`IselDriver::reply_timeout`).
+    pub repeatable: bool,
 }
 
 /// The stop sequence: soft stop, then break, so that a later start (`@0S`
@@ -213,6 +217,8 @@ impl Context {
         Cmd {
             text: frame.to_string(),
             may_move: frame.command.may_move(),
+            repeatable: frame.command.is_read()
+                || matches!(frame.command, Command::SetTestMode(false)),
             bytes,
             expect,
             timeout,
@@ -229,6 +235,7 @@ impl Context {
             expect: Expect::Handshake,
             timeout: Some(timeout),
             may_move: false,
+            repeatable: false,
         }
     }
 
@@ -248,6 +255,7 @@ impl Context {
             expect: Expect::Handshake,
             timeout: Some(timeout),
             may_move: false,
+            repeatable: false,
         }
     }
 
