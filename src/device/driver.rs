@@ -61,6 +61,14 @@ pub trait Driver: Send {
     /// is read back either way.
     fn set_connect_halt(&mut self, on: bool);
 
+    /// Whether `request` may set an axis in motion as this family reads it:
+    /// what makes a console a session that moves (`SessionMoves::OnceAsked`).
+    /// A raw line is parsed, so a typed read is no motion; a line that does
+    /// not parse counts as motion (the safe side).
+    fn may_move(&self, request: &Request) -> bool {
+        request.may_move()
+    }
+
     /// The link is gone: whatever was in flight is lost; motion state becomes
     /// unknown until the controller has been read again.
     fn disconnected(&mut self, reason: &str, now: Instant);

@@ -328,7 +328,10 @@ impl Task {
     /// reconnect, the stop at close). True when this request made it so,
     /// and the port's emergency stop is to be armed.
     fn asked_to_move(&mut self, request: &Request) -> bool {
-        if self.moved || self.options.moves != SessionMoves::OnceAsked || !request.may_move() {
+        if self.moved
+            || self.options.moves != SessionMoves::OnceAsked
+            || !self.driver.may_move(request)
+        {
             return false;
         }
         self.moved = true;

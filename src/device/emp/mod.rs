@@ -845,6 +845,13 @@ impl Driver for EmpDriver {
         self.connect_halt = on;
     }
 
+    fn may_move(&self, request: &Request) -> bool {
+        match request {
+            Request::Raw { line } => raw::parse_raw(line).map_or(true, |r| r.command.may_move()),
+            other => other.may_move(),
+        }
+    }
+
     fn disconnected(&mut self, reason: &str, now: Instant) {
         self.go_down(reason);
         self.settle(now);

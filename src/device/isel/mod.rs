@@ -940,6 +940,13 @@ impl Driver for IselDriver {
         self.connect_halt = on;
     }
 
+    fn may_move(&self, request: &Request) -> bool {
+        match request {
+            Request::Raw { line } => raw::line_may_move(line),
+            other => other.may_move(),
+        }
+    }
+
     fn disconnected(&mut self, reason: &str, _now: Instant) {
         self.go_down(reason);
         self.settle();
