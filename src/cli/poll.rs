@@ -11,7 +11,10 @@ use super::GlobalArgs;
 use super::out;
 use super::session::{self, EXIT_LINK, Polling, Session};
 use crate::axis::Axis;
-use crate::device::api::{Event, IoSnapshot, LinkState, PositionSample, PositionSource, Recovery};
+use crate::device::api::{
+    ANSWERS_AGAIN_NOTICE, BUSY_NOTICE, Event, IoSnapshot, LinkState, PositionSample,
+    PositionSource, Recovery,
+};
 use crate::device::common::PollRate;
 use crate::proto::Protocol;
 
@@ -214,6 +217,9 @@ async fn poll(mut session: Session, args: &PollArgs, family: Protocol) -> ExitCo
     let mut last_position = Instant::now();
     let mut ports: Option<IoSnapshot> = None;
     let mut code = 0u8;
+    // The controller does not answer because a program or a move runs: wait
+    // without giving up (`docs/device.md`, "Sessions that do not move").
+    let mut busy = false;
     let interrupted = session::interrupted();
     tokio::pin!(interrupted);
     let stdout_gone = out::stdout_gone();
@@ -232,6 +238,7 @@ async fn poll(mut session: Session, args: &PollArgs, family: Protocol) -> ExitCo
             e = tokio::time::timeout(left, session.next_event()) => e,
         };
         match event {
+            Err(_) if busy => last_position = Instant::now(),
             Err(_) => {
                 out::say(format_args!(
                     "jogterm poll: no position for {} s: {}",
@@ -253,6 +260,15 @@ async fn poll(mut session: Session, args: &PollArgs, family: Protocol) -> ExitCo
                 ));
                 code = EXIT_LINK;
                 break;
+            }
+            Ok(Some(Event::Notice(text))) if text.starts_with(BUSY_NOTICE) => {
+                busy = true;
+                out::say(format_args!("jogterm poll: {text}"));
+            }
+            Ok(Some(Event::Notice(text))) if text.starts_with(ANSWERS_AGAIN_NOTICE) => {
+                busy = false;
+                last_position = Instant::now();
+                out::say(format_args!("jogterm poll: {text}"));
             }
             Ok(Some(Event::Io(io))) => ports = Some(io),
             // With --ports every line has them: the read-back's position,

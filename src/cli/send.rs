@@ -10,7 +10,10 @@ use super::out::{self, StdoutError};
 use super::session::{self, EXIT_LINK, EXIT_USAGE, Linked, Moves, Polling, Session, StartError};
 use super::{GlobalArgs, emp};
 use crate::config::Profile;
-use crate::device::api::{Activity, Event, LinkState, Recovery, Refusal, ReplyKind, Request};
+use crate::device::api::{
+    ANSWERS_AGAIN_NOTICE, Activity, BUSY_NOTICE, Event, LinkState, Recovery, Refusal, ReplyKind,
+    Request,
+};
 use crate::device::describe::describe;
 use crate::device::emcu::{RUN_MARK, RawKind, parse_raw};
 use crate::proto::Protocol;
@@ -513,6 +516,14 @@ fn unwritable(e: StdoutError, moves: Moves) -> u8 {
 async fn wait_outcome(session: &mut Session, text: &str, canonical: &str) -> Outcome {
     loop {
         match session.next_event().await {
+            // A read-only session waits while a program runs
+            // (`docs/device.md`, "Sessions that do not move"): said, not an
+            // outcome.
+            Some(Event::Notice(t))
+                if t.starts_with(BUSY_NOTICE) || t.starts_with(ANSWERS_AGAIN_NOTICE) =>
+            {
+                out::say(format_args!("jogterm send: {t}"));
+            }
             Some(e) => {
                 if let Some(outcome) = outcome_of(&e, text, canonical) {
                     return outcome;

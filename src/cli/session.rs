@@ -17,7 +17,9 @@ use crate::device::emp::{EmpDriver, EmpSettings};
 use crate::device::inputs::RecorderConfig;
 use crate::device::isel::{IselDriver, IselSettings, PollPlan};
 use crate::device::log::spawn_log;
-use crate::device::{Connector, DeviceHandle, EventReceiver, TaskOptions, spawn_recording};
+use crate::device::{
+    Connector, DeviceHandle, EventReceiver, SessionMoves, TaskOptions, spawn_recording,
+};
 use crate::proto::Protocol;
 use crate::sim::registry;
 use crate::sim::shell::{Shell, serve_socket};
@@ -254,7 +256,10 @@ pub fn start(
     };
     let inputs = RecorderConfig::from_profile(&profile);
     let options = TaskOptions {
-        may_move: moves == Moves::Yes,
+        moves: match moves {
+            Moves::Yes => SessionMoves::Yes,
+            Moves::No => SessionMoves::No,
+        },
         ..TaskOptions::default()
     };
     let (handle, events) =

@@ -22,7 +22,7 @@ use super::{GlobalArgs, out};
 use crate::config::{ConfigDirs, ConfigError, Profile, Source, Theme, load_theme};
 use crate::device::api::{Event, Request};
 use crate::device::log::spawn_log;
-use crate::device::{DeviceHandle, EventReceiver, TaskOptions};
+use crate::device::{DeviceHandle, EventReceiver, SessionMoves, TaskOptions};
 use crate::offsets::Identity;
 use crate::offsets::store::OffsetsFile;
 use crate::program::Language;
@@ -242,6 +242,12 @@ impl DeviceLink for Device {
         drop(self.handle.stop());
     }
 
+    fn stop_on_exit(&mut self) {
+        if self.handle.moved() {
+            self.stop();
+        }
+    }
+
     fn next_event(&mut self) -> impl Future<Output = Option<Event>> + Send {
         self.events.recv()
     }
@@ -263,7 +269,13 @@ async fn session(
         profile_key,
     } = resolved;
     let (spec, simulator) = open_line(&profile)?;
-    let (handle, events) = crate::device::spawn(&profile, spec, TaskOptions::default())?;
+    // The console sends no stop of its own until the operator has asked for
+    // motion (`docs/device.md`, "Sessions that do not move").
+    let options = TaskOptions {
+        moves: SessionMoves::OnceAsked,
+        ..TaskOptions::default()
+    };
+    let (handle, events) = crate::device::spawn(&profile, spec, options)?;
     // The panic hook and the hang-up path write the stop bytes themselves.
     let emergency = handle.emergency();
     set_emergency(Some(Arc::new(move || {

@@ -21,11 +21,13 @@ use super::GlobalArgs;
 use super::check::render;
 use super::out;
 use super::session::{self, EXIT_LINK, EXIT_USAGE, Linked, Polling, Session, StartError};
+use crate::axis::{Axis, AxisSet};
 use crate::device::api::{
     Activity, ControllerFault, Event, LinkState, PerAxis, Refusal, Request, UploadEvent,
 };
 use crate::program::store;
 use crate::program::{Language, LintConfig, Program, Severity, lint};
+use crate::proto::Protocol;
 
 pub const LONG_ABOUT: &str = "\
 Check an isel CNC program or an EMCU job, store it in the controller and, with --start, run
@@ -47,8 +49,10 @@ the job.
 
 With --start the stored program is started (isel `@0S`, EMCU `@J`) and followed until it
 ends; the final position is printed. A controller whose ramp or axes jogterm has not set up
-yet in this session is initialised first. Ctrl-C, a hang-up or SIGTERM stop the machine
-first. EMP drives store no programs.";
+yet in this session is initialised first. On axes that are not referenced the program starts
+only when its first commands reference them (isel `7`, EMCU `$H`; settings may come before);
+otherwise the refusal names the command that references them. Ctrl-C, a hang-up or SIGTERM
+stop the machine first. EMP drives store no programs.";
 
 pub const AFTER_LONG_HELP: &str = "\
 Progress and messages on a stderr that is closed or hung up are dropped: the upload (and the
@@ -319,6 +323,7 @@ pub fn run(global: &GlobalArgs, args: &UploadArgs) -> anyhow::Result<ExitCode> {
             Err(m) => return usage(m),
         }
     };
+    let remedy = Remedy::of(&profile);
     let runtime = session::runtime()?;
     runtime.block_on(async {
         let session = match session::start(global, profile, Polling::OFF, session::Moves::Yes) {
@@ -326,7 +331,7 @@ pub fn run(global: &GlobalArgs, args: &UploadArgs) -> anyhow::Result<ExitCode> {
             Err(StartError::Usage(m)) => return usage(m),
             Err(StartError::Failed(e)) => return Err(e),
         };
-        Ok(upload_and_run(session, &prepared, args).await)
+        Ok(upload_and_run(session, &prepared, args, &remedy).await)
     })
 }
 
@@ -334,10 +339,11 @@ async fn upload_and_run(
     mut session: Session,
     prepared: &[Prepared],
     args: &UploadArgs,
+    remedy: &Remedy,
 ) -> ExitCode {
     let stopper = session.handle.clone();
     let code = tokio::select! {
-        code = steps(&mut session, prepared, args) => code,
+        code = steps(&mut session, prepared, args, remedy) => code,
         () = session::interrupted() => {
             let _ = stopper.stop().written().await;
             session::say_interrupted("upload", session::Moves::Yes);
@@ -355,7 +361,12 @@ type Status = Result<(), u8>;
 /// G-code job runs `--chunked`, when every part but the last ends with the
 /// tool retracted at the safe height, so that it stands clear of the part
 /// while the next is erased and stored.
-async fn steps(session: &mut Session, prepared: &[Prepared], args: &UploadArgs) -> u8 {
+async fn steps(
+    session: &mut Session,
+    prepared: &[Prepared],
+    args: &UploadArgs,
+    remedy: &Remedy,
+) -> u8 {
     let result = async {
         if let Linked::Failed(reason) = session.linked(Duration::from_secs(10)).await {
             out::say(format_args!("jogterm upload: link failure: {reason}"));
@@ -366,7 +377,7 @@ async fn steps(session: &mut Session, prepared: &[Prepared], args: &UploadArgs) 
                 out::say(format_args!("part {}/{}", k + 1, prepared.len()));
             }
             // A part after the first replaces the one that just ran.
-            upload(session, part, args.erase || k > 0).await?;
+            upload(session, part, args.erase || k > 0, remedy).await?;
             if args.start {
                 if let Some(program) = &part.gcode {
                     for (origin, what) in &program.pauses {
@@ -376,7 +387,7 @@ async fn steps(session: &mut Session, prepared: &[Prepared], args: &UploadArgs) 
                         ));
                     }
                 }
-                start(session).await?;
+                start(session, remedy).await?;
             }
         }
         Ok(())
@@ -388,9 +399,72 @@ async fn steps(session: &mut Session, prepared: &[Prepared], args: &UploadArgs) 
     }
 }
 
+/// How the operator references axes from the command line: the refusal of
+/// a start on axes not referenced names this, not the console's key.
+struct Remedy {
+    /// `jogterm send --port P --protocol F`, or `jogterm --sim F send`.
+    send: String,
+    protocol: Protocol,
+    isel_device: u8,
+}
+
+impl Remedy {
+    fn of(profile: &crate::config::Profile) -> Remedy {
+        let protocol = profile.connection.protocol;
+        let send = if profile.connection.is_simulator() {
+            format!("jogterm --sim {protocol} send")
+        } else {
+            format!(
+                "jogterm send --port {} --protocol {protocol}",
+                profile.connection.port
+            )
+        };
+        Remedy {
+            send,
+            protocol,
+            isel_device: profile.isel.device,
+        }
+    }
+
+    /// The command line that references `axes` (isel: `@0R<mask>`, A on its
+    /// own, manual 2.2.22; EMCU: `$H` Z, Y, X first, run at once).
+    fn reference(&self, axes: AxisSet) -> String {
+        match self.protocol {
+            Protocol::Emcu => {
+                let order: String = [Axis::Z, Axis::Y, Axis::X]
+                    .into_iter()
+                    .filter(|a| axes.contains(*a))
+                    .map(|a| a.to_string())
+                    .collect();
+                format!("{} '$H{order}\\x01'", self.send)
+            }
+            Protocol::Isel | Protocol::Emp => {
+                let d = self.isel_device;
+                let linear = axes.mask() & 0b0111;
+                let mut lines = Vec::new();
+                if linear != 0 {
+                    lines.push(format!("@{d}R{linear}"));
+                }
+                if axes.contains(Axis::A) {
+                    lines.push(format!("@{d}R8"));
+                }
+                format!("{} {}", self.send, lines.join(" "))
+            }
+        }
+    }
+}
+
 /// The exit status for a refusal, said on stderr.
-fn refused(what: &str, reason: &Refusal) -> u8 {
-    out::say(format_args!("jogterm upload: {what} refused: {reason}"));
+fn refused(what: &str, reason: &Refusal, remedy: &Remedy) -> u8 {
+    match reason {
+        // `(h)` is the console's key: the command line names its own way.
+        Refusal::NotReferenced { axes } => out::say(format_args!(
+            "jogterm upload: {what} refused: axes {axes} not referenced: reference them first \
+             ({})",
+            remedy.reference(*axes)
+        )),
+        _ => out::say(format_args!("jogterm upload: {what} refused: {reason}")),
+    }
     match reason {
         Refusal::Invalid { .. } => EXIT_USAGE,
         Refusal::NotConnected => EXIT_LINK,
@@ -411,7 +485,12 @@ async fn next(session: &mut Session) -> Result<Event, u8> {
         .ok_or_else(|| lost("the device task ended"))
 }
 
-async fn upload(session: &mut Session, prepared: &Prepared, erase: bool) -> Status {
+async fn upload(
+    session: &mut Session,
+    prepared: &Prepared,
+    erase: bool,
+    remedy: &Remedy,
+) -> Status {
     let mut initialised = false;
     let mut progress = Progress::new(prepared.lines.len());
     // The activity the device task last reported: the upload may go on
@@ -435,10 +514,12 @@ async fn upload(session: &mut Session, prepared: &Prepared, erase: bool) -> Stat
                     ..
                 } if !initialised => {
                     initialised = true;
-                    initialise(session).await?;
+                    initialise(session, remedy).await?;
                     break;
                 }
-                Event::Refused { reason, .. } => return Err(refused("the upload", &reason)),
+                Event::Refused { reason, .. } => {
+                    return Err(refused("the upload", &reason, remedy));
+                }
                 Event::Upload(event) => match event {
                     UploadEvent::Started { .. } => progress.show(0, 0.0),
                     UploadEvent::Progress {
@@ -534,7 +615,7 @@ fn failure(prepared: &Prepared, index: usize, fault: &ControllerFault) -> String
 }
 
 /// `Initialise`, and wait until the controller has its axes.
-async fn initialise(session: &mut Session) -> Status {
+async fn initialise(session: &mut Session, remedy: &Remedy) -> Status {
     if session.handle.request(Request::Initialise).is_err() {
         return Err(lost("the device task ended"));
     }
@@ -543,7 +624,7 @@ async fn initialise(session: &mut Session) -> Status {
             Event::State(s) if !s.initialised.is_empty() && s.activity == Activity::Idle => {
                 return Ok(());
             }
-            Event::Refused { reason, .. } => return Err(refused("initialising", &reason)),
+            Event::Refused { reason, .. } => return Err(refused("initialising", &reason, remedy)),
             Event::Fault(f) => {
                 out::say(format_args!(
                     "jogterm upload: initialising failed: `{}` answered {}: {}",
@@ -558,7 +639,7 @@ async fn initialise(session: &mut Session) -> Status {
 }
 
 /// `RunProgram`, followed until the machine is idle again.
-async fn start(session: &mut Session) -> Status {
+async fn start(session: &mut Session, remedy: &Remedy) -> Status {
     let mut initialised = false;
     let mut running = false;
     let mut fault: Option<ControllerFault> = None;
@@ -577,7 +658,7 @@ async fn start(session: &mut Session) -> Status {
                     ..
                 } if !initialised && !running => {
                     initialised = true;
-                    initialise(session).await?;
+                    initialise(session, remedy).await?;
                     continue 'request;
                 }
                 Event::State(s) if s.activity == Activity::RunningProgram => {
@@ -590,7 +671,7 @@ async fn start(session: &mut Session) -> Status {
                 Event::Position(p) => position = Some(p.steps),
                 Event::Fault(f) => fault = Some(f),
                 Event::Refused { reason, .. } => {
-                    return Err(refused("starting the program", &reason));
+                    return Err(refused("starting the program", &reason, remedy));
                 }
                 Event::Link(LinkState::Lost { reason }) => return Err(lost(&reason)),
                 _ => {}
@@ -691,6 +772,28 @@ pub fn progress_text(done: usize, total: usize, rate: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_remedy_for_axes_not_referenced_is_a_command_line() {
+        let remedy = |protocol, port: &str| Remedy {
+            send: format!("jogterm send --port {port} --protocol {protocol}"),
+            protocol,
+            isel_device: 0,
+        };
+        let isel = remedy(Protocol::Isel, "/tmp/isel");
+        assert_eq!(
+            isel.reference(AxisSet::XYZ),
+            "jogterm send --port /tmp/isel --protocol isel @0R7"
+        );
+        assert_eq!(
+            isel.reference(AxisSet::from_mask(0b1010)),
+            "jogterm send --port /tmp/isel --protocol isel @0R2 @0R8"
+        );
+        assert_eq!(
+            remedy(Protocol::Emcu, "/tmp/emcu").reference(AxisSet::XYZ),
+            "jogterm send --port /tmp/emcu --protocol emcu '$HZYX\\x01'"
+        );
+    }
 
     #[test]
     fn progress_says_rate_and_time_left() {

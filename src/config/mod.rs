@@ -21,7 +21,7 @@ use std::path::{Path, PathBuf};
 
 use serde::de::DeserializeOwned;
 
-pub use profile::Profile;
+pub use profile::{Profile, StartUnreferenced};
 pub use source::{ConfigError, Origin, Source};
 pub use theme::Theme;
 pub use variant::SimVariant;

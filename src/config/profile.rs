@@ -290,6 +290,25 @@ pub struct IselProfile {
     /// Allow switching on test mode (`@0T1`): moves without reference run and
     /// over limit switches, to free an axis standing in a switch.
     pub test_mode: bool,
+    /// Whether a stored program jogterm did not store in this session may be
+    /// started on axes that are not referenced (`docs/profiles.md`).
+    #[serde(default)]
+    pub start_unreferenced: StartUnreferenced,
+}
+
+/// Starting a stored program on axes not referenced (issue 24). A program
+/// jogterm stored in this session is judged by its first lines either way
+/// (`device::common::gate::program_start`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum StartUnreferenced {
+    /// A program jogterm does not know is refused until the axes are
+    /// referenced.
+    #[default]
+    Refuse,
+    /// The operator vouches that the programs stored in this controller
+    /// reference their axes themselves: an unknown one may start.
+    Allow,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -301,6 +320,9 @@ pub struct EmcuProfile {
     pub ramp_ms: u32,
     /// End-speed slot (`#E<n>`) jogterm uses for jog and go-to moves.
     pub move_slot: u8,
+    /// As `isel.start_unreferenced`, for the ROM job (`@J`).
+    #[serde(default)]
+    pub start_unreferenced: StartUnreferenced,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]

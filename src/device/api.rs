@@ -397,6 +397,14 @@ pub struct MachineState {
     pub work_zero: PerAxis<i64>,
 }
 
+/// How a notice begins that says the controller does not answer because a
+/// stored program or a move runs, and the session waits (a session that was
+/// not asked to move, `docs/device.md`, "Sessions that do not move").
+pub const BUSY_NOTICE: &str = "the controller is busy: a program runs; waiting";
+
+/// How the notice begins that ends such a wait.
+pub const ANSWERS_AGAIN_NOTICE: &str = "the controller answers again";
+
 /// Why a request was not carried out, and what to do about it.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Refusal {

@@ -54,11 +54,20 @@ pub trait Driver: Send {
     /// state back before anything else. Never resend a motion command.
     fn connected(&mut self, now: Instant);
 
-    /// This session was not asked to move: from now on a connect sends no
-    /// stop of its own (what a controller runs, a stored program started
-    /// from its own start key, goes on; `docs/device.md`, "Sessions that do
-    /// not move"). The state is read back as always.
-    fn without_connect_halt(&mut self);
+    /// Whether a connect opens with the family's stop sequence (the
+    /// default). Off while the session has not been asked to move: what a
+    /// controller runs, a stored program started from its own start key,
+    /// goes on (`docs/device.md`, "Sessions that do not move"). The state
+    /// is read back either way.
+    fn set_connect_halt(&mut self, on: bool);
+
+    /// Whether `request` may set an axis in motion as this family reads it:
+    /// what makes a console a session that moves (`SessionMoves::OnceAsked`).
+    /// A raw line is parsed, so a typed read is no motion; a line that does
+    /// not parse counts as motion (the safe side).
+    fn may_move(&self, request: &Request) -> bool {
+        request.may_move()
+    }
 
     /// The link is gone: whatever was in flight is lost; motion state becomes
     /// unknown until the controller has been read again.

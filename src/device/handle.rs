@@ -148,9 +148,18 @@ pub struct DeviceHandle {
     pub(crate) emergency: EmergencyHandle,
     pub(crate) done: watch::Receiver<bool>,
     pub(crate) inputs: InputLog,
+    /// The task was asked to move (`TaskOptions::moves`).
+    pub(crate) moved: Arc<std::sync::atomic::AtomicBool>,
 }
 
 impl DeviceHandle {
+    /// Whether this task was asked to move (`SessionMoves`): a way out that
+    /// is not a stop the operator asked for (a quit, a hang-up, a signal)
+    /// stops only then (`docs/device.md`, "Sessions that do not move").
+    pub fn moved(&self) -> bool {
+        self.moved.load(std::sync::atomic::Ordering::Relaxed)
+    }
+
     /// Queue a request. Never waits: a full queue is refused at once.
     pub fn request(&self, request: Request) -> Result<(), RequestError> {
         self.requests.try_send(request).map_err(|e| match e {

@@ -34,4 +34,6 @@ mod traffic_buffer;
 pub use connector::{Backoff, Connector};
 pub use events::{EventBus, EventReceiver, TryRecvError};
 pub use handle::{DeviceHandle, EmergencyHandle, InputLog, RequestError, StopTicket, StopWritten};
-pub use task::{DeviceError, TaskOptions, driver_for, spawn, spawn_recording, spawn_with};
+pub use task::{
+    DeviceError, SessionMoves, TaskOptions, driver_for, spawn, spawn_recording, spawn_with,
+};

@@ -23,6 +23,7 @@
 //!
 //! See `docs/device.md`.
 
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
@@ -58,12 +59,27 @@ pub struct TaskOptions {
     pub backoff: Backoff,
     /// Bound on waiting for stop bytes to be written before a port closes.
     pub stop_flush: Duration,
-    /// False for a session that was not asked to move (`watch`, `poll`,
-    /// `send` of reads): the task sends no stop of its own, neither at
-    /// connect nor at close nor before a dead link is closed, and arms no
-    /// emergency stop (panic hook, hang-up). Stops the client asks for still
-    /// go out. `docs/device.md`, "Sessions that do not move".
-    pub may_move: bool,
+    /// Whether this session was asked to move, and so whether the task
+    /// sends stops of its own (`docs/device.md`, "Sessions that do not
+    /// move"). Stops the client asks for go out in every case.
+    pub moves: SessionMoves,
+}
+
+/// Whether a session moves: what decides the task's own stops (at connect,
+/// at close, before a dead link is closed) and the emergency stop armed for
+/// the panic hook and a hang-up.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SessionMoves {
+    /// Asked to move from the start (`upload`, `send` of a move): every
+    /// connection opens with the family's stop, the close stops.
+    Yes,
+    /// Never asked to move (`watch`, `poll`, `send` of reads): no stop of
+    /// its own, ever; no emergency stop armed.
+    No,
+    /// The console: as [`SessionMoves::No`] until the first request that
+    /// may move reaches the task, from then on as [`SessionMoves::Yes`] for
+    /// the rest of the task (a reconnect after that opens with the stop).
+    OnceAsked,
 }
 
 impl Default for TaskOptions {
@@ -74,7 +90,7 @@ impl Default for TaskOptions {
             request_capacity: 256,
             backoff: Backoff::default(),
             stop_flush: Duration::from_millis(500),
-            may_move: true,
+            moves: SessionMoves::Yes,
         }
     }
 }
@@ -131,9 +147,9 @@ pub fn spawn_recording(
 ) -> Result<(DeviceHandle, EventReceiver), DeviceError> {
     let runtime = tokio::runtime::Handle::try_current().map_err(|_| DeviceError::NoRuntime)?;
     let mut driver = driver;
-    if !options.may_move {
-        driver.without_connect_halt();
-    }
+    let moved = options.moves == SessionMoves::Yes;
+    driver.set_connect_halt(moved);
+    let moved_flag = Arc::new(AtomicBool::new(moved));
     let bus = EventBus::new(options.lossy_capacity);
     let first = bus.subscribe();
     let (requests_tx, requests) = mpsc::channel(options.request_capacity.max(1));
@@ -153,6 +169,8 @@ pub fn spawn_recording(
         options,
         last_lost: None,
         pace: Pace::Tight,
+        moved,
+        moved_flag: moved_flag.clone(),
     };
     runtime.spawn(task.run(done_tx));
     Ok((
@@ -163,6 +181,7 @@ pub fn spawn_recording(
             emergency,
             done,
             inputs,
+            moved: moved_flag,
         },
         first,
     ))
@@ -185,6 +204,10 @@ struct Task {
     /// tight otherwise, so that a stop is never more than the writer's
     /// `max_backlog` behind bytes already handed over.
     pace: Pace,
+    /// This task was asked to move (`SessionMoves`): its own stops go out.
+    moved: bool,
+    /// `moved`, for the handles (`DeviceHandle::moved`).
+    moved_flag: Arc<AtomicBool>,
 }
 
 /// How a session or a wait ended.
@@ -212,6 +235,9 @@ struct Session {
     /// Do not wait for the writer's reports before this (a message is being
     /// paced out; its last report is due then).
     reports_after: Option<Instant>,
+    /// The port's emergency stop, until it is armed (a session that has not
+    /// moved arms none).
+    emergency: Option<EmergencyStop>,
 }
 
 /// Bulk pacing only for an upload on a link that is up: storing a program
@@ -295,6 +321,23 @@ impl Task {
             }));
             self.last_lost = Some(reason);
         }
+    }
+
+    /// A console's first request that may move: from now on the task stops
+    /// as a session that moves does (the driver's connect halt on every
+    /// reconnect, the stop at close). True when this request made it so,
+    /// and the port's emergency stop is to be armed.
+    fn asked_to_move(&mut self, request: &Request) -> bool {
+        if self.moved
+            || self.options.moves != SessionMoves::OnceAsked
+            || !self.driver.may_move(request)
+        {
+            return false;
+        }
+        self.moved = true;
+        self.moved_flag.store(true, Ordering::Relaxed);
+        self.driver.set_connect_halt(true);
+        true
     }
 
     fn set_emergency(&self, stop: Option<EmergencyStop>) {
@@ -422,9 +465,6 @@ impl Task {
             events,
             emergency,
         } = parts;
-        if self.options.may_move {
-            self.set_emergency(Some(emergency));
-        }
         let mut s = Session {
             writer,
             written: events,
@@ -432,7 +472,11 @@ impl Task {
             stop_waiters: Vec::new(),
             line,
             reports_after: None,
+            emergency: Some(emergency),
         };
+        if self.moved {
+            self.set_emergency(s.emergency.take());
+        }
         self.bus.publish(Event::Link(LinkState::Connected));
         let now = Instant::now();
         self.inputs.with(|r| r.connected(now));
@@ -490,7 +534,12 @@ impl Task {
                 },
                 request = self.requests.recv() => match request {
                     None | Some(Request::Shutdown) => break Ending::Shutdown,
-                    Some(r) => self.driver.request(r, Instant::now()),
+                    Some(r) => {
+                        if self.asked_to_move(&r) {
+                            self.set_emergency(s.emergency.take());
+                        }
+                        self.driver.request(r, Instant::now());
+                    }
                 },
                 () = timer => {
                     let now = Instant::now();
@@ -515,7 +564,7 @@ impl Task {
         let now = Instant::now();
         let (end, reason) = match ending {
             Ending::Shutdown => {
-                if self.options.may_move {
+                if self.moved {
                     let out = self.driver.stop(now);
                     self.flush_stop(&mut s, out).await;
                 }
@@ -526,7 +575,7 @@ impl Task {
             Ending::DeadLink => {
                 // The controller may still be moving: stop it while the port
                 // is open (a session that moves nothing leaves it alone).
-                if self.options.may_move {
+                if self.moved {
                     let out = self.driver.emergency_stop();
                     self.flush_stop(&mut s, out).await;
                 }
@@ -585,7 +634,10 @@ impl Task {
                 }
                 request = self.requests.recv() => match request {
                     None | Some(Request::Shutdown) => return End::Shutdown,
-                    Some(r) => self.driver.request(r, Instant::now()),
+                    Some(r) => {
+                        self.asked_to_move(&r);
+                        self.driver.request(r, Instant::now());
+                    }
                 },
                 () = sleep_until(until.into()) => return End::Lost,
             }

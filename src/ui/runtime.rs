@@ -39,6 +39,12 @@ pub trait DeviceLink {
     fn request(&mut self, request: Request) -> Result<(), NotSent>;
     /// Stop all motion, ahead of everything queued.
     fn stop(&mut self);
+    /// The stop of a way out the operator did not ask to stop by (a
+    /// hang-up, a signal): only when this session was asked to move
+    /// (`docs/device.md`, "Sessions that do not move").
+    fn stop_on_exit(&mut self) {
+        self.stop();
+    }
     /// The next event; `None` once the device task has ended.
     fn next_event(&mut self) -> impl Future<Output = Option<Event>> + Send;
 }
@@ -147,7 +153,7 @@ pub async fn run<B: Backend, D: DeviceLink>(
             // The way out may be a dead terminal: the stop bytes go first,
             // on the reserved handle, before anything else can block.
             run_emergency();
-            device.stop();
+            device.stop_on_exit();
             late_edits(model, input, &worker).await;
         }
         let effects = update(model, msg);
@@ -155,6 +161,9 @@ pub async fn run<B: Backend, D: DeviceLink>(
         let mut quit = false;
         for effect in effects {
             match effect {
+                // The stop of a quit (or of a signal's way out) goes out only
+                // when this session moved; Space alone always stops.
+                Effect::Stop if leaving => device.stop_on_exit(),
                 Effect::Stop => device.stop(),
                 Effect::Request(request) => {
                     let what = describe(&request);

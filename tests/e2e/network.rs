@@ -348,9 +348,14 @@ fn ser2net_refuses_a_second_client_and_jogterm_says_so() {
     drop(other);
 }
 
+/// The network (here: the server) stops answering; the socket stays open,
+/// nothing is reset: only the driver's reply deadline can tell. EMCU answers
+/// its polls also while it moves (`@LX` is a master command), so silence is
+/// a dead link: `poll` exits 3 within the deadline (500 ms, EMCU manual
+/// 1.4.2), never the seconds of a TCP timeout.
 #[test]
 fn a_server_that_falls_silent_is_a_lost_link_within_the_poll_deadline() {
-    let sim = SimProcess::start_tcp("isel");
+    let sim = SimProcess::start_tcp("emcu");
     let port = sim.link.display().to_string();
     let child = spawn(
         &sim,
@@ -358,8 +363,6 @@ fn a_server_that_falls_silent_is_a_lost_link_within_the_poll_deadline() {
         &["poll", "--json", "--count", "100000", "--interval-ms", "20"],
     );
     thread::sleep(Duration::from_millis(500));
-    // The network (here: the server) stops answering; the socket stays
-    // open, nothing is reset: only the driver's reply deadline can tell.
     signal(sim.pid(), libc::SIGSTOP);
     let stopped = Instant::now();
     let out = wait_child(child, "poll");
@@ -371,9 +374,36 @@ fn a_server_that_falls_silent_is_a_lost_link_within_the_poll_deadline() {
         "{}",
         text(&out.stderr)
     );
-    // The isel driver's deadline: the reply's wire time + 100 ms; the rest
-    // is the process ending. Never the seconds of a TCP timeout.
     assert!(took < Duration::from_secs(2), "{took:?}");
+}
+
+/// isel answers nothing while a stored program runs (manual 3.1), so a
+/// silent isel line is, for a session that has not moved, a busy controller
+/// as much as a dead server (`docs/device.md`, "A controller that is busy"):
+/// `poll` says so within the reply deadline, sends nothing that changes
+/// motion, waits, and ends normally on Ctrl-C. (Before issue 24 it exited 3.)
+#[test]
+fn an_isel_server_that_falls_silent_is_said_within_the_poll_deadline_and_waited_for() {
+    let sim = SimProcess::start_tcp("isel");
+    let port = sim.link.display().to_string();
+    let child = spawn(
+        &sim,
+        &port,
+        &["poll", "--json", "--count", "100000", "--interval-ms", "20"],
+    );
+    thread::sleep(Duration::from_millis(500));
+    signal(sim.pid(), libc::SIGSTOP);
+    thread::sleep(Duration::from_millis(1500));
+    signal(child.id(), libc::SIGINT);
+    let out = wait_child(child, "poll");
+    signal(sim.pid(), libc::SIGCONT);
+    assert_exit(&out, 0, "poll of a silent isel server, interrupted");
+    let err = text(&out.stderr);
+    assert!(
+        err.contains("the controller is busy: a program runs; waiting")
+            && err.contains("check the line"),
+        "said within 1.5 s:\n{err}"
+    );
 }
 
 #[test]

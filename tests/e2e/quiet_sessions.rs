@@ -143,3 +143,150 @@ fn isel_start_key_program_runs_to_its_end_while_watch_connects() {
     assert_eq!(x_steps("isel", &end), 60_000, "{end}");
     sim.assert_alive();
 }
+
+/// isel: store a program of one X move of `steps` at 4000 Hz (after the
+/// axes and a simulated reference, as `isel_store_long_program`).
+fn isel_store_program_of(sim: &SimProcess, steps: u32) {
+    let line = format!("0{steps},4000,0,4000,0,4000,0,4000");
+    let out = sim.run(&["send", "@07", "@0N7", "@0i", &line, "9"]);
+    assert_exit(&out, 0, "send (store)");
+}
+
+/// Issue 24: the isel controller answers nothing while a stored program
+/// runs (manual 3.1; its bytes are dropped, `docs/protocols.md`). `watch`
+/// and then `poll`, each connecting while the start key runs the program,
+/// say `the controller is busy: a program runs; waiting`, wait without
+/// giving up and without a stop or control byte, the program runs to its
+/// end each time, and both end normally on Ctrl-C (poll with its samples
+/// once the controller answers again). Before: `watch` gave up with
+/// "no reply to @0T0" (status 3), `poll` with "no position for 3 s".
+#[test]
+fn isel_watch_and_poll_say_the_controller_is_busy_and_wait_for_a_program() {
+    let mut sim = SimProcess::start("isel");
+    isel_store_program_of(&sim, 16_000);
+    for (run, args) in [
+        (1, &["watch"][..]),
+        (2, &["poll", "--interval-ms", "200"][..]),
+    ] {
+        sim.control("press start");
+        wait_moving(&mut sim, "the program started by the key");
+        let before = sim.received();
+        let child = spawn(&sim, args);
+        // Each run moves X by the program's 16 000 steps (a new start runs
+        // the program from its beginning, manual 2.2.23).
+        let end = sim.wait_device("the program at its end", |d| {
+            !moving("isel", d) && x_steps("isel", d) == 16_000 * run
+        });
+        // Answered again: a few more reads go out.
+        let answered = sim.received().len();
+        sim.wait_received("reads after the program", |r| {
+            r.len() > answered && r[answered..].matches("<CR>").count() >= 3
+        });
+        signal(child.id(), libc::SIGINT);
+        let out = wait_child(child, args[0]);
+        assert_exit(&out, 0, &format!("{args:?} interrupted"));
+        let err = text(&out.stderr);
+        assert!(
+            err.contains("the controller is busy: a program runs; waiting"),
+            "{args:?} said:\n{err}"
+        );
+        assert!(err.contains("the controller answers again"), "{err}");
+        if args[0] == "poll" {
+            assert!(
+                text(&out.stdout).contains(&format!("X={}", 16_000 * run)),
+                "samples after the program:\n{}",
+                text(&out.stdout)
+            );
+        }
+        let session = session_traffic(&mut sim, before.len());
+        let session = session.as_str();
+        assert_eq!(
+            stops_and_motion("isel", session),
+            Vec::<String>::new(),
+            "{args:?} sent stops or motion:\n{session}"
+        );
+        assert_eq!(x_steps("isel", &end), 16_000 * run, "{end}");
+    }
+    sim.assert_alive();
+}
+
+/// Write `text` as `name` in the simulator's directory; its path.
+fn program_file(sim: &SimProcess, name: &str, text: &str) -> String {
+    let path = sim.dir.path().join(name);
+    std::fs::write(&path, text).expect("write the program");
+    path.display().to_string()
+}
+
+/// Issue 24, item 1: `jogterm upload --start` of an isel program whose first
+/// line is the CNC reference run `7 7` (manual 3.2.8) on a controller that
+/// is not referenced starts, references and runs to its end. A program
+/// that moves before its reference run is still refused, and the refusal
+/// names the command line's remedy, not the console's key. Before: both
+/// refused with "reference them (h) first".
+#[test]
+fn isel_upload_start_of_a_program_that_references_itself_runs_unreferenced() {
+    let mut sim = SimProcess::start("isel");
+    let ok = program_file(
+        &sim,
+        "references.cnc",
+        "; references its axes first\n7 7\n0 4000,3000,0,3000,0,3000,0,3000\n9\n",
+    );
+    let out = sim.run(&["upload", &ok, "--erase", "--start"]);
+    assert_exit(&out, 0, "upload --start of a program beginning with 7 7");
+    let err = text(&out.stderr);
+    assert!(err.contains("the program ended"), "{err}");
+    let state = sim.wait_device("at rest", |d| !moving("isel", d));
+    assert_eq!(x_steps("isel", &state), 4000, "{state}");
+
+    // A fresh controller, not referenced: a program that moves first.
+    let mut sim = SimProcess::start("isel");
+    let moves_first = program_file(
+        &sim,
+        "moves-first.cnc",
+        "0 4000,3000,0,3000,0,3000,0,3000\n7 7\n9\n",
+    );
+    let out = sim.run(&["upload", &moves_first, "--erase", "--start"]);
+    assert_exit(&out, 1, "upload --start of a program that moves first");
+    let err = text(&out.stderr);
+    let link = sim.link.display().to_string();
+    assert!(
+        err.contains(&format!(
+            "starting the program refused: axes XYZ not referenced: reference them first \
+             (jogterm send --port {link} --protocol isel @0R7)"
+        )),
+        "{err}"
+    );
+    assert!(!err.contains("(h)"), "the console's key in the CLI:\n{err}");
+    let state = sim.device_state();
+    assert_eq!(x_steps("isel", &state), 0, "nothing moved: {state}");
+    sim.assert_alive();
+}
+
+/// The same for an EMCU job that begins with `$H` (manual 1.5.9; `#S`, the
+/// reference speed of 1.5.8, may come first): it runs on an interface whose
+/// positions are unknown (not referenced).
+#[test]
+fn emcu_upload_start_of_a_job_that_references_itself_runs_unreferenced() {
+    let mut sim = SimProcess::start("emcu");
+    let job = program_file(
+        &sim,
+        "references.emcu",
+        "#S2000\n#E1,2000\n$HZYX\nL1,X400\n",
+    );
+    let out = sim.run(&["upload", &job, "--start"]);
+    assert_exit(&out, 0, "upload --start of a job beginning with $HZYX");
+    let state = sim.wait_device("at rest", |d| !moving("emcu", d));
+    assert_eq!(x_steps("emcu", &state), 400, "{state}");
+    let moves_first = program_file(&sim, "moves-first.emcu", "L1,x400\n$HZYX\n");
+    let mut fresh = SimProcess::start("emcu");
+    let out = fresh.run(&["upload", &moves_first, "--start"]);
+    assert_exit(&out, 1, "upload --start of a job that moves first");
+    let err = text(&out.stderr);
+    assert!(
+        err.contains("reference them first (jogterm send --port")
+            && err.contains("--protocol emcu '$HZYX\\x01')"),
+        "{err}"
+    );
+    fresh.assert_alive();
+    sim.assert_alive();
+}

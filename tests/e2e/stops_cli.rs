@@ -378,9 +378,10 @@ fn a_failure_on_a_stderr_that_is_gone_exits_1_not_with_a_panic() {
 
 /// `poll` while the machine's start key runs the stored program: the
 /// controller answers nothing while a program runs (isel manual 3.1); poll
-/// ends with a link failure (status 3) but stops nothing (it moved nothing,
+/// says the controller is busy and waits, stops nothing (it moved nothing,
 /// `docs/device.md`, "Sessions that do not move"): the program runs to its
-/// end. Poll never started it.
+/// end, poll samples again and ends with 0 on Ctrl-C. Poll never started
+/// it. (Before issue 24 it ended with a link failure, status 3.)
 #[test]
 fn isel_poll_during_a_start_key_program_stops_nothing_and_the_program_ends() {
     let mut sim = SimProcess::start("isel");
@@ -392,12 +393,21 @@ fn isel_poll_during_a_start_key_program_stops_nothing_and_the_program_ends() {
         r.len() > before.len() && r[before.len()..].matches("@0P<CR>").count() >= 5
     });
     sim.control("press start");
+    let end = sim.wait_device("the program at its end", |d| {
+        !moving("isel", d) && isel_x(d) == 60_000
+    });
+    let answered = sim.received().len();
+    sim.wait_received("polls after the program", |r| {
+        r.len() > answered && r[answered..].matches("@0P<CR>").count() >= 3
+    });
+    signal(child.id(), libc::SIGINT);
     let out = wait_child(child, "jogterm poll");
-    assert_exit(&out, 3, "poll during a program");
+    assert_exit(&out, 0, "poll during a program, interrupted after it");
+    let err = text(&out.stderr);
     assert!(
-        text(&out.stderr).contains("link failure: no reply to @0P"),
-        "{}",
-        text(&out.stderr)
+        err.contains("the controller is busy: a program runs; waiting (no reply to @0P")
+            && err.contains("the controller answers again"),
+        "{err}"
     );
     let polled = session_traffic(&mut sim, before.len());
     assert_eq!(
@@ -405,9 +415,6 @@ fn isel_poll_during_a_start_key_program_stops_nothing_and_the_program_ends() {
         Vec::<String>::new(),
         "poll stopped nothing: {polled}"
     );
-    let end = sim.wait_device("the program at its end", |d| {
-        !moving("isel", d) && isel_x(d) == 60_000
-    });
     assert_eq!(isel_x(&assert_stands(&mut sim)), 60_000, "{end}");
     assert!(
         isel_motion(&sim.received()).is_empty(),

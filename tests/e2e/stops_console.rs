@@ -187,16 +187,16 @@ fn emp_terminate_signal_during_a_go_to_stops() {
 }
 
 /// isel: the machine's start key runs the stored program while the console
-/// is connected. The controller answers nothing while a program runs
-/// (manual 3.1), so the console's next poll goes unanswered: it reports the
-/// link lost and reconnects, and every connection opens with the stop
-/// sequence (docs/protocols.md), so the program halts before Space could be
-/// pressed: 0xFD then 0xFF reach the controller, the axis stands short of the
-/// program's end, and a later connection moves nothing (a later `@0S` would
-/// run the stored program anew, manual 2.2.23: a new start, not a resume).
-/// Space afterwards sends the stop again and starts nothing.
+/// is connected and has not moved. The controller answers nothing while a
+/// program runs (manual 3.1), so the console's next poll goes unanswered: a
+/// console that was not asked to move sends no stop of its own (issue 24,
+/// `docs/device.md`, "Sessions that do not move"); it says the controller is
+/// busy and waits. Space, the operator's stop, then halts the program: 0xFD
+/// then 0xFF reach the controller, the axis stands short of the program's
+/// end, and a later connection moves nothing (a later `@0S` would run the
+/// stored program anew, manual 2.2.23: a new start, not a resume).
 #[test]
-fn isel_a_program_run_by_the_start_key_is_halted_by_the_console() {
+fn isel_a_program_run_by_the_start_key_runs_until_space_stops_it() {
     let mut sim = SimProcess::start("isel");
     let out = isel_store_long_program(&sim);
     assert!(out.status.success(), "{}", sim_process::text(&out.stderr));
@@ -206,7 +206,22 @@ fn isel_a_program_run_by_the_start_key_is_halted_by_the_console() {
     });
     let before = sim.received();
     sim.control("press start");
-    let received = sim.wait_received("the stop", |r| {
+    wait_moving(&mut sim, "the program started by the key");
+    console.wait_for("the controller is busy: a program runs; waiting");
+    assert!(
+        moving("isel", &sim.device_state()),
+        "the program runs on while the console waits"
+    );
+    let quiet = sim.received();
+    assert!(
+        !isel_messages(&quiet[before.len()..])
+            .iter()
+            .any(|m| m.starts_with("<F")),
+        "no stop of the console's own:\n{}",
+        &quiet[before.len()..]
+    );
+    console.keys(b" ");
+    let received = sim.wait_received("Space's stop", |r| {
         isel_messages(&r[before.len()..])
             .iter()
             .any(|m| m == "<FD>")
@@ -218,25 +233,10 @@ fn isel_a_program_run_by_the_start_key_is_halted_by_the_console() {
         Some("<FF>"),
         "0xFD then 0xFF: {after:?}"
     );
-    console.wait_for("link lost");
     let state = assert_stands(&mut sim);
     let x = x_steps("isel", &state);
     assert!(x < 60_000, "the program ran to its end: {state}");
-    // Read back after the reconnect (the halted run leaves the axes to be
-    // initialised again: NOT INIT).
-    console.wait_until("connected again", |s| {
-        s.lines()
-            .next()
-            .is_some_and(|l| l.contains("connected") && !l.contains("MOVING"))
-    });
-    console.keys(b" ");
-    sim.wait_received("Space's stop", |r| {
-        isel_messages(&r[received.len()..])
-            .iter()
-            .any(|m| m == "<FD>")
-    });
-    let state = assert_stands(&mut sim);
-    assert_eq!(x_steps("isel", &state), x, "moved on: {state}");
+    console.wait_for("the controller answers again");
     assert!(
         isel_motion(&sim.received()).is_empty(),
         "jogterm started nothing"
@@ -244,4 +244,83 @@ fn isel_a_program_run_by_the_start_key_is_halted_by_the_console() {
     console.quit();
     assert_a_new_connection_moves_nothing(&mut sim, x);
     sim.assert_alive();
+}
+
+/// The console's read-back is done: the status bar says what the machine
+/// needs next (or READY).
+fn wait_read_back(console: &Console) {
+    console.wait_until("the state read back", |s| {
+        s.lines().next().is_some_and(|l| {
+            ["READY", "NOT INIT", "NOT REF"]
+                .iter()
+                .any(|w| l.contains(w))
+        })
+    });
+}
+
+/// Whether `traffic` holds the family's stop: isel 0xFD then 0xFF, EMCU
+/// `@B`, EMP the stop frame `08` (the shipped profile's `emp.stop = hold`).
+fn has_stop(family: &str, traffic: &str) -> bool {
+    match family {
+        "isel" => {
+            let m = isel_messages(traffic);
+            m.windows(2).any(|w| w[0] == "<FD>" && w[1] == "<FF>")
+        }
+        "emcu" => traffic.split("<CR>").any(|l| l == "@B"),
+        _ => emp_frames(traffic).iter().any(|f| f.starts_with("0811")),
+    }
+}
+
+/// Issue 24: the console sends no stop at connect, nor at a quit when it
+/// never moved (a session that was not asked to move never stops what the
+/// machine runs, `docs/device.md`, "Sessions that do not move"). A console
+/// that has moved (a reference run and a continuous jog, ended by its
+/// dead man) sends the family's stop when it quits. Before: every console
+/// connection opened with the stop sequence.
+fn console_stops_only_once_it_has_moved(family: &'static str) {
+    let mut sim = SimProcess::start(family);
+    let profile = write_profile(&sim, "stoptest", "");
+    let before = sim.received().len();
+    let console = Console::start_with(&sim, &["--profile", profile]);
+    wait_read_back(&console);
+    std::thread::sleep(std::time::Duration::from_millis(500));
+    console.quit();
+    let quiet = stops_support::session_traffic(&mut sim, before);
+    assert_eq!(
+        stops_support::stops_and_motion(family, &quiet),
+        Vec::<String>::new(),
+        "a console that never moved sent stops or motion:\n{quiet}"
+    );
+    assert!(!quiet.is_empty(), "the console read the state back");
+
+    let mut console = Console::start_with(&sim, &["--profile", profile]);
+    wait_read_back(&console);
+    console.initialise_and_reference();
+    hold_a_continuous_jog(&mut sim, &mut console);
+    // Keys no more: the dead man ends the jog.
+    console.wait_until("the jog ended", |s| {
+        s.lines().next().is_some_and(|l| l.contains("READY"))
+    });
+    assert_stands(&mut sim);
+    let mark = sim.received().len();
+    console.quit();
+    sim.wait_received("a console that moved quits with the stop", |r| {
+        has_stop(family, &r[mark..])
+    });
+    sim.assert_alive();
+}
+
+#[test]
+fn isel_console_connect_sends_no_stop_and_its_quit_after_a_jog_does() {
+    console_stops_only_once_it_has_moved("isel");
+}
+
+#[test]
+fn emcu_console_connect_sends_no_stop_and_its_quit_after_a_jog_does() {
+    console_stops_only_once_it_has_moved("emcu");
+}
+
+#[test]
+fn emp_console_connect_sends_no_stop_and_its_quit_after_a_jog_does() {
+    console_stops_only_once_it_has_moved("emp");
 }

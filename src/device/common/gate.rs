@@ -4,6 +4,7 @@
 //! axes not referenced (`docs/device.md`, "Refusals").
 
 use crate::axis::AxisSet;
+use crate::config::StartUnreferenced;
 use crate::device::api::{ControllerFault, MachineState, Recovery, Refusal};
 
 /// The emergency stop and faults: what blocks every move, also a raw one.
@@ -55,6 +56,50 @@ pub fn motion_allowed(
         return Err(Refusal::NotReferenced { axes: missing });
     }
     Ok(())
+}
+
+/// What jogterm knows of the program stored in the controller.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StoredProgram {
+    /// Stored before this session or by someone else: its lines are not
+    /// known.
+    Unknown,
+    /// Stored by jogterm in this session; the axes its leading reference
+    /// runs cover (empty when it does not begin with one).
+    Known { leading_reference: AxisSet },
+}
+
+/// Whether a stored program may start, given what the move gate said
+/// (`motion_allowed` with `unreferenced_ok` false). Only a refusal for axes
+/// not referenced is lifted (issue 24, `docs/protocols.md`, "Assumptions"):
+/// - a program jogterm stored in this session whose first commands are
+///   reference runs covering every one of those axes (before any move,
+///   wait, branch, port or brake command: only settings may come before,
+///   each family says which) references them itself and may start;
+/// - a program jogterm does not know may start only when the profile says
+///   so (`start_unreferenced = "allow"`);
+/// - everything else stays refused.
+pub fn program_start(
+    gate: Result<(), Refusal>,
+    stored: StoredProgram,
+    policy: StartUnreferenced,
+) -> Result<(), Refusal> {
+    match gate {
+        Err(Refusal::NotReferenced { axes }) => {
+            let lifted = match stored {
+                StoredProgram::Known { leading_reference } => {
+                    axes.iter().all(|a| leading_reference.contains(a))
+                }
+                StoredProgram::Unknown => policy == StartUnreferenced::Allow,
+            };
+            if lifted {
+                Ok(())
+            } else {
+                Err(Refusal::NotReferenced { axes })
+            }
+        }
+        other => other,
+    }
 }
 
 /// Whether a fault that asks for a reference run is over: every one of
@@ -128,5 +173,40 @@ mod tests {
         assert!(!reference_fault_cleared(&s, AxisSet::XYZ));
         s.referenced = AxisSet::XYZ;
         assert!(reference_fault_cleared(&s, AxisSet::XYZ));
+    }
+
+    #[test]
+    fn a_program_that_references_its_axes_first_may_start_unreferenced() {
+        let yz = AxisSet::from_mask(0b110);
+        let missing = || Err(Refusal::NotReferenced { axes: yz });
+        let known = |mask| StoredProgram::Known {
+            leading_reference: AxisSet::from_mask(mask),
+        };
+        let refuse = StartUnreferenced::Refuse;
+        assert_eq!(program_start(missing(), known(0b111), refuse), Ok(()));
+        assert_eq!(program_start(missing(), known(0b110), refuse), Ok(()));
+        // One axis left out, or no reference run first: refused.
+        assert_eq!(program_start(missing(), known(0b100), refuse), missing());
+        assert_eq!(program_start(missing(), known(0), refuse), missing());
+        // A program jogterm does not know: as the profile says.
+        let unknown = StoredProgram::Unknown;
+        assert_eq!(program_start(missing(), unknown, refuse), missing());
+        assert_eq!(
+            program_start(missing(), unknown, StartUnreferenced::Allow),
+            Ok(())
+        );
+        // Every other refusal stays, whatever the program does.
+        assert_eq!(
+            program_start(Err(Refusal::EmergencyStop), known(0b111), refuse),
+            Err(Refusal::EmergencyStop)
+        );
+        assert_eq!(
+            program_start(
+                Err(Refusal::NotInitialised),
+                unknown,
+                StartUnreferenced::Allow
+            ),
+            Err(Refusal::NotInitialised)
+        );
     }
 }

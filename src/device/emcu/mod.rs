@@ -865,8 +865,18 @@ impl Driver for EmcuDriver {
         self.settle(now);
     }
 
-    fn without_connect_halt(&mut self) {
-        self.connect_halt = false;
+    fn set_connect_halt(&mut self, on: bool) {
+        self.connect_halt = on;
+    }
+
+    fn may_move(&self, request: &Request) -> bool {
+        match request {
+            // A line ended by 0x01 runs the data memory, whatever it holds.
+            Request::Raw { line } => raw::parse_raw(line).map_or(true, |l| {
+                l.command.may_move() || l.end == Terminator::RunBuffer
+            }),
+            other => other.may_move(),
+        }
     }
 
     fn disconnected(&mut self, reason: &str, now: Instant) {

@@ -61,6 +61,9 @@ pub struct EmcuSettings {
     pub ramp: RampMillis,
     /// The `#E` slot of jogterm's moves.
     pub move_slot: Slot,
+    /// Whether a ROM job jogterm does not know may run on axes not
+    /// referenced (`emcu.start_unreferenced`).
+    pub start_unreferenced: crate::config::StartUnreferenced,
     pub jog: JogSettings,
     pub line: LineSettings,
     pub poll: PollPlan<StatusPoll>,
@@ -98,6 +101,7 @@ impl EmcuSettings {
             start_speed,
             ramp,
             move_slot,
+            start_unreferenced: emcu.start_unreferenced,
             jog: JogSettings::from_profile(profile),
             line: profile.connection.line(),
             poll: PollPlan {

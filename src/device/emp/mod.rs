@@ -841,8 +841,15 @@ impl Driver for EmpDriver {
         self.settle(now);
     }
 
-    fn without_connect_halt(&mut self) {
-        self.connect_halt = false;
+    fn set_connect_halt(&mut self, on: bool) {
+        self.connect_halt = on;
+    }
+
+    fn may_move(&self, request: &Request) -> bool {
+        match request {
+            Request::Raw { line } => raw::parse_raw(line).map_or(true, |r| r.command.may_move()),
+            other => other.may_move(),
+        }
     }
 
     fn disconnected(&mut self, reason: &str, now: Instant) {

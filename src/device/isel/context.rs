@@ -36,6 +36,10 @@ pub struct Cmd {
     pub timeout: Option<Duration>,
     /// Whether the controller may move while it is outstanding.
     pub may_move: bool,
+    /// Sending it again does what sending it once does and moves nothing (a
+    /// read, `@0T0`): a session that has not moved sends it again while the
+    /// controller is busy (`IselDriver::reply_timeout`).
+    pub repeatable: bool,
 }
 
 /// The stop sequence: soft stop, then break, so that a later start (`@0S`
@@ -145,6 +149,10 @@ pub struct Context {
     /// The check-out line whose paused move's rest the controller holds
     /// (`checkout_op`): taken by whatever runs next.
     pub checkout_rest: Option<crate::device::api::JogId>,
+    /// The program jogterm stored in this session (`Upload`), as long as
+    /// nothing else was stored or erased since: the start gate reads its
+    /// first lines (`program::leading_reference`).
+    pub stored: Option<Vec<crate::proto::isel::CncCommand>>,
 }
 
 impl Sink for Context {
@@ -177,6 +185,7 @@ impl Context {
             test_mode_left_on: false,
             test_mode_unknown: false,
             checkout_rest: None,
+            stored: None,
         }
     }
 
@@ -208,6 +217,8 @@ impl Context {
         Cmd {
             text: frame.to_string(),
             may_move: frame.command.may_move(),
+            repeatable: frame.command.is_read()
+                || matches!(frame.command, Command::SetTestMode(false)),
             bytes,
             expect,
             timeout,
@@ -224,6 +235,7 @@ impl Context {
             expect: Expect::Handshake,
             timeout: Some(timeout),
             may_move: false,
+            repeatable: false,
         }
     }
 
@@ -243,6 +255,7 @@ impl Context {
             expect: Expect::Handshake,
             timeout: Some(timeout),
             may_move: false,
+            repeatable: false,
         }
     }
 

@@ -62,7 +62,9 @@ pub use settings::{
 pub use upload::abort_line;
 
 use crate::config::Profile;
-use crate::device::api::{Event, JogEnd, MachineState, Refusal, ReplyKind, Request};
+use crate::device::api::{
+    ANSWERS_AGAIN_NOTICE, BUSY_NOTICE, Event, JogEnd, MachineState, Refusal, ReplyKind, Request,
+};
 use crate::device::common::admit::admit;
 use crate::device::common::limits::named_axes;
 use crate::device::common::op::operations;
@@ -117,6 +119,9 @@ enum Owner {
 #[derive(Debug)]
 struct Exchange {
     seq: u64,
+    /// The command's bytes, for a repeat while the controller is busy.
+    bytes: Vec<u8>,
+    repeatable: bool,
     text: String,
     expect: Expect,
     owner: Owner,
@@ -160,7 +165,18 @@ pub struct IselDriver {
     /// Off for a session that was not asked to move: its connect sends no
     /// stop sequence (`docs/device.md`, "Sessions that do not move").
     connect_halt: bool,
+    /// Since when the controller has not answered a session that has not
+    /// moved (a stored program or a move runs): it waits, and repeats its
+    /// read at `resend_at`, instead of calling the link dead.
+    busy_since: Option<Instant>,
+    resend_at: Option<Instant>,
 }
+
+/// How often a session that has not moved repeats its read while the
+/// controller does not answer: the controller drops what it reads while a
+/// command or program runs (`docs/protocols.md`, isel), so one of them is
+/// answered once it is done.
+const BUSY_REPEAT: Duration = Duration::from_millis(500);
 
 impl IselDriver {
     pub fn new(settings: IselSettings) -> IselDriver {
@@ -181,6 +197,8 @@ impl IselDriver {
             report: StateReport::default(),
             poll_error: None,
             connect_halt: true,
+            busy_since: None,
+            resend_at: None,
         }
     }
 
@@ -213,6 +231,8 @@ impl IselDriver {
         };
         self.exchange = Some(Exchange {
             seq: self.seq,
+            bytes: cmd.bytes.clone(),
+            repeatable: cmd.repeatable,
             text: cmd.text,
             expect: cmd.expect,
             owner,
@@ -226,6 +246,23 @@ impl IselDriver {
             restop: false,
         });
         Outgoing::message(cmd.bytes, true, shown_as)
+    }
+
+    /// The read the busy controller did not answer, again (`reply_timeout`).
+    fn repeat_when_busy(&mut self, now: Instant) -> Option<Outgoing> {
+        if !self.link_up || self.resend_at.is_none_or(|t| now < t) {
+            return None;
+        }
+        self.resend_at = None;
+        let ex = self.exchange.as_mut()?;
+        if self.decoder.expect(ex.expect).is_err() {
+            self.decoder.abandon();
+            let _ = self.decoder.expect(ex.expect);
+        }
+        self.seq += 1;
+        ex.seq = self.seq;
+        self.unsent.push_back(Some(ex.seq));
+        Some(Outgoing::message(ex.bytes.clone(), true, ex.shown_as))
     }
 
     fn quiet(&self, now: Instant) -> bool {
@@ -262,6 +299,9 @@ impl IselDriver {
     fn transmit(&mut self, now: Instant) -> Option<Outgoing> {
         if let Some(out) = self.cx.control.pop_front() {
             self.unsent.push_back(None);
+            return Some(out);
+        }
+        if let Some(out) = self.repeat_when_busy(now) {
             return Some(out);
         }
         if !self.link_up || self.exchange.is_some() || self.quiet(now) {
@@ -349,6 +389,13 @@ impl IselDriver {
             match event {
                 Decoded::Reply(reply) => {
                     if let Some(ex) = self.exchange.take() {
+                        if let Some(since) = self.busy_since.take() {
+                            self.resend_at = None;
+                            self.cx.notice(format!(
+                                "{ANSWERS_AGAIN_NOTICE} (busy for {:.1} s)",
+                                now.saturating_duration_since(since).as_secs_f64()
+                            ));
+                        }
                         self.answered(ex, reply, now);
                     }
                 }
@@ -471,10 +518,34 @@ impl IselDriver {
     }
 
     fn reply_timeout(&mut self, now: Instant) {
-        let Some(ex) = self.exchange.take() else {
+        let Some(mut ex) = self.exchange.take() else {
             return;
         };
         self.decoder.abandon();
+        // A session that was not asked to move never stops what the
+        // controller runs, and a reconnect would (once it has moved) or would
+        // only repeat the same read: the controller is busy (it answers
+        // nothing while a stored program or a move runs, manual 2.2.2, 3.1;
+        // `docs/device.md`, "Sessions that do not move"). Say so once, wait,
+        // and repeat the read until it is answered.
+        if !self.connect_halt && ex.repeatable {
+            if self.busy_since.is_none() {
+                self.busy_since = Some(now);
+                self.cx.notice(format!(
+                    "{BUSY_NOTICE} (no reply to {}: the controller answers nothing while a \
+                     stored program or a move runs; nothing that changes motion is sent; if \
+                     nothing runs, check the line)",
+                    ex.text
+                ));
+            }
+            ex.transmitted = false;
+            ex.transmitted_at = None;
+            ex.deadline = None;
+            ex.last_byte = None;
+            self.exchange = Some(ex);
+            self.resend_at = Some(now + BUSY_REPEAT);
+            return;
+        }
         let waited = ex
             .transmitted_at
             .map_or(Duration::ZERO, |t| now.saturating_duration_since(t));
@@ -488,6 +559,8 @@ impl IselDriver {
         }
         self.link_up = false;
         self.exchange = None;
+        self.busy_since = None;
+        self.resend_at = None;
         self.decoder.abandon();
         self.unsent.clear();
         self.cx.control.clear();
@@ -863,8 +936,15 @@ impl Driver for IselDriver {
         self.settle();
     }
 
-    fn without_connect_halt(&mut self) {
-        self.connect_halt = false;
+    fn set_connect_halt(&mut self, on: bool) {
+        self.connect_halt = on;
+    }
+
+    fn may_move(&self, request: &Request) -> bool {
+        match request {
+            Request::Raw { line } => raw::line_may_move(line),
+            other => other.may_move(),
+        }
     }
 
     fn disconnected(&mut self, reason: &str, _now: Instant) {
@@ -972,6 +1052,7 @@ impl Driver for IselDriver {
             }
         };
         consider(self.quiet_until);
+        consider(self.resend_at);
         if let Some(ex) = &self.exchange {
             consider(ex.deadline);
             if matches!(ex.expect, Expect::TextUntilSilence | Expect::TextThenCode) {

@@ -40,6 +40,16 @@ pub fn control_of(line: &str) -> Option<ControlByte> {
     }
 }
 
+/// Whether a raw line may set an axis in motion: a DNC command that may
+/// (`Command::may_move`), or a line that does not parse as one (a stored
+/// CNC line, a mistake: the safe side). Control bytes stop.
+pub fn line_may_move(line: &str) -> bool {
+    if control_of(line).is_some() {
+        return false;
+    }
+    parse_frame(line).map_or(true, |f| f.value.command.may_move())
+}
+
 #[derive(Debug, Clone, PartialEq)]
 enum Line {
     Dnc(Command),
@@ -296,8 +306,12 @@ impl RawOp {
             Command::StoreProgram => {
                 cx.cnc_store = true;
                 cx.state.program = ProgramState::Invalid;
+                cx.stored = None;
             }
-            Command::EraseProgram => cx.state.program = ProgramState::None,
+            Command::EraseProgram => {
+                cx.state.program = ProgramState::None;
+                cx.stored = None;
+            }
             Command::WritePort { port, value } => {
                 cx.ports.set_output(*port, *value);
                 cx.emit_io(now);

@@ -103,6 +103,9 @@ pub struct IselSettings {
     pub reference_speed_hz: u32,
     /// Whether `@0T1` may be sent (`isel.test_mode`).
     pub test_mode_allowed: bool,
+    /// Whether a stored program jogterm does not know may start on axes not
+    /// referenced (`isel.start_unreferenced`).
+    pub start_unreferenced: crate::config::StartUnreferenced,
     pub jog: JogSettings,
     pub line: LineSettings,
     pub poll: PollPlan,
@@ -138,6 +141,7 @@ impl IselSettings {
             accel_hz_per_ms: profile.isel.accel_hz_per_ms,
             reference_speed_hz: profile.isel.reference_speed_hz,
             test_mode_allowed: profile.isel.test_mode,
+            start_unreferenced: profile.isel.start_unreferenced,
             jog: JogSettings::from_profile(profile),
             line: profile.connection.line(),
             poll: PollPlan {

@@ -132,6 +132,7 @@ impl Operation for UploadOp {
                 ReplyCode::Ok => {
                     self.storing = true;
                     cx.state.program = ProgramState::Invalid;
+                    cx.stored = None;
                     if self.stopping {
                         self.abort_reason = "stopped by the operator".into();
                         self.stage = Stage::Abort;
@@ -164,6 +165,7 @@ impl Operation for UploadOp {
                 if code == ReplyCode::Ok {
                     self.erased = true;
                     cx.state.program = ProgramState::None;
+                    cx.stored = None;
                     self.stage = if self.stopping {
                         Stage::Done
                     } else {
@@ -184,6 +186,7 @@ impl Operation for UploadOp {
                     if is_end {
                         self.storing = false;
                         cx.state.program = ProgramState::Stored;
+                        cx.stored = Some(self.lines.clone());
                         self.progress.finished(now, &mut cx.events);
                         if self.stopping {
                             cx.notice("the stop came after the last line: the program is stored");

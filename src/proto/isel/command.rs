@@ -345,6 +345,21 @@ impl Command {
         )
     }
 
+    /// Whether the command only reads: it changes nothing on the
+    /// controller, so sending it again does what sending it once does.
+    pub fn is_read(&self) -> bool {
+        matches!(
+            self,
+            Command::ReadPort(_)
+                | Command::Diagnose(_)
+                | Command::LimitSwitchStatus
+                | Command::Status
+                | Command::ReadPosition
+                | Command::ReadUserInfo
+                | Command::ReadVersion
+        )
+    }
+
     /// Whether this command can make an axis move, so the console must treat
     /// the machine as moving until it answers.
     pub fn may_move(&self) -> bool {

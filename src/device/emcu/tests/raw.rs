@@ -85,3 +85,19 @@ fn raw_stops_go_out_at_once() {
         h.replies()
     );
 }
+
+/// What makes a console a session that moves (issue 24): a typed query or
+/// stop is no motion; a move, a reference run, a line ended by 0x01 (it
+/// runs the data memory) or a line that does not parse is.
+#[test]
+fn a_typed_query_is_no_motion_a_typed_move_or_run_is() {
+    use crate::device::driver::Driver;
+    let h = Harness::new();
+    let raw = |line: &str| Request::Raw { line: line.into() };
+    for line in ["@X", "@LX", "@V", "@B", "#S200"] {
+        assert!(!h.driver.may_move(&raw(line)), "{line:?}");
+    }
+    for line in ["L1,x500", "$HZYX", "#S200\u{1}", "@J", "@C", "nonsense"] {
+        assert!(h.driver.may_move(&raw(line)), "{line:?}");
+    }
+}

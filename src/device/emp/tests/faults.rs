@@ -235,3 +235,21 @@ fn an_emergency_stop_cut_into_a_frame_is_still_a_stop_of_its_own() {
         );
     }
 }
+
+/// What makes a console a session that moves (issue 24): a typed read is no
+/// motion; a positioning, homing or a frame that does not parse is.
+#[test]
+fn a_typed_read_frame_is_no_motion_a_typed_move_is() {
+    let h = Harness::emp(|_| {});
+    let raw = |line: &str| Request::Raw { line: line.into() };
+    for line in [
+        "2C 11 00 00 00000000",
+        "40 11 01 00 00000000",
+        "0A 11 00 00 00000000",
+    ] {
+        assert!(!h.driver.may_move(&raw(line)), "{line:?}");
+    }
+    for line in ["2A 11 01 00 000186A0", "26 11 00 00 00001404", "nonsense"] {
+        assert!(h.driver.may_move(&raw(line)), "{line:?}");
+    }
+}

@@ -208,3 +208,28 @@ fn a_control_byte_goes_out_at_once_whatever_is_outstanding() {
             .any(|(c, t)| c == "<FF>" && t == "break sent (control bytes have no reply)")
     );
 }
+
+/// What makes a console a session that moves (issue 24,
+/// `SessionMoves::OnceAsked`): a typed read or a control byte is no motion,
+/// a typed move, reference or start is, and so is a line that does not
+/// parse (the safe side).
+#[test]
+fn a_typed_read_is_no_motion_a_typed_move_is() {
+    use crate::device::driver::Driver;
+    let h = Harness::new();
+    let raw = |line: &str| Request::Raw { line: line.into() };
+    for line in ["@0P", "@0b1", "@0V", "\u{fd}", "\u{ff}", "@07", "@0B1,1"] {
+        assert!(!h.driver.may_move(&raw(line)), "{line:?}");
+    }
+    for line in [
+        "@0M100,900,0,900,0,900,0,900",
+        "@0R7",
+        "@0S",
+        "7 7",
+        "nonsense",
+    ] {
+        assert!(h.driver.may_move(&raw(line)), "{line:?}");
+    }
+    assert!(h.driver.may_move(&Request::RunProgram));
+    assert!(!h.driver.may_move(&Request::Initialise));
+}

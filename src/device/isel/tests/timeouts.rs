@@ -121,3 +121,63 @@ fn a_text_reply_ends_on_silence() {
         Event::Reply { command, text, .. } if command == "@0V" && text == "iMC-S8 V1.0\n(c) isel"
     )));
 }
+
+/// Issue 24: a session that was not asked to move (no connect halt) takes
+/// an unanswered read for a busy controller (a stored program runs, manual
+/// 3.1), not a dead link: it says so once, sends nothing but the same read
+/// again every 500 ms, and goes on when one is answered. A session that
+/// has moved keeps the deadline (`a_query_waits_its_wire_time_plus_the_margin`).
+#[test]
+fn a_session_that_has_not_moved_waits_for_a_busy_controller_and_repeats_its_read() {
+    use crate::device::api::{ANSWERS_AGAIN_NOTICE, BUSY_NOTICE};
+    use crate::device::driver::Driver;
+    let mut h = Harness::with(|s| {
+        s.poll.rate = PollRate::LineSpeed;
+        s.poll.ports.clear();
+    });
+    h.driver.set_connect_halt(false);
+    h.driver.connected(h.now);
+    h.collect();
+    h.advance(ms(100));
+    h.expect_text("@0T0");
+    h.reply(b"0");
+    h.readback(0, 0, 0, b"0");
+    h.take_events();
+    h.expect_text("@0P");
+    h.advance(ms(200));
+    assert_eq!(lost(&h), None);
+    assert!(h.state().link_up);
+    let busy: Vec<String> = h
+        .notices()
+        .into_iter()
+        .filter(|n| n.starts_with(BUSY_NOTICE))
+        .collect();
+    assert_eq!(busy.len(), 1, "{:?}", h.events);
+    assert!(busy[0].contains("no reply to @0P"), "{busy:?}");
+    h.expect_nothing();
+    for _ in 0..3 {
+        h.advance(ms(500));
+        h.expect_text("@0P");
+        h.advance(ms(200));
+    }
+    assert_eq!(
+        h.notices()
+            .iter()
+            .filter(|n| n.starts_with(BUSY_NOTICE))
+            .count(),
+        1,
+        "said once"
+    );
+    h.advance(ms(500));
+    h.expect_text("@0P");
+    h.reply(&position_reply(5, 0, 0));
+    assert!(
+        h.notices()
+            .iter()
+            .any(|n| n.starts_with(ANSWERS_AGAIN_NOTICE)),
+        "{:?}",
+        h.events
+    );
+    assert_eq!(lost(&h), None);
+    assert_eq!(h.faults(), Vec::<String>::new());
+}

@@ -358,3 +358,101 @@ fn a_hold_stands_still_once_and_briefly_at_its_first_repeat() {
     eprintln!("isel: standing still {still:?} at the first repeat");
     assert!(still > ms(5) && still < ms(60), "{still:?}");
 }
+
+/// Initialise a fresh controller (not referenced) whose driver starts
+/// stored programs jogterm does not know as `policy` says.
+fn initialised(policy: crate::config::StartUnreferenced) -> Bench {
+    let profile = load_profile("default", &ConfigDirs::builtin_only()).expect("profile");
+    let mut settings = IselSettings::from_profile(&profile).expect("settings");
+    settings.poll.rate = PollRate::Off;
+    settings.start_unreferenced = policy;
+    let sim = IselSim::from_profile(&profile).expect("simulator");
+    let mut b = Bench::new(IselDriver::new(settings), sim, LineSettings::new(19200));
+    b.run(ms(500));
+    b.request(Request::Initialise);
+    b.run(ms(500));
+    assert_eq!(
+        b.driver.state().referenced,
+        AxisSet::EMPTY,
+        "{:?}",
+        b.events
+    );
+    b.events.clear();
+    b
+}
+
+fn store(b: &mut Bench, lines: &[&str]) {
+    b.request(Request::Upload {
+        lines: lines.iter().map(|l| (*l).to_owned()).collect(),
+        erase_first: true,
+    });
+    b.run(Duration::from_secs(5));
+    assert_eq!(
+        b.driver.state().program,
+        ProgramState::Stored,
+        "{:?}",
+        b.events
+    );
+    b.events.clear();
+}
+
+fn not_referenced(b: &Bench) -> bool {
+    crate::device::common::testing::refusal_reasons(&b.events)
+        .iter()
+        .any(|r| matches!(r, crate::device::api::Refusal::NotReferenced { .. }))
+}
+
+/// Issue 24: a program jogterm stored that begins with the reference run of
+/// every axis (`7 7`, manual 3.2.8; settings may come first) starts on an
+/// unreferenced controller, runs, and leaves the axes referenced.
+#[test]
+fn a_stored_program_that_references_its_axes_first_starts_unreferenced() {
+    use crate::config::StartUnreferenced::Refuse;
+    let mut b = initialised(Refuse);
+    store(&mut b, &["j300", "7 7", "0400,1000,0,1000,0,1000,0,1000"]);
+    b.request(Request::RunProgram);
+    b.run(Duration::from_secs(60));
+    assert!(!not_referenced(&b), "{:?}", b.events);
+    assert!(
+        b.events
+            .iter()
+            .any(|e| matches!(e, Event::Notice(n) if n == "the program has ended")),
+        "{:?}",
+        b.events
+    );
+    assert_eq!(b.driver.state().referenced, AxisSet::XYZ);
+    assert_eq!(b.last_measured().and_then(|p| p.get(Axis::X)), Some(400));
+}
+
+/// What stays refused on axes not referenced: a program jogterm stored whose
+/// reference run covers only some axes or comes after a move, and a program
+/// jogterm does not know (stored by hand) unless the profile allows it.
+#[test]
+fn programs_that_do_not_reference_their_axes_first_stay_refused() {
+    use crate::config::StartUnreferenced::{Allow, Refuse};
+    for lines in [
+        &["71", "0400,1000,0,1000,0,1000,0,1000"][..],
+        &["0400,1000,0,1000,0,1000,0,1000", "7 7"][..],
+        &["5 1", "7 7"][..],
+    ] {
+        let mut b = initialised(Refuse);
+        store(&mut b, lines);
+        b.request(Request::RunProgram);
+        b.run(ms(500));
+        assert!(not_referenced(&b), "{lines:?}: {:?}", b.events);
+        assert_eq!(b.driver.state().activity, Activity::Idle, "nothing runs");
+    }
+    // Stored with raw lines: jogterm does not know what it does.
+    for (policy, refused) in [(Refuse, true), (Allow, false)] {
+        let mut b = initialised(policy);
+        for line in ["@0i", "77", "9"] {
+            b.request(Request::Raw { line: line.into() });
+            b.run(ms(300));
+        }
+        assert_eq!(b.driver.state().program, ProgramState::Stored);
+        b.events.clear();
+        b.request(Request::RunProgram);
+        b.run(Duration::from_secs(60));
+        assert_eq!(not_referenced(&b), refused, "{policy:?}: {:?}", b.events);
+    }
+}
