@@ -268,6 +268,9 @@ pub struct Model {
     pub quitting: bool,
     /// The profile's macro being run, line by line (`ui::macros`).
     pub macro_run: Option<MacroRun>,
+    /// The macro key last pressed, to tell its auto-repeats (presses on
+    /// terminals without release events) from a new press.
+    pub macro_key: crate::jog::HeldKey<super::key::KeyChord>,
     /// Every message of the session, newest last (`M` shows them whole).
     pub history: MessageHistory,
     /// The machine screen shows the large position display (`D`).
@@ -321,6 +324,7 @@ impl Model {
             dirty: true,
             quitting: false,
             macro_run: None,
+            macro_key: crate::jog::HeldKey::default(),
             history: MessageHistory::default(),
             large_dro: false,
         }

@@ -132,6 +132,13 @@ fn key_event(model: &mut Model, event: KeyEvent) -> Vec<Effect> {
             model.dirty = true;
             return effects;
         }
+        let (grace, timeout) = (
+            model.keypad.settings().grace,
+            model.keypad.settings().repeat_timeout,
+        );
+        model
+            .macro_key
+            .arrival(chord, KeyPhase::Release, model.now, grace, timeout, true);
         let effects = keypad::released(model, chord);
         model.dirty |= !effects.is_empty();
         return effects;
@@ -244,6 +251,10 @@ fn burst_key(model: &mut Model, event: KeyEvent, ignored: &mut Ignored) -> Vec<E
 fn burst_route(model: &mut Model, chord: KeyChord, phase: KeyPhase) -> Option<Vec<Effect>> {
     if model.keymap.lookup(Mode::Safety, &chord) == Some(Action::Stop) {
         return Some(route(model, chord, phase));
+    }
+    // A held macro key's repeats that arrive bunched (SSH) keep its hold.
+    if model.keymap.lookup_macro(Mode::Main, &chord).is_some() {
+        model.macro_key.seen(chord, model.now);
     }
     let focus = model.focus;
     if model.popup.is_none()
@@ -374,9 +385,18 @@ fn route(model: &mut Model, chord: KeyChord, phase: KeyPhase) -> Vec<Effect> {
         return type_into(model, field, c);
     }
     if let Some(name) = model.keymap.lookup_macro(Mode::Main, &chord) {
-        // A held key runs its macro once: a repeat is not a new request
-        // (terminals that do not tell repeats apart: `docs/ui.md`, Macros).
-        if phase == KeyPhase::Repeat {
+        // A held key runs its macro once: a repeat is not a new request,
+        // reported as one (kitty keyboard protocol) or, where repeats come
+        // as presses, told by their arrival times as the jog tells them
+        // (`jog::held`, `docs/ui.md`, Macros).
+        let settings = model.keypad.settings();
+        let (grace, timeout) = (settings.grace, settings.repeat_timeout);
+        let releases = model.keypad.jogger.releases();
+        if model
+            .macro_key
+            .arrival(chord, phase, model.now, grace, timeout, releases)
+            == crate::jog::Arrival::Held
+        {
             return Vec::new();
         }
         let name = name.to_string();
