@@ -34,6 +34,7 @@ pub mod palette;
 pub mod position;
 pub mod raw;
 pub mod runtime;
+pub mod setup;
 pub mod sim_panel;
 pub mod summary;
 pub mod terminal;

@@ -2,17 +2,9 @@
 //! reported, what the operator selected and typed, what is open and focused.
 //! `update` is the only thing that changes it; the view only reads it.
 
-use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use crate::axis::{Axis, AxisSet};
-use crate::config::Profile;
-use crate::config::macros::Macro;
-use crate::config::profile::AxisProfile;
-use crate::device::api::{InputChannel, LinkState, MachineState, PollStats, UploadEvent};
-use crate::jog::JogSettings;
-use crate::proto::Protocol;
-use crate::wire::LineSettings;
+use crate::device::api::{LinkState, MachineState, PollStats, UploadEvent};
 
 use super::editor::dialog::Dialog;
 use super::editor::{self, Editor};
@@ -25,83 +17,20 @@ use super::jog::popups::JogPopup;
 use super::keymap::{Keymap, Mode};
 use super::line_edit::LineEdit;
 use super::macros::MacroRun;
+pub use super::messages::Message;
 use super::messages::MessageHistory;
 use super::msg::Effect;
 use super::palette::Palette;
 use super::position::Positions;
 use super::raw::RawContext;
+pub use super::setup::{JogSelection, Setup};
 use super::sim_panel::SimPanel;
 use super::timeline::Timeline;
-use super::traffic_log::{NoteLevel, TrafficLog};
+use super::traffic_log::TrafficLog;
 
 /// How long a message stays in the message line before the machine's own
 /// state (and its recovery) takes the line back.
 pub const MESSAGE_FRESH: Duration = Duration::from_secs(10);
-
-/// What the session is connected to; fixed for its lifetime.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Setup {
-    pub protocol: Protocol,
-    /// `sim` for the built-in simulator, else the device path.
-    pub port: String,
-    pub line: LineSettings,
-    /// The machine's axes in X, Y, Z, A order.
-    pub axes: Vec<(Axis, AxisProfile)>,
-    /// Jog step distances and speeds in units (and units per second).
-    pub jog_steps: Vec<f64>,
-    pub jog_speeds: Vec<f64>,
-    /// The step and speed selected at start.
-    pub jog_start: JogSelection,
-    pub isel_device: u8,
-    /// The built-in simulator's inputs with their levels at start (`None`
-    /// where the simulator does not say), when the session runs on one.
-    pub simulator_inputs: Option<Vec<(String, Option<bool>)>>,
-    /// Everything jogging needs from the profile (`crate::jog`).
-    pub jog: JogSettings,
-    /// The profile's macros, their lines checked (`config::macros`).
-    pub macros: Vec<Macro>,
-    /// The controller's inputs as the profile names them
-    /// (`device::inputs::channels`).
-    pub inputs: Vec<Arc<InputChannel>>,
-}
-
-impl Setup {
-    pub fn from_profile(
-        profile: &Profile,
-        simulator_inputs: Option<Vec<(String, Option<bool>)>>,
-    ) -> Self {
-        Setup {
-            protocol: profile.connection.protocol,
-            port: profile.connection.port.clone(),
-            line: profile.connection.line(),
-            axes: profile.axes.iter().map(|(a, p)| (*a, p.clone())).collect(),
-            jog_steps: profile.jog.steps.clone(),
-            jog_speeds: profile.jog.speeds.clone(),
-            jog_start: JogSelection {
-                step: profile.jog.step,
-                speed: profile.jog.speed,
-            },
-            isel_device: profile.isel.device,
-            simulator_inputs,
-            jog: JogSettings::from_profile(profile),
-            // Refused at load when broken: a profile here has passed.
-            macros: profile.macros().unwrap_or_default(),
-            inputs: crate::device::inputs::channels::shared(profile),
-        }
-    }
-
-    pub fn axis_set(&self) -> AxisSet {
-        self.axes.iter().map(|(a, _)| *a).collect()
-    }
-
-    pub fn axis(&self, axis: Axis) -> Option<&AxisProfile> {
-        self.axes.iter().find(|(a, _)| *a == axis).map(|(_, p)| p)
-    }
-
-    pub fn is_simulator(&self) -> bool {
-        self.port == crate::config::profile::Connection::SIMULATOR
-    }
-}
 
 /// The panels that can have focus.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -183,21 +112,6 @@ impl Popup {
             Popup::Messages { .. } => Mode::Messages,
         }
     }
-}
-
-/// One line for the operator: a refusal and its reason, a fault, a notice.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Message {
-    pub at: Instant,
-    pub level: NoteLevel,
-    pub text: String,
-}
-
-/// The jog step and speed selected (indices into the profile's lists).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct JogSelection {
-    pub step: usize,
-    pub speed: usize,
 }
 
 /// The editor's context from a model's fields: a macro, not a method, so

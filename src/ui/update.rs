@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use ratatui::crossterm::event::{KeyEvent, KeyEventKind};
 
-use crate::device::api::{ControllerFault, Event, Frame, JogEnd, LinkState, Request};
+use crate::device::api::{Event, Frame, JogEnd, LinkState, Request};
 use crate::jog::{KeyPhase, Motion};
 
 use super::editor;
@@ -1336,18 +1336,21 @@ fn limit_jog_ended(model: &mut Model, run: &keypad::limit::LimitRun, end: &JogEn
     }
 }
 
-/// A controller's error for the operator: what it means and what to do
-/// first (the message line may cut the rest), then the answer and command.
-pub fn fault_text(f: &ControllerFault) -> String {
-    // Meanings are sentences (isel chapter 5's end with a full stop); the
-    // instruction follows a colon.
-    let meaning = f.meaning.trim_end().trim_end_matches('.');
-    format!(
-        "{meaning}: {} (answer {} to {})",
-        f.recovery.instruction(),
-        f.code,
-        f.command
-    )
+pub use super::messages::fault_text;
+
+/// The session's work offsets start with `startup` (read from their file;
+/// `None` without a state directory), and what there is to say about them
+/// is said.
+pub fn start_offsets(
+    model: &mut Model,
+    startup: Option<(
+        crate::offsets::store::Startup,
+        crate::offsets::store::OffsetsFile,
+    )>,
+) {
+    if let Some((level, text)) = keypad::offsets::start(model, startup) {
+        say(model, level, text);
+    }
 }
 
 /// Say the notes of an outcome, hand on its effects.

@@ -467,7 +467,7 @@ fn a_refused_file_is_marked_and_its_reason_shown_in_the_popup() {
     std::fs::write(&file.path, "format = 1\nprofile = [\n").expect("write");
     let mut m = model_in(Protocol::Isel, "dark", State::Idle, Instant::now());
     let startup = file.load();
-    jogterm::ui::jog::offsets::start(&mut m, Some((startup, file.clone())));
+    jogterm::ui::update::start_offsets(&mut m, Some((startup, file.clone())));
     let s = screen(&m);
     assert!(s.contains("Position G54!"), "{s}");
     assert!(s.contains("work offsets refused"), "{s}");

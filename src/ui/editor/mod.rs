@@ -50,7 +50,7 @@ use buffer::Buffer;
 use checks::{Checks, EDITOR_BUDGET};
 use upload::Upload;
 
-use super::model::Setup;
+use super::setup::Setup;
 
 pub use component::{Context, Effect, Focus, Input, Note, Outcome};
 

@@ -208,7 +208,10 @@ pub fn after(run: &LimitRun, end: &JogEnd) -> AfterEnd {
         JogEnd::Refused(reason) => say(true, format!("jog off limit refused: {reason}")),
         JogEnd::Fault(f) => say(
             true,
-            format!("jog off limit ended: {}", crate::ui::update::fault_text(f)),
+            format!(
+                "jog off limit ended: {}",
+                crate::ui::messages::fault_text(f)
+            ),
         ),
         JogEnd::LinkLost => say(true, "jog off limit ended: link lost".into()),
     }

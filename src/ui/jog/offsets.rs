@@ -74,17 +74,16 @@ impl OffsetsState {
 }
 
 /// The session starts with `startup` (read from its file; `None` without a
-/// state directory); what there is to say about it is said.
-pub fn start(model: &mut Model, startup: Option<(Startup, OffsetsFile)>) {
+/// state directory); what there is to say about it comes back as a note.
+pub fn start(model: &mut Model, startup: Option<(Startup, OffsetsFile)>) -> Option<Note> {
     model.offsets = OffsetsState::start(startup);
-    if let Some(note) = model.offsets.note.clone() {
-        let level = if model.offsets.refused {
-            NoteLevel::Danger
-        } else {
-            NoteLevel::Warning
-        };
-        super::super::update::say(model, level, note);
-    }
+    let note = model.offsets.note.clone()?;
+    let level = if model.offsets.refused {
+        NoteLevel::Danger
+    } else {
+        NoteLevel::Warning
+    };
+    Some((level, note))
 }
 
 /// How a write of the offsets file went: said only when it failed.
