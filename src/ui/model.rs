@@ -12,7 +12,6 @@ use super::io::IoPanel;
 use super::jog::Keypad;
 use super::jog::axes::AxisChoice;
 use super::jog::goto::GoToPrompt;
-use super::jog::offsets::OffsetsState;
 use super::jog::popups::JogPopup;
 use super::keymap::{Keymap, Mode};
 use super::line_edit::LineEdit;
@@ -149,12 +148,9 @@ pub struct Model {
     pub stats: Option<PollStats>,
     pub message: Option<Message>,
     pub upload: Option<UploadEvent>,
-    pub jog: JogSelection,
-    /// The jog keypad: jogging state, homing progress.
+    /// The jog screen's state (`ui::jog`): the keypad's jogging, homing
+    /// progress, the step and speed selected and typed, the work offsets.
     pub keypad: Keypad,
-    /// Work offsets G54-G59 (`ui::jog::offsets`): the position panel,
-    /// go-to and the work zero count from the active one.
-    pub offsets: OffsetsState,
     pub focus: PanelId,
     pub popup: Option<Popup>,
     /// The program being edited (`docs/editor.md`).
@@ -197,16 +193,6 @@ impl Model {
             .simulator_inputs
             .as_ref()
             .map(|inputs| SimPanel::new(inputs));
-        let jog = JogSelection {
-            step: setup
-                .jog_start
-                .step
-                .min(setup.jog_steps.len().saturating_sub(1)),
-            speed: setup
-                .jog_start
-                .speed
-                .min(setup.jog_speeds.len().saturating_sub(1)),
-        };
         Model {
             editor: Editor::new(&setup, now),
             timeline: Timeline::new(&setup.inputs),
@@ -216,8 +202,7 @@ impl Model {
             last_key_at: None,
             motion_asked: None,
             traffic: TrafficLog::new(),
-            keypad: Keypad::new(setup.jog.clone()),
-            offsets: OffsetsState::default(),
+            keypad: Keypad::new(&setup),
             setup,
             keymap,
             palette,
@@ -231,7 +216,6 @@ impl Model {
             stats: None,
             message: None,
             upload: None,
-            jog,
             focus: PanelId::Jog,
             popup: None,
             size: (80, 24),
@@ -298,24 +282,12 @@ impl Model {
 
     /// The jog step in units: typed, else the preset selected.
     pub fn jog_step(&self) -> Option<f64> {
-        self.keypad
-            .values
-            .step
-            .or_else(|| self.setup.jog_steps.get(self.jog.step).copied())
+        self.keypad.step(&self.setup)
     }
 
     /// The jog speed in units per second: typed, else the preset selected,
     /// with the speed override (at most the fastest axis' top speed).
     pub fn jog_speed(&self) -> Option<f64> {
-        let base = self
-            .keypad
-            .values
-            .speed
-            .or_else(|| self.setup.jog_speeds.get(self.jog.speed).copied())?;
-        Some(
-            self.keypad
-                .values
-                .speed_with_override(base, self.keypad.settings()),
-        )
+        self.keypad.speed(&self.setup)
     }
 }

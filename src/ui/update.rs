@@ -553,7 +553,7 @@ fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
             let settings = model.keypad.settings();
             let target = goto::zero_target(settings);
             let speed = keypad::selection(model).speed;
-            let offsets = &model.offsets.table;
+            let offsets = &model.keypad.offsets.table;
             match goto::request(&target, Frame::Work, settings, offsets, speed) {
                 Ok(planned) => {
                     let axes = settings.axis_set();
@@ -881,7 +881,7 @@ fn goto_action(model: &mut Model, mut prompt: GoToPrompt, action: Action) -> Vec
                 .and_then(|()| {
                     goto::parse(line.text(), settings)
                         .and_then(|t| {
-                            goto::request(&t, frame, settings, &model.offsets.table, speed)
+                            goto::request(&t, frame, settings, &model.keypad.offsets.table, speed)
                                 .map(|r| (t, r))
                         })
                         .map_err(|e| e.to_string())
@@ -889,7 +889,9 @@ fn goto_action(model: &mut Model, mut prompt: GoToPrompt, action: Action) -> Vec
             match checked {
                 Ok((target, planned)) => {
                     let frame = match planned.frame {
-                        Frame::Work => format!("{} work coordinates", model.offsets.table.active()),
+                        Frame::Work => {
+                            format!("{} work coordinates", model.keypad.offsets.table.active())
+                        }
                         Frame::Machine => "machine coordinates".to_string(),
                     };
                     let speed = crate::ui::position::format_amount(planned.speed);

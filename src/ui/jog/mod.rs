@@ -24,6 +24,8 @@ use crate::axis::{Axis, AxisSet};
 use crate::device::api::{Activity, Dir, Event, JogEnd, MachineState, Refusal, Request};
 use crate::jog::{Gate, JogKind, JogSettings, Jogger, KeyPhase, LastOutcome, Selection, Vector};
 
+use super::setup::{JogSelection, Setup};
+
 use super::key::KeyChord;
 use super::keymap::Action;
 use super::model::Model;
@@ -54,16 +56,50 @@ pub struct Keypad {
     pub limit: limit::LimitState,
     /// A typed step and speed, the speed override ([`values`]).
     pub values: values::JogValues,
+    /// The preset step and speed selected (indices into the profile's lists).
+    pub selection: JogSelection,
+    /// Work offsets G54-G59 ([`offsets`]): the position panel, go-to and
+    /// the work zero count from the active one.
+    pub offsets: offsets::OffsetsState,
 }
 
 impl Keypad {
-    pub fn new(settings: JogSettings) -> Keypad {
+    /// The keypad of a session on `setup`: its jog settings, the step and
+    /// speed selected at start (within the profile's lists).
+    pub fn new(setup: &Setup) -> Keypad {
+        let start = setup.jog_start;
         Keypad {
-            jogger: Jogger::new(settings),
+            jogger: Jogger::new(setup.jog.clone()),
             homing: None,
             limit: limit::LimitState::default(),
             values: values::JogValues::default(),
+            selection: JogSelection {
+                step: start.step.min(setup.jog_steps.len().saturating_sub(1)),
+                speed: start.speed.min(setup.jog_speeds.len().saturating_sub(1)),
+            },
+            offsets: offsets::OffsetsState::default(),
         }
+    }
+
+    /// The jog step in units: typed, else the preset selected.
+    pub fn step(&self, setup: &Setup) -> Option<f64> {
+        self.values
+            .step
+            .or_else(|| setup.jog_steps.get(self.selection.step).copied())
+    }
+
+    /// The speed chosen before the override: typed, else the preset.
+    pub fn base_speed(&self, setup: &Setup) -> Option<f64> {
+        self.values
+            .speed
+            .or_else(|| setup.jog_speeds.get(self.selection.speed).copied())
+    }
+
+    /// The jog speed in units per second: typed, else the preset selected,
+    /// with the speed override (at most the fastest axis' top speed).
+    pub fn speed(&self, setup: &Setup) -> Option<f64> {
+        let base = self.base_speed(setup)?;
+        Some(self.values.speed_with_override(base, self.settings()))
     }
 
     pub fn settings(&self) -> &JogSettings {

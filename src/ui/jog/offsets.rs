@@ -76,9 +76,9 @@ impl OffsetsState {
 /// The session starts with `startup` (read from its file; `None` without a
 /// state directory); what there is to say about it comes back as a note.
 pub fn start(model: &mut Model, startup: Option<(Startup, OffsetsFile)>) -> Option<Note> {
-    model.offsets = OffsetsState::start(startup);
-    let note = model.offsets.note.clone()?;
-    let level = if model.offsets.refused {
+    model.keypad.offsets = OffsetsState::start(startup);
+    let note = model.keypad.offsets.note.clone()?;
+    let level = if model.keypad.offsets.refused {
         NoteLevel::Danger
     } else {
         NoteLevel::Warning
@@ -106,7 +106,7 @@ pub struct OffsetsChoice {
 impl OffsetsChoice {
     pub fn new(model: &Model) -> OffsetsChoice {
         OffsetsChoice {
-            selected: model.offsets.table.active(),
+            selected: model.keypad.offsets.table.active(),
         }
     }
 
@@ -120,7 +120,7 @@ impl OffsetsChoice {
 
 /// Make `system` the active one: saved, and said with its zero.
 pub fn activate(model: &mut Model, system: System) -> (Vec<Effect>, Note) {
-    model.offsets.table.select(system);
+    model.keypad.offsets.table.select(system);
     let mut text = format!(
         "{system} active: work coordinates count from its zero (machine {})",
         zero_words(model, system)
@@ -129,7 +129,7 @@ pub fn activate(model: &mut Model, system: System) -> (Vec<Effect>, Note) {
         text.push_str("; ");
         text.push_str(&more);
     }
-    let effects = model.offsets.save().into_iter().collect();
+    let effects = model.keypad.offsets.save().into_iter().collect();
     (effects, (NoteLevel::Info, text))
 }
 
@@ -142,7 +142,7 @@ pub fn zero_words(model: &Model, system: System) -> String {
         .map(|(axis, p)| {
             format!(
                 "{axis} {}",
-                format_units(p, model.offsets.table.zero(system, *axis))
+                format_units(p, model.keypad.offsets.table.zero(system, *axis))
             )
         })
         .collect::<Vec<_>>()
@@ -166,7 +166,7 @@ pub fn programs_differ(model: &Model) -> AxisSet {
                 .machine
                 .work_zero
                 .get(*a)
-                .is_some_and(|v| v != model.offsets.table.active_zero(*a))
+                .is_some_and(|v| v != model.keypad.offsets.table.active_zero(*a))
         })
         .collect()
 }
@@ -227,11 +227,11 @@ pub fn zero_here(model: &mut Model, axes: AxisSet) -> (Vec<Effect>, Note) {
             );
         }
     };
-    let system = model.offsets.table.active();
+    let system = model.keypad.offsets.table.active();
     for (axis, steps) in at {
-        model.offsets.table.set(system, axis, steps);
+        model.keypad.offsets.table.set(system, axis, steps);
     }
-    let mut effects: Vec<Effect> = model.offsets.save().into_iter().collect();
+    let mut effects: Vec<Effect> = model.keypad.offsets.save().into_iter().collect();
     effects.push(Effect::Request(Request::SetZero { axes }));
     (
         effects,
@@ -249,7 +249,7 @@ pub fn zero_here(model: &mut Model, axes: AxisSet) -> (Vec<Effect>, Note) {
 pub fn set_here(model: &mut Model, target: &Target) -> Result<(Vec<Effect>, Note), String> {
     let axes: AxisSet = target.units.iter().map(|(a, _)| *a).collect();
     let at = positions_for(model, axes)?;
-    let system = model.offsets.table.active();
+    let system = model.keypad.offsets.table.active();
     let mut zeros = Vec::new();
     for ((axis, value), (_, steps)) in target.units.iter().zip(&at) {
         let profile = model
@@ -265,7 +265,7 @@ pub fn set_here(model: &mut Model, target: &Target) -> Result<(Vec<Effect>, Note
     let mut words = Vec::new();
     let mut zeroed = AxisSet::EMPTY;
     for (axis, zero, value) in &zeros {
-        model.offsets.table.set(system, *axis, *zero);
+        model.keypad.offsets.table.set(system, *axis, *zero);
         if *value == 0.0 {
             zeroed = zeroed.with(*axis);
         }
@@ -279,7 +279,7 @@ pub fn set_here(model: &mut Model, target: &Target) -> Result<(Vec<Effect>, Note
             super::super::position::format_amount(*value)
         ));
     }
-    let mut effects: Vec<Effect> = model.offsets.save().into_iter().collect();
+    let mut effects: Vec<Effect> = model.keypad.offsets.save().into_iter().collect();
     if !zeroed.is_empty() {
         effects.push(Effect::Request(Request::SetZero { axes: zeroed }));
     }

@@ -126,12 +126,12 @@ fn draw_rows(rows: Vec<Line<'static>>, inner: Rect, buf: &mut Buffer) {
 
 fn offsets(model: &Model, choice: &OffsetsChoice, area: Rect, buf: &mut Buffer) {
     let p = &model.palette;
-    let table = &model.offsets.table;
+    let table = &model.keypad.offsets.table;
     let ascii = p.symbols.lit.is_ascii();
     let mark = if ascii { "*" } else { "●" };
     let width = area.width.clamp(24, 66);
     let inner_w = usize::from(width.saturating_sub(2));
-    let note = model.offsets.note.clone().unwrap_or_default();
+    let note = model.keypad.offsets.note.clone().unwrap_or_default();
     let note_rows = if note.is_empty() {
         0
     } else {
@@ -222,7 +222,7 @@ fn offsets(model: &Model, choice: &OffsetsChoice, area: Rect, buf: &mut Buffer) 
 
 fn set_position(model: &Model, line: &LineEdit, area: Rect, buf: &mut Buffer) {
     let p = &model.palette;
-    let system = model.offsets.table.active();
+    let system = model.keypad.offsets.table.active();
     let width = area.width.clamp(24, 64);
     let error = line.error.as_ref().map(|e| e.message.as_str());
     let height = 5 + error_height(error, usize::from(width.saturating_sub(2)));

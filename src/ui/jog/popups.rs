@@ -101,14 +101,23 @@ pub fn main_action(model: &mut Model, action: Action) -> Option<Outcome> {
         Action::StepSmaller | Action::StepLarger => {
             let typed = model.keypad.values.step.take();
             let up = action == Action::StepLarger;
-            model.jog.step = values::next_preset(&model.setup.jog_steps, model.jog.step, typed, up);
+            model.keypad.selection.step = values::next_preset(
+                &model.setup.jog_steps,
+                model.keypad.selection.step,
+                typed,
+                up,
+            );
             (Vec::new(), Vec::new())
         }
         Action::SpeedSlower | Action::SpeedFaster => {
             let typed = model.keypad.values.speed.take();
             let up = action == Action::SpeedFaster;
-            model.jog.speed =
-                values::next_preset(&model.setup.jog_speeds, model.jog.speed, typed, up);
+            model.keypad.selection.speed = values::next_preset(
+                &model.setup.jog_speeds,
+                model.keypad.selection.speed,
+                typed,
+                up,
+            );
             (Vec::new(), Vec::new())
         }
         _ => return None,
@@ -122,7 +131,13 @@ pub fn base_speed(model: &Model) -> f64 {
         .keypad
         .values
         .speed
-        .or_else(|| model.setup.jog_speeds.get(model.jog.speed).copied())
+        .or_else(|| {
+            model
+                .setup
+                .jog_speeds
+                .get(model.keypad.selection.speed)
+                .copied()
+        })
         .unwrap_or(0.0)
 }
 

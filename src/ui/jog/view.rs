@@ -432,7 +432,10 @@ impl Widget for GoToView<'_> {
         let height = 5 + super::popup_view::error_height(error, usize::from(width - 2));
         let box_area = centred(area, width, height);
         let title = match self.prompt.frame {
-            Frame::Work => format!("Go to ({} work coordinates)", model.offsets.table.active()),
+            Frame::Work => format!(
+                "Go to ({} work coordinates)",
+                model.keypad.offsets.table.active()
+            ),
             Frame::Machine => "Go to (machine coordinates)".to_string(),
         };
         let inner = framed(model, &title, box_area, buf);
