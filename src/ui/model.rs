@@ -9,10 +9,10 @@ use crate::device::api::{LinkState, MachineState, PollStats, UploadEvent};
 use super::editor::dialog::Dialog;
 use super::editor::{self, Editor};
 use super::io::IoPanel;
-use super::jog::Keypad;
 use super::jog::axes::AxisChoice;
 use super::jog::goto::GoToPrompt;
 use super::jog::popups::JogPopup;
+use super::jog::{self, Keypad};
 use super::keymap::{Keymap, Mode};
 use super::line_edit::LineEdit;
 use super::macros::MacroRun;
@@ -278,6 +278,32 @@ impl Model {
         self.message
             .as_ref()
             .filter(|m| self.now.saturating_duration_since(m.at) < MESSAGE_FRESH)
+    }
+
+    /// The jog screen's context (`ui::jog::Context`), read-only.
+    pub fn jog_context(&self) -> jog::Context<'_> {
+        jog::Context {
+            setup: &self.setup,
+            link: &self.link,
+            machine: &self.machine,
+            positions: &self.positions,
+            now: self.now,
+        }
+    }
+
+    /// The jog screen's state and its context, borrowed side by side for
+    /// `Keypad::update`.
+    pub fn jog_parts(&mut self) -> (&mut Keypad, jog::Context<'_>) {
+        (
+            &mut self.keypad,
+            jog::Context {
+                setup: &self.setup,
+                link: &self.link,
+                machine: &self.machine,
+                positions: &self.positions,
+                now: self.now,
+            },
+        )
     }
 
     /// The jog step in units: typed, else the preset selected.

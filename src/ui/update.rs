@@ -46,7 +46,7 @@ fn dispatch(model: &mut Model, msg: Msg) -> Vec<Effect> {
         Msg::Tick(now) => {
             tick(model, now);
             // Toggle jogs live on the console's ticks.
-            let mut effects = keypad::tick(model);
+            let mut effects = jog_update(model, keypad::component::Input::Tick);
             effects.extend(editor_update(model, editor::Input::Tick));
             effects
         }
@@ -93,7 +93,7 @@ fn dispatch(model: &mut Model, msg: Msg) -> Vec<Effect> {
             );
             model.quitting = true;
             model.dirty = true;
-            keypad::stopped(model);
+            jog_update(model, keypad::component::Input::Stopped);
             model.macro_run = None;
             // The last edits go to the recovery file before leaving.
             let mut effects = vec![Effect::Stop];
@@ -139,7 +139,7 @@ fn key_event(model: &mut Model, event: KeyEvent) -> Vec<Effect> {
         model
             .macro_key
             .arrival(chord, KeyPhase::Release, model.now, grace, timeout, true);
-        let effects = keypad::released(model, chord);
+        let effects = jog_update(model, keypad::component::Input::Release(chord));
         model.dirty |= !effects.is_empty();
         return effects;
     }
@@ -265,9 +265,10 @@ fn burst_route(model: &mut Model, chord: KeyChord, phase: KeyPhase) -> Option<Ve
             .and_then(keypad::vector_of)
             .is_some()
     {
-        return keypad::burst_key(model, chord, phase);
+        let outcome = jog_outcome(model, keypad::component::Input::Burst(chord, phase));
+        return outcome.used.then(|| apply_jog(model, outcome));
     }
-    if let Some(effects) = keypad::any_key(model, chord, phase) {
+    if let Some(effects) = jog_any_key(model, chord, phase) {
         say(model, NoteLevel::Info, "jog stopped".to_string());
         return Some(effects);
     }
@@ -311,7 +312,11 @@ fn paste(model: &mut Model, text: &str) -> Vec<Effect> {
             _ => None,
         },
         Some(typing::TextField::Prompt) => {
-            if let Some(refused) = keypad::popups::paste(model, text) {
+            let refused = match model.popup.as_mut() {
+                Some(Popup::Jog(p)) => keypad::popups::paste(p, text),
+                _ => None,
+            };
+            if let Some(refused) = refused {
                 say(model, NoteLevel::Warning, refused);
             }
             return Vec::new();
@@ -359,7 +364,7 @@ fn route(model: &mut Model, chord: KeyChord, phase: KeyPhase) -> Vec<Effect> {
             .is_some();
     // Toggle jogging: any key stops the jog and does nothing else (the
     // keypad's own keys know their repeats from a new press).
-    if !motion_key && let Some(effects) = keypad::any_key(model, chord, phase) {
+    if !motion_key && let Some(effects) = jog_any_key(model, chord, phase) {
         say(model, NoteLevel::Info, "jog stopped".to_string());
         return effects;
     }
@@ -428,7 +433,9 @@ fn type_into(model: &mut Model, field: typing::TextField, c: char) -> Vec<Effect
             Vec::new()
         }
         typing::TextField::Prompt => {
-            keypad::popups::type_char(model, c);
+            if let Some(Popup::Jog(p)) = model.popup.as_mut() {
+                keypad::popups::type_char(p, c);
+            }
             Vec::new()
         }
     }
@@ -460,7 +467,7 @@ fn safety_stop(model: &mut Model, chord: KeyChord) -> Vec<Effect> {
 }
 
 fn stop(model: &mut Model) -> Vec<Effect> {
-    keypad::stopped(model);
+    jog_update(model, keypad::component::Input::Stopped);
     say(
         model,
         NoteLevel::Info,
@@ -474,8 +481,9 @@ fn stop(model: &mut Model) -> Vec<Effect> {
 
 fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
     // Work offsets, the step and speed (typed, presets, override).
-    if let Some(outcome) = keypad::popups::main_action(model, action) {
-        return said(model, outcome);
+    let outcome = jog_outcome(model, keypad::component::Input::Main(action));
+    if outcome.used {
+        return apply_jog(model, outcome);
     }
     match action {
         Action::Stop => stop(model),
@@ -514,7 +522,7 @@ fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
             if held.dialog.is_some() {
                 return apply_editor(model, held);
             }
-            if keypad::moving(model) {
+            if model.keypad.moving(&model.machine) {
                 // Quitting stops the machine; a slip of the finger must not
                 // end a program run or a reference run (`docs/jogging.md`).
                 ask(
@@ -528,13 +536,11 @@ fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
             model.quitting = true;
             vec![Effect::Stop, Effect::Quit]
         }
-        Action::JogKind => {
-            let (effects, (level, text)) = keypad::switch_kind(model);
-            say(model, level, text);
-            effects
-        }
+        Action::JogKind => jog_update(model, keypad::component::Input::SwitchKind),
         Action::GoTo => {
-            if let Err(reason) = keypad::gate(model).check(Motion::GoTo) {
+            if let Err(reason) =
+                keypad::gate(&model.keypad, &model.jog_context()).check(Motion::GoTo)
+            {
                 say(model, NoteLevel::Danger, format!("go to refused: {reason}"));
                 return Vec::new();
             }
@@ -542,7 +548,9 @@ fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
             Vec::new()
         }
         Action::GoZero => {
-            if let Err(reason) = keypad::gate(model).check(Motion::GoTo) {
+            if let Err(reason) =
+                keypad::gate(&model.keypad, &model.jog_context()).check(Motion::GoTo)
+            {
                 say(
                     model,
                     NoteLevel::Danger,
@@ -552,7 +560,7 @@ fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
             }
             let settings = model.keypad.settings();
             let target = goto::zero_target(settings);
-            let speed = keypad::selection(model).speed;
+            let speed = keypad::selection(&model.keypad, &model.setup).speed;
             let offsets = &model.keypad.offsets.table;
             match goto::request(&target, Frame::Work, settings, offsets, speed) {
                 Ok(planned) => {
@@ -575,7 +583,8 @@ fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
             Vec::new()
         }
         Action::JogOffLimit => {
-            match keypad::limit::ask(model) {
+            let (kp, ctx) = model.jog_parts();
+            match kp.limit_question(&ctx) {
                 Ok(q) => ask(
                     model,
                     &q.title,
@@ -592,7 +601,7 @@ fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
             } else {
                 (Purpose::Zero, Motion::SetZero)
             };
-            if let Err(reason) = keypad::gate(model).check(motion) {
+            if let Err(reason) = keypad::gate(&model.keypad, &model.jog_context()).check(motion) {
                 say(model, NoteLevel::Danger, format!("refused: {reason}"));
                 return Vec::new();
             }
@@ -693,7 +702,7 @@ const QUIT_WHILE_MOVING: &str = "Quit while moving";
 fn quit_question(model: &Model) -> String {
     let what = match typing::doing(model.machine.activity) {
         Some(what) => what,
-        None if keypad::moving(model) => "jogging",
+        None if model.keypad.moving(&model.machine) => "jogging",
         None => return "The machine has stopped. Close the port and quit?".to_string(),
     };
     format!("The machine is {what}. Stop all motion, close the port and quit?")
@@ -742,10 +751,10 @@ fn popup_action(model: &mut Model, action: Action) -> Vec<Effect> {
         }
         (Some(Popup::Help { .. }), Action::Close) => Vec::new(),
         (Some(Popup::GoTo(prompt)), action) => goto_action(model, prompt, action),
-        (Some(Popup::Jog(popup)), action) => {
-            let outcome = keypad::popups::popup_action(model, popup, action);
-            said(model, outcome)
-        }
+        (Some(Popup::Jog(popup)), action) => jog_update(
+            model,
+            keypad::component::Input::Popup(Box::new(popup), action),
+        ),
         (Some(Popup::Axes(choice)), Action::Cancel) => {
             say(
                 model,
@@ -756,8 +765,7 @@ fn popup_action(model: &mut Model, action: Action) -> Vec<Effect> {
         }
         (Some(Popup::Axes(choice)), action) => match choice.chosen(action) {
             Some(axes) if choice.purpose == Purpose::Zero => {
-                let outcome = keypad::popups::zero_axes(model, axes);
-                said(model, outcome)
+                jog_update(model, keypad::component::Input::ZeroAxes(axes))
             }
             Some(axes) => vec![Effect::Request(choice.request(axes))],
             None => {
@@ -874,8 +882,8 @@ fn goto_action(model: &mut Model, mut prompt: GoToPrompt, action: Action) -> Vec
         }
         Action::Submit => {
             let settings = model.keypad.settings();
-            let speed = keypad::selection(model).speed;
-            let checked = keypad::gate(model)
+            let speed = keypad::selection(&model.keypad, &model.setup).speed;
+            let checked = keypad::gate(&model.keypad, &model.jog_context())
                 .check(Motion::GoTo)
                 .map_err(|r| r.to_string())
                 .and_then(|()| {
@@ -921,11 +929,14 @@ fn goto_action(model: &mut Model, mut prompt: GoToPrompt, action: Action) -> Vec
 
 /// A key of the focused jog keypad.
 fn jog_action(model: &mut Model, action: Action, chord: KeyChord, phase: KeyPhase) -> Vec<Effect> {
-    let (effects, note) = keypad::motion_key(model, action, chord, phase);
-    if let Some((level, text)) = note {
-        say(model, level, text);
-    }
-    effects
+    jog_update(
+        model,
+        keypad::component::Input::Motion {
+            action,
+            chord,
+            phase,
+        },
+    )
 }
 
 fn panel_action(model: &mut Model, panel: PanelId, action: Action) -> Vec<Effect> {
@@ -1168,14 +1179,14 @@ fn tick(model: &mut Model, now: Instant) {
     let before = (
         model.io.highlight_count(model.now),
         model.fresh_message().is_some(),
-        keypad::clock_shown(model),
+        model.keypad.clock_shown(model.now),
     );
     model.now = now;
     let flushed = model.traffic.flush_idle(now);
     let after = (
         model.io.highlight_count(now),
         model.fresh_message().is_some(),
-        keypad::clock_shown(model),
+        model.keypad.clock_shown(model.now),
     );
     // A timeline that follows the readings moves with the clock.
     let timeline_moves = model.focus == PanelId::Timeline && model.timeline.end.is_none();
@@ -1186,7 +1197,7 @@ fn tick(model: &mut Model, now: Instant) {
 }
 
 fn device_event(model: &mut Model, event: Event) {
-    if !keypad::device_event(model, &event) {
+    if jog_outcome(model, keypad::component::Input::Device(&event)).quiet {
         return;
     }
     match event {
@@ -1213,7 +1224,7 @@ fn device_event(model: &mut Model, event: Event) {
         Event::JogEnded { id, end } => {
             if let Some(run) = model.keypad.limit.ended(id) {
                 limit_jog_ended(model, &run, &end);
-            } else if keypad::end_is_news(model, &end) {
+            } else if model.keypad.end_is_news(&end) {
                 jog_ended(model, end);
             }
         }
@@ -1350,17 +1361,45 @@ pub fn start_offsets(
         crate::offsets::store::OffsetsFile,
     )>,
 ) {
-    if let Some((level, text)) = keypad::offsets::start(model, startup) {
+    if let Some((level, text)) = keypad::offsets::start(&mut model.keypad.offsets, startup) {
         say(model, level, text);
     }
 }
 
-/// Say the notes of an outcome, hand on its effects.
-fn said(model: &mut Model, (effects, notes): keypad::popups::Outcome) -> Vec<Effect> {
+/// The jog screen's outcome of `input`, not applied yet.
+fn jog_outcome(model: &mut Model, input: keypad::component::Input) -> keypad::component::Outcome {
+    let (kp, ctx) = model.jog_parts();
+    kp.update(&ctx, input)
+}
+
+/// Everything the jog screen's outcome asks of the rest of the console, in
+/// one place: notes, its popup (in place of any other), the effects.
+fn apply_jog(model: &mut Model, outcome: keypad::component::Outcome) -> Vec<Effect> {
+    let keypad::component::Outcome {
+        effects,
+        notes,
+        popup,
+        ..
+    } = outcome;
     for (level, text) in notes {
         say(model, level, text);
     }
+    if let Some(popup) = popup {
+        model.popup = Some(Popup::Jog(popup));
+    }
     effects
+}
+
+/// `input` to the jog screen, its outcome applied.
+fn jog_update(model: &mut Model, input: keypad::component::Input) -> Vec<Effect> {
+    let outcome = jog_outcome(model, input);
+    apply_jog(model, outcome)
+}
+
+/// Any key, in toggle mode, stops a running jog and is used up.
+fn jog_any_key(model: &mut Model, chord: KeyChord, phase: KeyPhase) -> Option<Vec<Effect>> {
+    let outcome = jog_outcome(model, keypad::component::Input::AnyKey(chord, phase));
+    outcome.used.then(|| apply_jog(model, outcome))
 }
 
 /// Show a message in the message line and keep it in the console.

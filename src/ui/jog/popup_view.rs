@@ -190,7 +190,7 @@ fn offsets(model: &Model, choice: &OffsetsChoice, area: Rect, buf: &mut Buffer) 
                 None => format!("{axis} ?"),
             })
             .collect();
-        let differ = programs_differ(model);
+        let differ = programs_differ(&model.keypad.offsets, &model.jog_context());
         let text = format!("programs count from @0n: {}", zeros.join(" "));
         let style = if differ.is_empty() { p.dim } else { p.warning };
         rows.push(Line::from(Span::styled(fit(&text, inner_w), style)));

@@ -267,7 +267,9 @@ fn status_line(model: &Model, width: usize) -> Line<'static> {
     let fresh = |at: std::time::Instant| now.saturating_duration_since(at) < REFUSAL_SHOWN;
     let moving = model.palette.symbols.moving;
     // The jog off a limit switch first: it runs without a key held.
-    if let Some(text) = super::limit::status(model) {
+    if let Some(text) =
+        super::limit::status(&model.keypad.limit, model.keypad.settings(), &model.setup)
+    {
         return Line::from(Span::styled(
             fit(&format!("{moving} {text}"), width),
             p.warning,
@@ -324,7 +326,7 @@ fn status_line(model: &Model, width: usize) -> Line<'static> {
     }
     if let Some(LastOutcome::Ended { end, at }) = jogger.last()
         && fresh(*at)
-        && super::end_is_news(model, end)
+        && model.keypad.end_is_news(end)
     {
         return Line::from(Span::styled(
             fit(&format!("! jog ended: {}", end_words(end)), width),

@@ -143,7 +143,8 @@ pub fn title_extra(model: &Model) -> Vec<Span<'static>> {
     } else {
         Span::styled(format!("{name} "), p.title)
     }];
-    let differ = crate::ui::jog::offsets::programs_differ(model);
+    let differ =
+        crate::ui::jog::offsets::programs_differ(&model.keypad.offsets, &model.jog_context());
     if any_estimated {
         extra.push(Span::styled(
             format!("{} estimated ", sym.estimated),
