@@ -586,7 +586,6 @@ const KNOWN_UI_CIRCLES: &[&[&str]] = &[
     &["ui::editor", "ui::editor::layout"],
     &["ui::editor::update", "ui::editor::update::files"],
     &["ui::jog::popup_view", "ui::jog::view"],
-    &["ui::macros", "ui::model"],
 ];
 
 #[test]

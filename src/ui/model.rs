@@ -6,6 +6,7 @@ use std::time::{Duration, Instant};
 
 use crate::device::api::{LinkState, MachineState, PollStats, UploadEvent};
 
+pub use super::confirm::Confirmation;
 use super::editor::dialog::Dialog;
 use super::editor::{self, Editor};
 use super::io::IoPanel;
@@ -18,7 +19,6 @@ use super::line_edit::LineEdit;
 use super::macros::MacroRun;
 pub use super::messages::Message;
 use super::messages::MessageHistory;
-use super::msg::Effect;
 use super::palette::Palette;
 use super::position::Positions;
 use super::raw::RawContext;
@@ -59,17 +59,6 @@ impl PanelId {
             PanelId::Timeline => Mode::Timeline,
         }
     }
-}
-
-/// A question that must be answered before its effects are carried out.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Confirmation {
-    pub title: String,
-    pub question: String,
-    pub effects: Vec<Effect>,
-    /// The profile's macro to run once confirmed (`ui::macros`), after
-    /// `effects`.
-    pub run_macro: Option<String>,
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -278,6 +267,19 @@ impl Model {
         self.message
             .as_ref()
             .filter(|m| self.now.saturating_duration_since(m.at) < MESSAGE_FRESH)
+    }
+
+    /// The macros' state and context (`ui::macros`), borrowed side by side.
+    pub fn macro_parts(&mut self) -> (&mut Option<MacroRun>, super::macros::Context<'_>) {
+        let raw = self.raw_context();
+        (
+            &mut self.macro_run,
+            super::macros::Context {
+                macros: &self.setup.macros,
+                machine: &self.machine,
+                raw,
+            },
+        )
     }
 
     /// The jog screen's context (`ui::jog::Context`), read-only.

@@ -52,7 +52,7 @@ fn dispatch(model: &mut Model, msg: Msg) -> Vec<Effect> {
         }
         Msg::Device(event) => {
             let mut effects = editor_update(model, editor::Input::Device(&event));
-            let (next, notes) = macros::device_event(model, &event);
+            let (next, notes) = macros::device_event(&mut model.macro_run, &model.machine, &event);
             effects.extend(next);
             device_event(model, event);
             for (level, text) in notes {
@@ -405,7 +405,15 @@ fn route(model: &mut Model, chord: KeyChord, phase: KeyPhase) -> Vec<Effect> {
             return Vec::new();
         }
         let name = name.to_string();
-        let (effects, notes) = macros::key(model, &name);
+        let (run, ctx) = model.macro_parts();
+        let macros::Outcome {
+            effects,
+            notes,
+            confirm,
+        } = macros::key(run, &ctx, &name);
+        if let Some(confirm) = confirm {
+            model.popup = Some(Popup::Confirm(confirm));
+        }
         for (level, text) in notes {
             say(model, level, text);
         }
@@ -473,7 +481,7 @@ fn stop(model: &mut Model) -> Vec<Effect> {
         NoteLevel::Info,
         "stop: all motion stopped".to_string(),
     );
-    if let Some((level, text)) = macros::stopped(model) {
+    if let Some((level, text)) = macros::stopped(&mut model.macro_run) {
         say(model, level, text);
     }
     vec![Effect::Stop]
@@ -734,7 +742,8 @@ fn popup_action(model: &mut Model, action: Action) -> Vec<Effect> {
         (Some(Popup::Confirm(c)), Action::Confirm) => {
             let mut effects = c.effects;
             if let Some(name) = c.run_macro {
-                let (started, notes) = macros::start(model, &name);
+                let (run, ctx) = model.macro_parts();
+                let (started, notes) = macros::start(run, &ctx, &name);
                 effects.extend(started);
                 for (level, text) in notes {
                     say(model, level, text);
