@@ -247,25 +247,6 @@ impl Editor {
         setup.jog_speeds.get(self.teach.speed).copied()
     }
 
-    /// Keep the cursor within the rows and columns shown at a terminal of
-    /// `size`.
-    pub fn scroll_into_view(&mut self, size: (u16, u16)) {
-        let rows = layout::text_rows(self, size).max(1);
-        let cols = layout::text_cols(self, size).max(1);
-        let c = self.buffer.cursor();
-        if c.line < self.top {
-            self.top = c.line;
-        } else if c.line >= self.top + rows {
-            self.top = c.line + 1 - rows;
-        }
-        // A little context to the left when scrolling sideways.
-        if c.col < self.left {
-            self.left = c.col.saturating_sub(cols / 4);
-        } else if c.col >= self.left + cols {
-            self.left = c.col + 1 - cols;
-        }
-    }
-
     /// Why the text cannot be changed now, if it cannot.
     pub fn read_only(&self) -> Option<&'static str> {
         if self.checkout.is_some() {

@@ -268,7 +268,7 @@ fn values(model: &Model, form: &ValuesForm, area: Rect, buf: &mut Buffer) {
     let box_area = centred(area, width, height);
     let inner = framed(model, "Jog step and speed", box_area, buf);
     let w = usize::from(inner.width);
-    let unit = super::view::unit_label(model);
+    let unit = unit_label(model);
     let now_step = model
         .jog_step()
         .map(super::super::position::format_amount)
@@ -313,4 +313,11 @@ fn values(model: &Model, form: &ValuesForm, area: Rect, buf: &mut Buffer) {
         ],
     ));
     draw_rows(rows, inner, buf);
+}
+
+/// The unit the keypad and its popups name: the axes' common one, else
+/// `units`.
+pub(super) fn unit_label(model: &Model) -> &'static str {
+    crate::ui::position::common_unit(model.setup.axes.iter().map(|(_, p)| p))
+        .map_or("units", |u| u.symbol())
 }

@@ -20,7 +20,9 @@ use crate::jog::{JogKind, LastOutcome, Vector};
 use crate::ui::key::{KeyChord, KeyCode};
 use crate::ui::keymap::{Action, Mode};
 use crate::ui::model::{Model, PanelId};
-use crate::ui::position::{common_unit, format_amount};
+use crate::ui::position::format_amount;
+
+use super::popup_view::unit_label;
 use crate::ui::view::flow::fit;
 use crate::ui::view::frame;
 use crate::ui::view::popup::{centred, framed};
@@ -145,10 +147,6 @@ fn lit_vector(model: &Model) -> Option<Vector> {
         }
         _ => None,
     }
-}
-
-pub(super) fn unit_label(model: &Model) -> &'static str {
-    common_unit(model.setup.axes.iter().map(|(_, p)| p)).map_or("units", |u| u.symbol())
 }
 
 fn one_decimal(v: f64) -> String {
