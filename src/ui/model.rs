@@ -102,6 +102,20 @@ impl Popup {
     }
 }
 
+/// The jog screen's context from a model's fields: a macro, not a method,
+/// so that [`Model::jog_parts`] can borrow the keypad mutably beside it.
+macro_rules! jog_context {
+    ($model:expr) => {
+        jog::Context {
+            setup: &$model.setup,
+            link: &$model.link,
+            machine: &$model.machine,
+            positions: &$model.positions,
+            now: $model.now,
+        }
+    };
+}
+
 /// The editor's context from a model's fields: a macro, not a method, so
 /// that [`Model::editor_parts`] can borrow the editor mutably beside it.
 macro_rules! editor_context {
@@ -284,28 +298,13 @@ impl Model {
 
     /// The jog screen's context (`ui::jog::Context`), read-only.
     pub fn jog_context(&self) -> jog::Context<'_> {
-        jog::Context {
-            setup: &self.setup,
-            link: &self.link,
-            machine: &self.machine,
-            positions: &self.positions,
-            now: self.now,
-        }
+        jog_context!(self)
     }
 
     /// The jog screen's state and its context, borrowed side by side for
     /// `Keypad::update`.
     pub fn jog_parts(&mut self) -> (&mut Keypad, jog::Context<'_>) {
-        (
-            &mut self.keypad,
-            jog::Context {
-                setup: &self.setup,
-                link: &self.link,
-                machine: &self.machine,
-                positions: &self.positions,
-                now: self.now,
-            },
-        )
+        (&mut self.keypad, jog_context!(self))
     }
 
     /// The jog step in units: typed, else the preset selected.

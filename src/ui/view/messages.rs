@@ -86,16 +86,23 @@ impl Widget for MessagesView<'_> {
                 .render(Rect::new(inner.x, inner.y, inner.width, 1), buf);
             return;
         }
-        let history: Vec<_> = model.history.iter().collect();
-        for (row, (i, text)) in all[start..end].iter().enumerate() {
-            let style = history.get(*i).map_or(p.text, |m| note_style(p, m.level));
-            let y = inner.y + row as u16;
-            if y >= inner.bottom() {
-                break;
-            }
-            Line::from(Span::styled(text.clone(), style))
-                .render(Rect::new(inner.x, y, inner.width, 1), buf);
+        draw(model, all.get(start..end).unwrap_or_default(), inner, buf);
+    }
+}
+
+/// History lines (of [`lines`]) into `inner`, one a row from the top, each
+/// in its message's level style.
+fn draw(model: &Model, rows: &[(usize, String)], inner: Rect, buf: &mut Buffer) {
+    let p = &model.palette;
+    let history: Vec<_> = model.history.iter().collect();
+    for (row, (i, text)) in rows.iter().enumerate() {
+        let style = history.get(*i).map_or(p.text, |m| note_style(p, m.level));
+        let y = inner.y + row as u16;
+        if y >= inner.bottom() {
+            break;
         }
+        Line::from(Span::styled(text.clone(), style))
+            .render(Rect::new(inner.x, y, inner.width, 1), buf);
     }
 }
 
@@ -124,16 +131,7 @@ impl Widget for LatestView<'_> {
             );
             return;
         }
-        let history: Vec<_> = model.history.iter().collect();
         let start = all.len().saturating_sub(usize::from(inner.height));
-        for (row, (i, text)) in all.iter().skip(start).enumerate() {
-            let style = history.get(*i).map_or(p.text, |m| note_style(p, m.level));
-            let y = inner.y + row as u16;
-            if y >= inner.bottom() {
-                break;
-            }
-            Line::from(Span::styled(text.clone(), style))
-                .render(Rect::new(inner.x, y, inner.width, 1), buf);
-        }
+        draw(model, all.get(start..).unwrap_or_default(), inner, buf);
     }
 }

@@ -186,16 +186,8 @@ impl Step<'_, '_> {
             from + 1,
             skipped.skipped_moves,
             if skipped.skipped_moves == 1 { "" } else { "s" },
-            if settings.is_empty() {
-                "none (the controller's own)".to_string()
-            } else {
-                settings.join(", ")
-            },
-            if outputs.is_empty() {
-                "none".to_string()
-            } else {
-                outputs.join(", ")
-            }
+            joined_or(&settings, "none (the controller's own)"),
+            joined_or(&outputs, "none"),
         );
         Ok(Prepared {
             plan: RunPlan::Isel(plan),
@@ -280,16 +272,8 @@ impl Step<'_, '_> {
             if skipped.skipped_moves == 1 { "" } else { "s" },
             go[0],
             go[1],
-            if settings.is_empty() {
-                "none (the controller's own)".to_string()
-            } else {
-                settings.join(", ")
-            },
-            if outputs.is_empty() {
-                "none".to_string()
-            } else {
-                outputs.join(", ")
-            }
+            joined_or(&settings, "none (the controller's own)"),
+            joined_or(&outputs, "none"),
         );
         Ok(Prepared {
             plan: RunPlan::Emcu(plan),
@@ -764,6 +748,16 @@ impl Step<'_, '_> {
         } else {
             c.state = RunState::Dwelling { left };
         }
+    }
+}
+
+/// `items` joined by commas, or `none` when there are none (the question
+/// before a run from a line).
+fn joined_or(items: &[String], none: &str) -> String {
+    if items.is_empty() {
+        none.to_string()
+    } else {
+        items.join(", ")
     }
 }
 
