@@ -327,9 +327,13 @@ fn an_emcu_job_run_from_a_line_goes_to_its_start_and_skips_the_lines_before() {
     assert!(question.contains("#E2,1500 (line 3)"), "{question}");
     run.type_keys(&[b"y"]);
     wait_for(&run, "CHECK-OUT READY line 2");
-    hold(&mut run, Duration::from_secs(30), |run| {
+    // Six lines, each a round trip, the move to the start some 5 s: a
+    // loaded machine may pause the hold on the way (keys read together);
+    // the hold ends as soon as the check-out is done.
+    hold(&mut run, Duration::from_secs(60), |run| {
         screen(run).contains("check-out done")
     });
+    assert!(screen(&run).contains("check-out done"), "{}", screen(&run));
     let wire = sim.received();
     assert!(!wire.contains("L1,x4000"), "line 4 was skipped: {wire}");
     assert!(
