@@ -5,7 +5,7 @@
 //! of the module) anywhere under `src/`, tests included, fails it with the
 //! file and line.
 
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet};
 use std::fs;
 use std::path::{Path, PathBuf};
 
@@ -418,4 +418,223 @@ fn an_upward_import_is_reported_with_its_line() {
             "src/proto/mod.rs:2: `proto` uses `ui`, which is not below it",
         ]
     );
+}
+
+// ----- import circles inside `src/ui` ----------------------------------------
+
+/// A file's module path under `src/` (`ui/jog/limit.rs` → `ui::jog::limit`,
+/// `ui/jog/mod.rs` → `ui::jog`).
+fn module_path(relative: &Path) -> Vec<String> {
+    let mut parts: Vec<String> = relative
+        .iter()
+        .map(|p| p.to_string_lossy().trim_end_matches(".rs").to_string())
+        .collect();
+    if parts.last().is_some_and(|p| p == "mod") {
+        parts.pop();
+    }
+    parts
+}
+
+/// The module paths a file's code names, before its tests: `crate::…`,
+/// `super::…` and `self::…` paths, `use` groups item by item, and paths
+/// through the child modules the file declares (`mod x;` then `x::Y`).
+/// `module` is the file's own module path. Paths are as far as they are
+/// written; [`resolve`] finds the file they land in.
+fn module_paths(text: &str, module: &[String]) -> Vec<(usize, Vec<String>)> {
+    let code = code_only(text);
+    // Code under a `#[cfg(test)]` is the file's tests: not an import.
+    let code = code.split("#[cfg(test)]").next().unwrap_or_default();
+    let toks = tokens(code);
+    let word = |k: usize| toks.get(k).map(|(_, t)| t.as_str());
+    let children: BTreeSet<&str> = (0..toks.len())
+        .filter(|&k| word(k) == Some("mod") && word(k + 2) == Some(";"))
+        .filter_map(|k| word(k + 1))
+        .collect();
+    let mut found = Vec::new();
+    let mut k = 0;
+    while k < toks.len() {
+        let line = toks[k].0;
+        let tok = toks[k].1.as_str();
+        let after_path = k > 0 && word(k - 1) == Some("::");
+        let base: Option<(Vec<String>, usize)> = if after_path || word(k + 1) != Some("::") {
+            None
+        } else if tok == "crate" {
+            Some((Vec::new(), k + 2))
+        } else if tok == "self" {
+            Some((module.to_vec(), k + 2))
+        } else if tok == "super" {
+            let mut base = module.to_vec();
+            let mut j = k;
+            while word(j) == Some("super") && word(j + 1) == Some("::") {
+                base.pop();
+                j += 2;
+            }
+            Some((base, j))
+        } else if children.contains(tok) {
+            let mut base = module.to_vec();
+            base.push(tok.to_string());
+            Some((base, k + 2))
+        } else {
+            None
+        };
+        let Some((mut base, mut j)) = base else {
+            k += 1;
+            continue;
+        };
+        // The rest of the path: names joined by `::`, or a group.
+        loop {
+            match word(j) {
+                Some("{") => {
+                    for item in first_segments(&toks, j) {
+                        let mut path = base.clone();
+                        path.push(item);
+                        found.push((line, path));
+                    }
+                    break;
+                }
+                Some(name) if name.chars().all(is_ident) => {
+                    base.push(name.to_string());
+                    if word(j + 1) == Some("::") {
+                        j += 2;
+                    } else {
+                        found.push((line, base));
+                        break;
+                    }
+                }
+                _ => {
+                    found.push((line, base));
+                    break;
+                }
+            }
+        }
+        k = j.max(k + 1);
+    }
+    found
+}
+
+/// The file (module path) a path lands in: its longest prefix that is one.
+fn resolve<'a>(path: &[String], files: &'a BTreeSet<Vec<String>>) -> Option<&'a Vec<String>> {
+    (1..=path.len())
+        .rev()
+        .find_map(|n| files.get(path.get(..n)?))
+}
+
+/// File → the files it uses, for every file under `src/<top>`.
+fn file_graph(src: &Path, top: &str) -> BTreeMap<Vec<String>, BTreeSet<Vec<String>>> {
+    let mut paths = Vec::new();
+    rust_files(&src.join(top), &mut paths);
+    let texts: BTreeMap<Vec<String>, String> = paths
+        .iter()
+        .map(|p| {
+            let relative = p.strip_prefix(src).unwrap_or(p);
+            let text = fs::read_to_string(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+            (module_path(relative), text)
+        })
+        .collect();
+    let files: BTreeSet<Vec<String>> = texts.keys().cloned().collect();
+    texts
+        .iter()
+        .map(|(module, text)| {
+            let uses = module_paths(text, module)
+                .iter()
+                .filter_map(|(_, path)| resolve(path, &files))
+                .filter(|to| *to != module)
+                .cloned()
+                .collect();
+            (module.clone(), uses)
+        })
+        .collect()
+}
+
+/// The import circles of `graph`: every set of two or more files each of
+/// which reaches the others (strongly connected components), sorted.
+fn circles(graph: &BTreeMap<Vec<String>, BTreeSet<Vec<String>>>) -> Vec<Vec<String>> {
+    let reach = |from: &Vec<String>| -> BTreeSet<Vec<String>> {
+        let mut seen = BTreeSet::new();
+        let mut todo: Vec<&Vec<String>> = graph.get(from).into_iter().flatten().collect();
+        while let Some(n) = todo.pop() {
+            if seen.insert(n.clone()) {
+                todo.extend(graph.get(n).into_iter().flatten());
+            }
+        }
+        seen
+    };
+    let reaches: BTreeMap<&Vec<String>, BTreeSet<Vec<String>>> =
+        graph.keys().map(|n| (n, reach(n))).collect();
+    let mut placed = BTreeSet::new();
+    let mut out = Vec::new();
+    for (n, r) in &reaches {
+        if placed.contains(*n) || !r.contains(*n) {
+            continue;
+        }
+        let ring: Vec<String> = r
+            .iter()
+            .filter(|m| reaches.get(m).is_some_and(|back| back.contains(*n)))
+            .map(|m| {
+                placed.insert(m.clone());
+                m.join("::")
+            })
+            .collect();
+        out.push(ring);
+    }
+    out
+}
+
+#[test]
+fn the_files_of_ui_import_each_other_in_no_circle() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let graph = file_graph(&src, "ui");
+    assert!(graph.len() > 40, "src/ui was not read: {}", graph.len());
+    let found = circles(&graph);
+    assert!(
+        found.is_empty(),
+        "files of src/ui that import each other in a circle (docs/architecture.md, \
+         \"Inside the UI\"):\n{}",
+        found
+            .iter()
+            .map(|c| c.join(" ⇄ "))
+            .collect::<Vec<_>>()
+            .join("\n")
+    );
+}
+
+#[test]
+fn ui_paths_are_resolved_to_files_and_a_circle_is_named() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let ui = dir.path().join("ui");
+    fs::create_dir_all(ui.join("jog")).expect("mkdir");
+    let write = |p: &str, t: &str| fs::write(ui.join(p), t).expect("write");
+    write("mod.rs", "pub mod jog;\npub mod model;\npub mod update;\n");
+    write("model.rs", "use super::jog::Keypad;\n");
+    write(
+        "jog/mod.rs",
+        "pub mod limit;\npub struct Keypad(limit::State);\n",
+    );
+    write(
+        "jog/limit.rs",
+        "// use crate::ui::update::say;\npub struct State;\n#[cfg(test)]\nmod tests { use crate::ui::update; }\n",
+    );
+    write(
+        "update.rs",
+        "use crate::ui::{model::Model, jog::{self, limit::State}};\n",
+    );
+    let graph = file_graph(dir.path(), "ui");
+    let uses = |m: &str| -> Vec<String> {
+        let key: Vec<String> = m.split("::").map(str::to_string).collect();
+        graph
+            .get(&key)
+            .into_iter()
+            .flatten()
+            .map(|v| v.join("::"))
+            .collect()
+    };
+    assert_eq!(uses("ui::model"), ["ui::jog"]);
+    assert_eq!(uses("ui::jog"), ["ui::jog::limit"]);
+    assert!(uses("ui::jog::limit").is_empty(), "comments and tests");
+    assert_eq!(uses("ui::update"), ["ui::jog", "ui::model"]);
+    assert!(circles(&graph).is_empty());
+    // limit calls back up: model → jog → limit → model.
+    write("jog/limit.rs", "pub struct State(crate::ui::model::M);\n");
+    let found = circles(&file_graph(dir.path(), "ui"));
+    assert_eq!(found, [vec!["ui::jog", "ui::jog::limit", "ui::model"]]);
 }

@@ -293,7 +293,7 @@ async fn session(
     // Work offsets: the state directory's file for this profile and port,
     // applied only if it is this machine's (`docs/jogging.md`).
     let file = OffsetsFile::from_env(Identity::of(&profile_key, &profile));
-    crate::ui::jog::offsets::start(&mut model, file.map(|f| (f.load(), f)));
+    crate::ui::update::start_offsets(&mut model, file.map(|f| (f.load(), f)));
     let device = Device {
         handle: handle.clone(),
         events,

@@ -9,11 +9,13 @@
 //! design and its measurements.
 
 pub mod gate;
+pub mod held;
 pub mod pad;
 pub mod settings;
 pub mod vector;
 
 pub use gate::{Gate, Motion};
+pub use held::{Arrival, HeldKey};
 pub use pad::{ActiveJog, JogKind, Jogger, KeyPhase, LastOutcome, Selection};
 pub use settings::{JogAxis, JogSettings};
 pub use vector::Vector;

@@ -10,10 +10,24 @@
 //! stops it with `@B`, which drops it, manual 1.5.11): the next hold sends
 //! what is left of it from where the axes stand ([`EmcuPlan::rest_of_move`]),
 //! which ends exactly where the line would have.
+//!
+//! Run from a line ([`EmcuPlan::skip_to`]): the job is walked from its top
+//! to the line without moving; the counters the skipped moves would have
+//! left, the settings in force there (`#E` per slot, `#S`, `#R`, `&V0`) and
+//! the outputs the skipped lines switch come back, and the check-out sends
+//! an absolute move to that position ([`go_to`]) and the settings before
+//! the line.
 
 use std::time::Duration;
 
-use crate::proto::emcu::{Command, Move, MoveMode, values::Speed, values::Steps};
+use crate::axis::AxisSet;
+use crate::proto::emcu::{
+    Command, EmcuAxis, Move, MoveMode, values::Slot, values::Speed, values::Steps,
+};
+
+/// A job command, as the editor keeps it (the editor imports no protocol
+/// module, `docs/architecture.md`).
+pub use crate::proto::emcu::Command as JobCommand;
 
 use super::checkout::Unexpressible;
 use super::model::{Command as ProgramCommand, Program};
@@ -74,20 +88,7 @@ impl EmcuPlan {
         let Some(command) = self.commands.get(self.pc).copied().flatten() else {
             return Some(EmcuStep::Nothing);
         };
-        let send = |command: Command| EmcuStep::Send {
-            line: format!("{command}{RUN}"),
-            moves: command.may_move(),
-        };
-        Some(match command {
-            _ if command.is_master() => EmcuStep::Nothing,
-            Command::Wait(ms) => EmcuStep::Dwell(Duration::from_millis(u64::from(ms.get()))),
-            Command::EndSpeed { slot, speed: hz } => {
-                let wire = speed(u32::from(hz.get()));
-                let wire = Speed::new(u16::try_from(wire).unwrap_or(Speed::MAX)).unwrap_or(hz);
-                send(Command::EndSpeed { slot, speed: wire })
-            }
-            other => send(other),
-        })
+        Some(step_of(command, speed))
     }
 
     /// Whether the current line is a move.
@@ -130,6 +131,131 @@ impl EmcuPlan {
         };
         Some(format!("{}{RUN}", Command::Move(rest)))
     }
+}
+
+/// `command` as a check-out line: slot speeds through `speed` (Hz the job
+/// asks → Hz on the wire), ended by 0x01.
+pub fn step_of(command: Command, speed: &dyn Fn(u32) -> u32) -> EmcuStep {
+    let send = |command: Command| EmcuStep::Send {
+        line: format!("{command}{RUN}"),
+        moves: command.may_move(),
+    };
+    match command {
+        _ if command.is_master() => EmcuStep::Nothing,
+        Command::Wait(ms) => EmcuStep::Dwell(Duration::from_millis(u64::from(ms.get()))),
+        Command::EndSpeed { slot, speed: hz } => {
+            let wire = speed(u32::from(hz.get()));
+            let wire = Speed::new(u16::try_from(wire).unwrap_or(Speed::MAX)).unwrap_or(hz);
+            send(Command::EndSpeed { slot, speed: wire })
+        }
+        other => send(other),
+    }
+}
+
+/// What skipping to a line of a job implies: where the counters would
+/// stand, the settings in force there and the outputs the skipped lines
+/// switch, each with its source line.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EmcuSkipped {
+    pub position: [i64; 4],
+    /// `#E` of each slot, `#S`, `#R`, `&V`: the last of each kind.
+    pub settings: Vec<(Command, usize)>,
+    /// `A` lines: named to the operator, not sent (they switch things).
+    pub outputs: Vec<(Command, usize)>,
+    pub skipped_moves: usize,
+}
+
+impl EmcuPlan {
+    /// Walk from the top to source line `line` without moving, the counters
+    /// starting at `position` (a job runs top to bottom: the line is
+    /// reached once). Errors name why the line cannot be started from.
+    pub fn skip_to(&mut self, line: usize, position: [i64; 4]) -> Result<EmcuSkipped, String> {
+        let Some(target) = self.lines.iter().position(|l| *l == line) else {
+            return Err(format!("line {} is no command of the job", line + 1));
+        };
+        let mut s = EmcuSkipped {
+            position,
+            settings: Vec::new(),
+            outputs: Vec::new(),
+            skipped_moves: 0,
+        };
+        for (command, at) in self
+            .commands
+            .iter()
+            .zip(&self.lines)
+            .take(target)
+            .filter_map(|(c, l)| c.map(|c| (c, *l)))
+        {
+            match command {
+                _ if command.is_master() => {}
+                Command::Move(mv) => {
+                    for (axis, steps) in mv.targets() {
+                        if let Some(v) = s.position.get_mut(axis.index()) {
+                            let steps = i64::from(steps.get());
+                            *v = match mv.mode() {
+                                MoveMode::Absolute => steps,
+                                MoveMode::Relative => *v + steps,
+                            };
+                        }
+                    }
+                    s.skipped_moves += 1;
+                }
+                Command::Reference(order) => {
+                    // The reference point is counter 0 (manual 1.5.9).
+                    for axis in order.axes() {
+                        if let Some(v) = s.position.get_mut(axis.index()) {
+                            *v = 0;
+                        }
+                    }
+                    s.skipped_moves += 1;
+                }
+                Command::SetOutput { .. } => s.outputs.push((command, at)),
+                Command::Wait(_) => {}
+                _ => {
+                    // The last setting of each kind (and slot) counts.
+                    let same = |c: &Command| match (c, &command) {
+                        (Command::EndSpeed { slot: a, .. }, Command::EndSpeed { slot: b, .. }) => {
+                            a == b
+                        }
+                        (c, command) => {
+                            std::mem::discriminant(c) == std::mem::discriminant(command)
+                        }
+                    };
+                    s.settings.retain(|(c, _)| !same(c));
+                    s.settings.push((command, at));
+                }
+            }
+        }
+        self.pc = target;
+        Ok(s)
+    }
+}
+
+/// The slot [`go_to`] moves in: its end speed is sent just before, and the
+/// job's own `#E` of it (if any) after, with the other settings in force.
+pub const GO_TO_SLOT: Slot = Slot::FIRST;
+
+/// The lines that take the axes of `axes` (X, Y, Z) to the counters
+/// `target` at `hz`: the end speed of [`GO_TO_SLOT`], then an absolute
+/// move in it. `None` when a target is beyond the `L` command's range.
+pub fn go_to(axes: AxisSet, target: [i64; 4], hz: u32) -> Option<[Command; 2]> {
+    let targets = EmcuAxis::ALL
+        .into_iter()
+        .filter(|a| axes.contains(a.axis()))
+        .map(|a| {
+            let v = i32::try_from(*target.get(a.index())?).ok()?;
+            Some((a, Steps::new(v).ok()?))
+        })
+        .collect::<Option<Vec<_>>>()?;
+    let mv = Move::new(GO_TO_SLOT, MoveMode::Absolute, &targets).ok()?;
+    let speed = Speed::new(u16::try_from(hz).unwrap_or(Speed::MAX).max(1)).ok()?;
+    Some([
+        Command::EndSpeed {
+            slot: GO_TO_SLOT,
+            speed,
+        },
+        Command::Move(mv),
+    ])
 }
 
 /// The job's lines the check-out cannot run as the job would: a move in a
@@ -231,6 +357,71 @@ mod tests {
             p.rest_of_move([0; 4], [5, 0, 0, 0]).as_deref(),
             Some("L1,X10\u{1}")
         );
+    }
+
+    #[test]
+    fn skipping_to_a_job_line_gives_the_counters_settings_and_outputs_it_implies() {
+        let text = "#S300\n#E1,1000\n#E2,500\nL1,x4000\nA1,1\n#E1,800\nL2,Y-200\nW500\n\
+                    #R200\nL1,x100,z30\nL2,X0\n";
+        let mut p = EmcuPlan::new(&job(text));
+        let s = p.skip_to(9, [10, 20, 30, 0]).unwrap();
+        assert_eq!(
+            s.position,
+            [4010, -200, 30, 0],
+            "relative adds, absolute sets"
+        );
+        assert_eq!(s.skipped_moves, 2);
+        let settings: Vec<String> = s
+            .settings
+            .iter()
+            .map(|(c, l)| format!("{c}@{}", l + 1))
+            .collect();
+        assert_eq!(
+            settings,
+            ["#S300@1", "#E2,500@3", "#E1,800@6", "#R200@9"],
+            "the last of each kind, per slot"
+        );
+        let outputs: Vec<String> = s.outputs.iter().map(|(c, _)| c.to_string()).collect();
+        assert_eq!(outputs, ["A1,1"]);
+        assert_eq!(p.line(), Some(9));
+        let mut rest = Vec::new();
+        while let Some(step) = p.step(&|hz| hz) {
+            rest.push(step);
+            p.advance();
+        }
+        assert_eq!(
+            rest,
+            [
+                EmcuStep::Send {
+                    line: "L1,x100,z30\u{1}".into(),
+                    moves: true
+                },
+                EmcuStep::Send {
+                    line: "L2,X0\u{1}".into(),
+                    moves: true
+                },
+            ]
+        );
+        // A reference run before the line puts its axes at counter 0.
+        let mut p = EmcuPlan::new(&job("$HZX\n#E1,900\nL1,y5\nL1,x1\n"));
+        let s = p.skip_to(3, [7, 7, 7, 0]).unwrap();
+        assert_eq!(s.position, [0, 12, 0, 0]);
+        assert_eq!(s.skipped_moves, 2);
+        // A comment or a line past the end is no command to start from.
+        let mut p = EmcuPlan::new(&job("; c\n#E1,900\nL1,y5\n"));
+        assert!(p.skip_to(0, [0; 4]).unwrap_err().contains("line 1"));
+        assert!(p.skip_to(7, [0; 4]).is_err());
+    }
+
+    #[test]
+    fn the_go_to_sets_its_slot_speed_then_moves_absolute_on_the_machines_axes() {
+        let xz = AxisSet::EMPTY
+            .with(crate::axis::Axis::X)
+            .with(crate::axis::Axis::Z);
+        let [speed, mv] = go_to(xz, [4000, 99, -30, 0], 1200).unwrap();
+        assert_eq!(speed.to_string(), "#E1,1200");
+        assert_eq!(mv.to_string(), "L1,X4000,Z-30");
+        assert!(go_to(xz, [5_000_000, 0, 0, 0], 1200).is_none());
     }
 
     #[test]

@@ -4,15 +4,49 @@
 //! on the command line (no motion while the state is unknown, an E-stop, a
 //! fault). A refusal, a controller error, a lost link or a stop (Space) ends
 //! the macro there; the lines after it are not sent.
+//!
+//! The state is the run (`Model::macro_run`); what a macro reads of the
+//! rest of the console comes in a [`Context`], and what it asks for goes
+//! back as effects, notes and a question ([`Outcome`]), which `ui::update`
+//! applies: the model is not imported here.
 
 use crate::config::macros::Macro;
-use crate::device::api::{Activity, Event, LinkState, ReplyKind, Request};
+use crate::device::api::{Activity, Event, LinkState, MachineState, ReplyKind, Request};
 use crate::device::describe::describe;
 
-use super::model::{Confirmation, Model, Popup};
+use super::confirm::Confirmation;
 use super::msg::Effect;
-use super::raw;
+use super::raw::{self, RawContext};
 use super::traffic_log::NoteLevel;
+
+/// What a macro reads of the console, built per call.
+#[derive(Debug, Clone, Copy)]
+pub struct Context<'a> {
+    /// The profile's macros.
+    pub macros: &'a [Macro],
+    pub machine: &'a MachineState,
+    /// What the command line checks a line against.
+    pub raw: RawContext,
+}
+
+/// What the console is to do: effects in order, notes for the message
+/// line, a question to ask first (the `Confirm` popup).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Outcome {
+    pub effects: Vec<Effect>,
+    pub notes: Vec<(NoteLevel, String)>,
+    pub confirm: Option<Confirmation>,
+}
+
+impl Outcome {
+    fn of((effects, notes): (Vec<Effect>, Vec<(NoteLevel, String)>)) -> Outcome {
+        Outcome {
+            effects,
+            notes,
+            confirm: None,
+        }
+    }
+}
 
 /// A macro being run.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -48,15 +82,15 @@ pub const CONFIRM_TITLE: &str = "Run macro";
 
 /// A macro's key was pressed: ask first when the profile says so (every
 /// macro that may move, unless `confirm = false`), else run it.
-pub fn key(model: &mut Model, name: &str) -> (Vec<Effect>, Vec<(NoteLevel, String)>) {
-    let Some(m) = find(model, name) else {
-        return not_found(name);
+pub fn key(run: &mut Option<MacroRun>, ctx: &Context, name: &str) -> Outcome {
+    let Some(m) = find(ctx, name) else {
+        return Outcome::of(not_found(name));
     };
-    if let Some(refused) = refusal(model, &m) {
-        return (Vec::new(), vec![(NoteLevel::Warning, refused)]);
+    if let Some(refused) = refusal(run, ctx, &m) {
+        return Outcome::of((Vec::new(), vec![(NoteLevel::Warning, refused)]));
     }
     if !m.confirm {
-        return start(model, name);
+        return Outcome::of(start(run, ctx, name));
     }
     let what = m.description.clone().unwrap_or_else(|| m.lines.join("  "));
     let moves = if m.moves {
@@ -64,16 +98,18 @@ pub fn key(model: &mut Model, name: &str) -> (Vec<Effect>, Vec<(NoteLevel, Strin
     } else {
         ""
     };
-    model.popup = Some(Popup::Confirm(Confirmation {
-        title: format!("{CONFIRM_TITLE} {}", m.name),
-        question: format!(
-            "{what}.{moves} Send its {} lines? Space stops it.",
-            m.lines.len()
-        ),
-        effects: Vec::new(),
-        run_macro: Some(m.name.clone()),
-    }));
-    (Vec::new(), Vec::new())
+    Outcome {
+        confirm: Some(Confirmation {
+            title: format!("{CONFIRM_TITLE} {}", m.name),
+            question: format!(
+                "{what}.{moves} Send its {} lines? Space stops it.",
+                m.lines.len()
+            ),
+            effects: Vec::new(),
+            run_macro: Some(m.name.clone()),
+        }),
+        ..Outcome::default()
+    }
 }
 
 fn not_found(name: &str) -> (Vec<Effect>, Vec<(NoteLevel, String)>) {
@@ -86,30 +122,29 @@ fn not_found(name: &str) -> (Vec<Effect>, Vec<(NoteLevel, String)>) {
     )
 }
 
-fn find(model: &Model, name: &str) -> Option<Macro> {
-    model.setup.macros.iter().find(|m| m.name == name).cloned()
+fn find(ctx: &Context, name: &str) -> Option<Macro> {
+    ctx.macros.iter().find(|m| m.name == name).cloned()
 }
 
 /// Why the macro cannot start now: one already runs, the machine is busy,
 /// or a line does not pass the command line's check for the controller as
 /// it is initialised now.
-fn refusal(model: &Model, m: &Macro) -> Option<String> {
-    if let Some(run) = &model.macro_run {
+fn refusal(run: &Option<MacroRun>, ctx: &Context, m: &Macro) -> Option<String> {
+    if let Some(run) = run {
         return Some(format!(
             "macro {} not started: {} is running (Space stops it)",
             m.name,
             run.place()
         ));
     }
-    if model.machine.activity != Activity::Idle {
+    if ctx.machine.activity != Activity::Idle {
         return Some(format!(
             "macro {} not started: the machine is busy ({:?}); stop it first",
-            m.name, model.machine.activity
+            m.name, ctx.machine.activity
         ));
     }
-    let ctx = model.raw_context();
     m.lines.iter().enumerate().find_map(|(i, line)| {
-        raw::validate(&ctx, line).err().map(|e| {
+        raw::validate(&ctx.raw, line).err().map(|e| {
             format!(
                 "macro {} not started: line {} `{line}`: {}",
                 m.name,
@@ -121,32 +156,43 @@ fn refusal(model: &Model, m: &Macro) -> Option<String> {
 }
 
 /// Start the macro `name`: its first line goes to the device task.
-pub fn start(model: &mut Model, name: &str) -> (Vec<Effect>, Vec<(NoteLevel, String)>) {
-    let Some(m) = find(model, name) else {
+pub fn start(
+    run: &mut Option<MacroRun>,
+    ctx: &Context,
+    name: &str,
+) -> (Vec<Effect>, Vec<(NoteLevel, String)>) {
+    let Some(m) = find(ctx, name) else {
         return not_found(name);
     };
-    if let Some(refused) = refusal(model, &m) {
+    if let Some(refused) = refusal(run, ctx, &m) {
         return (Vec::new(), vec![(NoteLevel::Warning, refused)]);
     }
-    let run = MacroRun {
+    let started = MacroRun {
         name: m.name,
         lines: m.lines,
         current: 0,
         answered: false,
     };
-    let note = (NoteLevel::Info, format!("{}: {}", run.place(), run.line()));
+    let note = (
+        NoteLevel::Info,
+        format!("{}: {}", started.place(), started.line()),
+    );
     let effect = Effect::Request(Request::Raw {
-        line: run.line().to_string(),
+        line: started.line().to_string(),
     });
-    model.macro_run = Some(run);
+    *run = Some(started);
     (vec![effect], vec![note])
 }
 
 /// A device event while a macro runs: the answer to its line sends the
 /// next (once the machine stands); a refusal, an error or a lost link ends
 /// it.
-pub fn device_event(model: &mut Model, event: &Event) -> (Vec<Effect>, Vec<(NoteLevel, String)>) {
-    let Some(run) = model.macro_run.as_mut() else {
+pub fn device_event(
+    slot: &mut Option<MacroRun>,
+    machine: &MachineState,
+    event: &Event,
+) -> (Vec<Effect>, Vec<(NoteLevel, String)>) {
+    let Some(run) = slot.as_mut() else {
         return (Vec::new(), Vec::new());
     };
     let sent = describe(&Request::Raw {
@@ -167,7 +213,7 @@ pub fn device_event(model: &mut Model, event: &Event) -> (Vec<Effect>, Vec<(Note
             ..
         } if !run.answered => {
             run.answered = true;
-            model.machine.activity == Activity::Idle
+            machine.activity == Activity::Idle
         }
         Event::State(state) => run.answered && state.activity == Activity::Idle,
         _ => false,
@@ -181,14 +227,14 @@ pub fn device_event(model: &mut Model, event: &Event) -> (Vec<Effect>, Vec<(Note
             (vec![Effect::Request(Request::Raw { line })], vec![note])
         } else {
             let done = format!("macro {} done ({} lines)", run.name, run.lines.len());
-            model.macro_run = None;
+            *slot = None;
             (Vec::new(), vec![(NoteLevel::Info, done)])
         };
     }
     match event {
         Event::Refused { request, reason } if *request == sent => {
             let note = ended(run, format!("refused: {reason}"));
-            model.macro_run = None;
+            *slot = None;
             (Vec::new(), vec![note])
         }
         Event::Fault(fault) => {
@@ -199,12 +245,12 @@ pub fn device_event(model: &mut Model, event: &Event) -> (Vec<Effect>, Vec<(Note
                     fault.code, fault.meaning
                 ),
             );
-            model.macro_run = None;
+            *slot = None;
             (Vec::new(), vec![note])
         }
         Event::Link(LinkState::Lost { reason }) => {
             let note = ended(run, format!("link lost: {reason}"));
-            model.macro_run = None;
+            *slot = None;
             (Vec::new(), vec![note])
         }
         _ => (Vec::new(), Vec::new()),
@@ -212,8 +258,8 @@ pub fn device_event(model: &mut Model, event: &Event) -> (Vec<Effect>, Vec<(Note
 }
 
 /// Everything was stopped: the macro sends nothing more.
-pub fn stopped(model: &mut Model) -> Option<(NoteLevel, String)> {
-    let run = model.macro_run.take()?;
+pub fn stopped(run: &mut Option<MacroRun>) -> Option<(NoteLevel, String)> {
+    let run = run.take()?;
     let left = run.lines.len() - run.current - 1;
     Some((
         NoteLevel::Warning,

@@ -1,11 +1,37 @@
 //! The message history: every message the message line showed, kept whole
 //! (the line cuts a long one to its width, and a newer one replaces it), so
 //! the operator can read them again with scrollback (`M`, `docs/ui.md`,
-//! "Message history").
+//! "Message history"), and the helpers that make a message: [`Message`],
+//! [`fault_text`]. Below the model, so that what the model holds can use them.
 
 use std::collections::VecDeque;
+use std::time::Instant;
 
-use super::model::Message;
+use crate::device::api::ControllerFault;
+
+use super::traffic_log::NoteLevel;
+
+/// One line for the operator: a refusal and its reason, a fault, a notice.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Message {
+    pub at: Instant,
+    pub level: NoteLevel,
+    pub text: String,
+}
+
+/// A controller's error for the operator: what it means and what to do
+/// first (the message line may cut the rest), then the answer and command.
+pub fn fault_text(f: &ControllerFault) -> String {
+    // Meanings are sentences (isel chapter 5's end with a full stop); the
+    // instruction follows a colon.
+    let meaning = f.meaning.trim_end().trim_end_matches('.');
+    format!(
+        "{meaning}: {} (answer {} to {})",
+        f.recovery.instruction(),
+        f.code,
+        f.command
+    )
+}
 
 /// Messages kept; older ones are dropped (the traffic console and `--log`
 /// keep the notes too).

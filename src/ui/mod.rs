@@ -18,6 +18,7 @@
 //! panic), [`input`] reads keys on its own thread, [`runtime`] runs the loop
 //! that feeds `update` and carries out its effects.
 
+pub mod confirm;
 pub mod editor;
 pub mod help;
 pub mod input;
@@ -34,6 +35,7 @@ pub mod palette;
 pub mod position;
 pub mod raw;
 pub mod runtime;
+pub mod setup;
 pub mod sim_panel;
 pub mod summary;
 pub mod terminal;

@@ -2,106 +2,34 @@
 //! reported, what the operator selected and typed, what is open and focused.
 //! `update` is the only thing that changes it; the view only reads it.
 
-use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use crate::axis::{Axis, AxisSet};
-use crate::config::Profile;
-use crate::config::macros::Macro;
-use crate::config::profile::AxisProfile;
-use crate::device::api::{InputChannel, LinkState, MachineState, PollStats, UploadEvent};
-use crate::jog::JogSettings;
-use crate::proto::Protocol;
-use crate::wire::LineSettings;
+use crate::device::api::{LinkState, MachineState, PollStats, UploadEvent};
 
+pub use super::confirm::Confirmation;
 use super::editor::dialog::Dialog;
 use super::editor::{self, Editor};
 use super::io::IoPanel;
-use super::jog::Keypad;
 use super::jog::axes::AxisChoice;
 use super::jog::goto::GoToPrompt;
-use super::jog::offsets::OffsetsState;
 use super::jog::popups::JogPopup;
+use super::jog::{self, Keypad};
 use super::keymap::{Keymap, Mode};
 use super::line_edit::LineEdit;
 use super::macros::MacroRun;
+pub use super::messages::Message;
 use super::messages::MessageHistory;
-use super::msg::Effect;
 use super::palette::Palette;
 use super::position::Positions;
 use super::raw::RawContext;
+pub use super::setup::{JogSelection, Setup};
 use super::sim_panel::SimPanel;
 use super::timeline::Timeline;
-use super::traffic_log::{NoteLevel, TrafficLog};
+use super::traffic_log::TrafficLog;
 
 /// How long a message stays in the message line before the machine's own
 /// state (and its recovery) takes the line back.
 pub const MESSAGE_FRESH: Duration = Duration::from_secs(10);
-
-/// What the session is connected to; fixed for its lifetime.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Setup {
-    pub protocol: Protocol,
-    /// `sim` for the built-in simulator, else the device path.
-    pub port: String,
-    pub line: LineSettings,
-    /// The machine's axes in X, Y, Z, A order.
-    pub axes: Vec<(Axis, AxisProfile)>,
-    /// Jog step distances and speeds in units (and units per second).
-    pub jog_steps: Vec<f64>,
-    pub jog_speeds: Vec<f64>,
-    /// The step and speed selected at start.
-    pub jog_start: JogSelection,
-    pub isel_device: u8,
-    /// The built-in simulator's inputs with their levels at start (`None`
-    /// where the simulator does not say), when the session runs on one.
-    pub simulator_inputs: Option<Vec<(String, Option<bool>)>>,
-    /// Everything jogging needs from the profile (`crate::jog`).
-    pub jog: JogSettings,
-    /// The profile's macros, their lines checked (`config::macros`).
-    pub macros: Vec<Macro>,
-    /// The controller's inputs as the profile names them
-    /// (`device::inputs::channels`).
-    pub inputs: Vec<Arc<InputChannel>>,
-}
-
-impl Setup {
-    pub fn from_profile(
-        profile: &Profile,
-        simulator_inputs: Option<Vec<(String, Option<bool>)>>,
-    ) -> Self {
-        Setup {
-            protocol: profile.connection.protocol,
-            port: profile.connection.port.clone(),
-            line: profile.connection.line(),
-            axes: profile.axes.iter().map(|(a, p)| (*a, p.clone())).collect(),
-            jog_steps: profile.jog.steps.clone(),
-            jog_speeds: profile.jog.speeds.clone(),
-            jog_start: JogSelection {
-                step: profile.jog.step,
-                speed: profile.jog.speed,
-            },
-            isel_device: profile.isel.device,
-            simulator_inputs,
-            jog: JogSettings::from_profile(profile),
-            // Refused at load when broken: a profile here has passed.
-            macros: profile.macros().unwrap_or_default(),
-            inputs: crate::device::inputs::channels::shared(profile),
-        }
-    }
-
-    pub fn axis_set(&self) -> AxisSet {
-        self.axes.iter().map(|(a, _)| *a).collect()
-    }
-
-    pub fn axis(&self, axis: Axis) -> Option<&AxisProfile> {
-        self.axes.iter().find(|(a, _)| *a == axis).map(|(_, p)| p)
-    }
-
-    pub fn is_simulator(&self) -> bool {
-        self.port == crate::config::profile::Connection::SIMULATOR
-    }
-}
 
 /// The panels that can have focus.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -131,17 +59,6 @@ impl PanelId {
             PanelId::Timeline => Mode::Timeline,
         }
     }
-}
-
-/// A question that must be answered before its effects are carried out.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Confirmation {
-    pub title: String,
-    pub question: String,
-    pub effects: Vec<Effect>,
-    /// The profile's macro to run once confirmed (`ui::macros`), after
-    /// `effects`.
-    pub run_macro: Option<String>,
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -185,19 +102,18 @@ impl Popup {
     }
 }
 
-/// One line for the operator: a refusal and its reason, a fault, a notice.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Message {
-    pub at: Instant,
-    pub level: NoteLevel,
-    pub text: String,
-}
-
-/// The jog step and speed selected (indices into the profile's lists).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct JogSelection {
-    pub step: usize,
-    pub speed: usize,
+/// The jog screen's context from a model's fields: a macro, not a method,
+/// so that [`Model::jog_parts`] can borrow the keypad mutably beside it.
+macro_rules! jog_context {
+    ($model:expr) => {
+        jog::Context {
+            setup: &$model.setup,
+            link: &$model.link,
+            machine: &$model.machine,
+            positions: &$model.positions,
+            now: $model.now,
+        }
+    };
 }
 
 /// The editor's context from a model's fields: a macro, not a method, so
@@ -235,12 +151,9 @@ pub struct Model {
     pub stats: Option<PollStats>,
     pub message: Option<Message>,
     pub upload: Option<UploadEvent>,
-    pub jog: JogSelection,
-    /// The jog keypad: jogging state, homing progress.
+    /// The jog screen's state (`ui::jog`): the keypad's jogging, homing
+    /// progress, the step and speed selected and typed, the work offsets.
     pub keypad: Keypad,
-    /// Work offsets G54-G59 (`ui::jog::offsets`): the position panel,
-    /// go-to and the work zero count from the active one.
-    pub offsets: OffsetsState,
     pub focus: PanelId,
     pub popup: Option<Popup>,
     /// The program being edited (`docs/editor.md`).
@@ -268,6 +181,9 @@ pub struct Model {
     pub quitting: bool,
     /// The profile's macro being run, line by line (`ui::macros`).
     pub macro_run: Option<MacroRun>,
+    /// The macro key last pressed, to tell its auto-repeats (presses on
+    /// terminals without release events) from a new press.
+    pub macro_key: crate::jog::HeldKey<super::key::KeyChord>,
     /// Every message of the session, newest last (`M` shows them whole).
     pub history: MessageHistory,
     /// The machine screen shows the large position display (`D`).
@@ -280,16 +196,6 @@ impl Model {
             .simulator_inputs
             .as_ref()
             .map(|inputs| SimPanel::new(inputs));
-        let jog = JogSelection {
-            step: setup
-                .jog_start
-                .step
-                .min(setup.jog_steps.len().saturating_sub(1)),
-            speed: setup
-                .jog_start
-                .speed
-                .min(setup.jog_speeds.len().saturating_sub(1)),
-        };
         Model {
             editor: Editor::new(&setup, now),
             timeline: Timeline::new(&setup.inputs),
@@ -299,8 +205,7 @@ impl Model {
             last_key_at: None,
             motion_asked: None,
             traffic: TrafficLog::new(),
-            keypad: Keypad::new(setup.jog.clone()),
-            offsets: OffsetsState::default(),
+            keypad: Keypad::new(&setup),
             setup,
             keymap,
             palette,
@@ -314,13 +219,13 @@ impl Model {
             stats: None,
             message: None,
             upload: None,
-            jog,
             focus: PanelId::Jog,
             popup: None,
             size: (80, 24),
             dirty: true,
             quitting: false,
             macro_run: None,
+            macro_key: crate::jog::HeldKey::default(),
             history: MessageHistory::default(),
             large_dro: false,
         }
@@ -378,26 +283,38 @@ impl Model {
             .filter(|m| self.now.saturating_duration_since(m.at) < MESSAGE_FRESH)
     }
 
+    /// The macros' state and context (`ui::macros`), borrowed side by side.
+    pub fn macro_parts(&mut self) -> (&mut Option<MacroRun>, super::macros::Context<'_>) {
+        let raw = self.raw_context();
+        (
+            &mut self.macro_run,
+            super::macros::Context {
+                macros: &self.setup.macros,
+                machine: &self.machine,
+                raw,
+            },
+        )
+    }
+
+    /// The jog screen's context (`ui::jog::Context`), read-only.
+    pub fn jog_context(&self) -> jog::Context<'_> {
+        jog_context!(self)
+    }
+
+    /// The jog screen's state and its context, borrowed side by side for
+    /// `Keypad::update`.
+    pub fn jog_parts(&mut self) -> (&mut Keypad, jog::Context<'_>) {
+        (&mut self.keypad, jog_context!(self))
+    }
+
     /// The jog step in units: typed, else the preset selected.
     pub fn jog_step(&self) -> Option<f64> {
-        self.keypad
-            .values
-            .step
-            .or_else(|| self.setup.jog_steps.get(self.jog.step).copied())
+        self.keypad.step(&self.setup)
     }
 
     /// The jog speed in units per second: typed, else the preset selected,
     /// with the speed override (at most the fastest axis' top speed).
     pub fn jog_speed(&self) -> Option<f64> {
-        let base = self
-            .keypad
-            .values
-            .speed
-            .or_else(|| self.setup.jog_speeds.get(self.jog.speed).copied())?;
-        Some(
-            self.keypad
-                .values
-                .speed_with_override(base, self.keypad.settings()),
-        )
+        self.keypad.speed(&self.setup)
     }
 }

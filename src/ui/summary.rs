@@ -103,7 +103,7 @@ pub fn summarise(model: &Model) -> Summary {
         return Summary::new(Danger, "LIMIT", Some(detail));
     }
     if let Some(f) = &m.fault {
-        return Summary::new(Danger, "ERROR", Some(super::update::fault_text(f)));
+        return Summary::new(Danger, "ERROR", Some(super::messages::fault_text(f)));
     }
     let word = match m.activity {
         Activity::Idle => None,

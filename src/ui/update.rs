@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use ratatui::crossterm::event::{KeyEvent, KeyEventKind};
 
-use crate::device::api::{ControllerFault, Event, Frame, JogEnd, LinkState, Request};
+use crate::device::api::{Event, Frame, JogEnd, LinkState, Request};
 use crate::jog::{KeyPhase, Motion};
 
 use super::editor;
@@ -46,13 +46,13 @@ fn dispatch(model: &mut Model, msg: Msg) -> Vec<Effect> {
         Msg::Tick(now) => {
             tick(model, now);
             // Toggle jogs live on the console's ticks.
-            let mut effects = keypad::tick(model);
+            let mut effects = jog_update(model, keypad::component::Input::Tick);
             effects.extend(editor_update(model, editor::Input::Tick));
             effects
         }
         Msg::Device(event) => {
             let mut effects = editor_update(model, editor::Input::Device(&event));
-            let (next, notes) = macros::device_event(model, &event);
+            let (next, notes) = macros::device_event(&mut model.macro_run, &model.machine, &event);
             effects.extend(next);
             device_event(model, event);
             for (level, text) in notes {
@@ -93,7 +93,7 @@ fn dispatch(model: &mut Model, msg: Msg) -> Vec<Effect> {
             );
             model.quitting = true;
             model.dirty = true;
-            keypad::stopped(model);
+            jog_update(model, keypad::component::Input::Stopped);
             model.macro_run = None;
             // The last edits go to the recovery file before leaving.
             let mut effects = vec![Effect::Stop];
@@ -132,7 +132,14 @@ fn key_event(model: &mut Model, event: KeyEvent) -> Vec<Effect> {
             model.dirty = true;
             return effects;
         }
-        let effects = keypad::released(model, chord);
+        let (grace, timeout) = (
+            model.keypad.settings().grace,
+            model.keypad.settings().repeat_timeout,
+        );
+        model
+            .macro_key
+            .arrival(chord, KeyPhase::Release, model.now, grace, timeout, true);
+        let effects = jog_update(model, keypad::component::Input::Release(chord));
         model.dirty |= !effects.is_empty();
         return effects;
     }
@@ -245,6 +252,10 @@ fn burst_route(model: &mut Model, chord: KeyChord, phase: KeyPhase) -> Option<Ve
     if model.keymap.lookup(Mode::Safety, &chord) == Some(Action::Stop) {
         return Some(route(model, chord, phase));
     }
+    // A held macro key's repeats that arrive bunched (SSH) keep its hold.
+    if model.keymap.lookup_macro(Mode::Main, &chord).is_some() {
+        model.macro_key.seen(chord, model.now);
+    }
     let focus = model.focus;
     if model.popup.is_none()
         && focus == PanelId::Jog
@@ -254,9 +265,10 @@ fn burst_route(model: &mut Model, chord: KeyChord, phase: KeyPhase) -> Option<Ve
             .and_then(keypad::vector_of)
             .is_some()
     {
-        return keypad::burst_key(model, chord, phase);
+        let outcome = jog_outcome(model, keypad::component::Input::Burst(chord, phase));
+        return outcome.used.then(|| apply_jog(model, outcome));
     }
-    if let Some(effects) = keypad::any_key(model, chord, phase) {
+    if let Some(effects) = jog_any_key(model, chord, phase) {
         say(model, NoteLevel::Info, "jog stopped".to_string());
         return Some(effects);
     }
@@ -300,7 +312,11 @@ fn paste(model: &mut Model, text: &str) -> Vec<Effect> {
             _ => None,
         },
         Some(typing::TextField::Prompt) => {
-            if let Some(refused) = keypad::popups::paste(model, text) {
+            let refused = match model.popup.as_mut() {
+                Some(Popup::Jog(p)) => keypad::popups::paste(p, text),
+                _ => None,
+            };
+            if let Some(refused) = refused {
                 say(model, NoteLevel::Warning, refused);
             }
             return Vec::new();
@@ -348,7 +364,7 @@ fn route(model: &mut Model, chord: KeyChord, phase: KeyPhase) -> Vec<Effect> {
             .is_some();
     // Toggle jogging: any key stops the jog and does nothing else (the
     // keypad's own keys know their repeats from a new press).
-    if !motion_key && let Some(effects) = keypad::any_key(model, chord, phase) {
+    if !motion_key && let Some(effects) = jog_any_key(model, chord, phase) {
         say(model, NoteLevel::Info, "jog stopped".to_string());
         return effects;
     }
@@ -374,13 +390,30 @@ fn route(model: &mut Model, chord: KeyChord, phase: KeyPhase) -> Vec<Effect> {
         return type_into(model, field, c);
     }
     if let Some(name) = model.keymap.lookup_macro(Mode::Main, &chord) {
-        // A held key runs its macro once: a repeat is not a new request
-        // (terminals that do not tell repeats apart: `docs/ui.md`, Macros).
-        if phase == KeyPhase::Repeat {
+        // A held key runs its macro once: a repeat is not a new request,
+        // reported as one (kitty keyboard protocol) or, where repeats come
+        // as presses, told by their arrival times as the jog tells them
+        // (`jog::held`, `docs/ui.md`, Macros).
+        let settings = model.keypad.settings();
+        let (grace, timeout) = (settings.grace, settings.repeat_timeout);
+        let releases = model.keypad.jogger.releases();
+        if model
+            .macro_key
+            .arrival(chord, phase, model.now, grace, timeout, releases)
+            == crate::jog::Arrival::Held
+        {
             return Vec::new();
         }
         let name = name.to_string();
-        let (effects, notes) = macros::key(model, &name);
+        let (run, ctx) = model.macro_parts();
+        let macros::Outcome {
+            effects,
+            notes,
+            confirm,
+        } = macros::key(run, &ctx, &name);
+        if let Some(confirm) = confirm {
+            model.popup = Some(Popup::Confirm(confirm));
+        }
         for (level, text) in notes {
             say(model, level, text);
         }
@@ -408,7 +441,9 @@ fn type_into(model: &mut Model, field: typing::TextField, c: char) -> Vec<Effect
             Vec::new()
         }
         typing::TextField::Prompt => {
-            keypad::popups::type_char(model, c);
+            if let Some(Popup::Jog(p)) = model.popup.as_mut() {
+                keypad::popups::type_char(p, c);
+            }
             Vec::new()
         }
     }
@@ -440,13 +475,13 @@ fn safety_stop(model: &mut Model, chord: KeyChord) -> Vec<Effect> {
 }
 
 fn stop(model: &mut Model) -> Vec<Effect> {
-    keypad::stopped(model);
+    jog_update(model, keypad::component::Input::Stopped);
     say(
         model,
         NoteLevel::Info,
         "stop: all motion stopped".to_string(),
     );
-    if let Some((level, text)) = macros::stopped(model) {
+    if let Some((level, text)) = macros::stopped(&mut model.macro_run) {
         say(model, level, text);
     }
     vec![Effect::Stop]
@@ -454,8 +489,9 @@ fn stop(model: &mut Model) -> Vec<Effect> {
 
 fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
     // Work offsets, the step and speed (typed, presets, override).
-    if let Some(outcome) = keypad::popups::main_action(model, action) {
-        return said(model, outcome);
+    let outcome = jog_outcome(model, keypad::component::Input::Main(action));
+    if outcome.used {
+        return apply_jog(model, outcome);
     }
     match action {
         Action::Stop => stop(model),
@@ -494,7 +530,7 @@ fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
             if held.dialog.is_some() {
                 return apply_editor(model, held);
             }
-            if keypad::moving(model) {
+            if model.keypad.moving(&model.machine) {
                 // Quitting stops the machine; a slip of the finger must not
                 // end a program run or a reference run (`docs/jogging.md`).
                 ask(
@@ -508,13 +544,11 @@ fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
             model.quitting = true;
             vec![Effect::Stop, Effect::Quit]
         }
-        Action::JogKind => {
-            let (effects, (level, text)) = keypad::switch_kind(model);
-            say(model, level, text);
-            effects
-        }
+        Action::JogKind => jog_update(model, keypad::component::Input::SwitchKind),
         Action::GoTo => {
-            if let Err(reason) = keypad::gate(model).check(Motion::GoTo) {
+            if let Err(reason) =
+                keypad::gate(&model.keypad, &model.jog_context()).check(Motion::GoTo)
+            {
                 say(model, NoteLevel::Danger, format!("go to refused: {reason}"));
                 return Vec::new();
             }
@@ -522,7 +556,9 @@ fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
             Vec::new()
         }
         Action::GoZero => {
-            if let Err(reason) = keypad::gate(model).check(Motion::GoTo) {
+            if let Err(reason) =
+                keypad::gate(&model.keypad, &model.jog_context()).check(Motion::GoTo)
+            {
                 say(
                     model,
                     NoteLevel::Danger,
@@ -532,8 +568,8 @@ fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
             }
             let settings = model.keypad.settings();
             let target = goto::zero_target(settings);
-            let speed = keypad::selection(model).speed;
-            let offsets = &model.offsets.table;
+            let speed = keypad::selection(&model.keypad, &model.setup).speed;
+            let offsets = &model.keypad.offsets.table;
             match goto::request(&target, Frame::Work, settings, offsets, speed) {
                 Ok(planned) => {
                     let axes = settings.axis_set();
@@ -555,7 +591,8 @@ fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
             Vec::new()
         }
         Action::JogOffLimit => {
-            match keypad::limit::ask(model) {
+            let (kp, ctx) = model.jog_parts();
+            match kp.limit_question(&ctx) {
                 Ok(q) => ask(
                     model,
                     &q.title,
@@ -572,7 +609,7 @@ fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
             } else {
                 (Purpose::Zero, Motion::SetZero)
             };
-            if let Err(reason) = keypad::gate(model).check(motion) {
+            if let Err(reason) = keypad::gate(&model.keypad, &model.jog_context()).check(motion) {
                 say(model, NoteLevel::Danger, format!("refused: {reason}"));
                 return Vec::new();
             }
@@ -673,7 +710,7 @@ const QUIT_WHILE_MOVING: &str = "Quit while moving";
 fn quit_question(model: &Model) -> String {
     let what = match typing::doing(model.machine.activity) {
         Some(what) => what,
-        None if keypad::moving(model) => "jogging",
+        None if model.keypad.moving(&model.machine) => "jogging",
         None => return "The machine has stopped. Close the port and quit?".to_string(),
     };
     format!("The machine is {what}. Stop all motion, close the port and quit?")
@@ -705,7 +742,8 @@ fn popup_action(model: &mut Model, action: Action) -> Vec<Effect> {
         (Some(Popup::Confirm(c)), Action::Confirm) => {
             let mut effects = c.effects;
             if let Some(name) = c.run_macro {
-                let (started, notes) = macros::start(model, &name);
+                let (run, ctx) = model.macro_parts();
+                let (started, notes) = macros::start(run, &ctx, &name);
                 effects.extend(started);
                 for (level, text) in notes {
                     say(model, level, text);
@@ -722,10 +760,10 @@ fn popup_action(model: &mut Model, action: Action) -> Vec<Effect> {
         }
         (Some(Popup::Help { .. }), Action::Close) => Vec::new(),
         (Some(Popup::GoTo(prompt)), action) => goto_action(model, prompt, action),
-        (Some(Popup::Jog(popup)), action) => {
-            let outcome = keypad::popups::popup_action(model, popup, action);
-            said(model, outcome)
-        }
+        (Some(Popup::Jog(popup)), action) => jog_update(
+            model,
+            keypad::component::Input::Popup(Box::new(popup), action),
+        ),
         (Some(Popup::Axes(choice)), Action::Cancel) => {
             say(
                 model,
@@ -736,8 +774,7 @@ fn popup_action(model: &mut Model, action: Action) -> Vec<Effect> {
         }
         (Some(Popup::Axes(choice)), action) => match choice.chosen(action) {
             Some(axes) if choice.purpose == Purpose::Zero => {
-                let outcome = keypad::popups::zero_axes(model, axes);
-                said(model, outcome)
+                jog_update(model, keypad::component::Input::ZeroAxes(axes))
             }
             Some(axes) => vec![Effect::Request(choice.request(axes))],
             None => {
@@ -854,14 +891,14 @@ fn goto_action(model: &mut Model, mut prompt: GoToPrompt, action: Action) -> Vec
         }
         Action::Submit => {
             let settings = model.keypad.settings();
-            let speed = keypad::selection(model).speed;
-            let checked = keypad::gate(model)
+            let speed = keypad::selection(&model.keypad, &model.setup).speed;
+            let checked = keypad::gate(&model.keypad, &model.jog_context())
                 .check(Motion::GoTo)
                 .map_err(|r| r.to_string())
                 .and_then(|()| {
                     goto::parse(line.text(), settings)
                         .and_then(|t| {
-                            goto::request(&t, frame, settings, &model.offsets.table, speed)
+                            goto::request(&t, frame, settings, &model.keypad.offsets.table, speed)
                                 .map(|r| (t, r))
                         })
                         .map_err(|e| e.to_string())
@@ -869,7 +906,9 @@ fn goto_action(model: &mut Model, mut prompt: GoToPrompt, action: Action) -> Vec
             match checked {
                 Ok((target, planned)) => {
                     let frame = match planned.frame {
-                        Frame::Work => format!("{} work coordinates", model.offsets.table.active()),
+                        Frame::Work => {
+                            format!("{} work coordinates", model.keypad.offsets.table.active())
+                        }
                         Frame::Machine => "machine coordinates".to_string(),
                     };
                     let speed = crate::ui::position::format_amount(planned.speed);
@@ -899,11 +938,14 @@ fn goto_action(model: &mut Model, mut prompt: GoToPrompt, action: Action) -> Vec
 
 /// A key of the focused jog keypad.
 fn jog_action(model: &mut Model, action: Action, chord: KeyChord, phase: KeyPhase) -> Vec<Effect> {
-    let (effects, note) = keypad::motion_key(model, action, chord, phase);
-    if let Some((level, text)) = note {
-        say(model, level, text);
-    }
-    effects
+    jog_update(
+        model,
+        keypad::component::Input::Motion {
+            action,
+            chord,
+            phase,
+        },
+    )
 }
 
 fn panel_action(model: &mut Model, panel: PanelId, action: Action) -> Vec<Effect> {
@@ -1146,14 +1188,14 @@ fn tick(model: &mut Model, now: Instant) {
     let before = (
         model.io.highlight_count(model.now),
         model.fresh_message().is_some(),
-        keypad::clock_shown(model),
+        model.keypad.clock_shown(model.now),
     );
     model.now = now;
     let flushed = model.traffic.flush_idle(now);
     let after = (
         model.io.highlight_count(now),
         model.fresh_message().is_some(),
-        keypad::clock_shown(model),
+        model.keypad.clock_shown(model.now),
     );
     // A timeline that follows the readings moves with the clock.
     let timeline_moves = model.focus == PanelId::Timeline && model.timeline.end.is_none();
@@ -1164,7 +1206,7 @@ fn tick(model: &mut Model, now: Instant) {
 }
 
 fn device_event(model: &mut Model, event: Event) {
-    if !keypad::device_event(model, &event) {
+    if jog_outcome(model, keypad::component::Input::Device(&event)).quiet {
         return;
     }
     match event {
@@ -1191,7 +1233,7 @@ fn device_event(model: &mut Model, event: Event) {
         Event::JogEnded { id, end } => {
             if let Some(run) = model.keypad.limit.ended(id) {
                 limit_jog_ended(model, &run, &end);
-            } else if keypad::end_is_news(model, &end) {
+            } else if model.keypad.end_is_news(&end) {
                 jog_ended(model, end);
             }
         }
@@ -1316,26 +1358,57 @@ fn limit_jog_ended(model: &mut Model, run: &keypad::limit::LimitRun, end: &JogEn
     }
 }
 
-/// A controller's error for the operator: what it means and what to do
-/// first (the message line may cut the rest), then the answer and command.
-pub fn fault_text(f: &ControllerFault) -> String {
-    // Meanings are sentences (isel chapter 5's end with a full stop); the
-    // instruction follows a colon.
-    let meaning = f.meaning.trim_end().trim_end_matches('.');
-    format!(
-        "{meaning}: {} (answer {} to {})",
-        f.recovery.instruction(),
-        f.code,
-        f.command
-    )
+pub use super::messages::fault_text;
+
+/// The session's work offsets start with `startup` (read from their file;
+/// `None` without a state directory), and what there is to say about them
+/// is said.
+pub fn start_offsets(
+    model: &mut Model,
+    startup: Option<(
+        crate::offsets::store::Startup,
+        crate::offsets::store::OffsetsFile,
+    )>,
+) {
+    if let Some((level, text)) = keypad::offsets::start(&mut model.keypad.offsets, startup) {
+        say(model, level, text);
+    }
 }
 
-/// Say the notes of an outcome, hand on its effects.
-fn said(model: &mut Model, (effects, notes): keypad::popups::Outcome) -> Vec<Effect> {
+/// The jog screen's outcome of `input`, not applied yet.
+fn jog_outcome(model: &mut Model, input: keypad::component::Input) -> keypad::component::Outcome {
+    let (kp, ctx) = model.jog_parts();
+    kp.update(&ctx, input)
+}
+
+/// Everything the jog screen's outcome asks of the rest of the console, in
+/// one place: notes, its popup (in place of any other), the effects.
+fn apply_jog(model: &mut Model, outcome: keypad::component::Outcome) -> Vec<Effect> {
+    let keypad::component::Outcome {
+        effects,
+        notes,
+        popup,
+        ..
+    } = outcome;
     for (level, text) in notes {
         say(model, level, text);
     }
+    if let Some(popup) = popup {
+        model.popup = Some(Popup::Jog(popup));
+    }
     effects
+}
+
+/// `input` to the jog screen, its outcome applied.
+fn jog_update(model: &mut Model, input: keypad::component::Input) -> Vec<Effect> {
+    let outcome = jog_outcome(model, input);
+    apply_jog(model, outcome)
+}
+
+/// Any key, in toggle mode, stops a running jog and is used up.
+fn jog_any_key(model: &mut Model, chord: KeyChord, phase: KeyPhase) -> Option<Vec<Effect>> {
+    let outcome = jog_outcome(model, keypad::component::Input::AnyKey(chord, phase));
+    outcome.used.then(|| apply_jog(model, outcome))
 }
 
 /// Show a message in the message line and keep it in the console.

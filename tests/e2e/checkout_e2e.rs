@@ -227,32 +227,24 @@ fn run_from_a_line_shows_where_it_starts_and_goes_there_first() {
     assert_eq!(wait_counter(&mut sim, "Y", |y| y == 800), 800);
 }
 
-/// An EMCU job in the check-out: each line sent as a command with 0x01; a
-/// hold let go in the middle of a move halts it (`@B`, manual 1.5.11), and
-/// the next hold sends what is left of it, which ends exactly where the
-/// line would have.
-#[test]
-fn an_emcu_job_line_let_go_halts_and_the_next_hold_ends_it_exactly() {
-    // Axes 1 mm from machine 0 at power-up: the reference run is short.
+/// The console on the EMCU simulator (axes 1 mm from machine 0 at
+/// power-up, so the reference run is short) with `job` in the editor, the
+/// axes referenced (X counter 0), the program screen shown.
+fn ready_emcu(dir: &Path, job: &str) -> (SimProcess, PtyRun) {
     let near_zero = (
         "profiles/emcu.toml",
         "base = \"emcu\"\n[sim]\nstart_position = 1.0\n",
     );
     let mut sim = SimProcess::start_with_files("emcu", &[near_zero]);
-    let dir = tempfile::tempdir().unwrap();
-    let config = dir.path().join("config");
+    let config = dir.join("config");
     fs::create_dir_all(config.join("profiles")).unwrap();
     fs::write(config.join(near_zero.0), near_zero.1).unwrap();
-    let file = dir.path().join("job.emcu");
-    // X 20 mm (200 steps/mm) at 1000 Hz: 4 s.
-    fs::write(&file, "; check-out\n#E1,1000\nL1,x4000\n").unwrap();
+    let file = dir.join("job.emcu");
+    fs::write(&file, job).unwrap();
     let env = [
         ("JOGTERM_NO_KEYBOARD_QUERY", "1".to_string()),
         ("JOGTERM_CONFIG_DIR", config.display().to_string()),
-        (
-            "JOGTERM_STATE_DIR",
-            dir.path().join("state").display().to_string(),
-        ),
+        ("JOGTERM_STATE_DIR", dir.join("state").display().to_string()),
         ("RUST_BACKTRACE", "0".into()),
     ];
     let env: Vec<(&str, &str)> = env.iter().map(|(k, v)| (*k, v.as_str())).collect();
@@ -273,9 +265,23 @@ fn an_emcu_job_line_let_go_halts_and_the_next_hold_ends_it_exactly() {
     run.type_keys(&[b"h"]);
     run.type_keys(&[b"y"]);
     wait_for(&run, "READY");
-    let start = wait_counter(&mut sim, "X", |x| x == 0);
+    wait_counter(&mut sim, "X", |x| x == 0);
+    wait_counter(&mut sim, "Y", |y| y == 0);
     run.type_keys(&[F4]);
     wait_for(&run, "job.emcu");
+    (sim, run)
+}
+
+/// An EMCU job in the check-out: each line sent as a command with 0x01; a
+/// hold let go in the middle of a move halts it (`@B`, manual 1.5.11), and
+/// the next hold sends what is left of it, which ends exactly where the
+/// line would have.
+#[test]
+fn an_emcu_job_line_let_go_halts_and_the_next_hold_ends_it_exactly() {
+    let dir = tempfile::tempdir().unwrap();
+    // X 20 mm (200 steps/mm) at 1000 Hz: 4 s.
+    let (mut sim, mut run) = ready_emcu(dir.path(), "; check-out\n#E1,1000\nL1,x4000\n");
+    let start = 0;
     start_checkout(&mut run, F10);
     // Held: the slot speed, then the move; let go after a moment.
     hold(&mut run, Duration::from_millis(1800), |_| false);
@@ -296,6 +302,54 @@ fn an_emcu_job_line_let_go_halts_and_the_next_hold_ends_it_exactly() {
     let rest = format!("L1,x{}", 4000 - paused);
     assert!(wire[sent..].contains(&rest), "{rest} not sent: {wire}");
     assert_eq!(wait_counter(&mut sim, "X", |x| x == 4000), 4000);
+}
+
+/// Run from a line of an EMCU job (issue 24): the question names the move
+/// skipped, the start position and the settings sent first; the wire has
+/// the settings, the absolute move to the start in slot 1 and then the
+/// line, and never the skipped move or the skipped output.
+#[test]
+fn an_emcu_job_run_from_a_line_goes_to_its_start_and_skips_the_lines_before() {
+    let dir = tempfile::tempdir().unwrap();
+    let job = "; from a line\n#E1,1000\n#E2,1500\nL1,x4000\nA1,1\nL2,y400\n";
+    let (mut sim, mut run) = ready_emcu(dir.path(), job);
+    // The cursor to line 6 (the Y move).
+    run.type_keys(&[DOWN, DOWN, DOWN, DOWN, DOWN]);
+    wait_for(&run, "Ln 6/");
+    run.type_keys(&[SHIFT_F10]);
+    // The question's last line read: the whole box is drawn (a loaded
+    // machine may show its first lines a moment before the rest).
+    let question = wait_for(&run, "A1,1 (line 5)");
+    assert!(question.contains("from line 6"), "{question}");
+    assert!(question.contains("1 move before it skipped"), "{question}");
+    assert!(question.contains("X20"), "{question}");
+    assert!(question.contains("#E1,1000 (line 2)"), "{question}");
+    assert!(question.contains("#E2,1500 (line 3)"), "{question}");
+    run.type_keys(&[b"y"]);
+    wait_for(&run, "CHECK-OUT READY line 2");
+    // Six lines, each a round trip, the move to the start some 5 s: a
+    // loaded machine may pause the hold on the way (keys read together);
+    // the hold ends as soon as the check-out is done.
+    hold(&mut run, Duration::from_secs(60), |run| {
+        screen(run).contains("check-out done")
+    });
+    assert!(screen(&run).contains("check-out done"), "{}", screen(&run));
+    let wire = sim.received();
+    assert!(!wire.contains("L1,x4000"), "line 4 was skipped: {wire}");
+    assert!(
+        !wire.contains("A1,1"),
+        "the skipped output is not sent: {wire}"
+    );
+    let e2 = wire.find("#E2,").unwrap_or_else(|| panic!("{wire}"));
+    let go = wire.find("L1,X4000,Y0").unwrap_or_else(|| panic!("{wire}"));
+    assert!(e2 < go, "the settings go first: {wire}");
+    assert!(
+        wire[go..].contains("#E1,1000"),
+        "slot 1 as the job set it: {wire}"
+    );
+    assert!(wire[go..].contains("L2,y400"), "{wire}");
+    assert_eq!(wait_counter(&mut sim, "X", |x| x == 4000), 4000);
+    assert_eq!(wait_counter(&mut sim, "Y", |y| y == 400), 400);
 }
 
 /// A line the controller refuses stops the check-out at that line with

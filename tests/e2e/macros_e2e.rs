@@ -7,6 +7,9 @@
 use crate::console_pty;
 use crate::sim_process;
 
+use std::thread;
+use std::time::{Duration, Instant};
+
 use console_pty::{quit, reference, spawn, wait_for};
 use sim_process::SimProcess;
 
@@ -24,13 +27,18 @@ const PROFILE: (&str, &str) = (
      lines = [\"@0M 4000,2000,0,900,0,900,0,900\", \"@0P\"]\n\
      [macros.long]\n\
      lines = [\"@0M 40000,900,0,900,0,900,0,900\", \"@0M 1234,900,0,900,0,900,0,900\"]\n\
+     [macros.nudge]\n\
+     lines = [\"@0A 40,900,0,900,0,900,0,900\"]\n\
+     confirm = false\n\
      [keys.main]\n\
      \"f8\" = \"macro:park\"\n\
-     \"f9\" = \"macro:long\"\n",
+     \"f9\" = \"macro:long\"\n\
+     \"f11\" = \"macro:nudge\"\n",
 );
 
 const F8: &[u8] = b"\x1b[19~";
 const F9: &[u8] = b"\x1b[20~";
+const F11: &[u8] = b"\x1b[23~";
 
 #[test]
 fn a_macro_asks_first_and_its_lines_go_out_one_after_the_other() {
@@ -121,5 +129,41 @@ fn a_macro_meets_the_refusals_of_a_typed_command() {
             && !received.contains("4000,2000"),
         "a refused macro line went out:\n{received}"
     );
+    quit(&mut run);
+}
+
+/// Issue 24: without the kitty keyboard protocol (the console here is told
+/// not to ask for it) a held key's repeats arrive as presses. F11 held as a
+/// terminal repeats it (the first repeat after 500 ms, then every 33 ms for
+/// 2 s) runs `nudge` (0.1 mm, no question) once, though it ends within the
+/// first repeat delay; pressed again after a pause, it runs again.
+#[test]
+fn a_held_macro_key_on_a_terminal_that_repeats_with_presses_runs_it_once() {
+    let mut sim = SimProcess::start_with_files("isel", &[PROFILE]);
+    let state = tempfile::tempdir().expect("state dir");
+    let mut run = spawn(&sim, state.path());
+    reference(&mut run);
+    let before = sim.received().len();
+    let nudges = |sim: &mut SimProcess| {
+        let r = sim.received();
+        let tail = r.get(before..).unwrap_or_default();
+        tail.matches("@0A40,900,").count() + tail.matches("@0A 40,900,").count()
+    };
+    run.send(F11);
+    wait_for(&run, "macro nudge done (1 lines)");
+    thread::sleep(Duration::from_millis(500));
+    let end = Instant::now() + Duration::from_secs(2);
+    while Instant::now() < end {
+        run.send(F11);
+        thread::sleep(Duration::from_millis(33));
+    }
+    thread::sleep(Duration::from_millis(500));
+    assert_eq!(nudges(&mut sim), 1, "the held key ran the macro again");
+    // Let go, then a deliberate press: it runs again.
+    run.send(F11);
+    sim.wait_received("the second nudge", |r| {
+        let tail = r.get(before..).unwrap_or_default();
+        tail.matches("@0A40,900,").count() + tail.matches("@0A 40,900,").count() >= 2
+    });
     quit(&mut run);
 }

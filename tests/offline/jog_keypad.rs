@@ -9,8 +9,8 @@ use std::time::{Duration, Instant};
 
 use jogterm::config::profile::JogMode;
 use jogterm::device::api::{Activity, Event, MachineState, Request};
+use jogterm::jog::Jogger;
 use jogterm::proto::Protocol;
-use jogterm::ui::jog::Keypad;
 use jogterm::ui::jog::view::{KeypadView, height};
 use jogterm::ui::{Effect, Model, Msg, update};
 use ratatui::Terminal;
@@ -57,7 +57,7 @@ fn keypad_in(protocol: Protocol, state: &str) -> Model {
         "toggle" => {
             let mut s = m.setup.jog.clone();
             s.mode = JogMode::Toggle;
-            m.keypad = Keypad::new(s);
+            m.keypad.jogger = Jogger::new(s);
             update(
                 &mut m,
                 Msg::Key(KeyEvent::new(KeyCode::Char('c'), KeyModifiers::NONE)),

@@ -10,8 +10,8 @@ use std::time::{Duration, Instant};
 use jogterm::axis::{Axis, AxisSet};
 use jogterm::config::profile::JogMode;
 use jogterm::device::api::{Activity, Dir, Event, Frame, JogEnd, MachineState, Request};
+use jogterm::jog::Jogger;
 use jogterm::proto::Protocol;
-use jogterm::ui::jog::Keypad;
 use jogterm::ui::model::{PanelId, Popup};
 use jogterm::ui::{Effect, Model, Msg, update};
 use ratatui::crossterm::event::{KeyCode, KeyEvent, KeyEventKind, KeyModifiers};
@@ -64,7 +64,7 @@ fn continuous(model: &mut Model) {
 fn with_mode(model: &mut Model, mode: JogMode) {
     let mut settings = model.setup.jog.clone();
     settings.mode = mode;
-    model.keypad = Keypad::new(settings);
+    model.keypad.jogger = Jogger::new(settings);
 }
 
 #[test]

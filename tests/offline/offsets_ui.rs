@@ -67,7 +67,7 @@ fn ready() -> Model {
         std::path::Path::new("/nonexistent/offsets"),
         Identity::of("default", &profile),
     );
-    m.offsets.file = Some(file);
+    m.keypad.offsets.file = Some(file);
     m
 }
 
@@ -94,7 +94,7 @@ fn another_offset_is_chosen_shown_and_saved() {
     assert_eq!(saves(&fx), 1);
     assert!(requests(&fx).is_empty(), "choosing moves nothing: {fx:?}");
     assert!(m.popup.is_none());
-    assert_eq!(m.offsets.table.active(), System::ALL[1]);
+    assert_eq!(m.keypad.offsets.table.active(), System::ALL[1]);
     // G55 untouched: machine coordinates; isel's zero is G54's.
     let s = screen(&m);
     assert!(s.contains("Position G55 programs ≠ G55"), "{s}");
@@ -102,10 +102,10 @@ fn another_offset_is_chosen_shown_and_saved() {
     assert!(s.contains("G55 active"), "{s}");
     // Arrows and Enter choose too; Esc closes without a change.
     press(&mut m, [ch('O'), key(KeyCode::Up), key(KeyCode::Enter)]);
-    assert_eq!(m.offsets.table.active(), System::G54);
+    assert_eq!(m.keypad.offsets.table.active(), System::G54);
     let fx = press(&mut m, [ch('O'), ch('5'), ch('O'), key(KeyCode::Esc)]);
     assert_eq!(saves(&fx), 1);
-    assert_eq!(m.offsets.table.active(), System::ALL[4]);
+    assert_eq!(m.keypad.offsets.table.active(), System::ALL[4]);
     // The EMCU and EMP have no zero of their own: nothing to differ from,
     // and go-to goes in machine steps there too.
     for protocol in [Protocol::Emcu, Protocol::Emp] {
@@ -141,7 +141,7 @@ fn set_x_to_a_value_here_moves_the_zero_and_only_zero_sends_at_0n() {
         typed("X10").into_iter().chain([key(KeyCode::Enter)]),
     );
     // The zero 10 mm below the machine's X: 44938 - 4000 steps.
-    assert_eq!(m.offsets.table.zero(System::ALL[1], Axis::X), 40_938);
+    assert_eq!(m.keypad.offsets.table.zero(System::ALL[1], Axis::X), 40_938);
     assert_eq!(x_work(&m), "10.000");
     assert_eq!(saves(&fx), 1);
     // The controller's zero goes only where the axis stands: not sent.
@@ -173,7 +173,7 @@ fn set_x_to_a_value_here_moves_the_zero_and_only_zero_sends_at_0n() {
             axes: m.setup.axis_set()
         }]
     );
-    assert_eq!(m.offsets.table.zero(System::ALL[1], Axis::X), 44_938);
+    assert_eq!(m.keypad.offsets.table.zero(System::ALL[1], Axis::X), 44_938);
     assert!(screen(&m).contains("G55: work zero of XYZ set to the current position"));
 }
 
@@ -198,7 +198,7 @@ fn bad_typed_positions_and_states_are_refused_with_the_reason() {
         assert!(s.contains(needle), "{text}: {needle}\n{s}");
         press(&mut m, [key(KeyCode::Esc)]);
     }
-    assert_eq!(m.offsets.table.zero(System::G54, Axis::X), 4000);
+    assert_eq!(m.keypad.offsets.table.zero(System::G54, Axis::X), 4000);
     // Not referenced: refused, nothing changes.
     let unreferenced = MachineState {
         referenced: AxisSet::EMPTY.with(Axis::Y),
@@ -318,7 +318,7 @@ fn go_to_in_machine_coordinates_and_at_a_typed_feed() {
     assert_eq!(target.get(Axis::X), Some(0));
     // G goes to the active offset's zero, in machine steps.
     press(&mut m, [ch('O'), ch('3')]);
-    m.offsets.table.set(System::ALL[2], Axis::X, 12_000);
+    m.keypad.offsets.table.set(System::ALL[2], Axis::X, 12_000);
     press(&mut m, [ch('G')]);
     assert!(screen(&m).contains("work zero of G56"), "{}", screen(&m));
     let fx = press(&mut m, [ch('y')]);
@@ -467,7 +467,7 @@ fn a_refused_file_is_marked_and_its_reason_shown_in_the_popup() {
     std::fs::write(&file.path, "format = 1\nprofile = [\n").expect("write");
     let mut m = model_in(Protocol::Isel, "dark", State::Idle, Instant::now());
     let startup = file.load();
-    jogterm::ui::jog::offsets::start(&mut m, Some((startup, file.clone())));
+    jogterm::ui::update::start_offsets(&mut m, Some((startup, file.clone())));
     let s = screen(&m);
     assert!(s.contains("Position G54!"), "{s}");
     assert!(s.contains("work offsets refused"), "{s}");
@@ -480,7 +480,7 @@ fn a_refused_file_is_marked_and_its_reason_shown_in_the_popup() {
         panic!("{fx:?}")
     };
     assert!(job.put_aside);
-    assert!(!m.offsets.refused);
+    assert!(!m.keypad.offsets.refused);
     assert!(screen(&m).contains("Position G55"), "{}", screen(&m));
     // Said when a write fails.
     update(&mut m, Msg::OffsetsSaved(Err("/x: disk full".into())));

@@ -8,7 +8,7 @@
 
 use crate::ui_support;
 
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use jogterm::config::{ConfigDirs, Source, load_profile_with_sources};
 use jogterm::device::api::{
@@ -266,8 +266,11 @@ fn a_macro_waits_for_a_busy_machine_and_typed_lines_wait_for_a_macro() {
     let mut idle = model.machine.clone();
     idle.activity = jogterm::device::api::Activity::Idle;
     send(&mut model, [Event::State(idle)]);
-    // While a macro runs, the command line does not send.
-    update(&mut model, key(KeyCode::F(9)));
+    // While a macro runs, the command line does not send. (The key pressed
+    // again a second later: at once it would be a held key's repeat.)
+    model.now += Duration::from_secs(1);
+    let effects = update(&mut model, key(KeyCode::F(9)));
+    assert_eq!(raws(&effects), ["@0P"]);
     update(&mut model, ch(':'));
     for c in "@0P".chars() {
         update(&mut model, ch(c));
@@ -625,4 +628,39 @@ fn a_held_macro_key_runs_its_macro_once() {
     let effects = update(&mut model, Msg::Key(repeat));
     assert!(raws(&effects).is_empty(), "{effects:?}");
     assert!(model.macro_run.is_none());
+}
+
+/// Issue 24: on terminals without the kitty keyboard protocol a held key's
+/// repeats arrive as presses (~30-40 ms apart after the repeat delay). They
+/// are timed as the jog times them: presses at repeat intervals after the
+/// macro key start nothing, also once the macro has ended; a deliberate
+/// press after a pause starts it again.
+#[test]
+fn a_held_macro_key_whose_repeats_come_as_presses_runs_its_macro_once() {
+    let mut model = ready();
+    let t0 = model.now;
+    let f9_at = |ms: u64| {
+        Msg::KeysAt(vec![(
+            KeyEvent::new(KeyCode::F(9), KeyModifiers::NONE),
+            t0 + Duration::from_millis(ms),
+        )])
+    };
+    let effects = update(&mut model, f9_at(0));
+    assert_eq!(raws(&effects), ["@0P"]);
+    let effects = update(&mut model, Msg::Device(answer("@0P")));
+    assert_eq!(raws(&effects), ["@0b1"]);
+    update(&mut model, Msg::Device(answer("@0b1")));
+    assert!(model.macro_run.is_none(), "the macro has ended");
+    // Still held: the first repeat after a 500 ms repeat delay, then one
+    // every 33 ms for two seconds, all as presses.
+    let mut at = 500;
+    while at < 2500 {
+        let effects = update(&mut model, f9_at(at));
+        assert!(raws(&effects).is_empty(), "at {at} ms: {effects:?}");
+        assert!(model.macro_run.is_none(), "started again at {at} ms");
+        at += 33;
+    }
+    // Let go; pressed again 400 ms after the last repeat: a new press.
+    let effects = update(&mut model, f9_at(at - 33 + 400));
+    assert_eq!(raws(&effects), ["@0P"], "a deliberate second press runs it");
 }

@@ -40,6 +40,8 @@ proptest! {
         let a = areas(&m, screen);
         let mut rects = vec![a.status, a.message, a.dro, a.io, a.console];
         rects.extend(a.sim);
+        rects.extend(a.messages);
+        rects.extend(a.preview);
         rects.extend(a.hints);
         for r in &rects {
             prop_assert!(inside(screen, *r), "{r:?} outside {screen:?}");
@@ -106,4 +108,35 @@ fn a_focused_simulator_panel_is_never_squeezed_out() {
     m.focus = PanelId::Sim;
     let buf = render(&m, 60, 20).backend().buffer().clone();
     assert!(!find(&buf, "Simulator inputs").is_empty(), "{}", text(&buf));
+}
+
+/// Issue 24: at 160x48 the left column below the keypad (and the isel
+/// simulator's inputs) held an empty block of ~11 rows. The rows between
+/// the position panel and the traffic console are every one some panel's,
+/// and the latest messages are where the block was.
+#[test]
+fn at_160x48_the_left_column_has_no_empty_block_the_latest_messages_fill_it() {
+    for family in Protocol::ALL {
+        let m = model_in(family, "dark", State::Limit, Instant::now());
+        let a = areas(&m, Rect::new(0, 0, 160, 48));
+        let left: Vec<Rect> = [Some(a.dro), Some(a.keypad), a.sim, a.messages]
+            .into_iter()
+            .flatten()
+            .collect();
+        for y in a.dro.y..a.console.y {
+            assert!(
+                left.iter().any(|r| r.y <= y && y < r.bottom()),
+                "{family}: row {y} of the left column is no panel's: {a:?}"
+            );
+        }
+        let messages = a
+            .messages
+            .unwrap_or_else(|| panic!("{family}: no messages panel"));
+        assert!(messages.height >= 8, "{family}: {messages:?}");
+        let buf = render(&m, 160, 48).backend().buffer().clone();
+        let title = find(&buf, "Messages (M: all)");
+        assert!(!title.is_empty(), "{family}:\n{}", text(&buf));
+        assert!(!find(&buf, "limit switch").is_empty(), "{}", text(&buf));
+    }
+    // Drawn: the `isel_*_160x48_*` snapshots of `ui_snapshots.rs`.
 }

@@ -337,6 +337,7 @@ pub fn model_in(protocol: Protocol, theme: &str, state: State, t0: Instant) -> M
     let axes: AxisSet = model.setup.axis_set();
     // The work zero (G54) at X 4000 steps, and the controller's there too.
     model
+        .keypad
         .offsets
         .table
         .set(jogterm::offsets::System::G54, Axis::X, 4_000);

@@ -14,8 +14,8 @@
 use std::time::{Duration, Instant};
 
 use crate::device::api::JogId;
-use crate::program::checkout::{DncCommand as Command, Plan};
-use crate::program::checkout_emcu::EmcuPlan;
+use crate::program::checkout::{DncCommand, Plan};
+use crate::program::checkout_emcu::{EmcuPlan, JobCommand};
 
 /// The program the check-out runs: an isel CNC program in DNC form, or an
 /// EMCU job line by line.
@@ -41,6 +41,14 @@ impl RunPlan {
             RunPlan::Emcu(p) => p.advance(),
         }
     }
+}
+
+/// A line sent before the plan's (run from a line): a setting in force at
+/// the line, or the move to its start position.
+#[derive(Debug, Clone, PartialEq)]
+pub enum PreLine {
+    Isel(DncCommand),
+    Emcu(JobCommand),
 }
 
 /// Check-out line ids are far from the keypad's jog ids (which count from
@@ -86,7 +94,7 @@ pub struct Checkout {
     pub line_start: Option<[i64; 4]>,
     /// Lines to send before the plan's (run from a line: settings and the
     /// move to the start position), with the source line they stand for.
-    pub preamble: Vec<(Command, usize)>,
+    pub preamble: Vec<(PreLine, usize)>,
     next_id: u64,
     /// The hold key's last press or repeat.
     pub last_key: Option<Instant>,
@@ -102,7 +110,7 @@ pub struct Checkout {
 }
 
 impl Checkout {
-    pub fn new(plan: RunPlan, preamble: Vec<(Command, usize)>, now: Instant) -> Checkout {
+    pub fn new(plan: RunPlan, preamble: Vec<(PreLine, usize)>, now: Instant) -> Checkout {
         let at_line = preamble.first().map(|(_, l)| *l).or(plan.line());
         Checkout {
             plan,

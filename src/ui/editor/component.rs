@@ -18,9 +18,9 @@ use std::time::Instant;
 
 use crate::device::api::{Event, MachineState, Request};
 use crate::ui::keymap::{Action, Keymap};
-use crate::ui::model::Setup;
 use crate::ui::palette::Palette;
 use crate::ui::position::Positions;
+use crate::ui::setup::Setup;
 use crate::ui::traffic_log::NoteLevel;
 
 use super::dialog::Dialog;

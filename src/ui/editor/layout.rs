@@ -99,3 +99,26 @@ pub fn gutter_width(editor: &Editor) -> usize {
     let commands = editor.buffer.program().command_count().max(1);
     commands.to_string().len().max(2) + 2
 }
+
+/// Scrolling follows the layout: it lives beside it (the editor's module
+/// does not import its layout, `docs/architecture.md`, "Inside the UI").
+impl Editor {
+    /// Keep the cursor within the rows and columns shown at a terminal of
+    /// `size`.
+    pub fn scroll_into_view(&mut self, size: (u16, u16)) {
+        let rows = text_rows(self, size).max(1);
+        let cols = text_cols(self, size).max(1);
+        let c = self.buffer.cursor();
+        if c.line < self.top {
+            self.top = c.line;
+        } else if c.line >= self.top + rows {
+            self.top = c.line + 1 - rows;
+        }
+        // A little context to the left when scrolling sideways.
+        if c.col < self.left {
+            self.left = c.col.saturating_sub(cols / 4);
+        } else if c.col >= self.left + cols {
+            self.left = c.col + 1 - cols;
+        }
+    }
+}

@@ -50,7 +50,7 @@ use buffer::Buffer;
 use checks::{Checks, EDITOR_BUDGET};
 use upload::Upload;
 
-use super::model::Setup;
+use super::setup::Setup;
 
 pub use component::{Context, Effect, Focus, Input, Note, Outcome};
 
@@ -245,25 +245,6 @@ impl Editor {
     /// speed chosen with `<`/`>`.
     pub fn teach_speed(&self, setup: &Setup) -> Option<f64> {
         setup.jog_speeds.get(self.teach.speed).copied()
-    }
-
-    /// Keep the cursor within the rows and columns shown at a terminal of
-    /// `size`.
-    pub fn scroll_into_view(&mut self, size: (u16, u16)) {
-        let rows = layout::text_rows(self, size).max(1);
-        let cols = layout::text_cols(self, size).max(1);
-        let c = self.buffer.cursor();
-        if c.line < self.top {
-            self.top = c.line;
-        } else if c.line >= self.top + rows {
-            self.top = c.line + 1 - rows;
-        }
-        // A little context to the left when scrolling sideways.
-        if c.col < self.left {
-            self.left = c.col.saturating_sub(cols / 4);
-        } else if c.col >= self.left + cols {
-            self.left = c.col + 1 - cols;
-        }
     }
 
     /// Why the text cannot be changed now, if it cannot.

@@ -27,8 +27,6 @@ use super::dialog::{Answer, Dialog, Field, Form, FormKind, Question, Then};
 use super::io::EditorIo;
 use super::{Editor, layout, search};
 
-pub use files::utc;
-
 impl Editor {
     /// The component's update: `input` in the read-only `ctx`; the editor
     /// changes, everything else it wants done comes out in the

@@ -15,8 +15,8 @@ use crate::jog::Motion;
 use crate::proto::Protocol;
 use crate::ui::position::format_amount;
 
-use super::super::model::Model;
-use super::gate;
+use super::super::setup::Setup;
+use crate::jog::{Gate, JogSettings};
 
 /// Limit jogs are numbered apart from the keypad's jogs (`jog::Jogger`
 /// counts from 1), so an end is never taken for the other's.
@@ -53,8 +53,8 @@ pub struct Question {
     pub request: Request,
 }
 
-fn unit(model: &Model, axis: Axis) -> &'static str {
-    model.setup.axis(axis).map_or("units", |p| p.unit.symbol())
+fn unit(setup: &Setup, axis: Axis) -> &'static str {
+    setup.axis(axis).map_or("units", |p| p.unit.symbol())
 }
 
 fn dir_text(axis: Axis, dir: Dir) -> String {
@@ -82,19 +82,22 @@ fn candidate(active: &[ActiveLimit]) -> Result<(ActiveLimit, Vec<ActiveLimit>), 
 }
 
 /// `L`: the question to confirm, or why not (for the message line).
-pub fn ask(model: &mut Model) -> Result<Question, String> {
-    if model.setup.protocol == Protocol::Emcu {
+pub fn ask(
+    state: &mut LimitState,
+    settings: &JogSettings,
+    gate: &Gate,
+    setup: &Setup,
+) -> Result<Question, String> {
+    if setup.protocol == Protocol::Emcu {
         return Err(
             "jog off limit: the EMCU reports no limit switches jogterm could read (docs/jogging.md)"
                 .into(),
         );
     }
-    gate(model)
-        .check(Motion::OffLimit)
+    gate.check(Motion::OffLimit)
         .map_err(|reason| format!("jog off limit refused: {reason}"))?;
-    let (limit, others) = candidate(&model.keypad.limit.active)?;
-    let settings = model.keypad.settings();
-    let u = unit(model, limit.axis);
+    let (limit, others) = candidate(&state.active)?;
+    let u = unit(setup, limit.axis);
     let speed = settings.axis(limit.axis).map_or(settings.limit_speed, |a| {
         settings.limit_speed.min(a.max_speed)
     });
@@ -121,7 +124,6 @@ pub fn ask(model: &mut Model) -> Result<Question, String> {
             list.join(", ")
         ));
     }
-    let state = &mut model.keypad.limit;
     state.next += 1;
     let id = JogId(IDS | state.next);
     Ok(Question {
@@ -208,18 +210,20 @@ pub fn after(run: &LimitRun, end: &JogEnd) -> AfterEnd {
         JogEnd::Refused(reason) => say(true, format!("jog off limit refused: {reason}")),
         JogEnd::Fault(f) => say(
             true,
-            format!("jog off limit ended: {}", crate::ui::update::fault_text(f)),
+            format!(
+                "jog off limit ended: {}",
+                crate::ui::messages::fault_text(f)
+            ),
         ),
         JogEnd::LinkLost => say(true, "jog off limit ended: link lost".into()),
     }
 }
 
 /// The keypad's status line while it runs.
-pub fn status(model: &Model) -> Option<String> {
-    let run = model.keypad.limit.run.as_ref().filter(|r| !r.idle)?;
+pub fn status(state: &LimitState, s: &JogSettings, setup: &Setup) -> Option<String> {
+    let run = state.run.as_ref().filter(|r| !r.idle)?;
     let axis = run.limit.axis;
-    let s = model.keypad.settings();
-    let u = unit(model, axis);
+    let u = unit(setup, axis);
     // The speed is in the question and Space on the key line: the panel
     // is narrow.
     Some(format!(

@@ -23,12 +23,13 @@ use crate::offsets::store::{OffsetsFile, SaveJob, Saved, Startup};
 use crate::offsets::{System, WorkOffsets};
 use crate::proto::Protocol;
 
-use super::super::model::Model;
 use super::super::msg::Effect;
 use super::super::position::format_units;
 use super::super::traffic_log::NoteLevel;
-use super::Note;
+use super::context::{Context, Note};
 use super::goto::Target;
+use crate::jog::Gate;
+use crate::ui::setup::Setup;
 
 /// The session's work offsets and where they are kept.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -74,17 +75,16 @@ impl OffsetsState {
 }
 
 /// The session starts with `startup` (read from its file; `None` without a
-/// state directory); what there is to say about it is said.
-pub fn start(model: &mut Model, startup: Option<(Startup, OffsetsFile)>) {
-    model.offsets = OffsetsState::start(startup);
-    if let Some(note) = model.offsets.note.clone() {
-        let level = if model.offsets.refused {
-            NoteLevel::Danger
-        } else {
-            NoteLevel::Warning
-        };
-        super::super::update::say(model, level, note);
-    }
+/// state directory); what there is to say about it comes back as a note.
+pub fn start(offsets: &mut OffsetsState, startup: Option<(Startup, OffsetsFile)>) -> Option<Note> {
+    *offsets = OffsetsState::start(startup);
+    let note = offsets.note.clone()?;
+    let level = if offsets.refused {
+        NoteLevel::Danger
+    } else {
+        NoteLevel::Warning
+    };
+    Some((level, note))
 }
 
 /// How a write of the offsets file went: said only when it failed.
@@ -105,9 +105,9 @@ pub struct OffsetsChoice {
 }
 
 impl OffsetsChoice {
-    pub fn new(model: &Model) -> OffsetsChoice {
+    pub fn new(offsets: &OffsetsState) -> OffsetsChoice {
         OffsetsChoice {
-            selected: model.offsets.table.active(),
+            selected: offsets.table.active(),
         }
     }
 
@@ -120,30 +120,29 @@ impl OffsetsChoice {
 }
 
 /// Make `system` the active one: saved, and said with its zero.
-pub fn activate(model: &mut Model, system: System) -> (Vec<Effect>, Note) {
-    model.offsets.table.select(system);
+pub fn activate(offsets: &mut OffsetsState, ctx: &Context, system: System) -> (Vec<Effect>, Note) {
+    offsets.table.select(system);
     let mut text = format!(
         "{system} active: work coordinates count from its zero (machine {})",
-        zero_words(model, system)
+        zero_words(offsets, ctx.setup, system)
     );
-    if let Some(more) = programs_note(model) {
+    if let Some(more) = programs_note(offsets, ctx) {
         text.push_str("; ");
         text.push_str(&more);
     }
-    let effects = model.offsets.save().into_iter().collect();
+    let effects = offsets.save().into_iter().collect();
     (effects, (NoteLevel::Info, text))
 }
 
 /// `X 102.345 Y 50.000 Z 0.000`: a system's zero in machine units.
-pub fn zero_words(model: &Model, system: System) -> String {
-    model
-        .setup
+pub fn zero_words(offsets: &OffsetsState, setup: &Setup, system: System) -> String {
+    setup
         .axes
         .iter()
         .map(|(axis, p)| {
             format!(
                 "{axis} {}",
-                format_units(p, model.offsets.table.zero(system, *axis))
+                format_units(p, offsets.table.zero(system, *axis))
             )
         })
         .collect::<Vec<_>>()
@@ -153,29 +152,27 @@ pub fn zero_words(model: &Model, system: System) -> String {
 /// The axes on which stored programs count from another zero than the
 /// active system's: isel only (its `@0n` virtual zero, as the driver last
 /// knew it), where the driver knows it.
-pub fn programs_differ(model: &Model) -> AxisSet {
-    if model.setup.protocol != Protocol::Isel {
+pub fn programs_differ(offsets: &OffsetsState, ctx: &Context) -> AxisSet {
+    if ctx.setup.protocol != Protocol::Isel {
         return AxisSet::EMPTY;
     }
-    model
-        .setup
+    ctx.setup
         .axes
         .iter()
         .map(|(a, _)| *a)
         .filter(|a| {
-            model
-                .machine
+            ctx.machine
                 .work_zero
                 .get(*a)
-                .is_some_and(|v| v != model.offsets.table.active_zero(*a))
+                .is_some_and(|v| v != offsets.table.active_zero(*a))
         })
         .collect()
 }
 
 /// What to tell the operator when the controller's zero and the active
 /// system's differ.
-fn programs_note(model: &Model) -> Option<String> {
-    let differ = programs_differ(model);
+fn programs_note(offsets: &OffsetsState, ctx: &Context) -> Option<String> {
+    let differ = programs_differ(offsets, ctx);
     (!differ.is_empty()).then(|| {
         format!(
             "programs stored in the controller count from its own zero (@0n), which is \
@@ -190,13 +187,11 @@ fn programs_note(model: &Model) -> Option<String> {
 /// `Motion::SetZero`), each axis referenced (a zero counted from an
 /// unreferenced count is wrong after the reference run, and would be saved
 /// so) and its position read, not estimated.
-fn positions_for(model: &Model, axes: AxisSet) -> Result<Vec<(Axis, i64)>, String> {
-    super::gate(model)
-        .check(Motion::SetZero)
-        .map_err(|r| r.to_string())?;
+fn positions_for(gate: &Gate, ctx: &Context, axes: AxisSet) -> Result<Vec<(Axis, i64)>, String> {
+    gate.check(Motion::SetZero).map_err(|r| r.to_string())?;
     let unreferenced: AxisSet = axes
         .iter()
-        .filter(|a| !model.machine.referenced.contains(*a))
+        .filter(|a| !ctx.machine.referenced.contains(*a))
         .collect();
     if !unreferenced.is_empty() {
         return Err(format!(
@@ -205,7 +200,7 @@ fn positions_for(model: &Model, axes: AxisSet) -> Result<Vec<(Axis, i64)>, Strin
         ));
     }
     axes.iter()
-        .map(|axis| match model.positions.get(axis) {
+        .map(|axis| match ctx.positions.get(axis) {
             Some(r) if r.source == PositionSource::Measured => Ok((axis, r.steps)),
             Some(_) => Err(format!(
                 "{axis} is moving (its position is estimated): wait until it stands"
@@ -218,8 +213,13 @@ fn positions_for(model: &Model, axes: AxisSet) -> Result<Vec<(Axis, i64)>, Strin
 /// The work zero of the active system on `axes` where the machine stands
 /// (`z`, `Z`): saved, and `SetZero` for the controller (isel `@0n`, so
 /// stored programs count from it too).
-pub fn zero_here(model: &mut Model, axes: AxisSet) -> (Vec<Effect>, Note) {
-    let at = match positions_for(model, axes) {
+pub fn zero_here(
+    offsets: &mut OffsetsState,
+    gate: &Gate,
+    ctx: &Context,
+    axes: AxisSet,
+) -> (Vec<Effect>, Note) {
+    let at = match positions_for(gate, ctx, axes) {
         Ok(at) => at,
         Err(why) => {
             return (
@@ -228,11 +228,11 @@ pub fn zero_here(model: &mut Model, axes: AxisSet) -> (Vec<Effect>, Note) {
             );
         }
     };
-    let system = model.offsets.table.active();
+    let system = offsets.table.active();
     for (axis, steps) in at {
-        model.offsets.table.set(system, axis, steps);
+        offsets.table.set(system, axis, steps);
     }
-    let mut effects: Vec<Effect> = model.offsets.save().into_iter().collect();
+    let mut effects: Vec<Effect> = offsets.save().into_iter().collect();
     effects.push(Effect::Request(Request::SetZero { axes }));
     (
         effects,
@@ -247,13 +247,18 @@ pub fn zero_here(model: &mut Model, axes: AxisSet) -> (Vec<Effect>, Note) {
 /// machine's position reads the typed values. Axes typed as 0 get the
 /// controller's zero too (`SetZero`, isel `@0n`); others cannot (isel's
 /// zero goes only where the axis stands) and the note says so.
-pub fn set_here(model: &mut Model, target: &Target) -> Result<(Vec<Effect>, Note), String> {
+pub fn set_here(
+    offsets: &mut OffsetsState,
+    gate: &Gate,
+    ctx: &Context,
+    target: &Target,
+) -> Result<(Vec<Effect>, Note), String> {
     let axes: AxisSet = target.units.iter().map(|(a, _)| *a).collect();
-    let at = positions_for(model, axes)?;
-    let system = model.offsets.table.active();
+    let at = positions_for(gate, ctx, axes)?;
+    let system = offsets.table.active();
     let mut zeros = Vec::new();
     for ((axis, value), (_, steps)) in target.units.iter().zip(&at) {
-        let profile = model
+        let profile = ctx
             .setup
             .axis(*axis)
             .ok_or_else(|| format!("the machine has no {axis} axis"))?;
@@ -266,11 +271,11 @@ pub fn set_here(model: &mut Model, target: &Target) -> Result<(Vec<Effect>, Note
     let mut words = Vec::new();
     let mut zeroed = AxisSet::EMPTY;
     for (axis, zero, value) in &zeros {
-        model.offsets.table.set(system, *axis, *zero);
+        offsets.table.set(system, *axis, *zero);
         if *value == 0.0 {
             zeroed = zeroed.with(*axis);
         }
-        let at = model
+        let at = ctx
             .setup
             .axis(*axis)
             .map(|p| format_units(p, *zero))
@@ -280,13 +285,13 @@ pub fn set_here(model: &mut Model, target: &Target) -> Result<(Vec<Effect>, Note
             super::super::position::format_amount(*value)
         ));
     }
-    let mut effects: Vec<Effect> = model.offsets.save().into_iter().collect();
+    let mut effects: Vec<Effect> = offsets.save().into_iter().collect();
     if !zeroed.is_empty() {
         effects.push(Effect::Request(Request::SetZero { axes: zeroed }));
     }
     let mut text = format!("{system}: {} here", words.join(", "));
     let elsewhere: AxisSet = axes.iter().filter(|a| !zeroed.contains(*a)).collect();
-    if model.setup.protocol == Protocol::Isel && !elsewhere.is_empty() {
+    if ctx.setup.protocol == Protocol::Isel && !elsewhere.is_empty() {
         text.push_str(&format!(
             "; programs stored in the controller count from its own zero (@0n), which goes \
              only where an axis stands: go to the work zero (G) and zero it there (z) to bring \

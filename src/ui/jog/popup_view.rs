@@ -126,12 +126,12 @@ fn draw_rows(rows: Vec<Line<'static>>, inner: Rect, buf: &mut Buffer) {
 
 fn offsets(model: &Model, choice: &OffsetsChoice, area: Rect, buf: &mut Buffer) {
     let p = &model.palette;
-    let table = &model.offsets.table;
+    let table = &model.keypad.offsets.table;
     let ascii = p.symbols.lit.is_ascii();
     let mark = if ascii { "*" } else { "●" };
     let width = area.width.clamp(24, 66);
     let inner_w = usize::from(width.saturating_sub(2));
-    let note = model.offsets.note.clone().unwrap_or_default();
+    let note = model.keypad.offsets.note.clone().unwrap_or_default();
     let note_rows = if note.is_empty() {
         0
     } else {
@@ -190,7 +190,7 @@ fn offsets(model: &Model, choice: &OffsetsChoice, area: Rect, buf: &mut Buffer) 
                 None => format!("{axis} ?"),
             })
             .collect();
-        let differ = programs_differ(model);
+        let differ = programs_differ(&model.keypad.offsets, &model.jog_context());
         let text = format!("programs count from @0n: {}", zeros.join(" "));
         let style = if differ.is_empty() { p.dim } else { p.warning };
         rows.push(Line::from(Span::styled(fit(&text, inner_w), style)));
@@ -222,7 +222,7 @@ fn offsets(model: &Model, choice: &OffsetsChoice, area: Rect, buf: &mut Buffer) 
 
 fn set_position(model: &Model, line: &LineEdit, area: Rect, buf: &mut Buffer) {
     let p = &model.palette;
-    let system = model.offsets.table.active();
+    let system = model.keypad.offsets.table.active();
     let width = area.width.clamp(24, 64);
     let error = line.error.as_ref().map(|e| e.message.as_str());
     let height = 5 + error_height(error, usize::from(width.saturating_sub(2)));
@@ -268,7 +268,7 @@ fn values(model: &Model, form: &ValuesForm, area: Rect, buf: &mut Buffer) {
     let box_area = centred(area, width, height);
     let inner = framed(model, "Jog step and speed", box_area, buf);
     let w = usize::from(inner.width);
-    let unit = super::view::unit_label(model);
+    let unit = unit_label(model);
     let now_step = model
         .jog_step()
         .map(super::super::position::format_amount)
@@ -313,4 +313,11 @@ fn values(model: &Model, form: &ValuesForm, area: Rect, buf: &mut Buffer) {
         ],
     ));
     draw_rows(rows, inner, buf);
+}
+
+/// The unit the keypad and its popups name: the axes' common one, else
+/// `units`.
+pub(super) fn unit_label(model: &Model) -> &'static str {
+    crate::ui::position::common_unit(model.setup.axes.iter().map(|(_, p)| p))
+        .map_or("units", |u| u.symbol())
 }

@@ -20,7 +20,9 @@ use crate::jog::{JogKind, LastOutcome, Vector};
 use crate::ui::key::{KeyChord, KeyCode};
 use crate::ui::keymap::{Action, Mode};
 use crate::ui::model::{Model, PanelId};
-use crate::ui::position::{common_unit, format_amount};
+use crate::ui::position::format_amount;
+
+use super::popup_view::unit_label;
 use crate::ui::view::flow::fit;
 use crate::ui::view::frame;
 use crate::ui::view::popup::{centred, framed};
@@ -147,10 +149,6 @@ fn lit_vector(model: &Model) -> Option<Vector> {
     }
 }
 
-pub(super) fn unit_label(model: &Model) -> &'static str {
-    common_unit(model.setup.axes.iter().map(|(_, p)| p)).map_or("units", |u| u.symbol())
-}
-
 fn one_decimal(v: f64) -> String {
     format!("{v:.1}")
 }
@@ -267,7 +265,9 @@ fn status_line(model: &Model, width: usize) -> Line<'static> {
     let fresh = |at: std::time::Instant| now.saturating_duration_since(at) < REFUSAL_SHOWN;
     let moving = model.palette.symbols.moving;
     // The jog off a limit switch first: it runs without a key held.
-    if let Some(text) = super::limit::status(model) {
+    if let Some(text) =
+        super::limit::status(&model.keypad.limit, model.keypad.settings(), &model.setup)
+    {
         return Line::from(Span::styled(
             fit(&format!("{moving} {text}"), width),
             p.warning,
@@ -324,7 +324,7 @@ fn status_line(model: &Model, width: usize) -> Line<'static> {
     }
     if let Some(LastOutcome::Ended { end, at }) = jogger.last()
         && fresh(*at)
-        && super::end_is_news(model, end)
+        && model.keypad.end_is_news(end)
     {
         return Line::from(Span::styled(
             fit(&format!("! jog ended: {}", end_words(end)), width),
@@ -432,7 +432,10 @@ impl Widget for GoToView<'_> {
         let height = 5 + super::popup_view::error_height(error, usize::from(width - 2));
         let box_area = centred(area, width, height);
         let title = match self.prompt.frame {
-            Frame::Work => format!("Go to ({} work coordinates)", model.offsets.table.active()),
+            Frame::Work => format!(
+                "Go to ({} work coordinates)",
+                model.keypad.offsets.table.active()
+            ),
             Frame::Machine => "Go to (machine coordinates)".to_string(),
         };
         let inner = framed(model, &title, box_area, buf);

@@ -135,7 +135,7 @@ pub fn title_extra(model: &Model) -> Vec<Span<'static>> {
             .get(*a)
             .is_some_and(|r| r.source == PositionSource::Estimated)
     });
-    let offsets = &model.offsets;
+    let offsets = &model.keypad.offsets;
     let name = offsets.table.active().name();
     let mut extra = vec![if offsets.refused {
         // The file was refused at start: `O` says why.
@@ -143,7 +143,8 @@ pub fn title_extra(model: &Model) -> Vec<Span<'static>> {
     } else {
         Span::styled(format!("{name} "), p.title)
     }];
-    let differ = crate::ui::jog::offsets::programs_differ(model);
+    let differ =
+        crate::ui::jog::offsets::programs_differ(&model.keypad.offsets, &model.jog_context());
     if any_estimated {
         extra.push(Span::styled(
             format!("{} estimated ", sym.estimated),
@@ -174,7 +175,7 @@ pub struct AxisReading {
 pub fn readings(model: &Model) -> Vec<(crate::axis::Axis, AxisReading)> {
     let p = &model.palette;
     let sym = p.symbols;
-    let offsets = &model.offsets;
+    let offsets = &model.keypad.offsets;
     let live = matches!(model.link, LinkState::Connected);
     let m = &model.machine;
     model

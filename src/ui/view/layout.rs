@@ -5,8 +5,9 @@
 //! the key hints at the bottom; the traffic console gets what is left, and
 //! never less than a few lines. On a large terminal (from 120x44) the room
 //! goes to what the operator watches: the position in large digits, the
-//! port bits and the toolpath preview below them; the traffic console is
-//! held to a few lines.
+//! port bits and the toolpath preview below them, the latest messages in
+//! the rows the left column has to spare; the traffic console is held to a
+//! few lines.
 
 use ratatui::layout::Rect;
 
@@ -30,6 +31,9 @@ pub const LARGE_CONSOLE: u16 = 10;
 /// Fewest rows worth a toolpath preview.
 const PREVIEW_ROWS: u16 = 8;
 
+/// Fewest rows worth the panel of the latest messages (title and three).
+const MESSAGES_ROWS: u16 = 4;
+
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Areas {
     pub status: Rect,
@@ -42,6 +46,9 @@ pub struct Areas {
     pub hints: Option<Rect>,
     /// The toolpath preview (large terminals, where there is room).
     pub preview: Option<Rect>,
+    /// The latest messages, below the keypad and simulator inputs (large
+    /// terminals, where the left column has rows to spare).
+    pub messages: Option<Rect>,
     /// The position panel is drawn in large digits.
     pub big_dro: bool,
 }
@@ -110,12 +117,13 @@ fn side_by_side(
         console,
         hints,
         preview: None,
+        messages: None,
         big_dro: false,
     }
 }
 
 /// A large terminal: the left column has the position in large digits,
-/// the keypad and the simulator's inputs; the right one the port bits and,
+/// the keypad, the simulator's inputs and the latest messages; the right one the port bits and,
 /// below them, the toolpath preview; the traffic console a few lines at
 /// the bottom (all of it with `p`/F2 or `:` still, and `M` for messages).
 fn large(model: &Model, body: Rect, status: Rect, message: Rect, hints: Option<Rect>) -> Areas {
@@ -133,6 +141,11 @@ fn large(model: &Model, body: Rect, status: Rect, message: Rect, hints: Option<R
     let sim_h = sim::height(model, left_w);
     let sim_rect = (sim_h > 0 && top > used + 1)
         .then(|| Rect::new(body.x, body.y + used, left_w, (top - used).min(sim_h + 1)));
+    // What the left column has left goes to the latest messages, not to an
+    // empty block.
+    let left_used = used + sim_rect.map_or(0, |r| r.height);
+    let messages = (top.saturating_sub(left_used) >= MESSAGES_ROWS)
+        .then(|| Rect::new(body.x, body.y + left_used, left_w, top - left_used));
     let io_h = io::height(model, right_w).min(top);
     let preview_h = top - io_h;
     let preview =
@@ -153,6 +166,7 @@ fn large(model: &Model, body: Rect, status: Rect, message: Rect, hints: Option<R
         console: Rect::new(body.x, body.y + top, body.width, body.height - top),
         hints,
         preview,
+        messages,
         big_dro: true,
     }
 }
@@ -195,6 +209,7 @@ fn stacked(model: &Model, body: Rect, status: Rect, message: Rect, hints: Option
         console,
         hints,
         preview: None,
+        messages: None,
         big_dro: false,
     }
 }

@@ -1,6 +1,7 @@
 //! The message history (`M`): every message of the session whole, wrapped
 //! to the box, newest at the bottom, with its age and level; scrolled back
-//! line by line or a page at a time.
+//! line by line or a page at a time. On a large terminal the latest of them
+//! also have a panel of their own ([`LatestView`]).
 
 use ratatui::buffer::Buffer;
 use ratatui::layout::Rect;
@@ -10,6 +11,7 @@ use ratatui::widgets::Widget;
 use crate::ui::messages::wrap;
 use crate::ui::model::Model;
 
+use super::frame;
 use super::popup::{centred, framed};
 use super::status::{note_marker, note_style};
 
@@ -84,15 +86,52 @@ impl Widget for MessagesView<'_> {
                 .render(Rect::new(inner.x, inner.y, inner.width, 1), buf);
             return;
         }
-        let history: Vec<_> = model.history.iter().collect();
-        for (row, (i, text)) in all[start..end].iter().enumerate() {
-            let style = history.get(*i).map_or(p.text, |m| note_style(p, m.level));
-            let y = inner.y + row as u16;
-            if y >= inner.bottom() {
-                break;
-            }
-            Line::from(Span::styled(text.clone(), style))
-                .render(Rect::new(inner.x, y, inner.width, 1), buf);
+        draw(model, all.get(start..end).unwrap_or_default(), inner, buf);
+    }
+}
+
+/// History lines (of [`lines`]) into `inner`, one a row from the top, each
+/// in its message's level style.
+fn draw(model: &Model, rows: &[(usize, String)], inner: Rect, buf: &mut Buffer) {
+    let p = &model.palette;
+    let history: Vec<_> = model.history.iter().collect();
+    for (row, (i, text)) in rows.iter().enumerate() {
+        let style = history.get(*i).map_or(p.text, |m| note_style(p, m.level));
+        let y = inner.y + row as u16;
+        if y >= inner.bottom() {
+            break;
         }
+        Line::from(Span::styled(text.clone(), style))
+            .render(Rect::new(inner.x, y, inner.width, 1), buf);
+    }
+}
+
+/// The latest messages in a panel of the machine screen (large terminals,
+/// `view::layout`): as many as fit, wrapped, newest at the bottom, each
+/// with its marker and age; `M` shows them all.
+pub struct LatestView<'a>(pub &'a Model);
+
+impl Widget for LatestView<'_> {
+    fn render(self, area: Rect, buf: &mut Buffer) {
+        let model = self.0;
+        let p = &model.palette;
+        let inner = frame::panel(
+            "Messages",
+            vec![Span::styled("(M: all) ", p.dim)],
+            false,
+            p,
+            area,
+            buf,
+        );
+        let all = lines(model, usize::from(inner.width));
+        if all.is_empty() {
+            Line::from(Span::styled("no messages yet", p.dim)).render(
+                Rect::new(inner.x, inner.y, inner.width, 1.min(inner.height)),
+                buf,
+            );
+            return;
+        }
+        let start = all.len().saturating_sub(usize::from(inner.height));
+        draw(model, all.get(start..).unwrap_or_default(), inner, buf);
     }
 }

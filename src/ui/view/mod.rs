@@ -131,6 +131,9 @@ fn machine_screen(model: &Model, area: Rect, buf: &mut Buffer) {
     if let Some(sim_area) = a.sim {
         sim::SimView(model).render(sim_area, buf);
     }
+    if let Some(recent) = a.messages {
+        messages::LatestView(model).render(recent, buf);
+    }
     console::ConsoleView(model).render(a.console, buf);
     if let Some(hints) = a.hints {
         status::Hints(model).render(hints, buf);

@@ -11,12 +11,11 @@ use crate::jog::KeyPhase;
 use crate::motion::overrun::speed_cap;
 use crate::program::Language;
 use crate::program::checkout::{
-    DncCommand, DncStep, Finish, Plan, config_of, go_to, line_text, pair_axes, unexpressible,
-    with_speeds,
+    DncStep, Finish, Plan, config_of, go_to, line_text, pair_axes, unexpressible, with_speeds,
 };
-use crate::program::checkout_emcu::{self, EmcuPlan, EmcuStep};
+use crate::program::checkout_emcu::{self, EmcuPlan, EmcuStep, JobCommand};
 use crate::ui::editor::buffer::Cursor;
-use crate::ui::editor::checkout::{Checkout, RunPlan, RunState, scaled};
+use crate::ui::editor::checkout::{Checkout, PreLine, RunPlan, RunState, scaled};
 use crate::ui::editor::component::Effect;
 use crate::ui::editor::dialog::Answer;
 use crate::ui::keymap::Action;
@@ -27,7 +26,7 @@ use super::Step;
 /// What a check-out starts with, for the question and for the start.
 struct Prepared {
     plan: RunPlan,
-    preamble: Vec<(DncCommand, usize)>,
+    preamble: Vec<(PreLine, usize)>,
     summary: String,
 }
 
@@ -129,17 +128,7 @@ impl Step<'_, '_> {
         }
         let name = self.e.name();
         if language == Language::Emcu {
-            if from.is_some() {
-                return Err("run from a line is built for isel programs only".into());
-            }
-            return Ok(Prepared {
-                plan: RunPlan::Emcu(EmcuPlan::new(program)),
-                preamble: Vec::new(),
-                summary: format!(
-                    "Check out {name} from its first line, each job line sent as a command \
-                     (0x01), at 100 %."
-                ),
-            });
+            return self.checkout_prepare_emcu(from);
         }
         let config = config_of(ctx.setup.axis_set())
             .ok_or_else(|| "the machine's axes are no isel axis setting".to_string())?;
@@ -171,12 +160,17 @@ impl Step<'_, '_> {
         let go = go_to(config, skipped.position, zero, &|axis| {
             self.axis_hz(axis, speed)
         });
-        let mut preamble = skipped.settings.clone();
-        let settings: Vec<String> = preamble
+        let settings: Vec<String> = skipped
+            .settings
             .iter()
             .map(|(c, l)| format!("{c} (line {})", l + 1))
             .collect();
-        preamble.push((go, from));
+        let mut preamble: Vec<(PreLine, usize)> = skipped
+            .settings
+            .into_iter()
+            .map(|(c, l)| (PreLine::Isel(c), l))
+            .collect();
+        preamble.push((PreLine::Isel(go), from));
         let outputs: Vec<String> = skipped
             .outputs
             .iter()
@@ -192,19 +186,97 @@ impl Step<'_, '_> {
             from + 1,
             skipped.skipped_moves,
             if skipped.skipped_moves == 1 { "" } else { "s" },
-            if settings.is_empty() {
-                "none (the controller's own)".to_string()
-            } else {
-                settings.join(", ")
-            },
-            if outputs.is_empty() {
-                "none".to_string()
-            } else {
-                outputs.join(", ")
-            }
+            joined_or(&settings, "none (the controller's own)"),
+            joined_or(&outputs, "none"),
         );
         Ok(Prepared {
             plan: RunPlan::Isel(plan),
+            preamble,
+            summary,
+        })
+    }
+
+    /// An EMCU job's check-out; from source line `from`: the job walked to
+    /// it, the settings in force there sent first, then the axes taken to
+    /// where the skipped moves would have left them (`docs/editor.md`,
+    /// "Run from a line").
+    fn checkout_prepare_emcu(&mut self, from: Option<usize>) -> Result<Prepared, String> {
+        let ctx = self.ctx;
+        let program = self.e.buffer.program();
+        let name = self.e.name();
+        let mut plan = EmcuPlan::new(program);
+        let Some(from) = from else {
+            return Ok(Prepared {
+                plan: RunPlan::Emcu(plan),
+                preamble: Vec::new(),
+                summary: format!(
+                    "Check out {name} from its first line, each job line sent as a command \
+                     (0x01), at 100 %."
+                ),
+            });
+        };
+        let (_, start) = self.starts();
+        let zero = start.zero;
+        let skipped = plan.skip_to(from, start.position)?;
+        let units = crate::ui::editor::unit_label(ctx.setup);
+        let speed = self.e.teach_speed(ctx.setup).unwrap_or(1.0);
+        let axes = ctx.setup.axis_set();
+        let hz = axes
+            .iter()
+            .map(|axis| self.axis_hz(axis, speed))
+            .min()
+            .unwrap_or(1);
+        let go = checkout_emcu::go_to(axes, skipped.position, hz)
+            .ok_or_else(|| "the start position is beyond the range of an L move".to_string())?;
+        let mut shown = String::new();
+        for axis in axes.iter() {
+            let i = axis.index();
+            let work =
+                skipped.position.get(i).copied().unwrap_or(0) - zero.get(i).copied().unwrap_or(0);
+            let _ = write!(shown, " {axis}{}", self.units_of(axis, work));
+        }
+        let listed = |list: &[(JobCommand, usize)]| -> Vec<String> {
+            list.iter()
+                .map(|(c, l)| format!("{c} (line {})", l + 1))
+                .collect()
+        };
+        let settings = listed(&skipped.settings);
+        let outputs = listed(&skipped.outputs);
+        // The settings first, so the move to the start runs with the job's
+        // ramp and start speed; then the move in its own slot speed, and
+        // the job's speed of that slot again after it.
+        let mut preamble: Vec<(PreLine, usize)> = skipped
+            .settings
+            .iter()
+            .map(|(c, l)| (PreLine::Emcu(*c), *l))
+            .collect();
+        preamble.extend(go.iter().map(|c| (PreLine::Emcu(*c), from)));
+        preamble.extend(
+            skipped
+                .settings
+                .iter()
+                .filter(|(c, _)| {
+                    matches!(c, JobCommand::EndSpeed { slot, .. } if *slot == checkout_emcu::GO_TO_SLOT)
+                })
+                .map(|(c, l)| (PreLine::Emcu(*c), *l)),
+        );
+        let summary = format!(
+            "Check out {name} from line {}: {} move{} before it skipped.\n\
+             Start position (work):{shown}; the axes go there first ({} then {}, at {speed} \
+             {units}/s, held like every line).\n\
+             Settings in force there, sent first: {}.\n\
+             Outputs the skipped lines set are not sent: {}.\n\
+             Then each job line sent as a command (0x01), at 100 %.",
+            from + 1,
+            skipped.skipped_moves,
+            if skipped.skipped_moves == 1 { "" } else { "s" },
+            go[0],
+            go[1],
+            joined_or(&settings, "none (the controller's own)"),
+            joined_or(&outputs, "none"),
+        );
+        Ok(Prepared {
+            plan: RunPlan::Emcu(plan),
             preamble,
             summary,
         })
@@ -396,7 +468,7 @@ impl Step<'_, '_> {
                 let text = match &c.plan {
                     // An EMCU keeps no rest: what is left of the move,
                     // from where the axes stand.
-                    RunPlan::Emcu(p) if p.is_move() => {
+                    RunPlan::Emcu(p) if p.is_move() && c.preamble.is_empty() => {
                         let start = c.line_start.unwrap_or_default();
                         match p.rest_of_move(start, machine_now(ctx)) {
                             Some(rest) => rest,
@@ -415,13 +487,31 @@ impl Step<'_, '_> {
                 self.checkout_send(text, rest);
                 return;
             }
-            let (text, line) = if let Some((command, line)) = c.preamble.first().cloned() {
-                let RunPlan::Isel(plan) = &c.plan else {
-                    c.preamble.clear();
-                    continue;
-                };
-                let command = with_speeds(command, plan.config(), &speed);
-                (line_text(ctx.setup.isel_device, &command), line)
+            // Slot speeds serve every axis: the lowest cap.
+            let slot_speed = |hz: u32| {
+                let v = caps.iter().map(|(a, _)| speed(*a, hz)).min().unwrap_or(hz);
+                v.max(1)
+            };
+            let (text, line) = if let Some((pre, line)) = c.preamble.first().cloned() {
+                match (pre, &c.plan) {
+                    (PreLine::Isel(command), RunPlan::Isel(plan)) => {
+                        let command = with_speeds(command, plan.config(), &speed);
+                        (line_text(ctx.setup.isel_device, &command), line)
+                    }
+                    (PreLine::Emcu(command), RunPlan::Emcu(_)) => {
+                        match checkout_emcu::step_of(command, &slot_speed) {
+                            EmcuStep::Send { line: text, .. } => (text, line),
+                            EmcuStep::Dwell(_) | EmcuStep::Nothing => {
+                                c.preamble.remove(0);
+                                continue;
+                            }
+                        }
+                    }
+                    _ => {
+                        c.preamble.clear();
+                        continue;
+                    }
+                }
             } else {
                 let Some(line) = c.plan.line() else {
                     self.checkout_finished();
@@ -438,11 +528,7 @@ impl Step<'_, '_> {
                         DncStep::Dwell(d) => EmcuStep::Dwell(d),
                         DncStep::Nothing => EmcuStep::Nothing,
                     }),
-                    // Slot speeds serve every axis: the lowest cap.
-                    RunPlan::Emcu(plan) => plan.step(&|hz| {
-                        let v = caps.iter().map(|(a, _)| speed(*a, hz)).min().unwrap_or(hz);
-                        v.max(1)
-                    }),
+                    RunPlan::Emcu(plan) => plan.step(&slot_speed),
                 };
                 match step {
                     Some(EmcuStep::Send { line: text, .. }) => (text, line),
@@ -662,6 +748,16 @@ impl Step<'_, '_> {
         } else {
             c.state = RunState::Dwelling { left };
         }
+    }
+}
+
+/// `items` joined by commas, or `none` when there are none (the question
+/// before a run from a line).
+fn joined_or(items: &[String], none: &str) -> String {
+    if items.is_empty() {
+        none.to_string()
+    } else {
+        items.join(", ")
     }
 }
 

@@ -20,9 +20,9 @@ use crate::ui::editor::dialog::{Answer, Dialog, FormKind, Then};
 use crate::ui::editor::io::{EditorIo, EditorMsg, SaveFailure};
 use crate::ui::editor::upload::Phase;
 use crate::ui::keymap::{Action, Keymap};
-use crate::ui::model::Setup;
 use crate::ui::palette::Palette;
 use crate::ui::position::Positions;
+use crate::ui::setup::Setup;
 use crate::ui::traffic_log::NoteLevel;
 
 /// A program without problems: a reference run, one move, the end.
