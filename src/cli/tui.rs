@@ -30,7 +30,6 @@ use crate::program::store::RecoveryStore;
 use crate::sim::registry;
 use crate::sim::shell::{Shell, ShellControl, serve_socket};
 use crate::transport::PortSpec;
-use crate::ui::editor::Note;
 use crate::ui::editor::io::EditorMsg;
 use crate::ui::input::InputThreads;
 use crate::ui::keymap::Keymap;
@@ -149,17 +148,16 @@ fn imported(global: &GlobalArgs, profile: &Profile, path: &Path) -> Result<Edito
         crate::gcode::Target::Emcu => (Language::Emcu, "emcu"),
     };
     let s = &import.summary;
-    let mut notes: Vec<Note> = said
+    let mut notes: Vec<(NoteLevel, String)> = said
         .lines()
-        .map(|l| Note {
-            level: NoteLevel::Warning,
-            text: l.to_owned(),
-        })
+        .map(|l| (NoteLevel::Warning, l.to_owned()))
         .collect();
-    notes.extend(import.warnings.iter().map(|w| Note {
-        level: NoteLevel::Warning,
-        text: crate::gcode::render(&name, w),
-    }));
+    notes.extend(
+        import
+            .warnings
+            .iter()
+            .map(|w| (NoteLevel::Warning, crate::gcode::render(&name, w))),
+    );
     let fits = if import.program.fits() {
         "fits the controller's memory".to_owned()
     } else {
@@ -168,13 +166,13 @@ fn imported(global: &GlobalArgs, profile: &Profile, path: &Path) -> Result<Edito
             import.program.capacity
         )
     };
-    notes.push(Note {
-        level: if import.program.fits() {
+    notes.push((
+        if import.program.fits() {
             NoteLevel::Info
         } else {
             NoteLevel::Warning
         },
-        text: format!(
+        format!(
             "{name}: {} moves, {} arcs, {:.1} mm, about {:.0} s; work offset {}; {} commands, {fits}; unsaved until you save it",
             s.moves,
             s.arcs,
@@ -183,7 +181,7 @@ fn imported(global: &GlobalArgs, profile: &Profile, path: &Path) -> Result<Edito
             s.system,
             import.program.commands
         ),
-    });
+    ));
     let header = super::import::header_name(path);
     Ok(EditorMsg::Imported {
         path: path.with_extension(extension),

@@ -71,7 +71,8 @@ pub enum EditorMsg {
         path: PathBuf,
         language: crate::program::Language,
         text: String,
-        notes: Vec<crate::ui::editor::Note>,
+        /// Level and text, said in order.
+        notes: Vec<(crate::ui::traffic_log::NoteLevel, String)>,
     },
     /// Look for unsaved edits of an earlier session (at start).
     Scan,

@@ -40,8 +40,8 @@ impl Step<'_, '_> {
                     saved: self.e.buffer.state().wrapping_add(1),
                     ..FileState::default()
                 };
-                for note in notes {
-                    self.say(note.level, note.text);
+                for (level, text) in notes {
+                    self.say(level, text);
                 }
             }
             EditorMsg::Scan => {
