@@ -14,8 +14,6 @@ use jogterm::wire::LineSettings;
 use serialport::SerialPort;
 use tokio::sync::mpsc::UnboundedReceiver;
 
-use crate::timing::serial;
-
 const BAUD: u32 = 19200;
 
 fn byte_time() -> Duration {
@@ -449,7 +447,6 @@ fn the_emergency_handle_writes_while_the_writer_is_busy_and_after_it_ended() {
 
 #[test]
 fn on_a_terminal_stops_and_emergency_writes_are_drained() {
-    let _pty = serial();
     let (mut master, slave) = jogterm::sim::pty::pty_pair().expect("pty");
     let path = slave.name().expect("slave path");
     drop(slave);
