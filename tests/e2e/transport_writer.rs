@@ -384,6 +384,13 @@ fn a_vanished_peer_fails_the_writer_with_link_lost() {
     let PortParts {
         writer, mut events, ..
     } = parts;
+    // Shut down, not only dropped: a process another test forks in the
+    // meantime holds a copy of the descriptor until it execs (close-on-exec
+    // closes it only then), and while it does the socket is still open and
+    // takes the bytes (seen with six tests at once: `Written` came first).
+    // A shut-down socket refuses them whoever holds it.
+    peer.shutdown(std::net::Shutdown::Both)
+        .expect("shut the peer down");
     drop(peer);
     writer
         .send(b"@0P\r".to_vec(), Interleave::BetweenBytes)
