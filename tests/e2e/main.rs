@@ -5,7 +5,7 @@
 //! Each test waits for what it expects with a bound, never for a fixed time.
 //! Tests that measure a timing promise take [`timing::SERIAL`] while they
 //! measure and so never run beside each other; the rest, ptys included, run
-//! beside each other, six at a time (`.cargo/config.toml` sets libtest's
+//! beside each other, four at a time (`.cargo/config.toml` sets libtest's
 //! threads: most of these wait on the simulators' real time, not on the
 //! CPU). `docs/testing.md` has the figures.
 //!
