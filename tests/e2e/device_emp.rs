@@ -115,6 +115,8 @@ fn x(e: &Event) -> Option<i64> {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn switch_on_home_move_read_positions_and_io_then_stop() {
+    // A timing promise (the stop written within 50 ms): one at a time.
+    let _serial = crate::timing::SERIAL.lock().await;
     let mut rig = socket_rig();
     rig.emp_ready().await;
     rig.request(Request::MoveTo {

@@ -43,6 +43,8 @@ async fn positions_are_polled_and_ports_reported() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_stop_during_polling_overtakes_and_ends_a_move() {
+    // A timing promise (the stop written within 50 ms): one at a time.
+    let _serial = crate::timing::SERIAL.lock().await;
     let mut rig = socket_rig(settings(PollRate::LineSpeed));
     rig.ready().await;
     rig.request(Request::Step {

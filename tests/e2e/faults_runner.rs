@@ -13,8 +13,9 @@
 //!
 //! It takes the arguments `cargo test` hands every test binary: names to
 //! filter by (substrings, or whole names with `--exact`), `--skip NAME`,
-//! `--list`, `--test-threads N`, `--ignored` (runs nothing: no scenario is
-//! ignored); other libtest flags are accepted and ignored.
+//! `--list`, `--test-threads N` (else `RUST_TEST_THREADS`, as libtest),
+//! `--ignored` (runs nothing: no scenario is ignored); other libtest flags
+//! are accepted and ignored.
 
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -42,8 +43,10 @@ pub struct Scenario {
     pub run: fn(&mut Tally),
 }
 
-/// Scenarios at once by default: each runs two processes with a few threads,
-/// and the suite must stay well inside a minute on two cores.
+/// Scenarios at once when neither `--test-threads` nor `RUST_TEST_THREADS`
+/// (which `.cargo/config.toml` sets for `cargo test`, as libtest reads it)
+/// says: each runs two processes with a few threads, and the suite must
+/// stay well inside a minute on two cores.
 const DEFAULT_PARALLEL: usize = 2;
 
 /// The whole suite is stopped after this, whatever hangs.
@@ -66,7 +69,10 @@ fn options() -> Options {
         exact: false,
         list: false,
         only_ignored: false,
-        threads: DEFAULT_PARALLEL,
+        threads: std::env::var("RUST_TEST_THREADS")
+            .ok()
+            .and_then(|n| n.parse::<usize>().ok())
+            .map_or(DEFAULT_PARALLEL, |n| n.max(1)),
     };
     let mut args = std::env::args().skip(1);
     while let Some(arg) = args.next() {

@@ -16,6 +16,7 @@
 //!   while the machine stands but stops a step that runs.
 
 use crate::jog_support;
+use crate::timing::serial;
 use crate::ui_pty;
 
 use std::path::Path;
@@ -180,6 +181,8 @@ fn session_in(kitty: bool, continuous: bool) -> Session {
 }
 
 fn jog_then(end: End) {
+    // A timing promise (the stop within [`BOUND`]): measured one at a time.
+    let _serial = serial();
     let Session {
         _config,
         probe,
@@ -270,6 +273,7 @@ fn jog_then(end: End) {
 /// the protocol's flags are popped on the way out.
 #[test]
 fn with_the_kitty_keyboard_protocol_a_release_stops_the_jog_at_once() {
+    let _serial = serial();
     let Session {
         _config,
         probe,

@@ -3,9 +3,11 @@
 //! `watch`, `sim`), ser2net in between, and in-process device tasks,
 //! transports and simulators over sockets and ptys against the wall clock.
 //! Each test waits for what it expects with a bound, never for a fixed time.
-//! Tests that time the wire or open ptys take [`timing::SERIAL`] and so run
-//! one at a time; the rest run beside each other, two at a time on two
-//! cores (libtest's default threads).
+//! Tests that measure a timing promise take [`timing::SERIAL`] while they
+//! measure and so never run beside each other; the rest, ptys included, run
+//! beside each other, four at a time (`.cargo/config.toml` sets libtest's
+//! threads: most of these wait on the simulators' real time, not on the
+//! CPU). `docs/testing.md` has the figures.
 //!
 //! One test crate: each crate links the whole of jogterm, so these share one
 //! binary (docs/architecture.md, "Tests"). The fault-injection suite

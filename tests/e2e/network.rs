@@ -19,6 +19,7 @@ use crate::faults_support;
 use crate::ser2net_support;
 use crate::sim_process::{self, SimProcess, WAIT, text, wait_child};
 use crate::stops_support;
+use crate::timing::serial;
 use faults_support::console::Console;
 use faults_support::wire::{isel_messages, isel_motion};
 use ser2net_support::Ser2net;
@@ -107,6 +108,8 @@ fn send_and_poll(sim: &SimProcess, port: &str) {
 /// the first of them arrived within [`STOP_WITHIN`] of the signal. The
 /// time it took.
 fn ctrl_c_of_a_move(sim: &mut SimProcess, port: &str, extra: &[&str]) -> Duration {
+    // A timing promise: measured one at a time (`timing.rs`).
+    let _serial = serial();
     let moves = |r: &str| isel_motion(r).iter().filter(|m| *m == LONG_MOVE).count();
     let before = moves(&sim.received());
     let mut args = vec!["send"];

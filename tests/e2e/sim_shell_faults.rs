@@ -1,7 +1,7 @@
 //! Each fault does what `docs/simulator.md` says, seen from a client.
 
 use crate::sim_shell_support;
-use crate::timing::{serial, serialised};
+use crate::timing::block_on;
 
 use std::io::Write;
 use std::os::unix::net::UnixStream;
@@ -212,7 +212,7 @@ async fn closing_a_socket_line_is_link_lost_for_the_transport() {
 
 #[test]
 fn closing_a_pty_line_with_reopen_gives_the_link_path_back() {
-    serialised(async {
+    block_on(async {
         let dir = tempfile::tempdir().expect("tempdir");
         let link = dir.path().join("isel");
         let shell = serve_pty(
@@ -351,7 +351,6 @@ fn a_stopped_shell_says_so() {
 
 #[test]
 fn the_pty_master_can_be_read_by_a_serialport_client_after_garbage() {
-    let _serial = serial();
     let shell = serve_pty(LineAnswerer::boxed(19200), PtyOptions::default()).expect("serve");
     let path = shell.slave_path().expect("slave");
     let mut client = serialport::new(path.to_string_lossy(), 19200)
@@ -374,7 +373,6 @@ fn the_pty_master_can_be_read_by_a_serialport_client_after_garbage() {
 
 #[test]
 fn a_closed_pty_line_comes_back_with_a_later_close_and_a_time() {
-    let _serial = serial();
     let dir = tempfile::tempdir().expect("tempdir");
     let link = dir.path().join("emcu");
     let shell = serve_pty(

@@ -10,7 +10,6 @@ use std::sync::mpsc;
 use std::thread;
 use std::time::Duration;
 
-use crate::timing::serial;
 use jogterm::sim::InputControl;
 use jogterm::sim::control::run_control_loop;
 use jogterm::sim::shell::{PtyOptions, run_pty_simulator_with, serve_pty, serve_socket};
@@ -27,7 +26,6 @@ fn open_client(path: &std::path::Path) -> serialport::TTYPort {
 
 #[test]
 fn clients_may_close_and_another_may_open() {
-    let _serial = serial();
     let shell = serve_pty(LineAnswerer::boxed(19200), PtyOptions::default()).expect("serve");
     let path = shell.slave_path().expect("slave");
     for _ in 0..3 {
@@ -46,7 +44,6 @@ fn clients_may_close_and_another_may_open() {
 
 #[test]
 fn what_the_device_sends_while_no_client_is_there_is_lost() {
-    let _serial = serial();
     let shell = serve_pty(LineAnswerer::boxed(19200), PtyOptions::default()).expect("serve");
     let path = shell.slave_path().expect("slave");
     let control = shell.control();
@@ -78,7 +75,6 @@ fn what_the_device_sends_while_no_client_is_there_is_lost() {
 
 #[test]
 fn a_second_client_at_the_same_time_is_refused() {
-    let _serial = serial();
     let shell = serve_pty(LineAnswerer::boxed(19200), PtyOptions::default()).expect("serve");
     let path = shell.slave_path().expect("slave");
     let spec = || PortSpec::Serial {
@@ -94,7 +90,6 @@ fn a_second_client_at_the_same_time_is_refused() {
 
 #[test]
 fn the_link_follows_the_slave_and_goes_with_the_shell() {
-    let _serial = serial();
     let dir = tempfile::tempdir().expect("tempdir");
     let link = dir.path().join("emp0");
     // A stale link from an earlier run is replaced.
@@ -117,7 +112,6 @@ fn the_link_follows_the_slave_and_goes_with_the_shell() {
 
 #[test]
 fn a_link_path_holding_a_file_is_refused() {
-    let _serial = serial();
     let dir = tempfile::tempdir().expect("tempdir");
     let path = dir.path().join("precious");
     std::fs::write(&path, b"data").expect("file");
@@ -153,7 +147,6 @@ impl Write for Lines {
 
 #[test]
 fn the_pty_simulator_prints_its_path_first_and_obeys_stdin() {
-    let _serial = serial();
     let dir = tempfile::tempdir().expect("tempdir");
     let link = dir.path().join("sim");
     let (mut stdin, stdin_end) = UnixStream::pair().expect("pipe");
@@ -247,7 +240,6 @@ fn the_control_loop_prints_help_with_the_device_inputs_and_stops_at_quit() {
 /// for the next client, and the machine went on moving.
 #[test]
 fn a_client_that_writes_and_leaves_at_once_is_still_heard() {
-    let _serial = serial();
     let shell = serve_pty(LineAnswerer::boxed(19200), PtyOptions::default()).expect("serve");
     let path = shell.slave_path().expect("slave");
     let mut first = open_client(&path);

@@ -11,7 +11,7 @@ use jogterm::transport::{self, PortParts, PortSpec, TransportError, WriterConfig
 use jogterm::wire::LineSettings;
 use serialport::SerialPort;
 
-use crate::timing::{serial, serialised};
+use crate::timing::block_on;
 
 fn socket_parts() -> (PortParts, UnixStream) {
     let (ours, theirs) = UnixStream::pair().expect("socketpair");
@@ -72,7 +72,7 @@ async fn data_sent_before_the_peer_closed_is_read_before_link_lost() {
 
 #[test]
 fn a_closed_pty_master_is_link_lost() {
-    serialised(async {
+    block_on(async {
         let (master, slave) = jogterm::sim::pty::pty_pair().expect("pty");
         let path = slave.name().expect("slave path");
         drop(slave);
@@ -106,7 +106,6 @@ fn opening_a_missing_port_says_not_found() {
 
 #[test]
 fn opening_a_port_twice_says_busy() {
-    let _pty = serial();
     let (_master, slave) = jogterm::sim::pty::pty_pair().expect("pty");
     let path = slave.name().expect("slave path");
     drop(slave);

@@ -24,8 +24,11 @@ pub struct PtyRun {
     output: Arc<Mutex<Vec<u8>>>,
     stop_reading: Arc<AtomicBool>,
     reader: Option<thread::JoinHandle<()>>,
-    rows: u16,
-    cols: u16,
+    /// The terminal parser fed with the output up to the offset: each
+    /// [`PtyRun::screen`] parses only what is new (a wait that reads the
+    /// screen every 20 ms would otherwise parse the whole session again each
+    /// time, a cost that grows with the session).
+    parsed: Mutex<(vt100::Parser, usize)>,
     /// The child's state directory (recovery files, offsets) when the test
     /// gave none: a console under test never reads the user's own, where a
     /// recovery file from an earlier session would greet it with a popup.
@@ -124,8 +127,7 @@ impl PtyRun {
             output,
             stop_reading,
             reader: Some(reader),
-            rows,
-            cols,
+            parsed: Mutex::new((vt100::Parser::new(size(rows), size(cols), 0), 0)),
             _state: state,
         }
     }
@@ -191,14 +193,13 @@ impl PtyRun {
     }
 
     /// The screen as the terminal shows it now.
-    pub fn screen(&self) -> vt100::Parser {
-        let (rows, cols) = (
-            NonZeroU16::MIN.saturating_add(self.rows - 1),
-            NonZeroU16::MIN.saturating_add(self.cols - 1),
-        );
-        let mut parser = vt100::Parser::new(rows, cols, 0);
-        parser.process(&self.output());
-        parser
+    pub fn screen(&self) -> Shown {
+        let mut parsed = self.parsed.lock().unwrap_or_else(|p| p.into_inner());
+        let (parser, seen) = &mut *parsed;
+        let new = self.output_since(*seen);
+        *seen += new.len();
+        parser.process(&new);
+        Shown(parser.screen().clone())
     }
 
     /// Wait until the screen contains `needle`; the screen text on timeout.
@@ -244,6 +245,20 @@ impl PtyRun {
             }
         }
     }
+}
+
+/// What the terminal shows at one moment ([`PtyRun::screen`]).
+pub struct Shown(vt100::Screen);
+
+impl Shown {
+    pub fn screen(&self) -> &vt100::Screen {
+        &self.0
+    }
+}
+
+/// A terminal dimension for vt100 (at least 1).
+fn size(n: u16) -> NonZeroU16 {
+    NonZeroU16::MIN.saturating_add(n.max(1) - 1)
 }
 
 impl Drop for PtyRun {

@@ -5,7 +5,8 @@
 //! teach, upload, run, stop. Every family runs on its default controller and
 //! on each variant its simulator has, so a variant added to `VARIANTS` joins
 //! this matrix without a line here. EMP drives store no programs: their
-//! workflow ends after go to with the stop.
+//! workflow ends after go to with the stop. A family's controllers run at
+//! once, each on its own thread against its own simulator.
 //!
 //! Each step is checked on the controller's side (the simulator's own
 //! positions), not only on the screen: the program taught and run ends
@@ -195,25 +196,50 @@ fn workflow(name: &'static str, variant: Option<&'static str>) {
     sim.assert_alive();
 }
 
+/// The workflow on every controller of `family` ([`matrix`]), each on its
+/// own thread with its own simulator and console: they wait on the
+/// simulators' real time, not on each other. Every run ends (a failed one
+/// with its panic, which names the variant); the test fails naming each
+/// variant that failed.
+fn every_variant(name: &'static str, family: Protocol) {
+    let runs: Vec<(Option<&'static str>, std::thread::JoinHandle<()>)> = matrix(family)
+        .into_iter()
+        .map(|variant| {
+            let thread = std::thread::Builder::new()
+                .name(format!("{name} {}", variant.unwrap_or("default")))
+                .spawn(move || workflow(name, variant))
+                .expect("a thread per variant");
+            (variant, thread)
+        })
+        .collect();
+    let failed: Vec<&str> = runs
+        .into_iter()
+        .filter_map(|(variant, thread)| {
+            thread
+                .join()
+                .is_err()
+                .then_some(variant.unwrap_or("(default controller)"))
+        })
+        .collect();
+    assert!(
+        failed.is_empty(),
+        "the {name} workflow failed on {failed:?}"
+    );
+}
+
 #[test]
 fn isel_workflow_on_every_controller_variant() {
-    for variant in matrix(Protocol::Isel) {
-        workflow("isel", variant);
-    }
+    every_variant("isel", Protocol::Isel);
 }
 
 #[test]
 fn emcu_workflow_on_every_controller_variant() {
-    for variant in matrix(Protocol::Emcu) {
-        workflow("emcu", variant);
-    }
+    every_variant("emcu", Protocol::Emcu);
 }
 
 #[test]
 fn emp_workflow_on_every_controller_variant() {
-    for variant in matrix(Protocol::Emp) {
-        workflow("emp", variant);
-    }
+    every_variant("emp", Protocol::Emp);
 }
 
 #[test]

@@ -11,7 +11,7 @@ use crate::proto::emp::DriveAddress;
 use crate::sim::InputControl;
 
 use super::harness::{profile, settings, x_speed};
-use super::with_sim::{Bench, bench_for, counter, hold};
+use super::with_sim::{Bench, bench_for, counter, hold, run_until_homed};
 
 const ID: JogId = JogId(9);
 
@@ -114,7 +114,7 @@ fn the_drive_positions_off_its_switch_and_stops_once_it_has_released() {
     b.request(Request::Home {
         axes: AxisSet::EMPTY.with(Axis::X),
     });
-    b.run(Duration::from_secs(120));
+    run_until_homed(&mut b, Duration::from_secs(120));
     assert!(b.driver.state().fault.is_none(), "{:?}", b.driver.state());
     assert!(b.driver.state().referenced.contains(Axis::X));
 }

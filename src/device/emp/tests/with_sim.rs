@@ -54,8 +54,38 @@ pub(super) fn hold(b: &mut Bench, id: JogId, within: Duration) -> Option<JogEnd>
     None
 }
 
+/// Run until the reference run of X has ended (X referenced, the driver
+/// idle), at most `within`, and then a second more, in
+/// which the driver reads the drive back at rest: the run ends on that
+/// event, not after the whole allowance (each simulated second of polling
+/// costs the model's CPU).
+pub(super) fn run_until_homed(b: &mut Bench, within: Duration) {
+    let end = b.now + within;
+    while b.now < end {
+        let state = b.driver.state();
+        if state.referenced.contains(Axis::X) && state.activity == Activity::Idle {
+            b.run(Duration::from_secs(1));
+            return;
+        }
+        b.run(ms(50));
+    }
+}
+
 /// Switched on and referenced.
 fn homed(adjust: impl FnOnce(&mut EmpSettings)) -> Bench {
+    homed_within(adjust, run_until_homed)
+}
+
+/// [`homed`], the reference run given its whole allowance (120 s) rather
+/// than ended when it has: for the test that fails otherwise (below).
+fn homed_for_the_whole_allowance(adjust: impl FnOnce(&mut EmpSettings)) -> Bench {
+    homed_within(adjust, |b, within| b.run(within))
+}
+
+fn homed_within(
+    adjust: impl FnOnce(&mut EmpSettings),
+    home: impl FnOnce(&mut Bench, Duration),
+) -> Bench {
     let mut b = bench_for(&profile(), adjust);
     b.run(ms(300));
     b.request(Request::Initialise);
@@ -64,7 +94,7 @@ fn homed(adjust: impl FnOnce(&mut EmpSettings)) -> Bench {
     b.request(Request::Home {
         axes: AxisSet::EMPTY.with(Axis::X),
     });
-    b.run(Duration::from_secs(120));
+    home(&mut b, Duration::from_secs(120));
     assert!(
         b.driver.state().referenced.contains(Axis::X),
         "{:?}",
@@ -100,7 +130,7 @@ fn connect_initialise_home_and_read_positions_while_homing() {
     // Polled during the run, and moving.
     assert!(during.len() > 50, "{}", during.len());
     assert!(during.first() != during.last());
-    b.run(Duration::from_secs(120));
+    run_until_homed(&mut b, Duration::from_secs(120));
     assert!(b.driver.state().referenced.contains(Axis::X));
     assert_eq!(b.driver.state().activity, Activity::Idle);
     assert_eq!(counter(&b, DriveAddress::SINGLE), 0);
@@ -318,7 +348,7 @@ fn a_limit_switch_ends_an_unreferenced_jog_with_a_fault() {
     b.request(Request::Home {
         axes: AxisSet::EMPTY.with(Axis::X),
     });
-    b.run(Duration::from_secs(120));
+    run_until_homed(&mut b, Duration::from_secs(120));
     assert!(
         b.driver.state().fault.is_none(),
         "{:?}",
@@ -605,7 +635,14 @@ fn a_hold_speeds_up_once_without_a_stop_and_stops_within_the_bound() {
 
 #[test]
 fn a_positioning_jog_speeds_up_with_a_new_2a_01_and_no_stop() {
-    let mut b = homed(|s| s.jog_style = crate::config::profile::EmpJog::Position);
+    // Homed for the whole 120 s, as before issue 25: with the jog started
+    // 1 s after the reference run ended, the faster positioning's target
+    // came out one count short of the first one (`…557300` then `…5572FF`,
+    // seen under issue 25): the re-plan from the polled position rounds
+    // differently at another polling phase. Left for its own issue; this
+    // test keeps the timing it was written with.
+    let mut b =
+        homed_for_the_whole_allowance(|s| s.jog_style = crate::config::profile::EmpJog::Position);
     let (bound, top, grace, repeat) = jog_figures();
     let since = b.sent.len();
     b.request(Request::Jog {
