@@ -30,11 +30,7 @@ const HZ_MIN: f64 = 1.0;
 const HZ_MAX: f64 = 9999.0;
 
 fn error(origin: Origin, message: impl Into<String>) -> Diagnostic {
-    Diagnostic {
-        severity: Severity::Error,
-        origin,
-        message: message.into(),
-    }
+    Diagnostic::error(origin, message)
 }
 
 struct Writer<'a> {

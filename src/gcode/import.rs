@@ -9,7 +9,7 @@ use crate::proto::Protocol;
 use super::check::{Machine, Summary, check_limits, summarise};
 use super::output::{Header, Program};
 use super::setup::Setup;
-use super::toolpath::{Diagnostic, Origin, Severity, Toolpath};
+use super::toolpath::{Diagnostic, Origin, Toolpath};
 
 /// Which controller program to make.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -49,11 +49,7 @@ pub struct Import {
 }
 
 fn at_start(message: impl Into<String>) -> Vec<Diagnostic> {
-    vec![Diagnostic {
-        severity: Severity::Error,
-        origin: Origin { line: 1, col: 1 },
-        message: message.into(),
-    }]
+    vec![Diagnostic::error(Origin { line: 1, col: 1 }, message)]
 }
 
 /// Reads, interprets, checks and converts `text` (named `file` in the

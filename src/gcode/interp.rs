@@ -263,19 +263,11 @@ impl<'a> Interpreter<'a> {
     }
 
     fn error(&mut self, origin: Origin, message: impl Into<String>) {
-        self.error_diag(Diagnostic {
-            severity: Severity::Error,
-            origin,
-            message: message.into(),
-        });
+        self.error_diag(Diagnostic::error(origin, message));
     }
 
     fn warn(&mut self, origin: Origin, message: impl Into<String>) {
-        self.warnings.push(Diagnostic {
-            severity: Severity::Warning,
-            origin,
-            message: message.into(),
-        });
+        self.warnings.push(Diagnostic::warning(origin, message));
     }
 
     fn block(&mut self, block: &Block) {

@@ -78,11 +78,7 @@ impl Axes {
 }
 
 fn error(origin: Origin, message: impl Into<String>) -> Diagnostic {
-    Diagnostic {
-        severity: Severity::Error,
-        origin,
-        message: message.into(),
-    }
+    Diagnostic::error(origin, message)
 }
 
 struct Writer<'a> {

@@ -153,6 +153,24 @@ pub struct Diagnostic {
     pub message: String,
 }
 
+impl Diagnostic {
+    pub fn error(origin: Origin, message: impl Into<String>) -> Diagnostic {
+        Diagnostic {
+            severity: Severity::Error,
+            origin,
+            message: message.into(),
+        }
+    }
+
+    pub fn warning(origin: Origin, message: impl Into<String>) -> Diagnostic {
+        Diagnostic {
+            severity: Severity::Warning,
+            origin,
+            message: message.into(),
+        }
+    }
+}
+
 /// What the interpreter made of a file.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Toolpath {
