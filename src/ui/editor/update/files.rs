@@ -210,6 +210,10 @@ impl Step<'_, '_> {
         }
         let same = self.e.file.path.as_deref() == Some(path.as_path());
         let expect = if same { self.e.file.fingerprint } else { None };
+        // A program never read from or written to its path (converted from
+        // G-code, or a new file by that name) must not replace a file that
+        // is there now without the operator saying so.
+        let fresh = fresh || (same && self.e.file.fingerprint.is_none());
         self.save_to(path, then, expect, fresh);
     }
 

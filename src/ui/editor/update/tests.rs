@@ -522,3 +522,41 @@ fn the_program_screen_opens_and_closes_and_forms_take_characters() {
 }
 
 mod checkout;
+
+#[test]
+fn a_program_converted_from_gcode_opens_unsaved_and_asks_before_replacing_a_file() {
+    let mut host = Host::isel();
+    let mut e = Editor::new(&host.setup, host.now);
+    let path = PathBuf::from("/work/part.isel");
+    let out = host.send(
+        &mut e,
+        Input::Msg(EditorMsg::Imported {
+            path: path.clone(),
+            language: crate::program::Language::Isel,
+            text: GOOD.to_string(),
+            notes: vec![(NoteLevel::Info, "part.nc: 1 moves".into())],
+        }),
+    );
+    assert_eq!(out.focus, Some(Focus::Editor));
+    assert_eq!(said(&out), ["part.nc: 1 moves"]);
+    assert!(e.modified(), "unsaved until saved");
+    assert_eq!(e.name(), "part.isel");
+    // Ctrl-S writes it under its name, but only as a new file: an existing
+    // part.isel is not replaced without a question.
+    let out = host.key(&mut e, Action::Save);
+    assert_eq!(saves(&out), [(&path, true, &None)]);
+    let state = e.buffer.state();
+    let out = host.send(
+        &mut e,
+        Input::Msg(EditorMsg::Saved {
+            path: path.clone(),
+            state,
+            result: Err(SaveFailure::Exists),
+            then: None,
+        }),
+    );
+    assert!(
+        matches!(&out.dialog, Some(Dialog::Ask(q)) if q.yes == Answer::Overwrite { path: path.clone(), then: None }),
+        "{out:?}"
+    );
+}
