@@ -97,6 +97,11 @@ pub struct UploadArgs {
     /// where the tool stands retracted at the job's safe height (needs --start; isel)
     #[arg(long, requires = "start")]
     pub chunked: bool,
+    /// G-code: run it as a DNC stream instead of storing it, each command sent when the
+    /// one before has ended (isel; every move stops before the next: a stream leaves marks
+    /// at the part where stored programs do not)
+    #[arg(long, conflicts_with_all = ["chunked", "start", "erase"])]
+    pub stream: bool,
 }
 
 impl UploadArgs {
@@ -229,7 +234,7 @@ fn prepare_gcode(
         checked(name.clone(), &text, language, config, Some(program))
             .map_err(|m| (EXIT_USAGE, format!("jogterm upload: {m}")))
     };
-    if program.fits() {
+    if program.fits() || (args.stream && language == Language::Isel) {
         return Ok(vec![whole(imported.program)?]);
     }
     if !args.chunked || language != Language::Isel {
@@ -313,9 +318,9 @@ pub fn run(global: &GlobalArgs, args: &UploadArgs) -> anyhow::Result<ExitCode> {
                 return Ok(ExitCode::from(code));
             }
         }
-    } else if args.chunked {
+    } else if args.chunked || args.stream {
         return usage(
-            "--chunked runs G-code in parts; a controller program is stored whole".into(),
+            "--chunked and --stream run G-code; a controller program is stored whole".into(),
         );
     } else {
         match prepare(global, args, &profile, language, &config) {
@@ -372,6 +377,10 @@ async fn steps(
             out::say(format_args!("jogterm upload: link failure: {reason}"));
             return Err(EXIT_LINK);
         }
+        if args.stream {
+            let part = prepared.first().ok_or(EXIT_USAGE)?;
+            return stream(session, part, remedy).await;
+        }
         for (k, part) in prepared.iter().enumerate() {
             if prepared.len() > 1 {
                 out::say(format_args!("part {}/{}", k + 1, prepared.len()));
@@ -406,6 +415,8 @@ struct Remedy {
     send: String,
     protocol: Protocol,
     isel_device: u8,
+    /// The machine's axes: also what a G-code stream's DNC moves carry.
+    axes: AxisSet,
 }
 
 impl Remedy {
@@ -423,6 +434,7 @@ impl Remedy {
             send,
             protocol,
             isel_device: profile.isel.device,
+            axes: profile.axis_set(),
         }
     }
 
@@ -452,6 +464,99 @@ impl Remedy {
             }
         }
     }
+}
+
+/// A converted isel program run as a DNC stream (issue 27): the program's
+/// own commands in DNC form (`program::checkout`'s plan, which also runs
+/// loops, jumps and port branches), each sent when the one before has been
+/// answered, that is when its move has ended (manual 2.2); a dwell waits
+/// here, a pause reads the start key until it is pressed. Progress as the
+/// G-code line. A refusal or a controller error ends the stream at its
+/// G-code line; Ctrl-C stops the machine as in every upload.
+async fn stream(session: &mut Session, prepared: &Prepared, remedy: &Remedy) -> Status {
+    use crate::program::checkout::{DncStep, Plan, config_of, line_text};
+    let Some(gcode) = &prepared.gcode else {
+        return Err(EXIT_USAGE);
+    };
+    let device = remedy.isel_device;
+    let Some(config) = config_of(remedy.axes) else {
+        out::say("jogterm upload: --stream needs a machine with axes X, Y and Z");
+        return Err(EXIT_USAGE);
+    };
+    // The controller set up as a stored run finds it (axes, ramps): what
+    // `upload` does when the driver says it is not initialised.
+    initialise(session, remedy).await?;
+    let mut plan = Plan::new(&prepared.program, config);
+    let total = gcode.lines.len().max(1);
+    let started = Instant::now();
+    let mut shown: Option<u32> = None;
+    out::say(format_args!(
+        "streaming {} commands (Ctrl-C stops the machine)",
+        gcode.commands
+    ));
+    while let Some(step) = plan.step(&|_, hz| hz) {
+        let index = plan.line().unwrap_or(0);
+        let origin = gcode.lines.get(index).and_then(|l| l.origin);
+        if let Some(o) = origin
+            && shown != Some(o.line)
+        {
+            shown = Some(o.line);
+            out::say(format_args!(
+                "{}:{}: {} % after {:.0} s",
+                prepared.name,
+                o.line,
+                index * 100 / total,
+                started.elapsed().as_secs_f64()
+            ));
+        }
+        let place = origin.map_or_else(
+            || prepared.name.clone(),
+            |o| format!("{}:{}:{}", prepared.name, o.line, o.col),
+        );
+        let port = match step {
+            DncStep::Send { command, .. } => {
+                let line = line_text(device, &command);
+                super::send::exchange(session, &line)
+                    .await
+                    .map_err(|(code, why)| {
+                        out::say(format_args!("{place}: {why}; the stream ends here"));
+                        code
+                    })?;
+                None
+            }
+            DncStep::ReadPort { command } => {
+                let line = line_text(device, &command);
+                let answer =
+                    super::send::exchange(session, &line)
+                        .await
+                        .map_err(|(code, why)| {
+                            out::say(format_args!("{place}: {why}; the stream ends here"));
+                            code
+                        })?;
+                let byte = u8::from_str_radix(answer.trim(), 16).ok();
+                if byte.is_none() {
+                    out::say(format_args!(
+                        "{place}: `{answer}` is no port byte; the stream ends here"
+                    ));
+                    return Err(1);
+                }
+                // A pause's self-loop reads the key again: not at wire speed.
+                tokio::time::sleep(Duration::from_millis(50)).await;
+                byte
+            }
+            DncStep::Dwell(d) => {
+                tokio::time::sleep(d).await;
+                None
+            }
+            DncStep::Nothing => None,
+        };
+        plan.advance(port);
+    }
+    out::say(format_args!(
+        "the stream ended after {:.1} s",
+        started.elapsed().as_secs_f64()
+    ));
+    Ok(())
 }
 
 /// The exit status for a refusal, said on stderr.
@@ -779,6 +884,7 @@ mod tests {
             send: format!("jogterm send --port {port} --protocol {protocol}"),
             protocol,
             isel_device: 0,
+            axes: AxisSet::XYZ,
         };
         let isel = remedy(Protocol::Isel, "/tmp/isel");
         assert_eq!(

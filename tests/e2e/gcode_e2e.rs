@@ -496,3 +496,72 @@ fn a_job_bigger_than_the_memory_runs_in_parts_cut_only_where_the_tool_is_retract
         assert!(end <= 30, "part {} holds {end} commands", k + 1);
     }
 }
+
+#[test]
+fn a_job_bigger_than_the_memory_runs_as_a_dnc_stream_and_stores_nothing() {
+    let small_memory = (
+        "profiles/default.toml",
+        "[axes.X]\nmax_speed = 60.0\n[axes.Y]\nmax_speed = 60.0\n[axes.Z]\nmax_speed = 30.0\n[gcode]\nmemory = 30\n",
+    );
+    let mut sim = SimProcess::start_variant("isel", &[small_memory], &["memory=30"]);
+    let file = sim.dir.path().join("pockets.nc");
+    std::fs::write(&file, pockets()).expect("write");
+    let file = file.display().to_string();
+    // Unreferenced and not initialised: the stream sets the controller up
+    // and its own first command is the reference run (`77` as `@0R7`).
+    let child = spawn(
+        &sim,
+        &["upload", &file, "--work-zero", WORK_ZERO, "--stream"],
+    );
+    let out = wait_run(child, "upload --stream");
+    let said = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{said}");
+    assert!(said.contains("streaming 88 commands"), "{said}");
+    assert!(said.contains("the stream ended"), "{said}");
+    // Progress names the G-code lines.
+    assert!(said.contains("pockets.nc:88: "), "{said}");
+    let state = sim.device_state();
+    let [x, y, z] = steps([46.0, 34.0, 5.0]);
+    assert!(
+        state.starts_with(&format!("device: X {x} Y {y} Z {z} ")),
+        "{state}"
+    );
+    let received = sim.received();
+    assert!(!received.contains("@0i"), "nothing stored: {received}");
+    let reference = received.find("@0R7<CR>").expect("the reference run");
+    let three_d = received.find("@0z1<CR>").expect("3D mode");
+    assert!(reference < three_d, "{received}");
+    // Every `m` of the program (77, z1, 85 moves, 9) as a DNC absolute move.
+    assert_eq!(received.matches("@0M").count(), 85, "{received}");
+}
+
+#[test]
+fn ctrl_c_during_a_stream_stops_the_machine_and_sends_no_further_command() {
+    let mut sim = SimProcess::start_with_files("isel", &[FAST_MACHINE]);
+    let file = sim.dir.path().join("pockets.nc");
+    std::fs::write(&file, pockets()).expect("write");
+    let file = file.display().to_string();
+    let child = spawn(
+        &sim,
+        &["upload", &file, "--work-zero", WORK_ZERO, "--stream"],
+    );
+    // A few pockets in, interrupted as Ctrl-C does.
+    sim.wait_received("the fifth move", |r| r.matches("@0M").count() >= 5);
+    let pid = libc::pid_t::try_from(child.id()).expect("pid");
+    // SAFETY: a plain signal to the child this test started.
+    assert_eq!(unsafe { libc::kill(pid, libc::SIGINT) }, 0);
+    let out = wait_run(child, "upload --stream after Ctrl-C");
+    let said = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{said}");
+    let received = sim.received();
+    let stop = received.rfind("<FD><FF>").expect("the stop");
+    let last_move = received.rfind("@0M").expect("moves");
+    assert!(last_move < stop, "nothing after the stop: {received}");
+    let moves_at_stop = received.matches("@0M").count();
+    assert!(
+        moves_at_stop < 85,
+        "the stream did not run on: {moves_at_stop}"
+    );
+    let state = sim.wait_device("standing", |s| !s.contains("moving"));
+    assert!(!state.contains("program"), "{state}");
+}
