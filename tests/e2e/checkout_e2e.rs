@@ -263,6 +263,9 @@ fn ready_emcu(dir: &Path, job: &str) -> (SimProcess, PtyRun) {
     run.type_keys(&[b"i"]);
     wait_for(&run, "NOT REF");
     run.type_keys(&[b"h"]);
+    // The answer only once the question is there: two keys in one read
+    // are a burst, which moves nothing by design.
+    wait_for(&run, "Reference run");
     run.type_keys(&[b"y"]);
     wait_for(&run, "READY");
     wait_counter(&mut sim, "X", |x| x == 0);

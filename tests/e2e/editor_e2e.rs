@@ -207,6 +207,9 @@ fn edit_upload_and_run_on_the_simulator_end_where_the_preview_said() {
     // The machine screen: initialise, reference (asks), back to the editor.
     initialise(&mut run);
     run.type_keys(&[b"h"]);
+    // The answer only once the question is there: two keys in one read
+    // are a burst, which moves nothing by design.
+    wait_for(&run, "Reference run");
     run.type_keys(&[b"y"]);
     wait_for(&run, "READY");
     run.type_keys(&[b"e"]);
@@ -358,6 +361,9 @@ fn an_emcu_job_taught_after_a_work_zero_drives_back_to_where_the_machine_stood()
     wait_for(&run, "connected");
     initialise(&mut run);
     run.type_keys(&[b"h"]);
+    // The answer only once the question is there: two keys in one read
+    // are a burst, which moves nothing by design.
+    wait_for(&run, "Reference run");
     run.type_keys(&[b"y"]);
     wait_for(&run, "READY");
     wait_x_steps(&run, "0");
