@@ -424,16 +424,23 @@ fn pockets() -> String {
     text
 }
 
-#[test]
-fn a_job_bigger_than_the_memory_runs_in_parts_cut_only_where_the_tool_is_retracted() {
+/// The fast machine's simulator with a program memory of 30 commands, as
+/// its profile says too, and the pocket job in its directory.
+fn pockets_on_a_small_controller() -> (SimProcess, String) {
     let small_memory = (
         "profiles/default.toml",
         "[axes.X]\nmax_speed = 60.0\n[axes.Y]\nmax_speed = 60.0\n[axes.Z]\nmax_speed = 30.0\n[gcode]\nmemory = 30\n",
     );
-    let mut sim = SimProcess::start_variant("isel", &[small_memory], &["memory=30"]);
+    let sim = SimProcess::start_variant("isel", &[small_memory], &["memory=30"]);
     let file = sim.dir.path().join("pockets.nc");
     std::fs::write(&file, pockets()).expect("write");
     let file = file.display().to_string();
+    (sim, file)
+}
+
+#[test]
+fn a_job_bigger_than_the_memory_runs_in_parts_cut_only_where_the_tool_is_retracted() {
+    let (mut sim, file) = pockets_on_a_small_controller();
     // Without --chunked it is refused, and nothing is sent.
     let out = run(
         &sim,
@@ -499,14 +506,7 @@ fn a_job_bigger_than_the_memory_runs_in_parts_cut_only_where_the_tool_is_retract
 
 #[test]
 fn a_job_bigger_than_the_memory_runs_as_a_dnc_stream_and_stores_nothing() {
-    let small_memory = (
-        "profiles/default.toml",
-        "[axes.X]\nmax_speed = 60.0\n[axes.Y]\nmax_speed = 60.0\n[axes.Z]\nmax_speed = 30.0\n[gcode]\nmemory = 30\n",
-    );
-    let mut sim = SimProcess::start_variant("isel", &[small_memory], &["memory=30"]);
-    let file = sim.dir.path().join("pockets.nc");
-    std::fs::write(&file, pockets()).expect("write");
-    let file = file.display().to_string();
+    let (mut sim, file) = pockets_on_a_small_controller();
     // Unreferenced and not initialised: the stream sets the controller up
     // and its own first command is the reference run (`77` as `@0R7`).
     let child = spawn(
