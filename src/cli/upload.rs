@@ -683,20 +683,22 @@ async fn idle(session: &mut Session) -> Status {
 /// `FILE:LINE: the controller refused command N `…`: code meaning; what
 /// it holds now`.
 fn failure(prepared: &Prepared, index: usize, fault: &ControllerFault) -> String {
-    let from_gcode = prepared
-        .gcode
-        .as_ref()
-        .and_then(|g| g.origin_of_command(index));
-    let place = match (
-        from_gcode,
-        prepared.program.line_of(index),
-        prepared.language(),
-    ) {
-        (Some(o), _, _) => format!("{}:{}:{}", prepared.name, o.line, o.col),
-        (None, Some(line), _) => format!("{}:{}", prepared.name, line + 1),
+    let place = match (&prepared.gcode, prepared.program.line_of(index)) {
+        // Converted from G-code: the G-code line, never a line of the
+        // converted text, which is no file the operator has.
+        (Some(gcode), _) => match gcode.origin_of_command(index) {
+            Some(o) => format!("{}:{}:{}", prepared.name, o.line, o.col),
+            None => format!(
+                "{} (a command the conversion adds, from no G-code line)",
+                prepared.name
+            ),
+        },
+        (None, Some(line)) => format!("{}:{}", prepared.name, line + 1),
         // The `9` the driver appends to a program that lacks one.
-        (None, None, Language::Isel) => format!("{} (the closing 9)", prepared.name),
-        (None, None, Language::Emcu) => format!("{} (after its last command)", prepared.name),
+        (None, None) => match prepared.language() {
+            Language::Isel => format!("{} (the closing 9)", prepared.name),
+            Language::Emcu => format!("{} (after its last command)", prepared.name),
+        },
     };
     let after = match prepared.language() {
         Language::Isel => {
@@ -934,6 +936,42 @@ mod tests {
         assert!(said.starts_with("p.isel:5: the controller refused command 2 `m8000,8000`"));
         assert!(said.ends_with("(upload again with --erase)"), "{said}");
         assert!(failure(&prepared, 7, &fault).starts_with("p.isel (the closing 9)"));
+    }
+
+    #[test]
+    fn a_failure_of_a_converted_program_names_the_gcode_line_or_none() {
+        use crate::gcode::Origin;
+        let mut gcode = crate::gcode::output::Program::default();
+        gcode.comment("jogterm-gcode file=part.nc");
+        gcode.command("77", None);
+        gcode.command("m8000,8000", Some(Origin { line: 57, col: 3 }));
+        gcode.command("9", Some(Origin { line: 60, col: 1 }));
+        let text = gcode.text("part.nc");
+        let program = Program::parse(Language::Isel, &text);
+        let prepared = Prepared {
+            name: "part.nc".into(),
+            lines: program.upload_lines().expect("lines"),
+            program,
+            gcode: Some(gcode),
+        };
+        let fault = ControllerFault {
+            command: "m8000,8000".into(),
+            code: "3".into(),
+            meaning: "invalid number".into(),
+            recovery: crate::device::api::Recovery::None,
+        };
+        let said = failure(&prepared, 1, &fault);
+        assert!(
+            said.starts_with("part.nc:57:3: the controller refused command 2"),
+            "{said}"
+        );
+        // The reference run the conversion puts first has no G-code line:
+        // not a line of the converted text either.
+        let said = failure(&prepared, 0, &fault);
+        assert!(
+            said.starts_with("part.nc (a command the conversion adds, from no G-code line)"),
+            "{said}"
+        );
     }
 
     #[test]
