@@ -229,3 +229,53 @@ fn outputs_of(wiring: &Wiring) -> Vec<NamedOutput> {
         })
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_gcode_table_maps_codes_and_refuses_what_makes_no_sense_by_key() {
+        let mut setup = Setup {
+            outputs: vec![NamedOutput {
+                address: "out2".into(),
+                name: "spindle".into(),
+                role: Some(Role::Spindle),
+                number: 0,
+            }],
+            ..Setup::default()
+        };
+        let mut table = GcodeProfile {
+            unit: Some("mm".into()),
+            ..GcodeProfile::default()
+        };
+        for (code, rule) in [("m8", "ignore"), ("M3", "output:spindle")] {
+            table.codes.insert(code.into(), rule.into());
+        }
+        setup.apply(&table).expect("a good table");
+        assert_eq!(setup.default_units, Some(Units::Mm));
+        assert_eq!(setup.codes.get("m8"), Some(&CodeRule::Ignore));
+        assert_eq!(
+            setup.codes.get("m3"),
+            Some(&CodeRule::Output("spindle".into()))
+        );
+
+        let mut bad = GcodeProfile {
+            unit: Some("furlong".into()),
+            ..GcodeProfile::default()
+        };
+        for (code, rule) in [
+            ("m7", "output:coolant"),
+            ("m9", "switch off"),
+            ("speed", "ignore"),
+        ] {
+            bad.codes.insert(code.into(), rule.into());
+        }
+        let errors = Setup::default().apply(&bad).expect_err("a bad table");
+        let keys: Vec<&str> = errors.iter().map(|e| e.key.as_str()).collect();
+        assert_eq!(keys, ["gcode.unit", "gcode.m7", "gcode.m9", "gcode.speed"]);
+        assert!(errors[1].message.contains("no output of this profile"));
+        assert!(errors[2].message.contains("\"ignore\" or \"output:"));
+        assert!(errors[3].message.contains("not a G or M code"));
+    }
+}

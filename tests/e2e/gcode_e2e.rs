@@ -565,3 +565,47 @@ fn ctrl_c_during_a_stream_stops_the_machine_and_sends_no_further_command() {
     let state = sim.wait_device("standing", |s| !s.contains("moving"));
     assert!(!state.contains("program"), "{state}");
 }
+
+#[test]
+fn import_json_gives_the_figures_of_the_file_worked_out_by_hand() {
+    let state = tempfile::tempdir().expect("state dir");
+    let out = std::process::Command::new(crate::sim_process::JOGTERM)
+        .args([
+            "import",
+            &sample("fusion-grbl.nc"),
+            "--work-zero",
+            WORK_ZERO,
+            "--json",
+        ])
+        .env("JOGTERM_CONFIG_DIR", "/nonexistent-jogterm-config")
+        .env("JOGTERM_STATE_DIR", state.path())
+        .output()
+        .expect("run jogterm import");
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON object");
+    // In the file's own coordinates: the lead-in at X-2 Y-2, the contour's
+    // arcs bulge to X45 and Y30, Z from the cut at -2 to the clearance 15.
+    assert_eq!(
+        json["extents_mm"],
+        serde_json::json!({"x": [-2.0, 45.0], "y": [-2.0, 30.0], "z": [-2.0, 15.0]})
+    );
+    // Twelve G0/G1 moves, three quarter fillets and a full circle.
+    assert_eq!(json["moves"], 12);
+    assert_eq!(json["arcs"], 4);
+    // From the reference point (machine 0) to the lead-in, 48 mm in X and
+    // Y: 67.882; then 75 + 10 + 6 + 2.828 + 40 + 20 + 35 + 25 + 1 + 25 + 17
+    // straight, 3 x 7.854 fillets and the 31.416 circle.
+    let length = json["length_mm"].as_f64().expect("length");
+    assert!((length - 379.688).abs() < 0.01, "{length}");
+    assert_eq!(json["fits_memory"], true);
+    assert!(json["output_lines"].as_u64().is_some_and(|n| n > 20));
+    assert!(json["estimated_s"].as_f64().is_some_and(|s| s > 0.0));
+    let warnings = json["warnings"].as_array().expect("warnings");
+    assert_eq!(warnings[0]["line"], 13);
+    assert_eq!(warnings[0]["col"], 1);
+    assert!(
+        warnings[0]["message"]
+            .as_str()
+            .is_some_and(|m| m.contains("spindle speed"))
+    );
+}
