@@ -19,7 +19,7 @@ use crate::axis::Axis;
 use crate::config::profile::{AxisProfile, Profile};
 use crate::proto::emcu::job::JOB_CAPACITY;
 
-use super::output::{Header, Program, chords, merge_lines};
+use super::output::{Header, Program, chords, merge_lines, path_speed};
 use super::toolpath::{Diagnostic, Op, Origin, Pause, Point, Severity, Toolpath};
 
 /// The end-speed slot of the import's moves (jogterm's own moves use
@@ -151,41 +151,16 @@ impl Writer<'_> {
     }
 
     fn path_hz(&mut self, from: Point, to: Point, mm_per_s: f64, origin: Origin) -> u32 {
-        let d_mm =
-            ((to.x - from.x).powi(2) + (to.y - from.y).powi(2) + (to.z - from.z).powi(2)).sqrt();
-        // Unrounded steps: equal feeds give equal speeds, chord after chord.
-        let s0 = self.exact_steps(from);
-        let s1 = self.exact_steps(to);
-        let d_steps = s0
+        let limits: Vec<f64> = self
+            .axes
             .iter()
-            .zip(&s1)
-            .map(|(a, b)| (b - a).powi(2))
-            .sum::<f64>()
-            .sqrt();
-        if d_mm < 1e-12 || d_steps < 0.5 {
+            .map(|(_, p)| p.speed_hz(p.max_speed))
+            .collect();
+        let steps = (&self.exact_steps(from)[..], &self.exact_steps(to)[..]);
+        let Some((hz, held)) = path_speed(from, to, steps, mm_per_s, &limits, HZ_MAX) else {
             return HZ_MIN as u32;
-        }
-        let mut hz = if mm_per_s.is_finite() {
-            mm_per_s * d_steps / d_mm
-        } else {
-            HZ_MAX
         };
-        let mut capped = false;
-        for (i, (_, p)) in self.axes.iter().enumerate() {
-            let share = (s1[i] - s0[i]).abs() / d_steps;
-            if share > 0.0 {
-                let limit = p.speed_hz(p.max_speed) / share;
-                if hz > limit + 0.5 {
-                    hz = limit;
-                    capped = mm_per_s.is_finite();
-                }
-            }
-        }
-        if hz > HZ_MAX {
-            hz = HZ_MAX;
-            capped |= mm_per_s.is_finite();
-        }
-        if capped {
+        if held {
             self.capped += 1;
             self.first_capped.get_or_insert(origin);
         }

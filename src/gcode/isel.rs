@@ -37,7 +37,7 @@ use crate::proto::typed::isel_config;
 use crate::wiring::{BitKind, Level, Role};
 
 use super::interp::{get, plane_axes, radius, sweep};
-use super::output::{Header, Program, chords, merge_lines};
+use super::output::{Header, Program, chords, merge_lines, path_speed};
 use super::toolpath::{Arc, Diagnostic, Op, Origin, Pause, Plane, Point, Severity, Toolpath};
 
 const HZ_MIN: f64 = 1.0;
@@ -230,45 +230,21 @@ impl Writer<'_> {
     /// The path speed in steps/s for a move of `from` → `to` (mm) at
     /// `mm_per_s`, capped by every moving axis' `max_speed`.
     fn path_hz(&mut self, from: Point, to: Point, mm_per_s: f64, origin: Origin) -> u32 {
-        let d_mm =
-            ((to.x - from.x).powi(2) + (to.y - from.y).powi(2) + (to.z - from.z).powi(2)).sqrt();
-        // Unrounded steps: equal feeds give equal speeds, chord after chord.
-        let s0 = self.axes.exact_steps(from);
-        let s1 = self.axes.exact_steps(to);
-        let d_steps = s0
-            .iter()
-            .zip(&s1)
-            .map(|(a, b)| (b - a).powi(2))
-            .sum::<f64>()
-            .sqrt();
-        if d_mm < 1e-12 || d_steps < 0.5 {
-            return HZ_MIN as u32;
-        }
-        let mut hz = mm_per_s * d_steps / d_mm;
-        let mut capped = false;
-        for (i, axis) in [Axis::X, Axis::Y, Axis::Z].into_iter().enumerate() {
-            let share = (s1[i] - s0[i]).abs() / d_steps;
-            if share > 0.0 {
-                let p = self.axes.of(axis);
-                let limit = p.speed_hz(p.max_speed) / share;
-                if hz > limit + 0.5 {
-                    hz = limit;
-                    capped = true;
-                }
-            }
-        }
+        let limits = [Axis::X, Axis::Y, Axis::Z].map(|a| {
+            let p = self.axes.of(a);
+            p.speed_hz(p.max_speed)
+        });
         // The path speed is given as the x pair's (2.2.29): never above
         // X's own max_speed, whatever the direction.
-        let x_max = self.axes.x.speed_hz(self.axes.x.max_speed);
-        if hz > x_max + 0.5 {
-            hz = x_max;
-            capped = true;
-        }
-        if hz > HZ_MAX {
-            hz = HZ_MAX;
-            capped = true;
-        }
-        if capped {
+        let ceiling = limits[0].min(HZ_MAX);
+        let steps = (
+            &self.axes.exact_steps(from)[..],
+            &self.axes.exact_steps(to)[..],
+        );
+        let Some((hz, held)) = path_speed(from, to, steps, mm_per_s, &limits, ceiling) else {
+            return HZ_MIN as u32;
+        };
+        if held {
             self.capped += 1;
             self.first_capped.get_or_insert(origin);
         }

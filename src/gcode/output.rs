@@ -284,6 +284,50 @@ fn distance_to_segment(p: Point, a: Point, b: Point) -> f64 {
     ((p.x - qx).powi(2) + (p.y - qy).powi(2) + (p.z - qz).powi(2)).sqrt()
 }
 
+/// A straight move's path speed in steps/s on the wire, as both outputs
+/// give it: `mm_per_s` along the move from `s0` to `s1` (its axes' exact,
+/// unrounded steps, so that equal feeds give equal speeds chord after
+/// chord), held so that no axis runs above its `limits_hz` and the path
+/// never above `ceiling_hz`. `None` for a move shorter than half a step;
+/// else the speed and whether a finite speed asked for had to be held.
+pub fn path_speed(
+    from: Point,
+    to: Point,
+    (s0, s1): (&[f64], &[f64]),
+    mm_per_s: f64,
+    limits_hz: &[f64],
+    ceiling_hz: f64,
+) -> Option<(f64, bool)> {
+    let d_mm = ((to.x - from.x).powi(2) + (to.y - from.y).powi(2) + (to.z - from.z).powi(2)).sqrt();
+    let d_steps = s0
+        .iter()
+        .zip(s1)
+        .map(|(a, b)| (b - a).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    if d_mm < 1e-12 || d_steps < 0.5 {
+        return None;
+    }
+    let mut hz = if mm_per_s.is_finite() {
+        mm_per_s * d_steps / d_mm
+    } else {
+        ceiling_hz
+    };
+    let mut held = false;
+    for ((a, b), limit) in s0.iter().zip(s1).zip(limits_hz) {
+        let share = (b - a).abs() / d_steps;
+        if share > 0.0 && hz > limit / share + 0.5 {
+            hz = limit / share;
+            held = true;
+        }
+    }
+    if hz > ceiling_hz + 0.5 {
+        hz = ceiling_hz;
+        held = true;
+    }
+    Some((hz, held && mm_per_s.is_finite()))
+}
+
 /// The most lines merged into one move, so that a merge stays cheap.
 const MERGE_RUN: usize = 64;
 
