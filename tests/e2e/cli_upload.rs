@@ -8,7 +8,7 @@
 //! file line.
 
 use std::path::Path;
-use std::process::{Output, Stdio};
+use std::process::Output;
 
 use jogterm::axis::AxisSet;
 use jogterm::program::path::{Start, path};
@@ -20,11 +20,7 @@ use sim_process::{SimProcess, contains_panic, jogterm};
 /// `jogterm` against the simulator, configured from the simulator's
 /// directory, with no stdin.
 fn run(sim: &SimProcess, args: &[&str]) -> Output {
-    sim.jogterm(args)
-        .env("JOGTERM_CONFIG_DIR", sim.dir.path())
-        .stdin(Stdio::null())
-        .output()
-        .expect("run jogterm")
+    sim.configured(args).output().expect("run jogterm")
 }
 
 /// A program file in the simulator's directory; its path.

@@ -28,17 +28,11 @@ fn steps(work_mm: [f64; 3]) -> [i64; 3] {
 }
 
 fn run(sim: &SimProcess, args: &[&str]) -> Output {
-    sim.jogterm(args)
-        .env("JOGTERM_CONFIG_DIR", sim.dir.path())
-        .stdin(Stdio::null())
-        .output()
-        .expect("run jogterm")
+    sim.configured(args).output().expect("run jogterm")
 }
 
 fn spawn(sim: &SimProcess, args: &[&str]) -> Child {
-    sim.jogterm(args)
-        .env("JOGTERM_CONFIG_DIR", sim.dir.path())
-        .stdin(Stdio::null())
+    sim.configured(args)
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()

@@ -17,9 +17,7 @@ use stops_support::{
 };
 
 fn spawn(sim: &SimProcess, args: &[&str]) -> Child {
-    sim.jogterm(args)
-        .env("JOGTERM_CONFIG_DIR", sim.dir.path())
-        .stdin(Stdio::null())
+    sim.configured(args)
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()

@@ -362,6 +362,16 @@ impl SimProcess {
         jogterm(&self.link, self.family, args)
     }
 
+    /// [`SimProcess::jogterm`] configured from the simulator's directory
+    /// (the profiles its test wrote there), with no stdin.
+    pub fn configured(&self, args: &[&str]) -> Command {
+        let mut command = self.jogterm(args);
+        command
+            .env("JOGTERM_CONFIG_DIR", self.dir.path())
+            .stdin(Stdio::null());
+        command
+    }
+
     /// [`SimProcess::jogterm`] run to its end.
     pub fn run(&self, args: &[&str]) -> Output {
         self.jogterm(args).output().expect("run jogterm")
