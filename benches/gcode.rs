@@ -41,6 +41,8 @@
 // message (Cargo.toml [lints] denies these in the crate itself).
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
+mod support;
+
 use std::alloc::{GlobalAlloc, Layout, System as SystemAlloc};
 use std::fmt::Write as _;
 use std::hint::black_box;
@@ -434,22 +436,6 @@ fn machine(name: &str) -> (Profile, WorkOffsets) {
     (profile, offsets)
 }
 
-/// CPU time this thread has used: on a machine shared with other work the
-/// wall time of a run includes time the scheduler gave to others.
-fn thread_cpu() -> Duration {
-    let mut ts = libc::timespec {
-        tv_sec: 0,
-        tv_nsec: 0,
-    };
-    // SAFETY: clock_gettime writes one timespec through a valid pointer.
-    let ok = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) } == 0;
-    if ok {
-        Duration::new(ts.tv_sec as u64, ts.tv_nsec as u32)
-    } else {
-        Duration::ZERO
-    }
-}
-
 /// Best of `runs`: the shortest wall time, the shortest CPU time of the
 /// thread, and the last result (dropped outside the timing).
 struct Best<T> {
@@ -463,10 +449,10 @@ fn best<T>(runs: usize, mut f: impl FnMut() -> T) -> Best<T> {
     let mut last = None;
     for _ in 0..runs {
         drop(last.take());
-        let (start, start_cpu) = (Instant::now(), thread_cpu());
+        let (start, start_cpu) = (Instant::now(), support::thread_cpu());
         let out = black_box(f());
         wall = wall.min(start.elapsed());
-        cpu = cpu.min(thread_cpu().saturating_sub(start_cpu));
+        cpu = cpu.min(support::thread_cpu().saturating_sub(start_cpu));
         last = Some(out);
     }
     Best {
@@ -487,19 +473,6 @@ fn flag(name: &str) -> bool {
     std::env::args().any(|a| a == name)
 }
 
-/// `(VmRSS, VmHWM)` in KiB.
-fn resident_kib() -> Option<(u64, u64)> {
-    let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    let field = |name: &str| {
-        status
-            .lines()
-            .find_map(|l| l.strip_prefix(name))
-            .and_then(|v| v.split_whitespace().next())
-            .and_then(|v| v.parse::<u64>().ok())
-    };
-    Some((field("VmRSS:")?, field("VmHWM:")?))
-}
-
 const MIB: f64 = 1024.0 * 1024.0;
 
 /// In the child process: one import of `lines` lines; prints
@@ -509,14 +482,14 @@ fn memory_child(lines: usize) {
     let (profile, offsets) = machine("default");
     // From here on the peak resident set is the import's (with the text).
     let reset = std::fs::write("/proc/self/clear_refs", "5").is_ok();
-    let before = resident_kib().map_or(0, |r| r.0);
+    let before = support::resident_kib().map_or(0, |r| r.0);
     let heap_before = LIVE.load(Ordering::Relaxed);
     PEAK.store(heap_before, Ordering::Relaxed);
     let result = import(&text, "bench.nc", &profile, &offsets, Target::Isel);
     let heap_peak = PEAK.load(Ordering::Relaxed) - heap_before;
     let ok = result.is_ok();
     // The peak lasts while the result lives: the editor holds it.
-    let rss_peak = resident_kib().map_or(0, |r| r.1);
+    let rss_peak = support::resident_kib().map_or(0, |r| r.1);
     drop(black_box(result));
     println!(
         "{} {} {} {} {} {}",
