@@ -20,6 +20,7 @@ pub mod out;
 pub mod poll;
 pub mod ports;
 pub mod profile;
+pub mod run;
 pub mod send;
 mod session;
 pub mod sim;
@@ -157,6 +158,9 @@ pub enum CliCommand {
     /// Store a program in the controller (checked first), with progress; --start runs it
     #[command(long_about = upload::LONG_ABOUT, after_long_help = upload::AFTER_LONG_HELP)]
     Upload(upload::UploadArgs),
+    /// Run a job (G-code or a program): stored when it fits, else in parts or as a stream
+    #[command(long_about = run::LONG_ABOUT, after_long_help = run::AFTER_LONG_HELP)]
+    Run(run::RunArgs),
     /// List the serial ports of this machine: by-id names, USB vendor and product, in use
     #[command(long_about = ports::LONG_ABOUT, after_long_help = ports::AFTER_LONG_HELP)]
     Ports(ports::PortsArgs),
@@ -184,6 +188,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Some(CliCommand::Arc(args)) => arc::run(args),
         Some(CliCommand::Import(args)) => import::run(&cli.global, args),
         Some(CliCommand::Upload(args)) => upload::run(&cli.global, args),
+        Some(CliCommand::Run(args)) => run::run(&cli.global, args),
         Some(CliCommand::Ports(args)) => ports::run(args),
         None => tui::run(&cli.global, cli.program.as_deref()),
     }

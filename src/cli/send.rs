@@ -560,27 +560,6 @@ fn outcome_of(event: &Event, text: &str, canonical: &str) -> Option<Outcome> {
     }
 }
 
-/// One isel DNC line of a G-code stream (`jogterm upload --stream`), its
-/// canonical form as `line`: the controller's answer, or what went wrong
-/// and the exit status for it.
-pub(super) async fn exchange(session: &mut Session, line: &str) -> Result<String, (u8, String)> {
-    if let Err(e) = session.handle.request(Request::Raw {
-        line: line.to_owned(),
-    }) {
-        return Err((EXIT_LINK, format!("link failure: {e}")));
-    }
-    match wait_outcome(session, line, line).await {
-        Outcome::Answered { text, .. } => Ok(text),
-        Outcome::ControllerError { code, meaning, .. } => Err((
-            1,
-            format!("the controller answered `{code}` to `{line}`: {meaning}"),
-        )),
-        Outcome::Refused(reason) => Err((1, format!("`{line}` refused: {reason}"))),
-        Outcome::LinkFailed(reason) => Err((EXIT_LINK, format!("link failure: {reason}"))),
-        Outcome::Unwritable(e) => Err((1, e.to_string())),
-    }
-}
-
 fn fault_outcome(f: crate::device::api::ControllerFault) -> Outcome {
     if f.code == "timeout" || f.recovery == Recovery::CheckLink {
         Outcome::LinkFailed(format!("{} to {}: {}", f.code, f.command, f.meaning))

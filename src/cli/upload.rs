@@ -11,7 +11,7 @@
 //! sent, so N is not the line number).
 
 use std::io::IsTerminal;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
@@ -111,7 +111,7 @@ impl UploadArgs {
 }
 
 /// The program as it goes out: the commands and the file line of each.
-struct Prepared {
+pub(super) struct Prepared {
     name: String,
     lines: Vec<String>,
     program: Program,
@@ -123,25 +123,60 @@ impl Prepared {
     fn language(&self) -> Language {
         self.program.language()
     }
+
+    pub(super) fn name(&self) -> &str {
+        &self.name
+    }
+
+    pub(super) fn program(&self) -> &Program {
+        &self.program
+    }
+
+    /// Where a converted job stops for the operator, to say before it
+    /// starts.
+    pub(super) fn pauses(&self) -> Vec<String> {
+        self.gcode
+            .iter()
+            .flat_map(|program| {
+                program.pauses.iter().map(|(origin, what)| {
+                    format!(
+                        "{}:{}:{}: the program pauses here: {what}",
+                        self.name, origin.line, origin.col
+                    )
+                })
+            })
+            .collect()
+    }
+
+    pub(super) fn place(&self) -> super::run::stream::Place<'_> {
+        super::run::stream::Place {
+            name: &self.name,
+            gcode: self.gcode.as_ref(),
+            total: self
+                .gcode
+                .as_ref()
+                .map_or(self.lines.len(), |g| g.lines.len()),
+        }
+    }
 }
 
 /// The file, checked as a program of `language`; `Err` is the message for
 /// bad usage (printed already when it is a list of diagnostics).
-fn prepare(
+pub(super) fn prepare(
     global: &GlobalArgs,
-    args: &UploadArgs,
+    file: &Path,
     profile: &crate::config::profile::Profile,
     language: Language,
     config: &LintConfig,
 ) -> Result<Prepared, String> {
-    let name = args.file.display().to_string();
-    if let Some(other) = Language::from_path(&args.file).filter(|l| *l != language) {
+    let name = file.display().to_string();
+    if let Some(other) = Language::from_path(file).filter(|l| *l != language) {
         return Err(format!(
             "{name}: an {other} program by its extension, but the controller is {} (it takes {language} programs)",
             language.protocol()
         ));
     }
-    let loaded = store::load(&args.file)
+    let loaded = store::load(file)
         .map_err(|e| e.to_string())?
         .ok_or_else(|| format!("{name}: no such file"))?;
     if loaded.lossy {
@@ -193,6 +228,83 @@ fn checked(
     })
 }
 
+/// A G-code file imported for the profile, its warnings said.
+pub(super) struct Imported {
+    pub import: crate::gcode::Import,
+    /// The file as the operator named it, for `FILE:LINE` messages.
+    pub name: String,
+    /// The header's file name of the converted program.
+    pub header: String,
+}
+
+/// Import `file` for the profile (the console's work offset, or
+/// `work_zero`); on failure the exit status and what to say (the
+/// diagnostics included).
+pub(super) fn import_gcode(
+    global: &GlobalArgs,
+    file: &Path,
+    work_zero: Option<&str>,
+    profile: &crate::config::profile::Profile,
+    command: &str,
+) -> Result<Imported, (u8, String)> {
+    let target = crate::gcode::Target::of(profile.connection.protocol)
+        .map_err(|why| (EXIT_USAGE, format!("jogterm {command}: {why}")))?;
+    let dirs = crate::config::ConfigDirs::from_env();
+    let mut err = Vec::new();
+    let imported =
+        super::import::convert(global, &dirs, profile, file, target, work_zero, &mut err);
+    let report = String::from_utf8_lossy(&err).trim_end().to_owned();
+    let import = match imported {
+        Ok(i) => i,
+        Err(code) => return Err((code, report)),
+    };
+    if !report.is_empty() {
+        out::say(&report);
+    }
+    for w in &import.warnings {
+        out::say(crate::gcode::render(&file.display().to_string(), w));
+    }
+    Ok(Imported {
+        import,
+        name: file.display().to_string(),
+        header: super::import::header_name(file),
+    })
+}
+
+impl Imported {
+    /// A converted program (the whole job, a part, a restart), checked as
+    /// the controller's program.
+    pub(super) fn checked(
+        &self,
+        program: crate::gcode::output::Program,
+        language: Language,
+        config: &LintConfig,
+        command: &str,
+    ) -> Result<Prepared, (u8, String)> {
+        let text = program.text(&self.header);
+        checked(self.name.clone(), &text, language, config, Some(program))
+            .map_err(|m| (EXIT_USAGE, format!("jogterm {command}: {m}")))
+    }
+
+    /// The job cut into parts that fit, each checked; why it cannot be.
+    pub(super) fn in_parts(
+        &self,
+        language: Language,
+        config: &LintConfig,
+        profile: &crate::config::profile::Profile,
+        command: &str,
+    ) -> Result<Vec<Prepared>, (u8, String)> {
+        let program = &self.import.program;
+        let parts = program
+            .parts(program.capacity)
+            .map_err(|why| (1, format!("{}: {why}; nothing was sent", self.name)))?;
+        say_parts(&self.import, &parts, profile);
+        (0..parts.len())
+            .map(|k| self.checked(program.part(&parts, k), language, config, command))
+            .collect()
+    }
+}
+
 /// A G-code file, imported for the profile and checked as its program;
 /// on failure the exit status and what to say (the diagnostics included).
 fn prepare_gcode(
@@ -202,40 +314,21 @@ fn prepare_gcode(
     language: Language,
     config: &LintConfig,
 ) -> Result<Vec<Prepared>, (u8, String)> {
-    let target = crate::gcode::Target::of(profile.connection.protocol)
-        .map_err(|why| (EXIT_USAGE, format!("jogterm upload: {why}")))?;
-    let dirs = crate::config::ConfigDirs::from_env();
-    let mut err = Vec::new();
-    let imported = super::import::convert(
+    let imported = import_gcode(
         global,
-        &dirs,
-        profile,
         &args.file,
-        target,
         args.work_zero.as_deref(),
-        &mut err,
-    );
-    let report = String::from_utf8_lossy(&err).trim_end().to_owned();
-    let imported = match imported {
-        Ok(i) => i,
-        Err(code) => return Err((code, report)),
-    };
-    if !report.is_empty() {
-        out::say(&report);
-    }
-    for w in &imported.warnings {
-        out::say(crate::gcode::render(&args.file.display().to_string(), w));
-    }
-    let name = args.file.display().to_string();
-    let header = super::import::header_name(&args.file);
-    let program = &imported.program;
-    let whole = |program: crate::gcode::output::Program| {
-        let text = program.text(&header);
-        checked(name.clone(), &text, language, config, Some(program))
-            .map_err(|m| (EXIT_USAGE, format!("jogterm upload: {m}")))
-    };
+        profile,
+        "upload",
+    )?;
+    let program = &imported.import.program;
     if program.fits() || (args.stream && language == Language::Isel) {
-        return Ok(vec![whole(imported.program)?]);
+        return Ok(vec![imported.checked(
+            program.clone(),
+            language,
+            config,
+            "upload",
+        )?]);
     }
     if !args.chunked || language != Language::Isel {
         let how = if language == Language::Isel {
@@ -246,18 +339,12 @@ fn prepare_gcode(
         return Err((
             1,
             format!(
-                "{name}: the converted program has {} commands and the controller stores {}: nothing was sent ({how})",
-                program.commands, program.capacity
+                "{}: the converted program has {} commands and the controller stores {}: nothing was sent ({how})",
+                imported.name, program.commands, program.capacity
             ),
         ));
     }
-    let parts = program
-        .parts(program.capacity)
-        .map_err(|why| (1, format!("{name}: {why}; nothing was sent")))?;
-    say_parts(&imported, &parts, profile);
-    (0..parts.len())
-        .map(|k| whole(program.part(&parts, k)))
-        .collect()
+    imported.in_parts(language, config, profile, "upload")
 }
 
 /// What running in parts costs, before it starts: motion from the
@@ -323,7 +410,7 @@ pub fn run(global: &GlobalArgs, args: &UploadArgs) -> anyhow::Result<ExitCode> {
             "--chunked and --stream run G-code; a controller program is stored whole".into(),
         );
     } else {
-        match prepare(global, args, &profile, language, &config) {
+        match prepare(global, &args.file, &profile, language, &config) {
             Ok(p) => vec![p],
             Err(m) => return usage(m),
         }
@@ -360,7 +447,7 @@ async fn upload_and_run(
 }
 
 /// How a step ended when it did not succeed: the exit status, said already.
-type Status = Result<(), u8>;
+pub(super) type Status = Result<(), u8>;
 
 /// Each part stored and (with --start) run in turn: one part unless a
 /// G-code job runs `--chunked`, when every part but the last ends with the
@@ -388,13 +475,8 @@ async fn steps(
             // A part after the first replaces the one that just ran.
             upload(session, part, args.erase || k > 0, remedy).await?;
             if args.start {
-                if let Some(program) = &part.gcode {
-                    for (origin, what) in &program.pauses {
-                        out::say(format_args!(
-                            "{}:{}:{}: the program pauses here: {what}",
-                            part.name, origin.line, origin.col
-                        ));
-                    }
+                for pause in part.pauses() {
+                    out::say(pause);
                 }
                 start(session, remedy).await?;
             }
@@ -410,17 +492,17 @@ async fn steps(
 
 /// How the operator references axes from the command line: the refusal of
 /// a start on axes not referenced names this, not the console's key.
-struct Remedy {
+pub(super) struct Remedy {
     /// `jogterm send --port P --protocol F`, or `jogterm --sim F send`.
     send: String,
     protocol: Protocol,
-    isel_device: u8,
+    pub(super) isel_device: u8,
     /// The machine's axes: also what a G-code stream's DNC moves carry.
-    axes: AxisSet,
+    pub(super) axes: AxisSet,
 }
 
 impl Remedy {
-    fn of(profile: &crate::config::Profile) -> Remedy {
+    pub(super) fn of(profile: &crate::config::Profile) -> Remedy {
         let protocol = profile.connection.protocol;
         let send = if profile.connection.is_simulator() {
             format!("jogterm --sim {protocol} send")
@@ -466,97 +548,27 @@ impl Remedy {
     }
 }
 
-/// A converted isel program run as a DNC stream (issue 27): the program's
-/// own commands in DNC form (`program::checkout`'s plan, which also runs
-/// loops, jumps and port branches), each sent when the one before has been
-/// answered, that is when its move has ended (manual 2.2); a dwell waits
-/// here, a pause reads the start key until it is pressed. Progress as the
-/// G-code line. A refusal or a controller error ends the stream at its
-/// G-code line; Ctrl-C stops the machine as in every upload.
+/// The job as a DNC stream (`run::stream`), without the operator's keys:
+/// `jogterm run` has them. The controller is set up first, as a stored run
+/// finds it (axes, ramps).
 async fn stream(session: &mut Session, prepared: &Prepared, remedy: &Remedy) -> Status {
-    use crate::program::checkout::{DncStep, Plan, config_of, line_text};
-    let Some(gcode) = &prepared.gcode else {
-        return Err(EXIT_USAGE);
-    };
-    let device = remedy.isel_device;
-    let Some(config) = config_of(remedy.axes) else {
-        out::say("jogterm upload: --stream needs a machine with axes X, Y and Z");
-        return Err(EXIT_USAGE);
-    };
-    // The controller set up as a stored run finds it (axes, ramps): what
-    // `upload` does when the driver says it is not initialised.
     initialise(session, remedy).await?;
-    let mut plan = Plan::new(&prepared.program, config);
-    let total = gcode.lines.len().max(1);
-    let started = Instant::now();
-    let mut shown: Option<u32> = None;
+    let commands = prepared
+        .gcode
+        .as_ref()
+        .map_or(prepared.lines.len(), |g| g.commands);
     out::say(format_args!(
-        "streaming {} commands (Ctrl-C stops the machine)",
-        gcode.commands
+        "streaming {commands} commands (Ctrl-C stops the machine)"
     ));
-    while let Some(step) = plan.step(&|_, hz| hz) {
-        let index = plan.line().unwrap_or(0);
-        let origin = gcode.lines.get(index).and_then(|l| l.origin);
-        if let Some(o) = origin
-            && shown != Some(o.line)
-        {
-            shown = Some(o.line);
-            out::say(format_args!(
-                "{}:{}: {} % after {:.0} s",
-                prepared.name,
-                o.line,
-                index * 100 / total,
-                started.elapsed().as_secs_f64()
-            ));
-        }
-        let place = origin.map_or_else(
-            || prepared.name.clone(),
-            |o| format!("{}:{}:{}", prepared.name, o.line, o.col),
-        );
-        let port = match step {
-            DncStep::Send { command, .. } => {
-                let line = line_text(device, &command);
-                super::send::exchange(session, &line)
-                    .await
-                    .map_err(|(code, why)| {
-                        out::say(format_args!("{place}: {why}; the stream ends here"));
-                        code
-                    })?;
-                None
-            }
-            DncStep::ReadPort { command } => {
-                let line = line_text(device, &command);
-                let answer =
-                    super::send::exchange(session, &line)
-                        .await
-                        .map_err(|(code, why)| {
-                            out::say(format_args!("{place}: {why}; the stream ends here"));
-                            code
-                        })?;
-                let byte = u8::from_str_radix(answer.trim(), 16).ok();
-                if byte.is_none() {
-                    out::say(format_args!(
-                        "{place}: `{answer}` is no port byte; the stream ends here"
-                    ));
-                    return Err(1);
-                }
-                // A pause's self-loop reads the key again: not at wire speed.
-                tokio::time::sleep(Duration::from_millis(50)).await;
-                byte
-            }
-            DncStep::Dwell(d) => {
-                tokio::time::sleep(d).await;
-                None
-            }
-            DncStep::Nothing => None,
-        };
-        plan.advance(port);
-    }
-    out::say(format_args!(
-        "the stream ended after {:.1} s",
-        started.elapsed().as_secs_f64()
-    ));
-    Ok(())
+    super::run::stream::run(
+        session,
+        &prepared.program,
+        &prepared.place(),
+        (remedy.isel_device, remedy.axes),
+        super::run::stream::FACTOR_MAX,
+        &mut super::run::keys::Keys::none(),
+    )
+    .await
 }
 
 /// The exit status for a refusal, said on stderr.
@@ -590,7 +602,7 @@ async fn next(session: &mut Session) -> Result<Event, u8> {
         .ok_or_else(|| lost("the device task ended"))
 }
 
-async fn upload(
+pub(super) async fn upload(
     session: &mut Session,
     prepared: &Prepared,
     erase: bool,
@@ -722,7 +734,7 @@ fn failure(prepared: &Prepared, index: usize, fault: &ControllerFault) -> String
 }
 
 /// `Initialise`, and wait until the controller has its axes.
-async fn initialise(session: &mut Session, remedy: &Remedy) -> Status {
+pub(super) async fn initialise(session: &mut Session, remedy: &Remedy) -> Status {
     if session.handle.request(Request::Initialise).is_err() {
         return Err(lost("the device task ended"));
     }
@@ -746,7 +758,7 @@ async fn initialise(session: &mut Session, remedy: &Remedy) -> Status {
 }
 
 /// `RunProgram`, followed until the machine is idle again.
-async fn start(session: &mut Session, remedy: &Remedy) -> Status {
+pub(super) async fn start(session: &mut Session, remedy: &Remedy) -> Status {
     let mut initialised = false;
     let mut running = false;
     let mut fault: Option<ControllerFault> = None;

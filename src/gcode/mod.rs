@@ -23,6 +23,7 @@ pub mod output;
 pub mod reader;
 pub mod setup;
 pub mod toolpath;
+pub mod ways;
 
 pub use import::{Import, Target, import};
 pub use interp::interpret;

@@ -513,7 +513,7 @@ fn a_job_bigger_than_the_memory_runs_as_a_dnc_stream_and_stores_nothing() {
     assert!(said.contains("streaming 88 commands"), "{said}");
     assert!(said.contains("the stream ended"), "{said}");
     // Progress names the G-code lines.
-    assert!(said.contains("pockets.nc:88: "), "{said}");
+    assert!(said.contains("pockets.nc:88:1: "), "{said}");
     let state = sim.device_state();
     let [x, y, z] = steps([46.0, 34.0, 5.0]);
     assert!(

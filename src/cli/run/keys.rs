@@ -1,0 +1,152 @@
+//! The operator's keys while `jogterm run` runs a job: read from a terminal
+//! on stdin one by one (no Enter), never echoed. Ctrl-C stays a signal (the
+//! session's interrupt, which stops the machine); the terminal's own line
+//! handling comes back when the run ends, also on a panic's unwinding.
+//!
+//! Keys: Space, `s` or `q` stop; `p` pauses; `r` or Enter resumes; `+` and
+//! `-` change the speed factor of the moves not yet sent by 10 %.
+
+use std::io::IsTerminal;
+use std::os::fd::{AsRawFd, RawFd};
+
+use tokio::sync::mpsc;
+
+/// What a key asks for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Key {
+    Stop,
+    Pause,
+    Resume,
+    Faster,
+    Slower,
+    /// The terminal went away (EOF or a read error on stdin).
+    Gone,
+}
+
+impl Key {
+    pub fn of(byte: u8) -> Option<Key> {
+        match byte {
+            b' ' | b's' | b'S' | b'q' | b'Q' => Some(Key::Stop),
+            b'p' | b'P' => Some(Key::Pause),
+            b'r' | b'R' | b'\r' | b'\n' => Some(Key::Resume),
+            b'+' | b'=' => Some(Key::Faster),
+            b'-' | b'_' => Some(Key::Slower),
+            _ => None,
+        }
+    }
+}
+
+/// The help line said before the start.
+pub const HELP: &str =
+    "keys: Space stops, p pauses, r resumes, + and - change the speed of the moves not yet sent";
+
+/// Keys from the terminal; nothing when stdin is no terminal (a script, a
+/// test without one: then only signals stop the run).
+pub struct Keys {
+    pub rx: mpsc::UnboundedReceiver<Key>,
+    _mode: Option<KeyMode>,
+}
+
+impl Keys {
+    /// No keys: only signals stop (`jogterm upload --stream`).
+    pub fn none() -> Keys {
+        let (_, rx) = mpsc::unbounded_channel();
+        Keys { rx, _mode: None }
+    }
+
+    pub fn from_stdin() -> Keys {
+        let (tx, rx) = mpsc::unbounded_channel();
+        let stdin = std::io::stdin();
+        if !stdin.is_terminal() {
+            return Keys::none();
+        }
+        let mode = KeyMode::enter(stdin.as_raw_fd());
+        std::thread::Builder::new()
+            .name("run-keys".into())
+            .spawn(move || read_keys(&tx))
+            .ok();
+        Keys { rx, _mode: mode }
+    }
+
+    /// The next key; pending forever when there are no keys, so that a
+    /// `select!` on it waits for the other branches.
+    pub async fn next(&mut self) -> Key {
+        match self.rx.recv().await {
+            Some(key) => key,
+            None => std::future::pending().await,
+        }
+    }
+}
+
+fn read_keys(tx: &mpsc::UnboundedSender<Key>) {
+    use std::io::Read;
+    let mut byte = [0u8; 1];
+    let mut stdin = std::io::stdin().lock();
+    loop {
+        match stdin.read(&mut byte) {
+            Ok(1) => {
+                if let Some(key) = Key::of(byte[0])
+                    && tx.send(key).is_err()
+                {
+                    return;
+                }
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            _ => {
+                let _ = tx.send(Key::Gone);
+                return;
+            }
+        }
+    }
+}
+
+/// The terminal without line editing and echo, restored on drop.
+struct KeyMode {
+    fd: RawFd,
+    saved: libc::termios,
+}
+
+impl KeyMode {
+    fn enter(fd: RawFd) -> Option<KeyMode> {
+        // SAFETY: termios is plain data; tcgetattr fills it or fails.
+        let mut saved: libc::termios = unsafe { std::mem::zeroed() };
+        // SAFETY: fd is stdin, open for the process's life.
+        if unsafe { libc::tcgetattr(fd, &mut saved) } != 0 {
+            return None;
+        }
+        let mut keys = saved;
+        keys.c_lflag &= !(libc::ICANON | libc::ECHO);
+        keys.c_cc[libc::VMIN] = 1;
+        keys.c_cc[libc::VTIME] = 0;
+        // SAFETY: as above, with a termios derived from the terminal's own.
+        if unsafe { libc::tcsetattr(fd, libc::TCSANOW, &keys) } != 0 {
+            return None;
+        }
+        Some(KeyMode { fd, saved })
+    }
+}
+
+impl Drop for KeyMode {
+    fn drop(&mut self) {
+        // SAFETY: restores the settings read in `enter` on the same fd.
+        unsafe {
+            libc::tcsetattr(self.fd, libc::TCSANOW, &self.saved);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn keys_map_as_the_help_says() {
+        assert_eq!(Key::of(b' '), Some(Key::Stop));
+        assert_eq!(Key::of(b'q'), Some(Key::Stop));
+        assert_eq!(Key::of(b'p'), Some(Key::Pause));
+        assert_eq!(Key::of(b'\r'), Some(Key::Resume));
+        assert_eq!(Key::of(b'+'), Some(Key::Faster));
+        assert_eq!(Key::of(b'-'), Some(Key::Slower));
+        assert_eq!(Key::of(b'x'), None);
+    }
+}

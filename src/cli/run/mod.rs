@@ -1,0 +1,392 @@
+//! `jogterm run FILE`: run a job on the machine from start to end, the way
+//! that costs least at the part (issue 27, `docs/gcode.md` "Jobs bigger
+//! than the memory"): stored and started when it fits the controller's
+//! memory, else in parts cut where the tool stands retracted, or as a DNC
+//! stream. The estimate of every way is said before the start, and the
+//! operator confirms it; during the run the keys of [`keys`] pause, resume,
+//! change the speed of a stream and stop.
+
+pub mod keys;
+pub mod stream;
+
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::Duration;
+
+use clap::Args;
+
+use super::GlobalArgs;
+use super::out;
+use super::session::{self, EXIT_LINK, EXIT_USAGE, Linked, Polling, Session, StartError};
+use super::upload::{self, Prepared, Remedy, Status};
+use crate::gcode::ways::{Costs, Way, Ways};
+use crate::program::{Language, LintConfig};
+use keys::{Key, Keys};
+
+pub const LONG_ABOUT: &str = "\
+Run a job: G-code from CAM (imported as `jogterm import` does) or a controller program.
+
+A job that fits the controller's memory is stored and started. A G-code job that does not is
+run one of two ways, chosen before the start and shown with the estimate of each:
+
+  chunked  cut into parts that fit, each cut only where the tool stands retracted at the
+           job's safe height; each part is stored, run and replaced in turn (isel: the erase
+           takes about 2 s). The tool waits above the part, never in it.
+  stream   every command sent as a DNC command when the one before has ended. The
+           controllers buffer no motion: the axes stop between every two commands, in the
+           material, for at least the command's wire time.
+
+jogterm takes the way that leaves the tool standing least in the part, then the faster one;
+--stream or --chunked choose yourself. The estimates are floors: motion at the programmed
+feeds without ramps, the wire at the line's baud rate.
+
+Before the start jogterm asks for a confirmation on the terminal (--yes skips it; without a
+terminal --yes is needed). While it runs, from the terminal:
+
+  Space, s, q   stop the machine (the full stop; nothing resumes)
+  p             pause: a stream halts its move without losing steps (isel 0xFD, resumed with
+                @0S; EMCU @B, the rest sent again); a job in parts pauses before its next
+                part, with the tool retracted
+  r, Enter      resume after a pause
+  + and -       the speed of the moves not yet sent, 10 % to 100 % of the program's (streams)
+
+Ctrl-C, SIGTERM and a hang-up stop the machine, as a lost link or a controller error ends the
+run; nothing resumes after a reconnect.";
+
+pub const AFTER_LONG_HELP: &str = "\
+Exit status: 0 the job ran to its end; 1 stopped, refused, a controller error, or not
+confirmed; 2 bad usage (an unreadable file, a program with errors, no terminal to confirm on
+without --yes); 3 link failure.
+
+Examples:
+  jogterm run part.nc --port /dev/ttyUSB0 --protocol isel
+  jogterm run part.nc --port /dev/ttyUSB0 --protocol isel --stream --speed 80
+  jogterm --sim isel run examples/gcode/fusion-grbl.nc --work-zero \"X50 Y50 Z60\" --yes";
+
+/// Options of `jogterm run`.
+#[derive(Debug, Args)]
+pub struct RunArgs {
+    /// The job: G-code (.nc .ngc .gcode .tap .gc, or --gcode), an isel program (.isel .cnc)
+    /// or an EMCU job (.emcu)
+    #[arg(value_name = "FILE")]
+    pub file: PathBuf,
+    /// Run it as a DNC stream, even when it would fit or could run in parts
+    #[arg(long, conflicts_with = "chunked")]
+    pub stream: bool,
+    /// Store and run it in parts cut where the tool stands retracted (G-code, isel)
+    #[arg(long)]
+    pub chunked: bool,
+    /// The speed of a stream's moves, in percent of the program's (10 to 100)
+    #[arg(long, value_name = "PERCENT", default_value_t = 100,
+          value_parser = clap::value_parser!(u32).range(10..=100))]
+    pub speed: u32,
+    /// Start without asking
+    #[arg(long, short = 'y')]
+    pub yes: bool,
+    /// isel: erase a program the controller holds already (`@0k`) before storing
+    #[arg(long)]
+    pub erase: bool,
+    /// The file is G-code whatever its extension
+    #[arg(long)]
+    pub gcode: bool,
+    /// G-code: the active work offset's zero in machine units (`X50 Y50 Z60`), instead of
+    /// the console's stored one
+    #[arg(long, value_name = "POS")]
+    pub work_zero: Option<String>,
+    /// Baud rate, instead of the profile's
+    #[arg(long, value_name = "N")]
+    pub baud: Option<u32>,
+}
+
+/// What runs: the prepared program(s) and the way.
+struct Job {
+    parts: Vec<Prepared>,
+    way: Way,
+}
+
+/// What the line and controller of `profile` cost besides motion.
+pub fn costs(profile: &crate::config::profile::Profile, language: Language) -> Costs {
+    let baud = f64::from(profile.connection.line().baud);
+    match language {
+        Language::Isel => Costs {
+            baud,
+            erase_s: Costs::ISEL_ERASE_S,
+            dnc_prefix: 2,
+            parts: true,
+        },
+        // `@F` replaces a stored job; jobs are not run in parts.
+        Language::Emcu => Costs {
+            baud,
+            erase_s: 0.0,
+            dnc_prefix: 0,
+            parts: false,
+        },
+    }
+}
+
+pub fn run(global: &GlobalArgs, args: &RunArgs) -> anyhow::Result<ExitCode> {
+    let usage = |m: String| {
+        out::say(format_args!("jogterm run: {m}"));
+        Ok(ExitCode::from(EXIT_USAGE))
+    };
+    let profile = match session::resolve(global, args.baud) {
+        Ok(p) => p,
+        Err(StartError::Usage(m)) => return usage(m),
+        Err(StartError::Failed(e)) => return Err(e),
+    };
+    let Some(language) = Language::of_protocol(profile.connection.protocol) else {
+        return usage(format!(
+            "{} drives store and run no programs: jogterm run runs isel and EMCU jobs",
+            profile.connection.protocol
+        ));
+    };
+    let config = LintConfig::from_profile(&profile);
+    let is_gcode = args.gcode || crate::gcode::is_gcode_path(&args.file);
+    let job = if is_gcode {
+        match gcode_job(global, args, &profile, language, &config) {
+            Ok(job) => job,
+            Err((code, m)) => {
+                if !m.is_empty() {
+                    out::say(m);
+                }
+                return Ok(ExitCode::from(code));
+            }
+        }
+    } else if args.chunked {
+        return usage(
+            "--chunked runs G-code, cut where its tool stands retracted; a controller program \
+             is stored whole or streamed"
+                .into(),
+        );
+    } else {
+        match upload::prepare(global, &args.file, &profile, language, &config) {
+            Ok(p) => Job {
+                parts: vec![p],
+                way: if args.stream {
+                    Way::Stream
+                } else {
+                    Way::Stored
+                },
+            },
+            Err(m) => return usage(m),
+        }
+    };
+    for part in &job.parts {
+        for pause in part.pauses() {
+            out::say(pause);
+        }
+    }
+    if !args.yes {
+        match confirmed(job.way) {
+            Ok(true) => {}
+            Ok(false) => {
+                out::say("jogterm run: not started; nothing was sent");
+                return Ok(ExitCode::from(1));
+            }
+            Err(m) => return usage(m),
+        }
+    }
+    let remedy = Remedy::of(&profile);
+    let runtime = session::runtime()?;
+    runtime.block_on(async {
+        let session = match session::start(global, profile, Polling::OFF, session::Moves::Yes) {
+            Ok(s) => s,
+            Err(StartError::Usage(m)) => return usage(m),
+            Err(StartError::Failed(e)) => return Err(e),
+        };
+        Ok(run_job(session, &job, args, &remedy).await)
+    })
+}
+
+/// The G-code job imported, its ways estimated and said, the way taken.
+fn gcode_job(
+    global: &GlobalArgs,
+    args: &RunArgs,
+    profile: &crate::config::profile::Profile,
+    language: Language,
+    config: &LintConfig,
+) -> Result<Job, (u8, String)> {
+    let imported = upload::import_gcode(
+        global,
+        &args.file,
+        args.work_zero.as_deref(),
+        profile,
+        "run",
+    )?;
+    let program = &imported.import.program;
+    let ways = Ways::of(
+        program,
+        imported.import.summary.estimated_s,
+        &costs(profile, language),
+    );
+    out::say(format_args!(
+        "{}: {} commands, the controller stores {}",
+        imported.name, program.commands, program.capacity
+    ));
+    let asked = if args.stream {
+        Some(Way::Stream)
+    } else if args.chunked {
+        Some(Way::Chunked)
+    } else {
+        None
+    };
+    let ways = Ways {
+        chosen: asked.unwrap_or(ways.chosen),
+        ..ways
+    };
+    for line in ways.describe() {
+        out::say(format_args!("  {line}"));
+    }
+    if let (Some(Way::Chunked), Err(why)) = (asked, &ways.chunked) {
+        return Err((
+            1,
+            format!("{}: --chunked: {why}; nothing was sent", imported.name),
+        ));
+    }
+    let parts = match ways.chosen {
+        Way::Stored | Way::Stream => {
+            vec![imported.checked(program.clone(), language, config, "run")?]
+        }
+        Way::Chunked => imported.in_parts(language, config, profile, "run")?,
+    };
+    Ok(Job {
+        parts,
+        way: ways.chosen,
+    })
+}
+
+/// Asks on the terminal; `Err` when there is none to ask on.
+fn confirmed(way: Way) -> Result<bool, String> {
+    let stdin = std::io::stdin();
+    if !stdin.is_terminal() {
+        return Err(
+            "no terminal to confirm the start on: give --yes to start without asking".into(),
+        );
+    }
+    out::say(keys::HELP);
+    out::say_raw(format_args!("start the job ({way})? [y/N] "));
+    let mut answer = String::new();
+    if stdin.read_line(&mut answer).is_err() {
+        return Ok(false);
+    }
+    Ok(matches!(answer.trim(), "y" | "Y" | "yes" | "YES" | "Yes"))
+}
+
+async fn run_job(mut session: Session, job: &Job, args: &RunArgs, remedy: &Remedy) -> ExitCode {
+    let stopper = session.handle.clone();
+    let mut keys = Keys::from_stdin();
+    let code = tokio::select! {
+        code = steps(&mut session, job, args, remedy, &mut keys) => code,
+        () = session::interrupted() => {
+            let _ = stopper.stop().written().await;
+            session::say_interrupted("run", session::Moves::Yes);
+            1
+        }
+    };
+    drop(keys);
+    session.close().await;
+    ExitCode::from(code)
+}
+
+async fn steps(
+    session: &mut Session,
+    job: &Job,
+    args: &RunArgs,
+    remedy: &Remedy,
+    keys: &mut Keys,
+) -> u8 {
+    let result = async {
+        if let Linked::Failed(reason) = session.linked(Duration::from_secs(10)).await {
+            out::say(format_args!("jogterm run: link failure: {reason}"));
+            return Err(EXIT_LINK);
+        }
+        if job.way == Way::Stream {
+            let part = job.parts.first().ok_or(EXIT_USAGE)?;
+            upload::initialise(session, remedy).await?;
+            out::say(format_args!(
+                "streaming {} (speed {} %)",
+                part.name(),
+                args.speed
+            ));
+            return stream::run(
+                session,
+                part.program(),
+                &part.place(),
+                (remedy.isel_device, remedy.axes),
+                args.speed,
+                keys,
+            )
+            .await;
+        }
+        let mut pause_next = false;
+        for (k, part) in job.parts.iter().enumerate() {
+            if job.parts.len() > 1 {
+                out::say(format_args!("part {}/{}", k + 1, job.parts.len()));
+            }
+            if pause_next {
+                out::say(
+                    "paused before the next part, the tool retracted (r resumes, Space stops)",
+                );
+                wait_resume(session, keys).await?;
+                pause_next = false;
+            }
+            upload::upload(session, part, args.erase || k > 0, remedy).await?;
+            stored_run(session, remedy, keys, &mut pause_next).await?;
+        }
+        Ok(())
+    }
+    .await;
+    match result {
+        Ok(()) => 0,
+        Err(code) => code,
+    }
+}
+
+/// The stored program started and followed to its end, the keys obeyed: a
+/// stop stops it; a pause is taken before the next part.
+async fn stored_run(
+    session: &mut Session,
+    remedy: &Remedy,
+    keys: &mut Keys,
+    pause_next: &mut bool,
+) -> Status {
+    let stopper = session.handle.clone();
+    let run = upload::start(session, remedy);
+    tokio::pin!(run);
+    loop {
+        tokio::select! {
+            result = &mut run => return result,
+            key = keys.next() => match key {
+                Key::Stop | Key::Gone => {
+                    let _ = stopper.stop().written().await;
+                    out::say("jogterm run: stopped; nothing resumes");
+                    return Err(1);
+                }
+                Key::Pause => {
+                    *pause_next = true;
+                    out::say("the job pauses after this part, with the tool retracted");
+                }
+                Key::Resume => *pause_next = false,
+                Key::Faster | Key::Slower => out::say(
+                    "a stored program runs at its programmed speeds: the speed factor is for streams",
+                ),
+            },
+        }
+    }
+}
+
+/// Between parts, paused: the tool stands retracted.
+async fn wait_resume(session: &mut Session, keys: &mut Keys) -> Status {
+    loop {
+        match keys.next().await {
+            Key::Resume => return Ok(()),
+            Key::Stop | Key::Gone => {
+                let _ = session.handle.stop().written().await;
+                out::say("jogterm run: stopped while paused; nothing resumes");
+                return Err(1);
+            }
+            _ => {}
+        }
+    }
+}

@@ -1,0 +1,368 @@
+//! The ways a converted job can run, what each costs before it starts, and
+//! which one jogterm takes (issue 27, `docs/gcode.md` "Jobs bigger than the
+//! memory").
+//!
+//! - **stored**: the whole program stored (`@0i`, `@F`) and started; only
+//!   when it fits the controller's memory.
+//! - **stream**: every command sent as a DNC command when the one before has
+//!   been answered. The controllers buffer nothing and answer a move only
+//!   once it has ended (isel manual 2.2), so between two commands the axes
+//!   stand still for at least the command's and the reply's wire time: in
+//!   the material unless the tool stands retracted.
+//! - **chunked**: the job cut where the tool stands retracted at the safe
+//!   height into parts that fit, each stored, run and replaced in turn. The
+//!   tool waits for the erase (`@0k`, about 2 s, manual 2.2.17) and the
+//!   next part's upload above the part, never in it.
+//!
+//! The choice weighs first the time the tool stands still in the material
+//! (marks on the part), then the time in all. The estimates are floors:
+//! motion from the import's planner (feeds and rapids, no ramps), the wire
+//! at the line's baud rate with 10 bits a byte, no host or controller
+//! latency; `cargo bench --bench gcode` measures both ways against them.
+
+use super::output::Program;
+
+/// What the line and the controller cost besides motion.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Costs {
+    /// The line's baud rate.
+    pub baud: f64,
+    /// Erasing the stored program before the next part is stored (isel
+    /// `@0k`: about 2 s, manual 2.2.17).
+    pub erase_s: f64,
+    /// Bytes a stored command gains as a DNC command (isel: `@0` in front).
+    pub dnc_prefix: usize,
+    /// Whether the controller's jobs can be run in parts (isel: a part ends
+    /// with `9` and the next is stored after an erase; EMCU jobs are not).
+    pub parts: bool,
+}
+
+impl Costs {
+    pub const ISEL_ERASE_S: f64 = 2.0;
+
+    /// Seconds `bytes` take on the line.
+    fn wire_s(&self, bytes: usize) -> f64 {
+        bytes as f64 * 10.0 / self.baud.max(1.0)
+    }
+}
+
+/// A way of running a job.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Way {
+    Stored,
+    Stream,
+    Chunked,
+}
+
+impl std::fmt::Display for Way {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Way::Stored => "stored",
+            Way::Stream => "stream",
+            Way::Chunked => "chunked",
+        })
+    }
+}
+
+/// What one way costs, in seconds.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Estimate {
+    pub way: Way,
+    /// From the first command out to the last move's end.
+    pub total_s: f64,
+    /// The planner's motion time: the physical floor of every way.
+    pub motion_s: f64,
+    /// Still with the tool below the safe height: between two commands of
+    /// a stream.
+    pub at_part_s: f64,
+    /// How many times the axes stop there.
+    pub stops_at_part: usize,
+    /// Still with the tool retracted (erases and uploads of parts after the
+    /// first), or before the first move (the first upload).
+    pub retracted_s: f64,
+    /// Parts stored one after the other (1 for a stored program).
+    pub parts: usize,
+}
+
+/// Every way that can run the job, the one taken and why.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Ways {
+    pub stored: Option<Estimate>,
+    pub stream: Estimate,
+    /// Why the job cannot be cut where the tool stands retracted, or the
+    /// controller runs no parts.
+    pub chunked: Result<Estimate, String>,
+    pub chosen: Way,
+}
+
+impl Ways {
+    /// The estimates of `program` (its planner's motion time `motion_s`)
+    /// on a line and controller that cost `costs`.
+    pub fn of(program: &Program, motion_s: f64, costs: &Costs) -> Ways {
+        let commands: Vec<(usize, usize)> = program
+            .lines
+            .iter()
+            .enumerate()
+            .filter(|(_, l)| !l.command.is_empty())
+            .map(|(i, l)| (i, l.command.len()))
+            .collect();
+        // Stored: each command and its CR, each answered with one byte.
+        let upload_s =
+            |cmds: &[(usize, usize)]| costs.wire_s(cmds.iter().map(|(_, len)| len + 2).sum());
+        let stored = program.fits().then(|| Estimate {
+            way: Way::Stored,
+            total_s: upload_s(&commands) + motion_s,
+            motion_s,
+            at_part_s: 0.0,
+            stops_at_part: 0,
+            retracted_s: upload_s(&commands),
+            parts: 1,
+        });
+        let mut at_part_s = 0.0;
+        let mut stops_at_part = 0;
+        let mut stream_wire_s = 0.0;
+        let mut retracted = program.retracted.iter().peekable();
+        let mut previous: Option<usize> = None;
+        for &(index, len) in &commands {
+            let gap = costs.wire_s(len + costs.dnc_prefix + 2);
+            stream_wire_s += gap;
+            if let Some(before) = previous {
+                while retracted.next_if(|&&r| r < before).is_some() {}
+                if retracted.peek() != Some(&&before) {
+                    at_part_s += gap;
+                    stops_at_part += 1;
+                }
+            }
+            previous = Some(index);
+        }
+        let stream = Estimate {
+            way: Way::Stream,
+            total_s: motion_s + stream_wire_s,
+            motion_s,
+            at_part_s,
+            stops_at_part,
+            retracted_s: stream_wire_s - at_part_s,
+            parts: 1,
+        };
+        let chunked = if !costs.parts {
+            Err("the controller's jobs are not run in parts".to_owned())
+        } else {
+            program.parts(program.capacity).map(|parts| {
+                let mut retracted_s = 0.0;
+                for (k, part) in parts.iter().enumerate() {
+                    let in_part: Vec<(usize, usize)> = commands
+                        .iter()
+                        .copied()
+                        .filter(|(i, _)| part.lines.contains(i))
+                        .collect();
+                    // The part's own `z1` and `9`, two bytes each with CR.
+                    let extra = costs.wire_s(3 * (part.commands - in_part.len()));
+                    retracted_s += upload_s(&in_part) + extra;
+                    if k > 0 {
+                        retracted_s += costs.erase_s;
+                    }
+                }
+                Estimate {
+                    way: Way::Chunked,
+                    total_s: motion_s + retracted_s,
+                    motion_s,
+                    at_part_s: 0.0,
+                    stops_at_part: 0,
+                    retracted_s,
+                    parts: parts.len(),
+                }
+            })
+        };
+        let chosen = if stored.is_some() {
+            Way::Stored
+        } else {
+            match &chunked {
+                Ok(c) if (c.at_part_s, c.total_s) <= (stream.at_part_s, stream.total_s) => {
+                    Way::Chunked
+                }
+                _ => Way::Stream,
+            }
+        };
+        Ways {
+            stored,
+            stream,
+            chunked,
+            chosen,
+        }
+    }
+
+    /// The estimate of `way`, where it can run the job.
+    pub fn estimate(&self, way: Way) -> Option<&Estimate> {
+        match way {
+            Way::Stored => self.stored.as_ref(),
+            Way::Stream => Some(&self.stream),
+            Way::Chunked => self.chunked.as_ref().ok(),
+        }
+    }
+
+    /// The operator's lines: each way with its cost, and the choice with
+    /// by how much it beats the other.
+    pub fn describe(&self) -> Vec<String> {
+        let mut lines = Vec::new();
+        if let Some(s) = &self.stored {
+            lines.push(format!(
+                "stored:  {} in all, {} of it storing the program before the start",
+                duration(s.total_s),
+                duration(s.retracted_s)
+            ));
+        }
+        let s = &self.stream;
+        lines.push(format!(
+            "stream:  {} in all; the axes stop {} times with the tool in the part, {} there at least",
+            duration(s.total_s),
+            s.stops_at_part,
+            duration(s.at_part_s)
+        ));
+        match &self.chunked {
+            // A job that fits is stored whole: one part is no other way.
+            _ if self.stored.is_some() => {}
+            Ok(c) => lines.push(format!(
+                "chunked: {} in all in {} parts; the tool waits {} retracted while parts are stored, never in the part",
+                duration(c.total_s),
+                c.parts,
+                duration(c.retracted_s)
+            )),
+            Err(why) => lines.push(format!("chunked: not possible: {why}")),
+        }
+        lines.push(format!(
+            "motion alone (the floor): {}",
+            duration(self.stream.motion_s)
+        ));
+        let chosen = self.estimate(self.chosen).copied();
+        let other = [Way::Stored, Way::Stream, Way::Chunked]
+            .into_iter()
+            .filter(|w| *w != self.chosen)
+            .filter(|w| !(*w == Way::Chunked && self.stored.is_some()))
+            .filter_map(|w| self.estimate(w))
+            .min_by(|a, b| a.total_s.total_cmp(&b.total_s));
+        if let (Some(c), Some(o)) = (chosen, other) {
+            let by = o.total_s - c.total_s;
+            let pace = if by >= 0.0 {
+                format!("{} faster than {}", duration(by), o.way)
+            } else {
+                format!("{} slower than {}", duration(-by), o.way)
+            };
+            let part = if c.at_part_s < o.at_part_s {
+                format!(
+                    ", and {} less standing in the part",
+                    duration(o.at_part_s - c.at_part_s)
+                )
+            } else {
+                String::new()
+            };
+            lines.push(format!("chosen: {} ({pace}{part})", self.chosen));
+        } else {
+            lines.push(format!("chosen: {}", self.chosen));
+        }
+        lines
+    }
+}
+
+/// `1:05:12`, `4:31 min`, `12.5 s`.
+pub fn duration(s: f64) -> String {
+    let s = s.max(0.0);
+    if s < 60.0 {
+        return format!("{s:.1} s");
+    }
+    let whole = s.round() as u64;
+    let (h, m, sec) = (whole / 3600, whole / 60 % 60, whole % 60);
+    if h > 0 {
+        format!("{h}:{m:02}:{sec:02} h")
+    } else {
+        format!("{m}:{sec:02} min")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gcode::output::ProgramLine;
+
+    const ISEL: Costs = Costs {
+        baud: 10_000.0,
+        erase_s: 2.0,
+        dnc_prefix: 2,
+        parts: true,
+    };
+
+    /// Commands of 8 bytes (`m1,2,3,4`); `retracted`: indices into lines.
+    fn program(commands: usize, retracted: &[usize], capacity: usize) -> Program {
+        let mut p = Program {
+            capacity,
+            ..Program::default()
+        };
+        for _ in 0..commands {
+            p.lines.push(ProgramLine {
+                command: "m1,2,3,4".into(),
+                comment: None,
+                origin: None,
+            });
+        }
+        p.commands = commands;
+        p.retracted = retracted.to_vec();
+        p
+    }
+
+    #[test]
+    fn a_job_that_fits_is_stored() {
+        let ways = Ways::of(&program(4, &[1], 10), 30.0, &ISEL);
+        assert_eq!(ways.chosen, Way::Stored);
+        let stored = ways.stored.unwrap();
+        // 4 commands of 8 bytes + CR + reply at 1000 bytes/s.
+        assert!((stored.retracted_s - 0.040).abs() < 1e-9);
+        assert!((stored.total_s - 30.040).abs() < 1e-9);
+    }
+
+    #[test]
+    fn the_stream_stops_at_the_part_at_every_boundary_but_the_retracts() {
+        let ways = Ways::of(&program(6, &[2], 4), 10.0, &ISEL);
+        let s = ways.stream;
+        // Boundaries after 0,1,2,3,4: the one after 2 is at the safe height.
+        assert_eq!(s.stops_at_part, 4);
+        // Each: 8 bytes + `@0` + CR + reply = 12 bytes = 12 ms.
+        assert!((s.at_part_s - 0.048).abs() < 1e-9);
+        assert!((s.total_s - (10.0 + 6.0 * 0.012)).abs() < 1e-9);
+    }
+
+    #[test]
+    fn chunked_wins_where_the_job_can_be_cut_and_says_by_how_much() {
+        // 8 commands, memory 6 (4 after a part's z1 and 9), retract after 3.
+        let ways = Ways::of(&program(8, &[3], 6), 10.0, &ISEL);
+        let chunked = ways.chunked.clone().unwrap();
+        assert_eq!(chunked.parts, 2);
+        assert_eq!(ways.chosen, Way::Chunked);
+        // One erase of 2 s between the parts, nothing at the part.
+        assert!(chunked.retracted_s > 2.0 && chunked.at_part_s == 0.0);
+        let text = ways.describe().join("\n");
+        assert!(text.contains("chosen: chunked ("), "{text}");
+        assert!(text.contains("slower than stream"), "{text}");
+        assert!(text.contains("less standing in the part"), "{text}");
+    }
+
+    #[test]
+    fn without_a_retract_to_cut_at_the_stream_is_chosen_and_why_is_said() {
+        let ways = Ways::of(&program(8, &[], 6), 10.0, &ISEL);
+        assert_eq!(ways.chosen, Way::Stream);
+        let text = ways.describe().join("\n");
+        assert!(text.contains("chunked: not possible: no retract"), "{text}");
+        let emcu = Costs {
+            parts: false,
+            ..ISEL
+        };
+        let ways = Ways::of(&program(8, &[3], 6), 10.0, &emcu);
+        assert_eq!(ways.chosen, Way::Stream);
+        assert!(ways.chunked.is_err());
+    }
+
+    #[test]
+    fn durations_read_as_an_operator_reads_them() {
+        assert_eq!(duration(12.46), "12.5 s");
+        assert_eq!(duration(271.0), "4:31 min");
+        assert_eq!(duration(3912.0), "1:05:12 h");
+    }
+}
