@@ -119,10 +119,26 @@ impl SimProcess {
     /// Start the simulator of `protocol` (its shipped profile) and wait for
     /// the path it serves.
     pub fn start(protocol: Protocol) -> SimProcess {
+        Self::start_with(protocol, &[], None)
+    }
+
+    /// As [`SimProcess::start`], with more `args` to `jogterm sim` and the
+    /// configuration directory `config` (its profiles) when given.
+    pub fn start_with(
+        protocol: Protocol,
+        args: &[&str],
+        config: Option<&std::path::Path>,
+    ) -> SimProcess {
         let dir = tempfile::tempdir().expect("temp dir");
         let link = dir.path().join(protocol.name());
-        let mut child = Command::new(env!("CARGO_BIN_EXE_jogterm"))
-            .args(["sim", "--protocol", protocol.name(), "--pty", "--link"])
+        let mut command = Command::new(env!("CARGO_BIN_EXE_jogterm"));
+        if let Some(config) = config {
+            command.env("JOGTERM_CONFIG_DIR", config);
+        }
+        let mut child = command
+            .args(["sim", "--protocol", protocol.name()])
+            .args(args)
+            .args(["--pty", "--link"])
             .arg(&link)
             .stdin(Stdio::piped())
             .stdout(Stdio::piped())

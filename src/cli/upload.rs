@@ -347,35 +347,33 @@ fn prepare_gcode(
     imported.in_parts(language, config, profile, "upload")
 }
 
-/// What running in parts costs, before it starts: motion from the
-/// estimate, and per part the erase (`@0k`, about 2 s, manual 2.2.17) and
-/// the upload's wire time, while the tool stands retracted.
+/// What running in parts costs, before it starts (`gcode::ways`): motion
+/// from the estimate; the erases (`@0k`, about 2 s, manual 2.2.17) and the
+/// uploads of the parts after the first, while the tool stands retracted.
 fn say_parts(
     imported: &crate::gcode::Import,
     parts: &[crate::gcode::output::Part],
     profile: &crate::config::profile::Profile,
 ) {
-    let baud = f64::from(profile.connection.line().baud);
-    let bytes: usize = imported
-        .program
-        .lines
-        .iter()
-        .map(|l| l.command.len() + 1)
-        .sum();
-    // A byte is 10 bits; every command is answered with one byte.
-    let wire_s = (bytes + imported.program.commands) as f64 * 10.0 / baud;
-    let standing = parts.len() as f64 * 2.0 + wire_s;
     out::say(format_args!(
         "{} commands, the controller stores {}: storing and running it in {} parts, each cut where the tool stands retracted at the job's safe height",
         imported.program.commands,
         imported.program.capacity,
         parts.len()
     ));
-    out::say(format_args!(
-        "estimated: motion {:.0} s; the tool stands retracted while parts are stored: {} erases of about 2 s and {wire_s:.0} s on the wire at {baud:.0} baud, {standing:.0} s in all",
-        imported.summary.estimated_s,
-        parts.len()
-    ));
+    let language = Language::of_protocol(profile.connection.protocol).unwrap_or(Language::Isel);
+    let costs = super::run::costs(profile, language);
+    let ways =
+        crate::gcode::ways::Ways::of(&imported.program, imported.summary.estimated_s, &costs);
+    if let Ok(chunked) = ways.chunked {
+        out::say(format_args!(
+            "estimated: {} in all, motion {}; the tool waits {} retracted while parts are erased and stored at {:.0} baud, never in the part",
+            crate::gcode::ways::duration(chunked.total_s),
+            crate::gcode::ways::duration(chunked.motion_s),
+            crate::gcode::ways::duration(chunked.retracted_s),
+            costs.baud
+        ));
+    }
 }
 
 pub fn run(global: &GlobalArgs, args: &UploadArgs) -> anyhow::Result<ExitCode> {
