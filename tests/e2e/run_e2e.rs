@@ -268,3 +268,75 @@ fn a_hang_up_during_a_stream_stops_the_machine() {
     );
     assert!(run.wait_exit(Duration::from_secs(10)).is_some());
 }
+
+#[test]
+fn a_line_lost_mid_stream_ends_the_run_and_nothing_resumes_after_it_comes_back() {
+    let mut sim = small_controller();
+    let file = write(&sim, "slow.nc", SLOW_CUT);
+    let child = sim
+        .configured(&["run", &file, "--work-zero", WORK_ZERO, "--stream", "--yes"])
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("spawn jogterm run");
+    wait_in_the_slow_cut(&mut sim);
+    sim.control("fault close 500");
+    let out = child.wait_with_output().expect("jogterm run ends");
+    let said = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(3), "a link failure: {said}");
+    // The line is back; the run has ended and sends nothing more.
+    std::thread::sleep(Duration::from_millis(1500));
+    let received = sim.received();
+    let [x40, ..] = steps([40.0, 0.0, 0.0]);
+    let last_move = received.rfind("@0M").expect("moves");
+    assert!(
+        received[last_move..].starts_with(&format!("@0M{x40},")),
+        "no move after the slow cut's: {received}"
+    );
+}
+
+#[test]
+fn over_tcp_ctrl_c_of_a_stream_reaches_the_line_within_the_network_bound() {
+    // A timing promise (docs/network.md: Ctrl-C to the stop on the line
+    // within 100 ms): measured one at a time, the lock held from before
+    // the cut so that the cut is still running when the signal goes.
+    let _serial = crate::timing::serial();
+    let mut sim = SimProcess::start_tcp_with_files("isel", &[SMALL_MEMORY]);
+    let file = write(&sim, "slow.nc", SLOW_CUT);
+    let port = sim.link.display().to_string();
+    let mut command = std::process::Command::new(JOGTERM);
+    command
+        .args(["run", "--port", &port, "--protocol", "isel", &file])
+        .args(["--work-zero", WORK_ZERO, "--stream", "--yes"])
+        .env("JOGTERM_CONFIG_DIR", sim.dir.path())
+        .stdin(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped());
+    let child = command.spawn().expect("spawn jogterm run");
+    wait_in_the_slow_cut(&mut sim);
+    let signalled = std::time::SystemTime::now();
+    let pid = libc::pid_t::try_from(child.id()).expect("pid");
+    // SAFETY: a plain signal to the child this test started.
+    assert_eq!(unsafe { libc::kill(pid, libc::SIGINT) }, 0);
+    let out = child.wait_with_output().expect("jogterm run ends");
+    assert_eq!(out.status.code(), Some(1), "{}", text(&out.stderr));
+    sim.wait_device("standing", |s| !s.contains("moving"));
+    let reads = sim.received_times();
+    let joined: String = reads.iter().map(|(_, b)| b.as_str()).collect();
+    let stop_at = joined.rfind("<FD><FF>").expect("the stop");
+    assert!(
+        !joined[stop_at..].contains("@0M"),
+        "nothing after the stop: {joined}"
+    );
+    let mut start = 0;
+    let (arrived, _) = reads
+        .iter()
+        .find(|(_, b)| {
+            start += b.len();
+            start > stop_at
+        })
+        .expect("the read that holds the stop");
+    let took = arrived.duration_since(signalled).unwrap_or_default();
+    assert!(
+        took <= Duration::from_millis(100),
+        "the stop reached the line {took:?} after Ctrl-C"
+    );
+}

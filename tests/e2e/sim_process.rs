@@ -156,7 +156,13 @@ impl SimProcess {
     /// (`jogterm sim --tcp 127.0.0.1:0`): [`SimProcess::link`] is the
     /// `tcp://127.0.0.1:PORT` it printed.
     pub fn start_tcp(family: &'static str) -> SimProcess {
-        Self::start_serving(family, &[], &[], Serving::Tcp)
+        Self::start_tcp_with_files(family, &[])
+    }
+
+    /// [`SimProcess::start_tcp`] with the test's profiles, as
+    /// [`SimProcess::start_with_files`].
+    pub fn start_tcp_with_files(family: &'static str, files: &[(&str, &str)]) -> SimProcess {
+        Self::start_serving(family, files, &[], Serving::Tcp)
     }
 
     fn start_serving(
