@@ -54,14 +54,12 @@ impl Modal {
             Some(Units::Inch) => "G20 inch".to_owned(),
             None => "no unit set".to_owned(),
         });
-        out.push(
-            match self.plane {
-                Plane::Xy => "G17 XY",
-                Plane::Zx => "G18 ZX",
-                Plane::Yz => "G19 YZ",
-            }
-            .to_owned(),
-        );
+        let axes = match self.plane {
+            Plane::Xy => "XY",
+            Plane::Zx => "ZX",
+            Plane::Yz => "YZ",
+        };
+        out.push(format!("{} {axes}", self.plane_code()));
         out.push(if self.absolute { "G90" } else { "G91" }.to_owned());
         if self.arc_absolute {
             out.push("G90.1".to_owned());
@@ -89,6 +87,14 @@ impl Modal {
             out.push(format!("T{t}"));
         }
         out
+    }
+
+    pub fn plane_code(&self) -> &'static str {
+        match self.plane {
+            Plane::Xy => "G17",
+            Plane::Zx => "G18",
+            Plane::Yz => "G19",
+        }
     }
 
     /// [`Modal::words`] as one line.
