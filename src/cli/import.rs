@@ -415,18 +415,11 @@ fn summary_text(name: &str, profile: &Profile, i: &Import, written: Option<&Path
         "  work offset {}: zero at machine X {:.3} Y {:.3} Z {:.3} mm; soft limits: all inside\n",
         s.system, s.zero.x, s.zero.y, s.zero.z
     ));
-    let fits = if i.program.fits() {
-        "fits the controller's memory".to_owned()
-    } else {
-        format!(
-            "does NOT fit the controller's memory ({} commands): store and run it in parts (`jogterm upload FILE --start --chunked`, isel), or split the file in the CAM",
-            i.program.capacity
-        )
-    };
     out.push_str(&format!(
-        "  {} program: {} commands, {fits}\n",
+        "  {} program: {} commands, {}\n",
         i.target.name(),
-        i.program.commands
+        i.program.commands,
+        fits(&i.program)
     ));
     out.push_str(&format!("  warnings: {}\n", i.warnings.len()));
     if let Some(path) = written.filter(|p| p.as_os_str() != "-") {
@@ -435,7 +428,20 @@ fn summary_text(name: &str, profile: &Profile, i: &Import, written: Option<&Path
     out
 }
 
-pub(super) fn duration(seconds: f64) -> String {
+/// Whether a converted program fits the controller's memory, and what to
+/// do when it does not.
+pub(super) fn fits(program: &crate::gcode::output::Program) -> String {
+    if program.fits() {
+        "fits the controller's memory".to_owned()
+    } else {
+        format!(
+            "does NOT fit the controller's memory ({} commands): store and run it in parts (`jogterm upload FILE --start --chunked`, isel), or split the file in the CAM",
+            program.capacity
+        )
+    }
+}
+
+fn duration(seconds: f64) -> String {
     let total = seconds.round() as u64;
     if total >= 3600 {
         format!(

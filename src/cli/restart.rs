@@ -7,7 +7,7 @@ use std::path::PathBuf;
 
 use serde_json::json;
 
-use super::import::{round3, summary_json};
+use super::import::{fits, round3, summary_json};
 use crate::config::profile::Profile;
 use crate::gcode::toolpath::Point;
 use crate::gcode::{Diagnostic, Import, Origin, Restart, RestartError, Spindle, render};
@@ -75,20 +75,13 @@ pub fn text(
     for (k, step) in r.entry_text().iter().enumerate() {
         out.push_str(&format!("    {}. {step}\n", k + 1));
     }
-    let fits = if r.program.fits() {
-        "fits the controller's memory".to_owned()
-    } else {
-        format!(
-            "does NOT fit the controller's memory ({} commands): store and run it in parts (`--chunked`, isel)",
-            r.program.capacity
-        )
-    };
     out.push_str(&format!(
-        "  then line {} on, from command {}: {} program of {} commands, {fits}\n",
+        "  then line {} on, from command {}: {} program of {} commands, {}\n",
         r.line,
         cut_command(r),
         i.target.name(),
-        r.program.commands
+        r.program.commands,
+        fits(&r.program)
     ));
     if let Some(path) = written.filter(|p| p.as_os_str() != "-") {
         out.push_str(&format!("  written to {}\n", path.display()));

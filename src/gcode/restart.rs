@@ -208,6 +208,17 @@ pub fn restart(
         ));
     }
     let skipped = &ops[..cut];
+    // The operator put a tool in after a broken one: the job's, not any.
+    if let Some((tool, origin)) = skipped.iter().rev().find_map(|op| match op {
+        Op::Pause(Pause::ToolChange { tool, origin }) => Some((*tool, *origin)),
+        _ => None,
+    }) {
+        let which = tool.map_or_else(|| "the tool".to_owned(), |t| format!("tool T{t}"));
+        notes.push(format!(
+            "the skipped lines change to {which} (line {}): that tool must be in the spindle",
+            origin.line
+        ));
+    }
     let start = skipped.iter().rev().find_map(end_of).unwrap_or_default();
     let safe_z = safe_height(path).unwrap_or(start.z);
     let setup = Setup::from_profile(profile, offsets).map_err(|errors| {

@@ -214,6 +214,17 @@ fn an_arc_runs_whole_from_its_start() {
 }
 
 #[test]
+fn a_tool_change_among_the_skipped_lines_is_said() {
+    let text = JOB.replace("M8\n", "M8\nT2 M6\n");
+    let r = restart_at(&text, 10).expect("restart");
+    assert_eq!(
+        r.notes,
+        ["the skipped lines change to tool T2 (line 5): that tool must be in the spindle"]
+    );
+    assert!(r.modal.text().ends_with("T2"), "{}", r.modal.text());
+}
+
+#[test]
 fn lines_that_cannot_be_restarted_say_why() {
     let error = |text: &str, line| match restart_at(text, line) {
         Ok(r) => panic!("line {line} restarted: {:?}", r.entry),
