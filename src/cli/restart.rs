@@ -33,8 +33,8 @@ pub fn refused(name: &str, line: u32, e: &RestartError, err: &mut dyn Write) {
     );
 }
 
-/// A machine point in the file's work coordinates.
-fn work(r: &Restart, p: Point) -> [f64; 3] {
+/// A machine point in the file's work coordinates, mm.
+fn work_mm(r: &Restart, p: Point) -> [f64; 3] {
     [p.x - r.zero.x, p.y - r.zero.y, p.z - r.zero.z]
 }
 
@@ -66,9 +66,10 @@ pub fn text(
         out.push_str(&format!("  note: {note}\n"));
     }
     out.push_str(&format!("  modal state applied: {}\n", r.modal.text()));
-    let [x, y, z] = work(r, r.start);
+    let [x, y, z] = r.work(r.start);
+    let (p, unit) = (r.places(), if r.places() == 4 { "in" } else { "mm" });
     out.push_str(&format!(
-        "  line {}'s start (work {}): X {x:.3} Y {y:.3} Z {z:.3} mm\n",
+        "  line {}'s start (work {}): X {x:.p$} Y {y:.p$} Z {z:.p$} {unit}\n",
         r.line, r.modal.system
     ));
     out.push_str("  entry, in this order:\n");
@@ -100,7 +101,7 @@ pub fn json(i: &Import, r: &Restart) -> serde_json::Value {
     if m.flood {
         coolant.push("M8");
     }
-    let [x, y, z] = work(r, r.start);
+    let [x, y, z] = work_mm(r, r.start);
     let mut summary = summary_json(i);
     summary["restart"] = json!({
         "requested_line": r.requested,

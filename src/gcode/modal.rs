@@ -104,7 +104,7 @@ impl Modal {
 }
 
 /// A number as G-code prints it: no trailing zeros, at most 4 decimals.
-fn number(v: f64) -> String {
+pub(super) fn number(v: f64) -> String {
     let s = format!("{v:.4}");
     s.trim_end_matches('0').trim_end_matches('.').to_owned()
 }

@@ -18,9 +18,9 @@ use crate::offsets::WorkOffsets;
 use super::check::{Machine, check_limits};
 use super::import::{Import, Target};
 use super::interp::modal_before;
-use super::modal::Modal;
+use super::modal::{Modal, number};
 use super::output::{Header, Program};
-use super::setup::Setup;
+use super::setup::{Setup, Units};
 use super::toolpath::{Diagnostic, Line, Op, Origin, OutputSwitch, Pause, Point, Rapid, Toolpath};
 
 #[cfg(test)]
@@ -421,14 +421,35 @@ fn entry(skipped: &[Op], e: Entry) -> Vec<Op> {
 }
 
 impl Restart {
+    /// mm per unit of the file (G20 or G21 in force at the line).
+    fn unit(&self) -> f64 {
+        self.modal.units.map_or(1.0, Units::mm)
+    }
+
+    /// Decimals a coordinate is said with: a step of 0.001 mm or 0.0001 in.
+    pub fn places(&self) -> usize {
+        if self.unit() > 1.0 { 4 } else { 3 }
+    }
+
+    /// A machine point in the file's work coordinates and unit, as the
+    /// file would write it.
+    pub fn work(&self, p: Point) -> [f64; 3] {
+        let u = self.unit();
+        [
+            (p.x - self.zero.x) / u,
+            (p.y - self.zero.y) / u,
+            (p.z - self.zero.z) / u,
+        ]
+    }
+
     /// The entry as the confirmation says it, in the file's work
-    /// coordinates (mm).
+    /// coordinates and unit.
     pub fn entry_text(&self) -> Vec<String> {
-        let w = |p: Point| Point {
-            x: p.x - self.zero.x,
-            y: p.y - self.zero.y,
-            z: p.z - self.zero.z,
+        let w = |p: Point| {
+            let [x, y, z] = self.work(p);
+            Point { x, y, z }
         };
+        let places = self.places();
         let mut out = Vec::new();
         let mut rapids = 0;
         for op in &self.entry {
@@ -437,21 +458,21 @@ impl Restart {
                 Op::Rapid(m) if rapids == 0 => {
                     rapids += 1;
                     out.push(format!(
-                        "retract: G0 Z{:.3} (the job's safe height), from wherever the tool stands",
+                        "retract: G0 Z{:.places$} (the job's safe height), from wherever the tool stands",
                         w(m.to).z
                     ));
                 }
                 Op::Rapid(m) if rapids == 1 => {
                     rapids += 1;
                     out.push(format!(
-                        "G0 X{:.3} Y{:.3} at the safe height, above line {}'s start",
+                        "G0 X{:.places$} Y{:.places$} at the safe height, above line {}'s start",
                         w(m.to).x,
                         w(m.to).y,
                         self.line
                     ));
                 }
                 Op::Rapid(m) => out.push(format!(
-                    "descend: G0 Z{:.3} to line {}'s start (the job has no feed)",
+                    "descend: G0 Z{:.places$} to line {}'s start (the job has no feed)",
                     w(m.to).z,
                     self.line
                 )),
@@ -460,9 +481,9 @@ impl Restart {
                     out.push(format!("{} {}", o.name, if o.on { "on" } else { "off" }))
                 }
                 Op::Line(m) => out.push(format!(
-                    "descend: G1 Z{:.3} F{:.0} to line {}'s start",
+                    "descend: G1 Z{:.places$} F{} to line {}'s start",
                     w(m.to).z,
-                    m.feed,
+                    number(m.feed / self.unit()),
                     self.line
                 )),
                 _ => {}

@@ -367,3 +367,23 @@ fn a_restart_at_any_line_ends_where_the_whole_job_ends() {
         }
     }
 }
+
+#[test]
+fn an_inch_file_is_confirmed_in_inches() {
+    let text = example("linuxcnc-inch.ngc");
+    let profile = profile();
+    let job = imported(&text, &profile, Target::Isel);
+    let r = restart(&text, "i.ngc", &profile, &offsets(&profile), &job, 12).expect("restart");
+    assert_eq!(
+        r.modal.text(),
+        "G20 inch, G18 ZX, G90, G54, F60, spindle M5, coolant M9"
+    );
+    assert_eq!(
+        r.entry_text(),
+        [
+            "retract: G0 Z0.5000 (the job's safe height), from wherever the tool stands",
+            "G0 X0.6000 Y0.8000 at the safe height, above line 12's start",
+            "descend: G1 Z0.3000 F60 to line 12's start",
+        ]
+    );
+}
