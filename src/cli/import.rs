@@ -20,7 +20,7 @@ use super::{GlobalArgs, profile};
 use crate::config::ConfigDirs;
 use crate::config::profile::Profile;
 use crate::gcode::output::Header;
-use crate::gcode::{Import, Target, import, render};
+use crate::gcode::{Import, Target, import, render, restart};
 use crate::offsets::store::{OffsetsFile, profile_key};
 use crate::offsets::{Identity, WorkOffsets};
 
@@ -46,7 +46,9 @@ Examples:
   jogterm import part.nc --profile mymill -o part.isel   write the isel program
   jogterm import part.nc --to emcu -o -           print the EMCU job
   jogterm import part.nc --json                   the summary as one JSON object
-  jogterm import part.nc --work-zero 'X50 Y50 Z60'   G54's zero at machine X50 Y50 Z60";
+  jogterm import part.nc --work-zero 'X50 Y50 Z60'   G54's zero at machine X50 Y50 Z60
+  jogterm import part.nc --from-line 120 -o part.isel   restart from line 120: retract,
+                                                  above its start, spindle and coolant, descend";
 
 /// Which program to make.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -73,6 +75,11 @@ pub struct ImportArgs {
     /// instead of the console's stored one; axes not named keep theirs
     #[arg(long, value_name = "POS")]
     pub work_zero: Option<String>,
+    /// Restart the job from G-code line N (after a broken tool or a power cut): the
+    /// confirmation says the modal state applied and the entry moves; -o writes the
+    /// restart program
+    #[arg(long, value_name = "N")]
+    pub from_line: Option<u32>,
 }
 
 /// `X50 Y50 Z60` into the active system's zero.
@@ -200,7 +207,7 @@ pub fn run_to(
         },
     };
     let name = args.file.display().to_string();
-    let imported = match convert(
+    let (imported, text, offsets) = match read_and_import(
         global,
         dirs,
         &profile,
@@ -216,7 +223,18 @@ pub fn run_to(
     for w in &imported.warnings {
         let _ = writeln!(err, "{}", render(&name, w));
     }
-    let program_text = imported.program.text(&header_name);
+    let restarted = match args.from_line {
+        Some(line) => match restart(&text, &header_name, &profile, &offsets, &imported, line) {
+            Ok(r) => Some(r),
+            Err(e) => {
+                super::restart::refused(&name, line, &e, err);
+                return Ok(ExitCode::from(ERRORS));
+            }
+        },
+        None => None,
+    };
+    let program = restarted.as_ref().map_or(&imported.program, |r| &r.program);
+    let program_text = program.text(&header_name);
     let mut to_stdout = false;
     if let Some(path) = &args.output {
         if path.as_os_str() == "-" {
@@ -226,7 +244,19 @@ pub fn run_to(
             return Ok(ExitCode::from(USAGE));
         }
     }
-    let report = if to_stdout {
+    let report = if let Some(r) = &restarted {
+        let confirmation =
+            super::restart::text(&name, &profile, &imported, r, args.output.as_ref());
+        if to_stdout {
+            // stdout is the program: the operator still reads what it does.
+            let _ = err.write_all(confirmation.as_bytes());
+            program_text
+        } else if args.json {
+            format!("{}\n", super::restart::json(&imported, r))
+        } else {
+            confirmation
+        }
+    } else if to_stdout {
         program_text
     } else if args.json {
         format!("{}\n", summary_json(&imported))
@@ -258,6 +288,20 @@ pub fn convert(
     work_zero: Option<&str>,
     err: &mut dyn Write,
 ) -> Result<Import, u8> {
+    read_and_import(global, dirs, profile, path, target, work_zero, err).map(|(i, _, _)| i)
+}
+
+/// [`convert`], with the text and the work offsets it was imported with
+/// (a restart interprets the text again up to its line).
+fn read_and_import(
+    global: &GlobalArgs,
+    dirs: &ConfigDirs,
+    profile: &Profile,
+    path: &std::path::Path,
+    target: Target,
+    work_zero: Option<&str>,
+    err: &mut dyn Write,
+) -> Result<(Import, String, WorkOffsets), u8> {
     let name = path.display().to_string();
     let bytes = match std::fs::read(path) {
         Ok(b) => b,
@@ -266,7 +310,7 @@ pub fn convert(
             return Err(USAGE);
         }
     };
-    let text = String::from_utf8_lossy(&bytes);
+    let text = String::from_utf8_lossy(&bytes).into_owned();
     let (mut offsets, note) = offsets(global, dirs, profile);
     match work_zero {
         Some(zero) => {
@@ -282,7 +326,7 @@ pub fn convert(
         }
     }
     match import(&text, &header_name(path), profile, &offsets, target) {
-        Ok(i) => Ok(i),
+        Ok(i) => Ok((i, text, offsets)),
         Err(errors) => {
             for e in &errors {
                 let _ = writeln!(err, "{}", render(&name, e));
@@ -306,7 +350,7 @@ fn range(e: &crate::gcode::check::Extents, axis: usize) -> serde_json::Value {
     })
 }
 
-fn round3(v: f64) -> f64 {
+pub(super) fn round3(v: f64) -> f64 {
     (v * 1000.0).round() / 1000.0
 }
 
@@ -371,24 +415,30 @@ fn summary_text(name: &str, profile: &Profile, i: &Import, written: Option<&Path
         "  work offset {}: zero at machine X {:.3} Y {:.3} Z {:.3} mm; soft limits: all inside\n",
         s.system, s.zero.x, s.zero.y, s.zero.z
     ));
-    let fits = if i.program.fits() {
-        "fits the controller's memory".to_owned()
-    } else {
-        format!(
-            "does NOT fit the controller's memory ({} commands): store and run it in parts (`jogterm upload FILE --start --chunked`, isel), or split the file in the CAM",
-            i.program.capacity
-        )
-    };
     out.push_str(&format!(
-        "  {} program: {} commands, {fits}\n",
+        "  {} program: {} commands, {}\n",
         i.target.name(),
-        i.program.commands
+        i.program.commands,
+        fits(&i.program)
     ));
     out.push_str(&format!("  warnings: {}\n", i.warnings.len()));
     if let Some(path) = written.filter(|p| p.as_os_str() != "-") {
         out.push_str(&format!("  written to {}\n", path.display()));
     }
     out
+}
+
+/// Whether a converted program fits the controller's memory, and what to
+/// do when it does not.
+pub(super) fn fits(program: &crate::gcode::output::Program) -> String {
+    if program.fits() {
+        "fits the controller's memory".to_owned()
+    } else {
+        format!(
+            "does NOT fit the controller's memory ({} commands): store and run it in parts (`jogterm upload FILE --start --chunked`, isel), or split the file in the CAM",
+            program.capacity
+        )
+    }
 }
 
 fn duration(seconds: f64) -> String {

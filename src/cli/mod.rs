@@ -20,6 +20,7 @@ pub mod out;
 pub mod poll;
 pub mod ports;
 pub mod profile;
+mod restart;
 pub mod run;
 pub mod send;
 mod session;

@@ -17,6 +17,7 @@ mod tests;
 use crate::axis::Axis;
 use crate::offsets::System;
 
+use super::modal::{Modal, Spindle};
 use super::reader::{Block, Word};
 use super::setup::{CodeRule, Setup, Units};
 use super::toolpath::{
@@ -72,6 +73,12 @@ struct State {
     cycle_p: Option<f64>,
     feed: Option<f64>,
     tool: Option<u32>,
+    /// What M3-M5, S and M7-M9 left, for a restart's confirmation
+    /// (`modal_before`): the ops say only which outputs switched.
+    spindle: Spindle,
+    speed: Option<f64>,
+    mist: bool,
+    flood: bool,
     /// Machine mm.
     position: Point,
     ended: bool,
@@ -192,6 +199,21 @@ pub fn interpret(text: &str, setup: &Setup) -> Result<Toolpath, Vec<Diagnostic>>
     it.finish(read.lines)
 }
 
+/// The modal state the lines before `line` (1-based) leave in force: the
+/// interpreter run over them alone. For a file that imports (its errors
+/// were reported there); a line beyond the file gives the state at its end.
+pub fn modal_before(text: &str, setup: &Setup, line: u32) -> Modal {
+    let read = super::reader::read(text);
+    let mut it = Interpreter::new(setup);
+    for block in read.blocks.iter().take_while(|b| b.line < line) {
+        if it.state.ended {
+            break;
+        }
+        it.block(block);
+    }
+    it.modal()
+}
+
 impl<'a> Interpreter<'a> {
     fn new(setup: &'a Setup) -> Interpreter<'a> {
         Interpreter {
@@ -211,6 +233,10 @@ impl<'a> Interpreter<'a> {
                 cycle_p: None,
                 feed: None,
                 tool: None,
+                spindle: Spindle::Off,
+                speed: None,
+                mist: false,
+                flood: false,
                 position: setup.start,
                 ended: false,
             },
@@ -437,6 +463,7 @@ impl<'a> Interpreter<'a> {
                 self.error(s.origin, "S must not be negative");
                 return;
             }
+            self.state.speed = Some(s.value);
             self.ops.push(Op::SpindleSpeed {
                 rpm: s.value,
                 origin: s.origin,
@@ -456,6 +483,7 @@ impl<'a> Interpreter<'a> {
             }));
         }
         for (code, word) in &w.m {
+            self.note_m(*code);
             match code {
                 30 | 40 => self.switch("spindle", true, *code, word),
                 50 => self.switch("spindle", false, *code, word),
@@ -466,6 +494,9 @@ impl<'a> Interpreter<'a> {
             }
         }
         for (word, name, target) in &w.mapped {
+            if let Some(code) = code_of(word) {
+                self.note_m(code);
+            }
             let on = !matches!(
                 name.to_ascii_uppercase().as_str(),
                 "M5" | "M9" | "M63" | "M65"
@@ -987,6 +1018,37 @@ impl<'a> Interpreter<'a> {
             Retract::Initial => initial.max(r),
         };
         rapid(self, Point { z: back, ..hole });
+    }
+
+    /// Spindle and coolant as the M code leaves them.
+    fn note_m(&mut self, code: u32) {
+        let s = &mut self.state;
+        match code {
+            30 => s.spindle = Spindle::Clockwise,
+            40 => s.spindle = Spindle::CounterClockwise,
+            50 => s.spindle = Spindle::Off,
+            70 => s.mist = true,
+            80 => s.flood = true,
+            90 => (s.mist, s.flood) = (false, false),
+            _ => {}
+        }
+    }
+
+    fn modal(&self) -> Modal {
+        let s = &self.state;
+        Modal {
+            units: s.units,
+            plane: s.plane,
+            absolute: s.absolute,
+            arc_absolute: s.arc_absolute,
+            system: s.system,
+            feed: s.feed,
+            spindle: s.spindle,
+            speed: s.speed,
+            mist: s.mist,
+            flood: s.flood,
+            tool: s.tool,
+        }
     }
 
     fn switch(&mut self, role: &str, on: bool, code: u32, word: &Word) {

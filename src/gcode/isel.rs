@@ -131,17 +131,7 @@ pub fn convert(
         first_capped: None,
         spindle_speeds: None,
         start_key: start_key(profile),
-        safe_z: path
-            .ops
-            .iter()
-            .filter_map(|op| match op {
-                Op::Rapid(m) => Some(m.to.z),
-                _ => None,
-            })
-            .fold(
-                f64::INFINITY,
-                |top, z| if top.is_finite() { top.max(z) } else { z },
-            ),
+        safe_z: path.safe_height().unwrap_or(f64::INFINITY),
     };
     for line in header.lines() {
         w.program.comment(line);

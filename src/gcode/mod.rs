@@ -19,14 +19,18 @@ pub mod emcu;
 pub mod import;
 pub mod interp;
 pub mod isel;
+pub mod modal;
 pub mod output;
 pub mod reader;
+pub mod restart;
 pub mod setup;
 pub mod toolpath;
 pub mod ways;
 
 pub use import::{Import, Target, import};
 pub use interp::interpret;
+pub use modal::{Modal, Spindle};
+pub use restart::{Restart, RestartError, restart};
 pub use setup::{CodeRule, NamedOutput, Setup, Units};
 pub use toolpath::{
     Arc, Diagnostic, Dwell, Line, Op, Origin, OutputSwitch, Pause, Plane, Point, Rapid, Severity,

@@ -191,4 +191,16 @@ impl Toolpath {
     pub fn named(&self, axis: usize, index: usize) -> bool {
         self.named_from.get(axis).is_some_and(|&from| index >= from)
     }
+
+    /// The job's safe height: the highest Z its rapids reach (machine mm),
+    /// where parts are cut and restarts enter; `None` without rapids.
+    pub fn safe_height(&self) -> Option<f64> {
+        self.ops
+            .iter()
+            .filter_map(|op| match op {
+                Op::Rapid(m) => Some(m.to.z),
+                _ => None,
+            })
+            .reduce(f64::max)
+    }
 }

@@ -48,6 +48,7 @@ mod device_reconnect;
 mod device_task;
 mod editor_e2e;
 mod gcode_e2e;
+mod gcode_restart_e2e;
 mod jog_terminal;
 mod jog_wire;
 mod limit_jog_e2e;
