@@ -293,7 +293,7 @@ pub fn convert(
 
 /// [`convert`], with the text and the work offsets it was imported with
 /// (a restart interprets the text again up to its line).
-fn read_and_import(
+pub(super) fn read_and_import(
     global: &GlobalArgs,
     dirs: &ConfigDirs,
     profile: &Profile,

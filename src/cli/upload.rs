@@ -228,9 +228,11 @@ fn checked(
     })
 }
 
-/// A G-code file imported for the profile, its warnings said.
+/// A G-code file imported for the profile, its warnings said; the job to
+/// run: the whole file, or its restart from a line.
 pub(super) struct Imported {
     pub import: crate::gcode::Import,
+    pub restart: Option<crate::gcode::Restart>,
     /// The file as the operator named it, for `FILE:LINE` messages.
     pub name: String,
     /// The header's file name of the converted program.
@@ -238,40 +240,71 @@ pub(super) struct Imported {
 }
 
 /// Import `file` for the profile (the console's work offset, or
-/// `work_zero`); on failure the exit status and what to say (the
-/// diagnostics included).
+/// `work_zero`), and restart it from `from_line` when given; on failure
+/// the exit status and what to say (the diagnostics included).
 pub(super) fn import_gcode(
     global: &GlobalArgs,
     file: &Path,
     work_zero: Option<&str>,
+    from_line: Option<u32>,
     profile: &crate::config::profile::Profile,
     command: &str,
 ) -> Result<Imported, (u8, String)> {
     let target = crate::gcode::Target::of(profile.connection.protocol)
         .map_err(|why| (EXIT_USAGE, format!("jogterm {command}: {why}")))?;
     let dirs = crate::config::ConfigDirs::from_env();
+    let name = file.display().to_string();
+    let header = super::import::header_name(file);
     let mut err = Vec::new();
     let imported =
-        super::import::convert(global, &dirs, profile, file, target, work_zero, &mut err);
-    let report = String::from_utf8_lossy(&err).trim_end().to_owned();
-    let import = match imported {
+        super::import::read_and_import(global, &dirs, profile, file, target, work_zero, &mut err);
+    let said = |err: &[u8]| String::from_utf8_lossy(err).trim_end().to_owned();
+    let (import, text, offsets) = match imported {
         Ok(i) => i,
-        Err(code) => return Err((code, report)),
+        Err(code) => return Err((code, said(&err))),
     };
+    let restart = match from_line {
+        Some(line) => {
+            match crate::gcode::restart(&text, &header, profile, &offsets, &import, line) {
+                Ok(r) => Some(r),
+                Err(e) => {
+                    super::restart::refused(&name, line, &e, &mut err);
+                    return Err((1, said(&err)));
+                }
+            }
+        }
+        None => None,
+    };
+    let report = said(&err);
     if !report.is_empty() {
         out::say(&report);
     }
     for w in &import.warnings {
-        out::say(crate::gcode::render(&file.display().to_string(), w));
+        out::say(crate::gcode::render(&name, w));
     }
     Ok(Imported {
         import,
-        name: file.display().to_string(),
-        header: super::import::header_name(file),
+        restart,
+        name,
+        header,
     })
 }
 
 impl Imported {
+    /// The converted job that runs: the restart's, or the whole file's.
+    pub(super) fn program(&self) -> &crate::gcode::output::Program {
+        self.restart
+            .as_ref()
+            .map_or(&self.import.program, |r| &r.program)
+    }
+
+    /// Its motion time, as estimated.
+    pub(super) fn motion_s(&self) -> f64 {
+        self.restart
+            .as_ref()
+            .map_or(self.import.summary.estimated_s, |r| r.estimated_s)
+    }
+
     /// A converted program (the whole job, a part, a restart), checked as
     /// the controller's program.
     pub(super) fn checked(
@@ -294,11 +327,11 @@ impl Imported {
         profile: &crate::config::profile::Profile,
         command: &str,
     ) -> Result<Vec<Prepared>, (u8, String)> {
-        let program = &self.import.program;
+        let program = self.program();
         let parts = program
             .parts(program.capacity)
             .map_err(|why| (1, format!("{}: {why}; nothing was sent", self.name)))?;
-        say_parts(&self.import, &parts, profile);
+        say_parts(program, self.motion_s(), &parts, profile);
         (0..parts.len())
             .map(|k| self.checked(program.part(&parts, k), language, config, command))
             .collect()
@@ -318,6 +351,7 @@ fn prepare_gcode(
         global,
         &args.file,
         args.work_zero.as_deref(),
+        None,
         profile,
         "upload",
     )?;
@@ -351,20 +385,20 @@ fn prepare_gcode(
 /// from the estimate; the erases (`@0k`, about 2 s, manual 2.2.17) and the
 /// uploads of the parts after the first, while the tool stands retracted.
 fn say_parts(
-    imported: &crate::gcode::Import,
+    program: &crate::gcode::output::Program,
+    motion_s: f64,
     parts: &[crate::gcode::output::Part],
     profile: &crate::config::profile::Profile,
 ) {
     out::say(format_args!(
         "{} commands, the controller stores {}: storing and running it in {} parts, each cut where the tool stands retracted at the job's safe height",
-        imported.program.commands,
-        imported.program.capacity,
+        program.commands,
+        program.capacity,
         parts.len()
     ));
     let language = Language::of_protocol(profile.connection.protocol).unwrap_or(Language::Isel);
     let costs = super::run::costs(profile, language);
-    let ways =
-        crate::gcode::ways::Ways::of(&imported.program, imported.summary.estimated_s, &costs);
+    let ways = crate::gcode::ways::Ways::of(program, motion_s, &costs);
     if let Ok(chunked) = ways.chunked {
         out::say(format_args!(
             "estimated: {} in all, motion {}; the tool waits {} retracted while parts are erased and stored at {:.0} baud, never in the part",

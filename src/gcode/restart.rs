@@ -59,6 +59,8 @@ pub struct Restart {
     pub remaining_lines: u32,
     /// What the operator should know: the line moved on, an arc run whole.
     pub notes: Vec<String>,
+    /// The restart's motion time, as the import estimates a job's.
+    pub estimated_s: f64,
 }
 
 /// Why a job cannot be restarted at a line.
@@ -275,8 +277,9 @@ pub fn restart(
         named_from: [0; 3],
     };
     restarted.ops.extend(ops[cut..].iter().cloned());
-    check_limits(&restarted, &Machine::from_profile(profile))
-        .map_err(|e| RestartError::Convert(vec![e]))?;
+    let machine = Machine::from_profile(profile);
+    check_limits(&restarted, &machine).map_err(|e| RestartError::Convert(vec![e]))?;
+    let estimated_s = super::check::summarise(&restarted, &machine).estimated_s;
     let header = Header {
         file: file.to_owned(),
         profile: profile.name.clone(),
@@ -322,6 +325,7 @@ pub fn restart(
         skipped_lines: at - 1,
         remaining_lines: path.lines + 1 - at,
         notes,
+        estimated_s,
     })
 }
 

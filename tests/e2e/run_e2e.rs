@@ -340,3 +340,85 @@ fn over_tcp_ctrl_c_of_a_stream_reaches_the_line_within_the_network_bound() {
         "the stop reached the line {took:?} after Ctrl-C"
     );
 }
+
+/// `@0M` moves on the wire after `from`, as (x, y, z, z speed).
+fn moves_after(received: &str, from: usize) -> Vec<(i64, i64, i64, i64)> {
+    received[from..]
+        .split("<CR>")
+        .filter_map(|c| c.strip_prefix("@0M"))
+        .map(|fields| {
+            let f: Vec<i64> = fields
+                .split(',')
+                .map(|v| v.parse().expect("a number"))
+                .collect();
+            (f[0], f[2], f[4], f[5])
+        })
+        .collect()
+}
+
+#[test]
+fn a_restart_from_a_line_retracts_goes_above_its_start_descends_at_feed_and_ends_at_the_jobs_end() {
+    let mut sim = small_controller();
+    let file = write(&sim, "pockets.nc", &pockets(12));
+    // Line 42: the first cut of the sixth pocket (X22 Y22), after its
+    // plunge `G1 Z-1 F600` on line 41.
+    let out = sim
+        .configured(&[
+            "run",
+            &file,
+            "--work-zero",
+            WORK_ZERO,
+            "--stream",
+            "--yes",
+            "--from-line",
+            "42",
+        ])
+        .output()
+        .expect("run");
+    let said = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{said}");
+    // The confirmation: the skipped lines' modal state and the entry.
+    assert!(said.contains("restart from line 42"), "{said}");
+    assert!(
+        said.contains("modal state applied: G21 mm, G17 XY, G90, G54, F600"),
+        "{said}"
+    );
+    assert!(
+        said.contains("1. retract: G0 Z5.000 (the job's safe height)"),
+        "{said}"
+    );
+    assert!(said.contains("descend: G1 Z-1.000 F600"), "{said}");
+    stands_at(&mut sim, [46.0, 34.0, 5.0]);
+    let received = sim.received();
+    let three_d = received.find("@0z1<CR>").expect("3D mode");
+    let moves = moves_after(&received, three_d);
+    let [x, y, z] = steps([22.0, 22.0, -1.0]);
+    let safe = steps([0.0, 0.0, 5.0])[2];
+    // First the retract (Z only up to the safe height), then above the
+    // start at the safe height, then down at F600 (10 mm/s: 4000 Hz), then
+    // the line's own cut to X27.
+    assert_eq!(moves[0].2, safe, "{moves:?}");
+    assert_eq!(
+        (moves[1].0, moves[1].1, moves[1].2),
+        (x, y, safe),
+        "{moves:?}"
+    );
+    assert_eq!(
+        (moves[2].0, moves[2].1, moves[2].2, moves[2].3),
+        (x, y, z, 4000),
+        "{moves:?}"
+    );
+    assert_eq!(
+        (moves[3].0, moves[3].2),
+        (steps([27.0, 0.0, 0.0])[0], z),
+        "{moves:?}"
+    );
+    // Nothing of the five pockets before: no move to their first corner.
+    let first_pocket = steps([10.0, 10.0, 0.0]);
+    assert!(
+        !moves
+            .iter()
+            .any(|m| (m.0, m.1) == (first_pocket[0], first_pocket[1])),
+        "{moves:?}"
+    );
+}

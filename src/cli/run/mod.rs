@@ -51,6 +51,13 @@ terminal --yes is needed). While it runs, from the terminal:
   r, Enter      resume after a pause
   + and -       the speed of the moves not yet sent, 10 % to 100 % of the program's (streams)
 
+--from-line N restarts a G-code job at line N, after a broken tool or a power cut: the
+confirmation lists the modal state the skipped lines leave (units, plane, offset, feed, spindle,
+coolant) and the entry, which runs first: retract to the job's safe height, go above the line's
+start, switch the spindle and outputs as the skipped lines left them, descend at feed; then
+the job from line N on, by the way chosen for what is left (`jogterm import --from-line N`
+shows the same without moving anything).
+
 Ctrl-C, SIGTERM and a hang-up stop the machine, as a lost link or a controller error ends the
 run; nothing resumes after a reconnect.";
 
@@ -62,6 +69,7 @@ without --yes); 3 link failure.
 Examples:
   jogterm run part.nc --port /dev/ttyUSB0 --protocol isel
   jogterm run part.nc --port /dev/ttyUSB0 --protocol isel --stream --speed 80
+  jogterm run part.nc --port /dev/ttyUSB0 --protocol isel --from-line 1200
   jogterm --sim isel run examples/gcode/fusion-grbl.nc --work-zero \"X50 Y50 Z60\" --yes";
 
 /// Options of `jogterm run`.
@@ -97,6 +105,11 @@ pub struct RunArgs {
     /// Baud rate, instead of the profile's
     #[arg(long, value_name = "N")]
     pub baud: Option<u32>,
+    /// G-code: restart from this line (after a broken tool, a power cut): retract to the
+    /// safe height, go above the line's start, apply the skipped lines' modal state,
+    /// descend at feed, then run from the line on
+    #[arg(long, value_name = "LINE")]
+    pub from_line: Option<u32>,
 }
 
 /// What runs: the prepared program(s) and the way.
@@ -153,6 +166,11 @@ pub fn run(global: &GlobalArgs, args: &RunArgs) -> anyhow::Result<ExitCode> {
                 return Ok(ExitCode::from(code));
             }
         }
+    } else if args.from_line.is_some() {
+        return usage(
+            "--from-line restarts G-code, whose lines it knows; a controller program runs whole"
+                .into(),
+        );
     } else if args.chunked {
         return usage(
             "--chunked runs G-code, cut where its tool stands retracted; a controller program \
@@ -211,15 +229,21 @@ fn gcode_job(
         global,
         &args.file,
         args.work_zero.as_deref(),
+        args.from_line,
         profile,
         "run",
     )?;
-    let program = &imported.import.program;
-    let ways = Ways::of(
-        program,
-        imported.import.summary.estimated_s,
-        &costs(profile, language),
-    );
+    if let Some(r) = &imported.restart {
+        out::say_raw(super::restart::text(
+            &imported.name,
+            profile,
+            &imported.import,
+            r,
+            None,
+        ));
+    }
+    let program = imported.program();
+    let ways = Ways::of(program, imported.motion_s(), &costs(profile, language));
     out::say(format_args!(
         "{}: {} commands, the controller stores {}",
         imported.name, program.commands, program.capacity
