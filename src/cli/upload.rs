@@ -156,6 +156,7 @@ impl Prepared {
                 .gcode
                 .as_ref()
                 .map_or(self.lines.len(), |g| g.lines.len()),
+            estimate_s: None,
         }
     }
 }
@@ -356,7 +357,16 @@ fn prepare_gcode(
         "upload",
     )?;
     let program = &imported.import.program;
-    if program.fits() || (args.stream && language == Language::Isel) {
+    if args.stream && language == Language::Isel {
+        let config = super::run::streamed(config);
+        return Ok(vec![imported.checked(
+            program.clone(),
+            language,
+            &config,
+            "upload",
+        )?]);
+    }
+    if program.fits() {
         return Ok(vec![imported.checked(
             program.clone(),
             language,

@@ -116,6 +116,8 @@ pub struct RunArgs {
 struct Job {
     parts: Vec<Prepared>,
     way: Way,
+    /// The way's estimate, for the time left early in a stream.
+    estimate_s: Option<f64>,
 }
 
 /// What the line and controller of `profile` cost besides motion.
@@ -178,6 +180,11 @@ pub fn run(global: &GlobalArgs, args: &RunArgs) -> anyhow::Result<ExitCode> {
                 .into(),
         );
     } else {
+        let config = if args.stream {
+            streamed(&config)
+        } else {
+            config
+        };
         match upload::prepare(global, &args.file, &profile, language, &config) {
             Ok(p) => Job {
                 parts: vec![p],
@@ -186,6 +193,7 @@ pub fn run(global: &GlobalArgs, args: &RunArgs) -> anyhow::Result<ExitCode> {
                 } else {
                     Way::Stored
                 },
+                estimate_s: None,
             },
             Err(m) => return usage(m),
         }
@@ -269,15 +277,26 @@ fn gcode_job(
         ));
     }
     let parts = match ways.chosen {
-        Way::Stored | Way::Stream => {
-            vec![imported.checked(program.clone(), language, config, "run")?]
+        Way::Stored => vec![imported.checked(program.clone(), language, config, "run")?],
+        Way::Stream => {
+            vec![imported.checked(program.clone(), language, &streamed(config), "run")?]
         }
         Way::Chunked => imported.in_parts(language, config, profile, "run")?,
     };
     Ok(Job {
         parts,
         way: ways.chosen,
+        estimate_s: ways.estimate(ways.chosen).map(|e| e.total_s),
     })
+}
+
+/// The lint of a program that is streamed: it is stored nowhere, so the
+/// controller's memory is no limit.
+pub fn streamed(config: &LintConfig) -> LintConfig {
+    LintConfig {
+        capacity: Some(usize::MAX),
+        ..config.clone()
+    }
 }
 
 /// Asks on the terminal; `Err` when there is none to ask on.
@@ -333,10 +352,14 @@ async fn steps(
                 part.name(),
                 args.speed
             ));
+            let place = stream::Place {
+                estimate_s: job.estimate_s,
+                ..part.place()
+            };
             return stream::run(
                 session,
                 part.program(),
-                &part.place(),
+                &place,
                 (remedy.isel_device, remedy.axes),
                 args.speed,
                 keys,

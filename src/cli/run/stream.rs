@@ -124,6 +124,9 @@ pub struct Place<'a> {
     /// A job converted from G-code: the G-code line of each program line.
     pub gcode: Option<&'a crate::gcode::output::Program>,
     pub total: usize,
+    /// The way's estimate in seconds: the time left until the pace of the
+    /// first lines (a reference run among them) says more.
+    pub estimate_s: Option<f64>,
 }
 
 impl Place<'_> {
@@ -452,9 +455,9 @@ impl Progress {
         self.last = Some(now);
         let text = progress_text(
             &place.at(index),
-            index,
-            self.total,
+            (index, self.total),
             started.elapsed().as_secs_f64(),
+            place.estimate_s,
         );
         if self.terminal {
             out::say_raw(format_args!("\r\x1b[2K{text}"));
@@ -484,15 +487,25 @@ impl Progress {
     }
 }
 
-/// `part.nc:120:1: 42 % after 1:10 min, about 1:37 min left`.
-pub fn progress_text(at: &str, done: usize, total: usize, elapsed_s: f64) -> String {
+/// `part.nc:120:1: 42 % after 1:10 min, about 1:37 min left`: the time
+/// left from the estimate for the first 5 %, then from the pace so far.
+pub fn progress_text(
+    at: &str,
+    (done, total): (usize, usize),
+    elapsed_s: f64,
+    estimate_s: Option<f64>,
+) -> String {
     let percent = (done * 100).checked_div(total).unwrap_or(100);
-    let left = if done > 0 && done < total {
-        let left = elapsed_s / done as f64 * (total - done) as f64;
-        format!(", about {} left", crate::gcode::ways::duration(left))
-    } else {
-        String::new()
+    let fraction = done as f64 / total.max(1) as f64;
+    let left = match estimate_s {
+        _ if done >= total => None,
+        Some(estimate) if fraction < 0.05 => Some(estimate * (1.0 - fraction)),
+        _ if done > 0 => Some(elapsed_s / fraction * (1.0 - fraction)),
+        _ => None,
     };
+    let left = left.map_or(String::new(), |s| {
+        format!(", about {} left", crate::gcode::ways::duration(s))
+    });
     format!(
         "{at}: {percent} % after {}{left}",
         crate::gcode::ways::duration(elapsed_s)
@@ -506,12 +519,21 @@ mod tests {
     #[test]
     fn progress_says_line_percent_elapsed_and_left() {
         assert_eq!(
-            progress_text("p.nc:12:1", 25, 100, 30.0),
+            progress_text("p.nc:12:1", (25, 100), 30.0, Some(60.0)),
             "p.nc:12:1: 25 % after 30.0 s, about 1:30 min left"
         );
+        // Early on the estimate speaks, not a reference run's pace.
         assert_eq!(
-            progress_text("p.nc:1:1", 0, 100, 0.0),
+            progress_text("p.nc:3:1", (1, 100), 14.0, Some(100.0)),
+            "p.nc:3:1: 1 % after 14.0 s, about 1:39 min left"
+        );
+        assert_eq!(
+            progress_text("p.nc:1:1", (0, 100), 0.0, None),
             "p.nc:1:1: 0 % after 0.0 s"
+        );
+        assert_eq!(
+            progress_text("p.nc:9:1", (100, 100), 50.0, Some(60.0)),
+            "p.nc:9:1: 100 % after 50.0 s"
         );
     }
 
