@@ -13,6 +13,7 @@ use super::{GlobalArgs, profile};
 use crate::config::{ConfigDirs, SimVariant};
 use crate::sim::registry;
 use crate::sim::shell::{PtyOptions, Serve, run_simulator_with};
+use crate::sim::timescale::TimeScale;
 
 pub const LONG_ABOUT: &str = "\
 Serve a built-in controller simulator on a new pseudo-terminal or a TCP port.
@@ -30,6 +31,12 @@ limit_margin and start_position), and the controller the one its [sim] variants 
 --variant describe: the range of real controllers (docs/simulator.md, Variants). The
 family is --protocol (or --sim), else the profile's connection.protocol; without
 --profile, --sim/--protocol pick the shipped profile of that family (isel, emcu, emp).
+
+--time-scale S runs the simulated machine S times faster than the wall clock (0.01 to
+1000; 1, the default, is real time): motion, the modelled wire, erase times, reply delays
+and timed controls alike. It is for tests of logic (where a move ends, what went over the
+wire); a client's deadlines and position estimates are made for the real machine, so
+timing is only the controller's at 1 (docs/simulator.md, Time scale).
 
 Lines on stdin operate the machine and inject faults; each accepted line prints `ok` (or
 its output), errors go to stderr. The simulator ends when stdin closes, on `quit`, when
@@ -76,6 +83,10 @@ pub struct SimArgs {
     /// memory=<commands> (isel, EMCU), emp-rejects-0a-before-on (EMP)
     #[arg(long = "variant", value_name = "NAME[=N]")]
     pub variants: Vec<SimVariant>,
+    /// Run the simulated machine S times faster than the wall clock (motion, wire,
+    /// delays alike; 1 = real time): for tests of logic, not of timing
+    #[arg(long, value_name = "S", default_value_t = TimeScale::REAL)]
+    pub time_scale: TimeScale,
 }
 
 /// Run `jogterm sim` until stdin closes.
@@ -94,7 +105,12 @@ pub fn run(global: &GlobalArgs, args: &SimArgs) -> anyhow::Result<()> {
     }
     profile.sim.variants.extend(args.variants.iter().copied());
     let device = registry::build(protocol, &profile)?;
-    tracing::info!(%protocol, profile = %profile.name, "simulator starting");
+    tracing::info!(
+        %protocol,
+        profile = %profile.name,
+        time_scale = %args.time_scale,
+        "simulator starting"
+    );
     let mut stdout = WatchedStdout::new();
     let serve = match args.tcp {
         Some(addr) => Serve::Tcp(addr),
@@ -105,6 +121,7 @@ pub fn run(global: &GlobalArgs, args: &SimArgs) -> anyhow::Result<()> {
     let result = run_simulator_with(
         device,
         serve,
+        args.time_scale,
         std::io::stdin().lock(),
         &mut stdout,
         &mut std::io::stderr(),

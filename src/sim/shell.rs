@@ -5,6 +5,11 @@
 //! socket, and hands everything to the sans-IO [`Engine`], which models wire
 //! timing both ways and applies faults. Operators and tests reach it through
 //! a [`ShellControl`]; `docs/simulator.md` describes the behaviour.
+//!
+//! The `*_scaled` variants run the model on a [`TimeScale`]: the engine is
+//! handed model time, and the thread sleeps until the wall-clock instant of
+//! the model's next event ([`ScaledClock`]); the line stays on the wall
+//! clock.
 
 use std::io::{self, Read, Write};
 use std::net::{SocketAddr, TcpListener};
@@ -17,11 +22,12 @@ use std::thread::{self, JoinHandle};
 use std::time::Instant;
 
 use super::control::run_control_loop;
-use super::engine::Engine;
+use super::engine::{Engine, Wake};
 use super::fault::Fault;
 use super::line::{Line, PtyShared, ReadOutcome};
 use super::pty::{self, StableLink};
 use super::received::{Received, ReceivedLog};
+use super::timescale::{ScaledClock, TimeScale};
 use super::{InputControl, SimDevice, TimedControl};
 use crate::transport::fd;
 use crate::wire::LineSettings;
@@ -216,6 +222,14 @@ impl Drop for Shell {
 /// Serve `device` in-process: returns the shell and the client's end of a
 /// socket pair (for `transport::PortSpec::InProcess`).
 pub fn serve_socket(device: Box<dyn SimDevice>) -> Result<(Shell, UnixStream), ShellError> {
+    serve_socket_scaled(device, TimeScale::REAL)
+}
+
+/// [`serve_socket`] with the model on `time_scale` (`sim::timescale`).
+pub fn serve_socket_scaled(
+    device: Box<dyn SimDevice>,
+    time_scale: TimeScale,
+) -> Result<(Shell, UnixStream), ShellError> {
     let (ours, theirs) = UnixStream::pair().map_err(|source| ShellError::Io {
         action: "creating a socket pair",
         source,
@@ -225,7 +239,7 @@ pub fn serve_socket(device: Box<dyn SimDevice>) -> Result<(Shell, UnixStream), S
         action: "setting the socket non-blocking",
         source,
     })?;
-    let shell = spawn(device, Line::socket(fd), None)?;
+    let shell = spawn(device, Line::socket(fd), None, time_scale)?;
     Ok((shell, theirs))
 }
 
@@ -233,6 +247,15 @@ pub fn serve_socket(device: Box<dyn SimDevice>) -> Result<(Shell, UnixStream), S
 /// `accepter: tcp,…`); `addr` may give port 0 for any free one. The client
 /// connects to [`Shell::tcp_addr`].
 pub fn serve_tcp(device: Box<dyn SimDevice>, addr: SocketAddr) -> Result<Shell, ShellError> {
+    serve_tcp_scaled(device, addr, TimeScale::REAL)
+}
+
+/// [`serve_tcp`] with the model on `time_scale` (`sim::timescale`).
+pub fn serve_tcp_scaled(
+    device: Box<dyn SimDevice>,
+    addr: SocketAddr,
+    time_scale: TimeScale,
+) -> Result<Shell, ShellError> {
     let listener = TcpListener::bind(addr).map_err(|source| ShellError::Io {
         action: "listening on the TCP port",
         source,
@@ -244,7 +267,7 @@ pub fn serve_tcp(device: Box<dyn SimDevice>, addr: SocketAddr) -> Result<Shell, 
             source,
         })?;
     let tcp = listener.local_addr().ok();
-    let mut shell = spawn(device, Line::tcp(listener), None)?;
+    let mut shell = spawn(device, Line::tcp(listener), None, time_scale)?;
     shell.tcp = tcp;
     Ok(shell)
 }
@@ -252,6 +275,15 @@ pub fn serve_tcp(device: Box<dyn SimDevice>, addr: SocketAddr) -> Result<Shell, 
 /// Serve `device` on a new pseudo-terminal. The client opens
 /// [`Shell::client_path`]; clients may close and reopen it at will.
 pub fn serve_pty(device: Box<dyn SimDevice>, options: PtyOptions) -> Result<Shell, ShellError> {
+    serve_pty_scaled(device, options, TimeScale::REAL)
+}
+
+/// [`serve_pty`] with the model on `time_scale` (`sim::timescale`).
+pub fn serve_pty_scaled(
+    device: Box<dyn SimDevice>,
+    options: PtyOptions,
+    time_scale: TimeScale,
+) -> Result<Shell, ShellError> {
     let master = pty::open_master().map_err(|source| ShellError::Io {
         action: "creating a pseudo-terminal",
         source,
@@ -269,7 +301,7 @@ pub fn serve_pty(device: Box<dyn SimDevice>, options: PtyOptions) -> Result<Shel
         link,
     });
     let line = Line::pty(master.fd, shared.clone(), Instant::now());
-    spawn(device, line, Some(shared))
+    spawn(device, line, Some(shared), time_scale)
 }
 
 /// What `jogterm sim --pty` runs: serve `device` on a new pty, print the path
@@ -298,7 +330,14 @@ pub fn run_pty_simulator_with(
     out: &mut impl Write,
     err: &mut impl Write,
 ) -> Result<(), ShellError> {
-    run_simulator_with(device, Serve::Pty(options), input, out, err)
+    run_simulator_with(
+        device,
+        Serve::Pty(options),
+        TimeScale::REAL,
+        input,
+        out,
+        err,
+    )
 }
 
 /// Where `jogterm sim` serves.
@@ -311,23 +350,25 @@ pub enum Serve {
 /// What `jogterm sim` runs: serve `device`, print where a client finds it
 /// as the first line of stdout (the pty's link or slave path, or
 /// `tcp://ADDR:PORT`), then read control commands from `input` until it
-/// closes (or `quit`).
+/// closes (or `quit`). The model runs on `time_scale` (`jogterm sim
+/// --time-scale`).
 pub fn run_simulator_with(
     device: Box<dyn SimDevice>,
     serve: Serve,
+    time_scale: TimeScale,
     input: impl io::BufRead,
     out: &mut impl Write,
     err: &mut impl Write,
 ) -> Result<(), ShellError> {
     let (shell, first) = match serve {
         Serve::Pty(options) => {
-            let shell = serve_pty(device, options)?;
+            let shell = serve_pty_scaled(device, options, time_scale)?;
             let path = shell.client_path().ok_or(ShellError::Stopped)?;
             let first = path.display().to_string();
             (shell, first)
         }
         Serve::Tcp(addr) => {
-            let shell = serve_tcp(device, addr)?;
+            let shell = serve_tcp_scaled(device, addr, time_scale)?;
             let addr = shell.tcp_addr().ok_or(ShellError::Stopped)?;
             (shell, format!("tcp://{addr}"))
         }
@@ -350,6 +391,7 @@ fn spawn(
     device: Box<dyn SimDevice>,
     line: Line,
     pty: Option<Arc<PtyShared>>,
+    time_scale: TimeScale,
 ) -> Result<Shell, ShellError> {
     let (wake_tx, wake_rx) = UnixStream::pair().map_err(|source| ShellError::Io {
         action: "creating the wake socket",
@@ -365,6 +407,7 @@ fn spawn(
     let engine = Engine::new(device);
     let settings = engine.line();
     let worker = Worker {
+        clock: ScaledClock::new(Instant::now(), time_scale),
         engine,
         line,
         requests: request_rx,
@@ -398,6 +441,9 @@ fn spawn(
 const EXACT_SPIN: std::time::Duration = std::time::Duration::from_micros(200);
 
 struct Worker {
+    /// Wall clock to model time and back. The engine sees only model time;
+    /// the line, `poll` and the spin only wall-clock time.
+    clock: ScaledClock,
     engine: Engine,
     line: Line,
     requests: mpsc::Receiver<Request>,
@@ -436,7 +482,11 @@ impl Worker {
             }
             self.catch_up(now);
 
-            let wake = self.engine.next_wake();
+            // The model's next event, at the wall-clock instant it is due.
+            let wake = self.engine.next_wake().map(|w| Wake {
+                at: self.clock.real(w.at),
+                ..w
+            });
             // For the last byte of a message, wake early and spin the rest:
             // the kernel's timer wakes a thread tens of µs late (75 µs is
             // typical in a VM), and that lateness would add to every
@@ -495,7 +545,7 @@ impl Worker {
                 while let ReadOutcome::Data(n) = self.line.read(&mut buf, read_at) {
                     let bytes = buf.get(..n).unwrap_or_default();
                     self.received.record(bytes);
-                    self.engine.receive(bytes, read_at);
+                    self.engine.receive(bytes, self.clock.model(read_at));
                 }
             }
             if ready_at(listener_at) {
@@ -504,10 +554,11 @@ impl Worker {
         }
     }
 
-    /// Bring the model up to `now` and put every byte due on the line.
+    /// Bring the model up to wall-clock `now` and put every byte due on the
+    /// line.
     fn catch_up(&mut self, now: Instant) {
         self.out.clear();
-        self.engine.run_until(now, &mut self.out);
+        self.engine.run_until(self.clock.model(now), &mut self.out);
         if !self.out.is_empty() {
             self.line.write(&self.out, now);
         }
@@ -516,19 +567,24 @@ impl Worker {
     fn handle(&mut self, request: Request) -> Flow {
         let now = Instant::now();
         self.catch_up(now);
+        // Controls, faults and the device's state are the model's; closing
+        // the line and its status are the wall clock's.
+        let model_now = self.clock.model(now);
         match request {
             Request::Input(control, reply) => {
-                let _ = reply.send(self.engine.control(&control, now));
+                let _ = reply.send(self.engine.control(&control, model_now));
             }
             Request::Timed(controls, reply) => {
-                let result = controls.iter().try_for_each(|c| self.engine.timed(c, now));
+                let result = controls
+                    .iter()
+                    .try_for_each(|c| self.engine.timed(c, model_now));
                 let _ = reply.send(result);
             }
             Request::Fault(Fault::Close { reopen_after }, reply) => {
                 let _ = reply.send(self.line.close(reopen_after, now));
             }
             Request::Fault(fault, reply) => {
-                let _ = reply.send(self.engine.fault(fault, now));
+                let _ = reply.send(self.engine.fault(fault, model_now));
             }
             Request::Memory(commands, reply) => {
                 let _ = reply.send(self.engine.set_program_memory(commands));
@@ -562,9 +618,9 @@ impl Worker {
             "device: {}\nline: {} baud, {}\nwire: received {} bytes; sent {} bytes in {} messages; \
              withheld {} messages; dropped {}, corrupted {}, garbage {} bytes; \
              lost without a client {}, not taken by the client {} bytes\nfaults armed: {}",
-            self.engine.describe(now),
+            self.engine.describe(self.clock.model(now)),
             self.engine.line().baud,
-            self.line.status(now),
+            self.line_status(now),
             s.bytes_received,
             s.bytes_sent,
             s.messages_sent,
@@ -581,6 +637,18 @@ impl Worker {
             text.push_str(e);
         }
         text
+    }
+
+    /// The line's status, and the time scale when the model is not on the
+    /// wall clock.
+    fn line_status(&self, now: Instant) -> String {
+        let status = self.line.status(now);
+        let scale = self.clock.scale();
+        if scale.is_real() {
+            status
+        } else {
+            format!("{status}; time scale {scale} (the model runs {scale} times the wall clock)")
+        }
     }
 
     fn finish(mut self) {

@@ -300,7 +300,7 @@ fn over_tcp_ctrl_c_of_a_stream_reaches_the_line_within_the_network_bound() {
     // within 100 ms): measured one at a time, the lock held from before
     // the cut so that the cut is still running when the signal goes.
     let _serial = crate::timing::serial();
-    let mut sim = SimProcess::start_tcp_with_files("isel", &[SMALL_MEMORY]);
+    let mut sim = SimProcess::options("isel").files(&[SMALL_MEMORY]).tcp().start();
     let file = write(&sim, "slow.nc", SLOW_CUT);
     let port = sim.link.display().to_string();
     let mut command = std::process::Command::new(JOGTERM);

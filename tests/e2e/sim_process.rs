@@ -5,6 +5,10 @@
 //! closed stdin ends the simulator), `show received` is the controller's own
 //! view of what it was sent, and [`SimProcess::jogterm`] runs the `jogterm`
 //! binary against its link.
+//!
+//! [`SimProcess::options`] starts one with everything that can differ
+//! (configuration files, variants, TCP, a time scale); the `start_*`
+//! shorthands cover the usual cases.
 
 use std::io::{BufRead, BufReader, Read, Write};
 use std::path::{Path, PathBuf};
@@ -116,21 +120,88 @@ pub struct SimProcess {
     lines: Receiver<String>,
     stderr: Arc<Mutex<Vec<u8>>>,
     pub family: &'static str,
+    /// `jogterm sim --time-scale`: 1.0 is real time (`sim::timescale`).
+    pub time_scale: f64,
     /// What `--port` takes: the pty's link, or `tcp://127.0.0.1:PORT`.
     pub link: PathBuf,
     pub dir: tempfile::TempDir,
 }
 
 /// Where a simulator serves.
+#[derive(Clone, Copy)]
 enum Serving {
     Pty,
     Tcp,
 }
 
+/// How to start a simulator: [`SimProcess::options`], then the builder's
+/// methods, then [`SimOptions::start`].
+#[must_use]
+pub struct SimOptions<'a> {
+    family: &'static str,
+    files: &'a [(&'a str, &'a str)],
+    variants: &'a [&'a str],
+    serving: Serving,
+    time_scale: f64,
+}
+
+impl<'a> SimOptions<'a> {
+    /// Files (path relative to the configuration directory, contents)
+    /// written there first: a profile in `profiles/<name>.toml` patches the
+    /// shipped one for the simulator and for every `jogterm` that shares
+    /// the directory.
+    pub fn files(mut self, files: &'a [(&'a str, &'a str)]) -> Self {
+        self.files = files;
+        self
+    }
+
+    /// A controller that differs from the default as `variants` say
+    /// (`jogterm sim --variant`, `docs/simulator.md`, "Variants").
+    pub fn variants(mut self, variants: &'a [&'a str]) -> Self {
+        self.variants = variants;
+        self
+    }
+
+    /// Serve as a serial port server in raw mode (`jogterm sim --tcp
+    /// 127.0.0.1:0`): [`SimProcess::link`] is the `tcp://127.0.0.1:PORT` it
+    /// printed.
+    pub fn tcp(mut self) -> Self {
+        self.serving = Serving::Tcp;
+        self
+    }
+
+    /// Run the simulated machine `scale` times faster than the wall clock
+    /// (`jogterm sim --time-scale`): only for a test that checks logic (end
+    /// positions, bytes on the wire, messages), never for one that measures
+    /// a timing promise or asserts a position jogterm estimates during a
+    /// move (`docs/testing.md`, "The time scale").
+    pub fn time_scale(mut self, scale: f64) -> Self {
+        self.time_scale = scale;
+        self
+    }
+
+    /// Start it and wait for its first line (the link).
+    pub fn start(self) -> SimProcess {
+        SimProcess::start_serving(self)
+    }
+}
+
 impl SimProcess {
+    /// The simulator of `family` with the defaults (a pty, the shipped
+    /// profile, real time), to be changed before [`SimOptions::start`].
+    pub fn options<'a>(family: &'static str) -> SimOptions<'a> {
+        SimOptions {
+            family,
+            files: &[],
+            variants: &[],
+            serving: Serving::Pty,
+            time_scale: 1.0,
+        }
+    }
+
     /// Start the simulator of `family` and wait for its first line (the link).
     pub fn start(family: &'static str) -> SimProcess {
-        Self::start_with_files(family, &[])
+        Self::options(family).start()
     }
 
     /// [`SimProcess::start`] with `files` (path relative to the directory,
@@ -138,7 +209,7 @@ impl SimProcess {
     /// in `profiles/<name>.toml` patches the shipped one for the simulator
     /// and for every `jogterm` that shares the directory.
     pub fn start_with_files(family: &'static str, files: &[(&str, &str)]) -> SimProcess {
-        Self::start_variant(family, files, &[])
+        Self::options(family).files(files).start()
     }
 
     /// [`SimProcess::start_with_files`] serving a controller that differs
@@ -149,28 +220,27 @@ impl SimProcess {
         files: &[(&str, &str)],
         variants: &[&str],
     ) -> SimProcess {
-        Self::start_serving(family, files, variants, Serving::Pty)
+        Self::options(family)
+            .files(files)
+            .variants(variants)
+            .start()
     }
 
     /// The simulator of `family` as a serial port server in raw mode
     /// (`jogterm sim --tcp 127.0.0.1:0`): [`SimProcess::link`] is the
     /// `tcp://127.0.0.1:PORT` it printed.
     pub fn start_tcp(family: &'static str) -> SimProcess {
-        Self::start_tcp_with_files(family, &[])
+        Self::options(family).tcp().start()
     }
 
-    /// [`SimProcess::start_tcp`] with the test's profiles, as
-    /// [`SimProcess::start_with_files`].
-    pub fn start_tcp_with_files(family: &'static str, files: &[(&str, &str)]) -> SimProcess {
-        Self::start_serving(family, files, &[], Serving::Tcp)
-    }
-
-    fn start_serving(
-        family: &'static str,
-        files: &[(&str, &str)],
-        variants: &[&str],
-        serving: Serving,
-    ) -> SimProcess {
+    fn start_serving(options: SimOptions<'_>) -> SimProcess {
+        let SimOptions {
+            family,
+            files,
+            variants,
+            serving,
+            time_scale,
+        } = options;
         let dir = tempfile::tempdir().expect("temp dir");
         for (path, contents) in files {
             let path = dir.path().join(path);
@@ -183,7 +253,9 @@ impl SimProcess {
         let mut command = Command::new(JOGTERM);
         command
             .args(["sim", "--protocol", family])
-            .args(variants.iter().flat_map(|v| ["--variant", v]));
+            .args(variants.iter().flat_map(|v| ["--variant", v]))
+            .arg("--time-scale")
+            .arg(time_scale.to_string());
         match serving {
             Serving::Pty => command.arg("--pty").arg("--link").arg(&link),
             Serving::Tcp => command.args(["--tcp", "127.0.0.1:0"]),
@@ -214,6 +286,7 @@ impl SimProcess {
             lines,
             stderr,
             family,
+            time_scale,
             link: link.clone(),
             dir,
         };
