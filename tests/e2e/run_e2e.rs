@@ -300,7 +300,10 @@ fn over_tcp_ctrl_c_of_a_stream_reaches_the_line_within_the_network_bound() {
     // within 100 ms): measured one at a time, the lock held from before
     // the cut so that the cut is still running when the signal goes.
     let _serial = crate::timing::serial();
-    let mut sim = SimProcess::options("isel").files(&[SMALL_MEMORY]).tcp().start();
+    let mut sim = SimProcess::options("isel")
+        .files(&[SMALL_MEMORY])
+        .tcp()
+        .start();
     let file = write(&sim, "slow.nc", SLOW_CUT);
     let port = sim.link.display().to_string();
     let mut command = std::process::Command::new(JOGTERM);
@@ -421,4 +424,162 @@ fn a_restart_from_a_line_retracts_goes_above_its_start_descends_at_feed_and_ends
             .any(|m| (m.0, m.1) == (first_pocket[0], first_pocket[1])),
         "{moves:?}"
     );
+}
+
+/// A CAM-style finish of `passes` passes of 200 short cuts (0.25 mm in X
+/// over a rough surface, so the import merges none), each entered from and
+/// left to the safe height Z5: 203 moves a pass.
+fn finish(passes: usize) -> String {
+    let mut text = String::from("%\n(finish)\nG21 G90 G17\nG0 Z5\n");
+    for pass in 0..passes {
+        let y = 5.0 + pass as f64 * 0.4;
+        text.push_str(&format!("G0 X5 Y{y:.3}\nG1 Z-0.5 F600\n"));
+        for k in 1..=200 {
+            let x = 5.0 + k as f64 * 0.25;
+            let z = -0.5 + 0.2 * (k as f64 * 1.3).sin();
+            text.push_str(&format!("G1 X{x:.3} Z{z:.3} F3000\n"));
+        }
+        text.push_str("G0 Z5\n");
+    }
+    text.push_str("M30\n%\n");
+    text
+}
+
+/// The finish's last point: the end of its last pass, retracted.
+fn finish_end(passes: usize) -> [f64; 3] {
+    [55.0, 5.0 + (passes - 1) as f64 * 0.4, 5.0]
+}
+
+/// The simulator runs 50 times as fast as the controller (motion, wire,
+/// erases), and jogterm paces the line as for 921600 baud, about as fast
+/// as 19200 baud 50 times over: these runs check where 20 000 moves end and
+/// where the parts are cut, not how long they take (`benches/jobs.rs`
+/// measures that at the controller's speed).
+const JOB_SCALE: f64 = 50.0;
+const JOB_BAUD: &str = "921600";
+
+/// The faster machine with the controller's own memory (2000 commands).
+const FAST_MACHINE: (&str, &str) = (
+    "profiles/default.toml",
+    "[axes.X]\nmax_speed = 60.0\n[axes.Y]\nmax_speed = 60.0\n[axes.Z]\nmax_speed = 30.0\n",
+);
+
+/// `jogterm run` of the 20k-move finish on a scaled simulator, its traffic
+/// logged: what it said, and the log.
+fn run_finish(sim: &SimProcess, passes: usize, way: &str) -> (String, String) {
+    let file = write(sim, "finish.nc", &finish(passes));
+    let log = sim.dir.path().join("traffic.log");
+    let log_arg = log.display().to_string();
+    let mut command = sim.configured(&[
+        "run",
+        &file,
+        "--work-zero",
+        WORK_ZERO,
+        way,
+        "--yes",
+        "--baud",
+        JOB_BAUD,
+    ]);
+    let out = command.arg("--log").arg(&log_arg).output().expect("run");
+    let said = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{said}");
+    (
+        said,
+        std::fs::read_to_string(&log).expect("the traffic log"),
+    )
+}
+
+/// The moves (`m`) of the finish converted as `jogterm import -o` writes
+/// it: the import merges the few cuts that lie on one line.
+fn converted_moves(sim: &SimProcess) -> usize {
+    let file = sim.dir.path().join("finish.nc").display().to_string();
+    let program = sim.dir.path().join("finish.isel");
+    let out = sim
+        .configured(&["import", &file, "--work-zero", WORK_ZERO, "-o"])
+        .arg(&program)
+        .output()
+        .expect("import");
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    std::fs::read_to_string(&program)
+        .expect("the program")
+        .lines()
+        .filter(|l| l.starts_with('m'))
+        .count()
+}
+
+/// Lines the traffic log says were sent.
+fn sent(log: &str) -> impl Iterator<Item = &str> {
+    log.lines()
+        .filter_map(|l| l.split_once(" >> ").map(|(_, t)| t))
+}
+
+#[test]
+fn a_20k_move_job_streamed_ends_exactly_at_its_last_point() {
+    let mut sim = SimProcess::options("isel")
+        .files(&[FAST_MACHINE])
+        .time_scale(JOB_SCALE)
+        .start();
+    let passes = 102;
+    let (said, log) = run_finish(&sim, passes, "--stream");
+    assert!(said.contains("the stream ended"), "{said}");
+    stands_at(&mut sim, finish_end(passes));
+    assert_eq!(
+        sent(&log).filter(|l| l.starts_with("@0i")).count(),
+        0,
+        "nothing stored"
+    );
+    // Every move of the converted job went out once.
+    let moves = sent(&log).filter(|l| l.starts_with("@0M")).count();
+    assert_eq!(moves, converted_moves(&sim));
+    assert!(moves > 20_000, "{moves}");
+}
+
+#[test]
+fn a_20k_move_job_in_parts_ends_exactly_at_its_last_point_every_part_cut_at_a_retract() {
+    let mut sim = SimProcess::options("isel")
+        .files(&[FAST_MACHINE])
+        .time_scale(JOB_SCALE)
+        .start();
+    let passes = 102;
+    let (said, log) = run_finish(&sim, passes, "--chunked");
+    assert!(said.contains("chosen: chunked"), "{said}");
+    stands_at(&mut sim, finish_end(passes));
+    // The stored parts, from the log: what follows each `@0i` up to `9`.
+    let lines: Vec<&str> = sent(&log).map(|l| l.trim_end_matches("<CR>")).collect();
+    let mut parts: Vec<Vec<&str>> = Vec::new();
+    let mut storing: Option<Vec<&str>> = None;
+    for line in lines {
+        match (&mut storing, line) {
+            (None, "@0i") => storing = Some(Vec::new()),
+            (Some(part), "9") => {
+                part.push("9");
+                parts.extend(storing.take());
+            }
+            (Some(part), l) if !l.starts_with('@') => part.push(l),
+            _ => {}
+        }
+    }
+    assert!(parts.len() >= 10, "{} parts", parts.len());
+    let safe = steps([0.0, 0.0, 5.0])[2].to_string();
+    let mut moves = 0;
+    for (k, part) in parts.iter().enumerate() {
+        moves += part.iter().filter(|c| c.starts_with('m')).count();
+        assert!(
+            part.len() <= 2000,
+            "part {} holds {} commands",
+            k + 1,
+            part.len()
+        );
+        if k + 1 < parts.len() {
+            let last = part[part.len() - 2];
+            let fields: Vec<&str> = last.trim_start_matches('m').split(',').collect();
+            assert!(
+                last.starts_with('m') && fields.get(4) == Some(&safe.as_str()),
+                "part {} ends with `{last}`, not at the safe height",
+                k + 1
+            );
+        }
+    }
+    assert_eq!(moves, converted_moves(&sim), "every move stored once");
+    assert!(moves > 20_000, "{moves}");
 }
