@@ -111,6 +111,8 @@ pub enum Answer {
     },
     /// Start the stored program.
     Run,
+    /// Run the converted G-code job in parts (`update::job`).
+    RunInParts,
     /// Start a check-out, from the program's start or from a line.
     Checkout {
         from: Option<usize>,

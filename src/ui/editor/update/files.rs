@@ -31,9 +31,14 @@ impl Step<'_, '_> {
                 language,
                 text,
                 notes,
+                gcode,
             } => {
                 self.open();
                 self.e.replace(language, &text, now);
+                self.e.gcode = gcode.map(|converted| crate::ui::editor::job::Gcode {
+                    converted: *converted,
+                    state: self.e.buffer.state(),
+                });
                 // Unsaved: the recovery file keeps it until it is saved.
                 self.e.file = FileState {
                     path: Some(path),

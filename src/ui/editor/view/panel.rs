@@ -13,6 +13,7 @@ use crate::device::api::Activity;
 use crate::program::Severity;
 use crate::ui::editor::checkout::RunState;
 use crate::ui::editor::highlight::{Class, Mark, runs};
+use crate::ui::editor::job::Phase as JobPhase;
 use crate::ui::editor::layout::{ProgramAreas, gutter_width};
 use crate::ui::editor::upload::Phase;
 use crate::ui::editor::{Context, Editor, unit_label};
@@ -99,6 +100,21 @@ fn title_extra(e: &Editor, ctx: &Context) -> Vec<Span<'static>> {
                 c.label(),
                 c.factor
             ),
+            style,
+        ));
+        return out;
+    }
+    if let Some(c) = &e.chunked {
+        // A job in parts: which part and what it does, first at 80 columns.
+        let (state, style) = match c.phase {
+            JobPhase::Uploading => ("STORING", p.warning),
+            JobPhase::Starting | JobPhase::Running => ("RUNNING", p.ok),
+            JobPhase::Paused => ("PAUSED before", p.danger),
+        };
+        let elapsed = ctx.now.saturating_duration_since(c.started).as_secs();
+        let next = if c.pause_next { " pause next" } else { "" };
+        out.push(Span::styled(
+            format!("{state} {} {elapsed} s{next} ", c.label()),
             style,
         ));
         return out;
