@@ -407,3 +407,105 @@ fn an_emcu_job_taught_after_a_work_zero_drives_back_to_where_the_machine_stood()
     run.type_keys(&[b"q"]);
     assert_eq!(run.wait_exit(WAIT), Some(0));
 }
+
+/// `n` square pockets, each entered from and left to the safe height Z65
+/// (machine mm; the console's work zero is the reference point).
+fn pockets(n: usize) -> String {
+    let mut text = String::from("%\n(pockets)\nG21 G90 G17\nG0 Z65\n");
+    for i in 0..n {
+        let (x, y) = (60 + (i % 4) * 12, 60 + (i / 4) * 12);
+        text.push_str(&format!(
+            "G0 X{x} Y{y}\nG1 Z59 F600\nG1 X{} F1500\nG1 Y{}\nG1 X{x}\nG1 Y{y}\nG0 Z65\n",
+            x + 5,
+            y + 5
+        ));
+    }
+    text.push_str("M30\n%\n");
+    text
+}
+
+/// Issue 27, item 4: a G-code job of 88 commands on a controller that
+/// stores 30, opened with `--program`, run with F6 from the editor: the
+/// question says the ways and takes parts; every part is stored and run in
+/// turn, each but the last ends at the safe height, and the machine ends
+/// at the job's last point.
+#[test]
+fn a_gcode_job_bigger_than_the_memory_runs_in_parts_from_the_editor() {
+    let small_memory = (
+        "profiles/default.toml",
+        "[axes.X]\nmax_speed = 60.0\n[axes.Y]\nmax_speed = 60.0\n[axes.Z]\nmax_speed = 30.0\n[gcode]\nmemory = 30\n",
+    );
+    let mut sim = SimProcess::start_variant("isel", &[small_memory], &["memory=30"]);
+    let state = sim.dir.path().join("state");
+    let file = sim.dir.path().join("pockets.nc");
+    fs::write(&file, pockets(12)).expect("write the job");
+    let file_arg = file.display().to_string();
+    let mut run = spawn_on(&sim, &file_arg, sim.dir.path(), &state);
+    wait_for(&run, "connected");
+    wait_for(&run, "pockets.isel");
+    initialise(&mut run);
+    run.type_keys(&[b"h"]);
+    wait_for(&run, "Reference run");
+    run.type_keys(&[b"y"]);
+    wait_for(&run, "READY");
+    run.type_keys(&[b"e"]);
+    wait_for(&run, "pockets.isel");
+    let before = sim.received().len();
+    run.type_keys(&[b"\x1b[17~"]);
+    let screen = wait_for(&run, "Run pockets.nc");
+    assert!(
+        screen.contains("88 commands, the controller stores 30"),
+        "{screen}"
+    );
+    assert!(screen.contains("chosen: chunked"), "{screen}");
+    run.type_keys(&[b"y"]);
+    wait_for(&run, "part 1/4");
+    let screen = run
+        .wait_for("the job ended: 4 parts", Duration::from_secs(120))
+        .unwrap_or_else(|screen| panic!("the job never ended:\n{screen}"));
+    assert!(!screen.contains("RUNNING part"), "{screen}");
+    // The last pocket is at X96 Y84, left at Z65: in steps.
+    run.type_keys(&[b"\x1bOS"]);
+    wait_for(&run, "Position");
+    let end = Instant::now() + WAIT;
+    loop {
+        let screen = run.screen().screen().contents();
+        let at = ["X", "Y", "Z"].map(|a| steps_of(&screen, a));
+        if at
+            == [
+                Some("38400".into()),
+                Some("33600".into()),
+                Some("26000".into()),
+            ]
+        {
+            break;
+        }
+        assert!(Instant::now() < end, "{at:?}\n{screen}");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    // Four programs stored, each but the last ending with the rapid up to
+    // the safe height (26000 steps) before its `9`.
+    let received = sim.received();
+    let stored: Vec<Vec<&str>> = received[before..]
+        .split("@0i<CR>")
+        .skip(1)
+        .map(|program| program.split("<CR>").collect::<Vec<_>>())
+        .filter(|commands| commands.first().is_some_and(|c| !c.starts_with('@')))
+        .collect();
+    assert_eq!(stored.len(), 4, "{received}");
+    for (k, part) in stored.iter().enumerate() {
+        let end = part.iter().position(|c| *c == "9").expect("a 9");
+        assert!(end <= 30, "part {} holds {end} commands", k + 1);
+        let last = part[end - 1];
+        let fields: Vec<&str> = last.trim_start_matches('m').split(',').collect();
+        assert!(
+            last.starts_with('m') && fields.get(4) == Some(&"26000"),
+            "part {} ends with `{last}`, not at the safe height",
+            k + 1
+        );
+    }
+    run.type_keys(&[b"q"]);
+    wait_for(&run, "Unsaved");
+    run.type_keys(&[b"d"]);
+    assert_eq!(run.wait_exit(WAIT), Some(0));
+}
