@@ -113,6 +113,8 @@ pub enum Answer {
     Run,
     /// Run the converted G-code job in parts (`update::job`).
     RunInParts,
+    /// Stream the converted G-code job (`update::stream`).
+    Stream,
     /// Start a check-out, from the program's start or from a line.
     Checkout {
         from: Option<usize>,

@@ -14,6 +14,7 @@ mod files;
 mod job;
 mod machine;
 mod run;
+mod stream;
 
 use std::path::{Path, PathBuf};
 
@@ -577,6 +578,7 @@ impl Step<'_, '_> {
             Answer::Upload { erase } => self.start_upload(erase),
             Answer::Run => self.out.effects.push(Effect::Device(Request::RunProgram)),
             Answer::RunInParts => self.chunked_begin(),
+            Answer::Stream => self.stream_begin(),
             Answer::Checkout { from } => self.checkout_begin(from),
             Answer::Overwrite { path, then } => self.save_to(path, then, None, false),
             Answer::Restore(recovery) => self.restore(*recovery),

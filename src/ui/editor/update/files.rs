@@ -390,6 +390,7 @@ impl Step<'_, '_> {
     /// Time passes: start the lint when it is due, keep the recovery file
     /// up to date, offer recovered edits.
     pub(super) fn tick(&mut self) {
+        self.stream_renew();
         self.checkout_tick();
         let now = self.ctx.now;
         let (_, start) = self.starts();

@@ -1,6 +1,7 @@
 //! The run key on a program converted from G-code (issue 27,
 //! `docs/editor.md` "G-code"): the ways of running it and their estimates
-//! in the question, and a job bigger than the memory run in parts, each
+//! in the question, the one chosen taken (the stream: `update::stream`),
+//! and a job bigger than the memory run in parts, each
 //! stored (erasing the one before), started and followed to its end in
 //! turn. The parts are cut only where the tool stands retracted at the
 //! safe height, so a pause between two parts (F6) leaves it above the
@@ -74,21 +75,12 @@ impl Step<'_, '_> {
                 ));
                 Answer::RunInParts
             }
-            (_, Some(n)) => {
-                text.push_str(&format!(
-                    "The editor runs no stream: `jogterm run {} --stream` does. Run it in {n} \
-                     parts instead? F6 pauses before the next part, Space stops.",
-                    c.source
-                ));
-                Answer::RunInParts
-            }
-            (_, None) => {
-                text.push_str(&format!(
-                    "The editor runs no stream: `jogterm run {} --stream` does. Nothing starts \
-                     from here.",
-                    c.source
-                ));
-                Answer::Nothing
+            _ => {
+                text.push_str(
+                    "Stream it, each command sent when the one before has ended? The machine \
+                     moves; F10 pauses and goes on, x ends the stream, Space stops.",
+                );
+                Answer::Stream
             }
         };
         let title = format!("Run {}", c.header);

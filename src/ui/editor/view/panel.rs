@@ -76,6 +76,14 @@ fn problem(e: &Editor, p: &Palette, line: usize) -> Option<(char, Style, String)
     None
 }
 
+/// The panel title's words, as text (for tests and the message history).
+pub fn title_text(e: &Editor, ctx: &Context) -> String {
+    title_extra(e, ctx)
+        .iter()
+        .map(|s| s.content.as_ref())
+        .collect()
+}
+
 fn title_extra(e: &Editor, ctx: &Context) -> Vec<Span<'static>> {
     let p = ctx.palette;
     let mut out = Vec::new();
@@ -92,6 +100,26 @@ fn title_extra(e: &Editor, ctx: &Context) -> Vec<Span<'static>> {
             .current_line()
             .map(|l| format!(" line {}", l + 1))
             .unwrap_or_default();
+        if let Some((gcode, share, elapsed, left)) = c.stream_progress(e.buffer.program(), ctx.now)
+        {
+            let gcode = gcode
+                .map(|l| format!(" G-code line {l}"))
+                .unwrap_or_default();
+            let left = left
+                .map(|l| format!(", {} s left", l.as_secs()))
+                .unwrap_or_default();
+            out.push(Span::styled(
+                format!(
+                    "STREAM {}{gcode} {:.0} % {} s{left} {} % ",
+                    c.label(),
+                    share * 100.0,
+                    elapsed.as_secs(),
+                    c.factor
+                ),
+                style,
+            ));
+            return out;
+        }
         let elapsed = ctx.now.saturating_duration_since(c.started).as_secs();
         let single = if c.single { " single step" } else { "" };
         out.push(Span::styled(

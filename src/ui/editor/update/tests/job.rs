@@ -4,7 +4,9 @@
 //! the next part; a stop ends the job.
 
 use super::*;
+use crate::device::api::{CheckoutEnd, JogId};
 use crate::gcode::ways::Way;
+use crate::ui::editor::checkout::STREAM_LEASE;
 use crate::ui::editor::job::tests::{converted, pockets};
 use crate::ui::editor::job::{Converted, Phase as JobPhase};
 
@@ -286,8 +288,25 @@ fn an_edited_job_too_big_for_the_memory_is_not_cut_from_another_text() {
     );
 }
 
+/// The checkout line of `out`: its id, text, lease and resume.
+fn line(out: &Outcome) -> Option<(JogId, &str, Duration, Option<JogId>)> {
+    requests(out).into_iter().find_map(|r| match r {
+        Request::Checkout {
+            id,
+            line,
+            lease,
+            resume,
+        } => Some((*id, line.as_str(), *lease, *resume)),
+        _ => None,
+    })
+}
+
+fn ended(host: &mut Host, e: &mut Editor, id: JogId, end: CheckoutEnd) -> Outcome {
+    host.send(e, Input::Device(&Event::Checkout { id, end }))
+}
+
 #[test]
-fn without_a_place_to_cut_the_question_names_the_stream_command() {
+fn without_a_place_to_cut_the_job_is_streamed_without_a_key_held() {
     let mut host = Host::isel();
     // 12 pockets never retracted between: no place to cut within 30.
     let gcode = pockets(12).replace("G0 Z65\nG0 X", "G0 X");
@@ -296,13 +315,67 @@ fn without_a_place_to_cut_the_question_names_the_stream_command() {
     let mut e = opened(&mut host, c);
     host.send(&mut e, Input::Main(Action::RunProgram));
     let q = question(&host);
-    assert_eq!(q.yes, Answer::Nothing);
+    assert_eq!(q.yes, Answer::Stream);
     assert!(q.text.contains("chosen: stream"), "{}", q.text);
-    assert!(
-        q.text
-            .contains("`jogterm run /jobs/pockets.nc --stream` does"),
-        "{}",
-        q.text
-    );
     assert!(q.text.contains("chunked: not possible"), "{}", q.text);
+    assert!(q.text.contains("F10 pauses and goes on"), "{}", q.text);
+    // Yes: the first line goes out at once, held by the stream's lease.
+    let out = host.key(&mut e, Action::Confirm);
+    let (id, text, lease, resume) = line(&out).expect("the first line");
+    assert_eq!((text, lease, resume), ("@0R7", STREAM_LEASE, None));
+    // The tick renews the lease a third of it before it would run out.
+    host.now += Duration::from_millis(100);
+    assert!(requests(&host.send(&mut e, Input::Tick)).is_empty());
+    host.now += STREAM_LEASE / 3;
+    let out = host.send(&mut e, Input::Tick);
+    assert!(
+        requests(&out).contains(&&Request::JogRenew {
+            id,
+            lease: STREAM_LEASE
+        }),
+        "{out:?}"
+    );
+    // Its end sends the next line, no key held.
+    let out = ended(&mut host, &mut e, id, CheckoutEnd::Done { byte: None });
+    let (id, text, _, _) = line(&out).expect("the next line");
+    assert_eq!(text, "@0z1", "3D mode, which the conversion adds");
+    let out = ended(&mut host, &mut e, id, CheckoutEnd::Done { byte: None });
+    let (id, text, _, _) = line(&out).expect("the first move");
+    assert!(text.starts_with("@0M"), "{text}");
+    // The title: STREAM, the G-code line, the share done.
+    let title = crate::ui::editor::view::panel::title_text(&e, &host.context());
+    assert!(title.contains("STREAM RUNNING G-code line"), "{title}");
+    // F10 pauses: the line is let go, the driver keeps the rest.
+    host.now += Duration::from_secs(2);
+    let out = host.send(
+        &mut e,
+        Input::Checkout(Action::CheckoutHold, crate::jog::KeyPhase::Press),
+    );
+    assert_eq!(requests(&out), [&Request::JogRelease { id }]);
+    let out = ended(
+        &mut host,
+        &mut e,
+        id,
+        CheckoutEnd::Paused {
+            rest: true,
+            dead_man: false,
+        },
+    );
+    assert!(said(&out)[0].starts_with("PAUSED at line"), "{out:?}");
+    assert!(line(&out).is_none(), "nothing follows while paused");
+    // F10 again (a new press): the rest is finished, then the stream goes on.
+    host.now += Duration::from_secs(2);
+    let out = host.send(
+        &mut e,
+        Input::Checkout(Action::CheckoutHold, crate::jog::KeyPhase::Press),
+    );
+    let (next, _, _, resume) = line(&out).expect("resumed");
+    assert_eq!(resume, Some(id));
+    // A stop ends it: nothing follows.
+    let out = ended(&mut host, &mut e, next, CheckoutEnd::Stopped);
+    assert!(line(&out).is_none(), "{out:?}");
+    assert!(matches!(
+        e.checkout.as_ref().map(|c| &c.state),
+        Some(crate::ui::editor::checkout::RunState::Stopped { .. })
+    ));
 }
