@@ -627,9 +627,14 @@ impl Step<'_, '_> {
         };
         let elapsed = self.ctx.now.saturating_duration_since(c.started).as_secs();
         let done = c.lines_done;
+        let what = if c.stream.is_some() {
+            "the stream ended (x leaves it)"
+        } else {
+            "check-out done"
+        };
         self.say(
             NoteLevel::Info,
-            format!("check-out done: {done} lines in {elapsed} s, at {why}"),
+            format!("{what}: {done} lines in {elapsed} s, at {why}"),
         );
     }
 
