@@ -408,20 +408,10 @@ fn an_emcu_job_taught_after_a_work_zero_drives_back_to_where_the_machine_stood()
     assert_eq!(run.wait_exit(WAIT), Some(0));
 }
 
-/// `n` square pockets, each entered from and left to the safe height Z65
-/// (machine mm; the console's work zero is the reference point).
+/// `n` square pockets from X60 Y60, each entered from and left to the safe
+/// height Z65 (machine mm; the console's work zero is the reference point).
 fn pockets(n: usize) -> String {
-    let mut text = String::from("%\n(pockets)\nG21 G90 G17\nG0 Z65\n");
-    for i in 0..n {
-        let (x, y) = (60 + (i % 4) * 12, 60 + (i / 4) * 12);
-        text.push_str(&format!(
-            "G0 X{x} Y{y}\nG1 Z59 F600\nG1 X{} F1500\nG1 Y{}\nG1 X{x}\nG1 Y{y}\nG0 Z65\n",
-            x + 5,
-            y + 5
-        ));
-    }
-    text.push_str("M30\n%\n");
-    text
+    crate::run_e2e::pockets_at(n, 60, (65, 59))
 }
 
 /// Issue 27, item 4: a G-code job of 88 commands on a controller that
@@ -493,24 +483,9 @@ fn a_gcode_job_bigger_than_the_memory_runs_in_parts_from_the_editor() {
     // Four programs stored, each but the last ending with the rapid up to
     // the safe height (26000 steps) before its `9`.
     let received = sim.received();
-    let stored: Vec<Vec<&str>> = received[before..]
-        .split("@0i<CR>")
-        .skip(1)
-        .map(|program| program.split("<CR>").collect::<Vec<_>>())
-        .filter(|commands| commands.first().is_some_and(|c| !c.starts_with('@')))
-        .collect();
+    let stored = crate::run_e2e::stored_programs(&received[before..]);
     assert_eq!(stored.len(), 4, "{received}");
-    for (k, part) in stored.iter().enumerate() {
-        let end = part.iter().position(|c| *c == "9").expect("a 9");
-        assert!(end <= 30, "part {} holds {end} commands", k + 1);
-        let last = part[end - 1];
-        let fields: Vec<&str> = last.trim_start_matches('m').split(',').collect();
-        assert!(
-            last.starts_with('m') && fields.get(4) == Some(&"26000"),
-            "part {} ends with `{last}`, not at the safe height",
-            k + 1
-        );
-    }
+    crate::run_e2e::assert_parts_end_retracted(&stored, "26000", 30);
     run.type_keys(&[b"q"]);
     wait_for(&run, "Unsaved");
     run.type_keys(&[b"d"]);
