@@ -59,6 +59,10 @@ pub struct Chunked {
     /// Pause once the running part has ended (F6 while it runs).
     pub pause_next: bool,
     pub started: Instant,
+    /// Where the axes stood (machine steps, per axis of the setup) when
+    /// the job paused: a later part starts with a straight 3D move from
+    /// wherever the tool is, so it goes on only from there.
+    pub paused_at: Vec<Option<i64>>,
 }
 
 impl Chunked {

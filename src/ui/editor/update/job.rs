@@ -8,6 +8,7 @@
 //! part; Space stops at once, and nothing resumes after a stop.
 
 use crate::device::api::{Activity, Event, LinkState, Request, UploadEvent};
+use crate::device::describe::describe;
 use crate::gcode::ways::Way;
 use crate::ui::editor::component::Effect;
 use crate::ui::editor::dialog::Answer;
@@ -15,6 +16,26 @@ use crate::ui::editor::job::{Chunked, Phase, is_converted};
 use crate::ui::traffic_log::NoteLevel;
 
 use super::Step;
+
+/// Where the axes of the setup stand, machine steps as last read.
+fn standing(ctx: &crate::ui::editor::component::Context) -> Vec<Option<i64>> {
+    ctx.setup
+        .axes
+        .iter()
+        .map(|(axis, _)| ctx.positions.get(*axis).map(|r| r.steps))
+        .collect()
+}
+
+/// The request the job waits on in its phase, as the device names it.
+fn own_request(c: &Chunked) -> Request {
+    match (c.phase, c.parts.get(c.part)) {
+        (Phase::Uploading, Some(part)) => Request::Upload {
+            lines: part.lines.clone(),
+            erase_first: true,
+        },
+        _ => Request::RunProgram,
+    }
+}
 
 impl Step<'_, '_> {
     /// The converted job's ways, for the question of a job that fits (it
@@ -118,6 +139,7 @@ impl Step<'_, '_> {
                     phase: Phase::Uploading,
                     pause_next: false,
                     started: ctx.now,
+                    paused_at: Vec::new(),
                 });
                 self.chunked_upload();
             }
@@ -160,6 +182,15 @@ impl Step<'_, '_> {
             return;
         };
         if c.phase == Phase::Paused {
+            if c.paused_at != standing(self.ctx) {
+                let text = format!(
+                    "the axes moved since the pause: {} begins with a straight move from where \
+                     the tool stands; put them back where the job paused, or Space ends the job",
+                    c.label()
+                );
+                self.say(NoteLevel::Danger, text);
+                return;
+            }
             let text = format!("the job goes on with {}", c.label());
             self.say(NoteLevel::Info, text);
             self.chunked_upload();
@@ -210,7 +241,11 @@ impl Step<'_, '_> {
             {
                 self.part_ended();
             }
-            (Event::Refused { reason, .. }, Phase::Starting) => {
+            // Only the refusal of the job's own request: a key refused
+            // meanwhile (a jog while the part runs) changes nothing.
+            (Event::Refused { request, reason }, Phase::Starting | Phase::Uploading)
+                if *request == describe(&own_request(c)) =>
+            {
                 self.chunked_end(format!("{label} did not start: {reason}"));
             }
             (Event::Fault(f), Phase::Starting | Phase::Running) => {
@@ -239,6 +274,7 @@ impl Step<'_, '_> {
         c.part += 1;
         if std::mem::take(&mut c.pause_next) {
             c.phase = Phase::Paused;
+            c.paused_at = standing(self.ctx);
             let text = format!(
                 "PAUSED before {}, the tool retracted: F6 goes on, Space ends the job",
                 c.label()

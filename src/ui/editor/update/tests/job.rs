@@ -161,7 +161,13 @@ fn f6_pauses_before_the_next_part_and_goes_on_from_there() {
     let out = host.send(&mut e, Input::Main(Action::RunProgram));
     assert!(requests(&out).is_empty(), "the part runs to its end");
     assert!(said(&out)[0].contains("pauses before part 2/4"), "{out:?}");
-    // Part 1 ends: part 2 waits, nothing is stored.
+    // Part 1 ends where the tool stands retracted: part 2 waits, nothing
+    // is stored.
+    let retracted = PerAxis::new()
+        .with(Axis::X, 24_000)
+        .with(Axis::Y, 24_000)
+        .with(Axis::Z, 26_000);
+    host.measured(retracted);
     let out = activity(&mut host, &mut e, Activity::Idle);
     assert!(requests(&out).is_empty(), "{out:?}");
     assert!(
@@ -169,6 +175,16 @@ fn f6_pauses_before_the_next_part_and_goes_on_from_there() {
         "{out:?}"
     );
     assert_eq!(e.chunked.as_ref().map(|c| c.phase), Some(JobPhase::Paused));
+    // Jogged away while paused: the next part's first move would start
+    // from there, so F6 refuses until the axes are back.
+    host.measured(retracted.with(Axis::Z, 20_000));
+    let out = host.send(&mut e, Input::Main(Action::RunProgram));
+    assert!(requests(&out).is_empty(), "{out:?}");
+    assert!(
+        said(&out)[0].starts_with("the axes moved since the pause"),
+        "{out:?}"
+    );
+    host.measured(retracted);
     // F6 again: part 2 is stored.
     let out = host.send(&mut e, Input::Main(Action::RunProgram));
     let (lines, erase) = upload(&out).expect("part 2");
@@ -249,6 +265,26 @@ fn a_refused_upload_or_a_fault_ends_the_job() {
     );
     let out = activity(&mut host, &mut e, Activity::Idle);
     assert!(requests(&out).is_empty(), "{out:?}");
+}
+
+#[test]
+fn a_refused_start_ends_the_job_and_another_refusal_does_not() {
+    let mut host = Host::isel();
+    let (mut e, out) = started(&mut host);
+    let total = upload(&out).expect("part 1").0.len();
+    stored(&mut host, &mut e, total);
+    let refused = |request: &str| Event::Refused {
+        request: request.into(),
+        reason: crate::device::api::Refusal::NotInitialised,
+    };
+    host.send(&mut e, Input::Device(&refused("jog X+")));
+    assert!(e.chunked.is_some(), "a jog refused changes nothing");
+    let out = host.send(&mut e, Input::Device(&refused("run program")));
+    assert!(
+        said(&out)[0].starts_with("part 1/4 did not start"),
+        "{out:?}"
+    );
+    assert_eq!(e.chunked, None);
 }
 
 #[test]
