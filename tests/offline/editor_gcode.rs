@@ -1,7 +1,8 @@
 //! The run key on a program converted from G-code, through the console's
 //! `update` and view: F6 asks with every way, its estimate and the one
 //! chosen (snapshots at 80x24 and 160x48); yes stores part 1 of 4 and the
-//! title says which part runs; Space stops the job.
+//! title says which part runs; Space stops the job. A job with no retract
+//! to cut at asks to stream, and yes sends its first line.
 
 use crate::ui_support;
 
@@ -34,13 +35,13 @@ fn pockets(n: usize) -> String {
     text
 }
 
-/// The console with `pockets(12)` opened as `--program pockets.nc` opens
-/// it, for a controller that stores 30 commands.
-fn opened(t0: Instant) -> Model {
+/// The console with `gcode` opened as `--program pockets.nc` opens it,
+/// for a controller that stores 30 commands.
+fn opened(t0: Instant, gcode: &str) -> Model {
     let mut profile = load_profile("isel", &ConfigDirs::builtin_only()).expect("profile");
     profile.gcode.memory = Some(30);
     let import = jogterm::gcode::import(
-        &pockets(12),
+        gcode,
         "pockets.nc",
         &profile,
         &jogterm::offsets::WorkOffsets::default(),
@@ -87,7 +88,7 @@ fn upload(effects: &[Effect]) -> Option<usize> {
 #[test]
 fn f6_on_a_job_bigger_than_the_memory_asks_with_its_ways_and_runs_it_in_parts() {
     let t0 = Instant::now();
-    let mut m = opened(t0);
+    let mut m = opened(t0, &pockets(12));
     let effects = update(&mut m, key(KeyCode::F(6)));
     assert!(carry_out(&mut m, effects).is_empty(), "nothing before yes");
     assert!(matches!(m.popup, Some(Popup::Editor(_))), "{:?}", m.popup);
@@ -126,4 +127,28 @@ fn f6_on_a_job_bigger_than_the_memory_asks_with_its_ways_and_runs_it_in_parts() 
     assert_eq!(m.editor.chunked, None);
     let shown = text(render(&m, 80, 24).backend().buffer());
     assert!(!shown.contains("RUNNING part"), "{shown}");
+}
+
+#[test]
+fn f6_on_a_job_that_cannot_be_cut_asks_to_stream_it() {
+    let t0 = Instant::now();
+    let mut m = opened(t0, &pockets(12).replace("G0 Z65\nG0 X", "G0 X"));
+    let effects = update(&mut m, key(KeyCode::F(6)));
+    assert!(carry_out(&mut m, effects).is_empty(), "nothing before yes");
+    for (w, h) in SIZES {
+        let shown = text(render(&m, w, h).backend().buffer());
+        assert!(shown.contains("chosen: stream"), "{shown}");
+        insta::assert_snapshot!(format!("editor_gcode_stream_question_{w}x{h}"), shown);
+    }
+    let effects = update(&mut m, key(KeyCode::Char('y')));
+    let effects = carry_out(&mut m, effects);
+    assert!(
+        effects.iter().any(|e| matches!(
+            e,
+            Effect::Request(Request::Checkout { line, .. }) if line == "@0R7"
+        )),
+        "{effects:?}"
+    );
+    let shown = text(render(&m, 80, 24).backend().buffer());
+    assert!(shown.contains("STREAM RUNNING"), "{shown}");
 }
