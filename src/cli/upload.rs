@@ -407,7 +407,7 @@ fn say_parts(
         parts.len()
     ));
     let language = Language::of_protocol(profile.connection.protocol).unwrap_or(Language::Isel);
-    let costs = super::run::costs(profile, language);
+    let costs = crate::gcode::ways::Costs::of(profile, language);
     let ways = crate::gcode::ways::Ways::of(program, motion_s, &costs);
     if let Ok(chunked) = ways.chunked {
         out::say(format_args!(

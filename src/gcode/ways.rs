@@ -21,6 +21,8 @@
 //! latency; `cargo bench --bench gcode` measures both ways against them.
 
 use super::output::Program;
+use crate::config::profile::Profile;
+use crate::program::Language;
 
 /// What the line and the controller cost besides motion.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -39,6 +41,27 @@ pub struct Costs {
 
 impl Costs {
     pub const ISEL_ERASE_S: f64 = 2.0;
+
+    /// What the line and controller of `profile` cost besides motion, for
+    /// a program in `language` (`jogterm run` and the editor's run key).
+    pub fn of(profile: &Profile, language: Language) -> Costs {
+        let baud = f64::from(profile.connection.line().baud);
+        match language {
+            Language::Isel => Costs {
+                baud,
+                erase_s: Costs::ISEL_ERASE_S,
+                dnc_prefix: 2,
+                parts: true,
+            },
+            // `@F` replaces a stored job; jobs are not run in parts.
+            Language::Emcu => Costs {
+                baud,
+                erase_s: 0.0,
+                dnc_prefix: 0,
+                parts: false,
+            },
+        }
+    }
 
     /// Seconds `bytes` take on the line.
     fn wire_s(&self, bytes: usize) -> f64 {

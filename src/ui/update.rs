@@ -484,7 +484,9 @@ fn stop(model: &mut Model) -> Vec<Effect> {
     if let Some((level, text)) = macros::stopped(&mut model.macro_run) {
         say(model, level, text);
     }
-    vec![Effect::Stop]
+    let mut effects = vec![Effect::Stop];
+    effects.extend(editor_update(model, editor::Input::Stopped));
+    effects
 }
 
 fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {

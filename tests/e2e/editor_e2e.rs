@@ -407,3 +407,114 @@ fn an_emcu_job_taught_after_a_work_zero_drives_back_to_where_the_machine_stood()
     run.type_keys(&[b"q"]);
     assert_eq!(run.wait_exit(WAIT), Some(0));
 }
+
+/// `n` square pockets from X60 Y60, each entered from and left to the safe
+/// height Z65 (machine mm; the console's work zero is the reference point).
+fn pockets(n: usize) -> String {
+    crate::run_e2e::pockets_at(n, 60, (65, 59))
+}
+
+/// Issue 27, item 4: a G-code job of 88 commands on a controller that
+/// stores 30, opened with `--program`, run with F6 from the editor: the
+/// question says the ways and takes parts; every part is stored and run in
+/// turn, each but the last ends at the safe height, and the machine ends
+/// at the job's last point.
+/// The console on a controller that stores 30 commands (X and Y 60 mm/s,
+/// Z 30 mm/s) with `gcode` opened as `--program pockets.nc`, the axes
+/// initialised and referenced, the program screen shown.
+fn gcode_on_a_small_controller(gcode: &str) -> (SimProcess, PtyRun) {
+    let small_memory = (
+        "profiles/default.toml",
+        "[axes.X]\nmax_speed = 60.0\n[axes.Y]\nmax_speed = 60.0\n[axes.Z]\nmax_speed = 30.0\n[gcode]\nmemory = 30\n",
+    );
+    let sim = SimProcess::start_variant("isel", &[small_memory], &["memory=30"]);
+    let state = sim.dir.path().join("state");
+    let file = sim.dir.path().join("pockets.nc");
+    fs::write(&file, gcode).expect("write the job");
+    let file_arg = file.display().to_string();
+    let mut run = spawn_on(&sim, &file_arg, sim.dir.path(), &state);
+    wait_for(&run, "connected");
+    wait_for(&run, "pockets.isel");
+    initialise(&mut run);
+    run.type_keys(&[b"h"]);
+    wait_for(&run, "Reference run");
+    run.type_keys(&[b"y"]);
+    wait_for(&run, "READY");
+    run.type_keys(&[b"e"]);
+    wait_for(&run, "pockets.isel");
+    (sim, run)
+}
+
+/// The machine screen shows the axes at `steps` (X, Y, Z).
+fn wait_steps(run: &mut PtyRun, steps: [&str; 3]) {
+    run.type_keys(&[b"\x1bOS"]);
+    wait_for(run, "Position");
+    let end = Instant::now() + WAIT;
+    loop {
+        let screen = run.screen().screen().contents();
+        let at = ["X", "Y", "Z"].map(|a| steps_of(&screen, a));
+        if at == steps.map(|s| Some(s.to_string())) {
+            return;
+        }
+        assert!(Instant::now() < end, "{at:?}\n{screen}");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+#[test]
+fn a_gcode_job_bigger_than_the_memory_runs_in_parts_from_the_editor() {
+    let (mut sim, mut run) = gcode_on_a_small_controller(&pockets(12));
+    let before = sim.received().len();
+    run.type_keys(&[b"\x1b[17~"]);
+    let screen = wait_for(&run, "Run pockets.nc");
+    assert!(
+        screen.contains("88 commands, the controller stores 30"),
+        "{screen}"
+    );
+    assert!(screen.contains("chosen: chunked"), "{screen}");
+    run.type_keys(&[b"y"]);
+    wait_for(&run, "part 1/4");
+    let screen = run
+        .wait_for("the job ended: 4 parts", Duration::from_secs(120))
+        .unwrap_or_else(|screen| panic!("the job never ended:\n{screen}"));
+    assert!(!screen.contains("RUNNING part"), "{screen}");
+    // The last pocket is at X96 Y84, left at Z65: in steps.
+    wait_steps(&mut run, ["38400", "33600", "26000"]);
+    // Four programs stored, each but the last ending with the rapid up to
+    // the safe height (26000 steps) before its `9`.
+    let received = sim.received();
+    let stored = crate::run_e2e::stored_programs(&received[before..]);
+    assert_eq!(stored.len(), 4, "{received}");
+    crate::run_e2e::assert_parts_end_retracted(&stored, "26000", 30);
+    run.type_keys(&[b"q"]);
+    wait_for(&run, "Unsaved");
+    run.type_keys(&[b"d"]);
+    assert_eq!(run.wait_exit(WAIT), Some(0));
+}
+
+/// The same controller, a job with no retract to cut at: F6 streams it
+/// from the editor, no key held, nothing stored, to its last point.
+#[test]
+fn a_gcode_job_that_cannot_be_cut_is_streamed_from_the_editor() {
+    let gcode = pockets(6).replace("G0 Z65\nG0 X", "G0 X");
+    let (mut sim, mut run) = gcode_on_a_small_controller(&gcode);
+    let before = sim.received().len();
+    run.type_keys(&[b"\x1b[17~"]);
+    let screen = wait_for(&run, "Run pockets.nc");
+    assert!(screen.contains("chosen: stream"), "{screen}");
+    run.type_keys(&[b"y"]);
+    wait_for(&run, "STREAM RUNNING");
+    run.wait_for("the stream ended", Duration::from_secs(120))
+        .unwrap_or_else(|screen| panic!("the stream never ended:\n{screen}"));
+    run.type_keys(&[b"x"]);
+    // The last pocket is at X72 Y72, left at Z65.
+    wait_steps(&mut run, ["28800", "28800", "26000"]);
+    let received = sim.received();
+    let sent = &received[before..];
+    assert!(!sent.contains("@0i"), "nothing stored: {sent}");
+    assert!(sent.contains("@0M28800,"), "DNC moves: {sent}");
+    run.type_keys(&[b"q"]);
+    wait_for(&run, "Unsaved");
+    run.type_keys(&[b"d"]);
+    assert_eq!(run.wait_exit(WAIT), Some(0));
+}

@@ -39,17 +39,53 @@ fn stands_at(sim: &mut SimProcess, work_mm: [f64; 3]) {
 
 /// `n` square pockets, each entered from and left to Z5 (7 commands each).
 fn pockets(n: usize) -> String {
-    let mut text = String::from("%\n(pockets)\nG21 G90 G17\nG0 Z5\n");
+    pockets_at(n, 10, (5, -1))
+}
+
+/// `n` square pockets from X and Y `corner` in 12 mm steps, each entered
+/// from and left to the safe height `z.0`, cut at `z.1` (7 commands each).
+pub(crate) fn pockets_at(n: usize, corner: usize, z: (i32, i32)) -> String {
+    let (safe, cut) = z;
+    let mut text = format!("%\n(pockets)\nG21 G90 G17\nG0 Z{safe}\n");
     for i in 0..n {
-        let (x, y) = (10 + (i % 4) * 12, 10 + (i / 4) * 12);
+        let (x, y) = (corner + (i % 4) * 12, corner + (i / 4) * 12);
         text.push_str(&format!(
-            "G0 X{x} Y{y}\nG1 Z-1 F600\nG1 X{} F1500\nG1 Y{}\nG1 X{x}\nG1 Y{y}\nG0 Z5\n",
+            "G0 X{x} Y{y}\nG1 Z{cut} F600\nG1 X{} F1500\nG1 Y{}\nG1 X{x}\nG1 Y{y}\nG0 Z{safe}\n",
             x + 5,
             y + 5
         ));
     }
     text.push_str("M30\n%\n");
     text
+}
+
+/// The programs stored after `received` (the simulator's record) began:
+/// `@0i` also opens the driver's look at what is stored (answered `6`
+/// while a program is there, then `@0k`), and those hold no commands.
+pub(crate) fn stored_programs(received: &str) -> Vec<Vec<&str>> {
+    received
+        .split("@0i<CR>")
+        .skip(1)
+        .map(|program| program.split("<CR>").collect::<Vec<_>>())
+        .filter(|commands| commands.first().is_some_and(|c| !c.starts_with('@')))
+        .collect()
+}
+
+/// Every stored part ends, before its `9`, with a move of Z to
+/// `safe_steps`: the rapid up to the safe height; none holds more than
+/// `memory` commands.
+pub(crate) fn assert_parts_end_retracted(parts: &[Vec<&str>], safe_steps: &str, memory: usize) {
+    for (k, part) in parts.iter().enumerate() {
+        let end = part.iter().position(|c| *c == "9").expect("a 9");
+        assert!(end <= memory, "part {} holds {end} commands", k + 1);
+        let last = part[end - 1];
+        let fields: Vec<&str> = last.trim_start_matches('m').split(',').collect();
+        assert!(
+            last.starts_with('m') && fields.get(4) == Some(&safe_steps),
+            "part {} ends with `{last}`, not at the safe height",
+            k + 1
+        );
+    }
 }
 
 /// One slow cut (30 mm at 5 mm/s), long enough to pause in the middle.
@@ -98,23 +134,9 @@ fn a_job_bigger_than_the_memory_is_run_in_parts_cut_at_retracts_as_the_estimate_
     // Every part but the last ends with the rapid up to the safe height Z5
     // (machine Z65: 26000 steps) before its `9`.
     let received = sim.received();
-    let stored: Vec<Vec<&str>> = received[before..]
-        .split("@0i<CR>")
-        .skip(1)
-        .map(|program| program.split("<CR>").collect::<Vec<_>>())
-        .filter(|commands| commands.first().is_some_and(|c| !c.starts_with('@')))
-        .collect();
+    let stored = stored_programs(&received[before..]);
     assert_eq!(stored.len(), 4, "{received}");
-    for (k, part) in stored.iter().enumerate() {
-        let end = part.iter().position(|c| *c == "9").expect("a 9");
-        let last = part[end - 1];
-        let fields: Vec<&str> = last.trim_start_matches('m').split(',').collect();
-        assert!(
-            last.starts_with('m') && fields.get(4) == Some(&"26000"),
-            "part {} ends with `{last}`, not at the safe height",
-            k + 1
-        );
-    }
+    assert_parts_end_retracted(&stored, "26000", 30);
 }
 
 #[test]

@@ -13,6 +13,7 @@
 mod ui_support;
 
 mod checkout_ui;
+mod editor_gcode;
 mod editor_update;
 mod jog_keypad;
 mod jog_limit_ui;

@@ -120,26 +120,6 @@ struct Job {
     estimate_s: Option<f64>,
 }
 
-/// What the line and controller of `profile` cost besides motion.
-pub fn costs(profile: &crate::config::profile::Profile, language: Language) -> Costs {
-    let baud = f64::from(profile.connection.line().baud);
-    match language {
-        Language::Isel => Costs {
-            baud,
-            erase_s: Costs::ISEL_ERASE_S,
-            dnc_prefix: 2,
-            parts: true,
-        },
-        // `@F` replaces a stored job; jobs are not run in parts.
-        Language::Emcu => Costs {
-            baud,
-            erase_s: 0.0,
-            dnc_prefix: 0,
-            parts: false,
-        },
-    }
-}
-
 pub fn run(global: &GlobalArgs, args: &RunArgs) -> anyhow::Result<ExitCode> {
     let usage = |m: String| {
         out::say(format_args!("jogterm run: {m}"));
@@ -251,7 +231,7 @@ fn gcode_job(
         ));
     }
     let program = imported.program();
-    let ways = Ways::of(program, imported.motion_s(), &costs(profile, language));
+    let ways = Ways::of(program, imported.motion_s(), &Costs::of(profile, language));
     out::say(format_args!(
         "{}: {} commands, the controller stores {}",
         imported.name, program.commands, program.capacity

@@ -75,6 +75,24 @@ pub enum RunState {
     Finished,
 }
 
+/// How long a streamed line is held without a renewal: the dead man of a
+/// console that stalls (the same as `jogterm run --stream`'s). The tick
+/// renews it three times as often.
+pub const STREAM_LEASE: Duration = Duration::from_millis(1500);
+
+/// A check-out that runs without a key held: a job converted from G-code
+/// streamed (`docs/editor.md`, "G-code"). Its lines are held by leases the
+/// tick renews, so a console that stalls pauses the machine.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Stream {
+    /// The G-code line of each line of the text (the converted program's).
+    pub origins: Vec<Option<u32>>,
+    /// Paused by the operator (F10): no line follows until F10 again.
+    pub paused: bool,
+    /// The last renewal of the running line's lease.
+    pub renewed: Instant,
+}
+
 /// A check-out under way.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Checkout {
@@ -107,6 +125,8 @@ pub struct Checkout {
     pub lines_done: usize,
     /// The last tick while dwelling.
     pub dwell_tick: Option<Instant>,
+    /// Streamed, not held (`None`: the check-out proper).
+    pub stream: Option<Stream>,
 }
 
 impl Checkout {
@@ -129,6 +149,7 @@ impl Checkout {
             started: now,
             lines_done: 0,
             dwell_tick: None,
+            stream: None,
         }
     }
 
@@ -180,6 +201,55 @@ impl Checkout {
             && self
                 .last_key
                 .is_some_and(|t| now.saturating_duration_since(t) <= timeout)
+    }
+
+    /// Whether lines follow one another at `now`: a stream's until the
+    /// operator pauses it, a check-out's while its key is held.
+    pub fn runs_on(&self, now: Instant, timeout: Duration) -> bool {
+        match &self.stream {
+            Some(s) => !s.paused,
+            None => self.holding(now, timeout),
+        }
+    }
+
+    /// The lease a line is held by.
+    pub fn lease(&self, repeat_timeout: Duration) -> Duration {
+        if self.stream.is_some() {
+            STREAM_LEASE
+        } else {
+            repeat_timeout
+        }
+    }
+
+    /// A stream's progress in `program` (the text it streams): the G-code
+    /// line of the current line, the share of the commands before it, the
+    /// time since the start and the time left at that pace.
+    pub fn stream_progress(
+        &self,
+        program: &crate::program::Program,
+        now: Instant,
+    ) -> Option<(Option<u32>, f64, Duration, Option<Duration>)> {
+        let s = self.stream.as_ref()?;
+        let line = self.current_line();
+        // A command the conversion added (`z1`) is at the G-code line
+        // before it.
+        let gcode = line.and_then(|l| {
+            s.origins
+                .get(..=l.min(s.origins.len().saturating_sub(1)))?
+                .iter()
+                .rev()
+                .find_map(|o| *o)
+        });
+        let total = program.command_count().max(1);
+        let done = match line {
+            Some(l) => (0..=l).rev().find_map(|l| program.index_of(l)).unwrap_or(0),
+            None => total,
+        };
+        let share = done as f64 / total as f64;
+        let elapsed = now.saturating_duration_since(self.started);
+        let left = (share > 0.0)
+            .then(|| Duration::from_secs_f64(elapsed.as_secs_f64() * (1.0 - share) / share));
+        Some((gcode, share, elapsed, left))
     }
 
     /// The factor one step slower or faster (10-100 %).

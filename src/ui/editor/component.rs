@@ -91,6 +91,9 @@ pub enum Input<'a> {
     /// The session ends without asking (signal, hang-up): the last edits
     /// go to the recovery file.
     Terminate,
+    /// The machine was stopped (the stop key, or any stop the console
+    /// sends): whatever the editor runs in steps goes no further.
+    Stopped,
 }
 
 /// An effect the editor asks for, carried out outside `update`.

@@ -111,6 +111,10 @@ pub enum Answer {
     },
     /// Start the stored program.
     Run,
+    /// Run the converted G-code job in parts (`update::job`).
+    RunInParts,
+    /// Stream the converted G-code job (`update::stream`).
+    Stream,
     /// Start a check-out, from the program's start or from a line.
     Checkout {
         from: Option<usize>,

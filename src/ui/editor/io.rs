@@ -73,6 +73,9 @@ pub enum EditorMsg {
         text: String,
         /// Level and text, said in order.
         notes: Vec<(crate::ui::traffic_log::NoteLevel, String)>,
+        /// The converted program and its ways: what the run key needs
+        /// to run a job bigger than the memory.
+        gcode: Option<Box<super::job::Converted>>,
     },
     /// Look for unsaved edits of an earlier session (at start).
     Scan,

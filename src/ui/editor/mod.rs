@@ -11,6 +11,7 @@
 //! - [`buffer`]: the text (the parsed program itself), cursor, undo/redo.
 //! - [`checks`]: live lint and toolpath on a snapshot, off the UI thread.
 //! - [`upload`]: an upload's progress and the line the controller refused.
+//! - [`job`]: a program converted from G-code, its ways, a run in parts.
 //! - [`search`], [`dialog`]: find, go to, forms and questions.
 //! - [`update`]: what keys, device events and results do to the editor.
 //!   Taught lines and circle lines come from `program::teach` and
@@ -31,6 +32,7 @@ pub mod component;
 pub mod dialog;
 pub mod highlight;
 pub mod io;
+pub mod job;
 pub mod layout;
 pub mod search;
 pub mod update;
@@ -141,6 +143,10 @@ pub struct Editor {
     /// on: its progress.
     pub run_path: Option<Vec<crate::program::Segment>>,
     pub run_segment: Option<usize>,
+    /// The G-code the text was converted from (`--program part.nc`).
+    pub gcode: Option<job::Gcode>,
+    /// A job running in parts from here (`docs/editor.md`, "G-code").
+    pub chunked: Option<job::Chunked>,
 }
 
 /// The unit all axes of `setup` share (`mm`), else `units`.
@@ -201,6 +207,8 @@ impl Editor {
             run_paused: false,
             run_path: None,
             run_segment: None,
+            gcode: None,
+            chunked: None,
         }
     }
 
@@ -252,6 +260,9 @@ impl Editor {
         if self.checkout.is_some() {
             return Some("a check-out is under way: edits wait until it ends (x)");
         }
+        if self.chunked.is_some() {
+            return Some("the job runs in parts: edits wait until it ends (Space stops it)");
+        }
         self.upload
             .busy()
             .then_some("the program is being uploaded: edits wait until the upload ends")
@@ -274,6 +285,7 @@ impl Editor {
         self.buffer = Buffer::new(language, text);
         self.checks.reset(self.buffer.line_count(), now);
         self.upload.clear();
+        self.gcode = None;
         self.top = 0;
         self.left = 0;
         self.teach.previous = None;

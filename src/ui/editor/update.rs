@@ -6,12 +6,15 @@
 //!
 //! - this file: the dispatch, the editor panel's keys, dialogs and forms;
 //! - [`files`]: open, save, recovery files, offers of recovered edits;
-//! - [`machine`]: teach-in, the circle helper, upload and run.
+//! - [`machine`]: teach-in, the circle helper, upload and run;
+//! - [`job`]: the run key on a program converted from G-code, a run in parts.
 
 mod checkout;
 mod files;
+mod job;
 mod machine;
 mod run;
+mod stream;
 
 use std::path::{Path, PathBuf};
 
@@ -51,6 +54,7 @@ impl Editor {
             Input::Device(event) => step.device_event(event),
             Input::Quit => step.before_quit(),
             Input::Terminate => step.terminate(),
+            Input::Stopped => step.stopped(),
         }
         step.out
     }
@@ -573,6 +577,8 @@ impl Step<'_, '_> {
             Answer::Nothing => {}
             Answer::Upload { erase } => self.start_upload(erase),
             Answer::Run => self.out.effects.push(Effect::Device(Request::RunProgram)),
+            Answer::RunInParts => self.chunked_begin(),
+            Answer::Stream => self.stream_begin(),
             Answer::Checkout { from } => self.checkout_begin(from),
             Answer::Overwrite { path, then } => self.save_to(path, then, None, false),
             Answer::Restore(recovery) => self.restore(*recovery),

@@ -24,9 +24,9 @@ use crate::ui::traffic_log::NoteLevel;
 use super::Step;
 
 /// What a check-out starts with, for the question and for the start.
-struct Prepared {
-    plan: RunPlan,
-    preamble: Vec<(PreLine, usize)>,
+pub(super) struct Prepared {
+    pub(super) plan: RunPlan,
+    pub(super) preamble: Vec<(PreLine, usize)>,
     summary: String,
 }
 
@@ -34,7 +34,7 @@ impl Step<'_, '_> {
     /// F10 / Shift-F10 in the editor: check, then ask.
     pub(super) fn checkout_ask(&mut self, from_cursor: bool) {
         let from = from_cursor.then(|| self.e.buffer.cursor().line);
-        match self.checkout_prepare(from) {
+        match self.checkout_prepare(from, false) {
             Ok(p) => {
                 let hold = self.key_name(Action::CheckoutHold);
                 let text = format!(
@@ -62,7 +62,7 @@ impl Step<'_, '_> {
 
     /// The answer was yes: the check-out is on (nothing moves yet).
     pub(super) fn checkout_begin(&mut self, from: Option<usize>) {
-        match self.checkout_prepare(from) {
+        match self.checkout_prepare(from, false) {
             Ok(p) => {
                 if let Some(RunState::Paused { rest: Some(_) }) =
                     self.e.checkout.as_ref().map(|c| &c.state)
@@ -87,7 +87,14 @@ impl Step<'_, '_> {
         }
     }
 
-    fn checkout_prepare(&mut self, from: Option<usize>) -> Result<Prepared, String> {
+    /// `stream`: for a stream of a converted job, whose lines go out in
+    /// the DNC form `jogterm run --stream` sends, without the check-out's
+    /// refusal of lines that differ there from the stored program.
+    pub(super) fn checkout_prepare(
+        &mut self,
+        from: Option<usize>,
+        stream: bool,
+    ) -> Result<Prepared, String> {
         let ctx = self.ctx;
         let language = self.e.language();
         if language.protocol() != ctx.setup.protocol {
@@ -115,7 +122,7 @@ impl Step<'_, '_> {
             Language::Isel => unexpressible(program),
             Language::Emcu => checkout_emcu::unexpressible(program),
         };
-        if !named.is_empty() {
+        if !named.is_empty() && !stream {
             let mut text = String::from("lines without an exact DNC form:");
             for u in &named {
                 let _ = write!(text, " line {}: {};", u.line + 1, u.reason);
@@ -331,6 +338,10 @@ impl Step<'_, '_> {
         let Some(c) = self.e.checkout.as_mut() else {
             return;
         };
+        if c.stream.is_some() && matches!(action, Action::CheckoutHold | Action::CheckoutSingle) {
+            self.stream_key(action, phase);
+            return;
+        }
         match action {
             Action::CheckoutHold => match phase {
                 KeyPhase::Release => {
@@ -440,11 +451,14 @@ impl Step<'_, '_> {
     }
 
     /// Send the next line (or resume the paused one).
-    fn checkout_next(&mut self) {
+    pub(super) fn checkout_next(&mut self) {
         let ctx = self.ctx;
+        // A stream's lease is the dead man of a stalled console, not a key
+        // let go: it runs at the program's speeds, as `jogterm run --stream`.
+        let streaming = self.e.checkout.as_ref().is_some_and(|c| c.stream.is_some());
         let caps: Vec<(Axis, Option<u32>)> = crate::axis::Axis::ALL
             .into_iter()
-            .map(|a| (a, self.cap_hz(a)))
+            .map(|a| (a, if streaming { None } else { self.cap_hz(a) }))
             .collect();
         loop {
             let Some(c) = self.e.checkout.as_mut() else {
@@ -579,10 +593,13 @@ impl Step<'_, '_> {
         let id = c.new_id();
         c.line_id = Some(id);
         c.state = RunState::Running;
+        if let Some(s) = c.stream.as_mut() {
+            s.renewed = self.ctx.now;
+        }
         self.out.effects.push(Effect::Device(Request::Checkout {
             id,
             line: text,
-            lease: self.ctx.setup.jog.repeat_timeout,
+            lease: c.lease(self.ctx.setup.jog.repeat_timeout),
             resume,
         }));
     }
@@ -610,9 +627,14 @@ impl Step<'_, '_> {
         };
         let elapsed = self.ctx.now.saturating_duration_since(c.started).as_secs();
         let done = c.lines_done;
+        let what = if c.stream.is_some() {
+            "the stream ended (x leaves it)"
+        } else {
+            "check-out done"
+        };
         self.say(
             NoteLevel::Info,
-            format!("check-out done: {done} lines in {elapsed} s, at {why}"),
+            format!("{what}: {done} lines in {elapsed} s, at {why}"),
         );
     }
 
@@ -640,7 +662,7 @@ impl Step<'_, '_> {
                         if c.single {
                             c.latched = true;
                         }
-                        let go_on = c.holding(ctx.now, ctx.setup.jog.repeat_timeout);
+                        let go_on = c.runs_on(ctx.now, ctx.setup.jog.repeat_timeout);
                         if go_on {
                             self.checkout_next();
                         } else if c.plan.line().is_none() && c.preamble.is_empty() {
@@ -652,18 +674,22 @@ impl Step<'_, '_> {
                         c.state = RunState::Paused {
                             rest: rest.then_some(*id),
                         };
-                        let why = if *dead_man {
-                            "the key's repeats stopped"
-                        } else {
-                            "the key was let go"
+                        let streamed = c.stream.is_some();
+                        let why = match (*dead_man, streamed) {
+                            (true, true) => "the console stopped renewing its lease",
+                            (true, false) => "the key's repeats stopped",
+                            (false, true) => "paused by F10",
+                            (false, false) => "the key was let go",
                         };
                         let at = self.position_text();
+                        let then = if streamed {
+                            "F10 goes on, x ends the stream"
+                        } else {
+                            "hold to resume, x ends the check-out"
+                        };
                         self.say(
                             NoteLevel::Warning,
-                            format!(
-                                "PAUSED at line {line} ({why}) at {at}: hold to resume, x ends \
-                                 the check-out"
-                            ),
+                            format!("PAUSED at line {line} ({why}) at {at}: {then}"),
                         );
                     }
                     CheckoutEnd::Stopped => {
@@ -730,7 +756,7 @@ impl Step<'_, '_> {
             return;
         };
         let last = c.dwell_tick.replace(ctx.now).unwrap_or(ctx.now);
-        if !c.holding(ctx.now, ctx.setup.jog.repeat_timeout) {
+        if !c.runs_on(ctx.now, ctx.setup.jog.repeat_timeout) {
             return;
         }
         let left = left.saturating_sub(ctx.now.saturating_duration_since(last));

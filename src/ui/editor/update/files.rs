@@ -31,9 +31,14 @@ impl Step<'_, '_> {
                 language,
                 text,
                 notes,
+                gcode,
             } => {
                 self.open();
                 self.e.replace(language, &text, now);
+                self.e.gcode = gcode.map(|converted| crate::ui::editor::job::Gcode {
+                    converted: *converted,
+                    state: self.e.buffer.state(),
+                });
                 // Unsaved: the recovery file keeps it until it is saved.
                 self.e.file = FileState {
                     path: Some(path),
@@ -385,6 +390,7 @@ impl Step<'_, '_> {
     /// Time passes: start the lint when it is due, keep the recovery file
     /// up to date, offer recovered edits.
     pub(super) fn tick(&mut self) {
+        self.stream_renew();
         self.checkout_tick();
         let now = self.ctx.now;
         let (_, start) = self.starts();

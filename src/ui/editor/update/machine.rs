@@ -338,6 +338,10 @@ impl Step<'_, '_> {
 
     pub(super) fn run(&mut self) {
         let ctx = self.ctx;
+        if self.e.chunked.is_some() {
+            self.chunked_key();
+            return;
+        }
         if ctx.machine.activity == Activity::RunningProgram {
             self.pause_stored();
             return;
@@ -348,6 +352,9 @@ impl Step<'_, '_> {
                 NoteLevel::Warning,
                 format!("{} controllers store no programs", ctx.setup.protocol),
             );
+            return;
+        }
+        if self.gcode_run() {
             return;
         }
         match ctx.machine.program {
@@ -367,9 +374,10 @@ impl Step<'_, '_> {
             }
             ProgramState::Stored | ProgramState::Unknown => {}
         }
-        let mut text =
-            "Start the program stored in the controller? The machine moves; Space stops it."
-                .to_string();
+        let mut text = self.ways_said();
+        text.push_str(
+            "Start the program stored in the controller? The machine moves; Space stops it.",
+        );
         let same = language.protocol() == ctx.setup.protocol
             && self.e.upload.state == Some(self.e.buffer.state());
         if !same {
@@ -407,6 +415,7 @@ impl Step<'_, '_> {
             }
             _ => {}
         }
+        self.chunked_event(event);
     }
 
     /// `@0i` answered `G`: once the controller's state says a program is

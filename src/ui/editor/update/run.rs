@@ -45,7 +45,10 @@ impl Step<'_, '_> {
                 self.e.run_path = None;
                 self.e.run_segment = None;
                 let secs = now.saturating_duration_since(started).as_secs_f64();
-                self.say(NoteLevel::Info, format!("the program ran {secs:.1} s"));
+                // A part of a job in parts: the job's own progress is said.
+                if self.e.chunked.is_none() {
+                    self.say(NoteLevel::Info, format!("the program ran {secs:.1} s"));
+                }
             }
             (_, None) => {}
         }

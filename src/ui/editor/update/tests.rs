@@ -522,6 +522,7 @@ fn the_program_screen_opens_and_closes_and_forms_take_characters() {
 }
 
 mod checkout;
+mod job;
 
 #[test]
 fn a_program_converted_from_gcode_opens_unsaved_and_asks_before_replacing_a_file() {
@@ -535,6 +536,7 @@ fn a_program_converted_from_gcode_opens_unsaved_and_asks_before_replacing_a_file
             language: crate::program::Language::Isel,
             text: GOOD.to_string(),
             notes: vec![(NoteLevel::Info, "part.nc: 1 moves".into())],
+            gcode: None,
         }),
     );
     assert_eq!(out.focus, Some(Focus::Editor));

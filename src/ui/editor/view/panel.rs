@@ -13,6 +13,7 @@ use crate::device::api::Activity;
 use crate::program::Severity;
 use crate::ui::editor::checkout::RunState;
 use crate::ui::editor::highlight::{Class, Mark, runs};
+use crate::ui::editor::job::Phase as JobPhase;
 use crate::ui::editor::layout::{ProgramAreas, gutter_width};
 use crate::ui::editor::upload::Phase;
 use crate::ui::editor::{Context, Editor, unit_label};
@@ -75,6 +76,14 @@ fn problem(e: &Editor, p: &Palette, line: usize) -> Option<(char, Style, String)
     None
 }
 
+/// The panel title's words, as text (for tests and the message history).
+pub fn title_text(e: &Editor, ctx: &Context) -> String {
+    title_extra(e, ctx)
+        .iter()
+        .map(|s| s.content.as_ref())
+        .collect()
+}
+
 fn title_extra(e: &Editor, ctx: &Context) -> Vec<Span<'static>> {
     let p = ctx.palette;
     let mut out = Vec::new();
@@ -91,6 +100,26 @@ fn title_extra(e: &Editor, ctx: &Context) -> Vec<Span<'static>> {
             .current_line()
             .map(|l| format!(" line {}", l + 1))
             .unwrap_or_default();
+        if let Some((gcode, share, elapsed, left)) = c.stream_progress(e.buffer.program(), ctx.now)
+        {
+            let gcode = gcode
+                .map(|l| format!(" G-code line {l}"))
+                .unwrap_or_default();
+            let left = left
+                .map(|l| format!(", {} s left", l.as_secs()))
+                .unwrap_or_default();
+            out.push(Span::styled(
+                format!(
+                    "STREAM {}{gcode} {:.0} % {} s{left} {} % ",
+                    c.label(),
+                    share * 100.0,
+                    elapsed.as_secs(),
+                    c.factor
+                ),
+                style,
+            ));
+            return out;
+        }
         let elapsed = ctx.now.saturating_duration_since(c.started).as_secs();
         let single = if c.single { " single step" } else { "" };
         out.push(Span::styled(
@@ -99,6 +128,21 @@ fn title_extra(e: &Editor, ctx: &Context) -> Vec<Span<'static>> {
                 c.label(),
                 c.factor
             ),
+            style,
+        ));
+        return out;
+    }
+    if let Some(c) = &e.chunked {
+        // A job in parts: which part and what it does, first at 80 columns.
+        let (state, style) = match c.phase {
+            JobPhase::Uploading => ("STORING", p.warning),
+            JobPhase::Starting | JobPhase::Running => ("RUNNING", p.ok),
+            JobPhase::Paused => ("PAUSED before", p.danger),
+        };
+        let elapsed = ctx.now.saturating_duration_since(c.started).as_secs();
+        let next = if c.pause_next { " pause next" } else { "" };
+        out.push(Span::styled(
+            format!("{state} {} {elapsed} s{next} ", c.label()),
             style,
         ));
         return out;
