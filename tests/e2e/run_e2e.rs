@@ -605,3 +605,86 @@ fn a_20k_move_job_in_parts_ends_exactly_at_its_last_point_every_part_cut_at_a_re
     assert_eq!(moves, converted_moves(&sim), "every move stored once");
     assert!(moves > 20_000, "{moves}");
 }
+
+/// The EMCU machine of the G-code tests: faster axes, the reference point
+/// close by, the spindle relay on A1.
+const FAST_EMCU: (&str, &str) = (
+    "profiles/emcu.toml",
+    "base = \"emcu\"\n[axes.X]\nmax_speed = 40.0\n[axes.Y]\nmax_speed = 40.0\n[axes.Z]\nmax_speed = 20.0\n[sim]\nstart_position = 1.0\n[gcode]\nm3 = \"output:A1\"\nm5 = \"output:A1\"\n",
+);
+
+/// EMCU steps of a work point (200 steps/mm).
+fn emcu_steps(work_mm: [f64; 3]) -> [i64; 3] {
+    let zero = [50.0, 50.0, 60.0];
+    [0, 1, 2].map(|i| ((work_mm[i] + zero[i]) * 200.0).round() as i64)
+}
+
+#[test]
+fn an_emcu_stream_pauses_with_b_resumes_with_the_rest_and_ends_at_its_last_point() {
+    let mut sim = SimProcess::start_with_files("emcu", &[FAST_EMCU]);
+    let file = write(&sim, "slow.nc", SLOW_CUT);
+    let link = sim.link.display().to_string();
+    let config = sim.dir.path().display().to_string();
+    let mut run = PtyRun::spawn_sized(
+        Path::new(JOGTERM),
+        &[
+            "run",
+            "--port",
+            &link,
+            "--protocol",
+            "emcu",
+            &file,
+            "--work-zero",
+            WORK_ZERO,
+            "--stream",
+        ],
+        &[("JOGTERM_CONFIG_DIR", &config)],
+        50,
+        200,
+    );
+    run.wait_for("start the job (stream)? [y/N]", Duration::from_secs(10))
+        .expect("the confirmation");
+    run.type_text("y\r");
+    let [x40, ..] = emcu_steps([40.0, 0.0, 0.0]);
+    let cut = format!("X{x40},");
+    sim.wait_received("the slow cut", |r| r.contains(&cut));
+    std::thread::sleep(Duration::from_millis(800));
+    run.type_text("p");
+    run.wait_for("paused at", Duration::from_secs(10))
+        .expect("the pause is said");
+    let state = sim.wait_device("standing", |s| !s.contains("moving"));
+    let received = sim.received();
+    let paused_at = received.len();
+    assert!(
+        received[received.rfind(&cut).expect("the cut")..].contains("@B"),
+        "the pause halts with @B: {received}"
+    );
+    let x: i64 = state
+        .trim_start_matches("device: X ")
+        .split(' ')
+        .next()
+        .and_then(|v| v.parse().ok())
+        .expect("X");
+    assert!(x < x40, "paused short of the cut's end: {state}");
+    std::thread::sleep(Duration::from_millis(1000));
+    assert!(
+        !sim.received()[paused_at..].contains('L'),
+        "nothing moves on its own while paused: {}",
+        &sim.received()[paused_at..]
+    );
+    run.type_text("r");
+    assert_eq!(run.wait_exit(Duration::from_secs(60)), Some(0));
+    // The rest of the cut went out from where the axes stood, to X40.
+    assert!(
+        sim.received()[paused_at..].contains(&cut),
+        "{}",
+        sim.received()
+    );
+    let [x, y, z] = emcu_steps([40.0, 20.0, 5.0]);
+    let state = sim.wait_device("standing", |s| !s.contains("moving"));
+    // The EMCU line: counters, then the machine position in brackets.
+    for (axis, v) in [("X", x), ("Y", y), ("Z", z)] {
+        assert!(state.contains(&format!(" {axis} {v} [")), "{state}");
+    }
+    assert!(!sim.received().contains("@F"), "nothing stored");
+}
