@@ -420,21 +420,39 @@ fn say_parts(
     }
 }
 
+/// The profile of `jogterm <command>` (which stores or runs programs) and
+/// its program language; else how the command ends, said already.
+pub(super) fn program_profile(
+    global: &GlobalArgs,
+    baud: Option<u32>,
+    command: &str,
+) -> Result<(crate::config::profile::Profile, Language), anyhow::Result<ExitCode>> {
+    let usage = |m: String| {
+        out::say(format_args!("jogterm {command}: {m}"));
+        Err(Ok(ExitCode::from(EXIT_USAGE)))
+    };
+    let profile = match session::resolve(global, baud) {
+        Ok(p) => p,
+        Err(StartError::Usage(m)) => return usage(m),
+        Err(StartError::Failed(e)) => return Err(Err(e)),
+    };
+    match Language::of_protocol(profile.connection.protocol) {
+        Some(language) => Ok((profile, language)),
+        None => usage(format!(
+            "{} drives store no programs: jogterm {command} takes isel CNC programs and EMCU jobs",
+            profile.connection.protocol
+        )),
+    }
+}
+
 pub fn run(global: &GlobalArgs, args: &UploadArgs) -> anyhow::Result<ExitCode> {
     let usage = |m: String| {
         out::say(format_args!("jogterm upload: {m}"));
         Ok(ExitCode::from(EXIT_USAGE))
     };
-    let profile = match session::resolve(global, args.baud) {
+    let (profile, language) = match program_profile(global, args.baud, "upload") {
         Ok(p) => p,
-        Err(StartError::Usage(m)) => return usage(m),
-        Err(StartError::Failed(e)) => return Err(e),
-    };
-    let Some(language) = Language::of_protocol(profile.connection.protocol) else {
-        return usage(format!(
-            "{} drives store no programs: jogterm upload stores isel CNC programs and EMCU jobs",
-            profile.connection.protocol
-        ));
+        Err(exit) => return exit,
     };
     let config = LintConfig::from_profile(&profile);
     let prepared = if args.is_gcode() {

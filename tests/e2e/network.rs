@@ -162,15 +162,9 @@ fn ctrl_c_of_a_move(sim: &mut SimProcess, port: &str, extra: &[&str]) -> Duratio
         + joined[move_at..]
             .find("<FD>")
             .unwrap_or_else(|| panic!("no stop after the move: {reads:?}"));
-    let mut start = 0;
-    let (arrived, _) = reads
-        .iter()
-        .find(|(_, b)| {
-            start += b.len();
-            start > stop_at
-        })
-        .unwrap_or_else(|| panic!("no read holds the stop: {reads:?}"));
-    let took = arrived.duration_since(signalled).unwrap_or_default();
+    let took = crate::sim_process::read_time_at(&reads, stop_at)
+        .duration_since(signalled)
+        .unwrap_or_default();
     assert!(
         took <= STOP_WITHIN,
         "the stop reached the line {took:?} after Ctrl-C (bound {STOP_WITHIN:?}): {reads:?}"

@@ -176,7 +176,7 @@ fn run_on_a_terminal(sim: &SimProcess, file: &str) -> PtyRun {
             "--port",
             &link,
             "--protocol",
-            "isel",
+            sim.family,
             file,
             "--work-zero",
             WORK_ZERO,
@@ -351,15 +351,9 @@ fn over_tcp_ctrl_c_of_a_stream_reaches_the_line_within_the_network_bound() {
         !joined[stop_at..].contains("@0M"),
         "nothing after the stop: {joined}"
     );
-    let mut start = 0;
-    let (arrived, _) = reads
-        .iter()
-        .find(|(_, b)| {
-            start += b.len();
-            start > stop_at
-        })
-        .expect("the read that holds the stop");
-    let took = arrived.duration_since(signalled).unwrap_or_default();
+    let took = crate::sim_process::read_time_at(&reads, stop_at)
+        .duration_since(signalled)
+        .unwrap_or_default();
     assert!(
         took <= Duration::from_millis(100),
         "the stop reached the line {took:?} after Ctrl-C"
@@ -623,28 +617,7 @@ fn emcu_steps(work_mm: [f64; 3]) -> [i64; 3] {
 fn an_emcu_stream_pauses_with_b_resumes_with_the_rest_and_ends_at_its_last_point() {
     let mut sim = SimProcess::start_with_files("emcu", &[FAST_EMCU]);
     let file = write(&sim, "slow.nc", SLOW_CUT);
-    let link = sim.link.display().to_string();
-    let config = sim.dir.path().display().to_string();
-    let mut run = PtyRun::spawn_sized(
-        Path::new(JOGTERM),
-        &[
-            "run",
-            "--port",
-            &link,
-            "--protocol",
-            "emcu",
-            &file,
-            "--work-zero",
-            WORK_ZERO,
-            "--stream",
-        ],
-        &[("JOGTERM_CONFIG_DIR", &config)],
-        50,
-        200,
-    );
-    run.wait_for("start the job (stream)? [y/N]", Duration::from_secs(10))
-        .expect("the confirmation");
-    run.type_text("y\r");
+    let mut run = run_on_a_terminal(&sim, &file);
     let [x40, ..] = emcu_steps([40.0, 0.0, 0.0]);
     let cut = format!("X{x40},");
     sim.wait_received("the slow cut", |r| r.contains(&cut));

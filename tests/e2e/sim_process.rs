@@ -497,3 +497,20 @@ impl Drop for SimProcess {
         let _ = self.child.wait();
     }
 }
+
+/// When the byte at `index` of the reads put together (`received_times`)
+/// was read from the line: the time of the read that holds it.
+pub fn read_time_at(
+    reads: &[(std::time::SystemTime, String)],
+    index: usize,
+) -> std::time::SystemTime {
+    let mut end = 0;
+    reads
+        .iter()
+        .find(|(_, bytes)| {
+            end += bytes.len();
+            end > index
+        })
+        .map(|(at, _)| *at)
+        .unwrap_or_else(|| panic!("no read holds byte {index}: {reads:?}"))
+}

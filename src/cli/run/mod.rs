@@ -125,16 +125,9 @@ pub fn run(global: &GlobalArgs, args: &RunArgs) -> anyhow::Result<ExitCode> {
         out::say(format_args!("jogterm run: {m}"));
         Ok(ExitCode::from(EXIT_USAGE))
     };
-    let profile = match session::resolve(global, args.baud) {
+    let (profile, language) = match upload::program_profile(global, args.baud, "run") {
         Ok(p) => p,
-        Err(StartError::Usage(m)) => return usage(m),
-        Err(StartError::Failed(e)) => return Err(e),
-    };
-    let Some(language) = Language::of_protocol(profile.connection.protocol) else {
-        return usage(format!(
-            "{} drives store and run no programs: jogterm run runs isel and EMCU jobs",
-            profile.connection.protocol
-        ));
+        Err(exit) => return exit,
     };
     let config = LintConfig::from_profile(&profile);
     let is_gcode = args.gcode || crate::gcode::is_gcode_path(&args.file);
