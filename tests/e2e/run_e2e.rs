@@ -167,6 +167,11 @@ fn a_job_that_fits_is_stored_and_without_a_terminal_nothing_starts_unasked() {
 
 /// `jogterm run FILE --stream` on a terminal of its own, confirmed with `y`.
 fn run_on_a_terminal(sim: &SimProcess, file: &str) -> PtyRun {
+    run_on_a_terminal_with(sim, file, &[])
+}
+
+/// [`run_on_a_terminal`] with more options.
+fn run_on_a_terminal_with(sim: &SimProcess, file: &str, more: &[&str]) -> PtyRun {
     let link = sim.link.display().to_string();
     let config = sim.dir.path().display().to_string();
     let mut run = PtyRun::spawn_sized(
@@ -181,7 +186,11 @@ fn run_on_a_terminal(sim: &SimProcess, file: &str) -> PtyRun {
             "--work-zero",
             WORK_ZERO,
             "--stream",
-        ],
+        ]
+        .iter()
+        .chain(more)
+        .copied()
+        .collect::<Vec<_>>(),
         &[("JOGTERM_CONFIG_DIR", &config)],
         50,
         200,
@@ -660,4 +669,26 @@ fn an_emcu_stream_pauses_with_b_resumes_with_the_rest_and_ends_at_its_last_point
         assert!(state.contains(&format!(" {axis} {v} [")), "{state}");
     }
     assert!(!sim.received().contains("@F"), "nothing stored");
+}
+
+#[test]
+fn the_speed_factor_sets_the_speed_of_the_moves_not_yet_sent() {
+    let mut sim = small_controller();
+    let file = write(&sim, "slow.nc", SLOW_CUT);
+    // Half speed from the start, then one step faster while the controller
+    // is still being set up and referenced: 60 % of every move's speeds.
+    let mut run = run_on_a_terminal_with(&sim, &file, &["--speed", "50"]);
+    run.type_text("+");
+    run.wait_for("speed 60 % of the program's", Duration::from_secs(10))
+        .expect("the factor is said");
+    assert_eq!(run.wait_exit(Duration::from_secs(90)), Some(0));
+    stands_at(&mut sim, [40.0, 20.0, 5.0]);
+    // The slow cut G1 X40 F300: 5 mm/s, 2000 Hz at 400 steps/mm; at 60 %
+    // 1200 Hz on the wire.
+    let [x40, ..] = steps([40.0, 0.0, 0.0]);
+    let received = sim.received();
+    assert!(
+        received.contains(&format!("@0M{x40},1200,")),
+        "the cut at 60 %: {received}"
+    );
 }
