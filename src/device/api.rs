@@ -213,6 +213,11 @@ pub enum Request {
         line: String,
         lease: Duration,
         resume: Option<JogId>,
+        /// isel: read the position (`@0P`) after a move that ended, as the
+        /// editor's check-out does to show it at once. A stream leaves it
+        /// out where the move's end is exactly known: the bytes between two
+        /// moves are time the tool stands in the part.
+        read_back: bool,
     },
     /// Bring the controller into a known, ready state (isel: axes and ramp
     /// parameters; EMP: unit on and mode; EMCU: read status).

@@ -512,8 +512,8 @@ fn a_job_bigger_than_the_memory_runs_as_a_dnc_stream_and_stores_nothing() {
     assert_eq!(out.status.code(), Some(0), "{said}");
     assert!(said.contains("streaming 88 commands"), "{said}");
     assert!(said.contains("the stream ended"), "{said}");
-    // Progress names the G-code lines.
-    assert!(said.contains("pockets.nc:88:1: "), "{said}");
+    // Progress names the G-code lines, to the last (M30) at 100 %.
+    assert!(said.contains("pockets.nc:89:1: 100 % after"), "{said}");
     let state = sim.device_state();
     let [x, y, z] = steps([46.0, 34.0, 5.0]);
     assert!(

@@ -199,7 +199,11 @@ pub async fn run(
     let mut last = None;
     while let Some(next) = feed.step(control.percent) {
         let index = feed.line().unwrap_or(0);
-        last = Some(index);
+        // The end names the last line of the file that ran, not a command
+        // the conversion added after it (the closing `9`).
+        if place.gcode.is_none() || place.origin(index).is_some() {
+            last = Some(index);
+        }
         progress.show(place, index, started);
         let (line, reads_port) = match next {
             Next::Send { line, reads_port } => (line, reads_port),
@@ -224,6 +228,9 @@ pub async fn run(
                 line: text.clone(),
                 lease: LEASE,
                 resume,
+                // The position after every move is its target: no `@0P`
+                // between two moves (`RawOp::skip_read_back`).
+                read_back: false,
             };
             if session.handle.request(request).is_err() {
                 return Err(lost("the device task ended"));

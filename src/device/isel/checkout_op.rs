@@ -44,6 +44,11 @@ pub struct CheckoutOp {
 }
 
 impl CheckoutOp {
+    /// A line of a stream: see [`RawOp::skip_read_back`].
+    pub fn skip_read_back(&mut self) {
+        self.raw.skip_read_back();
+    }
+
     /// `held`: the rest the driver holds (taken from it: whatever starts
     /// now, the rest is gone unless this line resumes it).
     pub fn new(

@@ -193,6 +193,17 @@ impl MoveEstimate {
         out
     }
 
+    /// Where the move ends as planned: the start plus its change per axis.
+    pub fn end(&self) -> PerAxis<i64> {
+        let deltas = self.deltas();
+        let mut out = self.start;
+        for axis in deltas.axes().iter() {
+            let delta = deltas.get(axis).unwrap_or(0);
+            out.set(axis, self.start.get(axis).unwrap_or(0) + delta);
+        }
+        out
+    }
+
     /// The group running `t` after the start and the time since it began.
     fn locate(&self, t: Duration) -> Option<(usize, Duration)> {
         let mut begin = Duration::ZERO;

@@ -794,9 +794,19 @@ impl IselDriver {
             }
             Request::RunProgram => ProgramOp::new(cx).map(Op::Program),
             Request::Checkout {
-                id, line, resume, ..
-            } => CheckoutOp::new(cx, *id, line, *resume, held, queued.held_lease(now))
-                .map(Op::Checkout),
+                id,
+                line,
+                resume,
+                read_back,
+                ..
+            } => CheckoutOp::new(cx, *id, line, *resume, held, queued.held_lease(now)).map(
+                |mut op| {
+                    if !read_back {
+                        op.skip_read_back();
+                    }
+                    Op::Checkout(op)
+                },
+            ),
             Request::Initialise => Ok(Op::Init(InitOp::new(cx))),
             Request::JogRenew { .. }
             | Request::JogRelease { .. }

@@ -79,6 +79,10 @@ pub struct RawOp {
     /// check-out's to tell, not replies for the console, and an `F` after
     /// its own 0xFD is the pause it asked for, no fault.
     checkout: bool,
+    /// Whether the position is read (`@0P`) after a move that ended; a
+    /// stream leaves it out where the move's end is exactly known
+    /// ([`RawOp::skip_read_back`]).
+    read_back: bool,
 }
 
 fn invalid(reason: String) -> Refusal {
@@ -129,6 +133,7 @@ impl RawOp {
             syncs: String::new(),
             next_estimate: None,
             checkout: false,
+            read_back: true,
         })
     }
 
@@ -152,6 +157,7 @@ impl RawOp {
             syncs: String::new(),
             next_estimate: None,
             checkout: false,
+            read_back: true,
         })
     }
 
@@ -197,6 +203,16 @@ impl RawOp {
         let mut op = RawOp::new(cx, text)?;
         op.checkout = true;
         Ok(op)
+    }
+
+    /// A move of a stream: no `@0P` after it when it ends with `0` and its
+    /// end is exactly known (a trusted estimate: an absolute move from a
+    /// known zero, a relative one from a known position). The counters are
+    /// the controller's own step counts, so `@0P` would say the target
+    /// too; on the wire it costs 23 bytes, time the tool stands in the part
+    /// before the next move (`docs/gcode.md`, "Measured").
+    pub fn skip_read_back(&mut self) {
+        self.read_back = false;
     }
 
     /// The deadline of the line's answer, once sent.
@@ -467,6 +483,17 @@ impl Operation for RawOp {
         // zero is read at once (`Context::zero_set`).
         let zero_set = matches!(self.command(), Some(Command::SetZero(_)))
             && reply == Reply::Code(ReplyCode::Ok);
+        let known_end = self
+            .estimate
+            .as_ref()
+            .filter(|_| !self.read_back && reply == Reply::Code(ReplyCode::Ok))
+            .map(MoveEstimate::end);
+        if let Some(end) = known_end {
+            cx.position = Some(end);
+            cx.estimated(end, now);
+            self.phase = Phase::Done;
+            return;
+        }
         self.phase = if (self.cmd.may_move || zero_set) && !cx.cnc_store {
             Phase::Measure
         } else {

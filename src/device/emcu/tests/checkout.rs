@@ -26,6 +26,7 @@ fn line(id: u64, text: &str) -> Request {
         line: text.into(),
         lease: ms(150),
         resume: None,
+        read_back: true,
     }
 }
 
@@ -94,6 +95,7 @@ fn a_line_let_go_halts_and_what_is_left_of_it_ends_where_the_line_would() {
         line: "L1,x-10\u{1}".into(),
         lease: ms(150),
         resume: Some(JogId(4)),
+        read_back: true,
     });
     b.run(ms(200));
     assert!(matches!(ends(&b)[..], [(5, CheckoutEnd::Refused(_))]));

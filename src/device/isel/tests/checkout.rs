@@ -27,6 +27,7 @@ fn line(id: u64, text: &str, resume: Option<u64>) -> Request {
         line: text.into(),
         lease: ms(150),
         resume: resume.map(JogId),
+        read_back: true,
     }
 }
 
@@ -175,4 +176,81 @@ fn a_port_read_answers_its_byte() {
         ends(&b)[..],
         [(1, CheckoutEnd::Done { byte: Some(_) })]
     ));
+}
+
+/// A stream's line (`read_back: false`).
+fn streamed(id: u64, text: &str) -> Request {
+    match line(id, text, None) {
+        Request::Checkout {
+            id,
+            line,
+            lease,
+            resume,
+            ..
+        } => Request::Checkout {
+            id,
+            line,
+            lease,
+            resume,
+            read_back: false,
+        },
+        other => other,
+    }
+}
+
+#[test]
+fn a_streamed_move_with_a_known_end_sends_no_position_read_and_says_its_target() {
+    let mut b = homed(PollRate::Off);
+    b.events.clear();
+    b.request(streamed(1, "@0A2000,2000,0,2000,0,2000,0,2000"));
+    hold(&mut b, 1, Duration::from_millis(1300));
+    b.run(ms(300));
+    assert_eq!(ends(&b), [(1, CheckoutEnd::Done { byte: None })]);
+    assert_eq!(b.counters()[0], 2000.0);
+    let text = b.sent_text();
+    let at = text
+        .iter()
+        .position(|s| s.starts_with("@0A2000"))
+        .expect("sent");
+    assert!(text[at + 1..].is_empty(), "no @0P after it: {text:?}");
+    // The position the driver takes is the move's end: the counters'.
+    let last = b
+        .events
+        .iter()
+        .rev()
+        .find_map(|e| match e {
+            Event::Position(p) => Some(p.steps.get(crate::axis::Axis::X)),
+            _ => None,
+        })
+        .flatten();
+    assert_eq!(last, Some(2000));
+    // A second move from there is as exact: relative to the known end.
+    b.request(streamed(2, "@0A-500,2000,0,2000,0,2000,0,2000"));
+    hold(&mut b, 2, Duration::from_millis(800));
+    b.run(ms(300));
+    assert_eq!(b.counters()[0], 1500.0);
+    let text = b.sent_text();
+    let at = text
+        .iter()
+        .position(|s| s.starts_with("@0A-500"))
+        .expect("sent");
+    assert!(text[at + 1..].is_empty(), "no @0P after it: {text:?}");
+}
+
+#[test]
+fn a_streamed_move_paused_is_still_read_back() {
+    let mut b = homed(PollRate::Off);
+    b.request(streamed(1, "@0A4000,2000,0,2000,0,2000,0,2000"));
+    hold(&mut b, 1, ms(800));
+    b.run(ms(800));
+    assert!(matches!(
+        ends(&b)[..],
+        [(1, CheckoutEnd::Paused { rest: true, .. })]
+    ));
+    let stopped_at = b.counters()[0];
+    // The end is not the target: the position is read.
+    assert_eq!(
+        b.last_measured().and_then(|p| p.get(crate::axis::Axis::X)),
+        Some(stopped_at as i64)
+    );
 }

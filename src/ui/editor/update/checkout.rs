@@ -596,11 +596,15 @@ impl Step<'_, '_> {
         if let Some(s) = c.stream.as_mut() {
             s.renewed = self.ctx.now;
         }
+        // A check-out shows where each line ended; a stream reads that
+        // only where its end is not known (the bytes are time in the part).
+        let read_back = c.stream.is_none();
         self.out.effects.push(Effect::Device(Request::Checkout {
             id,
             line: text,
             lease: c.lease(self.ctx.setup.jog.repeat_timeout),
             resume,
+            read_back,
         }));
     }
 

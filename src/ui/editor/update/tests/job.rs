@@ -332,6 +332,7 @@ fn line(out: &Outcome) -> Option<(JogId, &str, Duration, Option<JogId>)> {
             line,
             lease,
             resume,
+            ..
         } => Some((*id, line.as_str(), *lease, *resume)),
         _ => None,
     })
