@@ -22,6 +22,17 @@ fn small_controller() -> SimProcess {
     SimProcess::start_variant("isel", &[SMALL_MEMORY], &["memory=30"])
 }
 
+/// [`small_controller`] ten times as fast, for the tests that check where a
+/// job ends and what went on the wire, not when (`docs/simulator.md`, "Time
+/// scale"): nothing in them is timed against the machine.
+fn small_controller_scaled() -> SimProcess {
+    SimProcess::options("isel")
+        .files(&[SMALL_MEMORY])
+        .variants(&["memory=30"])
+        .time_scale(10.0)
+        .start()
+}
+
 /// Machine steps of a point in the job's work coordinates (400 steps/mm).
 fn steps(work_mm: [f64; 3]) -> [i64; 3] {
     let zero = [50.0, 50.0, 60.0];
@@ -104,7 +115,7 @@ fn text(bytes: &[u8]) -> String {
 
 #[test]
 fn a_job_bigger_than_the_memory_is_run_in_parts_cut_at_retracts_as_the_estimate_chose() {
-    let mut sim = small_controller();
+    let mut sim = small_controller_scaled();
     let file = write(&sim, "pockets.nc", &pockets(12));
     let reference = sim
         .configured(&["send", "@07", "@0R7"])
@@ -141,7 +152,7 @@ fn a_job_bigger_than_the_memory_is_run_in_parts_cut_at_retracts_as_the_estimate_
 
 #[test]
 fn a_job_that_fits_is_stored_and_without_a_terminal_nothing_starts_unasked() {
-    let mut sim = small_controller();
+    let mut sim = small_controller_scaled();
     let file = write(&sim, "two.nc", &pockets(2));
     // No terminal to confirm on and no --yes: bad usage, nothing sent.
     let out = sim
@@ -386,7 +397,7 @@ fn moves_after(received: &str, from: usize) -> Vec<(i64, i64, i64, i64)> {
 
 #[test]
 fn a_restart_from_a_line_retracts_goes_above_its_start_descends_at_feed_and_ends_at_the_jobs_end() {
-    let mut sim = small_controller();
+    let mut sim = small_controller_scaled();
     let file = write(&sim, "pockets.nc", &pockets(12));
     // Line 42: the first cut of the sixth pocket (X22 Y22), after its
     // plunge `G1 Z-1 F600` on line 41.
