@@ -12,8 +12,8 @@ use crate::sim_process;
 use crate::stops_support;
 use sim_process::{SimProcess, text, wait_child};
 use stops_support::{
-    assert_exit, isel_store_long_program, moving, session_traffic, signal, stops_and_motion,
-    wait_moving, x_steps,
+    LONG_PROGRAM_SCALE, assert_exit, isel_store_long_program, moving, session_traffic, signal,
+    stops_and_motion, wait_moving, x_steps,
 };
 
 fn spawn(sim: &SimProcess, args: &[&str]) -> Child {
@@ -113,7 +113,11 @@ fn emp_watch_poll_and_send_of_a_read_send_no_stop() {
 /// end (X at 60 000), and watch sent no stop.
 #[test]
 fn isel_start_key_program_runs_to_its_end_while_watch_connects() {
-    let mut sim = SimProcess::start("isel");
+    // The program runs 5 s of wall time (`LONG_PROGRAM_SCALE`): watch is on
+    // the line within a fraction of that, and the test waits for it there.
+    let mut sim = SimProcess::options("isel")
+        .time_scale(LONG_PROGRAM_SCALE)
+        .start();
     let out = isel_store_long_program(&sim);
     assert_exit(&out, 0, "send (store)");
     sim.control("press start");
