@@ -10,7 +10,9 @@ use std::process::{Child, Stdio};
 
 use crate::sim_process;
 use crate::stops_support;
-use sim_process::{SimProcess, text, wait_child};
+use sim_process::{
+    EMCU_NEAR_REFERENCE, ISEL_NEAR_REFERENCE, LOGIC_SCALE, SimProcess, text, wait_child,
+};
 use stops_support::{
     LONG_PROGRAM_SCALE, assert_exit, isel_store_long_program, moving, session_traffic, signal,
     stops_and_motion, wait_moving, x_steps,
@@ -227,7 +229,13 @@ fn program_file(sim: &SimProcess, name: &str, text: &str) -> String {
 /// refused with "reference them (h) first".
 #[test]
 fn isel_upload_start_of_a_program_that_references_itself_runs_unreferenced() {
-    let mut sim = SimProcess::start("isel");
+    // Not referenced, 1 mm from the reference point, ten times faster than
+    // real time: the program's own reference run and move end at the same
+    // counts, and the messages are the same.
+    let mut sim = SimProcess::options("isel")
+        .files(&[ISEL_NEAR_REFERENCE])
+        .time_scale(LOGIC_SCALE)
+        .start();
     let ok = program_file(
         &sim,
         "references.cnc",
@@ -269,7 +277,13 @@ fn isel_upload_start_of_a_program_that_references_itself_runs_unreferenced() {
 /// positions are unknown (not referenced).
 #[test]
 fn emcu_upload_start_of_a_job_that_references_itself_runs_unreferenced() {
-    let mut sim = SimProcess::start("emcu");
+    // Not referenced, 5 mm from the reference point, ten times faster than
+    // real time: the job's own reference run and move end at the same
+    // counts.
+    let mut sim = SimProcess::options("emcu")
+        .files(&[EMCU_NEAR_REFERENCE])
+        .time_scale(LOGIC_SCALE)
+        .start();
     let job = program_file(
         &sim,
         "references.emcu",

@@ -64,6 +64,24 @@ pub const EMCU_NEAR_REFERENCE: (&str, &str) = (
     "base = \"emcu\"\n[sim]\nstart_position = 5.0\n",
 );
 
+/// A configuration file for [`SimOptions::files`]: the EMP simulator's
+/// drive stands 1 mm from its home at power-up, so homing takes a moment.
+pub const EMP_NEAR_REFERENCE: (&str, &str) = (
+    "profiles/emp.toml",
+    "base = \"emp\"\n[sim]\nstart_position = 1.0\n",
+);
+
+/// The configuration file that puts `family`'s simulated axes near their
+/// reference point: [`ISEL_NEAR_REFERENCE`], [`EMCU_NEAR_REFERENCE`] or
+/// [`EMP_NEAR_REFERENCE`].
+pub fn near_reference(family: &str) -> (&'static str, &'static str) {
+    match family {
+        "emcu" => EMCU_NEAR_REFERENCE,
+        "emp" => EMP_NEAR_REFERENCE,
+        _ => ISEL_NEAR_REFERENCE,
+    }
+}
+
 /// Whether a process' output carries a Rust panic message.
 /// The isel commands a reading session sends, none of which moves an axis:
 /// reads (`@0P`, `@0b`), test mode off at every connect (`@0T0`,

@@ -10,7 +10,9 @@ use std::process::{Child, Stdio};
 
 use crate::sim_process;
 use crate::stops_support;
-use sim_process::{EMCU_NEAR_REFERENCE, SimProcess, text, wait_child};
+use sim_process::{
+    EMCU_NEAR_REFERENCE, EMP_NEAR_REFERENCE, ISEL_NEAR_REFERENCE, SimProcess, text, wait_child,
+};
 use stops_support::{
     LONG_PROGRAM_SCALE, assert_a_new_connection_moves_nothing, assert_exit, assert_stands,
     emp_frames, interrupt, isel_store_long_program, moving, session_traffic, signal,
@@ -210,7 +212,7 @@ fn emcu_send_ctrl_c_mid_move_stops_and_nothing_resumes() {
 /// the target, and a later connection does not move it.
 #[test]
 fn emp_send_ctrl_c_mid_positioning_stops_and_nothing_resumes() {
-    let mut sim = SimProcess::start("emp");
+    let mut sim = SimProcess::start_with_files("emp", &[EMP_NEAR_REFERENCE]);
     let mut args = vec!["send", "--drive", "11"];
     args.extend(EMP_LONG_MOVE);
     let child = spawn(&sim, &args);
@@ -301,7 +303,9 @@ const ISEL_LONG_PROGRAM: &str = "; one long move\n7 7\n060000,4000,0,4000,0,4000
 /// 2.2.23, not a resume).
 #[test]
 fn isel_upload_start_ctrl_c_stops_the_running_program() {
-    let mut sim = SimProcess::start("isel");
+    // 1 mm from the reference point: the program's own `7 7` is only the
+    // way to its move.
+    let mut sim = SimProcess::start_with_files("isel", &[ISEL_NEAR_REFERENCE]);
     let out = sim.run(&["send", "@07", "@0N7"]);
     assert_exit(&out, 0, "send (reference)");
     let file = sim.dir.path().join("long.isel");

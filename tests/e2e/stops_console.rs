@@ -9,7 +9,7 @@
 //! unchanged) within the overrun bound, nothing resumes, and the exit.
 
 use crate::faults_support;
-use crate::sim_process::{self, EMCU_NEAR_REFERENCE, ISEL_NEAR_REFERENCE, SimProcess, WAIT};
+use crate::sim_process::{self, SimProcess, WAIT};
 use crate::stops_support;
 use faults_support::console::Console;
 use faults_support::wire::{emcu_motion, isel_messages, isel_motion};
@@ -29,16 +29,11 @@ fn ready(family: &'static str) -> (SimProcess, Console) {
     (sim, console)
 }
 
-/// `family`'s simulator for these tests. The isel's and the EMCU's axes
-/// stand near the reference point at power-up (`ISEL_NEAR_REFERENCE`,
-/// `EMCU_NEAR_REFERENCE`), not 40 mm from it: the reference run is only the
-/// way to READY here.
+/// `family`'s simulator for these tests. The axes stand near the
+/// reference point at power-up (`sim_process::near_reference`), not 40 mm
+/// from it: the reference run is only the way to READY here.
 fn simulator(family: &'static str) -> SimProcess {
-    match family {
-        "isel" => SimProcess::start_with_files(family, &[ISEL_NEAR_REFERENCE]),
-        "emcu" => SimProcess::start_with_files(family, &[EMCU_NEAR_REFERENCE]),
-        _ => SimProcess::start(family),
-    }
+    SimProcess::start_with_files(family, &[sim_process::near_reference(family)])
 }
 
 /// The jog's overrun bound in steps (`jog.max_overrun` = 3 units, the
