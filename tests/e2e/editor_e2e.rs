@@ -380,7 +380,13 @@ fn an_emcu_job_taught_after_a_work_zero_drives_back_to_where_the_machine_stood()
     run.type_keys(&[b"t"]);
     wait_for(&run, "L8,X0,Y0,Z0");
     // Machine X 5 mm (200 steps/mm), the work zero there, one 1 mm step on.
-    run.type_keys(&[b"g", b"X", b"5", b"\r"]);
+    // Enter once the target shows: typed right behind it, a busy console
+    // reads it with the text, a burst that sends nothing by design.
+    run.type_keys(&[b"g"]);
+    wait_for(&run, "Go to (G54 work coordinates)");
+    run.type_text("X5");
+    wait_for(&run, "> X5");
+    run.type_keys(&[b"\r"]);
     wait_x_steps(&run, "1000");
     run.type_keys(&[b"z"]);
     wait_for(&run, "work zero of XYZ set");
