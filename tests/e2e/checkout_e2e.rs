@@ -13,7 +13,7 @@ use std::path::Path;
 use std::thread;
 use std::time::{Duration, Instant};
 
-use sim_process::{ISEL_NEAR_REFERENCE, JOGTERM, LOGIC_SCALE, SimProcess, WAIT};
+use sim_process::{ISEL_NEAR_REFERENCE, JOGTERM, SimProcess, WAIT};
 use ui_pty::PtyRun;
 
 const F4: &[u8] = b"\x1bOS";
@@ -144,18 +144,17 @@ fn start_checkout(run: &mut PtyRun, key: &[u8]) -> String {
 }
 
 /// The isel simulator, its axes 1 mm from the reference point (the reference
-/// run is only the way to READY here), on `time_scale`.
-fn isel_near_reference(time_scale: f64) -> SimProcess {
-    SimProcess::options("isel")
-        .files(&[ISEL_NEAR_REFERENCE])
-        .time_scale(time_scale)
-        .start()
+/// run is only the way to READY here). At real time: a console polls a
+/// scaled simulator as fast as its faster wire answers, several times the
+/// usual rate, CPU its neighbours miss (`docs/testing.md`, "Part two").
+fn isel_near_reference() -> SimProcess {
+    SimProcess::start_with_files("isel", &[ISEL_NEAR_REFERENCE])
 }
 
 /// At real time: the line must still run when the hold is let go.
 #[test]
 fn a_hold_let_go_mid_line_pauses_and_the_next_hold_finishes_that_line_exactly() {
-    let mut sim = isel_near_reference(1.0);
+    let mut sim = isel_near_reference();
     let dir = tempfile::tempdir().unwrap();
     let mut run = ready(&sim, dir.path(), PROGRAM);
     start_checkout(&mut run, F10);
@@ -192,12 +191,9 @@ fn a_hold_let_go_mid_line_pauses_and_the_next_hold_finishes_that_line_exactly() 
     wait_ended(&run);
 }
 
-/// On a simulator ten times faster than real time: a line ends sooner
-/// within the same hold, and the 300 ms in which no second line may go out
-/// is 3 s of the machine's time, so the check is the same or stronger.
 #[test]
 fn single_step_runs_one_line_per_press() {
-    let mut sim = isel_near_reference(LOGIC_SCALE);
+    let mut sim = isel_near_reference();
     let dir = tempfile::tempdir().unwrap();
     let program = "0 400,2000,0,2000,0,2000,0,2000\n0 0,2000,400,2000,0,2000,0,2000\n9\n";
     let mut run = ready(&sim, dir.path(), program);
@@ -220,12 +216,9 @@ fn single_step_runs_one_line_per_press() {
     assert_eq!(wait_counter(&mut sim, "Y", |y| y == 400), 400);
 }
 
-/// On a simulator ten times faster than real time: the hold lasts until
-/// the check-out is done, and what it checks (the wire, the counters) is
-/// the same at any speed.
 #[test]
 fn run_from_a_line_shows_where_it_starts_and_goes_there_first() {
-    let mut sim = isel_near_reference(LOGIC_SCALE);
+    let mut sim = isel_near_reference();
     let dir = tempfile::tempdir().unwrap();
     let mut run = ready(&sim, dir.path(), PROGRAM);
     // The cursor to line 3 (the Y move).
@@ -251,17 +244,13 @@ fn run_from_a_line_shows_where_it_starts_and_goes_there_first() {
 
 /// The console on the EMCU simulator (axes 1 mm from machine 0 at
 /// power-up, so the reference run is short) with `job` in the editor, the
-/// axes referenced (X counter 0), the program screen shown; the simulator
-/// on `time_scale`.
-fn ready_emcu(dir: &Path, job: &str, time_scale: f64) -> (SimProcess, PtyRun) {
+/// axes referenced (X counter 0), the program screen shown.
+fn ready_emcu(dir: &Path, job: &str) -> (SimProcess, PtyRun) {
     let near_zero = (
         "profiles/emcu.toml",
         "base = \"emcu\"\n[sim]\nstart_position = 1.0\n",
     );
-    let mut sim = SimProcess::options("emcu")
-        .files(&[near_zero])
-        .time_scale(time_scale)
-        .start();
+    let mut sim = SimProcess::start_with_files("emcu", &[near_zero]);
     let config = dir.join("config");
     fs::create_dir_all(config.join("profiles")).unwrap();
     fs::write(config.join(near_zero.0), near_zero.1).unwrap();
@@ -310,7 +299,7 @@ fn ready_emcu(dir: &Path, job: &str, time_scale: f64) -> (SimProcess, PtyRun) {
 fn an_emcu_job_line_let_go_halts_and_the_next_hold_ends_it_exactly() {
     let dir = tempfile::tempdir().unwrap();
     // X 20 mm (200 steps/mm) at 1000 Hz: 4 s.
-    let (mut sim, mut run) = ready_emcu(dir.path(), "; check-out\n#E1,1000\nL1,x4000\n", 1.0);
+    let (mut sim, mut run) = ready_emcu(dir.path(), "; check-out\n#E1,1000\nL1,x4000\n");
     let start = 0;
     start_checkout(&mut run, F10);
     // Held: the slot speed, then the move; let go after a moment.
@@ -335,14 +324,12 @@ fn an_emcu_job_line_let_go_halts_and_the_next_hold_ends_it_exactly() {
 /// Run from a line of an EMCU job (issue 24): the question names the move
 /// skipped, the start position and the settings sent first; the wire has
 /// the settings, the absolute move to the start in slot 1 and then the
-/// line, and never the skipped move or the skipped output. On a simulator
-/// ten times faster than real time: the hold lasts until the check-out is
-/// done, and the wire and the counters are the same at any speed.
+/// line, and never the skipped move or the skipped output.
 #[test]
 fn an_emcu_job_run_from_a_line_goes_to_its_start_and_skips_the_lines_before() {
     let dir = tempfile::tempdir().unwrap();
     let job = "; from a line\n#E1,1000\n#E2,1500\nL1,x4000\nA1,1\nL2,y400\n";
-    let (mut sim, mut run) = ready_emcu(dir.path(), job, LOGIC_SCALE);
+    let (mut sim, mut run) = ready_emcu(dir.path(), job);
     // The cursor to line 6 (the Y move).
     run.type_keys(&[DOWN, DOWN, DOWN, DOWN, DOWN]);
     wait_for(&run, "Ln 6/");

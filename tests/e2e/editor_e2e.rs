@@ -12,7 +12,7 @@ use std::fs;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use sim_process::{JOGTERM, LOGIC_SCALE, SimProcess, WAIT};
+use sim_process::{JOGTERM, SimProcess, WAIT};
 use ui_pty::{PtyRun, recoveries};
 
 const PROGRAM: &str = "; drill\n7 7\nm8000,8000,8000,8000\n9\n";
@@ -334,9 +334,7 @@ fn wait_x_steps(run: &PtyRun, steps: &str) {
 /// the work position into the `L` target (machine coordinates, manual
 /// 1.5.10), and the job then drove elsewhere. Taught right after `h` it
 /// said the work zero was not known. Now the taught job drives the machine
-/// back to where it stood. On a simulator ten times faster than real time:
-/// the steps and go-to moves end at exact counts, and the taught lines and
-/// the job's end are read from the controller, at any speed.
+/// back to where it stood.
 #[test]
 fn an_emcu_job_taught_after_a_work_zero_drives_back_to_where_the_machine_stood() {
     let (dir, config, state) = dirs();
@@ -345,10 +343,7 @@ fn an_emcu_job_taught_after_a_work_zero_drives_back_to_where_the_machine_stood()
         "profiles/emcu.toml",
         "base = \"emcu\"\n[sim]\nstart_position = 1.0\n",
     );
-    let mut sim = SimProcess::options("emcu")
-        .files(&[near_zero])
-        .time_scale(LOGIC_SCALE)
-        .start();
+    let mut sim = SimProcess::start_with_files("emcu", &[near_zero]);
     fs::create_dir_all(config.join("profiles")).expect("profiles dir");
     fs::write(config.join(near_zero.0), near_zero.1).expect("write the profile");
     let file = dir.path().join("taught.emcu");

@@ -84,15 +84,9 @@ fn wait_file(state: &Path, what: &str, ok: impl Fn(&str) -> bool) -> PathBuf {
     }
 }
 
-/// On a simulator ten times faster than real time: every position it
-/// checks is waited for at its exact count, read back from the controller,
-/// and the speed of the go-to is checked on the wire, at any speed.
 #[test]
 fn g55_set_here_survives_a_restart_and_only_a_zero_moves_the_isel_zero() {
-    let mut sim = SimProcess::options("isel")
-        .files(&[PROFILE])
-        .time_scale(sim_process::LOGIC_SCALE)
-        .start();
+    let mut sim = SimProcess::start_with_files("isel", &[PROFILE]);
     let state = tempfile::tempdir().expect("state dir");
     let mut run = spawn(&sim, state.path());
     reference(&mut run);
