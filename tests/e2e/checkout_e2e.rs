@@ -13,7 +13,7 @@ use std::path::Path;
 use std::thread;
 use std::time::{Duration, Instant};
 
-use sim_process::{JOGTERM, SimProcess, WAIT};
+use sim_process::{ISEL_NEAR_REFERENCE, JOGTERM, SimProcess, WAIT};
 use ui_pty::PtyRun;
 
 const F4: &[u8] = b"\x1bOS";
@@ -97,6 +97,14 @@ fn wait_ended(run: &PtyRun) {
     }
 }
 
+/// The check-out is done: its transient message, or the title's ENDED (the
+/// message may already have given way to the next one when the screen is
+/// read, and a hold that waited for it would go on to its bound).
+fn checkout_done(run: &PtyRun) -> bool {
+    let s = screen(run);
+    s.contains("check-out done") || s.contains("CHECK-OUT ENDED")
+}
+
 fn screen(run: &PtyRun) -> String {
     run.screen().screen().contents()
 }
@@ -135,9 +143,18 @@ fn start_checkout(run: &mut PtyRun, key: &[u8]) -> String {
     question
 }
 
+/// The isel simulator, its axes 1 mm from the reference point (the reference
+/// run is only the way to READY here). At real time: a console polls a
+/// scaled simulator as fast as its faster wire answers, several times the
+/// usual rate, CPU its neighbours miss (`docs/testing.md`, "Part two").
+fn isel_near_reference() -> SimProcess {
+    SimProcess::start_with_files("isel", &[ISEL_NEAR_REFERENCE])
+}
+
+/// At real time: the line must still run when the hold is let go.
 #[test]
 fn a_hold_let_go_mid_line_pauses_and_the_next_hold_finishes_that_line_exactly() {
-    let mut sim = SimProcess::start("isel");
+    let mut sim = isel_near_reference();
     let dir = tempfile::tempdir().unwrap();
     let mut run = ready(&sim, dir.path(), PROGRAM);
     start_checkout(&mut run, F10);
@@ -176,7 +193,7 @@ fn a_hold_let_go_mid_line_pauses_and_the_next_hold_finishes_that_line_exactly() 
 
 #[test]
 fn single_step_runs_one_line_per_press() {
-    let mut sim = SimProcess::start("isel");
+    let mut sim = isel_near_reference();
     let dir = tempfile::tempdir().unwrap();
     let program = "0 400,2000,0,2000,0,2000,0,2000\n0 0,2000,400,2000,0,2000,0,2000\n9\n";
     let mut run = ready(&sim, dir.path(), program);
@@ -201,7 +218,7 @@ fn single_step_runs_one_line_per_press() {
 
 #[test]
 fn run_from_a_line_shows_where_it_starts_and_goes_there_first() {
-    let mut sim = SimProcess::start("isel");
+    let mut sim = isel_near_reference();
     let dir = tempfile::tempdir().unwrap();
     let mut run = ready(&sim, dir.path(), PROGRAM);
     // The cursor to line 3 (the Y move).
@@ -213,9 +230,7 @@ fn run_from_a_line_shows_where_it_starts_and_goes_there_first() {
     assert!(question.contains("X20"), "{question}");
     run.type_keys(&[b"y"]);
     wait_for(&run, "CHECK-OUT READY line 3");
-    hold(&mut run, Duration::from_secs(20), |run| {
-        screen(run).contains("check-out done")
-    });
+    hold(&mut run, Duration::from_secs(20), |run| checkout_done(run));
     let wire = sim.received();
     let go = wire.find("@0M8000,").unwrap_or_else(|| panic!("{wire}"));
     assert!(
@@ -278,7 +293,8 @@ fn ready_emcu(dir: &Path, job: &str) -> (SimProcess, PtyRun) {
 /// An EMCU job in the check-out: each line sent as a command with 0x01; a
 /// hold let go in the middle of a move halts it (`@B`, manual 1.5.11), and
 /// the next hold sends what is left of it, which ends exactly where the
-/// line would have.
+/// line would have. At real time: the line must still run when the hold
+/// is let go.
 #[test]
 fn an_emcu_job_line_let_go_halts_and_the_next_hold_ends_it_exactly() {
     let dir = tempfile::tempdir().unwrap();
@@ -298,9 +314,7 @@ fn an_emcu_job_line_let_go_halts_and_the_next_hold_ends_it_exactly() {
     let sent = wire.find("L1,x4000").unwrap_or_else(|| panic!("{wire}"));
     assert!(wire[sent..].contains("@B"), "halted: {wire}");
     thread::sleep(Duration::from_millis(900));
-    hold(&mut run, Duration::from_secs(20), |run| {
-        screen(run).contains("check-out done")
-    });
+    hold(&mut run, Duration::from_secs(20), |run| checkout_done(run));
     let wire = sim.received();
     let rest = format!("L1,x{}", 4000 - paused);
     assert!(wire[sent..].contains(&rest), "{rest} not sent: {wire}");
@@ -333,14 +347,8 @@ fn an_emcu_job_run_from_a_line_goes_to_its_start_and_skips_the_lines_before() {
     // Six lines, each a round trip, the move to the start some 5 s: a
     // loaded machine may pause the hold on the way (keys read together);
     // the hold ends as soon as the check-out is done.
-    // Done: the transient message, or the title's ENDED (the message may
-    // already have given way to the next one when the screen is read).
-    let done = |run: &PtyRun| {
-        let s = screen(run);
-        s.contains("check-out done") || s.contains("CHECK-OUT ENDED")
-    };
-    hold(&mut run, Duration::from_secs(60), |run| done(run));
-    assert!(done(&run), "{}", screen(&run));
+    hold(&mut run, Duration::from_secs(60), |run| checkout_done(run));
+    assert!(checkout_done(&run), "{}", screen(&run));
     let wire = sim.received();
     assert!(!wire.contains("L1,x4000"), "line 4 was skipped: {wire}");
     assert!(

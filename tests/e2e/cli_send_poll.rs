@@ -9,9 +9,13 @@ use std::time::Duration;
 use crate::sim_process;
 use sim_process::{SimProcess, jogterm, text};
 
+/// On a simulator ten times faster than real time: the replies and the
+/// position read back are the same at any speed.
 #[test]
 fn send_initialises_references_moves_and_reads_back() {
-    let sim = SimProcess::start("isel");
+    let sim = SimProcess::options("isel")
+        .time_scale(sim_process::LOGIC_SCALE)
+        .start();
     let out = sim.run(&[
         "send",
         "@07",

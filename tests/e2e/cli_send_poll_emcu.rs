@@ -8,7 +8,7 @@ use std::thread;
 use std::time::{Duration, Instant};
 
 use crate::sim_process;
-use sim_process::{SimProcess, text};
+use sim_process::{EMCU_NEAR_REFERENCE, SimProcess, text};
 
 /// `<< @LX1234: X = 1234 steps` -> 1234.
 fn x_steps(line: &str) -> Option<i64> {
@@ -18,9 +18,16 @@ fn x_steps(line: &str) -> Option<i64> {
 /// Reset, start speed and ramp, a fast reference run.
 const READY: [&str; 4] = ["@R", "#S2000", "#R200\\x01", "$HZYX\\x01"];
 
+/// The simulator of a test that references first: 5 mm from the
+/// reference point, not 40 (`EMCU_NEAR_REFERENCE`); what the tests check
+/// happens after the reference run, or during its first axis.
+fn near_reference() -> SimProcess {
+    SimProcess::start_with_files("emcu", &[EMCU_NEAR_REFERENCE])
+}
+
 #[test]
 fn send_resets_homes_moves_reads_during_the_move_and_stops() {
-    let sim = SimProcess::start("emcu");
+    let sim = near_reference();
     let mut args = vec!["send"];
     args.extend(READY);
     args.extend([
@@ -62,7 +69,7 @@ fn send_resets_homes_moves_reads_during_the_move_and_stops() {
 
 #[test]
 fn a_batch_runs_to_its_end_before_the_command_ends() {
-    let sim = SimProcess::start("emcu");
+    let sim = near_reference();
     let mut args = vec!["send"];
     args.extend(READY);
     args.extend(["#E1,2000", "L1,x1000,y500\\x01", "@LX", "L1,x-200\\x01"]);
@@ -79,7 +86,7 @@ fn a_batch_runs_to_its_end_before_the_command_ends() {
 
 #[test]
 fn outputs_and_the_job_store() {
-    let mut sim = SimProcess::start("emcu");
+    let mut sim = near_reference();
     let mut args = vec!["send"];
     args.extend(READY);
     args.extend(["@F", "#E1,2000", "L1,x300\\x01", "@J", "@LX", "A1,1\\x01"]);
@@ -123,7 +130,7 @@ fn bad_lines_are_refused_before_anything_is_sent() {
 
 #[test]
 fn a_port_that_vanishes_mid_move_exits_3() {
-    let mut sim = SimProcess::start("emcu");
+    let mut sim = near_reference();
     let mut args = vec!["send"];
     args.extend(READY);
     args.extend(["#E1,1000", "L1,x40000\\x01"]);

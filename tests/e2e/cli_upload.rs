@@ -15,7 +15,7 @@ use jogterm::program::path::{Start, path};
 use jogterm::program::{Language, Program};
 
 use crate::sim_process;
-use sim_process::{SimProcess, contains_panic, jogterm};
+use sim_process::{LOGIC_SCALE, SimProcess, contains_panic, jogterm};
 
 /// `jogterm` against the simulator, configured from the simulator's
 /// directory, with no stdin.
@@ -54,9 +54,12 @@ fn predicted_end(text: &str) -> [i64; 4] {
     path(&program, &Start::new(AxisSet::XYZ, [0; 4])).end
 }
 
+/// On a simulator ten times faster than real time: what it checks (the end
+/// position, the replies, the store refusing a second upload) is the same
+/// at any speed; at real time the program runs about 25 s.
 #[test]
 fn a_program_with_a_loop_and_a_branch_ends_where_the_preview_said() {
-    let sim = SimProcess::start("isel");
+    let sim = SimProcess::options("isel").time_scale(LOGIC_SCALE).start();
     let reference = run(&sim, &["send", "@07", "@0R7"]);
     assert!(reference.status.success(), "{}", stderr(&reference));
     let file = write_program(&sim, "loop.isel", LOOP_AND_BRANCH);
@@ -178,9 +181,12 @@ A1,1
 L2,y250
 ";
 
+/// On a simulator ten times faster than real time (the reference run from
+/// the default start position and the job at its speeds took 16 s): the end
+/// position, the counters and the wire are the same at any speed.
 #[test]
 fn an_emcu_job_is_stored_and_run_and_ends_where_the_preview_said() {
-    let mut sim = SimProcess::start("emcu");
+    let mut sim = SimProcess::options("emcu").time_scale(LOGIC_SCALE).start();
     let ready = run(&sim, &["send", "@R", "#S2000", "#R200\\x01", "$HZYX\\x01"]);
     assert!(ready.status.success(), "{}", stderr(&ready));
     sim.wait_device("referenced", |s| {

@@ -17,10 +17,8 @@ use sim_process::{SimProcess, text};
 /// The command of the "done when".
 const DONE_WHEN: [&str; 4] = ["send", "@07", "@0R7", "@0A1000,2000,0,2000,0,2000,0,2000"];
 
-/// The simulated axes stand 1 mm from their reference point at power-up
-/// (the simulator's own profile; jogterm's is the unchanged default), so
-/// the reference run takes a moment.
-const NEAR_REFERENCE: (&str, &str) = ("profiles/default.toml", "[sim]\nstart_position = 1.0\n");
+/// The simulated axes stand 1 mm from their reference point at power-up.
+const NEAR_REFERENCE: (&str, &str) = sim_process::ISEL_NEAR_REFERENCE;
 
 #[test]
 fn the_default_profile_moves_an_isel_without_a_hood_circuit() {

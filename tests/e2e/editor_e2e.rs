@@ -185,6 +185,10 @@ o0,0,1,2
 9
 ";
 
+/// At real time: on a simulator ten times faster, with two other tests
+/// beside it, the console's "the program has ended" did not show in half
+/// the runs although the program ran to its end (`docs/testing.md`, "The
+/// time scale", a finding left open).
 #[test]
 fn edit_upload_and_run_on_the_simulator_end_where_the_preview_said() {
     let (dir, config, state) = dirs();
@@ -371,7 +375,13 @@ fn an_emcu_job_taught_after_a_work_zero_drives_back_to_where_the_machine_stood()
     run.type_keys(&[b"t"]);
     wait_for(&run, "L8,X0,Y0,Z0");
     // Machine X 5 mm (200 steps/mm), the work zero there, one 1 mm step on.
-    run.type_keys(&[b"g", b"X", b"5", b"\r"]);
+    // Enter once the target shows: typed right behind it, a busy console
+    // reads it with the text, a burst that sends nothing by design.
+    run.type_keys(&[b"g"]);
+    wait_for(&run, "Go to (G54 work coordinates)");
+    run.type_text("X5");
+    wait_for(&run, "> X5");
+    run.type_keys(&[b"\r"]);
     wait_x_steps(&run, "1000");
     run.type_keys(&[b"z"]);
     wait_for(&run, "work zero of XYZ set");

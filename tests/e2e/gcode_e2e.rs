@@ -7,7 +7,13 @@
 //! error at FILE:LINE:COL, exit 1, and nothing reaches the controller.
 //!
 //! These tests check logic, not the wire's timing: they hold no lock and run
-//! beside the others.
+//! beside the others, and the jobs that run to their end do so on a
+//! simulator [`SCALE`] times faster than real time (`jogterm sim
+//! --time-scale`): what they check (the end point in steps, the commands
+//! stored or streamed in order, the messages, where a job is cut) does not
+//! depend on how long the motion takes. The Ctrl-C of a stream runs at
+//! [`STREAM_STOP_SCALE`], slower, so that the rest of the stream after its
+//! fifth move takes seconds of wall time, far more than the signal's way.
 
 use std::process::{Child, Output, Stdio};
 use std::time::{Duration, Instant};
@@ -17,6 +23,16 @@ use crate::sim_process::{SimProcess, contains_panic, text};
 /// The samples and where each ends, in steps of the default profile (400
 /// steps/mm) with G54's zero at machine X50 Y50 Z60 mm.
 const WORK_ZERO: &str = "X50 Y50 Z60";
+
+/// How much faster than real time the simulator runs the jobs that run to
+/// their end (`SimOptions::time_scale`).
+const SCALE: f64 = 20.0;
+
+/// The scale of the stream interrupted by Ctrl-C: the eighty moves left
+/// after the fifth take at least 0.2 s each at real time, 16 s in all, so
+/// more than 3 s of wall time here; the stop follows the signal within
+/// milliseconds.
+const STREAM_STOP_SCALE: f64 = 5.0;
 
 fn sample(name: &str) -> String {
     format!("{}/examples/gcode/{name}", env!("CARGO_MANIFEST_DIR"))
@@ -39,8 +55,9 @@ fn spawn(sim: &SimProcess, args: &[&str]) -> Child {
         .expect("spawn jogterm")
 }
 
-/// The samples cut for about ten seconds each at the test profile's speeds:
-/// longer than the usual bound on a child.
+/// The samples cut for ten to seventy-five seconds each at the test
+/// profile's speeds at real time; at [`SCALE`] a few seconds, but the bound
+/// is the real-time one, for a machine under load.
 const RUN_BOUND: Duration = Duration::from_secs(90);
 
 /// A test profile of a faster machine (the default's speeds would make each
@@ -93,7 +110,10 @@ fn import_upload_and_run(
     end_work_mm: [f64; 3],
     during: impl FnOnce(&mut SimProcess),
 ) -> String {
-    let mut sim = SimProcess::start_with_files("isel", &[FAST_MACHINE]);
+    let mut sim = SimProcess::options("isel")
+        .files(&[FAST_MACHINE])
+        .time_scale(SCALE)
+        .start();
     let file = sample(name);
     let program = sim.dir.path().join("out.isel");
     let program_path = program.display().to_string();
@@ -373,7 +393,10 @@ const FAST_EMCU: (&str, &str) = (
 
 #[test]
 fn estlcam_style_as_an_emcu_job_ends_at_its_last_point() {
-    let mut sim = SimProcess::start_with_files("emcu", &[FAST_EMCU]);
+    let mut sim = SimProcess::options("emcu")
+        .files(&[FAST_EMCU])
+        .time_scale(SCALE)
+        .start();
     let ready = run(&sim, &["send", "@R", "#S2000", "#R200\\x01", "$HZYX\\x01"]);
     assert!(ready.status.success(), "{}", text(&ready.stderr));
     sim.wait_device("referenced", |s| {
@@ -419,13 +442,17 @@ fn pockets() -> String {
 }
 
 /// The fast machine's simulator with a program memory of 30 commands, as
-/// its profile says too, and the pocket job in its directory.
+/// its profile says too, and the pocket job in its directory; at [`SCALE`].
 fn pockets_on_a_small_controller() -> (SimProcess, String) {
     let small_memory = (
         "profiles/default.toml",
         "[axes.X]\nmax_speed = 60.0\n[axes.Y]\nmax_speed = 60.0\n[axes.Z]\nmax_speed = 30.0\n[gcode]\nmemory = 30\n",
     );
-    let sim = SimProcess::start_variant("isel", &[small_memory], &["memory=30"]);
+    let sim = SimProcess::options("isel")
+        .files(&[small_memory])
+        .variants(&["memory=30"])
+        .time_scale(SCALE)
+        .start();
     let file = sim.dir.path().join("pockets.nc");
     std::fs::write(&file, pockets()).expect("write");
     let file = file.display().to_string();
@@ -531,7 +558,10 @@ fn a_job_bigger_than_the_memory_runs_as_a_dnc_stream_and_stores_nothing() {
 
 #[test]
 fn ctrl_c_during_a_stream_stops_the_machine_and_sends_no_further_command() {
-    let mut sim = SimProcess::start_with_files("isel", &[FAST_MACHINE]);
+    let mut sim = SimProcess::options("isel")
+        .files(&[FAST_MACHINE])
+        .time_scale(STREAM_STOP_SCALE)
+        .start();
     let file = sim.dir.path().join("pockets.nc");
     std::fs::write(&file, pockets()).expect("write");
     let file = file.display().to_string();

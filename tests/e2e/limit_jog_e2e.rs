@@ -72,7 +72,9 @@ fn isel_jogging_off_x1(sim: &mut SimProcess, config: &Path) -> PtyRun {
 #[test]
 fn isel_the_axis_leaves_its_switch_test_mode_goes_off_and_a_reference_is_asked_for() {
     let config = tempfile::tempdir().expect("tempdir");
-    let mut sim = SimProcess::start("isel");
+    // 1 mm from the reference point (the switch is the operator's control
+    // here): the closing reference run is only the way to READY.
+    let mut sim = SimProcess::start_with_files("isel", &[sim_process::ISEL_NEAR_REFERENCE]);
     let mut run = isel_jogging_off_x1(&mut sim, config.path());
     let state = sim.wait_device("in test mode", |s| s.contains("test mode"));
     assert!(state.contains("test mode"), "{state}");

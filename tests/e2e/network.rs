@@ -17,7 +17,9 @@ use std::time::{Duration, Instant, SystemTime};
 
 use crate::faults_support;
 use crate::ser2net_support;
-use crate::sim_process::{self, SimProcess, WAIT, text, wait_child};
+use crate::sim_process::{
+    self, ISEL_NEAR_REFERENCE, SimOptions, SimProcess, WAIT, text, wait_child,
+};
 use crate::stops_support;
 use crate::timing::serial;
 use faults_support::console::Console;
@@ -46,6 +48,13 @@ fn command(sim: &SimProcess, port: &str, args: &[&str]) -> std::process::Command
     let mut c = sim_process::jogterm(std::path::Path::new(port), sim.family, args);
     c.env("JOGTERM_CONFIG_DIR", sim.dir.path());
     c
+}
+
+/// The isel simulator with its axes 1 mm from the reference point
+/// (`ISEL_NEAR_REFERENCE`), for the tests whose reference runs are only the
+/// way to a referenced machine.
+fn near_reference() -> SimOptions<'static> {
+    SimProcess::options("isel").files(&[ISEL_NEAR_REFERENCE])
 }
 
 fn spawn(sim: &SimProcess, port: &str, args: &[&str]) -> Child {
@@ -174,7 +183,7 @@ fn ctrl_c_of_a_move(sim: &mut SimProcess, port: &str, extra: &[&str]) -> Duratio
 
 #[test]
 fn over_raw_tcp_send_poll_upload_and_ctrl_c_of_a_move_work_as_on_a_tty() {
-    let mut sim = SimProcess::start_tcp("isel");
+    let mut sim = near_reference().tcp().start();
     let port = sim.link.display().to_string();
     send_and_poll(&sim, &port);
 
@@ -206,7 +215,7 @@ fn over_raw_tcp_send_poll_upload_and_ctrl_c_of_a_move_work_as_on_a_tty() {
 
 #[test]
 fn through_ser2net_raw_send_poll_and_ctrl_c_of_a_move_reach_the_serial_line() {
-    let mut sim = SimProcess::start("isel");
+    let mut sim = near_reference().start();
     let ser2net = Ser2net::start(&sim.link, 19200);
     send_and_poll(&sim, &ser2net.raw);
     let took = ctrl_c_of_a_move(&mut sim, &ser2net.raw, &[]);
@@ -233,7 +242,7 @@ fn pty_speed(link: &std::path::Path) -> libc::speed_t {
 
 #[test]
 fn through_ser2net_rfc2217_the_remote_baud_is_set_0xff_is_escaped_and_ctrl_c_stops() {
-    let mut sim = SimProcess::start("isel");
+    let mut sim = near_reference().start();
     // ser2net opens the port at 19200 as configured; jogterm asks for 38400
     // (SET-BAUDRATE), and the port must run that while jogterm has it.
     let ser2net = Ser2net::start(&sim.link, 19200);
@@ -405,7 +414,7 @@ fn an_isel_server_that_falls_silent_is_said_within_the_poll_deadline_and_waited_
 
 #[test]
 fn a_console_on_tcp_hung_up_while_jogging_stops_the_machine() {
-    let mut sim = SimProcess::start_tcp("isel");
+    let mut sim = near_reference().tcp().start();
     let profile = write_profile(&sim, "nettest", "");
     let mut console = Console::start_with(&sim, &["--profile", profile]);
     console.initialise_and_reference();

@@ -133,6 +133,9 @@ fn g55_set_here_survives_a_restart_and_only_a_zero_moves_the_isel_zero() {
     run.type_keys(&[b"g", b"\t"]);
     wait_for(&run, "Go to (machine coordinates)");
     run.type_text("X12");
+    // Enter once the target shows (typed right behind it, a busy console
+    // reads it with the text: a burst, which sends nothing).
+    wait_for(&run, "> X12");
     run.type_keys(&[b"\r"]);
     wait_for(&run, "go to X12 (machine coordinates) at 2 per second");
     wait_x(&run, "at machine 12", |work, steps| {
@@ -143,6 +146,7 @@ fn g55_set_here_survives_a_restart_and_only_a_zero_moves_the_isel_zero() {
     run.type_keys(&[b"g"]);
     wait_for(&run, "Go to (G55 work coordinates)");
     run.type_text("X20F120");
+    wait_for(&run, "> X20F120");
     run.type_keys(&[b"\r"]);
     sim.wait_received("the move at 800 Hz", |r| r.contains("@0M4400,800,"));
     wait_x(&run, "at work 20", |work, steps| {

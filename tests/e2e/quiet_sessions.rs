@@ -10,10 +10,12 @@ use std::process::{Child, Stdio};
 
 use crate::sim_process;
 use crate::stops_support;
-use sim_process::{SimProcess, text, wait_child};
+use sim_process::{
+    EMCU_NEAR_REFERENCE, ISEL_NEAR_REFERENCE, LOGIC_SCALE, SimProcess, text, wait_child,
+};
 use stops_support::{
-    assert_exit, isel_store_long_program, moving, session_traffic, signal, stops_and_motion,
-    wait_moving, x_steps,
+    LONG_PROGRAM_SCALE, assert_exit, isel_store_long_program, moving, session_traffic, signal,
+    stops_and_motion, wait_moving, x_steps,
 };
 
 fn spawn(sim: &SimProcess, args: &[&str]) -> Child {
@@ -113,7 +115,11 @@ fn emp_watch_poll_and_send_of_a_read_send_no_stop() {
 /// end (X at 60 000), and watch sent no stop.
 #[test]
 fn isel_start_key_program_runs_to_its_end_while_watch_connects() {
-    let mut sim = SimProcess::start("isel");
+    // The program runs 5 s of wall time (`LONG_PROGRAM_SCALE`): watch is on
+    // the line within a fraction of that, and the test waits for it there.
+    let mut sim = SimProcess::options("isel")
+        .time_scale(LONG_PROGRAM_SCALE)
+        .start();
     let out = isel_store_long_program(&sim);
     assert_exit(&out, 0, "send (store)");
     sim.control("press start");
@@ -223,7 +229,13 @@ fn program_file(sim: &SimProcess, name: &str, text: &str) -> String {
 /// refused with "reference them (h) first".
 #[test]
 fn isel_upload_start_of_a_program_that_references_itself_runs_unreferenced() {
-    let mut sim = SimProcess::start("isel");
+    // Not referenced, 1 mm from the reference point, ten times faster than
+    // real time: the program's own reference run and move end at the same
+    // counts, and the messages are the same.
+    let mut sim = SimProcess::options("isel")
+        .files(&[ISEL_NEAR_REFERENCE])
+        .time_scale(LOGIC_SCALE)
+        .start();
     let ok = program_file(
         &sim,
         "references.cnc",
@@ -265,7 +277,13 @@ fn isel_upload_start_of_a_program_that_references_itself_runs_unreferenced() {
 /// positions are unknown (not referenced).
 #[test]
 fn emcu_upload_start_of_a_job_that_references_itself_runs_unreferenced() {
-    let mut sim = SimProcess::start("emcu");
+    // Not referenced, 5 mm from the reference point, ten times faster than
+    // real time: the job's own reference run and move end at the same
+    // counts.
+    let mut sim = SimProcess::options("emcu")
+        .files(&[EMCU_NEAR_REFERENCE])
+        .time_scale(LOGIC_SCALE)
+        .start();
     let job = program_file(
         &sim,
         "references.emcu",

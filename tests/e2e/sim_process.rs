@@ -39,6 +39,49 @@ pub fn wait_child(mut child: Child, what: &str) -> Output {
     child.wait_with_output().expect("the output")
 }
 
+/// The time scale of a simulator whose test checks logic only (where a move
+/// or a program ends, what went over the wire, what jogterm says) and
+/// waits for real motion to end: `SimOptions::time_scale(LOGIC_SCALE)`.
+/// Each such test says why its assertions do not depend on the scale
+/// (`docs/testing.md`, "The time scale").
+pub const LOGIC_SCALE: f64 = 10.0;
+
+/// A configuration file for [`SimOptions::files`]: the isel simulator's
+/// axes stand 1 mm from their reference point at power-up (the simulator's
+/// own profile; a jogterm with another configuration directory keeps the
+/// unchanged default), so the reference run takes a moment.
+pub const ISEL_NEAR_REFERENCE: (&str, &str) =
+    ("profiles/default.toml", "[sim]\nstart_position = 1.0\n");
+
+/// A configuration file for [`SimOptions::files`]: the EMCU simulator's
+/// axes stand 5 mm from machine 0 at power-up instead of the shipped
+/// profile's 40 mm, so a reference run at 2 kHz takes about half a second
+/// per axis, not four. For tests in which the reference run is only the
+/// way to a referenced machine (it still runs, and it is still long enough
+/// to be read while it runs).
+pub const EMCU_NEAR_REFERENCE: (&str, &str) = (
+    "profiles/emcu.toml",
+    "base = \"emcu\"\n[sim]\nstart_position = 5.0\n",
+);
+
+/// A configuration file for [`SimOptions::files`]: the EMP simulator's
+/// drive stands 1 mm from its home at power-up, so homing takes a moment.
+pub const EMP_NEAR_REFERENCE: (&str, &str) = (
+    "profiles/emp.toml",
+    "base = \"emp\"\n[sim]\nstart_position = 1.0\n",
+);
+
+/// The configuration file that puts `family`'s simulated axes near their
+/// reference point: [`ISEL_NEAR_REFERENCE`], [`EMCU_NEAR_REFERENCE`] or
+/// [`EMP_NEAR_REFERENCE`].
+pub fn near_reference(family: &str) -> (&'static str, &'static str) {
+    match family {
+        "emcu" => EMCU_NEAR_REFERENCE,
+        "emp" => EMP_NEAR_REFERENCE,
+        _ => ISEL_NEAR_REFERENCE,
+    }
+}
+
 /// Whether a process' output carries a Rust panic message.
 /// The isel commands a reading session sends, none of which moves an axis:
 /// reads (`@0P`, `@0b`), test mode off at every connect (`@0T0`,

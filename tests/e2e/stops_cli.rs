@@ -10,11 +10,13 @@ use std::process::{Child, Stdio};
 
 use crate::sim_process;
 use crate::stops_support;
-use sim_process::{SimProcess, text, wait_child};
+use sim_process::{
+    EMCU_NEAR_REFERENCE, EMP_NEAR_REFERENCE, ISEL_NEAR_REFERENCE, SimProcess, text, wait_child,
+};
 use stops_support::{
-    assert_a_new_connection_moves_nothing, assert_exit, assert_stands, emp_frames, interrupt,
-    isel_store_long_program, moving, session_traffic, signal, stops_and_motion, wait_moving,
-    x_steps,
+    LONG_PROGRAM_SCALE, assert_a_new_connection_moves_nothing, assert_exit, assert_stands,
+    emp_frames, interrupt, isel_store_long_program, moving, session_traffic, signal,
+    stops_and_motion, wait_moving, x_steps,
 };
 
 use crate::faults_support::wire;
@@ -175,7 +177,7 @@ fn isel_send_hang_up_with_its_stderr_gone_stops_closes_and_exits_1() {
 /// a later connection does not move it.
 #[test]
 fn emcu_send_ctrl_c_mid_move_stops_and_nothing_resumes() {
-    let mut sim = SimProcess::start("emcu");
+    let mut sim = SimProcess::start_with_files("emcu", &[EMCU_NEAR_REFERENCE]);
     let mut args = vec!["send"];
     args.extend(EMCU_LONG_MOVE);
     let child = spawn(&sim, &args);
@@ -210,7 +212,7 @@ fn emcu_send_ctrl_c_mid_move_stops_and_nothing_resumes() {
 /// the target, and a later connection does not move it.
 #[test]
 fn emp_send_ctrl_c_mid_positioning_stops_and_nothing_resumes() {
-    let mut sim = SimProcess::start("emp");
+    let mut sim = SimProcess::start_with_files("emp", &[EMP_NEAR_REFERENCE]);
     let mut args = vec!["send", "--drive", "11"];
     args.extend(EMP_LONG_MOVE);
     let child = spawn(&sim, &args);
@@ -301,7 +303,9 @@ const ISEL_LONG_PROGRAM: &str = "; one long move\n7 7\n060000,4000,0,4000,0,4000
 /// 2.2.23, not a resume).
 #[test]
 fn isel_upload_start_ctrl_c_stops_the_running_program() {
-    let mut sim = SimProcess::start("isel");
+    // 1 mm from the reference point: the program's own `7 7` is only the
+    // way to its move.
+    let mut sim = SimProcess::start_with_files("isel", &[ISEL_NEAR_REFERENCE]);
     let out = sim.run(&["send", "@07", "@0N7"]);
     assert_exit(&out, 0, "send (reference)");
     let file = sim.dir.path().join("long.isel");
@@ -384,7 +388,11 @@ fn a_failure_on_a_stderr_that_is_gone_exits_1_not_with_a_panic() {
 /// it. (Before issue 24 it ended with a link failure, status 3.)
 #[test]
 fn isel_poll_during_a_start_key_program_stops_nothing_and_the_program_ends() {
-    let mut sim = SimProcess::start("isel");
+    // The program runs 5 s of wall time (`LONG_PROGRAM_SCALE`): the poll
+    // before it and the waits on events are the same.
+    let mut sim = SimProcess::options("isel")
+        .time_scale(LONG_PROGRAM_SCALE)
+        .start();
     let out = isel_store_long_program(&sim);
     assert_exit(&out, 0, "send (store)");
     let before = sim.received();
@@ -428,7 +436,7 @@ fn isel_poll_during_a_start_key_program_stops_nothing_and_the_program_ends() {
 /// moves nothing.
 #[test]
 fn emcu_upload_start_ctrl_c_stops_the_running_job() {
-    let mut sim = SimProcess::start("emcu");
+    let mut sim = SimProcess::start_with_files("emcu", &[EMCU_NEAR_REFERENCE]);
     let mut reference = vec!["send"];
     reference.extend(&EMCU_LONG_MOVE[..4]);
     let out = sim.run(&reference);

@@ -22,11 +22,18 @@ use stops_support::{
 /// (`stops_support::write_profile`), initialised and referenced: READY, so
 /// jogs and go-to are allowed.
 fn ready(family: &'static str) -> (SimProcess, Console) {
-    let sim = SimProcess::start(family);
+    let sim = simulator(family);
     let profile = write_profile(&sim, "stoptest", "");
     let mut console = Console::start_with(&sim, &["--profile", profile]);
     console.initialise_and_reference();
     (sim, console)
+}
+
+/// `family`'s simulator for these tests. The axes stand near the
+/// reference point at power-up (`sim_process::near_reference`), not 40 mm
+/// from it: the reference run is only the way to READY here.
+fn simulator(family: &'static str) -> SimProcess {
+    SimProcess::start_with_files(family, &[sim_process::near_reference(family)])
 }
 
 /// The jog's overrun bound in steps (`jog.max_overrun` = 3 units, the
@@ -278,7 +285,7 @@ fn has_stop(family: &str, traffic: &str) -> bool {
 /// dead man) sends the family's stop when it quits. Before: every console
 /// connection opened with the stop sequence.
 fn console_stops_only_once_it_has_moved(family: &'static str) {
-    let mut sim = SimProcess::start(family);
+    let mut sim = simulator(family);
     let profile = write_profile(&sim, "stoptest", "");
     let before = sim.received().len();
     let console = Console::start_with(&sim, &["--profile", profile]);

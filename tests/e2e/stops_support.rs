@@ -86,6 +86,12 @@ pub fn isel_store_long_program(sim: &SimProcess) -> Output {
     ])
 }
 
+/// The time scale of a test that lets [`isel_store_long_program`]'s
+/// program run to its end while a session connects: 5 s of wall time, still
+/// ample for a `jogterm` to start and talk to it (`docs/testing.md`, "The
+/// time scale").
+pub const LONG_PROGRAM_SCALE: f64 = 3.0;
+
 /// Whether the simulator's state line says an axis moves.
 pub fn moving(family: &str, state: &str) -> bool {
     match family {
