@@ -12,10 +12,12 @@ use crate::ui_pty::PtyRun;
 const WORK_ZERO: &str = "X50 Y50 Z60";
 
 /// A faster machine than the default (X and Y 60 mm/s, Z 30 mm/s) with a
-/// program memory of 30 commands, as its simulator.
+/// program memory of 30 commands, as its simulator; the simulated axes
+/// stand 1 mm from their reference point, so a job's own reference run
+/// (`77`) takes a moment (what is tested comes after it).
 const SMALL_MEMORY: (&str, &str) = (
     "profiles/default.toml",
-    "[axes.X]\nmax_speed = 60.0\n[axes.Y]\nmax_speed = 60.0\n[axes.Z]\nmax_speed = 30.0\n[gcode]\nmemory = 30\n",
+    "[axes.X]\nmax_speed = 60.0\n[axes.Y]\nmax_speed = 60.0\n[axes.Z]\nmax_speed = 30.0\n[gcode]\nmemory = 30\n[sim]\nstart_position = 1.0\n",
 );
 
 fn small_controller() -> SimProcess {
@@ -380,8 +382,9 @@ fn over_tcp_ctrl_c_of_a_stream_reaches_the_line_within_the_network_bound() {
     );
 }
 
-/// `@0M` moves on the wire after `from`, as (x, y, z, z speed).
-fn moves_after(received: &str, from: usize) -> Vec<(i64, i64, i64, i64)> {
+/// `@0M` moves on the wire after `from`, as (x, y, z, z speed, x speed,
+/// y speed).
+fn moves_after(received: &str, from: usize) -> Vec<(i64, i64, i64, i64, i64, i64)> {
     received[from..]
         .split("<CR>")
         .filter_map(|c| c.strip_prefix("@0M"))
@@ -390,7 +393,7 @@ fn moves_after(received: &str, from: usize) -> Vec<(i64, i64, i64, i64)> {
                 .split(',')
                 .map(|v| v.parse().expect("a number"))
                 .collect();
-            (f[0], f[2], f[4], f[5])
+            (f[0], f[2], f[4], f[5], f[1], f[3])
         })
         .collect()
 }
@@ -686,20 +689,25 @@ fn an_emcu_stream_pauses_with_b_resumes_with_the_rest_and_ends_at_its_last_point
 fn the_speed_factor_sets_the_speed_of_the_moves_not_yet_sent() {
     let mut sim = small_controller();
     let file = write(&sim, "slow.nc", SLOW_CUT);
-    // Half speed from the start, then one step faster while the controller
-    // is still being set up and referenced: 60 % of every move's speeds.
-    let mut run = run_on_a_terminal_with(&sim, &file, &["--speed", "50"]);
-    run.type_text("+");
-    run.wait_for("speed 60 % of the program's", Duration::from_secs(10))
+    let mut run = run_on_a_terminal(&sim, &file);
+    wait_in_the_slow_cut(&mut sim);
+    // One step slower while the cut runs: the cut keeps its speed (it is
+    // on its way), the moves after it go out at 90 %.
+    run.type_text("-");
+    run.wait_for("speed 90 % of the program's", Duration::from_secs(10))
         .expect("the factor is said");
-    assert_eq!(run.wait_exit(Duration::from_secs(90)), Some(0));
+    assert_eq!(run.wait_exit(Duration::from_secs(60)), Some(0));
     stands_at(&mut sim, [40.0, 20.0, 5.0]);
-    // The slow cut G1 X40 F300: 5 mm/s, 2000 Hz at 400 steps/mm; at 60 %
-    // 1200 Hz on the wire.
-    let [x40, ..] = steps([40.0, 0.0, 0.0]);
     let received = sim.received();
-    assert!(
-        received.contains(&format!("@0M{x40},1200,")),
-        "the cut at 60 %: {received}"
+    let [x40, y20, _] = steps([40.0, 20.0, 0.0]);
+    let moves = moves_after(&received, 0);
+    // G1 X40 F300: 5 mm/s, 2000 Hz at 400 steps/mm, as programmed.
+    let cut = moves.iter().position(|m| m.0 == x40).expect("the cut");
+    assert_eq!(moves[cut].4, 2000, "{moves:?}");
+    // G1 Y20 F1500: 25 mm/s, 10000 Hz; at 90 % 9000 Hz.
+    assert_eq!(
+        (moves[cut + 1].1, moves[cut + 1].5),
+        (y20, 9000),
+        "{moves:?}"
     );
 }
