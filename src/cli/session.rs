@@ -355,6 +355,27 @@ pub fn say_interrupted(command: &str, moves: Moves) {
     super::out::say(format_args!("jogterm {command}: interrupted{after}"));
 }
 
+/// A session that moves, on a runtime of its own, handed to `body` (the
+/// commands that store and run programs); a configuration it cannot start
+/// with is said as `jogterm <command>: …`, exit 2.
+pub fn moving(
+    global: &GlobalArgs,
+    profile: Profile,
+    command: &str,
+    body: impl AsyncFnOnce(Session) -> std::process::ExitCode,
+) -> anyhow::Result<std::process::ExitCode> {
+    runtime()?.block_on(async {
+        match start(global, profile, Polling::OFF, Moves::Yes) {
+            Ok(session) => Ok(body(session).await),
+            Err(StartError::Usage(m)) => {
+                super::out::say(format_args!("jogterm {command}: {m}"));
+                Ok(std::process::ExitCode::from(EXIT_USAGE))
+            }
+            Err(StartError::Failed(e)) => Err(e),
+        }
+    })
+}
+
 /// A current-thread runtime for a command.
 pub fn runtime() -> anyhow::Result<tokio::runtime::Runtime> {
     tokio::runtime::Builder::new_current_thread()

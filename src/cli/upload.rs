@@ -20,7 +20,7 @@ use clap::Args;
 use super::GlobalArgs;
 use super::check::render;
 use super::out;
-use super::session::{self, EXIT_LINK, EXIT_USAGE, Linked, Polling, Session, StartError};
+use super::session::{self, EXIT_LINK, EXIT_USAGE, Linked, Session, StartError};
 use crate::axis::{Axis, AxisSet};
 use crate::device::api::{
     Activity, ControllerFault, Event, LinkState, PerAxis, Refusal, Request, UploadEvent,
@@ -476,14 +476,8 @@ pub fn run(global: &GlobalArgs, args: &UploadArgs) -> anyhow::Result<ExitCode> {
         }
     };
     let remedy = Remedy::of(&profile);
-    let runtime = session::runtime()?;
-    runtime.block_on(async {
-        let session = match session::start(global, profile, Polling::OFF, session::Moves::Yes) {
-            Ok(s) => s,
-            Err(StartError::Usage(m)) => return usage(m),
-            Err(StartError::Failed(e)) => return Err(e),
-        };
-        Ok(upload_and_run(session, &prepared, args, &remedy).await)
+    session::moving(global, profile, "upload", async |session| {
+        upload_and_run(session, &prepared, args, &remedy).await
     })
 }
 

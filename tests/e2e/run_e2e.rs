@@ -503,6 +503,14 @@ const FAST_MACHINE: (&str, &str) = (
     "[axes.X]\nmax_speed = 60.0\n[axes.Y]\nmax_speed = 60.0\n[axes.Z]\nmax_speed = 30.0\n",
 );
 
+/// The faster machine's simulator at [`JOB_SCALE`].
+fn job_simulator() -> SimProcess {
+    SimProcess::options("isel")
+        .files(&[FAST_MACHINE])
+        .time_scale(JOB_SCALE)
+        .start()
+}
+
 /// `jogterm run` of the 20k-move finish on a scaled simulator, its traffic
 /// logged: what it said, and the log.
 fn run_finish(sim: &SimProcess, passes: usize, way: &str) -> (String, String) {
@@ -554,10 +562,7 @@ fn sent(log: &str) -> impl Iterator<Item = &str> {
 
 #[test]
 fn a_20k_move_job_streamed_ends_exactly_at_its_last_point() {
-    let mut sim = SimProcess::options("isel")
-        .files(&[FAST_MACHINE])
-        .time_scale(JOB_SCALE)
-        .start();
+    let mut sim = job_simulator();
     let passes = 102;
     let (said, log) = run_finish(&sim, passes, "--stream");
     assert!(said.contains("the stream ended"), "{said}");
@@ -575,10 +580,7 @@ fn a_20k_move_job_streamed_ends_exactly_at_its_last_point() {
 
 #[test]
 fn a_20k_move_job_in_parts_ends_exactly_at_its_last_point_every_part_cut_at_a_retract() {
-    let mut sim = SimProcess::options("isel")
-        .files(&[FAST_MACHINE])
-        .time_scale(JOB_SCALE)
-        .start();
+    let mut sim = job_simulator();
     let passes = 102;
     let (said, log) = run_finish(&sim, passes, "--chunked");
     assert!(said.contains("chosen: chunked"), "{said}");

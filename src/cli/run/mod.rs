@@ -18,7 +18,7 @@ use clap::Args;
 
 use super::GlobalArgs;
 use super::out;
-use super::session::{self, EXIT_LINK, EXIT_USAGE, Linked, Polling, Session, StartError};
+use super::session::{self, EXIT_LINK, EXIT_USAGE, Linked, Session};
 use super::upload::{self, Prepared, Remedy, Status};
 use crate::gcode::ways::{Costs, Way, Ways};
 use crate::program::{Language, LintConfig};
@@ -187,14 +187,8 @@ pub fn run(global: &GlobalArgs, args: &RunArgs) -> anyhow::Result<ExitCode> {
         }
     }
     let remedy = Remedy::of(&profile);
-    let runtime = session::runtime()?;
-    runtime.block_on(async {
-        let session = match session::start(global, profile, Polling::OFF, session::Moves::Yes) {
-            Ok(s) => s,
-            Err(StartError::Usage(m)) => return usage(m),
-            Err(StartError::Failed(e)) => return Err(e),
-        };
-        Ok(run_job(session, &job, args, &remedy).await)
+    session::moving(global, profile, "run", async |session| {
+        run_job(session, &job, args, &remedy).await
     })
 }
 
