@@ -4,7 +4,8 @@
 //! handling comes back when the run ends, also on a panic's unwinding.
 //!
 //! Keys: Space, `s` or `q` stop; `p` pauses; `r` or Enter resumes; `+` and
-//! `-` change the speed factor of the moves not yet sent by 10 %.
+//! `-` change the speed factor of the moves not yet sent by 10 %. Keys that
+//! arrive together (a paste, a burst) only stop or pause ([`keys_of`]).
 
 use std::io::IsTerminal;
 use std::os::fd::{AsRawFd, RawFd};
@@ -80,21 +81,42 @@ impl Keys {
 
 fn read_keys(tx: &mpsc::UnboundedSender<Key>) {
     use std::io::Read;
-    let mut byte = [0u8; 1];
+    let mut bytes = [0u8; 64];
     let mut stdin = std::io::stdin().lock();
     loop {
-        match stdin.read(&mut byte) {
-            Ok(1) => {
-                if let Some(key) = Key::of(byte[0])
-                    && tx.send(key).is_err()
-                {
-                    return;
+        match stdin.read(&mut bytes) {
+            Ok(n) if n > 0 => {
+                for key in keys_of(bytes.get(..n).unwrap_or_default()) {
+                    if tx.send(key).is_err() {
+                        return;
+                    }
                 }
             }
             Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
             _ => {
                 let _ = tx.send(Key::Gone);
                 return;
+            }
+        }
+    }
+}
+
+/// The keys of one read. A read of several bytes is a paste or a burst, not
+/// keys the operator pressed one by one: of it only what stops motion
+/// counts (a stop, a pause), never a resume or a change of speed, as the
+/// console answers nothing to a burst (`docs/gcode.md`, "`jogterm run`").
+pub fn keys_of(bytes: &[u8]) -> Vec<Key> {
+    let keys = bytes.iter().filter_map(|b| Key::of(*b));
+    match bytes {
+        [_] => keys.collect(),
+        _ => {
+            let burst: Vec<Key> = keys.collect();
+            if burst.contains(&Key::Stop) {
+                vec![Key::Stop]
+            } else if burst.contains(&Key::Pause) {
+                vec![Key::Pause]
+            } else {
+                Vec::new()
             }
         }
     }
@@ -148,5 +170,17 @@ mod tests {
         assert_eq!(Key::of(b'+'), Some(Key::Faster));
         assert_eq!(Key::of(b'-'), Some(Key::Slower));
         assert_eq!(Key::of(b'x'), None);
+    }
+
+    #[test]
+    fn a_burst_stops_or_pauses_but_never_resumes_or_speeds_up() {
+        assert_eq!(keys_of(b"+"), [Key::Faster]);
+        assert_eq!(keys_of(b"r"), [Key::Resume]);
+        assert!(keys_of(b"+++++").is_empty());
+        assert!(keys_of(b"rr").is_empty());
+        assert!(keys_of(b"r\r").is_empty());
+        assert_eq!(keys_of(b"pr"), [Key::Pause]);
+        assert_eq!(keys_of(b"r p +"), [Key::Stop]);
+        assert!(keys_of(b"xyz").is_empty());
     }
 }
