@@ -180,11 +180,12 @@ fn a_job_that_fits_is_stored_and_without_a_terminal_nothing_starts_unasked() {
 
 /// `jogterm run FILE --stream` on a terminal of its own, confirmed with `y`.
 fn run_on_a_terminal(sim: &SimProcess, file: &str) -> PtyRun {
-    run_on_a_terminal_with(sim, file, &[])
+    run_on_a_terminal_as(sim, file, "stream")
 }
 
-/// [`run_on_a_terminal`] with more options.
-fn run_on_a_terminal_with(sim: &SimProcess, file: &str, more: &[&str]) -> PtyRun {
+/// [`run_on_a_terminal`] the way `way` (`stream`, `chunked`).
+fn run_on_a_terminal_as(sim: &SimProcess, file: &str, way: &str) -> PtyRun {
+    let way_arg = format!("--{way}");
     let link = sim.link.display().to_string();
     let config = sim.dir.path().display().to_string();
     let mut run = PtyRun::spawn_sized(
@@ -198,20 +199,29 @@ fn run_on_a_terminal_with(sim: &SimProcess, file: &str, more: &[&str]) -> PtyRun
             file,
             "--work-zero",
             WORK_ZERO,
-            "--stream",
-        ]
-        .iter()
-        .chain(more)
-        .copied()
-        .collect::<Vec<_>>(),
+            &way_arg,
+        ],
         &[("JOGTERM_CONFIG_DIR", &config)],
         50,
         200,
     );
-    run.wait_for("start the job (stream)? [y/N]", Duration::from_secs(10))
-        .expect("the confirmation");
+    run.wait_for(
+        &format!("start the job ({way})? [y/N]"),
+        Duration::from_secs(10),
+    )
+    .expect("the confirmation");
     run.type_text("y\r");
     run
+}
+
+/// The X counter of the simulator's `show` line.
+fn x_of(state: &str) -> i64 {
+    state
+        .trim_start_matches("device: X ")
+        .split(' ')
+        .next()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("no X in {state}"))
 }
 
 /// The long cut `G1 X40 F300` (machine X 90 mm) has gone out and runs.
@@ -244,12 +254,7 @@ fn p_pauses_a_stream_without_a_stop_and_r_finishes_the_move_with_0s() {
     );
     // Standing where it paused, short of X40; nothing goes out meanwhile.
     let [x40, ..] = steps([40.0, 0.0, 0.0]);
-    let x: i64 = state
-        .trim_start_matches("device: X ")
-        .split(' ')
-        .next()
-        .and_then(|v| v.parse().ok())
-        .expect("X");
+    let x = x_of(&state);
     assert!(x < x40, "paused short of the cut's end: {state}");
     std::thread::sleep(Duration::from_millis(1500));
     assert_eq!(
@@ -657,12 +662,7 @@ fn an_emcu_stream_pauses_with_b_resumes_with_the_rest_and_ends_at_its_last_point
         received[received.rfind(&cut).expect("the cut")..].contains("@B"),
         "the pause halts with @B: {received}"
     );
-    let x: i64 = state
-        .trim_start_matches("device: X ")
-        .split(' ')
-        .next()
-        .and_then(|v| v.parse().ok())
-        .expect("X");
+    let x = x_of(&state);
     assert!(x < x40, "paused short of the cut's end: {state}");
     std::thread::sleep(Duration::from_millis(1000));
     assert!(
@@ -712,4 +712,31 @@ fn the_speed_factor_sets_the_speed_of_the_moves_not_yet_sent() {
         (y20, 9000),
         "{moves:?}"
     );
+}
+
+#[test]
+fn space_stops_a_job_in_parts_and_no_further_part_is_stored() {
+    let mut sim = small_controller();
+    let file = write(&sim, "pockets.nc", &pockets(12));
+    let mut run = run_on_a_terminal_as(&sim, &file, "chunked");
+    // Inside the first part: its program started and the axes move.
+    sim.wait_received("the first part's start", |r| r.contains("@0S<CR>"));
+    sim.wait_device("moving", |s| s.contains("moving"));
+    run.type_text(" ");
+    assert_eq!(run.wait_exit(Duration::from_secs(10)), Some(1));
+    run.drain(Duration::from_secs(2));
+    assert!(text(&run.output()).contains("stopped; nothing resumes"));
+    let received = sim.received();
+    let stop = received.rfind("<FD><FF>").expect("the stop");
+    assert!(
+        received.find("@0S<CR>").is_some_and(|start| start < stop),
+        "{received}"
+    );
+    assert!(
+        !received[stop..].contains("@0i") && !received[stop..].contains("@0S"),
+        "no part after the stop: {received}"
+    );
+    sim.wait_device("standing", |s| !s.contains("moving"));
+    std::thread::sleep(Duration::from_millis(800));
+    assert!(!sim.device_state().contains("moving"), "nothing resumes");
 }
