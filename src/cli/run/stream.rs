@@ -154,8 +154,8 @@ struct Control {
 }
 
 impl Control {
-    /// A key that changes nothing on the wire; `Some(stop)` when the key
-    /// asks to stop.
+    /// `+` and `-`: the factor of the moves not yet sent, said when it
+    /// changes; other keys change nothing here.
     fn speed(&mut self, key: Key) {
         let before = self.percent;
         self.percent = match key {
@@ -460,9 +460,13 @@ impl Progress {
         }
         self.shown = Some(key);
         self.last = Some(now);
+        self.say(place, (index, self.total), started);
+    }
+
+    fn say(&self, place: &Place<'_>, done: (usize, usize), started: Instant) {
         let text = progress_text(
-            &place.at(index),
-            (index, self.total),
+            &place.at(done.0),
+            done,
             started.elapsed().as_secs_f64(),
             place.estimate_s,
         );
@@ -473,16 +477,12 @@ impl Progress {
         }
     }
 
-    /// The stream ran to its end: the last line at 100 %, whatever the
+    /// The stream ran to its end: its last line at 100 %, whatever the
     /// throttle held back.
     fn done(&mut self, place: &Place<'_>, last: Option<usize>, started: Instant) {
         if let Some(index) = last {
-            self.shown = None;
-            self.last = None;
-            let total = self.total;
-            self.total = index.max(1);
-            self.show(place, index, started);
-            self.total = total;
+            self.say(place, (index, index), started);
+            self.shown = Some(index);
         }
         self.end();
     }
