@@ -494,12 +494,14 @@ fn finish_end(passes: usize) -> [f64; 3] {
     [55.0, 5.0 + (passes - 1) as f64 * 0.4, 5.0]
 }
 
-/// The simulator runs 50 times as fast as the controller (motion, wire,
-/// erases), and jogterm paces the line as for 921600 baud, about as fast
-/// as 19200 baud 50 times over: these runs check where 20 000 moves end and
-/// where the parts are cut, not how long they take (`benches/jobs.rs`
-/// measures that at the controller's speed).
-const JOB_SCALE: f64 = 50.0;
+/// The simulator runs 500 times as fast as the controller (motion, wire,
+/// erases), and jogterm paces the line as for 921600 baud, so jogterm's own
+/// round trip per command is most of what is left: these runs check where
+/// 20 000 moves end and where the parts are cut, not how long they take
+/// (`benches/jobs.rs` measures that at the controller's speed). Nothing in
+/// jogterm's deadlines gets shorter with the scale: every reply only comes
+/// sooner than the controller's would.
+const JOB_SCALE: f64 = 500.0;
 const JOB_BAUD: &str = "921600";
 
 /// The faster machine with the controller's own memory (2000 commands).
