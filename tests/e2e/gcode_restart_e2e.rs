@@ -8,7 +8,7 @@
 
 use std::process::Output;
 
-use crate::sim_process::{JOGTERM, SimProcess, contains_panic, text};
+use crate::sim_process::{JOGTERM, LOGIC_SCALE, SimProcess, contains_panic, text};
 
 fn sample(name: &str) -> String {
     format!("{}/examples/gcode/{name}", env!("CARGO_MANIFEST_DIR"))
@@ -150,14 +150,18 @@ fn ended_at(said: &str) -> Vec<i64> {
 
 #[test]
 fn a_restart_stored_and_run_ends_where_the_whole_job_ends() {
-    // A faster machine than the default, so that the run is short.
-    let sim = SimProcess::start_with_files(
-        "isel",
-        &[(
+    // A faster machine than the default, standing 1 mm from its reference
+    // point, on a simulator at the logic scale: the test checks where the
+    // stored restart ends, which no scale changes (`docs/testing.md`,
+    // "The time scale").
+    let sim = SimProcess::options("isel")
+        .files(&[(
             "profiles/default.toml",
-            "[axes.X]\nmax_speed = 60.0\n[axes.Y]\nmax_speed = 60.0\n[axes.Z]\nmax_speed = 30.0\n",
-        )],
-    );
+            "[axes.X]\nmax_speed = 60.0\n[axes.Y]\nmax_speed = 60.0\n[axes.Z]\nmax_speed = 30.0\n\
+             [sim]\nstart_position = 1.0\n",
+        )])
+        .time_scale(LOGIC_SCALE)
+        .start();
     let job = sim.dir.path().join("job.nc");
     std::fs::write(
         &job,
