@@ -253,6 +253,11 @@ impl IselDriver {
         if !self.link_up || self.resend_at.is_none_or(|t| now < t) {
             return None;
         }
+        if !self.decoder.pending().is_empty() {
+            // A late reply is arriving: let it end (or fall silent) first.
+            self.resend_at = Some(now + self.cx.settings.timing.resync_gap);
+            return None;
+        }
         self.resend_at = None;
         let ex = self.exchange.as_mut()?;
         if self.decoder.expect(ex.expect).is_err() {
@@ -521,7 +526,6 @@ impl IselDriver {
         let Some(mut ex) = self.exchange.take() else {
             return;
         };
-        self.decoder.abandon();
         // A session that was not asked to move never stops what the
         // controller runs, and a reconnect would (once it has moved) or would
         // only repeat the same read: the controller is busy (it answers
@@ -538,6 +542,10 @@ impl IselDriver {
                     ex.text
                 ));
             }
+            // The decoder still expects the read's reply: one that comes
+            // after the deadline (a slow controller, a starved host) answers
+            // this read, instead of being taken for unexpected bytes and its
+            // repeat's reply for the answer to the read after it.
             ex.transmitted = false;
             ex.transmitted_at = None;
             ex.deadline = None;
@@ -546,6 +554,7 @@ impl IselDriver {
             self.resend_at = Some(now + BUSY_REPEAT);
             return;
         }
+        self.decoder.abandon();
         let waited = ex
             .transmitted_at
             .map_or(Duration::ZERO, |t| now.saturating_duration_since(t));

@@ -181,3 +181,51 @@ fn a_session_that_has_not_moved_waits_for_a_busy_controller_and_repeats_its_read
     assert_eq!(lost(&h), None);
     assert_eq!(h.faults(), Vec::<String>::new());
 }
+
+/// A reply that comes after its deadline (a starved host, a slow
+/// controller) to a read that is then repeated: it answers that read, and
+/// the line must not be read one reply out of step afterwards.
+#[test]
+fn a_late_reply_to_a_repeated_read_answers_it_and_the_next_reply_stays_in_step() {
+    use crate::device::api::BUSY_NOTICE;
+    use crate::device::driver::Driver;
+    let mut h = Harness::with(|s| {
+        s.poll.rate = PollRate::LineSpeed;
+        s.poll.ports.clear();
+    });
+    h.driver.set_connect_halt(false);
+    h.driver.connected(h.now);
+    h.collect();
+    h.advance(ms(100));
+    h.expect_text("@0T0");
+    h.reply(b"0");
+    h.readback(0, 0, 0, b"0");
+    h.take_events();
+    h.expect_text("@0P");
+    h.advance(ms(200));
+    assert!(h.notices().iter().any(|n| n.starts_with(BUSY_NOTICE)));
+    // The answer arrives late, before the read is repeated.
+    h.advance(ms(50));
+    h.reply(&position_reply(5, 0, 0));
+    h.advance(ms(20));
+    let unexpected: Vec<String> = h
+        .notices()
+        .into_iter()
+        .filter(|n| n.contains("unexpected"))
+        .collect();
+    assert_eq!(unexpected, Vec::<String>::new(), "{:?}", h.events);
+    // Polling goes on in step: each reply is read as the answer to its read.
+    for x in 6..9 {
+        h.advance(ms(500));
+        h.expect_text("@0P");
+        h.reply(&position_reply(x, 0, 0));
+        assert_eq!(
+            h.positions().last().map(|p| p.steps),
+            Some(super::harness::xyz(i64::from(x), 0, 0)),
+            "{:?}",
+            h.events
+        );
+    }
+    assert_eq!(h.faults(), Vec::<String>::new());
+    assert_eq!(lost(&h), None);
+}
