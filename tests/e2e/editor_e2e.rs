@@ -12,7 +12,7 @@ use std::fs;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use sim_process::{JOGTERM, SimProcess, WAIT};
+use sim_process::{ISEL_NEAR_REFERENCE, JOGTERM, SimProcess, WAIT};
 use ui_pty::{PtyRun, recoveries};
 
 const PROGRAM: &str = "; drill\n7 7\nm8000,8000,8000,8000\n9\n";
@@ -192,7 +192,13 @@ o0,0,1,2
 #[test]
 fn edit_upload_and_run_on_the_simulator_end_where_the_preview_said() {
     let (dir, config, state) = dirs();
-    let sim = SimProcess::start("isel");
+    // Axes 1 mm from the reference point at power-up, not 40: the
+    // reference run is only the way to a referenced machine here (the end
+    // point is counted from it), and takes two seconds instead of about
+    // fourteen.
+    let sim = SimProcess::options("isel")
+        .files(&[ISEL_NEAR_REFERENCE])
+        .start();
     // The program arrives with a typo the editor shows and the operator fixes.
     let file = dir.path().join("loop.isel");
     fs::write(&file, LOOP_AND_BRANCH.replace("3 2,-1", "3 2,-1,7")).expect("write");
@@ -338,10 +344,18 @@ fn wait_x_steps(run: &PtyRun, steps: &str) {
 #[test]
 fn an_emcu_job_taught_after_a_work_zero_drives_back_to_where_the_machine_stood() {
     let (dir, config, state) = dirs();
-    // Axes 1 mm from machine 0 at power-up: the reference run is short.
+    // Axes 0.25 mm from machine 0 at power-up: the reference run (at the
+    // start speed, 1 mm/s) still searches, frees and offsets every axis, in
+    // about a second instead of three and a half. The jog speed selected at
+    // start is the last one, raised to 10 mm/s (X's max_speed): the go-to
+    // X5 takes a second, not five at the shipped selection's 1 mm/s, and
+    // the jog step, the go-to back and the taught moves (at the last jog
+    // speed, 5 mm/s before) less than before. The distances, and so every
+    // count below, are the same.
     let near_zero = (
         "profiles/emcu.toml",
-        "base = \"emcu\"\n[sim]\nstart_position = 1.0\n",
+        "base = \"emcu\"\n[sim]\nstart_position = 0.25\n\
+         [jog]\nspeeds = [0.5, 1.0, 2.5, 10.0]\nspeed = 3\n",
     );
     let mut sim = SimProcess::start_with_files("emcu", &[near_zero]);
     fs::create_dir_all(config.join("profiles")).expect("profiles dir");
@@ -418,26 +432,28 @@ fn an_emcu_job_taught_after_a_work_zero_drives_back_to_where_the_machine_stood()
     assert_eq!(run.wait_exit(WAIT), Some(0));
 }
 
-/// `n` square pockets from X60 Y60, each entered from and left to the safe
-/// height Z65 (machine mm; the console's work zero is the reference point).
+/// `n` square pockets from X10 Y10, each entered from and left to the safe
+/// height Z8 with a 2 mm plunge to Z6 (machine mm; the console's work zero
+/// is the reference point): close to the reference point, so the rapids
+/// to the job and its plunges take tenths of a second, not seconds.
 fn pockets(n: usize) -> String {
-    crate::run_e2e::pockets_at(n, 60, (65, 59))
+    crate::run_e2e::pockets_at(n, 10, (8, 6))
 }
 
-/// Issue 27, item 4: a G-code job of 88 commands on a controller that
-/// stores 30, opened with `--program`, run with F6 from the editor: the
-/// question says the ways and takes parts; every part is stored and run in
-/// turn, each but the last ends at the safe height, and the machine ends
-/// at the job's last point.
-/// The console on a controller that stores 30 commands (X and Y 60 mm/s,
+/// The console on a controller that stores 10 commands (X and Y 60 mm/s,
 /// Z 30 mm/s) with `gcode` opened as `--program pockets.nc`, the axes
-/// initialised and referenced, the program screen shown.
+/// initialised and referenced, the program screen shown. The axes stand
+/// 1 mm from the reference point at power-up (`ISEL_NEAR_REFERENCE`'s
+/// `[sim]`, in the same file: two files of one name do not merge), so the
+/// reference run, only the way to a referenced machine, is short.
 fn gcode_on_a_small_controller(gcode: &str) -> (SimProcess, PtyRun) {
     let small_memory = (
         "profiles/default.toml",
-        "[axes.X]\nmax_speed = 60.0\n[axes.Y]\nmax_speed = 60.0\n[axes.Z]\nmax_speed = 30.0\n[gcode]\nmemory = 30\n",
+        "[sim]\nstart_position = 1.0\n\
+         [axes.X]\nmax_speed = 60.0\n[axes.Y]\nmax_speed = 60.0\n[axes.Z]\nmax_speed = 30.0\n\
+         [gcode]\nmemory = 10\n",
     );
-    let sim = SimProcess::start_variant("isel", &[small_memory], &["memory=30"]);
+    let sim = SimProcess::start_variant("isel", &[small_memory], &["memory=10"]);
     let state = sim.dir.path().join("state");
     let file = sim.dir.path().join("pockets.nc");
     fs::write(&file, gcode).expect("write the job");
@@ -471,31 +487,40 @@ fn wait_steps(run: &mut PtyRun, steps: [&str; 3]) {
     }
 }
 
+/// Issue 27, item 4: a G-code job of 18 commands (two pockets) on a
+/// controller that stores 10, opened with `--program`, run with F6 from the
+/// editor: the question says the ways and takes parts; every part is
+/// stored and run in turn, each but the last ends at the safe height, and
+/// the machine ends at the job's last point. Three parts: the first (the
+/// job's reference run and the way to the first pocket), one that starts
+/// and ends at a cut (the first pocket), the last; twelve pockets in four
+/// parts on 30 commands proved no more and took four times as long (each
+/// part costs a 2 s erase besides its motion).
 #[test]
 fn a_gcode_job_bigger_than_the_memory_runs_in_parts_from_the_editor() {
-    let (mut sim, mut run) = gcode_on_a_small_controller(&pockets(12));
+    let (mut sim, mut run) = gcode_on_a_small_controller(&pockets(2));
     let before = sim.received().len();
     run.type_keys(&[b"\x1b[17~"]);
     let screen = wait_for(&run, "Run pockets.nc");
     assert!(
-        screen.contains("88 commands, the controller stores 30"),
+        screen.contains("18 commands, the controller stores 10"),
         "{screen}"
     );
     assert!(screen.contains("chosen: chunked"), "{screen}");
     run.type_keys(&[b"y"]);
-    wait_for(&run, "part 1/4");
+    wait_for(&run, "part 1/3");
     let screen = run
-        .wait_for("the job ended: 4 parts", Duration::from_secs(120))
+        .wait_for("the job ended: 3 parts", Duration::from_secs(120))
         .unwrap_or_else(|screen| panic!("the job never ended:\n{screen}"));
     assert!(!screen.contains("RUNNING part"), "{screen}");
-    // The last pocket is at X96 Y84, left at Z65: in steps.
-    wait_steps(&mut run, ["38400", "33600", "26000"]);
-    // Four programs stored, each but the last ending with the rapid up to
-    // the safe height (26000 steps) before its `9`.
+    // The last pocket is at X22 Y10, left at Z8: in steps.
+    wait_steps(&mut run, ["8800", "4000", "3200"]);
+    // Three programs stored, each but the last ending with the rapid up to
+    // the safe height (3200 steps) before its `9`, none over 10 commands.
     let received = sim.received();
     let stored = crate::run_e2e::stored_programs(&received[before..]);
-    assert_eq!(stored.len(), 4, "{received}");
-    crate::run_e2e::assert_parts_end_retracted(&stored, "26000", 30);
+    assert_eq!(stored.len(), 3, "{received}");
+    crate::run_e2e::assert_parts_end_retracted(&stored, "3200", 10);
     run.type_keys(&[b"q"]);
     wait_for(&run, "Unsaved");
     run.type_keys(&[b"d"]);
@@ -503,10 +528,13 @@ fn a_gcode_job_bigger_than_the_memory_runs_in_parts_from_the_editor() {
 }
 
 /// The same controller, a job with no retract to cut at: F6 streams it
-/// from the editor, no key held, nothing stored, to its last point.
+/// from the editor, no key held, nothing stored, to its last point. Two
+/// pockets without the retract between them: 10 commands in the material,
+/// more than the 8 a part of 10 has room for, so it cannot be cut (six
+/// pockets on 30 commands before: 30 in the material, 28 of room).
 #[test]
 fn a_gcode_job_that_cannot_be_cut_is_streamed_from_the_editor() {
-    let gcode = pockets(6).replace("G0 Z65\nG0 X", "G0 X");
+    let gcode = pockets(2).replace("G0 Z8\nG0 X", "G0 X");
     let (mut sim, mut run) = gcode_on_a_small_controller(&gcode);
     let before = sim.received().len();
     run.type_keys(&[b"\x1b[17~"]);
@@ -517,12 +545,12 @@ fn a_gcode_job_that_cannot_be_cut_is_streamed_from_the_editor() {
     run.wait_for("the stream ended", Duration::from_secs(120))
         .unwrap_or_else(|screen| panic!("the stream never ended:\n{screen}"));
     run.type_keys(&[b"x"]);
-    // The last pocket is at X72 Y72, left at Z65.
-    wait_steps(&mut run, ["28800", "28800", "26000"]);
+    // The last pocket is at X22 Y10, left at Z8.
+    wait_steps(&mut run, ["8800", "4000", "3200"]);
     let received = sim.received();
     let sent = &received[before..];
     assert!(!sent.contains("@0i"), "nothing stored: {sent}");
-    assert!(sent.contains("@0M28800,"), "DNC moves: {sent}");
+    assert!(sent.contains("@0M8800,"), "DNC moves: {sent}");
     run.type_keys(&[b"q"]);
     wait_for(&run, "Unsaved");
     run.type_keys(&[b"d"]);
