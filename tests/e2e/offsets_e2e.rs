@@ -18,11 +18,15 @@ use console_pty::{quit, spawn, wait_for};
 use sim_process::{SimProcess, WAIT};
 use ui_pty::PtyRun;
 
-/// The default profile, the axes 5 mm from the reference point at power-up
-/// (a short reference run), for the simulator and the console alike.
+/// The default profile with a short reference run (it is only the way to
+/// READY and to a referenced machine after the restart), for the simulator
+/// and the console alike: the axes 1 mm from the reference point at
+/// power-up (5 mm before), reference runs at 12 000 Hz (4000) into
+/// switches 0.5 mm below the soft minimum (2 mm). At real time: a console
+/// test (`docs/testing.md`, "The time scale").
 const PROFILE: (&str, &str) = (
     "profiles/default.toml",
-    "base = \"default\"\n[sim]\nstart_position = 5.0\n",
+    "base = \"default\"\n[isel]\nreference_speed_hz = 12000\n[sim]\nstart_position = 1.0\nlimit_margin = 0.5\n",
 );
 
 /// The X line of the position panel: (work, steps).
@@ -132,25 +136,27 @@ fn g55_set_here_survives_a_restart_and_only_a_zero_moves_the_isel_zero() {
     });
     run.type_keys(&[b"g", b"\t"]);
     wait_for(&run, "Go to (machine coordinates)");
-    run.type_text("X12");
+    // Short moves at real time (a console test): 2 mm at the jog speed of
+    // 2 mm/s, then 1 mm at F120 (12 mm and 1 mm before, 6.5 s of motion).
+    run.type_text("X2");
     // Enter once the target shows (typed right behind it, a busy console
     // reads it with the text: a burst, which sends nothing).
-    wait_for(&run, "> X12");
+    wait_for(&run, "> X2");
     run.type_keys(&[b"\r"]);
-    wait_for(&run, "go to X12 (machine coordinates) at 2 per second");
-    wait_x(&run, "at machine 12", |work, steps| {
-        steps == "4800" && work == "21.000"
+    wait_for(&run, "go to X2 (machine coordinates) at 2 per second");
+    wait_x(&run, "at machine 2", |work, steps| {
+        steps == "800" && work == "11.000"
     });
     wait_for(&run, "READY");
-    // G55 X20 at F120 (2 mm/s = 800 Hz): machine 11 mm, 4400 steps.
+    // G55 X12 at F120 (2 mm/s = 800 Hz): machine 3 mm, 1200 steps.
     run.type_keys(&[b"g"]);
     wait_for(&run, "Go to (G55 work coordinates)");
-    run.type_text("X20F120");
-    wait_for(&run, "> X20F120");
+    run.type_text("X12F120");
+    wait_for(&run, "> X12F120");
     run.type_keys(&[b"\r"]);
-    sim.wait_received("the move at 800 Hz", |r| r.contains("@0M4400,800,"));
-    wait_x(&run, "at work 20", |work, steps| {
-        work == "20.000" && steps == "4400"
+    sim.wait_received("the move at 800 Hz", |r| r.contains("@0M1200,800,"));
+    wait_x(&run, "at work 12", |work, steps| {
+        work == "12.000" && steps == "1200"
     });
     quit(&mut run);
     assert!(file.exists());

@@ -167,7 +167,15 @@ fn isel_store_program_of(sim: &SimProcess, steps: u32) {
 #[test]
 fn isel_watch_and_poll_say_the_controller_is_busy_and_wait_for_a_program() {
     let mut sim = SimProcess::start("isel");
-    isel_store_program_of(&sim, 16_000);
+    // 10 000 steps at 4000 Hz: 2.5 s of real motion (4 s before), still
+    // many times what it takes a session to start and find the controller
+    // silent (its first read's deadline, wire time + 100 ms); the test
+    // fails if a session connects only after the end, as it must then not
+    // say "busy". At real time: the scale would shorten the program as
+    // much, and a program of fewer steps says the same.
+    let program: u32 = 10_000;
+    isel_store_program_of(&sim, program);
+    let program = i64::from(program);
     for (run, args) in [
         (1, &["watch"][..]),
         (2, &["poll", "--interval-ms", "200"][..]),
@@ -176,10 +184,10 @@ fn isel_watch_and_poll_say_the_controller_is_busy_and_wait_for_a_program() {
         wait_moving(&mut sim, "the program started by the key");
         let before = sim.received();
         let child = spawn(&sim, args);
-        // Each run moves X by the program's 16 000 steps (a new start runs
+        // Each run moves X by the program's 10 000 steps (a new start runs
         // the program from its beginning, manual 2.2.23).
         let end = sim.wait_device("the program at its end", |d| {
-            !moving("isel", d) && x_steps("isel", d) == 16_000 * run
+            !moving("isel", d) && x_steps("isel", d) == program * run
         });
         // Answered again: a few more reads go out.
         let answered = sim.received().len();
@@ -197,7 +205,7 @@ fn isel_watch_and_poll_say_the_controller_is_busy_and_wait_for_a_program() {
         assert!(err.contains("the controller answers again"), "{err}");
         if args[0] == "poll" {
             assert!(
-                text(&out.stdout).contains(&format!("X={}", 16_000 * run)),
+                text(&out.stdout).contains(&format!("X={}", program * run)),
                 "samples after the program:\n{}",
                 text(&out.stdout)
             );
@@ -209,7 +217,7 @@ fn isel_watch_and_poll_say_the_controller_is_busy_and_wait_for_a_program() {
             Vec::<String>::new(),
             "{args:?} sent stops or motion:\n{session}"
         );
-        assert_eq!(x_steps("isel", &end), 16_000 * run, "{end}");
+        assert_eq!(x_steps("isel", &end), program * run, "{end}");
     }
     sim.assert_alive();
 }

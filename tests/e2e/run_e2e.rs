@@ -24,14 +24,36 @@ fn small_controller() -> SimProcess {
     SimProcess::start_variant("isel", &[SMALL_MEMORY], &["memory=30"])
 }
 
-/// [`small_controller`] ten times as fast, for the tests that check where a
-/// job ends and what went on the wire, not when (`docs/simulator.md`, "Time
-/// scale"): nothing in them is timed against the machine.
+/// [`SMALL_MEMORY`]'s machine with a short reference run and short ramps,
+/// for the tests of [`SLOW_CUT`] at real time: reference runs at 12 000 Hz
+/// (the default 4000) into switches 0.5 mm below the soft minimum (the
+/// default 2 mm), about 1 s for the three axes instead of 2 s, and ramps of
+/// 500 Hz/ms (the default 100: a quarter of a second to a rapid's speed).
+/// The job's reference run and rapids are only its way to the cut; what
+/// the tests check happens in the cut, at its programmed feed. One file:
+/// two files of one name do not merge.
+const CUT_MACHINE: (&str, &str) = (
+    "profiles/default.toml",
+    "[axes.X]\nmax_speed = 60.0\n[axes.Y]\nmax_speed = 60.0\n[axes.Z]\nmax_speed = 30.0\n[gcode]\nmemory = 30\n[isel]\nreference_speed_hz = 12000\naccel_hz_per_ms = 500\n[sim]\nstart_position = 1.0\nlimit_margin = 0.5\n",
+);
+
+/// The simulator of [`CUT_MACHINE`], at real time: a key, a hang-up or a
+/// lost line must land inside the cut (`docs/testing.md`, issue 27).
+fn cut_controller() -> SimProcess {
+    SimProcess::start_variant("isel", &[CUT_MACHINE], &["memory=30"])
+}
+
+/// [`small_controller`] fifty times as fast, for the tests that check where
+/// a job ends and what went on the wire, not when (`docs/simulator.md`,
+/// "Time scale"): nothing in them is timed against the machine. At 50 (10
+/// before) the 88-command job's motion takes about 0.5 s; what is left is
+/// jogterm storing its parts at 19200 baud, which the estimate they check
+/// counts (the way chosen), so the baud stays.
 fn small_controller_scaled() -> SimProcess {
     SimProcess::options("isel")
         .files(&[SMALL_MEMORY])
         .variants(&["memory=30"])
-        .time_scale(10.0)
+        .time_scale(50.0)
         .start()
 }
 
@@ -42,11 +64,15 @@ fn steps(work_mm: [f64; 3]) -> [i64; 3] {
 }
 
 fn stands_at(sim: &mut SimProcess, work_mm: [f64; 3]) {
-    let [x, y, z] = steps(work_mm);
+    stands_at_steps(sim, steps(work_mm));
+}
+
+/// The axes stand at `[x, y, z]` machine steps.
+fn stands_at_steps(sim: &mut SimProcess, [x, y, z]: [i64; 3]) {
     let state = sim.wait_device("standing", |s| !s.contains("moving"));
     assert!(
         state.starts_with(&format!("device: X {x} Y {y} Z {z} ")),
-        "not at {work_mm:?}: {state}"
+        "not at {x} {y} {z}: {state}"
     );
 }
 
@@ -101,9 +127,35 @@ pub(crate) fn assert_parts_end_retracted(parts: &[Vec<&str>], safe_steps: &str, 
     }
 }
 
-/// One slow cut (30 mm at 5 mm/s), long enough to pause in the middle.
+/// One slow cut, `G1 X22.5 F300` (12.5 mm at 5 mm/s: 2.5 s), long enough for a
+/// key, a hang-up or a lost line to land in the middle of it
+/// ([`wait_in_the_slow_cut`] waits until X has left the cut's start, so
+/// the key comes early in the cut, not after a fixed sleep). Run from
+/// [`CUT_ZERO`].
 const SLOW_CUT: &str =
-    "%\nG21 G90 G17\nG0 Z5\nG0 X10 Y10\nG1 Z-1 F600\nG1 X40 F300\nG1 Y20 F1500\nG0 Z5\nM30\n%\n";
+    "%\nG21 G90 G17\nG0 Z5\nG0 X10 Y10\nG1 Z-1 F600\nG1 X22.5 F300\nG1 Y20 F1500\nG0 Z5\nM30\n%\n";
+
+/// Where [`SLOW_CUT`]'s cut starts and ends in X (work mm).
+const CUT_START_X: f64 = 10.0;
+const CUT_END_X: f64 = 22.5;
+
+/// The slow cut's work zero: next to the reference point (machine 0), so
+/// the way from the job's reference run to the cut is short (10 mm up,
+/// 10 mm over, 6 mm down, about a second) and the test's time goes to the
+/// cut that its key, hang-up or lost line must land in.
+const CUT_ZERO: &str = "X0 Y0 Z5";
+
+/// Machine steps of a point in [`SLOW_CUT`]'s work coordinates
+/// ([`CUT_ZERO`]) at `per_mm` steps a millimetre.
+fn cut_steps_at(per_mm: f64, work_mm: [f64; 3]) -> [i64; 3] {
+    let zero = [0.0, 0.0, 5.0];
+    [0, 1, 2].map(|i| ((work_mm[i] + zero[i]) * per_mm).round() as i64)
+}
+
+/// [`cut_steps_at`] on the isel machine (400 steps/mm).
+fn cut_steps(work_mm: [f64; 3]) -> [i64; 3] {
+    cut_steps_at(400.0, work_mm)
+}
 
 fn write(sim: &SimProcess, name: &str, text: &str) -> String {
     let file = sim.dir.path().join(name);
@@ -178,13 +230,15 @@ fn a_job_that_fits_is_stored_and_without_a_terminal_nothing_starts_unasked() {
     assert_eq!(sim.received().matches("@0i<CR>").count(), 1);
 }
 
-/// `jogterm run FILE --stream` on a terminal of its own, confirmed with `y`.
+/// `jogterm run FILE --stream` of [`SLOW_CUT`] from [`CUT_ZERO`] on a
+/// terminal of its own, confirmed with `y`.
 fn run_on_a_terminal(sim: &SimProcess, file: &str) -> PtyRun {
-    run_on_a_terminal_as(sim, file, "stream")
+    run_on_a_terminal_as(sim, file, "stream", CUT_ZERO)
 }
 
-/// [`run_on_a_terminal`] the way `way` (`stream`, `chunked`).
-fn run_on_a_terminal_as(sim: &SimProcess, file: &str, way: &str) -> PtyRun {
+/// [`run_on_a_terminal`] the way `way` (`stream`, `chunked`) from the work
+/// zero `zero`.
+fn run_on_a_terminal_as(sim: &SimProcess, file: &str, way: &str, zero: &str) -> PtyRun {
     let way_arg = format!("--{way}");
     let link = sim.link.display().to_string();
     let config = sim.dir.path().display().to_string();
@@ -198,7 +252,7 @@ fn run_on_a_terminal_as(sim: &SimProcess, file: &str, way: &str) -> PtyRun {
             sim.family,
             file,
             "--work-zero",
-            WORK_ZERO,
+            zero,
             &way_arg,
         ],
         &[("JOGTERM_CONFIG_DIR", &config)],
@@ -224,18 +278,22 @@ fn x_of(state: &str) -> i64 {
         .unwrap_or_else(|| panic!("no X in {state}"))
 }
 
-/// The long cut `G1 X40 F300` (machine X 90 mm) has gone out and runs.
+/// The slow cut `G1 X22.5 F300` has gone out and runs: on the wire, and the
+/// axes moving with X past the cut's start and short of its end (waited
+/// for, where a fixed 800 ms sleep was: what follows lands early in the
+/// cut, whatever the load).
 fn wait_in_the_slow_cut(sim: &mut SimProcess) {
-    let target = format!("@0M{},", steps([40.0, 0.0, 0.0])[0]);
+    let [start, ..] = cut_steps([CUT_START_X, 0.0, 0.0]);
+    let [end, ..] = cut_steps([CUT_END_X, 0.0, 0.0]);
+    let target = format!("@0M{end},");
     sim.wait_received("the slow cut", |r| r.contains(&target));
-    std::thread::sleep(Duration::from_millis(800));
-    let state = sim.device_state();
-    assert!(state.contains("moving"), "the cut runs: {state}");
+    let state = sim.wait_device("in the cut", |s| s.contains("moving") && x_of(s) > start);
+    assert!(x_of(&state) < end, "the cut runs: {state}");
 }
 
 #[test]
 fn p_pauses_a_stream_without_a_stop_and_r_finishes_the_move_with_0s() {
-    let mut sim = small_controller();
+    let mut sim = cut_controller();
     let file = write(&sim, "slow.nc", SLOW_CUT);
     let mut run = run_on_a_terminal(&sim, &file);
     wait_in_the_slow_cut(&mut sim);
@@ -252,10 +310,12 @@ fn p_pauses_a_stream_without_a_stop_and_r_finishes_the_move_with_0s() {
         !received[pause..].starts_with("<FD><FF>"),
         "a pause is no stop: {received}"
     );
-    // Standing where it paused, short of X40; nothing goes out meanwhile.
-    let [x40, ..] = steps([40.0, 0.0, 0.0]);
+    // Standing where it paused, inside the cut (past its start, short of
+    // its end); nothing goes out meanwhile.
+    let [start, ..] = cut_steps([CUT_START_X, 0.0, 0.0]);
+    let [end, ..] = cut_steps([CUT_END_X, 0.0, 0.0]);
     let x = x_of(&state);
-    assert!(x < x40, "paused short of the cut's end: {state}");
+    assert!(start < x && x < end, "paused inside the cut: {state}");
     std::thread::sleep(Duration::from_millis(1500));
     assert_eq!(
         sim.received().len(),
@@ -273,12 +333,12 @@ fn p_pauses_a_stream_without_a_stop_and_r_finishes_the_move_with_0s() {
         "the rest of the move with @0S: {}",
         &received[paused_at..]
     );
-    stands_at(&mut sim, [40.0, 20.0, 5.0]);
+    stands_at_steps(&mut sim, cut_steps([CUT_END_X, 20.0, 5.0]));
 }
 
 #[test]
 fn space_stops_a_stream_and_nothing_goes_out_after_the_stop() {
-    let mut sim = small_controller();
+    let mut sim = cut_controller();
     let file = write(&sim, "slow.nc", SLOW_CUT);
     let mut run = run_on_a_terminal(&sim, &file);
     wait_in_the_slow_cut(&mut sim);
@@ -298,7 +358,7 @@ fn space_stops_a_stream_and_nothing_goes_out_after_the_stop() {
 
 #[test]
 fn a_hang_up_during_a_stream_stops_the_machine() {
-    let mut sim = small_controller();
+    let mut sim = cut_controller();
     let file = write(&sim, "slow.nc", SLOW_CUT);
     let mut run = run_on_a_terminal(&sim, &file);
     wait_in_the_slow_cut(&mut sim);
@@ -310,9 +370,9 @@ fn a_hang_up_during_a_stream_stops_the_machine() {
         !received[stop..].contains("@0M"),
         "no move after the stop: {received}"
     );
-    let [x40, ..] = steps([40.0, 0.0, 0.0]);
+    let [end, ..] = cut_steps([CUT_END_X, 0.0, 0.0]);
     assert!(
-        !state.starts_with(&format!("device: X {x40} ")),
+        !state.starts_with(&format!("device: X {end} ")),
         "stopped short of the cut's end: {state}"
     );
     assert!(run.wait_exit(Duration::from_secs(10)).is_some());
@@ -320,10 +380,10 @@ fn a_hang_up_during_a_stream_stops_the_machine() {
 
 #[test]
 fn a_line_lost_mid_stream_ends_the_run_and_nothing_resumes_after_it_comes_back() {
-    let mut sim = small_controller();
+    let mut sim = cut_controller();
     let file = write(&sim, "slow.nc", SLOW_CUT);
     let child = sim
-        .configured(&["run", &file, "--work-zero", WORK_ZERO, "--stream", "--yes"])
+        .configured(&["run", &file, "--work-zero", CUT_ZERO, "--stream", "--yes"])
         .stderr(std::process::Stdio::piped())
         .spawn()
         .expect("spawn jogterm run");
@@ -335,10 +395,10 @@ fn a_line_lost_mid_stream_ends_the_run_and_nothing_resumes_after_it_comes_back()
     // The line is back; the run has ended and sends nothing more.
     std::thread::sleep(Duration::from_millis(1500));
     let received = sim.received();
-    let [x40, ..] = steps([40.0, 0.0, 0.0]);
+    let [end, ..] = cut_steps([CUT_END_X, 0.0, 0.0]);
     let last_move = received.rfind("@0M").expect("moves");
     assert!(
-        received[last_move..].starts_with(&format!("@0M{x40},")),
+        received[last_move..].starts_with(&format!("@0M{end},")),
         "no move after the slow cut's: {received}"
     );
 }
@@ -350,7 +410,7 @@ fn over_tcp_ctrl_c_of_a_stream_reaches_the_line_within_the_network_bound() {
     // the cut so that the cut is still running when the signal goes.
     let _serial = crate::timing::serial();
     let mut sim = SimProcess::options("isel")
-        .files(&[SMALL_MEMORY])
+        .files(&[CUT_MACHINE])
         .tcp()
         .start();
     let file = write(&sim, "slow.nc", SLOW_CUT);
@@ -358,7 +418,7 @@ fn over_tcp_ctrl_c_of_a_stream_reaches_the_line_within_the_network_bound() {
     let mut command = std::process::Command::new(JOGTERM);
     command
         .args(["run", "--port", &port, "--protocol", "isel", &file])
-        .args(["--work-zero", WORK_ZERO, "--stream", "--yes"])
+        .args(["--work-zero", CUT_ZERO, "--stream", "--yes"])
         .env("JOGTERM_CONFIG_DIR", sim.dir.path())
         .stdin(std::process::Stdio::null())
         .stderr(std::process::Stdio::piped());
@@ -632,17 +692,20 @@ fn a_20k_move_job_in_parts_ends_exactly_at_its_last_point_every_part_cut_at_a_re
     assert!(moves > 20_000, "{moves}");
 }
 
-/// The EMCU machine of the G-code tests: faster axes, the reference point
-/// close by, the spindle relay on A1.
+/// The EMCU machine of the G-code tests: faster axes, the spindle relay on
+/// A1; and for this test at real time shorter still: the reference point
+/// 0.2 mm away (the interface homes at its start speed, 200 Hz: 1 mm took
+/// a second an axis) and 100 ms ramps (500 ms on every move of the shipped
+/// profile). Neither is what the test checks: the pause inside the cut,
+/// the rest of the cut, the end point.
 const FAST_EMCU: (&str, &str) = (
     "profiles/emcu.toml",
-    "base = \"emcu\"\n[axes.X]\nmax_speed = 40.0\n[axes.Y]\nmax_speed = 40.0\n[axes.Z]\nmax_speed = 20.0\n[sim]\nstart_position = 1.0\n[gcode]\nm3 = \"output:A1\"\nm5 = \"output:A1\"\n",
+    "base = \"emcu\"\n[axes.X]\nmax_speed = 40.0\n[axes.Y]\nmax_speed = 40.0\n[axes.Z]\nmax_speed = 20.0\n[emcu]\nramp_ms = 100\n[sim]\nstart_position = 0.2\n[gcode]\nm3 = \"output:A1\"\nm5 = \"output:A1\"\n",
 );
 
-/// EMCU steps of a work point (200 steps/mm).
+/// EMCU steps of a point in the slow cut's work coordinates (200 steps/mm).
 fn emcu_steps(work_mm: [f64; 3]) -> [i64; 3] {
-    let zero = [50.0, 50.0, 60.0];
-    [0, 1, 2].map(|i| ((work_mm[i] + zero[i]) * 200.0).round() as i64)
+    cut_steps_at(200.0, work_mm)
 }
 
 #[test]
@@ -650,10 +713,13 @@ fn an_emcu_stream_pauses_with_b_resumes_with_the_rest_and_ends_at_its_last_point
     let mut sim = SimProcess::start_with_files("emcu", &[FAST_EMCU]);
     let file = write(&sim, "slow.nc", SLOW_CUT);
     let mut run = run_on_a_terminal(&sim, &file);
-    let [x40, ..] = emcu_steps([40.0, 0.0, 0.0]);
-    let cut = format!("X{x40},");
+    let [start, ..] = emcu_steps([CUT_START_X, 0.0, 0.0]);
+    let [end, ..] = emcu_steps([CUT_END_X, 0.0, 0.0]);
+    let cut = format!("X{end},");
     sim.wait_received("the slow cut", |r| r.contains(&cut));
-    std::thread::sleep(Duration::from_millis(800));
+    // In the cut: X moving past its start (waited for, not slept).
+    let state = sim.wait_device("in the cut", |s| s.contains("moving") && x_of(s) > start);
+    assert!(x_of(&state) < end, "the cut runs: {state}");
     run.type_text("p");
     run.wait_for("paused at", Duration::from_secs(10))
         .expect("the pause is said");
@@ -665,7 +731,7 @@ fn an_emcu_stream_pauses_with_b_resumes_with_the_rest_and_ends_at_its_last_point
         "the pause halts with @B: {received}"
     );
     let x = x_of(&state);
-    assert!(x < x40, "paused short of the cut's end: {state}");
+    assert!(start < x && x < end, "paused inside the cut: {state}");
     std::thread::sleep(Duration::from_millis(1000));
     assert!(
         !sim.received()[paused_at..].contains('L'),
@@ -674,13 +740,13 @@ fn an_emcu_stream_pauses_with_b_resumes_with_the_rest_and_ends_at_its_last_point
     );
     run.type_text("r");
     assert_eq!(run.wait_exit(Duration::from_secs(60)), Some(0));
-    // The rest of the cut went out from where the axes stood, to X40.
+    // The rest of the cut went out from where the axes stood, to X22.5.
     assert!(
         sim.received()[paused_at..].contains(&cut),
         "{}",
         sim.received()
     );
-    let [x, y, z] = emcu_steps([40.0, 20.0, 5.0]);
+    let [x, y, z] = emcu_steps([CUT_END_X, 20.0, 5.0]);
     let state = sim.wait_device("standing", |s| !s.contains("moving"));
     // The EMCU line: counters, then the machine position in brackets.
     for (axis, v) in [("X", x), ("Y", y), ("Z", z)] {
@@ -691,7 +757,7 @@ fn an_emcu_stream_pauses_with_b_resumes_with_the_rest_and_ends_at_its_last_point
 
 #[test]
 fn the_speed_factor_sets_the_speed_of_the_moves_not_yet_sent() {
-    let mut sim = small_controller();
+    let mut sim = cut_controller();
     let file = write(&sim, "slow.nc", SLOW_CUT);
     let mut run = run_on_a_terminal(&sim, &file);
     wait_in_the_slow_cut(&mut sim);
@@ -701,12 +767,12 @@ fn the_speed_factor_sets_the_speed_of_the_moves_not_yet_sent() {
     run.wait_for("speed 90 % of the program's", Duration::from_secs(10))
         .expect("the factor is said");
     assert_eq!(run.wait_exit(Duration::from_secs(60)), Some(0));
-    stands_at(&mut sim, [40.0, 20.0, 5.0]);
+    stands_at_steps(&mut sim, cut_steps([CUT_END_X, 20.0, 5.0]));
     let received = sim.received();
-    let [x40, y20, _] = steps([40.0, 20.0, 0.0]);
+    let [x_end, y20, _] = cut_steps([CUT_END_X, 20.0, 0.0]);
     let moves = moves_after(&received, 0);
-    // G1 X40 F300: 5 mm/s, 2000 Hz at 400 steps/mm, as programmed.
-    let cut = moves.iter().position(|m| m.0 == x40).expect("the cut");
+    // G1 X22.5 F300: 5 mm/s, 2000 Hz at 400 steps/mm, as programmed.
+    let cut = moves.iter().position(|m| m.0 == x_end).expect("the cut");
     assert_eq!(moves[cut].4, 2000, "{moves:?}");
     // G1 Y20 F1500: 25 mm/s, 10000 Hz; at 90 % 9000 Hz.
     assert_eq!(
@@ -720,7 +786,7 @@ fn the_speed_factor_sets_the_speed_of_the_moves_not_yet_sent() {
 fn space_stops_a_job_in_parts_and_no_further_part_is_stored() {
     let mut sim = small_controller();
     let file = write(&sim, "pockets.nc", &pockets(12));
-    let mut run = run_on_a_terminal_as(&sim, &file, "chunked");
+    let mut run = run_on_a_terminal_as(&sim, &file, "chunked", WORK_ZERO);
     // Inside the first part: its program started and the axes move.
     sim.wait_received("the first part's start", |r| r.contains("@0S<CR>"));
     sim.wait_device("moving", |s| s.contains("moving"));
