@@ -122,14 +122,9 @@ fn a_text_reply_ends_on_silence() {
     )));
 }
 
-/// Issue 24: a session that was not asked to move (no connect halt) takes
-/// an unanswered read for a busy controller (a stored program runs, manual
-/// 3.1), not a dead link: it says so once, sends nothing but the same read
-/// again every 500 ms, and goes on when one is answered. A session that
-/// has moved keeps the deadline (`a_query_waits_its_wire_time_plus_the_margin`).
-#[test]
-fn a_session_that_has_not_moved_waits_for_a_busy_controller_and_repeats_its_read() {
-    use crate::device::api::{ANSWERS_AGAIN_NOTICE, BUSY_NOTICE};
+/// A session that was not asked to move (no connect halt), connected and
+/// read back, whose first `@0P` has gone unanswered past its deadline.
+fn unmoved_session_with_a_read_unanswered() -> Harness {
     use crate::device::driver::Driver;
     let mut h = Harness::with(|s| {
         s.poll.rate = PollRate::LineSpeed;
@@ -145,6 +140,18 @@ fn a_session_that_has_not_moved_waits_for_a_busy_controller_and_repeats_its_read
     h.take_events();
     h.expect_text("@0P");
     h.advance(ms(200));
+    h
+}
+
+/// Issue 24: a session that was not asked to move (no connect halt) takes
+/// an unanswered read for a busy controller (a stored program runs, manual
+/// 3.1), not a dead link: it says so once, sends nothing but the same read
+/// again every 500 ms, and goes on when one is answered. A session that
+/// has moved keeps the deadline (`a_query_waits_its_wire_time_plus_the_margin`).
+#[test]
+fn a_session_that_has_not_moved_waits_for_a_busy_controller_and_repeats_its_read() {
+    use crate::device::api::{ANSWERS_AGAIN_NOTICE, BUSY_NOTICE};
+    let mut h = unmoved_session_with_a_read_unanswered();
     assert_eq!(lost(&h), None);
     assert!(h.state().link_up);
     let busy: Vec<String> = h
@@ -188,21 +195,7 @@ fn a_session_that_has_not_moved_waits_for_a_busy_controller_and_repeats_its_read
 #[test]
 fn a_late_reply_to_a_repeated_read_answers_it_and_the_next_reply_stays_in_step() {
     use crate::device::api::BUSY_NOTICE;
-    use crate::device::driver::Driver;
-    let mut h = Harness::with(|s| {
-        s.poll.rate = PollRate::LineSpeed;
-        s.poll.ports.clear();
-    });
-    h.driver.set_connect_halt(false);
-    h.driver.connected(h.now);
-    h.collect();
-    h.advance(ms(100));
-    h.expect_text("@0T0");
-    h.reply(b"0");
-    h.readback(0, 0, 0, b"0");
-    h.take_events();
-    h.expect_text("@0P");
-    h.advance(ms(200));
+    let mut h = unmoved_session_with_a_read_unanswered();
     assert!(h.notices().iter().any(|n| n.starts_with(BUSY_NOTICE)));
     // The answer arrives late, before the read is repeated.
     h.advance(ms(50));
@@ -228,4 +221,30 @@ fn a_late_reply_to_a_repeated_read_answers_it_and_the_next_reply_stays_in_step()
     }
     assert_eq!(h.faults(), Vec::<String>::new());
     assert_eq!(lost(&h), None);
+}
+
+/// A late reply still arriving when its read is due to be repeated: the
+/// repeat waits for it, so the two replies cannot overlap on the line.
+#[test]
+fn a_repeat_waits_for_a_late_reply_under_way() {
+    use crate::device::api::ANSWERS_AGAIN_NOTICE;
+    let mut h = unmoved_session_with_a_read_unanswered();
+    let reply = position_reply(5, 0, 0);
+    h.advance(ms(490));
+    h.reply(&reply[..8]);
+    h.advance(ms(15));
+    h.expect_nothing();
+    h.reply(&reply[8..]);
+    assert!(
+        h.notices()
+            .iter()
+            .any(|n| n.starts_with(ANSWERS_AGAIN_NOTICE)),
+        "{:?}",
+        h.events
+    );
+    assert_eq!(
+        h.positions().last().map(|p| p.steps),
+        Some(super::harness::xyz(5, 0, 0))
+    );
+    assert_eq!(h.faults(), Vec::<String>::new());
 }
