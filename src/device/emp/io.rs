@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use crate::device::api::{InputSource, IoGroup, IoSnapshot};
 use crate::device::common::io::{group, input_at, output_at};
-use crate::wiring::Wiring;
+use crate::wiring::{BitWiring, Wiring};
 
 use super::drive::{DriveState, output_id};
 
@@ -14,7 +14,21 @@ use super::drive::{DriveState, output_id};
 /// read active, once its `40` has been read: the only inputs jogterm
 /// refuses motion on itself (`docs/profiles.md`). Their names.
 pub fn interlocks(index: usize, d: &DriveState, wiring: &Wiring) -> Vec<String> {
-    if d.inputs.is_none() {
+    let guards = |w: &BitWiring| {
+        w.interlocks()
+            && matches!(
+                w.role,
+                crate::wiring::Role::Estop | crate::wiring::Role::Power
+            )
+    };
+    // Asked at every reply: the drive's bits are named and built only when
+    // the profile wires one of them as such a contact (none by default).
+    let prefix = format!("{}.", d.ds);
+    let wired = wiring
+        .bits()
+        .iter()
+        .any(|w| guards(w) && w.address.starts_with(&prefix));
+    if d.inputs.is_none() || !wired {
         return Vec::new();
     }
     drive_group(index, d, wiring)
@@ -22,13 +36,7 @@ pub fn interlocks(index: usize, d: &DriveState, wiring: &Wiring) -> Vec<String> 
         .iter()
         .filter(|b| b.output.is_none() && b.active())
         .filter_map(|b| b.wiring.as_ref())
-        .filter(|w| {
-            w.interlocks()
-                && matches!(
-                    w.role,
-                    crate::wiring::Role::Estop | crate::wiring::Role::Power
-                )
-        })
+        .filter(|w| guards(w))
         .map(|w| w.label())
         .collect()
 }
