@@ -118,10 +118,27 @@ pub struct Connection {
     /// Baud rate; the family's default when absent (isel, EMCU 19200; EMP 38400).
     #[serde(default)]
     pub baud: Option<u32>,
+    /// Added to a reply's wire time before the controller counts as silent,
+    /// ms ([`Connection::DEFAULT_REPLY_MARGIN_MS`] when absent): the
+    /// controller's processing and the host's scheduling, which no manual
+    /// states (`docs/profiles.md`).
+    #[serde(default)]
+    pub reply_margin_ms: Option<u64>,
 }
 
 impl Connection {
     pub const SIMULATOR: &'static str = "sim";
+    pub const DEFAULT_REPLY_MARGIN_MS: u64 = 100;
+    /// The margins a profile may set: below 20 ms a busy host misses
+    /// replies that came; above 5 s a dead line goes unnoticed too long.
+    pub const REPLY_MARGIN_MS: std::ops::RangeInclusive<u64> = 20..=5000;
+
+    pub fn reply_margin(&self) -> std::time::Duration {
+        std::time::Duration::from_millis(
+            self.reply_margin_ms
+                .unwrap_or(Self::DEFAULT_REPLY_MARGIN_MS),
+        )
+    }
 
     pub fn is_simulator(&self) -> bool {
         self.port == Self::SIMULATOR
@@ -491,6 +508,18 @@ impl Profile {
                     format!("axis {axis} is listed but has no [axes.{axis}] table"),
                 ));
             }
+        }
+        if let Some(ms) = self.connection.reply_margin_ms
+            && !Connection::REPLY_MARGIN_MS.contains(&ms)
+        {
+            out.push(Invalid::new(
+                &["connection", "reply_margin_ms"],
+                format!(
+                    "{ms} ms: expected {} to {} ms",
+                    Connection::REPLY_MARGIN_MS.start(),
+                    Connection::REPLY_MARGIN_MS.end()
+                ),
+            ));
         }
         match self.connection.protocol {
             // isel manual 2.2.1: X, XY, XYZ, and A only on top of XYZ.

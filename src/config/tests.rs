@@ -393,3 +393,33 @@ fn macros_are_checked_at_load_and_a_bad_line_names_file_line_and_column() {
     assert_eq!(err.line, Some(6), "{err}");
     assert!(err.message.contains("emcu command expected"), "{err}");
 }
+
+/// The reply margin no manual states is the profile's (`docs/profiles.md`):
+/// 100 ms when absent, and a margin outside 20 ms to 5 s is refused at its
+/// line. That every family's driver takes it is
+/// `device::common::settings::tests::every_family_takes_the_profiles_reply_margin`.
+#[test]
+fn the_reply_margin_is_the_profiles_and_checked() {
+    use std::time::Duration;
+    let (dir, dirs) = user_dir();
+    let default = load_profile("default", &dirs).unwrap();
+    assert_eq!(
+        default.connection.reply_margin(),
+        Duration::from_millis(100)
+    );
+    fs::write(
+        dir.path().join("profiles/slow.toml"),
+        "[connection]\nreply_margin_ms = 350\n",
+    )
+    .unwrap();
+    let slow = load_profile("slow", &dirs).unwrap();
+    assert_eq!(slow.connection.reply_margin(), Duration::from_millis(350));
+    fs::write(
+        dir.path().join("profiles/hasty.toml"),
+        "# too short for any host\n[connection]\nreply_margin_ms = 5\n",
+    )
+    .unwrap();
+    let err = load_profile("hasty", &dirs).unwrap_err();
+    assert_eq!(err.line, Some(3), "{err}");
+    assert!(err.message.contains("expected 20 to 5000 ms"), "{err}");
+}

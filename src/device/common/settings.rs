@@ -187,6 +187,25 @@ mod tests {
         assert_eq!(limits.get(Axis::X).map(|l| l.max_hz), Some(5_000.0));
     }
 
+    /// The profile's `connection.reply_margin_ms` (`docs/protocols.md`,
+    /// "Assumptions", row 25) is every family's reply margin.
+    #[test]
+    fn every_family_takes_the_profiles_reply_margin() {
+        use crate::device::emcu::EmcuSettings;
+        use crate::device::emp::EmpSettings;
+        use crate::device::isel::IselSettings;
+        for name in ["default", "emcu", "emp"] {
+            let mut p = load_profile(name, &ConfigDirs::builtin_only()).expect("profile");
+            p.connection.reply_margin_ms = Some(350);
+            let margin = match p.connection.protocol {
+                Protocol::Isel => IselSettings::from_profile(&p).map(|s| s.timing.reply_margin),
+                Protocol::Emcu => EmcuSettings::from_profile(&p).map(|s| s.timing.reply_margin),
+                Protocol::Emp => EmpSettings::from_profile(&p).map(|s| s.timing.reply_margin),
+            };
+            assert_eq!(margin.ok(), Some(Duration::from_millis(350)), "{name}");
+        }
+    }
+
     #[test]
     fn the_wrong_family_is_named() {
         let profile = load_profile("emp", &ConfigDirs::builtin_only()).expect("profile");

@@ -25,7 +25,8 @@ pub struct Timing {
     /// The longest an acknowledgement may take (manual 1.4.2: 500 ms), on
     /// top of the bytes' wire time.
     pub ack: Duration,
-    /// Added for the host's scheduling.
+    /// Added for the host's scheduling: the profile's
+    /// `connection.reply_margin_ms`.
     pub reply_margin: Duration,
     /// Quiet the line must show after a reply that did not fit, before the
     /// exchange counts as lost (a late answer may still come).
@@ -41,7 +42,9 @@ impl Default for Timing {
     fn default() -> Self {
         Timing {
             ack: crate::proto::emcu::MAX_ACK_DELAY,
-            reply_margin: Duration::from_millis(100),
+            reply_margin: Duration::from_millis(
+                crate::config::profile::Connection::DEFAULT_REPLY_MARGIN_MS,
+            ),
             resync_gap: Duration::from_millis(40),
             connect_settle: Duration::from_millis(100),
             run_margin: Duration::from_secs(1),
@@ -110,7 +113,10 @@ impl EmcuSettings {
                 ports_every: profile.poll.ports_every.max(1),
                 ports: vec![StatusPoll],
             },
-            timing: Timing::default(),
+            timing: Timing {
+                reply_margin: profile.connection.reply_margin(),
+                ..Timing::default()
+            },
             wiring: crate::device::common::settings::wiring(profile)?,
         })
     }

@@ -119,7 +119,7 @@ impl EmpSettings {
             ports_every: profile.poll.ports_every,
             timing: Timing {
                 round_trip,
-                reply_margin: Duration::from_millis(100),
+                reply_margin: profile.connection.reply_margin(),
                 connect_settle: Duration::from_millis(50),
             },
             wiring: crate::device::common::settings::wiring(profile)?,

@@ -64,7 +64,7 @@ impl PollPlan {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Timing {
     /// Added to a query's wire time for the controller's processing and the
-    /// host's scheduling.
+    /// host's scheduling: the profile's `connection.reply_margin_ms`.
     pub reply_margin: Duration,
     /// Interval of estimated positions while a move runs (25 Hz).
     pub estimate_interval: Duration,
@@ -82,7 +82,9 @@ pub struct Timing {
 impl Default for Timing {
     fn default() -> Self {
         Timing {
-            reply_margin: Duration::from_millis(100),
+            reply_margin: Duration::from_millis(
+                crate::config::profile::Connection::DEFAULT_REPLY_MARGIN_MS,
+            ),
             estimate_interval: Duration::from_millis(40),
             resync_gap: Duration::from_millis(10),
             reset_settle: Duration::from_millis(100),
@@ -150,7 +152,10 @@ impl IselSettings {
                 ports_every: profile.poll.ports_every.max(1),
                 ports: PollPlan::ports_for(&wiring),
             },
-            timing: Timing::default(),
+            timing: Timing {
+                reply_margin: profile.connection.reply_margin(),
+                ..Timing::default()
+            },
             wiring,
         })
     }
