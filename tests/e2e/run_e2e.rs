@@ -291,12 +291,19 @@ fn wait_in_the_slow_cut(sim: &mut SimProcess) {
     assert!(x_of(&state) < end, "the cut runs: {state}");
 }
 
-#[test]
-fn p_pauses_a_stream_without_a_stop_and_r_finishes_the_move_with_0s() {
+/// [`SLOW_CUT`] streamed on a terminal of its own (`run_on_a_terminal`)
+/// from [`cut_controller`], waited for until it is inside its slow cut.
+fn streaming_in_the_slow_cut() -> (SimProcess, PtyRun) {
     let mut sim = cut_controller();
     let file = write(&sim, "slow.nc", SLOW_CUT);
-    let mut run = run_on_a_terminal(&sim, &file);
+    let run = run_on_a_terminal(&sim, &file);
     wait_in_the_slow_cut(&mut sim);
+    (sim, run)
+}
+
+#[test]
+fn p_pauses_a_stream_without_a_stop_and_r_finishes_the_move_with_0s() {
+    let (mut sim, mut run) = streaming_in_the_slow_cut();
     run.type_text("p");
     run.wait_for("paused at", Duration::from_secs(10))
         .expect("the pause is said");
@@ -338,10 +345,7 @@ fn p_pauses_a_stream_without_a_stop_and_r_finishes_the_move_with_0s() {
 
 #[test]
 fn space_stops_a_stream_and_nothing_goes_out_after_the_stop() {
-    let mut sim = cut_controller();
-    let file = write(&sim, "slow.nc", SLOW_CUT);
-    let mut run = run_on_a_terminal(&sim, &file);
-    wait_in_the_slow_cut(&mut sim);
+    let (mut sim, mut run) = streaming_in_the_slow_cut();
     run.type_text(" ");
     assert_eq!(run.wait_exit(Duration::from_secs(10)), Some(1));
     run.drain(Duration::from_secs(2));
@@ -358,10 +362,7 @@ fn space_stops_a_stream_and_nothing_goes_out_after_the_stop() {
 
 #[test]
 fn a_hang_up_during_a_stream_stops_the_machine() {
-    let mut sim = cut_controller();
-    let file = write(&sim, "slow.nc", SLOW_CUT);
-    let mut run = run_on_a_terminal(&sim, &file);
-    wait_in_the_slow_cut(&mut sim);
+    let (mut sim, mut run) = streaming_in_the_slow_cut();
     run.close_master();
     let state = sim.wait_device("standing", |s| !s.contains("moving"));
     let received = sim.received();
@@ -757,10 +758,7 @@ fn an_emcu_stream_pauses_with_b_resumes_with_the_rest_and_ends_at_its_last_point
 
 #[test]
 fn the_speed_factor_sets_the_speed_of_the_moves_not_yet_sent() {
-    let mut sim = cut_controller();
-    let file = write(&sim, "slow.nc", SLOW_CUT);
-    let mut run = run_on_a_terminal(&sim, &file);
-    wait_in_the_slow_cut(&mut sim);
+    let (mut sim, mut run) = streaming_in_the_slow_cut();
     // One step slower while the cut runs: the cut keeps its speed (it is
     // on its way), the moves after it go out at 90 %.
     run.type_text("-");

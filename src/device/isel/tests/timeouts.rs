@@ -143,6 +143,18 @@ fn unmoved_session_with_a_read_unanswered() -> Harness {
     h
 }
 
+/// The driver said that the controller, busy so far, answers again.
+fn assert_answers_again(h: &Harness) {
+    use crate::device::api::ANSWERS_AGAIN_NOTICE;
+    assert!(
+        h.notices()
+            .iter()
+            .any(|n| n.starts_with(ANSWERS_AGAIN_NOTICE)),
+        "{:?}",
+        h.events
+    );
+}
+
 /// Issue 24: a session that was not asked to move (no connect halt) takes
 /// an unanswered read for a busy controller (a stored program runs, manual
 /// 3.1), not a dead link: it says so once, sends nothing but the same read
@@ -150,7 +162,7 @@ fn unmoved_session_with_a_read_unanswered() -> Harness {
 /// has moved keeps the deadline (`a_query_waits_its_wire_time_plus_the_margin`).
 #[test]
 fn a_session_that_has_not_moved_waits_for_a_busy_controller_and_repeats_its_read() {
-    use crate::device::api::{ANSWERS_AGAIN_NOTICE, BUSY_NOTICE};
+    use crate::device::api::BUSY_NOTICE;
     let mut h = unmoved_session_with_a_read_unanswered();
     assert_eq!(lost(&h), None);
     assert!(h.state().link_up);
@@ -178,13 +190,7 @@ fn a_session_that_has_not_moved_waits_for_a_busy_controller_and_repeats_its_read
     h.advance(ms(500));
     h.expect_text("@0P");
     h.reply(&position_reply(5, 0, 0));
-    assert!(
-        h.notices()
-            .iter()
-            .any(|n| n.starts_with(ANSWERS_AGAIN_NOTICE)),
-        "{:?}",
-        h.events
-    );
+    assert_answers_again(&h);
     assert_eq!(lost(&h), None);
     assert_eq!(h.faults(), Vec::<String>::new());
 }
@@ -227,7 +233,6 @@ fn a_late_reply_to_a_repeated_read_answers_it_and_the_next_reply_stays_in_step()
 /// repeat waits for it, so the two replies cannot overlap on the line.
 #[test]
 fn a_repeat_waits_for_a_late_reply_under_way() {
-    use crate::device::api::ANSWERS_AGAIN_NOTICE;
     let mut h = unmoved_session_with_a_read_unanswered();
     let reply = position_reply(5, 0, 0);
     h.advance(ms(490));
@@ -235,13 +240,7 @@ fn a_repeat_waits_for_a_late_reply_under_way() {
     h.advance(ms(15));
     h.expect_nothing();
     h.reply(&reply[8..]);
-    assert!(
-        h.notices()
-            .iter()
-            .any(|n| n.starts_with(ANSWERS_AGAIN_NOTICE)),
-        "{:?}",
-        h.events
-    );
+    assert_answers_again(&h);
     assert_eq!(
         h.positions().last().map(|p| p.steps),
         Some(super::harness::xyz(5, 0, 0))
