@@ -183,22 +183,19 @@ fn imported(global: &GlobalArgs, profile: &Profile, path: &Path) -> Result<Edito
         ),
     ));
     let header = super::import::header_name(path);
-    let ways = crate::gcode::ways::Ways::of(
-        &import.program,
-        import.summary.estimated_s,
-        &crate::gcode::ways::Costs::of(profile, language),
-    );
     Ok(EditorMsg::Imported {
         path: path.with_extension(extension),
         language,
         text: import.program.text(&header),
         notes,
-        gcode: Some(Box::new(crate::ui::editor::job::Converted {
-            source: name,
+        gcode: Some(Box::new(crate::ui::editor::job::Converted::new(
+            name,
             header,
-            program: import.program,
-            ways,
-        })),
+            import.program,
+            import.summary.estimated_s,
+            profile,
+            language,
+        ))),
     })
 }
 

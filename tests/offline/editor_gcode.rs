@@ -11,7 +11,6 @@ use std::time::{Duration, Instant};
 use crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
 use jogterm::config::{ConfigDirs, load_profile};
 use jogterm::device::api::{Event, MachineState, Request, UploadEvent};
-use jogterm::gcode::ways::{Costs, Ways};
 use jogterm::program::Language;
 use jogterm::proto::Protocol;
 use jogterm::ui::editor::io::EditorMsg;
@@ -48,11 +47,6 @@ fn opened(t0: Instant, gcode: &str) -> Model {
         jogterm::gcode::Target::Isel,
     )
     .expect("imports");
-    let ways = Ways::of(
-        &import.program,
-        import.summary.estimated_s,
-        &Costs::of(&profile, Language::Isel),
-    );
     let mut m = model_in(Protocol::Isel, "dark", State::Idle, t0);
     let effects = update(
         &mut m,
@@ -61,12 +55,14 @@ fn opened(t0: Instant, gcode: &str) -> Model {
             language: Language::Isel,
             text: import.program.text("pockets.nc"),
             notes: Vec::new(),
-            gcode: Some(Box::new(Converted {
-                source: "/jobs/pockets.nc".into(),
-                header: "pockets.nc".into(),
-                program: import.program,
-                ways,
-            })),
+            gcode: Some(Box::new(Converted::new(
+                "/jobs/pockets.nc".into(),
+                "pockets.nc".into(),
+                import.program,
+                import.summary.estimated_s,
+                &profile,
+                Language::Isel,
+            ))),
         }),
     );
     carry_out(&mut m, effects);

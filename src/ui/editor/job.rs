@@ -6,8 +6,9 @@
 
 use std::time::Instant;
 
+use crate::config::profile::Profile;
 use crate::gcode::output::{Header, Program};
-use crate::gcode::ways::Ways;
+use crate::gcode::ways::{Costs, Ways};
 use crate::program::Language;
 
 /// What `--program part.nc` imported, beside the text it became.
@@ -73,6 +74,26 @@ impl Chunked {
 }
 
 impl Converted {
+    /// `program`, converted from the G-code file `source` (its motion
+    /// about `motion_s`), with the ways it can run on `profile`'s
+    /// controller in `language` (`gcode::ways`).
+    pub fn new(
+        source: String,
+        header: String,
+        program: Program,
+        motion_s: f64,
+        profile: &Profile,
+        language: Language,
+    ) -> Converted {
+        let ways = Ways::of(&program, motion_s, &Costs::of(profile, language));
+        Converted {
+            source,
+            header,
+            program,
+            ways,
+        }
+    }
+
     /// The job cut where the tool stands retracted, each part as it is
     /// uploaded (header, `z1` again, its commands, `9`:
     /// `gcode::output::Program::part`); why it cannot be.
@@ -124,7 +145,7 @@ pub fn is_converted(text: &str) -> bool {
 pub(crate) mod tests {
     use super::*;
     use crate::config::{ConfigDirs, load_profile};
-    use crate::gcode::ways::{Costs, Way};
+    use crate::gcode::ways::Way;
 
     /// `gcode` imported for the shipped isel profile with a program memory
     /// of `memory` commands, as `--program pockets.nc` opens it.
@@ -140,17 +161,14 @@ pub(crate) mod tests {
             crate::gcode::Target::Isel,
         )
         .expect("imports");
-        let ways = Ways::of(
-            &import.program,
+        Converted::new(
+            "/jobs/pockets.nc".into(),
+            "pockets.nc".into(),
+            import.program,
             import.summary.estimated_s,
-            &Costs::of(&profile, Language::Isel),
-        );
-        Converted {
-            source: "/jobs/pockets.nc".into(),
-            header: "pockets.nc".into(),
-            program: import.program,
-            ways,
-        }
+            &profile,
+            Language::Isel,
+        )
     }
 
     /// `n` square pockets, each entered from and left to Z5, placed for
