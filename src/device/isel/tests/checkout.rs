@@ -52,12 +52,8 @@ fn a_line_held_to_its_end_is_done_and_nothing_else_is_sent() {
     b.run(ms(300));
     assert_eq!(ends(&b), [(1, CheckoutEnd::Done { byte: None })]);
     assert_eq!(b.counters()[0], 2000.0);
-    let text = b.sent_text();
-    let at = text
-        .iter()
-        .position(|s| s.starts_with("@0A2000"))
-        .expect("sent");
-    assert_eq!(text[at + 1..], ["@0P<CR>"], "{text:?}");
+    let after = sent_after(&b, "@0A2000");
+    assert_eq!(after, ["@0P<CR>"], "{after:?}");
 }
 
 #[test]
@@ -179,6 +175,16 @@ fn a_port_read_answers_its_byte() {
 }
 
 /// A stream's line (`read_back: false`).
+/// What went out after the first line that starts with `command`.
+fn sent_after(b: &Bench, command: &str) -> Vec<String> {
+    let text = b.sent_text();
+    let at = text
+        .iter()
+        .position(|s| s.starts_with(command))
+        .expect("sent");
+    text[at + 1..].to_vec()
+}
+
 fn streamed(id: u64, text: &str) -> Request {
     match line(id, text, None) {
         Request::Checkout {
@@ -207,12 +213,8 @@ fn a_streamed_move_with_a_known_end_sends_no_position_read_and_says_its_target()
     b.run(ms(300));
     assert_eq!(ends(&b), [(1, CheckoutEnd::Done { byte: None })]);
     assert_eq!(b.counters()[0], 2000.0);
-    let text = b.sent_text();
-    let at = text
-        .iter()
-        .position(|s| s.starts_with("@0A2000"))
-        .expect("sent");
-    assert!(text[at + 1..].is_empty(), "no @0P after it: {text:?}");
+    let after = sent_after(&b, "@0A2000");
+    assert!(after.is_empty(), "no @0P after it: {after:?}");
     // The position the driver takes is the move's end: the counters'.
     let last = b
         .events
@@ -229,12 +231,8 @@ fn a_streamed_move_with_a_known_end_sends_no_position_read_and_says_its_target()
     hold(&mut b, 2, Duration::from_millis(800));
     b.run(ms(300));
     assert_eq!(b.counters()[0], 1500.0);
-    let text = b.sent_text();
-    let at = text
-        .iter()
-        .position(|s| s.starts_with("@0A-500"))
-        .expect("sent");
-    assert!(text[at + 1..].is_empty(), "no @0P after it: {text:?}");
+    let after = sent_after(&b, "@0A-500");
+    assert!(after.is_empty(), "no @0P after it: {after:?}");
 }
 
 #[test]
