@@ -67,6 +67,15 @@ fn wait_for(run: &PtyRun, needle: &str) -> String {
         .unwrap_or_else(|screen| panic!("`{needle}` never appeared:\n{screen}"))
 }
 
+/// `q`, asked about the unsaved program, `d` to discard it: the console
+/// ends with status 0.
+fn quit_discarding_the_edits(run: &mut PtyRun) {
+    run.type_keys(&[b"q"]);
+    wait_for(run, "Unsaved");
+    run.type_keys(&[b"d"]);
+    assert_eq!(run.wait_exit(WAIT), Some(0));
+}
+
 fn wait_until(what: &str, mut ok: impl FnMut() -> bool) {
     let end = Instant::now() + WAIT;
     while !ok() {
@@ -521,10 +530,7 @@ fn a_gcode_job_bigger_than_the_memory_runs_in_parts_from_the_editor() {
     let stored = crate::run_e2e::stored_programs(&received[before..]);
     assert_eq!(stored.len(), 3, "{received}");
     crate::run_e2e::assert_parts_end_retracted(&stored, "3200", 10);
-    run.type_keys(&[b"q"]);
-    wait_for(&run, "Unsaved");
-    run.type_keys(&[b"d"]);
-    assert_eq!(run.wait_exit(WAIT), Some(0));
+    quit_discarding_the_edits(&mut run);
 }
 
 /// The same controller, a job with no retract to cut at: F6 streams it
@@ -551,8 +557,5 @@ fn a_gcode_job_that_cannot_be_cut_is_streamed_from_the_editor() {
     let sent = &received[before..];
     assert!(!sent.contains("@0i"), "nothing stored: {sent}");
     assert!(sent.contains("@0M8800,"), "DNC moves: {sent}");
-    run.type_keys(&[b"q"]);
-    wait_for(&run, "Unsaved");
-    run.type_keys(&[b"d"]);
-    assert_eq!(run.wait_exit(WAIT), Some(0));
+    quit_discarding_the_edits(&mut run);
 }
