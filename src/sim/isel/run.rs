@@ -91,9 +91,14 @@ impl MotionJob {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Event {
     LegEnd,
-    Switch { axis: usize, side: usize },
+    Switch {
+        axis: usize,
+        side: usize,
+    },
     EraseDone,
     WaitDone,
+    /// A key `press`ed is let go (`controls::START_KEY`, `STOP_KEY`).
+    KeyRelease(usize),
 }
 
 /// The inputs as they were before a change.
@@ -139,6 +144,19 @@ impl IselSim {
     }
 
     pub(super) fn compute_next(&self, now: Instant) -> Option<(Instant, Event)> {
+        let release = self
+            .key_release
+            .iter()
+            .enumerate()
+            .filter_map(|(key, at)| at.map(|at| (at.max(now), Event::KeyRelease(key))))
+            .min_by_key(|(at, _)| *at);
+        match (self.next_activity_event(now), release) {
+            (Some(a), Some(r)) => Some(if r.0 < a.0 { r } else { a }),
+            (a, r) => a.or(r),
+        }
+    }
+
+    fn next_activity_event(&self, now: Instant) -> Option<(Instant, Event)> {
         let activity = self.activity.as_ref()?;
         match &activity.step {
             Step::Erase { until } => Some((*until, Event::EraseDone)),
@@ -177,6 +195,7 @@ impl IselSim {
                 self.flash.program = None;
                 self.finish(ReplyCode::Ok, t);
             }
+            Event::KeyRelease(key) => self.release_key(key, t),
             Event::WaitDone => {
                 if let Some(act) = self.activity.take() {
                     match act.program {

@@ -227,6 +227,27 @@ fn the_start_key_runs_the_program_without_an_answer() {
     assert_eq!(c.take(), "!", "the sync character only");
 }
 
+/// A pause of a converted G-code job (M0/M6) is `o1,3,0,0`: branch to
+/// itself while the start key (port 1 bit 3) reads released. `press start`
+/// holds the key down as a finger does, so the loop sees it and the program
+/// goes on; the key is up again afterwards.
+#[test]
+fn a_pressed_start_key_ends_a_program_waiting_for_it() {
+    let mut c = Conv::new();
+    c.expect("@07", "0");
+    store(&mut c, &["o1,3,0,0", "133", "9"]);
+    c.send("@0S");
+    c.wait(Duration::from_millis(500));
+    assert_eq!(c.take(), "", "waiting for the start key");
+    c.press("start");
+    assert_eq!(c.sim.input_level("start"), Some(true), "held down");
+    c.wait(Duration::from_millis(10));
+    // The sync character, then the program's end answers `@0S`.
+    assert_eq!(c.take(), "!0", "the loop saw the key and went on");
+    c.wait(super::super::controls::KEY_HOLD);
+    assert_eq!(c.sim.input_level("start"), Some(false), "let go");
+}
+
 #[test]
 fn watched_inputs_abort_a_run() {
     let mut c = Conv::referenced();
