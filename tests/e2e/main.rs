@@ -58,6 +58,7 @@ mod macros_e2e;
 mod network;
 mod network_transport;
 mod offsets_e2e;
+mod port_identity;
 mod quiet_sessions;
 mod run_e2e;
 mod sim_shell_faults;
