@@ -469,6 +469,14 @@ pub fn run(global: &GlobalArgs, args: &UploadArgs) -> anyhow::Result<ExitCode> {
         return usage(
             "--chunked and --stream run G-code; a controller program is stored whole".into(),
         );
+    } else if args.work_zero.is_some() {
+        // A controller program's coordinates are the controller's own: an
+        // offset accepted here would be one the job never sees.
+        return usage(
+            "--work-zero places G-code; a controller program runs in the controller's own \
+             coordinates and is stored as it is"
+                .into(),
+        );
     } else {
         match prepare(global, &args.file, &profile, language, &config) {
             Ok(p) => vec![p],

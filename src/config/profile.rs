@@ -570,7 +570,15 @@ impl Profile {
                     "must be a positive number",
                 ));
             }
-            if !(p.min.is_finite() && p.max.is_finite() && p.min < p.max) {
+            for (key, value) in [("min", p.min), ("max", p.max)] {
+                if !value.is_finite() {
+                    out.push(Invalid::new(
+                        &["axes", k, key],
+                        format!("must be a finite number of units, got {value}"),
+                    ));
+                }
+            }
+            if p.min.is_finite() && p.max.is_finite() && p.min >= p.max {
                 out.push(Invalid::new(
                     &["axes", k, "max"],
                     format!("soft limits need min < max (min {}, max {})", p.min, p.max),

@@ -160,6 +160,39 @@ fn emp_axes_need_distinct_drive_addresses() {
     assert_eq!(err.line, Some(5));
 }
 
+/// Issue 37 (13): an infinite soft limit is named as what it is, at its
+/// own key, not as "min < max".
+#[test]
+fn an_infinite_soft_limit_is_refused_at_its_key() {
+    let (dir, dirs) = user_dir();
+    fs::write(
+        dir.path().join("profiles/inf.toml"),
+        "[axes.X]\nmax = 100.0\nmin = -inf\n",
+    )
+    .unwrap();
+    let err = load_profile("inf", &dirs).unwrap_err();
+    assert_eq!(err.line, Some(3), "{err}");
+    assert!(err.message.contains("finite"), "{err}");
+    assert!(!err.message.contains("min < max"), "{err}");
+}
+
+/// Issue 37 (13): a user profile whose `base` is its own name, with no
+/// shipped profile of that name, says so at its `base` line; before, it
+/// said "no profile named `selfbase` (known: …, selfbase)".
+#[test]
+fn a_base_naming_its_own_file_says_so() {
+    let (dir, dirs) = user_dir();
+    fs::write(
+        dir.path().join("profiles/selfbase.toml"),
+        "# loops\nbase = \"selfbase\"\n",
+    )
+    .unwrap();
+    let err = load_profile("selfbase", &dirs).unwrap_err();
+    assert_eq!(err.line, Some(2), "{err}");
+    assert!(err.message.contains("names this file itself"), "{err}");
+    assert!(!err.message.contains("known:"), "{err}");
+}
+
 #[test]
 fn syntax_error_and_missing_file_and_unknown_name() {
     let (dir, dirs) = user_dir();
