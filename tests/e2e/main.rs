@@ -59,6 +59,7 @@ mod network;
 mod network_transport;
 mod offsets_e2e;
 mod quiet_sessions;
+mod read_sessions;
 mod run_e2e;
 mod sim_shell_faults;
 mod sim_shell_pty;
