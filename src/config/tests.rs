@@ -456,3 +456,55 @@ fn the_reply_margin_is_the_profiles_and_checked() {
     assert_eq!(err.line, Some(3), "{err}");
     assert!(err.message.contains("expected 20 to 5000 ms"), "{err}");
 }
+
+/// Issue 37: how long a session that only reads waits for an isel that
+/// answers nothing is the profile's (600 s when absent, 1 s to a day), and
+/// a baud rate no line runs at is refused at its line.
+#[test]
+fn the_busy_wait_and_the_baud_rate_are_checked_at_their_lines() {
+    use std::time::Duration;
+    let (dir, dirs) = user_dir();
+    let default = load_profile("default", &dirs).unwrap();
+    assert_eq!(default.isel.busy_wait(), Duration::from_secs(600));
+    fs::write(
+        dir.path().join("profiles/patient.toml"),
+        "[isel]\nbusy_wait_s = 7200\n",
+    )
+    .unwrap();
+    let patient = load_profile("patient", &dirs).unwrap();
+    assert_eq!(patient.isel.busy_wait(), Duration::from_secs(7200));
+    for (name, text, line, expected) in [
+        (
+            "never",
+            "\n[isel]\nbusy_wait_s = 0\n",
+            3,
+            "expected 1 to 86400 s",
+        ),
+        (
+            "still",
+            "[connection]\nbaud = 0\n",
+            2,
+            "expected 300 to 4000000 baud",
+        ),
+        (
+            "fast",
+            "[connection]\nbaud = 5000000\n",
+            2,
+            "expected 300 to 4000000 baud",
+        ),
+    ] {
+        fs::write(dir.path().join(format!("profiles/{name}.toml")), text).unwrap();
+        let err = load_profile(name, &dirs).unwrap_err();
+        assert_eq!(err.line, Some(line), "{name}: {err}");
+        assert!(err.message.contains(expected), "{name}: {err}");
+    }
+    fs::write(
+        dir.path().join("profiles/slow.toml"),
+        "[connection]\nbaud = 300\n",
+    )
+    .unwrap();
+    assert_eq!(
+        load_profile("slow", &dirs).unwrap().connection.line().baud,
+        300
+    );
+}

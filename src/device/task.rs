@@ -39,6 +39,7 @@ use super::handle::{
 };
 use super::inputs::{InputRecorder, RecorderConfig};
 use super::isel::{IselDriver, SettingsError};
+use super::stream_guard::StreamGuard;
 use super::traffic_buffer::TrafficBuffer;
 use crate::config::Profile;
 use crate::proto::Protocol;
@@ -149,6 +150,7 @@ pub fn spawn_recording(
     let mut driver = driver;
     let moved = options.moves == SessionMoves::Yes;
     driver.set_connect_halt(moved);
+    driver.set_reads_only(options.moves == SessionMoves::No);
     let moved_flag = Arc::new(AtomicBool::new(moved));
     let bus = EventBus::new(options.lossy_capacity);
     let first = bus.subscribe();
@@ -242,6 +244,8 @@ struct Session {
     /// The port's emergency stop, until it is armed (a session that has not
     /// moved arms none).
     emergency: Option<EmergencyStop>,
+    /// Bytes that stream and answer nothing end the link (issue 37).
+    stream: StreamGuard,
 }
 
 /// Bulk pacing only for an upload on a link that is up: storing a program
@@ -505,6 +509,7 @@ impl Task {
             line,
             reports_after: None,
             emergency: Some(emergency),
+            stream: StreamGuard::new(line),
         };
         if self.moved {
             self.set_emergency(s.emergency.take());
@@ -559,8 +564,16 @@ impl Task {
                 read = reader.read_chunk() => match read {
                     Ok(chunk) => {
                         let messages = self.driver.received(&chunk.bytes, chunk.at);
+                        let answered = messages
+                            .iter()
+                            .any(|m| m.owner != crate::traffic::Owner::Controller);
+                        let streaming = s.stream.read(chunk.bytes.len(), chunk.at, answered);
                         let records = s.traffic.read(&chunk, messages);
                         self.publish_traffic(records);
+                        if let Some(reason) = streaming {
+                            self.lost(reason);
+                            break Ending::DeadLink;
+                        }
                     }
                     Err(e) => break Ending::PortGone(e.to_string()),
                 },

@@ -60,6 +60,7 @@ mod network_transport;
 mod offsets_e2e;
 mod port_identity;
 mod quiet_sessions;
+mod read_sessions;
 mod run_e2e;
 mod sim_shell_faults;
 mod sim_shell_pty;
