@@ -148,6 +148,20 @@ impl Prepared {
             .collect()
     }
 
+    /// The G-code line of its first command (a converted job's part):
+    /// where a restart picks the job up again.
+    pub(super) fn first_gcode_line(&self) -> Option<u32> {
+        self.gcode
+            .as_ref()
+            .and_then(|g| {
+                g.lines
+                    .iter()
+                    .find(|l| !l.command.is_empty() && l.origin.is_some())
+            })
+            .and_then(|l| l.origin)
+            .map(|o| o.line)
+    }
+
     pub(super) fn place(&self) -> super::run::stream::Place<'_> {
         super::run::stream::Place {
             name: &self.name,
@@ -724,12 +738,18 @@ pub(super) async fn upload(
                         out::say(failure(prepared, line, &fault));
                         return Err(1);
                     }
-                    UploadEvent::Aborted { done, reason } => {
+                    UploadEvent::Aborted {
+                        done,
+                        reason,
+                        link_lost,
+                    } => {
                         progress.end();
                         out::say(format_args!(
                             "jogterm upload: the upload stopped after {done} commands: {reason}"
                         ));
-                        return Err(1);
+                        // A lost link is a link failure (exit 3), whatever
+                        // the upload was doing when it went.
+                        return Err(if link_lost { EXIT_LINK } else { 1 });
                     }
                 },
                 Event::Link(LinkState::Lost { reason }) => {

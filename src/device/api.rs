@@ -792,6 +792,9 @@ pub enum UploadEvent {
     Aborted {
         done: usize,
         reason: String,
+        /// The link was lost: a client says so as a link failure, not as
+        /// a refusal (`jogterm upload` exits 3).
+        link_lost: bool,
     },
 }
 

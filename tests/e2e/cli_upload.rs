@@ -110,6 +110,33 @@ fn a_missing_file_or_a_dead_port_have_their_exit_codes() {
     assert_eq!(out.status.code(), Some(3), "{}", stderr(&out));
 }
 
+/// The link lost in the middle of an upload is a link failure, exit 3 as
+/// `--help` says, not the 1 of a refusal (issue 37).
+#[test]
+fn an_upload_that_loses_the_link_exits_3() {
+    let mut sim = SimProcess::start("isel");
+    // 400 moves: at 19200 baud the upload takes seconds, long enough to
+    // close the line in its middle.
+    let mut text = String::from("7 7\n");
+    for k in 0..400 {
+        text.push_str(&format!("m{},4000,0,4000,0,4000,0,4000\n", 400 + k));
+    }
+    text.push_str("9\n");
+    let file = write_program(&sim, "long.isel", &text);
+    let child = sim
+        .configured(&["upload", &file, "--erase"])
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("spawn jogterm upload");
+    sim.wait_received("a tenth of the program", |r| r.contains("m440,"));
+    sim.control("fault close 500");
+    let out = child.wait_with_output().expect("upload ends");
+    let said = stderr(&out);
+    assert_eq!(out.status.code(), Some(3), "a link failure: {said}");
+    assert!(said.contains("link lost"), "{said}");
+    assert!(!contains_panic(&out.stderr), "{said}");
+}
+
 #[test]
 fn emp_drives_are_refused_before_anything_is_opened() {
     let sim = SimProcess::start("isel");

@@ -806,3 +806,46 @@ fn space_stops_a_job_in_parts_and_no_further_part_is_stored() {
     std::thread::sleep(Duration::from_millis(800));
     assert!(!sim.device_state().contains("moving"), "nothing resumes");
 }
+
+/// The link lost in a job in parts (issue 37): exit 3, and the message
+/// names the part it was lost in and the G-code line to restart from: the
+/// part's first line, which follows a rapid at the safe height (parts are
+/// cut only where the tool stands retracted).
+#[test]
+fn a_link_lost_in_a_job_in_parts_names_the_part_and_the_line_to_restart_from() {
+    let mut sim = small_controller();
+    let job = pockets(12);
+    let file = write(&sim, "pockets.nc", &job);
+    let child = sim
+        .configured(&["run", &file, "--work-zero", WORK_ZERO, "--chunked", "--yes"])
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("spawn jogterm run");
+    sim.wait_received("the second part's start", |r| {
+        r.matches("@0S<CR>").count() >= 2
+    });
+    sim.control("fault close 500");
+    let out = crate::sim_process::wait_child(child, "jogterm run");
+    let said = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(3), "a link failure: {said}");
+    let (part, line) = said
+        .lines()
+        .find_map(|l| {
+            let rest = l.strip_prefix("jogterm run: the link was lost in part ")?;
+            let (part, rest) = rest.split_once("/4, which begins at G-code line ")?;
+            let line: String = rest.chars().take_while(char::is_ascii_digit).collect();
+            Some((part.parse::<usize>().ok()?, line.parse::<usize>().ok()?))
+        })
+        .unwrap_or_else(|| panic!("no part and line in:\n{said}"));
+    assert!(part >= 2, "{said}");
+    assert!(
+        said.contains(&format!("--from-line {line}")),
+        "the restart is named: {said}"
+    );
+    let lines: Vec<&str> = job.lines().collect();
+    assert!(
+        lines[line - 2].starts_with("G0 "),
+        "line {line} follows a rapid at the safe height: `{}`",
+        lines[line - 2]
+    );
+}

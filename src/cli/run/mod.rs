@@ -345,8 +345,14 @@ async fn steps(
                 wait_resume(session, keys).await?;
                 pause_next = false;
             }
-            upload::upload(session, part, args.erase || k > 0, remedy).await?;
-            stored_run(session, remedy, keys, &mut pause_next).await?;
+            let ran = match upload::upload(session, part, args.erase || k > 0, remedy).await {
+                Ok(()) => stored_run(session, remedy, keys, &mut pause_next).await,
+                Err(code) => Err(code),
+            };
+            if ran == Err(EXIT_LINK) && job.parts.len() > 1 {
+                out::say(lost_in_part(job, k, args));
+            }
+            ran?;
         }
         Ok(())
     }
@@ -354,6 +360,35 @@ async fn steps(
     match result {
         Ok(()) => 0,
         Err(code) => code,
+    }
+}
+
+/// Where a job in parts goes on after the link was lost in part `k`: the
+/// parts before it have run to their end, each ending retracted; of part
+/// `k` nothing is known (a stored program is not read while it runs), so
+/// the restart takes it again from its first G-code line.
+fn lost_in_part(job: &Job, k: usize, args: &RunArgs) -> String {
+    let n = job.parts.len();
+    let line = job.parts.get(k).and_then(Prepared::first_gcode_line);
+    let file = args.file.display();
+    match line {
+        // The first part of a whole job: nothing to skip.
+        Some(_) if k == 0 && args.from_line.is_none() => format!(
+            "jogterm run: the link was lost in part 1/{n}: no part has run to its end; run the job again from its start"
+        ),
+        Some(line) => format!(
+            "jogterm run: the link was lost in part {}/{n}, which begins at G-code line {line}{}; to go on, restart from that line: jogterm run {file} --from-line {line}",
+            k + 1,
+            if k > 0 {
+                format!(" (parts 1-{k} ran to their end, the tool retracted after each)")
+            } else {
+                String::new()
+            }
+        ),
+        None => format!(
+            "jogterm run: the link was lost in part {}/{n}, which has no G-code line",
+            k + 1
+        ),
     }
 }
 

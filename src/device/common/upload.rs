@@ -6,6 +6,7 @@ use std::time::{Duration, Instant};
 
 use crate::device::api::{ControllerFault, Event, UploadEvent};
 
+use super::op::Abandon;
 use super::sink::Sink;
 
 /// Progress events at most this often.
@@ -81,11 +82,22 @@ impl UploadProgress {
         sink.emit(Event::Upload(UploadEvent::Failed { line, fault }));
     }
 
-    /// Stopped by the operator or the link.
+    /// Stopped by the operator or the controller.
     pub fn aborted(&self, reason: String, sink: &mut impl Sink) {
+        self.ended(reason, false, sink);
+    }
+
+    /// Abandoned by the driver: the link went or the controller was reset.
+    pub fn abandoned(&self, cause: &Abandon, device: &str, sink: &mut impl Sink) {
+        let lost = matches!(cause, Abandon::LinkLost(_));
+        self.ended(cause.reason(device), lost, sink);
+    }
+
+    fn ended(&self, reason: String, link_lost: bool, sink: &mut impl Sink) {
         sink.emit(Event::Upload(UploadEvent::Aborted {
             done: self.done,
             reason,
+            link_lost,
         }));
     }
 }

@@ -242,7 +242,7 @@ impl Operation for UploadOp {
                 cx.transfer = false;
             }
             cx.state.program = ProgramState::Invalid;
-            self.progress.aborted(cause.reason("interface"), cx);
+            self.progress.abandoned(cause, "interface", cx);
             self.stage = Stage::Done;
         }
     }

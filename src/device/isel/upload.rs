@@ -249,7 +249,8 @@ impl Operation for UploadOp {
             if self.storing {
                 cx.state.program = ProgramState::Invalid;
             }
-            self.aborted(cx, cause.reason("controller"));
+            self.progress.abandoned(cause, "controller", &mut cx.events);
+            self.stage = Stage::Done;
         }
     }
 

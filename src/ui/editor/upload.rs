@@ -181,7 +181,7 @@ impl Upload {
                     ),
                 })
             }
-            UploadEvent::Aborted { done, reason } => {
+            UploadEvent::Aborted { done, reason, .. } => {
                 // Nothing stored and nothing sent: `@0i` found a program.
                 self.offer_erase = *done == 0 && self.ours;
                 self.phase = Phase::Aborted {
@@ -342,12 +342,14 @@ mod tests {
         u.event(&UploadEvent::Aborted {
             done: 0,
             reason: "a program is already stored".into(),
+            link_lost: false,
         });
         assert!(u.offer_erase);
         let mut theirs = Upload::default();
         theirs.event(&UploadEvent::Aborted {
             done: 0,
             reason: "x".into(),
+            link_lost: false,
         });
         assert!(!theirs.offer_erase, "only for the editor's own upload");
     }

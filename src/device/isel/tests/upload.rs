@@ -118,7 +118,7 @@ fn without_erase_a_stored_program_fails_the_upload() {
     h.expect_nothing();
     assert!(matches!(
         uploads(&h).last(),
-        Some(UploadEvent::Aborted { done: 0, reason }) if reason.contains("erase it first")
+        Some(UploadEvent::Aborted { done: 0, reason, link_lost: false }) if reason.contains("erase it first")
     ));
     assert!(h.events.iter().any(|e| matches!(
         e,
@@ -144,7 +144,7 @@ fn a_stop_aborts_the_upload_with_a_line_that_cannot_be_stored() {
     h.expect_nothing();
     assert!(matches!(
         uploads(&h).last(),
-        Some(UploadEvent::Aborted { done: 2, reason }) if reason == "stopped by the operator"
+        Some(UploadEvent::Aborted { done: 2, reason, link_lost: false }) if reason == "stopped by the operator"
     ));
     assert_eq!(h.state().program, ProgramState::Invalid);
 }
