@@ -76,7 +76,9 @@ pub struct GcodeProfile {
     #[serde(default = "default_true")]
     pub reference_first: bool,
     /// Program memory in commands, when it differs from the manual's
-    /// (isel 2000, EMCU 256).
+    /// (isel 2000 before the closing `9`, EMCU 256): the one setting the
+    /// import, `check`, `upload`, `run` and the console's editor count
+    /// against.
     #[serde(default)]
     pub memory: Option<usize>,
     #[serde(flatten)]
@@ -530,6 +532,18 @@ impl Profile {
     /// family supports. Looks only at the axes `machine.axes` lists.
     pub fn validate(&self) -> Vec<Invalid> {
         let mut out = Vec::new();
+        // The name goes into every converted program's header and onto the
+        // screen: a line break in it would be a line of the program
+        // (issue 37), so it is one line of printable text.
+        if let Some(bad) = self.name.chars().find(|c| c.is_control()) {
+            out.push(Invalid::new(
+                &["name"],
+                format!(
+                    "a profile name is one line of printable text, got {bad:?} in {:?}",
+                    self.name
+                ),
+            ));
+        }
         let axes = match self.machine.axis_set() {
             Ok(set) => set,
             Err(msg) => return vec![Invalid::new(&["machine", "axes"], msg)],
@@ -775,6 +789,26 @@ impl Profile {
                 &["sim", "limit_margin"],
                 "must be zero or positive",
             ));
+        }
+        // The one memory setting (issue 37): what the controller holds, at
+        // most what its manual says (the simulators hold no more either).
+        if let Some(memory) = self.gcode.memory {
+            let most = match self.connection.protocol {
+                Protocol::Isel => Some(crate::proto::isel::PROGRAM_CAPACITY),
+                Protocol::Emcu => Some(crate::proto::emcu::job::JOB_CAPACITY),
+                Protocol::Emp => None,
+            };
+            if let Some(most) = most
+                && !(1..=most).contains(&memory)
+            {
+                out.push(Invalid::new(
+                    &["gcode", "memory"],
+                    format!(
+                        "{memory} commands: a {} controller stores 1 to {most} (its manual's memory; set it lower for one that holds less)",
+                        self.connection.protocol
+                    ),
+                ));
+            }
         }
         let family = self.connection.protocol;
         for (i, variant) in self.sim.variants.iter().enumerate() {

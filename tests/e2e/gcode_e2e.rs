@@ -94,7 +94,7 @@ fn ended_at(said: &str) -> [i64; 3] {
 }
 
 /// The commands of a program file as `jogterm import -o` writes it.
-fn commands_of(program: &str) -> Vec<String> {
+pub(crate) fn commands_of(program: &str) -> Vec<String> {
     program
         .lines()
         .map(|l| l.split(';').next().unwrap_or("").trim().to_owned())

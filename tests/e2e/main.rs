@@ -50,6 +50,7 @@ mod device_reconnect;
 mod device_task;
 mod editor_e2e;
 mod gcode_e2e;
+mod gcode_input_e2e;
 mod gcode_restart_e2e;
 mod jog_terminal;
 mod jog_wire;

@@ -93,7 +93,7 @@ pub use circle::{
     ArcEnd, ArcGeometry, CircleError, CircleMove, HelixMove, arc_end, circle, helix,
     radius_from_parameters,
 };
-pub use cnc::{CncCommand, SyncChar};
+pub use cnc::{CncCommand, PROGRAM_CAPACITY, SyncChar};
 pub use command::{
     CircleDirection, CircleParams, Command, ControlByte, Diagnosis, DiagnosisKind, Frame,
     HelixParams, InitCommand, MovePair, Plane, PortMove, PortSignal, PortWatch, Sign,

@@ -178,6 +178,7 @@ pub fn lint_config(setup: &Setup) -> LintConfig {
         }
     }
     config.budget = EDITOR_BUDGET;
+    config.capacity = setup.program_memory;
     config
 }
 

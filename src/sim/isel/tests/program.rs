@@ -311,3 +311,22 @@ fn a_watch_that_is_already_off_target_ends_the_run_before_its_first_command() {
     assert_eq!(c.take(), "!0");
     assert!(c.sim.describe(c.now).contains("out user 00"));
 }
+
+/// One command a line (manual 3.1, `docs/protocols.md` isel): a stored line
+/// that holds two, or an LF inside it, is one malformed line, answered with
+/// its error and never run as several (issue 37).
+#[test]
+fn a_stored_line_with_more_than_one_command_is_refused_not_run_as_several() {
+    for line in ["z1 77", "77 9", "7 7\nm100000,900,0,900,0,900,0,900"] {
+        let mut c = Conv::referenced();
+        c.expect("@0i", "0");
+        let mut bytes = line.as_bytes().to_vec();
+        bytes.push(b'\r');
+        c.send_bytes(&bytes);
+        let (reply, _) = c.next_reply(MINUTE).expect("reply");
+        assert_ne!(reply, "0", "{line:?}");
+        // The transfer ended with it: nothing stored, nothing runs.
+        c.expect("@0S", "G");
+        assert_eq!(c.position(), [0, 0, 0], "{line:?}");
+    }
+}
