@@ -168,9 +168,9 @@ fn an_edit_of_a_converted_gcode_job_is_kept_and_quitting_asks() {
     wait_for(&run, "part.isel[+]");
     // One character typed at the top of the program.
     run.send(b";");
+    let screen = wait_for(&run, ";; jogterm-gcode");
+    assert!(screen.contains("part.isel[+]"), "still unsaved:\n{screen}");
     wait_until("the recovery file", || !recoveries(&state).is_empty());
-    let screen = wait_for(&run, "part.isel[+]");
-    assert!(screen.contains(";;"), "the edit on screen:\n{screen}");
     run.type_keys(&[b"\x1bOS"]);
     wait_for(&run, "Position");
     quit_discarding_the_edits(&mut run);

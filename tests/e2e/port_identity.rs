@@ -37,21 +37,28 @@ fn pty() -> (std::fs::File, OwnedFd, PathBuf) {
     (std::fs::File::from(master), slave, path)
 }
 
-/// Take `wanted` as soon as the kernel hands it out again.
+/// Take `wanted` as soon as the kernel hands it out again. The kernel
+/// hands out the lowest free number: the ptys taken meanwhile are held, so
+/// that the numbers below `wanted` fill up, and let go once it is ours
+/// (other tests open ptys too, and may hold `wanted` for a while).
 fn take_pty(wanted: &Path, within: Duration) -> (std::fs::File, OwnedFd) {
     let end = Instant::now() + within;
+    let mut held = Vec::new();
     loop {
         let (master, slave, path) = pty();
         if path == wanted {
             return (master, slave);
         }
-        drop((master, slave));
+        held.push((master, slave));
+        if held.len() >= 256 {
+            held.clear();
+            std::thread::sleep(Duration::from_millis(20));
+        }
         assert!(
             Instant::now() < end,
             "{} was never handed out again",
             wanted.display()
         );
-        std::thread::sleep(Duration::from_millis(20));
     }
 }
 
@@ -101,7 +108,7 @@ fn a_reconnect_writes_nothing_into_a_pty_that_went_to_another_program() {
     let pid = libc::pid_t::try_from(sim.pid()).expect("pid");
     // SAFETY: a signal to our own child.
     assert_eq!(unsafe { libc::kill(pid, libc::SIGKILL) }, 0);
-    let (mut master, _slave) = take_pty(&device, Duration::from_secs(20));
+    let (mut master, _slave) = take_pty(&device, Duration::from_secs(60));
     // Several reconnect attempts fall in this window (250 ms doubling).
     let got = read_for(&mut master, Duration::from_secs(4));
     assert!(
