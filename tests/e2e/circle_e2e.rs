@@ -20,8 +20,7 @@ const HAND_COUNT: i64 = 1196;
 fn last_xy(stdout: &str) -> (i64, i64) {
     let line = stdout
         .lines()
-        .filter(|l| l.starts_with("<< 0 X="))
-        .last()
+        .rfind(|l| l.starts_with("<< 0 X="))
         .unwrap_or_else(|| panic!("no position in {stdout}"));
     let value = |axis: &str| -> i64 {
         let tail = line.split(axis).nth(1).unwrap_or_else(|| panic!("{line}"));
