@@ -33,6 +33,7 @@ mod timing;
 mod ui_pty;
 
 mod checkout_e2e;
+mod circle_e2e;
 mod cli_arc;
 mod cli_check;
 mod cli_closed_output;

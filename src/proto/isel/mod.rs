@@ -79,6 +79,7 @@ mod framer;
 mod parse;
 pub mod ports;
 mod reply;
+mod walk;
 
 #[cfg(test)]
 mod tests;
@@ -108,3 +109,4 @@ pub use framer::{MAX_LINE, Received, RequestFramer};
 pub use parse::{Note, NoteKind, ParseError, Parsed, parse_cnc, parse_frame};
 pub use ports::{InputPort, OutputPort, PortBits};
 pub use reply::{Positions, Recovery, Reply, ReplyCode, ReplyEncodeError, TextEnd, UnusedCode};
+pub use walk::ArcWalk;

@@ -759,21 +759,16 @@ impl IselSim {
 fn remainder(spec: &LegSpec, run: &LegRun, at: [i64; 4]) -> Option<LegSpec> {
     match (spec, &run.path) {
         (LegSpec::Line { .. }, _) => Some(spec.clone()),
-        (
-            LegSpec::Arc {
-                end,
-                distance,
-                speed,
-                ..
-            },
-            Path::Arc(arc),
-        ) => {
+        (LegSpec::Arc { end, speed, .. }, Path::Arc(arc)) => {
             let f = run.fraction_at(run.end_time());
-            (f < 1.0).then(|| LegSpec::Arc {
-                arc: arc.remainder(f, at.map(|v| v as f64)),
-                end: *end,
-                distance: ((*distance as f64) * (1.0 - f)).round().max(1.0) as u64,
-                speed: *speed,
+            (f < 1.0).then(|| {
+                let arc = arc.remainder(f, at.map(|v| v as f64));
+                LegSpec::Arc {
+                    distance: arc.steps.max(1),
+                    arc: Box::new(arc),
+                    end: *end,
+                    speed: *speed,
+                }
             })
         }
         _ => None,
