@@ -53,9 +53,10 @@ use std::time::{Duration, Instant};
 
 use jogterm::axis::Axis;
 use jogterm::config::{ConfigDirs, Profile, load_profile};
-use jogterm::gcode::check::{Machine, check_limits, summarise};
+use jogterm::gcode::check::{check_limits, summarise};
 use jogterm::gcode::output::Header;
-use jogterm::gcode::{Setup, Target, emcu, import, interpret, isel, reader};
+use jogterm::gcode::profile::{machine_of, setup_of};
+use jogterm::gcode::{Target, emcu, import, interpret, isel, reader};
 use jogterm::offsets::{System, WorkOffsets};
 
 /// Counts live heap bytes and their peak: two relaxed atomic operations per
@@ -649,8 +650,8 @@ console.log(JSON.stringify({
 /// `--profile STAGE`: only that stage, `runs` times, for a profiler
 /// (`perf record`, `valgrind --tool=callgrind` with `--lines 20000`).
 fn profile_stage(stage: &str, text: &str, profile: &Profile, offsets: &WorkOffsets, runs: usize) {
-    let setup = Setup::from_profile(profile, offsets).expect("setup");
-    let machine_ = Machine::from_profile(profile, jogterm::gcode::Target::Isel);
+    let setup = setup_of(profile, offsets).expect("setup");
+    let machine_ = machine_of(profile, jogterm::gcode::Target::Isel);
     let toolpath = || interpret(text, &setup).expect("the bench file interprets");
     let header = Header {
         file: "bench.nc".into(),
@@ -757,7 +758,7 @@ fn main() {
     let (t_read, c_read) = (read.wall, read.cpu);
     drop(read);
 
-    let setup = Setup::from_profile(&profile, &offsets).expect("setup");
+    let setup = setup_of(&profile, &offsets).expect("setup");
     let interp = best(runs, || interpret(&text, &setup));
     let toolpath = match &interp.out {
         Ok(t) => t,
@@ -782,7 +783,7 @@ fn main() {
         interp.cpu.saturating_sub(c_read).as_secs_f64() * 1e3
     );
 
-    let machine_ = Machine::from_profile(&profile, jogterm::gcode::Target::Isel);
+    let machine_ = machine_of(&profile, jogterm::gcode::Target::Isel);
     let check = best(runs, || {
         check_limits(toolpath, &machine_).map(|()| summarise(toolpath, &machine_))
     });
@@ -845,12 +846,12 @@ fn main() {
     drop(import_isel);
 
     // The EMCU profile (200 steps/mm, outputs A1 A2): its own toolpath.
-    let emcu_setup = Setup::from_profile(&emcu_profile, &emcu_offsets).expect("setup");
+    let emcu_setup = setup_of(&emcu_profile, &emcu_offsets).expect("setup");
     let emcu_path = interpret(&text, &emcu_setup)
         .unwrap_or_else(|e| panic!("emcu profile: {:?}", &e[..e.len().min(5)]));
     let emcu_summary = summarise(
         &emcu_path,
-        &Machine::from_profile(&emcu_profile, jogterm::gcode::Target::Emcu),
+        &machine_of(&emcu_profile, jogterm::gcode::Target::Emcu),
     );
     let emcu_header = Header {
         file: "bench.nc".into(),

@@ -26,7 +26,6 @@
 // Tests may print.
 #![cfg_attr(not(test), deny(clippy::print_stdout, clippy::print_stderr))]
 
-pub mod axis;
 pub mod cli;
 pub mod config;
 pub mod device;
@@ -37,10 +36,13 @@ mod layers;
 pub mod motion;
 pub mod offsets;
 pub mod program;
-pub mod proto;
 pub mod sim;
 pub mod traffic;
 pub mod transport;
 pub mod ui;
-pub mod wire;
-pub mod wiring;
+
+// The protocol cores live in their own crate (crates/jogterm-proto), with no
+// runtime, terminal or serial library; the application names them where they
+// always were.
+pub use jogterm_proto as proto;
+pub use jogterm_proto::{axis, wire, wiring};

@@ -39,6 +39,20 @@ use clap::{Args, Parser, Subcommand};
 
 use crate::proto::Protocol;
 
+/// `--protocol` and `--sim` take a family by name. The protocol crate knows
+/// no command line, so the CLI lists the names and their help here.
+fn family_parser() -> impl clap::builder::TypedValueParser<Value = Protocol> {
+    use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser as _};
+    PossibleValuesParser::new(Protocol::ALL.map(|family| {
+        PossibleValue::new(family.name()).help(match family {
+            Protocol::Isel => "isel @-format: iMC-M, iMC-MP, iMC-S8",
+            Protocol::Emcu => "EMCU interface on SMC3000 stepper cards",
+            Protocol::Emp => "Easy Motion Protocol: MSR DRS-500-ECS servo drives",
+        })
+    }))
+    .try_map(|name| name.parse::<Protocol>())
+}
+
 const ABOUT: &str = "Keyboard-only console for isel, EMCU and EMP serial motion controllers";
 
 const LONG_ABOUT: &str = "\
@@ -113,11 +127,11 @@ pub struct GlobalArgs {
     #[arg(long, global = true, value_name = "PORT")]
     pub port: Option<String>,
     /// Controller family, instead of the profile's connection.protocol
-    #[arg(long, global = true, value_enum, value_name = "FAMILY")]
+    #[arg(long, global = true, value_name = "FAMILY", value_parser = family_parser())]
     pub protocol: Option<Protocol>,
     /// Use the built-in simulator of this family instead of a port (for `sim`: the
     /// family to serve, like --protocol)
-    #[arg(long, global = true, value_enum, value_name = "FAMILY")]
+    #[arg(long, global = true, value_name = "FAMILY", value_parser = family_parser())]
     pub sim: Option<Protocol>,
     /// Colour theme of the console: a name (user theme, else shipped: dark, light,
     /// mono16) or a path (used by the console only)

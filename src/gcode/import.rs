@@ -4,54 +4,12 @@
 
 use crate::config::profile::Profile;
 use crate::offsets::WorkOffsets;
-use crate::proto::Protocol;
 
-use super::check::{Machine, Summary, check_limits, summarise};
+use super::check::{Summary, check_limits, summarise};
 use super::output::{Header, Program};
-use super::setup::Setup;
+use super::profile::{machine_of, setup_of};
+use super::target::Target;
 use super::toolpath::{Diagnostic, Origin, Toolpath};
-
-/// Which controller program to make.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Target {
-    Isel,
-    Emcu,
-}
-
-impl Target {
-    /// The profile's family, or why it has none.
-    pub fn of(protocol: Protocol) -> Result<Target, String> {
-        match protocol {
-            Protocol::Isel => Ok(Target::Isel),
-            Protocol::Emcu => Ok(Target::Emcu),
-            Protocol::Emp => Err(
-                "the EMP (MSR DRS-500-ECS) drives run independently: they have no interpolated path, so G-code cannot run on them".into(),
-            ),
-        }
-    }
-
-    /// The positions in steps the family's counter holds: isel 24-bit two's
-    /// complement (`@0P`, manual 3.2.16), EMCU `L` moves ±999999 steps.
-    pub fn counter(self) -> std::ops::RangeInclusive<i64> {
-        match self {
-            Target::Isel => {
-                let r = crate::proto::isel::STEPS;
-                i64::from(*r.start())..=i64::from(*r.end())
-            }
-            Target::Emcu => {
-                use crate::proto::emcu::values::Steps;
-                i64::from(Steps::MIN)..=i64::from(Steps::MAX)
-            }
-        }
-    }
-
-    pub fn name(self) -> &'static str {
-        match self {
-            Target::Isel => "isel",
-            Target::Emcu => "emcu",
-        }
-    }
-}
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct Import {
@@ -76,14 +34,14 @@ pub fn import(
     offsets: &WorkOffsets,
     target: Target,
 ) -> Result<Import, Vec<Diagnostic>> {
-    let setup = Setup::from_profile(profile, offsets).map_err(|errors| {
+    let setup = setup_of(profile, offsets).map_err(|errors| {
         errors
             .into_iter()
             .flat_map(|e| at_start(format!("profile: {}: {}", e.key, e.message)))
             .collect::<Vec<_>>()
     })?;
     let toolpath = super::interpret(text, &setup)?;
-    let machine = Machine::from_profile(profile, target);
+    let machine = machine_of(profile, target);
     check_limits(&toolpath, &machine).map_err(|e| vec![e])?;
     let summary = summarise(&toolpath, &machine);
     let header = Header {

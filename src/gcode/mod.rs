@@ -1,66 +1,19 @@
-//! G-code from CAM (RS-274/NGC as grbl, LinuxCNC and Mach accept it) for
-//! controllers that have no G-code: read, interpreted into a [`Toolpath`]
-//! of machine moves, checked against the machine, and turned into each
-//! family's own program (`docs/gcode.md`).
-//!
-//! ```text
-//! text ──read──► blocks (words with spans) ──interpret──► Toolpath ──check──► per-family output
-//! ```
-//!
-//! Every stage keeps the G-code line a thing came from ([`Origin`]): a
-//! diagnostic, a generated controller line and a controller error during a
-//! run all point at `FILE:LINE:COL`.
-//!
-//! Sans-IO: text in, values out; the CLI, the editor and the runs read the
-//! files and talk to the device.
+//! G-code from CAM for controllers that have no G-code, as jogterm runs it:
+//! the core (reader, interpreter, toolpath, machine check) is the
+//! `jogterm-gcode` crate, re-exported here; this module adds what needs a
+//! machine profile or a controller family: the setup and the machine from a
+//! profile ([`profile`]), each family's program ([`isel`], [`emcu`]), the
+//! one-call [`import`], restarts ([`restart`]) and the ways a job can run
+//! ([`ways`]) (`docs/gcode.md`).
 
-pub mod check;
 pub mod emcu;
 pub mod import;
-pub mod interp;
 pub mod isel;
-pub mod modal;
-pub mod output;
-pub mod reader;
+pub mod profile;
 pub mod restart;
-pub mod setup;
-pub mod toolpath;
 pub mod ways;
 
-pub use import::{Import, Target, import};
-pub use interp::interpret;
-pub use modal::{Modal, Spindle};
+pub use jogterm_gcode::*;
+
+pub use import::{Import, import};
 pub use restart::{Restart, RestartError, restart};
-pub use setup::{CodeRule, NamedOutput, Setup, Units};
-pub use toolpath::{
-    Arc, Diagnostic, Dwell, Line, Op, Origin, OutputSwitch, Pause, Plane, Point, Rapid, Severity,
-    Toolpath,
-};
-
-/// The largest G-code file read (`jogterm import`, `check`, `upload`,
-/// `run`): CAM files of half a million lines are 16 MiB; `/dev/zero` or a
-/// runaway file stops here instead of filling the memory (issue 37).
-pub const MAX_FILE_BYTES: u64 = 64 * 1024 * 1024;
-
-/// File extensions that mark a G-code file (`jogterm check`, `upload`, the
-/// editor); `--gcode` says so for any other name.
-pub const EXTENSIONS: [&str; 5] = ["nc", "ngc", "gcode", "tap", "gc"];
-
-/// Whether a path names a G-code file by its extension.
-pub fn is_gcode_path(path: &std::path::Path) -> bool {
-    path.extension()
-        .and_then(|e| e.to_str())
-        .is_some_and(|e| EXTENSIONS.iter().any(|g| g.eq_ignore_ascii_case(e)))
-}
-
-/// `FILE:LINE:COL: error: message`, as compilers print it.
-pub fn render(file: &str, d: &Diagnostic) -> String {
-    let kind = match d.severity {
-        Severity::Error => "error",
-        Severity::Warning => "warning",
-    };
-    format!(
-        "{file}:{}:{}: {kind}: {}",
-        d.origin.line, d.origin.col, d.message
-    )
-}

@@ -15,12 +15,14 @@ use std::fmt;
 use crate::config::profile::Profile;
 use crate::offsets::WorkOffsets;
 
-use super::check::{Machine, check_limits};
-use super::import::{Import, Target};
+use super::check::check_limits;
+use super::import::Import;
 use super::interp::modal_before;
 use super::modal::{Modal, number};
 use super::output::{Header, Program};
-use super::setup::{Setup, Units};
+use super::profile::{machine_of, setup_of};
+use super::setup::Units;
+use super::target::Target;
 use super::toolpath::{Diagnostic, Line, Op, Origin, OutputSwitch, Pause, Point, Rapid, Toolpath};
 
 #[cfg(test)]
@@ -209,7 +211,7 @@ pub fn restart(
     }
     let start = skipped.iter().rev().find_map(end_of).unwrap_or_default();
     let safe_z = safe_height(path).unwrap_or(start.z);
-    let setup = Setup::from_profile(profile, offsets).map_err(|errors| {
+    let setup = setup_of(profile, offsets).map_err(|errors| {
         RestartError::Convert(
             errors
                 .into_iter()
@@ -263,7 +265,7 @@ pub fn restart(
         named_from: [0; 3],
     };
     restarted.ops.extend(ops[cut..].iter().cloned());
-    let machine = Machine::from_profile(profile, imported.target);
+    let machine = machine_of(profile, imported.target);
     check_limits(&restarted, &machine).map_err(|e| RestartError::Convert(vec![e]))?;
     let estimated_s = super::check::summarise(&restarted, &machine).estimated_s;
     let header = Header {

@@ -7,6 +7,7 @@ use crate::axis::Axis;
 use crate::config::{ConfigDirs, load_profile};
 use crate::gcode::import::import;
 use crate::gcode::modal::Spindle;
+use crate::gcode::profile::setup_of;
 use crate::gcode::setup::Units;
 use crate::gcode::toolpath::Plane;
 use crate::offsets::System;
@@ -63,7 +64,7 @@ M30
 
 #[test]
 fn the_modal_state_is_what_the_skipped_lines_leave() {
-    let setup = Setup::from_profile(&profile(), &offsets(&profile())).expect("setup");
+    let setup = setup_of(&profile(), &offsets(&profile())).expect("setup");
     let table: &[(&str, u32, &str)] = &[
         ("G21\nG0 X1\n", 2, "G21 mm"),
         ("G20\nG0 X1\n", 2, "G20 inch"),

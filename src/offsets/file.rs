@@ -30,7 +30,7 @@ use crate::config::profile::{Profile, Unit};
 use crate::config::{ConfigError, Source, source};
 use crate::proto::Protocol;
 
-use super::table::{MAX_ZERO_STEPS, System, WorkOffsets};
+use super::{MAX_ZERO_STEPS, System, WorkOffsets};
 
 /// The version of the layout written; another one is refused.
 pub const FORMAT: u32 = 1;

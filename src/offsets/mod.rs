@@ -21,7 +21,8 @@
 
 pub mod file;
 pub mod store;
-pub mod table;
 
 pub use file::{Identity, Loaded};
-pub use table::{MAX_ZERO_STEPS, System, WorkOffsets};
+// The table of work zeros is part of the G-code core (jogterm-gcode); the
+// state file and its store are the application's.
+pub use jogterm_gcode::offsets::{MAX_ZERO_STEPS, System, WorkOffsets};

@@ -22,8 +22,8 @@ use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 use crate::config::{Origin, Source};
 use crate::program::store::{self as files, Fingerprint};
 
+use super::WorkOffsets;
 use super::file::{self, Identity, Loaded};
-use super::table::WorkOffsets;
 
 /// A file bigger than this is no offsets file jogterm wrote (six systems of
 /// four axes are well under 2 KiB).

@@ -253,9 +253,13 @@ fn a_line_that_streams_bytes_ends_send_with_a_clear_error() {
         ("emp", "2C 11 00 00 00000000", 32_000),
     ] {
         let mut sim = SimProcess::start(family);
+        // On a loaded machine the simulator can take longer than EMP's
+        // reply timeout to begin its stream, and `send` then rightly says
+        // "no reply": a wide margin keeps this test on the streaming line.
+        write_profile(&sim, "patient", "\n[connection]\nreply_margin_ms = 2000\n");
         sim.control(&format!("fault stream {stream}"));
         let started = Instant::now();
-        let out = wait_child(spawn(&sim, &["send", read]), family);
+        let out = wait_child(spawn(&sim, &["send", "--profile", "patient", read]), family);
         let took = started.elapsed();
         assert_exit(&out, 3, family);
         let err = text(&out.stderr);
