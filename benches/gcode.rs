@@ -650,7 +650,7 @@ console.log(JSON.stringify({
 /// (`perf record`, `valgrind --tool=callgrind` with `--lines 20000`).
 fn profile_stage(stage: &str, text: &str, profile: &Profile, offsets: &WorkOffsets, runs: usize) {
     let setup = Setup::from_profile(profile, offsets).expect("setup");
-    let machine_ = Machine::from_profile(profile);
+    let machine_ = Machine::from_profile(profile, jogterm::gcode::Target::Isel);
     let toolpath = || interpret(text, &setup).expect("the bench file interprets");
     let header = Header {
         file: "bench.nc".into(),
@@ -782,7 +782,7 @@ fn main() {
         interp.cpu.saturating_sub(c_read).as_secs_f64() * 1e3
     );
 
-    let machine_ = Machine::from_profile(&profile);
+    let machine_ = Machine::from_profile(&profile, jogterm::gcode::Target::Isel);
     let check = best(runs, || {
         check_limits(toolpath, &machine_).map(|()| summarise(toolpath, &machine_))
     });
@@ -848,7 +848,10 @@ fn main() {
     let emcu_setup = Setup::from_profile(&emcu_profile, &emcu_offsets).expect("setup");
     let emcu_path = interpret(&text, &emcu_setup)
         .unwrap_or_else(|e| panic!("emcu profile: {:?}", &e[..e.len().min(5)]));
-    let emcu_summary = summarise(&emcu_path, &Machine::from_profile(&emcu_profile));
+    let emcu_summary = summarise(
+        &emcu_path,
+        &Machine::from_profile(&emcu_profile, jogterm::gcode::Target::Emcu),
+    );
     let emcu_header = Header {
         file: "bench.nc".into(),
         profile: emcu_profile.name.clone(),

@@ -101,7 +101,8 @@ pub fn run_to(
             return Ok(ExitCode::from(USAGE));
         }
     };
-    let bytes = match std::fs::read(&args.file) {
+    let bytes = match super::import::read_bounded(&args.file, crate::program::store::MAX_FILE_BYTES)
+    {
         Ok(b) => b,
         Err(e) => {
             let _ = writeln!(

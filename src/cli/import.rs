@@ -303,7 +303,7 @@ pub(super) fn read_and_import(
     err: &mut dyn Write,
 ) -> Result<(Import, String, WorkOffsets), u8> {
     let name = path.display().to_string();
-    let bytes = match std::fs::read(path) {
+    let bytes = match read_bounded(path, crate::gcode::MAX_FILE_BYTES) {
         Ok(b) => b,
         Err(e) => {
             let _ = writeln!(err, "jogterm: cannot read {name}: {e}");
@@ -340,6 +340,24 @@ pub(super) fn read_and_import(
             Err(ERRORS)
         }
     }
+}
+
+/// The bytes of `path`, at most `max` of them: a longer input (a runaway
+/// file, `/dev/zero`) is refused after `max + 1` bytes instead of read
+/// until the memory runs out.
+pub(super) fn read_bounded(path: &std::path::Path, max: u64) -> std::io::Result<Vec<u8>> {
+    use std::io::Read;
+    let mut bytes = Vec::new();
+    std::fs::File::open(path)?
+        .take(max + 1)
+        .read_to_end(&mut bytes)?;
+    if bytes.len() as u64 > max {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!("more than {max} bytes: too large to be read"),
+        ));
+    }
+    Ok(bytes)
 }
 
 /// An axis' extents as JSON: `[min, max]`, or null when the file never

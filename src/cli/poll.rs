@@ -47,7 +47,8 @@ inputs I1-I4 of drive 11 as bits 0-3.
 
 Exit status: 0 done (also when interrupted, or when the reader of its output goes away as
 `| head -1` does: it stops and closes first); 1 no position could be read, or stdout failed
-otherwise (a hung-up terminal); 2 bad usage; 3 link failure.
+otherwise (a hung-up terminal); 2 bad usage; 3 link failure (the port cannot be opened or vanished, a reply did not come, a busy isel answered
+nothing within isel.busy_wait_s, the line streams bytes that answer nothing).
 
 Examples:
   jogterm poll --port /dev/ttyUSB0 --protocol isel --count 5

@@ -31,7 +31,8 @@ Every command is checked before anything is sent (the whole list): a line the co
 would refuse is bad usage. Lines after `@0i` are stored program lines (CNC commands such as
 `0100,900` or `9`) until `9`. Before the commands jogterm reads the controller's state back;
 a list with a command that may move opens and closes its connection with the stop sequence
-0xFD 0xFF; a list of reads (and of stops you write) sends no stop of its own.
+0xFD 0xFF; a list of lines that move nothing sends no stop and nothing but reads of its own
+(docs/device.md, \"Sessions that only read\").
 
 Control bytes act at once, also during a move, and have no reply. Write them as
 `\\xFD`, `0xFD` or by name: `softstop` (0xFD: ramp down, the rest can be resumed with @0S),
@@ -56,8 +57,9 @@ Exit status: 0 every command answered `0`; 1 the controller answered an error (t
 not sent) or refused for its state (E-stop, fault), or interrupted (Ctrl-C, SIGTERM, a
 hang-up: the machine is stopped first), or stdout closed or failed (`| head -1`: a command in
 flight is answered, nothing more is sent, the machine is stopped); 2 bad usage (a command that would be refused, an
-unknown option); 3 link failure (the port cannot be opened or vanished, a reply did not
-come).
+unknown option, a --baud outside 300 to 4000000); 3 link failure (the port cannot be opened
+or vanished, a reply did not come, a busy isel answered nothing within isel.busy_wait_s, the
+line streams bytes that answer nothing).
 
 Examples:
   jogterm send --port /dev/ttyUSB0 --protocol isel '@07' '@0R7' '@0P'

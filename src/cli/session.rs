@@ -68,6 +68,10 @@ pub fn resolve(global: &GlobalArgs, baud: Option<u32>) -> Result<Profile, StartE
         )));
     }
     if let Some(baud) = baud {
+        // Refused before a port is opened: a line at 0 baud has no wire
+        // time, and a session waited for ever (issue 37).
+        crate::config::profile::Connection::check_baud(baud)
+            .map_err(|m| StartError::Usage(format!("--baud {m}")))?;
         profile.connection.baud = Some(baud);
     }
     Ok(profile)

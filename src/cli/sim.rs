@@ -51,6 +51,7 @@ Control language (one command per line, docs/simulator.md):
   fault withhold                       do not send the next message
   fault garbage <text>|hex:<hex>       send these bytes now, unasked
   fault delay <ms>                     send the next message <ms> later
+  fault stream <bytes>                 instead of the next message, <bytes> of U unbroken
   fault close [<reopen-after-ms>]      close the line (a pty may reopen)
   fault stall                          the next long action stays busy, unmoving (EMP)
   show                                 device state, line, counters

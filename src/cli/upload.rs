@@ -235,12 +235,49 @@ fn checked(
     if lines.is_empty() {
         return Err(format!("{name}: the program has no commands"));
     }
+    if let Some(converted) = &gcode {
+        made_by_the_converter(&name, &lines, converted, language)?;
+    }
     Ok(Prepared {
         name,
         lines,
         program,
         gcode,
     })
+}
+
+/// The lines to send of a program converted from G-code are the
+/// converter's commands, one for one: the text they were checked in holds
+/// no line that came from elsewhere (a name with a line break in it, issue
+/// 37). Each command is one line of one command.
+fn made_by_the_converter(
+    name: &str,
+    lines: &[String],
+    converted: &crate::gcode::output::Program,
+    language: Language,
+) -> Result<(), String> {
+    let commands = converted.lines.iter().filter(|l| !l.command.is_empty());
+    let mut sent = lines.iter();
+    for (k, line) in commands.enumerate() {
+        let alone = Program::parse(language, &line.command);
+        let canonical = match alone.upload_lines() {
+            Ok(c) if c.len() == 1 && alone.lines().len() == 1 => c.into_iter().next(),
+            _ => None,
+        };
+        if canonical.is_none() || canonical.as_ref() != sent.next() {
+            return Err(format!(
+                "{name}: command {} of the converted program is not the converter's `{}`: nothing was sent",
+                k + 1,
+                line.command.escape_debug()
+            ));
+        }
+    }
+    if let Some(extra) = sent.next() {
+        return Err(format!(
+            "{name}: the converted program holds `{extra}`, which the converter did not make: nothing was sent"
+        ));
+    }
+    Ok(())
 }
 
 /// A G-code file imported for the profile, its warnings said; the job to
@@ -482,6 +519,14 @@ pub fn run(global: &GlobalArgs, args: &UploadArgs) -> anyhow::Result<ExitCode> {
     } else if args.chunked || args.stream {
         return usage(
             "--chunked and --stream run G-code; a controller program is stored whole".into(),
+        );
+    } else if args.work_zero.is_some() {
+        // A controller program's coordinates are the controller's own: an
+        // offset accepted here would be one the job never sees.
+        return usage(
+            "--work-zero places G-code; a controller program runs in the controller's own \
+             coordinates and is stored as it is"
+                .into(),
         );
     } else {
         match prepare(global, &args.file, &profile, language, &config) {

@@ -57,7 +57,8 @@ used\", the hood, power-ok, over-temperature and key-switch bits, limit switches
 machine does not have).
 
 Exit status: 0 done (interrupted, or the reader of its output went away); 1 no input could be
-read, or stdout failed otherwise; 2 bad usage; 3 link failure.
+read, or stdout failed otherwise; 2 bad usage; 3 link failure (the port cannot be opened or vanished, a reply did not come, a busy isel answered
+nothing within isel.busy_wait_s, the line streams bytes that answer nothing).
 
 Examples:
   jogterm watch --port /dev/ttyUSB0 --protocol isel

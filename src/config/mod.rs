@@ -300,6 +300,23 @@ fn resolve(
             text: text.to_string(),
         })
         .ok_or_else(|| {
+            // `base` naming its own file reaches past it for a shipped file
+            // of that name (above); without one, "no such name" would list
+            // the very file the operator is looking at.
+            if let Some(src) = referrer.filter(|s| {
+                matches!(&s.origin, Origin::File(p) if p.file_stem().is_some_and(|stem| stem == name))
+            }) {
+                return ConfigError::at_key(
+                    src,
+                    &["base".into()],
+                    format!(
+                        "`base = \"{name}\"` names this file itself; a {what} file may patch a \
+                         shipped {what} of its own name, and none is called `{name}` (shipped: {shipped})",
+                        what = kind.what,
+                        shipped = kind.builtin.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", "),
+                    ),
+                );
+            }
             let known = names(kind, dirs).join(", ");
             let origin = referrer
                 .map(|s| s.origin.clone())

@@ -81,7 +81,9 @@ pub struct GcodeProfile {
     #[serde(default = "default_plunge_feed")]
     pub plunge_feed: f64,
     /// Program memory in commands, when it differs from the manual's
-    /// (isel 2000, EMCU 256).
+    /// (isel 2000 before the closing `9`, EMCU 256): the one setting the
+    /// import, `check`, `upload`, `run` and the console's editor count
+    /// against.
     #[serde(default)]
     pub memory: Option<usize>,
     #[serde(flatten)]
@@ -129,7 +131,8 @@ pub struct Connection {
     pub protocol: Protocol,
     /// `sim` for the built-in simulator, otherwise a serial device path.
     pub port: String,
-    /// Baud rate; the family's default when absent (isel, EMCU 19200; EMP 38400).
+    /// Baud rate; the family's default when absent (isel, EMCU 19200; EMP 38400),
+    /// within [`Connection::BAUD`].
     #[serde(default)]
     pub baud: Option<u32>,
     /// Added to a reply's wire time before the controller counts as silent,
@@ -146,6 +149,27 @@ impl Connection {
     /// The margins a profile may set: below 20 ms a busy host misses
     /// replies that came; above 5 s a dead line goes unnoticed too long.
     pub const REPLY_MARGIN_MS: std::ops::RangeInclusive<u64> = 20..=5000;
+    /// The baud rates a profile or `--baud` may set. The controllers run at
+    /// 9600 or 19200 (isel, `@0IC`, manual 4.2.15), 19200 (EMCU, manual
+    /// 1.4.1) and 38400 (EMP); a serial port server or a test simulator may
+    /// run the line faster. 300 is the slowest rate USB serial adapters
+    /// take, 4 000 000 the fastest a Linux serial port has (termios
+    /// `B4000000`). Below, a reply's wire time is seconds per byte, and 0
+    /// has none at all: a session waited for ever (issue 37).
+    pub const BAUD: std::ops::RangeInclusive<u32> = 300..=4_000_000;
+
+    /// Whether `baud` is one a line can run at; else what is expected.
+    pub fn check_baud(baud: u32) -> Result<(), String> {
+        if Self::BAUD.contains(&baud) {
+            Ok(())
+        } else {
+            Err(format!(
+                "{baud}: expected {} to {} baud (isel 19200 or 9600, EMCU 19200, EMP 38400)",
+                Self::BAUD.start(),
+                Self::BAUD.end()
+            ))
+        }
+    }
 
     pub fn reply_margin(&self) -> std::time::Duration {
         std::time::Duration::from_millis(
@@ -325,6 +349,23 @@ pub struct IselProfile {
     /// started on axes that are not referenced (`docs/profiles.md`).
     #[serde(default)]
     pub start_unreferenced: StartUnreferenced,
+    /// How long a session that only reads waits for a controller that
+    /// answers nothing before it gives up, s
+    /// ([`IselProfile::DEFAULT_BUSY_WAIT_S`] when absent, `docs/profiles.md`).
+    #[serde(default)]
+    pub busy_wait_s: Option<u64>,
+}
+
+impl IselProfile {
+    /// Ten minutes: longer than most stored programs a console watches
+    /// run, short enough that a dead line is not waited on for a shift.
+    pub const DEFAULT_BUSY_WAIT_S: u64 = 600;
+    /// From a second to a day.
+    pub const BUSY_WAIT_S: std::ops::RangeInclusive<u64> = 1..=86_400;
+
+    pub fn busy_wait(&self) -> std::time::Duration {
+        std::time::Duration::from_secs(self.busy_wait_s.unwrap_or(Self::DEFAULT_BUSY_WAIT_S))
+    }
 }
 
 /// Starting a stored program on axes not referenced (issue 24). A program
@@ -505,6 +546,18 @@ impl Profile {
     /// family supports. Looks only at the axes `machine.axes` lists.
     pub fn validate(&self) -> Vec<Invalid> {
         let mut out = Vec::new();
+        // The name goes into every converted program's header and onto the
+        // screen: a line break in it would be a line of the program
+        // (issue 37), so it is one line of printable text.
+        if let Some(bad) = self.name.chars().find(|c| c.is_control()) {
+            out.push(Invalid::new(
+                &["name"],
+                format!(
+                    "a profile name is one line of printable text, got {bad:?} in {:?}",
+                    self.name
+                ),
+            ));
+        }
         let axes = match self.machine.axis_set() {
             Ok(set) => set,
             Err(msg) => return vec![Invalid::new(&["machine", "axes"], msg)],
@@ -543,6 +596,23 @@ impl Profile {
                     self.gcode.plunge_feed
                 ),
             ));
+        }
+        if let Some(s) = self.isel.busy_wait_s
+            && !IselProfile::BUSY_WAIT_S.contains(&s)
+        {
+            out.push(Invalid::new(
+                &["isel", "busy_wait_s"],
+                format!(
+                    "{s} s: expected {} to {} s",
+                    IselProfile::BUSY_WAIT_S.start(),
+                    IselProfile::BUSY_WAIT_S.end()
+                ),
+            ));
+        }
+        if let Some(baud) = self.connection.baud
+            && let Err(message) = Connection::check_baud(baud)
+        {
+            out.push(Invalid::new(&["connection", "baud"], message));
         }
         match self.connection.protocol {
             // isel manual 2.2.1: X, XY, XYZ, and A only on top of XYZ.
@@ -593,7 +663,15 @@ impl Profile {
                     "must be a positive number",
                 ));
             }
-            if !(p.min.is_finite() && p.max.is_finite() && p.min < p.max) {
+            for (key, value) in [("min", p.min), ("max", p.max)] {
+                if !value.is_finite() {
+                    out.push(Invalid::new(
+                        &["axes", k, key],
+                        format!("must be a finite number of units, got {value}"),
+                    ));
+                }
+            }
+            if p.min.is_finite() && p.max.is_finite() && p.min >= p.max {
                 out.push(Invalid::new(
                     &["axes", k, "max"],
                     format!("soft limits need min < max (min {}, max {})", p.min, p.max),
@@ -734,6 +812,26 @@ impl Profile {
                 &["sim", "limit_margin"],
                 "must be zero or positive",
             ));
+        }
+        // The one memory setting (issue 37): what the controller holds, at
+        // most what its manual says (the simulators hold no more either).
+        if let Some(memory) = self.gcode.memory {
+            let most = match self.connection.protocol {
+                Protocol::Isel => Some(crate::proto::isel::PROGRAM_CAPACITY),
+                Protocol::Emcu => Some(crate::proto::emcu::job::JOB_CAPACITY),
+                Protocol::Emp => None,
+            };
+            if let Some(most) = most
+                && !(1..=most).contains(&memory)
+            {
+                out.push(Invalid::new(
+                    &["gcode", "memory"],
+                    format!(
+                        "{memory} commands: a {} controller stores 1 to {most} (its manual's memory; set it lower for one that holds less)",
+                        self.connection.protocol
+                    ),
+                ));
+            }
         }
         let family = self.connection.protocol;
         for (i, variant) in self.sim.variants.iter().enumerate() {

@@ -160,6 +160,39 @@ fn emp_axes_need_distinct_drive_addresses() {
     assert_eq!(err.line, Some(5));
 }
 
+/// Issue 37 (13): an infinite soft limit is named as what it is, at its
+/// own key, not as "min < max".
+#[test]
+fn an_infinite_soft_limit_is_refused_at_its_key() {
+    let (dir, dirs) = user_dir();
+    fs::write(
+        dir.path().join("profiles/inf.toml"),
+        "[axes.X]\nmax = 100.0\nmin = -inf\n",
+    )
+    .unwrap();
+    let err = load_profile("inf", &dirs).unwrap_err();
+    assert_eq!(err.line, Some(3), "{err}");
+    assert!(err.message.contains("finite"), "{err}");
+    assert!(!err.message.contains("min < max"), "{err}");
+}
+
+/// Issue 37 (13): a user profile whose `base` is its own name, with no
+/// shipped profile of that name, says so at its `base` line; before, it
+/// said "no profile named `selfbase` (known: …, selfbase)".
+#[test]
+fn a_base_naming_its_own_file_says_so() {
+    let (dir, dirs) = user_dir();
+    fs::write(
+        dir.path().join("profiles/selfbase.toml"),
+        "# loops\nbase = \"selfbase\"\n",
+    )
+    .unwrap();
+    let err = load_profile("selfbase", &dirs).unwrap_err();
+    assert_eq!(err.line, Some(2), "{err}");
+    assert!(err.message.contains("names this file itself"), "{err}");
+    assert!(!err.message.contains("known:"), "{err}");
+}
+
 #[test]
 fn syntax_error_and_missing_file_and_unknown_name() {
     let (dir, dirs) = user_dir();
@@ -440,4 +473,56 @@ fn the_plunge_feed_has_a_default_and_a_bad_one_is_refused_at_its_line() {
     let err = load_profile("still", &dirs).unwrap_err();
     assert_eq!(err.line, Some(3), "{err}");
     assert!(err.message.contains("must be a positive feed"), "{err}");
+}
+
+/// Issue 37: how long a session that only reads waits for an isel that
+/// answers nothing is the profile's (600 s when absent, 1 s to a day), and
+/// a baud rate no line runs at is refused at its line.
+#[test]
+fn the_busy_wait_and_the_baud_rate_are_checked_at_their_lines() {
+    use std::time::Duration;
+    let (dir, dirs) = user_dir();
+    let default = load_profile("default", &dirs).unwrap();
+    assert_eq!(default.isel.busy_wait(), Duration::from_secs(600));
+    fs::write(
+        dir.path().join("profiles/patient.toml"),
+        "[isel]\nbusy_wait_s = 7200\n",
+    )
+    .unwrap();
+    let patient = load_profile("patient", &dirs).unwrap();
+    assert_eq!(patient.isel.busy_wait(), Duration::from_secs(7200));
+    for (name, text, line, expected) in [
+        (
+            "never",
+            "\n[isel]\nbusy_wait_s = 0\n",
+            3,
+            "expected 1 to 86400 s",
+        ),
+        (
+            "still",
+            "[connection]\nbaud = 0\n",
+            2,
+            "expected 300 to 4000000 baud",
+        ),
+        (
+            "fast",
+            "[connection]\nbaud = 5000000\n",
+            2,
+            "expected 300 to 4000000 baud",
+        ),
+    ] {
+        fs::write(dir.path().join(format!("profiles/{name}.toml")), text).unwrap();
+        let err = load_profile(name, &dirs).unwrap_err();
+        assert_eq!(err.line, Some(line), "{name}: {err}");
+        assert!(err.message.contains(expected), "{name}: {err}");
+    }
+    fs::write(
+        dir.path().join("profiles/slow.toml"),
+        "[connection]\nbaud = 300\n",
+    )
+    .unwrap();
+    assert_eq!(
+        load_profile("slow", &dirs).unwrap().connection.line().baud,
+        300
+    );
 }

@@ -61,6 +61,14 @@ pub trait Driver: Send {
     /// is read back either way.
     fn set_connect_halt(&mut self, on: bool);
 
+    /// A session that only reads (`SessionMoves::No`: `watch`, `poll`,
+    /// `commission`, `send` of lines that move nothing): what the driver
+    /// sends of its own accord is reads, nothing that sets something in the
+    /// controller (`docs/device.md`, "Sessions that only read"). What the
+    /// client asks for still goes out. The default: a family whose read-back
+    /// only reads anyway.
+    fn set_reads_only(&mut self, _on: bool) {}
+
     /// Whether `request` may set an axis in motion as this family reads it:
     /// what makes a console a session that moves (`SessionMoves::OnceAsked`).
     /// A raw line is parsed, so a typed read is no motion; a line that does

@@ -28,6 +28,7 @@ mod imports;
 pub mod inputs;
 pub mod isel;
 pub mod log;
+mod stream_guard;
 pub mod task;
 mod traffic_buffer;
 

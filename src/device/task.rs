@@ -39,12 +39,13 @@ use super::handle::{
 };
 use super::inputs::{InputRecorder, RecorderConfig};
 use super::isel::{IselDriver, SettingsError};
+use super::stream_guard::StreamGuard;
 use super::traffic_buffer::TrafficBuffer;
 use crate::config::Profile;
 use crate::proto::Protocol;
 use crate::transport::{
-    self, EmergencyStop, Interleave, Lane, MessageId, Pace, PacedWriter, PortParts, PortSpec,
-    TransportError, WriterConfig, WriterEvent,
+    self, EmergencyStop, Interleave, Lane, MessageId, Pace, PacedWriter, PortIdentity, PortParts,
+    PortSpec, TransportError, WriterConfig, WriterEvent,
 };
 use crate::wire::LineSettings;
 
@@ -149,6 +150,7 @@ pub fn spawn_recording(
     let mut driver = driver;
     let moved = options.moves == SessionMoves::Yes;
     driver.set_connect_halt(moved);
+    driver.set_reads_only(options.moves == SessionMoves::No);
     let moved_flag = Arc::new(AtomicBool::new(moved));
     let bus = EventBus::new(options.lossy_capacity);
     let first = bus.subscribe();
@@ -168,6 +170,7 @@ pub fn spawn_recording(
         slot,
         options,
         last_lost: None,
+        identity: None,
         pace: Pace::Tight,
         moved,
         moved_flag: moved_flag.clone(),
@@ -199,6 +202,9 @@ struct Task {
     options: TaskOptions,
     /// The last loss published, so a retry loop says it once.
     last_lost: Option<String>,
+    /// The device the serial port path named when it was first opened: a
+    /// reconnect opens it only while the path still names that device.
+    identity: Option<PortIdentity>,
     /// How far ahead of the wire the driver's messages may run: bulk while
     /// the driver reports an upload (nothing moves then, motion is refused),
     /// tight otherwise, so that a stop is never more than the writer's
@@ -238,6 +244,8 @@ struct Session {
     /// The port's emergency stop, until it is armed (a session that has not
     /// moved arms none).
     emergency: Option<EmergencyStop>,
+    /// Bytes that stream and answer nothing end the link (issue 37).
+    stream: StreamGuard,
 }
 
 /// Bulk pacing only for an upload on a link that is up: storing a program
@@ -285,7 +293,10 @@ impl Task {
         loop {
             self.bus.publish(Event::Link(LinkState::Connecting));
             let opened = match self.connector.port() {
-                Ok(spec) => open_port(spec, self.options.writer).await,
+                Ok(spec) => match self.same_device(&spec) {
+                    Ok(()) => open_port(spec, self.options.writer).await,
+                    Err(e) => Err(e),
+                },
                 Err(e) => Err(e),
             };
             match opened {
@@ -312,6 +323,31 @@ impl Task {
         self.requests.close();
         self.stops.close();
         let _ = done.send(true);
+    }
+
+    /// Before a serial port is opened (and so before anything is written
+    /// to it): the first time, what device its path names; after that,
+    /// that it names the same one still (`transport::identity`). A pty's
+    /// number handed to another program, an adapter of another machine on
+    /// the same `/dev/ttyUSB0`: refused, said, and tried again later.
+    fn same_device(&mut self, spec: &PortSpec) -> Result<(), TransportError> {
+        let PortSpec::Serial { path, .. } = spec else {
+            return Ok(());
+        };
+        match &self.identity {
+            None => {
+                // A path that cannot be identified now cannot be opened
+                // either: the open says why.
+                self.identity = transport::identify(path).ok();
+                Ok(())
+            }
+            Some(first) => {
+                transport::still_the_same(path, first).map_err(|message| TransportError::Open {
+                    port: path.display().to_string(),
+                    message,
+                })
+            }
+        }
     }
 
     fn lost(&mut self, reason: String) {
@@ -473,6 +509,7 @@ impl Task {
             line,
             reports_after: None,
             emergency: Some(emergency),
+            stream: StreamGuard::new(line),
         };
         if self.moved {
             self.set_emergency(s.emergency.take());
@@ -527,8 +564,16 @@ impl Task {
                 read = reader.read_chunk() => match read {
                     Ok(chunk) => {
                         let messages = self.driver.received(&chunk.bytes, chunk.at);
+                        let answered = messages
+                            .iter()
+                            .any(|m| m.owner != crate::traffic::Owner::Controller);
+                        let streaming = s.stream.read(chunk.bytes.len(), chunk.at, answered);
                         let records = s.traffic.read(&chunk, messages);
                         self.publish_traffic(records);
+                        if let Some(reason) = streaming {
+                            self.lost(reason);
+                            break Ending::DeadLink;
+                        }
                     }
                     Err(e) => break Ending::PortGone(e.to_string()),
                 },

@@ -4,11 +4,13 @@
 //! moves, arcs and the estimated time.
 
 use std::f64::consts::PI;
+use std::ops::RangeInclusive;
 
 use crate::axis::Axis;
 use crate::config::profile::Profile;
 use crate::offsets::System;
 
+use super::import::Target;
 use super::interp::{get, plane_axes, radius, sweep};
 use super::toolpath::{Arc, Diagnostic, Op, Origin, Point, Severity, Toolpath};
 
@@ -19,16 +21,31 @@ pub struct Machine {
     pub axes: Vec<(Axis, f64, f64, f64)>,
     /// G0's path speed, mm/s (`None`: each axis at its own `max_speed`).
     pub rapid_speed: Option<f64>,
+    /// Steps per mm of each axis, for the controller's position counter.
+    pub steps_per_mm: Vec<(Axis, f64)>,
+    /// The positions in steps the controller's counter holds (isel 24-bit,
+    /// EMCU ±999999): a point beyond is refused at its G-code line, not by
+    /// the controller at a line of the converted program (issue 37).
+    pub counter: RangeInclusive<i64>,
+    /// Whose counter it is, for the message.
+    pub controller: &'static str,
 }
 
 impl Machine {
-    pub fn from_profile(profile: &Profile) -> Machine {
-        Machine {
-            axes: [Axis::X, Axis::Y, Axis::Z]
+    pub fn from_profile(profile: &Profile, target: Target) -> Machine {
+        let axes = || {
+            [Axis::X, Axis::Y, Axis::Z]
                 .into_iter()
-                .filter_map(|a| profile.axis(a).map(|p| (a, p.min, p.max, p.max_speed)))
+                .filter_map(|a| profile.axis(a).map(|p| (a, p)))
+        };
+        Machine {
+            axes: axes()
+                .map(|(a, p)| (a, p.min, p.max, p.max_speed))
                 .collect(),
             rapid_speed: profile.gcode.rapid_speed,
+            steps_per_mm: axes().map(|(a, p)| (a, p.steps_per_unit)).collect(),
+            counter: target.counter(),
+            controller: target.name(),
         }
     }
 
@@ -193,6 +210,22 @@ pub fn check_limits(path: &Toolpath, machine: &Machine) -> Result<(), Diagnostic
                         "{axis} {v:.3} mm is {side} the soft limit {limit:.3} mm of axis {axis} (work offset {}: {axis} zero at machine {zero:.3} mm, so the file's {axis} {:.3})",
                         system.0,
                         v - zero
+                    ),
+                });
+            }
+            for (axis, spu) in &machine.steps_per_mm {
+                let v = get(p, *axis);
+                let steps = (v * spu).round();
+                let (lo, hi) = (machine.counter.start(), machine.counter.end());
+                if steps >= *lo as f64 && steps <= *hi as f64 {
+                    continue;
+                }
+                return Err(Diagnostic {
+                    severity: Severity::Error,
+                    origin,
+                    message: format!(
+                        "{axis} {v:.3} mm is {steps:.0} steps from the reference point: beyond the {} controller's position counter ({lo}..{hi} steps); lower the axis' max or its steps_per_unit in the profile",
+                        machine.controller
                     ),
                 });
             }

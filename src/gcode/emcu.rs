@@ -19,7 +19,7 @@ use crate::axis::Axis;
 use crate::config::profile::{AxisProfile, Profile};
 use crate::proto::emcu::job::JOB_CAPACITY;
 
-use super::output::{Header, Program, chords, merge_lines, path_speed};
+use super::output::{Header, MAX_COMMANDS, Program, chords, merge_lines, path_speed, too_many};
 use super::toolpath::{Diagnostic, Op, Origin, Pause, Point, Severity, Toolpath};
 
 /// The end-speed slot of the import's moves (jogterm's own moves use
@@ -91,6 +91,10 @@ pub fn convert(
     for op in merge_lines(&path.ops, profile.gcode.merge_tolerance) {
         if let Err(e) = w.op(&op) {
             errors.push(e);
+        }
+        if w.program.commands > MAX_COMMANDS {
+            errors.push(too_many(op.origin(), "by this line the program has"));
+            break;
         }
     }
     if !errors.is_empty() {
@@ -176,7 +180,10 @@ impl Writer<'_> {
             Op::Line(m) => self.move_to(m.from, m.to, m.feed / 60.0, m.origin),
             Op::Arc(a) => {
                 let mut from = a.from;
-                for p in chords(a, self.profile.gcode.chord_tolerance) {
+                let room = MAX_COMMANDS.saturating_sub(self.program.commands);
+                let points = chords(a, self.profile.gcode.chord_tolerance, room)
+                    .map_err(|_| too_many(a.origin, "the arc's chords make the program"))?;
+                for p in points {
                     self.move_to(from, p, a.feed / 60.0, a.origin);
                     from = p;
                 }

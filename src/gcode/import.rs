@@ -30,6 +30,21 @@ impl Target {
         }
     }
 
+    /// The positions in steps the family's counter holds: isel 24-bit two's
+    /// complement (`@0P`, manual 3.2.16), EMCU `L` moves ±999999 steps.
+    pub fn counter(self) -> std::ops::RangeInclusive<i64> {
+        match self {
+            Target::Isel => {
+                let r = crate::proto::isel::STEPS;
+                i64::from(*r.start())..=i64::from(*r.end())
+            }
+            Target::Emcu => {
+                use crate::proto::emcu::values::Steps;
+                i64::from(Steps::MIN)..=i64::from(Steps::MAX)
+            }
+        }
+    }
+
     pub fn name(self) -> &'static str {
         match self {
             Target::Isel => "isel",
@@ -68,7 +83,7 @@ pub fn import(
             .collect::<Vec<_>>()
     })?;
     let toolpath = super::interpret(text, &setup)?;
-    let machine = Machine::from_profile(profile);
+    let machine = Machine::from_profile(profile, target);
     check_limits(&toolpath, &machine).map_err(|e| vec![e])?;
     let summary = summarise(&toolpath, &machine);
     let header = Header {

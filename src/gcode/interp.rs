@@ -37,6 +37,18 @@ const PECK_CLEARANCE_MM: f64 = 0.254;
 /// The most errors one file reports; the rest are counted.
 pub const ERROR_LIMIT: usize = 50;
 
+/// Bounds on the work one line may ask for, checked before any of it is
+/// done (issue 37: `P100000000` turns or a dwell of 400 nines grew past
+/// 13 GB). A helix of 1000 turns is 2000 isel commands, a whole program
+/// memory; a day of dwell is longer than any job waits; 1000 pecks of one
+/// hole is more than any drill takes.
+pub const MAX_TURNS: f64 = 1000.0;
+pub const MAX_DWELL_S: f64 = 86_400.0;
+pub const MAX_PECKS: f64 = 1000.0;
+/// The most toolpath moves a file makes (a 16 MiB CAM file of half a
+/// million lines makes about as many).
+pub const MAX_OPS: usize = 2_000_000;
+
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Motion {
     Rapid,
@@ -82,6 +94,45 @@ struct State {
     /// Machine mm.
     position: Point,
     ended: bool,
+    /// The G80 that cancelled the motion mode, if one did.
+    cancelled_by: Option<Origin>,
+}
+
+/// What an earlier line that failed may have changed unseen (issue 37:
+/// one error cascaded into false ones). A line that could not be read may
+/// have held any word; a G word refused may have been a mode; a move that
+/// failed left the position where it was. While a fact is in doubt, the
+/// errors that depend on it are not reported (the file has an error
+/// already, so nothing runs); the line that sets the fact again clears it.
+#[derive(Debug, Clone, Copy, Default)]
+struct Doubt {
+    feed: bool,
+    motion: bool,
+    units: bool,
+    plane: bool,
+    distance: bool,
+    /// X, Y, Z positions.
+    axes: [bool; 3],
+}
+
+impl Doubt {
+    fn everything() -> Doubt {
+        Doubt {
+            feed: true,
+            motion: true,
+            units: true,
+            plane: true,
+            distance: true,
+            axes: [true; 3],
+        }
+    }
+
+    fn modes(&mut self) {
+        self.motion = true;
+        self.units = true;
+        self.plane = true;
+        self.distance = true;
+    }
 }
 
 /// G and M codes as tenths (G90.1 is 901), so that equality is exact.
@@ -168,22 +219,36 @@ pub struct Interpreter<'a> {
     /// The last block's `Words`, emptied and filled again by the next
     /// block: one set of vectors for the file instead of new ones a block.
     spare: Words,
+    doubt: Doubt,
 }
 
 /// Interprets a read file (the reader's errors first).
 pub fn interpret(text: &str, setup: &Setup) -> Result<Toolpath, Vec<Diagnostic>> {
     let read = super::reader::read(text);
     let mut it = Interpreter::new(setup);
-    for e in read.errors {
-        it.error_diag(e);
-    }
-    if read.blocks.is_empty() && it.errors.is_empty() {
+    if read.blocks.is_empty() && read.errors.is_empty() {
         it.error(
             Origin { line: 1, col: 1 },
             "the file holds no G-code: nothing to run",
         );
     }
+    // The reader's errors in line order among the interpreter's: a line
+    // that could not be read may have held any word.
+    let mut unread = read.errors.into_iter().peekable();
     for block in &read.blocks {
+        while let Some(e) = unread.next_if(|e| e.origin.line < block.line) {
+            it.error_diag(e);
+            it.doubt = Doubt::everything();
+        }
+        if it.ops.len() > MAX_OPS {
+            it.error(
+                block.origin(),
+                format!(
+                    "the toolpath has more than {MAX_OPS} moves by this line: split the job in the CAM"
+                ),
+            );
+            break;
+        }
         if it.state.ended {
             if !block.words.is_empty() {
                 it.warn(
@@ -195,6 +260,9 @@ pub fn interpret(text: &str, setup: &Setup) -> Result<Toolpath, Vec<Diagnostic>>
             continue;
         }
         it.block(block);
+    }
+    for e in unread {
+        it.error_diag(e);
     }
     it.finish(read.lines)
 }
@@ -239,6 +307,7 @@ impl<'a> Interpreter<'a> {
                 flood: false,
                 position: setup.start,
                 ended: false,
+                cancelled_by: None,
             },
             ops: Vec::new(),
             errors: Vec::new(),
@@ -248,10 +317,14 @@ impl<'a> Interpreter<'a> {
             warned_ignored: Vec::new(),
             named_from: [None; 3],
             spare: Words::default(),
+            doubt: Doubt::default(),
         }
     }
 
     fn finish(mut self, lines: u32) -> Result<Toolpath, Vec<Diagnostic>> {
+        // In line order (a block's own errors are found in the order of
+        // its checks, not of its columns).
+        self.errors.sort_by_key(|e| e.origin);
         if self.more_errors > 0 {
             let last = self.errors.last().map(|e| e.origin).unwrap_or_default();
             self.errors.push(Diagnostic {
@@ -304,20 +377,23 @@ impl<'a> Interpreter<'a> {
                 "`/` block delete: jogterm runs the block (the block delete switch is off, RS-274/NGC's default)",
             );
         }
+        // The words that are valid take effect even when others on the
+        // line are refused, so that one error does not make more.
         let errors_before = self.errors.len() + self.more_errors;
-        let Some(words) = self.sort(block) else {
-            return;
-        };
-        if self.errors.len() + self.more_errors > errors_before {
-            return;
-        }
+        let words = self.sort(block);
+        let position = self.state.position;
         self.execute(block, &words);
+        let failed = self.errors.len() + self.more_errors > errors_before;
+        if failed && words.any_axis() && self.state.position == position {
+            // The line's move was not made: where the tool stands is unsure.
+            self.doubt.axes = [true; 3];
+        }
         self.spare = words;
     }
 
     /// Splits a block's words into codes and values, with the checks that
     /// need the whole block: one word of each letter, one code per group.
-    fn sort(&mut self, block: &Block) -> Option<Words> {
+    fn sort(&mut self, block: &Block) -> Words {
         let mut w = std::mem::take(&mut self.spare);
         w.clear();
         let mut g_groups: Vec<(u8, Word)> = Vec::new();
@@ -330,6 +406,7 @@ impl<'a> Interpreter<'a> {
                             word.origin,
                             format!("`{}{}` is no code", word.letter, word.value),
                         );
+                        self.doubt.modes();
                         continue;
                     };
                     let name = code_name(word.letter, code);
@@ -357,6 +434,7 @@ impl<'a> Interpreter<'a> {
                         m_group(code)
                     };
                     let Some(group) = group else {
+                        self.doubt.modes();
                         self.error(
                             word.origin,
                             format!(
@@ -436,45 +514,55 @@ impl<'a> Interpreter<'a> {
                 }
             }
         }
-        for (code, word) in &w.g {
+        // A refused code stays out of the block's codes: nothing it would
+        // do is done, and what it might have changed is in doubt.
+        let refused: Vec<(u32, Word)> =
+            w.g.iter()
+                .filter(|(code, _)| refused_g(*code).is_some())
+                .copied()
+                .collect();
+        for (code, word) in &refused {
             if let Some(why) = refused_g(*code) {
                 let name = code_name('G', *code);
                 self.error(word.origin, format!("{name}: {why}"));
+                self.doubt.modes();
+                self.doubt.axes = [true; 3];
             }
         }
-        Some(w)
+        w.g.retain(|(code, _)| refused_g(*code).is_none());
+        w
     }
 
     fn execute(&mut self, block: &Block, w: &Words) {
         let origin = block.origin();
         // Feed (G94 is the only feed mode).
+        // A refused F, S or T is left out; the rest of the line runs.
         if let Some(f) = w.value('F') {
             if f.value <= 0.0 {
                 self.error(f.origin, "F must be a feed above 0");
-                return;
+            } else {
+                let scale = self.units_at(f.origin);
+                self.state.feed = Some(f.value * scale);
+                self.doubt.feed = false;
             }
-            let Some(scale) = self.units_at(f.origin) else {
-                return;
-            };
-            self.state.feed = Some(f.value * scale);
         }
         if let Some(s) = w.value('S') {
             if s.value < 0.0 {
                 self.error(s.origin, "S must not be negative");
-                return;
+            } else {
+                self.state.speed = Some(s.value);
+                self.ops.push(Op::SpindleSpeed {
+                    rpm: s.value,
+                    origin: s.origin,
+                });
             }
-            self.state.speed = Some(s.value);
-            self.ops.push(Op::SpindleSpeed {
-                rpm: s.value,
-                origin: s.origin,
-            });
         }
         if let Some(t) = w.value('T') {
             if t.value < 0.0 || t.value.fract() != 0.0 {
                 self.error(t.origin, "T must be a tool number");
-                return;
+            } else {
+                self.state.tool = Some(t.value as u32);
             }
-            self.state.tool = Some(t.value as u32);
         }
         if let Some(m6) = w.m_code(60) {
             self.ops.push(Op::Pause(Pause::ToolChange {
@@ -506,23 +594,41 @@ impl<'a> Interpreter<'a> {
         // Dwell.
         if let Some(g4) = w.g_code(40) {
             match w.value('P') {
-                Some(p) if p.value >= 0.0 => self.ops.push(Op::Dwell(Dwell {
-                    seconds: p.value,
-                    origin: g4.origin,
-                })),
-                Some(p) => self.error(p.origin, "G4 P must be a time in seconds, not negative"),
+                Some(p) if (0.0..=MAX_DWELL_S).contains(&p.value) => {
+                    self.ops.push(Op::Dwell(Dwell {
+                        seconds: p.value,
+                        origin: g4.origin,
+                    }))
+                }
+                Some(p) => self.error(
+                    p.origin,
+                    format!("G4 P must be a time in seconds, 0 to {MAX_DWELL_S} (a day)"),
+                ),
                 None => self.error(g4.origin, "G4 needs P: the dwell in seconds"),
             }
         }
         for (code, word) in &w.g {
             match code {
-                170 => self.state.plane = Plane::Xy,
-                180 => self.state.plane = Plane::Zx,
-                190 => self.state.plane = Plane::Yz,
-                200 => self.state.units = Some(Units::Inch),
-                210 => self.state.units = Some(Units::Mm),
-                900 => self.state.absolute = true,
-                910 => self.state.absolute = false,
+                170 | 180 | 190 => {
+                    self.state.plane = match code {
+                        170 => Plane::Xy,
+                        180 => Plane::Zx,
+                        _ => Plane::Yz,
+                    };
+                    self.doubt.plane = false;
+                }
+                200 | 210 => {
+                    self.state.units = Some(if *code == 200 {
+                        Units::Inch
+                    } else {
+                        Units::Mm
+                    });
+                    self.doubt.units = false;
+                }
+                900 | 910 => {
+                    self.state.absolute = *code == 900;
+                    self.doubt.distance = false;
+                }
                 901 => self.state.arc_absolute = true,
                 911 => self.state.arc_absolute = false,
                 980 => self.state.retract = Retract::Initial,
@@ -561,9 +667,11 @@ impl<'a> Interpreter<'a> {
             motion = m;
             motion_word = Some(*word);
         }
-        if motion_word.is_some() {
+        if let Some(word) = motion_word {
             let was_cycle = is_cycle(self.state.motion);
             self.state.motion = motion;
+            self.doubt.motion = false;
+            self.state.cancelled_by = (motion == Motion::None).then_some(word.origin);
             if !is_cycle(motion) || !was_cycle {
                 self.state.cycle_initial_z = None;
             }
@@ -588,11 +696,18 @@ impl<'a> Interpreter<'a> {
                 .map_or_else(|| w.first_axis().map_or(origin, |a| a.origin), |m| m.origin);
             match motion {
                 Motion::None => {
-                    if has_axes {
+                    if has_axes && !self.doubt.motion {
+                        let why = match self.state.cancelled_by {
+                            Some(g80) => format!(" (G80 at line {} cancelled it)", g80.line),
+                            None => " (the file has given none yet)".to_owned(),
+                        };
                         self.error(
                             at,
-                            "axis words with no motion in force (G80 cancelled it): give G0 or G1",
+                            format!("axis words with no motion mode in force{why}: give G0 or G1"),
                         );
+                    }
+                    if has_axes {
+                        self.doubt.axes = [true; 3];
                     }
                 }
                 Motion::Rapid | Motion::Feed => self.straight(motion, w, at, machine),
@@ -634,18 +749,21 @@ impl<'a> Interpreter<'a> {
         }
     }
 
-    /// mm per file unit, or an error when the file never said.
-    fn units_at(&mut self, at: Origin) -> Option<f64> {
+    /// mm per file unit; when the file never said, an error (once) and
+    /// millimetres from here on, so that the lines after it are read as
+    /// they would be with G21 and report only their own errors.
+    fn units_at(&mut self, at: Origin) -> f64 {
         match self.state.units {
-            Some(u) => Some(u.mm()),
+            Some(u) => u.mm(),
             None => {
-                self.error(
-                    at,
-                    "the file sets no unit (G20 inch or G21 mm) before its first number with a unit, and the profile names none ([gcode] unit = \"mm\")",
-                );
-                // Report it once: go on as millimetres.
+                if !self.doubt.units {
+                    self.error(
+                        at,
+                        "the file sets no unit (G20 inch or G21 mm) before its first number with a unit, and the profile names none ([gcode] unit = \"mm\")",
+                    );
+                }
                 self.state.units = Some(Units::Mm);
-                None
+                Units::Mm.mm()
             }
         }
     }
@@ -682,7 +800,7 @@ impl<'a> Interpreter<'a> {
 
     /// The target of the block's axis words in machine mm.
     fn target(&mut self, w: &Words, machine: bool) -> Option<Point> {
-        let scale = self.units_at(w.first_axis()?.origin)?;
+        let scale = self.units_at(w.first_axis()?.origin);
         let mut p = self.state.position;
         let zero = if machine {
             Point::default()
@@ -699,6 +817,11 @@ impl<'a> Interpreter<'a> {
             }
             self.name_axis(axis);
             let v = word.value * scale;
+            if (machine || (self.state.absolute && !self.doubt.distance))
+                && let Some(d) = self.doubt.axes.get_mut(axis_index(axis))
+            {
+                *d = false;
+            }
             let c = if self.state.absolute || machine {
                 v + get(zero, axis)
             } else {
@@ -709,16 +832,21 @@ impl<'a> Interpreter<'a> {
         Some(p)
     }
 
-    fn feed_at(&mut self, at: Origin) -> Option<f64> {
-        if self.state.feed.is_none() {
+    /// The feed in force; before any F an error (once), and the move is
+    /// made all the same so that the lines after it start where it ends.
+    fn feed_at(&mut self, at: Origin) -> f64 {
+        if let Some(feed) = self.state.feed {
+            return feed;
+        }
+        if !self.doubt.feed {
             self.error(
                 at,
                 "a feed move before any F: give the feed (F, units per minute)",
             );
-            self.state.feed = Some(1.0);
-            return None;
         }
-        self.state.feed
+        self.doubt.feed = true;
+        self.state.feed = Some(1.0);
+        1.0
     }
 
     fn straight(&mut self, motion: Motion, w: &Words, at: Origin, machine: bool) {
@@ -734,9 +862,7 @@ impl<'a> Interpreter<'a> {
                 origin: at,
             }));
         } else {
-            let Some(feed) = self.feed_at(at) else {
-                return;
-            };
+            let feed = self.feed_at(at);
             self.ops.push(Op::Line(Line {
                 from,
                 to,
@@ -751,9 +877,16 @@ impl<'a> Interpreter<'a> {
         let plane = self.state.plane;
         let (u_axis, v_axis, n_axis) = plane_axes(plane);
         let offset_letters = offset_letters(plane);
-        let Some(scale) = self.units_at(at) else {
-            return;
-        };
+        // Where the arc starts, its plane or its unit may be what a failed
+        // line left unsure: then its geometry is not checked (the file has
+        // an error already) and the tool goes on from its end.
+        let d = self.doubt;
+        let unsure = d.plane
+            || d.units
+            || d.distance
+            || d.axes[axis_index(u_axis)]
+            || d.axes[axis_index(v_axis)];
+        let scale = self.units_at(at);
         let to = if w.any_axis() {
             match self.target(w, false) {
                 Some(p) => p,
@@ -762,10 +895,15 @@ impl<'a> Interpreter<'a> {
         } else {
             self.state.position
         };
-        let Some(feed) = self.feed_at(at) else {
-            return;
-        };
+        let feed = self.feed_at(at);
         let from = self.state.position;
+        let fail = |it: &mut Interpreter, origin: Origin, why: String| {
+            if !unsure {
+                it.error(origin, why);
+            }
+            // The end is the file's, arc or not.
+            it.state.position = to;
+        };
         let (su, sv) = (get(from, u_axis), get(from, v_axis));
         let (eu, ev) = (get(to, u_axis), get(to, v_axis));
         let radius_word = w.value('R');
@@ -775,16 +913,14 @@ impl<'a> Interpreter<'a> {
             .iter()
             .find(|v| matches!(v.letter, 'I' | 'J' | 'K') && !offset_letters.contains(&v.letter));
         if let Some(bad) = wrong_plane {
-            self.error(
-                bad.origin,
-                format!(
-                    "`{}` is not a centre offset of the plane in force ({}): it takes {} and {}",
-                    bad.letter,
-                    plane_name(plane),
-                    offset_letters[0],
-                    offset_letters[1]
-                ),
+            let why = format!(
+                "`{}` is not a centre offset of the plane in force ({}): it takes {} and {}",
+                bad.letter,
+                plane_name(plane),
+                offset_letters[0],
+                offset_letters[1]
             );
+            fail(self, bad.origin, why);
             return;
         }
         let tolerance = if scale > 1.0 {
@@ -797,7 +933,7 @@ impl<'a> Interpreter<'a> {
                 match r_centre(su, sv, eu, ev, r.value * scale, clockwise, tolerance) {
                     Ok(c) => c,
                     Err(why) => {
-                        self.error(r.origin, why);
+                        fail(self, r.origin, why);
                         return;
                     }
                 }
@@ -807,6 +943,7 @@ impl<'a> Interpreter<'a> {
                     r.origin,
                     "an arc takes R or centre offsets (I J K), not both",
                 );
+                self.state.position = to;
                 return;
             }
             (None, true) => {
@@ -817,6 +954,7 @@ impl<'a> Interpreter<'a> {
                         offset_letters[0], offset_letters[1]
                     ),
                 );
+                self.state.position = to;
                 return;
             }
             (None, false) => {
@@ -833,28 +971,36 @@ impl<'a> Interpreter<'a> {
         let r0 = (su - cu).hypot(sv - cv);
         let r1 = (eu - cu).hypot(ev - cv);
         if r0 < 1e-9 {
-            self.error(at, "the arc's centre is its start point: radius 0");
+            fail(
+                self,
+                at,
+                "the arc's centre is its start point: radius 0".into(),
+            );
             return;
         }
         if (r0 - r1).abs() > tolerance {
             let unit = if scale > 1.0 { 25.4 } else { 1.0 };
             let name = if unit > 1.0 { "in" } else { "mm" };
-            self.error(
-                at,
-                format!(
-                    "the arc's end is not on its circle: radius {:.4} {name} to the start, {:.4} {name} to the end (they may differ by {:.4} {name})",
-                    r0 / unit,
-                    r1 / unit,
-                    tolerance / unit
-                ),
+            let why = format!(
+                "the arc's end is not on its circle: radius {:.4} {name} to the start, {:.4} {name} to the end (they may differ by {:.4} {name})",
+                r0 / unit,
+                r1 / unit,
+                tolerance / unit
             );
+            fail(self, at, why);
             return;
         }
         let turns = match w.value('P') {
             None => 1,
-            Some(p) if p.value >= 1.0 && p.value.fract() == 0.0 => p.value as u32,
+            Some(p) if (1.0..=MAX_TURNS).contains(&p.value) && p.value.fract() == 0.0 => {
+                p.value as u32
+            }
             Some(p) => {
-                self.error(p.origin, "P of an arc is its number of turns: 1 or more");
+                self.error(
+                    p.origin,
+                    format!("P of an arc is its number of turns: 1 to {MAX_TURNS}"),
+                );
+                self.state.position = to;
                 return;
             }
         };
@@ -880,10 +1026,15 @@ impl<'a> Interpreter<'a> {
 
     fn cycle(&mut self, motion: Motion, w: &Words, at: Origin) {
         if self.state.plane != Plane::Xy {
-            self.error(at, "drilling cycles run in G17 (XY) only");
+            if !self.doubt.plane {
+                self.error(at, "drilling cycles run in G17 (XY) only");
+            }
             return;
         }
         if !self.state.absolute {
+            if self.doubt.distance {
+                return;
+            }
             self.error(
                 at,
                 "drilling cycles in G91 (incremental) are refused: CAM posts write them in G90",
@@ -897,9 +1048,7 @@ impl<'a> Interpreter<'a> {
             );
             return;
         }
-        let Some(scale) = self.units_at(at) else {
-            return;
-        };
+        let scale = self.units_at(at);
         let zero = self.zero();
         if let Some(r) = w.value('R') {
             self.state.cycle_r = Some(r.value * scale + zero.z);
@@ -915,8 +1064,11 @@ impl<'a> Interpreter<'a> {
             self.state.cycle_q = Some(q.value * scale);
         }
         if let Some(p) = w.value('P') {
-            if p.value < 0.0 {
-                self.error(p.origin, "P (dwell seconds) must not be negative");
+            if !(0.0..=MAX_DWELL_S).contains(&p.value) {
+                self.error(
+                    p.origin,
+                    format!("P (dwell seconds) must be 0 to {MAX_DWELL_S} (a day)"),
+                );
                 return;
             }
             self.state.cycle_p = Some(p.value);
@@ -929,13 +1081,23 @@ impl<'a> Interpreter<'a> {
             self.error(at, "the cycle's depth Z lies above its retract plane R");
             return;
         }
-        if motion == Motion::Peck && self.state.cycle_q.is_none() {
-            self.error(at, "G83 needs Q (peck depth)");
-            return;
+        if motion == Motion::Peck {
+            let Some(q) = self.state.cycle_q else {
+                self.error(at, "G83 needs Q (peck depth)");
+                return;
+            };
+            if (r - bottom) / q > MAX_PECKS {
+                let at = w.value('Q').map_or(at, |q| q.origin);
+                self.error(
+                    at,
+                    format!(
+                        "G83's Q makes more than {MAX_PECKS} pecks for this hole: give a deeper peck"
+                    ),
+                );
+                return;
+            }
         }
-        let Some(feed) = self.feed_at(at) else {
-            return;
-        };
+        let feed = self.feed_at(at);
         self.ensure_offset(at);
         let initial = *self
             .state

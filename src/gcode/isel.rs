@@ -37,7 +37,7 @@ use crate::proto::typed::isel_config;
 use crate::wiring::{BitKind, Level, Role};
 
 use super::interp::{get, plane_axes, radius, sweep};
-use super::output::{Header, Program, chords, merge_lines, path_speed};
+use super::output::{Header, MAX_COMMANDS, Program, chords, merge_lines, path_speed, too_many};
 use super::toolpath::{Arc, Diagnostic, Op, Origin, Pause, Plane, Point, Severity, Toolpath};
 
 const HZ_MIN: f64 = 1.0;
@@ -122,6 +122,7 @@ pub fn convert(
         axes: Axes { x, y, z, pairs },
         program: Program {
             capacity: profile.gcode.memory.unwrap_or(ISEL_CAPACITY),
+            end_is_free: true,
             ..Program::default()
         },
         profile,
@@ -162,6 +163,10 @@ pub fn convert(
     for op in &ops {
         if let Err(e) = w.op(op) {
             errors.push(e);
+        }
+        if w.program.commands > MAX_COMMANDS {
+            errors.push(too_many(op.origin(), "by this line the program has"));
+            break;
         }
     }
     if !errors.is_empty() {
@@ -366,8 +371,7 @@ impl Writer<'_> {
             Plane::Yz => IselPlane::YZ,
         };
         if !round {
-            self.arc_as_chords(arc, "the plane's axes have different steps per unit");
-            return Ok(());
+            return self.arc_as_chords(arc, "the plane's axes have different steps per unit");
         }
         let spu = pu.steps_per_unit;
         // isel's angles: counter-clockwise from axis 1 of its plane; G18's
@@ -452,8 +456,7 @@ impl Writer<'_> {
                     return Ok(());
                 }
                 Err(e) => {
-                    self.arc_as_chords(arc, &e.to_string());
-                    return Ok(());
+                    return self.arc_as_chords(arc, &e.to_string());
                 }
             }
         }
@@ -475,7 +478,10 @@ impl Writer<'_> {
         }
     }
 
-    fn arc_as_chords(&mut self, arc: &Arc, why: &str) {
+    fn arc_as_chords(&mut self, arc: &Arc, why: &str) -> Result<(), Diagnostic> {
+        let room = MAX_COMMANDS.saturating_sub(self.program.commands);
+        let points = chords(arc, self.profile.gcode.chord_tolerance, room)
+            .map_err(|_| too_many(arc.origin, "the arc's chords make the program"))?;
         self.program.warnings.push(Diagnostic {
             severity: Severity::Warning,
             origin: arc.origin,
@@ -485,7 +491,7 @@ impl Writer<'_> {
             ),
         });
         let mut from = arc.from;
-        for p in chords(arc, self.profile.gcode.chord_tolerance) {
+        for p in points {
             let hz = self.path_hz(from, p, arc.feed / 60.0, arc.origin);
             let target = self.axes.steps(p);
             if target != self.at {
@@ -493,6 +499,7 @@ impl Writer<'_> {
             }
             from = p;
         }
+        Ok(())
     }
 }
 

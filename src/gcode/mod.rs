@@ -37,6 +37,11 @@ pub use toolpath::{
     Toolpath,
 };
 
+/// The largest G-code file read (`jogterm import`, `check`, `upload`,
+/// `run`): CAM files of half a million lines are 16 MiB; `/dev/zero` or a
+/// runaway file stops here instead of filling the memory (issue 37).
+pub const MAX_FILE_BYTES: u64 = 64 * 1024 * 1024;
+
 /// File extensions that mark a G-code file (`jogterm check`, `upload`, the
 /// editor); `--gcode` says so for any other name.
 pub const EXTENSIONS: [&str; 5] = ["nc", "ngc", "gcode", "tap", "gc"];

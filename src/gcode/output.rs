@@ -3,6 +3,7 @@
 //! for, chords of arcs and the merging of near-collinear cuts.
 
 use std::f64::consts::PI;
+use std::fmt::Write as _;
 
 use super::interp::{arc_point, radius, sweep};
 use super::toolpath::{Arc, Diagnostic, Line, Op, Origin, Point};
@@ -15,8 +16,13 @@ pub struct Program {
     pub warnings: Vec<Diagnostic>,
     /// Commands the controller stores (comment lines not counted).
     pub commands: usize,
-    /// Its program memory in commands.
+    /// Its program memory in commands (the profile's `[gcode] memory`, the
+    /// one setting `check`, `upload`, `run` and the console use too).
     pub capacity: usize,
+    /// The closing command takes no memory (isel: the controller stores
+    /// its capacity in commands before the `9`, as the program check
+    /// counts).
+    pub end_is_free: bool,
     /// Where the program stops for the operator (M0, M1, M6) and what it
     /// waits for, to be said before it starts.
     pub pauses: Vec<(Origin, String)>,
@@ -49,14 +55,28 @@ pub struct ProgramLine {
 
 impl Program {
     pub fn fits(&self) -> bool {
-        self.commands <= self.capacity
+        self.stored() <= self.capacity
+    }
+
+    /// The commands that take memory: all, less an isel program's closing
+    /// `9`.
+    pub fn stored(&self) -> usize {
+        let last = self.lines.iter().rev().find(|l| !l.command.is_empty());
+        let free = self.end_is_free && last.is_some_and(|l| l.command == "9");
+        self.commands - usize::from(free)
     }
 
     /// The program as a file: the command, and `; FILE:LINE` after it.
+    ///
+    /// Comments carry text from outside (the file's and the profile's
+    /// names, output and key names): its control characters are written
+    /// escaped ([`one_line`]), so that a comment stays on its line and no
+    /// text becomes a line of the program (issue 37).
     pub fn text(&self, file: &str) -> String {
+        let file = one_line(file);
         let mut out = String::new();
         for line in &self.lines {
-            let mut comment = line.comment.clone();
+            let mut comment = line.comment.as_deref().map(one_line);
             if let Some(o) = line.origin {
                 let at = format!("{file}:{}", o.line);
                 comment = Some(match comment {
@@ -165,6 +185,7 @@ impl Program {
         head.lines.extend(self.lines[..header_len].iter().cloned());
         head.comment(format!("{} part={}/{}", Header::PREFIX, k + 1, parts.len()));
         head.capacity = self.capacity;
+        head.end_is_free = self.end_is_free;
         let Some(part) = parts.get(k) else {
             return head;
         };
@@ -198,6 +219,22 @@ impl Program {
             .nth(index)
             .and_then(|l| l.origin)
     }
+}
+
+/// `text` on one line: every control character (line ends, NUL, escape
+/// sequences) written as `\u{..}`; the rest as it is, so that a name with
+/// none (every profile name, `Profile::validate`) reads back unchanged.
+pub fn one_line(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    for c in text.chars() {
+        match c {
+            c if c.is_control() => {
+                let _ = write!(out, "\\u{{{:x}}}", u32::from(c));
+            }
+            c => out.push(c),
+        }
+    }
+    out
 }
 
 /// What a program was made for: it goes at the top of the program as
@@ -253,9 +290,26 @@ impl Header {
     }
 }
 
+/// The most commands a converted program may hold: a thousand times an
+/// isel program memory, and more than a DNC stream of a day; the work is
+/// bounded before it is done (issue 37).
+pub const MAX_COMMANDS: usize = 2_000_000;
+
+/// Why an arc or a program was not converted: it would exceed
+/// [`MAX_COMMANDS`].
+pub fn too_many(origin: Origin, what: &str) -> Diagnostic {
+    Diagnostic::error(
+        origin,
+        format!(
+            "{what} more than {MAX_COMMANDS} commands: split the job in the CAM, or give the arc fewer turns or a larger gcode.chord_tolerance"
+        ),
+    )
+}
+
 /// Points along an arc (its end included, its start not) so that no chord
-/// strays more than `tolerance` from it.
-pub fn chords(arc: &Arc, tolerance: f64) -> Vec<Point> {
+/// strays more than `tolerance` from it; `Err` with the number of chords
+/// when that is more than `limit` (nothing is made then).
+pub fn chords(arc: &Arc, tolerance: f64, limit: usize) -> Result<Vec<Point>, f64> {
     let r = radius(arc).max(1e-9);
     let total = sweep(arc);
     let tol = tolerance.clamp(1e-6, r);
@@ -266,10 +320,15 @@ pub fn chords(arc: &Arc, tolerance: f64) -> Vec<Point> {
     } else {
         PI / 2.0
     };
-    let n = (total / max_angle).ceil().max(1.0) as usize;
-    (1..=n)
+    let n = (total / max_angle).ceil().max(1.0);
+    // NaN (no sweep) is refused too.
+    if n.is_nan() || n > limit as f64 {
+        return Err(n);
+    }
+    let n = n as usize;
+    Ok((1..=n)
         .map(|k| arc_point(arc, k as f64 / n as f64))
-        .collect()
+        .collect())
 }
 
 fn distance_to_segment(p: Point, a: Point, b: Point) -> f64 {

@@ -293,6 +293,22 @@ fn comment(raw: &str, open: usize) -> Option<(&str, usize)> {
 /// refused rather than copied (no CAM post writes 64 digits).
 const NUMBER_MAX: usize = 64;
 
+/// The largest value a word may hold: no coordinate, feed, time or code
+/// comes near it, and a value beyond (400 nines read as infinity) would
+/// turn into endless work or NaN downstream (issue 37).
+pub const VALUE_MAX: f64 = 1e9;
+
+const TOO_LARGE: &str = "a number of at most 1000000000 in size";
+
+/// `v`, or the refusal of a value beyond [`VALUE_MAX`] (or no number).
+fn bounded(v: f64) -> Result<f64, &'static str> {
+    if v.abs() <= VALUE_MAX {
+        Ok(v)
+    } else {
+        Err(TOO_LARGE)
+    }
+}
+
 /// A number from byte `start`, blanks allowed inside: value and the byte
 /// index after it (trailing blanks belong to no word).
 ///
@@ -345,7 +361,7 @@ fn number(raw: &str, start: usize) -> Result<(f64, usize), &'static str> {
     // 19 digits always fit a u64 (the wrapping above never wrapped).
     if digits <= 19 && mantissa < 1 << 53 && fraction_digits < POWERS_OF_TEN.len() {
         let v = mantissa as f64 / POWERS_OF_TEN[fraction_digits];
-        return Ok((if negative { -v } else { v }, end));
+        return bounded(if negative { -v } else { v }).map(|v| (v, end));
     }
     let parsed = if blanks_inside {
         let mut buf = [0u8; NUMBER_MAX];
@@ -361,7 +377,8 @@ fn number(raw: &str, start: usize) -> Result<(f64, usize), &'static str> {
     } else {
         raw[first..end].parse::<f64>()
     };
-    parsed.map(|v| (v, end)).map_err(|_| "a number")
+    let v = parsed.map_err(|_| "a number")?;
+    bounded(v).map(|v| (v, end))
 }
 
 /// 10^0 … 10^22: every one an exact f64 (10^22 = 2^22 x 5^22, and 5^22 <
@@ -726,7 +743,9 @@ mod tests {
             while i > start && is_blank(chars[i - 1]) {
                 i -= 1;
             }
-            text.parse::<f64>().map(|v| (v, i)).map_err(|_| "a number")
+            // The second change: values beyond `VALUE_MAX` are refused.
+            let v = text.parse::<f64>().map_err(|_| "a number")?;
+            super::super::bounded(v).map(|v| (v, i))
         }
 
         /// `*NN` at `star`: the XOR of every byte before it must be NN.
@@ -777,8 +796,8 @@ mod tests {
         #[test]
         fn numbers_are_the_correctly_rounded_parse_of_their_text(
             sign in "[+-]?",
-            int in "[0-9]{0,13}",
-            frac in "[0-9]{0,12}",
+            int in "[0-9]{0,9}",
+            frac in "[0-9]{0,16}",
             dot in proptest::bool::ANY,
         ) {
             let text = if dot || int.is_empty() {
@@ -825,10 +844,10 @@ mod tests {
     #[test]
     fn numbers_off_the_fast_path_are_still_exact() {
         for text in [
-            "9007199254740993",                     // 2^53 + 1: above the fast path's integers
+            "900719925.4740993", // 2^53 + 1 digits: above the fast path's integers
             "0.1000000000000000055511151231257827", // 34 digits
-            "1.00000000000000000000000001",         // 27 fraction digits
-            "12345678901234567890",                 // 20 digits
+            "1.00000000000000000000000001", // 27 fraction digits
+            "123456789.01234567890", // 20 digits
             "-0",
             "0.30000000000000004",
         ] {
@@ -836,6 +855,16 @@ mod tests {
             let want: f64 = text.parse().unwrap();
             assert_eq!(got.to_bits(), want.to_bits(), "{text}");
         }
+    }
+
+    #[test]
+    fn values_beyond_a_billion_are_refused_not_read_as_infinity() {
+        let nines = format!("G4 P{}", "9".repeat(400));
+        let (line, col, m) = first_error(&nines);
+        assert_eq!((line, col), (1, 4));
+        assert!(m.contains("at most 1000000000"), "{m}");
+        assert!(first_error("F1 0000000000").2.contains("at most"));
+        assert_eq!(words("X-999999999.5"), vec![('X', -999_999_999.5)]);
     }
 
     #[test]

@@ -121,21 +121,7 @@ impl fmt::Display for RestartError {
 impl std::error::Error for RestartError {}
 
 fn origin_of(op: &Op) -> Origin {
-    match op {
-        Op::Rapid(m) => m.origin,
-        Op::Line(m) => m.origin,
-        Op::Arc(a) => a.origin,
-        Op::Dwell(d) => d.origin,
-        Op::Output(o) => o.origin,
-        Op::SpindleSpeed { origin, .. } | Op::WorkOffset { origin, .. } | Op::End { origin } => {
-            *origin
-        }
-        Op::Pause(
-            Pause::Program { origin }
-            | Pause::Optional { origin }
-            | Pause::ToolChange { origin, .. },
-        ) => *origin,
-    }
+    op.origin()
 }
 
 /// A move's end, for a move.
@@ -291,7 +277,7 @@ pub fn restart(
         named_from: [0; 3],
     };
     restarted.ops.extend(ops[cut..].iter().cloned());
-    let machine = Machine::from_profile(profile);
+    let machine = Machine::from_profile(profile, imported.target);
     check_limits(&restarted, &machine).map_err(|e| RestartError::Convert(vec![e]))?;
     let estimated_s = super::check::summarise(&restarted, &machine).estimated_s;
     let header = Header {

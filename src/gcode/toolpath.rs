@@ -138,6 +138,27 @@ pub enum Op {
     },
 }
 
+impl Op {
+    /// The G-code line and column the step came from.
+    pub fn origin(&self) -> Origin {
+        match self {
+            Op::Rapid(m) => m.origin,
+            Op::Line(m) => m.origin,
+            Op::Arc(a) => a.origin,
+            Op::Dwell(d) => d.origin,
+            Op::Output(o) => o.origin,
+            Op::SpindleSpeed { origin, .. }
+            | Op::WorkOffset { origin, .. }
+            | Op::End { origin } => *origin,
+            Op::Pause(
+                Pause::Program { origin }
+                | Pause::Optional { origin }
+                | Pause::ToolChange { origin, .. },
+            ) => *origin,
+        }
+    }
+}
+
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
 pub enum Severity {
     Warning,

@@ -15,7 +15,7 @@ use super::{emcu_line, isel_line};
 
 /// Commands an isel controller's program memory holds by default
 /// (`../shared/protocols.md` isel 9; more answer `6`).
-pub const ISEL_CAPACITY: usize = 2000;
+pub const ISEL_CAPACITY: usize = crate::proto::isel::PROGRAM_CAPACITY;
 
 /// The two program languages: isel CNC programs (manual chapter 3) and EMCU
 /// jobs (buffered commands of manual 1.5, stored with `@F`).

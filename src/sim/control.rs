@@ -10,7 +10,7 @@
 //! fault drop-byte [<index>]              fault corrupt-byte [<index>]
 //! fault withhold                         fault garbage <text> | hex:<hex>
 //! fault delay <ms>                       fault close [<reopen-after-ms>]
-//! fault stall
+//! fault stream <bytes>                  fault stall
 //! memory <commands>
 //! show      show received [times]      help      quit
 //! ```
@@ -19,7 +19,7 @@ use std::io::{self, BufRead, Write};
 use std::time::Duration;
 
 use super::engine::MAX_CHATTER_CHANGES;
-use super::fault::{ByteIndex, Fault};
+use super::fault::{ByteIndex, Fault, MAX_STREAM};
 use super::shell::{ShellControl, ShellError};
 use super::{InputControl, Timed, TimedControl};
 
@@ -57,7 +57,7 @@ pub struct ControlParseError {
 const COMMANDS: &str =
     "set, press, value, pulse, chatter, after, fault, memory, show, help or quit";
 const LEVELS: &str = "on, off, open, closed, 1 or 0";
-const FAULTS: &str = "drop-byte, corrupt-byte, withhold, garbage, delay, close or stall";
+const FAULTS: &str = "drop-byte, corrupt-byte, withhold, garbage, delay, stream, close or stall";
 
 /// Parse one line. Blank lines and lines starting with `#` are `Ok(None)`.
 pub fn parse_line(text: &str, line: usize) -> Result<Option<ControlCommand>, ControlParseError> {
@@ -270,6 +270,19 @@ fn parse_fault(text: &str) -> Result<Fault, String> {
             end_of_line(rest, "the time")?;
             Ok(Fault::Delay(ms))
         }
+        "stream" => {
+            let usage = "`fault stream` needs a number of bytes: fault stream <bytes>";
+            let (n, rest) = next_word(rest).ok_or_else(|| usage.to_owned())?;
+            let bytes = n
+                .parse::<usize>()
+                .ok()
+                .filter(|n| (1..=MAX_STREAM).contains(n))
+                .ok_or_else(|| {
+                    format!("`{n}` is not a number of bytes: expected 1 to {MAX_STREAM}")
+                })?;
+            end_of_line(rest, "the number of bytes")?;
+            Ok(Fault::Stream(bytes))
+        }
         "close" => {
             let reopen_after = match next_word(rest) {
                 None => None,
@@ -401,6 +414,7 @@ pub fn help_text(input_names: &[&str]) -> String {
          \x20 fault withhold                       do not send the next message\n\
          \x20 fault garbage <text>|hex:<hex>       send these bytes now, unasked\n\
          \x20 fault delay <ms>                     send the next message <ms> later\n\
+         \x20 fault stream <bytes>                 instead of the next message, <bytes> of U unbroken\n\
          \x20 fault close [<reopen-after-ms>]      close the line (a pty may reopen)\n\
          \x20 fault stall                          the next long action stays busy (EMP)\n\
          \x20 memory <commands>                    the program store takes this many commands\n\
@@ -686,6 +700,10 @@ mod tests {
             ControlCommand::Fault(Fault::Delay(Duration::from_millis(250)))
         );
         assert_eq!(
+            parse("fault stream 30000"),
+            ControlCommand::Fault(Fault::Stream(30_000))
+        );
+        assert_eq!(
             parse("fault close"),
             ControlCommand::Fault(Fault::Close { reopen_after: None })
         );
@@ -787,11 +805,11 @@ mod tests {
         );
         assert_eq!(
             error("fault"),
-            "line 7: `fault` needs a kind: expected drop-byte, corrupt-byte, withhold, garbage, delay, close or stall"
+            "line 7: `fault` needs a kind: expected drop-byte, corrupt-byte, withhold, garbage, delay, stream, close or stall"
         );
         assert_eq!(
             error("fault melt"),
-            "line 7: unknown fault `melt`: expected drop-byte, corrupt-byte, withhold, garbage, delay, close or stall"
+            "line 7: unknown fault `melt`: expected drop-byte, corrupt-byte, withhold, garbage, delay, stream, close or stall"
         );
         assert_eq!(
             error("fault drop-byte -1"),

@@ -308,6 +308,7 @@ impl Engine {
             Fault::CorruptByte(i) => self.armed.corrupt = Some(i),
             Fault::Withhold => self.armed.withhold = true,
             Fault::Delay(d) => self.armed.delay = Some(d),
+            Fault::Stream(n) => self.armed.stream = Some(n),
             Fault::Garbage(bytes) => {
                 self.stats.garbage_bytes += bytes.len() as u64;
                 let t = self.clock.map_or(now, |c| c.max(now));
@@ -369,6 +370,15 @@ impl Engine {
                 self.stats.messages_withheld += 1;
                 continue;
             }
+            // The message is not sent; the stream takes its place.
+            let message = match faults.stream {
+                Some(n) => {
+                    self.stats.messages_withheld += 1;
+                    self.stats.garbage_bytes += n as u64;
+                    vec![crate::sim::fault::STREAM_BYTE; n]
+                }
+                None => message,
+            };
             // Due times are fixed before drop/corrupt, so a dropped byte
             // leaves its slot silent instead of pulling the rest forward.
             let mut timed = self.place_on_wire(&message, t, faults.delay.unwrap_or_default());
@@ -668,6 +678,23 @@ mod tests {
         let got = drive(&mut e, t1 + Duration::from_millis(20));
         assert_eq!(got.len(), REPLY.len());
         assert_eq!(e.stats().messages_withheld, 1);
+    }
+
+    #[test]
+    fn stream_replaces_the_next_message_with_an_unbroken_run_of_u() {
+        let (mut e, _) = engine(Duration::ZERO);
+        let t0 = Instant::now();
+        e.fault(Fault::Stream(500), t0).expect("armed");
+        e.receive(b"@0P\r", t0);
+        let got = drive(&mut e, t0 + Duration::from_secs(1));
+        assert_eq!(got.len(), 500);
+        assert!(got.iter().all(|&(b, _)| b == b'U'));
+        // Back to back at line speed, no pause: the whole run within its
+        // wire time (handed out in receive-FIFO groups).
+        let span = got[499].1 - got[0].1;
+        assert!(span <= bt(500) && span >= bt(400), "{span:?}");
+        assert_eq!(e.stats().messages_withheld, 1);
+        assert_eq!(e.stats().garbage_bytes, 500);
     }
 
     #[test]

@@ -25,6 +25,10 @@ pub enum Fault {
     Garbage(Vec<u8>),
     /// Start the next message this much later than it would have started.
     Delay(Duration),
+    /// Instead of the next message, this many bytes of [`STREAM_BYTE`] at
+    /// line speed, without a pause: a line that streams and answers nothing
+    /// (a wrong baud rate, a babbling device; issue 37).
+    Stream(usize),
     /// Close the line. For a pseudo-terminal, `reopen_after` brings up a new
     /// one (same stable link path) after that time.
     Close { reopen_after: Option<Duration> },
@@ -34,6 +38,13 @@ pub enum Fault {
     /// simulators with such actions model it (`SimDevice::stall_next`).
     Stall,
 }
+
+/// What `fault stream` sends: `U` (0x55), no reply of any family (not an
+/// isel reply code, not a hex digit, no CR or EOF that would end a message).
+pub const STREAM_BYTE: u8 = b'U';
+
+/// The longest stream: 10 MB, more than an hour at 19200 baud.
+pub const MAX_STREAM: usize = 10_000_000;
 
 /// Which byte of a message a fault hits.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -75,6 +86,7 @@ pub struct ArmedFaults {
     pub corrupt: Option<ByteIndex>,
     pub withhold: bool,
     pub delay: Option<Duration>,
+    pub stream: Option<usize>,
 }
 
 impl ArmedFaults {
@@ -117,6 +129,9 @@ impl fmt::Display for ArmedFaults {
         }
         if let Some(d) = self.delay {
             parts.push(format!("delay {} ms", d.as_millis()));
+        }
+        if let Some(n) = self.stream {
+            parts.push(format!("stream {n} bytes"));
         }
         if let Some(i) = self.drop {
             parts.push(format!("drop {i}"));

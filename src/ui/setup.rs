@@ -39,6 +39,9 @@ pub struct Setup {
     /// The controller's inputs as the profile names them
     /// (`device::inputs::channels`).
     pub inputs: Vec<Arc<InputChannel>>,
+    /// The controller's program memory in commands (`Profile::program_memory`):
+    /// what the editor's check and a converted job's fit count against.
+    pub program_memory: Option<usize>,
 }
 
 impl Setup {
@@ -63,6 +66,7 @@ impl Setup {
             // Refused at load when broken: a profile here has passed.
             macros: profile.macros().unwrap_or_default(),
             inputs: crate::device::inputs::channels::shared(profile),
+            program_memory: profile.gcode.memory,
         }
     }
 

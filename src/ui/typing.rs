@@ -116,6 +116,9 @@ pub fn may_move(model: &Model) -> Option<String> {
     if model.keypad.homing.is_some() {
         return Some("a reference run was asked for".into());
     }
+    if let Some(job) = model.editor.job_under_way() {
+        return Some(job.into());
+    }
     if model
         .motion_asked
         .is_some_and(|t| model.now.saturating_duration_since(t) < MOTION_SETTLE)

@@ -160,6 +160,21 @@ fn a_program_of_the_other_family_is_refused_by_its_extension() {
     assert!(said.contains("an isel program by its extension"), "{said}");
 }
 
+/// Issue 37 (13): `--work-zero` places G-code; on an EMCU job (or an isel
+/// program) it was accepted and silently ignored. Refused now, before the
+/// port is opened: nothing reaches the controller.
+#[test]
+fn work_zero_on_a_controller_program_is_refused_not_ignored() {
+    let mut sim = SimProcess::start("emcu");
+    let file = write_program(&sim, "pallet.emcu", "@LX\n");
+    let before = sim.received();
+    let out = run(&sim, &["upload", &file, "--work-zero", "X10 Y10 Z0"]);
+    let said = stderr(&out);
+    assert_eq!(out.status.code(), Some(2), "{said}");
+    assert!(said.contains("--work-zero places G-code"), "{said}");
+    assert_eq!(sim.received(), before, "nothing sent");
+}
+
 /// Commands stored (isel `@0i` … `9`) before the one that does not fit.
 fn isel_program(moves: usize) -> String {
     let mut text = String::from("; more moves than the controller has room for\n7 7\n");

@@ -152,6 +152,30 @@ fn quitting_with_unsaved_edits_asks_first() {
     assert!(recoveries(&state).is_empty(), "{:?}", recoveries(&state));
 }
 
+/// Issue 37 (14): `--program part.nc` opens the program the G-code becomes,
+/// unsaved (`[+]`); one typed character leaves it unsaved: the title keeps
+/// `[+]`, a recovery file is written, and `q` asks before it quits. Before,
+/// the first edit made the converted program pass for saved and `q` lost it.
+#[test]
+fn an_edit_of_a_converted_gcode_job_is_kept_and_quitting_asks() {
+    let (dir, config, state) = dirs();
+    let file = dir.path().join("part.nc");
+    fs::write(&file, pockets(1)).expect("write the job");
+    let file_arg = file.display().to_string();
+
+    let mut run = spawn(&["--program", &file_arg], &config, &state);
+    wait_for(&run, "connected");
+    wait_for(&run, "part.isel[+]");
+    // One character typed at the top of the program.
+    run.send(b";");
+    let screen = wait_for(&run, ";; jogterm-gcode");
+    assert!(screen.contains("part.isel[+]"), "still unsaved:\n{screen}");
+    wait_until("the recovery file", || !recoveries(&state).is_empty());
+    run.type_keys(&[b"\x1bOS"]);
+    wait_for(&run, "Position");
+    quit_discarding_the_edits(&mut run);
+}
+
 #[test]
 fn a_hang_up_writes_the_last_edits_before_leaving() {
     let (dir, config, state) = dirs();

@@ -94,7 +94,7 @@ fn ended_at(said: &str) -> [i64; 3] {
 }
 
 /// The commands of a program file as `jogterm import -o` writes it.
-fn commands_of(program: &str) -> Vec<String> {
+pub(crate) fn commands_of(program: &str) -> Vec<String> {
     program
         .lines()
         .map(|l| l.split(';').next().unwrap_or("").trim().to_owned())
@@ -202,9 +202,25 @@ fn linuxcnc_inch_file_with_r_arcs_and_g18_g19_circles_ends_at_its_last_point() {
 
 #[test]
 fn freecad_drilling_cycles_wait_at_the_tool_change_for_the_start_key() {
-    // M6 T2 comes before any move: the program stands at the reference
-    // point until the start key is pressed, then drills the four holes and
-    // ends above the last one (X10 Y25) at G0 Z10.
+    // Held as an operator holds a key: a press and release at one instant
+    // falls between two reads of the port by the waiting `o`.
+    freecad_tool_change_ended_by("pulse start 300");
+}
+
+/// Issue 37 (16): the simulator's `press start` (its stdin, and `p` on
+/// `start` in the console's simulator panel) is a key pressed as a finger
+/// presses it, so it ends the wait of an M6 as the real key does. Before,
+/// a press was down for no time at all and the program's `o` loop, polling
+/// the port, never saw it: the job stood at the tool change for ever.
+#[test]
+fn a_pressed_start_key_ends_the_tool_change_wait() {
+    freecad_tool_change_ended_by("press start");
+}
+
+/// M6 T2 comes before any move: the program stands at the reference point
+/// until `control` presses the start key, then drills the four holes and
+/// ends above the last one (X10 Y25) at G0 Z10.
+fn freecad_tool_change_ended_by(control: &str) {
     let said = import_upload_and_run("freecad-path.ngc", [10.0, 25.0, 10.0], |sim| {
         let deadline = Instant::now() + Duration::from_secs(20);
         let running = loop {
@@ -224,9 +240,7 @@ fn freecad_drilling_cycles_wait_at_the_tool_change_for_the_start_key() {
             still.starts_with("device: X 0 Y 0 Z 0 "),
             "no move before the start key: {still}"
         );
-        // Held as an operator holds a key: a press and release at one instant
-        // falls between two reads of the port by the waiting `o`.
-        sim.control("pulse start 300");
+        sim.control(control);
     });
     assert!(said.contains("running the program"), "{said}");
     assert!(

@@ -18,7 +18,9 @@ use stops_support::{
     stops_and_motion, wait_moving, x_steps,
 };
 
-fn spawn(sim: &SimProcess, args: &[&str]) -> Child {
+/// `args` configured from the simulator's directory, stdout and stderr
+/// piped (also `read_sessions`).
+pub fn spawn(sim: &SimProcess, args: &[&str]) -> Child {
     sim.configured(args)
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())

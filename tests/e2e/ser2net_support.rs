@@ -5,7 +5,7 @@
 //! (`connector: serialdev,<link>,19200n81,local`).
 //!
 //! ser2net is required, not optional: a machine without it fails these
-//! tests with a message that says how to get it (`.ci/run` installs it).
+//! tests with a message that says how to get it (`scripts/test`, the README's test command, installs it).
 
 use std::io::Read;
 use std::net::TcpListener;
@@ -34,7 +34,7 @@ pub fn ser2net_binary() -> PathBuf {
     }
     panic!(
         "ser2net is required for the network tests and is not installed: \
-         `apt-get install -y ser2net` (Debian; .ci/run installs it when it is missing)"
+         `apt-get install -y ser2net` (Debian; scripts/test installs it when it is missing)"
     );
 }
 

@@ -146,6 +146,11 @@ pub struct Context {
     /// mode takes a reference run for "set the reference here" (2.2.24).
     /// The read-back sends `@0T0` first unless the profile allows test mode.
     pub test_mode_unknown: bool,
+    /// The session only reads (`Driver::set_reads_only`): the read-back
+    /// leaves out `@0T0`, the reference probe (a move of zero steps) and the
+    /// profile's ramps, which would change what the operator or a running
+    /// program set.
+    pub reads_only: bool,
     /// The check-out line whose paused move's rest the controller holds
     /// (`checkout_op`): taken by whatever runs next.
     pub checkout_rest: Option<crate::device::api::JogId>,
@@ -184,6 +189,7 @@ impl Context {
             zero_check: None,
             test_mode_left_on: false,
             test_mode_unknown: false,
+            reads_only: false,
             checkout_rest: None,
             stored: None,
         }

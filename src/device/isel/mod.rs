@@ -170,6 +170,8 @@ pub struct IselDriver {
     /// read at `resend_at`, instead of calling the link dead.
     busy_since: Option<Instant>,
     resend_at: Option<Instant>,
+    /// How long of the wait has been said so far (`busy_tell`).
+    busy_told: Duration,
 }
 
 /// How often a session that has not moved repeats its read while the
@@ -177,6 +179,13 @@ pub struct IselDriver {
 /// command or program runs (`docs/protocols.md`, isel), so one of them is
 /// answered once it is done.
 const BUSY_REPEAT: Duration = Duration::from_millis(500);
+
+/// How often the wait for a busy controller is said: every 10 s, at least
+/// four times within a shorter `isel.busy_wait_s`, never more than once a
+/// second.
+fn busy_tell_every(limit: Duration) -> Duration {
+    (limit / 4).clamp(Duration::from_secs(1), Duration::from_secs(10))
+}
 
 impl IselDriver {
     pub fn new(settings: IselSettings) -> IselDriver {
@@ -199,6 +208,7 @@ impl IselDriver {
             connect_halt: true,
             busy_since: None,
             resend_at: None,
+            busy_told: Duration::ZERO,
         }
     }
 
@@ -533,14 +543,29 @@ impl IselDriver {
         // `docs/device.md`, "Sessions that do not move"). Say so once, wait,
         // and repeat the read until it is answered.
         if !self.connect_halt && ex.repeatable {
-            if self.busy_since.is_none() {
-                self.busy_since = Some(now);
-                self.cx.notice(format!(
-                    "{BUSY_NOTICE} (no reply to {}: the controller answers nothing while a \
-                     stored program or a move runs; nothing that changes motion is sent; if \
-                     nothing runs, check the line)",
-                    ex.text
-                ));
+            let limit = self.cx.settings.timing.busy_wait;
+            match self.busy_since {
+                None => {
+                    self.busy_since = Some(now);
+                    self.busy_told = Duration::ZERO;
+                    self.cx.notice(format!(
+                        "{BUSY_NOTICE} (no reply to {}: the controller answers nothing while a \
+                         stored program or a move runs; nothing that changes motion is sent; if \
+                         nothing runs, check the line; giving up after {} s, isel.busy_wait_s)",
+                        ex.text,
+                        limit.as_secs()
+                    ));
+                }
+                Some(since) => {
+                    // Bounded: a controller that never answers again is a
+                    // dead line or a dead controller (issue 37).
+                    let waited = now.saturating_duration_since(since);
+                    if waited >= limit {
+                        self.busy_given_up(&ex.text, waited);
+                        return;
+                    }
+                    self.busy_tell(waited, limit);
+                }
             }
             // The decoder still expects the read's reply: one that comes
             // after the deadline (a slow controller, a starved host) answers
@@ -559,6 +584,38 @@ impl IselDriver {
             .transmitted_at
             .map_or(Duration::ZERO, |t| now.saturating_duration_since(t));
         let reason = link::no_reply(&ex.text, waited, &mut self.cx.events);
+        self.go_down(&reason);
+    }
+
+    /// Say how long the wait for a busy controller has lasted, every
+    /// [`busy_tell_every`] of it.
+    fn busy_tell(&mut self, waited: Duration, limit: Duration) {
+        let every = busy_tell_every(limit);
+        if waited < self.busy_told + every {
+            return;
+        }
+        self.busy_told = every * (waited.as_millis() / every.as_millis().max(1)) as u32;
+        self.cx.notice(format!(
+            "{BUSY_NOTICE}: {} s so far, giving up after {} s (isel.busy_wait_s)",
+            waited.as_secs(),
+            limit.as_secs()
+        ));
+    }
+
+    /// The busy controller answered nothing within `isel.busy_wait_s`: the
+    /// link counts as lost, and the command that waited ends with it.
+    fn busy_given_up(&mut self, command: &str, waited: Duration) {
+        self.decoder.abandon();
+        let reason = format!(
+            "no reply to {command} for {:.1} s: the controller answered nothing while jogterm \
+             waited for a program to end (isel.busy_wait_s = {})",
+            waited.as_secs_f64(),
+            self.cx.settings.timing.busy_wait.as_secs()
+        );
+        self.cx
+            .emit(Event::Link(crate::device::api::LinkState::Lost {
+                reason: reason.clone(),
+            }));
         self.go_down(&reason);
     }
 
@@ -957,6 +1014,10 @@ impl Driver for IselDriver {
 
     fn set_connect_halt(&mut self, on: bool) {
         self.connect_halt = on;
+    }
+
+    fn set_reads_only(&mut self, on: bool) {
+        self.cx.reads_only = on;
     }
 
     fn may_move(&self, request: &Request) -> bool {

@@ -24,6 +24,14 @@
 //!    read back; a controller in test mode answers `0` (`docs/protocols.md`).
 //! 4. When the controller is set up as the profile says: `@0j`, `@0J`, `@0d`
 //!    from the profile, so that estimates and reference runs use known ramps.
+//!
+//! A session that only reads (`Context::reads_only`: `watch`, `poll`,
+//! `commission`, `send` of lines that move nothing) sends steps 1 and 2
+//! alone: `@0T0`, the probe and the ramps set something in the controller
+//! (test mode, a move command, the operator's or a program's ramps). The
+//! axes are then the ones the length of `@0P` allows, as the profile has
+//! them, and the reference state is not known (`docs/device.md`, "Sessions
+//! that only read").
 
 use std::time::Instant;
 
@@ -132,22 +140,33 @@ impl Readback {
             // limit switch) and so make the controller forget its axes
             // (`docs/protocols.md`, isel). After an E-stop they are lost
             // anyway; in a limit switch the reference state stays unknown.
-            let config = if self.has_a {
-                AxisConfig::XYZA
-            } else if cx.settings.config != AxisConfig::XYZA {
-                cx.settings.config
-            } else {
-                AxisConfig::XYZ
-            };
+            let config = self.unprobed_config(cx);
             if !cx.state.estop {
                 cx.set_config(Some(config));
                 cx.notice("a limit switch is active: the reference state was not probed");
             }
             cx.state.referenced = AxisSet::EMPTY;
             self.stage = Stage::Done;
+        } else if cx.reads_only {
+            // No probe: it is a move command (`Context::reads_only`).
+            cx.set_config(Some(self.unprobed_config(cx)));
+            cx.state.referenced = AxisSet::EMPTY;
+            self.stage = Stage::Done;
         } else {
             self.candidates = self.candidates(cx.settings.config);
             self.stage = Stage::Probe(0);
+        }
+    }
+
+    /// The axes `@0P` allows without a probe: X, Y, Z and A from 24 digits,
+    /// else the profile's (XYZ for a profile with A).
+    fn unprobed_config(&self, cx: &Context) -> AxisConfig {
+        if self.has_a {
+            AxisConfig::XYZA
+        } else if cx.settings.config != AxisConfig::XYZA {
+            cx.settings.config
+        } else {
+            AxisConfig::XYZ
         }
     }
 
@@ -210,11 +229,13 @@ impl Readback {
         match cx.config {
             None => "state read back: no axes initialised".to_owned(),
             Some(c) => format!(
-                "state read back: axes {c} initialised, {} referenced{}",
-                if cx.state.referenced.is_empty() {
-                    "none".to_owned()
+                "state read back: axes {c} initialised, {}{}",
+                if cx.reads_only {
+                    "reference not probed (a session that only reads sends no move)".to_owned()
+                } else if cx.state.referenced.is_empty() {
+                    "none referenced".to_owned()
                 } else {
-                    cx.state.referenced.to_string()
+                    format!("{} referenced", cx.state.referenced)
                 },
                 if cx.state.estop {
                     ", E-stop active"
@@ -280,7 +301,10 @@ fn positions_from_text(bytes: &[u8]) -> Option<(crate::proto::isel::Positions, b
 
 impl Operation for Readback {
     fn next(&mut self, cx: &mut Context, _now: Instant) -> Next {
-        if self.stage == Stage::Position && (cx.test_mode_left_on || cx.test_mode_unknown) {
+        if self.stage == Stage::Position
+            && !cx.reads_only
+            && (cx.test_mode_left_on || cx.test_mode_unknown)
+        {
             self.stage = Stage::TestOff;
         }
         match self.stage {

@@ -77,6 +77,10 @@ pub struct Timing {
     /// Quiet after the stop sequence that opens every connection, for the
     /// answer of a move that may still have been running.
     pub connect_settle: Duration,
+    /// How long a session that only reads waits for a controller that
+    /// answers nothing (a stored program runs) before it gives up: the
+    /// profile's `isel.busy_wait_s`.
+    pub busy_wait: Duration,
 }
 
 impl Default for Timing {
@@ -89,6 +93,9 @@ impl Default for Timing {
             resync_gap: Duration::from_millis(10),
             reset_settle: Duration::from_millis(100),
             connect_settle: Duration::from_millis(100),
+            busy_wait: Duration::from_secs(
+                crate::config::profile::IselProfile::DEFAULT_BUSY_WAIT_S,
+            ),
         }
     }
 }
@@ -154,6 +161,7 @@ impl IselSettings {
             },
             timing: Timing {
                 reply_margin: profile.connection.reply_margin(),
+                busy_wait: profile.isel.busy_wait(),
                 ..Timing::default()
             },
             wiring,

@@ -273,6 +273,9 @@ impl LintConfig {
     /// (soft limits in units × steps per unit = steps).
     pub fn from_profile(profile: &Profile) -> LintConfig {
         let mut config = LintConfig::new(profile.axis_set());
+        // The one memory setting: the import, `check`, `upload`, `run` and
+        // the console count against it alike (issue 37).
+        config.capacity = profile.gcode.memory;
         for (axis, p) in &profile.axes {
             if let Some(slot) = config.limits.get_mut(axis.index()) {
                 *slot = Some(AxisLimit {

@@ -8,7 +8,12 @@
 //!   X axis in the XY plane). The sweep runs from the start angle to the end
 //!   angle in the given direction and lies in (0°, 360°]: equal start and end
 //!   angles make a full circle, and 300° → 30° CCW crosses 0° (a 90° arc).
-//! - `B = round(R · sweep / 45°)`, which is the manual's `4 R (E − A) / π`.
+//! - `B` is the number of iterations of the controller's walk
+//!   ([`ArcWalk`], manual 2.3.1/2.3.2: one step of one axis each) from the
+//!   start point to the walk's point nearest the arc's end. The manual's
+//!   `4 R (E − A) / π` is exact only for quarter, half and full circles
+//!   (any 90° of a circle is 2 R single-axis steps); on other arcs it is off
+//!   by up to 10 % of the arc.
 //! - `Xs`, `Ys` are `R cos A`, `R sin A` rounded half away from zero.
 //! - `Rx`, `Ry` are the signs of the motion at the rounded start point. A
 //!   start point on an axis (quadrant boundary) belongs to the quadrant the
@@ -17,13 +22,12 @@
 //! - `D` follows the worked example 2.3.6 (decision 12); its halving
 //!   truncates towards zero.
 
-use std::f64::consts::PI;
-
 use thiserror::Error;
 
 use super::check::{SPEED_HZ, STEPS};
 use super::cnc::CncCommand;
 use super::command::{CircleDirection, CircleParams, Command, HelixParams, Sign};
+use super::walk::ArcWalk;
 
 /// Why no circle parameters can be computed.
 #[derive(Debug, Clone, PartialEq, Error)]
@@ -136,22 +140,23 @@ pub fn circle(
     }
     let r = f64::from(radius);
     let sweep = sweep_deg(start_deg, end_deg, direction);
-    let arc_length = (r * sweep / 45.0).round();
-    if arc_length < 1.0 {
-        return Err(CircleError::ArcTooShort);
-    }
     let start = start_deg.to_radians();
     // |R cos A| <= R <= 2^23, so the rounded values fit i32.
     let xs = (r * start.cos()).round() as i32;
     let ys = (r * start.sin()).round() as i32;
+    let walk = ArcWalk::new(i64::from(radius), (i64::from(xs), i64::from(ys)), direction);
+    let arc_length = steps_to_end(walk, r, start_deg, sweep, direction);
+    if arc_length == 0 {
+        return Err(CircleError::ArcTooShort);
+    }
     let (rx, ry) = start_signs(xs, ys, direction);
     let d = interpolation_parameter(i64::from(radius), xs, ys, rx, ry);
     let d = i32::try_from(d).map_err(|_| CircleError::ParameterTooLarge(d))?;
     Ok(CircleMove {
         direction,
         params: CircleParams {
-            // 8 R <= 2^26 fits u32.
-            arc_length: arc_length as u32,
+            // About 8 R <= 2^26: fits u32.
+            arc_length: u32::try_from(arc_length).unwrap_or(u32::MAX),
             speed,
             d,
             xs,
@@ -199,6 +204,80 @@ fn sweep_deg(start_deg: f64, end_deg: f64, direction: CircleDirection) -> f64 {
         sweep
     }
 }
+
+/// The Manhattan length of the arc of `radius` from `start_deg` over
+/// `sweep_deg` in `direction`: the total travel of both axes, which is what
+/// the walk's step count follows.
+fn manhattan_length(
+    radius: f64,
+    start_deg: f64,
+    sweep_deg: f64,
+    direction: CircleDirection,
+) -> f64 {
+    use std::f64::consts::FRAC_PI_2;
+    // The same points as the arc swept counter-clockwise from its lower end.
+    let from = match direction {
+        CircleDirection::Ccw => start_deg,
+        CircleDirection::Cw => start_deg - sweep_deg,
+    }
+    .to_radians();
+    let to = from + sweep_deg.to_radians();
+    let first = (from / FRAC_PI_2).floor();
+    let mut total = 0.0;
+    // Both coordinates are monotonic within a quadrant; a sweep of at most
+    // 360° touches at most 5 quadrants.
+    for k in 0..6 {
+        let lo = from.max((first + f64::from(k)) * FRAC_PI_2);
+        let hi = to.min((first + f64::from(k + 1)) * FRAC_PI_2);
+        if hi > lo {
+            total += (hi.cos() - lo.cos()).abs() + (hi.sin() - lo.sin()).abs();
+        }
+    }
+    radius * total
+}
+
+/// How many steps of `walk` bring it nearest the end of the arc from
+/// `start_deg` over `sweep_deg` (manual 2.3.2, "Berechnung mittels
+/// Softwareroutine"). The walk's step count stays within a few steps of the
+/// arc's Manhattan length, so only a window around it is searched; the
+/// window is narrower than half a lap, so a full circle cannot end on its
+/// start point.
+fn steps_to_end(
+    walk: ArcWalk,
+    radius: f64,
+    start_deg: f64,
+    sweep_deg: f64,
+    direction: CircleDirection,
+) -> u64 {
+    let expected = manhattan_length(radius, start_deg, sweep_deg, direction);
+    let end = match direction {
+        CircleDirection::Ccw => start_deg + sweep_deg,
+        CircleDirection::Cw => start_deg - sweep_deg,
+    }
+    .to_radians();
+    let target = (radius * end.cos(), radius * end.sin());
+    let distance = |(x, y): (i64, i64)| (x as f64 - target.0).hypot(y as f64 - target.1);
+    let margin = (2.0 * radius).min(WINDOW);
+    let first = (expected - margin).max(0.0).floor() as u64;
+    let last = (expected + margin).ceil() as u64;
+    let mut walk = walk;
+    walk.advance(first);
+    let mut best = (distance(walk.point()), first);
+    for k in first + 1..=last {
+        walk.step();
+        let d = distance(walk.point());
+        let nearer = d < best.0
+            || (d == best.0 && (k as f64 - expected).abs() < (best.1 as f64 - expected).abs());
+        if nearer {
+            best = (d, k);
+        }
+    }
+    best.1
+}
+
+/// Half the window [`steps_to_end`] searches: the walk and the arc part by
+/// at most a step or two at each axis they cross.
+const WINDOW: f64 = 24.0;
 
 fn sign(v: i32) -> Sign {
     if v < 0 { Sign::Minus } else { Sign::Plus }
@@ -277,9 +356,10 @@ pub struct ArcEnd {
 }
 
 /// The geometry a `y`/`w` command describes, reconstructed from its
-/// parameters: the sweep from `B`, the radius from `D` (which holds `R²`,
-/// see [`radius_from_parameters`]) or, if `D` does not fit the start point,
-/// from the start point.
+/// parameters: the radius from `D` (which holds `R²`, see
+/// [`radius_from_parameters`]) or, if `D` does not fit the start point, from
+/// the start point; the end where the controller's walk ([`ArcWalk`]) stands
+/// after `B` steps, and the sweep to that end.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ArcGeometry {
     /// Start point relative to the centre, in steps.
@@ -289,21 +369,27 @@ pub struct ArcGeometry {
     pub start_angle: f64,
     /// Signed sweep in radians: positive counter-clockwise.
     pub sweep: f64,
+    /// Where the walk ends, relative to the centre.
+    pub walk_end: (i64, i64),
 }
 
 impl ArcGeometry {
-    /// The geometry of `params` run in `direction`.
+    /// The geometry of `params` run in `direction`. Steps the walk `B`
+    /// times (whole laps are skipped, see [`ArcWalk::advance`]).
     pub fn of(params: &CircleParams, direction: CircleDirection) -> ArcGeometry {
         let start = (f64::from(params.xs), f64::from(params.ys));
         let rounded = start.0.hypot(start.1);
         let radius = radius_from_parameters(params)
             .filter(|r| (r - rounded).abs() <= 2.0_f64.max(rounded * 0.01))
             .unwrap_or(rounded);
-        let magnitude = if radius > 0.0 {
-            f64::from(params.arc_length) * PI / (4.0 * radius)
-        } else {
-            0.0
-        };
+        let first = ArcWalk::new(
+            radius.round() as i64,
+            (i64::from(params.xs), i64::from(params.ys)),
+            direction,
+        );
+        let mut walk = first;
+        walk.advance(u64::from(params.arc_length));
+        let magnitude = walk.swept_since(&first);
         let sweep = match direction {
             CircleDirection::Ccw => magnitude,
             CircleDirection::Cw => -magnitude,
@@ -313,33 +399,36 @@ impl ArcGeometry {
             radius,
             start_angle: start.1.atan2(start.0),
             sweep,
+            walk_end: walk.point(),
         }
     }
 
     /// The point a fraction `t` (0 = start, 1 = end) along the arc, relative
-    /// to the centre; for previews and simulated motion.
+    /// to the centre; for previews. It follows the circle, which the walk
+    /// keeps within a step of.
     pub fn point_at(&self, t: f64) -> (f64, f64) {
         let angle = self.start_angle + self.sweep * t.clamp(0.0, 1.0);
         (self.radius * angle.cos(), self.radius * angle.sin())
     }
 
-    /// Where the arc ends, rounded to steps.
+    /// Where the walk ends.
     pub fn end(&self) -> ArcEnd {
-        let (x, y) = self.point_at(1.0);
-        let (x, y) = (x.round() as i32, y.round() as i32);
+        let narrow = |v: i64| i32::try_from(v).unwrap_or(if v < 0 { i32::MIN } else { i32::MAX });
+        let (x, y) = (narrow(self.walk_end.0), narrow(self.walk_end.1));
         let (sx, sy) = (self.start.0 as i32, self.start.1 as i32);
         ArcEnd {
             from_centre: (x, y),
-            from_start: (x - sx, y - sy),
+            from_start: (x.saturating_sub(sx), y.saturating_sub(sy)),
         }
     }
 }
 
 impl CircleParams {
     /// Where this arc leaves the tool when run in `direction` (the direction
-    /// of the last `f`). Computed from the geometry; the controller's
-    /// interpolation may end a step or so away, which is why the manual
-    /// recommends an absolute move after a circle (2.3.2).
+    /// of the last `f`): where the controller's walk stands after `B` steps.
+    /// That is within a step of the arc's end when `B` came from
+    /// [`circle`]; the manual still advises an absolute move after a circle
+    /// (2.3.2) to land on the exact end.
     pub fn end_point(&self, direction: CircleDirection) -> ArcEnd {
         ArcGeometry::of(self, direction).end()
     }

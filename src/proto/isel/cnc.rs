@@ -2,6 +2,11 @@
 //! command letters of `../shared/protocols.md` isel 10. A CNC line is sent
 //! after `@0i` without the `@<dev>` prefix and answered with `0` or an error.
 
+/// Commands a controller's program memory holds before the closing `9`
+/// (`docs/protocols.md`, isel 9: more answer `6`). A controller may hold
+/// fewer (a profile's `[gcode] memory`), none more.
+pub const PROGRAM_CAPACITY: usize = 2000;
+
 use std::fmt;
 
 use crate::axis::AxisSet;

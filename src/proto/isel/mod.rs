@@ -79,6 +79,7 @@ mod framer;
 mod parse;
 pub mod ports;
 mod reply;
+mod walk;
 
 #[cfg(test)]
 mod tests;
@@ -93,7 +94,7 @@ pub use circle::{
     ArcEnd, ArcGeometry, CircleError, CircleMove, HelixMove, arc_end, circle, helix,
     radius_from_parameters,
 };
-pub use cnc::{CncCommand, SyncChar};
+pub use cnc::{CncCommand, PROGRAM_CAPACITY, SyncChar};
 pub use command::{
     CircleDirection, CircleParams, Command, ControlByte, Diagnosis, DiagnosisKind, Frame,
     HelixParams, InitCommand, MovePair, Plane, PortMove, PortSignal, PortWatch, Sign,
@@ -108,3 +109,4 @@ pub use framer::{MAX_LINE, Received, RequestFramer};
 pub use parse::{Note, NoteKind, ParseError, Parsed, parse_cnc, parse_frame};
 pub use ports::{InputPort, OutputPort, PortBits};
 pub use reply::{Positions, Recovery, Reply, ReplyCode, ReplyEncodeError, TextEnd, UnusedCode};
+pub use walk::ArcWalk;

@@ -3,7 +3,7 @@
 //! one-line state `show` prints.
 
 use std::fmt::Write as _;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use crate::axis::Axis;
 use crate::sim::InputControl;
@@ -12,7 +12,29 @@ use super::io::{INPUT_NAMES, InputName, SPINDLE_BIT};
 use super::run::{JobKind, Step};
 use super::{Activity, IselSim, ReplyTo};
 
+/// How long `press` holds a key down: a quick tap of a finger. A stored
+/// program that waits for the start key polls port 1 in a loop (CNC `o`,
+/// manual 3.2.19) and sees the key only while it is down.
+pub(super) const KEY_HOLD: Duration = Duration::from_millis(150);
+
+/// Indices into `IselSim::key_release`.
+pub(super) const START_KEY: usize = 0;
+pub(super) const STOP_KEY: usize = 1;
+
 impl IselSim {
+    /// A pressed key is let go.
+    pub(super) fn release_key(&mut self, key: usize, t: Instant) {
+        let before = self.snapshot();
+        if let Some(release) = self.key_release.get_mut(key) {
+            *release = None;
+        }
+        match key {
+            START_KEY => self.inputs.start_key = false,
+            _ => self.inputs.stop_key = false,
+        }
+        self.inputs_changed(before, t);
+    }
+
     /// The level an input was set to. A limit switch is the operator's
     /// forcing of it: a switch the axis runs onto shows on port 3, not here.
     pub(super) fn operator_level(&self, name: &str) -> Option<bool> {
@@ -100,7 +122,8 @@ impl IselSim {
             }
             InputName::Start => {
                 let rising = level && !self.inputs.start_key;
-                self.inputs.start_key = level && !press;
+                self.inputs.start_key = level;
+                self.key_release[START_KEY] = press.then(|| t + KEY_HOLD);
                 if rising {
                     // Like `@0S`, but nothing answers: there was no command.
                     let _ = self.start(ReplyTo::Silent, t);
@@ -108,7 +131,8 @@ impl IselSim {
             }
             InputName::Stop => {
                 let rising = level && !self.inputs.stop_key;
-                self.inputs.stop_key = level && !press;
+                self.inputs.stop_key = level;
+                self.key_release[STOP_KEY] = press.then(|| t + KEY_HOLD);
                 if rising {
                     self.soft_stop(t, true);
                 }

@@ -117,6 +117,10 @@ pub struct IselSim {
     paused: Option<Paused>,
     /// The port condition of a CNC `6` for the move being started.
     next_move_condition: Option<PortCondition>,
+    /// When the start and the stop key, pressed by `press`, are let go: a
+    /// finger holds a key for a human instant, and a program that polls
+    /// the key (a CNC `o` loop waiting for start) reads it down meanwhile.
+    key_release: [Option<Instant>; 2],
     out: VecDeque<Vec<u8>>,
     /// The latest time the model was brought to.
     clock: Option<Instant>,
@@ -154,6 +158,7 @@ impl IselSim {
             activity: None,
             paused: None,
             next_move_condition: None,
+            key_release: [None; 2],
             out: VecDeque::new(),
             clock: None,
             next: None,
@@ -180,6 +185,7 @@ impl IselSim {
         self.framer = RequestFramer::new();
         self.inputs.start_key = false;
         self.inputs.stop_key = false;
+        self.key_release = [None; 2];
         self.power_up_state();
         self.schedule();
     }

@@ -8,9 +8,12 @@
 //! linear interpolation, manual 2.2.2); arcs follow the circle of a `y`/`w`
 //! command (manual 2.3) with a helix's third axis in proportion.
 
+use std::cell::Cell;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use crate::motion::{Motion, Ramp};
+use crate::proto::isel::ArcWalk;
 
 use super::mechanics::{AxisState, NEG, POS};
 
@@ -22,24 +25,6 @@ pub type Point = [f64; 4];
 pub enum Path {
     Line { from: Point, to: Point },
     Arc(ArcPath),
-}
-
-/// A circular arc in the plane of two axes, and a third axis that moves in
-/// proportion (a helix).
-#[derive(Debug, Clone, PartialEq)]
-pub struct ArcPath {
-    /// Every axis at the start; axes outside the arc stay there.
-    pub from: Point,
-    /// Indices of the plane's axis 1 and axis 2.
-    pub plane: (usize, usize),
-    pub centre: (f64, f64),
-    pub radius: f64,
-    /// Radians, counter-clockwise from axis 1.
-    pub start_angle: f64,
-    /// Signed radians: positive is counter-clockwise.
-    pub sweep: f64,
-    /// The helix axis and its travel over the whole arc.
-    pub third: Option<(usize, f64)>,
 }
 
 impl Path {
@@ -57,6 +42,15 @@ impl Path {
         }
     }
 
+    /// The counters at fraction `f`: rounded on a line, the walk's point on
+    /// an arc.
+    pub fn counters_at(&self, f: f64) -> [i64; 4] {
+        match self {
+            Path::Line { .. } => self.at(f).map(|v| v.round() as i64),
+            Path::Arc(arc) => arc.counters_at(f),
+        }
+    }
+
     /// Every axis moves monotonically along a line, so a switch predicate
     /// along it changes at most once.
     fn is_line(&self) -> bool {
@@ -64,34 +58,179 @@ impl Path {
     }
 }
 
+/// A circular arc in the plane of two axes, travelled as the controller's
+/// walk (`ArcWalk`, manual 2.3: one step of one axis per iteration), and a
+/// third axis that moves in proportion (a helix).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ArcPath {
+    /// Every axis at the start; axes outside the arc stay there.
+    pub from: Point,
+    /// Indices of the plane's axis 1 and axis 2.
+    pub plane: (usize, usize),
+    /// The centre, in counters.
+    pub centre: (i64, i64),
+    /// The walk at the start of this path.
+    pub walk: ArcWalk,
+    /// Iterations of the walk this path runs (`B`).
+    pub steps: u64,
+    /// The helix axis and its travel over the whole arc.
+    pub third: Option<(usize, f64)>,
+    index: WalkIndex,
+}
+
+/// Random access into a walk: a state every `spacing` steps, and the last
+/// state asked for, since the simulator mostly asks for later and later
+/// points (playback, the search for a switch).
+#[derive(Clone)]
+struct WalkIndex {
+    spacing: u64,
+    checkpoints: Arc<[ArcWalk]>,
+    cursor: Cell<(u64, ArcWalk)>,
+}
+
+/// At most this many checkpoints per arc; at least [`MIN_SPACING`] steps
+/// between two, so a short arc keeps a short list.
+const CHECKPOINTS: u64 = 4096;
+const MIN_SPACING: u64 = 1024;
+
+impl WalkIndex {
+    fn new(walk: ArcWalk, steps: u64) -> WalkIndex {
+        let spacing = steps.div_ceil(CHECKPOINTS).max(MIN_SPACING);
+        let mut at = walk;
+        let mut checkpoints = vec![walk];
+        for _ in 0..steps / spacing {
+            at.advance(spacing);
+            checkpoints.push(at);
+        }
+        WalkIndex {
+            spacing,
+            checkpoints: checkpoints.into(),
+            cursor: Cell::new((0, walk)),
+        }
+    }
+
+    /// The walk after `k` steps.
+    fn walk_to(&self, k: u64) -> ArcWalk {
+        let j = k / self.spacing;
+        let (mut done, mut walk) = self
+            .checkpoints
+            .get(usize::try_from(j).unwrap_or(usize::MAX))
+            .or(self.checkpoints.last())
+            .map_or(self.cursor.get(), |w| (j * self.spacing, *w));
+        let (at, cursor) = self.cursor.get();
+        if at <= k && at >= done {
+            (done, walk) = (at, cursor);
+        }
+        walk.advance(k.saturating_sub(done));
+        self.cursor.set((k, walk));
+        walk
+    }
+}
+
+impl std::fmt::Debug for WalkIndex {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("WalkIndex")
+            .field("spacing", &self.spacing)
+            .field("checkpoints", &self.checkpoints.len())
+            .finish()
+    }
+}
+
+/// A cache: two indices of the same walk are equal.
+impl PartialEq for WalkIndex {
+    fn eq(&self, _: &WalkIndex) -> bool {
+        true
+    }
+}
+
 impl ArcPath {
+    pub fn new(
+        from: Point,
+        plane: (usize, usize),
+        centre: (i64, i64),
+        walk: ArcWalk,
+        steps: u64,
+        third: Option<(usize, f64)>,
+    ) -> ArcPath {
+        ArcPath {
+            from,
+            plane,
+            centre,
+            walk,
+            steps,
+            third,
+            index: WalkIndex::new(walk, steps),
+        }
+    }
+
+    /// The same arc from other start counters (the axes outside the plane).
+    pub fn starting_at(&self, from: Point) -> ArcPath {
+        ArcPath {
+            from,
+            ..self.clone()
+        }
+    }
+
+    /// The iteration the walk has reached at fraction `f`.
+    fn step_at(&self, f: f64) -> u64 {
+        ((f.clamp(0.0, 1.0) * self.steps as f64).round() as u64).min(self.steps)
+    }
+
+    /// Every axis at fraction `f`: between two iterations the stepping axis
+    /// is part way to its next step.
     pub fn at(&self, f: f64) -> Point {
+        let s = f.clamp(0.0, 1.0) * self.steps as f64;
+        let k = (s.floor() as u64).min(self.steps);
+        let walk = self.index.walk_to(k);
+        let (x, y) = walk.point();
+        let (mut x, mut y) = (x as f64, y as f64);
+        if k < self.steps {
+            let mut next = walk;
+            next.step();
+            let (nx, ny) = next.point();
+            let part = s - k as f64;
+            x += (nx as f64 - x) * part;
+            y += (ny as f64 - y) * part;
+        }
+        self.place((x, y), f)
+    }
+
+    /// The counters at fraction `f`: the walk's point at the iteration
+    /// reached, the helix axis on its nearest step.
+    pub fn counters_at(&self, f: f64) -> [i64; 4] {
+        let (x, y) = self.index.walk_to(self.step_at(f)).point();
+        self.place((x as f64, y as f64), f)
+            .map(|v| v.round() as i64)
+    }
+
+    fn place(&self, (x, y): (f64, f64), f: f64) -> Point {
         let mut p = self.from;
-        let angle = self.start_angle + self.sweep * f;
         let (a1, a2) = self.plane;
         if let Some(v) = p.get_mut(a1) {
-            *v = self.centre.0 + self.radius * angle.cos();
+            *v = self.centre.0 as f64 + x;
         }
         if let Some(v) = p.get_mut(a2) {
-            *v = self.centre.1 + self.radius * angle.sin();
+            *v = self.centre.1 as f64 + y;
         }
         if let Some((axis, delta)) = self.third
             && let Some(v) = p.get_mut(axis)
         {
-            *v = self.from[axis] + delta * f;
+            *v = self.from[axis] + delta * f.clamp(0.0, 1.0);
         }
         p
     }
 
-    /// What is left of this arc from fraction `f` on.
+    /// What is left of this arc from fraction `f` on: the rest of the walk.
     pub fn remainder(&self, f: f64, from: Point) -> ArcPath {
-        ArcPath {
+        let k = self.step_at(f);
+        ArcPath::new(
             from,
-            start_angle: self.start_angle + self.sweep * f,
-            sweep: self.sweep * (1.0 - f),
-            third: self.third.map(|(axis, delta)| (axis, delta * (1.0 - f))),
-            ..self.clone()
-        }
+            self.plane,
+            self.centre,
+            self.index.walk_to(k),
+            self.steps - k,
+            self.third.map(|(axis, delta)| (axis, delta * (1.0 - f))),
+        )
     }
 }
 
@@ -142,7 +281,7 @@ impl LegRun {
     /// for a leg cut short, the step each axis had reached.
     pub fn final_counters(&self) -> [i64; 4] {
         if self.motion.is_cut_short() {
-            self.position_at(self.end_time()).map(|v| v.round() as i64)
+            self.path.counters_at(self.fraction_at(self.end_time()))
         } else {
             self.end
         }
@@ -298,26 +437,48 @@ mod tests {
 
     #[test]
     fn an_arc_finds_the_switch_it_touches() {
+        use crate::proto::isel::CircleDirection;
         let t0 = Instant::now();
         // Full circle of radius 1000 around (0, 0) starting at (1000, 0):
-        // it reaches x = -800 (switch 1 of X) at 143.13 degrees.
-        let arc = ArcPath {
-            from: [1000.0, 0.0, 0.0, 0.0],
-            plane: (0, 1),
-            centre: (0.0, 0.0),
-            radius: 1000.0,
-            start_angle: 0.0,
-            sweep: std::f64::consts::TAU,
-            third: None,
-        };
+        // the walk reaches x = -800 (switch 1 of X) after 1000 + 1000 steps
+        // to (0, 1000), then 800 in X and 400 in Y: step 3200 of 8000.
+        let walk = ArcWalk::new(1000, (1000, 0), CircleDirection::Ccw);
+        let arc = ArcPath::new([1000.0, 0.0, 0.0, 0.0], (0, 1), (0, 0), walk, 8000, None);
         let run = LegRun::new(Path::Arc(arc), [1000, 0, 0, 0], 8000, ramp(2000.0), t0);
         let mut a = axes();
         a[0].phys = 1000;
         a[0].set_counter(1000);
         let (f, axis, side) = run.next_switch_change(&a, t0).expect("switch");
         assert_eq!((axis, side), (0, NEG));
-        let angle = f * 360.0;
-        assert!((angle - 143.130).abs() < 0.01, "{angle}");
+        let step = f * 8000.0;
+        assert!((step - 3200.0).abs() <= 1.0, "{step}");
+        let at = run.path.at(f);
+        assert!(
+            (at[0] + 800.0).abs() < 1.0 && (at[1] - 600.0).abs() <= 1.0,
+            "{at:?}"
+        );
+    }
+
+    #[test]
+    fn an_arc_runs_the_walk_and_its_remainder_goes_on_from_the_stop() {
+        use crate::proto::isel::CircleDirection;
+        // The manual's example: 400 iterations from (-141, 141) around
+        // (0, 0), 59 + 59 in X and 282 in Y.
+        let walk = ArcWalk::new(200, (-141, 141), CircleDirection::Ccw);
+        let arc = ArcPath::new([-141.0, 141.0, 0.0, 0.0], (0, 1), (0, 0), walk, 400, None);
+        assert_eq!(arc.counters_at(1.0), [-141, -141, 0, 0]);
+        // Each iteration moves one axis by one step.
+        let mut last = arc.counters_at(0.0);
+        for k in 1..=400 {
+            let now = arc.counters_at(f64::from(k) / 400.0);
+            let moved: i64 = (0..4).map(|i| (now[i] - last[i]).abs()).sum();
+            assert_eq!(moved, 1, "iteration {k}: {last:?} -> {now:?}");
+            last = now;
+        }
+        let rest = arc.remainder(0.25, [0.0; 4]);
+        assert_eq!(rest.steps, 300);
+        assert_eq!(rest.counters_at(1.0), [-141, -141, 0, 0]);
+        assert_eq!(rest.counters_at(0.0), arc.counters_at(0.25));
     }
 
     #[test]

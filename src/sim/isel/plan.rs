@@ -8,14 +8,16 @@
 //! - 3D (`@0z1`, manual 2.2.29): X, Y, Z on one straight line at the x speed
 //!   as path speed; z2 is ignored; A follows in proportion.
 //! - `@0Z`: every axis on one line, the longest at the given speed.
-//! - `y`/`w`: the arc the parameters describe (the core's `ArcGeometry`)
-//!   at the path speed `V` over `B` steps; a helix's third axis follows.
+//! - `y`/`w`: the controller's walk (the core's `ArcWalk`) from the start
+//!   point, `B` iterations at the path speed `V`, ending where the walk
+//!   ends; a helix's third axis follows.
 //!
 //! Legs carry absolute counter targets, so what is left of a move after a
 //! soft stop is simply its remaining legs (decision 6).
 
 use crate::proto::isel::{
-    ArcGeometry, AxisConfig, CircleDirection, CircleParams, MovePair, Plane, PortMove, ReplyCode,
+    ArcGeometry, ArcWalk, AxisConfig, CircleDirection, CircleParams, MovePair, Plane, PortMove,
+    ReplyCode,
 };
 
 use super::path::{ArcPath, Path, Point};
@@ -58,9 +60,10 @@ pub enum LegSpec {
         speeds: [u32; 4],
         metric: Metric,
     },
-    /// An arc, computed when the move was planned.
+    /// An arc, computed when the move was planned (boxed: the walk's index
+    /// makes it much larger than the other legs).
     Arc {
-        arc: ArcPath,
+        arc: Box<ArcPath>,
         end: [i64; 4],
         distance: u64,
         speed: u32,
@@ -140,10 +143,7 @@ impl LegSpec {
                 distance,
                 speed,
             } => Some(Layout {
-                path: Path::Arc(ArcPath {
-                    from: as_point(current),
-                    ..arc.clone()
-                }),
+                path: Path::Arc(arc.starting_at(as_point(current))),
                 end: *end,
                 distance: *distance,
                 speed: *speed,
@@ -288,29 +288,25 @@ pub fn plan_arc(
         return Err(ReplyCode::BadAxis);
     }
     let (i1, i2) = (a1.index(), a2.index());
+    // The controller walks its circle B iterations and stops wherever that
+    // leaves it (manual 2.3.2), so the leg ends where the walk does.
     let geometry = ArcGeometry::of(params, ctx.direction);
-    let arc_end = geometry.end();
+    let start = (i64::from(params.xs), i64::from(params.ys));
+    let walk = ArcWalk::new(geometry.radius.round() as i64, start, ctx.direction);
     let mut end = ctx.current;
-    end[i1] += i64::from(arc_end.from_start.0);
-    end[i2] += i64::from(arc_end.from_start.1);
+    end[i1] += geometry.walk_end.0 - start.0;
+    end[i2] += geometry.walk_end.1 - start.1;
     let helix = s3.map(|steps| (third.index(), f64::from(steps)));
     if let Some((i, steps)) = helix {
         end[i] += steps as i64;
     }
-    let from = as_point(ctx.current);
-    let arc = ArcPath {
-        from,
-        plane: (i1, i2),
-        centre: (from[i1] - geometry.start.0, from[i2] - geometry.start.1),
-        radius: geometry.radius,
-        start_angle: geometry.start_angle,
-        sweep: geometry.sweep,
-        third: helix,
-    };
+    let centre = (ctx.current[i1] - start.0, ctx.current[i2] - start.1);
+    let steps = u64::from(params.arc_length);
+    let arc = ArcPath::new(as_point(ctx.current), (i1, i2), centre, walk, steps, helix);
     Ok(vec![LegSpec::Arc {
-        arc,
+        arc: Box::new(arc),
         end,
-        distance: u64::from(params.arc_length),
+        distance: steps,
         speed: params.speed,
     }])
 }

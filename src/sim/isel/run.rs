@@ -91,9 +91,14 @@ impl MotionJob {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Event {
     LegEnd,
-    Switch { axis: usize, side: usize },
+    Switch {
+        axis: usize,
+        side: usize,
+    },
     EraseDone,
     WaitDone,
+    /// A key `press`ed is let go (`controls::START_KEY`, `STOP_KEY`).
+    KeyRelease(usize),
 }
 
 /// The inputs as they were before a change.
@@ -139,6 +144,19 @@ impl IselSim {
     }
 
     pub(super) fn compute_next(&self, now: Instant) -> Option<(Instant, Event)> {
+        let release = self
+            .key_release
+            .iter()
+            .enumerate()
+            .filter_map(|(key, at)| at.map(|at| (at.max(now), Event::KeyRelease(key))))
+            .min_by_key(|(at, _)| *at);
+        match (self.next_activity_event(now), release) {
+            (Some(a), Some(r)) => Some(if r.0 < a.0 { r } else { a }),
+            (a, r) => a.or(r),
+        }
+    }
+
+    fn next_activity_event(&self, now: Instant) -> Option<(Instant, Event)> {
         let activity = self.activity.as_ref()?;
         match &activity.step {
             Step::Erase { until } => Some((*until, Event::EraseDone)),
@@ -177,6 +195,7 @@ impl IselSim {
                 self.flash.program = None;
                 self.finish(ReplyCode::Ok, t);
             }
+            Event::KeyRelease(key) => self.release_key(key, t),
             Event::WaitDone => {
                 if let Some(act) = self.activity.take() {
                     match act.program {
@@ -740,21 +759,16 @@ impl IselSim {
 fn remainder(spec: &LegSpec, run: &LegRun, at: [i64; 4]) -> Option<LegSpec> {
     match (spec, &run.path) {
         (LegSpec::Line { .. }, _) => Some(spec.clone()),
-        (
-            LegSpec::Arc {
-                end,
-                distance,
-                speed,
-                ..
-            },
-            Path::Arc(arc),
-        ) => {
+        (LegSpec::Arc { end, speed, .. }, Path::Arc(arc)) => {
             let f = run.fraction_at(run.end_time());
-            (f < 1.0).then(|| LegSpec::Arc {
-                arc: arc.remainder(f, at.map(|v| v as f64)),
-                end: *end,
-                distance: ((*distance as f64) * (1.0 - f)).round().max(1.0) as u64,
-                speed: *speed,
+            (f < 1.0).then(|| {
+                let arc = arc.remainder(f, at.map(|v| v as f64));
+                LegSpec::Arc {
+                    distance: arc.steps.max(1),
+                    arc: Box::new(arc),
+                    end: *end,
+                    speed: *speed,
+                }
             })
         }
         _ => None,

@@ -64,6 +64,11 @@ pub struct Chunked {
     /// the job paused: a later part starts with a straight 3D move from
     /// wherever the tool is, so it goes on only from there.
     pub paused_at: Vec<Option<i64>>,
+    /// Whether `paused_at` is a position read after the part ended. The
+    /// position shown when the part's end is reported is still the
+    /// estimate of the last move; the read that follows is where the axes
+    /// stand, and the pause is measured from that read.
+    pub paused_read: bool,
 }
 
 impl Chunked {

@@ -82,6 +82,13 @@ impl Planes {
     }
 }
 
+/// `FileState::saved` of a text that was never saved as it is (a converted
+/// G-code job, recovered edits): no buffer state ever equals it, since a
+/// buffer counts its states up from 0. (The state after the next one would
+/// not do: the first edit reaches it, and the edited text would pass for
+/// saved.)
+pub const NEVER_SAVED: u64 = u64::MAX;
+
 /// The program file behind the buffer and what is known about saving it.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct FileState {
@@ -171,6 +178,7 @@ pub fn lint_config(setup: &Setup) -> LintConfig {
         }
     }
     config.budget = EDITOR_BUDGET;
+    config.capacity = setup.program_memory;
     config
 }
 
@@ -253,6 +261,18 @@ impl Editor {
     /// speed chosen with `<`/`>`.
     pub fn teach_speed(&self, setup: &Setup) -> Option<f64> {
         setup.jog_speeds.get(self.teach.speed).copied()
+    }
+
+    /// A job of the editor that goes on moving the machine by itself, also
+    /// while the axes stand between its steps (a job paused between its
+    /// parts, a check-out between lines): Space stops it, never types.
+    pub fn job_under_way(&self) -> Option<&'static str> {
+        if self.chunked.is_some() {
+            return Some("a job runs in parts");
+        }
+        self.checkout
+            .is_some()
+            .then_some("a check-out is under way")
     }
 
     /// Why the text cannot be changed now, if it cannot.

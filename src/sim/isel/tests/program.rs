@@ -227,6 +227,27 @@ fn the_start_key_runs_the_program_without_an_answer() {
     assert_eq!(c.take(), "!", "the sync character only");
 }
 
+/// A pause of a converted G-code job (M0/M6) is `o1,3,0,0`: branch to
+/// itself while the start key (port 1 bit 3) reads released. `press start`
+/// holds the key down as a finger does, so the loop sees it and the program
+/// goes on; the key is up again afterwards.
+#[test]
+fn a_pressed_start_key_ends_a_program_waiting_for_it() {
+    let mut c = Conv::new();
+    c.expect("@07", "0");
+    store(&mut c, &["o1,3,0,0", "133", "9"]);
+    c.send("@0S");
+    c.wait(Duration::from_millis(500));
+    assert_eq!(c.take(), "", "waiting for the start key");
+    c.press("start");
+    assert_eq!(c.sim.input_level("start"), Some(true), "held down");
+    c.wait(Duration::from_millis(10));
+    // The sync character, then the program's end answers `@0S`.
+    assert_eq!(c.take(), "!0", "the loop saw the key and went on");
+    c.wait(super::super::controls::KEY_HOLD);
+    assert_eq!(c.sim.input_level("start"), Some(false), "let go");
+}
+
 #[test]
 fn watched_inputs_abort_a_run() {
     let mut c = Conv::referenced();
@@ -289,4 +310,23 @@ fn a_watch_that_is_already_off_target_ends_the_run_before_its_first_command() {
     c.wait(Duration::from_millis(10));
     assert_eq!(c.take(), "!0");
     assert!(c.sim.describe(c.now).contains("out user 00"));
+}
+
+/// One command a line (manual 3.1, `docs/protocols.md` isel): a stored line
+/// that holds two, or an LF inside it, is one malformed line, answered with
+/// its error and never run as several (issue 37).
+#[test]
+fn a_stored_line_with_more_than_one_command_is_refused_not_run_as_several() {
+    for line in ["z1 77", "77 9", "7 7\nm100000,900,0,900,0,900,0,900"] {
+        let mut c = Conv::referenced();
+        c.expect("@0i", "0");
+        let mut bytes = line.as_bytes().to_vec();
+        bytes.push(b'\r');
+        c.send_bytes(&bytes);
+        let (reply, _) = c.next_reply(MINUTE).expect("reply");
+        assert_ne!(reply, "0", "{line:?}");
+        // The transfer ended with it: nothing stored, nothing runs.
+        c.expect("@0S", "G");
+        assert_eq!(c.position(), [0, 0, 0], "{line:?}");
+    }
 }

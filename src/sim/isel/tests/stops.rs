@@ -115,6 +115,9 @@ fn the_stop_key_is_a_soft_stop_and_the_start_key_resumes_silently() {
     c.wait(Duration::from_secs(1));
     c.press("stop");
     assert_eq!(c.next_reply(MINUTE).expect("reply").0, "F");
+    // Held for a finger's instant, then let go (`controls::KEY_HOLD`).
+    assert_eq!(c.ask("@0b1"), "013", "the key is still down");
+    c.wait(super::super::controls::KEY_HOLD);
     assert_eq!(c.ask("@0b1"), "003", "the key is released again");
     c.press("start");
     // No command, so no answer; the move runs to its end.
@@ -122,7 +125,7 @@ fn the_stop_key_is_a_soft_stop_and_the_start_key_resumes_silently() {
     assert_eq!(c.position(), [20_000, 0, 0]);
     // Nothing to start: nothing happens, nothing answers.
     c.press("start");
-    c.silent_for(Duration::from_millis(50));
+    c.silent_for(super::super::controls::KEY_HOLD);
     // A held key shows on port 1.
     c.set("stop", true);
     assert_eq!(c.ask("@0b1"), "013");

@@ -13,7 +13,7 @@ use crate::ui::traffic_log::NoteLevel;
 
 use crate::ui::editor::dialog::{Answer, Dialog, Then};
 use crate::ui::editor::io::{EditorIo, EditorMsg, SaveFailure};
-use crate::ui::editor::{AUTOSAVE_EVERY, FileState};
+use crate::ui::editor::{AUTOSAVE_EVERY, FileState, NEVER_SAVED};
 
 use super::Step;
 
@@ -42,7 +42,7 @@ impl Step<'_, '_> {
                 // Unsaved: the recovery file keeps it until it is saved.
                 self.e.file = FileState {
                     path: Some(path),
-                    saved: self.e.buffer.state().wrapping_add(1),
+                    saved: NEVER_SAVED,
                     ..FileState::default()
                 };
                 for (level, text) in notes {
@@ -342,8 +342,7 @@ impl Step<'_, '_> {
                 Origin::File(path) => Some(path.clone()),
                 Origin::Untitled { .. } => None,
             },
-            // Never saved as it is now.
-            saved: u64::MAX,
+            saved: NEVER_SAVED,
             fingerprint: recovery.base,
             ..FileState::default()
         };

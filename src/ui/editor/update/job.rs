@@ -7,7 +7,7 @@
 //! safe height, so a pause between two parts (F6) leaves it above the
 //! part; Space stops at once, and nothing resumes after a stop.
 
-use crate::device::api::{Activity, Event, LinkState, Request, UploadEvent};
+use crate::device::api::{Activity, Event, LinkState, PositionSource, Request, UploadEvent};
 use crate::device::describe::describe;
 use crate::gcode::ways::Way;
 use crate::ui::editor::component::Effect;
@@ -140,6 +140,7 @@ impl Step<'_, '_> {
                     pause_next: false,
                     started: ctx.now,
                     paused_at: Vec::new(),
+                    paused_read: false,
                 });
                 self.chunked_upload();
             }
@@ -182,6 +183,14 @@ impl Step<'_, '_> {
             return;
         };
         if c.phase == Phase::Paused {
+            if !c.paused_read {
+                let text = format!(
+                    "the position after {} is being read: F6 again in a moment",
+                    c.label()
+                );
+                self.say(NoteLevel::Info, text);
+                return;
+            }
             if c.paused_at != standing(self.ctx) {
                 let text = format!(
                     "the axes moved since the pause: {} begins with a straight move from where \
@@ -252,6 +261,18 @@ impl Step<'_, '_> {
                 let text = format!("{label} ended with `{}`: {}", f.code, f.meaning);
                 self.chunked_end(text);
             }
+            (Event::Position(p), Phase::Paused)
+                if !c.paused_read && p.source == PositionSource::Measured =>
+            {
+                c.paused_at = self
+                    .ctx
+                    .setup
+                    .axes
+                    .iter()
+                    .map(|(axis, _)| p.steps.get(*axis))
+                    .collect();
+                c.paused_read = true;
+            }
             (Event::Link(LinkState::Lost { .. } | LinkState::Closed), _) => {
                 self.chunked_end(format!("the link went in {label}: nothing resumes"));
             }
@@ -275,6 +296,7 @@ impl Step<'_, '_> {
         if std::mem::take(&mut c.pause_next) {
             c.phase = Phase::Paused;
             c.paused_at = standing(self.ctx);
+            c.paused_read = false;
             let text = format!(
                 "PAUSED before {}, the tool retracted: F6 goes on, Space ends the job",
                 c.label()

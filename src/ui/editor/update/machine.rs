@@ -212,6 +212,15 @@ impl Step<'_, '_> {
         let (lint_start, start) = self.starts();
         let mut config = self.e.lint_config.clone();
         config.start = lint_start;
+        // A converted job bigger than the memory runs in parts (each of
+        // them fits) or as a stream: its whole text is not one stored
+        // program, so the memory is no limit to it (as `jogterm run`).
+        if let Some(g) = self.e.gcode.as_ref()
+            && g.state == self.e.buffer.state()
+            && !g.converted.program.fits()
+        {
+            config.capacity = Some(usize::MAX);
+        }
         LintJob {
             state: self.e.buffer.state(),
             program: self.e.buffer.snapshot(),

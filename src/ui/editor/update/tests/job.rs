@@ -55,6 +55,31 @@ fn activity(host: &mut Host, e: &mut Editor, activity: Activity) -> Outcome {
     out
 }
 
+/// A position read from the controller, as the device reports it.
+fn read_back(host: &mut Host, e: &mut Editor, steps: PerAxis<i64>) -> Outcome {
+    position(host, e, steps, PositionSource::Measured)
+}
+
+/// The position the driver estimates while a move runs.
+fn estimated(host: &mut Host, e: &mut Editor, steps: PerAxis<i64>) -> Outcome {
+    position(host, e, steps, PositionSource::Estimated)
+}
+
+fn position(
+    host: &mut Host,
+    e: &mut Editor,
+    steps: PerAxis<i64>,
+    source: PositionSource,
+) -> Outcome {
+    let sample = PositionSample {
+        at: host.now,
+        steps,
+        source,
+    };
+    host.positions.apply(&sample);
+    host.send(e, Input::Device(&Event::Position(sample)))
+}
+
 fn stored(host: &mut Host, e: &mut Editor, total: usize) -> Outcome {
     host.send(
         e,
@@ -162,12 +187,14 @@ fn f6_pauses_before_the_next_part_and_goes_on_from_there() {
     assert!(requests(&out).is_empty(), "the part runs to its end");
     assert!(said(&out)[0].contains("pauses before part 2/4"), "{out:?}");
     // Part 1 ends where the tool stands retracted: part 2 waits, nothing
-    // is stored.
+    // is stored. When the end is reported, the position shown is still
+    // the estimate of the part's last move (issue 37, 15: the pause was
+    // measured from it, and F6 then refused "the axes moved" for ever).
     let retracted = PerAxis::new()
         .with(Axis::X, 24_000)
         .with(Axis::Y, 24_000)
         .with(Axis::Z, 26_000);
-    host.measured(retracted);
+    estimated(&mut host, &mut e, retracted.with(Axis::Z, 25_400));
     let out = activity(&mut host, &mut e, Activity::Idle);
     assert!(requests(&out).is_empty(), "{out:?}");
     assert!(
@@ -175,16 +202,21 @@ fn f6_pauses_before_the_next_part_and_goes_on_from_there() {
         "{out:?}"
     );
     assert_eq!(e.chunked.as_ref().map(|c| c.phase), Some(JobPhase::Paused));
+    let out = host.send(&mut e, Input::Main(Action::RunProgram));
+    assert!(requests(&out).is_empty(), "{out:?}");
+    assert!(said(&out)[0].contains("being read"), "{out:?}");
+    // The read after the end: where the axes stand.
+    read_back(&mut host, &mut e, retracted);
     // Jogged away while paused: the next part's first move would start
     // from there, so F6 refuses until the axes are back.
-    host.measured(retracted.with(Axis::Z, 20_000));
+    read_back(&mut host, &mut e, retracted.with(Axis::Z, 20_000));
     let out = host.send(&mut e, Input::Main(Action::RunProgram));
     assert!(requests(&out).is_empty(), "{out:?}");
     assert!(
         said(&out)[0].starts_with("the axes moved since the pause"),
         "{out:?}"
     );
-    host.measured(retracted);
+    read_back(&mut host, &mut e, retracted);
     // F6 again: part 2 is stored.
     let out = host.send(&mut e, Input::Main(Action::RunProgram));
     let (lines, erase) = upload(&out).expect("part 2");
@@ -322,6 +354,22 @@ fn an_edited_job_too_big_for_the_memory_is_not_cut_from_another_text() {
         said(&out)[0].contains("jogterm run /jobs/pockets.nc --chunked"),
         "{out:?}"
     );
+}
+
+/// Issue 37 (14): a converted job is unsaved when it opens, and it stays
+/// unsaved after an edit, whichever edit. Before, the first typed
+/// character brought the buffer to the state taken for "saved": the title
+/// lost its `[+]`, `q` quit without asking and no recovery file was kept.
+#[test]
+fn an_edit_of_a_converted_job_leaves_it_unsaved() {
+    let mut host = Host::isel();
+    let mut e = opened(&mut host, converted(&pockets(2), 2000));
+    assert!(e.modified(), "converted, never saved");
+    host.type_text(&mut e, "x");
+    assert!(e.modified(), "one character typed");
+    assert!(e.file.recovery_due.is_some(), "the recovery file is due");
+    host.key(&mut e, Action::Undo);
+    assert!(e.modified(), "undone: still the converted text, unsaved");
 }
 
 /// The checkout line of `out`: its id, text, lease and resume.
