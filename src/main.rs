@@ -16,7 +16,7 @@ fn main() -> ExitCode {
         Ok(code) => code,
         Err(e) => {
             // Not `eprintln!`, which panics when stderr is gone (a terminal
-            // that hung up under the console, ../shared/field-notes.md
+            // that hung up under the console, docs/field-notes.md
             // "Order on hang-up") and turns status 1 into a panic's 101.
             out::say(format_args!("jogterm: {e:#}"));
             ExitCode::FAILURE

@@ -12,7 +12,7 @@
 //!   wired and safety-relevant ([`BitWiring::interlocks`]): an emergency-stop
 //!   circuit, a power or temperature input, a hood. Everything else the
 //!   controller decides, and jogterm explains its answer (binding rule "The
-//!   controller decides what its wiring allows", `../shared/protocols.md`);
+//!   controller decides what its wiring allows", `docs/decisions.md`);
 //! - limit switches carry their axis and side, so a client can tell which
 //!   end of travel an axis stands in ([`Wiring::limit_switches`],
 //!   `device::api::IoSnapshot::active_limits`).
@@ -564,7 +564,7 @@ pub fn isel_output_address(port: OutputPort, bit: Option<u8>) -> String {
     }
 }
 
-/// isel manual 2.2.3 (inputs, `../shared/protocols.md` isel 7) and 2.2.4
+/// isel manual 2.2.3 (inputs, `docs/decisions.md` isel 7) and 2.2.4
 /// (outputs). Wired by default is everything but the bits a machine may
 /// leave unconnected while the controller supervises them itself (hood and
 /// key switch: `@0IH`, manual 4.2.13; power ok and over-temperature: the

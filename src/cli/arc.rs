@@ -1,5 +1,5 @@
 //! `jogterm arc`: the isel commands of a circular arc or helix (manual 2.3,
-//! `../shared/protocols.md` isel 12): the lines of [`ArcSteps`], which the
+//! `docs/decisions.md` isel 12): the lines of [`ArcSteps`], which the
 //! editor's circle helper inserts too (`program::circle`).
 //!
 //! stdout: the direction command and the arc command, one per line, as DNC

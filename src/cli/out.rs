@@ -7,7 +7,7 @@
 //! So stdout writes here return a [`StdoutError`] the command acts on (stop
 //! polling or sending, close the session with its stop, exit as its help
 //! says), and stderr writes ignore failure: when stderr is gone there is
-//! nowhere left to report it (`../shared/field-notes.md`, "Order on
+//! nowhere left to report it (`docs/field-notes.md`, "Order on
 //! hang-up").
 //!
 //! The crate denies `clippy::print_stdout` and `clippy::print_stderr`

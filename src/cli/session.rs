@@ -325,7 +325,7 @@ impl Session {
 
 /// Completes on SIGINT, SIGTERM or SIGHUP: the command then stops the
 /// machine and closes the port itself (the default actions would end the
-/// process without a stop byte, `../shared/field-notes.md`).
+/// process without a stop byte, `docs/field-notes.md`).
 pub async fn interrupted() {
     use tokio::signal::unix::{SignalKind, signal};
     match (
@@ -349,7 +349,7 @@ pub async fn interrupted() {
 
 /// Say on stderr that a signal stopped the machine. Not `eprintln!`: after
 /// a hang-up stderr may be the dead terminal, where it panics (status 101,
-/// and the orderly close after it skipped; `../shared/field-notes.md`,
+/// and the orderly close after it skipped; `docs/field-notes.md`,
 /// "Order on hang-up").
 pub fn say_interrupted(command: &str, moves: Moves) {
     let after = match moves {

@@ -555,8 +555,27 @@ async fn upload_and_run(
             1
         }
     };
+    if args.start || args.stream {
+        let outputs = job_outputs(prepared);
+        if let Some(ended) = super::run::outputs::ended_by(code) {
+            super::run::outputs::after_end(&mut session, &outputs, ended, "upload", remedy).await;
+        }
+    }
     session.close().await;
     ExitCode::from(code)
+}
+
+/// The outputs the job's parts switch on, each once.
+pub(super) fn job_outputs(parts: &[Prepared]) -> Vec<crate::program::outputs::JobOutput> {
+    let mut all: Vec<crate::program::outputs::JobOutput> = Vec::new();
+    for part in parts {
+        for o in crate::program::outputs::switched_on(&part.program) {
+            if !all.iter().any(|a| a.id == o.id) {
+                all.push(o);
+            }
+        }
+    }
+    all
 }
 
 /// How a step ended when it did not succeed: the exit status, said already.
@@ -607,7 +626,7 @@ async fn steps(
 /// a start on axes not referenced names this, not the console's key.
 pub(super) struct Remedy {
     /// `jogterm send --port P --protocol F`, or `jogterm --sim F send`.
-    send: String,
+    pub(super) send: String,
     protocol: Protocol,
     pub(super) isel_device: u8,
     /// The machine's axes: also what a G-code stream's DNC moves carry.
@@ -708,9 +727,10 @@ fn lost(reason: &str) -> u8 {
 }
 
 async fn next(session: &mut Session) -> Result<Event, u8> {
+    // Through `next_event`: the session's activity stays current, which
+    // the job's outputs wait on after a stop (`run::outputs`).
     session
-        .events
-        .recv()
+        .next_event()
         .await
         .ok_or_else(|| lost("the device task ended"))
 }
@@ -918,7 +938,7 @@ pub(super) async fn start(session: &mut Session, remedy: &Remedy) -> Status {
     }
     // The position read at the end comes with or just after the idle state.
     let settle = tokio::time::Instant::now() + Duration::from_millis(300);
-    while let Ok(Some(event)) = tokio::time::timeout_at(settle, session.events.recv()).await {
+    while let Ok(Some(event)) = tokio::time::timeout_at(settle, session.next_event()).await {
         match event {
             Event::Position(p) => position = Some(p.steps),
             Event::Fault(f) => fault = Some(f),

@@ -42,7 +42,7 @@ pub fn line_text(device: u8, command: &Command) -> String {
 
 /// An `@0M` to the controller counters `target`, counted from the virtual
 /// zero `zero` (manual 2.2.18), each axis at `hz(axis)`; with 3 axes the
-/// z2 pair is 0 (`../shared/protocols.md` isel 5).
+/// z2 pair is 0 (`docs/decisions.md` isel 5).
 pub fn go_to(
     config: AxisConfig,
     target: [i64; 4],

@@ -1,6 +1,6 @@
 //! Control flow of an isel CNC program: where each command can go next,
 //! the loops and how they nest (isel manual 3.2.4, 3.2.5, 3.2.19;
-//! `../shared/protocols.md` isel 11). Offsets are relative to the command that
+//! `docs/decisions.md` isel 11). Offsets are relative to the command that
 //! carries them: `3 0,5` at index i jumps to i + 5.
 
 use crate::proto::isel::CncCommand;

@@ -1,5 +1,5 @@
 //! One line of an isel CNC program, parsed by the protocol core's
-//! [`parse_cnc`] (isel manual chapter 3, `../shared/protocols.md` isel 10-12)
+//! [`parse_cnc`] (isel manual chapter 3, `docs/decisions.md` isel 10-12)
 //! and placed in the source line.
 
 use std::ops::Range;

@@ -46,6 +46,7 @@ mod format;
 mod isel_line;
 pub mod lint;
 mod model;
+pub mod outputs;
 pub mod path;
 mod run;
 pub mod source;

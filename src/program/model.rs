@@ -14,7 +14,7 @@ use super::source::{self, Shape, Span};
 use super::{emcu_line, isel_line};
 
 /// Commands an isel controller's program memory holds by default
-/// (`../shared/protocols.md` isel 9; more answer `6`).
+/// (`docs/decisions.md` isel 9; more answer `6`).
 pub const ISEL_CAPACITY: usize = crate::proto::isel::PROGRAM_CAPACITY;
 
 /// The two program languages: isel CNC programs (manual chapter 3) and EMCU
@@ -143,7 +143,7 @@ pub struct SyntaxError {
     /// Bytes of the line.
     pub cols: Range<usize>,
     /// The reply code an isel controller answers while storing the line
-    /// (EMCU has no error replies, `../shared/protocols.md` EMCU 4).
+    /// (EMCU has no error replies, `docs/decisions.md` EMCU 4).
     pub reply: Option<ReplyCode>,
 }
 

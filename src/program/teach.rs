@@ -8,7 +8,7 @@
 //!   `docs/protocols.md` isel: `m` targets count from it), or a relative
 //!   move `0` by the distance from the previously taught point. One
 //!   steps,speed pair per axis of the controller's configuration; with three
-//!   axes four pairs (x, y, z1, z2), the last one 0 (`../shared/protocols.md`
+//!   axes four pairs (x, y, z1, z2), the last one 0 (`docs/decisions.md`
 //!   isel 5).
 //! - EMCU (manual 1.5.10, 1.5.6): `L<slot>,X…,Y…,Z…` (upper case absolute,
 //!   in machine coordinates from the reference point, `docs/protocols.md`
@@ -37,11 +37,11 @@ use crate::proto::isel::{AxisConfig, CncCommand, validate_cnc};
 /// profile's `emcu.move_slot`, 9 by default).
 pub const EMCU_TEACH_SLOT: u8 = 8;
 
-/// isel step frequencies (`../shared/protocols.md` isel 13).
+/// isel step frequencies (`docs/decisions.md` isel 13).
 const ISEL_HZ: (f64, f64) = (1.0, 40_000.0);
 /// EMCU `#E` speeds (manual 1.5.6).
 const EMCU_HZ: (f64, f64) = (emcu::Speed::MIN as f64, emcu::Speed::MAX as f64);
-/// isel position counters are 24 bit (`../shared/protocols.md` isel 2).
+/// isel position counters are 24 bit (`docs/decisions.md` isel 2).
 const ISEL_STEPS: (i64, i64) = (-8_388_608, 8_388_607);
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

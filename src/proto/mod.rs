@@ -38,7 +38,7 @@ impl Protocol {
     }
 
     /// The baud rate a controller of this family uses out of the box
-    /// (`../shared/protocols.md`, "Serial defaults").
+    /// (`docs/decisions.md`, "Serial defaults").
     pub fn default_line(self) -> LineSettings {
         match self {
             Protocol::Isel | Protocol::Emcu => LineSettings::new(19200),

@@ -34,7 +34,7 @@ use crate::wire::LineSettings;
 #[derive(Debug, Clone, PartialEq)]
 pub enum InputControl {
     /// Set a named input to a level: `true` = the bit reads 1 (active-high as
-    /// read, `../shared/protocols.md` isel 7). For safety circuits and the hood
+    /// read, `docs/decisions.md` isel 7). For safety circuits and the hood
     /// `closed` means 1 (healthy), `open` means 0 (tripped / opened).
     Set { name: String, level: bool },
     /// Press and release a momentary button (start, stop).

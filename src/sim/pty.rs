@@ -1,5 +1,5 @@
 //! Pseudo-terminals for the simulators: creating one (serialised, since
-//! `TTYPort::pair()` is not thread-safe, `../shared/field-notes.md`), and a
+//! `TTYPort::pair()` is not thread-safe, `docs/field-notes.md`), and a
 //! stable symlink that follows the current slave device, so a line that is
 //! closed and reopened comes back under the same path, like a USB adapter
 //! that reappears.

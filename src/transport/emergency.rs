@@ -3,7 +3,7 @@
 //!
 //! It is meant for the panic hook and the hang-up path, where the async
 //! machinery and the writer thread may already be gone
-//! (`../shared/field-notes.md`, "Serial ports" and "Order on hang-up").
+//! (`docs/field-notes.md`, "Serial ports" and "Order on hang-up").
 //! So it never panics and never blocks longer than its bound.
 
 use std::sync::Arc;

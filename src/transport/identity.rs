@@ -16,6 +16,9 @@
 //!   the device node. The kernel makes a node anew for every pty it hands
 //!   out and for every adapter plugged in; its device number and inode may
 //!   be reused, its change time is not (`docs/device.md`, "Reconnecting").
+//!   The change time has the kernel's coarse resolution (a few ms): a node
+//!   made again within the same tick would pass for the same; a pty number
+//!   handed on after a lost line is made long after the first.
 
 use std::fmt;
 use std::os::unix::fs::MetadataExt;
@@ -156,6 +159,10 @@ mod tests {
             }
             seen.push((path, id));
             drop((master, slave));
+            // The change time is the kernel's coarse clock (a few ms): two
+            // ptys made within one tick look alike. A number that comes
+            // round to another program after a lost line does so much later.
+            std::thread::sleep(std::time::Duration::from_millis(20));
         }
         panic!("no pty number came round in 64 ptys: {seen:?}");
     }

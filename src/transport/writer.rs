@@ -44,7 +44,7 @@ pub struct MessageId(pub u64);
 pub enum Interleave {
     /// A stop may go between any two bytes. isel: the controller reads the
     /// control bytes 0xFD/0xFE/0xFF in its receive interrupt, also in the
-    /// middle of a command (`docs/architecture.md`, `../shared/protocols.md` isel).
+    /// middle of a command (`docs/architecture.md`, `docs/decisions.md` isel).
     BetweenBytes,
     /// The message is a frame that must not be split (EMCU lines, EMP frames):
     /// a stop waits until the frame has been handed over completely.
@@ -773,7 +773,7 @@ impl Worker {
         self.write_whole(stop.id, None, Lane::Stop, &stop.bytes)?;
         if self.sink.is_tty() {
             // To be sure a stop has left: write_all, then tcdrain
-            // (`../shared/field-notes.md`, "Serial ports").
+            // (`docs/field-notes.md`, "Serial ports").
             match fd::drain_bounded(self.sink.fd(), self.drain_timeout) {
                 Ok(true) => {}
                 Ok(false) => self.report(WriterEvent::DrainTimedOut {

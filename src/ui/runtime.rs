@@ -268,7 +268,7 @@ async fn finish_offsets(writer: Writer) {
 /// ends the process without a stop (and SIGHUP is what a vanishing
 /// terminal sends), so they are caught from here on: each writes the stop
 /// bytes through the emergency handle at once, then asks the loop to stop
-/// and leave (`../shared/field-notes.md`, "SIGHUP's default action").
+/// and leave (`docs/field-notes.md`, "SIGHUP's default action").
 fn watch_signals(tx: UnboundedSender<Msg>) -> Result<tokio::task::JoinHandle<()>, RunError> {
     let mut hangup = signal(SignalKind::hangup()).map_err(RunError::Signals)?;
     let mut terminate = signal(SignalKind::terminate()).map_err(RunError::Signals)?;

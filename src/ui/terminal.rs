@@ -6,7 +6,7 @@
 //!
 //! Restoring ignores every error: it may run on a terminal that has hung up,
 //! where writes fail, and a failing `eprintln!` would turn a clean exit into
-//! an abort (`../shared/field-notes.md`, "Order on hang-up"). The panic hook
+//! an abort (`docs/field-notes.md`, "Order on hang-up"). The panic hook
 //! first runs the registered emergency stop, then restores, then prints the
 //! panic as usual.
 
@@ -68,7 +68,7 @@ pub struct TerminalGuard {
 
 /// The console's terminal. Dropping it writes nothing: ratatui's own drop
 /// shows a hidden cursor and `eprintln!`s when that fails, which on a
-/// terminal that has hung up panics (`../shared/field-notes.md`, "Order on
+/// terminal that has hung up panics (`docs/field-notes.md`, "Order on
 /// hang-up") and turned a hang-up's clean exit into status 101. The guard's
 /// [`restore`] shows the cursor, ignoring every error; the terminal's
 /// buffers are left to the process' end (one per process).

@@ -10,6 +10,12 @@ use crate::ui_pty::PtyRun;
 
 /// The console against `sim`, its state (offsets, recovery) in `state`.
 pub fn spawn(sim: &SimProcess, state: &Path) -> PtyRun {
+    let link = sim.link.display().to_string();
+    spawn_on(sim, state, &["--port", &link])
+}
+
+/// The console with `args`, configured from `sim`'s directory.
+pub fn spawn_on(sim: &SimProcess, state: &Path, args: &[&str]) -> PtyRun {
     let env = [
         ("JOGTERM_NO_KEYBOARD_QUERY", "1".to_string()),
         ("JOGTERM_CONFIG_DIR", sim.dir.path().display().to_string()),
@@ -17,8 +23,7 @@ pub fn spawn(sim: &SimProcess, state: &Path) -> PtyRun {
         ("RUST_BACKTRACE", "0".to_string()),
     ];
     let env: Vec<(&str, &str)> = env.iter().map(|(k, v)| (*k, v.as_str())).collect();
-    let link = sim.link.display().to_string();
-    PtyRun::spawn_sized(Path::new(JOGTERM), &["--port", &link], &env, 40, 200)
+    PtyRun::spawn_sized(Path::new(JOGTERM), args, &env, 40, 200)
 }
 
 pub fn wait_for(run: &PtyRun, needle: &str) -> String {

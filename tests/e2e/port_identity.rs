@@ -11,9 +11,8 @@ use std::os::fd::{AsRawFd, FromRawFd, OwnedFd};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use crate::console_pty::{quit, wait_for};
-use crate::sim_process::{JOGTERM, SimProcess};
-use crate::ui_pty::PtyRun;
+use crate::console_pty::{quit, spawn_on, wait_for};
+use crate::sim_process::SimProcess;
 
 /// A pty pair from `openpty` and the path of its slave.
 fn pty() -> (std::fs::File, OwnedFd, PathBuf) {
@@ -87,21 +86,8 @@ fn a_reconnect_writes_nothing_into_a_pty_that_went_to_another_program() {
     let sim = SimProcess::start("isel");
     let device = std::fs::canonicalize(&sim.link).expect("the simulator's pty");
     let state = sim.dir.path().join("state");
-    let env = [
-        ("JOGTERM_NO_KEYBOARD_QUERY", "1".to_string()),
-        ("JOGTERM_CONFIG_DIR", sim.dir.path().display().to_string()),
-        ("JOGTERM_STATE_DIR", state.display().to_string()),
-        ("RUST_BACKTRACE", "0".to_string()),
-    ];
-    let env: Vec<(&str, &str)> = env.iter().map(|(k, v)| (*k, v.as_str())).collect();
     let port = device.display().to_string();
-    let mut run = PtyRun::spawn_sized(
-        Path::new(JOGTERM),
-        &["--port", &port, "--protocol", "isel"],
-        &env,
-        40,
-        200,
-    );
+    let mut run = spawn_on(&sim, &state, &["--port", &port, "--protocol", "isel"]);
     wait_for(&run, "connected");
     // The controller goes away: its process and with it its pty end (its
     // directory, the console's configuration, stays).

@@ -323,6 +323,45 @@ fn isel_upload_start_ctrl_c_stops_the_running_program() {
     sim.assert_alive();
 }
 
+/// [`ISEL_LONG_PROGRAM`] with the spindle on (port 2) before its move, as a
+/// G-code job's M3 comes out (`p2,128,1`), and off after it.
+const ISEL_SPINDLE_PROGRAM: &str = "7 7\np2,128,1 ; job.nc:2 spindle on\n\
+    060000,4000,0,4000,0,4000,0,4000\np2,128,0 ; job.nc:4 spindle off\n9\n";
+
+/// Issue 37: `jogterm upload FILE --start` of a job that switched the
+/// spindle on, stopped with Ctrl-C mid-move: once the axis stands the
+/// spindle is switched off (`@0B2,0` reaches the controller after the
+/// stop) and stderr says so. Before, nothing went out after the stop.
+#[test]
+fn isel_upload_start_ctrl_c_switches_the_spindle_off_once_the_axes_stand() {
+    let mut sim = SimProcess::start_with_files("isel", &[ISEL_NEAR_REFERENCE]);
+    let out = sim.run(&["send", "@07", "@0N7"]);
+    assert_exit(&out, 0, "send (reference)");
+    let file = sim.dir.path().join("spindle.isel");
+    std::fs::write(&file, ISEL_SPINDLE_PROGRAM).expect("write the program");
+    let file_arg = file.display().to_string();
+    let child = spawn(&sim, &["upload", &file_arg, "--start"]);
+    sim.wait_received("the start", |r| isel_messages(r).iter().any(|m| m == "@0S"));
+    wait_moving(&mut sim, "the program running");
+    signal(child.id(), libc::SIGINT);
+    let out = wait_child(child, "jogterm upload");
+    assert_exit(&out, 1, "upload interrupted");
+    let stderr = text(&out.stderr);
+    assert!(
+        stderr.contains("switched off once the axes stood: spindle (out2)"),
+        "{stderr}"
+    );
+    isel_stands_mid_program(&mut sim);
+    let received = sim.received();
+    assert_isel_stopped_after(&received, "@0S");
+    let after = isel_after(&received, "@0S");
+    assert!(
+        after.iter().any(|m| m == "@0B2,0"),
+        "the spindle switched off after the stop:\n{received}"
+    );
+    sim.assert_alive();
+}
+
 /// Store [`ISEL_LONG_PROGRAM`]'s move with `send` and run it with the
 /// simulator's start key (isel manual 3.1: the key starts the stored program,
 /// the controller sends no answer but the sync character).

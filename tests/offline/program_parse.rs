@@ -1,5 +1,5 @@
 //! Parsing programs: every command example of the isel manual's chapter 3
-//! (with the corrections of `../shared/protocols.md` isel 11) and of the EMCU
+//! (with the corrections of `docs/decisions.md` isel 11) and of the EMCU
 //! manual, comments and blank lines, spans, and the map between source lines
 //! and the controller's command indices.
 

@@ -1,5 +1,5 @@
 //! The tool's path through a program: loops and jumps as the manual's
-//! examples count them (isel manual 3.2.5, `../shared/protocols.md` isel 11),
+//! examples count them (isel manual 3.2.5, `docs/decisions.md` isel 11),
 //! circles and helices (manual 2.3, 3.2.22, 3.2.23), zero points and
 //! reference runs, EMCU jobs.
 

@@ -7,6 +7,7 @@
 //! change the speed of a stream and stop.
 
 pub mod keys;
+pub(super) mod outputs;
 pub mod retract;
 pub mod stream;
 
@@ -306,6 +307,10 @@ async fn run_job(mut session: Session, job: &Job, args: &RunArgs, remedy: &Remed
         }
     };
     drop(keys);
+    if let Some(ended) = outputs::ended_by(code) {
+        let on = upload::job_outputs(&job.parts);
+        outputs::after_end(&mut session, &on, ended, "run", remedy).await;
+    }
     session.close().await;
     ExitCode::from(code)
 }
@@ -354,7 +359,8 @@ async fn steps(
             }
             if pause_next {
                 out::say(
-                    "paused before the next part, the tool retracted (r resumes, Space stops)",
+                    "paused before the next part, the tool retracted, the spindle and the job's outputs \
+                     still on (r resumes, Space stops)",
                 );
                 wait_resume(session, keys).await?;
                 pause_next = false;
@@ -428,7 +434,10 @@ async fn stored_run(
                 }
                 Key::Pause => {
                     *pause_next = true;
-                    out::say("the job pauses after this part, with the tool retracted");
+                    out::say(
+                        "the job pauses after this part, with the tool retracted; \
+                         the spindle and the job's outputs stay on",
+                    );
                 }
                 Key::Resume => *pause_next = false,
                 Key::Faster | Key::Slower => out::say(

@@ -239,7 +239,7 @@ pub async fn run(
                 Followed::Done(byte) => break byte,
                 Followed::Paused { rest } => {
                     out::say(format_args!(
-                        "paused at {} (r resumes, Space stops)",
+                        "paused at {} (r resumes, Space stops); the spindle and the job's outputs stay on",
                         place.at(index)
                     ));
                     wait_resume(session, keys, &mut control, &mut position).await?;
@@ -317,7 +317,7 @@ async fn follow(
                 }
                 other => control.speed(other),
             },
-            event = session.events.recv() => {
+            event = session.next_event() => {
                 let Some(event) = event else {
                     return Followed::Ended("the device task ended".into(), EXIT_LINK);
                 };
@@ -374,7 +374,7 @@ async fn wait_resume(
                 }
                 other => control.speed(other),
             },
-            event = session.events.recv() => match event {
+            event = session.next_event() => match event {
                 None => return Err(lost("the device task ended")),
                 Some(Event::Position(p)) => *position = Some(counters(&p.steps)),
                 Some(Event::Link(LinkState::Lost { reason })) => return Err(lost(&reason)),
@@ -404,7 +404,10 @@ async fn dwell(
                 }
                 Key::Pause => {
                     control.paused = true;
-                    out::say("paused during a dwell (r resumes, Space stops)");
+                    out::say(
+                        "paused during a dwell (r resumes, Space stops); the spindle and the \
+                         job's outputs stay on",
+                    );
                     let mut position = None;
                     wait_resume(session, keys, control, &mut position).await?;
                 }

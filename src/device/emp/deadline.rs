@@ -1,6 +1,6 @@
 //! How long an EMP long action may stay busy before the driver stops it.
 //! Positioning (`2A 01`, and `2A 00` in TPWM) and homing (`26`) answer `55`
-//! at once and `22` on their own when done (`../shared/protocols.md` EMP
+//! at once and `22` on their own when done (`docs/decisions.md` EMP
 //! decision 1); a drive that never sends the `22` would hold the line's
 //! operation for ever. A positioning gets the time of its travel at its
 //! speed (`common::deadline::motion`), a reference run the reference

@@ -1,6 +1,6 @@
 //! The EMP driver: a sans-IO [`Driver`] for MSR DRS-500-ECS servo drives on
 //! one link (Easy Motion Protocol, manual `msr-emp-drs500-command-set.de.txt`;
-//! `../shared/protocols.md` EMP, `docs/protocols.md` EMP).
+//! `docs/decisions.md` EMP, `docs/protocols.md` EMP).
 //!
 //! Line discipline: one request at a time waits for its first answer (the
 //! drives answer in order; a round trip is 10.8 ms at 38400 baud). Long
@@ -470,7 +470,7 @@ impl EmpDriver {
             // A drive that is on answers `0A` (manual "0A"); one that is not
             // takes no command at all ("Ohne diesen Einschalt-Befehl werden
             // keine Kommandos angenommen", manual "02"), and some reject `0A`
-            // too (../shared/protocols.md "EMP before 02"). So the drive is
+            // too (docs/decisions.md "EMP before 02"). So the drive is
             // off, and asking again would only loop.
             let (rejected, quiet) = match owner {
                 Some(Owner::ErrorQuery { rejected, quiet }) => (rejected, quiet),

@@ -7,7 +7,7 @@
 //! When the lease runs out or the key is let go the move is **paused**, not
 //! broken off: 0xFD alone ramps it down without step loss and the
 //! controller keeps its rest, which `@0S` finishes (manual 2.2.31;
-//! `../shared/protocols.md` isel 6). That is the one place jogterm sends
+//! `docs/decisions.md` isel 6). That is the one place jogterm sends
 //! 0xFD without 0xFF, and the driver remembers whose rest is held
 //! (`Context::checkout_rest`) so that an `@0S` goes out only while it is:
 //! with no rest held `@0S` would start the stored program (manual 2.2.23).

@@ -44,7 +44,7 @@ pub struct Cmd {
 
 /// The stop sequence: soft stop, then break, so that a later start (`@0S`
 /// or the start key) cannot resume what was stopped
-/// (`../shared/protocols.md` isel 6, manual 2.2.31).
+/// (`docs/decisions.md` isel 6, manual 2.2.31).
 pub const STOP_BYTES: [u8; 2] = [0xFD, 0xFF];
 
 /// The stop sequence: each control byte is a message of its own (they act
@@ -421,7 +421,7 @@ impl Context {
 
     /// The first `@0P` after `@0n`: an axis that did not move reads what it
     /// read before, if `@0P` reports machine positions as the manual says
-    /// (2.2.19, `../shared/protocols.md` "isel `@0P` reports machine
+    /// (2.2.19, `docs/decisions.md` "isel `@0P` reports machine
     /// positions"). One that reads otherwise is reported from the virtual
     /// zero: jogterm adds it back, so positions, soft limits and taught
     /// targets stay machine coordinates.
@@ -492,7 +492,7 @@ impl Context {
 
     /// What a reply to `@0P` says, once the position it holds (if any) is
     /// taken: `4` only says that no axes are initialised (some controllers
-    /// report positions anyway, `../shared/protocols.md`), and the axis
+    /// report positions anyway, `docs/decisions.md`), and the axis
     /// configuration is forgotten.
     pub fn read_position(
         &mut self,
@@ -553,7 +553,7 @@ impl Context {
     }
 
     /// The controller answered `code` to `command`: apply what the code means
-    /// for the machine (manual chapter 5, `../shared/protocols.md` isel 4)
+    /// for the machine (manual chapter 5, `docs/decisions.md` isel 4)
     /// and tell the clients.
     pub fn controller_error(&mut self, command: &str, code: ReplyCode) -> ControllerFault {
         let mut meaning = code.meaning().to_owned();
@@ -640,7 +640,7 @@ impl Context {
     /// Whether a move may start; the first reason it may not. With
     /// `unreferenced_ok` (a jog with `jog.allow_unreferenced`, a reference
     /// run) the reference is not asked for. The controller moves nothing
-    /// until every initialised axis is referenced (`../shared/protocols.md`
+    /// until every initialised axis is referenced (`docs/decisions.md`
     /// isel 4), so every profile axis must be.
     pub fn motion_allowed(&self, unreferenced_ok: bool) -> Result<(), Refusal> {
         gate::motion_allowed(
@@ -661,7 +661,7 @@ impl Context {
 
     /// What 0xFE leaves behind: no axes, no reference, power-up ramp, zero
     /// at the reference point, no test mode, not storing (manual 2.2.31,
-    /// `../shared/protocols.md` isel 6). A program being stored is invalid.
+    /// `docs/decisions.md` isel 6). A program being stored is invalid.
     pub fn apply_reset(&mut self) {
         self.set_config(None);
         self.state.referenced = AxisSet::EMPTY;

@@ -101,7 +101,7 @@ fn arc(arc_length: u32, speed: u32) -> Duration {
 }
 
 /// A reference run's axes in the order the controller runs them (manual
-/// 2.2.22); A only on its own (`../shared/protocols.md` isel 3).
+/// 2.2.22); A only on its own (`docs/decisions.md` isel 3).
 pub fn reference_masks(axes: AxisSet) -> Vec<AxisSet> {
     let planar: AxisSet = axes.iter().filter(|a| *a != Axis::A).collect();
     let mut out = Vec::new();

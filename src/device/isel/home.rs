@@ -1,6 +1,6 @@
 //! `Home`: reference runs, `@0R<mask>` for X, Y, Z together (the controller
 //! runs them Z, Y, X) and A on its own afterwards (manual 2.2.22,
-//! `../shared/protocols.md` isel 3). A reference run also puts the virtual
+//! `docs/decisions.md` isel 3). A reference run also puts the virtual
 //! zero back on the reference point and ends 3D mode (manual 2.2.22).
 //!
 //! A reference run that was stopped counts as not done, whatever the

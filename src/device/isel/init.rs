@@ -1,7 +1,7 @@
 //! `Initialise`: the axis setting for the profile's axes (`@07`, then `@08`
 //! for A, manual 2.2.1), the profile's ramp (`@0j`, `@0J`) and reference
 //! speeds (`@0d`), then the reference probe (the axis setting does not say
-//! whether the axes stay referenced, `../shared/protocols.md` isel 4) and
+//! whether the axes stay referenced, `docs/decisions.md` isel 4) and
 //! the position.
 
 use std::time::Instant;

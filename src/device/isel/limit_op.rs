@@ -3,7 +3,7 @@
 //!
 //! The controller moves nothing while a monitored limit switch is active (a
 //! move answers `2`, chapter 5) nor, after a `2`, until it is referenced
-//! (`R`, `../shared/protocols.md` isel 4). Test mode (`@0T1`, manual
+//! (`R`, `docs/decisions.md` isel 4). Test mode (`@0T1`, manual
 //! 2.2.24) lifts both: "Die Endschalter werden weiterhin überwacht können
 //! aber überfahren werden. Dies ist sehr nützlich wenn eine Achse … in einem
 //! Endschalter steht und freigefahren werden muss." It lifts them for every

@@ -286,7 +286,7 @@ impl IselDriver {
 
     /// Reports the bytes that arrived while the line was quiet. After a
     /// connect, 0xFD answers `F` only if a move was still running
-    /// (`../shared/protocols.md` isel 6): the operator must hear that the
+    /// (`docs/decisions.md` isel 6): the operator must hear that the
     /// machine was moving, not read it as noise.
     fn report_stray(&mut self) {
         let bytes = std::mem::take(&mut self.stray);

@@ -5,7 +5,7 @@
 //!
 //! A jog is one long move towards the soft limits, kept alive by leases. When
 //! the lease runs out (dead-man), on release or on stop, the stop sequence
-//! 0xFD 0xFF ends it (`../shared/protocols.md` isel 6: the break makes sure a
+//! 0xFD 0xFF ends it (`docs/decisions.md` isel 6: the break makes sure a
 //! later start cannot resume it). The jog has ended when the move answers.
 //!
 //! A jog never runs faster than its lease allows: one lease at speed plus

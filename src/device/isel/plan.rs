@@ -84,7 +84,7 @@ fn soft_limit(cx: &Context, axis: Axis, target: i64) -> Result<(), Refusal> {
 }
 
 /// The pairs of a move for `config`: one per axis, and with 3 axes a second
-/// Z pair that does not move (manual 2.2.2, `../shared/protocols.md` isel 5).
+/// Z pair that does not move (manual 2.2.2, `docs/decisions.md` isel 5).
 fn pairs(
     config: AxisConfig,
     values: &PerAxis<i32>,

@@ -6,7 +6,7 @@
 //! controller is storing a program after `@0i`).
 //! Motion commands are refused in E-stop and after a `2`/`9` until the axes
 //! have been initialised again; whether they need a reference is left to the
-//! controller, which answers `R` itself (`../shared/protocols.md` isel 4).
+//! controller, which answers `R` itself (`docs/decisions.md` isel 4).
 //! What a command changes in the controller (axes, reference, zero, ramp,
 //! test mode, program memory, outputs, device number) is followed, so the
 //! driver's picture stays right.
@@ -339,7 +339,7 @@ impl RawOp {
                 cx.device = *n;
             }
             Command::Init(InitCommand::RestoreDefaults) => {
-                // `@0IX` costs the reference (`../shared/protocols.md` isel 4).
+                // `@0IX` costs the reference (`docs/decisions.md` isel 4).
                 cx.state.referenced = AxisSet::EMPTY;
             }
             Command::Init(InitCommand::Baud9600(on)) => cx.notice(format!(

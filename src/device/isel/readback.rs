@@ -8,7 +8,7 @@
 //!    (manual 2.2.24).
 //! 1. `@0P`, read until 50 ms of silence: `4` means no axes are initialised;
 //!    18 hex digits mean up to three axes, 24 mean X, Y, Z and A (manual
-//!    2.2.21, `../shared/protocols.md` isel 2). `8` means the controller was
+//!    2.2.21, `docs/decisions.md` isel 2). `8` means the controller was
 //!    still storing a program (a previous session died during an upload):
 //!    that line ended the upload, so the read-back starts again.
 //! 2. Ports 1, 2, 3: E-stop circuits, hood and power, limit switches. A

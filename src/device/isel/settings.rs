@@ -21,7 +21,7 @@ pub type PollPlan = crate::device::common::PollPlan<InputPort>;
 
 impl PollPlan {
     /// The safety ports first: E-stop circuits (1), limit switches (3), then
-    /// hood and power (2) (`../shared/protocols.md` isel 7).
+    /// hood and power (2) (`docs/decisions.md` isel 7).
     pub const DEFAULT_PORTS: [InputPort; 3] = [
         InputPort::Status1,
         InputPort::LimitSwitches,

@@ -1,7 +1,7 @@
 //! Storing a program (`Request::Upload`, manual 2.2.13, chapter 3): `@0i`,
 //! every line, `9`. Each stored line is answered `0` or an error; after an
 //! error the controller is back in DNC mode and the partial program is
-//! invalid (`../shared/protocols.md` isel 9).
+//! invalid (`docs/decisions.md` isel 9).
 //!
 //! - `@0i` answered `G`: a program (even a broken one) is stored. With
 //!   `erase_first` it is erased (`@0k`, about 2 s) and `@0i` sent again;

@@ -1,4 +1,4 @@
-//! Lint rules for EMCU jobs (manual 1.4.2, 1.5; `../shared/protocols.md`
+//! Lint rules for EMCU jobs (manual 1.4.2, 1.5; `docs/decisions.md`
 //! EMCU 1-4; `docs/protocols.md` EMCU).
 
 use crate::proto::emcu::{Command as EmcuCommand, JobError, Speed, job_problems};

@@ -85,7 +85,7 @@ pub enum Rule {
     ProgramSize,
     /// An EMCU job without commands.
     EmptyJob,
-    /// `F M O P W Y Z` for `f m o p w y z` (`../shared/protocols.md` isel 10).
+    /// `F M O P W Y Z` for `f m o p w y z` (`docs/decisions.md` isel 10).
     TableSpelling,
     /// `f1` for counter-clockwise, which is written `f-1`.
     CcwAsOne,

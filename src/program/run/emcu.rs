@@ -1,5 +1,5 @@
 //! What an EMCU interface does with a job's buffered commands (manual 1.5,
-//! `../shared/protocols.md` EMCU 3). A job has no jumps: it runs once, top
+//! `docs/decisions.md` EMCU 3). A job has no jumps: it runs once, top
 //! to bottom. Master commands in a job are not stored (the linter reports
 //! them) and do nothing here.
 

@@ -1,5 +1,5 @@
 //! What an isel controller does with a stored program (manual chapter 3,
-//! `../shared/protocols.md` isel 11-12, `docs/protocols.md` isel "Running
+//! `docs/decisions.md` isel 11-12, `docs/protocols.md` isel "Running
 //! stored programs").
 //!
 //! Coordinates: the controller's counters (what `@0P` reports) per axis, the
@@ -293,7 +293,7 @@ impl<'p> Runner<'p> {
                     }
                     None => match stack.entries.get_mut(usize::from(stack.len)) {
                         // `3 n,-k` runs the body n more times
-                        // (`../shared/protocols.md` isel 11).
+                        // (`docs/decisions.md` isel 11).
                         Some(slot) => {
                             *slot = (key, count.saturating_sub(1));
                             stack.len += 1;

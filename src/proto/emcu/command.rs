@@ -1,7 +1,7 @@
 //! Typed EMCU commands and their encoder (manual 1.5). Master commands (`@…`)
 //! run at once, also while the axes move; all others are buffered in the data
 //! memory and run when a command ends with 0x01 or the memory is full
-//! (manual 1.4.2, `../shared/protocols.md` EMCU decision 1).
+//! (manual 1.4.2, `docs/decisions.md` EMCU decision 1).
 
 use std::fmt;
 

@@ -2,7 +2,7 @@
 //! acknowledgements, the unsolicited ready/memory-full lines.
 //!
 //! Sans-IO protocol core (manual `emcu-smc3000-programming.de.txt`, chapter 1;
-//! `../shared/protocols.md`, EMCU; jogterm's own decisions in
+//! `docs/decisions.md`, EMCU; jogterm's own decisions in
 //! `docs/protocols.md`, EMCU):
 //! - [`values`]: validated parameters (speeds, slots, steps, axes) and ranges;
 //! - [`command`]: typed [`Command`]s, master/buffered [`Class`], encoder with an

@@ -1,4 +1,4 @@
-//! Matching replies to requests on one link (`../shared/protocols.md` EMP
+//! Matching replies to requests on one link (`docs/decisions.md` EMP
 //! decision 1).
 //!
 //! Every request is answered by CMD+1 from the same DS. Long actions (`26`

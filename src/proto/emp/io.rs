@@ -1,6 +1,6 @@
 //! Digital I/O of a drive: limit and reference switches, inputs I1-I4,
 //! outputs O1-O4 (EMP manual "40 : I/O Read", "42 : I/O Write";
-//! `../shared/protocols.md` EMP decision 5).
+//! `docs/decisions.md` EMP decision 5).
 
 use std::fmt;
 

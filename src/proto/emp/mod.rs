@@ -12,8 +12,8 @@
 //! - [`reload`] and [`feed`]: the sample timer's reload value and the feed-rate
 //!   arithmetic of the manual's "Berechnung" section.
 //!
-//! The manual is `../shared/seeds/msr-emp-drs500-command-set.de.txt`; the
-//! binding decisions are `../shared/protocols.md` (EMP) and jogterm's own are
+//! The manual is `the MSR DRS-500 EMP command set (German; docs/decisions.md lists the manuals)`; the
+//! binding decisions are `docs/decisions.md` (EMP) and jogterm's own are
 //! in `docs/protocols.md` (EMP).
 
 pub mod adc;
@@ -55,5 +55,5 @@ pub use values::{Position, Speed, Velocity};
 
 use crate::wire::LineSettings;
 
-/// EMP runs at 38400 baud 8N1 (`../shared/protocols.md`, "Serial defaults").
+/// EMP runs at 38400 baud 8N1 (`docs/decisions.md`, "Serial defaults").
 pub const LINE: LineSettings = LineSettings::new(38400);

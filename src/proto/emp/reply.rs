@@ -1,5 +1,5 @@
 //! Typed replies. A reply is CMD+1 of its request, from the same DS, with the
-//! status in INFO (`../shared/protocols.md` EMP decisions 1 and 2) and data
+//! status in INFO (`docs/decisions.md` EMP decisions 1 and 2) and data
 //! placed as the manual's "Rückgabe" rows show. Several replies look alike
 //! (`21` answers three different `20` settings, `2B` every `2A`), so a reply
 //! is decoded against the request it answers.

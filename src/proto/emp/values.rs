@@ -6,7 +6,7 @@ use std::fmt;
 use super::error::ValueError;
 
 /// A position in encoder increments: 25-bit two's complement in D3..D0, D3 bit0
-/// being the sign bit (`../shared/protocols.md` EMP decision 3: `01FFFFFF` = -1,
+/// being the sign bit (`docs/decisions.md` EMP decision 3: `01FFFFFF` = -1,
 /// `000186A0` = 100000). The manual's range table: `00.00.00.01h` …
 /// `00.FF.FF.FFh` forward (RL), `01.00.00.00h` … `01.FF.FF.FFh` backward (LL).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Default)]
@@ -68,7 +68,7 @@ impl fmt::Display for Position {
 
 /// A signed velocity (or torque in PWM modes) byte of `2A`: 8-bit two's
 /// complement, `01`-`7F` forward (RL), `80`-`FF` backward (LL), `00` stop.
-/// `../shared/protocols.md` EMP decision 4 (`FE` = -2); the manual's sentence
+/// `docs/decisions.md` EMP decision 4 (`FE` = -2); the manual's sentence
 /// "vLL = 255 - vRL" contradicts its own examples and is not followed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Default)]
 pub struct Velocity(i8);

@@ -7,7 +7,7 @@ use crate::axis::{Axis, AxisSet};
 
 /// The axes a controller has been initialised with. Only these four exist:
 /// `@01` (X), `@03` (XY), `@07` (XYZ), and `@08` after `@07` (XYZA)
-/// (isel manual 2.2.1, `../shared/protocols.md` isel 3).
+/// (isel manual 2.2.1, `docs/decisions.md` isel 3).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum AxisConfig {
     X,
@@ -40,7 +40,7 @@ impl AxisConfig {
 
     /// Number of steps,speed pairs `A`/`M` (and CNC `0`/`m`) take: one per
     /// axis, except that 3 axes take 4 (x, y, z1, z2)
-    /// (isel manual 2.2.2, `../shared/protocols.md` isel 5).
+    /// (isel manual 2.2.2, `docs/decisions.md` isel 5).
     pub fn move_pairs(self) -> usize {
         match self {
             AxisConfig::X => 1,
@@ -76,7 +76,7 @@ impl AxisConfig {
 
     /// Whether `mask` is an axis mask the controller accepts for `R`, `n`,
     /// `N` and CNC `7`/`n`/`N`: not empty, only initialised axes, and A only
-    /// on its own (`../shared/protocols.md` isel 3).
+    /// on its own (`docs/decisions.md` isel 3).
     pub fn accepts_mask(self, mask: AxisSet) -> bool {
         !mask.is_empty()
             && mask.iter().all(|axis| self.axes().contains(axis))

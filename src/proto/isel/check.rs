@@ -1,5 +1,5 @@
 //! Validation of typed commands against the axis configuration and the
-//! ranges of the manual: parameter counts (`7`, `../shared/protocols.md`
+//! ranges of the manual: parameter counts (`7`, `docs/decisions.md`
 //! isel 5), axis masks (`3`, isel 3), speeds (`D`, isel 13), numbers (`1`).
 //!
 //! [`check`] is what the console runs before anything goes on the wire and

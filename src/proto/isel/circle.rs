@@ -1,4 +1,4 @@
-//! Circle and helix parameters (isel manual 2.3, `../shared/protocols.md`
+//! Circle and helix parameters (isel manual 2.3, `docs/decisions.md`
 //! isel 12): from radius, start and end angle, direction and speed to the
 //! `f` direction and the `y`/`w` parameters, and back from `y`/`w`
 //! parameters to where the arc leaves the tool.

@@ -1,5 +1,5 @@
 //! Typed CNC (stored program) commands, isel manual chapter 3, with the
-//! command letters of `../shared/protocols.md` isel 10. A CNC line is sent
+//! command letters of `docs/decisions.md` isel 10. A CNC line is sent
 //! after `@0i` without the `@<dev>` prefix and answered with `0` or an error.
 
 /// Commands a controller's program memory holds before the closing `9`
@@ -60,7 +60,7 @@ pub enum CncCommand {
     WaitSync { sync: SyncChar, offset: i16 },
     /// `3`: with `count` > 0 run the `-offset` commands before this one
     /// `count` more times; with `count` 0 jump by `offset` (3.2.5,
-    /// `../shared/protocols.md` isel 11).
+    /// `docs/decisions.md` isel 11).
     Loop { count: u16, offset: i16 },
     /// `5`: wait `tenths` tenths of a second (3.2.6).
     Delay(u16),
@@ -116,7 +116,7 @@ pub enum CncCommand {
 }
 
 impl CncCommand {
-    /// The command letter of chapter 3's sections (`../shared/protocols.md`
+    /// The command letter of chapter 3's sections (`docs/decisions.md`
     /// isel 10); the encoder writes this one.
     pub fn code(&self) -> char {
         match self {
@@ -147,7 +147,7 @@ impl CncCommand {
     }
 
     /// The jump offset this command carries, relative to its own index
-    /// (`../shared/protocols.md` isel 11), for a program linter.
+    /// (`docs/decisions.md` isel 11), for a program linter.
     pub fn jump_offset(&self) -> Option<i16> {
         match self {
             CncCommand::WaitSync { offset, .. }
@@ -191,7 +191,7 @@ impl CncCommand {
 
 /// The CNC code a letter written in a stored line stands for, and whether it
 /// is the upper-case spelling of chapter 1's table rather than the section's
-/// (`../shared/protocols.md` isel 10).
+/// (`docs/decisions.md` isel 10).
 pub(crate) fn cnc_code(byte: u8) -> Option<(u8, bool)> {
     match byte {
         b'0' | b'1' | b'2' | b'3' | b'5' | b'6' | b'7' | b'9' | b'd' | b'e' | b'f' | b'g'

@@ -13,7 +13,7 @@ use super::axes::AxisSetting;
 use super::device::DeviceNumber;
 use super::ports::{InputPort, OutputPort};
 
-/// One DNC frame: `@`, device number, command, CR (`../shared/protocols.md`
+/// One DNC frame: `@`, device number, command, CR (`docs/decisions.md`
 /// isel 1). Encode with [`Frame::encode`], parse with
 /// [`parse_frame`](super::parse_frame).
 #[derive(Debug, Clone, PartialEq, Eq, Hash)]
@@ -91,7 +91,7 @@ impl Plane {
 }
 
 /// Circle direction (`@0f`): `0` clockwise, `-1` counter-clockwise; `1` is
-/// also accepted as counter-clockwise (`../shared/protocols.md` isel 12).
+/// also accepted as counter-clockwise (`docs/decisions.md` isel 12).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum CircleDirection {
     Cw,
@@ -333,7 +333,7 @@ impl Command {
     }
 
     /// Whether the controller answers `R` until the axes are referenced
-    /// (`../shared/protocols.md` isel 4).
+    /// (`docs/decisions.md` isel 4).
     pub fn needs_reference(&self) -> bool {
         matches!(
             self,
@@ -444,7 +444,7 @@ impl InitCommand {
 
 /// The three control bytes the controller acts on at once, even between the
 /// bytes of a command and during a move (isel manual 2.2.31,
-/// `../shared/protocols.md` isel 6). None of them has a reply of its own.
+/// `docs/decisions.md` isel 6). None of them has a reply of its own.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum ControlByte {
     /// 0xFD: ramp down without step loss; the move answers `F` and the rest

@@ -19,7 +19,7 @@
 //!   means "need more" forever.
 //! - `@0V`/`@0U` end only on silence: the caller, which owns the clock, calls
 //!   [`ReplyDecoder::silence`] (or passes `silence = true`) after 50 ms
-//!   without a byte (`../shared/protocols.md` isel 8).
+//!   without a byte (`docs/decisions.md` isel 8).
 
 use std::fmt;
 
@@ -35,7 +35,7 @@ use super::reply::{Positions, Reply, ReplyCode, TextEnd};
 /// Longest text reply (`@0H`, `@0h`, `@0V`, `@0U`) the decoder collects.
 pub const MAX_TEXT_REPLY: usize = 4096;
 
-/// Silence that ends a `@0V`/`@0U` reply (`../shared/protocols.md` isel 8).
+/// Silence that ends a `@0V`/`@0U` reply (`docs/decisions.md` isel 8).
 pub const TEXT_SILENCE: std::time::Duration = std::time::Duration::from_millis(50);
 
 /// The kind of reply a command gets.
@@ -244,7 +244,7 @@ fn hex_value(digits: &[u8]) -> u32 {
     })
 }
 
-/// A 24-bit two's complement field (`../shared/protocols.md` isel 2).
+/// A 24-bit two's complement field (`docs/decisions.md` isel 2).
 fn sign_extend_24(raw: u32) -> i32 {
     ((raw << 8) as i32) >> 8
 }

@@ -1,6 +1,6 @@
 //! The command encoder: canonical text and bytes of frames and CNC lines.
 //!
-//! Canonical form (`../shared/protocols.md` isel 1 and 10): no space after
+//! Canonical form (`docs/decisions.md` isel 1 and 10): no space after
 //! the command letter, parameters separated by commas, the primary letter of
 //! letter pairs (`A` not `a`, `M`, `R`, `S`, `V` not `?`), CCW written `-1`,
 //! CNC codes in the spelling of chapter 3's sections. `Display` gives the
@@ -97,7 +97,7 @@ impl Params {
 }
 
 /// The wire value of a bit selection; CNC `6` counts bits from 1
-/// (`../shared/protocols.md` isel 11).
+/// (`docs/decisions.md` isel 11).
 fn bits_value(bits: PortBits, one_based: bool) -> u16 {
     match bits {
         PortBits::Byte => u16::from(PortBits::BYTE_VALUE),

@@ -4,7 +4,7 @@
 //! arguments.
 //!
 //! Sources: the isel iMC programming manual chapters 1–5, the binding
-//! decisions in `../shared/protocols.md` (isel 1–13) and jogterm's own
+//! decisions in `docs/decisions.md` (isel 1–13) and jogterm's own
 //! decisions in `docs/protocols.md` (section "isel @-format").
 //!
 //! # Sending commands

@@ -1,6 +1,6 @@
 //! The text parser for DNC frames (`@0A 5000,900`) and CNC lines (`3 25,-1`).
 //!
-//! It accepts what a controller accepts (`../shared/protocols.md` isel 1 and
+//! It accepts what a controller accepts (`docs/decisions.md` isel 1 and
 //! 10): spaces between the command code and its first parameter, a line end
 //! of CR, CR LF or LF, the alternative letters `a m r s ?` and, in CNC lines,
 //! the upper-case spellings `F M O P W Y Z`. Everything it accepted but the
@@ -58,7 +58,7 @@ pub enum NoteKind {
     /// `a`, `m`, `r`, `s` or `?` for `A`, `M`, `R`, `S`, `V` (same command).
     AlternateLetter { written: char, canonical: char },
     /// A CNC code in the upper-case spelling of the manual's table (`M`)
-    /// instead of its section's (`m`), `../shared/protocols.md` isel 10.
+    /// instead of its section's (`m`), `docs/decisions.md` isel 10.
     TableSpelling { written: char, section: char },
     /// Counter-clockwise written as `1`; the encoder writes `-1`.
     CcwWrittenAsOne,

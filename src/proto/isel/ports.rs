@@ -1,5 +1,5 @@
 //! Input and output ports of the iMC controllers as data: every input bit of
-//! ports 0–3 (`@0b`, isel manual 2.2.3, `../shared/protocols.md` isel 7), every
+//! ports 0–3 (`@0b`, isel manual 2.2.3, `docs/decisions.md` isel 7), every
 //! output port (`@0B`, manual 2.2.4) with a flag for outputs that move or
 //! energise something, the bits of `@0DRp`/`@0DRn` (manual 2.2.6) and the
 //! limit switch coding of `@0IE` (manual 4.2.6). The UI renders its panels
@@ -134,7 +134,7 @@ impl fmt::Display for OutputPort {
 
 /// What a port-bit operand of CNC `6`, `o` and `p` selects: one bit or the
 /// whole byte (`128`). `Bit` holds the bit index 0–7; CNC `6` writes it as
-/// 1–8 on the wire, `o` and `p` as 0–7 (`../shared/protocols.md` isel 11).
+/// 1–8 on the wire, `o` and `p` as 0–7 (`docs/decisions.md` isel 11).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum PortBits {
     Bit(u8),
@@ -225,7 +225,7 @@ const fn limit_in(bit: u8, name: &'static str, axis: Axis, switch: u8) -> InputB
 }
 
 /// Every bit of input ports 0–3, port by port, bit 0 first
-/// (isel manual 2.2.3 and 3.2.19, `../shared/protocols.md` isel 7).
+/// (isel manual 2.2.3 and 3.2.19, `docs/decisions.md` isel 7).
 pub const INPUT_BITS: [InputBit; 32] = [
     user_in(0, "user input 0"),
     user_in(1, "user input 1"),

@@ -8,7 +8,7 @@ use thiserror::Error;
 
 use crate::axis::Axis;
 
-/// A reply code character (isel manual chapter 5, `../shared/protocols.md`
+/// A reply code character (isel manual chapter 5, `docs/decisions.md`
 /// isel "Reply codes").
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum ReplyCode {
@@ -128,7 +128,7 @@ impl ReplyCode {
     }
 
     /// Whether the controller has lost its positions and its reference with
-    /// this reply (codes `2` and `9`, `../shared/protocols.md` isel 4), so the
+    /// this reply (codes `2` and `9`, `docs/decisions.md` isel 4), so the
     /// console must not move before re-initialising and referencing.
     pub fn loses_reference(self) -> bool {
         matches!(self, ReplyCode::LimitSwitch | ReplyCode::MachineFault)
@@ -303,7 +303,7 @@ impl Recovery {
 }
 
 /// The positions of a `@0P` reply: X, Y, Z always, A with 4 axes
-/// (isel manual 2.2.21, `../shared/protocols.md` isel 2).
+/// (isel manual 2.2.21, `docs/decisions.md` isel 2).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct Positions {
     pub x: i32,
@@ -355,7 +355,7 @@ pub enum Reply {
 pub enum TextEnd {
     /// `@0H`/`@0h`: a reply code after the last line, normally `0`.
     Code(ReplyCode),
-    /// `@0V`/`@0U`: the controller fell silent (`../shared/protocols.md` isel 8).
+    /// `@0V`/`@0U`: the controller fell silent (`docs/decisions.md` isel 8).
     Silence,
 }
 

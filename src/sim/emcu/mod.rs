@@ -1,5 +1,5 @@
 //! Device model of the EMCU interface on an SMC3000 stepper card (manual
-//! `emcu-smc3000-programming.de.txt`, chapter 1; `../shared/protocols.md`,
+//! `emcu-smc3000-programming.de.txt`, chapter 1; `docs/decisions.md`,
 //! EMCU; the simulator's own decisions in `docs/protocols.md`, EMCU).
 //!
 //! Sans-IO: bytes arrive through [`SimDevice::on_byte`], time through the

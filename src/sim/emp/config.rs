@@ -81,7 +81,7 @@ pub struct DriveConfig {
     pub adc_unipolar: bool,
     /// Before `02` (and after `04`) `0A` is rejected too, like every other
     /// request ("Ohne diesen Einschalt-Befehl werden keine Kommandos
-    /// angenommen", manual "02"; `../shared/protocols.md` "EMP before
+    /// angenommen", manual "02"; `docs/decisions.md` "EMP before
     /// `02`"); when false it answers with error `02`, so a console can
     /// learn why (decision 2). The variant `emp-rejects-0a-before-on`
     /// (`[sim] variants`, `config::variant`).

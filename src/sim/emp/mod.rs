@@ -16,7 +16,7 @@
 //! ms (4,6 ms Empfang, 1,6 ms Verarbeitung in der Steuerung, 4,6 ms
 //! Rückantwort)". The request takes effect at that moment too, and the reply
 //! carries the state of that moment. Long actions then send their completion
-//! on their own when the axis gets there (`../shared/protocols.md` EMP
+//! on their own when the axis gets there (`docs/decisions.md` EMP
 //! decision 1). Wire time is the shell's business.
 //!
 //! Modules: [`config`] (what a link is built from), [`drive`] (one drive's

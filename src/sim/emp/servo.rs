@@ -54,7 +54,7 @@ impl Switches {
 }
 
 /// The two actions that report their end on their own (`55`, then `22` or
-/// `EE`; `../shared/protocols.md` EMP decision 1).
+/// `EE`; `docs/decisions.md` EMP decision 1).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum LongAction {
     Positioning,

@@ -23,7 +23,7 @@ use crate::proto::isel::{DeviceNumber, InputPort, PortWatch, REFERENCE_CLEAR_STE
 
 use super::flash::{Flash, InitValues};
 
-/// Commands the program memory holds (`../shared/protocols.md` isel 9).
+/// Commands the program memory holds (`docs/decisions.md` isel 9).
 pub const PROGRAM_CAPACITY: usize = crate::proto::isel::PROGRAM_CAPACITY;
 /// How long `@0k` takes to erase the flash (manual 2.2.17: "etwa 2 Sekunden").
 pub const ERASE_TIME: Duration = Duration::from_secs(2);

@@ -125,7 +125,7 @@ impl InitValues {
     }
 
     /// The baud rate a power-up with these values in flash starts with
-    /// (manual 4.2.15, `../shared/protocols.md` "Serial defaults").
+    /// (manual 4.2.15, `docs/decisions.md` "Serial defaults").
     pub fn baud(&self) -> u32 {
         if self.baud_9600 { 9600 } else { 19200 }
     }

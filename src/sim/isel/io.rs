@@ -1,5 +1,5 @@
 //! Inputs and outputs of the simulated iMC-S8 (isel manual 2.2.3, 2.2.4,
-//! `../shared/protocols.md` isel 7) and the names the operator uses for the
+//! `docs/decisions.md` isel 7) and the names the operator uses for the
 //! inputs (`docs/simulator.md`, isel).
 //!
 //! What an output does to the inputs: the spindle output (port 2, or bit 4

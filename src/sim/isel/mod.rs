@@ -1,6 +1,6 @@
 //! The isel iMC-S8 device model: a sans-IO [`SimDevice`] that behaves like
 //! the controller of the isel programming manual, with the decisions of
-//! `../shared/protocols.md` (isel 1-13) and `docs/protocols.md` (isel).
+//! `docs/decisions.md` (isel 1-13) and `docs/protocols.md` (isel).
 //!
 //! Everything on the wire goes through the protocol core
 //! (`crate::proto::isel`): the [`RequestFramer`] cuts lines and control

@@ -1,4 +1,4 @@
-//! Stored CNC programs (isel manual chapter 3, `../shared/protocols.md`
+//! Stored CNC programs (isel manual chapter 3, `docs/decisions.md`
 //! isel 9-11): checking lines as they are stored, and the program counter
 //! and loop stack of a run.
 

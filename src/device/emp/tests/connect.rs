@@ -220,7 +220,7 @@ fn a_drive_known_to_be_off_is_polled_once_a_second_without_asking_again() {
 }
 
 /// A drive that takes nothing before `02`, `0A` included
-/// (../shared/protocols.md "EMP before 02"): the `EE` to `0A` says it is
+/// (docs/decisions.md "EMP before 02"): the `EE` to `0A` says it is
 /// off. It used to be asked `0A` after every poll, at line speed.
 #[test]
 fn a_drive_that_rejects_0a_too_is_known_off_and_polled_once_a_second() {

@@ -1,4 +1,4 @@
-//! Lint rules for isel CNC programs (manual chapter 3, `../shared/protocols.md`
+//! Lint rules for isel CNC programs (manual chapter 3, `docs/decisions.md`
 //! isel 9-13): each line on its own here, the jump and loop structure in
 //! [`structure`], the controller's modal state along the jumps in [`modal`],
 //! soft limits in `lint::limits`.

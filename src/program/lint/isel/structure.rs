@@ -1,6 +1,6 @@
 //! The structure of an isel program: jump targets, loops (nesting, overlap,
 //! left by a jump), the end `9` and the program memory (manual 3.2.5, 3.2.9;
-//! `../shared/protocols.md` isel 9, 11).
+//! `docs/decisions.md` isel 9, 11).
 
 use crate::proto::isel::CncCommand;
 
@@ -132,7 +132,7 @@ fn body(program: &Program, lp: LoopRange) -> String {
     )
 }
 
-/// The end `9`, and nothing after it (manual 3.2.9, `../shared/protocols.md`
+/// The end `9`, and nothing after it (manual 3.2.9, `docs/decisions.md`
 /// isel 9).
 pub(super) fn end(program: &Program, flows: &[Flow], out: &mut Vec<Diagnostic>) {
     match flows.iter().position(|f| *f == Flow::End) {
@@ -169,7 +169,7 @@ pub(super) fn end(program: &Program, flows: &[Flow], out: &mut Vec<Diagnostic>) 
     }
 }
 
-/// Program memory (`../shared/protocols.md` isel 9: 2000 commands, `6`
+/// Program memory (`docs/decisions.md` isel 9: 2000 commands, `6`
 /// beyond; the closing `9` does not count, `docs/protocols.md` isel).
 pub(super) fn size(
     program: &Program,

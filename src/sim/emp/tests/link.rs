@@ -41,7 +41,7 @@ fn the_strict_variant_rejects_0a_too_until_unit_on() {
     d.rejects_0a_before_on = true;
     let mut c = Conversation::new(EmpSimConfig { drives: vec![d] });
     c.exchange("2C11000000000000", "2D1100EE00000000");
-    // The reason cannot be read before `02` (../shared/protocols.md "EMP
+    // The reason cannot be read before `02` (docs/decisions.md "EMP
     // before 02").
     c.exchange("0A11000000000000", "0B1100EE00000000");
     c.exchange("0811000000000000", "091100EE00000000");
