@@ -327,12 +327,16 @@ async fn steps(
             out::say(format_args!("jogterm run: link failure: {reason}"));
             return Err(EXIT_LINK);
         }
+        // A restart's retract sets the controller up itself, once for the
+        // run (`retract::retract`); a stream needs it set up as a stored
+        // run finds it.
         if let Some(to) = job.retract {
-            retract::retract(session, to).await?;
+            retract::retract(session, to, remedy, keys).await?;
+        } else if job.way == Way::Stream {
+            upload::initialise(session, remedy).await?;
         }
         if job.way == Way::Stream {
             let part = job.parts.first().ok_or(EXIT_USAGE)?;
-            upload::initialise(session, remedy).await?;
             out::say(format_args!(
                 "streaming {} (speed {} %)",
                 part.name(),
