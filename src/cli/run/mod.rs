@@ -56,9 +56,11 @@ terminal --yes is needed). While it runs, from the terminal:
 --from-line N restarts a G-code job at line N, after a broken tool or a power cut: the
 confirmation lists the modal state the skipped lines leave (units, plane, offset, feed, spindle,
 coolant) and the entry, which runs first: retract Z alone to the job's safe height from wherever
-the tool stands (jogterm reads where, before the program), the program's reference run when the
-profile has one, go above the line's start, switch the spindle and outputs as the skipped lines
-left them, descend at the file's last plunge feed (else gcode.plunge_feed); then
+the tool stands (jogterm reads where, before the program; with Z not referenced only the
+program's reference run can take it out, and without one nothing starts), the program's
+reference run when the profile has one, go above the line's start, switch the spindle and
+outputs as the skipped lines left them, descend at the file's last plunge feed (else
+gcode.plunge_feed); then
 the job from line N on, by the way chosen for what is left (`jogterm import --from-line N`
 shows the same without moving anything).
 

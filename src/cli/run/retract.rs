@@ -74,18 +74,21 @@ pub(in crate::cli) async fn retract(
 ) -> Status {
     let stopper = session.handle.clone();
     let up = async {
-        let Some(z) = where_z_stands(session, remedy).await? else {
-            if to.reference_first {
-                out::say(
-                    "retract: Z is not referenced, where the tool stands is unknown: the program's reference run takes Z up first, alone",
-                );
+        let z = match where_z_stands(session, remedy).await? {
+            Ok(z) => z,
+            Err(why) if to.reference_first => {
+                out::say(format_args!(
+                    "retract: {why}: where the tool stands is unknown: the program's reference run takes Z up first, alone"
+                ));
                 return Ok(());
             }
-            out::say(format_args!(
-                "jogterm run: Z is not referenced: where the tool stands is unknown, and the job's moves count from the reference point; nothing was moved or stored. Reference the axes first (Z goes first, alone): {}",
-                remedy.reference(remedy.axes)
-            ));
-            return Err(1);
+            Err(why) => {
+                out::say(format_args!(
+                    "jogterm run: {why}: where the tool stands is unknown, and the job's moves count from the reference point; nothing was moved or stored. Reference the axes first (Z goes first, alone): {}",
+                    remedy.reference(remedy.axes)
+                ));
+                return Err(1);
+            }
         };
         if z >= to.z {
             out::say("retract: the tool stands at or above the safe height already");
@@ -112,8 +115,11 @@ pub(in crate::cli) async fn retract(
 
 /// The controller set up (`Initialise`: isel's axes, ramps and reference
 /// probe, EMCU's speeds, then the position), and where Z stands (machine
-/// steps); `None` when Z is not referenced or no position was measured.
-async fn where_z_stands(session: &mut Session, remedy: &Remedy) -> Result<Option<i64>, u8> {
+/// steps); else why it is unknown.
+async fn where_z_stands(
+    session: &mut Session,
+    remedy: &Remedy,
+) -> Result<Result<i64, &'static str>, u8> {
     let set_up = upload::initialise_reading(session, remedy).await?;
     let mut state = set_up.state;
     let mut measured = set_up.measured;
@@ -136,8 +142,12 @@ async fn where_z_stands(session: &mut Session, remedy: &Remedy) -> Result<Option
             Err(_) => break,
         }
     }
-    let referenced = state.referenced.contains(Axis::Z);
-    Ok(measured.and_then(|p| p.get(Axis::Z)).filter(|_| referenced))
+    if !state.referenced.contains(Axis::Z) {
+        return Ok(Err("Z is not referenced"));
+    }
+    Ok(measured
+        .and_then(|p| p.get(Axis::Z))
+        .ok_or("the controller reported no position of Z"))
 }
 
 /// A relative move of Z alone from `from` up to `to.z`, followed to its
