@@ -246,7 +246,7 @@ pub fn run_to(
     }
     let report = if let Some(r) = &restarted {
         let confirmation =
-            super::restart::text(&name, &profile, &imported, r, args.output.as_ref());
+            super::restart::text(&name, &profile, &imported, r, args.output.as_ref(), false);
         if to_stdout {
             // stdout is the program: the operator still reads what it does.
             let _ = err.write_all(confirmation.as_bytes());

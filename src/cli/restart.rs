@@ -53,6 +53,7 @@ pub fn text(
     i: &Import,
     r: &Restart,
     written: Option<&PathBuf>,
+    run: bool,
 ) -> String {
     let mut out = format!(
         "{name}: restart from line {} for profile \"{}\"\n",
@@ -73,7 +74,7 @@ pub fn text(
         r.line, r.modal.system
     ));
     out.push_str("  entry, in this order:\n");
-    for (k, step) in r.entry_text().iter().enumerate() {
+    for (k, step) in r.entry_text(run).iter().enumerate() {
         out.push_str(&format!("    {}. {step}\n", k + 1));
     }
     out.push_str(&format!(
@@ -129,7 +130,7 @@ pub fn json(i: &Import, r: &Restart) -> serde_json::Value {
         },
         "start_mm": [round3(x), round3(y), round3(z)],
         "safe_z_mm": round3(r.safe_z - r.zero.z),
-        "entry": r.entry_text(),
+        "entry": r.entry_text(false),
         "notes": r.notes,
         "output_lines": r.program.commands,
         "first_command": cut_command(r),

@@ -23,7 +23,8 @@ use super::out;
 use super::session::{self, EXIT_LINK, EXIT_USAGE, Linked, Session, StartError};
 use crate::axis::{Axis, AxisSet};
 use crate::device::api::{
-    Activity, ControllerFault, Event, LinkState, PerAxis, Refusal, Request, UploadEvent,
+    Activity, ControllerFault, Event, LinkState, MachineState, PerAxis, PositionSource, Refusal,
+    Request, UploadEvent,
 };
 use crate::program::store;
 use crate::program::{Language, LintConfig, Program, Severity, lint};
@@ -654,7 +655,7 @@ impl Remedy {
 
     /// The command line that references `axes` (isel: `@0R<mask>`, A on its
     /// own, manual 2.2.22; EMCU: `$H` Z, Y, X first, run at once).
-    fn reference(&self, axes: AxisSet) -> String {
+    pub(super) fn reference(&self, axes: AxisSet) -> String {
         match self.protocol {
             Protocol::Emcu => {
                 let order: String = [Axis::Z, Axis::Y, Axis::X]
@@ -704,7 +705,7 @@ async fn stream(session: &mut Session, prepared: &Prepared, remedy: &Remedy) -> 
 }
 
 /// The exit status for a refusal, said on stderr.
-fn refused(what: &str, reason: &Refusal, remedy: &Remedy) -> u8 {
+pub(super) fn refused(what: &str, reason: &Refusal, remedy: &Remedy) -> u8 {
     match reason {
         // `(h)` is the console's key: the command line names its own way.
         Refusal::NotReferenced { axes } => out::say(format_args!(
@@ -874,13 +875,35 @@ fn failure(prepared: &Prepared, index: usize, fault: &ControllerFault) -> String
 
 /// `Initialise`, and wait until the controller has its axes.
 pub(super) async fn initialise(session: &mut Session, remedy: &Remedy) -> Status {
+    initialise_reading(session, remedy).await.map(drop)
+}
+
+/// What [`initialise_reading`] saw: the state that said the controller has
+/// its axes, and the last position measured on the way (`None`: none was).
+pub(super) struct Initialised {
+    pub(super) state: MachineState,
+    pub(super) measured: Option<PerAxis<i64>>,
+}
+
+/// [`initialise`], keeping the state and the measured positions seen on the
+/// way. Once only in a session: an `Initialise` that changes nothing (the
+/// controller has its axes already) sends no state, and this would wait
+/// for one for ever.
+pub(super) async fn initialise_reading(
+    session: &mut Session,
+    remedy: &Remedy,
+) -> Result<Initialised, u8> {
     if session.handle.request(Request::Initialise).is_err() {
         return Err(lost("the device task ended"));
     }
+    let mut measured = None;
     loop {
         match next(session).await? {
             Event::State(s) if !s.initialised.is_empty() && s.activity == Activity::Idle => {
-                return Ok(());
+                return Ok(Initialised { state: s, measured });
+            }
+            Event::Position(p) if p.source == PositionSource::Measured => {
+                measured = Some(p.steps);
             }
             Event::Refused { reason, .. } => return Err(refused("initialising", &reason, remedy)),
             Event::Fault(f) => {

@@ -75,6 +75,11 @@ pub struct GcodeProfile {
     /// after it), so absolute moves count from the reference point.
     #[serde(default = "default_true")]
     pub reference_first: bool,
+    /// The feed of a restart's descent to its line's start, units/min,
+    /// when the file plunges nowhere before the line (a plunge: a feed
+    /// move of Z alone, downwards); else the file's last plunge feed.
+    #[serde(default = "default_plunge_feed")]
+    pub plunge_feed: f64,
     /// Program memory in commands, when it differs from the manual's
     /// (isel 2000 before the closing `9`, EMCU 256): the one setting the
     /// import, `check`, `upload`, `run` and the console's editor count
@@ -93,6 +98,14 @@ fn default_merge_tolerance() -> f64 {
     0.005
 }
 
+/// 300 mm/min: a plunge of 5 mm/s, slow enough for the small end mills
+/// of the routers these controllers drive.
+pub const DEFAULT_PLUNGE_FEED: f64 = 300.0;
+
+fn default_plunge_feed() -> f64 {
+    DEFAULT_PLUNGE_FEED
+}
+
 fn default_true() -> bool {
     true
 }
@@ -105,6 +118,7 @@ impl Default for GcodeProfile {
             merge_tolerance: default_merge_tolerance(),
             rapid_speed: None,
             reference_first: true,
+            plunge_feed: default_plunge_feed(),
             memory: None,
             codes: BTreeMap::new(),
         }
@@ -571,6 +585,15 @@ impl Profile {
                     "{ms} ms: expected {} to {} ms",
                     Connection::REPLY_MARGIN_MS.start(),
                     Connection::REPLY_MARGIN_MS.end()
+                ),
+            ));
+        }
+        if !(self.gcode.plunge_feed.is_finite() && self.gcode.plunge_feed > 0.0) {
+            out.push(Invalid::new(
+                &["gcode", "plunge_feed"],
+                format!(
+                    "{}: must be a positive feed (units/min)",
+                    self.gcode.plunge_feed
                 ),
             ));
         }

@@ -457,6 +457,24 @@ fn the_reply_margin_is_the_profiles_and_checked() {
     assert!(err.message.contains("expected 20 to 5000 ms"), "{err}");
 }
 
+#[test]
+fn the_plunge_feed_has_a_default_and_a_bad_one_is_refused_at_its_line() {
+    let (dir, dirs) = user_dir();
+    let default = load_profile("default", &dirs).unwrap();
+    assert_eq!(
+        default.gcode.plunge_feed,
+        crate::config::profile::DEFAULT_PLUNGE_FEED
+    );
+    fs::write(
+        dir.path().join("profiles/still.toml"),
+        "[gcode]\nreference_first = false\nplunge_feed = 0\n",
+    )
+    .unwrap();
+    let err = load_profile("still", &dirs).unwrap_err();
+    assert_eq!(err.line, Some(3), "{err}");
+    assert!(err.message.contains("must be a positive feed"), "{err}");
+}
+
 /// Issue 37: how long a session that only reads waits for an isel that
 /// answers nothing is the profile's (600 s when absent, 1 s to a day), and
 /// a baud rate no line runs at is refused at its line.

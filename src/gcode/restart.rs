@@ -63,6 +63,15 @@ pub struct Restart {
     pub notes: Vec<String>,
     /// The restart's motion time, as the import estimates a job's.
     pub estimated_s: f64,
+    /// The descent's feed, mm/min: the file's last plunge before the line
+    /// (a feed move of Z alone, downwards), else the profile's
+    /// `gcode.plunge_feed`.
+    pub descent_feed: f64,
+    /// The line of that plunge; `None`: the profile's feed.
+    pub plunge_line: Option<u32>,
+    /// The program begins with a reference run (`gcode.reference_first`).
+    pub reference_first: bool,
+    pub target: Target,
 }
 
 /// Why a job cannot be restarted at a line.
@@ -225,13 +234,18 @@ pub fn restart(
         )
     })?;
     let modal = modal_before(text, &setup, at);
-    let feed = modal.feed.or_else(|| {
-        ops[cut..].iter().find_map(|op| match op {
-            Op::Line(m) => Some(m.feed),
-            Op::Arc(a) => Some(a.feed),
-            _ => None,
-        })
+    // The descent goes into material the job may have cut, as the file's
+    // own plunges do: at their feed, not at the feed of the cut in force.
+    let plunge = skipped.iter().rev().find_map(|op| match op {
+        Op::Line(m) if m.to.z < m.from.z && m.to.x == m.from.x && m.to.y == m.from.y => {
+            Some((m.feed, m.origin.line))
+        }
+        _ => None,
     });
+    let (feed, plunge_line) = match plunge {
+        Some((feed, line)) => (feed, Some(line)),
+        None => (profile.gcode.plunge_feed, None),
+    };
     let deepest = ops
         .iter()
         .filter_map(end_of)
@@ -314,6 +328,10 @@ pub fn restart(
         remaining_lines: path.lines + 1 - at,
         notes,
         estimated_s,
+        descent_feed: feed,
+        plunge_line,
+        reference_first: profile.gcode.reference_first,
+        target: imported.target,
     })
 }
 
@@ -323,8 +341,8 @@ struct Entry {
     safe_z: f64,
     /// The lowest Z the job reaches, machine mm.
     deepest: f64,
-    /// mm/min of the descent; `None`: the job has no feed at all.
-    feed: Option<f64>,
+    /// mm/min of the descent.
+    feed: f64,
     reference_first: bool,
     origin: Origin,
 }
@@ -334,7 +352,8 @@ struct Entry {
 /// descent. Retract first: after a broken tool the tool may stand in the
 /// material, and a move in X or Y there would drag it through the part.
 /// Outputs before the descent: the spindle must turn before it cuts.
-/// Descend at feed: the surface below may be one the job has cut.
+/// Descend at the plunge feed: the surface below may be one the job has
+/// cut.
 fn entry(skipped: &[Op], e: Entry) -> Vec<Op> {
     let origin = e.origin;
     let mut out = Vec::new();
@@ -395,20 +414,12 @@ fn entry(skipped: &[Op], e: Entry) -> Vec<Op> {
     for o in outputs {
         out.push(Op::Output(OutputSwitch { origin, ..o }));
     }
-    out.push(match e.feed {
-        Some(feed) => Op::Line(Line {
-            from: above,
-            to: e.start,
-            feed,
-            origin,
-        }),
-        // A job of rapids only: it cuts nothing, so nothing is cut on the way.
-        None => Op::Rapid(Rapid {
-            from: above,
-            to: e.start,
-            origin,
-        }),
-    });
+    out.push(Op::Line(Line {
+        from: above,
+        to: e.start,
+        feed: e.feed,
+        origin,
+    }));
     out
 }
 
@@ -434,27 +445,60 @@ impl Restart {
         ]
     }
 
-    /// The entry as the confirmation says it, in the file's work
-    /// coordinates and unit.
-    pub fn entry_text(&self) -> Vec<String> {
+    /// The entry as the confirmation says it, every step in the order it
+    /// runs, in the file's work coordinates and unit. `run`: said by
+    /// `jogterm run`, which moves the tool up itself before the program
+    /// (`cli::run::retract`); else the written program's steps alone.
+    pub fn entry_text(&self, run: bool) -> Vec<String> {
         let w = |p: Point| {
             let [x, y, z] = self.work(p);
             Point { x, y, z }
         };
         let places = self.places();
+        let safe = w(Point {
+            z: self.safe_z,
+            ..Point::default()
+        })
+        .z;
         let mut out = Vec::new();
+        if run {
+            out.push(format!(
+                "retract: Z alone up to Z{safe:.places$} (the job's safe height), from wherever the tool stands, before anything else moves (jogterm, before the program)"
+            ));
+        }
+        if self.reference_first {
+            let order = match self.target {
+                Target::Isel => "Z, then Y, then X",
+                Target::Emcu => "Z, then X, then Y",
+            };
+            out.push(format!(
+                "reference run of {order} (gcode.reference_first): the program's moves count from the reference point"
+            ));
+        }
         let mut rapids = 0;
         for op in &self.entry {
             match op {
-                // The entry's order (`entry`): retract, above the start, descend.
+                // The entry's order (`entry`): up, above the start, descend.
                 Op::Rapid(m) if rapids == 0 => {
                     rapids += 1;
-                    out.push(format!(
-                        "retract: G0 Z{:.places$} (the job's safe height), from wherever the tool stands",
-                        w(m.to).z
-                    ));
+                    if self.reference_first {
+                        out.push(format!(
+                            "G0 Z{:.places$} (the job's safe height) from the reference point, Z alone",
+                            w(m.to).z
+                        ));
+                    } else if !run {
+                        // Absolute moves name every axis (isel `m`): a
+                        // written program cannot know where the tool stands.
+                        out.push(format!(
+                            "retract: G0 Z{:.places$} (the job's safe height) straight up from X{:.places$} Y{:.places$}, line {}'s start: the program cannot know where the tool stands (`jogterm run --from-line` moves it up, Z alone, from wherever it stands first)",
+                            w(m.to).z,
+                            w(m.to).x,
+                            w(m.to).y,
+                            self.line
+                        ));
+                    }
                 }
-                Op::Rapid(m) if rapids == 1 => {
+                Op::Rapid(m) => {
                     rapids += 1;
                     out.push(format!(
                         "G0 X{:.places$} Y{:.places$} at the safe height, above line {}'s start",
@@ -463,20 +507,19 @@ impl Restart {
                         self.line
                     ));
                 }
-                Op::Rapid(m) => out.push(format!(
-                    "descend: G0 Z{:.places$} to line {}'s start (the job has no feed)",
-                    w(m.to).z,
-                    self.line
-                )),
                 Op::SpindleSpeed { rpm, .. } => out.push(format!("spindle speed S{rpm}")),
                 Op::Output(o) => {
                     out.push(format!("{} {}", o.name, if o.on { "on" } else { "off" }))
                 }
                 Op::Line(m) => out.push(format!(
-                    "descend: G1 Z{:.places$} F{} to line {}'s start",
+                    "descend: G1 Z{:.places$} F{} to line {}'s start ({})",
                     w(m.to).z,
                     number(m.feed / self.unit()),
-                    self.line
+                    self.line,
+                    match self.plunge_line {
+                        Some(line) => format!("the file's last plunge feed, line {line}"),
+                        None => "the profile's plunge feed, gcode.plunge_feed: the file plunges nowhere before the line".to_owned(),
+                    }
                 )),
                 _ => {}
             }

@@ -139,7 +139,8 @@ fn the_entry_retracts_goes_above_the_start_switches_the_outputs_and_descends_at_
             "S12000",
             "spindle true",
             "coolant true",
-            "G1 120 100 39 F800",
+            // At the plunge feed of line 7, not the cut's F800 in force.
+            "G1 120 100 39 F300",
         ]
     );
     assert!(
@@ -152,15 +153,24 @@ fn the_entry_retracts_goes_above_the_start_switches_the_outputs_and_descends_at_
         r.entry
     );
     assert_eq!(
-        r.entry_text(),
+        r.entry_text(false),
         [
-            "retract: G0 Z10.000 (the job's safe height), from wherever the tool stands",
+            "reference run of Z, then Y, then X (gcode.reference_first): the program's moves count from the reference point",
+            "G0 Z10.000 (the job's safe height) from the reference point, Z alone",
             "G0 X20.000 Y0.000 at the safe height, above line 9's start",
             "spindle speed S12000",
             "spindle on",
             "coolant on",
-            "descend: G1 Z-1.000 F800 to line 9's start",
+            "descend: G1 Z-1.000 F300 to line 9's start (the file's last plunge feed, line 7)",
         ]
+    );
+    // `jogterm run` moves the tool up itself first.
+    assert!(
+        r.entry_text(true)[0].starts_with(
+            "retract: Z alone up to Z10.000 (the job's safe height), from wherever the tool stands"
+        ),
+        "{:?}",
+        r.entry_text(true)
     );
     // The program: header, the restart's mark, 77, z1, retract, rapid,
     // outputs, descent, then line 9 on; every command names a G-code line.
@@ -380,11 +390,28 @@ fn an_inch_file_is_confirmed_in_inches() {
         "G20 inch, G18 ZX, G90, G54, F60, spindle M5, coolant M9"
     );
     assert_eq!(
-        r.entry_text(),
+        r.entry_text(false),
         [
-            "retract: G0 Z0.5000 (the job's safe height), from wherever the tool stands",
+            "reference run of Z, then Y, then X (gcode.reference_first): the program's moves count from the reference point",
+            "G0 Z0.5000 (the job's safe height) from the reference point, Z alone",
             "G0 X0.6000 Y0.8000 at the safe height, above line 12's start",
-            "descend: G1 Z0.3000 F60 to line 12's start",
+            "descend: G1 Z0.3000 F60 to line 12's start (the file's last plunge feed, line 6)",
         ]
+    );
+}
+
+#[test]
+fn a_file_that_plunges_nowhere_before_the_line_descends_at_the_profiles_plunge_feed() {
+    // The only way down is a ramp in X, Y and Z at once: no plunge.
+    let text = "G21 G90 G17\nG0 X0 Y0 Z10\nG1 X10 Y10 Z-1 F800\nG1 X20\nG1 X30\nM30\n";
+    let r = restart_at(text, 5).expect("restart");
+    assert_eq!(
+        (r.descent_feed, r.plunge_line),
+        (crate::config::profile::DEFAULT_PLUNGE_FEED, None)
+    );
+    let last = r.entry_text(true).pop().unwrap_or_default();
+    assert!(
+        last.starts_with("descend: G1 Z-1.000 F300 to line 5's start (the profile's plunge feed"),
+        "{last}"
     );
 }

@@ -492,7 +492,11 @@ fn a_restart_from_a_line_retracts_goes_above_its_start_descends_at_feed_and_ends
         "{said}"
     );
     assert!(
-        said.contains("1. retract: G0 Z5.000 (the job's safe height)"),
+        said.contains("1. retract: Z alone up to Z5.000 (the job's safe height)"),
+        "{said}"
+    );
+    assert!(
+        said.contains("2. reference run of Z, then Y, then X"),
         "{said}"
     );
     assert!(said.contains("descend: G1 Z-1.000 F600"), "{said}");

@@ -8,6 +8,7 @@
 
 pub mod keys;
 pub(super) mod outputs;
+pub mod retract;
 pub mod stream;
 
 use std::io::IsTerminal;
@@ -54,8 +55,12 @@ terminal --yes is needed). While it runs, from the terminal:
 
 --from-line N restarts a G-code job at line N, after a broken tool or a power cut: the
 confirmation lists the modal state the skipped lines leave (units, plane, offset, feed, spindle,
-coolant) and the entry, which runs first: retract to the job's safe height, go above the line's
-start, switch the spindle and outputs as the skipped lines left them, descend at feed; then
+coolant) and the entry, which runs first: retract Z alone to the job's safe height from wherever
+the tool stands (jogterm reads where, before the program; with Z not referenced only the
+program's reference run can take it out, and without one nothing starts), the program's
+reference run when the profile has one, go above the line's start, switch the spindle and
+outputs as the skipped lines left them, descend at the file's last plunge feed (else
+gcode.plunge_feed); then
 the job from line N on, by the way chosen for what is left (`jogterm import --from-line N`
 shows the same without moving anything).
 
@@ -106,9 +111,9 @@ pub struct RunArgs {
     /// Baud rate, instead of the profile's
     #[arg(long, value_name = "N")]
     pub baud: Option<u32>,
-    /// G-code: restart from this line (after a broken tool, a power cut): retract to the
-    /// safe height, go above the line's start, apply the skipped lines' modal state,
-    /// descend at feed, then run from the line on
+    /// G-code: restart from this line (after a broken tool, a power cut): retract Z alone
+    /// to the safe height, go above the line's start, apply the skipped lines' modal state,
+    /// descend at the plunge feed, then run from the line on
     #[arg(long, value_name = "LINE")]
     pub from_line: Option<u32>,
 }
@@ -119,6 +124,8 @@ struct Job {
     way: Way,
     /// The way's estimate, for the time left early in a stream.
     estimate_s: Option<f64>,
+    /// A restart's first step, before the program: Z up alone.
+    retract: Option<retract::Retract>,
 }
 
 pub fn run(global: &GlobalArgs, args: &RunArgs) -> anyhow::Result<ExitCode> {
@@ -168,6 +175,7 @@ pub fn run(global: &GlobalArgs, args: &RunArgs) -> anyhow::Result<ExitCode> {
                     Way::Stored
                 },
                 estimate_s: None,
+                retract: None,
             },
             Err(m) => return usage(m),
         }
@@ -216,6 +224,7 @@ fn gcode_job(
             &imported.import,
             r,
             None,
+            true,
         ));
     }
     let program = imported.program();
@@ -255,6 +264,10 @@ fn gcode_job(
         parts,
         way: ways.chosen,
         estimate_s: ways.estimate(ways.chosen).map(|e| e.total_s),
+        retract: imported
+            .restart
+            .as_ref()
+            .and_then(|r| retract::Retract::of(r, profile)),
     })
 }
 
@@ -316,9 +329,16 @@ async fn steps(
             out::say(format_args!("jogterm run: link failure: {reason}"));
             return Err(EXIT_LINK);
         }
+        // A restart's retract sets the controller up itself, once for the
+        // run (`retract::retract`); a stream needs it set up as a stored
+        // run finds it.
+        if let Some(to) = job.retract {
+            retract::retract(session, to, remedy, keys).await?;
+        } else if job.way == Way::Stream {
+            upload::initialise(session, remedy).await?;
+        }
         if job.way == Way::Stream {
             let part = job.parts.first().ok_or(EXIT_USAGE)?;
-            upload::initialise(session, remedy).await?;
             out::say(format_args!(
                 "streaming {} (speed {} %)",
                 part.name(),
