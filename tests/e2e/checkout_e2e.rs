@@ -146,7 +146,7 @@ fn start_checkout(run: &mut PtyRun, key: &[u8]) -> String {
 /// The isel simulator, its axes 1 mm from the reference point (the reference
 /// run is only the way to READY here). At real time: a console polls a
 /// scaled simulator as fast as its faster wire answers, several times the
-/// usual rate, CPU its neighbours miss (`docs/testing.md`, "Part two").
+/// usual rate, CPU its neighbours miss (`docs/testing.md`, "The time scale").
 fn isel_near_reference() -> SimProcess {
     SimProcess::start_with_files("isel", &[ISEL_NEAR_REFERENCE])
 }

@@ -5,11 +5,11 @@
 //! Each test waits for what it expects with a bound, never for a fixed time.
 //! Tests that measure a timing promise take [`timing::SERIAL`] while they
 //! measure and so never run beside each other; the rest, ptys included, run
-//! beside each other, three at a time (`.cargo/config.toml` sets libtest's
+//! beside each other, five at a time (`.cargo/config.toml` sets libtest's
 //! threads: most of these wait on the simulators' real time, not on the
 //! CPU). Tests of logic that wait for real motion to end run the simulator
 //! faster (`SimProcess::options(..).time_scale(..)`; `docs/testing.md`,
-//! "Part two", says which and why). `docs/testing.md` has the figures.
+//! "The time scale", says which and why). `docs/testing.md` has the figures.
 //!
 //! One test crate: each crate links the whole of jogterm, so these share one
 //! binary (docs/architecture.md, "Tests"). The fault-injection suite

@@ -38,7 +38,7 @@ const CUT_MACHINE: (&str, &str) = (
 );
 
 /// The simulator of [`CUT_MACHINE`], at real time: a key, a hang-up or a
-/// lost line must land inside the cut (`docs/testing.md`, issue 27).
+/// lost line must land inside the cut (`docs/testing.md`, "The time scale").
 fn cut_controller() -> SimProcess {
     SimProcess::start_variant("isel", &[CUT_MACHINE], &["memory=30"])
 }
