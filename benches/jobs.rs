@@ -19,8 +19,8 @@
 //!   one part's end and the next start (the erase, the next part's upload)
 //!   the tool stands retracted, since parts are cut only at the safe height.
 //!
-//! Run: `cargo bench --bench jobs` (optimised build; about 40 minutes of
-//! real time at 50 000 moves: the wire is the controller's). Options:
+//! Run: `cargo bench --bench jobs` (optimised build; about an hour and a
+//! half of real time at 50 000 moves: the wire is the controller's). Options:
 //! `--moves N`, `--only stream|chunked`. Results: `docs/gcode.md`, "Jobs
 //! bigger than the memory".
 
