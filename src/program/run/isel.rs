@@ -9,14 +9,12 @@
 //! limits are in machine coordinates = counter + origin.
 
 use std::collections::HashSet;
-use std::hash::BuildHasherDefault;
 
 use crate::axis::{Axis, AxisSet};
 use crate::proto::isel::{
     ArcGeometry, AxisConfig, CircleDirection, CircleParams, CncCommand, MovePair, Plane,
 };
 
-use super::fxhash::FxHasher;
 use super::value::{Iv, Reach, Val};
 use super::{ArcMotion, Finish, Mode, Motion, MotionKind, Observer, Outcome};
 use crate::program::flow::{self, Flow};
@@ -458,9 +456,11 @@ impl<'p> Runner<'p> {
     }
 }
 
-/// States seen at jumps. Hashed with [`FxHasher`]: a state is some hundred
-/// bytes and the default hasher would be a good part of a run's time.
-type Seen = HashSet<State, BuildHasherDefault<FxHasher>>;
+/// States seen at jumps. Hashed with rustc's FxHash: a state is some hundred
+/// bytes and the default hasher would be a good part of a run's time. Not
+/// proof against crafted collisions, which here could only slow a run down
+/// (the set is bounded by `SEEN_LIMIT`).
+type Seen = rustc_hash::FxHashSet<State>;
 
 /// Whether `state` is new (then it is remembered).
 fn remember(seen: &mut Seen, state: State) -> bool {

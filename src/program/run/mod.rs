@@ -10,7 +10,6 @@
 //! Both stop after a budget of executed commands, so endless programs end.
 
 pub(crate) mod emcu;
-mod fxhash;
 pub(crate) mod isel;
 pub(crate) mod value;
 
