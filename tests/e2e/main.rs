@@ -38,6 +38,7 @@ mod cli_arc;
 mod cli_check;
 mod cli_closed_output;
 mod cli_commission;
+mod cli_messages;
 mod cli_send_poll;
 mod cli_send_poll_emcu;
 mod cli_send_poll_emp;
