@@ -520,14 +520,22 @@ pub(crate) fn gcode_on_a_small_controller_sized(
     let mut run = spawn_on_sized(&sim, &file_arg, sim.dir.path(), &state, size);
     wait_for(&run, "connected");
     wait_for(&run, "pockets.isel");
-    initialise(&mut run);
-    run.type_keys(&[b"h"]);
-    wait_for(&run, "Reference run");
-    run.type_keys(&[b"y"]);
-    wait_for(&run, "READY");
-    run.type_keys(&[b"e"]);
-    wait_for(&run, "pockets.isel");
+    ready_in_the_editor(&mut run, "pockets.isel");
     (sim, run)
+}
+
+/// Initialise and reference from the machine screen (the question
+/// answered), back to the editor with `name`.
+pub(crate) fn ready_in_the_editor(run: &mut PtyRun, name: &str) {
+    initialise(run);
+    run.type_keys(&[b"h"]);
+    // The answer only once the question is there: two keys in one read
+    // are a burst, which moves nothing by design.
+    wait_for(run, "Reference run");
+    run.type_keys(&[b"y"]);
+    wait_for(run, "READY");
+    run.type_keys(&[b"e"]);
+    wait_for(run, name);
 }
 
 /// The machine screen shows the axes at `steps` (X, Y, Z).

@@ -10,7 +10,7 @@ use std::fs;
 use std::time::{Duration, Instant};
 
 use crate::editor_e2e::{
-    gcode_on_a_small_controller_sized, initialise, pockets, quit_discarding_the_edits,
+    gcode_on_a_small_controller_sized, pockets, quit_discarding_the_edits, ready_in_the_editor,
     spawn_on_sized, wait_for,
 };
 use crate::sim_process::{ISEL_NEAR_REFERENCE, SimProcess, WAIT};
@@ -163,13 +163,7 @@ fn space_during_a_program_run_from_the_editor_switches_its_spindle_off() {
     let state = sim.dir.path().join("state");
     let mut run = spawn_on_sized(&sim, &file_arg, sim.dir.path(), &state, WIDE);
     wait_for(&run, "connected");
-    initialise(&mut run);
-    run.type_keys(&[b"h"]);
-    wait_for(&run, "Reference run");
-    run.type_keys(&[b"y"]);
-    wait_for(&run, "READY");
-    run.type_keys(&[b"e"]);
-    wait_for(&run, "spindle.isel");
+    ready_in_the_editor(&mut run, "spindle.isel");
     run.type_keys(&[F5]);
     // The editor's line: the message line may have moved on.
     wait_for(&run, "F6 runs it");

@@ -3,23 +3,13 @@
 //! the machine stands, and says so; a controller error does the same; a
 //! program that runs to its end and a lost link send nothing.
 
+use super::job::activity;
 use super::*;
 use crate::device::api::{LinkState, OutputId};
 
 /// The spindle on, a move, the spindle off.
 const SPINDLE: &str =
     "7 7\np2,128,1 ; job.nc:2 spindle on\nm8000,8000,8000,8000,0,8000,0,8000\np2,128,0\n9\n";
-
-/// The device reports `activity`.
-fn activity(host: &mut Host, e: &mut Editor, activity: Activity) -> Outcome {
-    let state = MachineState {
-        activity,
-        ..host.machine.clone()
-    };
-    let out = host.send(e, Input::Device(&Event::State(state.clone())));
-    host.machine = state;
-    out
-}
 
 /// [`SPINDLE`] uploaded from the editor and running.
 fn running(host: &mut Host) -> Editor {
