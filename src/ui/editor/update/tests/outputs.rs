@@ -114,3 +114,53 @@ fn a_program_that_ends_and_a_lost_link_send_nothing() {
          at the machine"
     );
 }
+
+/// A check-out of a program with the spindle on: the key let go keeps it
+/// and says so; a stop switches it off once the machine stands.
+#[test]
+fn a_check_out_keeps_the_spindle_in_a_pause_and_switches_it_off_after_a_stop() {
+    use crate::device::api::CheckoutEnd;
+    use crate::jog::KeyPhase;
+    let mut host = Host::isel();
+    let mut e = editing(
+        &mut host,
+        "p2,128,1 ; spindle on\n0 4000,2000,0,2000,0,2000,0,2000\np2,128,0\n9\n",
+    );
+    host.key(&mut e, Action::Checkout);
+    host.key(&mut e, Action::Confirm);
+    assert!(e.checkout.is_some(), "the check-out started");
+    host.send(
+        &mut e,
+        Input::Checkout(Action::CheckoutHold, KeyPhase::Press),
+    );
+    host.now += Duration::from_millis(500);
+    let out = host.send(
+        &mut e,
+        Input::Checkout(Action::CheckoutHold, KeyPhase::Press),
+    );
+    let id = requests(&out)
+        .into_iter()
+        .find_map(|r| match r {
+            Request::Checkout { id, .. } => Some(*id),
+            _ => None,
+        })
+        .expect("line 1 runs");
+    let paused = Event::Checkout {
+        id,
+        end: CheckoutEnd::Paused {
+            rest: false,
+            dead_man: false,
+        },
+    };
+    let out = host.send(&mut e, Input::Device(&paused));
+    assert!(
+        said(&out)
+            .iter()
+            .any(|s| s.contains("the job's outputs stay on while it pauses: spindle (out2)")),
+        "{out:?}"
+    );
+    host.send(&mut e, Input::Stopped);
+    host.now += Duration::from_millis(100);
+    let out = host.send(&mut e, Input::Tick);
+    assert_eq!(requests(&out), [&spindle_off()]);
+}
