@@ -20,9 +20,11 @@ use super::{GlobalArgs, profile};
 use crate::config::ConfigDirs;
 use crate::config::profile::Profile;
 use crate::gcode::output::Header;
+use crate::gcode::ways::{Costs, Ways};
 use crate::gcode::{Import, Target, import, render, restart};
 use crate::offsets::store::{OffsetsFile, profile_key};
 use crate::offsets::{Identity, WorkOffsets};
+use crate::program::Language;
 
 pub const LONG_ABOUT: &str = "\
 Import G-code from CAM (Fusion 360, FreeCAD, Estlcam, LinuxCNC-style files) for a machine
@@ -437,7 +439,7 @@ fn summary_text(name: &str, profile: &Profile, i: &Import, written: Option<&Path
         "  {} program: {} commands, {}\n",
         i.target.name(),
         i.program.commands,
-        fits(&i.program)
+        fits(&i.program, i.summary.estimated_s, profile, i.target)
     ));
     out.push_str(&format!("  warnings: {}\n", i.warnings.len()));
     if let Some(path) = written.filter(|p| p.as_os_str() != "-") {
@@ -448,15 +450,29 @@ fn summary_text(name: &str, profile: &Profile, i: &Import, written: Option<&Path
 
 /// Whether a converted program fits the controller's memory, and what to
 /// do when it does not.
-pub(super) fn fits(program: &crate::gcode::output::Program) -> String {
+///
+/// The advice comes from the ways `jogterm run` lists (`gcode::ways`), for
+/// `profile`'s line and controller and the program's motion time
+/// `motion_s`: it names parts only where the job can be cut.
+pub(super) fn fits(
+    program: &crate::gcode::output::Program,
+    motion_s: f64,
+    profile: &Profile,
+    target: Target,
+) -> String {
     if program.fits() {
-        "fits the controller's memory".to_owned()
-    } else {
-        format!(
-            "does NOT fit the controller's memory ({} commands): store and run it in parts (`jogterm upload FILE --start --chunked`, isel), or split the file in the CAM",
-            program.capacity
-        )
+        return "fits the controller's memory".to_owned();
     }
+    let language = match target {
+        Target::Isel => Language::Isel,
+        Target::Emcu => Language::Emcu,
+    };
+    let ways = Ways::of(program, motion_s, &Costs::of(profile, language));
+    format!(
+        "does NOT fit the controller's memory ({} commands): {}",
+        program.capacity,
+        ways.advice()
+    )
 }
 
 fn duration(seconds: f64) -> String {

@@ -83,7 +83,7 @@ pub fn text(
         cut_command(r),
         i.target.name(),
         r.program.commands,
-        fits(&r.program)
+        fits(&r.program, r.estimated_s, profile, i.target)
     ));
     if let Some(path) = written.filter(|p| p.as_os_str() != "-") {
         out.push_str(&format!("  written to {}\n", path.display()));

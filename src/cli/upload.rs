@@ -427,11 +427,13 @@ fn prepare_gcode(
         )?]);
     }
     if !args.chunked || language != Language::Isel {
-        let how = if language == Language::Isel {
-            "store and run it in parts with --start --chunked, or split the job in the CAM"
-        } else {
-            "split the job in the CAM (EMCU jobs are not run in parts)"
-        };
+        // The ways `jogterm run` lists: parts only where the job can be cut.
+        let ways = crate::gcode::ways::Ways::of(
+            program,
+            imported.motion_s(),
+            &crate::gcode::ways::Costs::of(profile, language),
+        );
+        let how = ways.advice();
         return Err((
             1,
             format!(
@@ -852,7 +854,41 @@ fn failure(prepared: &Prepared, index: usize, fault: &ControllerFault) -> String
             Language::Emcu => format!("{} (after its last command)", prepared.name),
         },
     };
+    let full = match prepared.language() {
+        Language::Isel => {
+            fault.code == crate::proto::isel::ReplyCode::MemoryFull.char().to_string()
+        }
+        Language::Emcu => fault.code == crate::device::emcu::MEMORY_FULL_CODE,
+    };
+    // Memory full: the same upload fails the same way, with or without
+    // --erase (issue 37); what fits is a shorter program, or the job run
+    // in parts or streamed once the profile says how much the controller
+    // holds.
+    let advice = if full {
+        let how = if prepared.gcode.is_some() {
+            format!(
+                "set the profile's `[gcode] memory = {index}` (what this controller holds), \
+                 and `jogterm run FILE` runs the job in parts or streamed"
+            )
+        } else {
+            format!(
+                "shorten it or split it into programs of at most {index} commands, or stream \
+                 it (`jogterm run FILE --stream`); `[gcode] memory = {index}` in the profile \
+                 lets `jogterm check` say so before an upload"
+            )
+        };
+        format!(
+            "the program does not fit: the controller stored {index} of its {} commands, and \
+             uploading it again fails the same way: {how}; ",
+            prepared.lines.len()
+        )
+    } else {
+        String::new()
+    };
     let after = match prepared.language() {
+        Language::Isel if full => "the partial program it holds is invalid (the next upload \
+             of a program that fits erases it: --erase)"
+            .to_string(),
         Language::Isel => {
             "the partial program it holds is invalid (upload again with --erase)".to_string()
         }
@@ -865,7 +901,7 @@ fn failure(prepared: &Prepared, index: usize, fault: &ControllerFault) -> String
         ),
     };
     format!(
-        "{place}: the controller refused command {} `{}`: {} {}; {after}",
+        "{place}: the controller refused command {} `{}`: {} {}; {advice}{after}",
         index + 1,
         fault.command,
         fault.code,

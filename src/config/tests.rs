@@ -526,3 +526,28 @@ fn the_busy_wait_and_the_baud_rate_are_checked_at_their_lines() {
         300
     );
 }
+
+/// Issue 37 (13): a profile with several errors reports every one, each at
+/// its line, also when `machine.axes` is one of them; before, a broken
+/// axis list was the only error reported.
+#[test]
+fn every_error_of_a_profile_is_reported_at_its_line() {
+    let (dir, dirs) = user_dir();
+    fs::write(
+        dir.path().join("profiles/several.toml"),
+        "[machine]\naxes = \"XQ\"\n[axes.X]\nmin = 10.0\nmax = 5.0\n[jog]\nmax_overrun = -1.0\n",
+    )
+    .unwrap();
+    let text = load_profile("several", &dirs).unwrap_err().to_string();
+    for (line, what) in [
+        (2, "`Q` is not an axis"),
+        (5, "min < max"),
+        (7, "positive distance"),
+    ] {
+        assert!(
+            text.lines()
+                .any(|l| l.contains(&format!("several.toml:{line}:")) && l.contains(what)),
+            "{what} at line {line}:\n{text}"
+        );
+    }
+}

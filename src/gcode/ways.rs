@@ -223,6 +223,24 @@ impl Ways {
         }
     }
 
+    /// What to do with a job that does not fit the memory, from the same
+    /// estimates as [`Ways::describe`], so that the advice never names a
+    /// way its list says is not possible (issue 37): in parts where the
+    /// job can be cut, else streamed.
+    pub fn advice(&self) -> String {
+        match &self.chunked {
+            Ok(c) => format!(
+                "store and run it in {} parts (`jogterm run FILE`, or `jogterm upload FILE \
+                 --start --chunked`), or split the file in the CAM",
+                c.parts
+            ),
+            Err(why) => format!(
+                "it cannot run in parts ({why}): stream it (`jogterm run FILE --stream`), or \
+                 split the file in the CAM"
+            ),
+        }
+    }
+
     /// The operator's lines: each way with its cost, and the choice with
     /// by how much it beats the other.
     pub fn describe(&self) -> Vec<String> {

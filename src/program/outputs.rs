@@ -64,6 +64,66 @@ pub fn switched_on(program: &Program) -> Vec<JobOutput> {
     found
 }
 
+/// How a job ended before its end, for its outputs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Ended {
+    /// Stopped, a controller error: the link still stands, and the outputs
+    /// are switched off once the axes stand.
+    Early,
+    /// The link is gone: nothing can be sent.
+    LinkLost,
+}
+
+/// How long the axes may take to stand after a stop before the outputs
+/// are left as they are (and said so): a stop ramps down within a second
+/// or two on every family; ten seconds are a broken report, not a ramp.
+pub const STAND_WITHIN: std::time::Duration = std::time::Duration::from_secs(10);
+
+// The words the CLI and the console share, so that they say the same.
+
+/// The link went: nothing can be switched off from here.
+pub fn link_lost_text(outputs: &[JobOutput]) -> String {
+    format!(
+        "the link is lost: the job's outputs may still be on: {}; switch them off at the machine",
+        labels(outputs)
+    )
+}
+
+/// The axes did not report standing within [`STAND_WITHIN`].
+pub fn not_standing_text(outputs: &[JobOutput]) -> String {
+    format!(
+        "the axes did not report standing: the job's outputs were left as they are: {}",
+        labels(outputs)
+    )
+}
+
+/// An output [`JobOutput::left`] keeps on, why, and `how` to switch it off.
+pub fn left_on_text(output: &JobOutput, why: &str, how: &str) -> String {
+    format!("{} left on: {why}; {how}", output.label)
+}
+
+/// An output whose switching off failed.
+pub fn still_on_text(output: &JobOutput, why: &str) -> String {
+    format!("{} may still be on: {why}", output.label)
+}
+
+/// The outputs switched off after the job ended early.
+pub fn switched_off_text<'a>(off: impl IntoIterator<Item = &'a JobOutput>) -> String {
+    format!("switched off once the axes stood: {}", labels(off))
+}
+
+/// What a pause does to the job's outputs: they stay as the job left
+/// them (a spindle keeps turning above the part); `None` when the job
+/// switches none on.
+pub fn paused_text(outputs: &[JobOutput]) -> Option<String> {
+    (!outputs.is_empty()).then(|| {
+        format!(
+            "the job's outputs stay on while it pauses: {}",
+            labels(outputs)
+        )
+    })
+}
+
 /// `a, b and c` of the outputs' labels.
 pub fn labels<'a>(outputs: impl IntoIterator<Item = &'a JobOutput>) -> String {
     let labels: Vec<&str> = outputs.into_iter().map(|o| o.label.as_str()).collect();

@@ -205,7 +205,14 @@ fn an_isel_controller_with_less_memory_refuses_the_command_beyond_it_at_its_file
         said.contains("long.isel:5: the controller refused command 4 `012,2000,0,2000,0,2000,0,2000`: 6 The CNC program does not fit into the program memory"),
         "{said}"
     );
-    assert!(said.contains("upload again with --erase"), "{said}");
+    // Issue 37 (13): the same upload fails the same way, --erase or not;
+    // before, it advised "upload again with --erase".
+    assert!(
+        said.contains("the program does not fit: the controller stored 3 of its 6 commands, and uploading it again fails the same way"),
+        "{said}"
+    );
+    assert!(said.contains("`jogterm run FILE --stream`"), "{said}");
+    assert!(!said.contains("upload again with --erase"), "{said}");
     assert!(said.contains("upload 0/6"), "{said}");
     assert!(!contains_panic(&out.stderr), "{said}");
     sim.assert_alive();

@@ -18,6 +18,12 @@ use ui_pty::{PtyRun, recoveries};
 const PROGRAM: &str = "; drill\n7 7\nm8000,8000,8000,8000\n9\n";
 
 fn spawn(args: &[&str], config: &Path, state: &Path) -> PtyRun {
+    spawn_sized(args, config, state, (24, 80))
+}
+
+/// [`spawn`] in a pty of `size` (rows, columns): wide enough for whole
+/// messages.
+fn spawn_sized(args: &[&str], config: &Path, state: &Path, size: (u16, u16)) -> PtyRun {
     let env = [
         ("JOGTERM_NO_KEYBOARD_QUERY", "1".to_string()),
         ("JOGTERM_CONFIG_DIR", config.display().to_string()),
@@ -25,7 +31,7 @@ fn spawn(args: &[&str], config: &Path, state: &Path) -> PtyRun {
         ("RUST_BACKTRACE", "0".into()),
     ];
     let env: Vec<(&str, &str)> = env.iter().map(|(k, v)| (*k, v.as_str())).collect();
-    PtyRun::spawn(Path::new(JOGTERM), args, &env)
+    PtyRun::spawn_sized(Path::new(JOGTERM), args, &env, size.0, size.1)
 }
 
 /// A temporary directory with the console's configuration directory (made)
@@ -40,7 +46,18 @@ fn dirs() -> (tempfile::TempDir, PathBuf, PathBuf) {
 
 /// [`spawn`] with `file` in the editor, connected to the isel simulator.
 fn spawn_on(sim: &SimProcess, file: &str, config: &Path, state: &Path) -> PtyRun {
-    spawn(
+    spawn_on_sized(sim, file, config, state, (24, 80))
+}
+
+/// [`spawn_on`] in a pty of `size` (rows, columns).
+pub(crate) fn spawn_on_sized(
+    sim: &SimProcess,
+    file: &str,
+    config: &Path,
+    state: &Path,
+    size: (u16, u16),
+) -> PtyRun {
+    spawn_sized(
         &[
             "--port",
             &sim.link.display().to_string(),
@@ -51,25 +68,26 @@ fn spawn_on(sim: &SimProcess, file: &str, config: &Path, state: &Path) -> PtyRun
         ],
         config,
         state,
+        size,
     )
 }
 
 /// The machine screen (F4), where `i` initialises the axes: not referenced.
-fn initialise(run: &mut PtyRun) {
+pub(crate) fn initialise(run: &mut PtyRun) {
     run.type_keys(&[b"\x1bOS"]);
     wait_for(run, "Position");
     run.type_keys(&[b"i"]);
     wait_for(run, "NOT REF");
 }
 
-fn wait_for(run: &PtyRun, needle: &str) -> String {
+pub(crate) fn wait_for(run: &PtyRun, needle: &str) -> String {
     run.wait_for(needle, WAIT)
         .unwrap_or_else(|screen| panic!("`{needle}` never appeared:\n{screen}"))
 }
 
 /// `q`, asked about the unsaved program, `d` to discard it: the console
 /// ends with status 0.
-fn quit_discarding_the_edits(run: &mut PtyRun) {
+pub(crate) fn quit_discarding_the_edits(run: &mut PtyRun) {
     run.type_keys(&[b"q"]);
     wait_for(run, "Unsaved");
     run.type_keys(&[b"d"]);
@@ -469,7 +487,7 @@ fn an_emcu_job_taught_after_a_work_zero_drives_back_to_where_the_machine_stood()
 /// height Z8 with a 2 mm plunge to Z6 (machine mm; the console's work zero
 /// is the reference point): close to the reference point, so the rapids
 /// to the job and its plunges take tenths of a second, not seconds.
-fn pockets(n: usize) -> String {
+pub(crate) fn pockets(n: usize) -> String {
     crate::run_e2e::pockets_at(n, 10, (8, 6))
 }
 
@@ -480,6 +498,14 @@ fn pockets(n: usize) -> String {
 /// `[sim]`, in the same file: two files of one name do not merge), so the
 /// reference run, only the way to a referenced machine, is short.
 fn gcode_on_a_small_controller(gcode: &str) -> (SimProcess, PtyRun) {
+    gcode_on_a_small_controller_sized(gcode, (24, 80))
+}
+
+/// [`gcode_on_a_small_controller`] in a pty of `size` (rows, columns).
+pub(crate) fn gcode_on_a_small_controller_sized(
+    gcode: &str,
+    size: (u16, u16),
+) -> (SimProcess, PtyRun) {
     let small_memory = (
         "profiles/default.toml",
         "[sim]\nstart_position = 1.0\n\
@@ -491,17 +517,25 @@ fn gcode_on_a_small_controller(gcode: &str) -> (SimProcess, PtyRun) {
     let file = sim.dir.path().join("pockets.nc");
     fs::write(&file, gcode).expect("write the job");
     let file_arg = file.display().to_string();
-    let mut run = spawn_on(&sim, &file_arg, sim.dir.path(), &state);
+    let mut run = spawn_on_sized(&sim, &file_arg, sim.dir.path(), &state, size);
     wait_for(&run, "connected");
     wait_for(&run, "pockets.isel");
-    initialise(&mut run);
-    run.type_keys(&[b"h"]);
-    wait_for(&run, "Reference run");
-    run.type_keys(&[b"y"]);
-    wait_for(&run, "READY");
-    run.type_keys(&[b"e"]);
-    wait_for(&run, "pockets.isel");
+    ready_in_the_editor(&mut run, "pockets.isel");
     (sim, run)
+}
+
+/// Initialise and reference from the machine screen (the question
+/// answered), back to the editor with `name`.
+pub(crate) fn ready_in_the_editor(run: &mut PtyRun, name: &str) {
+    initialise(run);
+    run.type_keys(&[b"h"]);
+    // The answer only once the question is there: two keys in one read
+    // are a burst, which moves nothing by design.
+    wait_for(run, "Reference run");
+    run.type_keys(&[b"y"]);
+    wait_for(run, "READY");
+    run.type_keys(&[b"e"]);
+    wait_for(run, name);
 }
 
 /// The machine screen shows the axes at `steps` (X, Y, Z).

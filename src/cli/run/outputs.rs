@@ -9,15 +9,10 @@ use super::super::out;
 use super::super::session::{EXIT_LINK, Session};
 use super::super::upload::Remedy;
 use crate::device::api::{Activity, Event, LinkState, Request};
-use crate::program::outputs::{JobOutput, labels};
-
-/// How the job ended, for its outputs.
-pub(in crate::cli) enum Ended {
-    /// Stopped, a controller error: the link still stands.
-    Early,
-    /// The link is gone: nothing can be sent.
-    LinkLost,
-}
+use crate::program::outputs::{
+    Ended, JobOutput, STAND_WITHIN, left_on_text, link_lost_text, not_standing_text, still_on_text,
+    switched_off_text,
+};
 
 /// How a job's exit status says it ended, for its outputs: `None` when it
 /// ran to its end or never started for bad usage.
@@ -29,9 +24,7 @@ pub(in crate::cli) fn ended_by(code: u8) -> Option<Ended> {
     }
 }
 
-/// How long the axes may take to stand after a stop, and an output's
-/// answer.
-const STAND_WITHIN: Duration = Duration::from_secs(10);
+/// How long an output's answer may take.
 const ANSWER_WITHIN: Duration = Duration::from_secs(3);
 
 /// The outputs of `outputs` switched off once the machine is idle, what
@@ -48,41 +41,43 @@ pub(in crate::cli) async fn after_end(
     }
     if let Ended::LinkLost = ended {
         out::say(format_args!(
-            "jogterm {command}: the link is lost: the job's outputs may still be on: {}; \
-             switch them off at the machine",
-            labels(outputs)
+            "jogterm {command}: {}",
+            link_lost_text(outputs)
         ));
         return;
     }
     if !stands(session).await {
         out::say(format_args!(
-            "jogterm {command}: the axes did not report standing: the job's outputs were left \
-             as they are: {}",
-            labels(outputs)
+            "jogterm {command}: {}",
+            not_standing_text(outputs)
         ));
         return;
     }
     let mut off = Vec::new();
     for o in outputs {
         if let Some(why) = &o.left {
+            let how = format!(
+                "switch it off with `{} @0B{},<value>`",
+                remedy.send, o.id.group
+            );
             out::say(format_args!(
-                "jogterm {command}: {} left on: {why}; switch it off with `{} @0B{},<value>`",
-                o.label, remedy.send, o.id.group
+                "jogterm {command}: {}",
+                left_on_text(o, why, &how)
             ));
             continue;
         }
         match switch_off(session, o).await {
             Ok(()) => off.push(o),
             Err(why) => out::say(format_args!(
-                "jogterm {command}: {} may still be on: {why}",
-                o.label
+                "jogterm {command}: {}",
+                still_on_text(o, &why)
             )),
         }
     }
     if !off.is_empty() {
         out::say(format_args!(
-            "jogterm {command}: switched off once the axes stood: {}",
-            labels(off)
+            "jogterm {command}: {}",
+            switched_off_text(off)
         ));
     }
 }

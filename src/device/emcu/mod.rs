@@ -47,6 +47,7 @@ mod run;
 mod run_op;
 mod settings;
 mod upload;
+pub use upload::MEMORY_FULL_CODE;
 
 #[cfg(test)]
 mod tests;

@@ -23,6 +23,10 @@ use crate::proto::emcu::{Command, Expect, JobUpload, Reply, Terminator, parse_li
 use super::context::{Cmd, Context};
 use super::op::{Abandon, Next, Operation};
 
+/// `ControllerFault::code` of a job the store has no room for (the
+/// interface's `0x03 CR`, `docs/protocols.md`, EMCU).
+pub const MEMORY_FULL_CODE: &str = "0x03";
+
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Stage {
     /// Line `i` of `lines` (0 is `@F`) is due or awaited.
@@ -155,7 +159,7 @@ impl Operation for UploadOp {
                         .unwrap_or_default();
                     let fault = ControllerFault {
                         command: text,
-                        code: "0x03".into(),
+                        code: MEMORY_FULL_CODE.into(),
                         meaning: "memory full: the job store has no room for this command (shorten the job or split it)"
                             .into(),
                         recovery: Recovery::None,

@@ -10,6 +10,7 @@ use crate::config::profile::Profile;
 use crate::gcode::output::{Header, Program};
 use crate::gcode::ways::{Costs, Ways};
 use crate::program::Language;
+use crate::program::outputs::JobOutput;
 
 /// What `--program part.nc` imported, beside the text it became.
 #[derive(Debug, Clone, PartialEq)]
@@ -69,6 +70,23 @@ pub struct Chunked {
     /// estimate of the last move; the read that follows is where the axes
     /// stand, and the pause is measured from that read.
     pub paused_read: bool,
+}
+
+/// The outputs of the editor's job (issue 37, `docs/editor.md` "The job's
+/// outputs"): a stop, an error or a lost line must not leave the spindle
+/// running with nothing said (`program::outputs`).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct JobOutputs {
+    /// The outputs the job under way switches on: a stored program run
+    /// from the text uploaded from here, a job in parts, a check-out or a
+    /// stream. Empty when no such job runs or it switches none on.
+    pub armed: Vec<JobOutput>,
+    /// A job that ended early: its outputs, switched off once the axes
+    /// stand, and since when they wait for that.
+    pub pending: Option<(Vec<JobOutput>, Instant)>,
+    /// The switch-offs sent, by the device's name of their request: a
+    /// refusal of one says that output may still be on.
+    pub sent: Vec<(String, JobOutput)>,
 }
 
 impl Chunked {

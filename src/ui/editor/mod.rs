@@ -154,6 +154,9 @@ pub struct Editor {
     pub gcode: Option<job::Gcode>,
     /// A job running in parts from here (`docs/editor.md`, "G-code").
     pub chunked: Option<job::Chunked>,
+    /// The outputs of the job run from here, switched off when it ends
+    /// early (`docs/editor.md`, "The job's outputs").
+    pub outputs: job::JobOutputs,
 }
 
 /// The unit all axes of `setup` share (`mm`), else `units`.
@@ -217,6 +220,7 @@ impl Editor {
             run_segment: None,
             gcode: None,
             chunked: None,
+            outputs: job::JobOutputs::default(),
         }
     }
 

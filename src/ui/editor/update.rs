@@ -13,6 +13,7 @@ mod checkout;
 mod files;
 mod job;
 mod machine;
+mod outputs;
 mod run;
 mod stream;
 

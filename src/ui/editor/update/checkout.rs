@@ -76,6 +76,7 @@ impl Step<'_, '_> {
                 let c = Checkout::new(p.plan, p.preamble, self.ctx.now);
                 let line = c.current_line().map_or(0, |l| l + 1);
                 self.e.checkout = Some(c);
+                self.outputs_arm();
                 self.checkout_follow();
                 let hold = self.key_name(Action::CheckoutHold);
                 self.say(
@@ -429,6 +430,9 @@ impl Step<'_, '_> {
         let Some(c) = self.e.checkout.take() else {
             return;
         };
+        // Left before its end: ended early (after its end, nothing is
+        // armed any more).
+        self.outputs_early();
         match c.state {
             RunState::Running => self.out.effects.push(Effect::Stop),
             RunState::Paused { rest: Some(_) } => {
@@ -609,6 +613,7 @@ impl Step<'_, '_> {
     }
 
     fn checkout_finished(&mut self) {
+        self.outputs_ended();
         let Some(c) = self.e.checkout.as_mut() else {
             return;
         };
@@ -691,9 +696,10 @@ impl Step<'_, '_> {
                         } else {
                             "hold to resume, x ends the check-out"
                         };
+                        let kept = self.outputs_paused();
                         self.say(
                             NoteLevel::Warning,
-                            format!("PAUSED at line {line} ({why}) at {at}: {then}"),
+                            format!("PAUSED at line {line} ({why}) at {at}: {then}{kept}"),
                         );
                     }
                     CheckoutEnd::Stopped => {
@@ -732,6 +738,7 @@ impl Step<'_, '_> {
             c.latched = true;
         }
         self.say(NoteLevel::Danger, format!("check-out: {why}"));
+        self.outputs_early();
     }
 
     /// Where the axes are, in work coordinates.

@@ -391,6 +391,7 @@ impl Step<'_, '_> {
     pub(super) fn tick(&mut self) {
         self.stream_renew();
         self.checkout_tick();
+        self.outputs_tick();
         let now = self.ctx.now;
         let (_, start) = self.starts();
         self.e.checks.start_moved(start, now);

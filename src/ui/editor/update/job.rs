@@ -142,6 +142,7 @@ impl Step<'_, '_> {
                     paused_at: Vec::new(),
                     paused_read: false,
                 });
+                self.outputs_arm();
                 self.chunked_upload();
             }
             Err(why) => self.say(NoteLevel::Danger, format!("run refused: {why}")),
@@ -289,6 +290,7 @@ impl Step<'_, '_> {
             let secs = now.saturating_duration_since(c.started).as_secs_f64();
             let text = format!("the job ended: {} parts in {secs:.1} s", c.parts.len());
             self.e.chunked = None;
+            self.outputs_ended();
             self.say(NoteLevel::Info, text);
             return;
         }
@@ -297,9 +299,10 @@ impl Step<'_, '_> {
             c.phase = Phase::Paused;
             c.paused_at = standing(self.ctx);
             c.paused_read = false;
+            let label = c.label();
             let text = format!(
-                "PAUSED before {}, the tool retracted: F6 goes on, Space ends the job",
-                c.label()
+                "PAUSED before {label}, the tool retracted: F6 goes on, Space ends the job{}",
+                self.outputs_paused()
             );
             self.say(NoteLevel::Warning, text);
         } else {
@@ -310,6 +313,7 @@ impl Step<'_, '_> {
     fn chunked_end(&mut self, why: String) {
         if self.e.chunked.take().is_some() {
             self.say(NoteLevel::Danger, why);
+            self.outputs_early();
         }
     }
 
@@ -323,5 +327,7 @@ impl Step<'_, '_> {
             );
             self.chunked_end(text);
         }
+        // Any job of the editor (a stored run, a check-out, a stream).
+        self.outputs_early();
     }
 }

@@ -402,6 +402,9 @@ impl Step<'_, '_> {
     /// mark and report; a stored program the erase offer waited for; a
     /// check-out line's end; a stored program's run and its progress.
     pub(super) fn device_event(&mut self, event: &Event) {
+        // First: a lost link says the job's outputs before the job's own
+        // handling ends it (which would switch them off, as after a stop).
+        self.outputs_event(event);
         self.checkout_event(event);
         match event {
             Event::State(state) => {
@@ -425,6 +428,11 @@ impl Step<'_, '_> {
             _ => {}
         }
         self.chunked_event(event);
+        // Last: the machine that stands lets a job's switch-offs go, said
+        // after how the job ended.
+        if let Event::State(s) = event {
+            self.outputs_off(s.activity, s.link_up);
+        }
     }
 
     /// `@0i` answered `G`: once the controller's state says a program is

@@ -37,6 +37,11 @@ impl Step<'_, '_> {
                     .filter(|_| uploaded)
                     .map(|p| p.segments.clone());
                 self.e.run_segment = None;
+                // The text as uploaded from here is what runs: its outputs
+                // are the job's. A part of a job in parts is that job's.
+                if uploaded && self.e.chunked.is_none() {
+                    self.outputs_arm();
+                }
             }
             (Activity::RunningProgram | Activity::Stopping, Some(_)) => {}
             (_, Some(started)) => {
@@ -47,6 +52,9 @@ impl Step<'_, '_> {
                 let secs = now.saturating_duration_since(started).as_secs_f64();
                 // A part of a job in parts: the job's own progress is said.
                 if self.e.chunked.is_none() {
+                    // Ended without a stop or an error (those took the
+                    // outputs already): as the program left them.
+                    self.outputs_ended();
                     self.say(NoteLevel::Info, format!("the program ran {secs:.1} s"));
                 }
             }
@@ -92,15 +100,19 @@ impl Step<'_, '_> {
                 // manual 1.5.13, 1.5.14); both are master commands the
                 // interface takes during a job.
                 let (line, text) = if self.e.run_paused {
-                    ("@C", "the job goes on (@C)")
+                    ("@C", "the job goes on (@C)".to_string())
                 } else {
-                    ("@A", "job PAUSED (@A): F6 continues, Space ends it")
+                    let kept = self.outputs_paused();
+                    (
+                        "@A",
+                        format!("job PAUSED (@A): F6 continues, Space ends it{kept}"),
+                    )
                 };
                 self.e.run_paused = !self.e.run_paused;
                 self.out
                     .effects
                     .push(Effect::Device(Request::Raw { line: line.into() }));
-                self.say(NoteLevel::Warning, text.into());
+                self.say(NoteLevel::Warning, text);
             }
             _ => self.say(
                 NoteLevel::Warning,

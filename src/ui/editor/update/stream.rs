@@ -37,6 +37,7 @@ impl Step<'_, '_> {
                     renewed: ctx.now,
                 });
                 self.e.checkout = Some(c);
+                self.outputs_arm();
                 self.say(
                     NoteLevel::Info,
                     "streaming: F10 pauses and goes on, x ends the stream, Space stops".into(),

@@ -523,6 +523,7 @@ fn the_program_screen_opens_and_closes_and_forms_take_characters() {
 
 mod checkout;
 mod job;
+mod outputs;
 
 #[test]
 fn a_program_converted_from_gcode_opens_unsaved_and_asks_before_replacing_a_file() {

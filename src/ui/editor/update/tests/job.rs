@@ -45,7 +45,7 @@ fn upload(out: &Outcome) -> Option<(&[String], bool)> {
 }
 
 /// The device reports `activity`.
-fn activity(host: &mut Host, e: &mut Editor, activity: Activity) -> Outcome {
+pub(super) fn activity(host: &mut Host, e: &mut Editor, activity: Activity) -> Outcome {
     let state = MachineState {
         activity,
         ..host.machine.clone()
