@@ -11,7 +11,9 @@
 
 use std::process::Output;
 
+use crate::faults_support::wire::isel_messages;
 use crate::sim_process::{JOGTERM, LOGIC_SCALE, SimProcess, contains_panic, text};
+use crate::stops_support::{assert_stands, interrupt, wait_moving};
 
 fn sample(name: &str) -> String {
     format!("{}/examples/gcode/{name}", env!("CARGO_MANIFEST_DIR"))
@@ -252,20 +254,26 @@ fn run_drill(sim: &SimProcess, way: &str) -> Output {
 /// job's last point. What the controller received from the run on, as
 /// commands (`<CR>` and, EMCU, `<01>` ends each; isel's stop bytes left
 /// off), and what the run said.
-fn restart_in_the_part(
+/// `family`'s simulator, referenced, the tool standing in the part away
+/// from the drill job's line 10 (X80 Y20 Z-3 of the job), as a broken tool
+/// leaves it; with or without the program's own reference run
+/// (`gcode.reference_first`), Z at `z_speed` mm/s (else the test's 30 or
+/// 20).
+fn tool_in_the_part(
     family: &'static str,
-    way: &str,
     reference_first: bool,
-) -> (Vec<String>, String) {
+    z_speed: Option<f64>,
+) -> SimProcess {
     // EMCU: the start speed is the reference run's too (manual 1.5.8):
     // the shipped 200 Hz would take 250 s from X80 Y20.
+    let z = z_speed.unwrap_or(if family == "isel" { 30.0 } else { 20.0 });
     let profile = match family {
         // A program memory of 8 commands: the rest of the job, without a
         // reference run, fits whole and also runs in parts (`--chunked`).
         "isel" => (
             "profiles/default.toml",
             format!(
-                "[axes.X]\nmax_speed = 60.0\n[axes.Y]\nmax_speed = 60.0\n[axes.Z]\nmax_speed = 30.0\n\
+                "[axes.X]\nmax_speed = 60.0\n[axes.Y]\nmax_speed = 60.0\n[axes.Z]\nmax_speed = {z:.1}\n\
                  [gcode]\nreference_first = {reference_first}\n{}[sim]\nstart_position = 1.0\n",
                 if reference_first { "" } else { "memory = 8\n" }
             ),
@@ -274,7 +282,7 @@ fn restart_in_the_part(
             "profiles/emcu.toml",
             format!(
                 "base = \"emcu\"\n[axes.X]\nmax_speed = 40.0\n[axes.Y]\nmax_speed = 40.0\n\
-                 [axes.Z]\nmax_speed = 20.0\n[gcode]\nreference_first = {reference_first}\n\
+                 [axes.Z]\nmax_speed = {z:.1}\n[gcode]\nreference_first = {reference_first}\n\
                  m3 = \"output:A1\"\n[emcu]\nstart_speed_hz = 2000\n[sim]\nstart_position = 1.0\n"
             ),
         ),
@@ -310,6 +318,16 @@ fn restart_in_the_part(
     let out = sim.configured(&args).output().expect("send");
     assert!(out.status.success(), "{}", text(&out.stderr));
     sim.wait_device("standing", |s| !s.contains("moving"));
+    sim
+}
+
+fn restart_in_the_part(
+    family: &'static str,
+    way: &str,
+    reference_first: bool,
+) -> (Vec<String>, String) {
+    let mut sim = tool_in_the_part(family, reference_first, None);
+    let per_mm = per_mm(family);
     let before = sim.received().len();
     let out = run_drill(&sim, way);
     let said = text(&out.stderr);
@@ -605,4 +623,68 @@ fn a_restart_with_z_not_referenced_and_no_reference_run_moves_nothing() {
     for never in ["@0i", "@0M", "@0S", "@0R"] {
         assert!(!received.contains(never), "`{never}`: {received}");
     }
+}
+
+/// The retract is motion of its own, before the job: Ctrl-C while Z goes
+/// up stops it there (0xFD 0xFF right after the retract's `@0A`), the run
+/// ends with status 1 and nothing more moves or is stored. Z runs slowly
+/// (0.25 mm/s, 3.2 s for the 8 mm at the time scale) so that the signal
+/// lands while it climbs.
+#[test]
+fn ctrl_c_during_the_retract_stops_z_and_nothing_more_moves() {
+    let mut sim = tool_in_the_part("isel", false, Some(0.25));
+    let before = sim.received().len();
+    let job = sim.dir.path().join("drill.nc");
+    std::fs::write(&job, DRILL).expect("write");
+    let job = job.display().to_string();
+    let child = sim
+        .configured(&[
+            "run",
+            &job,
+            "--work-zero",
+            DRILL_ZERO,
+            "--from-line",
+            "10",
+            "--yes",
+        ])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("spawn jogterm run");
+    wait_moving(&mut sim, "the retract under way");
+    interrupt(child, libc::SIGINT, "run");
+    let state = assert_stands(&mut sim);
+    let commands = isel_messages(&sim.received()[before..]);
+    let retract = commands
+        .iter()
+        .rposition(|c| c.starts_with("@0A"))
+        .unwrap_or_else(|| panic!("no retract: {commands:?}"));
+    assert_eq!(
+        commands.get(retract + 1..retract + 3),
+        Some(&["<FD>".to_string(), "<FF>".to_string()][..]),
+        "the stop right after the retract: {commands:?}"
+    );
+    let moved_after: Vec<&String> = commands[retract..]
+        .iter()
+        .filter(|c| {
+            ["@0A", "@0M", "@0S", "@0i", "@0R"]
+                .iter()
+                .any(|m| c.starts_with(m))
+        })
+        .collect();
+    assert_eq!(moved_after.len(), 1, "only the retract: {commands:?}");
+    // Z stopped on its way: above where the tool stood, below the safe height.
+    let [_, _, in_part] = drill_steps(per_mm("isel"), [80.0, 20.0, -3.0]);
+    let [_, _, safe] = drill_steps(per_mm("isel"), [0.0, 0.0, 5.0]);
+    let z: i64 = state
+        .split_whitespace()
+        .skip_while(|w| *w != "Z")
+        .nth(1)
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("no Z in {state}"));
+    assert!(
+        in_part < z && z < safe,
+        "Z {z} between {in_part} and {safe}: {state}"
+    );
+    sim.assert_alive();
 }
