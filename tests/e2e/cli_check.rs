@@ -34,7 +34,7 @@ fn run_in(argv: &[&str], dirs: &ConfigDirs) -> Outcome {
     }
 }
 
-fn file(dir: &Path, name: &str, text: &str) -> String {
+pub(crate) fn file(dir: &Path, name: &str, text: &str) -> String {
     let path = dir.join(name);
     std::fs::write(&path, text).expect("write");
     path.display().to_string()

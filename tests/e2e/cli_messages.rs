@@ -7,6 +7,7 @@
 use std::path::Path;
 use std::process::{Command, Output};
 
+use crate::cli_check::file;
 use crate::editor_e2e::pockets;
 use crate::sim_process::{JOGTERM, text};
 
@@ -21,24 +22,18 @@ fn jogterm(dir: &Path, args: &[&str]) -> Output {
         .expect("run jogterm")
 }
 
-fn write(dir: &Path, name: &str, content: &str) -> String {
-    let path = dir.join(name);
-    std::fs::write(&path, content).expect("write");
-    path.display().to_string()
-}
-
 /// Before, a broken `machine.axes` was the one error said: the soft limits
 /// and the jog's overrun below it waited for the next try.
 #[test]
 fn a_profile_with_several_errors_reports_each_at_its_line() {
     let dir = tempfile::tempdir().expect("tempdir");
-    let profile = write(
+    let profile = file(
         dir.path(),
         "several.toml",
         "base = \"isel\"\n[machine]\naxes = \"XQ\"\n[axes.X]\nmin = 10.0\nmax = 5.0\n\
          [jog]\nmax_overrun = -1.0\n",
     );
-    let program = write(dir.path(), "p.isel", "7 7\n9\n");
+    let program = file(dir.path(), "p.isel", "7 7\n9\n");
     let out = jogterm(dir.path(), &["check", "--profile", &profile, &program]);
     let said = text(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{said}");
@@ -69,12 +64,12 @@ fn memory_line(said: &str) -> &str {
 #[test]
 fn import_advises_parts_only_where_the_job_can_be_cut() {
     let dir = tempfile::tempdir().expect("tempdir");
-    let profile = write(
+    let profile = file(
         dir.path(),
         "small.toml",
         "base = \"isel\"\n[gcode]\nmemory = 10\n",
     );
-    let uncut = write(
+    let uncut = file(
         dir.path(),
         "uncut.nc",
         &pockets(2).replace("G0 Z8\nG0 X", "G0 X"),
@@ -98,7 +93,7 @@ fn import_advises_parts_only_where_the_job_can_be_cut() {
     assert!(said.contains("chunked: not possible"), "{said}");
     assert!(!advice.contains("store and run it in"), "{said}");
 
-    let cut = write(dir.path(), "cut.nc", &pockets(2));
+    let cut = file(dir.path(), "cut.nc", &pockets(2));
     let out = jogterm(dir.path(), &["import", "--profile", &profile, &cut]);
     let said = text(&out.stdout);
     let advice = memory_line(&said);
