@@ -51,6 +51,22 @@ pub fn named_axes(machine: AxisSet, axes: AxisSet) -> Result<(), Refusal> {
     machine_has(machine, axes)
 }
 
+/// jogterm's own work zero, for a controller that keeps none (EMCU, EMP:
+/// `docs/protocols.md`): the position `now` recorded as the zero of `axes`.
+pub fn record_work_zero(
+    work_zero: &mut PerAxis<i64>,
+    machine: AxisSet,
+    axes: AxisSet,
+    now: Option<PerAxis<i64>>,
+) -> Result<(), Refusal> {
+    named_axes(machine, axes)?;
+    let position = now.ok_or(Refusal::NotInitialised)?;
+    for axis in axes.iter() {
+        work_zero.set(axis, position.get(axis).unwrap_or(0));
+    }
+    Ok(())
+}
+
 /// `target` (machine steps) lies within the soft limits of `axis`.
 pub fn soft_limit(limits: &PerAxis<AxisLimits>, axis: Axis, target: i64) -> Result<(), Refusal> {
     match limits.get(axis) {

@@ -8,6 +8,8 @@
 //! Sans-IO like the drivers: time comes in as `Instant` arguments, events go
 //! out through a [`Sink`].
 //!
+//! - [`core`]: the driver core, what every family's driver does the same
+//!   way, and [`core::Family`], what a family says of its own.
 //! - [`sink`]: where events go; refusals in the shape every driver uses.
 //! - [`admit`]: what runs when a request arrives, coalescing a step into it,
 //!   the start of a typed raw line.
@@ -34,6 +36,7 @@
 //! - [`state`]: telling the clients when the machine state changed.
 
 pub mod admit;
+pub mod core;
 pub mod deadline;
 pub mod gate;
 pub mod io;

@@ -2,8 +2,9 @@
 //! what it wants sent next ([`Next`]), and may end early ([`Abandon`]);
 //! the driver keeps it in an enum of its family's operations, which
 //! `operations!` declares together with the way to reach the one that
-//! runs as the family's `Operation` trait object, and whose messages it
-//! sends ([`Owner`]).
+//! runs as the family's `Operation` trait object, whose messages it
+//! sends ([`Owner`]), and its timer and activity for the driver core
+//! (`core::Running`).
 
 /// Why an operation ends early.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -87,6 +88,16 @@ macro_rules! operations {
                 }
             }
         }
+
+        impl $crate::device::common::core::Running for $name {
+            fn timer(&self) -> Option<std::time::Instant> {
+                self.peek().timer()
+            }
+
+            fn activity(&self) -> $crate::device::api::Activity {
+                self.peek().activity()
+            }
+        }
     };
 }
 
@@ -100,6 +111,12 @@ mod tests {
     trait Speak {
         fn word(&self) -> &'static str;
         fn set(&mut self, _word: &'static str) {}
+        fn timer(&self) -> Option<std::time::Instant> {
+            None
+        }
+        fn activity(&self) -> crate::device::api::Activity {
+            crate::device::api::Activity::Idle
+        }
     }
 
     #[derive(Debug, Default)]

@@ -111,11 +111,7 @@ pub struct Context {
     pub transfer_left_open: bool,
 }
 
-impl Sink for Context {
-    fn emit(&mut self, event: Event) {
-        self.events.push_back(event);
-    }
-}
+crate::device::common::core::family_context!(Context);
 
 impl Context {
     pub fn new(settings: EmcuSettings) -> Context {

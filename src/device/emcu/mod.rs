@@ -62,16 +62,14 @@ pub use raw::{RUN_MARK, RawKind, RawLine, line_text, parse_raw};
 pub use settings::{EmcuSettings, StatusPoll, Timing};
 
 use crate::config::Profile;
-use crate::device::api::{Event, JogEnd, JogId, MachineState, Refusal, ReplyKind, Request};
-use crate::device::common::admit::{admit, parse_raw_request};
-use crate::device::common::limits::{invalid, named_axes};
+use crate::device::api::{Event, JogEnd, JogId, Refusal, ReplyKind, Request};
+use crate::device::common::admit::parse_raw_request;
+use crate::device::common::core::{Core, Family};
+use crate::device::common::limits::{invalid, named_axes, record_work_zero};
 use crate::device::common::op::operations;
-use crate::device::common::route::{Requests, route};
 use crate::device::common::sink::refuse;
-use crate::device::common::{
-    PollRate, Poller, Queued, RequestQueue, SettingsError, Sink, StateReport, link,
-};
-use crate::device::driver::{Driver, Outgoing};
+use crate::device::common::{Queued, SettingsError, Sink, link};
+use crate::device::driver::Outgoing;
 use crate::proto::emcu::{
     Command, Disposition, Expect, Garbage, Reply, ReplyDecoder, ReplyEvent, Terminator,
 };
@@ -92,7 +90,7 @@ use upload::UploadOp;
 
 operations! {
     #[derive(Debug)]
-    enum Op: Operation {
+    pub enum Op: Operation {
         Readback(Readback) => Setup,
         Init(RunOp<Init>) => Setup,
         Home(RunOp<Home>) => Setup,
@@ -169,54 +167,43 @@ impl ControlAcks {
     }
 }
 
-/// The EMCU driver. Build it from a profile, hand it to the device task (or
-/// drive it by hand in tests: every method takes the time).
+/// The EMCU driver: the driver core with the EMCU line discipline. Build
+/// it from a profile, hand it to the device task (or drive it by hand in
+/// tests: every method takes the time).
+pub type EmcuDriver = Core<EmcuLine>;
+
+/// The EMCU line: every line acknowledged before the next goes, stops and
+/// resets at once.
 #[derive(Debug)]
-pub struct EmcuDriver {
-    cx: Context,
-    link_up: bool,
+pub struct EmcuLine {
     exchange: Option<Exchange>,
     seq: u64,
     decoder: ReplyDecoder,
     /// Messages handed out and not yet reported written: the sequence number
     /// of a line, `None` for a control line.
     unsent: VecDeque<Option<u64>>,
-    op: Option<Op>,
-    queue: RequestQueue,
     /// Raw queries waiting to go between an operation's lines.
     side: VecDeque<Cmd>,
-    poller: Poller<PollItem>,
-    quiet_until: Option<Instant>,
     acks: ControlAcks,
-    report: StateReport,
     poll_error: Option<String>,
     last_byte: Option<Instant>,
-    /// Off for a session that was not asked to move: its connect sends no
-    /// `@B` (`docs/device.md`, "Sessions that do not move").
-    connect_halt: bool,
 }
 
-impl EmcuDriver {
+impl Core<EmcuLine> {
     pub fn new(settings: EmcuSettings) -> EmcuDriver {
         let step_queue = settings.jog.step_queue;
-        EmcuDriver {
-            poller: poll::poller(&settings),
-            cx: Context::new(settings),
-            connect_halt: true,
-            link_up: false,
+        let line = EmcuLine {
             exchange: None,
             seq: 0,
             decoder: ReplyDecoder::new(),
             unsent: VecDeque::new(),
-            op: None,
-            queue: RequestQueue::new(step_queue),
             side: VecDeque::new(),
-            quiet_until: None,
             acks: ControlAcks::default(),
-            report: StateReport::default(),
             poll_error: None,
             last_byte: None,
-        }
+        };
+        let poller = poll::poller(&settings);
+        Core::with(Context::new(settings), line, poller, step_queue)
     }
 
     pub fn from_profile(profile: &Profile) -> Result<EmcuDriver, SettingsError> {
@@ -227,23 +214,18 @@ impl EmcuDriver {
         &self.cx.settings
     }
 
-    /// The machine state as the driver sees it now.
-    pub fn state(&self) -> &MachineState {
-        &self.cx.state
-    }
-
     // ----- line discipline ---------------------------------------------
 
     fn start(&mut self, cmd: Cmd, owner: Owner) -> Outgoing {
-        self.seq += 1;
-        self.unsent.push_back(Some(self.seq));
+        self.line.seq += 1;
+        self.line.unsent.push_back(Some(self.line.seq));
         let shown_as = match owner {
             Owner::Poll(_) => traffic::Owner::Poll,
             Owner::Op => self.op.as_ref().map_or(traffic::Owner::Setup, Op::owner),
             Owner::Side => traffic::Owner::User,
         };
-        self.exchange = Some(Exchange {
-            seq: self.seq,
+        self.line.exchange = Some(Exchange {
+            seq: self.line.seq,
             text: cmd.text,
             expect: cmd.expect,
             owner,
@@ -258,24 +240,20 @@ impl EmcuDriver {
         Outgoing::message(cmd.bytes, false, shown_as)
     }
 
-    fn quiet(&self, now: Instant) -> bool {
-        self.quiet_until.is_some_and(|q| now < q)
-    }
-
     fn control_deadline(&self, now: Instant) -> Instant {
         now + self.cx.ack_timeout(3, Expect::Ack)
     }
 
     fn transmit(&mut self, now: Instant) -> Option<Outgoing> {
         if let Some(out) = self.cx.control.pop_front() {
-            self.unsent.push_back(None);
+            self.line.unsent.push_back(None);
             let until = self.control_deadline(now);
             for _ in 0..lines_in(&out.bytes) {
-                self.acks.expect(until);
+                self.line.acks.expect(until);
             }
             return Some(out);
         }
-        if !self.link_up || self.exchange.is_some() || self.quiet(now) {
+        if !self.link_up || self.line.exchange.is_some() || self.quiet(now) {
             return None;
         }
         loop {
@@ -300,7 +278,7 @@ impl EmcuDriver {
             }
         }
         // Between an operation's lines: raw queries, then polls.
-        if let Some(cmd) = self.side.pop_front() {
+        if let Some(cmd) = self.line.side.pop_front() {
             return Some(self.start(cmd, Owner::Side));
         }
         if self.cx.status_wanted {
@@ -319,19 +297,19 @@ impl EmcuDriver {
 
     /// An answer to whoever awaits it; whose it was.
     fn route(&mut self, reply: Reply, now: Instant) -> traffic::Owner {
-        if let Some(ex) = &self.exchange
+        if let Some(ex) = &self.line.exchange
             && ex.expect.classify(&reply) == Disposition::Answer
-            && let Some(ex) = self.exchange.take()
+            && let Some(ex) = self.line.exchange.take()
         {
             let owner = ex.shown_as;
             self.answered(ex, reply, now);
             return owner;
         }
-        if reply == Reply::Ack && self.acks.take() {
+        if reply == Reply::Ack && self.line.acks.take() {
             return traffic::Owner::Stop;
         }
         let quiet = self.quiet(now);
-        match self.exchange.as_mut() {
+        match self.line.exchange.as_mut() {
             Some(ex) => {
                 ex.doubt = Some(now);
                 let text = format!(
@@ -348,7 +326,7 @@ impl EmcuDriver {
 
     fn garbage(&mut self, garbage: Garbage, now: Instant) {
         let quiet = self.quiet(now);
-        match self.exchange.as_mut() {
+        match self.line.exchange.as_mut() {
             Some(ex) => {
                 ex.doubt = Some(now);
                 let text = format!("{garbage} (waiting for the answer to {})", ex.text);
@@ -401,7 +379,7 @@ impl EmcuDriver {
                     self.cx.position_complete(now);
                     self.poller.position_read(now);
                 }
-                self.poll_error = None;
+                self.line.poll_error = None;
             }
             (PollItem::Status, Reply::Status(status)) => {
                 self.cx.status_read(status, now);
@@ -416,10 +394,10 @@ impl EmcuDriver {
 
     /// The answer to the outstanding line is lost (garbled, out of step, cut).
     fn lost(&mut self, now: Instant) {
-        let Some(ex) = self.exchange.take() else {
+        let Some(ex) = self.line.exchange.take() else {
             return;
         };
-        self.decoder.reset();
+        self.line.decoder.reset();
         match ex.owner {
             Owner::Op => {
                 if let Some(op) = self.op.as_mut() {
@@ -428,12 +406,12 @@ impl EmcuDriver {
             }
             Owner::Poll(_) => {
                 self.poller.abandon_cycle();
-                if self.poll_error.as_deref() != Some(&ex.text) {
+                if self.line.poll_error.as_deref() != Some(&ex.text) {
                     self.cx.notice(format!(
                         "the answer to {} was lost; polling goes on",
                         ex.text
                     ));
-                    self.poll_error = Some(ex.text);
+                    self.line.poll_error = Some(ex.text);
                 }
             }
             Owner::Side => {
@@ -444,7 +422,7 @@ impl EmcuDriver {
     }
 
     fn reply_timeout(&mut self, now: Instant) {
-        let Some(ex) = self.exchange.take() else {
+        let Some(ex) = self.line.exchange.take() else {
             return;
         };
         let waited = ex
@@ -452,44 +430,6 @@ impl EmcuDriver {
             .map_or(Duration::ZERO, |t| now.saturating_duration_since(t));
         let reason = link::no_reply(&ex.text, waited, &mut self.cx);
         self.go_down(&reason);
-    }
-
-    fn go_down(&mut self, reason: &str) {
-        if !self.link_up {
-            return;
-        }
-        self.link_up = false;
-        self.exchange = None;
-        self.decoder.reset();
-        self.unsent.clear();
-        self.cx.control.clear();
-        self.quiet_until = None;
-        self.acks = ControlAcks::default();
-        if let Some(mut op) = self.op.take() {
-            op.get()
-                .abandon(&mut self.cx, &Abandon::LinkLost(reason.to_owned()));
-        }
-        self.queue
-            .refuse_all(|| Refusal::NotConnected, JogEnd::LinkLost, &mut self.cx);
-        for cmd in std::mem::take(&mut self.side) {
-            refuse(&mut self.cx, &raw_request(&cmd), Refusal::NotConnected);
-        }
-        // Unknown until read back and initialised again.
-        let cx = &mut self.cx;
-        cx.position = None;
-        cx.status = None;
-        cx.set_ramp(false);
-        cx.slot_hz = None;
-        cx.outputs = [None; 2];
-        cx.e1_link = None;
-        cx.stored.clear();
-        if cx.transfer {
-            cx.transfer = false;
-            cx.transfer_left_open = true;
-        }
-        cx.readback_wanted = false;
-        cx.status_wanted = false;
-        cx.halt_wanted = false;
     }
 
     // ----- stopping ------------------------------------------------------
@@ -527,8 +467,8 @@ impl EmcuDriver {
         self.cx
             .control
             .push_back(Outgoing::message(cmd.bytes, false, traffic::Owner::Stop));
-        self.exchange = None;
-        self.decoder.reset();
+        self.line.exchange = None;
+        self.line.decoder.reset();
         if let Some(mut op) = self.op.take() {
             op.get().abandon(&mut self.cx, &Abandon::Reset);
         }
@@ -554,30 +494,6 @@ impl EmcuDriver {
     }
 
     // ----- requests ------------------------------------------------------
-
-    fn busy(&self) -> Option<crate::device::api::Activity> {
-        use crate::device::api::Activity;
-        if self.cx.transfer {
-            return Some(Activity::Uploading);
-        }
-        let activity = self.op.as_ref().map(|o| o.peek().activity())?;
-        (activity != Activity::Idle).then_some(activity)
-    }
-
-    fn admit(&mut self, request: Request, now: Instant) {
-        if !self.link_up {
-            refuse(&mut self.cx, &request, Refusal::NotConnected);
-            return;
-        }
-        // Lines of an open transfer are the job's: they are not refused.
-        let transfer_line = self.cx.transfer && matches!(request, Request::Raw { .. });
-        let busy = self.busy().filter(|_| !transfer_line);
-        let motion = match self.op.as_mut() {
-            Some(Op::Motion(m)) => Some(m.as_mut()),
-            _ => None,
-        };
-        admit(&mut self.queue, request, now, busy, motion, &mut self.cx);
-    }
 
     fn raw(&mut self, line: String, now: Instant) {
         let Some((request, parsed)) =
@@ -621,7 +537,7 @@ impl EmcuDriver {
             }
             RawKind::Query if self.op.is_some() => {
                 let cmd = self.cx.cmd(&parsed.command, parsed.end);
-                self.side.push_back(cmd);
+                self.line.side.push_back(cmd);
             }
             RawKind::Query | RawKind::Other => self.admit(request, now),
         }
@@ -695,25 +611,15 @@ impl EmcuDriver {
             | Request::Poll { .. }
             | Request::Shutdown => Ok(None),
         };
-        match started {
-            Ok(op) => self.op = op,
-            Err(reason) => refuse(&mut self.cx, &queued.request, reason),
-        }
+        self.started(&queued.request, started);
     }
 
     /// jogterm's work zero: the EMCU has no zero point of its own (manual
     /// 1.5.10 counts from the reference point), so `SetZero` only records
     /// the position (`docs/protocols.md`, EMCU).
     fn set_zero(&mut self, axes: crate::axis::AxisSet) -> Result<(), Refusal> {
-        named_axes(self.cx.settings.axes, axes)?;
-        let position = self.cx.position.ok_or(Refusal::NotInitialised)?;
-        for axis in axes.iter() {
-            self.cx
-                .state
-                .work_zero
-                .set(axis, position.get(axis).unwrap_or(0));
-        }
-        Ok(())
+        let cx = &mut self.cx;
+        record_work_zero(&mut cx.state.work_zero, cx.settings.axes, axes, cx.position)
     }
 
     fn renew(&mut self, id: JogId, lease: Duration, now: Instant) {
@@ -763,26 +669,6 @@ impl EmcuDriver {
         }
         self.queue.release(id, &mut self.cx);
     }
-
-    /// Bring `state` up to date, carry out a halt an operation asked for,
-    /// and tell the clients when the state changed.
-    fn settle(&mut self, now: Instant) {
-        use crate::device::api::Activity;
-        if std::mem::take(&mut self.cx.halt_wanted) && self.link_up {
-            self.halt(now);
-        }
-        let activity = self
-            .op
-            .as_ref()
-            .map_or(Activity::Idle, |o| o.peek().activity());
-        self.cx.state.activity = if self.cx.transfer && activity == Activity::Idle {
-            Activity::Uploading
-        } else {
-            activity
-        };
-        self.cx.state.link_up = self.link_up;
-        self.report.publish(&self.cx.state, &mut self.cx.events);
-    }
 }
 
 /// The request a raw query stood for, for refusals.
@@ -793,168 +679,124 @@ fn raw_request(cmd: &Cmd) -> Request {
     }
 }
 
-impl Requests for EmcuDriver {
-    fn set_poll(&mut self, rate: PollRate, ports_every: u32) {
-        self.poller.set_rate(rate, ports_every);
-    }
-
-    fn renew_jog(&mut self, id: JogId, lease: Duration, now: Instant) {
-        self.renew(id, lease, now);
-    }
-
-    fn release_jog(&mut self, id: JogId, now: Instant) {
-        self.release(id, now);
-    }
-
-    /// `@R` (manual 1.5.1).
-    fn reset(&mut self, now: Instant) {
-        if self.link_up {
-            self.abort(Command::Reset, now);
-        } else {
-            refuse(&mut self.cx, &Request::Reset, Refusal::NotConnected);
-        }
-    }
-
-    fn raw_line(&mut self, line: String, now: Instant) {
-        self.raw(line, now);
-    }
-
-    fn admit_request(&mut self, request: Request, now: Instant) {
-        self.admit(request, now);
-    }
-
-    fn after_request(&mut self, now: Instant) {
-        self.settle(now);
-    }
-}
-
 /// What opens every connection ([`CONNECT_HALT`]): the CR and `@B` are
 /// two lines, each answered.
 fn connect_halt() -> Outgoing {
     Outgoing::messages(CONNECT_HALT.to_vec(), false, traffic::Owner::Stop, &[1, 4])
 }
 
-impl Driver for EmcuDriver {
+impl Family for EmcuLine {
+    type Context = Context;
+    type Op = Op;
+    type PollItem = PollItem;
+    type Motion = MotionOp;
+
+    fn readback(_: &EmcuDriver) -> Op {
+        Op::Readback(Readback::new())
+    }
+
+    fn connect_settle(cx: &Context) -> Duration {
+        cx.settings.timing.connect_settle
+    }
+
     /// The first line on every connection is `@B` (after a CR that ends any
-    /// line the broken link cut, [`CONNECT_HALT`]): whatever the interface
-    /// was running (a batch sent before the link broke), it must not go on
-    /// while its state is unknown; `@B` also drops commands left in the
-    /// data memory. A job transfer that was open when the link was lost is
-    /// ended with a bare 0x01 (`upload`). Their answers fall into the quiet
-    /// that follows; then the state is read back.
-    fn connected(&mut self, now: Instant) {
-        self.go_down("reconnected");
-        self.link_up = true;
-        self.poller.reset();
-        self.poll_error = None;
-        if self.connect_halt {
-            self.cx.control.push_back(connect_halt());
+    /// line the broken link cut, [`CONNECT_HALT`]): it also drops commands
+    /// left in the data memory. A job transfer that was open when the link
+    /// was lost is ended with a bare 0x01 (`upload`).
+    fn connect(d: &mut EmcuDriver, _now: Instant) {
+        d.line.poll_error = None;
+        if d.connect_halt {
+            d.cx.control.push_back(connect_halt());
         }
-        if std::mem::take(&mut self.cx.transfer_left_open) {
-            let end = upload::transfer_end(&self.cx);
-            self.cx
-                .control
+        if std::mem::take(&mut d.cx.transfer_left_open) {
+            let end = upload::transfer_end(&d.cx);
+            d.cx.control
                 .push_back(Outgoing::message(end.bytes, false, traffic::Owner::Stop));
-            self.cx.state.program = crate::device::api::ProgramState::Invalid;
-            self.cx.notice(
+            d.cx.state.program = crate::device::api::ProgramState::Invalid;
+            d.cx.notice(
                 "a job transfer was open when the link was lost: it was ended with a bare 0x01 \
                  (the partial job is discarded, the error flag set)",
             );
         }
-        self.quiet_until = Some(now + self.cx.settings.timing.connect_settle);
-        self.op = Some(Op::Readback(Readback::new()));
-        self.settle(now);
     }
 
-    fn set_connect_halt(&mut self, on: bool) {
-        self.connect_halt = on;
-    }
-
-    fn may_move(&self, request: &Request) -> bool {
-        match request {
-            // A line ended by 0x01 runs the data memory, whatever it holds.
-            Request::Raw { line } => raw::parse_raw(line).map_or(true, |l| {
-                l.command.may_move() || l.end == Terminator::RunBuffer
-            }),
-            other => other.may_move(),
+    fn drop_line(d: &mut EmcuDriver, reason: &str) {
+        d.line.exchange = None;
+        d.line.decoder.reset();
+        d.line.unsent.clear();
+        d.line.acks = ControlAcks::default();
+        d.cx.control.clear();
+        if let Some(mut op) = d.op.take() {
+            op.get()
+                .abandon(&mut d.cx, &Abandon::LinkLost(reason.to_owned()));
         }
     }
 
-    fn disconnected(&mut self, reason: &str, now: Instant) {
-        self.go_down(reason);
-        self.settle(now);
-    }
-
-    fn request(&mut self, request: Request, now: Instant) {
-        route(self, request, now);
-    }
-
-    fn stop(&mut self, now: Instant) -> Outgoing {
-        self.stop_all(now);
-        if let Some(ex) = self.exchange.as_mut()
-            && ex.may_move
-            && ex.transmitted_at.is_none()
-        {
-            ex.restop = true;
+    fn forget(d: &mut EmcuDriver) {
+        for cmd in std::mem::take(&mut d.line.side) {
+            refuse(&mut d.cx, &raw_request(&cmd), Refusal::NotConnected);
         }
-        let until = self.control_deadline(now);
-        self.acks.expect(until);
-        self.settle(now);
-        halt_outgoing()
-    }
-
-    /// The emergency handle writes from another thread, between any two
-    /// bytes of a line the writer has on its way: `@LZ` cut into `@L` +
-    /// `@B` CR + `Z` CR would be the malformed line `@L@B`, the stop lost
-    /// and the axes left running. The CR first ends the cut line, so `@B`
-    /// is a line of its own, as on every connection ([`CONNECT_HALT`]).
-    fn emergency_stop(&self) -> Outgoing {
-        connect_halt()
-    }
-
-    fn received(&mut self, bytes: &[u8], now: Instant) -> Vec<MessageEnd> {
-        if !self.link_up || bytes.is_empty() {
-            return Vec::new();
+        // Unknown until read back and initialised again.
+        let cx = &mut d.cx;
+        cx.position = None;
+        cx.status = None;
+        cx.set_ramp(false);
+        cx.slot_hz = None;
+        cx.outputs = [None; 2];
+        cx.e1_link = None;
+        cx.stored.clear();
+        if cx.transfer {
+            cx.transfer = false;
+            cx.transfer_left_open = true;
         }
-        self.last_byte = Some(now);
-        if let Some(ex) = self.exchange.as_mut()
-            && let Some(d) = ex.deadline
+        cx.readback_wanted = false;
+        cx.status_wanted = false;
+        cx.halt_wanted = false;
+    }
+
+    fn transmit(d: &mut EmcuDriver, now: Instant) -> Option<Outgoing> {
+        d.transmit(now)
+    }
+
+    fn received(d: &mut EmcuDriver, bytes: &[u8], now: Instant) -> Vec<MessageEnd> {
+        d.line.last_byte = Some(now);
+        if let Some(ex) = d.line.exchange.as_mut()
+            && let Some(deadline) = ex.deadline
         {
             // Bytes are flowing: the answer may take its length from here.
-            let rest = self.cx.settings.line.transfer_time(reply_len(ex.expect))
-                + self.cx.settings.timing.reply_margin;
-            ex.deadline = Some(d.max(now + rest));
+            let rest = d.cx.settings.line.transfer_time(reply_len(ex.expect))
+                + d.cx.settings.timing.reply_margin;
+            ex.deadline = Some(deadline.max(now + rest));
         }
         // A byte at a time, so that each answer's end is known (the
         // decoder gives the same events for any split, `fuzz_emcu`).
         let mut ends = Vec::new();
         for (i, byte) in bytes.iter().enumerate() {
-            for event in self.decoder.feed(std::slice::from_ref(byte)) {
+            for event in d.line.decoder.feed(std::slice::from_ref(byte)) {
                 let owner = match event {
                     ReplyEvent::Reply(Reply::Ready) => {
-                        self.ready(now);
+                        d.ready(now);
                         traffic::Owner::Controller
                     }
-                    ReplyEvent::Reply(reply) => self.route(reply, now),
+                    ReplyEvent::Reply(reply) => d.route(reply, now),
                     ReplyEvent::Garbage(g) => {
-                        self.garbage(g, now);
+                        d.garbage(g, now);
                         traffic::Owner::Controller
                     }
                 };
                 ends.push(MessageEnd::new(i + 1, owner));
             }
         }
-        self.settle(now);
         ends
     }
 
-    fn transmitted(&mut self, now: Instant) {
-        let Some(Some(seq)) = self.unsent.pop_front() else {
+    fn transmitted(d: &mut EmcuDriver, now: Instant) {
+        let Some(Some(seq)) = d.line.unsent.pop_front() else {
             return;
         };
         let mut restop = false;
         let mut op_owned = false;
-        if let Some(ex) = self.exchange.as_mut()
+        if let Some(ex) = d.line.exchange.as_mut()
             && ex.seq == seq
             && ex.transmitted_at.is_none()
         {
@@ -963,77 +805,122 @@ impl Driver for EmcuDriver {
             restop = std::mem::take(&mut ex.restop);
             op_owned = ex.owner == Owner::Op;
         }
-        if op_owned && let Some(op) = self.op.as_mut() {
-            op.get().transmitted(&mut self.cx, now);
+        if op_owned && let Some(op) = d.op.as_mut() {
+            op.get().transmitted(&mut d.cx, now);
         }
         if restop {
-            self.cx.control.push_back(halt_outgoing());
+            d.cx.control.push_back(halt_outgoing());
         }
-        self.settle(now);
     }
 
-    fn poll_transmit(&mut self, now: Instant) -> Option<Outgoing> {
-        let out = self.transmit(now);
-        self.settle(now);
-        out
-    }
-
-    fn poll_event(&mut self) -> Option<Event> {
-        self.cx.events.pop_front()
-    }
-
-    fn next_timeout(&self) -> Option<Instant> {
-        let resync = self.cx.settings.timing.resync_gap;
-        let mut times = vec![self.quiet_until, self.acks.until, self.poller.stats_due()];
-        if let Some(ex) = &self.exchange {
-            times.push(ex.deadline);
-            times.push(
-                ex.doubt
-                    .map(|d| self.last_byte.unwrap_or(d).max(d) + resync),
-            );
-        } else {
-            times.push(self.poller.due());
-        }
-        if let Some(op) = &self.op {
-            times.push(op.peek().timer());
-        }
-        times.into_iter().flatten().min()
-    }
-
-    fn handle_timeout(&mut self, now: Instant) {
-        if self.quiet_until.is_some_and(|q| now >= q) {
-            self.quiet_until = None;
-        }
-        self.acks.expire(now);
-        if let Some(ex) = &self.exchange {
-            let resync = self.cx.settings.timing.resync_gap;
-            let quiet_since = self.last_byte.unwrap_or(now);
-            let doubt_over = ex.doubt.is_some_and(|d| now >= quiet_since.max(d) + resync);
-            let overdue = ex.deadline.is_some_and(|d| now >= d);
-            if doubt_over || (overdue && !self.decoder.pending().is_empty()) {
-                self.lost(now);
-            } else if overdue {
-                self.reply_timeout(now);
-            }
-        }
-        if let Some(op) = self.op.as_mut()
-            && op.peek().timer().is_some_and(|t| t <= now)
-            && op.get().on_timer(&mut self.cx, now)
+    fn stop(d: &mut EmcuDriver, now: Instant) -> Outgoing {
+        d.stop_all(now);
+        if let Some(ex) = d.line.exchange.as_mut()
+            && ex.may_move
+            && ex.transmitted_at.is_none()
         {
-            self.halt(now);
+            ex.restop = true;
         }
-        if self.poller.stats_due().is_some_and(|t| now >= t) {
-            let axes = self.cx.axes();
-            let limit = wire_limit_hz(
-                &self.poller,
-                self.cx.settings.line,
-                &axes,
-                self.cx.position.as_ref(),
-            );
-            if let Some(stats) = self.poller.take_stats(now, limit) {
-                self.cx.emit(Event::Stats(stats));
+        let until = d.control_deadline(now);
+        d.line.acks.expect(until);
+        halt_outgoing()
+    }
+
+    /// The emergency handle writes from another thread, between any two
+    /// bytes of a line the writer has on its way: `@LZ` cut into `@L` +
+    /// `@B` CR + `Z` CR would be the malformed line `@L@B`, the stop lost
+    /// and the axes left running. The CR first ends the cut line, so `@B`
+    /// is a line of its own, as on every connection ([`CONNECT_HALT`]).
+    fn emergency_stop(_: &EmcuDriver) -> Outgoing {
+        connect_halt()
+    }
+
+    /// A line ended by 0x01 runs the data memory, whatever it holds.
+    fn raw_may_move(line: &str) -> bool {
+        raw::parse_raw(line).map_or(true, |l| {
+            l.command.may_move() || l.end == Terminator::RunBuffer
+        })
+    }
+
+    fn timeouts(d: &EmcuDriver, consider: &mut dyn FnMut(Option<Instant>)) {
+        consider(d.line.acks.until);
+        match &d.line.exchange {
+            Some(ex) => {
+                let resync = d.cx.settings.timing.resync_gap;
+                consider(ex.deadline);
+                consider(
+                    ex.doubt
+                        .map(|t| d.line.last_byte.unwrap_or(t).max(t) + resync),
+                );
+            }
+            None => consider(d.poller.due()),
+        }
+    }
+
+    fn line_timeout(d: &mut EmcuDriver, now: Instant, _quiet_over: bool) {
+        d.line.acks.expire(now);
+        if let Some(ex) = &d.line.exchange {
+            let resync = d.cx.settings.timing.resync_gap;
+            let quiet_since = d.line.last_byte.unwrap_or(now);
+            let doubt_over = ex.doubt.is_some_and(|t| now >= quiet_since.max(t) + resync);
+            let overdue = ex.deadline.is_some_and(|t| now >= t);
+            if doubt_over || (overdue && !d.line.decoder.pending().is_empty()) {
+                d.lost(now);
+            } else if overdue {
+                d.reply_timeout(now);
             }
         }
-        self.settle(now);
+    }
+
+    fn op_timer(d: &mut EmcuDriver, now: Instant) {
+        if let Some(op) = d.op.as_mut()
+            && op.get().on_timer(&mut d.cx, now)
+        {
+            d.halt(now);
+        }
+    }
+
+    fn wire_limit_hz(d: &EmcuDriver) -> f64 {
+        let axes = d.cx.axes();
+        wire_limit_hz(&d.poller, d.cx.settings.line, &axes, d.cx.position.as_ref())
+    }
+
+    /// A halt an operation asked for.
+    fn before_settle(d: &mut EmcuDriver, now: Instant) {
+        if std::mem::take(&mut d.cx.halt_wanted) && d.link_up {
+            d.halt(now);
+        }
+    }
+
+    fn storing(cx: &Context) -> bool {
+        cx.transfer
+    }
+
+    fn motion(op: &mut Op) -> Option<&mut MotionOp> {
+        match op {
+            Op::Motion(m) => Some(m.as_mut()),
+            _ => None,
+        }
+    }
+
+    fn renew_jog(d: &mut EmcuDriver, id: JogId, lease: Duration, now: Instant) {
+        d.renew(id, lease, now);
+    }
+
+    fn release_jog(d: &mut EmcuDriver, id: JogId, now: Instant) {
+        d.release(id, now);
+    }
+
+    /// `@R` (manual 1.5.1).
+    fn reset(d: &mut EmcuDriver, now: Instant) {
+        if d.link_up {
+            d.abort(Command::Reset, now);
+        } else {
+            refuse(&mut d.cx, &Request::Reset, Refusal::NotConnected);
+        }
+    }
+
+    fn raw_line(d: &mut EmcuDriver, line: String, now: Instant) {
+        d.raw(line, now);
     }
 }

@@ -34,11 +34,7 @@ pub struct Context {
     pub position_poll: Option<Duration>,
 }
 
-impl Sink for Context {
-    fn emit(&mut self, event: Event) {
-        self.events.push_back(event);
-    }
-}
+crate::device::common::core::family_context!(Context);
 
 impl Context {
     pub fn new(settings: EmpSettings) -> Context {

@@ -59,18 +59,13 @@ pub use speed::DriveSpeed;
 
 use crate::axis::AxisSet;
 use crate::config::Profile;
-use crate::device::api::{
-    Activity, Event, JogEnd, JogId, MachineState, Refusal, ReplyKind, Request,
-};
-use crate::device::common::admit::{admit, parse_raw_request};
-use crate::device::common::limits::{invalid, named_axes};
+use crate::device::api::{Activity, Event, JogEnd, JogId, Refusal, ReplyKind, Request};
+use crate::device::common::admit::parse_raw_request;
+use crate::device::common::core::{Core, Family};
+use crate::device::common::limits::{invalid, named_axes, record_work_zero};
 use crate::device::common::op::operations;
-use crate::device::common::route::{Requests, route};
-use crate::device::common::sink::refuse;
-use crate::device::common::{
-    PollRate, Poller, Queued, RequestQueue, SettingsError, Sink, StateReport, link,
-};
-use crate::device::driver::{Driver, Outgoing};
+use crate::device::common::{Queued, SettingsError, Sink, link};
+use crate::device::driver::Outgoing;
 use crate::proto::emp::{
     Command, Correlator, DriveAddress, Event as Matched, FrameDecoder, Incoming, Reply, ReplyBody,
     Request as Frame,
@@ -90,7 +85,7 @@ use script::{Next, Outcome};
 
 operations! {
     #[derive(Debug)]
-    enum Op: Operation {
+    pub enum Op: Operation {
         Readback(Readback) => Setup,
         Init(Init) => Setup,
         Home(Home) => Setup,
@@ -120,25 +115,25 @@ enum Owner {
     RawStop,
 }
 
-/// The EMP driver. Build it from a profile, hand it to the device task (or
-/// drive it by hand in tests: every method takes the time).
+/// The EMP driver: the driver core with the EMP line discipline. Build it
+/// from a profile, hand it to the device task (or drive it by hand in
+/// tests: every method takes the time).
+pub type EmpDriver = Core<EmpLine>;
+
+/// The EMP line: frames matched to their answers by the correlator, one
+/// first answer awaited at a time, stops at once.
 #[derive(Debug)]
-pub struct EmpDriver {
-    cx: Context,
-    link_up: bool,
+pub struct EmpLine {
     decoder: FrameDecoder,
     correlator: Correlator,
     /// Frames sent whose answers are awaited, with who awaits them.
     owners: Vec<(Frame, Owner)>,
-    op: Option<Op>,
-    queue: RequestQueue,
     side: VecDeque<Frame>,
     errors: VecDeque<(Frame, bool)>,
     /// Stop frames to send at once.
     stops: VecDeque<Frame>,
     /// Typed stop frames, sent right after those.
     raw_stops: VecDeque<Frame>,
-    poller: Poller<PollItem>,
     /// Holds back the polls of drives that are switched off.
     off_polls: poll::OffDrives,
     /// Frames handed to the writer and not yet reported written.
@@ -146,42 +141,30 @@ pub struct EmpDriver {
     /// A stop overtook a frame that may move (the stop lane jumps the
     /// writer's queue): stop its drive again once it is written.
     restop: Vec<Frame>,
-    quiet_until: Option<Instant>,
     /// Bytes of an answer are arriving: the first answers awaited are not
     /// overdue before this (the rest of a frame, and the margin), as the
     /// isel and EMCU drivers give a reply its length once it flows.
     arriving_until: Option<Instant>,
-    report: StateReport,
-    /// Off for a session that was not asked to move: its connect stops no
-    /// drive (`docs/device.md`, "Sessions that do not move").
-    connect_halt: bool,
 }
 
-impl EmpDriver {
+impl Core<EmpLine> {
     pub fn new(settings: EmpSettings) -> EmpDriver {
         let step_queue = settings.jog.step_queue;
-        let timeout = settings.reply_timeout();
-        EmpDriver {
-            poller: poll::poller(&settings),
-            off_polls: poll::OffDrives::default(),
-            cx: Context::new(settings),
-            connect_halt: true,
-            link_up: false,
+        let line = EmpLine {
             decoder: FrameDecoder::new(),
-            correlator: Correlator::new(timeout),
+            correlator: Correlator::new(settings.reply_timeout()),
             owners: Vec::new(),
-            op: None,
-            queue: RequestQueue::new(step_queue),
             side: VecDeque::new(),
             errors: VecDeque::new(),
             stops: VecDeque::new(),
             raw_stops: VecDeque::new(),
+            off_polls: poll::OffDrives::default(),
             unsent: VecDeque::new(),
             restop: Vec::new(),
-            quiet_until: None,
             arriving_until: None,
-            report: StateReport::default(),
-        }
+        };
+        let poller = poll::poller(&settings);
+        Core::with(Context::new(settings), line, poller, step_queue)
     }
 
     pub fn from_profile(profile: &Profile) -> Result<EmpDriver, SettingsError> {
@@ -192,22 +175,13 @@ impl EmpDriver {
         &self.cx.settings
     }
 
-    /// The machine state as the driver sees it now.
-    pub fn state(&self) -> &MachineState {
-        &self.cx.state
-    }
-
     // ----- the line ------------------------------------------------------
-
-    fn quiet(&self, now: Instant) -> bool {
-        self.quiet_until.is_some_and(|q| now < q)
-    }
 
     /// Hand a frame to the writer and expect its answers.
     fn send(&mut self, frame: Frame, owner: Owner, now: Instant) -> Outgoing {
         let shown_as = self.shown_as(Some(owner));
         self.register(frame, owner, now);
-        self.unsent.push_back(frame);
+        self.line.unsent.push_back(frame);
         Outgoing::message(frame.encode().to_vec(), false, shown_as)
     }
 
@@ -242,40 +216,41 @@ impl EmpDriver {
     }
 
     fn register(&mut self, frame: Frame, owner: Owner, now: Instant) {
-        let ended = self.correlator.sent(frame, now);
-        self.owners.push((frame, owner));
+        let ended = self.line.correlator.sent(frame, now);
+        self.line.owners.push((frame, owner));
         for m in ended {
             self.matched(m, now);
         }
     }
 
     fn owner_of(&self, frame: &Frame) -> Option<Owner> {
-        self.owners
+        self.line
+            .owners
             .iter()
             .find(|(f, _)| f == frame)
             .map(|(_, o)| *o)
     }
 
     fn take_owner(&mut self, frame: &Frame) -> Option<Owner> {
-        let i = self.owners.iter().position(|(f, _)| f == frame)?;
-        Some(self.owners.remove(i).1)
+        let i = self.line.owners.iter().position(|(f, _)| f == frame)?;
+        Some(self.line.owners.remove(i).1)
     }
 
     fn transmit(&mut self, now: Instant) -> Option<Outgoing> {
         if !self.link_up {
             return None;
         }
-        if let Some(frame) = self.stops.pop_front() {
+        if let Some(frame) = self.line.stops.pop_front() {
             return Some(self.send(frame, Owner::Stop, now));
         }
-        if let Some(frame) = self.raw_stops.pop_front() {
+        if let Some(frame) = self.line.raw_stops.pop_front() {
             return Some(self.send(frame, Owner::RawStop, now));
         }
         // One first answer at a time (stops aside).
-        if self.correlator.next_deadline().is_some() || self.quiet(now) {
+        if self.line.correlator.next_deadline().is_some() || self.quiet(now) {
             return None;
         }
-        if let Some((rejected, quiet)) = self.errors.pop_front() {
+        if let Some((rejected, quiet)) = self.line.errors.pop_front() {
             let frame = Frame::new(rejected.ds, Command::LastError);
             return Some(self.send(frame, Owner::ErrorQuery { rejected, quiet }, now));
         }
@@ -295,7 +270,7 @@ impl EmpDriver {
                 None => break,
             }
         }
-        if let Some(frame) = self.side.pop_front() {
+        if let Some(frame) = self.line.side.pop_front() {
             return Some(self.send(frame, Owner::Side, now));
         }
         self.next_poll(now)
@@ -307,16 +282,16 @@ impl EmpDriver {
         // A cycle's items at most, so a line-speed poller whose every item
         // is held back does not spin.
         let most = self.cx.drives.len() * 2 + 1;
-        self.off_polls.look();
+        self.line.off_polls.look();
         for _ in 0..most {
             let Some(item) = self.poller.next(now) else {
                 // Nothing more in this cycle: the poller wakes for the next.
-                self.off_polls.look();
+                self.line.off_polls.look();
                 return None;
             };
             let off = self.cx.known_off(item.ds());
-            if self.off_polls.admit(item, off, now) {
-                self.off_polls.look();
+            if self.line.off_polls.admit(item, off, now) {
+                self.line.off_polls.look();
                 return Some(self.send(item.request(), Owner::Poll(item), now));
             }
         }
@@ -327,8 +302,8 @@ impl EmpDriver {
     fn stop_drives(&mut self, drives: &[DriveAddress]) {
         for ds in drives {
             let frame = self.cx.stop_request(*ds);
-            if !self.stops.contains(&frame) {
-                self.stops.push_back(frame);
+            if !self.line.stops.contains(&frame) {
+                self.line.stops.push_back(frame);
             }
         }
     }
@@ -346,7 +321,7 @@ impl EmpDriver {
 
     /// A frame that came; whose it was, and whether a rejection.
     fn incoming(&mut self, incoming: Incoming, now: Instant) -> (traffic::Owner, bool) {
-        let m = self.correlator.received(incoming);
+        let m = self.line.correlator.received(incoming);
         let answer = self.answer_of(&m);
         self.matched(m, now);
         answer
@@ -488,7 +463,7 @@ impl EmpDriver {
         if quiet && self.cx.known_off(request.ds) {
             return;
         }
-        self.errors.push_back((*request, quiet));
+        self.line.errors.push_back((*request, quiet));
     }
 
     fn dispatch(
@@ -580,51 +555,7 @@ impl EmpDriver {
         }
     }
 
-    fn go_down(&mut self, _reason: &str) {
-        if !self.link_up {
-            return;
-        }
-        self.link_up = false;
-        self.correlator.clear();
-        self.owners.clear();
-        self.decoder.reset();
-        self.unsent.clear();
-        self.restop.clear();
-        self.stops.clear();
-        self.raw_stops.clear();
-        self.errors.clear();
-        self.side.clear();
-        self.quiet_until = None;
-        self.arriving_until = None;
-        self.off_polls.reset();
-        if let Some(mut op) = self.op.take() {
-            op.get().link_lost(&mut self.cx);
-        }
-        self.queue
-            .refuse_all(|| Refusal::NotConnected, JogEnd::LinkLost, &mut self.cx);
-        self.cx.forget();
-        self.cx.state.activity = Activity::Idle;
-    }
-
     // ----- requests ------------------------------------------------------
-
-    fn busy(&self) -> Option<Activity> {
-        let activity = self.op.as_ref().map(|o| o.peek().activity())?;
-        (activity != Activity::Idle).then_some(activity)
-    }
-
-    fn admit(&mut self, request: Request, now: Instant) {
-        if !self.link_up {
-            refuse(&mut self.cx, &request, Refusal::NotConnected);
-            return;
-        }
-        let busy = self.busy();
-        let motion = match self.op.as_mut() {
-            Some(Op::Motion(m)) => Some(m.as_mut()),
-            _ => None,
-        };
-        admit(&mut self.queue, request, now, busy, motion, &mut self.cx);
-    }
 
     fn raw(&mut self, line: String, now: Instant) {
         let Some((request, frame)) = parse_raw_request(line, self.link_up, &mut self.cx, parse_raw)
@@ -643,11 +574,11 @@ impl EmpDriver {
             if let Some(op) = self.op.as_mut() {
                 op.get().stopped(&mut self.cx, &[frame.ds]);
             }
-            self.raw_stops.push_back(frame);
+            self.line.raw_stops.push_back(frame);
             return;
         }
         if is_query(&frame.command) && self.op.is_some() {
-            self.side.push_back(frame);
+            self.line.side.push_back(frame);
             return;
         }
         self.admit(request, now);
@@ -713,14 +644,7 @@ impl EmpDriver {
             | Request::Poll { .. }
             | Request::Shutdown => Ok(None),
         };
-        match started {
-            Ok(op) => {
-                if op.is_some() {
-                    self.op = op;
-                }
-            }
-            Err(reason) => refuse(&mut self.cx, &queued.request, reason),
-        }
+        self.started(&queued.request, started);
     }
 
     /// jogterm's work zero: `20 05` would set the drive's counter, but it
@@ -729,15 +653,9 @@ impl EmpDriver {
     /// reference point, so `SetZero` only records the position
     /// (docs/protocols.md, EMP).
     fn set_zero(&mut self, axes: AxisSet) -> Result<(), Refusal> {
-        named_axes(self.cx.settings.axes, axes)?;
-        let position = self.cx.positions().ok_or(Refusal::NotInitialised)?;
-        for axis in axes.iter() {
-            self.cx
-                .state
-                .work_zero
-                .set(axis, position.get(axis).unwrap_or(0));
-        }
-        Ok(())
+        let position = self.cx.positions();
+        let cx = &mut self.cx;
+        record_work_zero(&mut cx.state.work_zero, cx.settings.axes, axes, position)
     }
 
     fn renew(&mut self, id: JogId, lease: Duration, now: Instant) {
@@ -759,20 +677,6 @@ impl EmpDriver {
         self.queue.release(id, &mut self.cx);
     }
 
-    /// Bring `state` up to date and tell the clients when it changed.
-    fn settle(&mut self, _now: Instant) {
-        self.collect_stops();
-        self.cx.state.activity = self
-            .op
-            .as_ref()
-            .map_or(Activity::Idle, |o| o.peek().activity());
-        self.cx.state.link_up = self.link_up;
-        self.cx.position_poll =
-            poll::position_period(&self.poller, self.cx.settings.line, self.cx.drives.len());
-        self.cx.refresh();
-        self.report.publish(&self.cx.state, &mut self.cx.events);
-    }
-
     /// The stop frames for every drive, after `head`, as one message for
     /// the writer (each frame a message on the line).
     fn stop_frames(&self, head: Vec<u8>) -> Outgoing {
@@ -789,143 +693,76 @@ impl EmpDriver {
     }
 }
 
-impl Requests for EmpDriver {
-    fn set_poll(&mut self, rate: PollRate, ports_every: u32) {
-        self.poller.set_rate(rate, ports_every);
+impl Family for EmpLine {
+    type Context = Context;
+    type Op = Op;
+    type PollItem = PollItem;
+    type Motion = MotionOp;
+
+    fn readback(d: &EmpDriver) -> Op {
+        Op::Readback(Readback::new(&d.cx))
     }
 
-    fn renew_jog(&mut self, id: JogId, lease: Duration, now: Instant) {
-        self.renew(id, lease, now);
+    fn connect_settle(cx: &Context) -> Duration {
+        cx.settings.timing.connect_settle
     }
 
-    fn release_jog(&mut self, id: JogId, _now: Instant) {
-        self.release(id);
-    }
-
-    /// EMP drives have no reset command: admitted, and refused with what
-    /// to do instead when its turn comes (`begin`).
-    fn reset(&mut self, now: Instant) {
-        self.admit(Request::Reset, now);
-    }
-
-    fn raw_line(&mut self, line: String, now: Instant) {
-        self.raw(line, now);
-    }
-
-    fn admit_request(&mut self, request: Request, now: Instant) {
-        self.admit(request, now);
-    }
-
-    fn after_request(&mut self, now: Instant) {
-        self.settle(now);
-    }
-}
-
-impl Driver for EmpDriver {
-    /// The first frames on every connection stop every drive: whatever ran
-    /// before the link broke must not go on while its state is unknown. A
-    /// drive that is not switched on answers `EE` to it (a notice). Answers
-    /// to what was in flight before fall into the quiet that follows; then
-    /// the state is read back.
-    fn connected(&mut self, now: Instant) {
-        self.go_down("reconnected");
-        self.link_up = true;
-        self.poller.reset();
-        self.off_polls.reset();
-        if self.connect_halt {
-            let all = self.cx.addresses();
-            self.stop_drives(&all);
-        }
-        self.quiet_until = Some(now + self.cx.settings.timing.connect_settle);
-        self.op = Some(Op::Readback(Readback::new(&self.cx)));
-        self.settle(now);
-    }
-
-    fn set_connect_halt(&mut self, on: bool) {
-        self.connect_halt = on;
-    }
-
-    fn may_move(&self, request: &Request) -> bool {
-        match request {
-            Request::Raw { line } => raw::parse_raw(line).map_or(true, |r| r.command.may_move()),
-            other => other.may_move(),
+    /// The first frames on every connection stop every drive. A drive that
+    /// is not switched on answers `EE` to it (a notice).
+    fn connect(d: &mut EmpDriver, _now: Instant) {
+        d.line.off_polls.reset();
+        if d.connect_halt {
+            let all = d.cx.addresses();
+            d.stop_drives(&all);
         }
     }
 
-    fn disconnected(&mut self, reason: &str, now: Instant) {
-        self.go_down(reason);
-        self.settle(now);
-    }
-
-    fn request(&mut self, request: Request, now: Instant) {
-        route(self, request, now);
-    }
-
-    fn stop(&mut self, now: Instant) -> Outgoing {
-        let all = self.cx.addresses();
-        if self.link_up {
-            self.queue.refuse_all(
-                || Refusal::Invalid {
-                    reason: "cancelled by stop".into(),
-                },
-                JogEnd::Stopped,
-                &mut self.cx,
-            );
-            self.side.clear();
-            if let Some(op) = self.op.as_mut() {
-                op.get().stopped(&mut self.cx, &all);
-                let _ = op.get().take_stops();
-            }
-            // Frames handed out that may move and are not on the wire yet
-            // go after the stop: stop their drives again once written.
-            for f in &self.unsent {
-                if f.command.may_move() && !self.restop.contains(f) {
-                    self.restop.push(*f);
-                }
-            }
-            for ds in &all {
-                let frame = self.cx.stop_request(*ds);
-                self.stops.retain(|f| *f != frame);
-                self.register(frame, Owner::Stop, now);
-            }
+    fn drop_line(d: &mut EmpDriver, _reason: &str) {
+        let line = &mut d.line;
+        line.correlator.clear();
+        line.owners.clear();
+        line.decoder.reset();
+        line.unsent.clear();
+        line.restop.clear();
+        line.stops.clear();
+        line.raw_stops.clear();
+        line.errors.clear();
+        line.side.clear();
+        line.arriving_until = None;
+        line.off_polls.reset();
+        if let Some(mut op) = d.op.take() {
+            op.get().link_lost(&mut d.cx);
         }
-        self.settle(now);
-        self.stop_frames(Vec::new())
     }
 
-    /// The emergency handle writes from another thread, between any two
-    /// bytes of a frame the writer has on its way; a stop frame glued to
-    /// the cut frame's head would be dropped with it (`docs/protocols.md`,
-    /// EMP framing) and the drive left running. An EOF first ends the cut
-    /// frame (dropped as a short run; a lone EOF, when nothing was cut, is
-    /// dropped too), so the stop frames are read as frames of their own.
-    fn emergency_stop(&self) -> Outgoing {
-        self.stop_frames(vec![crate::proto::emp::EOF])
+    fn forget(d: &mut EmpDriver) {
+        d.cx.forget();
+        d.cx.state.activity = Activity::Idle;
     }
 
-    fn received(&mut self, bytes: &[u8], now: Instant) -> Vec<MessageEnd> {
-        if !self.link_up || bytes.is_empty() {
-            return Vec::new();
-        }
-        if self.correlator.next_deadline().is_some() {
-            let rest = self
-                .cx
-                .settings
-                .line
-                .transfer_time(crate::proto::emp::FRAME_WIRE_LEN)
-                + self.cx.settings.timing.reply_margin;
-            self.arriving_until = Some(now + rest);
+    fn transmit(d: &mut EmpDriver, now: Instant) -> Option<Outgoing> {
+        d.transmit(now)
+    }
+
+    fn received(d: &mut EmpDriver, bytes: &[u8], now: Instant) -> Vec<MessageEnd> {
+        if d.line.correlator.next_deadline().is_some() {
+            let rest =
+                d.cx.settings
+                    .line
+                    .transfer_time(crate::proto::emp::FRAME_WIRE_LEN)
+                    + d.cx.settings.timing.reply_margin;
+            d.line.arriving_until = Some(now + rest);
         }
         // A byte at a time, so that each frame's end is known (the decoder
         // gives the same frames for any split, `fuzz_emp`).
         let mut ends = Vec::new();
         for (i, byte) in bytes.iter().enumerate() {
-            for result in self.decoder.feed(std::slice::from_ref(byte)) {
+            for result in d.line.decoder.feed(std::slice::from_ref(byte)) {
                 let (owner, rejected) = match result {
-                    Ok(incoming) => self.incoming(incoming, now),
+                    Ok(incoming) => d.incoming(incoming, now),
                     Err(e) => {
-                        if !self.quiet(now) {
-                            self.cx.notice(format!("framing error on the line: {e}"));
+                        if !d.quiet(now) {
+                            d.cx.notice(format!("framing error on the line: {e}"));
                         }
                         (traffic::Owner::Controller, false)
                     }
@@ -936,79 +773,131 @@ impl Driver for EmpDriver {
                 });
             }
         }
-        self.settle(now);
         ends
     }
 
-    fn transmitted(&mut self, now: Instant) {
-        let frame = self.unsent.pop_front();
+    fn transmitted(d: &mut EmpDriver, now: Instant) {
+        let frame = d.line.unsent.pop_front();
         if let Some(frame) = &frame {
-            self.correlator.transmitted(frame, now);
+            d.line.correlator.transmitted(frame, now);
         }
         if let Some(frame) = frame
-            && let Some(i) = self.restop.iter().position(|f| *f == frame)
+            && let Some(i) = d.line.restop.iter().position(|f| *f == frame)
         {
-            self.restop.remove(i);
-            if self.link_up {
-                self.stop_drives(&[frame.ds]);
+            d.line.restop.remove(i);
+            if d.link_up {
+                d.stop_drives(&[frame.ds]);
             }
         }
-        self.settle(now);
     }
 
-    fn poll_transmit(&mut self, now: Instant) -> Option<Outgoing> {
-        let out = self.transmit(now);
-        self.settle(now);
-        out
-    }
-
-    fn poll_event(&mut self) -> Option<Event> {
-        self.cx.events.pop_front()
-    }
-
-    fn next_timeout(&self) -> Option<Instant> {
-        let overdue = self
-            .correlator
-            .next_deadline()
-            .map(|d| self.arriving_until.map_or(d, |a| d.max(a)));
-        let mut times = vec![self.quiet_until, overdue, self.poller.stats_due()];
-        if let Some(op) = &self.op {
-            times.push(op.peek().timer());
+    fn stop(d: &mut EmpDriver, now: Instant) -> Outgoing {
+        let all = d.cx.addresses();
+        if d.link_up {
+            d.cancel_waiting();
+            d.line.side.clear();
+            if let Some(op) = d.op.as_mut() {
+                op.get().stopped(&mut d.cx, &all);
+                let _ = op.get().take_stops();
+            }
+            // Frames handed out that may move and are not on the wire yet
+            // go after the stop: stop their drives again once written.
+            let line = &mut d.line;
+            for f in &line.unsent {
+                if f.command.may_move() && !line.restop.contains(f) {
+                    line.restop.push(*f);
+                }
+            }
+            for ds in &all {
+                let frame = d.cx.stop_request(*ds);
+                d.line.stops.retain(|f| *f != frame);
+                d.register(frame, Owner::Stop, now);
+            }
         }
+        d.stop_frames(Vec::new())
+    }
+
+    /// The emergency handle writes from another thread, between any two
+    /// bytes of a frame the writer has on its way; a stop frame glued to
+    /// the cut frame's head would be dropped with it (`docs/protocols.md`,
+    /// EMP framing) and the drive left running. An EOF first ends the cut
+    /// frame (dropped as a short run; a lone EOF, when nothing was cut, is
+    /// dropped too), so the stop frames are read as frames of their own.
+    fn emergency_stop(d: &EmpDriver) -> Outgoing {
+        d.stop_frames(vec![crate::proto::emp::EOF])
+    }
+
+    fn raw_may_move(line: &str) -> bool {
+        raw::parse_raw(line).map_or(true, |r| r.command.may_move())
+    }
+
+    fn timeouts(d: &EmpDriver, consider: &mut dyn FnMut(Option<Instant>)) {
+        let first_answer = d.line.correlator.next_deadline();
+        consider(first_answer.map(|t| d.line.arriving_until.map_or(t, |a| t.max(a))));
         // What waits for the line to be free wakes the driver only then: a
         // due poll or watchdog read behind a first answer cannot be sent.
-        if self.correlator.next_deadline().is_none() {
-            times.push(self.poller.due());
-            times.push(self.op.as_ref().and_then(|o| o.peek().send_due()));
-            times.push(self.off_polls.wake());
+        if first_answer.is_none() {
+            consider(d.poller.due());
+            consider(d.op.as_ref().and_then(|o| o.peek().send_due()));
+            consider(d.line.off_polls.wake());
         }
-        times.into_iter().flatten().min()
     }
 
-    fn handle_timeout(&mut self, now: Instant) {
-        if self.quiet_until.is_some_and(|q| now >= q) {
-            self.quiet_until = None;
+    fn line_timeout(d: &mut EmpDriver, now: Instant, _quiet_over: bool) {
+        if d.line.arriving_until.is_some_and(|a| now >= a) {
+            d.line.arriving_until = None;
         }
-        if self.arriving_until.is_some_and(|a| now >= a) {
-            self.arriving_until = None;
-        }
-        if self.link_up && self.arriving_until.is_none() {
-            let timed_out = self.correlator.poll_timeouts(now);
+        if d.link_up && d.line.arriving_until.is_none() {
+            let timed_out = d.line.correlator.poll_timeouts(now);
             if let Some(first) = timed_out.into_iter().next() {
-                self.matched(first, now);
+                d.matched(first, now);
             }
         }
-        if let Some(op) = self.op.as_mut()
-            && op.peek().timer().is_some_and(|t| t <= now)
-        {
-            op.get().on_timer(&mut self.cx, now);
+    }
+
+    fn op_timer(d: &mut EmpDriver, now: Instant) {
+        if let Some(op) = d.op.as_mut() {
+            op.get().on_timer(&mut d.cx, now);
         }
-        if self.poller.stats_due().is_some_and(|t| now >= t) {
-            let limit = wire_limit_hz(&self.poller, self.cx.settings.line, self.cx.drives.len());
-            if let Some(stats) = self.poller.take_stats(now, limit) {
-                self.cx.emit(Event::Stats(stats));
-            }
+    }
+
+    fn wire_limit_hz(d: &EmpDriver) -> f64 {
+        wire_limit_hz(&d.poller, d.cx.settings.line, d.cx.drives.len())
+    }
+
+    /// Stops of drives an operation asked for.
+    fn before_settle(d: &mut EmpDriver, _now: Instant) {
+        d.collect_stops();
+    }
+
+    fn after_state(d: &mut EmpDriver) {
+        d.cx.position_poll =
+            poll::position_period(&d.poller, d.cx.settings.line, d.cx.drives.len());
+        d.cx.refresh();
+    }
+
+    fn motion(op: &mut Op) -> Option<&mut MotionOp> {
+        match op {
+            Op::Motion(m) => Some(m.as_mut()),
+            _ => None,
         }
-        self.settle(now);
+    }
+
+    fn renew_jog(d: &mut EmpDriver, id: JogId, lease: Duration, now: Instant) {
+        d.renew(id, lease, now);
+    }
+
+    fn release_jog(d: &mut EmpDriver, id: JogId, _now: Instant) {
+        d.release(id);
+    }
+
+    /// EMP drives have no reset command: admitted, and refused with what
+    /// to do instead when its turn comes (`begin`).
+    fn reset(d: &mut EmpDriver, now: Instant) {
+        d.admit(Request::Reset, now);
+    }
+
+    fn raw_line(d: &mut EmpDriver, line: String, now: Instant) {
+        d.raw(line, now);
     }
 }

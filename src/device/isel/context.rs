@@ -10,7 +10,7 @@ use crate::device::api::{
     ControllerFault, Event, MachineState, PerAxis, PositionSample, PositionSource, Recovery,
     Refusal,
 };
-use crate::device::common::{Sink, gate, link};
+use crate::device::common::{gate, link};
 use crate::device::driver::Outgoing;
 use crate::proto::isel::{
     AxisConfig, CncCommand, Command, ControlByte, DeviceNumber, Expect, Frame, InputPort,
@@ -160,11 +160,7 @@ pub struct Context {
     pub stored: Option<Vec<crate::proto::isel::CncCommand>>,
 }
 
-impl Sink for Context {
-    fn emit(&mut self, event: Event) {
-        self.events.push_back(event);
-    }
-}
+crate::device::common::core::family_context!(Context);
 
 impl Context {
     pub fn new(settings: IselSettings) -> Context {

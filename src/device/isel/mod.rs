@@ -63,15 +63,14 @@ pub use upload::abort_line;
 
 use crate::config::Profile;
 use crate::device::api::{
-    ANSWERS_AGAIN_NOTICE, BUSY_NOTICE, Event, JogEnd, MachineState, Refusal, ReplyKind, Request,
+    ANSWERS_AGAIN_NOTICE, BUSY_NOTICE, Event, JogEnd, JogId, Refusal, ReplyKind, Request,
 };
-use crate::device::common::admit::admit;
+use crate::device::common::core::{Core, Family};
 use crate::device::common::limits::named_axes;
 use crate::device::common::op::operations;
-use crate::device::common::route::{Requests, route};
 use crate::device::common::sink::refuse;
-use crate::device::common::{Poller, Queued, RequestQueue, StateReport, link};
-use crate::device::driver::{Driver, Outgoing};
+use crate::device::common::{Queued, link};
+use crate::device::driver::Outgoing;
 use crate::proto::isel::{
     Command, ControlByte, Event as Decoded, Expect, Reply, ReplyDecoder, TEXT_SILENCE,
 };
@@ -93,7 +92,7 @@ use zero::ZeroOp;
 
 operations! {
     #[derive(Debug)]
-    enum Op: Operation {
+    pub enum Op: Operation {
         Readback(Readback) => Setup,
         Init(InitOp) => Setup,
         Home(HomeOp) => Setup,
@@ -140,31 +139,25 @@ struct Exchange {
     restop: bool,
 }
 
-/// The isel driver. Build it from a profile, hand it to the device task (or
-/// drive it by hand in tests: every method takes the time).
+/// The isel driver: the driver core with the isel line discipline. Build
+/// it from a profile, hand it to the device task (or drive it by hand in
+/// tests: every method takes the time).
+pub type IselDriver = Core<IselLine>;
+
+/// The isel line: strictly one command at a time, answered when done.
 #[derive(Debug)]
-pub struct IselDriver {
-    cx: Context,
-    link_up: bool,
+pub struct IselLine {
     exchange: Option<Exchange>,
     seq: u64,
     decoder: ReplyDecoder,
     /// Messages handed out and not yet reported written: the sequence number
     /// of a command, `None` for a control byte.
     unsent: VecDeque<Option<u64>>,
-    op: Option<Op>,
-    queue: RequestQueue,
-    poller: Poller<PollItem>,
-    quiet_until: Option<Instant>,
     stray: Vec<u8>,
     /// The quiet after the connect's stop sequence is on: an `F` in it is
     /// that stop's answer, not noise.
     settling_after_connect: bool,
-    report: StateReport,
     poll_error: Option<String>,
-    /// Off for a session that was not asked to move: its connect sends no
-    /// stop sequence (`docs/device.md`, "Sessions that do not move").
-    connect_halt: bool,
     /// Since when the controller has not answered a session that has not
     /// moved (a stored program or a move runs): it waits, and repeats its
     /// read at `resend_at`, instead of calling the link dead.
@@ -187,29 +180,23 @@ fn busy_tell_every(limit: Duration) -> Duration {
     (limit / 4).clamp(Duration::from_secs(1), Duration::from_secs(10))
 }
 
-impl IselDriver {
+impl Core<IselLine> {
     pub fn new(settings: IselSettings) -> IselDriver {
         let step_queue = settings.jog.step_queue;
-        IselDriver {
-            poller: poll::poller(&settings.poll),
-            cx: Context::new(settings),
-            link_up: false,
+        let line = IselLine {
             exchange: None,
             seq: 0,
             decoder: ReplyDecoder::new(),
             unsent: VecDeque::new(),
-            op: None,
-            queue: RequestQueue::new(step_queue),
-            quiet_until: None,
             stray: Vec::new(),
             settling_after_connect: false,
-            report: StateReport::default(),
             poll_error: None,
-            connect_halt: true,
             busy_since: None,
             resend_at: None,
             busy_told: Duration::ZERO,
-        }
+        };
+        let poller = poll::poller(&settings.poll);
+        Core::with(Context::new(settings), line, poller, step_queue)
     }
 
     pub fn from_profile(profile: &Profile) -> Result<IselDriver, SettingsError> {
@@ -220,27 +207,22 @@ impl IselDriver {
         &self.cx.settings
     }
 
-    /// The machine state as the driver sees it now.
-    pub fn state(&self) -> &MachineState {
-        &self.cx.state
-    }
-
     // ----- line discipline ---------------------------------------------
 
     fn start(&mut self, cmd: Cmd, owner: Owner) -> Outgoing {
-        if self.decoder.expect(cmd.expect).is_err() {
+        if self.line.decoder.expect(cmd.expect).is_err() {
             // Cannot happen (one command at a time), but never wedge on it.
-            self.decoder.abandon();
-            let _ = self.decoder.expect(cmd.expect);
+            self.line.decoder.abandon();
+            let _ = self.line.decoder.expect(cmd.expect);
         }
-        self.seq += 1;
-        self.unsent.push_back(Some(self.seq));
+        self.line.seq += 1;
+        self.line.unsent.push_back(Some(self.line.seq));
         let shown_as = match owner {
             Owner::Poll(_) => traffic::Owner::Poll,
             Owner::Op => self.op.as_ref().map_or(traffic::Owner::Setup, Op::owner),
         };
-        self.exchange = Some(Exchange {
-            seq: self.seq,
+        self.line.exchange = Some(Exchange {
+            seq: self.line.seq,
             bytes: cmd.bytes.clone(),
             repeatable: cmd.repeatable,
             text: cmd.text,
@@ -260,28 +242,24 @@ impl IselDriver {
 
     /// The read the busy controller did not answer, again (`reply_timeout`).
     fn repeat_when_busy(&mut self, now: Instant) -> Option<Outgoing> {
-        if !self.link_up || self.resend_at.is_none_or(|t| now < t) {
+        if !self.link_up || self.line.resend_at.is_none_or(|t| now < t) {
             return None;
         }
-        if !self.decoder.pending().is_empty() {
+        if !self.line.decoder.pending().is_empty() {
             // A late reply is arriving: let it end (or fall silent) first.
-            self.resend_at = Some(now + self.cx.settings.timing.resync_gap);
+            self.line.resend_at = Some(now + self.cx.settings.timing.resync_gap);
             return None;
         }
-        self.resend_at = None;
-        let ex = self.exchange.as_mut()?;
-        if self.decoder.expect(ex.expect).is_err() {
-            self.decoder.abandon();
-            let _ = self.decoder.expect(ex.expect);
+        self.line.resend_at = None;
+        let ex = self.line.exchange.as_mut()?;
+        if self.line.decoder.expect(ex.expect).is_err() {
+            self.line.decoder.abandon();
+            let _ = self.line.decoder.expect(ex.expect);
         }
-        self.seq += 1;
-        ex.seq = self.seq;
-        self.unsent.push_back(Some(ex.seq));
+        self.line.seq += 1;
+        ex.seq = self.line.seq;
+        self.line.unsent.push_back(Some(ex.seq));
         Some(Outgoing::message(ex.bytes.clone(), true, ex.shown_as))
-    }
-
-    fn quiet(&self, now: Instant) -> bool {
-        self.quiet_until.is_some_and(|q| now < q)
     }
 
     /// Reports the bytes that arrived while the line was quiet. After a
@@ -289,9 +267,9 @@ impl IselDriver {
     /// (`docs/decisions.md` isel 6): the operator must hear that the
     /// machine was moving, not read it as noise.
     fn report_stray(&mut self) {
-        let bytes = std::mem::take(&mut self.stray);
+        let bytes = std::mem::take(&mut self.line.stray);
         let rest = match bytes.split_first() {
-            Some((b'F', rest)) if std::mem::take(&mut self.settling_after_connect) => {
+            Some((b'F', rest)) if std::mem::take(&mut self.line.settling_after_connect) => {
                 self.cx.notice(
                     "the controller was still moving when the link came up: jogterm stopped it \
                      (it answered F); check the position before the next move",
@@ -300,7 +278,7 @@ impl IselDriver {
             }
             _ => &bytes[..],
         };
-        self.settling_after_connect = false;
+        self.line.settling_after_connect = false;
         self.cx.stray_bytes(rest);
     }
 
@@ -313,13 +291,13 @@ impl IselDriver {
 
     fn transmit(&mut self, now: Instant) -> Option<Outgoing> {
         if let Some(out) = self.cx.control.pop_front() {
-            self.unsent.push_back(None);
+            self.line.unsent.push_back(None);
             return Some(out);
         }
         if let Some(out) = self.repeat_when_busy(now) {
             return Some(out);
         }
-        if !self.link_up || self.exchange.is_some() || self.quiet(now) {
+        if !self.link_up || self.line.exchange.is_some() || self.quiet(now) {
             return None;
         }
         loop {
@@ -331,7 +309,7 @@ impl IselDriver {
                         self.op = None;
                         self.take_quiet_request(now);
                         if let Some(out) = self.cx.control.pop_front() {
-                            self.unsent.push_back(None);
+                            self.line.unsent.push_back(None);
                             return Some(out);
                         }
                         if self.quiet(now) {
@@ -374,13 +352,14 @@ impl IselDriver {
     /// decoder's split property, `fuzz_isel`).
     fn decode(&mut self, bytes: &[u8]) -> (Vec<Decoded>, Vec<MessageEnd>) {
         let mut owner = self
+            .line
             .exchange
             .as_ref()
             .map_or(traffic::Owner::Controller, |ex| ex.shown_as);
         let mut events = Vec::new();
         let mut ends = Vec::new();
         for (i, byte) in bytes.iter().enumerate() {
-            let fed = self.decoder.feed(std::slice::from_ref(byte));
+            let fed = self.line.decoder.feed(std::slice::from_ref(byte));
             let replied = fed.iter().any(|e| matches!(e, Decoded::Reply(_)));
             let garbled = fed.iter().any(|e| matches!(e, Decoded::Error(_)));
             if replied || garbled || *byte == b'\n' {
@@ -403,9 +382,9 @@ impl IselDriver {
         for event in events {
             match event {
                 Decoded::Reply(reply) => {
-                    if let Some(ex) = self.exchange.take() {
-                        if let Some(since) = self.busy_since.take() {
-                            self.resend_at = None;
+                    if let Some(ex) = self.line.exchange.take() {
+                        if let Some(since) = self.line.busy_since.take() {
+                            self.line.resend_at = None;
                             self.cx.notice(format!(
                                 "{ANSWERS_AGAIN_NOTICE} (busy for {:.1} s)",
                                 now.saturating_duration_since(since).as_secs_f64()
@@ -419,9 +398,9 @@ impl IselDriver {
                         op.get().sync(&mut self.cx, sync, now);
                     }
                 }
-                Decoded::Unsolicited(b) => self.stray.push(b),
+                Decoded::Unsolicited(b) => self.line.stray.push(b),
                 Decoded::Error(e) => {
-                    let Some(ex) = self.exchange.take() else {
+                    let Some(ex) = self.line.exchange.take() else {
                         continue;
                     };
                     self.quiet_until = Some(now + self.cx.settings.timing.resync_gap);
@@ -440,7 +419,7 @@ impl IselDriver {
                 }
             }
         }
-        if !self.stray.is_empty() && !self.quiet(now) {
+        if !self.line.stray.is_empty() && !self.quiet(now) {
             self.report_stray();
         }
     }
@@ -464,7 +443,7 @@ impl IselDriver {
             (PollItem::Position, reply) => match self.cx.read_position(reply, now) {
                 PositionRead::Measured => {
                     self.poller.position_read(now);
-                    self.poll_error = None;
+                    self.line.poll_error = None;
                     None
                 }
                 PositionRead::NoAxes => None,
@@ -492,8 +471,8 @@ impl IselDriver {
             Some(Reply::Code(code)) => {
                 // Once per kind of trouble, not on every poll.
                 let key = format!("{text}{}", code.char());
-                if self.poll_error.as_deref() != Some(&key) {
-                    self.poll_error = Some(key);
+                if self.line.poll_error.as_deref() != Some(&key) {
+                    self.line.poll_error = Some(key);
                     self.cx.controller_error(text, code);
                 }
             }
@@ -533,7 +512,7 @@ impl IselDriver {
     }
 
     fn reply_timeout(&mut self, now: Instant) {
-        let Some(mut ex) = self.exchange.take() else {
+        let Some(mut ex) = self.line.exchange.take() else {
             return;
         };
         // A session that was not asked to move never stops what the
@@ -544,10 +523,10 @@ impl IselDriver {
         // and repeat the read until it is answered.
         if !self.connect_halt && ex.repeatable {
             let limit = self.cx.settings.timing.busy_wait;
-            match self.busy_since {
+            match self.line.busy_since {
                 None => {
-                    self.busy_since = Some(now);
-                    self.busy_told = Duration::ZERO;
+                    self.line.busy_since = Some(now);
+                    self.line.busy_told = Duration::ZERO;
                     self.cx.notice(format!(
                         "{BUSY_NOTICE} (no reply to {}: the controller answers nothing while a \
                          stored program or a move runs; nothing that changes motion is sent; if \
@@ -575,11 +554,11 @@ impl IselDriver {
             ex.transmitted_at = None;
             ex.deadline = None;
             ex.last_byte = None;
-            self.exchange = Some(ex);
-            self.resend_at = Some(now + BUSY_REPEAT);
+            self.line.exchange = Some(ex);
+            self.line.resend_at = Some(now + BUSY_REPEAT);
             return;
         }
-        self.decoder.abandon();
+        self.line.decoder.abandon();
         let waited = ex
             .transmitted_at
             .map_or(Duration::ZERO, |t| now.saturating_duration_since(t));
@@ -591,10 +570,10 @@ impl IselDriver {
     /// [`busy_tell_every`] of it.
     fn busy_tell(&mut self, waited: Duration, limit: Duration) {
         let every = busy_tell_every(limit);
-        if waited < self.busy_told + every {
+        if waited < self.line.busy_told + every {
             return;
         }
-        self.busy_told = every * (waited.as_millis() / every.as_millis().max(1)) as u32;
+        self.line.busy_told = every * (waited.as_millis() / every.as_millis().max(1)) as u32;
         self.cx.notice(format!(
             "{BUSY_NOTICE}: {} s so far, giving up after {} s (isel.busy_wait_s)",
             waited.as_secs(),
@@ -605,7 +584,7 @@ impl IselDriver {
     /// The busy controller answered nothing within `isel.busy_wait_s`: the
     /// link counts as lost, and the command that waited ends with it.
     fn busy_given_up(&mut self, command: &str, waited: Duration) {
-        self.decoder.abandon();
+        self.line.decoder.abandon();
         let reason = format!(
             "no reply to {command} for {:.1} s: the controller answered nothing while jogterm \
              waited for a program to end (isel.busy_wait_s = {})",
@@ -619,44 +598,13 @@ impl IselDriver {
         self.go_down(&reason);
     }
 
-    fn go_down(&mut self, reason: &str) {
-        if !self.link_up {
-            return;
-        }
-        self.link_up = false;
-        self.exchange = None;
-        self.busy_since = None;
-        self.resend_at = None;
-        self.decoder.abandon();
-        self.unsent.clear();
-        self.cx.control.clear();
-        self.quiet_until = None;
-        self.stray.clear();
-        self.settling_after_connect = false;
-        if let Some(mut op) = self.op.take() {
-            op.get()
-                .abandon(&mut self.cx, &Abandon::LinkLost(reason.to_owned()));
-        }
-        self.queue.refuse_all(
-            || Refusal::NotConnected,
-            JogEnd::LinkLost,
-            &mut self.cx.events,
-        );
-        // Unknown until read back.
-        self.cx.set_config(None);
-        self.cx.position = None;
-        self.cx.cnc_store = false;
-        self.cx.readback_wanted = false;
-        self.cx.checkout_rest = None;
-    }
-
     // ----- stopping ------------------------------------------------------
 
     /// What every stop does besides sending the bytes.
     fn stop_bookkeeping(&mut self, now: Instant) {
         if let Some(op) = self.op.as_mut()
             && let Some(t) = op.get().stop(&mut self.cx, now)
-            && let Some(ex) = self.exchange.as_mut()
+            && let Some(ex) = self.line.exchange.as_mut()
             && ex.owner == Owner::Op
         {
             if ex.transmitted {
@@ -665,7 +613,7 @@ impl IselDriver {
                 ex.timeout = Some(t);
             }
         }
-        if let Some(ex) = self.exchange.as_mut()
+        if let Some(ex) = self.line.exchange.as_mut()
             && ex.may_move
             && !ex.transmitted
         {
@@ -690,7 +638,7 @@ impl IselDriver {
             return;
         };
         self.cx.send_stop();
-        if let Some(ex) = self.exchange.as_mut()
+        if let Some(ex) = self.line.exchange.as_mut()
             && ex.owner == Owner::Op
         {
             if ex.transmitted {
@@ -707,8 +655,8 @@ impl IselDriver {
         self.cx
             .control
             .push_back(control_outgoing(ControlByte::Reset));
-        self.decoder.abandon();
-        self.exchange = None;
+        self.line.decoder.abandon();
+        self.line.exchange = None;
         if let Some(mut op) = self.op.take() {
             op.get().abandon(&mut self.cx, &Abandon::Reset);
         }
@@ -744,7 +692,7 @@ impl IselDriver {
                     // (0xFD keeps the rest for `@0S`).
                     Some(Op::Raw(raw)) if raw.is_running_motion() => {
                         if let Some(t) = raw.control_sent(&self.cx, now)
-                            && let Some(ex) = self.exchange.as_mut()
+                            && let Some(ex) = self.line.exchange.as_mut()
                         {
                             ex.deadline = Some(now + t);
                         }
@@ -771,35 +719,6 @@ impl IselDriver {
     }
 
     // ----- requests ------------------------------------------------------
-
-    fn busy(&self) -> Option<crate::device::api::Activity> {
-        use crate::device::api::Activity;
-        if self.cx.cnc_store {
-            return Some(Activity::Uploading);
-        }
-        let activity = self.op.as_ref().map(|o| o.peek().activity())?;
-        (activity != Activity::Idle).then_some(activity)
-    }
-
-    fn refuse(&mut self, request: &Request, reason: Refusal) {
-        refuse(&mut self.cx.events, request, reason);
-    }
-
-    fn admit(&mut self, request: Request, now: Instant) {
-        if !self.link_up {
-            self.refuse(&request, Refusal::NotConnected);
-            return;
-        }
-        // While a program is being stored line by line, raw lines are the
-        // program's lines (manual 3.1).
-        let storing_line = self.cx.cnc_store && matches!(request, Request::Raw { .. });
-        let busy = self.busy().filter(|_| !storing_line);
-        let motion = match self.op.as_mut() {
-            Some(Op::Motion(m)) => Some(m),
-            _ => None,
-        };
-        admit(&mut self.queue, request, now, busy, motion, &mut self.cx);
-    }
 
     /// A queued request's turn has come: check it against the state now.
     fn begin(&mut self, queued: Queued, now: Instant) {
@@ -880,13 +799,10 @@ impl IselDriver {
             | Request::Poll { .. }
             | Request::Shutdown => return,
         };
-        match started {
-            Ok(op) => self.op = Some(op),
-            Err(reason) => self.refuse(&queued.request, reason),
-        }
+        self.started(&queued.request, started.map(Some));
     }
 
-    fn renew(&mut self, id: crate::device::api::JogId, lease: Duration, now: Instant) {
+    fn renew(&mut self, id: JogId, lease: Duration, now: Instant) {
         if let Some(Op::Checkout(c)) = self.op.as_mut()
             && c.renew(id, lease, now)
         {
@@ -903,7 +819,7 @@ impl IselDriver {
         self.queue.renew(id, lease, now);
     }
 
-    fn release(&mut self, id: crate::device::api::JogId, now: Instant) {
+    fn release(&mut self, id: JogId, now: Instant) {
         if let Some(Op::Checkout(c)) = self.op.as_mut()
             && c.release(&mut self.cx, id, false)
         {
@@ -920,27 +836,9 @@ impl IselDriver {
         self.queue.release(id, &mut self.cx.events);
     }
 
-    /// Bring `state.activity` and `link_up` up to date and tell the clients
-    /// when the state changed.
-    fn settle(&mut self) {
-        use crate::device::api::Activity;
-        let activity = match self.op.as_ref() {
-            Some(op) => op.peek().activity(),
-            None if self.cx.cnc_store => Activity::Uploading,
-            None => Activity::Idle,
-        };
-        self.cx.state.activity = if self.cx.cnc_store && activity == Activity::Idle {
-            Activity::Uploading
-        } else {
-            activity
-        };
-        self.cx.state.link_up = self.link_up;
-        self.report.publish(&self.cx.state, &mut self.cx.events);
-    }
-
     fn idle(&self) -> bool {
         self.link_up
-            && self.exchange.is_none()
+            && self.line.exchange.is_none()
             && self.op.is_none()
             && self.queue.is_empty()
             && !self.cx.cnc_store
@@ -948,154 +846,103 @@ impl IselDriver {
     }
 }
 
-impl Requests for IselDriver {
-    fn set_poll(&mut self, rate: PollRate, ports_every: u32) {
-        self.poller.set_rate(rate, ports_every);
+impl Family for IselLine {
+    type Context = Context;
+    type Op = Op;
+    type PollItem = PollItem;
+    type Motion = MotionOp;
+
+    fn readback(_: &IselDriver) -> Op {
+        Op::Readback(Readback::new())
     }
 
-    fn renew_jog(&mut self, id: crate::device::api::JogId, lease: Duration, now: Instant) {
-        self.renew(id, lease, now);
+    fn connect_settle(cx: &Context) -> Duration {
+        cx.settings.timing.connect_settle
     }
 
-    fn release_jog(&mut self, id: crate::device::api::JogId, now: Instant) {
-        self.release(id, now);
-    }
-
-    fn reset(&mut self, now: Instant) {
-        if self.link_up {
-            self.reset_controller(now);
-        } else {
-            self.refuse(&Request::Reset, Refusal::NotConnected);
-        }
-    }
-
-    /// A control byte goes at once (manual 2.2.31); any other line is
-    /// admitted like every request.
-    fn raw_line(&mut self, line: String, now: Instant) {
-        match control_of(&line) {
-            Some(control) => self.raw_control(control, now),
-            None => self.admit(Request::Raw { line }, now),
-        }
-    }
-
-    fn admit_request(&mut self, request: Request, now: Instant) {
-        self.admit(request, now);
-    }
-
-    fn after_request(&mut self, _now: Instant) {
-        self.settle();
-    }
-}
-
-impl Driver for IselDriver {
-    /// The first bytes on every connection are the stop sequence: whatever
-    /// the controller was doing (a move sent before the link broke), it must
-    /// not go on while its state is unknown. Its answer, if any, falls into
-    /// the quiet that follows; then the state is read back.
-    fn connected(&mut self, now: Instant) {
-        self.go_down("reconnected");
-        self.link_up = true;
-        self.poller.reset();
+    /// The stop sequence opens the link (`0xFD`, [`stop_outgoing`]); an `F`
+    /// in the quiet that follows is its answer.
+    fn connect(d: &mut IselDriver, _now: Instant) {
         // Another controller may be on the line now: every port is tried,
         // no output is known (it may have been switched off and on).
-        self.cx.absent_ports.clear();
-        self.cx.ports.forget_outputs();
-        self.cx.test_mode_unknown = !self.cx.settings.test_mode_allowed;
-        self.poll_plan_ports();
-        self.poll_error = None;
-        if self.connect_halt {
-            self.cx.send_stop();
+        d.cx.absent_ports.clear();
+        d.cx.ports.forget_outputs();
+        d.cx.test_mode_unknown = !d.cx.settings.test_mode_allowed;
+        d.poll_plan_ports();
+        d.line.poll_error = None;
+        if d.connect_halt {
+            d.cx.send_stop();
         }
-        self.settling_after_connect = self.connect_halt;
-        self.quiet_until = Some(now + self.cx.settings.timing.connect_settle);
-        self.op = Some(Op::Readback(Readback::new()));
-        self.settle();
+        d.line.settling_after_connect = d.connect_halt;
     }
 
-    fn set_connect_halt(&mut self, on: bool) {
-        self.connect_halt = on;
-    }
-
-    fn set_reads_only(&mut self, on: bool) {
-        self.cx.reads_only = on;
-    }
-
-    fn may_move(&self, request: &Request) -> bool {
-        match request {
-            Request::Raw { line } => raw::line_may_move(line),
-            other => other.may_move(),
+    fn drop_line(d: &mut IselDriver, reason: &str) {
+        let line = &mut d.line;
+        line.exchange = None;
+        line.busy_since = None;
+        line.resend_at = None;
+        line.decoder.abandon();
+        line.unsent.clear();
+        line.stray.clear();
+        line.settling_after_connect = false;
+        d.cx.control.clear();
+        if let Some(mut op) = d.op.take() {
+            op.get()
+                .abandon(&mut d.cx, &Abandon::LinkLost(reason.to_owned()));
         }
     }
 
-    fn disconnected(&mut self, reason: &str, _now: Instant) {
-        self.go_down(reason);
-        self.settle();
+    fn forget(d: &mut IselDriver) {
+        // Unknown until read back.
+        d.cx.set_config(None);
+        d.cx.position = None;
+        d.cx.cnc_store = false;
+        d.cx.readback_wanted = false;
+        d.cx.checkout_rest = None;
     }
 
-    fn request(&mut self, request: Request, now: Instant) {
-        route(self, request, now);
+    fn transmit(d: &mut IselDriver, now: Instant) -> Option<Outgoing> {
+        d.transmit(now)
     }
 
-    fn stop(&mut self, now: Instant) -> Outgoing {
-        self.cx.checkout_rest = None;
-        self.queue.refuse_all(
-            || Refusal::Invalid {
-                reason: "cancelled by stop".into(),
-            },
-            JogEnd::Stopped,
-            &mut self.cx.events,
-        );
-        self.stop_bookkeeping(now);
-        self.settle();
-        stop_outgoing()
-    }
-
-    fn emergency_stop(&self) -> Outgoing {
-        stop_outgoing()
-    }
-
-    fn received(&mut self, bytes: &[u8], now: Instant) -> Vec<MessageEnd> {
-        if !self.link_up || bytes.is_empty() {
-            return line_ends(bytes, traffic::Owner::Controller);
-        }
-        if self.exchange.is_none() && self.quiet(now) {
+    fn received(d: &mut IselDriver, bytes: &[u8], now: Instant) -> Vec<MessageEnd> {
+        if d.line.exchange.is_none() && d.quiet(now) {
             // Stray bytes while the line settles: keep it quiet a little longer.
-            self.stray.extend_from_slice(bytes);
-            self.quiet_until = Some(now + self.cx.settings.timing.resync_gap);
+            d.line.stray.extend_from_slice(bytes);
+            d.quiet_until = Some(now + d.cx.settings.timing.resync_gap);
             return line_ends(bytes, traffic::Owner::Controller);
         }
-        if let Some(ex) = self.exchange.as_mut() {
+        if let Some(ex) = d.line.exchange.as_mut() {
             ex.last_byte = Some(now);
             if ex.transmitted
-                && let Some(d) = ex.deadline
+                && let Some(deadline) = ex.deadline
             {
                 // Bytes are flowing: the reply may take its length from here.
-                let rest = self
-                    .cx
-                    .settings
-                    .line
-                    .transfer_time(ex.expect.max_len().min(64))
-                    + self.cx.settings.timing.reply_margin;
-                ex.deadline = Some(d.max(now + rest));
+                let rest =
+                    d.cx.settings
+                        .line
+                        .transfer_time(ex.expect.max_len().min(64))
+                        + d.cx.settings.timing.reply_margin;
+                ex.deadline = Some(deadline.max(now + rest));
             }
         }
-        let (events, ends) = self.decode(bytes);
-        self.decoded(events, now);
-        self.take_quiet_request(now);
-        self.settle();
+        let (events, ends) = d.decode(bytes);
+        d.decoded(events, now);
+        d.take_quiet_request(now);
         ends
     }
 
-    fn transmitted(&mut self, now: Instant) {
-        let Some(sent) = self.unsent.pop_front() else {
-            return;
-        };
-        let Some(seq) = sent else {
+    fn received_while_down(bytes: &[u8]) -> Vec<MessageEnd> {
+        line_ends(bytes, traffic::Owner::Controller)
+    }
+
+    fn transmitted(d: &mut IselDriver, now: Instant) {
+        let Some(Some(seq)) = d.line.unsent.pop_front() else {
             return;
         };
         let mut restop = false;
         let mut op_owned = false;
-        if let Some(ex) = self.exchange.as_mut()
+        if let Some(ex) = d.line.exchange.as_mut()
             && ex.seq == seq
             && !ex.transmitted
         {
@@ -1105,81 +952,114 @@ impl Driver for IselDriver {
             restop = std::mem::take(&mut ex.restop);
             op_owned = ex.owner == Owner::Op;
         }
-        if op_owned && let Some(op) = self.op.as_mut() {
-            op.get().transmitted(&mut self.cx, now);
+        if op_owned && let Some(op) = d.op.as_mut() {
+            op.get().transmitted(&mut d.cx, now);
         }
         if restop {
-            self.cx.send_stop();
+            d.cx.send_stop();
         }
-        self.settle();
     }
 
-    fn poll_transmit(&mut self, now: Instant) -> Option<Outgoing> {
-        let out = self.transmit(now);
-        self.settle();
-        out
+    fn stop(d: &mut IselDriver, now: Instant) -> Outgoing {
+        d.cx.checkout_rest = None;
+        d.cancel_waiting();
+        d.stop_bookkeeping(now);
+        stop_outgoing()
     }
 
-    fn poll_event(&mut self) -> Option<Event> {
-        self.cx.events.pop_front()
+    fn emergency_stop(_: &IselDriver) -> Outgoing {
+        stop_outgoing()
     }
 
-    fn next_timeout(&self) -> Option<Instant> {
-        let mut at: Option<Instant> = None;
-        let mut consider = |t: Option<Instant>| {
-            if let Some(t) = t {
-                at = Some(at.map_or(t, |a| a.min(t)));
-            }
-        };
-        consider(self.quiet_until);
-        consider(self.resend_at);
-        if let Some(ex) = &self.exchange {
+    fn raw_may_move(line: &str) -> bool {
+        raw::line_may_move(line)
+    }
+
+    fn timeouts(d: &IselDriver, consider: &mut dyn FnMut(Option<Instant>)) {
+        consider(d.line.resend_at);
+        if let Some(ex) = &d.line.exchange {
             consider(ex.deadline);
             if matches!(ex.expect, Expect::TextUntilSilence | Expect::TextThenCode) {
                 consider(ex.last_byte.map(|t| t + TEXT_SILENCE));
             }
         }
-        if let Some(op) = &self.op {
-            consider(op.peek().timer());
+        if d.idle() {
+            consider(d.poller.due());
         }
-        if self.idle() {
-            consider(self.poller.due());
-        }
-        consider(self.poller.stats_due());
-        at
     }
 
-    fn handle_timeout(&mut self, now: Instant) {
-        if self.quiet_until.is_some_and(|q| now >= q) {
-            self.quiet_until = None;
-            self.report_stray();
+    fn line_timeout(d: &mut IselDriver, now: Instant, quiet_over: bool) {
+        if quiet_over {
+            d.report_stray();
         }
-        if let Some(ex) = &self.exchange {
+        if let Some(ex) = &d.line.exchange {
             let text = matches!(ex.expect, Expect::TextUntilSilence | Expect::TextThenCode);
             let silent = ex.last_byte.is_some_and(|t| now >= t + TEXT_SILENCE);
-            let overdue = ex.deadline.is_some_and(|d| now >= d);
-            if (text && silent) || (overdue && !self.decoder.pending().is_empty()) {
-                let events = self.decoder.silence();
-                self.decoded(events, now);
+            let overdue = ex.deadline.is_some_and(|t| now >= t);
+            if (text && silent) || (overdue && !d.line.decoder.pending().is_empty()) {
+                let events = d.line.decoder.silence();
+                d.decoded(events, now);
             } else if overdue {
-                self.reply_timeout(now);
+                d.reply_timeout(now);
             }
         }
-        if let Some(op) = self.op.as_mut()
-            && op.peek().timer().is_some_and(|t| t <= now)
-            && op.get().on_timer(&mut self.cx, now)
+    }
+
+    fn op_timer(d: &mut IselDriver, now: Instant) {
+        if let Some(op) = d.op.as_mut()
+            && op.get().on_timer(&mut d.cx, now)
         {
-            self.halt(now);
+            d.halt(now);
         }
-        if self.poller.stats_due().is_some_and(|t| now >= t) {
-            let with_a = self.cx.config == Some(crate::proto::isel::AxisConfig::XYZA);
-            let limit = wire_limit_hz(&self.poller, self.cx.settings.line, with_a);
-            if let Some(stats) = self.poller.take_stats(now, limit) {
-                self.cx.emit(Event::Stats(stats));
-            }
+    }
+
+    fn wire_limit_hz(d: &IselDriver) -> f64 {
+        let with_a = d.cx.config == Some(crate::proto::isel::AxisConfig::XYZA);
+        wire_limit_hz(&d.poller, d.cx.settings.line, with_a)
+    }
+
+    fn timeout_done(d: &mut IselDriver, now: Instant) {
+        d.take_quiet_request(now);
+    }
+
+    fn storing(cx: &Context) -> bool {
+        cx.cnc_store
+    }
+
+    fn motion(op: &mut Op) -> Option<&mut MotionOp> {
+        match op {
+            Op::Motion(m) => Some(m),
+            _ => None,
         }
-        self.take_quiet_request(now);
-        self.settle();
+    }
+
+    fn renew_jog(d: &mut IselDriver, id: JogId, lease: Duration, now: Instant) {
+        d.renew(id, lease, now);
+    }
+
+    fn release_jog(d: &mut IselDriver, id: JogId, now: Instant) {
+        d.release(id, now);
+    }
+
+    fn reset(d: &mut IselDriver, now: Instant) {
+        if d.link_up {
+            d.reset_controller(now);
+        } else {
+            refuse(&mut d.cx, &Request::Reset, Refusal::NotConnected);
+        }
+    }
+
+    /// A control byte goes at once (manual 2.2.31); any other line is
+    /// admitted like every request.
+    fn raw_line(d: &mut IselDriver, line: String, now: Instant) {
+        match control_of(&line) {
+            Some(control) => d.raw_control(control, now),
+            None => d.admit(Request::Raw { line }, now),
+        }
+    }
+
+    fn set_reads_only(d: &mut IselDriver, on: bool) {
+        d.cx.reads_only = on;
     }
 }
 
