@@ -33,7 +33,6 @@ pub mod gcode;
 pub mod jog;
 #[cfg(test)]
 mod layers;
-pub mod motion;
 pub mod offsets;
 pub mod program;
 pub mod sim;
@@ -45,4 +44,4 @@ pub mod ui;
 // runtime, terminal or serial library; the application names them where they
 // always were.
 pub use jogterm_proto as proto;
-pub use jogterm_proto::{axis, wire, wiring};
+pub use jogterm_proto::{axis, motion, wire, wiring};

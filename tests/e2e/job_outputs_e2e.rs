@@ -104,26 +104,27 @@ fn a_job_in_parts_goes_on_after_a_pause_and_space_in_a_pause_ends_it_and_its_spi
     let (mut sim, mut run) = gcode_on_a_small_controller_sized(&spindle_pockets(3), WIDE);
     let before = sim.received().len();
     run.type_keys(&[F6]);
-    let screen = wait_for(&run, "Run pockets.nc");
-    assert!(screen.contains("chosen: chunked"), "{screen}");
+    wait_for(&run, "Run pockets.nc");
+    // The question may be read while it is still being drawn.
+    wait_for(&run, "chosen: chunked");
     run.type_keys(&[b"y"]);
     wait_for(&run, "part 1/");
+    // A note on the message line said a moment before the next one may
+    // never be on a screen that is read (a loaded machine, a part that ends
+    // at once; this test failed so one run in three): the pauses are read
+    // from the status line, which holds them, and the spindle from the
+    // controller. The notes' words are the unit tests' (`the job pauses
+    // before part 2/4`: `ui::editor::update::tests::job`; `the job's outputs
+    // stay on while it pauses`: `tests::outputs`).
     run.type_keys(&[F6]);
-    wait_for(&run, "the job pauses before part 2/");
-    let screen = run
-        .wait_for("PAUSED before part 2/", Duration::from_secs(60))
+    run.wait_for("PAUSED before part 2/", Duration::from_secs(60))
         .unwrap_or_else(|screen| panic!("no pause before part 2:\n{screen}"));
-    assert!(
-        screen.contains("the job's outputs stay on while it pauses: spindle (out2)"),
-        "{screen}"
-    );
     assert!(
         spindle_on(&sim.device_state()),
         "the pause keeps the spindle"
     );
     go_on(&mut run, "part 2/");
     run.type_keys(&[F6]);
-    wait_for(&run, "the job pauses before part 3/");
     run.wait_for("PAUSED before part 3/", Duration::from_secs(60))
         .unwrap_or_else(|screen| panic!("no pause before part 3:\n{screen}"));
     assert!(spindle_on(&sim.device_state()), "on until the stop");
@@ -131,6 +132,7 @@ fn a_job_in_parts_goes_on_after_a_pause_and_space_in_a_pause_ends_it_and_its_spi
     run.type_keys(&[b" "]);
     said(&mut run, "the job stopped in part 3/");
     said(&mut run, "switched off once the axes stood: spindle (out2)");
+
     sim.wait_device("with the spindle off", |state| !spindle_on(state));
     let received = sim.received();
     assert!(

@@ -132,6 +132,85 @@ impl fmt::Display for AxisSet {
     }
 }
 
+/// A value per axis, in X, Y, Z, A order; `None` where the axis is absent.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
+pub struct PerAxis<T>(pub [Option<T>; 4]);
+
+impl<T: Copy> PerAxis<T> {
+    pub fn new() -> Self {
+        PerAxis([None; 4])
+    }
+
+    pub fn get(&self, axis: Axis) -> Option<T> {
+        self.0[axis.index()]
+    }
+
+    pub fn set(&mut self, axis: Axis, value: T) {
+        self.0[axis.index()] = Some(value);
+    }
+
+    pub fn with(mut self, axis: Axis, value: T) -> Self {
+        self.set(axis, value);
+        self
+    }
+
+    pub fn clear(&mut self, axis: Axis) {
+        self.0[axis.index()] = None;
+    }
+
+    pub fn axes(&self) -> AxisSet {
+        self.iter().map(|(a, _)| a).collect()
+    }
+
+    pub fn iter(&self) -> impl Iterator<Item = (Axis, T)> + '_ {
+        Axis::ALL
+            .into_iter()
+            .filter_map(|a| self.get(a).map(|v| (a, v)))
+    }
+
+    pub fn map<U: Copy>(&self, f: impl Fn(Axis, T) -> U) -> PerAxis<U> {
+        let mut out = PerAxis::new();
+        for (a, v) in self.iter() {
+            out.set(a, f(a, v));
+        }
+        out
+    }
+}
+
+impl<T: Copy> FromIterator<(Axis, T)> for PerAxis<T> {
+    fn from_iter<I: IntoIterator<Item = (Axis, T)>>(iter: I) -> Self {
+        let mut out = PerAxis::new();
+        for (a, v) in iter {
+            out.set(a, v);
+        }
+        out
+    }
+}
+
+/// Direction of travel along an axis.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Dir {
+    Minus,
+    Plus,
+}
+
+impl Dir {
+    pub fn sign(self) -> i64 {
+        match self {
+            Dir::Minus => -1,
+            Dir::Plus => 1,
+        }
+    }
+
+    /// `+` or `-`, as in `X+`.
+    pub fn symbol(self) -> char {
+        match self {
+            Dir::Minus => '-',
+            Dir::Plus => '+',
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

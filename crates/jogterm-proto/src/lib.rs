@@ -16,6 +16,7 @@ pub mod axis;
 pub mod emcu;
 pub mod emp;
 pub mod isel;
+pub mod motion;
 pub mod text;
 pub mod typed;
 pub mod wire;

@@ -36,6 +36,8 @@
 //! - [`state`]: telling the clients when the machine state changed.
 
 pub mod admit;
+#[cfg(test)]
+mod behaviour;
 pub mod core;
 pub mod deadline;
 pub mod gate;

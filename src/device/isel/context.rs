@@ -20,9 +20,9 @@ use crate::traffic::{Owner, readable};
 use crate::wiring::Role;
 
 use super::deadline;
-use super::estimate::RampParams;
 use super::io::PortImage;
 use super::settings::IselSettings;
+use crate::proto::isel::estimate::RampParams;
 
 /// A command ready for the wire, with what its reply looks like and how long
 /// it may take.

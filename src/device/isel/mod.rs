@@ -26,7 +26,6 @@
 mod checkout_op;
 mod context;
 mod deadline;
-mod estimate;
 mod home;
 mod init;
 mod io;
@@ -50,8 +49,8 @@ mod tests;
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};
 
+pub use crate::proto::isel::estimate::{MoveEstimate, RampParams};
 pub use context::STOP_BYTES;
-pub use estimate::{MoveEstimate, RampParams};
 pub use io::{PortImage, describe_input, input_group, output_group};
 pub use plan::overrun_cap;
 pub use poll::{PollItem, wire_limit_hz};

@@ -16,7 +16,7 @@ use crate::proto::isel::{AxisConfig, Command, MovePair, SPEED_HZ, STEPS};
 
 use super::context::{Cmd, Context};
 use super::deadline;
-use super::estimate::{MoveEstimate, RampParams};
+use crate::proto::isel::estimate::{MoveEstimate, RampParams};
 
 /// A move ready to send.
 #[derive(Debug, Clone, PartialEq)]

@@ -25,9 +25,9 @@ use crate::proto::isel::{
 
 use super::context::{Cmd, Context};
 use super::deadline;
-use super::estimate::MoveEstimate;
 use super::op::{Abandon, Next, Operation};
 use super::reply_text::{code_text, reply_text};
+use crate::proto::isel::estimate::MoveEstimate;
 
 /// The control byte a raw line stands for, if it is one.
 pub fn control_of(line: &str) -> Option<ControlByte> {

@@ -65,7 +65,8 @@
 //! which outputs need confirmation), the `@0DRp`/`@0DRn` bits and the `@0IE`
 //! word. [`circle()`] and [`helix`] compute the `f` and `y`/`w` parameters of
 //! manual 2.3; [`CircleParams::end_point`] and [`ArcGeometry`] say where a
-//! `y`/`w` leaves the tool.
+//! `y`/`w` leaves the tool. [`estimate`] says where the axes are while a
+//! move runs, from the ramp the controller runs (`@0j`, `@0J`).
 
 mod axes;
 mod check;
@@ -75,6 +76,7 @@ mod command;
 mod decode;
 mod device;
 mod encode;
+pub mod estimate;
 mod framer;
 mod parse;
 pub mod ports;

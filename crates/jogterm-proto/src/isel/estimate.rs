@@ -18,10 +18,9 @@
 
 use std::time::{Duration, Instant};
 
-use crate::axis::Axis;
-use crate::device::api::PerAxis;
+use crate::axis::{Axis, PerAxis};
+use crate::isel::{AxisConfig, MovePair};
 use crate::motion::{Motion, Ramp};
-use crate::proto::isel::{AxisConfig, MovePair};
 
 /// The ramp parameters the controller runs with (`@0j` Hz, `@0J` Hz/ms).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
