@@ -19,6 +19,7 @@
 //! that feeds `update` and carries out its effects.
 
 pub mod confirm;
+pub mod console;
 pub mod editor;
 pub mod help;
 pub mod input;
@@ -31,7 +32,9 @@ pub mod macros;
 pub mod messages;
 pub mod model;
 pub mod msg;
+pub mod outcome;
 pub mod palette;
+pub mod popups;
 pub mod position;
 pub mod raw;
 pub mod runtime;
