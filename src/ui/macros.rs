@@ -14,9 +14,8 @@ use crate::config::macros::Macro;
 use crate::device::api::{Activity, Event, LinkState, MachineState, ReplyKind, Request};
 use crate::device::describe::describe;
 
-use super::confirm::Confirmation;
 use super::msg::Effect;
-use super::outcome::{Note, Outcome};
+use super::outcome::{Confirmation, Note, Outcome};
 use super::raw::{self, RawContext};
 use super::traffic_log::NoteLevel;
 

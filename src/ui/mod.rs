@@ -18,7 +18,6 @@
 //! panic), [`input`] reads keys on its own thread, [`runtime`] runs the loop
 //! that feeds `update` and carries out its effects.
 
-pub mod confirm;
 pub mod console;
 pub mod editor;
 pub mod help;

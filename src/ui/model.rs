@@ -6,7 +6,6 @@ use std::time::{Duration, Instant};
 
 use crate::device::api::{LinkState, MachineState, PollStats, UploadEvent};
 
-pub use super::confirm::Confirmation;
 use super::console::Console;
 use super::editor::{self, Editor};
 use super::io::IoPanel;
@@ -15,6 +14,7 @@ use super::keymap::{Keymap, Mode};
 use super::macros::MacroRun;
 pub use super::messages::Message;
 use super::messages::MessageHistory;
+pub use super::outcome::Confirmation;
 use super::palette::Palette;
 pub use super::popups::Popup;
 use super::position::Positions;

@@ -1,19 +1,29 @@
 //! What a component of the console asks of the rest of it after an input
 //! (the command line, the I/O panel, the named outputs, the simulator panel,
 //! the go-to prompt, the popups, the macros): effects in order, notes for
-//! the message line, a question to ask first, its popup to show.
-//! `ui::update` applies it in one place (`apply`). The editor and the jog
-//! screen have outcomes of their own (a focus change, a quit, events the
-//! message line should not repeat).
+//! the message line, a question to ask first ([`Confirmation`], the
+//! `Confirm` popup), its popup to show. `ui::update` applies it in one
+//! place (`show`). The jog screen's outcome carries one, with flags of its
+//! own; the editor's is its own (a focus change, a quit).
 
 use std::convert::Infallible;
 
-use super::confirm::Confirmation;
 use super::msg::Effect;
 use super::traffic_log::NoteLevel;
 
 /// A line for the message line (and the console).
 pub type Note = (NoteLevel, String);
+
+/// A question that must be answered before its effects are carried out.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Confirmation {
+    pub title: String,
+    pub question: String,
+    pub effects: Vec<Effect>,
+    /// The profile's macro to run once confirmed (`ui::macros`), after
+    /// `effects`.
+    pub run_macro: Option<String>,
+}
 
 /// `P` is the component's popup (`Infallible`: it has none).
 #[derive(Debug, Clone, PartialEq)]

@@ -6,7 +6,6 @@
 //! key takes the popup out of the slot; the outcome gives it back while it
 //! stays open.
 
-use super::confirm::Confirmation;
 use super::editor::dialog::Dialog;
 use super::io::Outputs;
 use super::jog::axes::AxisChoice;
@@ -14,7 +13,7 @@ use super::jog::goto::GoToPrompt;
 use super::jog::popups::JogPopup;
 use super::keymap::{Action, Mode};
 use super::msg::Effect;
-use super::outcome::Outcome;
+use super::outcome::{Confirmation, Outcome};
 use super::traffic_log::NoteLevel;
 
 #[derive(Debug, Clone, PartialEq)]
@@ -66,7 +65,7 @@ impl Popup {
     }
 
     /// The line typed text goes into: the go-to prompt's, a keypad
-    /// popup's that types (`typing::TextField::GoTo`, `Prompt`).
+    /// popup's that types (`typing::TextField::Prompt`).
     pub fn line(&mut self) -> Option<&mut super::line_edit::LineEdit> {
         match self {
             Popup::GoTo(prompt) => Some(&mut prompt.line),

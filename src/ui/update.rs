@@ -26,7 +26,7 @@ use super::jog::{self as keypad, component::Input as JogInput};
 use super::key::KeyChord;
 use super::keymap::{Action, Mode};
 use super::macros::{self, MacroRun};
-use super::model::{Confirmation, Message, Model, PanelId, Popup};
+use super::model::{Message, Model, PanelId, Popup};
 use super::msg::{Effect, Msg};
 use super::outcome::Outcome;
 use super::popups;
@@ -83,20 +83,14 @@ fn dispatch(model: &mut Model, msg: Msg) -> Vec<Effect> {
             Vec::new()
         }
         Msg::NotSent { request, reason } => {
-            say(
-                model,
-                NoteLevel::Danger,
-                format!("not sent: {request}: {reason}"),
-            );
+            let text = format!("not sent: {request}: {reason}");
+            say(model, NoteLevel::Danger, text);
             model.dirty = true;
             Vec::new()
         }
         Msg::Terminate { reason } => {
-            say(
-                model,
-                NoteLevel::Danger,
-                format!("{reason}: stopping and closing"),
-            );
+            let text = format!("{reason}: stopping and closing");
+            say(model, NoteLevel::Danger, text);
             model.quitting = true;
             model.dirty = true;
             jog_update(model, JogInput::Stopped);
@@ -138,13 +132,10 @@ fn key_event(model: &mut Model, event: KeyEvent) -> Vec<Effect> {
             model.dirty = true;
             return effects;
         }
-        let (grace, timeout) = (
-            model.keypad.settings().grace,
-            model.keypad.settings().repeat_timeout,
-        );
-        model
-            .macro_key
-            .arrival(chord, KeyPhase::Release, model.now, grace, timeout, true);
+        let settings = model.keypad.settings();
+        let (grace, timeout) = (settings.grace, settings.repeat_timeout);
+        let now = model.now;
+        (model.macro_key).arrival(chord, KeyPhase::Release, now, grace, timeout, true);
         let effects = jog_update(model, JogInput::Release(chord));
         model.dirty |= !effects.is_empty();
         return effects;
@@ -204,25 +195,21 @@ impl Ignored {
     }
 
     fn say(self, model: &mut Model) {
-        if self.enter_in_field {
-            say(
-                model,
-                NoteLevel::Warning,
-                "Enter came together with other keys (a paste?): nothing was sent; \
-                 check the line and press Enter again",
-            );
+        let text = if self.enter_in_field {
+            "Enter came together with other keys (a paste?): nothing was sent; check the \
+             line and press Enter again"
+                .to_string()
         } else if self.keys > 0 {
             let keys = if self.keys == 1 { "key" } else { "keys" };
-            say(
-                model,
-                NoteLevel::Warning,
-                format!(
-                    "burst ignored: {} {keys} came together with others (a paste?); \
-                     jogterm moves only on keys typed one at a time",
-                    self.keys
-                ),
-            );
-        }
+            format!(
+                "burst ignored: {} {keys} came together with others (a paste?); jogterm \
+                 moves only on keys typed one at a time",
+                self.keys
+            )
+        } else {
+            return;
+        };
+        say(model, NoteLevel::Warning, text);
     }
 }
 
@@ -309,7 +296,7 @@ fn paste(model: &mut Model, text: &str) -> Vec<Effect> {
         (Some(typing::TextField::CommandLine), _) => {
             return console_update(model, console::Input::Paste(text));
         }
-        (Some(typing::TextField::GoTo | typing::TextField::Prompt), Some(popup)) => {
+        (Some(typing::TextField::Prompt), Some(popup)) => {
             let line = popup.line();
             line.and_then(|l| l.paste(text).err())
                 .map(|e| e.to_string())
@@ -424,7 +411,7 @@ fn type_into(model: &mut Model, field: typing::TextField, c: char) -> Vec<Effect
             }
         },
         typing::TextField::CommandLine => console_update(model, console::Input::Char(c)),
-        typing::TextField::GoTo | typing::TextField::Prompt => {
+        typing::TextField::Prompt => {
             if let Some(line) = model.popup.as_mut().and_then(Popup::line) {
                 line.insert(c);
             }
@@ -450,11 +437,8 @@ fn safety_stop(model: &mut Model, chord: KeyChord) -> Vec<Effect> {
         .key_for(mode, Action::TypeBlank)
         .map(|k| format!("; {k} types a blank"))
         .unwrap_or_default();
-    say(
-        model,
-        NoteLevel::Info,
-        format!("stop: all motion stopped (Space stops, not types, while {reason}{blank})"),
-    );
+    let text = format!("stop: all motion stopped (Space stops, not types, while {reason}{blank})");
+    say(model, NoteLevel::Info, text);
     effects
 }
 
@@ -521,12 +505,10 @@ fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
         Action::JogOffLimit => {
             let (kp, ctx) = model.jog_parts();
             match kp.limit_question(&ctx) {
-                Ok(q) => ask(
-                    model,
-                    &q.title,
-                    q.question,
-                    vec![Effect::Request(q.request)],
-                ),
+                Ok(q) => {
+                    let effects = vec![Effect::Request(q.request)];
+                    ask(model, &q.title, q.question, effects)
+                }
                 Err(text) => apply(model, Outcome::note(NoteLevel::Danger, text)),
             }
         }
@@ -537,10 +519,8 @@ fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
                 (Purpose::Zero, Motion::SetZero)
             };
             if let Err(reason) = keypad::gate(&model.keypad, &model.jog_context()).check(motion) {
-                return apply(
-                    model,
-                    Outcome::note(NoteLevel::Danger, format!("refused: {reason}")),
-                );
+                let text = format!("refused: {reason}");
+                return apply(model, Outcome::note(NoteLevel::Danger, text));
             }
             let axes = model.setup.axis_set();
             open(model, Popup::Axes(AxisChoice { purpose, axes }))
@@ -564,21 +544,15 @@ fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
                 "Axes {axes} will move to their reference switches. \
                  Keep clear of the machine. Start the reference run?"
             );
-            ask(
-                model,
-                "Reference run",
-                question,
-                vec![Effect::Request(Request::Home { axes })],
-            )
+            let home = vec![Effect::Request(Request::Home { axes })];
+            ask(model, "Reference run", question, home)
         }
-        Action::Reset => ask(
-            model,
-            "Reset the controller",
-            "The controller stops at once and forgets its axes and reference \
-             point; initialise (i) and reference (h) again afterwards. Reset?"
-                .to_string(),
-            vec![Effect::Request(Request::Reset)],
-        ),
+        Action::Reset => {
+            let question = "The controller stops at once and forgets its axes and reference \
+                            point; initialise (i) and reference (h) again afterwards. Reset?";
+            let reset = vec![Effect::Request(Request::Reset)];
+            ask(model, "Reset the controller", question.to_string(), reset)
+        }
         Action::TogglePolls => console_update(model, console::Input::Key(action)),
         Action::Timeline => {
             if model.focus != PanelId::Timeline {
@@ -642,13 +616,7 @@ fn refresh_quit_question(model: &mut Model) {
 
 /// Ask `question` before `effects` go out: nothing goes out now.
 fn ask(model: &mut Model, title: &str, question: String, effects: Vec<Effect>) -> Vec<Effect> {
-    let confirmation = Confirmation {
-        title: title.to_string(),
-        question,
-        effects,
-        run_macro: None,
-    };
-    open(model, Popup::Confirm(confirmation))
+    apply(model, Outcome::ask(title, question, effects))
 }
 
 fn open(model: &mut Model, popup: Popup) -> Vec<Effect> {
@@ -851,11 +819,13 @@ fn device_event(model: &mut Model, event: Event) {
             }
         }
         Event::Fault(fault) => say(model, NoteLevel::Danger, fault_text(&fault)),
-        Event::Refused { request, reason } => say(
-            model,
-            NoteLevel::Danger,
-            format!("refused {request}: {reason}"),
-        ),
+        Event::Refused { request, reason } => {
+            say(
+                model,
+                NoteLevel::Danger,
+                format!("refused {request}: {reason}"),
+            );
+        }
         Event::JogEnded { id, end } => {
             if let Some(run) = model.keypad.limit.ended(id) {
                 limit_jog_ended(model, &run, &end);
@@ -935,26 +905,19 @@ fn link_changed(model: &mut Model, state: LinkState) {
 }
 
 fn jog_ended(model: &mut Model, end: JogEnd) {
-    let note = match end {
-        JogEnd::Released => None,
-        JogEnd::DeadMan => Some((
+    let (level, text) = match end {
+        JogEnd::DeadMan => (
             NoteLevel::Warning,
             "jog stopped: key repeats stopped arriving (dead-man)".to_string(),
-        )),
-        JogEnd::Stopped => None,
-        JogEnd::SoftLimit => Some((
-            NoteLevel::Warning,
-            "jog stopped at the soft limit".to_string(),
-        )),
-        JogEnd::Refused(reason) => Some((NoteLevel::Danger, format!("jog refused: {reason}"))),
-        JogEnd::Fault(f) => Some((NoteLevel::Danger, format!("jog ended: {}", fault_text(&f)))),
-        JogEnd::LinkLost => Some((NoteLevel::Danger, "jog ended: link lost".to_string())),
+        ),
+        JogEnd::SoftLimit => (NoteLevel::Warning, "jog stopped at the soft limit".into()),
+        JogEnd::Refused(reason) => (NoteLevel::Danger, format!("jog refused: {reason}")),
+        JogEnd::Fault(f) => (NoteLevel::Danger, format!("jog ended: {}", fault_text(&f))),
+        JogEnd::LinkLost => (NoteLevel::Danger, "jog ended: link lost".into()),
         // The driver's notice says where it stopped and what to do.
-        JogEnd::OffLimit | JogEnd::StillOnLimit => None,
+        JogEnd::Released | JogEnd::Stopped | JogEnd::OffLimit | JogEnd::StillOnLimit => return,
     };
-    if let Some((level, text)) = note {
-        say(model, level, text);
-    }
+    say(model, level, text);
 }
 
 /// The jog off a limit switch has ended: off the switch, the reference run
@@ -964,22 +927,13 @@ fn limit_jog_ended(model: &mut Model, run: &keypad::limit::LimitRun, end: &JogEn
         keypad::limit::AfterEnd::Reference if model.popup.is_none() => {
             main_action(model, Action::Home);
         }
-        keypad::limit::AfterEnd::Reference => say(
-            model,
-            NoteLevel::Warning,
-            format!(
-                "{} is off its limit switch: reference the axes (h)",
-                run.limit.axis
-            ),
-        ),
-        keypad::limit::AfterEnd::Say { danger, text } => {
-            let level = if danger {
-                NoteLevel::Danger
-            } else {
-                NoteLevel::Info
-            };
-            say(model, level, text);
+        keypad::limit::AfterEnd::Reference => {
+            let axis = run.limit.axis;
+            let text = format!("{axis} is off its limit switch: reference the axes (h)");
+            say(model, NoteLevel::Warning, text);
         }
+        keypad::limit::AfterEnd::Say { danger: true, text } => say(model, NoteLevel::Danger, text),
+        keypad::limit::AfterEnd::Say { text, .. } => say(model, NoteLevel::Info, text),
     }
 }
 
@@ -1009,19 +963,7 @@ fn jog_outcome(model: &mut Model, input: JogInput) -> keypad::component::Outcome
 /// Everything the jog screen's outcome asks of the rest of the console:
 /// notes, its popup (in place of any other), the effects.
 fn apply_jog(model: &mut Model, outcome: keypad::component::Outcome) -> Vec<Effect> {
-    let keypad::component::Outcome {
-        effects,
-        notes,
-        popup,
-        ..
-    } = outcome;
-    let out = Outcome {
-        effects,
-        notes,
-        popup,
-        confirm: None,
-    };
-    show(model, out, Popup::Jog)
+    show(model, outcome.shown, Popup::Jog)
 }
 
 /// `input` to the jog screen, its outcome applied.
