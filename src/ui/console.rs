@@ -1,8 +1,7 @@
 //! The console as a component: its state is the traffic log and the
-//! command line ([`Console`]); [`Console::update`] takes what it reads of
-//! the rest of the console ([`Context`]) and a key, a typed character or a
-//! paste ([`Input`]), and returns an [`Outcome`]: the checked line for the
-//! device task, notes. `ui::update` routes to it and applies the outcome.
+//! command line ([`Console`]); [`Console::update`] takes a [`Context`] and a
+//! key, a typed character or a paste ([`Input`]), and returns an
+//! [`Outcome`]: the checked line for the device task, notes.
 
 use crate::device::api::Request;
 
@@ -26,8 +25,7 @@ pub struct Console {
 pub struct Context {
     /// What a typed line is checked against.
     pub raw: RawContext,
-    /// The macro running, in words (`macro park, line 2 of 3`): its answers
-    /// would be taken for a typed line's.
+    /// The macro running (`macro park, line 2 of 3`): a typed line waits.
     pub macro_running: Option<String>,
 }
 

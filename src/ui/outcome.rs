@@ -66,10 +66,7 @@ impl<P> Outcome<P> {
     }
 
     pub fn popup(popup: P) -> Self {
-        Outcome {
-            popup: Some(popup),
-            ..Outcome::default()
-        }
+        Outcome::default().with_popup(popup)
     }
 
     /// Ask `question` before `effects` are carried out.
@@ -86,10 +83,8 @@ impl<P> Outcome<P> {
     }
 
     /// The same, with `popup` shown (or kept open) too.
-    pub fn with_popup(self, popup: P) -> Self {
-        Outcome {
-            popup: Some(popup),
-            ..self
-        }
+    pub fn with_popup(mut self, popup: P) -> Self {
+        self.popup = Some(popup);
+        self
     }
 }

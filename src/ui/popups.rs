@@ -1,10 +1,8 @@
-//! The popup slot (`Model::popup`): what is open over the screen, taking
-//! every key but the stop keys. The help, the message history, a question
-//! and the axis choice are one component here ([`Popup::update`]); the
-//! editor's dialogs, the keypad's popups, the go-to prompt and the named
-//! outputs are components of their own, which `ui::update` routes to. A
-//! key takes the popup out of the slot; the outcome gives it back while it
-//! stays open.
+//! The popup slot (`Model::popup`), which takes every key but the stop
+//! keys. The help, the message history, a question and the axis choice are
+//! one component here ([`Popup::update`]); the other popups are components
+//! of their own. A key takes the popup out of the slot; the outcome gives
+//! it back while it stays open.
 
 use super::editor::dialog::Dialog;
 use super::io::Outputs;

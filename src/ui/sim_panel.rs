@@ -101,8 +101,7 @@ impl SimPanel {
 }
 
 impl SimPanel {
-    /// The simulator panel as a component: a key of the focused panel, and
-    /// the control it sends to the simulator's thread.
+    /// The simulator panel as a component: a key of the focused panel.
     pub fn update(&mut self, action: Action) -> Outcome {
         let control = match action {
             Action::SelectPrev | Action::SelectNext => {

@@ -183,8 +183,7 @@ impl Timeline {
     }
 }
 
-/// What the timeline reads for a key: the time, and the room the screen
-/// gives it.
+/// What the timeline reads for a key: the time, the room on the screen.
 #[derive(Debug, Clone, Copy)]
 pub struct Context {
     pub now: Instant,

@@ -1,13 +1,10 @@
 //! `update(&mut Model, Msg) -> Vec<Effect>`: the only place the model
-//! changes, and the router between its components. Keys are routed safety
-//! first (see [`route_key`]), then to the open popup, the focused panel and
-//! the main screen, gitui-style: the first that consumes a key ends its
-//! journey. Each component (the editor, the jog screen, the console, the
-//! I/O panel, the named outputs, the simulator panel, the timeline, the
-//! go-to prompt, the popups, the macros) gets its state, a context built
-//! from the model and an input, and returns an outcome, applied here in one
-//! place ([`apply`], `apply_jog`, `apply_editor`). What is no component's
-//! stays here: the focus, stops, the quit, the device's state and messages.
+//! changes, and the router between its components (`docs/architecture.md`,
+//! "The other components and the router"): each gets its state, a context
+//! built from the model and an input, and its outcome is applied here
+//! ([`show`], `apply_jog`, `apply_editor`). Keys are routed safety first
+//! (see [`route_key`]), then to the open popup, the focused panel and the
+//! main screen, gitui-style: the first that consumes a key ends its journey.
 
 use std::time::Instant;
 
@@ -713,9 +710,8 @@ fn apply(model: &mut Model, outcome: Outcome) -> Vec<Effect> {
     show(model, outcome, |never| match never {})
 }
 
-/// What a component's outcome asks of the rest of the console, in one
-/// place: notes, its popup as `popup` wraps it (a question in place of
-/// it), the effects.
+/// A component's outcome applied, in one place: notes, its popup as
+/// `popup` wraps it (a question in place of it), the effects.
 fn show<P>(model: &mut Model, outcome: Outcome<P>, popup: impl Fn(P) -> Popup) -> Vec<Effect> {
     for (level, text) in outcome.notes {
         say(model, level, text);

@@ -76,20 +76,15 @@ pub struct Outcome {
 
 impl Outcome {
     pub fn said(effects: Vec<Effect>, notes: Vec<Note>) -> Outcome {
-        let shown = outcome::Outcome {
-            notes,
-            ..outcome::Outcome::effects(effects)
-        };
+        let mut shown = outcome::Outcome::effects(effects);
+        shown.notes = notes;
         Outcome::used(shown)
     }
 
     fn used(shown: outcome::Outcome<JogPopup>) -> Outcome {
-        let used = true;
-        Outcome {
-            shown,
-            used,
-            quiet: false,
-        }
+        let mut out = Outcome::default();
+        (out.shown, out.used) = (shown, true);
+        out
     }
 }
 

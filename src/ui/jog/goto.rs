@@ -42,8 +42,7 @@ pub struct Context<'a> {
     pub settings: &'a JogSettings,
     /// Whether a go-to may start now.
     pub gate: Gate<'a>,
-    /// The jog speed selected, units per second: the speed of a target
-    /// typed without a feed.
+    /// The jog speed selected (units/s), for a target typed without a feed.
     pub speed: f64,
     pub offsets: &'a WorkOffsets,
 }
