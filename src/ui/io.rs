@@ -5,7 +5,12 @@
 
 use std::time::{Duration, Instant};
 
-use crate::device::api::{IoBit, IoGroup, IoSnapshot, OutputId};
+use crate::device::api::{IoBit, IoGroup, IoSnapshot, OutputId, Request};
+
+use super::keymap::Action;
+use super::msg::Effect;
+use super::outcome::Outcome;
+use super::traffic_log::NoteLevel;
 
 /// How long a changed bit stays highlighted.
 pub const HIGHLIGHT: Duration = Duration::from_millis(1500);
@@ -381,6 +386,114 @@ impl IoPanel {
             })
             .collect();
         (bits.len() == 8 && bits.iter().all(|(n, _)| *n < 8)).then_some(bits)
+    }
+}
+
+/// The I/O panel as a component: a key of the focused panel.
+impl IoPanel {
+    pub fn update(&mut self, now: Instant, action: Action) -> Outcome {
+        match action {
+            Action::SelectPrev => self.step_bit(-1, now),
+            Action::SelectNext => self.step_bit(1, now),
+            Action::GroupPrev => self.step_group(-1, now),
+            Action::GroupNext => self.step_group(1, now),
+            Action::ToggleOutput => return switch(self.toggle_selected()),
+            _ => {}
+        }
+        Outcome::default()
+    }
+}
+
+/// Switching an output: at once, or asked first when it is hazardous or
+/// writes a whole byte; why not when it cannot be switched.
+fn switch<P>(toggle: Result<OutputToggle, String>) -> Outcome<P> {
+    let t = match toggle {
+        Ok(t) => t,
+        Err(why) => return Outcome::note(NoteLevel::Warning, why),
+    };
+    let effects = vec![Effect::Request(Request::SetOutput {
+        output: t.output,
+        value: t.value,
+    })];
+    let title = "Switch an output";
+    if let Some(byte) = &t.byte {
+        // One confirm for the whole byte: outputs cannot be read back, so
+        // the other bits are written too (off), each named.
+        let lines: Vec<String> = byte
+            .bits
+            .iter()
+            .map(|b| {
+                let now = match b.now {
+                    None => "?",
+                    Some(true) => "on",
+                    Some(false) => "off",
+                };
+                let then = if b.then { "ON" } else { "off" };
+                format!("{} {}: {now} -> {then}", b.bit, b.name)
+            })
+            .collect();
+        let question = format!(
+            "Write {} = {:02X}? Outputs cannot be read back and jogterm has not written this \
+             port yet (? = unknown), so every bit is set:\n{}",
+            byte.port,
+            t.value,
+            lines.join("\n")
+        );
+        return Outcome::ask(title, question, effects);
+    }
+    let state = if t.value == 0 { "off" } else { "on" };
+    if t.hazardous {
+        let question = format!(
+            "Switch {} {state}? It moves or powers something on the machine.",
+            t.name
+        );
+        return Outcome::ask(title, question, effects);
+    }
+    Outcome::effects(effects)
+}
+
+/// The named outputs popup (spindle, coolant …) as a component: its state
+/// is the entry selected (an index into [`IoPanel::named_outputs`]), its
+/// context the I/O panel. Enter switches the output through the same
+/// toggle as the panel's; the popup stays open for the next unless a
+/// question takes its place.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Outputs {
+    pub selected: usize,
+}
+
+impl Outputs {
+    /// `o`: the popup, or why there is none.
+    pub fn open(io: &IoPanel) -> Outcome<Outputs> {
+        if io.named_outputs().is_empty() {
+            return Outcome::note(
+                NoteLevel::Info,
+                "no named outputs: give outputs a role in the profile's [io] (spindle, \
+                 coolant, clamp, vacuum, lamp; docs/profiles.md)",
+            );
+        }
+        Outcome::popup(Outputs::default())
+    }
+
+    /// A key of the open popup (taken out of the popup slot).
+    pub fn update(self, io: &IoPanel, action: Action) -> Outcome<Outputs> {
+        let entries = io.named_outputs();
+        let last = entries.len().saturating_sub(1);
+        let selected = self.selected.min(last);
+        let keep = |selected| Outcome::popup(Outputs { selected });
+        match action {
+            Action::Close => Outcome::default(),
+            Action::SelectPrev => keep(selected.saturating_sub(1)),
+            Action::SelectNext => keep((selected + 1).min(last)),
+            Action::ToggleOutput => {
+                let toggle = entries
+                    .get(selected)
+                    .ok_or_else(|| "no named outputs yet".to_string())
+                    .and_then(|s| io.toggle_at(*s));
+                switch(toggle).with_popup(Outputs { selected })
+            }
+            _ => keep(selected),
+        }
     }
 }
 

@@ -14,8 +14,8 @@ use crate::config::macros::Macro;
 use crate::device::api::{Activity, Event, LinkState, MachineState, ReplyKind, Request};
 use crate::device::describe::describe;
 
-use super::confirm::Confirmation;
 use super::msg::Effect;
+use super::outcome::{Confirmation, Note, Outcome};
 use super::raw::{self, RawContext};
 use super::traffic_log::NoteLevel;
 
@@ -27,25 +27,6 @@ pub struct Context<'a> {
     pub machine: &'a MachineState,
     /// What the command line checks a line against.
     pub raw: RawContext,
-}
-
-/// What the console is to do: effects in order, notes for the message
-/// line, a question to ask first (the `Confirm` popup).
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct Outcome {
-    pub effects: Vec<Effect>,
-    pub notes: Vec<(NoteLevel, String)>,
-    pub confirm: Option<Confirmation>,
-}
-
-impl Outcome {
-    fn of((effects, notes): (Vec<Effect>, Vec<(NoteLevel, String)>)) -> Outcome {
-        Outcome {
-            effects,
-            notes,
-            confirm: None,
-        }
-    }
 }
 
 /// A macro being run.
@@ -84,13 +65,13 @@ pub const CONFIRM_TITLE: &str = "Run macro";
 /// macro that may move, unless `confirm = false`), else run it.
 pub fn key(run: &mut Option<MacroRun>, ctx: &Context, name: &str) -> Outcome {
     let Some(m) = find(ctx, name) else {
-        return Outcome::of(not_found(name));
+        return not_found(name);
     };
     if let Some(refused) = refusal(run, ctx, &m) {
-        return Outcome::of((Vec::new(), vec![(NoteLevel::Warning, refused)]));
+        return Outcome::note(NoteLevel::Warning, refused);
     }
     if !m.confirm {
-        return Outcome::of(start(run, ctx, name));
+        return start(run, ctx, name);
     }
     let what = m.description.clone().unwrap_or_else(|| m.lines.join("  "));
     let moves = if m.moves {
@@ -112,13 +93,10 @@ pub fn key(run: &mut Option<MacroRun>, ctx: &Context, name: &str) -> Outcome {
     }
 }
 
-fn not_found(name: &str) -> (Vec<Effect>, Vec<(NoteLevel, String)>) {
-    (
-        Vec::new(),
-        vec![(
-            NoteLevel::Warning,
-            format!("no macro `{name}` in the profile"),
-        )],
+fn not_found(name: &str) -> Outcome {
+    Outcome::note(
+        NoteLevel::Warning,
+        format!("no macro `{name}` in the profile"),
     )
 }
 
@@ -156,16 +134,12 @@ fn refusal(run: &Option<MacroRun>, ctx: &Context, m: &Macro) -> Option<String> {
 }
 
 /// Start the macro `name`: its first line goes to the device task.
-pub fn start(
-    run: &mut Option<MacroRun>,
-    ctx: &Context,
-    name: &str,
-) -> (Vec<Effect>, Vec<(NoteLevel, String)>) {
+pub fn start(run: &mut Option<MacroRun>, ctx: &Context, name: &str) -> Outcome {
     let Some(m) = find(ctx, name) else {
         return not_found(name);
     };
     if let Some(refused) = refusal(run, ctx, &m) {
-        return (Vec::new(), vec![(NoteLevel::Warning, refused)]);
+        return Outcome::note(NoteLevel::Warning, refused);
     }
     let started = MacroRun {
         name: m.name,
@@ -173,40 +147,25 @@ pub fn start(
         current: 0,
         answered: false,
     };
-    let note = (
-        NoteLevel::Info,
-        format!("{}: {}", started.place(), started.line()),
-    );
-    let effect = Effect::Request(Request::Raw {
-        line: started.line().to_string(),
-    });
+    let note = format!("{}: {}", started.place(), started.line());
+    let line = started.line().to_string();
     *run = Some(started);
-    (vec![effect], vec![note])
+    Outcome {
+        effects: vec![Effect::Request(Request::Raw { line })],
+        ..Outcome::note(NoteLevel::Info, note)
+    }
 }
 
 /// A device event while a macro runs: the answer to its line sends the
 /// next (once the machine stands); a refusal, an error or a lost link ends
 /// it.
-pub fn device_event(
-    slot: &mut Option<MacroRun>,
-    machine: &MachineState,
-    event: &Event,
-) -> (Vec<Effect>, Vec<(NoteLevel, String)>) {
+pub fn device_event(slot: &mut Option<MacroRun>, machine: &MachineState, event: &Event) -> Outcome {
     let Some(run) = slot.as_mut() else {
-        return (Vec::new(), Vec::new());
+        return Outcome::default();
     };
     let sent = describe(&Request::Raw {
         line: run.line().to_string(),
     });
-    let ended = |run: &MacroRun, why: String| {
-        let left = run.lines.len() - run.current - 1;
-        let rest = match left {
-            0 => String::new(),
-            1 => "; the last line was not sent".to_string(),
-            n => format!("; the {n} lines after it were not sent"),
-        };
-        (NoteLevel::Danger, format!("{}: {why}{rest}", run.place()))
-    };
     let next = match event {
         Event::Reply {
             kind: ReplyKind::Answer,
@@ -223,42 +182,39 @@ pub fn device_event(
             run.current += 1;
             run.answered = false;
             let line = run.line().to_string();
-            let note = (NoteLevel::Info, format!("{}: {line}", run.place()));
-            (vec![Effect::Request(Request::Raw { line })], vec![note])
+            let note = format!("{}: {line}", run.place());
+            let effects = vec![Effect::Request(Request::Raw { line })];
+            Outcome {
+                effects,
+                ..Outcome::note(NoteLevel::Info, note)
+            }
         } else {
             let done = format!("macro {} done ({} lines)", run.name, run.lines.len());
             *slot = None;
-            (Vec::new(), vec![(NoteLevel::Info, done)])
+            Outcome::note(NoteLevel::Info, done)
         };
     }
-    match event {
-        Event::Refused { request, reason } if *request == sent => {
-            let note = ended(run, format!("refused: {reason}"));
-            *slot = None;
-            (Vec::new(), vec![note])
-        }
-        Event::Fault(fault) => {
-            let note = ended(
-                run,
-                format!(
-                    "the controller answered `{}`: {}",
-                    fault.code, fault.meaning
-                ),
-            );
-            *slot = None;
-            (Vec::new(), vec![note])
-        }
-        Event::Link(LinkState::Lost { reason }) => {
-            let note = ended(run, format!("link lost: {reason}"));
-            *slot = None;
-            (Vec::new(), vec![note])
-        }
-        _ => (Vec::new(), Vec::new()),
-    }
+    let why = match event {
+        Event::Refused { request, reason } if *request == sent => format!("refused: {reason}"),
+        Event::Fault(fault) => format!(
+            "the controller answered `{}`: {}",
+            fault.code, fault.meaning
+        ),
+        Event::Link(LinkState::Lost { reason }) => format!("link lost: {reason}"),
+        _ => return Outcome::default(),
+    };
+    let rest = match run.lines.len() - run.current - 1 {
+        0 => String::new(),
+        1 => "; the last line was not sent".to_string(),
+        n => format!("; the {n} lines after it were not sent"),
+    };
+    let text = format!("{}: {why}{rest}", run.place());
+    *slot = None;
+    Outcome::note(NoteLevel::Danger, text)
 }
 
 /// Everything was stopped: the macro sends nothing more.
-pub fn stopped(run: &mut Option<MacroRun>) -> Option<(NoteLevel, String)> {
+pub fn stopped(run: &mut Option<MacroRun>) -> Option<Note> {
     let run = run.take()?;
     let left = run.lines.len() - run.current - 1;
     Some((

@@ -18,7 +18,7 @@
 //! panic), [`input`] reads keys on its own thread, [`runtime`] runs the loop
 //! that feeds `update` and carries out its effects.
 
-pub mod confirm;
+pub mod console;
 pub mod editor;
 pub mod help;
 pub mod input;
@@ -31,7 +31,9 @@ pub mod macros;
 pub mod messages;
 pub mod model;
 pub mod msg;
+pub mod outcome;
 pub mod palette;
+pub mod popups;
 pub mod position;
 pub mod raw;
 pub mod runtime;

@@ -6,26 +6,22 @@ use std::time::{Duration, Instant};
 
 use crate::device::api::{LinkState, MachineState, PollStats, UploadEvent};
 
-pub use super::confirm::Confirmation;
-use super::editor::dialog::Dialog;
+use super::console::Console;
 use super::editor::{self, Editor};
 use super::io::IoPanel;
-use super::jog::axes::AxisChoice;
-use super::jog::goto::GoToPrompt;
-use super::jog::popups::JogPopup;
-use super::jog::{self, Keypad};
+use super::jog::{self, Keypad, goto};
 use super::keymap::{Keymap, Mode};
-use super::line_edit::LineEdit;
 use super::macros::MacroRun;
 pub use super::messages::Message;
 use super::messages::MessageHistory;
+pub use super::outcome::Confirmation;
 use super::palette::Palette;
+pub use super::popups::Popup;
 use super::position::Positions;
 use super::raw::RawContext;
 pub use super::setup::{JogSelection, Setup};
 use super::sim_panel::SimPanel;
 use super::timeline::Timeline;
-use super::traffic_log::TrafficLog;
 
 /// How long a message stays in the message line before the machine's own
 /// state (and its recovery) takes the line back.
@@ -57,47 +53,6 @@ impl PanelId {
             PanelId::Sim => Mode::Sim,
             PanelId::Editor => Mode::Editor,
             PanelId::Timeline => Mode::Timeline,
-        }
-    }
-}
-
-#[derive(Debug, Clone, PartialEq)]
-pub enum Popup {
-    Help {
-        scroll: usize,
-    },
-    Confirm(Confirmation),
-    /// A form or question of the program editor.
-    Editor(Dialog),
-    /// A position to go to, typed.
-    GoTo(GoToPrompt),
-    /// An axis for a reference run or a work zero.
-    Axes(AxisChoice),
-    /// The keypad's work offsets, set position, typed step and speed.
-    Jog(JogPopup),
-    /// The named outputs (spindle, coolant …); `selected` indexes
-    /// `IoPanel::named_outputs`.
-    Outputs {
-        selected: usize,
-    },
-    /// The message history; `back` is how many lines it is scrolled back
-    /// from the newest.
-    Messages {
-        back: usize,
-    },
-}
-
-impl Popup {
-    pub fn mode(&self) -> Mode {
-        match self {
-            Popup::Help { .. } => Mode::Help,
-            Popup::Confirm(_) => Mode::Confirm,
-            Popup::Editor(dialog) => dialog.mode(),
-            Popup::GoTo(_) => Mode::GoTo,
-            Popup::Axes(_) => Mode::Axes,
-            Popup::Jog(p) => p.mode(),
-            Popup::Outputs { .. } => Mode::Outputs,
-            Popup::Messages { .. } => Mode::Messages,
         }
     }
 }
@@ -145,8 +100,8 @@ pub struct Model {
     pub machine: MachineState,
     pub positions: Positions,
     pub io: IoPanel,
-    pub traffic: TrafficLog,
-    pub command: LineEdit,
+    /// The traffic log and the command line (`ui::console`).
+    pub console: Console,
     pub sim: Option<SimPanel>,
     pub stats: Option<PollStats>,
     pub message: Option<Message>,
@@ -204,7 +159,6 @@ impl Model {
             before_console: PanelId::Jog,
             last_key_at: None,
             motion_asked: None,
-            traffic: TrafficLog::new(),
             keypad: Keypad::new(&setup),
             setup,
             keymap,
@@ -214,7 +168,7 @@ impl Model {
             machine: MachineState::default(),
             positions: Positions::default(),
             io: IoPanel::default(),
-            command: LineEdit::default(),
+            console: Console::default(),
             sim,
             stats: None,
             message: None,
@@ -231,8 +185,6 @@ impl Model {
         }
     }
 
-    /// What the program editor may read of the model (its view draws from
-    /// the editor and this).
     /// The key mode of the focused panel: the program screen during a
     /// check-out has keys of its own (its text is read-only then).
     pub fn panel_mode(&self) -> Mode {
@@ -305,6 +257,17 @@ impl Model {
     /// `Keypad::update`.
     pub fn jog_parts(&mut self) -> (&mut Keypad, jog::Context<'_>) {
         (&mut self.keypad, jog_context!(self))
+    }
+
+    /// The go-to prompt's context (`ui::jog::goto::Context`).
+    pub fn goto_context(&self) -> goto::Context<'_> {
+        let kp = &self.keypad;
+        goto::Context {
+            settings: kp.settings(),
+            gate: jog::gate(kp, &self.jog_context()),
+            speed: jog::selection(kp, &self.setup).speed,
+            offsets: &kp.offsets.table,
+        }
     }
 
     /// The jog step in units: typed, else the preset selected.

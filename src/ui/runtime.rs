@@ -733,7 +733,7 @@ mod tests {
         .expect("run");
         let text = model.message.map(|m| m.text).unwrap_or_default();
         assert!(
-            model.traffic.tail(50).iter().any(|l| l.text
+            model.console.traffic.tail(50).iter().any(|l| l.text
                 == "not sent: initialise: too many requests are waiting for the device task"),
             "{text}"
         );

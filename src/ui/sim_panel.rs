@@ -7,6 +7,11 @@
 
 use crate::sim::InputControl;
 
+use super::keymap::Action;
+use super::msg::Effect;
+use super::outcome::Outcome;
+use super::traffic_log::NoteLevel;
+
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct SimInput {
     pub name: String,
@@ -92,6 +97,27 @@ impl SimPanel {
                 input.level = Some(*level);
             }
         }
+    }
+}
+
+impl SimPanel {
+    /// The simulator panel as a component: a key of the focused panel.
+    pub fn update(&mut self, action: Action) -> Outcome {
+        let control = match action {
+            Action::SelectPrev | Action::SelectNext => {
+                self.step(if action == Action::SelectNext { 1 } else { -1 });
+                None
+            }
+            Action::SimOn => self.set_selected(true),
+            Action::SimOff => self.set_selected(false),
+            Action::SimPress => self.press_selected(),
+            Action::SimToggle => match self.toggle_selected() {
+                Ok(c) => Some(c),
+                Err(why) => return Outcome::note(NoteLevel::Warning, why),
+            },
+            _ => None,
+        };
+        Outcome::effects(control.map(Effect::Simulator).into_iter().collect())
     }
 }
 

@@ -10,6 +10,8 @@ use std::time::{Duration, Instant};
 use crate::device::api::{InputChange, InputChannel, InputKey, InputRole, InputSource, IoSnapshot};
 use crate::device::inputs::{InputHistory, input_bits};
 
+use super::keymap::Action;
+
 /// Time per column the operator can zoom through, in ms.
 pub const SCALES_MS: [u64; 13] = [1, 2, 5, 10, 20, 50, 100, 200, 500, 1000, 2000, 5000, 10_000];
 
@@ -178,6 +180,37 @@ impl Timeline {
     pub fn scroll(&mut self, delta: isize, shown: usize) {
         let last = self.lanes.len().saturating_sub(shown.max(1));
         self.top = self.top.saturating_add_signed(delta).min(last);
+    }
+}
+
+/// What the timeline reads for a key: the time, the room on the screen.
+#[derive(Debug, Clone, Copy)]
+pub struct Context {
+    pub now: Instant,
+    /// Columns of time a lane has.
+    pub columns: u16,
+    /// Lanes that fit.
+    pub rows: usize,
+}
+
+impl Timeline {
+    /// The timeline as a component: a key while it has the focus; `true`
+    /// when it closes (its own key again), the focus going back.
+    pub fn update(&mut self, ctx: &Context, action: Action) -> bool {
+        // A quarter of the picture per key.
+        let step = ctx.columns / 4;
+        match action {
+            Action::Timeline => return true,
+            Action::TimeEarlier => self.earlier(step, ctx.now),
+            Action::TimeLater => self.later(step, ctx.now),
+            Action::TimeLive => self.live(),
+            Action::ZoomIn => self.zoom(-1),
+            Action::ZoomOut => self.zoom(1),
+            Action::ScrollUp => self.scroll(-1, ctx.rows),
+            Action::ScrollDown => self.scroll(1, ctx.rows),
+            _ => {}
+        }
+        false
     }
 }
 

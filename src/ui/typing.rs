@@ -49,18 +49,17 @@ pub enum TextField {
     Editor,
     /// The console's command line (entered with `:`).
     CommandLine,
-    /// The go-to prompt.
-    GoTo,
     /// A form of the editor (file name, find, go to line, arc, …).
     Form,
-    /// A typed value of the keypad's (set position, jog step and speed).
+    /// The line of a popup: the go-to prompt, a typed value of the
+    /// keypad's (set position, jog step and speed); `Popup::line`.
     Prompt,
 }
 
 /// The text field that has the input now, if any.
 pub fn text_field(model: &Model) -> Option<TextField> {
     match &model.popup {
-        Some(Popup::GoTo(_)) => Some(TextField::GoTo),
+        Some(Popup::GoTo(_)) => Some(TextField::Prompt),
         Some(Popup::Editor(Dialog::Form(_))) => Some(TextField::Form),
         Some(Popup::Jog(p)) if p.types() => Some(TextField::Prompt),
         Some(_) => None,

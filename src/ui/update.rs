@@ -1,30 +1,36 @@
 //! `update(&mut Model, Msg) -> Vec<Effect>`: the only place the model
-//! changes. Keys are routed safety first (see [`route_key`]), then to the
-//! open popup, the focused panel and the main screen, gitui-style: the first
-//! that consumes a key ends its journey.
+//! changes, and the router between its components (`docs/architecture.md`,
+//! "The other components and the router"): each gets its state, a context
+//! built from the model and an input, and its outcome is applied here
+//! ([`show`], `apply_jog`, `apply_editor`). Keys are routed safety first
+//! (see [`route_key`]), then to the open popup, the focused panel and the
+//! main screen, gitui-style: the first that consumes a key ends its journey.
 
 use std::time::Instant;
 
 use ratatui::crossterm::event::{KeyEvent, KeyEventKind};
 
-use crate::device::api::{Event, Frame, JogEnd, LinkState, Request};
+use crate::device::api::{Event, JogEnd, LinkState, Request};
 use crate::jog::{KeyPhase, Motion};
 
+use super::console;
 use super::editor;
 use super::help::help_lines;
-use super::io::OutputToggle;
+use super::io::Outputs;
 use super::jog::axes::{AxisChoice, Purpose};
-use super::jog::goto::{self, GoToPrompt};
-use super::jog::{self as keypad};
+use super::jog::goto::GoToPrompt;
+use super::jog::{self as keypad, component::Input as JogInput};
 use super::key::KeyChord;
 use super::keymap::{Action, Mode};
-use super::line_edit::LineError;
-use super::macros;
-use super::model::{Confirmation, Message, Model, PanelId, Popup};
+use super::macros::{self, MacroRun};
+use super::model::{Message, Model, PanelId, Popup};
 use super::msg::{Effect, Msg};
-use super::raw;
+use super::outcome::Outcome;
+use super::popups;
+use super::timeline;
 use super::traffic_log::{LineKind, NoteLevel};
 use super::typing;
+use super::view::{messages::max_back, timeline::lane_columns, timeline::lane_rows};
 
 pub fn update(model: &mut Model, msg: Msg) -> Vec<Effect> {
     let effects = dispatch(model, msg);
@@ -46,18 +52,15 @@ fn dispatch(model: &mut Model, msg: Msg) -> Vec<Effect> {
         Msg::Tick(now) => {
             tick(model, now);
             // Toggle jogs live on the console's ticks.
-            let mut effects = jog_update(model, keypad::component::Input::Tick);
+            let mut effects = jog_update(model, JogInput::Tick);
             effects.extend(editor_update(model, editor::Input::Tick));
             effects
         }
         Msg::Device(event) => {
             let mut effects = editor_update(model, editor::Input::Device(&event));
-            let (next, notes) = macros::device_event(&mut model.macro_run, &model.machine, &event);
-            effects.extend(next);
+            let after = macros::device_event(&mut model.macro_run, &model.machine, &event);
             device_event(model, event);
-            for (level, text) in notes {
-                say(model, level, text);
-            }
+            effects.extend(apply(model, after));
             model.dirty = true;
             effects
         }
@@ -77,23 +80,17 @@ fn dispatch(model: &mut Model, msg: Msg) -> Vec<Effect> {
             Vec::new()
         }
         Msg::NotSent { request, reason } => {
-            say(
-                model,
-                NoteLevel::Danger,
-                format!("not sent: {request}: {reason}"),
-            );
+            let text = format!("not sent: {request}: {reason}");
+            say(model, NoteLevel::Danger, text);
             model.dirty = true;
             Vec::new()
         }
         Msg::Terminate { reason } => {
-            say(
-                model,
-                NoteLevel::Danger,
-                format!("{reason}: stopping and closing"),
-            );
+            let text = format!("{reason}: stopping and closing");
+            say(model, NoteLevel::Danger, text);
             model.quitting = true;
             model.dirty = true;
-            jog_update(model, keypad::component::Input::Stopped);
+            jog_update(model, JogInput::Stopped);
             model.macro_run = None;
             // The last edits go to the recovery file before leaving.
             let mut effects = vec![Effect::Stop];
@@ -132,14 +129,11 @@ fn key_event(model: &mut Model, event: KeyEvent) -> Vec<Effect> {
             model.dirty = true;
             return effects;
         }
-        let (grace, timeout) = (
-            model.keypad.settings().grace,
-            model.keypad.settings().repeat_timeout,
-        );
-        model
-            .macro_key
-            .arrival(chord, KeyPhase::Release, model.now, grace, timeout, true);
-        let effects = jog_update(model, keypad::component::Input::Release(chord));
+        let settings = model.keypad.settings();
+        let (grace, timeout) = (settings.grace, settings.repeat_timeout);
+        let now = model.now;
+        (model.macro_key).arrival(chord, KeyPhase::Release, now, grace, timeout, true);
+        let effects = jog_update(model, JogInput::Release(chord));
         model.dirty |= !effects.is_empty();
         return effects;
     }
@@ -198,26 +192,21 @@ impl Ignored {
     }
 
     fn say(self, model: &mut Model) {
-        if self.enter_in_field {
-            say(
-                model,
-                NoteLevel::Warning,
-                "Enter came together with other keys (a paste?): nothing was sent; \
-                 check the line and press Enter again"
-                    .to_string(),
-            );
+        let text = if self.enter_in_field {
+            "Enter came together with other keys (a paste?): nothing was sent; check the \
+             line and press Enter again"
+                .to_string()
         } else if self.keys > 0 {
             let keys = if self.keys == 1 { "key" } else { "keys" };
-            say(
-                model,
-                NoteLevel::Warning,
-                format!(
-                    "burst ignored: {} {keys} came together with others (a paste?); \
-                     jogterm moves only on keys typed one at a time",
-                    self.keys
-                ),
-            );
-        }
+            format!(
+                "burst ignored: {} {keys} came together with others (a paste?); jogterm \
+                 moves only on keys typed one at a time",
+                self.keys
+            )
+        } else {
+            return;
+        };
+        say(model, NoteLevel::Warning, text);
     }
 }
 
@@ -265,11 +254,11 @@ fn burst_route(model: &mut Model, chord: KeyChord, phase: KeyPhase) -> Option<Ve
             .and_then(keypad::vector_of)
             .is_some()
     {
-        let outcome = jog_outcome(model, keypad::component::Input::Burst(chord, phase));
+        let outcome = jog_outcome(model, JogInput::Burst(chord, phase));
         return outcome.used.then(|| apply_jog(model, outcome));
     }
     if let Some(effects) = jog_any_key(model, chord, phase) {
-        say(model, NoteLevel::Info, "jog stopped".to_string());
+        say(model, NoteLevel::Info, "jog stopped");
         return Some(effects);
     }
     let field = typing::text_field(model);
@@ -291,47 +280,29 @@ fn burst_route(model: &mut Model, chord: KeyChord, phase: KeyPhase) -> Option<Ve
 /// is; a one-line field takes one line (`line_edit::one_line`).
 fn paste(model: &mut Model, text: &str) -> Vec<Effect> {
     model.dirty = true;
-    let refused = match typing::text_field(model) {
-        Some(typing::TextField::Editor) => {
+    let refused = match (typing::text_field(model), model.popup.as_mut()) {
+        (Some(typing::TextField::Editor), _) => {
             return editor_update(model, editor::Input::Paste(text));
         }
-        Some(typing::TextField::Form) => {
-            return match model.popup.take() {
-                Some(Popup::Editor(dialog)) => {
-                    editor_update(model, editor::Input::DialogPaste(dialog, text))
-                }
-                other => {
-                    model.popup = other;
-                    Vec::new()
-                }
+        (Some(typing::TextField::Form), Some(Popup::Editor(_))) => {
+            let Some(Popup::Editor(dialog)) = model.popup.take() else {
+                return Vec::new();
             };
+            return editor_update(model, editor::Input::DialogPaste(dialog, text));
         }
-        Some(typing::TextField::CommandLine) => model.command.paste(text).err(),
-        Some(typing::TextField::GoTo) => match model.popup.as_mut() {
-            Some(Popup::GoTo(prompt)) => prompt.line.paste(text).err(),
-            _ => None,
-        },
-        Some(typing::TextField::Prompt) => {
-            let refused = match model.popup.as_mut() {
-                Some(Popup::Jog(p)) => keypad::popups::paste(p, text),
-                _ => None,
-            };
-            if let Some(refused) = refused {
-                say(model, NoteLevel::Warning, refused);
-            }
-            return Vec::new();
+        (Some(typing::TextField::CommandLine), _) => {
+            return console_update(model, console::Input::Paste(text));
         }
-        None => {
-            say(
-                model,
-                NoteLevel::Warning,
-                "paste ignored: jogterm moves only on keys".to_string(),
-            );
-            return Vec::new();
+        (Some(typing::TextField::Prompt), Some(popup)) => {
+            let line = popup.line();
+            line.and_then(|l| l.paste(text).err())
+                .map(|e| e.to_string())
         }
+        (None, _) => Some("paste ignored: jogterm moves only on keys".to_string()),
+        _ => None,
     };
     if let Some(refused) = refused {
-        say(model, NoteLevel::Warning, refused.to_string());
+        say(model, NoteLevel::Warning, refused);
     }
     Vec::new()
 }
@@ -365,7 +336,7 @@ fn route(model: &mut Model, chord: KeyChord, phase: KeyPhase) -> Vec<Effect> {
     // Toggle jogging: any key stops the jog and does nothing else (the
     // keypad's own keys know their repeats from a new press).
     if !motion_key && let Some(effects) = jog_any_key(model, chord, phase) {
-        say(model, NoteLevel::Info, "jog stopped".to_string());
+        say(model, NoteLevel::Info, "jog stopped");
         return effects;
     }
     let field = typing::text_field(model);
@@ -382,7 +353,15 @@ fn route(model: &mut Model, chord: KeyChord, phase: KeyPhase) -> Vec<Effect> {
             return editor_update(model, editor::Input::Checkout(action, phase));
         }
         if focus == PanelId::Jog {
-            return jog_action(model, action, chord, phase);
+            let (action, chord) = (action, chord);
+            return jog_update(
+                model,
+                JogInput::Motion {
+                    action,
+                    chord,
+                    phase,
+                },
+            );
         }
         return panel_action(model, focus, action);
     }
@@ -406,18 +385,8 @@ fn route(model: &mut Model, chord: KeyChord, phase: KeyPhase) -> Vec<Effect> {
         }
         let name = name.to_string();
         let (run, ctx) = model.macro_parts();
-        let macros::Outcome {
-            effects,
-            notes,
-            confirm,
-        } = macros::key(run, &ctx, &name);
-        if let Some(confirm) = confirm {
-            model.popup = Some(Popup::Confirm(confirm));
-        }
-        for (level, text) in notes {
-            say(model, level, text);
-        }
-        return effects;
+        let out = macros::key(run, &ctx, &name);
+        return apply(model, out);
     }
     match model.keymap.lookup(Mode::Main, &chord) {
         Some(action) => main_action(model, action),
@@ -429,20 +398,19 @@ fn route(model: &mut Model, chord: KeyChord, phase: KeyPhase) -> Vec<Effect> {
 fn type_into(model: &mut Model, field: typing::TextField, c: char) -> Vec<Effect> {
     match field {
         typing::TextField::Editor => editor_update(model, editor::Input::Char(c)),
-        typing::TextField::Form => editor_dialog_char(model, c),
-        typing::TextField::CommandLine => {
-            model.command.insert(c);
-            Vec::new()
-        }
-        typing::TextField::GoTo => {
-            if let Some(Popup::GoTo(prompt)) = model.popup.as_mut() {
-                prompt.line.insert(c);
+        typing::TextField::Form => match model.popup.take() {
+            Some(Popup::Editor(dialog)) => {
+                editor_update(model, editor::Input::DialogChar(dialog, c))
             }
-            Vec::new()
-        }
+            other => {
+                model.popup = other;
+                Vec::new()
+            }
+        },
+        typing::TextField::CommandLine => console_update(model, console::Input::Char(c)),
         typing::TextField::Prompt => {
-            if let Some(Popup::Jog(p)) = model.popup.as_mut() {
-                keypad::popups::type_char(p, c);
+            if let Some(line) = model.popup.as_mut().and_then(Popup::line) {
+                line.insert(c);
             }
             Vec::new()
         }
@@ -466,21 +434,14 @@ fn safety_stop(model: &mut Model, chord: KeyChord) -> Vec<Effect> {
         .key_for(mode, Action::TypeBlank)
         .map(|k| format!("; {k} types a blank"))
         .unwrap_or_default();
-    say(
-        model,
-        NoteLevel::Info,
-        format!("stop: all motion stopped (Space stops, not types, while {reason}{blank})"),
-    );
+    let text = format!("stop: all motion stopped (Space stops, not types, while {reason}{blank})");
+    say(model, NoteLevel::Info, text);
     effects
 }
 
 fn stop(model: &mut Model) -> Vec<Effect> {
-    jog_update(model, keypad::component::Input::Stopped);
-    say(
-        model,
-        NoteLevel::Info,
-        "stop: all motion stopped".to_string(),
-    );
+    jog_update(model, JogInput::Stopped);
+    say(model, NoteLevel::Info, "stop: all motion stopped");
     if let Some((level, text)) = macros::stopped(&mut model.macro_run) {
         say(model, level, text);
     }
@@ -491,30 +452,17 @@ fn stop(model: &mut Model) -> Vec<Effect> {
 
 fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
     // Work offsets, the step and speed (typed, presets, override).
-    let outcome = jog_outcome(model, keypad::component::Input::Main(action));
+    let outcome = jog_outcome(model, JogInput::Main(action));
     if outcome.used {
         return apply_jog(model, outcome);
     }
     match action {
         Action::Stop => stop(model),
         Action::Outputs => {
-            if model.io.named_outputs().is_empty() {
-                say(
-                    model,
-                    NoteLevel::Info,
-                    "no named outputs: give outputs a role in the profile's [io] (spindle, \
-                     coolant, clamp, vacuum, lamp; docs/profiles.md)"
-                        .to_string(),
-                );
-            } else {
-                model.popup = Some(Popup::Outputs { selected: 0 });
-            }
-            Vec::new()
+            let out = Outputs::open(&model.io);
+            show(model, out, Popup::Outputs)
         }
-        Action::Messages => {
-            model.popup = Some(Popup::Messages { back: 0 });
-            Vec::new()
-        }
+        Action::Messages => open(model, Popup::Messages { back: 0 }),
         Action::LargeDro => {
             model.large_dro = !model.large_dro;
             // The panels it hides cannot keep the focus: keys must not
@@ -535,75 +483,31 @@ fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
             if model.keypad.moving(&model.machine) {
                 // Quitting stops the machine; a slip of the finger must not
                 // end a program run or a reference run (`docs/jogging.md`).
-                ask(
-                    model,
-                    QUIT_WHILE_MOVING,
-                    quit_question(model),
-                    vec![Effect::Stop, Effect::Quit],
-                );
-                return Vec::new();
+                let question = quit_question(model);
+                let effects = vec![Effect::Stop, Effect::Quit];
+                return ask(model, QUIT_WHILE_MOVING, question, effects);
             }
             model.quitting = true;
             vec![Effect::Stop, Effect::Quit]
         }
-        Action::JogKind => jog_update(model, keypad::component::Input::SwitchKind),
+        Action::JogKind => jog_update(model, JogInput::SwitchKind),
         Action::GoTo => {
-            if let Err(reason) =
-                keypad::gate(&model.keypad, &model.jog_context()).check(Motion::GoTo)
-            {
-                say(model, NoteLevel::Danger, format!("go to refused: {reason}"));
-                return Vec::new();
-            }
-            model.popup = Some(Popup::GoTo(GoToPrompt::default()));
-            Vec::new()
+            let out = GoToPrompt::open(&model.goto_context());
+            show(model, out, Popup::GoTo)
         }
         Action::GoZero => {
-            if let Err(reason) =
-                keypad::gate(&model.keypad, &model.jog_context()).check(Motion::GoTo)
-            {
-                say(
-                    model,
-                    NoteLevel::Danger,
-                    format!("go to zero refused: {reason}"),
-                );
-                return Vec::new();
-            }
-            let settings = model.keypad.settings();
-            let target = goto::zero_target(settings);
-            let speed = keypad::selection(&model.keypad, &model.setup).speed;
-            let offsets = &model.keypad.offsets.table;
-            match goto::request(&target, Frame::Work, settings, offsets, speed) {
-                Ok(planned) => {
-                    let axes = settings.axis_set();
-                    let speed = crate::ui::position::format_amount(speed);
-                    let system = offsets.active();
-                    ask(
-                        model,
-                        "Go to the work zero",
-                        format!(
-                            "Axes {axes} will move to the work zero of {system} ({}) at {speed} \
-                             per second. Keep clear of the machine. Go?",
-                            goto::describe(&target)
-                        ),
-                        vec![Effect::Request(planned.request)],
-                    );
-                }
-                Err(e) => say(model, NoteLevel::Danger, format!("go to zero refused: {e}")),
-            }
-            Vec::new()
+            let out = GoToPrompt::zero(&model.goto_context());
+            show(model, out, Popup::GoTo)
         }
         Action::JogOffLimit => {
             let (kp, ctx) = model.jog_parts();
             match kp.limit_question(&ctx) {
-                Ok(q) => ask(
-                    model,
-                    &q.title,
-                    q.question,
-                    vec![Effect::Request(q.request)],
-                ),
-                Err(text) => say(model, NoteLevel::Danger, text),
+                Ok(q) => {
+                    let effects = vec![Effect::Request(q.request)];
+                    ask(model, &q.title, q.question, effects)
+                }
+                Err(text) => apply(model, Outcome::note(NoteLevel::Danger, text)),
             }
-            Vec::new()
         }
         Action::HomeAxis | Action::ZeroAxis => {
             let (purpose, motion) = if action == Action::HomeAxis {
@@ -612,27 +516,15 @@ fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
                 (Purpose::Zero, Motion::SetZero)
             };
             if let Err(reason) = keypad::gate(&model.keypad, &model.jog_context()).check(motion) {
-                say(model, NoteLevel::Danger, format!("refused: {reason}"));
-                return Vec::new();
+                let text = format!("refused: {reason}");
+                return apply(model, Outcome::note(NoteLevel::Danger, text));
             }
-            model.popup = Some(Popup::Axes(AxisChoice {
-                purpose,
-                axes: model.setup.axis_set(),
-            }));
-            Vec::new()
+            let axes = model.setup.axis_set();
+            open(model, Popup::Axes(AxisChoice { purpose, axes }))
         }
-        Action::Help => {
-            model.popup = Some(Popup::Help { scroll: 0 });
-            Vec::new()
-        }
-        Action::FocusNext => {
-            cycle_focus(model, 1);
-            Vec::new()
-        }
-        Action::FocusPrev => {
-            cycle_focus(model, -1);
-            Vec::new()
-        }
+        Action::Help => open(model, Popup::Help { scroll: 0 }),
+        Action::FocusNext => cycle_focus(model, 1),
+        Action::FocusPrev => cycle_focus(model, -1),
         Action::FocusConsole => {
             // The command line is typed where it can be seen.
             model.large_dro = false;
@@ -645,32 +537,20 @@ fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
         Action::Initialise => vec![Effect::Request(Request::Initialise)],
         Action::Home => {
             let axes = model.setup.axis_set();
-            ask(
-                model,
-                "Reference run",
-                format!(
-                    "Axes {axes} will move to their reference switches. \
-                     Keep clear of the machine. Start the reference run?"
-                ),
-                vec![Effect::Request(Request::Home { axes })],
+            let question = format!(
+                "Axes {axes} will move to their reference switches. \
+                 Keep clear of the machine. Start the reference run?"
             );
-            Vec::new()
+            let home = vec![Effect::Request(Request::Home { axes })];
+            ask(model, "Reference run", question, home)
         }
         Action::Reset => {
-            ask(
-                model,
-                "Reset the controller",
-                "The controller stops at once and forgets its axes and reference \
-                 point; initialise (i) and reference (h) again afterwards. Reset?"
-                    .to_string(),
-                vec![Effect::Request(Request::Reset)],
-            );
-            Vec::new()
+            let question = "The controller stops at once and forgets its axes and reference \
+                            point; initialise (i) and reference (h) again afterwards. Reset?";
+            let reset = vec![Effect::Request(Request::Reset)];
+            ask(model, "Reset the controller", question.to_string(), reset)
         }
-        Action::TogglePolls => {
-            model.traffic.show_polls = !model.traffic.show_polls;
-            Vec::new()
-        }
+        Action::TogglePolls => console_update(model, console::Input::Key(action)),
         Action::Timeline => {
             if model.focus != PanelId::Timeline {
                 model.before_timeline = model.focus;
@@ -685,7 +565,7 @@ fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
     }
 }
 
-fn cycle_focus(model: &mut Model, delta: isize) {
+fn cycle_focus(model: &mut Model, delta: isize) -> Vec<Effect> {
     let ring = model.focus_ring();
     if model.focus == PanelId::Console {
         // Tab leaves the command line for the panel it was opened from.
@@ -694,13 +574,14 @@ fn cycle_focus(model: &mut Model, delta: isize) {
         } else {
             PanelId::Jog
         };
-        return;
+        return Vec::new();
     }
     let len = ring.len() as isize;
     let at = ring.iter().position(|p| *p == model.focus).unwrap_or(0) as isize;
     if let Some(next) = ring.get((at + delta).rem_euclid(len.max(1)) as usize) {
         model.focus = *next;
     }
+    Vec::new()
 }
 
 /// The title of the question `q` asks while something moves.
@@ -730,246 +611,118 @@ fn refresh_quit_question(model: &mut Model) {
     }
 }
 
-fn ask(model: &mut Model, title: &str, question: String, effects: Vec<Effect>) {
-    model.popup = Some(Popup::Confirm(Confirmation {
-        title: title.to_string(),
-        question,
-        effects,
-        run_macro: None,
-    }));
+/// Ask `question` before `effects` go out: nothing goes out now.
+fn ask(model: &mut Model, title: &str, question: String, effects: Vec<Effect>) -> Vec<Effect> {
+    apply(model, Outcome::ask(title, question, effects))
 }
 
-fn popup_action(model: &mut Model, action: Action) -> Vec<Effect> {
-    match (model.popup.take(), action) {
-        (Some(Popup::Confirm(c)), Action::Confirm) => {
-            let mut effects = c.effects;
-            if let Some(name) = c.run_macro {
-                let (run, ctx) = model.macro_parts();
-                let (started, notes) = macros::start(run, &ctx, &name);
-                effects.extend(started);
-                for (level, text) in notes {
-                    say(model, level, text);
-                }
-            }
-            effects
-        }
-        (Some(Popup::Confirm(c)), Action::Cancel) => {
-            say(model, NoteLevel::Info, format!("{}: cancelled", c.title));
-            Vec::new()
-        }
-        (Some(Popup::Editor(dialog)), action) => {
-            editor_update(model, editor::Input::Dialog(dialog, action))
-        }
-        (Some(Popup::Help { .. }), Action::Close) => Vec::new(),
-        (Some(Popup::GoTo(prompt)), action) => goto_action(model, prompt, action),
-        (Some(Popup::Jog(popup)), action) => jog_update(
-            model,
-            keypad::component::Input::Popup(Box::new(popup), action),
-        ),
-        (Some(Popup::Axes(choice)), Action::Cancel) => {
-            say(
-                model,
-                NoteLevel::Info,
-                format!("{}: cancelled", choice.title()),
-            );
-            Vec::new()
-        }
-        (Some(Popup::Axes(choice)), action) => match choice.chosen(action) {
-            Some(axes) if choice.purpose == Purpose::Zero => {
-                jog_update(model, keypad::component::Input::ZeroAxes(axes))
-            }
-            Some(axes) => vec![Effect::Request(choice.request(axes))],
-            None => {
-                say(
-                    model,
-                    NoteLevel::Warning,
-                    format!("the machine has axes {} only", choice.axes),
-                );
-                model.popup = Some(Popup::Axes(choice));
-                Vec::new()
-            }
-        },
-        (Some(Popup::Outputs { selected }), action) => outputs_action(model, selected, action),
-        (Some(Popup::Messages { back }), action) => {
-            model.popup = messages_scroll(model, back, action).map(|back| Popup::Messages { back });
-            Vec::new()
-        }
-        (Some(Popup::Help { scroll }), scroll_action) => {
-            let page = usize::from(model.size.1.saturating_sub(6)).max(1);
-            let last = help_lines(&model.keymap, &model.setup.macros)
-                .len()
-                .saturating_sub(1);
-            let scroll = match scroll_action {
-                Action::ScrollUp => scroll.saturating_sub(1),
-                Action::ScrollDown => scroll + 1,
-                Action::PageUp => scroll.saturating_sub(page),
-                Action::PageDown => scroll + page,
-                _ => scroll,
-            };
-            model.popup = Some(Popup::Help {
-                scroll: scroll.min(last),
-            });
-            Vec::new()
-        }
-        (popup, _) => {
-            model.popup = popup;
-            Vec::new()
-        }
-    }
-}
-
-/// The named outputs popup: choose one, Enter switches it (through the
-/// same toggle as the I/O panel's, asked first when hazardous); the popup
-/// stays open for the next unless a question took its place.
-fn outputs_action(model: &mut Model, selected: usize, action: Action) -> Vec<Effect> {
-    let entries = model.io.named_outputs();
-    let last = entries.len().saturating_sub(1);
-    let selected = selected.min(last);
-    let keep = |model: &mut Model, selected| model.popup = Some(Popup::Outputs { selected });
-    match action {
-        Action::Close => Vec::new(),
-        Action::SelectPrev => {
-            keep(model, selected.saturating_sub(1));
-            Vec::new()
-        }
-        Action::SelectNext => {
-            keep(model, (selected + 1).min(last));
-            Vec::new()
-        }
-        Action::ToggleOutput => {
-            let toggle = entries
-                .get(selected)
-                .ok_or_else(|| "no named outputs yet".to_string())
-                .and_then(|s| model.io.toggle_at(*s));
-            match toggle {
-                Ok(t) => {
-                    keep(model, selected);
-                    toggle_output(model, t)
-                }
-                Err(reason) => {
-                    keep(model, selected);
-                    say(model, NoteLevel::Warning, reason);
-                    Vec::new()
-                }
-            }
-        }
-        _ => {
-            keep(model, selected);
-            Vec::new()
-        }
-    }
-}
-
-/// The message history scrolled by `action`, `None` to close it.
-fn messages_scroll(model: &Model, back: usize, action: Action) -> Option<usize> {
-    let page = usize::from(model.size.1.saturating_sub(8)).max(1);
-    let oldest = super::view::messages::max_back(model);
-    let back = match action {
-        Action::Close => return None,
-        Action::ScrollUp => back + 1,
-        Action::ScrollDown => back.saturating_sub(1),
-        Action::PageUp => back + page,
-        Action::PageDown => back.saturating_sub(page),
-        Action::ScrollTop => oldest,
-        Action::ScrollBottom => 0,
-        _ => back,
-    };
-    Some(back.min(oldest))
-}
-
-/// A typed go-to prompt: editing keys, Enter checks and goes, Esc cancels.
-fn goto_action(model: &mut Model, mut prompt: GoToPrompt, action: Action) -> Vec<Effect> {
-    let frame = prompt.frame;
-    let line = &mut prompt.line;
-    match action {
-        Action::Cancel => {
-            say(model, NoteLevel::Info, "go to: cancelled".to_string());
-            return Vec::new();
-        }
-        Action::ToggleFrame => {
-            prompt.toggle_frame();
-            model.popup = Some(Popup::GoTo(prompt));
-            return Vec::new();
-        }
-        Action::Submit => {
-            let settings = model.keypad.settings();
-            let speed = keypad::selection(&model.keypad, &model.setup).speed;
-            let checked = keypad::gate(&model.keypad, &model.jog_context())
-                .check(Motion::GoTo)
-                .map_err(|r| r.to_string())
-                .and_then(|()| {
-                    goto::parse(line.text(), settings)
-                        .and_then(|t| {
-                            goto::request(&t, frame, settings, &model.keypad.offsets.table, speed)
-                                .map(|r| (t, r))
-                        })
-                        .map_err(|e| e.to_string())
-                });
-            match checked {
-                Ok((target, planned)) => {
-                    let frame = match planned.frame {
-                        Frame::Work => {
-                            format!("{} work coordinates", model.keypad.offsets.table.active())
-                        }
-                        Frame::Machine => "machine coordinates".to_string(),
-                    };
-                    let speed = crate::ui::position::format_amount(planned.speed);
-                    say(
-                        model,
-                        NoteLevel::Info,
-                        format!(
-                            "go to {} ({frame}) at {speed} per second",
-                            goto::describe(&target)
-                        ),
-                    );
-                    return vec![Effect::Request(planned.request)];
-                }
-                Err(message) => {
-                    line.error = Some(LineError {
-                        message,
-                        span: None,
-                    });
-                }
-            }
-        }
-        other => super::line_edit::edit_line(line, other),
-    }
-    model.popup = Some(Popup::GoTo(prompt));
+fn open(model: &mut Model, popup: Popup) -> Vec<Effect> {
+    model.popup = Some(popup);
     Vec::new()
 }
 
-/// A key of the focused jog keypad.
-fn jog_action(model: &mut Model, action: Action, chord: KeyChord, phase: KeyPhase) -> Vec<Effect> {
-    jog_update(
-        model,
-        keypad::component::Input::Motion {
-            action,
-            chord,
-            phase,
-        },
-    )
+/// A key of the open popup, taken out of the popup slot for its component
+/// (whose outcome gives it back while it stays open).
+fn popup_action(model: &mut Model, action: Action) -> Vec<Effect> {
+    let Some(popup) = model.popup.take() else {
+        return Vec::new();
+    };
+    match popup {
+        Popup::Editor(dialog) => editor_update(model, editor::Input::Dialog(dialog, action)),
+        Popup::Jog(popup) => jog_update(model, JogInput::Popup(Box::new(popup), action)),
+        Popup::GoTo(prompt) => {
+            let out = prompt.update(&model.goto_context(), action);
+            show(model, out, Popup::GoTo)
+        }
+        Popup::Outputs(outputs) => {
+            let out = outputs.update(&model.io, action);
+            show(model, out, Popup::Outputs)
+        }
+        // Answers that go on to another component: the macro a question
+        // starts, the work zero of the axes chosen (the keypad's).
+        Popup::Confirm(c) if action == Action::Confirm => {
+            let mut effects = c.effects;
+            if let Some(name) = c.run_macro {
+                let (run, ctx) = model.macro_parts();
+                let started = macros::start(run, &ctx, &name);
+                effects.extend(apply(model, started));
+            }
+            effects
+        }
+        Popup::Axes(choice)
+            if choice.purpose == Purpose::Zero
+                && let Some(axes) = choice.chosen(action) =>
+        {
+            jog_update(model, JogInput::ZeroAxes(axes))
+        }
+        popup => {
+            let ctx = popups::Context {
+                rows: model.size.1,
+                help_lines: help_lines(&model.keymap, &model.setup.macros).len(),
+                oldest: max_back(model),
+            };
+            let out = popup.update(&ctx, action);
+            show(model, out, |popup| popup)
+        }
+    }
 }
 
 fn panel_action(model: &mut Model, panel: PanelId, action: Action) -> Vec<Effect> {
     match panel {
         PanelId::Jog => Vec::new(),
-        PanelId::Io => io_action(model, action),
-        PanelId::Console => console_action(model, action),
-        PanelId::Sim => sim_action(model, action),
+        PanelId::Io => {
+            let out = model.io.update(model.now, action);
+            apply(model, out)
+        }
+        PanelId::Console => console_update(model, console::Input::Key(action)),
+        PanelId::Sim => {
+            let out = model.sim.as_mut().map(|s| s.update(action));
+            apply(model, out.unwrap_or_default())
+        }
         PanelId::Editor => editor_update(model, editor::Input::Key(action)),
-        PanelId::Timeline => timeline_action(model, action),
-    }
-}
-
-/// A character typed while an editor form is open.
-fn editor_dialog_char(model: &mut Model, c: char) -> Vec<Effect> {
-    match model.popup.take() {
-        Some(Popup::Editor(dialog)) => editor_update(model, editor::Input::DialogChar(dialog, c)),
-        other => {
-            model.popup = other;
+        PanelId::Timeline => {
+            let (w, h) = model.size;
+            let ctx = timeline::Context {
+                now: model.now,
+                columns: lane_columns(w),
+                rows: usize::from(lane_rows(w, h, model.timeline.shown().len())),
+            };
+            if model.timeline.update(&ctx, action) {
+                model.focus = model.before_timeline;
+            }
             Vec::new()
         }
     }
+}
+
+/// The console's update: `input` in its context, the outcome applied.
+fn console_update(model: &mut Model, input: console::Input) -> Vec<Effect> {
+    let ctx = console::Context {
+        raw: model.raw_context(),
+        macro_running: model.macro_run.as_ref().map(MacroRun::place),
+    };
+    let out = model.console.update(&ctx, input);
+    apply(model, out)
+}
+
+/// What the outcome of a component without a popup asks (see [`show`]).
+fn apply(model: &mut Model, outcome: Outcome) -> Vec<Effect> {
+    show(model, outcome, |never| match never {})
+}
+
+/// A component's outcome applied, in one place: notes, its popup as
+/// `popup` wraps it (a question in place of it), the effects.
+fn show<P>(model: &mut Model, outcome: Outcome<P>, popup: impl Fn(P) -> Popup) -> Vec<Effect> {
+    for (level, text) in outcome.notes {
+        say(model, level, text);
+    }
+    if let Some(shown) = outcome.popup {
+        model.popup = Some(popup(shown));
+    }
+    if let Some(question) = outcome.confirm {
+        model.popup = Some(Popup::Confirm(question));
+    }
+    outcome.effects
 }
 
 /// The program editor's update: `input` in its context, the outcome
@@ -1021,171 +774,6 @@ fn apply_editor(model: &mut Model, outcome: editor::Outcome) -> Vec<Effect> {
     effects
 }
 
-/// Lanes the timeline shows at the terminal's size.
-fn timeline_lanes(model: &Model) -> usize {
-    let lanes = model.timeline.shown().len();
-    usize::from(crate::ui::view::timeline::lane_rows(
-        model.size.0,
-        model.size.1,
-        lanes,
-    ))
-}
-
-fn timeline_action(model: &mut Model, action: Action) -> Vec<Effect> {
-    // A quarter of the picture per key.
-    let step = crate::ui::view::timeline::lane_columns(model.size.0) / 4;
-    let shown = timeline_lanes(model);
-    let (t, now) = (&mut model.timeline, model.now);
-    match action {
-        Action::Timeline => model.focus = model.before_timeline,
-        Action::TimeEarlier => t.earlier(step, now),
-        Action::TimeLater => t.later(step, now),
-        Action::TimeLive => t.live(),
-        Action::ZoomIn => t.zoom(-1),
-        Action::ZoomOut => t.zoom(1),
-        Action::ScrollUp => t.scroll(-1, shown),
-        Action::ScrollDown => t.scroll(1, shown),
-        _ => {}
-    }
-    Vec::new()
-}
-
-fn io_action(model: &mut Model, action: Action) -> Vec<Effect> {
-    match action {
-        Action::SelectPrev => model.io.step_bit(-1, model.now),
-        Action::SelectNext => model.io.step_bit(1, model.now),
-        Action::GroupPrev => model.io.step_group(-1, model.now),
-        Action::GroupNext => model.io.step_group(1, model.now),
-        Action::ToggleOutput => {
-            return match model.io.toggle_selected() {
-                Ok(toggle) => toggle_output(model, toggle),
-                Err(why) => {
-                    say(model, NoteLevel::Warning, why);
-                    Vec::new()
-                }
-            };
-        }
-        _ => {}
-    }
-    Vec::new()
-}
-
-fn toggle_output(model: &mut Model, t: OutputToggle) -> Vec<Effect> {
-    let effects = vec![Effect::Request(Request::SetOutput {
-        output: t.output,
-        value: t.value,
-    })];
-    if let Some(byte) = &t.byte {
-        // One confirm for the whole byte: outputs cannot be read back, so
-        // the other bits are written too (off), each named.
-        let lines: Vec<String> = byte
-            .bits
-            .iter()
-            .map(|b| {
-                let now = match b.now {
-                    None => "?",
-                    Some(true) => "on",
-                    Some(false) => "off",
-                };
-                let then = if b.then { "ON" } else { "off" };
-                format!("{} {}: {now} -> {then}", b.bit, b.name)
-            })
-            .collect();
-        ask(
-            model,
-            "Switch an output",
-            format!(
-                "Write {} = {:02X}? Outputs cannot be read back and jogterm has not written this \
-                 port yet (? = unknown), so every bit is set:\n{}",
-                byte.port,
-                t.value,
-                lines.join("\n")
-            ),
-            effects,
-        );
-        return Vec::new();
-    }
-    let state = if t.value == 0 { "off" } else { "on" };
-    if t.hazardous {
-        ask(
-            model,
-            "Switch an output",
-            format!(
-                "Switch {} {state}? It moves or powers something on the machine.",
-                t.name
-            ),
-            effects,
-        );
-        Vec::new()
-    } else {
-        effects
-    }
-}
-
-fn console_action(model: &mut Model, action: Action) -> Vec<Effect> {
-    let line = &mut model.command;
-    match action {
-        Action::Submit => {
-            if let Some(run) = &model.macro_run {
-                // Its answers would be taken for the macro's.
-                let text = format!("not sent: {} is running (Space stops it)", run.place());
-                say(model, NoteLevel::Warning, text);
-                return Vec::new();
-            }
-            return match raw::validate(&model.raw_context(), model.command.text()) {
-                Ok(checked) => {
-                    model.command.accept();
-                    vec![Effect::Request(Request::Raw { line: checked })]
-                }
-                Err(e) => {
-                    model.command.error = Some(e);
-                    Vec::new()
-                }
-            };
-        }
-        Action::HistoryPrev => line.history_prev(),
-        Action::HistoryNext => line.history_next(),
-        Action::CursorLeft => line.left(),
-        Action::CursorRight => line.right(),
-        Action::CursorHome => line.home(),
-        Action::CursorEnd => line.end(),
-        Action::DeleteBack => line.delete_back(),
-        Action::DeleteForward => line.delete_forward(),
-        Action::ClearLine => line.clear(),
-        Action::TypeBlank => line.insert(' '),
-        _ => {}
-    }
-    Vec::new()
-}
-
-fn sim_action(model: &mut Model, action: Action) -> Vec<Effect> {
-    let Some(sim) = model.sim.as_mut() else {
-        return Vec::new();
-    };
-    let control = match action {
-        Action::SelectPrev => {
-            sim.step(-1);
-            None
-        }
-        Action::SelectNext => {
-            sim.step(1);
-            None
-        }
-        Action::SimOn => sim.set_selected(true),
-        Action::SimOff => sim.set_selected(false),
-        Action::SimPress => sim.press_selected(),
-        Action::SimToggle => match sim.toggle_selected() {
-            Ok(c) => Some(c),
-            Err(why) => {
-                say(model, NoteLevel::Warning, why);
-                None
-            }
-        },
-        _ => None,
-    };
-    control.map(Effect::Simulator).into_iter().collect()
-}
-
 fn tick(model: &mut Model, now: Instant) {
     let before = (
         model.io.highlight_count(model.now),
@@ -1193,7 +781,7 @@ fn tick(model: &mut Model, now: Instant) {
         model.keypad.clock_shown(model.now),
     );
     model.now = now;
-    let flushed = model.traffic.flush_idle(now);
+    let flushed = model.console.traffic.flush_idle(now);
     let after = (
         model.io.highlight_count(now),
         model.fresh_message().is_some(),
@@ -1208,7 +796,7 @@ fn tick(model: &mut Model, now: Instant) {
 }
 
 fn device_event(model: &mut Model, event: Event) {
-    if jog_outcome(model, keypad::component::Input::Device(&event)).quiet {
+    if jog_outcome(model, JogInput::Device(&event)).quiet {
         return;
     }
     match event {
@@ -1227,11 +815,13 @@ fn device_event(model: &mut Model, event: Event) {
             }
         }
         Event::Fault(fault) => say(model, NoteLevel::Danger, fault_text(&fault)),
-        Event::Refused { request, reason } => say(
-            model,
-            NoteLevel::Danger,
-            format!("refused {request}: {reason}"),
-        ),
+        Event::Refused { request, reason } => {
+            say(
+                model,
+                NoteLevel::Danger,
+                format!("refused {request}: {reason}"),
+            );
+        }
         Event::JogEnded { id, end } => {
             if let Some(run) = model.keypad.limit.ended(id) {
                 limit_jog_ended(model, &run, &end);
@@ -1242,7 +832,7 @@ fn device_event(model: &mut Model, event: Event) {
         // The editor has said how it went (it knows which line each
         // uploaded command came from).
         Event::Upload(upload) => model.upload = Some(upload),
-        Event::Traffic(record) => model.traffic.record(&record, model.now),
+        Event::Traffic(record) => model.console.traffic.record(&record, model.now),
         Event::Reply { command, text, .. } => {
             // Text replies (isel `@0V`, `@0H`) come in several lines.
             let lines: Vec<&str> = text
@@ -1252,11 +842,10 @@ fn device_event(model: &mut Model, event: Event) {
                 .collect();
             let mut notes = lines.iter();
             let first = notes.next().copied().unwrap_or_default();
-            model
-                .traffic
-                .note(LineKind::Reply, format!("{command} = {first}"));
+            let traffic = &mut model.console.traffic;
+            traffic.note(LineKind::Reply, format!("{command} = {first}"));
             for line in notes {
-                model.traffic.note(LineKind::Reply, format!("  {line}"));
+                traffic.note(LineKind::Reply, format!("  {line}"));
             }
             model.message = Some(Message {
                 at: model.now,
@@ -1312,26 +901,19 @@ fn link_changed(model: &mut Model, state: LinkState) {
 }
 
 fn jog_ended(model: &mut Model, end: JogEnd) {
-    let note = match end {
-        JogEnd::Released => None,
-        JogEnd::DeadMan => Some((
+    let (level, text) = match end {
+        JogEnd::DeadMan => (
             NoteLevel::Warning,
             "jog stopped: key repeats stopped arriving (dead-man)".to_string(),
-        )),
-        JogEnd::Stopped => None,
-        JogEnd::SoftLimit => Some((
-            NoteLevel::Warning,
-            "jog stopped at the soft limit".to_string(),
-        )),
-        JogEnd::Refused(reason) => Some((NoteLevel::Danger, format!("jog refused: {reason}"))),
-        JogEnd::Fault(f) => Some((NoteLevel::Danger, format!("jog ended: {}", fault_text(&f)))),
-        JogEnd::LinkLost => Some((NoteLevel::Danger, "jog ended: link lost".to_string())),
+        ),
+        JogEnd::SoftLimit => (NoteLevel::Warning, "jog stopped at the soft limit".into()),
+        JogEnd::Refused(reason) => (NoteLevel::Danger, format!("jog refused: {reason}")),
+        JogEnd::Fault(f) => (NoteLevel::Danger, format!("jog ended: {}", fault_text(&f))),
+        JogEnd::LinkLost => (NoteLevel::Danger, "jog ended: link lost".into()),
         // The driver's notice says where it stopped and what to do.
-        JogEnd::OffLimit | JogEnd::StillOnLimit => None,
+        JogEnd::Released | JogEnd::Stopped | JogEnd::OffLimit | JogEnd::StillOnLimit => return,
     };
-    if let Some((level, text)) = note {
-        say(model, level, text);
-    }
+    say(model, level, text);
 }
 
 /// The jog off a limit switch has ended: off the switch, the reference run
@@ -1341,22 +923,13 @@ fn limit_jog_ended(model: &mut Model, run: &keypad::limit::LimitRun, end: &JogEn
         keypad::limit::AfterEnd::Reference if model.popup.is_none() => {
             main_action(model, Action::Home);
         }
-        keypad::limit::AfterEnd::Reference => say(
-            model,
-            NoteLevel::Warning,
-            format!(
-                "{} is off its limit switch: reference the axes (h)",
-                run.limit.axis
-            ),
-        ),
-        keypad::limit::AfterEnd::Say { danger, text } => {
-            let level = if danger {
-                NoteLevel::Danger
-            } else {
-                NoteLevel::Info
-            };
-            say(model, level, text);
+        keypad::limit::AfterEnd::Reference => {
+            let axis = run.limit.axis;
+            let text = format!("{axis} is off its limit switch: reference the axes (h)");
+            say(model, NoteLevel::Warning, text);
         }
+        keypad::limit::AfterEnd::Say { danger: true, text } => say(model, NoteLevel::Danger, text),
+        keypad::limit::AfterEnd::Say { text, .. } => say(model, NoteLevel::Info, text),
     }
 }
 
@@ -1378,44 +951,36 @@ pub fn start_offsets(
 }
 
 /// The jog screen's outcome of `input`, not applied yet.
-fn jog_outcome(model: &mut Model, input: keypad::component::Input) -> keypad::component::Outcome {
+fn jog_outcome(model: &mut Model, input: JogInput) -> keypad::component::Outcome {
     let (kp, ctx) = model.jog_parts();
     kp.update(&ctx, input)
 }
 
-/// Everything the jog screen's outcome asks of the rest of the console, in
-/// one place: notes, its popup (in place of any other), the effects.
+/// Everything the jog screen's outcome asks of the rest of the console:
+/// notes, its popup (in place of any other), the effects.
 fn apply_jog(model: &mut Model, outcome: keypad::component::Outcome) -> Vec<Effect> {
-    let keypad::component::Outcome {
-        effects,
-        notes,
-        popup,
-        ..
-    } = outcome;
-    for (level, text) in notes {
-        say(model, level, text);
-    }
-    if let Some(popup) = popup {
-        model.popup = Some(Popup::Jog(popup));
-    }
-    effects
+    show(model, outcome.shown, Popup::Jog)
 }
 
 /// `input` to the jog screen, its outcome applied.
-fn jog_update(model: &mut Model, input: keypad::component::Input) -> Vec<Effect> {
+fn jog_update(model: &mut Model, input: JogInput) -> Vec<Effect> {
     let outcome = jog_outcome(model, input);
     apply_jog(model, outcome)
 }
 
 /// Any key, in toggle mode, stops a running jog and is used up.
 fn jog_any_key(model: &mut Model, chord: KeyChord, phase: KeyPhase) -> Option<Vec<Effect>> {
-    let outcome = jog_outcome(model, keypad::component::Input::AnyKey(chord, phase));
+    let outcome = jog_outcome(model, JogInput::AnyKey(chord, phase));
     outcome.used.then(|| apply_jog(model, outcome))
 }
 
 /// Show a message in the message line and keep it in the console.
-pub(crate) fn say(model: &mut Model, level: NoteLevel, text: String) {
-    model.traffic.note(LineKind::Note(level), text.clone());
+pub(crate) fn say(model: &mut Model, level: NoteLevel, text: impl Into<String>) {
+    let text = text.into();
+    model
+        .console
+        .traffic
+        .note(LineKind::Note(level), text.clone());
     let message = Message {
         at: model.now,
         level,

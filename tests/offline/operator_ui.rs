@@ -18,6 +18,7 @@ use jogterm::device::common::io;
 use jogterm::device::describe::describe;
 use jogterm::proto::Protocol;
 use jogterm::ui::help::{HelpLine, help_lines};
+use jogterm::ui::io::Outputs;
 use jogterm::ui::keymap::Keymap;
 use jogterm::ui::model::{Popup, Setup};
 use jogterm::ui::{Effect, Model, Msg, update};
@@ -314,7 +315,10 @@ fn set_outputs(effects: &[Effect]) -> Vec<(OutputId, u8)> {
 fn named_outputs_switch_by_name_and_the_hazardous_ones_ask_first() {
     let mut model = ready();
     update(&mut model, ch('x'));
-    assert!(matches!(model.popup, Some(Popup::Outputs { selected: 0 })));
+    assert!(matches!(
+        model.popup,
+        Some(Popup::Outputs(Outputs { selected: 0 }))
+    ));
     let whole = text(render(&model, 80, 24).backend().buffer());
     let screen = &whole[whole.find("Named outputs").expect("the popup")..];
     // The wired outputs with a role, in the panel's order; the unwired
@@ -337,7 +341,10 @@ fn named_outputs_switch_by_name_and_the_hazardous_ones_ask_first() {
             0
         )]
     );
-    assert!(matches!(model.popup, Some(Popup::Outputs { selected: 0 })));
+    assert!(matches!(
+        model.popup,
+        Some(Popup::Outputs(Outputs { selected: 0 }))
+    ));
     // Clamp: the manual's table calls user outputs hazardous: asks first.
     update(&mut model, key(KeyCode::Down));
     let effects = update(&mut model, key(KeyCode::Enter));

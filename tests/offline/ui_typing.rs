@@ -179,11 +179,11 @@ fn pasted_text_goes_into_the_command_line_and_is_never_sent() {
     press(&mut m, [ch(':')]);
     let fx = update(&mut m, Msg::Paste("@0P\r\n".into()));
     assert!(fx.is_empty(), "{fx:?}");
-    assert_eq!(m.command.text(), "@0P");
+    assert_eq!(m.console.command.text(), "@0P");
     // More than one line is refused whole, and says so.
     let fx = update(&mut m, Msg::Paste("@0A100,900\n@0A-100,900\n".into()));
     assert!(fx.is_empty());
-    assert_eq!(m.command.text(), "@0P");
+    assert_eq!(m.console.command.text(), "@0P");
     assert!(message(&m).contains("takes one line"), "{}", message(&m));
     // Enter sends what stands on the line.
     assert_eq!(
@@ -200,7 +200,7 @@ fn a_burst_types_on_the_command_line_but_its_enter_sends_nothing() {
     let codes = "@0P".chars().map(KeyCode::Char).chain([KeyCode::Enter]);
     let fx = update(&mut m, together(codes, t));
     assert!(fx.is_empty(), "{fx:?}");
-    assert_eq!(m.command.text(), "@0P");
+    assert_eq!(m.console.command.text(), "@0P");
     assert!(message(&m).contains("nothing was sent"), "{}", message(&m));
     let fx = update(
         &mut m,
@@ -251,10 +251,10 @@ fn space_types_in_text_fields_only_while_the_machine_stands_still() {
     let mut m = ready();
     press(&mut m, [ch(':')]);
     assert!(typed(&mut m, "2C 11").is_empty());
-    assert_eq!(m.command.text(), "2C 11");
+    assert_eq!(m.console.command.text(), "2C 11");
     moving(&mut m, Activity::Stepping);
     assert_eq!(press(&mut m, [ch(' ')]), [Effect::Stop]);
-    assert_eq!(m.command.text(), "2C 11");
+    assert_eq!(m.console.command.text(), "2C 11");
     assert!(
         message(&m).contains("the machine is stepping"),
         "{}",
@@ -267,10 +267,10 @@ fn space_types_in_text_fields_only_while_the_machine_stands_still() {
     );
     // Ctrl-Space types a blank whatever moves.
     assert!(press(&mut m, [ctrl(' ')]).is_empty());
-    assert_eq!(m.command.text(), "2C 11 ");
+    assert_eq!(m.console.command.text(), "2C 11 ");
     moving(&mut m, Activity::Idle);
     assert!(press(&mut m, [ch(' ')]).is_empty());
-    assert_eq!(m.command.text(), "2C 11  ");
+    assert_eq!(m.console.command.text(), "2C 11  ");
 
     // The editor: while the link is down the state is unknown.
     let mut m = ready();
@@ -362,7 +362,7 @@ fn main_keys_never_land_in_the_command_line_after_tabs() {
         assert_eq!(fx, [Effect::Request(Request::Initialise)], "{tabs} tabs");
         press(&mut m, [ch('h')]);
         assert!(matches!(m.popup, Some(Popup::Confirm(_))), "{tabs} tabs");
-        assert_eq!(m.command.text(), "", "{tabs} tabs");
+        assert_eq!(m.console.command.text(), "", "{tabs} tabs");
     }
 }
 

@@ -203,7 +203,7 @@ fn raw_commands_are_checked_before_they_are_sent() {
     // Letters are typed, not taken as keys (q would quit, h would home).
     assert!(typed(&mut m, "@0A5000,900").is_empty());
     assert!(press(&mut m, [key(KeyCode::Enter)]).is_empty());
-    let error = m.command.error.clone().expect("refused");
+    let error = m.console.command.error.clone().expect("refused");
     assert!(error.message.contains("4 steps,speed pairs"), "{error:?}");
     let shown = screen(&m, 80, 24);
     assert!(shown.contains("^ `A` with XYZ takes 4"), "{shown}");
@@ -211,7 +211,7 @@ fn raw_commands_are_checked_before_they_are_sent() {
 
     // The machine stands still: Space types a blank.
     assert!(press(&mut m, [ch(' ')]).is_empty());
-    assert_eq!(m.command.text(), "@0A5000,900 ");
+    assert_eq!(m.console.command.text(), "@0A5000,900 ");
     // While it moves Space stops, and the line is unchanged.
     let moving = MachineState {
         activity: Activity::Jogging,
@@ -219,21 +219,24 @@ fn raw_commands_are_checked_before_they_are_sent() {
     };
     update(&mut m, Msg::Device(Event::State(moving)));
     assert_eq!(press(&mut m, [ch(' ')]), [Effect::Stop]);
-    assert_eq!(m.command.text(), "@0A5000,900 ");
+    assert_eq!(m.console.command.text(), "@0A5000,900 ");
 
     press(&mut m, [ctrl('u')]);
     typed(&mut m, "@0P");
-    assert!(m.command.error.is_none(), "editing clears the error");
+    assert!(
+        m.console.command.error.is_none(),
+        "editing clears the error"
+    );
     let fx = press(&mut m, [key(KeyCode::Enter)]);
     assert_eq!(fx, [Effect::Request(Request::Raw { line: "@0P".into() })]);
-    assert_eq!(m.command.text(), "");
+    assert_eq!(m.console.command.text(), "");
 
     // EMCU and EMP lines are checked with their own parsers.
     let mut emcu = ready(Protocol::Emcu);
     press(&mut emcu, [ch(':')]);
     typed(&mut emcu, "@LQ");
     assert!(press(&mut emcu, [key(KeyCode::Enter)]).is_empty());
-    assert!(emcu.command.error.is_some());
+    assert!(emcu.console.command.error.is_some());
     let mut emp = ready(Protocol::Emp);
     press(&mut emp, [ch(':')]);
     typed(&mut emp, "2C11000000000000");
@@ -250,16 +253,16 @@ fn history_recalls_sent_commands_and_the_draft() {
     }
     typed(&mut m, "@L");
     press(&mut m, [key(KeyCode::Up)]);
-    assert_eq!(m.command.text(), "@X");
+    assert_eq!(m.console.command.text(), "@X");
     press(
         &mut m,
         [key(KeyCode::Up), key(KeyCode::Up), key(KeyCode::Up)],
     );
-    assert_eq!(m.command.text(), "@LX");
+    assert_eq!(m.console.command.text(), "@LX");
     press(&mut m, [key(KeyCode::Down)]);
-    assert_eq!(m.command.text(), "@LY");
+    assert_eq!(m.console.command.text(), "@LY");
     press(&mut m, [key(KeyCode::Down), key(KeyCode::Down)]);
-    assert_eq!(m.command.text(), "@L");
+    assert_eq!(m.console.command.text(), "@L");
     // A recalled line is sent as it stands.
     press(&mut m, [ctrl('u'), key(KeyCode::Up)]);
     assert_eq!(

@@ -18,6 +18,7 @@ use super::super::key::KeyChord;
 use super::super::keymap::Action;
 use super::super::line_edit::{LineEdit, LineError, edit_line};
 use super::super::msg::Effect;
+use super::super::outcome;
 use super::super::traffic_log::NoteLevel;
 use super::context::{Context, Note};
 use super::offsets::{self, OffsetsChoice};
@@ -64,12 +65,9 @@ pub enum Input<'a> {
 /// What the rest of the console is to do after an input.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Outcome {
-    /// For the device task, in order.
-    pub effects: Vec<Effect>,
-    /// For the message line, in order.
-    pub notes: Vec<Note>,
-    /// A popup of the keypad's to show (in place of any other).
-    pub popup: Option<JogPopup>,
+    /// Effects for the device task and notes for the message line, in
+    /// order; a popup of the keypad's to show (in place of any other).
+    pub shown: outcome::Outcome<JogPopup>,
     /// The input was the keypad's (see [`Input`]).
     pub used: bool,
     /// A device event the message line should not repeat.
@@ -78,12 +76,15 @@ pub struct Outcome {
 
 impl Outcome {
     pub fn said(effects: Vec<Effect>, notes: Vec<Note>) -> Outcome {
-        Outcome {
-            effects,
-            notes,
-            used: true,
-            ..Outcome::default()
-        }
+        let mut shown = outcome::Outcome::effects(effects);
+        shown.notes = notes;
+        Outcome::used(shown)
+    }
+
+    fn used(shown: outcome::Outcome<JogPopup>) -> Outcome {
+        let mut out = Outcome::default();
+        (out.shown, out.used) = (shown, true);
+        out
     }
 }
 
@@ -145,15 +146,11 @@ impl Keypad {
 // ----- the keypad's popups and main keys (`popups::JogPopup`) ----------------
 
 fn note(level: NoteLevel, text: String) -> Outcome {
-    Outcome::said(Vec::new(), vec![(level, text)])
+    Outcome::used(outcome::Outcome::note(level, text))
 }
 
 fn open(popup: JogPopup) -> Outcome {
-    Outcome {
-        popup: Some(popup),
-        used: true,
-        ..Outcome::default()
-    }
+    Outcome::used(outcome::Outcome::popup(popup))
 }
 
 /// A main key of the keypad's (`None`: not one of these).

@@ -9,10 +9,9 @@ use crate::device::api::{LinkState, MachineState};
 
 use super::super::position::Positions;
 use super::super::setup::Setup;
-use super::super::traffic_log::NoteLevel;
 
 /// A line for the message line (and the console), from the keypad.
-pub type Note = (NoteLevel, String);
+pub use super::super::outcome::Note;
 
 /// What the jog screen may read of the rest of the console, for one update
 /// or one frame. Built fresh each time from the model; never kept.

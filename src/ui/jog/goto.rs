@@ -10,10 +10,14 @@
 
 use crate::axis::{Axis, AxisSet};
 use crate::device::api::{Dir, Frame, PerAxis, Request};
-use crate::jog::JogSettings;
+use crate::jog::{Gate, JogSettings, Motion};
 use crate::offsets::WorkOffsets;
 
-use super::super::line_edit::LineEdit;
+use super::super::keymap::Action;
+use super::super::line_edit::{LineEdit, LineError, edit_line};
+use super::super::msg::Effect;
+use super::super::outcome::Outcome;
+use super::super::traffic_log::NoteLevel;
 
 /// The prompt's state: the line being typed and why it was refused, and
 /// the coordinates it is typed in.
@@ -32,6 +36,19 @@ impl Default for GoToPrompt {
     }
 }
 
+/// What the go-to prompt reads, built per call (`Model::goto_context`).
+#[derive(Debug, Clone, Copy)]
+pub struct Context<'a> {
+    pub settings: &'a JogSettings,
+    /// Whether a go-to may start now.
+    pub gate: Gate<'a>,
+    /// The jog speed selected (units/s), for a target typed without a feed.
+    pub speed: f64,
+    pub offsets: &'a WorkOffsets,
+}
+
+/// The go-to prompt as a component: its state is the prompt (in the popup
+/// slot while open); `g` opens it, `G` asks for the move to the work zero.
 impl GoToPrompt {
     /// Tab: work ↔ machine coordinates.
     pub fn toggle_frame(&mut self) {
@@ -39,6 +56,79 @@ impl GoToPrompt {
             Frame::Work => Frame::Machine,
             Frame::Machine => Frame::Work,
         };
+    }
+
+    /// `g`: the prompt, unless no go-to may start now.
+    pub fn open(ctx: &Context) -> Outcome<GoToPrompt> {
+        match ctx.gate.check(Motion::GoTo) {
+            Ok(()) => Outcome::popup(GoToPrompt::default()),
+            Err(reason) => Outcome::note(NoteLevel::Danger, format!("go to refused: {reason}")),
+        }
+    }
+
+    /// `G`: the move to the work zero, asked first.
+    pub fn zero(ctx: &Context) -> Outcome<GoToPrompt> {
+        let refused = |reason: String| Outcome::note(NoteLevel::Danger, reason);
+        if let Err(reason) = ctx.gate.check(Motion::GoTo) {
+            return refused(format!("go to zero refused: {reason}"));
+        }
+        let target = zero_target(ctx.settings);
+        match request(&target, Frame::Work, ctx.settings, ctx.offsets, ctx.speed) {
+            Ok(planned) => Outcome::ask(
+                "Go to the work zero",
+                format!(
+                    "Axes {} will move to the work zero of {} ({}) at {} per second. Keep \
+                     clear of the machine. Go?",
+                    ctx.settings.axis_set(),
+                    ctx.offsets.active(),
+                    describe(&target),
+                    amount(ctx.speed)
+                ),
+                vec![Effect::Request(planned.request)],
+            ),
+            Err(e) => refused(format!("go to zero refused: {e}")),
+        }
+    }
+
+    /// A key of the open prompt (taken out of the popup slot, given back
+    /// while it stays open): editing keys, Enter checks and goes, Esc
+    /// cancels.
+    pub fn update(mut self, ctx: &Context, action: Action) -> Outcome<GoToPrompt> {
+        match action {
+            Action::Cancel => return Outcome::note(NoteLevel::Info, "go to: cancelled"),
+            Action::ToggleFrame => self.toggle_frame(),
+            Action::Submit => match self.check(ctx) {
+                Ok((target, planned)) => {
+                    let frame = match planned.frame {
+                        Frame::Work => format!("{} work coordinates", ctx.offsets.active()),
+                        Frame::Machine => "machine coordinates".to_string(),
+                    };
+                    let text = format!(
+                        "go to {} ({frame}) at {} per second",
+                        describe(&target),
+                        amount(planned.speed)
+                    );
+                    return Outcome {
+                        effects: vec![Effect::Request(planned.request)],
+                        ..Outcome::note(NoteLevel::Info, text)
+                    };
+                }
+                Err(message) => {
+                    let span = None;
+                    self.line.error = Some(LineError { message, span });
+                }
+            },
+            other => edit_line(&mut self.line, other),
+        }
+        Outcome::popup(self)
+    }
+
+    /// The typed target and its move, or why not.
+    fn check(&self, ctx: &Context) -> Result<(Target, Planned), String> {
+        ctx.gate.check(Motion::GoTo).map_err(|r| r.to_string())?;
+        let t = parse(self.line.text(), ctx.settings).map_err(|e| e.to_string())?;
+        let planned = request(&t, self.frame, ctx.settings, ctx.offsets, ctx.speed);
+        planned.map(|p| (t, p)).map_err(|e| e.to_string())
     }
 }
 

@@ -41,15 +41,3 @@ impl JogPopup {
         !matches!(self, JogPopup::Offsets(_))
     }
 }
-
-/// A character typed while a keypad popup that types is open.
-pub fn type_char(popup: &mut JogPopup, c: char) {
-    if let Some(line) = popup.line() {
-        line.insert(c);
-    }
-}
-
-/// Pasted text into the open keypad popup's line; the refusal in words.
-pub fn paste(popup: &mut JogPopup, text: &str) -> Option<String> {
-    popup.line()?.paste(text).err().map(|e| e.to_string())
-}

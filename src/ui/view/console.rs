@@ -70,7 +70,7 @@ impl Widget for ConsoleView<'_> {
         let model = self.0;
         let p = &model.palette;
         let focused = model.focus == PanelId::Console && model.popup.is_none();
-        let log = &model.traffic;
+        let log = &model.console.traffic;
         let toggle = model
             .keymap
             .key_for(Mode::Main, Action::TogglePolls)
@@ -99,6 +99,7 @@ impl Widget for ConsoleView<'_> {
         let width = usize::from(inner.width);
         // The reason a command was refused, on up to two lines above it.
         let error_lines: Vec<String> = model
+            .console
             .command
             .error
             .as_ref()
@@ -151,7 +152,7 @@ impl Widget for ConsoleView<'_> {
 
 fn input_line(model: &Model, focused: bool, width: usize) -> Line<'static> {
     let p = &model.palette;
-    let edit = &model.command;
+    let edit = &model.console.command;
     if !focused && edit.text().is_empty() {
         let hint = model
             .keymap
@@ -204,7 +205,7 @@ pub fn cursor(model: &Model, area: Rect) -> Option<Position> {
         return None;
     }
     let width = usize::from(area.width);
-    let cursor = model.command.cursor();
+    let cursor = model.console.command.cursor();
     let column = 2 + cursor - scrolled(cursor, width);
     let x = area.x + u16::try_from(column).ok()?.min(area.width - 1);
     Some(Position::new(x, area.bottom() - 1))

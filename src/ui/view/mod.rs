@@ -62,9 +62,9 @@ impl Widget for Screen<'_> {
             Some(Popup::GoTo(prompt)) => GoToView { model, prompt }.render(area, buf),
             Some(Popup::Axes(choice)) => AxesView { model, choice }.render(area, buf),
             Some(Popup::Jog(popup)) => JogPopupView { model, popup }.render(area, buf),
-            Some(Popup::Outputs { selected }) => outputs::OutputsView {
+            Some(Popup::Outputs(o)) => outputs::OutputsView {
                 model,
-                selected: *selected,
+                selected: o.selected,
             }
             .render(area, buf),
             Some(Popup::Messages { back }) => {
