@@ -13,6 +13,12 @@
 //!
 //! TCP rows: the isel poll rates and stop latency again through the network
 //! transport (`tcp://`) to the simulator served as a raw serial port server.
+//!
+//! Hand-written, not on divan: a real-time end-to-end measure (the device
+//! task against a simulator in its own process, over a pty, at the line's
+//! real speed). Its figures are rates against the wire limit and
+//! latency percentiles of single stops, which a micro-benchmark harness's
+//! repeated-closure timing cannot express.
 
 // A benchmark's setup that fails cannot measure anything: it stops with its
 // message (Cargo.toml [lints] denies these in the crate itself).

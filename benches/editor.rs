@@ -11,6 +11,12 @@
 //! Run: `cargo bench --bench editor` (optimised) or `cargo test --bench
 //! editor` (debug build); `-- --quick` for a shorter run, `-- --frames` for
 //! the frames alone (e.g. under a profiler).
+//!
+//! Hand-written, not on divan: the upload runs at the modelled wire speed
+//! against the wire limit (real time), and the frame figures are
+//! percentiles (p99) of single keystrokes whose model state moves on from
+//! key to key; divan reports per-sample statistics of a repeated closure,
+//! not the tail of a stream of distinct frames.
 
 // A benchmark's setup that fails cannot measure anything: it stops with its
 // message (Cargo.toml [lints] denies these in the crate itself).

@@ -36,6 +36,11 @@
 //!   best of the same runs in one Node process (its JIT warmed as ours is
 //!   cached). No node or npm, or no network: the row says so and is
 //!   skipped.
+//!
+//! Hand-written, not on divan: one 16 MB file run a few times per stage
+//! (best of N), beside CNCjs in a Node process, and peak memory measured in
+//! child processes with a fresh heap; a harness that repeats a closure
+//! many times fits none of the three.
 
 // A benchmark's setup that fails cannot measure anything: it stops with its
 // message (Cargo.toml [lints] denies these in the crate itself).

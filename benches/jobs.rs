@@ -23,6 +23,9 @@
 //! half of real time at 50 000 moves: the wire is the controller's). Options:
 //! `--moves N`, `--only stream|chunked`. Results: `docs/gcode.md`, "Jobs
 //! bigger than the memory".
+//!
+//! Hand-written, not on divan: a job run at the controller's real time
+//! (hours of wire), not a function timed in a loop.
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 

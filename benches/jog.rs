@@ -17,6 +17,10 @@
 //!
 //! `cargo bench --bench jog` (or `cargo test --bench jog` in a debug build)
 //! prints a table; `docs/jogging.md` has the figures.
+//!
+//! Hand-written, not on divan: jog latencies and overrun are measured on
+//! the wire of a simulator running in real time (percentiles of single key
+//! presses, millimetres travelled), not a function timed in a loop.
 
 // A benchmark's setup that fails cannot measure anything: it stops with its
 // message (Cargo.toml [lints] denies these in the crate itself).

@@ -19,6 +19,10 @@
 //! acknowledgements), a stop is asked for 250 ms into it; how many bytes
 //! were ahead of the stop, with the bound on unacknowledged bytes
 //! (`NetOptions::unacknowledged`) and without it.
+//!
+//! Hand-written, not on divan: real-time stop latency through real sockets
+//! (and ser2net), and bytes queued during a stall in a network namespace;
+//! percentiles of single events, not a function timed in a loop.
 
 // Bench code: a failed unwrap, expect or panic is the run failing, with its
 // message (Cargo.toml [lints] denies them in the crate itself).

@@ -7,6 +7,13 @@
 //! `lint`. Prints a table of the median and the slowest wall time of several
 //! runs and the median CPU time of the thread; the figures go into
 //! `docs/performance.md`, "Programs".
+//!
+//! Hand-written, not on divan: its bars (`docs/performance.md`) are in the
+//! thread's CPU time, which is what the code costs on this shared 2-core
+//! VM; divan (and criterion without a custom measurement) time the wall
+//! clock, which the other builds and tests on the machine inflate by about
+//! half at a 100 ms run. The codec bench, whose runs are nanoseconds long
+//! and so rarely interrupted, is on divan.
 
 // A benchmark's setup that fails cannot measure anything: it stops with its
 // message (Cargo.toml [lints] denies these in the crate itself).

@@ -15,6 +15,10 @@
 //! Run: `cargo bench --bench reference` (optimised), `-- --quick` for 3 s
 //! spans and one round. Results: `docs/performance.md`, "Against an
 //! optimal client".
+//!
+//! Hand-written, not on divan: real-time poll rates and stop latencies of
+//! two clients on a simulator at the line's real speed, set against each
+//! other; not a function timed in a loop.
 
 // A benchmark's setup that fails cannot measure anything: it stops with its
 // message (Cargo.toml [lints] denies these in the crate itself).

@@ -18,6 +18,10 @@
 //! minutes and one more), or `cargo bench --bench resources -- --minutes 1
 //! --cpu-seconds 20` for a short look. Results: `docs/performance.md`,
 //! "Resources".
+//!
+//! Hand-written, not on divan: minutes of real time, sampling resident
+//! memory and CPU of a running console; nothing in it is a function timed
+//! in a loop.
 
 // A benchmark's setup that fails cannot measure anything: it stops with its
 // message (Cargo.toml [lints] denies these in the crate itself).

@@ -7,6 +7,11 @@
 //! Run: `cargo bench --bench ui` (optimised) or
 //! `cargo bench --bench ui --profile dev` (debug build, slower frames,
 //! same bytes). Results and their reading: `docs/performance.md`, "UI".
+//!
+//! Hand-written, not on divan: its bar is a byte count over 20 s of a
+//! modelled session (no timing at all), and its frame times are those of
+//! the frames of that session, each after its own updates, not of one
+//! closure repeated.
 
 // A benchmark's setup that fails cannot measure anything: it stops with its
 // message (Cargo.toml [lints] denies these in the crate itself).

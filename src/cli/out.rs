@@ -146,6 +146,8 @@ pub fn stdout_gone() -> impl std::future::Future<Output = ()> {
     use std::os::fd::AsFd;
     use std::time::{Duration, Instant};
 
+    use rustix::event::PollFlags;
+
     use crate::transport::fd::{poll_until, pollfd};
 
     let (tx, rx) = tokio::sync::oneshot::channel::<()>();
@@ -154,17 +156,17 @@ pub fn stdout_gone() -> impl std::future::Future<Output = ()> {
         .spawn(move || {
             let stdout = io::stdout();
             while !tx.is_closed() {
-                let mut fds = [pollfd(stdout.as_fd(), 0)];
+                let mut fds = [pollfd(stdout.as_fd(), PollFlags::empty())];
                 let deadline = Instant::now() + Duration::from_millis(100);
                 if poll_until(&mut fds, Some(deadline)).is_err() {
                     return;
                 }
-                let revents = fds[0].revents;
-                if revents & libc::POLLNVAL != 0 {
+                let revents = fds[0].revents();
+                if revents.contains(PollFlags::NVAL) {
                     // No stdout at all: writes fail on their own.
                     return;
                 }
-                if revents & (libc::POLLERR | libc::POLLHUP) != 0 {
+                if revents.intersects(PollFlags::ERR | PollFlags::HUP) {
                     let _ = tx.send(());
                     return;
                 }
@@ -186,7 +188,7 @@ mod tests {
     fn a_broken_pipe_is_a_closed_stdout_and_nothing_else_is() {
         let closed = StdoutError::from(io::Error::from(io::ErrorKind::BrokenPipe));
         assert!(matches!(closed, StdoutError::Closed));
-        let eio = StdoutError::from(io::Error::from_raw_os_error(libc::EIO));
+        let eio = StdoutError::from(io::Error::from(rustix::io::Errno::IO));
         assert!(matches!(eio, StdoutError::Failed(_)), "{eio}");
         assert!(
             eio.to_string().starts_with("cannot write to stdout: "),
@@ -197,7 +199,7 @@ mod tests {
     #[test]
     fn only_a_closed_stdout_counts_as_written() {
         assert!(closed_is_ok(Err(io::ErrorKind::BrokenPipe.into())).is_ok());
-        assert!(closed_is_ok(Err(io::Error::from_raw_os_error(libc::EIO))).is_err());
+        assert!(closed_is_ok(Err(io::Error::from(rustix::io::Errno::IO))).is_err());
         assert!(closed_is_ok(Ok(())).is_ok());
     }
 
@@ -205,7 +207,7 @@ mod tests {
     fn the_watched_stdout_remembers_only_a_reader_that_went_away() {
         let mut w = WatchedStdout::new();
         assert!(
-            w.note::<()>(Err(io::Error::from_raw_os_error(libc::EIO)))
+            w.note::<()>(Err(io::Error::from(rustix::io::Errno::IO)))
                 .is_err()
         );
         assert!(!w.reader_gone());

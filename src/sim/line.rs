@@ -20,6 +20,8 @@ use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
+use rustix::event::PollFlags;
+
 use super::pty::{self, StableLink};
 use crate::transport::fd::{self, FdKind};
 
@@ -186,9 +188,9 @@ impl Line {
                 // they are read now, not handed to the next client.
                 let hung_up = match &self.fd {
                     Some(fd) => {
-                        let mut fds = [fd::pollfd(fd.as_fd(), libc::POLLIN)];
+                        let mut fds = [fd::pollfd(fd.as_fd(), PollFlags::IN)];
                         fd::poll_until(&mut fds, Some(now))?;
-                        fds[0].revents & libc::POLLHUP != 0 && !self.bytes_waiting()
+                        fds[0].revents().contains(PollFlags::HUP) && !self.bytes_waiting()
                     }
                     None => true,
                 };
@@ -276,11 +278,9 @@ impl Line {
         }
         let fd = self.fd.take();
         if let (Some(fd), Kind::Socket | Kind::Tcp(_)) = (&fd, &self.kind) {
-            // SAFETY: shutdown on a socket fd we own; the peer reads EOF even
-            // if another copy of the fd were still open somewhere.
-            unsafe {
-                libc::shutdown(std::os::fd::AsRawFd::as_raw_fd(fd), libc::SHUT_RDWR);
-            }
+            // The peer reads EOF even if another copy of the fd were still
+            // open somewhere.
+            let _ = rustix::net::shutdown(fd, rustix::net::Shutdown::Both);
         }
         // Closing a pty master hangs the slave up: the client's reads end.
         drop(fd);
@@ -333,17 +333,7 @@ impl Line {
         let Some(fd) = &self.fd else {
             return false;
         };
-        let mut waiting: libc::c_int = 0;
-        // SAFETY: FIONREAD writes one c_int through the pointer we pass, on
-        // the master fd we own.
-        let ok = unsafe {
-            libc::ioctl(
-                std::os::fd::AsRawFd::as_raw_fd(fd),
-                libc::FIONREAD,
-                &mut waiting,
-            )
-        };
-        ok == 0 && waiting > 0
+        rustix::io::ioctl_fionread(fd).is_ok_and(|waiting| waiting > 0)
     }
 
     fn client_gone(&mut self, now: Instant) {
@@ -363,10 +353,7 @@ impl Line {
                 if let Some(fd) = &self.fd {
                     // Bytes written in the moment the client left would be
                     // read by the next client; a line keeps nothing.
-                    // SAFETY: tcflush on the master fd we own.
-                    unsafe {
-                        libc::tcflush(std::os::fd::AsRawFd::as_raw_fd(fd), libc::TCIOFLUSH);
-                    }
+                    let _ = rustix::termios::tcflush(fd, rustix::termios::QueueSelector::IOFlush);
                 }
                 self.state = State::NoClient {
                     check_at: now + CLIENT_CHECK_INTERVAL,

@@ -6,10 +6,11 @@
 
 use std::fs;
 use std::io;
-use std::os::fd::{AsFd, AsRawFd, FromRawFd, IntoRawFd, OwnedFd, RawFd};
+use std::os::fd::{AsFd, AsRawFd, BorrowedFd, FromRawFd, IntoRawFd, OwnedFd, RawFd};
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
+use rustix::io::FdFlags;
 use serialport::{SerialPort, TTYPort};
 
 use crate::transport::fd;
@@ -33,11 +34,11 @@ pub fn pty_pair() -> Result<(TTYPort, TTYPort), serialport::Error> {
 }
 
 fn close_on_exec(fd: RawFd) -> io::Result<()> {
-    // SAFETY: fcntl on a descriptor the caller owns and keeps open.
-    let flags = unsafe { libc::fcntl(fd, libc::F_GETFD) };
-    if flags < 0 || unsafe { libc::fcntl(fd, libc::F_SETFD, flags | libc::FD_CLOEXEC) } < 0 {
-        return Err(io::Error::last_os_error());
-    }
+    // TTYPort has `AsRawFd` but not `AsFd`: hence the raw borrow.
+    // SAFETY: the caller owns the descriptor and keeps it open for the call.
+    let fd = unsafe { BorrowedFd::borrow_raw(fd) };
+    let flags = rustix::io::fcntl_getfd(fd)?;
+    rustix::io::fcntl_setfd(fd, flags | FdFlags::CLOEXEC)?;
     Ok(())
 }
 
@@ -58,6 +59,7 @@ pub(crate) fn open_master() -> io::Result<PtyMaster> {
         .map(PathBuf::from)
         .ok_or_else(|| io::Error::other("the pseudo-terminal has no slave path"))?;
     drop(slave);
+    // (TTYPort has no `Into<OwnedFd>`, only `IntoRawFd`.)
     // SAFETY: into_raw_fd hands over sole ownership of the open master fd.
     let fd = unsafe { OwnedFd::from_raw_fd(master.into_raw_fd()) };
     fd::set_nonblocking(fd.as_fd())?;
@@ -143,9 +145,12 @@ mod tests {
     fn both_ends_of_a_pair_are_closed_on_exec() {
         let (master, slave) = pty_pair().expect("pair");
         for fd in [master.as_raw_fd(), slave.as_raw_fd()] {
-            // SAFETY: F_GETFD on a descriptor the ports keep open.
-            let flags = unsafe { libc::fcntl(fd, libc::F_GETFD) };
-            assert!(flags >= 0 && flags & libc::FD_CLOEXEC != 0, "{fd}: {flags}");
+            // SAFETY: the ports keep the descriptor open for the test.
+            let flags = rustix::io::fcntl_getfd(unsafe { BorrowedFd::borrow_raw(fd) });
+            assert!(
+                flags.is_ok_and(|f| f.contains(FdFlags::CLOEXEC)),
+                "{fd}: {flags:?}"
+            );
         }
     }
 

@@ -21,6 +21,8 @@ use std::sync::{Arc, Mutex};
 use std::thread::{self, JoinHandle};
 use std::time::Instant;
 
+use rustix::event::{PollFd, PollFlags};
+
 use super::control::run_control_loop;
 use super::engine::{Engine, Wake};
 use super::fault::Fault;
@@ -503,26 +505,41 @@ impl Worker {
                 .flatten()
                 .min();
             // The wake socket, the line while a client is on it, and a TCP
-            // line's listener.
-            let mut fds = [fd::pollfd(self.wake.as_fd(), libc::POLLIN); 3];
-            let mut watched = 1;
-            let line_at = self.line.readable_fd().map(|line_fd| {
-                fds[watched] = fd::pollfd(line_fd, libc::POLLIN);
-                watched += 1;
-                watched - 1
-            });
-            let listener_at = self.line.listener_fd().map(|l| {
-                fds[watched] = fd::pollfd(l, libc::POLLIN);
-                watched += 1;
-                watched - 1
-            });
-            let ready = match fd::poll_until(fds.get_mut(..watched).unwrap_or_default(), deadline) {
-                Ok(n) => n,
-                Err(_) => {
-                    // Cannot wait (should not happen): do not spin at full speed.
-                    thread::sleep(std::time::Duration::from_micros(200));
-                    continue;
-                }
+            // line's listener. What is ready is read out in this block: the
+            // poll entries borrow the line, which is read from below.
+            let (ready, wake_ready, line_ready, listener_ready) = {
+                let mut fds: [PollFd<'_>; 3] =
+                    std::array::from_fn(|_| fd::pollfd(self.wake.as_fd(), PollFlags::IN));
+                let mut watched = 1;
+                let line_at = self.line.readable_fd().map(|line_fd| {
+                    fds[watched] = fd::pollfd(line_fd, PollFlags::IN);
+                    watched += 1;
+                    watched - 1
+                });
+                let listener_at = self.line.listener_fd().map(|l| {
+                    fds[watched] = fd::pollfd(l, PollFlags::IN);
+                    watched += 1;
+                    watched - 1
+                });
+                let ready =
+                    match fd::poll_until(fds.get_mut(..watched).unwrap_or_default(), deadline) {
+                        Ok(n) => n,
+                        Err(_) => {
+                            // Cannot wait (should not happen): do not spin at full speed.
+                            thread::sleep(std::time::Duration::from_micros(200));
+                            continue;
+                        }
+                    };
+                let ready_at = |at: Option<usize>| {
+                    at.and_then(|i| fds.get(i))
+                        .is_some_and(|p| !p.revents().is_empty())
+                };
+                (
+                    ready,
+                    ready_at(Some(0)),
+                    ready_at(line_at),
+                    ready_at(listener_at),
+                )
             };
             if ready == 0
                 && let Some(w) = wake.filter(|w| w.exact && Instant::now() + EXACT_SPIN >= w.at)
@@ -535,20 +552,18 @@ impl Worker {
             // The moment the bytes are known to be there: they arrive one
             // byte time after this at the earliest.
             let read_at = Instant::now();
-            if fds.first().is_some_and(|p| p.revents != 0) {
+            if wake_ready {
                 let mut sink = [0u8; 64];
                 while matches!((&self.wake).read(&mut sink), Ok(n) if n > 0) {}
             }
-            let ready_at =
-                |at: Option<usize>| at.and_then(|i| fds.get(i)).is_some_and(|p| p.revents != 0);
-            if ready_at(line_at) {
+            if line_ready {
                 while let ReadOutcome::Data(n) = self.line.read(&mut buf, read_at) {
                     let bytes = buf.get(..n).unwrap_or_default();
                     self.received.record(bytes);
                     self.engine.receive(bytes, self.clock.model(read_at));
                 }
             }
-            if ready_at(listener_at) {
+            if listener_ready {
                 self.line.accept();
             }
         }

@@ -2,12 +2,21 @@
 //! simulator shell share: non-blocking reads and writes on a borrowed fd,
 //! waits with sub-millisecond deadlines, a bounded `tcdrain`, and the one
 //! place that decides which errors mean "the link is gone".
+//!
+//! The calls themselves are rustix's (safe, and the same system calls);
+//! what is here is the policy around them: deadlines, retries, draining on
+//! a thread of its own.
 
-use std::io;
-use std::os::fd::{AsRawFd, BorrowedFd, OwnedFd};
+use std::io::{self, IsTerminal};
+use std::os::fd::{BorrowedFd, OwnedFd};
 use std::sync::mpsc;
 use std::thread;
 use std::time::{Duration, Instant};
+
+use rustix::event::{PollFd, PollFlags, Timespec};
+use rustix::fs::{FileType, OFlags};
+use rustix::io::Errno;
+use rustix::net::SendFlags;
 
 /// What kind of file an fd refers to; decides how it is written and drained.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -21,68 +30,33 @@ pub(crate) enum FdKind {
 }
 
 pub(crate) fn kind_of(fd: BorrowedFd<'_>) -> FdKind {
-    // SAFETY: `fd` is a valid open descriptor for the duration of the borrow.
-    if unsafe { libc::isatty(fd.as_raw_fd()) } == 1 {
+    if fd.is_terminal() {
         return FdKind::Tty;
     }
-    // SAFETY: `stat` is plain data; fstat writes it completely on success.
-    let mut st: libc::stat = unsafe { std::mem::zeroed() };
-    // SAFETY: valid fd, valid pointer to a stat buffer.
-    if unsafe { libc::fstat(fd.as_raw_fd(), &mut st) } == 0
-        && (st.st_mode & libc::S_IFMT) == libc::S_IFSOCK
-    {
-        return FdKind::Socket;
+    match rustix::fs::fstat(fd) {
+        Ok(st) if FileType::from_raw_mode(st.st_mode) == FileType::Socket => FdKind::Socket,
+        _ => FdKind::Other,
     }
-    FdKind::Other
 }
 
 pub(crate) fn set_nonblocking(fd: BorrowedFd<'_>) -> io::Result<()> {
-    // SAFETY: fcntl on a valid fd with integer arguments.
-    let flags = unsafe { libc::fcntl(fd.as_raw_fd(), libc::F_GETFL) };
-    if flags < 0 {
-        return Err(io::Error::last_os_error());
-    }
-    // SAFETY: as above.
-    if unsafe { libc::fcntl(fd.as_raw_fd(), libc::F_SETFL, flags | libc::O_NONBLOCK) } < 0 {
-        return Err(io::Error::last_os_error());
-    }
+    let flags = rustix::fs::fcntl_getfl(fd)?;
+    rustix::fs::fcntl_setfl(fd, flags | OFlags::NONBLOCK)?;
     Ok(())
 }
 
 /// One `read(2)`. `Ok(0)` means end of stream; `WouldBlock` means no data now.
 pub(crate) fn read_some(fd: BorrowedFd<'_>, buf: &mut [u8]) -> io::Result<usize> {
-    // SAFETY: the buffer is valid for `buf.len()` bytes of writes.
-    let n = unsafe { libc::read(fd.as_raw_fd(), buf.as_mut_ptr().cast(), buf.len()) };
-    if n < 0 {
-        Err(io::Error::last_os_error())
-    } else {
-        Ok(n as usize)
-    }
+    Ok(rustix::io::read(fd, buf)?)
 }
 
 /// One `write(2)`, or `send(2)` with `MSG_NOSIGNAL` on a socket so that a
 /// vanished peer is an `EPIPE` error and not a process-killing SIGPIPE.
 pub(crate) fn write_some(fd: BorrowedFd<'_>, kind: FdKind, bytes: &[u8]) -> io::Result<usize> {
-    let n = match kind {
-        // SAFETY: the buffer is valid for `bytes.len()` bytes of reads.
-        FdKind::Socket => unsafe {
-            libc::send(
-                fd.as_raw_fd(),
-                bytes.as_ptr().cast(),
-                bytes.len(),
-                libc::MSG_NOSIGNAL,
-            )
-        },
-        // SAFETY: as above.
-        FdKind::Tty | FdKind::Other => unsafe {
-            libc::write(fd.as_raw_fd(), bytes.as_ptr().cast(), bytes.len())
-        },
-    };
-    if n < 0 {
-        Err(io::Error::last_os_error())
-    } else {
-        Ok(n as usize)
-    }
+    Ok(match kind {
+        FdKind::Socket => rustix::net::send(fd, bytes, SendFlags::NOSIGNAL)?,
+        FdKind::Tty | FdKind::Other => rustix::io::write(fd, bytes)?,
+    })
 }
 
 /// Write every byte before `deadline`, waiting for room when the fd is
@@ -102,7 +76,7 @@ pub(crate) fn write_all_until(
                 if Instant::now() >= deadline {
                     return Err(io::Error::from(io::ErrorKind::TimedOut));
                 }
-                let mut fds = [pollfd(fd, libc::POLLOUT)];
+                let mut fds = [pollfd(fd, PollFlags::OUT)];
                 poll_until(&mut fds, Some(deadline))?;
             }
             Err(e) => return Err(e),
@@ -119,21 +93,21 @@ pub(crate) fn write_all_until(
 /// `ENETDOWN`, `EHOSTDOWN`, `ECONNABORTED`).
 pub(crate) fn is_link_gone(err: &io::Error) -> bool {
     matches!(
-        err.raw_os_error(),
+        Errno::from_io_error(err),
         Some(
-            libc::EIO
-                | libc::ENXIO
-                | libc::ENODEV
-                | libc::EPIPE
-                | libc::ECONNRESET
-                | libc::ENOTCONN
-                | libc::ESHUTDOWN
-                | libc::ETIMEDOUT
-                | libc::EHOSTUNREACH
-                | libc::ENETUNREACH
-                | libc::ENETDOWN
-                | libc::EHOSTDOWN
-                | libc::ECONNABORTED
+            Errno::IO
+                | Errno::NXIO
+                | Errno::NODEV
+                | Errno::PIPE
+                | Errno::CONNRESET
+                | Errno::NOTCONN
+                | Errno::SHUTDOWN
+                | Errno::TIMEDOUT
+                | Errno::HOSTUNREACH
+                | Errno::NETUNREACH
+                | Errno::NETDOWN
+                | Errno::HOSTDOWN
+                | Errno::CONNABORTED
         )
     ) || matches!(
         err.kind(),
@@ -141,63 +115,31 @@ pub(crate) fn is_link_gone(err: &io::Error) -> bool {
     )
 }
 
-pub(crate) fn pollfd(fd: BorrowedFd<'_>, events: libc::c_short) -> libc::pollfd {
-    libc::pollfd {
-        fd: fd.as_raw_fd(),
-        events,
-        revents: 0,
-    }
+pub(crate) fn pollfd(fd: BorrowedFd<'_>, events: PollFlags) -> PollFd<'_> {
+    PollFd::from_borrowed_fd(fd, events)
 }
 
 /// Wait until one of `fds` is ready or `deadline` has passed (`None`: no
 /// deadline). Returns how many fds are ready; 0 means the deadline passed.
 /// Never returns before the deadline unless an fd is ready or a signal came.
 ///
-/// Linux's `ppoll` takes a nanosecond timeout; plain `poll` counts whole
-/// milliseconds, which is two byte times at 38400 baud.
-pub(crate) fn poll_until(fds: &mut [libc::pollfd], deadline: Option<Instant>) -> io::Result<usize> {
-    let timeout = deadline.map(|d| d.saturating_duration_since(Instant::now()));
-    let n = sys_poll(fds, timeout);
-    if n < 0 {
-        let e = io::Error::last_os_error();
-        if e.kind() == io::ErrorKind::Interrupted {
-            return Ok(0);
+/// rustix's `poll` is Linux's `ppoll`, with a nanosecond timeout: plain
+/// `poll` counts whole milliseconds, which is two byte times at 38400 baud.
+/// (Where there is no `ppoll`, rustix rounds the timeout up to whole
+/// milliseconds: late, never early.)
+pub(crate) fn poll_until(fds: &mut [PollFd<'_>], deadline: Option<Instant>) -> io::Result<usize> {
+    let timeout = deadline.map(|d| {
+        let t = d.saturating_duration_since(Instant::now());
+        Timespec {
+            tv_sec: t.as_secs().min(i32::MAX as u64) as _,
+            tv_nsec: t.subsec_nanos().into(),
         }
-        return Err(e);
-    }
-    Ok(n as usize)
-}
-
-#[cfg(any(target_os = "linux", target_os = "android"))]
-fn sys_poll(fds: &mut [libc::pollfd], timeout: Option<Duration>) -> libc::c_int {
-    let ts = timeout.map(|t| libc::timespec {
-        tv_sec: t.as_secs().min(i32::MAX as u64) as libc::time_t,
-        tv_nsec: t.subsec_nanos() as libc::c_long,
     });
-    let ts_ptr = ts
-        .as_ref()
-        .map_or(std::ptr::null(), |t| t as *const libc::timespec);
-    // SAFETY: `fds` is a valid slice of pollfd; `ts_ptr` is null or points at a
-    // timespec that lives until the call returns; a null sigmask keeps the mask.
-    unsafe {
-        libc::ppoll(
-            fds.as_mut_ptr(),
-            fds.len() as libc::nfds_t,
-            ts_ptr,
-            std::ptr::null(),
-        )
+    match rustix::event::poll(fds, timeout.as_ref()) {
+        Ok(n) => Ok(n),
+        Err(Errno::INTR) => Ok(0),
+        Err(e) => Err(e.into()),
     }
-}
-
-#[cfg(not(any(target_os = "linux", target_os = "android")))]
-fn sys_poll(fds: &mut [libc::pollfd], timeout: Option<Duration>) -> libc::c_int {
-    // Rounded up so that a wait is never shorter than asked: late, never early.
-    let ms = timeout.map_or(-1, |t| {
-        let ms = t.as_nanos().div_ceil(1_000_000);
-        ms.min(i32::MAX as u128) as libc::c_int
-    });
-    // SAFETY: `fds` is a valid slice of pollfd.
-    unsafe { libc::poll(fds.as_mut_ptr(), fds.len() as libc::nfds_t, ms) }
 }
 
 /// Wait until the bytes written to a terminal have left it (`tcdrain`), but no
@@ -211,14 +153,7 @@ pub(crate) fn drain_bounded(fd: BorrowedFd<'_>, timeout: Duration) -> io::Result
     thread::Builder::new()
         .name("jogterm-tcdrain".into())
         .spawn(move || {
-            // SAFETY: tcdrain on an fd this thread owns.
-            let r = unsafe { libc::tcdrain(own.as_raw_fd()) };
-            let res = if r == 0 {
-                Ok(())
-            } else {
-                Err(io::Error::last_os_error())
-            };
-            let _ = tx.send(res);
+            let _ = tx.send(rustix::termios::tcdrain(&own).map_err(io::Error::from));
         })?;
     match rx.recv_timeout(timeout) {
         Ok(Ok(())) => Ok(true),
@@ -232,11 +167,7 @@ pub(crate) fn drain_bounded(fd: BorrowedFd<'_>, timeout: Duration) -> io::Result
 /// once per byte (0.26 ms at 38400 baud). Best effort; other unix keep slack.
 pub(crate) fn tighten_timer_slack() {
     #[cfg(any(target_os = "linux", target_os = "android"))]
-    // SAFETY: PR_SET_TIMERSLACK takes one integer argument (nanoseconds) and
-    // only affects the calling thread.
-    unsafe {
-        libc::prctl(libc::PR_SET_TIMERSLACK, 1 as libc::c_ulong, 0, 0, 0);
-    }
+    let _ = rustix::thread::set_current_timer_slack(std::num::NonZeroU64::new(1));
 }
 
 #[cfg(test)]
@@ -259,7 +190,7 @@ mod tests {
         let (a, _b) = UnixStream::pair().expect("socketpair");
         let start = Instant::now();
         let deadline = start + Duration::from_micros(700);
-        let mut fds = [pollfd(a.as_fd(), libc::POLLIN)];
+        let mut fds = [pollfd(a.as_fd(), PollFlags::IN)];
         let n = poll_until(&mut fds, Some(deadline)).expect("poll");
         assert_eq!(n, 0);
         assert!(Instant::now() >= deadline);

@@ -111,32 +111,27 @@ pub fn still_the_same(path: &Path, first: &PortIdentity) -> Result<(), String> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use std::os::fd::{FromRawFd, OwnedFd};
+    use std::os::fd::OwnedFd;
 
-    /// A pty pair from `openpty` (thread-safe, unlike `TTYPort::pair`) and
-    /// the path of its slave.
+    /// A pty pair (`posix_openpt`, then the slave opened by the name the
+    /// kernel gives it: thread-safe, unlike `TTYPort::pair`) and the path of
+    /// its slave.
     fn pty() -> (OwnedFd, OwnedFd, PathBuf) {
-        let (mut master, mut slave) = (-1, -1);
-        // SAFETY: openpty writes two descriptors we then own; the null
-        // pointers ask for no name buffer, termios or window size.
-        let rc = unsafe {
-            libc::openpty(
-                &mut master,
-                &mut slave,
-                std::ptr::null_mut(),
-                std::ptr::null(),
-                std::ptr::null(),
-            )
-        };
-        assert_eq!(rc, 0, "openpty: {}", std::io::Error::last_os_error());
-        // SAFETY: both are open descriptors nobody else owns.
-        let (master, slave) =
-            unsafe { (OwnedFd::from_raw_fd(master), OwnedFd::from_raw_fd(slave)) };
-        let path = std::fs::read_link(format!(
-            "/proc/self/fd/{}",
-            std::os::fd::AsRawFd::as_raw_fd(&slave)
-        ))
-        .expect("the slave's path");
+        use rustix::fs::{Mode, OFlags};
+        use rustix::pty::{OpenptFlags, grantpt, openpt, ptsname, unlockpt};
+        use std::os::unix::ffi::OsStringExt;
+        let master = openpt(OpenptFlags::RDWR | OpenptFlags::NOCTTY | OpenptFlags::CLOEXEC)
+            .expect("posix_openpt");
+        grantpt(&master).expect("grantpt");
+        unlockpt(&master).expect("unlockpt");
+        let name = ptsname(&master, Vec::new()).expect("ptsname");
+        let path = PathBuf::from(std::ffi::OsString::from_vec(name.into_bytes()));
+        let slave = rustix::fs::open(
+            &path,
+            OFlags::RDWR | OFlags::NOCTTY | OFlags::CLOEXEC,
+            Mode::empty(),
+        )
+        .expect("the slave");
         (master, slave, path)
     }
 

@@ -25,7 +25,6 @@ use std::collections::BTreeMap;
 use std::fs::{self, File, OpenOptions};
 use std::io::{self, Read, Write};
 use std::net::SocketAddr;
-use std::os::fd::AsRawFd;
 use std::os::unix::fs::{MetadataExt, OpenOptionsExt};
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, Weak};
@@ -126,11 +125,7 @@ fn lock_dir() -> Option<PathBuf> {
 }
 
 fn writable_dir(dir: &Path) -> bool {
-    let Some(c) = dir.to_str().and_then(|s| std::ffi::CString::new(s).ok()) else {
-        return false;
-    };
-    // SAFETY: access(2) on a NUL-terminated path.
-    dir.is_dir() && unsafe { libc::access(c.as_ptr(), libc::W_OK) } == 0
+    dir.is_dir() && rustix::fs::access(dir, rustix::fs::Access::WRITE_OK).is_ok()
 }
 
 /// The UUCP lock name of a device: its path under `/dev` with `/` as `_`
@@ -287,8 +282,7 @@ impl ProcStat {
             .trim()
             .parse()
             .ok()?;
-        // SAFETY: sysconf reads a constant of the system.
-        let hz = u64::try_from(unsafe { libc::sysconf(libc::_SC_CLK_TCK) }).ok()?;
+        let hz = rustix::param::clock_ticks_per_second();
         if hz == 0 {
             return None;
         }
@@ -300,12 +294,19 @@ impl ProcStat {
 /// Whether a process exists (`kill(pid, 0)`: `EPERM` means it does, as
 /// another user's).
 fn alive(pid: u32) -> bool {
-    let Ok(pid) = libc::pid_t::try_from(pid) else {
+    let Ok(raw) = i32::try_from(pid) else {
         return false;
     };
-    // SAFETY: signal 0 checks for existence and sends nothing.
-    let r = unsafe { libc::kill(pid, 0) };
-    r == 0 || io::Error::last_os_error().raw_os_error() == Some(libc::EPERM)
+    let Some(pid) = rustix::process::Pid::from_raw(raw) else {
+        // Pid 0 in a lock file: `kill(0, 0)`, as called before rustix,
+        // tested this process's own group and so said "alive". Kept, so
+        // that such a lock is not removed as stale.
+        return true;
+    };
+    match rustix::process::test_kill_process(pid) {
+        Ok(()) | Err(rustix::io::Errno::PERM) => true,
+        Err(_) => false,
+    }
 }
 
 /// `/proc/<pid>/comm`.
@@ -350,8 +351,7 @@ fn lock_network_in(dir: &Path, addr: &SocketAddr) -> Result<Arc<OwnerLock>, Hold
         .open(&path)
         .or_else(|_| File::open(&path))
         .map_err(|e| unknown(format!("cannot open the lock {}: {e}", path.display())))?;
-    // SAFETY: flock on an fd this function owns.
-    if unsafe { libc::flock(file.as_raw_fd(), libc::LOCK_EX | libc::LOCK_NB) } != 0 {
+    if rustix::fs::flock(&file, rustix::fs::FlockOperation::NonBlockingLockExclusive).is_err() {
         let pid = read_pid(&path);
         return Err(Holder {
             pid,
@@ -378,7 +378,7 @@ pub fn flock_holder(file: &Path) -> Option<Holder> {
 fn flock_holder_in(locks: &str, dev: u64, ino: u64) -> Option<Holder> {
     // `1: FLOCK  ADVISORY  WRITE 3954 fe:00:5415484 0 EOF`: the device as
     // hex major:minor of the file system, then the inode (proc(5)).
-    let (major, minor) = (libc::major(dev), libc::minor(dev));
+    let (major, minor) = (rustix::fs::major(dev), rustix::fs::minor(dev));
     let want = format!("{major:02x}:{minor:02x}:{ino}");
     locks.lines().find_map(|line| {
         let fields: Vec<&str> = line.split_whitespace().collect();
@@ -569,7 +569,7 @@ mod tests {
         let locks = "1: FLOCK  ADVISORY  WRITE 3954 fe:00:5415484 0 EOF\n\
                      2: POSIX  ADVISORY  WRITE 77 00:05:12 0 EOF\n\
                      3: FLOCK  ADVISORY  WRITE 4242 00:05:12 0 EOF\n";
-        let dev = libc::makedev(0, 5);
+        let dev = rustix::fs::makedev(0, 5);
         let h = flock_holder_in(locks, dev, 12).expect("found");
         assert_eq!(h.pid, Some(4242));
         assert!(flock_holder_in(locks, dev, 13).is_none());

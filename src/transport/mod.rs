@@ -209,14 +209,12 @@ fn open_serial(path: &Path, line: LineSettings) -> Result<Port, TransportError> 
         .open_native()
         .map_err(|e| open_error(&port, path, e))?;
     // serialport's TTYPort closes its fd on drop; from here the fd is ours.
+    // (TTYPort has no `Into<OwnedFd>`, only `IntoRawFd`: hence the raw step.)
     // SAFETY: into_raw_fd hands over sole ownership of an open descriptor.
     let fd = unsafe { OwnedFd::from_raw_fd(tty.into_raw_fd()) };
     // Bytes that arrived before the port was ours (or were garbled while its
     // settings changed) belong to nobody: drop them.
-    // SAFETY: tcflush on a valid fd.
-    unsafe {
-        libc::tcflush(std::os::fd::AsRawFd::as_raw_fd(&fd), libc::TCIFLUSH);
-    }
+    let _ = rustix::termios::tcflush(&fd, rustix::termios::QueueSelector::IFlush);
     fd::set_nonblocking(fd.as_fd()).map_err(|source| TransportError::Io {
         port: port.clone(),
         action: "setting non-blocking mode",

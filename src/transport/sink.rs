@@ -31,7 +31,7 @@
 
 use std::borrow::Cow;
 use std::io;
-use std::os::fd::{AsFd, AsRawFd, BorrowedFd, OwnedFd};
+use std::os::fd::{AsFd, BorrowedFd, OwnedFd};
 use std::sync::{Arc, Mutex, MutexGuard, TryLockError};
 use std::thread;
 use std::time::{Duration, Instant};
@@ -386,10 +386,7 @@ impl Drop for Sink {
                 // the serial line before it learns the client is gone: a
                 // server may close (and flush) its device at once then.
                 thread::sleep(CLOSE_SETTLE);
-                // SAFETY: shutdown on a socket fd we own.
-                unsafe {
-                    libc::shutdown(self.fd.as_raw_fd(), libc::SHUT_WR);
-                }
+                let _ = rustix::net::shutdown(&self.fd, rustix::net::Shutdown::Write);
                 drain_input(self.fd(), Instant::now() + CLOSE_LINGER);
             }
         }
@@ -408,7 +405,7 @@ pub(crate) fn drain_input(fd: BorrowedFd<'_>, deadline: Instant) {
                 if Instant::now() >= deadline {
                     return;
                 }
-                let mut fds = [fd::pollfd(fd, libc::POLLIN)];
+                let mut fds = [fd::pollfd(fd, rustix::event::PollFlags::IN)];
                 if fd::poll_until(&mut fds, Some(deadline)).is_err() {
                     return;
                 }
@@ -428,6 +425,10 @@ pub(crate) fn discard_arrived(fd: BorrowedFd<'_>) {
 pub(crate) fn unacknowledged(fd: BorrowedFd<'_>) -> Option<usize> {
     #[cfg(any(target_os = "linux", target_os = "android"))]
     {
+        // Hand-written: rustix wraps `FIONREAD` but not `TIOCOUTQ`, and its
+        // generic ioctl is as unsafe as this call and still needs libc's
+        // number for it (which differs between architectures).
+        use std::os::fd::AsRawFd;
         let mut n: libc::c_int = 0;
         // SAFETY: SIOCOUTQ (= TIOCOUTQ) writes one c_int through the pointer
         // we pass, on an fd valid for the borrow.

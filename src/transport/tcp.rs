@@ -16,7 +16,7 @@
 
 use std::io;
 use std::net::{SocketAddr, TcpStream, ToSocketAddrs};
-use std::os::fd::{AsFd, AsRawFd, BorrowedFd, OwnedFd};
+use std::os::fd::{AsFd, BorrowedFd, OwnedFd};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -198,69 +198,26 @@ fn set_up(
     }
 }
 
-fn set_int(
-    fd: BorrowedFd<'_>,
-    level: libc::c_int,
-    name: libc::c_int,
-    value: libc::c_int,
-) -> io::Result<()> {
-    // SAFETY: setsockopt with a pointer to a c_int that lives for the call.
-    let r = unsafe {
-        libc::setsockopt(
-            fd.as_raw_fd(),
-            level,
-            name,
-            (&value as *const libc::c_int).cast(),
-            std::mem::size_of::<libc::c_int>() as libc::socklen_t,
-        )
-    };
-    if r == 0 {
-        Ok(())
-    } else {
-        Err(io::Error::last_os_error())
-    }
-}
-
-fn clamp_int(n: u128) -> libc::c_int {
-    libc::c_int::try_from(n).unwrap_or(libc::c_int::MAX)
+/// A count for an `int` socket option: larger values are clamped to
+/// `INT_MAX`, where the kernel would refuse them.
+fn clamp_int(n: u128) -> u32 {
+    u32::try_from(n.min(i32::MAX as u128)).unwrap_or(i32::MAX as u32)
 }
 
 fn socket_options(fd: BorrowedFd<'_>, o: &NetOptions) -> io::Result<()> {
-    set_int(fd, libc::SOL_SOCKET, libc::SO_KEEPALIVE, 1)?;
-    set_int(
-        fd,
-        libc::SOL_SOCKET,
-        libc::SO_SNDBUF,
-        clamp_int(o.send_buffer as u128),
-    )?;
+    use rustix::net::sockopt;
+    sockopt::set_socket_keepalive(fd, true)?;
+    sockopt::set_socket_send_buffer_size(fd, clamp_int(o.send_buffer as u128) as usize)?;
     #[cfg(any(target_os = "linux", target_os = "android"))]
     {
-        // Whole seconds, at least 1 (tcp(7)).
-        let secs = |d: Duration| clamp_int(u128::from(d.as_secs().max(1)));
-        set_int(
-            fd,
-            libc::IPPROTO_TCP,
-            libc::TCP_KEEPIDLE,
-            secs(o.keepalive_idle),
-        )?;
-        set_int(
-            fd,
-            libc::IPPROTO_TCP,
-            libc::TCP_KEEPINTVL,
-            secs(o.keepalive_interval),
-        )?;
-        set_int(
-            fd,
-            libc::IPPROTO_TCP,
-            libc::TCP_KEEPCNT,
-            clamp_int(u128::from(o.keepalive_count.max(1))),
-        )?;
-        set_int(
-            fd,
-            libc::IPPROTO_TCP,
-            libc::TCP_USER_TIMEOUT,
-            clamp_int(o.user_timeout.as_millis()),
-        )?;
+        // Whole seconds, at least 1 (tcp(7)); truncated here, so that
+        // rustix's rounding up of a fraction never applies.
+        let secs =
+            |d: Duration| Duration::from_secs(clamp_int(u128::from(d.as_secs().max(1))).into());
+        sockopt::set_tcp_keepidle(fd, secs(o.keepalive_idle))?;
+        sockopt::set_tcp_keepintvl(fd, secs(o.keepalive_interval))?;
+        sockopt::set_tcp_keepcnt(fd, clamp_int(u128::from(o.keepalive_count.max(1))))?;
+        sockopt::set_tcp_user_timeout(fd, clamp_int(o.user_timeout.as_millis()))?;
     }
     Ok(())
 }
@@ -286,7 +243,7 @@ fn read_until(
                 if Instant::now() >= deadline {
                     return Ok((got, false));
                 }
-                let mut fds = [fd::pollfd(fd, libc::POLLIN)];
+                let mut fds = [fd::pollfd(fd, rustix::event::PollFlags::IN)];
                 fd::poll_until(&mut fds, Some(deadline))?;
             }
             Err(e) if fd::is_link_gone(&e) => return Ok((got, true)),

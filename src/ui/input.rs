@@ -8,17 +8,20 @@
 //! a hang-up it writes the stop bytes itself (the emergency handle) before
 //! it tells the loop.
 
-use std::os::fd::{AsRawFd, BorrowedFd};
+use std::io::IsTerminal;
+use std::os::fd::AsFd;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::thread::{self, JoinHandle};
 use std::time::{Duration, Instant};
 
 use ratatui::crossterm::event::{self, Event as TermEvent, KeyEvent};
+use rustix::event::PollFlags;
 use tokio::sync::mpsc::UnboundedSender;
 
 use super::msg::Msg;
 use super::terminal::run_emergency;
+use crate::transport::fd::{poll_until, pollfd};
 
 /// How often the threads look at their stop flag.
 const POLL: Duration = Duration::from_millis(100);
@@ -165,20 +168,15 @@ fn terminate(reason: String) -> Msg {
 /// Report once when stdin (the terminal) hangs up: poll reports POLLHUP
 /// whatever events are asked for.
 fn watch_hangup(tx: &UnboundedSender<Msg>, stop: &AtomicBool) {
-    // SAFETY: fd 0 stays open for the life of the process.
-    let stdin = unsafe { BorrowedFd::borrow_raw(0) };
-    if !is_tty(stdin) {
+    let stdin = std::io::stdin();
+    if !stdin.is_terminal() {
         return;
     }
     while !stop.load(Ordering::SeqCst) {
-        let mut fds = libc::pollfd {
-            fd: stdin.as_raw_fd(),
-            events: 0,
-            revents: 0,
-        };
-        // SAFETY: one valid pollfd, a bounded timeout.
-        let n = unsafe { libc::poll(&mut fds, 1, POLL.as_millis() as libc::c_int) };
-        if n > 0 && fds.revents & (libc::POLLHUP | libc::POLLERR | libc::POLLNVAL) != 0 {
+        let mut fds = [pollfd(stdin.as_fd(), PollFlags::empty())];
+        let n = poll_until(&mut fds, Some(Instant::now() + POLL));
+        let gone = PollFlags::HUP | PollFlags::ERR | PollFlags::NVAL;
+        if n.is_ok_and(|n| n > 0) && fds[0].revents().intersects(gone) {
             // The stop bytes first, from this thread: the loop may be stuck
             // on the dead terminal (crossterm issue #793).
             run_emergency();
@@ -186,11 +184,6 @@ fn watch_hangup(tx: &UnboundedSender<Msg>, stop: &AtomicBool) {
             return;
         }
     }
-}
-
-fn is_tty(fd: BorrowedFd<'_>) -> bool {
-    // SAFETY: isatty only inspects the descriptor.
-    unsafe { libc::isatty(fd.as_raw_fd()) == 1 }
 }
 
 #[cfg(test)]

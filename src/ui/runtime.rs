@@ -593,7 +593,7 @@ mod tests {
         }
 
         fn flush(&mut self) -> Result<(), Self::Error> {
-            Err(std::io::Error::from_raw_os_error(libc::EIO))
+            Err(std::io::Error::from(rustix::io::Errno::IO))
         }
     }
 

@@ -7,9 +7,9 @@
 //! `-` change the speed factor of the moves not yet sent by 10 %. Keys that
 //! arrive together (a paste, a burst) only stop or pause ([`keys_of`]).
 
-use std::io::IsTerminal;
-use std::os::fd::{AsRawFd, RawFd};
+use std::io::{IsTerminal, Stdin};
 
+use rustix::termios::{self, LocalModes, OptionalActions, SpecialCodeIndex, Termios};
 use tokio::sync::mpsc;
 
 /// What a key asks for.
@@ -61,7 +61,7 @@ impl Keys {
         if !stdin.is_terminal() {
             return Keys::none();
         }
-        let mode = KeyMode::enter(stdin.as_raw_fd());
+        let mode = KeyMode::enter(&stdin);
         std::thread::Builder::new()
             .name("run-keys".into())
             .spawn(move || read_keys(&tx))
@@ -122,38 +122,27 @@ pub fn keys_of(bytes: &[u8]) -> Vec<Key> {
     }
 }
 
-/// The terminal without line editing and echo, restored on drop.
+/// The terminal (stdin) without line editing and echo, restored on drop.
 struct KeyMode {
-    fd: RawFd,
-    saved: libc::termios,
+    saved: Termios,
 }
 
 impl KeyMode {
-    fn enter(fd: RawFd) -> Option<KeyMode> {
-        // SAFETY: termios is plain data; tcgetattr fills it or fails.
-        let mut saved: libc::termios = unsafe { std::mem::zeroed() };
-        // SAFETY: fd is stdin, open for the process's life.
-        if unsafe { libc::tcgetattr(fd, &mut saved) } != 0 {
-            return None;
-        }
-        let mut keys = saved;
-        keys.c_lflag &= !(libc::ICANON | libc::ECHO);
-        keys.c_cc[libc::VMIN] = 1;
-        keys.c_cc[libc::VTIME] = 0;
-        // SAFETY: as above, with a termios derived from the terminal's own.
-        if unsafe { libc::tcsetattr(fd, libc::TCSANOW, &keys) } != 0 {
-            return None;
-        }
-        Some(KeyMode { fd, saved })
+    fn enter(stdin: &Stdin) -> Option<KeyMode> {
+        let saved = termios::tcgetattr(stdin).ok()?;
+        let mut keys = saved.clone();
+        keys.local_modes
+            .remove(LocalModes::ICANON | LocalModes::ECHO);
+        keys.special_codes[SpecialCodeIndex::VMIN] = 1;
+        keys.special_codes[SpecialCodeIndex::VTIME] = 0;
+        termios::tcsetattr(stdin, OptionalActions::Now, &keys).ok()?;
+        Some(KeyMode { saved })
     }
 }
 
 impl Drop for KeyMode {
     fn drop(&mut self) {
-        // SAFETY: restores the settings read in `enter` on the same fd.
-        unsafe {
-            libc::tcsetattr(self.fd, libc::TCSANOW, &self.saved);
-        }
+        let _ = termios::tcsetattr(std::io::stdin(), OptionalActions::Now, &self.saved);
     }
 }
 
