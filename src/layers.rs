@@ -24,7 +24,7 @@ const LAYERS: &[&[&str]] = &[
     &["sim"],
     &["device"],
     &["program"],
-    &["jog", "offsets"],
+    &["jog", "offsets", "probing"],
     &["gcode"],
     &["ui"],
     &["cli"],

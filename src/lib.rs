@@ -34,6 +34,7 @@ pub mod jog;
 #[cfg(test)]
 mod layers;
 pub mod offsets;
+pub mod probing;
 pub mod program;
 pub mod sim;
 pub mod traffic;

@@ -19,6 +19,7 @@ pub mod import;
 pub mod out;
 pub mod poll;
 pub mod ports;
+pub mod probe;
 pub mod profile;
 mod restart;
 pub mod run;
@@ -176,6 +177,9 @@ pub enum CliCommand {
     /// Run a job (G-code or a program): stored when it fits, else in parts or as a stream
     #[command(long_about = run::LONG_ABOUT, after_long_help = run::AFTER_LONG_HELP)]
     Run(run::RunArgs),
+    /// Probe with the probe input: touch off Z, find an edge; sets the work offset
+    #[command(long_about = probe::LONG_ABOUT, after_long_help = probe::AFTER_LONG_HELP)]
+    Probe(probe::ProbeArgs),
     /// List the serial ports of this machine: by-id names, USB vendor and product, in use
     #[command(long_about = ports::LONG_ABOUT, after_long_help = ports::AFTER_LONG_HELP)]
     Ports(ports::PortsArgs),
@@ -205,6 +209,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Some(CliCommand::Upload(args)) => upload::run(&cli.global, args),
         Some(CliCommand::Run(args)) => run::run(&cli.global, args),
         Some(CliCommand::Ports(args)) => ports::run(args),
+        Some(CliCommand::Probe(args)) => probe::run(&cli.global, args),
         None => tui::run(&cli.global, cli.program.as_deref()),
     }
 }

@@ -12,6 +12,7 @@
 //! starts, with the file, line and what was expected.
 
 pub mod macros;
+pub mod probe;
 pub mod profile;
 pub mod source;
 pub mod theme;

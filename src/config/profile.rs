@@ -48,6 +48,9 @@ pub struct Profile {
     /// G-code import (`docs/gcode.md`, "The profile's [gcode] table").
     #[serde(default)]
     pub gcode: GcodeProfile,
+    /// Probing (`docs/probing.md`).
+    #[serde(default)]
+    pub probe: super::probe::ProbeProfile,
 }
 
 /// `[gcode]`: how G-code from CAM becomes this machine's program. Settings
@@ -615,6 +618,9 @@ impl Profile {
                     IselProfile::BUSY_WAIT_S.end()
                 ),
             ));
+        }
+        for (key, message) in self.probe.problems() {
+            out.push(Invalid::new(&["probe", key], message));
         }
         if let Some(baud) = self.connection.baud
             && let Err(message) = Connection::check_baud(baud)

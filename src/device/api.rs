@@ -84,6 +84,18 @@ pub enum Request {
         axis: Axis,
         dir: Dir,
     },
+    /// Probe for a surface along one axis (`docs/probing.md`): a fast pass
+    /// toward it that ends when the profile's probe input trips, a back-off
+    /// until it releases, a slow pass from which the controller stops
+    /// within a step, the position read there, and back to where it
+    /// started. Refused like any move and also unless every axis is
+    /// referenced, the probe input is wired and reads free, and the whole
+    /// travel lies within the soft limits. Ends with `Event::ProbeEnded {
+    /// id, .. }`, also when refused.
+    Probe {
+        id: JogId,
+        probe: ProbeMove,
+    },
     /// A relative step. Steps requested while one runs are coalesced up to the
     /// configured bound; beyond it they are dropped with `Event::Refused`.
     Step {
@@ -171,7 +183,16 @@ impl Request {
                 | Request::RunProgram
                 | Request::Raw { .. }
                 | Request::Checkout { .. }
+                | Request::Probe { .. }
         )
+    }
+
+    /// The probe a request starts, which ends with `Event::ProbeEnded`.
+    pub fn probe_id(&self) -> Option<JogId> {
+        match self {
+            Request::Probe { id, .. } => Some(*id),
+            _ => None,
+        }
     }
 
     /// The check-out line a request is, which ends with `Event::Checkout`.
@@ -288,6 +309,7 @@ pub enum Activity {
     Stepping,
     Moving,
     Homing,
+    Probing,
     RunningProgram,
     Uploading,
     Stopping,
@@ -668,6 +690,45 @@ pub enum JogEnd {
     StillOnLimit,
 }
 
+/// What a probe does (`Request::Probe`), in machine steps and step
+/// frequencies.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ProbeMove {
+    pub axis: Axis,
+    /// Toward the surface.
+    pub dir: Dir,
+    /// The farthest the first pass goes, steps (> 0).
+    pub travel: i64,
+    /// The first pass, steps/s (at most the axis's top speed).
+    pub fast_hz: f64,
+    /// The back-off and the second pass, steps/s: slow enough that the
+    /// controller stops within a step (isel: at most the start-stop
+    /// frequency, which it stops from without a ramp).
+    pub slow_hz: f64,
+}
+
+/// How a probe ended.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ProbeEnd {
+    /// The input tripped. `at`: the position after the slow pass (machine
+    /// steps, every axis), the touched point; `fast_stop`: where the axis
+    /// stood after the fast pass (past `at` by the controller's ramp-down).
+    /// The axis stands where it started again.
+    Touched {
+        at: PerAxis<i64>,
+        fast_stop: i64,
+    },
+    /// The whole travel without a trip: the axis went back to where it
+    /// started.
+    NoTrip {
+        travel: i64,
+    },
+    Stopped,
+    Refused(Refusal),
+    Fault(ControllerFault),
+    LinkLost,
+}
+
 /// How one line of a program check-out ended (`Request::Checkout`).
 #[derive(Debug, Clone, PartialEq)]
 pub enum CheckoutEnd {
@@ -758,6 +819,11 @@ pub enum Event {
     JogEnded {
         id: JogId,
         end: JogEnd,
+    },
+    /// A probe ended (`Request::Probe`).
+    ProbeEnded {
+        id: JogId,
+        end: ProbeEnd,
     },
     /// A check-out line ended (`Request::Checkout`).
     Checkout {

@@ -31,6 +31,9 @@ pub fn describe(request: &Request) -> String {
         Request::LimitJog { id, axis, dir } => {
             format!("jog off limit {axis}{} (#{})", dir.symbol(), id.0)
         }
+        Request::Probe { id, probe } => {
+            format!("probe {}{} (#{})", probe.axis, probe.dir.symbol(), id.0)
+        }
         Request::JogRenew { id, .. } => format!("jog renewal (#{})", id.0),
         Request::JogRelease { id } => format!("jog release (#{})", id.0),
         Request::Step { delta, .. } => format!("step {}", axes_values(delta)),

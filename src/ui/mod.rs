@@ -35,6 +35,7 @@ pub mod outcome;
 pub mod palette;
 pub mod popups;
 pub mod position;
+pub mod probe;
 pub mod raw;
 pub mod runtime;
 pub mod setup;

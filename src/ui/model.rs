@@ -136,6 +136,8 @@ pub struct Model {
     pub quitting: bool,
     /// The profile's macro being run, line by line (`ui::macros`).
     pub macro_run: Option<MacroRun>,
+    /// The touch-off the console sent (`ui::probe`).
+    pub probe: super::probe::ProbeState,
     /// The macro key last pressed, to tell its auto-repeats (presses on
     /// terminals without release events) from a new press.
     pub macro_key: crate::jog::HeldKey<super::key::KeyChord>,
@@ -179,6 +181,7 @@ impl Model {
             dirty: true,
             quitting: false,
             macro_run: None,
+            probe: super::probe::ProbeState::default(),
             macro_key: crate::jog::HeldKey::default(),
             history: MessageHistory::default(),
             large_dro: false,

@@ -42,6 +42,8 @@ pub struct Setup {
     /// The controller's program memory in commands (`Profile::program_memory`):
     /// what the editor's check and a converted job's fit count against.
     pub program_memory: Option<usize>,
+    /// The profile's `[probe]` table (`docs/probing.md`).
+    pub probe: crate::config::probe::ProbeProfile,
 }
 
 impl Setup {
@@ -67,6 +69,7 @@ impl Setup {
             macros: profile.macros().unwrap_or_default(),
             inputs: crate::device::inputs::channels::shared(profile),
             program_memory: profile.gcode.memory,
+            probe: profile.probe.clone(),
         }
     }
 

@@ -111,6 +111,7 @@ pub fn summarise(model: &Model) -> Summary {
         Activity::Stepping => Some("STEPPING"),
         Activity::Moving => Some("MOVING"),
         Activity::Homing => Some("HOMING"),
+        Activity::Probing => Some("PROBING"),
         Activity::RunningProgram => Some("RUNNING"),
         Activity::Uploading => Some("UPLOADING"),
         Activity::Stopping => Some("STOPPING"),

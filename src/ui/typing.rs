@@ -135,6 +135,7 @@ pub fn doing(activity: Activity) -> Option<&'static str> {
         Activity::Stepping => Some("stepping"),
         Activity::Moving => Some("moving to a position"),
         Activity::Homing => Some("running a reference run"),
+        Activity::Probing => Some("probing"),
         Activity::RunningProgram => Some("running a program"),
         Activity::Uploading => Some("storing a program"),
         Activity::Stopping => Some("stopping"),

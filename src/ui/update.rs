@@ -59,8 +59,18 @@ fn dispatch(model: &mut Model, msg: Msg) -> Vec<Effect> {
         Msg::Device(event) => {
             let mut effects = editor_update(model, editor::Input::Device(&event));
             let after = macros::device_event(&mut model.macro_run, &model.machine, &event);
+            let probed = super::probe::device_event(
+                &mut model.probe,
+                &model.setup,
+                &mut model.keypad.offsets,
+                &event,
+            );
             device_event(model, event);
             effects.extend(apply(model, after));
+            if let Some((level, text, saves)) = probed {
+                say(model, level, text);
+                effects.extend(saves);
+            }
             model.dirty = true;
             effects
         }
@@ -509,6 +519,23 @@ fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
                 Err(text) => apply(model, Outcome::note(NoteLevel::Danger, text)),
             }
         }
+        Action::ProbeZ => {
+            let asked = super::probe::question(
+                &mut model.probe,
+                &model.setup,
+                &model.keypad.values,
+                &model.keypad.offsets,
+            );
+            match asked {
+                Ok(q) => ask(
+                    model,
+                    &q.title,
+                    q.question,
+                    vec![Effect::Request(q.request)],
+                ),
+                Err(text) => apply(model, Outcome::note(NoteLevel::Danger, text)),
+            }
+        }
         Action::HomeAxis | Action::ZeroAxis => {
             let (purpose, motion) = if action == Action::HomeAxis {
                 (Purpose::Home, Motion::Home)
@@ -857,6 +884,8 @@ fn device_event(model: &mut Model, event: Event) {
         Event::Notice(text) => say(model, NoteLevel::Info, text),
         // The editor's check-out took it (`editor::update::checkout`).
         Event::Checkout { .. } => {}
+        // The touch-off took it (`ui::probe`, in `dispatch`).
+        Event::ProbeEnded { .. } => {}
     }
     refresh_quit_question(model);
 }

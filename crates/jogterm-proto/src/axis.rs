@@ -202,6 +202,14 @@ impl Dir {
         }
     }
 
+    /// The other way.
+    pub fn reverse(self) -> Dir {
+        match self {
+            Dir::Minus => Dir::Plus,
+            Dir::Plus => Dir::Minus,
+        }
+    }
+
     /// `+` or `-`, as in `X+`.
     pub fn symbol(self) -> char {
         match self {

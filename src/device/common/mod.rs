@@ -49,6 +49,7 @@ pub mod link;
 pub mod motion;
 pub mod op;
 pub mod poll;
+pub mod probe;
 pub mod queue;
 pub mod route;
 pub mod settings;

@@ -236,6 +236,13 @@ impl RequestQueue {
                 };
                 sink.emit(Event::Checkout { id, end });
             }
+            if let Some(id) = q.request.probe_id() {
+                let end = match jog_end {
+                    JogEnd::LinkLost => crate::device::api::ProbeEnd::LinkLost,
+                    _ => crate::device::api::ProbeEnd::Refused(reason()),
+                };
+                sink.emit(Event::ProbeEnded { id, end });
+            }
             sink.emit(Event::Refused {
                 request: crate::device::describe::describe(&q.request),
                 reason: reason(),

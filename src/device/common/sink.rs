@@ -5,7 +5,7 @@
 use std::collections::VecDeque;
 
 use crate::device::api::Refusal;
-use crate::device::api::{CheckoutEnd, Event, JogEnd, PerAxis, Request};
+use crate::device::api::{CheckoutEnd, Event, JogEnd, PerAxis, ProbeEnd, Request};
 use crate::device::describe::describe;
 
 /// Takes the events a driver produces, in order.
@@ -38,6 +38,12 @@ pub fn refuse(sink: &mut impl Sink, request: &Request, reason: Refusal) {
         sink.emit(Event::Checkout {
             id,
             end: CheckoutEnd::Refused(reason.clone()),
+        });
+    }
+    if let Some(id) = request.probe_id() {
+        sink.emit(Event::ProbeEnded {
+            id,
+            end: ProbeEnd::Refused(reason.clone()),
         });
     }
     sink.emit(Event::Refused {

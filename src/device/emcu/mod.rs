@@ -570,6 +570,11 @@ impl Core<EmcuLine> {
                 })
             }
             Request::LimitJog { .. } => Err(plan::no_limit_jog()),
+            // `docs/probing.md`: E1, the EMCU's one input, only makes a
+            // move wait (`&V`, manual 1.5.9); nothing reads it.
+            Request::Probe { .. } => Err(invalid(
+                "the EMCU has no input a probe can be read on (E1 only makes a move wait, &V)",
+            )),
             Request::Step { delta, speed_hz } => match cx.position {
                 Some(base) => plan::step(cx, &base, delta, speed_hz)
                     .map(|p| Some(Op::Motion(Box::new(MotionOp::step(cx, p))))),

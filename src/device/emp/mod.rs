@@ -604,6 +604,13 @@ impl Core<EmpLine> {
                     ))))
                 })
             }
+            Request::Probe { .. } => crate::device::common::probe::probe_input(&cx.settings.wiring)
+                .and_then(|_| {
+                    Err(invalid(
+                        "probing on EMP drives is not built yet: EMP has no move that ends on an \
+                         input (docs/probing.md)",
+                    ))
+                }),
             Request::LimitJog { id, axis, dir } => {
                 LimitJogOp::new(cx, *id, *axis, *dir, now).map(|op| Some(Op::Limit(Box::new(op))))
             }

@@ -78,7 +78,7 @@ const EMP_INPUTS: [&str; 7] = ["limit+", "limit-", "ref", "I1", "I2", "I3", "I4"
 
 /// Where an input address is read: `in3.0`, `11.limit+`; `None` for one
 /// no command reads.
-fn key_of(address: &str) -> Option<InputKey> {
+pub fn key_of(address: &str) -> Option<InputKey> {
     if let Some(rest) = address.strip_prefix("in") {
         let (port, bit) = rest.split_once('.')?;
         return Some(InputKey {

@@ -35,6 +35,7 @@ mod op;
 mod output;
 mod plan;
 mod poll;
+mod probe_op;
 mod program;
 mod raw;
 mod readback;
@@ -83,6 +84,7 @@ use limit_op::LimitJogOp;
 use motion_op::MotionOp;
 use op::{Abandon, Next, Operation};
 use output::OutputOp;
+use probe_op::ProbeOp;
 use program::ProgramOp;
 use raw::{RawOp, control_of};
 use readback::Readback;
@@ -99,6 +101,7 @@ operations! {
         Output(OutputOp) => Setup,
         Motion(MotionOp) => Motion,
         Limit(LimitJogOp) => Motion,
+        Probe(Box<ProbeOp> as ProbeOp) => Motion,
         Raw(RawOp) => User,
         Checkout(CheckoutOp) => Motion,
         Upload(UploadOp) => Upload,
@@ -743,6 +746,9 @@ impl Core<IselLine> {
             }
             Request::LimitJog { id, axis, dir } => {
                 LimitJogOp::new(cx, *id, *axis, *dir, now).map(Op::Limit)
+            }
+            Request::Probe { id, probe } => {
+                ProbeOp::new(cx, *id, *probe).map(|op| Op::Probe(Box::new(op)))
             }
             Request::Step { delta, speed_hz } => match cx.position {
                 Some(base) => {

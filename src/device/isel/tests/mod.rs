@@ -9,6 +9,7 @@ mod faults;
 mod limit_jog;
 mod motion;
 mod polling;
+mod probe;
 mod properties;
 mod raw;
 mod timeouts;
