@@ -124,8 +124,58 @@ mod tests {
     }
 
     #[test]
+    fn a_tool_is_measured_against_the_reference_tool() {
+        let mut tools = ToolTable::default();
+        assert_eq!(tools.measured("T1", 30.0), 0.0);
+        assert_eq!(tools.reference.as_deref(), Some("T1"));
+        // One millimetre longer: it touches one millimetre higher.
+        assert_eq!(tools.measured("T2", 31.0), 1.0);
+        assert_eq!(tools.offset("T1"), Some(0.0));
+        tools.touched_off();
+        assert_eq!(tools.measured("T2", 31.0), 0.0);
+        assert_eq!(tools.offset("T1"), Some(-1.0));
+    }
+
+    #[test]
     fn an_edge_lies_half_the_tip_beyond_the_touch() {
         assert_eq!(edge(10.0, Dir::Plus, 3.0), 11.5);
         assert_eq!(edge(10.0, Dir::Minus, 3.0), 8.5);
+    }
+}
+
+/// The tools measured on the fixed sensor (`jogterm probe tool`), kept in
+/// the state directory per profile and port: the machine Z at which each
+/// touched the sensor, and which one is the reference. A longer tool
+/// touches higher; its offset is the difference to the reference tool.
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ToolTable {
+    /// The reference tool: the one measured right after a Z touch-off, or
+    /// the first measured. `None`: the next tool measured becomes it.
+    pub reference: Option<String>,
+    /// Per tool, the machine Z (units) where it touched the sensor.
+    pub touched: std::collections::BTreeMap<String, f64>,
+}
+
+impl ToolTable {
+    /// `tool` touched the sensor at machine Z `z`: kept (the reference
+    /// when there is none), and its offset against the reference.
+    pub fn measured(&mut self, tool: &str, z: f64) -> f64 {
+        self.touched.insert(tool.to_owned(), z);
+        if self.reference.is_none() {
+            self.reference = Some(tool.to_owned());
+        }
+        self.offset(tool).unwrap_or(0.0)
+    }
+
+    /// How much higher `tool` touches than the reference, units.
+    pub fn offset(&self, tool: &str) -> Option<f64> {
+        let reference = self.reference.as_deref()?;
+        Some(self.touched.get(tool)? - self.touched.get(reference)?)
+    }
+
+    /// A Z touch-off sets the work Z with the tool in the spindle: the next
+    /// tool measured is the reference.
+    pub fn touched_off(&mut self) {
+        self.reference = None;
     }
 }

@@ -708,14 +708,19 @@ async fn stream(session: &mut Session, prepared: &Prepared, remedy: &Remedy) -> 
 
 /// The exit status for a refusal, said on stderr.
 pub(super) fn refused(what: &str, reason: &Refusal, remedy: &Remedy) -> u8 {
+    refused_in("upload", what, reason, remedy)
+}
+
+/// [`refused`], said as `jogterm <command>: …`.
+pub(super) fn refused_in(command: &str, what: &str, reason: &Refusal, remedy: &Remedy) -> u8 {
     match reason {
         // `(h)` is the console's key: the command line names its own way.
         Refusal::NotReferenced { axes } => out::say(format_args!(
-            "jogterm upload: {what} refused: axes {axes} not referenced: reference them first \
-             ({})",
+            "jogterm {command}: {what} refused: axes {axes} not referenced: reference them \
+             first ({})",
             remedy.reference(*axes)
         )),
-        _ => out::say(format_args!("jogterm upload: {what} refused: {reason}")),
+        _ => out::say(format_args!("jogterm {command}: {what} refused: {reason}")),
     }
     match reason {
         Refusal::Invalid { .. } => EXIT_USAGE,

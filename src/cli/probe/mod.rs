@@ -11,13 +11,18 @@ use std::process::ExitCode;
 use clap::{Args, Subcommand, ValueEnum};
 use serde_json::json;
 
-use super::run::keys::{Key, Keys};
-use super::session::{self, EXIT_LINK, EXIT_USAGE, Session};
-use super::upload::{Remedy, initialise_reading};
+mod operator;
+mod shapes;
+mod tool;
+
+use operator::Operator;
+
+use super::session::{self, EXIT_USAGE, Session};
+use super::upload::{Remedy, initialise_reading, refused_in};
 use super::{GlobalArgs, out, profile};
 use crate::axis::Axis;
 use crate::config::{ConfigDirs, Profile};
-use crate::device::api::{Dir, Event, JogId, LinkState, PerAxis, ProbeEnd, ProbeMove, Request};
+use crate::device::api::{Dir, PerAxis, ProbeEnd};
 use crate::offsets::store::{OffsetsFile, profile_key, save};
 use crate::offsets::{Identity, System};
 use crate::probing;
@@ -54,6 +59,12 @@ pub enum What {
     Z(ZArgs),
     /// Find a face along X or Y: the work offset's X or Y is set to it
     Edge(EdgeArgs),
+    /// Find the corner of two faces (X then Y): the work offset's X and Y are set to it
+    Corner(shapes::CornerArgs),
+    /// Find the centre of a bore (X+ X-, then Y+ Y-): the work offset's X and Y are set to it
+    Center(shapes::CenterArgs),
+    /// Measure the tool on the fixed sensor (probe.tool_sensor): its length against the reference tool
+    Tool(tool::ToolArgs),
 }
 
 #[derive(Debug, Args)]
@@ -127,6 +138,12 @@ pub fn run(global: &GlobalArgs, args: &ProbeArgs) -> anyhow::Result<ExitCode> {
         }
         Err(e) => return Ok(usage(&format!("{e:#}"))),
     };
+    match &args.what {
+        What::Tool(t) => return tool::run(global, profile, file, t),
+        What::Corner(c) => return xy(global, profile, file, &c.common, Some(c.corner)),
+        What::Center(c) => return xy(global, profile, file, &c.common, None),
+        What::Z(_) | What::Edge(_) => {}
+    }
     let job = match job(&profile, &args.what) {
         Ok(j) => j,
         Err(m) => return Ok(usage(&m)),
@@ -138,13 +155,81 @@ pub fn run(global: &GlobalArgs, args: &ProbeArgs) -> anyhow::Result<ExitCode> {
     let remedy = Remedy::of(&profile);
     let for_session = profile.clone();
     session::moving(global, for_session, "probe", async |mut session| {
-        let end = probe_once(&mut session, probe, &remedy).await;
+        let end = set_up(&mut session, &remedy).await;
+        let end = match end {
+            Ok((mut operator, _)) => operator.probe(&mut session, probe).await,
+            Err(code) => Err(code),
+        };
         session.close().await;
         match end {
-            Ok(end) => finish(&profile, file.as_ref(), &job, &end),
+            Ok(end) => finish(&profile, file.as_ref(), &job, &end, &remedy),
             Err(code) => ExitCode::from(code),
         }
     })
+}
+
+/// A corner (`Some`) or a bore: X and Y of the work offset.
+fn xy(
+    global: &GlobalArgs,
+    profile: Profile,
+    file: Option<OffsetsFile>,
+    common: &Common,
+    corner: Option<shapes::Corner>,
+) -> anyhow::Result<ExitCode> {
+    let system = match parse_system(common) {
+        Ok(s) => s,
+        Err(m) => return Ok(usage(&m)),
+    };
+    let remedy = Remedy::of(&profile);
+    let for_session = profile.clone();
+    session::moving(global, for_session, "probe", async |mut session| {
+        let mut diameters = None;
+        let result = match set_up(&mut session, &remedy).await {
+            Err(code) => Err(shapes::Failed::Status(code)),
+            Ok((mut operator, at)) => match corner {
+                Some(c) => {
+                    shapes::corner(&mut operator, &mut session, &profile, at, c, &remedy).await
+                }
+                None => shapes::center(&mut operator, &mut session, &profile, &remedy)
+                    .await
+                    .map(|(centre, d)| {
+                        diameters = Some(d);
+                        centre
+                    }),
+            },
+        };
+        session.close().await;
+        shapes::finish(
+            &profile,
+            file.as_ref(),
+            common,
+            system,
+            result,
+            diameters,
+            &remedy,
+        )
+    })
+}
+
+fn parse_system(common: &Common) -> Result<Option<System>, String> {
+    common
+        .offset
+        .as_deref()
+        .map(|name| {
+            System::from_name(name).ok_or_else(|| format!("--offset {name}: expected G54 to G59"))
+        })
+        .transpose()
+}
+
+/// The controller set up (initialised, its position read) and the
+/// operator's stops watched from now on.
+async fn set_up(
+    session: &mut Session,
+    remedy: &Remedy,
+) -> Result<(Operator, Option<PerAxis<i64>>), u8> {
+    let operator = Operator::new();
+    let set = initialise_reading(session, remedy).await?;
+    Ok((operator, set.measured))
 }
 
 fn usage(message: &str) -> ExitCode {
@@ -168,14 +253,11 @@ fn job(profile: &Profile, what: &What) -> Result<Job, String> {
             let half = probing::edge(0.0, toward, profile.probe.tip);
             (&e.common, axis, toward, half)
         }
+        What::Tool(_) | What::Corner(_) | What::Center(_) => {
+            return Err("not a probe of one axis".into());
+        }
     };
-    let system = common
-        .offset
-        .as_deref()
-        .map(|name| {
-            System::from_name(name).ok_or_else(|| format!("--offset {name}: expected G54 to G59"))
-        })
-        .transpose()?;
+    let system = parse_system(common)?;
     Ok(Job {
         axis,
         toward,
@@ -185,80 +267,21 @@ fn job(profile: &Profile, what: &What) -> Result<Job, String> {
     })
 }
 
-/// The controller set up, the probe sent and followed to its end; a stop
-/// key or a signal stops it.
-async fn probe_once(
-    session: &mut Session,
-    probe: ProbeMove,
-    remedy: &Remedy,
-) -> Result<ProbeEnd, u8> {
-    let mut keys = Keys::from_stdin();
-    initialise_reading(session, remedy).await?;
-    let id = JogId(1);
-    if session
-        .handle
-        .request(Request::Probe { id, probe })
-        .is_err()
-    {
-        return Err(lost("the device task ended"));
-    }
-    let stopper = session.handle.clone();
-    let mut stopped = false;
-    let interrupted = session::interrupted();
-    tokio::pin!(interrupted);
-    loop {
-        tokio::select! {
-            event = session.next_event() => match event {
-                Some(Event::ProbeEnded { id: ended, end }) if ended == id => return Ok(end),
-                Some(Event::Link(LinkState::Lost { reason })) => return Err(lost(&reason)),
-                Some(_) => {}
-                None => return Err(lost("the device task ended")),
-            },
-            key = keys.next(), if !stopped => if matches!(key, Key::Stop | Key::Gone) {
-                stopped = true;
-                let _ = stopper.stop().written().await;
-            },
-            () = &mut interrupted, if !stopped => {
-                stopped = true;
-                let _ = stopper.stop().written().await;
-                session::say_interrupted("probe", session::Moves::Yes);
-            },
-        }
-    }
-}
-
-fn lost(reason: &str) -> u8 {
-    out::say(format_args!("jogterm probe: link failure: {reason}"));
-    EXIT_LINK
-}
-
 /// The touched point into the work offset, saved, and said.
-fn finish(profile: &Profile, file: Option<&OffsetsFile>, job: &Job, end: &ProbeEnd) -> ExitCode {
+fn finish(
+    profile: &Profile,
+    file: Option<&OffsetsFile>,
+    job: &Job,
+    end: &ProbeEnd,
+    remedy: &Remedy,
+) -> ExitCode {
     let what = format!("the probe of {}{}", job.axis, job.toward.symbol());
     let Some(at) = probing::touched(end) else {
-        out::say(format_args!(
-            "jogterm probe: {}",
-            end_text(profile, &what, job.axis, end)
-        ));
-        return ExitCode::from(1);
+        return not_touched(profile, &what, job.axis, end, remedy);
     };
-    let startup = file.map(OffsetsFile::load);
-    let mut table = startup
-        .as_ref()
-        .map(|s| s.offsets.clone())
-        .unwrap_or_default();
-    let system = job.system.unwrap_or(table.active());
     let touched = at.get(job.axis).unwrap_or(0);
     let zero_units = probing::units(profile, job.axis, touched) + job.zero_from_touch;
-    let zero = probing::steps(profile, job.axis, zero_units);
-    table.set(system, job.axis, zero);
-    let saved = match file {
-        Some(f) => {
-            let refused = startup.as_ref().is_some_and(|s| s.refused);
-            save(&f.job(&table, refused)).map(|p| p.display().to_string())
-        }
-        None => Err("there is no state directory (set JOGTERM_STATE_DIR)".to_owned()),
-    };
+    let (system, saved) = set_zeros(profile, file, job.system, &[(job.axis, zero_units)]);
     if job.json {
         let mut zero_mm = serde_json::Map::new();
         zero_mm.insert(job.axis.to_string().to_lowercase(), json!(zero_units));
@@ -275,6 +298,52 @@ fn finish(profile: &Profile, file: Option<&OffsetsFile>, job: &Job, end: &ProbeE
             job.axis
         ));
     }
+    if job.axis == Axis::Z
+        && let Some(path) = file.and_then(tool::table_path)
+        && let Ok(mut tools) = tool::load(&path)
+    {
+        // The tool in the spindle set work Z: the next one measured on the
+        // sensor is the reference (`docs/probing.md`, "Tool length").
+        tools.touched_off();
+        if let Err(why) = tool::save(&path, &tools) {
+            out::say(format_args!(
+                "jogterm probe: the tool table was not saved: {why}"
+            ));
+        }
+    }
+    saved_status(&saved)
+}
+
+/// The work zeros (machine units per axis) set in `system` (default: the
+/// active one) and saved where the console keeps them; which system, and
+/// where it was saved or why not.
+fn set_zeros(
+    profile: &Profile,
+    file: Option<&OffsetsFile>,
+    system: Option<System>,
+    zeros: &[(Axis, f64)],
+) -> (System, Result<String, String>) {
+    let startup = file.map(OffsetsFile::load);
+    let mut table = startup
+        .as_ref()
+        .map(|s| s.offsets.clone())
+        .unwrap_or_default();
+    let system = system.unwrap_or(table.active());
+    for (axis, units) in zeros {
+        table.set(system, *axis, probing::steps(profile, *axis, *units));
+    }
+    let saved = match file {
+        Some(f) => {
+            let refused = startup.as_ref().is_some_and(|s| s.refused);
+            save(&f.job(&table, refused)).map(|p| p.display().to_string())
+        }
+        None => Err("there is no state directory (set JOGTERM_STATE_DIR)".to_owned()),
+    };
+    (system, saved)
+}
+
+/// The exit status after the offsets were set: 1 when they were not saved.
+fn saved_status(saved: &Result<String, String>) -> ExitCode {
     match saved {
         Ok(_) => ExitCode::SUCCESS,
         Err(why) => {
@@ -284,6 +353,25 @@ fn finish(profile: &Profile, file: Option<&OffsetsFile>, job: &Job, end: &ProbeE
             ExitCode::from(1)
         }
     }
+}
+
+/// A probe that did not touch, said; its exit status (2 for a refusal
+/// of what was asked, 1 otherwise, as `upload` counts them).
+fn not_touched(
+    profile: &Profile,
+    what: &str,
+    axis: Axis,
+    end: &ProbeEnd,
+    remedy: &Remedy,
+) -> ExitCode {
+    if let ProbeEnd::Refused(reason) = end {
+        return ExitCode::from(refused_in("probe", what, reason, remedy));
+    }
+    out::say(format_args!(
+        "jogterm probe: {}",
+        end_text(profile, what, axis, end)
+    ));
+    ExitCode::from(1)
 }
 
 fn end_text(profile: &Profile, what: &str, axis: Axis, end: &ProbeEnd) -> String {

@@ -1,0 +1,175 @@
+//! `jogterm probe tool`: the tool measured on the fixed sensor
+//! (`probe.tool_sensor`, `docs/probing.md`, "Tool length"). Z goes up to
+//! the safe height first (the sensor point's Z, or higher where the tool
+//! stands higher), then X and Y to the sensor, Z down to the point above
+//! it, and the probe from there; the tool table in the state directory
+//! keeps where it touched and its offset against the reference tool.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::Args;
+use serde_json::json;
+
+use super::{GlobalArgs, Operator, end_text, not_touched, out, print_line, set_up, usage};
+use crate::axis::Axis;
+use crate::cli::session;
+use crate::cli::upload::Remedy;
+use crate::config::Profile;
+use crate::device::api::{Dir, PerAxis};
+use crate::offsets::store::OffsetsFile;
+use crate::probing::{self, ToolTable};
+
+#[derive(Debug, Args)]
+pub struct ToolArgs {
+    /// The tool's name, as the job's `T` words name it
+    #[arg(long, default_value = "T1", value_name = "TN")]
+    pub tool: String,
+    /// Print the result as JSON
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Where the tool table of the session whose offsets live in `offsets`
+/// is kept: beside them, `tools/<profile>@<port>.json`.
+pub fn table_path(offsets: &OffsetsFile) -> Option<PathBuf> {
+    let name = offsets.path.file_stem()?.to_owned();
+    let state = offsets.path.parent()?.parent()?;
+    Some(state.join("tools").join(name).with_extension("json"))
+}
+
+/// The table as saved; a missing one is empty, a broken one an error.
+pub fn load(path: &std::path::Path) -> Result<ToolTable, String> {
+    match std::fs::read_to_string(path) {
+        Ok(text) => serde_json::from_str(&text)
+            .map_err(|e| format!("{}: not a tool table: {e}", path.display())),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(ToolTable::default()),
+        Err(e) => Err(format!("{}: {e}", path.display())),
+    }
+}
+
+pub fn save(path: &std::path::Path, table: &ToolTable) -> Result<(), String> {
+    let text = serde_json::to_string_pretty(table).map_err(|e| e.to_string())?;
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    }
+    crate::program::store::save(path, &text, None)
+        .map(drop)
+        .map_err(|e| e.to_string())
+}
+
+pub fn run(
+    global: &GlobalArgs,
+    profile: Profile,
+    offsets: Option<OffsetsFile>,
+    args: &ToolArgs,
+) -> anyhow::Result<ExitCode> {
+    let sensor = match profile.probe.tool_sensor_point() {
+        Some(Ok(p)) => p,
+        Some(Err(why)) => return Ok(usage(&format!("probe.tool_sensor: {why}"))),
+        None => {
+            return Ok(usage(
+                "the profile has no tool sensor: set probe.tool_sensor to the machine \
+                 coordinates of the point above it (\"X10 Y250 Z70\")",
+            ));
+        }
+    };
+    let Some(path) = offsets.as_ref().and_then(table_path) else {
+        return Ok(usage(
+            "there is no state directory to keep the tool table in (set JOGTERM_STATE_DIR)",
+        ));
+    };
+    let mut table = match load(&path) {
+        Ok(t) => t,
+        Err(why) => return Ok(usage(&why)),
+    };
+    let probe = match probing::probe_move(&profile, Axis::Z, Dir::Minus) {
+        Ok(p) => p,
+        Err(m) => return Ok(usage(&m)),
+    };
+    let remedy = Remedy::of(&profile);
+    let for_session = profile.clone();
+    session::moving(global, for_session, "probe", async |mut session| {
+        let measured = async {
+            let (mut operator, at) = set_up(&mut session, &remedy).await?;
+            to_sensor(&mut operator, &mut session, &profile, &sensor, at, &remedy).await?;
+            operator.probe(&mut session, probe).await
+        }
+        .await;
+        session.close().await;
+        let end = match measured {
+            Ok(end) => end,
+            Err(code) => return ExitCode::from(code),
+        };
+        let what = format!("the measure of {}", args.tool);
+        let Some(at) = probing::touched(&end) else {
+            return not_touched(&profile, &what, Axis::Z, &end, &remedy);
+        };
+        let z = probing::units(&profile, Axis::Z, at.get(Axis::Z).unwrap_or(0));
+        let offset = table.measured(&args.tool, z);
+        if let Err(why) = save(&path, &table) {
+            out::say(format_args!(
+                "jogterm probe: the tool table was not saved: {why}"
+            ));
+            return ExitCode::from(1);
+        }
+        if args.json {
+            print_line(&json!({
+                "tool": args.tool,
+                "length_mm": z,
+                "offset_mm": offset,
+                "reference": table.reference,
+            }));
+        } else {
+            out::say(end_text(&profile, &what, Axis::Z, &end));
+            out::say(format_args!(
+                "{}: offset {offset:+.4} against the reference tool {}",
+                args.tool,
+                table.reference.as_deref().unwrap_or("-")
+            ));
+        }
+        ExitCode::SUCCESS
+    })
+}
+
+/// Up to the safe height, over to the sensor, down to the point above it.
+async fn to_sensor(
+    operator: &mut Operator,
+    session: &mut session::Session,
+    profile: &Profile,
+    sensor: &PerAxis<f64>,
+    at: Option<PerAxis<i64>>,
+    remedy: &Remedy,
+) -> Result<(), u8> {
+    let steps = |axis: Axis, units: f64| probing::steps(profile, axis, units);
+    let rapid = |axis: Axis| {
+        profile
+            .axis(axis)
+            .map_or(0.0, |a| a.speed_hz(a.max_speed).abs())
+    };
+    let sensor_z = steps(Axis::Z, sensor.get(Axis::Z).unwrap_or(0.0));
+    let here_z = at.and_then(|p| p.get(Axis::Z)).unwrap_or(sensor_z);
+    let safe_z = here_z.max(sensor_z);
+    let z_only = |z: i64| PerAxis::new().with(Axis::Z, z);
+    let z_speed = PerAxis::new().with(Axis::Z, rapid(Axis::Z));
+    operator
+        .move_to(session, z_only(safe_z), z_speed, remedy)
+        .await?;
+    let mut xy = PerAxis::new();
+    let mut xy_speed = PerAxis::new();
+    for axis in [Axis::X, Axis::Y] {
+        if let Some(v) = sensor.get(axis) {
+            xy.set(axis, steps(axis, v));
+            xy_speed.set(axis, rapid(axis));
+        }
+    }
+    if !xy.axes().is_empty() {
+        operator.move_to(session, xy, xy_speed, remedy).await?;
+    }
+    if safe_z != sensor_z {
+        operator
+            .move_to(session, z_only(sensor_z), z_speed, remedy)
+            .await?;
+    }
+    Ok(())
+}
