@@ -155,3 +155,16 @@ fn the_surface_wins_over_the_probe_control() {
     plain.set("probe", true);
     assert!(probe_touched(&mut plain));
 }
+
+#[test]
+fn a_stored_port_condition_ends_a_program_move_on_the_surface() {
+    let mut c = referenced_over(8000.0, 0.0, 0.0);
+    go_to(&mut c, 0, 0, 8400);
+    // CNC `6` numbers the bits 1-8 (manual 3.2.7): bit 6 is port 1 bit 5.
+    c.expect("@0i", "0");
+    for line in ["61,6,1", "00,300,0,300,-4000,300,0,300", "9"] {
+        c.expect(line, "0");
+    }
+    c.expect_after("@0S", "0", MINUTE);
+    assert_eq!(c.position()[2], 8000);
+}
