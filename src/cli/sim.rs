@@ -32,6 +32,13 @@ limit_margin and start_position), and the controller the one its [sim] variants 
 family is --protocol (or --sim), else the profile's connection.protocol; without
 --profile, --sim/--protocol pick the shipped profile of that family (isel, emcu, emp).
 
+--probe-surface Z0[,GX,GY] puts a work piece under the probe: the plane z = Z0 + GX*x + GY*y
+in machine steps, Z+ up. The probe input reads touched while the axis stands at or below it:
+isel in1.5, changing at the step the carriage crosses the plane, so a @0Z ends there and ramps
+down past it from its speed (at or below the start-stop frequency it stops on it); EMP the drive
+input the profile's [io] gives role probe. The EMCU's input E1 cannot be read: refused there.
+`show` prints the surface.
+
 --time-scale S runs the simulated machine S times faster than the wall clock (0.01 to
 1000; 1, the default, is real time): motion, the modelled wire, erase times, reply delays
 and timed controls alike. It is for tests of logic (where a move ends, what went over the
@@ -62,7 +69,8 @@ Control language (one command per line, docs/simulator.md):
 
 isel inputs: limit-x1 limit-x2 limit-y1 limit-y2 limit-z1 limit-z2 limit-a1 limit-a2
   (on = the switch is held active), estop1 estop2 (closed/open), overtemp, power-ok,
-  hood (closed/open), key-switch (on = setup mode), probe, start, stop (press),
+  hood (closed/open), key-switch (on = setup mode), probe (not with --probe-surface),
+  start, stop (press),
   in0.0 … in0.7 (user inputs)";
 
 /// Options of `jogterm sim`.
@@ -81,13 +89,26 @@ pub struct SimArgs {
     pub link: Option<PathBuf>,
     /// Model a controller that differs from the default (repeatable, added to the
     /// profile's [sim] variants): hood-unwired, no-port2, work-positions (isel),
-    /// memory=<commands> (isel, EMCU), emp-rejects-0a-before-on (EMP)
+    /// memory=<commands> (isel, EMCU), emp-rejects-0a-before-on (EMP),
+    /// probe-surface=<z0>[,<gx>,<gy>] (isel, EMP)
     #[arg(long = "variant", value_name = "NAME[=N]")]
     pub variants: Vec<SimVariant>,
+    /// A work piece under the probe: the plane z = Z0 + GX*x + GY*y in machine steps
+    /// (Z+ up); the probe input reads touched while the axis stands at or below it.
+    /// The variant probe-surface=Z0[,GX,GY]; it replaces one the profile sets (isel,
+    /// EMP; docs/simulator.md, Probe surface)
+    #[arg(long, value_name = "Z0[,GX,GY]", value_parser = probe_surface)]
+    pub probe_surface: Option<SimVariant>,
     /// Run the simulated machine S times faster than the wall clock (motion, wire,
     /// delays alike; 1 = real time): for tests of logic, not of timing
     #[arg(long, value_name = "S", default_value_t = TimeScale::REAL)]
     pub time_scale: TimeScale,
+}
+
+/// `--probe-surface Z0[,GX,GY]`: the variant `probe-surface=` of the same
+/// text, so both are parsed and checked alike.
+fn probe_surface(text: &str) -> Result<SimVariant, String> {
+    format!("probe-surface={text}").parse()
 }
 
 /// Run `jogterm sim` until stdin closes.
@@ -102,14 +123,42 @@ pub fn run(global: &GlobalArgs, args: &SimArgs) -> anyhow::Result<()> {
     let mut profile = profile::resolve(global, &ConfigDirs::from_env())?;
     let protocol = profile::family(&profile);
     if let Some(v) = args.variants.iter().find(|v| !v.applies_to(protocol)) {
-        bail!("--variant {v}: the {protocol} simulator has no such variant");
+        let why = v
+            .info()
+            .elsewhere
+            .map(|why| format!(": {why}"))
+            .unwrap_or_default();
+        bail!("--variant {v}: the {protocol} simulator has no such variant{why}");
     }
     profile.sim.variants.extend(args.variants.iter().copied());
+    if let Some(surface) = args.probe_surface {
+        if let Some(why) = surface.refusal(protocol) {
+            bail!("--probe-surface: {why}");
+        }
+        // The option is the operator's word for this run: it replaces the
+        // profile's surface rather than stacking a second one.
+        profile
+            .sim
+            .variants
+            .retain(|v| !matches!(v, SimVariant::ProbeSurface(_)));
+        profile.sim.variants.push(surface);
+    }
     let device = registry::build(protocol, &profile)?;
+    let surface = profile
+        .sim
+        .variants
+        .iter()
+        .rev()
+        .find_map(|v| match v {
+            SimVariant::ProbeSurface(s) => Some(s.to_string()),
+            _ => None,
+        })
+        .unwrap_or_else(|| "none".into());
     tracing::info!(
         %protocol,
         profile = %profile.name,
         time_scale = %args.time_scale,
+        probe_surface = %surface,
         "simulator starting"
     );
     let mut stdout = WatchedStdout::new();

@@ -25,7 +25,7 @@ use serde::de::DeserializeOwned;
 pub use profile::{Profile, StartUnreferenced};
 pub use source::{ConfigError, Origin, Source};
 pub use theme::Theme;
-pub use variant::SimVariant;
+pub use variant::{ProbeSurface, SimVariant};
 
 /// Shipped profiles: name and TOML text.
 pub const BUILTIN_PROFILES: &[(&str, &str)] = &[

@@ -848,12 +848,9 @@ impl Profile {
         }
         let family = self.connection.protocol;
         for (i, variant) in self.sim.variants.iter().enumerate() {
-            if !variant.applies_to(family) {
+            if let Some(why) = variant.refusal(family) {
                 let index = i.to_string();
-                out.push(Invalid::new(
-                    &["sim", "variants", index.as_str()],
-                    format!("the {family} simulator has no variant `{variant}`"),
-                ));
+                out.push(Invalid::new(&["sim", "variants", index.as_str()], why));
             }
         }
         if let Err(problems) = self.wiring() {

@@ -24,15 +24,13 @@ pub enum RegistryError {
 /// `memory` control of every family that stores programs.
 pub fn build(protocol: Protocol, profile: &Profile) -> Result<Box<dyn SimDevice>, RegistryError> {
     let profile_error = |message: String| RegistryError::Profile { protocol, message };
-    if let Some(v) = profile
+    if let Some(why) = profile
         .sim
         .variants
         .iter()
-        .find(|v| !v.applies_to(protocol))
+        .find_map(|v| v.refusal(protocol))
     {
-        return Err(profile_error(format!(
-            "the {protocol} simulator has no variant `{v}`"
-        )));
+        return Err(profile_error(why));
     }
     let mut device = build_plain(protocol, profile)?;
     for variant in &profile.sim.variants {
@@ -109,6 +107,19 @@ mod tests {
             .expect("no hood on an EMCU");
         assert!(
             err.to_string().contains("no variant `hood-unwired`"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn a_probe_surface_is_refused_for_the_emcu_with_the_reason() {
+        let mut emcu = load_profile("emcu", &ConfigDirs::builtin_only()).expect("profile");
+        emcu.sim.variants = vec!["probe-surface=8000".parse().expect("a surface")];
+        let err = build(Protocol::Emcu, &emcu)
+            .err()
+            .expect("no probe on an EMCU");
+        assert!(
+            err.to_string().contains("cannot read its input E1"),
             "{err}"
         );
     }

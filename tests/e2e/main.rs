@@ -39,6 +39,7 @@ mod cli_check;
 mod cli_closed_output;
 mod cli_commission;
 mod cli_messages;
+mod cli_probe_surface;
 mod cli_send_poll;
 mod cli_send_poll_emcu;
 mod cli_send_poll_emp;

@@ -184,6 +184,7 @@ pub struct SimOptions<'a> {
     family: &'static str,
     files: &'a [(&'a str, &'a str)],
     variants: &'a [&'a str],
+    args: &'a [&'a str],
     serving: Serving,
     time_scale: f64,
 }
@@ -202,6 +203,12 @@ impl<'a> SimOptions<'a> {
     /// (`jogterm sim --variant`, `docs/simulator.md`, "Variants").
     pub fn variants(mut self, variants: &'a [&'a str]) -> Self {
         self.variants = variants;
+        self
+    }
+
+    /// Further options of `jogterm sim` (`--probe-surface 8000`).
+    pub fn args(mut self, args: &'a [&'a str]) -> Self {
+        self.args = args;
         self
     }
 
@@ -237,6 +244,7 @@ impl SimProcess {
             family,
             files: &[],
             variants: &[],
+            args: &[],
             serving: Serving::Pty,
             time_scale: 1.0,
         }
@@ -281,6 +289,7 @@ impl SimProcess {
             family,
             files,
             variants,
+            args,
             serving,
             time_scale,
         } = options;
@@ -297,6 +306,7 @@ impl SimProcess {
         command
             .args(["sim", "--protocol", family])
             .args(variants.iter().flat_map(|v| ["--variant", v]))
+            .args(args)
             .arg("--time-scale")
             .arg(time_scale.to_string());
         match serving {

@@ -91,7 +91,12 @@ fn workflow(name: &'static str, variant: Option<&'static str>) {
     // reference runs take seconds.
     let shipped = if name == "isel" { "default" } else { name };
     let sim_profile = format!("profiles/{shipped}.toml");
-    let patch = format!("base = \"{shipped}\"\n[sim]\nstart_position = 5.0\n");
+    let mut patch = format!("base = \"{shipped}\"\n[sim]\nstart_position = 5.0\n");
+    if name == "emp" && variant.is_some_and(|v| v.starts_with("probe-surface")) {
+        // An EMP surface drives the input the wiring calls the probe; the
+        // shipped profile names none (the simulator refuses it then).
+        patch.push_str("[io.\"11.I1\"]\nrole = \"probe\"\n");
+    }
     let mut sim = SimProcess::start_variant(
         name,
         &[(sim_profile.as_str(), patch.as_str())],

@@ -8,7 +8,7 @@
 
 use crate::axis::Axis;
 use crate::config::profile::{AxisProfile, SimProfile, parse_drive_address};
-use crate::config::{Profile, SimVariant};
+use crate::config::{ProbeSurface, Profile, SimVariant};
 use crate::proto::Protocol;
 use crate::proto::emp::{DriveAddress, IdentText, ReloadValue};
 
@@ -29,6 +29,16 @@ pub enum EmpSimError {
     DriveCount(usize),
     #[error("drive {0} is configured twice")]
     DuplicateDrive(DriveAddress),
+    #[error(
+        "the probe surface needs a drive input with role probe in the profile's [io] \
+         (e.g. [io.\"11.I1\"] role = \"probe\"): the EMP simulator's surface drives that input"
+    )]
+    NoProbeInput,
+    #[error(
+        "the probe input {0} is no input I1-I4: the drive's limit and reference switches \
+         follow its axis' own switches, a probe surface can drive only I1-I4"
+    )]
+    ProbeNotAnInput(String),
     #[error("drive {ds}: {what} must be {expected}, got {value}")]
     BadSetting {
         ds: DriveAddress,
@@ -239,6 +249,28 @@ impl DriveConfig {
     }
 }
 
+/// A work piece under the probe (variant `probe-surface`): which drive
+/// input follows it, and which drives' positions place the carriage.
+///
+/// The probing axis is Z when the link has a Z drive, else the axis of the
+/// drive the probe is wired to (an EMP machine is mostly one axis). The
+/// plane's slopes tilt it along X and Y where the link has drives for them
+/// other than the probing axis; an axis the link lacks counts as 0, so on a
+/// one-axis machine the surface is the position `z0` alone.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SurfaceProbe {
+    pub surface: ProbeSurface,
+    /// The drive and input (1-4) the probe is wired to.
+    pub drive: DriveAddress,
+    pub input: u8,
+    /// The input reads 1 when touched (`active = "high"`), else 0.
+    pub active_high: bool,
+    /// The drive of the probing axis: touched at or below the plane.
+    pub axis: DriveAddress,
+    pub x: Option<DriveAddress>,
+    pub y: Option<DriveAddress>,
+}
+
 /// The drives of one link.
 #[derive(Debug, Clone, PartialEq)]
 pub struct EmpSimConfig {
@@ -293,6 +325,71 @@ impl EmpSimConfig {
         }
         Ok(())
     }
+}
+
+impl SurfaceProbe {
+    /// The probe surface of a profile's `[sim] variants` (the last one),
+    /// on the link `config` built from it; `None` without one.
+    pub fn from_profile(
+        profile: &Profile,
+        config: &EmpSimConfig,
+    ) -> Result<Option<SurfaceProbe>, EmpSimError> {
+        let surface = profile.sim.variants.iter().rev().find_map(|v| match v {
+            SimVariant::ProbeSurface(s) => Some(*s),
+            _ => None,
+        });
+        surface
+            .map(|s| surface_probe(profile, s, &config.drives))
+            .transpose()
+    }
+}
+
+/// The probe of a profile's wiring (`[io]`, role `probe`: the first such
+/// input) for a work piece `surface` on the link of `drives`.
+fn surface_probe(
+    profile: &Profile,
+    surface: ProbeSurface,
+    drives: &[DriveConfig],
+) -> Result<SurfaceProbe, EmpSimError> {
+    use crate::wiring::{BitKind, Level, Role};
+    // A profile whose wiring does not load is refused where it is read;
+    // here it simply names no probe.
+    let wiring = profile.wiring().map_err(|_| EmpSimError::NoProbeInput)?;
+    let bit = wiring
+        .bits()
+        .iter()
+        .find(|b| b.kind == BitKind::Input && b.role == Role::Probe)
+        .ok_or(EmpSimError::NoProbeInput)?;
+    let not_input = || EmpSimError::ProbeNotAnInput(bit.address.clone());
+    let (ds, name) = bit.address.split_once('.').ok_or_else(not_input)?;
+    let input = match name {
+        "I1" => 1,
+        "I2" => 2,
+        "I3" => 3,
+        "I4" => 4,
+        _ => return Err(not_input()),
+    };
+    let drive = u8::from_str_radix(ds, 16)
+        .ok()
+        .and_then(|b| DriveAddress::from_byte(b).ok())
+        .ok_or_else(not_input)?;
+    let of = |axis: Axis| drives.iter().find(|d| d.axis == Some(axis)).map(|d| d.ds);
+    let own = drives.iter().find(|d| d.ds == drive).and_then(|d| d.axis);
+    let probing = if of(Axis::Z).is_some() {
+        Axis::Z
+    } else {
+        own.unwrap_or(Axis::Z)
+    };
+    let tilt = |axis: Axis| of(axis).filter(|_| axis != probing);
+    Ok(SurfaceProbe {
+        surface,
+        drive,
+        input,
+        active_high: bit.active == Level::High,
+        axis: of(probing).unwrap_or(drive),
+        x: tilt(Axis::X),
+        y: tilt(Axis::Y),
+    })
 }
 
 #[cfg(test)]

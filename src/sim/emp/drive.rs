@@ -602,6 +602,11 @@ impl Drive {
         }
     }
 
+    /// Where the axis physically is at `t`, counts from machine 0.
+    pub(crate) fn physical(&self, t: Instant) -> f64 {
+        self.servo.position(t)
+    }
+
     /// An operator sets input `n` (1-4).
     pub(crate) fn input(&self, n: u8) -> bool {
         self.inputs.get(n)

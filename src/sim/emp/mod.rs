@@ -39,7 +39,7 @@ use std::collections::VecDeque;
 use std::fmt::Write as _;
 use std::time::Instant;
 
-pub use config::{DriveConfig, EmpSimConfig, EmpSimError};
+pub use config::{DriveConfig, EmpSimConfig, EmpSimError, SurfaceProbe};
 pub use drive::{DriveSnapshot, PROCESSING_TIME, SLOW_ADC_PROCESSING_TIME};
 
 use self::drive::Drive;
@@ -91,6 +91,9 @@ pub struct EmpSim {
     /// `fault stall`: the next long action on the link, whichever drive
     /// starts it, stays busy without moving.
     stall: bool,
+    /// A work piece under the probe (variant `probe-surface`): the probe
+    /// input follows the axes' positions whenever it is read.
+    surface: Option<SurfaceProbe>,
 }
 
 impl EmpSim {
@@ -111,13 +114,61 @@ impl EmpSim {
             clock: None,
             stats: LinkStats::default(),
             stall: false,
+            surface: None,
         })
     }
 
     /// The link of a machine profile's EMP axes (see
-    /// [`EmpSimConfig::from_profile`]).
+    /// [`EmpSimConfig::from_profile`]), with the probe surface of its
+    /// `[sim] variants` ([`SurfaceProbe::from_profile`]).
     pub fn from_profile(profile: &Profile) -> Result<EmpSim, EmpSimError> {
-        EmpSim::new(EmpSimConfig::from_profile(profile)?)
+        let config = EmpSimConfig::from_profile(profile)?;
+        let surface = SurfaceProbe::from_profile(profile, &config)?;
+        Ok(EmpSim::new(config)?.with_surface(surface))
+    }
+
+    /// The same link with a work piece under the probe (or none).
+    pub fn with_surface(mut self, surface: Option<SurfaceProbe>) -> EmpSim {
+        self.surface = surface;
+        if let Some(t) = self.clock {
+            self.follow_surface(t);
+        }
+        self
+    }
+
+    /// The probe input as the work piece sets it at `t`: the drive's
+    /// index, the input (1-4) and its level. Touched while the probing
+    /// axis stands at or below the plane over the X and Y drives'
+    /// positions (0 for an axis the link lacks).
+    fn surface_input(&self, t: Instant) -> Option<(usize, u8, bool)> {
+        let p = self.surface?;
+        let at = |ds: Option<DriveAddress>| {
+            ds.and_then(|ds| self.drives.iter().find(|d| d.ds() == ds))
+                .map_or(0.0, |d| d.physical(t))
+        };
+        let touched = p.surface.touches(at(p.x), at(p.y), at(Some(p.axis)));
+        let index = self.drive_index(p.drive.byte())?;
+        Some((index, p.input, touched == p.active_high))
+    }
+
+    /// Bring the probe input up to `t`, before anything reads it.
+    fn follow_surface(&mut self, t: Instant) {
+        if let Some((index, n, level)) = self.surface_input(t)
+            && let Some(d) = self.drives.get_mut(index)
+        {
+            d.set_input(n, level);
+        }
+    }
+
+    /// A drive's state at `t`, its probe input as the work piece sets it.
+    fn drive_snapshot(&self, index: usize, t: Instant) -> Option<DriveSnapshot> {
+        let mut s = self.drives.get(index)?.snapshot(t);
+        if let Some((i, n, level)) = self.surface_input(t)
+            && i == index
+        {
+            s.inputs = s.inputs.with(n, level);
+        }
+        Some(s)
     }
 
     /// The addresses on the link, lowest first.
@@ -127,10 +178,8 @@ impl EmpSim {
 
     /// One drive's state at `now` (as far as the model has been advanced).
     pub fn snapshot(&self, ds: DriveAddress, now: Instant) -> Option<DriveSnapshot> {
-        self.drives
-            .iter()
-            .find(|d| d.ds() == ds)
-            .map(|d| d.snapshot(self.at_least_clock(now)))
+        let index = self.drive_index(ds.byte())?;
+        self.drive_snapshot(index, self.at_least_clock(now))
     }
 
     pub fn stats(&self) -> LinkStats {
@@ -177,6 +226,8 @@ impl EmpSim {
     }
 
     fn process(&mut self, q: Queued) {
+        // `40 01` reads the inputs as the axes stand when it is processed.
+        self.follow_surface(q.due);
         let Some(drive) = self.drives.get_mut(q.drive) else {
             return;
         };
@@ -276,6 +327,17 @@ impl SimDevice for EmpSim {
                 format!("no drive {ds} on this link (drives: {})", known.join(", "))
             })?,
         };
+        if let (controls::Action::Input(n, _), Some((probe, input, _)), Some(s)) =
+            (parsed.action, self.surface_input(now), self.surface)
+            && (probe, input) == (index, n)
+        {
+            return Err(format!(
+                "`{}` is the probe: it follows the probe surface {} (variant probe-surface) \
+                 while one is set",
+                control.name(),
+                s.surface
+            ));
+        }
         let drive = self
             .drives
             .get_mut(index)
@@ -309,17 +371,37 @@ impl SimDevice for EmpSim {
             None => 0,
             Some(ds) => self.drive_index(ds.byte())?,
         };
+        // The probe is the work piece's, not a level the operator left.
+        if let Some(p) = self.surface
+            && self.drive_index(p.drive.byte()) == Some(index)
+            && p.input == n
+        {
+            return None;
+        }
         Some(self.drives.get(index)?.input(n))
     }
 
     fn describe(&self, now: Instant) -> String {
         let now = self.at_least_clock(now);
         let mut out = String::new();
-        for (i, d) in self.drives.iter().enumerate() {
+        for i in 0..self.drives.len() {
             if i > 0 {
                 out.push_str(" | ");
             }
-            describe_drive(&mut out, &d.snapshot(now));
+            if let Some(s) = self.drive_snapshot(i, now) {
+                describe_drive(&mut out, &s);
+            }
+        }
+        if let (Some(p), Some((_, _, level))) = (self.surface, self.surface_input(now)) {
+            let touched = level == p.active_high;
+            let _ = write!(
+                out,
+                " | probe surface {} on {}.I{}: {}",
+                p.surface,
+                p.drive,
+                p.input,
+                if touched { "touched" } else { "clear" }
+            );
         }
         if self.stall {
             out.push_str(" | stall armed");

@@ -17,8 +17,8 @@ use thiserror::Error;
 
 use crate::axis::{Axis, AxisSet};
 use crate::config::Profile;
-use crate::config::SimVariant;
 use crate::config::profile::Unit;
+use crate::config::{ProbeSurface, SimVariant};
 use crate::proto::isel::{DeviceNumber, InputPort, PortWatch, REFERENCE_CLEAR_STEPS};
 
 use super::flash::{Flash, InitValues};
@@ -85,6 +85,9 @@ pub struct IselSimConfig {
     /// `@0P` reports positions from the virtual zero of `@0n` (variant
     /// `work-positions`) instead of from the reference point (manual 2.2.19).
     pub work_positions: bool,
+    /// A work piece under the probe (variant `probe-surface`): port 1 bit 5
+    /// follows it while it is set, whatever the `probe` control says.
+    pub probe_surface: Option<ProbeSurface>,
 }
 
 /// The factory hood supervision of a controller with a hood circuit: port 2
@@ -127,6 +130,7 @@ impl IselSimConfig {
             hood_circuit: true,
             port2: true,
             work_positions: false,
+            probe_surface: None,
         }
     }
 
@@ -141,6 +145,7 @@ impl IselSimConfig {
                 self.without_hood();
             }
             SimVariant::WorkPositions => self.work_positions = true,
+            SimVariant::ProbeSurface(s) => self.probe_surface = Some(s),
             // Another family's (refused when the profile is checked), or
             // applied by the registry.
             SimVariant::Memory(_) | SimVariant::EmpRejects0aBeforeOn => {}

@@ -80,6 +80,11 @@ impl IselSim {
                 }
             ));
         }
+        if let (InputName::Probe, Some(s)) = (input, self.config.probe_surface) {
+            return Err(format!(
+                "`{name}` follows the probe surface {s} (variant probe-surface) while one is set"
+            ));
+        }
         if press && !matches!(input, InputName::Start | InputName::Stop) {
             return Err(format!(
                 "`{name}` is not a button (press works on start and stop): set {name} on|off"
@@ -184,6 +189,17 @@ impl IselSim {
             if on {
                 let _ = write!(s, ", {flag}");
             }
+        }
+        if let Some(surface) = self.config.probe_surface {
+            let _ = write!(
+                s,
+                " | probe surface {surface} ({})",
+                if self.surface_touch {
+                    "touched"
+                } else {
+                    "clear"
+                }
+            );
         }
         let [p0, p1, p2, p3] = self.ports();
         let _ = write!(

@@ -16,6 +16,9 @@ pub const SPINDLE_BIT: u8 = 1 << 4;
 pub const HOOD_ENABLE_BIT: u8 = 1 << 5;
 pub const BRAKE_BIT: u8 = 1 << 6;
 
+/// The tool-length probe on input port 1 (manual 2.2.3, "Längenmesstaster").
+pub const PROBE_BIT: u8 = 1 << 5;
+
 /// The input side, as the operator set it.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Inputs {
@@ -56,7 +59,7 @@ impl Inputs {
             | u8::from(self.overtemp) << 2
             | u8::from(self.start_key) << 3
             | u8::from(self.stop_key) << 4
-            | u8::from(self.probe) << 5
+            | if self.probe { PROBE_BIT } else { 0 }
     }
 
     /// Port 2: spindle feedback, power ok, the two hood bits, key switch.

@@ -7,6 +7,7 @@
 //! -1 for an axis inverted with `@0ID` (manual 4.2.8).
 
 use super::config::AxisMechanics;
+use crate::config::ProbeSurface;
 
 /// Index of the switch on the negative physical side.
 pub const NEG: usize = 0;
@@ -118,6 +119,26 @@ impl AxisState {
         self.pressed.get(side).copied().unwrap_or(false)
             || self.forced.get(input).copied().unwrap_or(false)
     }
+}
+
+/// Where the carriages stand when the counters read `counters`, in steps of
+/// machine coordinates; an axis the machine lacks stands at 0.
+pub fn physical_point(axes: &[AxisState; 4], counters: [i64; 4]) -> [f64; 4] {
+    let mut out = [0.0; 4];
+    for ((o, axis), c) in out.iter_mut().zip(axes).zip(counters) {
+        if axis.layout.is_some() {
+            *o = axis.phys_of(c as f64);
+        }
+    }
+    out
+}
+
+/// Whether the probe touches `surface` with the counters at `counters`:
+/// Z at or below the plane over X, Y. Whole steps, as the carriage makes
+/// them, so a move's trip and the state at rest are the same reading.
+pub fn surface_touched(surface: &ProbeSurface, axes: &[AxisState; 4], counters: [i64; 4]) -> bool {
+    let [x, y, z, _] = physical_point(axes, counters);
+    surface.touches(x, y, z)
 }
 
 #[cfg(test)]

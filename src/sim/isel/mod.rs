@@ -110,6 +110,11 @@ pub struct IselSim {
     acceleration: u32,
     virtual_zero: [i64; 4],
     inputs: Inputs,
+    /// The probe touches the work piece of `config.probe_surface` (port 1
+    /// bit 5 then reads this): changed by `Event::Surface` as the carriage
+    /// crosses the plane, so that a move ending on the probe (`@0Z`) stops
+    /// where a real one would.
+    surface_touch: bool,
     outputs: Outputs,
     /// A CNC program transfer is open (`@0i`, manual 2.2.13).
     storing: bool,
@@ -153,6 +158,7 @@ impl IselSim {
             acceleration: init.acceleration,
             virtual_zero: [0; 4],
             inputs: Inputs::power_up(),
+            surface_touch: false,
             outputs: Outputs::power_up(),
             storing: false,
             activity: None,
@@ -167,6 +173,7 @@ impl IselSim {
             config,
         };
         sim.power_up_state();
+        sim.surface_touch = sim.surface_touched_at_rest();
         sim
     }
 
@@ -204,6 +211,23 @@ impl IselSim {
             out[i] = axis.phys_of(counters[i]);
         }
         out
+    }
+
+    /// Whether the probe touches the work piece with the carriages where
+    /// they stand at rest (false without one).
+    fn surface_touched_at_rest(&self) -> bool {
+        self.config
+            .probe_surface
+            .is_some_and(|s| mechanics::surface_touched(&s, &self.axes, self.counters()))
+    }
+
+    /// Port 1 bit 5, the probe: the work piece's while one is set (variant
+    /// `probe-surface`), else what the operator set.
+    fn probe_bit(&self) -> bool {
+        match self.config.probe_surface {
+            Some(_) => self.surface_touch,
+            None => self.inputs.probe,
+        }
     }
 
     /// The counters (`@0P` before wrapping) at `now`, also during a move.
@@ -298,7 +322,10 @@ impl IselSim {
     fn port(&self, port: InputPort) -> u8 {
         match port {
             InputPort::User => self.inputs.user,
-            InputPort::Status1 => self.inputs.port1(),
+            InputPort::Status1 => {
+                self.inputs.port1() & !io::PROBE_BIT
+                    | if self.probe_bit() { io::PROBE_BIT } else { 0 }
+            }
             // No port: nothing to read (`@0b2` answers `1`, `exec`). No
             // hood circuit: its bits 5-7 read 0.
             InputPort::Status2 if !self.config.port2 => 0,
@@ -538,15 +565,22 @@ impl SimDevice for IselSim {
 
     fn input_names(&self) -> Vec<&'static str> {
         // Without a hood circuit there is no hood and no key switch to set.
+        // With a work piece the probe follows the carriage, not a hand.
         let mut names = io::input_names();
         if !self.config.hood_circuit {
             names.retain(|n| !matches!(*n, "hood" | "key-switch"));
+        }
+        if self.config.probe_surface.is_some() {
+            names.retain(|n| *n != "probe");
         }
         names
     }
 
     fn input_level(&self, name: &str) -> Option<bool> {
         if !self.config.hood_circuit && matches!(name, "hood" | "key-switch") {
+            return None;
+        }
+        if self.config.probe_surface.is_some() && name.eq_ignore_ascii_case("probe") {
             return None;
         }
         self.operator_level(name)

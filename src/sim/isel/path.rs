@@ -15,7 +15,8 @@ use std::time::{Duration, Instant};
 use crate::motion::{Motion, Ramp};
 use crate::proto::isel::ArcWalk;
 
-use super::mechanics::{AxisState, NEG, POS};
+use super::mechanics::{AxisState, NEG, POS, surface_touched};
+use crate::config::ProbeSurface;
 
 /// Axis positions X, Y, Z, A.
 pub type Point = [f64; 4];
@@ -345,6 +346,29 @@ impl LegRun {
             }
         }
         best
+    }
+
+    /// The first fraction at or after `from` where the probe's contact with
+    /// `surface` differs from `touching`: where z - surface(x, y) changes
+    /// sign along the leg, on the steps the axes make (linear in the
+    /// fraction on a line; sampled like a switch on an arc).
+    pub fn next_surface_change(
+        &self,
+        surface: &ProbeSurface,
+        axes: &[AxisState; 4],
+        touching: bool,
+        from: Instant,
+    ) -> Option<f64> {
+        let fa = self.fraction_at(from);
+        let fb = self.fraction_at(self.end_time());
+        let crossed = |f: f64| surface_touched(surface, axes, self.path.counters_at(f)) != touching;
+        if crossed(fa) {
+            Some(fa)
+        } else if fb > fa {
+            self.first_crossing(fa, fb, &crossed)
+        } else {
+            None
+        }
     }
 
     /// The smallest fraction in (`fa`, `fb`] where `crossed` holds, given

@@ -95,6 +95,8 @@ pub enum Event {
         axis: usize,
         side: usize,
     },
+    /// The probe touches or leaves the work piece (`probe-surface`).
+    Surface,
     EraseDone,
     WaitDone,
     /// A key `press`ed is let go (`controls::START_KEY`, `STOP_KEY`).
@@ -165,10 +167,23 @@ impl IselSim {
             Step::Motion(job) => {
                 let (_, run) = job.current.as_ref()?;
                 let end = run.end_time().max(now);
-                if let Some((f, axis, side)) = run.next_switch_change(&self.axes, now) {
+                let switch = run
+                    .next_switch_change(&self.axes, now)
+                    .map(|(f, axis, side)| (f, Event::Switch { axis, side }));
+                let surface = self.config.probe_surface.and_then(|s| {
+                    run.next_surface_change(&s, &self.axes, self.surface_touch, now)
+                        .map(|f| (f, Event::Surface))
+                });
+                // The earlier of the two; a switch first where both fall
+                // on the same point.
+                let first = [switch, surface]
+                    .into_iter()
+                    .flatten()
+                    .min_by(|a, b| a.0.total_cmp(&b.0));
+                if let Some((f, event)) = first {
                     let at = run.time_of_fraction(f, now);
                     if at <= end {
-                        return Some((at, Event::Switch { axis, side }));
+                        return Some((at, event));
                     }
                 }
                 Some((end, Event::LegEnd))
@@ -188,6 +203,14 @@ impl IselSim {
                 {
                     *p = !*p;
                 }
+                self.inputs_changed(before, t);
+            }
+            Event::Surface => {
+                // Like a switch: the change goes through the same reaction,
+                // so the condition of `@0Z` or CNC `6` on port 1 bit 5
+                // brakes the move from the speed it has here.
+                let before = self.snapshot();
+                self.surface_touch = !self.surface_touch;
                 self.inputs_changed(before, t);
             }
             Event::EraseDone => {

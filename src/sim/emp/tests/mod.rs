@@ -6,4 +6,5 @@ mod link;
 mod manual;
 mod motion;
 mod peripherals;
+mod probe;
 mod proptests;

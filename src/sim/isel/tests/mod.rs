@@ -7,6 +7,7 @@ mod faults;
 mod init;
 mod motion;
 mod ports;
+mod probe;
 mod program;
 mod properties;
 mod reference;
