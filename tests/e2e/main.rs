@@ -64,6 +64,7 @@ mod network;
 mod network_transport;
 mod offsets_e2e;
 mod port_identity;
+mod probe_e2e;
 mod quiet_sessions;
 mod read_sessions;
 mod run_e2e;

@@ -1,0 +1,224 @@
+//! End to end: `jogterm probe` (`docs/probing.md`) against `jogterm sim
+//! --pty` with a probe surface under the tool: the touched point within a
+//! step of the surface after a fast pass that overshoots it, the plate
+//! applied, the offset saved; each refusal with nothing sent that moves.
+
+use std::process::Output;
+
+use crate::sim_process;
+use sim_process::{ISEL_NEAR_REFERENCE, SimProcess, text};
+
+/// Over X 10000, Y 0 this plane is at Z 8100 steps (20.25 mm).
+const TILTED: &str = "8000,0.01,-0.005";
+
+fn sim(surface: &str) -> SimProcess {
+    let surface = format!("--probe-surface={surface}");
+    SimProcess::options("isel")
+        .files(&[ISEL_NEAR_REFERENCE])
+        .args(&[&surface])
+        .time_scale(sim_process::LOGIC_SCALE)
+        .start()
+}
+
+/// Referenced, standing at X 10000, Y 0 and `z` (steps).
+fn referenced_at(sim: &SimProcess, z: i64) {
+    let out = sim.run(&[
+        "send",
+        "@07",
+        "@0R7",
+        &format!("@0M10000,4000,0,4000,{z},4000,0,4000"),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+}
+
+fn probe(sim: &SimProcess, state: &std::path::Path, args: &[&str]) -> Output {
+    let mut all = vec!["probe"];
+    all.extend_from_slice(args);
+    sim.jogterm(&all)
+        .env("JOGTERM_STATE_DIR", state)
+        .stdin(std::process::Stdio::null())
+        .output()
+        .expect("run jogterm probe")
+}
+
+fn z_now(sim: &SimProcess) -> i64 {
+    let out = sim.run(&["send", "@0P"]);
+    let stdout = text(&out.stdout);
+    stdout
+        .lines()
+        .find_map(|l| l.split_once(" Z=")?.1.split_once(' ')?.0.parse().ok())
+        .unwrap_or_else(|| panic!("no position in {stdout}"))
+}
+
+/// The moves the controller received from `before` on: `@0Z`, `@0A`,
+/// `@0M` that name steps (not the reference probe's move of none).
+fn moves_received(sim: &mut SimProcess, before: usize) -> Vec<String> {
+    let received = sim.received();
+    received
+        .get(before..)
+        .unwrap_or_default()
+        .split("<CR>")
+        .filter(|c| moves(c))
+        .map(str::to_owned)
+        .collect()
+}
+
+fn moves(command: &str) -> bool {
+    let numbers = |rest: &str| -> Vec<i64> {
+        rest.split(',')
+            .filter_map(|n| n.trim().parse().ok())
+            .collect()
+    };
+    if let Some(rest) = command.strip_prefix("@0A") {
+        // Pairs of steps and speed.
+        numbers(rest).iter().step_by(2).any(|s| *s != 0)
+    } else if let Some(rest) = command.strip_prefix("@0Z") {
+        // Port, mask, value, speed, then the steps.
+        numbers(rest).iter().skip(4).any(|s| *s != 0)
+    } else {
+        command.starts_with("@0M")
+    }
+}
+
+#[test]
+fn a_z_touch_off_finds_the_surface_within_a_step_and_saves_the_offset() {
+    let mut sim = sim(TILTED);
+    let state = tempfile::tempdir().expect("state dir");
+    referenced_at(&sim, 12_000);
+    let before = sim.received().len();
+    let out = probe(&sim, state.path(), &["z", "--plate", "1.5", "--json"]);
+    let stdout = text(&out.stdout);
+    assert!(out.status.success(), "{stdout}\n{}", text(&out.stderr));
+    let json: serde_json::Value = serde_json::from_str(stdout.trim()).expect("one JSON line");
+    let touched = json["touched_machine_mm"]["z"].as_f64().expect("z");
+    // Within one step (1/400 mm) of the surface.
+    assert!((touched - 20.25).abs() <= 0.0025 + 1e-9, "{json}");
+    assert_eq!(json["work_offset"], "G54");
+    let zero = json["zero_machine_mm"]["z"].as_f64().expect("zero");
+    assert!((zero - (touched - 1.5)).abs() < 1e-9, "{json}");
+    // Saved where the console keeps its offsets.
+    let saved = json["saved"].as_str().expect("saved path");
+    let file = std::fs::read_to_string(saved).expect("offsets file");
+    assert!(file.contains("G54"), "{file}");
+    // The fast pass overshot the surface (its ramp-down), the slow pass
+    // did not; the tool went back up to where it started.
+    let moves = moves_received(&mut sim, before);
+    assert_eq!(moves.len(), 4, "{moves:?}");
+    assert!(moves[0].starts_with("@0Z1,32,32,2000,"), "{moves:?}");
+    assert!(moves[1].starts_with("@0Z1,32,0,200,"), "{moves:?}");
+    assert!(moves[2].starts_with("@0Z1,32,32,200,"), "{moves:?}");
+    assert!(moves[3].starts_with("@0A"), "{moves:?}");
+    assert_eq!(z_now(&sim), 12_000);
+}
+
+#[test]
+fn no_surface_within_the_travel_goes_back_and_fails() {
+    // The surface 15 mm below the tool, the travel 10 mm.
+    let mut sim = sim("6000");
+    let state = tempfile::tempdir().expect("state dir");
+    referenced_at(&sim, 12_000);
+    let before = sim.received().len();
+    let out = probe(&sim, state.path(), &["z"]);
+    assert_eq!(out.status.code(), Some(1), "{}", text(&out.stderr));
+    assert!(
+        text(&out.stderr).contains("found no surface within its travel"),
+        "{}",
+        text(&out.stderr)
+    );
+    let moves = moves_received(&mut sim, before);
+    assert_eq!(moves.len(), 2, "one pass and the way back: {moves:?}");
+    assert_eq!(z_now(&sim), 12_000);
+}
+
+#[test]
+fn refusals_send_nothing_that_moves() {
+    // Tripped at the start: the surface above the tool.
+    let mut sim = sim("20000");
+    let state = tempfile::tempdir().expect("state dir");
+    referenced_at(&sim, 12_000);
+    let before = sim.received().len();
+    let out = probe(&sim, state.path(), &["z"]);
+    let err = text(&out.stderr);
+    assert_ne!(out.status.code(), Some(0), "{err}");
+    assert!(
+        err.contains("reads touched before the probe moves"),
+        "{err}"
+    );
+    assert!(moves_received(&mut sim, before).is_empty());
+
+    // A travel that leaves the soft limits: 10 mm down from Z 5 mm.
+    let mut sim = self::sim("0");
+    referenced_at(&sim, 2000);
+    let before = sim.received().len();
+    let out = probe(&sim, state.path(), &["z"]);
+    let err = text(&out.stderr);
+    assert!(err.contains("soft limit"), "{err}");
+    assert!(moves_received(&mut sim, before).is_empty());
+
+    // Not referenced.
+    let mut sim = self::sim(TILTED);
+    let before = sim.received().len();
+    let out = probe(&sim, state.path(), &["z"]);
+    let err = text(&out.stderr);
+    assert!(err.contains("not referenced"), "{err}");
+    assert!(
+        moves_received(&mut sim, before).is_empty(),
+        "{}",
+        sim.received()
+    );
+}
+
+#[test]
+fn an_edge_is_found_along_x_and_set_as_the_work_zero() {
+    // A wall: at Z 12000 the plane is reached at X 10300 (25.75 mm).
+    let sim = sim("-400000,40,0");
+    let state = tempfile::tempdir().expect("state dir");
+    referenced_at(&sim, 12_000);
+    let out = probe(
+        &sim,
+        state.path(),
+        &["edge", "x+", "--offset", "G55", "--json"],
+    );
+    let stdout = text(&out.stdout);
+    assert!(out.status.success(), "{stdout}\n{}", text(&out.stderr));
+    let json: serde_json::Value = serde_json::from_str(stdout.trim()).expect("one JSON line");
+    let x = json["zero_machine_mm"]["x"].as_f64().expect("x");
+    assert!((x - 25.75).abs() <= 0.0025 + 1e-9, "{json}");
+    assert_eq!(json["work_offset"], "G55");
+}
+
+#[test]
+fn a_signal_during_the_fast_pass_stops_the_probe_and_nothing_resumes() {
+    use std::time::Duration;
+    // Real time: the fast pass of 10 mm at 5 mm/s takes two seconds.
+    let mut sim = SimProcess::options("isel")
+        .files(&[ISEL_NEAR_REFERENCE])
+        .args(&["--probe-surface", "0"])
+        .start();
+    let state = tempfile::tempdir().expect("state dir");
+    referenced_at(&sim, 12_000);
+    let before = sim.received().len();
+    let child = sim
+        .jogterm(&["probe", "z"])
+        .env("JOGTERM_STATE_DIR", state.path())
+        .stdin(std::process::Stdio::null())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("spawn jogterm probe");
+    sim.wait_received("the fast pass", |r| r.contains("@0Z1,32,32,2000"));
+    std::thread::sleep(Duration::from_millis(500));
+    // SAFETY: a plain kill(2) of our own child.
+    unsafe { libc::kill(child.id() as i32, libc::SIGINT) };
+    let out = sim_process::wait_child(child, "jogterm probe");
+    let err = text(&out.stderr);
+    assert_ne!(out.status.code(), Some(0), "{err}");
+    assert!(
+        err.contains("interrupted") && err.contains("stopped"),
+        "{err}"
+    );
+    let moves = moves_received(&mut sim, before);
+    assert_eq!(moves.len(), 1, "the fast pass and no way back: {moves:?}");
+    let z = z_now(&sim);
+    assert!(z < 12_000 && z > 8000, "stopped on the way down: {z}");
+}
