@@ -289,7 +289,8 @@ pub fn header_name(path: &std::path::Path) -> String {
 }
 
 /// Reads and imports a G-code file for `profile` with the work offsets the
-/// console would apply (or `work_zero`'s). Every diagnostic goes to `err`
+/// console would apply (or `placement`'s work zero), onto `placement`'s
+/// height map when it names one. Every diagnostic goes to `err`
 /// as `FILE:LINE:COL`; `Err` is the exit status (1 errors in the file, 2 an
 /// unreadable file or a bad `work_zero`).
 pub fn convert(
@@ -298,13 +299,9 @@ pub fn convert(
     profile: &Profile,
     path: &std::path::Path,
     target: Target,
-    work_zero: Option<&str>,
+    placement: Placement<'_>,
     err: &mut dyn Write,
 ) -> Result<Import, u8> {
-    let placement = Placement {
-        work_zero,
-        height_map: None,
-    };
     read_and_import(global, dirs, profile, path, target, placement, err).map(|(i, _, _)| i)
 }
 
@@ -347,7 +344,7 @@ fn unix_now() -> i64 {
 /// zero given for this import (`--work-zero`) and the surface it follows
 /// (`--height-map`).
 #[derive(Debug, Clone, Copy, Default)]
-pub(super) struct Placement<'a> {
+pub struct Placement<'a> {
     pub work_zero: Option<&'a str>,
     pub height_map: Option<&'a std::path::Path>,
 }

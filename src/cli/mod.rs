@@ -108,6 +108,10 @@ pub struct Cli {
     /// only; unsaved edits of earlier sessions are offered back in any case)
     #[arg(long, value_name = "FILE")]
     pub program: Option<PathBuf>,
+    /// With a G-code --program: follow a probed surface, every Z shifted by the height
+    /// map's surface under it (as `jogterm import --height-map`)
+    #[arg(long, value_name = "MAP", requires = "program")]
+    pub height_map: Option<PathBuf>,
     #[command(subcommand)]
     pub command: Option<CliCommand>,
 }
@@ -205,7 +209,11 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Some(CliCommand::Upload(args)) => upload::run(&cli.global, args),
         Some(CliCommand::Run(args)) => run::run(&cli.global, args),
         Some(CliCommand::Ports(args)) => ports::run(args),
-        None => tui::run(&cli.global, cli.program.as_deref()),
+        None => tui::run(
+            &cli.global,
+            cli.program.as_deref(),
+            cli.height_map.as_deref(),
+        ),
     }
 }
 

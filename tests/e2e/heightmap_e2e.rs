@@ -25,31 +25,38 @@ const PROBED_AT: &str = "2026-12-07T07:00:00Z";
 const PROBED_AT_UNIX: i64 = (20_454 + 340) * 86_400 + 7 * 3600;
 
 /// The probed surface: machine Z at work (x, y), rising 0.6 mm over X's
-/// 60 mm and falling 0.3 mm over Y's 50.
-fn surface(x: f64, y: f64) -> f64 {
-    60.0 + 0.01 * x - 0.006 * y
+/// 60 mm and falling 0.3 mm over Y's 50 from `base` at the work zero.
+fn surface_from(base: f64, x: f64, y: f64) -> f64 {
+    base + 0.01 * x - 0.006 * y
 }
 
-/// A map of [`surface`] over work X 0..60, Y 0..50 at 10 mm, as `probe
-/// grid` writes one: row-major, y outer.
-fn map_json(work_offset: &str, zero_x: f64) -> String {
+/// The surface under a job with G54 at [`ZERO`].
+fn surface(x: f64, y: f64) -> f64 {
+    surface_from(60.0, x, y)
+}
+
+/// A map over work X 0..60, Y 0..50 at 10 mm of the surface from `base`,
+/// probed with `work_offset`'s zero at `zero` (machine mm), as `probe grid`
+/// writes one: row-major, y outer.
+fn map_json(work_offset: &str, zero: [f64; 3], base: f64) -> String {
     let mut points = Vec::new();
     for row in 0..=5 {
         for column in 0..=6 {
             let (x, y) = (f64::from(column) * 10.0, f64::from(row) * 10.0);
             points.push(format!(
                 r#"{{"x": {x:.1}, "y": {y:.1}, "z": {:.4}}}"#,
-                surface(x, y)
+                surface_from(base, x, y)
             ));
         }
     }
+    let [zx, zy, zz] = zero;
     format!(
         r#"{{
   "version": 1,
   "probed_at": "{PROBED_AT}",
   "profile": "isel simulator",
   "work_offset": "{work_offset}",
-  "work_zero_machine_mm": {{"x": {zero_x:.1}, "y": 50.0, "z": 60.0}},
+  "work_zero_machine_mm": {{"x": {zx:.1}, "y": {zy:.1}, "z": {zz:.1}}},
   "area": {{"x0": 0.0, "y0": 0.0, "x1": 60.0, "y1": 50.0}},
   "spacing": 10.0,
   "points": [{}]
@@ -57,6 +64,11 @@ fn map_json(work_offset: &str, zero_x: f64) -> String {
 "#,
         points.join(", ")
     )
+}
+
+/// The map of [`surface`], probed with G54 at [`ZERO`].
+fn map_at_zero() -> String {
+    map_json("G54", ZERO, 60.0)
 }
 
 /// An engraving 0.3 mm deep, then a helix down to 0.5 mm and a last line
@@ -121,7 +133,7 @@ fn cut_steps(at: [i64; 3], depth: f64) -> i64 {
 fn a_job_on_a_height_map_cuts_at_a_constant_depth_below_the_surface() {
     let dir = tempfile::tempdir().expect("dir");
     let job = write(dir.path(), "job.nc", JOB);
-    let map = write(dir.path(), "map.json", &map_json("G54", 50.0));
+    let map = write(dir.path(), "map.json", &map_at_zero());
     let program_path = dir.path().join("job.isel").display().to_string();
     let out = import(
         dir.path(),
@@ -245,11 +257,11 @@ fn a_map_of_another_work_offset_or_zero_is_refused_and_nothing_is_written() {
     let program_path = program.display().to_string();
     for (map, expected) in [
         (
-            map_json("G55", 50.0),
+            map_json("G55", ZERO, 60.0),
             "the height map was probed in work offset G55, and the job runs in G54 here",
         ),
         (
-            map_json("G54", 50.5),
+            map_json("G54", [50.5, 50.0, 60.0], 60.0),
             "the height map was probed with another G54 zero: X zero at machine 50.0000 mm, the map's at 50.5000 mm (-0.5000 mm)",
         ),
     ] {
@@ -272,7 +284,7 @@ fn a_map_of_another_work_offset_or_zero_is_refused_and_nothing_is_written() {
         assert!(!program.exists(), "nothing written");
     }
     // A broken file: its field and what was expected, exit 2.
-    let mut bad = map_json("G54", 50.0);
+    let mut bad = map_at_zero();
     bad = bad.replacen(r#""x": 10.0, "y": 0.0"#, r#""x": 12.0, "y": 0.0"#, 1);
     let map = write(dir.path(), "bad.json", &bad);
     let out = import(
@@ -297,7 +309,7 @@ fn a_cut_outside_the_maps_area_is_an_error_at_its_gcode_line() {
         "job.nc",
         "G21 G90\nG0 X5 Y5 Z5\nG1 Z-0.3 F300\nG1 X40 Y20 F600\nG1 X65 Y20\nM30\n",
     );
-    let map = write(dir.path(), "map.json", &map_json("G54", 50.0));
+    let map = write(dir.path(), "map.json", &map_at_zero());
     let out = import(
         dir.path(),
         &[&job, "--work-zero", WORK_ZERO, "--height-map", &map],
@@ -327,7 +339,7 @@ fn upload_with_a_height_map_ends_on_the_surface_at_the_jobs_depth() {
     let dir = sim.dir.path();
     // Ends cutting at work X15 Y10, 0.5 mm deep: no rapid after it.
     let job = write(dir, "job.nc", &JOB.replace("G0 Z5\nG0 X0 Y0\n", ""));
-    let map = write(dir, "map.json", &map_json("G54", 50.0));
+    let map = write(dir, "map.json", &map_at_zero());
     let reference = sim.run(&["send", "@07", "@0R7"]);
     assert!(reference.status.success(), "{}", text(&reference.stderr));
     let mut child = sim
@@ -373,13 +385,81 @@ fn upload_with_a_height_map_ends_on_the_surface_at_the_jobs_depth() {
         .map(|part| part[2..].parse().expect("steps"))
         .collect();
     assert_eq!(ended, expected, "{said}");
-    // A controller program has no G-code to shift.
+    // A controller program has no G-code to shift: upload and run refuse.
     let program = write(dir, "p.isel", "77\n9\n");
-    let out = sim.run(&["upload", &program, "--height-map", &map]);
-    assert_eq!(out.status.code(), Some(2));
+    let refusals = [
+        (
+            vec!["upload", &program, "--height-map", &map],
+            "--height-map place G-code",
+        ),
+        (
+            vec!["run", &program, "--height-map", &map, "-y"],
+            "--height-map shifts G-code onto a surface",
+        ),
+    ];
+    for (args, expected) in refusals {
+        let out = sim.run(&args);
+        let said = text(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {said}");
+        assert!(said.contains(expected), "{args:?}: {said}");
+    }
+}
+
+/// The console's `--program job.nc --height-map map.json`: the program in
+/// the editor is the one on the surface, with the console's own work
+/// offsets (a fresh state: G54 at the reference point, so the map is
+/// probed there, its surface 10 mm above it); a map of another offset is
+/// refused before the terminal is taken.
+#[test]
+fn the_console_opens_a_gcode_job_on_a_height_map() {
+    let (dir, config, state) = crate::editor_e2e::dirs();
+    let job = write(dir.path(), "job.nc", JOB);
+    let g55 = write(dir.path(), "g55.json", &map_json("G55", [0.0; 3], 10.0));
+    let out = std::process::Command::new(JOGTERM)
+        .args(["--program", &job, "--height-map", &g55])
+        .env("JOGTERM_CONFIG_DIR", &config)
+        .env("JOGTERM_STATE_DIR", &state)
+        .stdin(std::process::Stdio::null())
+        .output()
+        .expect("run the console");
+    let said = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{said}");
     assert!(
-        text(&out.stderr).contains("--height-map place G-code"),
-        "{}",
-        text(&out.stderr)
+        said.contains("the height map was probed in work offset G55, and the job runs in G54"),
+        "{said}"
     );
+    let program = write(dir.path(), "p.isel", "77\n9\n");
+    let out = std::process::Command::new(JOGTERM)
+        .args(["--program", &program, "--height-map", &g55])
+        .env("JOGTERM_CONFIG_DIR", &config)
+        .env("JOGTERM_STATE_DIR", &state)
+        .stdin(std::process::Stdio::null())
+        .output()
+        .expect("run the console");
+    assert_eq!(out.status.code(), Some(2), "{}", text(&out.stderr));
+
+    let map = write(dir.path(), "map.json", &map_json("G54", [0.0; 3], 10.0));
+    let mut run = crate::editor_e2e::spawn_sized(
+        &["--program", &job, "--height-map", &map],
+        &config,
+        &state,
+        (40, 160),
+    );
+    crate::editor_e2e::wait_for(&run, "job.isel[+]");
+    // The first rapid, Z5 raised by the surface's highest point (10.6 mm
+    // above the zero): 15.6 mm, 6240 steps (without the map 2000); the
+    // plunge at X5 Y5 to 0.3 mm below the surface there (10.02 mm): 3888.
+    let screen = crate::editor_e2e::wait_for(&run, "; job.nc:3");
+    let z_of = |line: &str| -> Option<String> {
+        let row = screen
+            .lines()
+            .find(|l| l.contains(&format!("; job.nc:{line}")))?;
+        let command = row.split_whitespace().find(|w| w.starts_with('m'))?;
+        command.split(',').nth(4).map(str::to_owned)
+    };
+    assert_eq!(z_of("2").as_deref(), Some("6240"), "{screen}");
+    assert_eq!(z_of("3").as_deref(), Some("3888"), "{screen}");
+    run.type_keys(&[b"\x1bOS"]);
+    crate::editor_e2e::wait_for(&run, "Position");
+    crate::editor_e2e::quit_discarding_the_edits(&mut run);
 }
