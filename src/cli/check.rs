@@ -177,7 +177,10 @@ fn check_gcode(
         &profile,
         &args.file,
         target,
-        args.work_zero.as_deref(),
+        super::import::Placement {
+            work_zero: args.work_zero.as_deref(),
+            height_map: None,
+        },
         &mut diagnostics,
     );
     let mut report = String::from_utf8_lossy(&diagnostics).into_owned();

@@ -11,6 +11,7 @@
 use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
+use std::time::{SystemTime, UNIX_EPOCH};
 
 use clap::{Args, ValueEnum};
 use serde_json::json;
@@ -19,9 +20,10 @@ use super::out::closed_is_ok;
 use super::{GlobalArgs, profile};
 use crate::config::ConfigDirs;
 use crate::config::profile::Profile;
+use crate::gcode::heightmap::HeightMap;
 use crate::gcode::output::Header;
 use crate::gcode::ways::{Costs, Ways};
-use crate::gcode::{Import, Target, import, render, restart};
+use crate::gcode::{HeightMapFile, Import, MapApplied, Target, import_with_map, render, restart};
 use crate::offsets::store::{OffsetsFile, profile_key};
 use crate::offsets::{Identity, WorkOffsets};
 use crate::program::Language;
@@ -49,6 +51,8 @@ Examples:
   jogterm import part.nc --to emcu -o -           print the EMCU job
   jogterm import part.nc --json                   the summary as one JSON object
   jogterm import part.nc --work-zero 'X50 Y50 Z60'   G54's zero at machine X50 Y50 Z60
+  jogterm import part.nc --height-map map.json    cut following a probed surface: every Z
+                                                  counts from the surface (docs/gcode.md)
   jogterm import part.nc --from-line 120 -o part.isel   restart from line 120: retract,
                                                   above its start, spindle and coolant, descend";
 
@@ -77,6 +81,10 @@ pub struct ImportArgs {
     /// instead of the console's stored one; axes not named keep theirs
     #[arg(long, value_name = "POS")]
     pub work_zero: Option<String>,
+    /// Follow a probed surface: shift every Z by the height map's surface under it (a map
+    /// `jogterm probe grid` wrote, for this profile and work offset)
+    #[arg(long, value_name = "MAP")]
+    pub height_map: Option<PathBuf>,
     /// Restart the job from G-code line N (after a broken tool or a power cut): the
     /// confirmation says the modal state applied and the entry moves; -o writes the
     /// restart program
@@ -215,7 +223,10 @@ pub fn run_to(
         &profile,
         &args.file,
         target,
-        args.work_zero.as_deref(),
+        Placement {
+            work_zero: args.work_zero.as_deref(),
+            height_map: args.height_map.as_deref(),
+        },
         err,
     ) {
         Ok(i) => i,
@@ -278,7 +289,8 @@ pub fn header_name(path: &std::path::Path) -> String {
 }
 
 /// Reads and imports a G-code file for `profile` with the work offsets the
-/// console would apply (or `work_zero`'s). Every diagnostic goes to `err`
+/// console would apply (or `placement`'s work zero), onto `placement`'s
+/// height map when it names one. Every diagnostic goes to `err`
 /// as `FILE:LINE:COL`; `Err` is the exit status (1 errors in the file, 2 an
 /// unreadable file or a bad `work_zero`).
 pub fn convert(
@@ -287,10 +299,54 @@ pub fn convert(
     profile: &Profile,
     path: &std::path::Path,
     target: Target,
-    work_zero: Option<&str>,
+    placement: Placement<'_>,
     err: &mut dyn Write,
 ) -> Result<Import, u8> {
-    read_and_import(global, dirs, profile, path, target, work_zero, err).map(|(i, _, _)| i)
+    read_and_import(global, dirs, profile, path, target, placement, err).map(|(i, _, _)| i)
+}
+
+/// A height map file read and checked (`--height-map`): every problem by
+/// the file and its field (`map.json: points[12].x: expected 20 …`).
+pub(super) fn read_height_map(path: &std::path::Path) -> Result<HeightMapFile, String> {
+    let name = path.display().to_string();
+    let bytes = read_bounded(path, crate::gcode::MAX_FILE_BYTES)
+        .map_err(|e| format!("cannot read height map {name}: {e}"))?;
+    let text = String::from_utf8(bytes)
+        .map_err(|_| format!("height map {name}: not UTF-8 text: a JSON file was expected"))?;
+    let mut json = serde_json::Deserializer::from_str(&text);
+    let map: HeightMap = serde_path_to_error::deserialize(&mut json).map_err(|e| {
+        let field = e.path().to_string();
+        let inner = e.into_inner();
+        if field == "." {
+            format!("height map {name}: {inner}")
+        } else {
+            format!("height map {name}: {field}: {inner}")
+        }
+    })?;
+    let surface = map.validate().map_err(|errors| {
+        errors
+            .iter()
+            .map(|e| format!("height map {name}: {e}"))
+            .collect::<Vec<_>>()
+            .join("\n")
+    })?;
+    Ok(HeightMapFile { name, surface })
+}
+
+/// Seconds since 1970, now.
+fn unix_now() -> i64 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map_or(0, |d| i64::try_from(d.as_secs()).unwrap_or(i64::MAX))
+}
+
+/// Where a G-code job goes on the machine, beyond the profile: the work
+/// zero given for this import (`--work-zero`) and the surface it follows
+/// (`--height-map`).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Placement<'a> {
+    pub work_zero: Option<&'a str>,
+    pub height_map: Option<&'a std::path::Path>,
 }
 
 /// [`convert`], with the text and the work offsets it was imported with
@@ -301,10 +357,21 @@ pub(super) fn read_and_import(
     profile: &Profile,
     path: &std::path::Path,
     target: Target,
-    work_zero: Option<&str>,
+    placement: Placement<'_>,
     err: &mut dyn Write,
 ) -> Result<(Import, String, WorkOffsets), u8> {
+    let Placement {
+        work_zero,
+        height_map,
+    } = placement;
     let name = path.display().to_string();
+    let height_map = match height_map.map(read_height_map).transpose() {
+        Ok(map) => map,
+        Err(why) => {
+            let _ = writeln!(err, "jogterm: {why}");
+            return Err(USAGE);
+        }
+    };
     let bytes = match read_bounded(path, crate::gcode::MAX_FILE_BYTES) {
         Ok(b) => b,
         Err(e) => {
@@ -327,7 +394,14 @@ pub(super) fn read_and_import(
             }
         }
     }
-    match import(&text, &header_name(path), profile, &offsets, target) {
+    match import_with_map(
+        &text,
+        &header_name(path),
+        profile,
+        &offsets,
+        target,
+        height_map.as_ref(),
+    ) {
         Ok(i) => Ok((i, text, offsets)),
         Err(errors) => {
             for e in &errors {
@@ -393,12 +467,59 @@ pub fn summary_json(i: &Import) -> serde_json::Value {
         "memory": i.program.capacity,
         "fits_memory": i.program.fits(),
         "work_offset": i.summary.system.to_string(),
+        "height_map": i.height_map.as_ref().map(height_map_json),
         "warnings": i.warnings.iter().map(|w| json!({
             "line": w.origin.line,
             "col": w.origin.col,
             "message": w.message,
         })).collect::<Vec<_>>(),
     })
+}
+
+/// A height map's part of the summary: which file, its correction's range,
+/// its age and points, and what it did to the job.
+fn height_map_json(m: &MapApplied) -> serde_json::Value {
+    let a = &m.applied;
+    json!({
+        "file": m.file,
+        "correction_mm": { "min": round3(a.correction_min), "max": round3(a.correction_max) },
+        "age_s": a.age_s(unix_now()),
+        "points": a.points,
+        "z_zero_moved_mm": round3(a.z_zero_moved),
+        "rapids_raised_mm": round3(a.rapids_raised),
+        "arcs_as_segments": a.arcs_as_segments,
+        "feed_moves": a.feed_moves,
+        "feed_segments": a.feed_segments,
+    })
+}
+
+/// The summary's line of a height map.
+pub(super) fn height_map_text(m: &MapApplied) -> String {
+    let a = &m.applied;
+    let mut line = format!(
+        "  height map {}: {} points, correction {:+.3} .. {:+.3} mm, probed {}; {} feed moves as {} on the surface",
+        m.file,
+        a.points,
+        a.correction_min,
+        a.correction_max,
+        age(a.age_s(unix_now())),
+        a.feed_moves,
+        a.feed_segments,
+    );
+    match a.arcs_as_segments {
+        0 => {}
+        1 => line.push_str(" (1 arc as segments)"),
+        n => line.push_str(&format!(" ({n} arcs as segments)")),
+    }
+    line.push_str(&format!(", rapids raised {:.3} mm", a.rapids_raised));
+    if a.z_zero_moved.abs() > 5e-4 {
+        line.push_str(&format!(
+            "; the Z zero moved {:+.3} mm since probing: the cut moves with it",
+            a.z_zero_moved
+        ));
+    }
+    line.push('\n');
+    line
 }
 
 fn summary_text(name: &str, profile: &Profile, i: &Import, written: Option<&PathBuf>) -> String {
@@ -435,6 +556,9 @@ fn summary_text(name: &str, profile: &Profile, i: &Import, written: Option<&Path
         "  work offset {}: zero at machine X {:.3} Y {:.3} Z {:.3} mm; soft limits: all inside\n",
         s.system, s.zero.x, s.zero.y, s.zero.z
     ));
+    if let Some(m) = &i.height_map {
+        out.push_str(&height_map_text(m));
+    }
     out.push_str(&format!(
         "  {} program: {} commands, {}\n",
         i.target.name(),
@@ -473,6 +597,16 @@ pub(super) fn fits(
         program.capacity,
         ways.advice()
     )
+}
+
+/// How long ago a map was probed: minutes, hours or days.
+fn age(seconds: i64) -> String {
+    match seconds {
+        s if s < 0 => "in the future (check this computer's clock)".to_owned(),
+        s if s < 3600 => format!("{} min ago", s / 60),
+        s if s < 2 * 86_400 => format!("{} h {} min ago", s / 3600, s / 60 % 60),
+        s => format!("{} days ago", s / 86_400),
+    }
 }
 
 fn duration(seconds: f64) -> String {

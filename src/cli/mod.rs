@@ -109,6 +109,10 @@ pub struct Cli {
     /// only; unsaved edits of earlier sessions are offered back in any case)
     #[arg(long, value_name = "FILE")]
     pub program: Option<PathBuf>,
+    /// With a G-code --program: follow a probed surface, every Z shifted by the height
+    /// map's surface under it (as `jogterm import --height-map`)
+    #[arg(long, value_name = "MAP", requires = "program")]
+    pub height_map: Option<PathBuf>,
     #[command(subcommand)]
     pub command: Option<CliCommand>,
 }
@@ -210,7 +214,11 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Some(CliCommand::Run(args)) => run::run(&cli.global, args),
         Some(CliCommand::Ports(args)) => ports::run(args),
         Some(CliCommand::Probe(args)) => probe::run(&cli.global, args),
-        None => tui::run(&cli.global, cli.program.as_deref()),
+        None => tui::run(
+            &cli.global,
+            cli.program.as_deref(),
+            cli.height_map.as_deref(),
+        ),
     }
 }
 

@@ -93,7 +93,11 @@ pub fn resolve(global: &GlobalArgs, dirs: &ConfigDirs) -> Result<Resolved, Setup
 }
 
 /// `jogterm` without a command: run the console until the operator quits.
-pub fn run(global: &GlobalArgs, program: Option<&Path>) -> anyhow::Result<ExitCode> {
+pub fn run(
+    global: &GlobalArgs,
+    program: Option<&Path>,
+    height_map: Option<&Path>,
+) -> anyhow::Result<ExitCode> {
     let resolved = match resolve(global, &ConfigDirs::from_env()) {
         Ok(resolved) => resolved,
         Err(e) => {
@@ -105,10 +109,17 @@ pub fn run(global: &GlobalArgs, program: Option<&Path>) -> anyhow::Result<ExitCo
     // FILE:LINE:COL lines on stderr, and nothing opens.
     let opening = match program {
         Some(path) if crate::gcode::is_gcode_path(path) => {
-            match imported(global, &resolved.profile, path) {
+            match imported(global, &resolved.profile, path, height_map) {
                 Ok(msg) => Some(msg),
                 Err(code) => return Ok(ExitCode::from(code)),
             }
+        }
+        Some(_) if height_map.is_some() => {
+            out::say(
+                "jogterm: error: --height-map shifts G-code onto a surface; a controller program \
+                 runs in the controller's own coordinates as it is",
+            );
+            return Ok(ExitCode::from(2));
         }
         Some(path) => Some(EditorMsg::Open(path.to_path_buf())),
         None => None,
@@ -125,7 +136,12 @@ pub fn run(global: &GlobalArgs, program: Option<&Path>) -> anyhow::Result<ExitCo
 /// A G-code file imported for the profile with the console's work offsets,
 /// as the editor opens it: the controller program under the G-code's name
 /// with the family's extension, and the summary and warnings as notes.
-fn imported(global: &GlobalArgs, profile: &Profile, path: &Path) -> Result<EditorMsg, u8> {
+fn imported(
+    global: &GlobalArgs,
+    profile: &Profile,
+    path: &Path,
+    height_map: Option<&Path>,
+) -> Result<EditorMsg, u8> {
     let mut said = Vec::new();
     let target = crate::gcode::Target::of(profile.connection.protocol).map_err(|why| {
         out::say(format_args!("jogterm: {}: {why}", path.display()));
@@ -137,7 +153,10 @@ fn imported(global: &GlobalArgs, profile: &Profile, path: &Path) -> Result<Edito
         profile,
         path,
         target,
-        None,
+        super::import::Placement {
+            work_zero: None,
+            height_map,
+        },
         &mut said,
     );
     let said = String::from_utf8_lossy(&said).into_owned();
@@ -182,6 +201,12 @@ fn imported(global: &GlobalArgs, profile: &Profile, path: &Path) -> Result<Edito
             import.program.commands
         ),
     ));
+    if let Some(m) = &import.height_map {
+        notes.push((
+            NoteLevel::Info,
+            super::import::height_map_text(m).trim().to_owned(),
+        ));
+    }
     let header = super::import::header_name(path);
     Ok(EditorMsg::Imported {
         path: path.with_extension(extension),

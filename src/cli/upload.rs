@@ -94,6 +94,10 @@ pub struct UploadArgs {
     /// the console's stored one
     #[arg(long, value_name = "POS")]
     pub work_zero: Option<String>,
+    /// G-code: follow a probed surface, every Z shifted by the height map's surface under
+    /// it (as `jogterm import --height-map`)
+    #[arg(long, value_name = "MAP")]
+    pub height_map: Option<PathBuf>,
     /// G-code bigger than the controller's memory: store and run it in parts, each cut
     /// where the tool stands retracted at the job's safe height (needs --start; isel)
     #[arg(long, requires = "start")]
@@ -299,6 +303,7 @@ pub(super) fn import_gcode(
     global: &GlobalArgs,
     file: &Path,
     work_zero: Option<&str>,
+    height_map: Option<&Path>,
     from_line: Option<u32>,
     profile: &crate::config::profile::Profile,
     command: &str,
@@ -309,8 +314,12 @@ pub(super) fn import_gcode(
     let name = file.display().to_string();
     let header = super::import::header_name(file);
     let mut err = Vec::new();
+    let placement = super::import::Placement {
+        work_zero,
+        height_map,
+    };
     let imported =
-        super::import::read_and_import(global, &dirs, profile, file, target, work_zero, &mut err);
+        super::import::read_and_import(global, &dirs, profile, file, target, placement, &mut err);
     let said = |err: &[u8]| String::from_utf8_lossy(err).trim_end().to_owned();
     let (import, text, offsets) = match imported {
         Ok(i) => i,
@@ -334,6 +343,9 @@ pub(super) fn import_gcode(
     }
     for w in &import.warnings {
         out::say(crate::gcode::render(&name, w));
+    }
+    if let Some(m) = &import.height_map {
+        out::say(super::import::height_map_text(m).trim());
     }
     Ok(Imported {
         import,
@@ -404,6 +416,7 @@ fn prepare_gcode(
         global,
         &args.file,
         args.work_zero.as_deref(),
+        args.height_map.as_deref(),
         None,
         profile,
         "upload",
@@ -523,12 +536,12 @@ pub fn run(global: &GlobalArgs, args: &UploadArgs) -> anyhow::Result<ExitCode> {
         return usage(
             "--chunked and --stream run G-code; a controller program is stored whole".into(),
         );
-    } else if args.work_zero.is_some() {
+    } else if args.work_zero.is_some() || args.height_map.is_some() {
         // A controller program's coordinates are the controller's own: an
         // offset accepted here would be one the job never sees.
         return usage(
-            "--work-zero places G-code; a controller program runs in the controller's own \
-             coordinates and is stored as it is"
+            "--work-zero and --height-map place G-code; a controller program runs in the \
+             controller's own coordinates and is stored as it is"
                 .into(),
         );
     } else {

@@ -6,8 +6,9 @@ use crate::config::profile::Profile;
 use crate::offsets::WorkOffsets;
 
 use super::check::{Summary, check_limits, summarise};
+use super::heightmap::{Applied, Surface};
 use super::output::{Header, Program};
-use super::profile::{machine_of, setup_of};
+use super::profile::{fit_of, machine_of, setup_of};
 use super::target::Target;
 use super::toolpath::{Diagnostic, Origin, Toolpath};
 
@@ -19,6 +20,23 @@ pub struct Import {
     pub target: Target,
     /// The interpreter's and the output's warnings, in line order.
     pub warnings: Vec<Diagnostic>,
+    /// The height map the toolpath follows (`--height-map`).
+    pub height_map: Option<MapApplied>,
+}
+
+/// A height map read from its file (`--height-map FILE`), to import with.
+#[derive(Debug, Clone, PartialEq)]
+pub struct HeightMapFile {
+    /// The file as the operator named it.
+    pub name: String,
+    pub surface: Surface,
+}
+
+/// What a height map did to an import, for its summary.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MapApplied {
+    pub file: String,
+    pub applied: Applied,
 }
 
 fn at_start(message: impl Into<String>) -> Vec<Diagnostic> {
@@ -34,6 +52,20 @@ pub fn import(
     offsets: &WorkOffsets,
     target: Target,
 ) -> Result<Import, Vec<Diagnostic>> {
+    import_with_map(text, file, profile, offsets, target, None)
+}
+
+/// [`import`], and when given onto a height map's surface: after
+/// interpreting and before the machine check, so that the soft limits and
+/// the program see the Z the tool cuts at.
+pub fn import_with_map(
+    text: &str,
+    file: &str,
+    profile: &Profile,
+    offsets: &WorkOffsets,
+    target: Target,
+    height_map: Option<&HeightMapFile>,
+) -> Result<Import, Vec<Diagnostic>> {
     let setup = setup_of(profile, offsets).map_err(|errors| {
         errors
             .into_iter()
@@ -41,6 +73,17 @@ pub fn import(
             .collect::<Vec<_>>()
     })?;
     let toolpath = super::interpret(text, &setup)?;
+    let (toolpath, height_map) = match height_map {
+        Some(map) => {
+            let (path, applied) = map.surface.apply(&toolpath, &fit_of(profile))?;
+            let applied = MapApplied {
+                file: map.name.clone(),
+                applied,
+            };
+            (path, Some(applied))
+        }
+        None => (toolpath, None),
+    };
     let machine = machine_of(profile, target);
     check_limits(&toolpath, &machine).map_err(|e| vec![e])?;
     let summary = summarise(&toolpath, &machine);
@@ -63,6 +106,7 @@ pub fn import(
         program,
         target,
         warnings,
+        height_map,
     })
 }
 

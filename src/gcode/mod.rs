@@ -15,5 +15,5 @@ pub mod ways;
 
 pub use jogterm_gcode::*;
 
-pub use import::{Import, import};
+pub use import::{HeightMapFile, Import, MapApplied, import, import_with_map};
 pub use restart::{Restart, RestartError, restart};

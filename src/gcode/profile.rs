@@ -9,6 +9,7 @@ use crate::config::profile::Profile;
 use crate::offsets::{System, WorkOffsets};
 
 use super::check::Machine;
+use super::heightmap::Fit;
 use super::setup::{Setup, SetupError, outputs_of};
 use super::target::Target;
 use super::toolpath::Point;
@@ -64,5 +65,22 @@ pub fn machine_of(profile: &Profile, target: Target) -> Machine {
         steps_per_mm: axes().map(|(a, p)| (a, p.steps_per_unit)).collect(),
         counter: target.counter(),
         controller: target.name(),
+    }
+}
+
+/// What a height map is applied with: the profile's name, one step of X and
+/// Y (how far the work zero may lie from the map's), the chord tolerance
+/// of arcs and Z's upper soft limit (rapids are raised at most to it).
+pub fn fit_of(profile: &Profile) -> Fit {
+    let step = |axis: Axis| {
+        profile
+            .axis(axis)
+            .map_or(0.0, |p| 1.0 / p.steps_per_unit.max(f64::MIN_POSITIVE))
+    };
+    Fit {
+        profile: profile.name.clone(),
+        step_mm: (step(Axis::X), step(Axis::Y)),
+        chord_tolerance: profile.gcode.chord_tolerance,
+        z_max: profile.axis(Axis::Z).map(|p| p.max),
     }
 }

@@ -23,7 +23,7 @@ fn spawn(args: &[&str], config: &Path, state: &Path) -> PtyRun {
 
 /// [`spawn`] in a pty of `size` (rows, columns): wide enough for whole
 /// messages.
-fn spawn_sized(args: &[&str], config: &Path, state: &Path, size: (u16, u16)) -> PtyRun {
+pub(crate) fn spawn_sized(args: &[&str], config: &Path, state: &Path, size: (u16, u16)) -> PtyRun {
     let env = [
         ("JOGTERM_NO_KEYBOARD_QUERY", "1".to_string()),
         ("JOGTERM_CONFIG_DIR", config.display().to_string()),
@@ -36,7 +36,7 @@ fn spawn_sized(args: &[&str], config: &Path, state: &Path, size: (u16, u16)) -> 
 
 /// A temporary directory with the console's configuration directory (made)
 /// and its state directory (left for the console to make) in it.
-fn dirs() -> (tempfile::TempDir, PathBuf, PathBuf) {
+pub(crate) fn dirs() -> (tempfile::TempDir, PathBuf, PathBuf) {
     let dir = tempfile::tempdir().expect("tempdir");
     let config = dir.path().join("config");
     let state = dir.path().join("state");

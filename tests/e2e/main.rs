@@ -55,6 +55,7 @@ mod editor_e2e;
 mod gcode_e2e;
 mod gcode_input_e2e;
 mod gcode_restart_e2e;
+mod heightmap_e2e;
 mod job_outputs_e2e;
 mod jog_terminal;
 mod jog_wire;

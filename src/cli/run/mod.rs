@@ -108,6 +108,10 @@ pub struct RunArgs {
     /// the console's stored one
     #[arg(long, value_name = "POS")]
     pub work_zero: Option<String>,
+    /// G-code: follow a probed surface, every Z shifted by the height map's surface under
+    /// it (as `jogterm import --height-map`)
+    #[arg(long, value_name = "MAP")]
+    pub height_map: Option<PathBuf>,
     /// Baud rate, instead of the profile's
     #[arg(long, value_name = "N")]
     pub baud: Option<u32>,
@@ -152,6 +156,13 @@ pub fn run(global: &GlobalArgs, args: &RunArgs) -> anyhow::Result<ExitCode> {
     } else if args.from_line.is_some() {
         return usage(
             "--from-line restarts G-code, whose lines it knows; a controller program runs whole"
+                .into(),
+        );
+    } else if args.height_map.is_some() {
+        // A map followed only where jogterm makes the moves.
+        return usage(
+            "--height-map shifts G-code onto a surface; a controller program runs in the \
+             controller's own coordinates as it is"
                 .into(),
         );
     } else if args.chunked {
@@ -213,6 +224,7 @@ fn gcode_job(
         global,
         &args.file,
         args.work_zero.as_deref(),
+        args.height_map.as_deref(),
         args.from_line,
         profile,
         "run",
