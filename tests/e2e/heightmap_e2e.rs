@@ -390,7 +390,7 @@ fn upload_with_a_height_map_ends_on_the_surface_at_the_jobs_depth() {
     let refusals = [
         (
             vec!["upload", &program, "--height-map", &map],
-            "--height-map place G-code",
+            "--height-map shifts G-code; a controller program runs",
         ),
         (
             vec!["run", &program, "--height-map", &map, "-y"],
