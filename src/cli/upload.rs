@@ -538,12 +538,16 @@ pub fn run(global: &GlobalArgs, args: &UploadArgs) -> anyhow::Result<ExitCode> {
         );
     } else if args.work_zero.is_some() || args.height_map.is_some() {
         // A controller program's coordinates are the controller's own: an
-        // offset accepted here would be one the job never sees.
-        return usage(
-            "--work-zero and --height-map place G-code; a controller program runs in the \
-             controller's own coordinates and is stored as it is"
-                .into(),
-        );
+        // offset or a surface accepted here would be one the job never sees.
+        let option = if args.work_zero.is_some() {
+            "--work-zero places"
+        } else {
+            "--height-map shifts"
+        };
+        return usage(format!(
+            "{option} G-code; a controller program runs in the controller's own coordinates \
+             and is stored as it is"
+        ));
     } else {
         match prepare(global, &args.file, &profile, language, &config) {
             Ok(p) => vec![p],

@@ -47,7 +47,7 @@ fn run(sim: &SimProcess, args: &[&str]) -> Output {
     sim.configured(args).output().expect("run jogterm")
 }
 
-fn spawn(sim: &SimProcess, args: &[&str]) -> Child {
+pub(crate) fn spawn(sim: &SimProcess, args: &[&str]) -> Child {
     sim.configured(args)
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
@@ -67,7 +67,7 @@ const FAST_MACHINE: (&str, &str) = (
     "[axes.X]\nmax_speed = 60.0\n[axes.Y]\nmax_speed = 60.0\n[axes.Z]\nmax_speed = 30.0\n",
 );
 
-fn wait_run(mut child: Child, what: &str) -> Output {
+pub(crate) fn wait_run(mut child: Child, what: &str) -> Output {
     let end = Instant::now() + RUN_BOUND;
     while matches!(child.try_wait(), Ok(None)) {
         if Instant::now() > end {
@@ -81,7 +81,7 @@ fn wait_run(mut child: Child, what: &str) -> Output {
 }
 
 /// The position `upload --start` says the program ended at.
-fn ended_at(said: &str) -> [i64; 3] {
+pub(crate) fn ended_at(said: &str) -> [i64; 3] {
     let line = said
         .lines()
         .find_map(|l| l.strip_prefix("the program ended; position (steps): "))

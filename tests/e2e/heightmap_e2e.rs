@@ -10,7 +10,7 @@
 
 use std::path::Path;
 use std::process::Output;
-use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+use std::time::{SystemTime, UNIX_EPOCH};
 
 use crate::sim_process::{JOGTERM, SimProcess, contains_panic, text};
 
@@ -101,6 +101,17 @@ fn import(dir: &Path, args: &[&str]) -> Output {
         .env("JOGTERM_STATE_DIR", dir)
         .output()
         .expect("run jogterm import")
+}
+
+/// `import JOB --work-zero … --height-map MAP` and `extra`, refused with
+/// `status`: what it said on stderr.
+fn refused(dir: &Path, job: &str, map: &str, extra: &[&str], status: i32) -> String {
+    let mut args = vec![job, "--work-zero", WORK_ZERO, "--height-map", map];
+    args.extend_from_slice(extra);
+    let out = import(dir, &args);
+    let said = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(status), "{said}");
+    said
 }
 
 /// The isel program's absolute moves (`m x,sx,y,sy,z,sz,…`) as machine
@@ -266,20 +277,7 @@ fn a_map_of_another_work_offset_or_zero_is_refused_and_nothing_is_written() {
         ),
     ] {
         let map = write(dir.path(), "map.json", &map);
-        let out = import(
-            dir.path(),
-            &[
-                &job,
-                "--work-zero",
-                WORK_ZERO,
-                "--height-map",
-                &map,
-                "-o",
-                &program_path,
-            ],
-        );
-        let said = text(&out.stderr);
-        assert_eq!(out.status.code(), Some(1), "{said}");
+        let said = refused(dir.path(), &job, &map, &["-o", &program_path], 1);
         assert!(said.contains(expected), "{said}");
         assert!(!program.exists(), "nothing written");
     }
@@ -287,12 +285,7 @@ fn a_map_of_another_work_offset_or_zero_is_refused_and_nothing_is_written() {
     let mut bad = map_at_zero();
     bad = bad.replacen(r#""x": 10.0, "y": 0.0"#, r#""x": 12.0, "y": 0.0"#, 1);
     let map = write(dir.path(), "bad.json", &bad);
-    let out = import(
-        dir.path(),
-        &[&job, "--work-zero", WORK_ZERO, "--height-map", &map],
-    );
-    let said = text(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{said}");
+    let said = refused(dir.path(), &job, &map, &[], 2);
     assert!(
         said.contains(&format!(
             "height map {map}: points[1].x: expected 10 (column 1 of the grid"
@@ -310,12 +303,7 @@ fn a_cut_outside_the_maps_area_is_an_error_at_its_gcode_line() {
         "G21 G90\nG0 X5 Y5 Z5\nG1 Z-0.3 F300\nG1 X40 Y20 F600\nG1 X65 Y20\nM30\n",
     );
     let map = write(dir.path(), "map.json", &map_at_zero());
-    let out = import(
-        dir.path(),
-        &[&job, "--work-zero", WORK_ZERO, "--height-map", &map],
-    );
-    let said = text(&out.stderr);
-    assert_eq!(out.status.code(), Some(1), "{said}");
+    let said = refused(dir.path(), &job, &map, &[], 1);
     assert!(
         said.contains(&format!(
             "{job}:5:1: error: X 65.000 Y 20.000 (G54 work mm) is outside the height map's area X 0 .. 60, Y 0 .. 50"
@@ -342,8 +330,9 @@ fn upload_with_a_height_map_ends_on_the_surface_at_the_jobs_depth() {
     let map = write(dir, "map.json", &map_at_zero());
     let reference = sim.run(&["send", "@07", "@0R7"]);
     assert!(reference.status.success(), "{}", text(&reference.stderr));
-    let mut child = sim
-        .configured(&[
+    let child = crate::gcode_e2e::spawn(
+        &sim,
+        &[
             "upload",
             &job,
             "--work-zero",
@@ -352,17 +341,9 @@ fn upload_with_a_height_map_ends_on_the_surface_at_the_jobs_depth() {
             &map,
             "--erase",
             "--start",
-        ])
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .expect("spawn jogterm upload");
-    let end = Instant::now() + Duration::from_secs(90);
-    while matches!(child.try_wait(), Ok(None)) {
-        assert!(Instant::now() < end, "upload --start did not end");
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    let out = child.wait_with_output().expect("output");
+        ],
+    );
+    let out = crate::gcode_e2e::wait_run(child, "upload --start");
     let said = text(&out.stderr);
     assert!(!contains_panic(&out.stderr), "{said}");
     assert_eq!(out.status.code(), Some(0), "{said}");
@@ -375,22 +356,13 @@ fn upload_with_a_height_map_ends_on_the_surface_at_the_jobs_depth() {
         ((10.0 + ZERO[1]) * STEPS_PER_MM).round() as i64,
         ((surface(15.0, 10.0) - 0.5) * STEPS_PER_MM).round() as i64,
     ];
-    let ended = said
-        .lines()
-        .find_map(|l| l.strip_prefix("the program ended; position (steps): "))
-        .unwrap_or_else(|| panic!("no end position in:\n{said}"));
-    let ended: Vec<i64> = ended
-        .split(", ")
-        .take(3)
-        .map(|part| part[2..].parse().expect("steps"))
-        .collect();
-    assert_eq!(ended, expected, "{said}");
+    assert_eq!(crate::gcode_e2e::ended_at(&said), expected, "{said}");
     // A controller program has no G-code to shift: upload and run refuse.
     let program = write(dir, "p.isel", "77\n9\n");
     let refusals = [
         (
             vec!["upload", &program, "--height-map", &map],
-            "--height-map place G-code",
+            "--height-map shifts G-code; a controller program runs",
         ),
         (
             vec!["run", &program, "--height-map", &map, "-y"],
