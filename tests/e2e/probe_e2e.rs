@@ -222,3 +222,92 @@ fn a_signal_during_the_fast_pass_stops_the_probe_and_nothing_resumes() {
     let z = z_now(&sim);
     assert!(z < 12_000 && z > 8000, "stopped on the way down: {z}");
 }
+
+/// The simulator's plane [`TILTED`] at machine (x, y) mm, in mm.
+fn tilted_mm(x: f64, y: f64) -> f64 {
+    (8000.0 + 0.01 * x * 400.0 - 0.005 * y * 400.0) / 400.0
+}
+
+#[test]
+fn a_grid_on_a_tilted_surface_and_a_job_cut_at_a_constant_depth_below_it() {
+    let mut sim = sim(TILTED);
+    let state = tempfile::tempdir().expect("state dir");
+    // 27.5 mm: the whole surface within the 10 mm travel below.
+    referenced_at(&sim, 11_000);
+    let before = sim.received().len();
+    let map = state.path().join("map.json");
+    let map_path = map.display().to_string();
+    let out = probe(
+        &sim,
+        state.path(),
+        &[
+            "grid",
+            "--area",
+            "X0 Y0 X20 Y10",
+            "--spacing",
+            "10",
+            "-o",
+            &map_path,
+            "--json",
+        ],
+    );
+    let stdout = text(&out.stdout);
+    assert!(out.status.success(), "{stdout}\n{}", text(&out.stderr));
+    let json: serde_json::Value = serde_json::from_str(stdout.trim()).expect("one JSON line");
+    let points = json["points"].as_array().expect("points");
+    assert_eq!(points.len(), 6, "{json}");
+    for p in points {
+        let (x, y, z) = (
+            p["x"].as_f64().expect("x"),
+            p["y"].as_f64().expect("y"),
+            p["z"].as_f64().expect("z"),
+        );
+        // G54 at the reference point: work is machine here.
+        assert!((z - tilted_mm(x, y)).abs() <= 0.0025 + 1e-9, "{p}");
+    }
+    // Two passes and a way back per point, and the moves between them.
+    assert!(moves_received(&mut sim, before).len() >= 6 * 4);
+
+    // A job cut 0.2 mm deep through the map follows the surface.
+    let job = state.path().join("job.nc");
+    std::fs::write(
+        &job,
+        "G21 G90\nG0 Z25\nG0 X2 Y2\nG1 Z-0.2 F100\nG1 X18 Y8 F300\nG0 Z25\nM30\n",
+    )
+    .expect("job");
+    let program = state.path().join("job.isel");
+    let out = std::process::Command::new(sim_process::JOGTERM)
+        .arg("import")
+        .arg(&job)
+        .args(["--height-map", &map_path, "-o"])
+        .arg(&program)
+        .env("JOGTERM_CONFIG_DIR", "/nonexistent-jogterm-config")
+        .env("JOGTERM_STATE_DIR", state.path())
+        .output()
+        .expect("run jogterm import");
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let program = std::fs::read_to_string(&program).expect("the program");
+    let mut cuts = 0;
+    for l in program.lines() {
+        let Some((command, comment)) = l.split_once(';') else {
+            continue;
+        };
+        if !comment.trim().ends_with("job.nc:5") {
+            continue;
+        }
+        let Some(words) = command.trim().strip_prefix('m') else {
+            continue;
+        };
+        let v: Vec<f64> = words.split(',').filter_map(|w| w.parse().ok()).collect();
+        let (x, y, z) = (v[0] / 400.0, v[2] / 400.0, v[4]);
+        let expected = ((tilted_mm(x, y) - 0.2) * 400.0).round();
+        assert!(
+            (z - expected).abs() <= 1.0,
+            "Z {z} at X {x} Y {y}, expected {expected}\n{program}"
+        );
+        cuts += 1;
+    }
+    // On a plane the pieces along the grid merge back into one straight
+    // move, which follows the plane from end to end.
+    assert!(cuts >= 1, "the cut of line 5\n{program}");
+}

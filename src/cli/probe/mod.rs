@@ -11,6 +11,7 @@ use std::process::ExitCode;
 use clap::{Args, Subcommand, ValueEnum};
 use serde_json::json;
 
+mod grid;
 mod operator;
 mod shapes;
 mod tool;
@@ -63,6 +64,8 @@ pub enum What {
     Corner(shapes::CornerArgs),
     /// Find the centre of a bore (X+ X-, then Y+ Y-): the work offset's X and Y are set to it
     Center(shapes::CenterArgs),
+    /// Probe a grid of points: a height map for --height-map
+    Grid(grid::GridArgs),
     /// Measure the tool on the fixed sensor (probe.tool_sensor): its length against the reference tool
     Tool(tool::ToolArgs),
 }
@@ -140,6 +143,7 @@ pub fn run(global: &GlobalArgs, args: &ProbeArgs) -> anyhow::Result<ExitCode> {
     };
     match &args.what {
         What::Tool(t) => return tool::run(global, profile, file, t),
+        What::Grid(g) => return grid::run(global, profile, file, g),
         What::Corner(c) => return xy(global, profile, file, &c.common, Some(c.corner)),
         What::Center(c) => return xy(global, profile, file, &c.common, None),
         What::Z(_) | What::Edge(_) => {}
@@ -227,9 +231,8 @@ async fn set_up(
     session: &mut Session,
     remedy: &Remedy,
 ) -> Result<(Operator, Option<PerAxis<i64>>), u8> {
-    let operator = Operator::new();
     let set = initialise_reading(session, remedy).await?;
-    Ok((operator, set.measured))
+    Ok((Operator::new(set.measured), set.measured))
 }
 
 fn usage(message: &str) -> ExitCode {
@@ -253,7 +256,7 @@ fn job(profile: &Profile, what: &What) -> Result<Job, String> {
             let half = probing::edge(0.0, toward, profile.probe.tip);
             (&e.common, axis, toward, half)
         }
-        What::Tool(_) | What::Corner(_) | What::Center(_) => {
+        What::Tool(_) | What::Corner(_) | What::Center(_) | What::Grid(_) => {
             return Err("not a probe of one axis".into());
         }
     };

@@ -9,7 +9,7 @@ use crate::cli::run::keys::{Key, Keys};
 use crate::cli::session::{self, EXIT_LINK, Session};
 use crate::cli::upload::{Remedy, refused_in};
 use crate::device::api::{
-    Activity, Event, Frame, JogId, LinkState, PerAxis, ProbeEnd, ProbeMove, Request,
+    Activity, Event, JogId, LinkState, PerAxis, PositionSource, ProbeEnd, ProbeMove, Request,
 };
 
 use super::out;
@@ -20,10 +20,13 @@ pub struct Operator {
     /// A stop was sent: wait for the end, send nothing more.
     pub stopped: bool,
     next_id: u64,
+    /// Where the axes stand, as last measured (machine steps).
+    here: Option<PerAxis<i64>>,
 }
 
 impl Operator {
-    pub fn new() -> Operator {
+    /// `here`: the position measured when the session was set up.
+    pub fn new(here: Option<PerAxis<i64>>) -> Operator {
         let (tx, signals) = mpsc::unbounded_channel();
         tokio::spawn(async move {
             session::interrupted().await;
@@ -34,6 +37,7 @@ impl Operator {
             signals,
             stopped: false,
             next_id: 0,
+            here,
         }
     }
 
@@ -75,6 +79,9 @@ impl Operator {
             tokio::select! {
                 event = session.next_event() => match event {
                     Some(Event::ProbeEnded { id: ended, end }) if ended == id => return Ok(end),
+                    Some(Event::Position(p)) if p.source == PositionSource::Measured => {
+                        self.here = Some(p.steps);
+                    }
                     Some(Event::Link(LinkState::Lost { reason })) => return Err(lost(&reason)),
                     Some(_) => {}
                     None => return Err(lost("the device task ended")),
@@ -87,7 +94,10 @@ impl Operator {
     }
 
     /// A move to `target` (machine steps; axes left out stay) at `hz`
-    /// steps/s per axis, followed to its end.
+    /// steps/s per axis, followed to its end. Relative from where the axes
+    /// were measured (isel `@0A`): an absolute isel move counts from the
+    /// controller's own zero, which a session does not know (manual
+    /// 2.2.19, `docs/protocols.md`).
     pub async fn move_to(
         &mut self,
         session: &mut Session,
@@ -98,9 +108,22 @@ impl Operator {
         if self.stopped {
             return Err(stopped());
         }
-        let request = Request::MoveTo {
-            target,
-            frame: Frame::Machine,
+        let Some(here) = self.here else {
+            out::say("jogterm probe: the controller reported no position: nothing moved");
+            return Err(1);
+        };
+        let mut delta = PerAxis::new();
+        for (axis, to) in target.iter() {
+            let d = to - here.get(axis).unwrap_or(to);
+            if d != 0 {
+                delta.set(axis, d);
+            }
+        }
+        if delta.axes().is_empty() {
+            return Ok(());
+        }
+        let request = Request::Step {
+            delta,
             speed_hz: hz,
         };
         if session.handle.request(request).is_err() {
@@ -111,6 +134,9 @@ impl Operator {
         loop {
             tokio::select! {
                 event = session.next_event() => match event {
+                    Some(Event::Position(p)) if p.source == PositionSource::Measured => {
+                        self.here = Some(p.steps);
+                    }
                     Some(Event::State(s)) if s.activity != Activity::Idle => moving = true,
                     Some(Event::State(s)) if moving => {
                         if let Some(f) = s.fault {
@@ -119,7 +145,10 @@ impl Operator {
                             ));
                             return Err(1);
                         }
-                        return if self.stopped { Err(stopped()) } else { Ok(()) };
+                        if self.stopped {
+                            return Err(stopped());
+                        }
+                        return self.measured_after(session, here, &delta).await;
                     }
                     Some(Event::Refused { reason, .. }) => {
                         return Err(refused_in("probe", "the move", &reason, remedy));
@@ -140,7 +169,36 @@ impl Operator {
             }
         }
     }
+
+    /// The position read after a move (it follows the move's end at
+    /// once); without one within a moment, where the move ends.
+    async fn measured_after(
+        &mut self,
+        session: &mut Session,
+        from: PerAxis<i64>,
+        delta: &PerAxis<i64>,
+    ) -> Result<(), u8> {
+        let settle = tokio::time::Instant::now() + SETTLE;
+        loop {
+            match tokio::time::timeout_at(settle, session.next_event()).await {
+                Ok(Some(Event::Position(p))) if p.source == PositionSource::Measured => {
+                    self.here = Some(p.steps);
+                    return Ok(());
+                }
+                Ok(Some(Event::Link(LinkState::Lost { reason }))) => return Err(lost(&reason)),
+                Ok(Some(_)) => {}
+                Ok(None) => return Err(lost("the device task ended")),
+                Err(_) => {
+                    self.here = Some(from.map(|axis, v| v + delta.get(axis).unwrap_or(0)));
+                    return Ok(());
+                }
+            }
+        }
+    }
 }
+
+/// How long the position read after a move may take to arrive.
+const SETTLE: std::time::Duration = std::time::Duration::from_millis(500);
 
 fn stopped() -> u8 {
     out::say("jogterm probe: stopped; nothing resumes");
