@@ -19,6 +19,10 @@ pub struct ProbeProfile {
     /// the start-stop frequency (`isel.start_stop_hz`), which it stops
     /// from within a step.
     pub slow_speed: f64,
+    /// EMP only: the length of each short move of the back-off and the
+    /// second pass, units, which is the accuracy of the touched point (EMP
+    /// has no move that ends on an input, `docs/probing.md`).
+    pub step: f64,
     /// Thickness of the touch plate under the tool, units: work Z 0 is the
     /// touched surface minus this.
     pub plate: f64,
@@ -38,6 +42,7 @@ impl Default for ProbeProfile {
             travel: 10.0,
             fast_speed: 5.0,
             slow_speed: 0.5,
+            step: 0.01,
             plate: 0.0,
             tip: 0.0,
             clearance: 5.0,
@@ -54,6 +59,7 @@ impl ProbeProfile {
             ("travel", self.travel),
             ("fast_speed", self.fast_speed),
             ("slow_speed", self.slow_speed),
+            ("step", self.step),
             ("clearance", self.clearance),
         ];
         for (key, v) in positive {
@@ -138,12 +144,16 @@ mod tests {
         let bad = ProbeProfile {
             travel: 0.0,
             slow_speed: 9.0,
+            step: -0.01,
             plate: -1.0,
             tool_sensor: Some("X1 W2".into()),
             ..ProbeProfile::default()
         };
         let keys: Vec<&str> = bad.problems().iter().map(|(k, _)| *k).collect();
-        assert_eq!(keys, ["travel", "plate", "slow_speed", "tool_sensor"]);
+        assert_eq!(
+            keys,
+            ["travel", "step", "plate", "slow_speed", "tool_sensor"]
+        );
         assert!(ProbeProfile::default().problems().is_empty());
     }
 }

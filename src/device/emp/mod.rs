@@ -38,6 +38,7 @@ mod op;
 mod output;
 pub(crate) mod plan;
 mod poll;
+mod probe_op;
 mod raw;
 mod readback;
 mod script;
@@ -79,6 +80,7 @@ use limit_op::LimitJogOp;
 use motion_op::MotionOp;
 use op::Operation;
 use output::{Switch, output_request};
+use probe_op::ProbeOp;
 use raw::{RawOp, frame_text, is_query};
 use readback::Readback;
 use script::{Next, Outcome};
@@ -92,6 +94,7 @@ operations! {
         Output(Switch) => Setup,
         Motion(Box<MotionOp> as MotionOp) => Motion,
         Limit(Box<LimitJogOp> as LimitJogOp) => Motion,
+        Probe(Box<ProbeOp> as ProbeOp) => Motion,
         Raw(RawOp) => User,
     }
 }
@@ -604,13 +607,9 @@ impl Core<EmpLine> {
                     ))))
                 })
             }
-            Request::Probe { .. } => crate::device::common::probe::probe_input(&cx.settings.wiring)
-                .and_then(|_| {
-                    Err(invalid(
-                        "probing on EMP drives is not built yet: EMP has no move that ends on an \
-                         input (docs/probing.md)",
-                    ))
-                }),
+            Request::Probe { id, probe } => {
+                ProbeOp::new(cx, *id, *probe).map(|op| Some(Op::Probe(Box::new(op))))
+            }
             Request::LimitJog { id, axis, dir } => {
                 LimitJogOp::new(cx, *id, *axis, *dir, now).map(|op| Some(Op::Limit(Box::new(op))))
             }

@@ -263,6 +263,18 @@ fn positioning(
     })
 }
 
+/// One TP move of a probe (`probe_op`): `axis` from `from` to `to` at
+/// `hz`, at most the axis's top speed. `common::probe::check` has checked
+/// the probe's whole travel against the soft limits before it started.
+pub fn probe_move(cx: &Context, axis: Axis, from: i64, to: i64, hz: f64) -> Result<Plan, Refusal> {
+    positioning(
+        cx,
+        &PerAxis::new().with(axis, from),
+        &PerAxis::new().with(axis, to),
+        &PerAxis::new().with(axis, hz),
+    )
+}
+
 /// Soft limits for referenced axes only: an unreferenced counter does not
 /// count from the reference point.
 pub fn within_limits(cx: &Context, target: &PerAxis<i64>) -> Result<(), Refusal> {

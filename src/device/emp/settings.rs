@@ -70,6 +70,9 @@ pub struct EmpSettings {
     pub timing: Timing,
     /// What each drive's bits are wired to (`[io]`, `crate::wiring`).
     pub wiring: crate::wiring::Wiring,
+    /// `probe.step` in counts per axis (at least 1): the length of each
+    /// move of a probe's back-off and second pass (`probe_op`).
+    pub probe_step: PerAxis<i64>,
 }
 
 impl EmpSettings {
@@ -123,6 +126,14 @@ impl EmpSettings {
                 connect_settle: Duration::from_millis(50),
             },
             wiring: crate::device::common::settings::wiring(profile)?,
+            probe_step: profile
+                .axes
+                .iter()
+                .map(|(axis, p)| {
+                    let counts = (profile.probe.step * p.steps_per_unit).abs().round();
+                    (*axis, (counts as i64).max(1))
+                })
+                .collect(),
         })
     }
 

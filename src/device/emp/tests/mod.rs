@@ -8,6 +8,7 @@ mod harness;
 mod limit_jog;
 mod long_actions;
 mod motion;
+mod probe;
 mod properties;
 mod traffic;
 mod with_sim;
