@@ -65,6 +65,7 @@ mod network;
 mod network_transport;
 mod offsets_e2e;
 mod port_identity;
+mod probe_console_e2e;
 mod probe_e2e;
 mod quiet_sessions;
 mod read_sessions;
