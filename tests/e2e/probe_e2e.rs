@@ -311,3 +311,49 @@ fn a_grid_on_a_tilted_surface_and_a_job_cut_at_a_constant_depth_below_it() {
     // move, which follows the plane from end to end.
     assert!(cuts >= 1, "the cut of line 5\n{program}");
 }
+
+#[test]
+fn a_tool_one_millimetre_longer_measures_one_millimetre_higher_on_the_sensor() {
+    // The sensor under X 25 (10000 steps), Y 0; the point above it at Z 27.5.
+    let profile = (
+        "profiles/default.toml",
+        "[sim]\nstart_position = 1.0\n[probe]\ntool_sensor = \"X25 Y0 Z27.5\"\n",
+    );
+    let state = tempfile::tempdir().expect("state dir");
+    let measure = |surface: &str, tool: &str| -> serde_json::Value {
+        let surface = format!("--probe-surface={surface}");
+        let sim = SimProcess::options("isel")
+            .files(&[profile])
+            .args(&[&surface])
+            .time_scale(sim_process::LOGIC_SCALE)
+            .start();
+        let out = sim
+            .configured(&["send", "@07", "@0R7", "@0A0,4000,0,4000,4000,4000,0,4000"])
+            .output()
+            .expect("send");
+        assert!(out.status.success(), "{}", text(&out.stderr));
+        let out = sim
+            .configured(&["probe", "tool", "--tool", tool, "--json"])
+            .env("JOGTERM_STATE_DIR", state.path())
+            .output()
+            .expect("probe tool");
+        let stdout = text(&out.stdout);
+        assert!(out.status.success(), "{stdout}\n{}", text(&out.stderr));
+        serde_json::from_str(stdout.trim()).expect("one JSON line")
+    };
+    // T1 touches the sensor at 20 mm: the reference.
+    let t1 = measure("8000", "T1");
+    assert_eq!(t1["reference"], "T1", "{t1}");
+    assert!(
+        (t1["length_mm"].as_f64().expect("length") - 20.0).abs() <= 0.0025,
+        "{t1}"
+    );
+    assert_eq!(t1["offset_mm"].as_f64(), Some(0.0));
+    // T2, one millimetre longer, touches at 21 mm.
+    let t2 = measure("8400", "T2");
+    assert_eq!(t2["reference"], "T1", "{t2}");
+    assert!(
+        (t2["offset_mm"].as_f64().expect("offset") - 1.0).abs() <= 0.0025 + 1e-9,
+        "{t2}"
+    );
+}
