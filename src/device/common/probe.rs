@@ -272,6 +272,29 @@ impl Cycle {
         }
     }
 
+    /// Where a family's probe goes once the position is read (`at`, the
+    /// probe's axis at `here`), after the input was read `touched`: its
+    /// first pass when `cycle` has not started, the end after the return
+    /// (`last` is the step it carried out), else what the cycle says.
+    pub fn advance(
+        cycle: &mut Option<Cycle>,
+        probe: ProbeMove,
+        last: Option<&Step>,
+        touched: bool,
+        at: &PerAxis<i64>,
+        here: i64,
+    ) -> Step {
+        match (cycle.as_mut(), last) {
+            (None, _) => {
+                let (started, first) = Cycle::start(probe, here);
+                *cycle = Some(started);
+                first
+            }
+            (Some(c), Some(Step::Return { .. })) => Step::End(c.returned()),
+            (Some(c), _) => c.pass_ended(touched, at),
+        }
+    }
+
     /// The return ended.
     pub fn returned(&mut self) -> ProbeEnd {
         self.phase = Phase::Ended;

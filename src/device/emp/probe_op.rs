@@ -246,15 +246,14 @@ impl ProbeOp {
         let at = cx
             .positions()
             .unwrap_or_else(|| PerAxis::new().with(self.axis, here));
-        let next = match (self.cycle.as_mut(), &self.step) {
-            (None, _) => {
-                let (cycle, first) = Cycle::start(self.probe, here);
-                self.cycle = Some(cycle);
-                first
-            }
-            (Some(cycle), Some(Step::Return { .. })) => Step::End(cycle.returned()),
-            (Some(cycle), _) => cycle.pass_ended(self.touched, &at),
-        };
+        let next = Cycle::advance(
+            &mut self.cycle,
+            self.probe,
+            self.step.as_ref(),
+            self.touched,
+            &at,
+            here,
+        );
         match next {
             Step::Pass(pass) => {
                 let length = if pass.hz > self.probe.slow_hz {

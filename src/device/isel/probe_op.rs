@@ -165,16 +165,15 @@ impl ProbeOp {
             self.finish(ProbeEnd::Fault(link::unreadable("@0P", "no position")));
             return;
         };
-        let next = match (self.cycle.as_mut(), &self.step) {
-            (None, _) => {
-                let from = at.get(self.probe.axis).unwrap_or(0);
-                let (cycle, first) = Cycle::start(self.probe, from);
-                self.cycle = Some(cycle);
-                first
-            }
-            (Some(cycle), Some(Step::Return { .. })) => Step::End(cycle.returned()),
-            (Some(cycle), _) => cycle.pass_ended(self.touched, &at),
-        };
+        let here = at.get(self.probe.axis).unwrap_or(0);
+        let next = Cycle::advance(
+            &mut self.cycle,
+            self.probe,
+            self.step.as_ref(),
+            self.touched,
+            &at,
+            here,
+        );
         match next {
             Step::End(end) => self.finish(end),
             step => {
