@@ -40,3 +40,55 @@ fn p_touches_off_z_and_refuses_with_a_jog_speed_override() {
     assert!(offsets.contains("G54"), "{offsets}");
     quit(&mut run);
 }
+
+/// Space while the pass that `pass` begins runs (real time, the back-off
+/// at 10 Hz so that it lasts two seconds): the probe ends stopped, and no
+/// move follows the stop bytes. The slow pass touches a step or two after
+/// it starts (it begins where the input released), so Space there may
+/// land on the return that follows it at once: that stops the same way.
+fn space_during(pass: &str) {
+    let profile = (
+        "profiles/default.toml",
+        "[sim]\nstart_position = 1.0\n[probe]\nslow_speed = 0.025\n",
+    );
+    let mut sim = SimProcess::options("isel")
+        .files(&[profile])
+        .args(&["--probe-surface=4000"])
+        .start();
+    let out = sim
+        .configured(&["send", "@07", "@0R7", "@0A0,4000,0,4000,6000,4000,0,4000"])
+        .output()
+        .expect("send");
+    assert!(out.status.success());
+    let state = tempfile::tempdir().expect("state dir");
+    let mut run = spawn(&sim, state.path());
+    wait_for(&run, "READY");
+    run.type_keys(&[b"P"]);
+    wait_for(&run, "Touch off Z");
+    run.type_keys(&[b"y"]);
+    sim.wait_received(pass, |r| r.contains(pass));
+    run.type_keys(&[b" "]);
+    wait_for(&run, "the probe of Z- was stopped; nothing resumes");
+    wait_for(&run, "READY");
+    let received = sim.received();
+    assert!(received.contains(pass), "{received}");
+    // The last stop bytes are Space's (the first ones opened the link).
+    let after = received.rsplit("<FD><FF>").next().unwrap_or_default();
+    assert!(!after.contains("@0Z") && !after.contains("@0A"), "{after}");
+    quit(&mut run);
+}
+
+#[test]
+fn space_during_the_fast_pass_stops_the_probe() {
+    space_during("@0Z1,32,32,2000,");
+}
+
+#[test]
+fn space_during_the_back_off_stops_the_probe() {
+    space_during("@0Z1,32,0,10,");
+}
+
+#[test]
+fn space_during_the_slow_pass_stops_the_probe() {
+    space_during("@0Z1,32,32,10,");
+}
