@@ -421,7 +421,7 @@ pub(super) fn read_and_import(
 /// The bytes of `path`, at most `max` of them: a longer input (a runaway
 /// file, `/dev/zero`) is refused after `max + 1` bytes instead of read
 /// until the memory runs out.
-pub(super) fn read_bounded(path: &std::path::Path, max: u64) -> std::io::Result<Vec<u8>> {
+pub(in crate::cli) fn read_bounded(path: &std::path::Path, max: u64) -> std::io::Result<Vec<u8>> {
     use std::io::Read;
     let mut bytes = Vec::new();
     std::fs::File::open(path)?

@@ -357,3 +357,34 @@ fn a_tool_one_millimetre_longer_measures_one_millimetre_higher_on_the_sensor() {
         "{t2}"
     );
 }
+
+#[test]
+fn a_grid_over_a_jobs_own_extents() {
+    let sim = sim(TILTED);
+    let state = tempfile::tempdir().expect("state dir");
+    referenced_at(&sim, 11_000);
+    let job = state.path().join("job.nc");
+    std::fs::write(
+        &job,
+        "G21 G90\nG0 Z25\nG0 X2 Y2\nG1 Z-0.2 F100\nG1 X18 Y8 F300\nG0 Z25\nM30\n",
+    )
+    .expect("job");
+    let job = job.display().to_string();
+    let out = probe(
+        &sim,
+        state.path(),
+        &["grid", "--of", &job, "--spacing", "10", "--json"],
+    );
+    let stdout = text(&out.stdout);
+    assert!(out.status.success(), "{stdout}\n{}", text(&out.stderr));
+    let json: serde_json::Value = serde_json::from_str(stdout.trim()).expect("one JSON line");
+    let points = json["points"].as_array().expect("points");
+    let xs: Vec<f64> = points.iter().filter_map(|p| p["x"].as_f64()).collect();
+    let ys: Vec<f64> = points.iter().filter_map(|p| p["y"].as_f64()).collect();
+    // X 2 to 18 at 10 mm: 2, 12, 18; Y 2 to 8: 2, 8.
+    assert_eq!(points.len(), 6, "{json}");
+    assert_eq!(xs.iter().cloned().fold(f64::INFINITY, f64::min), 2.0);
+    assert_eq!(xs.iter().cloned().fold(f64::NEG_INFINITY, f64::max), 18.0);
+    assert_eq!(ys.iter().cloned().fold(f64::INFINITY, f64::min), 2.0);
+    assert_eq!(ys.iter().cloned().fold(f64::NEG_INFINITY, f64::max), 8.0);
+}

@@ -28,8 +28,16 @@ use crate::probing;
 #[derive(Debug, Args)]
 pub struct GridArgs {
     /// The area, work coordinates: 'X0 Y0 X100 Y80' (two corners)
-    #[arg(long, value_name = "'X0 Y0 X100 Y80'")]
-    pub area: String,
+    #[arg(
+        long,
+        value_name = "'X0 Y0 X100 Y80'",
+        required_unless_present = "of",
+        conflicts_with = "of"
+    )]
+    pub area: Option<String>,
+    /// The area of a G-code job: its extents in X and Y, work coordinates
+    #[arg(long, value_name = "FILE")]
+    pub of: Option<PathBuf>,
     /// The distance between grid points, mm
     #[arg(long, value_name = "MM")]
     pub spacing: f64,
@@ -81,7 +89,17 @@ pub fn run(
             "say where the map goes: -o map.json (and/or --json for the points)",
         ));
     }
-    let area = match parse_area(&args.area) {
+    let offsets = file
+        .as_ref()
+        .map(OffsetsFile::load)
+        .map(|s| s.offsets)
+        .unwrap_or_default();
+    let area = match (&args.area, &args.of) {
+        (Some(text), _) => parse_area(text),
+        (None, Some(job)) => job_area(&profile, &offsets, job),
+        (None, None) => Err("--area or --of FILE says where to probe".to_owned()),
+    };
+    let area = match area {
         Ok(a) => a,
         Err(m) => return Ok(usage(&m)),
     };
@@ -92,11 +110,6 @@ pub fn run(
             return Ok(usage(&text.join("; ")));
         }
     };
-    let offsets = file
-        .as_ref()
-        .map(OffsetsFile::load)
-        .map(|s| s.offsets)
-        .unwrap_or_default();
     let system = match parse_system(&args.common) {
         Ok(s) => s.unwrap_or(offsets.active()),
         Err(m) => return Ok(usage(&m)),
@@ -179,6 +192,45 @@ pub fn run(
             out::say(format_args!("height map written to {}", path.display()));
         }
         ExitCode::SUCCESS
+    })
+}
+
+/// The X/Y extents of the G-code job in `path` (work coordinates of the
+/// offsets in force), as its interpretation gives them. Not checked
+/// against the soft limits: a job whose Z zero is not set yet (the usual
+/// order: the map first, then the touch-off) is still a job with an area.
+fn job_area(
+    profile: &Profile,
+    offsets: &crate::offsets::WorkOffsets,
+    path: &std::path::Path,
+) -> Result<Area, String> {
+    use crate::gcode::profile::{machine_of, setup_of};
+    let name = path.display().to_string();
+    let bytes = crate::cli::import::read_bounded(path, crate::gcode::MAX_FILE_BYTES)
+        .map_err(|e| format!("--of {name}: {e}"))?;
+    let text = String::from_utf8_lossy(&bytes);
+    let target = crate::gcode::Target::of(profile.connection.protocol)?;
+    let setup = setup_of(profile, offsets).map_err(|errors| {
+        let first = errors
+            .first()
+            .map_or_else(String::new, |e| format!("{}: {}", e.key, e.message));
+        format!("--of {name}: profile: {first}")
+    })?;
+    let toolpath = crate::gcode::interpret(&text, &setup).map_err(|d| {
+        let first = d.first().map_or_else(String::new, |d| {
+            format!("{name}:{}:{}: {}", d.origin.line, d.origin.col, d.message)
+        });
+        format!("--of: the job does not read: {first}")
+    })?;
+    let e = crate::gcode::check::summarise(&toolpath, &machine_of(profile, target)).extents;
+    if !(e.max.x > e.min.x && e.max.y > e.min.y) {
+        return Err(format!("--of {name}: the job covers no area in X and Y"));
+    }
+    Ok(Area {
+        x0: e.min.x,
+        y0: e.min.y,
+        x1: e.max.x,
+        y1: e.max.y,
     })
 }
 
