@@ -214,7 +214,7 @@ named_enum! {
         GoTo = "go-to", "go to a typed position (work or machine coordinates)";
         GoZero = "go-zero", "go to the work zero (asks first)";
         JogOffLimit = "jog-off-limit", "jog the axis off its active limit switch (asks first)";
-        ProbeZ = "probe-z", "touch off Z: probe down from here, work Z 0 = surface - plate (asks)";
+        ProbeZ = "probe-z", "touch off Z with the probe: Z 0 = surface - plate (asks)";
         HomeAxis = "home-axis", "reference run of one axis";
         ZeroAxis = "zero-axis", "make the current position the work zero of one axis";
         AxisAll = "axis-all", "all axes";
