@@ -651,10 +651,18 @@ pub(super) struct Remedy {
     pub(super) isel_device: u8,
     /// The machine's axes: also what a G-code stream's DNC moves carry.
     pub(super) axes: AxisSet,
+    /// The command whose messages these are (`jogterm <command>: …`).
+    pub(super) command: &'static str,
 }
 
 impl Remedy {
     pub(super) fn of(profile: &crate::config::Profile) -> Remedy {
+        Remedy::of_command(profile, "upload")
+    }
+
+    /// The same for another command that sets up a controller this way
+    /// (`run`, `probe`).
+    pub(super) fn of_command(profile: &crate::config::Profile, command: &'static str) -> Remedy {
         let protocol = profile.connection.protocol;
         let send = if profile.connection.is_simulator() {
             format!("jogterm --sim {protocol} send")
@@ -669,6 +677,7 @@ impl Remedy {
             protocol,
             isel_device: profile.isel.device,
             axes: profile.axis_set(),
+            command,
         }
     }
 
@@ -725,7 +734,7 @@ async fn stream(session: &mut Session, prepared: &Prepared, remedy: &Remedy) -> 
 
 /// The exit status for a refusal, said on stderr.
 pub(super) fn refused(what: &str, reason: &Refusal, remedy: &Remedy) -> u8 {
-    refused_in("upload", what, reason, remedy)
+    refused_in(remedy.command, what, reason, remedy)
 }
 
 /// [`refused`], said as `jogterm <command>: …`.
@@ -966,12 +975,18 @@ pub(super) async fn initialise_reading(
             Event::Refused { reason, .. } => return Err(refused("initialising", &reason, remedy)),
             Event::Fault(f) => {
                 out::say(format_args!(
-                    "jogterm upload: initialising failed: `{}` answered {}: {}",
-                    f.command, f.code, f.meaning
+                    "jogterm {}: initialising failed: `{}` answered {}: {}",
+                    remedy.command, f.command, f.code, f.meaning
                 ));
                 return Err(1);
             }
-            Event::Link(LinkState::Lost { reason }) => return Err(lost(&reason)),
+            Event::Link(LinkState::Lost { reason }) => {
+                out::say(format_args!(
+                    "jogterm {}: link failure: {reason}",
+                    remedy.command
+                ));
+                return Err(EXIT_LINK);
+            }
             _ => {}
         }
     }
@@ -1119,6 +1134,7 @@ mod tests {
             protocol,
             isel_device: 0,
             axes: AxisSet::XYZ,
+            command: "upload",
         };
         let isel = remedy(Protocol::Isel, "/tmp/isel");
         assert_eq!(

@@ -156,7 +156,7 @@ pub fn run(global: &GlobalArgs, args: &ProbeArgs) -> anyhow::Result<ExitCode> {
         Ok(p) => p,
         Err(m) => return Ok(usage(&m)),
     };
-    let remedy = Remedy::of(&profile);
+    let remedy = Remedy::of_command(&profile, "probe");
     let for_session = profile.clone();
     session::moving(global, for_session, "probe", async |mut session| {
         let end = set_up(&mut session, &remedy).await;
@@ -184,7 +184,7 @@ fn xy(
         Ok(s) => s,
         Err(m) => return Ok(usage(&m)),
     };
-    let remedy = Remedy::of(&profile);
+    let remedy = Remedy::of_command(&profile, "probe");
     let for_session = profile.clone();
     session::moving(global, for_session, "probe", async |mut session| {
         let mut diameters = None;

@@ -87,7 +87,7 @@ pub fn run(
         Ok(p) => p,
         Err(m) => return Ok(usage(&m)),
     };
-    let remedy = Remedy::of(&profile);
+    let remedy = Remedy::of_command(&profile, "probe");
     let for_session = profile.clone();
     session::moving(global, for_session, "probe", async |mut session| {
         let measured = async {

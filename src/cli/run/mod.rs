@@ -206,7 +206,7 @@ pub fn run(global: &GlobalArgs, args: &RunArgs) -> anyhow::Result<ExitCode> {
             Err(m) => return usage(m),
         }
     }
-    let remedy = Remedy::of(&profile);
+    let remedy = Remedy::of_command(&profile, "run");
     session::moving(global, profile, "run", async |session| {
         run_job(session, &job, args, &remedy).await
     })
