@@ -821,6 +821,18 @@ fn days_from_civil(year: i64, month: i64, day: i64) -> i64 {
 
 /// `2026-12-07T09:00:00Z` of seconds since 1970.
 pub fn rfc3339(unix: i64) -> String {
+    let (year, month, day, rem) = civil(unix);
+    format!(
+        "{year:04}-{month:02}-{day:02}T{:02}:{:02}:{:02}Z",
+        rem / 3600,
+        rem % 3600 / 60,
+        rem % 60
+    )
+}
+
+/// Year, month, day (UTC) and the seconds into that day of seconds since
+/// 1970: civil from days (Howard Hinnant's algorithm).
+pub fn civil(unix: i64) -> (i64, i64, i64, i64) {
     let days = unix.div_euclid(86_400);
     let rem = unix.rem_euclid(86_400);
     let z = days + 719_468;
@@ -832,12 +844,7 @@ pub fn rfc3339(unix: i64) -> String {
     let day = doy - (153 * mp + 2) / 5 + 1;
     let month = if mp < 10 { mp + 3 } else { mp - 9 };
     let year = yoe + era * 400 + i64::from(month <= 2);
-    format!(
-        "{year:04}-{month:02}-{day:02}T{:02}:{:02}:{:02}Z",
-        rem / 3600,
-        rem % 3600 / 60,
-        rem % 60
-    )
+    (year, month, day, rem)
 }
 
 /// Seconds since 1970 of an RFC 3339 time (`2026-12-07T09:00:00Z`,

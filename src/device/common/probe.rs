@@ -300,15 +300,6 @@ impl Cycle {
         self.phase = Phase::Ended;
         self.end.clone().unwrap_or(ProbeEnd::Stopped)
     }
-
-    /// The probe's axis and where it started.
-    pub fn axis(&self) -> Axis {
-        self.probe.axis
-    }
-
-    pub fn from(&self) -> i64 {
-        self.from
-    }
 }
 
 fn probe_fault(text: String) -> ControllerFault {
