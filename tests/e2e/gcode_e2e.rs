@@ -329,11 +329,6 @@ fn bad_gcode_is_an_error_at_file_line_col_and_nothing_is_sent() {
             "G21\nM64 P42\n",
             ":2:5: error: M64 P42: no output 42 on this machine",
         ),
-        (
-            "unit.nc",
-            "G0 X1\n",
-            ":1:4: error: the file sets no unit (G20 inch or G21 mm)",
-        ),
     ];
     let wrong: Vec<String> = cases
         .iter()
@@ -341,6 +336,20 @@ fn bad_gcode_is_an_error_at_file_line_col_and_nothing_is_sent() {
         .collect();
     assert!(wrong.is_empty(), "{}", wrong.join("\n"));
     assert_eq!(sim.received_total(), 0, "nothing reached the controller");
+}
+
+#[test]
+fn a_file_without_a_unit_is_read_in_the_shipped_profiles_unit_and_the_summary_says_so() {
+    let sim = SimProcess::start("isel");
+    let path = sim.dir.path().join("mpcnc.nc");
+    std::fs::write(&path, "G90\nG0 X1 Y1 Z5\nG1 Z1 F100\nM30\n").expect("write");
+    let out = run(&sim, &["import", &path.display().to_string()]);
+    let said = format!("{}{}", text(&out.stdout), text(&out.stderr));
+    assert_eq!(out.status.code(), Some(0), "{said}");
+    assert!(
+        said.contains(":2:4: warning: the file sets no unit (G20 or G21): its numbers are read in millimetres, the profile's [gcode] unit"),
+        "{said}"
+    );
 }
 
 #[test]

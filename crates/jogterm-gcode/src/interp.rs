@@ -214,6 +214,10 @@ pub struct Interpreter<'a> {
     more_errors: usize,
     warned_block_delete: bool,
     warned_ignored: Vec<u32>,
+    /// The file has said G20 or G21: a number read before that takes the
+    /// profile's unit, which the summary must say (issue 40).
+    units_from_file: bool,
+    warned_profile_unit: bool,
     /// `Toolpath::named_from` as it grows.
     named_from: [Option<usize>; 3],
     /// The last block's `Words`, emptied and filled again by the next
@@ -318,6 +322,8 @@ impl<'a> Interpreter<'a> {
             named_from: [None; 3],
             spare: Words::default(),
             doubt: Doubt::default(),
+            units_from_file: false,
+            warned_profile_unit: false,
         }
     }
 
@@ -624,6 +630,7 @@ impl<'a> Interpreter<'a> {
                         Units::Mm
                     });
                     self.doubt.units = false;
+                    self.units_from_file = true;
                 }
                 900 | 910 => {
                     self.state.absolute = *code == 900;
@@ -754,7 +761,22 @@ impl<'a> Interpreter<'a> {
     /// they would be with G21 and report only their own errors.
     fn units_at(&mut self, at: Origin) -> f64 {
         match self.state.units {
-            Some(u) => u.mm(),
+            Some(u) => {
+                if !self.units_from_file && !self.warned_profile_unit {
+                    self.warned_profile_unit = true;
+                    let name = match u {
+                        Units::Mm => "millimetres",
+                        Units::Inch => "inches",
+                    };
+                    self.warn(
+                        at,
+                        format!(
+                            "the file sets no unit (G20 or G21): its numbers are read in {name}, the profile's [gcode] unit"
+                        ),
+                    );
+                }
+                u.mm()
+            }
             None => {
                 if !self.doubt.units {
                     self.error(

@@ -125,6 +125,22 @@ fn a_file_without_a_unit_is_refused_unless_the_profile_names_one() {
 }
 
 #[test]
+fn the_profiles_unit_is_said_once_where_the_file_first_needs_it() {
+    let path = interpret("(no unit)\nG0 X1\nY2\nG21\nX3\n", &setup()).expect("accepted");
+    let said: Vec<_> = path
+        .warnings
+        .iter()
+        .filter(|w| w.message.contains("the profile's [gcode] unit"))
+        .collect();
+    assert_eq!(said.len(), 1, "{:?}", path.warnings);
+    assert_eq!((said[0].origin.line, said[0].origin.col), (2, 4));
+    assert!(said[0].message.contains("millimetres"), "{}", said[0].message);
+
+    let path = interpret("G21\nG0 X1\n", &setup()).expect("accepted");
+    assert!(path.warnings.is_empty(), "{:?}", path.warnings);
+}
+
+#[test]
 fn g91_moves_are_incremental_and_g90_absolute_again() {
     let o = ops("G21 G91\nG0 X10\nX5 Y2\nG90 X1\n");
     let m = moves(&o);
