@@ -93,7 +93,11 @@ pub struct ImportArgs {
 }
 
 /// `X50 Y50 Z60` into the active system's zero.
-fn apply_work_zero(text: &str, profile: &Profile, offsets: &mut WorkOffsets) -> Result<(), String> {
+pub(super) fn apply_work_zero(
+    text: &str,
+    profile: &Profile,
+    offsets: &mut WorkOffsets,
+) -> Result<(), String> {
     for word in text.split_whitespace() {
         let mut chars = word.chars();
         let letter = chars.next().unwrap_or(' ').to_ascii_uppercase();
@@ -232,7 +236,7 @@ pub fn run_to(
         Ok(i) => i,
         Err(code) => return Ok(ExitCode::from(code)),
     };
-    let header_name = header_name(&args.file);
+    let header_name = crate::gcode::import::header_name(&args.file);
     for w in &imported.warnings {
         let _ = writeln!(err, "{}", render(&name, w));
     }
@@ -278,14 +282,6 @@ pub fn run_to(
     };
     closed_is_ok(out.write_all(report.as_bytes()).and_then(|()| out.flush()))?;
     Ok(ExitCode::SUCCESS)
-}
-
-/// The name a program's header and `; FILE:LINE` comments give the file.
-pub fn header_name(path: &std::path::Path) -> String {
-    path.file_name().map_or_else(
-        || path.display().to_string(),
-        |n| n.to_string_lossy().into_owned(),
-    )
 }
 
 /// Reads and imports a G-code file for `profile` with the work offsets the
@@ -396,7 +392,7 @@ pub(super) fn read_and_import(
     }
     match import_with_map(
         &text,
-        &header_name(path),
+        &crate::gcode::import::header_name(path),
         profile,
         &offsets,
         target,
@@ -495,31 +491,7 @@ fn height_map_json(m: &MapApplied) -> serde_json::Value {
 
 /// The summary's line of a height map.
 pub(super) fn height_map_text(m: &MapApplied) -> String {
-    let a = &m.applied;
-    let mut line = format!(
-        "  height map {}: {} points, correction {:+.3} .. {:+.3} mm, probed {}; {} feed moves as {} on the surface",
-        m.file,
-        a.points,
-        a.correction_min,
-        a.correction_max,
-        age(a.age_s(unix_now())),
-        a.feed_moves,
-        a.feed_segments,
-    );
-    match a.arcs_as_segments {
-        0 => {}
-        1 => line.push_str(" (1 arc as segments)"),
-        n => line.push_str(&format!(" ({n} arcs as segments)")),
-    }
-    line.push_str(&format!(", rapids raised {:.3} mm", a.rapids_raised));
-    if a.z_zero_moved.abs() > 5e-4 {
-        line.push_str(&format!(
-            "; the Z zero moved {:+.3} mm since probing: the cut moves with it",
-            a.z_zero_moved
-        ));
-    }
-    line.push('\n');
-    line
+    m.describe(unix_now())
 }
 
 fn summary_text(name: &str, profile: &Profile, i: &Import, written: Option<&PathBuf>) -> String {
@@ -597,16 +569,6 @@ pub(super) fn fits(
         program.capacity,
         ways.advice()
     )
-}
-
-/// How long ago a map was probed: minutes, hours or days.
-fn age(seconds: i64) -> String {
-    match seconds {
-        s if s < 0 => "in the future (check this computer's clock)".to_owned(),
-        s if s < 3600 => format!("{} min ago", s / 60),
-        s if s < 2 * 86_400 => format!("{} h {} min ago", s / 3600, s / 60 % 60),
-        s => format!("{} days ago", s / 86_400),
-    }
 }
 
 fn duration(seconds: f64) -> String {

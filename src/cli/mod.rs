@@ -113,6 +113,10 @@ pub struct Cli {
     /// map's surface under it (as `jogterm import --height-map`)
     #[arg(long, value_name = "MAP", requires = "program")]
     pub height_map: Option<PathBuf>,
+    /// The console's active work offset's zero for this session, in machine coordinates
+    /// ('X50 Y50 Z60', as `jogterm run --work-zero`); saved only when an offset is set
+    #[arg(long, value_name = "ZERO")]
+    pub work_zero: Option<String>,
     #[command(subcommand)]
     pub command: Option<CliCommand>,
 }
@@ -198,6 +202,12 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         out::say("jogterm: error: --program belongs to the console, not to a command");
         return Ok(ExitCode::from(2));
     }
+    if cli.work_zero.is_some() && cli.command.is_some() {
+        out::say(
+            "jogterm: error: --work-zero before the command belongs to the console; give it after the command (jogterm run FILE --work-zero …)",
+        );
+        return Ok(ExitCode::from(2));
+    }
     match &cli.command {
         Some(CliCommand::Sim(args)) => {
             sim::run(&cli.global, args)?;
@@ -216,8 +226,11 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Some(CliCommand::Probe(args)) => probe::run(&cli.global, args),
         None => tui::run(
             &cli.global,
-            cli.program.as_deref(),
-            cli.height_map.as_deref(),
+            tui::Opening {
+                program: cli.program.as_deref(),
+                height_map: cli.height_map.as_deref(),
+                work_zero: cli.work_zero.as_deref(),
+            },
         ),
     }
 }

@@ -25,7 +25,6 @@ use crate::device::log::spawn_log;
 use crate::device::{DeviceHandle, EventReceiver, SessionMoves, TaskOptions};
 use crate::offsets::Identity;
 use crate::offsets::store::OffsetsFile;
-use crate::program::Language;
 use crate::program::store::RecoveryStore;
 use crate::sim::registry;
 use crate::sim::shell::{Shell, ShellControl, serve_socket};
@@ -92,12 +91,17 @@ pub fn resolve(global: &GlobalArgs, dirs: &ConfigDirs) -> Result<Resolved, Setup
     })
 }
 
+/// What the console opens with: `--program`, its `--height-map`, and
+/// `--work-zero`.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Opening<'a> {
+    pub program: Option<&'a Path>,
+    pub height_map: Option<&'a Path>,
+    pub work_zero: Option<&'a str>,
+}
+
 /// `jogterm` without a command: run the console until the operator quits.
-pub fn run(
-    global: &GlobalArgs,
-    program: Option<&Path>,
-    height_map: Option<&Path>,
-) -> anyhow::Result<ExitCode> {
+pub fn run(global: &GlobalArgs, opening: Opening<'_>) -> anyhow::Result<ExitCode> {
     let resolved = match resolve(global, &ConfigDirs::from_env()) {
         Ok(resolved) => resolved,
         Err(e) => {
@@ -105,16 +109,26 @@ pub fn run(
             return Ok(e.exit_code());
         }
     };
-    // G-code is converted before the terminal is taken: its errors are
-    // FILE:LINE:COL lines on stderr, and nothing opens.
-    let opening = match program {
+    // A G-code job is imported inside the console, with its work offsets
+    // (`ui::editor::gcode_open`): one that does not fit opens with its
+    // errors in the job panel. Only what no session could use is refused
+    // here: a height map file that cannot be read, a map for a program.
+    let message = match opening.program {
         Some(path) if crate::gcode::is_gcode_path(path) => {
-            match imported(global, &resolved.profile, path, height_map) {
-                Ok(msg) => Some(msg),
-                Err(code) => return Ok(ExitCode::from(code)),
-            }
+            let height_map = match opening.height_map.map(super::import::read_height_map) {
+                None => None,
+                Some(Ok(map)) => Some(Arc::new(map)),
+                Some(Err(why)) => {
+                    out::say(format_args!("jogterm: {why}"));
+                    return Ok(ExitCode::from(2));
+                }
+            };
+            Some(EditorMsg::OpenGcode {
+                path: path.to_path_buf(),
+                height_map,
+            })
         }
-        Some(_) if height_map.is_some() => {
+        Some(_) if opening.height_map.is_some() => {
             out::say(
                 "jogterm: error: --height-map shifts G-code onto a surface; a controller program \
                  runs in the controller's own coordinates as it is",
@@ -124,104 +138,20 @@ pub fn run(
         Some(path) => Some(EditorMsg::Open(path.to_path_buf())),
         None => None,
     };
+    if let Some(zero) = opening.work_zero {
+        let mut probe = crate::offsets::WorkOffsets::default();
+        if let Err(why) = super::import::apply_work_zero(zero, &resolved.profile, &mut probe) {
+            out::say(format_args!("jogterm: error: {why}"));
+            return Ok(ExitCode::from(2));
+        }
+    }
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
         .enable_all()
         .build()
         .context("starting the async runtime")?;
-    runtime.block_on(session(global, resolved, opening))?;
+    runtime.block_on(session(global, resolved, message, opening.work_zero))?;
     Ok(ExitCode::SUCCESS)
-}
-
-/// A G-code file imported for the profile with the console's work offsets,
-/// as the editor opens it: the controller program under the G-code's name
-/// with the family's extension, and the summary and warnings as notes.
-fn imported(
-    global: &GlobalArgs,
-    profile: &Profile,
-    path: &Path,
-    height_map: Option<&Path>,
-) -> Result<EditorMsg, u8> {
-    let mut said = Vec::new();
-    let target = crate::gcode::Target::of(profile.connection.protocol).map_err(|why| {
-        out::say(format_args!("jogterm: {}: {why}", path.display()));
-        1
-    })?;
-    let result = super::import::convert(
-        global,
-        &ConfigDirs::from_env(),
-        profile,
-        path,
-        target,
-        super::import::Placement {
-            work_zero: None,
-            height_map,
-        },
-        &mut said,
-    );
-    let said = String::from_utf8_lossy(&said).into_owned();
-    let import = result.inspect_err(|_| out::say(said.trim_end()))?;
-    let name = path.display().to_string();
-    let (language, extension) = match target {
-        crate::gcode::Target::Isel => (Language::Isel, "isel"),
-        crate::gcode::Target::Emcu => (Language::Emcu, "emcu"),
-    };
-    let s = &import.summary;
-    let mut notes: Vec<(NoteLevel, String)> = said
-        .lines()
-        .map(|l| (NoteLevel::Warning, l.to_owned()))
-        .collect();
-    notes.extend(
-        import
-            .warnings
-            .iter()
-            .map(|w| (NoteLevel::Warning, crate::gcode::render(&name, w))),
-    );
-    let fits = if import.program.fits() {
-        "fits the controller's memory".to_owned()
-    } else {
-        format!(
-            "does NOT fit the controller's memory ({} commands)",
-            import.program.capacity
-        )
-    };
-    notes.push((
-        if import.program.fits() {
-            NoteLevel::Info
-        } else {
-            NoteLevel::Warning
-        },
-        format!(
-            "{name}: {} moves, {} arcs, {:.1} mm, about {:.0} s; work offset {}; {} commands, {fits}; unsaved until you save it",
-            s.moves,
-            s.arcs,
-            s.length_mm,
-            s.estimated_s,
-            s.system,
-            import.program.commands
-        ),
-    ));
-    if let Some(m) = &import.height_map {
-        notes.push((
-            NoteLevel::Info,
-            super::import::height_map_text(m).trim().to_owned(),
-        ));
-    }
-    let header = super::import::header_name(path);
-    Ok(EditorMsg::Imported {
-        path: path.with_extension(extension),
-        language,
-        text: import.program.text(&header),
-        notes,
-        gcode: Some(Box::new(crate::ui::editor::job::Converted::new(
-            name,
-            header,
-            import.program,
-            import.summary.estimated_s,
-            profile,
-            language,
-        ))),
-    })
 }
 
 /// The built-in simulator a session runs on, and its inputs.
@@ -292,6 +222,7 @@ async fn session(
     global: &GlobalArgs,
     resolved: Resolved,
     opening: Option<EditorMsg>,
+    work_zero: Option<&str>,
 ) -> anyhow::Result<()> {
     let Resolved {
         profile,
@@ -325,6 +256,21 @@ async fn session(
     // applied only if it is this machine's (`docs/jogging.md`).
     let file = OffsetsFile::from_env(Identity::of(&profile_key, &profile));
     crate::ui::update::start_offsets(&mut model, file.map(|f| (f.load(), f)));
+    if let Some(zero) = work_zero {
+        let table = &mut model.keypad.offsets.table;
+        // Checked before the session started.
+        if super::import::apply_work_zero(zero, &profile, table).is_ok() {
+            let system = table.active();
+            crate::ui::update::say(
+                &mut model,
+                NoteLevel::Info,
+                format!(
+                    "{system}'s zero at machine {zero} (--work-zero) for this session; the saved \
+                     offsets change only when you set one (s, O)"
+                ),
+            );
+        }
+    }
     let device = Device {
         handle: handle.clone(),
         events,

@@ -312,7 +312,7 @@ pub(super) fn import_gcode(
         .map_err(|why| (EXIT_USAGE, format!("jogterm {command}: {why}")))?;
     let dirs = crate::config::ConfigDirs::from_env();
     let name = file.display().to_string();
-    let header = super::import::header_name(file);
+    let header = crate::gcode::import::header_name(file);
     let mut err = Vec::new();
     let placement = super::import::Placement {
         work_zero,

@@ -39,6 +39,57 @@ pub struct MapApplied {
     pub applied: Applied,
 }
 
+impl MapApplied {
+    /// The summary's line of a height map (`now_unix`: seconds since
+    /// 1970, for how long ago it was probed).
+    pub fn describe(&self, now_unix: i64) -> String {
+        let a = &self.applied;
+        let mut line = format!(
+            "  height map {}: {} points, correction {:+.3} .. {:+.3} mm, probed {}; {} feed moves as {} on the surface",
+            self.file,
+            a.points,
+            a.correction_min,
+            a.correction_max,
+            age(a.age_s(now_unix)),
+            a.feed_moves,
+            a.feed_segments,
+        );
+        match a.arcs_as_segments {
+            0 => {}
+            1 => line.push_str(" (1 arc as segments)"),
+            n => line.push_str(&format!(" ({n} arcs as segments)")),
+        }
+        line.push_str(&format!(", rapids raised {:.3} mm", a.rapids_raised));
+        if a.z_zero_moved.abs() > 5e-4 {
+            line.push_str(&format!(
+                "; the Z zero moved {:+.3} mm since probing: the cut moves with it",
+                a.z_zero_moved
+            ));
+        }
+        line.push('\n');
+        line
+    }
+}
+
+/// How long ago a map was probed: minutes, hours or days.
+fn age(seconds: i64) -> String {
+    match seconds {
+        s if s < 0 => "in the future (check this computer's clock)".to_owned(),
+        s if s < 3600 => format!("{} min ago", s / 60),
+        s if s < 2 * 86_400 => format!("{} h {} min ago", s / 3600, s / 60 % 60),
+        s => format!("{} days ago", s / 86_400),
+    }
+}
+
+/// The name a G-code file goes by in its program's header and reports:
+/// its file name.
+pub fn header_name(path: &std::path::Path) -> String {
+    path.file_name().map_or_else(
+        || path.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    )
+}
+
 fn at_start(message: impl Into<String>) -> Vec<Diagnostic> {
     vec![Diagnostic::error(Origin { line: 1, col: 1 }, message)]
 }

@@ -79,6 +79,7 @@ macro_rules! editor_context {
             setup: &$model.setup,
             machine: &$model.machine,
             positions: &$model.positions,
+            offsets: &$model.keypad.offsets.table,
             now: $model.now,
             palette: &$model.palette,
             keymap: &$model.keymap,

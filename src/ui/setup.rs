@@ -44,6 +44,9 @@ pub struct Setup {
     pub program_memory: Option<usize>,
     /// The profile's `[probe]` table (`docs/probing.md`).
     pub probe: crate::config::probe::ProbeProfile,
+    /// The whole profile, for what needs all of it: a G-code job opened in
+    /// the console is imported (and checked again) against it.
+    pub profile: Arc<Profile>,
 }
 
 impl Setup {
@@ -70,6 +73,7 @@ impl Setup {
             inputs: crate::device::inputs::channels::shared(profile),
             program_memory: profile.gcode.memory,
             probe: profile.probe.clone(),
+            profile: Arc::new(profile.clone()),
         }
     }
 

@@ -656,25 +656,3 @@ fn import_json_gives_the_figures_of_the_file_worked_out_by_hand() {
             .is_some_and(|m| m.contains("spindle speed"))
     );
 }
-
-#[test]
-fn the_console_refuses_gcode_that_does_not_import_before_it_takes_the_terminal() {
-    let dir = tempfile::tempdir().expect("dir");
-    let file = dir.path().join("bad.nc");
-    std::fs::write(&file, "G21\nG0 X1\nG41 D1 X2\n").expect("write");
-    let out = std::process::Command::new(crate::sim_process::JOGTERM)
-        .arg("--program")
-        .arg(&file)
-        .env("JOGTERM_CONFIG_DIR", "/nonexistent-jogterm-config")
-        .env("JOGTERM_STATE_DIR", dir.path())
-        .stdin(std::process::Stdio::null())
-        .output()
-        .expect("run the console");
-    let said = text(&out.stderr);
-    assert_eq!(out.status.code(), Some(1), "{said}");
-    assert!(
-        said.contains(&format!("{}:3:1: error: G41", file.display())),
-        "{said}"
-    );
-    assert!(!contains_panic(&out.stderr), "{said}");
-}

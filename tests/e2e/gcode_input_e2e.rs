@@ -193,7 +193,11 @@ fn one_error_is_reported_once_without_false_ones_in_line_order() {
     .expect("write");
     let out = import_bounded(&no_unit);
     assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
-    assert!(errors_of(&out, &no_unit).is_empty(), "{}", text(&out.stderr));
+    assert!(
+        errors_of(&out, &no_unit).is_empty(),
+        "{}",
+        text(&out.stderr)
+    );
     let said = format!("{}{}", text(&out.stdout), text(&out.stderr));
     let warnings: Vec<&str> = said.lines().filter(|l| l.contains(": warning: ")).collect();
     assert_eq!(warnings.len(), 1, "{said}");

@@ -380,25 +380,34 @@ fn upload_with_a_height_map_ends_on_the_surface_at_the_jobs_depth() {
 /// The console's `--program job.nc --height-map map.json`: the program in
 /// the editor is the one on the surface, with the console's own work
 /// offsets (a fresh state: G54 at the reference point, so the map is
-/// probed there, its surface 10 mm above it); a map of another offset is
-/// refused before the terminal is taken.
+/// probed there, its surface 10 mm above it); a map of another offset
+/// opens the job with that error in its job panel, nothing to run; a map
+/// for a controller program is refused before the terminal is taken.
 #[test]
 fn the_console_opens_a_gcode_job_on_a_height_map() {
     let (dir, config, state) = crate::editor_e2e::dirs();
     let job = write(dir.path(), "job.nc", JOB);
     let g55 = write(dir.path(), "g55.json", &map_json("G55", [0.0; 3], 10.0));
-    let out = std::process::Command::new(JOGTERM)
-        .args(["--program", &job, "--height-map", &g55])
-        .env("JOGTERM_CONFIG_DIR", &config)
-        .env("JOGTERM_STATE_DIR", &state)
-        .stdin(std::process::Stdio::null())
-        .output()
-        .expect("run the console");
-    let said = text(&out.stderr);
-    assert_eq!(out.status.code(), Some(1), "{said}");
+    let mut run = crate::editor_e2e::spawn_sized(
+        &["--program", &job, "--height-map", &g55],
+        &config,
+        &state,
+        (40, 160),
+    );
+    let screen = crate::editor_e2e::wait_for(&run, "does not run");
+    // Wrapped in the job panel.
     assert!(
-        said.contains("the height map was probed in work offset G55, and the job runs in G54"),
-        "{said}"
+        screen.contains("the height map was probed in work offset")
+            && screen.contains("G55, and the job runs in G54"),
+        "{screen}"
+    );
+    run.type_keys(&[b"\x1bOS"]);
+    crate::editor_e2e::wait_for(&run, "Position");
+    run.type_keys(&[b"q"]);
+    assert_eq!(
+        run.wait_exit(crate::sim_process::WAIT),
+        Some(0),
+        "the console ends"
     );
     let program = write(dir.path(), "p.isel", "77\n9\n");
     let out = std::process::Command::new(JOGTERM)

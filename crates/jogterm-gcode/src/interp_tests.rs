@@ -134,7 +134,11 @@ fn the_profiles_unit_is_said_once_where_the_file_first_needs_it() {
         .collect();
     assert_eq!(said.len(), 1, "{:?}", path.warnings);
     assert_eq!((said[0].origin.line, said[0].origin.col), (2, 4));
-    assert!(said[0].message.contains("millimetres"), "{}", said[0].message);
+    assert!(
+        said[0].message.contains("millimetres"),
+        "{}",
+        said[0].message
+    );
 
     let path = interpret("G21\nG0 X1\n", &setup()).expect("accepted");
     assert!(path.warnings.is_empty(), "{:?}", path.warnings);

@@ -38,6 +38,9 @@ pub struct Context<'a> {
     pub machine: &'a MachineState,
     /// The axes' positions as last reported (measured or estimated).
     pub positions: &'a Positions,
+    /// The session's work offsets (`O`, `s`, a probe): what a G-code job
+    /// opened here is placed with, and checked again with when they change.
+    pub offsets: &'a crate::offsets::WorkOffsets,
     /// The model's time (the last tick or key).
     pub now: Instant,
     pub palette: &'a Palette,

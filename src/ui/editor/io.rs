@@ -48,6 +48,9 @@ pub enum EditorIo {
     },
     /// Lint and trace a snapshot (CPU only; the lint thread, latest wins).
     Lint(Box<LintJob>),
+    /// Import a G-code file (or check its text again) for the console's
+    /// profile and work offsets (`gcode_open`).
+    ImportGcode(Box<super::gcode_open::GcodeJob>),
 }
 
 /// Why a save did not happen.
@@ -64,6 +67,15 @@ pub enum SaveFailure {
 pub enum EditorMsg {
     /// Open this program (the command line's `--program`).
     Open(PathBuf),
+    /// Open this G-code file as a job (the command line's `--program
+    /// part.nc`, with its `--height-map`): imported with the console's
+    /// work offsets.
+    OpenGcode {
+        path: PathBuf,
+        height_map: Option<std::sync::Arc<crate::gcode::HeightMapFile>>,
+    },
+    /// A G-code job imported or checked again (`gcode_open::check`).
+    GcodeChecked(Box<super::gcode_open::GcodeChecked>),
     /// A program converted from G-code (the command line's `--program
     /// part.nc`, `docs/gcode.md`): opened unsaved under `path`, with what
     /// the import said of the G-code.
@@ -173,5 +185,13 @@ pub fn perform(io: EditorIo) -> EditorMsg {
                 .collect(),
         ),
         EditorIo::Lint(job) => EditorMsg::Linted(Box::new(job.run())),
+        EditorIo::ImportGcode(job) => {
+            let mut job = *job;
+            // Stamped here: the model reads no clocks.
+            job.now_unix = SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map_or(0, |d| i64::try_from(d.as_secs()).unwrap_or(i64::MAX));
+            EditorMsg::GcodeChecked(Box::new(super::gcode_open::check(job)))
+        }
     }
 }

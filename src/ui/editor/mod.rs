@@ -30,10 +30,13 @@ pub mod checkout;
 pub mod checks;
 pub mod component;
 pub mod dialog;
+pub mod gcode_open;
 pub mod highlight;
 pub mod io;
 pub mod job;
+pub mod job_report;
 pub mod layout;
+pub mod progress;
 pub mod search;
 pub mod update;
 pub mod upload;
@@ -60,7 +63,8 @@ pub use component::{Context, Effect, Focus, Input, Note, Outcome};
 /// they keep changing (and within this time of the first change).
 pub const AUTOSAVE_EVERY: Duration = Duration::from_secs(2);
 
-/// Which planes the toolpath preview shows.
+/// What the panel beside the editor shows: the toolpath preview's planes,
+/// or the job panel of a G-code job (`job_report`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Planes {
     /// XY, and XZ below it when there is room and a Z axis.
@@ -69,14 +73,20 @@ pub enum Planes {
     Xy,
     Xz,
     Off,
+    /// The job panel (only while a G-code job is open; else as `Both`).
+    Job,
 }
 
 impl Planes {
-    pub fn next(self) -> Planes {
+    /// The next view of the toggle key; the job panel is in the round
+    /// only while there is a job to show.
+    pub fn next(self, has_job: bool) -> Planes {
         match self {
+            Planes::Job => Planes::Both,
             Planes::Both => Planes::Xy,
             Planes::Xy => Planes::Xz,
             Planes::Xz => Planes::Off,
+            Planes::Off if has_job => Planes::Job,
             Planes::Off => Planes::Both,
         }
     }
@@ -152,6 +162,10 @@ pub struct Editor {
     pub run_segment: Option<usize>,
     /// The G-code the text was converted from (`--program part.nc`).
     pub gcode: Option<job::Gcode>,
+    /// The G-code file opened as a job, with its job panel (`gcode_open`):
+    /// kept when it did not import, so that it is checked again when the
+    /// work offset changes.
+    pub job: Option<gcode_open::OpenJob>,
     /// A job running in parts from here (`docs/editor.md`, "G-code").
     pub chunked: Option<job::Chunked>,
     /// The outputs of the job run from here, switched off when it ends
@@ -219,6 +233,7 @@ impl Editor {
             run_path: None,
             run_segment: None,
             gcode: None,
+            job: None,
             chunked: None,
             outputs: job::JobOutputs::default(),
         }
@@ -310,6 +325,7 @@ impl Editor {
         self.checks.reset(self.buffer.line_count(), now);
         self.upload.clear();
         self.gcode = None;
+        self.job = None;
         self.top = 0;
         self.left = 0;
         self.teach.previous = None;

@@ -11,6 +11,7 @@
 
 mod checkout;
 mod files;
+mod gcode;
 mod job;
 mod machine;
 mod outputs;
@@ -268,7 +269,7 @@ impl Step<'_, '_> {
             }
             Action::Circle => self.circle_form(),
             Action::JumpTarget => self.jump_target(),
-            Action::TogglePreview => self.e.planes = self.e.planes.next(),
+            Action::TogglePreview => self.e.planes = self.e.planes.next(self.e.job.is_some()),
             Action::Checkout => self.checkout_ask(false),
             Action::CheckoutFromLine => self.checkout_ask(true),
             _ => {}

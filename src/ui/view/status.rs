@@ -82,10 +82,34 @@ impl Widget for StatusBar<'_> {
             }
             _ => {}
         }
-        let state = Span::styled(
-            format!(" {} ", summary.word),
-            base.patch(severity_style(p, summary.severity)),
+        // A job run from the editor: its progress in place of the bare
+        // word, and the rest of the line made to give way to it.
+        let job = model.editor.job_status(
+            model.now,
+            model.machine.activity == crate::device::api::Activity::RunningProgram,
         );
+        if job.is_some() && width < 100 {
+            poll = match &model.stats {
+                Some(s) => format!("{:.0} Hz ", s.position_rate_hz),
+                None => String::new(),
+            };
+        }
+        let short_link = format!(" {} ", model.setup.protocol);
+        let state_text = match &job {
+            Some(j) => {
+                let room = width
+                    .saturating_sub(short_link.len() + link_text.len() + 1 + poll.len() + 2)
+                    .max(j.word.len() + 2);
+                fit(&format!(" {} {} ", j.word, j.progress), room)
+            }
+            None => format!(" {} ", summary.word),
+        };
+        let state_style = match &job {
+            Some(j) if j.waiting.is_some() => base.patch(p.danger),
+            Some(_) => base.patch(p.ok),
+            None => base.patch(severity_style(p, summary.severity)),
+        };
+        let state = Span::styled(state_text, state_style);
         let right = Span::styled(poll, base);
         let fixed = state.width() + right.width() + 2;
         let link_full = format!(
@@ -95,7 +119,7 @@ impl Widget for StatusBar<'_> {
         let link = if fixed + link_full.len() + link_text.len() <= width {
             link_full
         } else {
-            format!(" {} ", model.setup.protocol)
+            short_link
         };
         let mut spans = vec![
             Span::styled(link, base),
@@ -121,10 +145,13 @@ impl Widget for MessageLine<'_> {
         let line = if let Some(m) = model.fresh_message() {
             let marker = note_marker(m.level);
             let room = width.saturating_sub(marker.len() + 1);
-            // A message cut to the line says where it is whole.
+            // A message cut to the line says where it is whole; not where
+            // that key types a letter (the editor, the command line).
+            let typing = crate::ui::typing::text_field(model).is_some() && model.popup.is_none();
             let whole = model
                 .keymap
                 .key_for(Mode::Main, Action::Messages)
+                .filter(|k| !(typing && k.typed_char().is_some()))
                 .map(|k| format!(" [{k}: all]"))
                 .filter(|_| Span::raw(m.text.as_str()).width() > room)
                 .unwrap_or_default();
@@ -134,6 +161,16 @@ impl Widget for MessageLine<'_> {
                 Span::styled(fit(&m.text, room), note_style(p, m.level)),
                 Span::styled(whole, p.key),
             ])
+        } else if let Some(waiting) = model
+            .editor
+            .job_status(
+                model.now,
+                model.machine.activity == crate::device::api::Activity::RunningProgram,
+            )
+            .and_then(|j| j.waiting)
+        {
+            // A job waiting for the operator says so until it goes on.
+            Line::from(Span::styled(fit(&waiting, width), p.warning))
         } else {
             let summary = summarise(model);
             match summary.detail {

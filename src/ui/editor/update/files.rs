@@ -49,6 +49,11 @@ impl Step<'_, '_> {
                     self.say(level, text);
                 }
             }
+            EditorMsg::OpenGcode { path, height_map } => {
+                self.open();
+                self.open_gcode(path, height_map);
+            }
+            EditorMsg::GcodeChecked(checked) => self.gcode_checked(*checked),
             EditorMsg::Scan => {
                 if let Some(store) = self.e.store.clone() {
                     self.io(EditorIo::ScanRecoveries { store });
@@ -116,6 +121,10 @@ impl Step<'_, '_> {
     }
 
     pub(super) fn load(&mut self, path: PathBuf) {
+        if crate::gcode::is_gcode_path(&path) {
+            self.open_gcode(path, None);
+            return;
+        }
         let store = self.e.store.clone();
         self.io(EditorIo::Load { path, store });
     }
@@ -392,6 +401,7 @@ impl Step<'_, '_> {
         self.stream_renew();
         self.checkout_tick();
         self.outputs_tick();
+        self.recheck_gcode();
         let now = self.ctx.now;
         let (_, start) = self.starts();
         self.e.checks.start_moved(start, now);

@@ -39,6 +39,8 @@ struct Host {
     focused: bool,
     /// The editor's dialog in the popup slot.
     dialog: Option<Dialog>,
+    /// The session's work offsets.
+    offsets: crate::offsets::WorkOffsets,
 }
 
 impl Host {
@@ -72,6 +74,7 @@ impl Host {
             now: Instant::now(),
             focused: false,
             dialog: None,
+            offsets: crate::offsets::WorkOffsets::default(),
         }
     }
 
@@ -80,6 +83,7 @@ impl Host {
             setup: &self.setup,
             machine: &self.machine,
             positions: &self.positions,
+            offsets: &self.offsets,
             now: self.now,
             palette: &self.palette,
             keymap: &self.keymap,
@@ -522,6 +526,7 @@ fn the_program_screen_opens_and_closes_and_forms_take_characters() {
 }
 
 mod checkout;
+mod gcode;
 mod job;
 mod outputs;
 

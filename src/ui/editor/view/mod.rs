@@ -5,6 +5,7 @@
 //! around it and the dialogs over it.
 
 pub mod dialog;
+pub mod job_panel;
 pub mod panel;
 pub mod preview;
 
@@ -32,8 +33,13 @@ impl Widget for ProgramView<'_> {
             areas: a,
         }
         .render(a.editor, buf);
-        if let Some(preview) = a.preview {
-            preview::PreviewView { editor, context }.render(preview, buf);
+        if let Some(side) = a.preview {
+            match (&editor.job, editor.planes) {
+                (Some(job), super::Planes::Job) => {
+                    job_panel::JobPanelView { job, context }.render(side, buf);
+                }
+                _ => preview::PreviewView { editor, context }.render(side, buf),
+            }
         }
     }
 }

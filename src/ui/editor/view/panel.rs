@@ -84,6 +84,43 @@ pub fn title_text(e: &Editor, ctx: &Context) -> String {
         .collect()
 }
 
+/// `spans` within `room` columns, cut only between words and then marked
+/// `…`: "PAUSED be" would say less than nothing (the status line has the
+/// whole of a running job).
+fn whole_words(spans: Vec<Span<'static>>, room: usize) -> Vec<Span<'static>> {
+    let mut out = Vec::new();
+    let mut used = 0;
+    for span in spans {
+        let width = span.width();
+        if used + width <= room {
+            used += width;
+            out.push(span);
+            continue;
+        }
+        let left = room.saturating_sub(used + 1);
+        let mut kept = String::new();
+        for word in span.content.split(' ') {
+            let more = if kept.is_empty() {
+                word.len()
+            } else {
+                word.len() + 1
+            };
+            if kept.chars().count() + more > left {
+                break;
+            }
+            if !kept.is_empty() {
+                kept.push(' ');
+            }
+            kept.push_str(word);
+        }
+        if !kept.is_empty() {
+            out.push(Span::styled(format!("{kept}…"), span.style));
+        }
+        break;
+    }
+    out
+}
+
 fn title_extra(e: &Editor, ctx: &Context) -> Vec<Span<'static>> {
     let p = ctx.palette;
     let mut out = Vec::new();
@@ -205,7 +242,9 @@ impl Widget for EditorView<'_> {
         let p = ctx.palette;
         let a = self.areas;
         let focused = ctx.focused && !ctx.popup_open;
-        frame::panel("Program", title_extra(e, ctx), focused, p, a.editor, buf);
+        let room = usize::from(a.editor.width).saturating_sub(" Program ".len() + 1);
+        let extra = whole_words(title_extra(e, ctx), room);
+        frame::panel("Program", extra, focused, p, a.editor, buf);
         text(e, p, a.text, focused, buf);
         if let Some(bar) = a.upload {
             upload_bar(e, ctx, bar, buf);
@@ -410,4 +449,25 @@ fn line_info(e: &Editor, p: &Palette, area: Rect, buf: &mut Buffer) {
         None => {}
     }
     Line::from(spans).render(area, buf);
+}
+
+#[cfg(test)]
+mod whole_word_tests {
+    use super::*;
+
+    #[test]
+    fn a_title_is_cut_between_words_and_says_so() {
+        let spans = vec![
+            Span::raw("part.isel "),
+            Span::raw("PAUSED before part 3/4 12 s "),
+        ];
+        let text =
+            |v: Vec<Span<'static>>| -> String { v.iter().map(|s| s.content.as_ref()).collect() };
+        assert_eq!(
+            text(whole_words(spans.clone(), 80)),
+            "part.isel PAUSED before part 3/4 12 s "
+        );
+        assert_eq!(text(whole_words(spans.clone(), 20)), "part.isel PAUSED…");
+        assert_eq!(text(whole_words(spans, 15)), "part.isel ");
+    }
 }

@@ -41,7 +41,7 @@ fn planes(view: &PreviewView, rows: u16) -> Vec<(Axis, Axis)> {
     let mut out = Vec::new();
     match view.editor.planes {
         Planes::Off => {}
-        Planes::Both => {
+        Planes::Both | Planes::Job => {
             if xy {
                 out.push((Axis::X, Axis::Y));
             }
