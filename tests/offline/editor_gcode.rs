@@ -148,3 +148,40 @@ fn f6_on_a_job_that_cannot_be_cut_asks_to_stream_it() {
     let shown = text(render(&m, 80, 24).backend().buffer());
     assert!(shown.contains("STREAM RUNNING"), "{shown}");
 }
+
+/// A two-tool job opened as Ctrl-O and `--program` open a G-code file
+/// (`EditorMsg::OpenGcode`, imported by the editor's worker): the job
+/// panel beside the program says its figures, tools and waits, whole at
+/// 80x24 and at 160x48.
+#[test]
+fn the_job_panel_of_an_opened_gcode_file() {
+    let t0 = Instant::now();
+    let dir = tempfile::tempdir().expect("dir");
+    let path = dir.path().join("tools.nc");
+    std::fs::write(
+        &path,
+        "(T1 D=6 flat end mill)\nG21 G90\nG0 X10 Y10 Z5\nG1 Z1 F100\nG0 Z5\nT2 M6\nG1 Z1 F100\nG0 Z5\nM0\nM30\n",
+    )
+    .expect("write");
+    let mut m = model_in(Protocol::Isel, "dark", State::Idle, t0);
+    let effects = update(
+        &mut m,
+        Msg::Editor(EditorMsg::OpenGcode {
+            path,
+            height_map: None,
+        }),
+    );
+    carry_out(&mut m, effects);
+    settle(&mut m, t0);
+    let job = m.editor.job.as_ref().expect("the job is open");
+    assert!(job.report.figures.is_some(), "{:?}", job.report.errors);
+    // The message line says the temporary path: not part of the picture.
+    m.message = None;
+    for (w, h) in SIZES {
+        let shown = text(render(&m, w, h).backend().buffer());
+        for needle in ["Job tools.nc", "tools: T2", "2 waits for the", "line 6:"] {
+            assert!(shown.contains(needle), "{w}x{h}: `{needle}`:\n{shown}");
+        }
+        insta::assert_snapshot!(format!("editor_gcode_job_panel_{w}x{h}"), shown);
+    }
+}

@@ -132,9 +132,48 @@ pub fn fit(text: &str, width: usize) -> String {
     out
 }
 
+/// Rows `text` takes when ratatui's `Wrap` breaks it between words at
+/// `width` columns (a word longer than the line is cut): what a popup
+/// must make room for so that its last words are not lost (a count of
+/// characters over the width comes short when words move to the next row).
+pub fn wrapped_rows(text: &str, width: usize) -> usize {
+    let width = width.max(1);
+    let mut rows = 1;
+    let mut used = 0;
+    for word in text.split_whitespace() {
+        let w = Span::raw(word).width();
+        let need = if used == 0 { w } else { used + 1 + w };
+        if need <= width {
+            used = need;
+            continue;
+        }
+        if used > 0 {
+            rows += 1;
+        }
+        // A word longer than a row takes rows of its own.
+        rows += w.saturating_sub(1) / width;
+        used = match w % width {
+            0 => width,
+            r => r,
+        };
+    }
+    rows
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn wrapped_rows_count_the_words_that_move_to_the_next_row() {
+        assert_eq!(wrapped_rows("", 10), 1);
+        assert_eq!(wrapped_rows("aaaa bbbb", 9), 1);
+        // 14 characters in 10 columns: 2 by count, 2 by words.
+        assert_eq!(wrapped_rows("aaaaaa bbbbbbb", 10), 2);
+        // 20 characters, 2 rows by count, 3 by words.
+        assert_eq!(wrapped_rows("aaaaaaa bbbbbbb cccc", 10), 3);
+        assert_eq!(wrapped_rows("x aaaaaaaaaaaaaaaaaaaaaaaaa", 10), 4);
+    }
 
     fn items(words: &[&'static str]) -> Vec<Item<'static>> {
         words

@@ -122,7 +122,7 @@ impl Widget for QuestionView<'_> {
         let text_rows = (c
             .question
             .split('\n')
-            .map(|l| l.chars().count().div_ceil(text_w).max(1))
+            .map(|l| super::flow::wrapped_rows(l, text_w))
             .sum::<usize>()
             + 1) as u16;
         // Borders, the question, a blank line, the answer keys.

@@ -11,16 +11,12 @@ use ratatui::widgets::{Paragraph, Widget, Wrap};
 use crate::ui::editor::Context;
 use crate::ui::editor::gcode_open::OpenJob;
 use crate::ui::editor::job_report::Tone;
+use crate::ui::view::flow::wrapped_rows;
 use crate::ui::view::frame;
 
 pub struct JobPanelView<'a> {
     pub job: &'a OpenJob,
     pub context: &'a Context<'a>,
-}
-
-/// Rows `text` takes wrapped at `width` columns (at least one).
-fn rows(text: &str, width: usize) -> usize {
-    text.chars().count().div_ceil(width.max(1)).max(1)
 }
 
 impl Widget for JobPanelView<'_> {
@@ -32,17 +28,23 @@ impl Widget for JobPanelView<'_> {
         } else {
             Vec::new()
         };
-        let inner = frame::panel(&format!("Job {name}"), extra, false, p, area, buf);
-        if inner.height == 0 || inner.width < 4 {
+        let framed = frame::panel(&format!("Job {name}"), extra, false, p, area, buf);
+        if framed.height == 0 || framed.width < 5 {
             return;
         }
+        // One blank column apart from the program's comments beside it.
+        let inner = Rect {
+            x: framed.x + 1,
+            width: framed.width - 1,
+            ..framed
+        };
         let width = usize::from(inner.width);
         let height = usize::from(inner.height);
         let all = self.job.report.lines();
         let mut shown = Vec::new();
         let mut used = 0;
         for (k, (tone, text)) in all.iter().enumerate() {
-            let need = rows(text, width);
+            let need = wrapped_rows(text, width);
             let left = all.len() - k;
             // Room for this line, and for the "more" line if others follow.
             let reserve = usize::from(left > 1);
