@@ -207,6 +207,11 @@ fn imported(
             super::import::height_map_text(m).trim().to_owned(),
         ));
     }
+    // The job log's offer, as `jogterm run` makes it (`docs/gcode.md`,
+    // "Resume"): the console runs the whole job, so it names the command.
+    if let Some(note) = super::resume::console_note(path) {
+        notes.push((NoteLevel::Warning, note));
+    }
     let header = super::import::header_name(path);
     Ok(EditorMsg::Imported {
         path: path.with_extension(extension),
