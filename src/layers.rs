@@ -26,6 +26,9 @@ const LAYERS: &[&[&str]] = &[
     &["program"],
     &["jog", "offsets", "probing"],
     &["gcode"],
+    // the job log: runs of G-code jobs (reads `program::store`'s state
+    // directory, says times as `gcode::ways` does)
+    &["joblog"],
     &["ui"],
     &["cli"],
 ];

@@ -30,6 +30,7 @@ pub mod cli;
 pub mod config;
 pub mod device;
 pub mod gcode;
+pub mod joblog;
 pub mod jog;
 #[cfg(test)]
 mod layers;

@@ -4,8 +4,8 @@
 //! the root and may be given before or after the command; each command
 //! uses the ones that mean something to it and says so in its help. Without
 //! a command jogterm runs the console (`tui`); the commands are `sim`,
-//! `send`, `poll`, `watch`, `commission`, `check`, `import`, `arc`, `upload`
-//! and `ports`.
+//! `send`, `poll`, `watch`, `commission`, `check`, `import`, `arc`, `upload`,
+//! `run`, `probe`, `log` and `ports`.
 //!
 //! Exit codes: 0 ok, 1 failure (a message on stderr), 2 bad usage (clap, and
 //! the console's configuration errors); `send`, `poll`, `watch`,
@@ -16,12 +16,14 @@ pub mod check;
 pub mod commission;
 pub mod emp;
 pub mod import;
+pub mod log;
 pub mod out;
 pub mod poll;
 pub mod ports;
 pub mod probe;
 pub mod profile;
 mod restart;
+mod resume;
 pub mod run;
 pub mod send;
 mod session;
@@ -188,6 +190,9 @@ pub enum CliCommand {
     /// Probe with the probe input: touch off Z, find an edge; sets the work offset
     #[command(long_about = probe::LONG_ABOUT, after_long_help = probe::AFTER_LONG_HELP)]
     Probe(probe::ProbeArgs),
+    /// List the runs of the job log: file, way, last line, time taken, how each ended
+    #[command(long_about = log::LONG_ABOUT, after_long_help = log::AFTER_LONG_HELP)]
+    Log(log::LogArgs),
     /// List the serial ports of this machine: by-id names, USB vendor and product, in use
     #[command(long_about = ports::LONG_ABOUT, after_long_help = ports::AFTER_LONG_HELP)]
     Ports(ports::PortsArgs),
@@ -222,6 +227,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Some(CliCommand::Import(args)) => import::run(&cli.global, args),
         Some(CliCommand::Upload(args)) => upload::run(&cli.global, args),
         Some(CliCommand::Run(args)) => run::run(&cli.global, args),
+        Some(CliCommand::Log(args)) => log::run(args),
         Some(CliCommand::Ports(args)) => ports::run(args),
         Some(CliCommand::Probe(args)) => probe::run(&cli.global, args),
         None => tui::run(

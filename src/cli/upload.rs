@@ -167,6 +167,15 @@ impl Prepared {
             .map(|o| o.line)
     }
 
+    /// The last G-code line of a converted job (or part): once it has run
+    /// to its end, so has the line (`cli::log`).
+    pub(super) fn last_gcode_line(&self) -> Option<u32> {
+        self.gcode
+            .as_ref()
+            .and_then(|g| g.lines.iter().rev().find_map(|l| l.origin))
+            .map(|o| o.line)
+    }
+
     pub(super) fn place(&self) -> super::run::stream::Place<'_> {
         super::run::stream::Place {
             name: &self.name,
@@ -176,6 +185,7 @@ impl Prepared {
                 .as_ref()
                 .map_or(self.lines.len(), |g| g.lines.len()),
             estimate_s: None,
+            log: None,
         }
     }
 }

@@ -246,6 +246,7 @@ named_enum! {
         Outputs = "outputs", "switch the named outputs (spindle, coolant, clamp …)";
         Messages = "messages", "message history: every message whole, with scrollback";
         LargeDro = "large-dro", "large position display (readable from across the workshop)";
+        JobLog = "job-log", "the job log: last runs, last line, how each ended";
         ScrollTop = "scroll-top", "to the oldest";
         ScrollBottom = "scroll-bottom", "to the newest";
         // Program check-out (issue 15, `docs/editor.md`, "Check-out").

@@ -47,6 +47,9 @@ pub enum Msg {
     Editor(EditorMsg),
     /// How a write of the work offsets file went.
     OffsetsSaved(Saved),
+    /// The job log as read for `Effect::ReadJobLog`: its table, newest
+    /// last, and its notes.
+    JobLog(Vec<String>),
 }
 
 /// What `update` asks the runtime to do. The runtime carries effects out in
@@ -64,6 +67,8 @@ pub enum Effect {
     Editor(EditorIo),
     /// Write the work offsets file (on its own thread, in order).
     SaveOffsets(SaveJob),
+    /// Read the job log (off the loop); it comes back as `Msg::JobLog`.
+    ReadJobLog,
     /// Close the device and leave (after the effects before it).
     Quit,
 }

@@ -186,6 +186,7 @@ pub async fn run<B: Backend, D: DeviceLink>(
                 Effect::Editor(crate::ui::editor::io::EditorIo::Lint(_)) if leaving => {}
                 Effect::Editor(io) => worker.submit(io),
                 Effect::SaveOffsets(job) => offsets.submit(job),
+                Effect::ReadJobLog => read_job_log(sim_tx.clone()),
                 Effect::Quit => quit = true,
             }
         }
@@ -221,6 +222,30 @@ pub async fn run<B: Backend, D: DeviceLink>(
 /// How long a `Terminate` waits for keys the input thread read before the
 /// hang-up and has not handed over yet.
 const LATE_INPUT: Duration = Duration::from_millis(200);
+
+/// The job log read off the loop (`jogterm log`'s table, newest last) and
+/// handed back as `Msg::JobLog`.
+fn read_job_log(tx: mpsc::UnboundedSender<Msg>) {
+    tokio::task::spawn_blocking(move || {
+        let lines = match crate::joblog::file::dir() {
+            Some(dir) => {
+                let folded = crate::joblog::file::read(&dir);
+                let mut lines = vec![format!(
+                    "job log {}:",
+                    dir.join(crate::joblog::file::FILE_NAME).display()
+                )];
+                lines.extend(crate::joblog::table::table(&folded.runs, JOB_LOG_RUNS));
+                lines.extend(folded.notes);
+                lines
+            }
+            None => vec!["no state directory: no job log".to_owned()],
+        };
+        let _ = tx.send(Msg::JobLog(lines));
+    });
+}
+
+/// How many runs the console shows of the job log.
+const JOB_LOG_RUNS: usize = 10;
 
 /// Keys typed before a hang-up can still be on their way when the
 /// `Terminate` of the hang-up watcher or of SIGHUP is taken: read by

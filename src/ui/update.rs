@@ -112,6 +112,14 @@ fn dispatch(model: &mut Model, msg: Msg) -> Vec<Effect> {
             model.dirty = true;
             editor_update(model, editor::Input::Msg(msg))
         }
+        // The job log's runs as notes, read in the message history.
+        Msg::JobLog(lines) => {
+            for line in lines {
+                say(model, NoteLevel::Info, line);
+            }
+            model.dirty = true;
+            open(model, Popup::Messages { back: 0 })
+        }
         Msg::OffsetsSaved(saved) => {
             if let Some((level, text)) = keypad::offsets::saved(&saved) {
                 say(model, level, text);
@@ -473,6 +481,7 @@ fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
             show(model, out, Popup::Outputs)
         }
         Action::Messages => open(model, Popup::Messages { back: 0 }),
+        Action::JobLog => vec![Effect::ReadJobLog],
         Action::LargeDro => {
             model.large_dro = !model.large_dro;
             // The panels it hides cannot keep the focus: keys must not

@@ -58,6 +58,7 @@ mod gcode_input_e2e;
 mod gcode_restart_e2e;
 mod heightmap_e2e;
 mod job_outputs_e2e;
+mod joblog_e2e;
 mod jog_terminal;
 mod jog_wire;
 mod limit_jog_e2e;

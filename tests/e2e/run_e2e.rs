@@ -39,7 +39,7 @@ const CUT_MACHINE: (&str, &str) = (
 
 /// The simulator of [`CUT_MACHINE`], at real time: a key, a hang-up or a
 /// lost line must land inside the cut (`docs/testing.md`, "The time scale").
-fn cut_controller() -> SimProcess {
+pub(crate) fn cut_controller() -> SimProcess {
     SimProcess::start_variant("isel", &[CUT_MACHINE], &["memory=30"])
 }
 
@@ -68,7 +68,7 @@ fn stands_at(sim: &mut SimProcess, work_mm: [f64; 3]) {
 }
 
 /// The axes stand at `[x, y, z]` machine steps.
-fn stands_at_steps(sim: &mut SimProcess, [x, y, z]: [i64; 3]) {
+pub(crate) fn stands_at_steps(sim: &mut SimProcess, [x, y, z]: [i64; 3]) {
     let state = sim.wait_device("standing", |s| !s.contains("moving"));
     assert!(
         state.starts_with(&format!("device: X {x} Y {y} Z {z} ")),
@@ -132,18 +132,18 @@ pub(crate) fn assert_parts_end_retracted(parts: &[Vec<&str>], safe_steps: &str, 
 /// ([`wait_in_the_slow_cut`] waits until X has left the cut's start, so
 /// the key comes early in the cut, not after a fixed sleep). Run from
 /// [`CUT_ZERO`].
-const SLOW_CUT: &str =
+pub(crate) const SLOW_CUT: &str =
     "%\nG21 G90 G17\nG0 Z5\nG0 X10 Y10\nG1 Z-1 F600\nG1 X22.5 F300\nG1 Y20 F1500\nG0 Z5\nM30\n%\n";
 
 /// Where [`SLOW_CUT`]'s cut starts and ends in X (work mm).
 const CUT_START_X: f64 = 10.0;
-const CUT_END_X: f64 = 22.5;
+pub(crate) const CUT_END_X: f64 = 22.5;
 
 /// The slow cut's work zero: next to the reference point (machine 0), so
 /// the way from the job's reference run to the cut is short (10 mm up,
 /// 10 mm over, 6 mm down, about a second) and the test's time goes to the
 /// cut that its key, hang-up or lost line must land in.
-const CUT_ZERO: &str = "X0 Y0 Z5";
+pub(crate) const CUT_ZERO: &str = "X0 Y0 Z5";
 
 /// Machine steps of a point in [`SLOW_CUT`]'s work coordinates
 /// ([`CUT_ZERO`]) at `per_mm` steps a millimetre.
@@ -153,11 +153,11 @@ fn cut_steps_at(per_mm: f64, work_mm: [f64; 3]) -> [i64; 3] {
 }
 
 /// [`cut_steps_at`] on the isel machine (400 steps/mm).
-fn cut_steps(work_mm: [f64; 3]) -> [i64; 3] {
+pub(crate) fn cut_steps(work_mm: [f64; 3]) -> [i64; 3] {
     cut_steps_at(400.0, work_mm)
 }
 
-fn write(sim: &SimProcess, name: &str, text: &str) -> String {
+pub(crate) fn write(sim: &SimProcess, name: &str, text: &str) -> String {
     let file = sim.dir.path().join(name);
     std::fs::write(&file, text).expect("write the job");
     file.display().to_string()
@@ -239,10 +239,25 @@ fn run_on_a_terminal(sim: &SimProcess, file: &str) -> PtyRun {
 /// [`run_on_a_terminal`] the way `way` (`stream`, `chunked`) from the work
 /// zero `zero`.
 fn run_on_a_terminal_as(sim: &SimProcess, file: &str, way: &str, zero: &str) -> PtyRun {
+    let mut run = spawn_on_a_terminal(sim, file, way, zero);
+    run.wait_for(
+        &format!("start the job ({way})? [y/N]"),
+        Duration::from_secs(10),
+    )
+    .expect("the confirmation");
+    run.type_text("y\r");
+    run
+}
+
+/// `jogterm run FILE --work-zero ZERO --WAY` on a terminal of its own (50
+/// by 200), configured and with the state directory of `sim`; nothing
+/// answered yet.
+pub(crate) fn spawn_on_a_terminal(sim: &SimProcess, file: &str, way: &str, zero: &str) -> PtyRun {
     let way_arg = format!("--{way}");
     let link = sim.link.display().to_string();
     let config = sim.dir.path().display().to_string();
-    let mut run = PtyRun::spawn_sized(
+    let state = sim.state_dir().display().to_string();
+    PtyRun::spawn_sized(
         Path::new(JOGTERM),
         &[
             "run",
@@ -255,17 +270,13 @@ fn run_on_a_terminal_as(sim: &SimProcess, file: &str, way: &str, zero: &str) -> 
             zero,
             &way_arg,
         ],
-        &[("JOGTERM_CONFIG_DIR", &config)],
+        &[
+            ("JOGTERM_CONFIG_DIR", &config),
+            ("JOGTERM_STATE_DIR", &state),
+        ],
         50,
         200,
-    );
-    run.wait_for(
-        &format!("start the job ({way})? [y/N]"),
-        Duration::from_secs(10),
     )
-    .expect("the confirmation");
-    run.type_text("y\r");
-    run
 }
 
 /// The X counter of the simulator's `show` line.
@@ -282,7 +293,7 @@ fn x_of(state: &str) -> i64 {
 /// axes moving with X past the cut's start and short of its end (waited
 /// for, where a fixed 800 ms sleep was: what follows lands early in the
 /// cut, whatever the load).
-fn wait_in_the_slow_cut(sim: &mut SimProcess) {
+pub(crate) fn wait_in_the_slow_cut(sim: &mut SimProcess) {
     let [start, ..] = cut_steps([CUT_START_X, 0.0, 0.0]);
     let [end, ..] = cut_steps([CUT_END_X, 0.0, 0.0]);
     let target = format!("@0M{end},");

@@ -489,9 +489,18 @@ impl SimProcess {
         }
     }
 
-    /// [`jogterm`] against this simulator's link.
+    /// [`jogterm`] against this simulator's link, with a state directory
+    /// of its own (work offsets, the job log: a run of one test never
+    /// offers a resume in another).
     pub fn jogterm(&self, args: &[&str]) -> Command {
-        jogterm(&self.link, self.family, args)
+        let mut command = jogterm(&self.link, self.family, args);
+        command.env("JOGTERM_STATE_DIR", self.state_dir());
+        command
+    }
+
+    /// The state directory of the commands run against this simulator.
+    pub fn state_dir(&self) -> PathBuf {
+        self.dir.path().join("state")
     }
 
     /// [`SimProcess::jogterm`] configured from the simulator's directory

@@ -671,3 +671,20 @@ fn a_held_macro_key_whose_repeats_come_as_presses_runs_its_macro_once() {
     let effects = update(&mut model, f9_at(at - 33 + 400));
     assert_eq!(raws(&effects), ["@0P"], "a deliberate second press runs it");
 }
+
+#[test]
+fn r_reads_the_job_log_and_its_runs_open_in_the_message_history() {
+    let mut m = ready();
+    // The key asks the runtime to read the file (no I/O in `update`).
+    assert_eq!(update(&mut m, ch('R')), vec![Effect::ReadJobLog]);
+    assert!(m.popup.is_none());
+    let table = vec![
+        "started (UTC)    file               way      line      took  estimate ended".to_owned(),
+        "2026-12-07 11:05 slow.nc            stream       5     3.0 s     4.9 s crash".to_owned(),
+    ];
+    assert!(update(&mut m, Msg::JobLog(table)).is_empty());
+    assert!(matches!(m.popup, Some(Popup::Messages { back: 0 })));
+    assert!(message(&m).ends_with("stream       5     3.0 s     4.9 s crash"));
+    let shown = text(render(&m, 80, 24).backend().buffer());
+    assert!(shown.contains("slow.nc"), "{shown}");
+}

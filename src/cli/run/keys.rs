@@ -45,6 +45,9 @@ pub const HELP: &str =
 /// test without one: then only signals stop the run).
 pub struct Keys {
     pub rx: mpsc::UnboundedReceiver<Key>,
+    /// A stop key was read, or the terminal went away: the operator ended
+    /// the run (the job log says `stopped`, not `error`).
+    pub stopped: bool,
     _mode: Option<KeyMode>,
 }
 
@@ -52,7 +55,11 @@ impl Keys {
     /// No keys: only signals stop (`jogterm upload --stream`).
     pub fn none() -> Keys {
         let (_, rx) = mpsc::unbounded_channel();
-        Keys { rx, _mode: None }
+        Keys {
+            rx,
+            stopped: false,
+            _mode: None,
+        }
     }
 
     pub fn from_stdin() -> Keys {
@@ -66,14 +73,21 @@ impl Keys {
             .name("run-keys".into())
             .spawn(move || read_keys(&tx))
             .ok();
-        Keys { rx, _mode: mode }
+        Keys {
+            rx,
+            stopped: false,
+            _mode: mode,
+        }
     }
 
     /// The next key; pending forever when there are no keys, so that a
     /// `select!` on it waits for the other branches.
     pub async fn next(&mut self) -> Key {
         match self.rx.recv().await {
-            Some(key) => key,
+            Some(key) => {
+                self.stopped |= matches!(key, Key::Stop | Key::Gone);
+                key
+            }
             None => std::future::pending().await,
         }
     }

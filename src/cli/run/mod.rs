@@ -64,6 +64,12 @@ gcode.plunge_feed); then
 the job from line N on, by the way chosen for what is left (`jogterm import --from-line N`
 shows the same without moving anything).
 
+Every run is written to the job log (`jogterm log`). After a run of the same file (same
+content) that broke off (killed, crashed, the power went, a fault, a lost line), the next run
+offers to restart from the last line that ran to its end, as --from-line would: on a terminal
+it asks; --resume takes the offer, --from-start runs the whole job, and --yes alone chooses
+neither: it refuses, nothing sent, and names both commands.
+
 Ctrl-C, SIGTERM and a hang-up stop the machine, as a lost link or a controller error ends the
 run; nothing resumes after a reconnect.";
 
@@ -79,7 +85,7 @@ Examples:
   jogterm --sim isel run examples/gcode/fusion-grbl.nc --work-zero \"X50 Y50 Z60\" --yes";
 
 /// Options of `jogterm run`.
-#[derive(Debug, Args)]
+#[derive(Debug, Clone, Args)]
 pub struct RunArgs {
     /// The job: G-code (.nc .ngc .gcode .tap .gc, or --gcode), an isel program (.isel .cnc)
     /// or an EMCU job (.emcu)
@@ -120,6 +126,14 @@ pub struct RunArgs {
     /// descend at the plunge feed, then run from the line on
     #[arg(long, value_name = "LINE")]
     pub from_line: Option<u32>,
+    /// G-code: restart from the last line the job log has of this file's last run, which broke
+    /// off (a crash, a fault, a lost line), as --from-line would
+    #[arg(long, conflicts_with_all = ["from_line", "from_start"])]
+    pub resume: bool,
+    /// G-code: run the whole job even though its last run broke off (with --yes, which alone
+    /// does not choose)
+    #[arg(long, conflicts_with = "from_line")]
+    pub from_start: bool,
 }
 
 /// What runs: the prepared program(s) and the way.
@@ -130,6 +144,8 @@ struct Job {
     estimate_s: Option<f64>,
     /// A restart's first step, before the program: Z up alone.
     retract: Option<retract::Retract>,
+    /// G-code: the work offset and its zero, for the job log.
+    offset: String,
 }
 
 pub fn run(global: &GlobalArgs, args: &RunArgs) -> anyhow::Result<ExitCode> {
@@ -143,6 +159,22 @@ pub fn run(global: &GlobalArgs, args: &RunArgs) -> anyhow::Result<ExitCode> {
     };
     let config = LintConfig::from_profile(&profile);
     let is_gcode = args.gcode || crate::gcode::is_gcode_path(&args.file);
+    // The job log: the offer to resume a run that broke off (G-code only).
+    let hash = super::log::hash_of(&args.file);
+    let resumed;
+    let mut expected_offset = None;
+    let args = match is_gcode.then(|| super::resume::decide(args, hash.as_deref())) {
+        Some(super::resume::Decision::Refused(code)) => return Ok(ExitCode::from(code)),
+        Some(super::resume::Decision::Resume { line, offset }) => {
+            expected_offset = Some(offset);
+            resumed = RunArgs {
+                from_line: Some(line),
+                ..args.clone()
+            };
+            &resumed
+        }
+        _ => args,
+    };
     let job = if is_gcode {
         match gcode_job(global, args, &profile, language, &config) {
             Ok(job) => job,
@@ -187,10 +219,15 @@ pub fn run(global: &GlobalArgs, args: &RunArgs) -> anyhow::Result<ExitCode> {
                 },
                 estimate_s: None,
                 retract: None,
+                offset: String::new(),
             },
             Err(m) => return usage(m),
         }
     };
+    if let Some(Err(m)) = expected_offset.map(|e| super::resume::same_offset(&e, &job.offset)) {
+        out::say(m);
+        return Ok(ExitCode::from(1));
+    }
     for part in &job.parts {
         for pause in part.pauses() {
             out::say(pause);
@@ -207,8 +244,18 @@ pub fn run(global: &GlobalArgs, args: &RunArgs) -> anyhow::Result<ExitCode> {
         }
     }
     let remedy = Remedy::of_command(&profile, "run");
+    let info = super::log::RunInfo {
+        file: &args.file,
+        hash: hash.unwrap_or_default(),
+        profile: &profile,
+        offset: job.offset.clone(),
+        way: job.way,
+        estimate_s: job.estimate_s,
+        from_line: args.from_line,
+    };
+    let logged = super::log::Logged::begin(&info);
     session::moving(global, profile, "run", async |session| {
-        run_job(session, &job, args, &remedy).await
+        run_job(session, &job, args, &remedy, logged).await
     })
 }
 
@@ -280,6 +327,7 @@ fn gcode_job(
             .restart
             .as_ref()
             .and_then(|r| retract::Retract::of(r, profile)),
+        offset: super::log::offset_of(&imported.import.summary),
     })
 }
 
@@ -309,17 +357,26 @@ fn confirmed(way: Way) -> Result<bool, String> {
     Ok(matches!(answer.trim(), "y" | "Y" | "yes" | "YES" | "Yes"))
 }
 
-async fn run_job(mut session: Session, job: &Job, args: &RunArgs, remedy: &Remedy) -> ExitCode {
+async fn run_job(
+    mut session: Session,
+    job: &Job,
+    args: &RunArgs,
+    remedy: &Remedy,
+    logged: super::log::Logged,
+) -> ExitCode {
     let stopper = session.handle.clone();
     let mut keys = Keys::from_stdin();
+    let mut interrupted = false;
     let code = tokio::select! {
-        code = steps(&mut session, job, args, remedy, &mut keys) => code,
+        code = steps(&mut session, job, args, remedy, &mut keys, &logged) => code,
         () = session::interrupted() => {
             let _ = stopper.stop().written().await;
             session::say_interrupted("run", session::Moves::Yes);
+            interrupted = true;
             1
         }
     };
+    logged.end(code, interrupted || keys.stopped);
     drop(keys);
     if let Some(ended) = outputs::ended_by(code) {
         let on = upload::job_outputs(&job.parts);
@@ -335,6 +392,7 @@ async fn steps(
     args: &RunArgs,
     remedy: &Remedy,
     keys: &mut Keys,
+    logged: &super::log::Logged,
 ) -> u8 {
     let result = async {
         if let Linked::Failed(reason) = session.linked(Duration::from_secs(10)).await {
@@ -358,6 +416,7 @@ async fn steps(
             ));
             let place = stream::Place {
                 estimate_s: job.estimate_s,
+                log: Some(logged),
                 ..part.place()
             };
             return stream::run(
@@ -391,6 +450,9 @@ async fn steps(
                 out::say(lost_in_part(job, k, args));
             }
             ran?;
+            if let Some(line) = part.last_gcode_line() {
+                logged.line(line);
+            }
         }
         Ok(())
     }

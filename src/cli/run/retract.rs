@@ -41,6 +41,8 @@ pub struct Retract {
     /// The program begins with a reference run, Z first: with Z not
     /// referenced, that run takes the tool out of the part, Z alone.
     pub reference_first: bool,
+    /// isel: the device number, for `@0z0` before the retract.
+    pub isel_device: Option<u8>,
 }
 
 impl Retract {
@@ -55,6 +57,8 @@ impl Retract {
             z: z.to_steps(restart.safe_z),
             hz: z.speed_hz(speed),
             reference_first: restart.reference_first,
+            isel_device: (profile.connection.protocol == crate::proto::Protocol::Isel)
+                .then_some(profile.isel.device),
         })
     }
 }
@@ -153,6 +157,9 @@ async fn where_z_stands(
 /// A relative move of Z alone from `from` up to `to.z`, followed to its
 /// end; refused (exit 1) when the controller ends it anywhere else.
 async fn step_z(session: &mut Session, to: Retract, from: i64, remedy: &Remedy) -> Status {
+    if let Some(device) = to.isel_device {
+        two_and_a_half_d(session, device, remedy).await?;
+    }
     let request = Request::Step {
         delta: PerAxis::new().with(Axis::Z, to.z - from),
         speed_hz: PerAxis::new().with(Axis::Z, to.hz),
@@ -202,6 +209,40 @@ async fn step_z(session: &mut Session, to: Retract, from: i64, remedy: &Remedy) 
             Ok(Some(_)) => {}
             Ok(None) => return Err(lost("the device task ended")),
             Err(_) => return Ok(()),
+        }
+    }
+}
+
+/// isel: 3D interpolation off (`@0z0`, manual 2.2.29) before the retract.
+/// A run that broke off without a power cycle (jogterm killed, a lost
+/// line) leaves the controller in 3D, where the x speed of a relative move
+/// is its path speed: Z alone would crawl up at the X pair's filler speed
+/// (the start-stop frequency, 300 Hz: 8 s for 6 mm) and the driver, which
+/// starts each session believing 2.5D, would take the late answer for a
+/// lost line. The program that follows sets 3D again itself.
+async fn two_and_a_half_d(session: &mut Session, device: u8, remedy: &Remedy) -> Status {
+    let line = format!("@{device}z0");
+    if session
+        .handle
+        .request(Request::Raw { line: line.clone() })
+        .is_err()
+    {
+        return Err(lost("the device task ended"));
+    }
+    loop {
+        match next(session).await? {
+            // The one raw line in flight is this one; an error answer
+            // comes as a fault.
+            Event::Reply {
+                kind: crate::device::api::ReplyKind::Answer,
+                ..
+            } => return Ok(()),
+            Event::Refused { reason, .. } => {
+                return Err(upload::refused("the retract", &reason, remedy));
+            }
+            Event::Fault(f) => return Err(ended_with(&f.code, &f.meaning)),
+            Event::Link(LinkState::Lost { reason }) => return Err(lost(&reason)),
+            _ => {}
         }
     }
 }

@@ -127,11 +127,28 @@ pub struct Place<'a> {
     /// The way's estimate in seconds: the time left until the pace of the
     /// first lines (a reference run among them) says more.
     pub estimate_s: Option<f64>,
+    /// The job log, told each G-code line that ran to its end.
+    pub log: Option<&'a crate::cli::log::Logged>,
 }
 
 impl Place<'_> {
     fn origin(&self, index: usize) -> Option<crate::gcode::Origin> {
         self.gcode?.lines.get(index)?.origin
+    }
+
+    /// The G-code line that has run to its end once command `index` has:
+    /// `None` while the line has commands left (an arc's chords).
+    fn finished_line(&self, index: usize) -> Option<u32> {
+        let line = self.origin(index)?.line;
+        let next = self.origin(index + 1).map(|o| o.line);
+        (next != Some(line)).then_some(line)
+    }
+
+    /// Command `index` has run to its end: tell the job log.
+    fn completed(&self, index: Option<usize>) {
+        if let (Some(log), Some(line)) = (self.log, index.and_then(|k| self.finished_line(k))) {
+            log.line(line);
+        }
     }
 
     fn at(&self, index: usize) -> String {
@@ -197,8 +214,13 @@ pub async fn run(
     let mut ids = 1u64;
     let mut position: Option<[i64; 4]> = None;
     let mut last = None;
+    let mut previous = None;
     while let Some(next) = feed.step(control.percent) {
         let index = feed.line().unwrap_or(0);
+        // The command before this one has run to its end.
+        if previous != Some(index) {
+            place.completed(previous.replace(index));
+        }
         // The end names the last line of the file that ran, not a command
         // the conversion added after it (the closing `9`).
         if place.gcode.is_none() || place.origin(index).is_some() {
@@ -274,6 +296,7 @@ pub async fn run(
         }
         feed.advance(byte);
     }
+    place.completed(previous);
     progress.done(place, last, started);
     out::say(format_args!(
         "the stream ended after {:.1} s",

@@ -78,6 +78,7 @@ pub use crate::gcode::import::header_name;
 /// editor's worker.
 pub fn check(mut job: GcodeJob) -> GcodeChecked {
     let name = job.path.display().to_string();
+    let rechecked = job.source.is_some();
     let source = match job.source.clone() {
         Some(text) => text,
         None => match crate::program::store::load(&job.path) {
@@ -143,6 +144,13 @@ pub fn check(mut job: GcodeJob) -> GcodeChecked {
             )];
             if let Some(m) = &import.height_map {
                 notes.push((NoteLevel::Info, m.describe(job.now_unix).trim().to_owned()));
+            }
+            // The job log's offer (docs/gcode.md, "Resume"), said once, when
+            // the file is opened rather than checked again.
+            if !rechecked {
+                if let Some(note) = crate::joblog::resume::console_note(&job.path) {
+                    notes.push((NoteLevel::Warning, note));
+                }
             }
             GcodeChecked {
                 opened: Some(Opened {
