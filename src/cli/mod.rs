@@ -15,6 +15,7 @@ pub mod arc;
 pub mod check;
 pub mod commission;
 pub mod emp;
+pub mod frame;
 pub mod import;
 pub mod out;
 pub mod poll;
@@ -184,6 +185,9 @@ pub enum CliCommand {
     /// Probe with the probe input: touch off Z, find an edge; sets the work offset
     #[command(long_about = probe::LONG_ABOUT, after_long_help = probe::AFTER_LONG_HELP)]
     Probe(probe::ProbeArgs),
+    /// Trace the rectangle of a G-code job's extents at its safe height, at the jog speed
+    #[command(long_about = frame::LONG_ABOUT, after_long_help = frame::AFTER_LONG_HELP)]
+    Frame(frame::FrameArgs),
     /// List the serial ports of this machine: by-id names, USB vendor and product, in use
     #[command(long_about = ports::LONG_ABOUT, after_long_help = ports::AFTER_LONG_HELP)]
     Ports(ports::PortsArgs),
@@ -214,6 +218,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Some(CliCommand::Run(args)) => run::run(&cli.global, args),
         Some(CliCommand::Ports(args)) => ports::run(args),
         Some(CliCommand::Probe(args)) => probe::run(&cli.global, args),
+        Some(CliCommand::Frame(args)) => frame::run(&cli.global, args),
         None => tui::run(
             &cli.global,
             cli.program.as_deref(),
