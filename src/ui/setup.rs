@@ -44,6 +44,9 @@ pub struct Setup {
     pub program_memory: Option<usize>,
     /// The profile's `[probe]` table (`docs/probing.md`).
     pub probe: crate::config::probe::ProbeProfile,
+    /// The simulator's button wired as the machine's start key, or why
+    /// there is none (`sim::start_key`).
+    pub sim_start_key: Result<crate::sim::start_key::StartKey, String>,
 }
 
 impl Setup {
@@ -70,6 +73,7 @@ impl Setup {
             inputs: crate::device::inputs::channels::shared(profile),
             program_memory: profile.gcode.memory,
             probe: profile.probe.clone(),
+            sim_start_key: crate::sim::start_key::StartKey::of(profile),
         }
     }
 

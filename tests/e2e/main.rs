@@ -74,6 +74,7 @@ mod run_e2e;
 mod sim_shell_faults;
 mod sim_shell_pty;
 mod sim_shell_timing;
+mod sim_start_e2e;
 mod sim_time_scale;
 mod stops_cli;
 mod stops_console;

@@ -9,6 +9,7 @@
 pub mod keys;
 pub(super) mod outputs;
 pub mod retract;
+pub mod sim_start;
 pub mod stream;
 
 use std::io::IsTerminal;
@@ -120,6 +121,10 @@ pub struct RunArgs {
     /// descend at the plunge feed, then run from the line on
     #[arg(long, value_name = "LINE")]
     pub from_line: Option<u32>,
+    /// On the built-in simulator: press its start key (what M0, M1 and tool changes wait
+    /// for) every SECONDS while the job runs, or once per line on stdin (`stdin`)
+    #[arg(long, value_name = "SECONDS|stdin", value_parser = sim_start::parse)]
+    pub sim_start_key: Option<sim_start::SimStart>,
 }
 
 /// What runs: the prepared program(s) and the way.
@@ -206,10 +211,37 @@ pub fn run(global: &GlobalArgs, args: &RunArgs) -> anyhow::Result<ExitCode> {
             Err(m) => return usage(m),
         }
     }
+    let presses = match sim_start_key(args, &profile) {
+        Ok(p) => p,
+        Err(m) => return usage(m),
+    };
     let remedy = Remedy::of_command(&profile, "run");
     session::moving(global, profile, "run", async |session| {
-        run_job(session, &job, args, &remedy).await
+        run_job(session, &job, args, &remedy, presses).await
     })
+}
+
+/// `--sim-start-key`, checked: on the built-in simulator only, with a start
+/// key it can press, `stdin` only from a pipe (a terminal's keys are the
+/// run's).
+fn sim_start_key(
+    args: &RunArgs,
+    profile: &crate::config::profile::Profile,
+) -> Result<Option<(sim_start::SimStart, crate::sim::start_key::StartKey)>, String> {
+    let Some(when) = args.sim_start_key else {
+        return Ok(None);
+    };
+    if !profile.connection.is_simulator() {
+        return Err("--sim-start-key presses the built-in simulator's start key: use --sim".into());
+    }
+    if when == sim_start::SimStart::Stdin && std::io::stdin().is_terminal() {
+        return Err(
+            "--sim-start-key stdin reads lines from a pipe; on a terminal give seconds".into(),
+        );
+    }
+    let key = crate::sim::start_key::StartKey::of(profile)
+        .map_err(|why| format!("--sim-start-key: {why}"))?;
+    Ok(Some((when, key)))
 }
 
 /// The G-code job imported, its ways estimated and said, the way taken.
@@ -309,9 +341,20 @@ fn confirmed(way: Way) -> Result<bool, String> {
     Ok(matches!(answer.trim(), "y" | "Y" | "yes" | "YES" | "Yes"))
 }
 
-async fn run_job(mut session: Session, job: &Job, args: &RunArgs, remedy: &Remedy) -> ExitCode {
+async fn run_job(
+    mut session: Session,
+    job: &Job,
+    args: &RunArgs,
+    remedy: &Remedy,
+    presses: Option<(sim_start::SimStart, crate::sim::start_key::StartKey)>,
+) -> ExitCode {
     let stopper = session.handle.clone();
     let mut keys = Keys::from_stdin();
+    let presses = presses.and_then(|(when, key)| {
+        session
+            .simulator()
+            .map(|control| sim_start::Presses::start(when, control, key))
+    });
     let code = tokio::select! {
         code = steps(&mut session, job, args, remedy, &mut keys) => code,
         () = session::interrupted() => {
@@ -321,6 +364,7 @@ async fn run_job(mut session: Session, job: &Job, args: &RunArgs, remedy: &Remed
         }
     };
     drop(keys);
+    drop(presses);
     if let Some(ended) = outputs::ended_by(code) {
         let on = upload::job_outputs(&job.parts);
         outputs::after_end(&mut session, &on, ended, "run", remedy).await;
