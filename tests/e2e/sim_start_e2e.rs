@@ -1,12 +1,14 @@
 //! End to end: the built-in simulator's start key (`docs/simulator.md`,
 //! "The start key"), which a job's M0 waits for, pressed without hardware:
-//! by `jogterm run --sim-start-key` on the in-process simulator.
+//! by `jogterm run --sim-start-key` on the in-process simulator, and by
+//! `s` in the console's simulator panel.
 
 use std::io::Write as _;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use crate::sim_process::{JOGTERM, text};
+use crate::sim_process::{JOGTERM, WAIT, text};
+use crate::ui_pty::PtyRun;
 
 /// A job that pauses (M0) above its first point, then cuts one line.
 const M0_JOB: &str = "G21 G90\nG0 Z5\nG0 X10 Y5\nM0\nG1 Z-1 F600\nG1 X20\nG0 Z5\nM2\n";
@@ -124,4 +126,78 @@ fn a_line_on_stdin_presses_the_sim_start_key() {
     let said = text(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{said}");
     assert!(said.contains("use --sim"), "{said}");
+}
+
+/// The console on the in-process simulator with the job as its program:
+/// stored (F5), started (F6, confirmed), standing at its M0 until `s` in
+/// the simulator panel presses the start key; then it runs to its end.
+#[test]
+fn an_m0_job_in_the_console_is_finished_by_the_sim_panels_start_key() {
+    let (dir, job) = setup();
+    // Within the soft limits with the work zero at machine 0.
+    std::fs::write(
+        &job,
+        "G21 G90\nG0 Z10\nG0 X10 Y5\nM0\nG1 Z5 F600\nG1 X20\nG0 Z10\nM2\n",
+    )
+    .expect("write the job");
+    let config = dir.path().display().to_string();
+    let env = [
+        ("JOGTERM_NO_KEYBOARD_QUERY", "1"),
+        ("JOGTERM_CONFIG_DIR", config.as_str()),
+        ("JOGTERM_STATE_DIR", config.as_str()),
+        ("RUST_BACKTRACE", "0"),
+    ];
+    let mut run = PtyRun::spawn_sized(
+        std::path::Path::new(JOGTERM),
+        &["--program", &job],
+        &env,
+        40,
+        200,
+    );
+    let wait_for = |run: &PtyRun, needle: &str| {
+        run.wait_for(needle, WAIT)
+            .unwrap_or_else(|screen| panic!("`{needle}` never appeared:\n{screen}"))
+    };
+    wait_for(&run, "connected");
+    // From the editor to the machine screen; initialise; store; start.
+    run.type_keys(&[b"\x1b[Z"]);
+    wait_for(&run, "i init");
+    run.type_keys(&[b"i"]);
+    wait_for(&run, "NOT REF");
+    run.type_keys(&[b"\x1b[15~"]);
+    wait_for(&run, "upload finished");
+    run.type_keys(&[b"\x1b[17~"]);
+    wait_for(&run, "Start the program stored in the controller?");
+    run.type_keys(&[b"y"]);
+    wait_for(&run, "RUNNING");
+    // At its M0 (the reference run from 1 mm and two rapids take well
+    // under 4 s): it stays there. The console cannot read the position
+    // while the program runs (isel answers nothing then).
+    std::thread::sleep(Duration::from_secs(4));
+    let screen = run.screen().screen().contents();
+    assert!(screen.contains("RUNNING"), "{screen}");
+    assert!(!screen.contains("the program has ended"), "{screen}");
+    // Tab past the port bits to the simulator panel; s presses the key
+    // (again, should the job not stand at its pause yet under load).
+    run.type_keys(&[b"\t", b"\t"]);
+    wait_for(&run, "s start key");
+    let mut ended = false;
+    for _ in 0..5 {
+        run.type_keys(&[b"s"]);
+        if run
+            .wait_for("the program has ended", Duration::from_secs(4))
+            .is_ok()
+        {
+            ended = true;
+            break;
+        }
+    }
+    assert!(ended, "{}", run.screen().screen().contents());
+    let screen = wait_for(&run, "READY");
+    let x = screen
+        .lines()
+        .find(|l| l.starts_with("X"))
+        .unwrap_or_default()
+        .to_owned();
+    assert!(x.contains("20.000") && x.contains("8000"), "{screen}");
 }
