@@ -67,9 +67,12 @@ pub fn run(global: &GlobalArgs, args: &FrameArgs) -> anyhow::Result<ExitCode> {
         out::say(format_args!("jogterm frame: {m}"));
         Ok(ExitCode::from(EXIT_USAGE))
     };
-    let (profile, _) = match upload::program_profile(global, None, "frame") {
+    // Any family the import takes (isel, EMCU): the import says why not
+    // for the others.
+    let profile = match session::resolve(global, None) {
         Ok(p) => p,
-        Err(exit) => return exit,
+        Err(session::StartError::Usage(m)) => return usage(&m),
+        Err(session::StartError::Failed(e)) => return Err(e),
     };
     if args.z.is_some_and(|z| !z.is_finite()) {
         return usage(&"--z: expected a height in units");
