@@ -183,9 +183,11 @@ fn a_frame_outside_the_soft_limits_or_with_axes_unreferenced_is_refused_and_noth
     assert!(moves(&received).is_empty(), "{received}");
 }
 
-#[test]
-fn space_stops_the_frame_and_nothing_moves_after_the_stop() {
-    // Real time: the Space lands in the first leg (Z up 20 mm at 15 mm/s).
+/// `jogterm frame` of [`JOB`] on a terminal of its own, confirmed, stopped
+/// by `stop` on its way up to the safe height (real time: 20 mm at
+/// 15 mm/s): the machine stands short of it, X and Y unmoved, and nothing
+/// that moves went out after the stop byte.
+fn stopped_on_the_way_up(stop: impl FnOnce(&mut PtyRun)) -> PtyRun {
     let mut sim = sim(1.0);
     let file = write_job(&sim);
     referenced(&sim);
@@ -209,11 +211,7 @@ fn space_stops_the_frame_and_nothing_moves_after_the_stop() {
         .expect("the confirmation");
     run.type_text("y\r");
     sim.wait_device("moving", |s| s.contains("moving"));
-    run.type_text(" ");
-    assert_eq!(run.wait_exit(Duration::from_secs(10)), Some(1));
-    run.drain(Duration::from_secs(2));
-    let said = text(&run.output());
-    assert!(said.contains("stopped; nothing resumes"), "{said}");
+    stop(&mut run);
     let state = sim.wait_device("standing", |s| !s.contains("moving"));
     let received = sim.received();
     let stop = received.rfind("<FD>").expect("the stop");
@@ -221,7 +219,6 @@ fn space_stops_the_frame_and_nothing_moves_after_the_stop() {
         !received[stop..].contains("@0A") && !received[stop..].contains("@0M"),
         "no move after the stop: {received}"
     );
-    // Stopped on the way up: short of the safe height, X and Y unmoved.
     let z: i64 = state
         .split(" Z ")
         .nth(1)
@@ -230,4 +227,35 @@ fn space_stops_the_frame_and_nothing_moves_after_the_stop() {
         .unwrap_or_else(|| panic!("no Z in {state}"));
     assert!(state.starts_with("device: X 4000 Y 4000 "), "{state}");
     assert!(z > 2000 && z < 10_000, "{state}");
+    assert!(run.wait_exit(Duration::from_secs(10)).is_some());
+    run
+}
+
+#[test]
+fn space_stops_the_frame_and_nothing_moves_after_the_stop() {
+    let mut run = stopped_on_the_way_up(|run| run.type_text(" "));
+    assert_eq!(run.wait_exit(Duration::from_secs(10)), Some(1));
+    run.drain(Duration::from_secs(2));
+    let said = text(&run.output());
+    assert!(said.contains("stopped; nothing resumes"), "{said}");
+}
+
+#[test]
+fn sigterm_and_a_hang_up_stop_the_frame() {
+    let mut run = stopped_on_the_way_up(|run| {
+        let pid = run.child.process_id().expect("the frame's pid");
+        let killed = std::process::Command::new("kill")
+            .args(["-TERM", &pid.to_string()])
+            .status()
+            .expect("kill");
+        assert!(killed.success());
+    });
+    assert_eq!(run.wait_exit(Duration::from_secs(10)), Some(1));
+    run.drain(Duration::from_secs(2));
+    let said = text(&run.output());
+    assert!(
+        said.contains("interrupted: the machine was stopped"),
+        "{said}"
+    );
+    stopped_on_the_way_up(PtyRun::close_master);
 }
