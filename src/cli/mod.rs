@@ -15,6 +15,7 @@ pub mod arc;
 pub mod check;
 pub mod commission;
 pub mod emp;
+pub mod frame;
 pub mod import;
 pub mod log;
 pub mod out;
@@ -193,6 +194,9 @@ pub enum CliCommand {
     /// List the runs of the job log: file, way, last line, time taken, how each ended
     #[command(long_about = log::LONG_ABOUT, after_long_help = log::AFTER_LONG_HELP)]
     Log(log::LogArgs),
+    /// Trace the rectangle of a G-code job's extents at its safe height, at the jog speed
+    #[command(long_about = frame::LONG_ABOUT, after_long_help = frame::AFTER_LONG_HELP)]
+    Frame(frame::FrameArgs),
     /// List the serial ports of this machine: by-id names, USB vendor and product, in use
     #[command(long_about = ports::LONG_ABOUT, after_long_help = ports::AFTER_LONG_HELP)]
     Ports(ports::PortsArgs),
@@ -230,6 +234,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Some(CliCommand::Log(args)) => log::run(args),
         Some(CliCommand::Ports(args)) => ports::run(args),
         Some(CliCommand::Probe(args)) => probe::run(&cli.global, args),
+        Some(CliCommand::Frame(args)) => frame::run(&cli.global, args),
         None => tui::run(
             &cli.global,
             tui::Opening {

@@ -316,6 +316,11 @@ impl Session {
         }
     }
 
+    /// The built-in simulator's controls, when the session runs on it.
+    pub fn simulator(&self) -> Option<crate::sim::shell::ShellControl> {
+        self._simulator.as_ref().map(Shell::control)
+    }
+
     /// Close: after a stop when the session moves, else with nothing sent
     /// but what was on its way.
     pub async fn close(self) {

@@ -23,6 +23,7 @@ pub mod pty;
 pub mod received;
 pub mod registry;
 pub mod shell;
+pub mod start_key;
 pub mod timescale;
 
 use std::time::{Duration, Instant};

@@ -153,6 +153,7 @@ named_enum! {
         SimOn = "sim-on", "set the selected input on / closed";
         SimOff = "sim-off", "set the selected input off / open";
         SimPress = "sim-press", "press and release the selected button";
+        SimStart = "sim-start", "press the start key a pause (M0, M1, M6) waits for";
         Confirm = "confirm", "yes, do it";
         Cancel = "cancel", "no, cancel";
         Close = "close", "close";

@@ -153,7 +153,7 @@ impl Model {
         let sim = setup
             .simulator_inputs
             .as_ref()
-            .map(|inputs| SimPanel::new(inputs));
+            .map(|inputs| SimPanel::new(inputs).with_start_key(setup.sim_start_key.clone()));
         Model {
             editor: Editor::new(&setup, now),
             timeline: Timeline::new(&setup.inputs),

@@ -47,6 +47,9 @@ pub struct Setup {
     /// The whole profile, for what needs all of it: a G-code job opened in
     /// the console is imported (and checked again) against it.
     pub profile: Arc<Profile>,
+    /// The simulator's button wired as the machine's start key, or why
+    /// there is none (`sim::start_key`).
+    pub sim_start_key: Result<crate::sim::start_key::StartKey, String>,
 }
 
 impl Setup {
@@ -74,6 +77,7 @@ impl Setup {
             program_memory: profile.gcode.memory,
             probe: profile.probe.clone(),
             profile: Arc::new(profile.clone()),
+            sim_start_key: crate::sim::start_key::StartKey::of(profile),
         }
     }
 

@@ -6,6 +6,7 @@
 //! shows as unknown until it is set here.
 
 use crate::sim::InputControl;
+use crate::sim::start_key::StartKey;
 
 use super::keymap::Action;
 use super::msg::Effect;
@@ -25,6 +26,9 @@ pub struct SimInput {
 pub struct SimPanel {
     pub inputs: Vec<SimInput>,
     pub selected: usize,
+    /// The input wired as the machine's start key, pressed by its own key
+    /// whichever input is selected; or why there is none.
+    pub start_key: Result<StartKey, String>,
 }
 
 impl SimPanel {
@@ -39,7 +43,22 @@ impl SimPanel {
                 })
                 .collect(),
             selected: 0,
+            start_key: Err("the profile wires no start key".into()),
         }
+    }
+
+    pub fn with_start_key(self, start_key: Result<StartKey, String>) -> Self {
+        SimPanel { start_key, ..self }
+    }
+
+    /// The control that presses the start key (what a job's pause waits
+    /// for), whichever input is selected.
+    pub fn press_start_key(&mut self) -> Result<InputControl, String> {
+        let key = self.start_key.as_ref().map_err(Clone::clone)?;
+        if let Some(input) = self.inputs.iter_mut().find(|i| i.name == key.input) {
+            input.pending = true;
+        }
+        Ok(key.press())
     }
 
     pub fn selected(&self) -> Option<&SimInput> {
@@ -111,6 +130,10 @@ impl SimPanel {
             Action::SimOn => self.set_selected(true),
             Action::SimOff => self.set_selected(false),
             Action::SimPress => self.press_selected(),
+            Action::SimStart => match self.press_start_key() {
+                Ok(c) => Some(c),
+                Err(why) => return Outcome::note(NoteLevel::Warning, why),
+            },
             Action::SimToggle => match self.toggle_selected() {
                 Ok(c) => Some(c),
                 Err(why) => return Outcome::note(NoteLevel::Warning, why),
@@ -174,5 +197,26 @@ mod tests {
                 name: "stop".into()
             })
         );
+    }
+
+    #[test]
+    fn the_start_key_is_pressed_whichever_input_is_selected() {
+        let mut p = SimPanel::new(&[
+            ("estop1".to_string(), Some(true)),
+            ("start".to_string(), None),
+        ]);
+        assert!(p.press_start_key().unwrap_err().contains("no start key"));
+        let mut p = p.with_start_key(Ok(StartKey {
+            input: "start".into(),
+            name: "start key".into(),
+        }));
+        assert_eq!(p.selected, 0);
+        assert_eq!(
+            p.press_start_key(),
+            Ok(InputControl::Press {
+                name: "start".into()
+            })
+        );
+        assert!(p.inputs[1].pending && !p.inputs[0].pending);
     }
 }

@@ -14,6 +14,7 @@
 //! run all point at `FILE:LINE:COL`.
 
 pub mod check;
+pub mod frame;
 pub mod heightmap;
 pub mod interp;
 pub mod modal;

@@ -12,7 +12,7 @@ use clap::{Args, Subcommand, ValueEnum};
 use serde_json::json;
 
 mod grid;
-mod operator;
+pub(super) mod operator;
 mod shapes;
 mod tool;
 

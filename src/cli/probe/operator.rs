@@ -1,4 +1,4 @@
-//! What `jogterm probe` follows while the machine moves: the device's
+//! What `jogterm probe` (and `jogterm frame`) follows while the machine moves: the device's
 //! events, and the operator's ways to stop it (Space or a closed terminal
 //! on stdin, Ctrl-C, SIGTERM, a hang-up). A stop is sent at once; the
 //! move or probe then ends as stopped, and nothing more is sent.
@@ -22,11 +22,18 @@ pub struct Operator {
     next_id: u64,
     /// Where the axes stand, as last measured (machine steps).
     here: Option<PerAxis<i64>>,
+    /// The command whose messages these are (`jogterm <command>: …`).
+    command: &'static str,
 }
 
 impl Operator {
     /// `here`: the position measured when the session was set up.
     pub fn new(here: Option<PerAxis<i64>>) -> Operator {
+        Operator::of_command(here, "probe")
+    }
+
+    /// [`Operator::new`] for another command that moves this way (`frame`).
+    pub fn of_command(here: Option<PerAxis<i64>>, command: &'static str) -> Operator {
         let (tx, signals) = mpsc::unbounded_channel();
         tokio::spawn(async move {
             session::interrupted().await;
@@ -38,6 +45,7 @@ impl Operator {
             stopped: false,
             next_id: 0,
             here,
+            command,
         }
     }
 
@@ -52,7 +60,7 @@ impl Operator {
                     break;
                 },
                 Some(()) = self.signals.recv() => {
-                    session::say_interrupted("probe", session::Moves::Yes);
+                    session::say_interrupted(self.command, session::Moves::Yes);
                     break;
                 }
             }
@@ -72,7 +80,7 @@ impl Operator {
             .request(Request::Probe { id, probe })
             .is_err()
         {
-            return Err(lost("the device task ended"));
+            return Err(lost(self.command, "the device task ended"));
         }
         let stopper = session.handle.clone();
         loop {
@@ -82,9 +90,9 @@ impl Operator {
                     Some(Event::Position(p)) if p.source == PositionSource::Measured => {
                         self.here = Some(p.steps);
                     }
-                    Some(Event::Link(LinkState::Lost { reason })) => return Err(lost(&reason)),
+                    Some(Event::Link(LinkState::Lost { reason })) => return Err(lost(self.command, &reason)),
                     Some(_) => {}
-                    None => return Err(lost("the device task ended")),
+                    None => return Err(lost(self.command, "the device task ended")),
                 },
                 () = self.stop_asked() => {
                     let _ = stopper.stop().written().await;
@@ -106,10 +114,13 @@ impl Operator {
         remedy: &Remedy,
     ) -> Result<(), u8> {
         if self.stopped {
-            return Err(stopped());
+            return Err(stopped(self.command));
         }
         let Some(here) = self.here else {
-            out::say("jogterm probe: the controller reported no position: nothing moved");
+            out::say(format_args!(
+                "jogterm {}: the controller reported no position: nothing moved",
+                self.command
+            ));
             return Err(1);
         };
         let mut delta = PerAxis::new();
@@ -127,7 +138,7 @@ impl Operator {
             speed_hz: hz,
         };
         if session.handle.request(request).is_err() {
-            return Err(lost("the device task ended"));
+            return Err(lost(self.command, "the device task ended"));
         }
         let stopper = session.handle.clone();
         let mut moving = false;
@@ -141,27 +152,29 @@ impl Operator {
                     Some(Event::State(s)) if moving => {
                         if let Some(f) = s.fault {
                             out::say(format_args!(
-                                "jogterm probe: the move ended with `{}`: {}", f.code, f.meaning
+                                "jogterm {}: the move ended with `{}`: {}",
+                                self.command, f.code, f.meaning
                             ));
                             return Err(1);
                         }
                         if self.stopped {
-                            return Err(stopped());
+                            return Err(stopped(self.command));
                         }
                         return self.measured_after(session, here, &delta).await;
                     }
                     Some(Event::Refused { reason, .. }) => {
-                        return Err(refused_in("probe", "the move", &reason, remedy));
+                        return Err(refused_in(self.command, "the move", &reason, remedy));
                     }
                     Some(Event::Fault(f)) => {
                         out::say(format_args!(
-                            "jogterm probe: the move ended with `{}`: {}", f.code, f.meaning
+                            "jogterm {}: the move ended with `{}`: {}",
+                            self.command, f.code, f.meaning
                         ));
                         return Err(1);
                     }
-                    Some(Event::Link(LinkState::Lost { reason })) => return Err(lost(&reason)),
+                    Some(Event::Link(LinkState::Lost { reason })) => return Err(lost(self.command, &reason)),
                     Some(_) => {}
-                    None => return Err(lost("the device task ended")),
+                    None => return Err(lost(self.command, "the device task ended")),
                 },
                 () = self.stop_asked() => {
                     let _ = stopper.stop().written().await;
@@ -185,9 +198,11 @@ impl Operator {
                     self.here = Some(p.steps);
                     return Ok(());
                 }
-                Ok(Some(Event::Link(LinkState::Lost { reason }))) => return Err(lost(&reason)),
+                Ok(Some(Event::Link(LinkState::Lost { reason }))) => {
+                    return Err(lost(self.command, &reason));
+                }
                 Ok(Some(_)) => {}
-                Ok(None) => return Err(lost("the device task ended")),
+                Ok(None) => return Err(lost(self.command, "the device task ended")),
                 Err(_) => {
                     self.here = Some(from.map(|axis, v| v + delta.get(axis).unwrap_or(0)));
                     return Ok(());
@@ -200,12 +215,12 @@ impl Operator {
 /// How long the position read after a move may take to arrive.
 const SETTLE: std::time::Duration = std::time::Duration::from_millis(500);
 
-fn stopped() -> u8 {
-    out::say("jogterm probe: stopped; nothing resumes");
+fn stopped(command: &str) -> u8 {
+    out::say(format_args!("jogterm {command}: stopped; nothing resumes"));
     1
 }
 
-pub fn lost(reason: &str) -> u8 {
-    out::say(format_args!("jogterm probe: link failure: {reason}"));
+pub fn lost(command: &str, reason: &str) -> u8 {
+    out::say(format_args!("jogterm {command}: link failure: {reason}"));
     EXIT_LINK
 }

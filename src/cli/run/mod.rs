@@ -9,6 +9,7 @@
 pub mod keys;
 pub(super) mod outputs;
 pub mod retract;
+pub mod sim_start;
 pub mod stream;
 
 use std::io::IsTerminal;
@@ -134,6 +135,10 @@ pub struct RunArgs {
     /// does not choose)
     #[arg(long, conflicts_with = "from_line")]
     pub from_start: bool,
+    /// On the built-in simulator: press its start key (what M0, M1 and tool changes wait
+    /// for) every SECONDS while the job runs, or once per line on stdin (`stdin`)
+    #[arg(long, value_name = "SECONDS|stdin", value_parser = sim_start::parse)]
+    pub sim_start_key: Option<sim_start::SimStart>,
 }
 
 /// What runs: the prepared program(s) and the way.
@@ -243,6 +248,10 @@ pub fn run(global: &GlobalArgs, args: &RunArgs) -> anyhow::Result<ExitCode> {
             Err(m) => return usage(m),
         }
     }
+    let presses = match sim_start_key(args, &profile) {
+        Ok(p) => p,
+        Err(m) => return usage(m),
+    };
     let remedy = Remedy::of_command(&profile, "run");
     let info = super::log::RunInfo {
         file: &args.file,
@@ -255,8 +264,31 @@ pub fn run(global: &GlobalArgs, args: &RunArgs) -> anyhow::Result<ExitCode> {
     };
     let logged = super::log::Logged::begin(&info);
     session::moving(global, profile, "run", async |session| {
-        run_job(session, &job, args, &remedy, logged).await
+        run_job(session, &job, args, &remedy, logged, presses).await
     })
+}
+
+/// `--sim-start-key`, checked: on the built-in simulator only, with a start
+/// key it can press, `stdin` only from a pipe (a terminal's keys are the
+/// run's).
+fn sim_start_key(
+    args: &RunArgs,
+    profile: &crate::config::profile::Profile,
+) -> Result<Option<(sim_start::SimStart, crate::sim::start_key::StartKey)>, String> {
+    let Some(when) = args.sim_start_key else {
+        return Ok(None);
+    };
+    if !profile.connection.is_simulator() {
+        return Err("--sim-start-key presses the built-in simulator's start key: use --sim".into());
+    }
+    if when == sim_start::SimStart::Stdin && std::io::stdin().is_terminal() {
+        return Err(
+            "--sim-start-key stdin reads lines from a pipe; on a terminal give seconds".into(),
+        );
+    }
+    let key = crate::sim::start_key::StartKey::of(profile)
+        .map_err(|why| format!("--sim-start-key: {why}"))?;
+    Ok(Some((when, key)))
 }
 
 /// The G-code job imported, its ways estimated and said, the way taken.
@@ -363,10 +395,16 @@ async fn run_job(
     args: &RunArgs,
     remedy: &Remedy,
     logged: super::log::Logged,
+    presses: Option<(sim_start::SimStart, crate::sim::start_key::StartKey)>,
 ) -> ExitCode {
     let stopper = session.handle.clone();
     let mut keys = Keys::from_stdin();
     let mut interrupted = false;
+    let presses = presses.and_then(|(when, key)| {
+        session
+            .simulator()
+            .map(|control| sim_start::Presses::start(when, control, key))
+    });
     let code = tokio::select! {
         code = steps(&mut session, job, args, remedy, &mut keys, &logged) => code,
         () = session::interrupted() => {
@@ -378,6 +416,7 @@ async fn run_job(
     };
     logged.end(code, interrupted || keys.stopped);
     drop(keys);
+    drop(presses);
     if let Some(ended) = outputs::ended_by(code) {
         let on = upload::job_outputs(&job.parts);
         outputs::after_end(&mut session, &on, ended, "run", remedy).await;

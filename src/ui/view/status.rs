@@ -304,6 +304,7 @@ impl Widget for Hints<'_> {
                     (Mode::Sim, Action::SimOn, "on"),
                     (Mode::Sim, Action::SimOff, "off"),
                     (Mode::Sim, Action::SimPress, "press"),
+                    (Mode::Sim, Action::SimStart, "start key"),
                     (Mode::Main, Action::FocusNext, "focus"),
                 ],
                 _ => &[

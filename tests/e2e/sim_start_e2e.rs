@@ -1,0 +1,203 @@
+//! End to end: the built-in simulator's start key (`docs/simulator.md`,
+//! "The start key"), which a job's M0 waits for, pressed without hardware:
+//! by `jogterm run --sim-start-key` on the in-process simulator, and by
+//! `s` in the console's simulator panel.
+
+use std::io::Write as _;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use crate::sim_process::{JOGTERM, WAIT, text};
+use crate::ui_pty::PtyRun;
+
+/// A job that pauses (M0) above its first point, then cuts one line.
+const M0_JOB: &str = "G21 G90\nG0 Z5\nG0 X10 Y5\nM0\nG1 Z-1 F600\nG1 X20\nG0 Z5\nM2\n";
+
+/// A configuration directory whose simulated axes stand 1 mm from their
+/// reference point (a short reference run), and the job in it.
+fn setup() -> (tempfile::TempDir, String) {
+    let dir = tempfile::tempdir().expect("config dir");
+    let profiles = dir.path().join("profiles");
+    std::fs::create_dir_all(&profiles).expect("profiles dir");
+    std::fs::write(
+        profiles.join("default.toml"),
+        "[sim]\nstart_position = 1.0\n",
+    )
+    .expect("write the profile");
+    let job = dir.path().join("m0.nc");
+    std::fs::write(&job, M0_JOB).expect("write the job");
+    let job = job.display().to_string();
+    (dir, job)
+}
+
+fn run(dir: &tempfile::TempDir, job: &str, extra: &[&str]) -> Command {
+    let mut c = Command::new(JOGTERM);
+    c.args([
+        "--sim",
+        "isel",
+        "run",
+        job,
+        "--work-zero",
+        "X50 Y50 Z20",
+        "--yes",
+    ])
+    .args(extra)
+    .env("JOGTERM_CONFIG_DIR", dir.path())
+    .env("JOGTERM_STATE_DIR", dir.path())
+    .stdout(Stdio::piped())
+    .stderr(Stdio::piped());
+    c
+}
+
+/// Wait for the child's end within `limit`; its output (killed if late).
+fn finished(mut child: std::process::Child, limit: Duration) -> (Option<i32>, String) {
+    let end = Instant::now() + limit;
+    loop {
+        if let Ok(Some(_)) = child.try_wait() {
+            break;
+        }
+        if Instant::now() > end {
+            let _ = child.kill();
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let out = child.wait_with_output().expect("the run's output");
+    (out.status.code(), text(&out.stderr))
+}
+
+#[test]
+fn an_m0_job_on_the_in_process_simulator_is_finished_by_the_sim_start_key() {
+    let (dir, job) = setup();
+    // Without a press the job stands at its M0: still running after 5 s.
+    let child = run(&dir, &job, &[])
+        .stdin(Stdio::null())
+        .spawn()
+        .expect("run");
+    let (code, said) = finished(child, Duration::from_secs(5));
+    assert_eq!(code, None, "the job waits for the start key: {said}");
+    assert!(said.contains("M0: program pause"), "{said}");
+    // Pressed every second: the job goes on at its M0 and ends.
+    let child = run(&dir, &job, &["--sim-start-key", "1"])
+        .stdin(Stdio::null())
+        .spawn()
+        .expect("run");
+    let (code, said) = finished(child, Duration::from_secs(30));
+    assert_eq!(code, Some(0), "{said}");
+    assert!(
+        said.contains("the simulator's start key (start key) pressed"),
+        "{said}"
+    );
+}
+
+#[test]
+fn a_line_on_stdin_presses_the_sim_start_key() {
+    let (dir, job) = setup();
+    let mut child = run(&dir, &job, &["--sim-start-key", "stdin"])
+        .stdin(Stdio::piped())
+        .spawn()
+        .expect("run");
+    let mut stdin = child.stdin.take().expect("stdin");
+    // A line a second until the job ends: a press before the job stands at
+    // its pause is taken by nothing, the one after ends the wait.
+    let end = Instant::now() + Duration::from_secs(30);
+    while child.try_wait().ok().flatten().is_none() && Instant::now() < end {
+        let _ = writeln!(stdin);
+        std::thread::sleep(Duration::from_secs(1));
+    }
+    drop(stdin);
+    let (code, said) = finished(child, Duration::from_secs(5));
+    assert_eq!(code, Some(0), "{said}");
+    assert!(said.contains("start key (start key) pressed"), "{said}");
+    // On a real port: refused before anything is sent.
+    let out = Command::new(JOGTERM)
+        .args(["run", &job, "--port", "/dev/null", "--protocol", "isel"])
+        .args([
+            "--yes",
+            "--sim-start-key",
+            "1",
+            "--work-zero",
+            "X50 Y50 Z20",
+        ])
+        .env("JOGTERM_CONFIG_DIR", dir.path())
+        .stdin(Stdio::null())
+        .output()
+        .expect("run");
+    let said = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{said}");
+    assert!(said.contains("use --sim"), "{said}");
+}
+
+/// The console on the in-process simulator with the job as its program:
+/// stored (F5), started (F6, confirmed), standing at its M0 until `s` in
+/// the simulator panel presses the start key; then it runs to its end.
+#[test]
+fn an_m0_job_in_the_console_is_finished_by_the_sim_panels_start_key() {
+    let (dir, job) = setup();
+    // Within the soft limits with the work zero at machine 0.
+    std::fs::write(
+        &job,
+        "G21 G90\nG0 Z10\nG0 X10 Y5\nM0\nG1 Z5 F600\nG1 X20\nG0 Z10\nM2\n",
+    )
+    .expect("write the job");
+    let config = dir.path().display().to_string();
+    let env = [
+        ("JOGTERM_NO_KEYBOARD_QUERY", "1"),
+        ("JOGTERM_CONFIG_DIR", config.as_str()),
+        ("JOGTERM_STATE_DIR", config.as_str()),
+        ("RUST_BACKTRACE", "0"),
+    ];
+    let mut run = PtyRun::spawn_sized(
+        std::path::Path::new(JOGTERM),
+        &["--program", &job],
+        &env,
+        40,
+        200,
+    );
+    let wait_for = |run: &PtyRun, needle: &str| {
+        run.wait_for(needle, WAIT)
+            .unwrap_or_else(|screen| panic!("`{needle}` never appeared:\n{screen}"))
+    };
+    wait_for(&run, "connected");
+    // From the editor to the machine screen; initialise; store; start.
+    run.type_keys(&[b"\x1b[Z"]);
+    wait_for(&run, "i init");
+    run.type_keys(&[b"i"]);
+    wait_for(&run, "NOT REF");
+    run.type_keys(&[b"\x1b[15~"]);
+    wait_for(&run, "upload finished");
+    run.type_keys(&[b"\x1b[17~"]);
+    wait_for(&run, "Start the program stored in the controller?");
+    run.type_keys(&[b"y"]);
+    wait_for(&run, "RUNNING");
+    // At its M0 (the reference run from 1 mm and two rapids take well
+    // under 4 s): it stays there. The console cannot read the position
+    // while the program runs (isel answers nothing then).
+    std::thread::sleep(Duration::from_secs(4));
+    let screen = run.screen().screen().contents();
+    assert!(screen.contains("RUNNING"), "{screen}");
+    assert!(!screen.contains("the program has ended"), "{screen}");
+    // Tab past the port bits to the simulator panel; s presses the key
+    // (again, should the job not stand at its pause yet under load).
+    run.type_keys(&[b"\t", b"\t"]);
+    wait_for(&run, "s start key");
+    let mut ended = false;
+    for _ in 0..5 {
+        run.type_keys(&[b"s"]);
+        if run
+            .wait_for("the program has ended", Duration::from_secs(4))
+            .is_ok()
+        {
+            ended = true;
+            break;
+        }
+    }
+    assert!(ended, "{}", run.screen().screen().contents());
+    let screen = wait_for(&run, "READY");
+    let x = screen
+        .lines()
+        .find(|l| l.starts_with("X"))
+        .unwrap_or_default()
+        .to_owned();
+    assert!(x.contains("20.000") && x.contains("8000"), "{screen}");
+}
