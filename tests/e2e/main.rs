@@ -76,6 +76,7 @@ mod sim_shell_timing;
 mod sim_time_scale;
 mod stops_cli;
 mod stops_console;
+mod toolchange_e2e;
 mod transport_reader;
 mod transport_sim_rate;
 mod transport_writer;

@@ -10,6 +10,7 @@ pub mod keys;
 pub(super) mod outputs;
 pub mod retract;
 pub mod stream;
+mod waits;
 
 use std::io::IsTerminal;
 use std::path::PathBuf;
@@ -120,6 +121,10 @@ pub struct RunArgs {
     /// descend at the plunge feed, then run from the line on
     #[arg(long, value_name = "LINE")]
     pub from_line: Option<u32>,
+    /// Print each wait (tool change, pause), what ends it and each tool measured as a JSON
+    /// line on stdout
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// What runs: the prepared program(s) and the way.
@@ -130,6 +135,8 @@ struct Job {
     estimate_s: Option<f64>,
     /// A restart's first step, before the program: Z up alone.
     retract: Option<retract::Retract>,
+    /// Tool changes and pauses, run host-driven between the job's pieces.
+    waits: Option<waits::Waited>,
 }
 
 pub fn run(global: &GlobalArgs, args: &RunArgs) -> anyhow::Result<ExitCode> {
@@ -187,14 +194,18 @@ pub fn run(global: &GlobalArgs, args: &RunArgs) -> anyhow::Result<ExitCode> {
                 },
                 estimate_s: None,
                 retract: None,
+                waits: None,
             },
             Err(m) => return usage(m),
         }
     };
-    for part in &job.parts {
-        for pause in part.pauses() {
-            out::say(pause);
-        }
+    match &job.waits {
+        Some(w) => w.said_before().iter().for_each(out::say),
+        None => job
+            .parts
+            .iter()
+            .flat_map(Prepared::pauses)
+            .for_each(out::say),
     }
     if !args.yes {
         match confirmed(job.way) {
@@ -272,14 +283,16 @@ fn gcode_job(
         }
         Way::Chunked => imported.in_parts(language, config, profile, "run")?,
     };
+    let retract = imported
+        .restart
+        .as_ref()
+        .and_then(|r| retract::Retract::of(r, profile));
     Ok(Job {
         parts,
         way: ways.chosen,
         estimate_s: ways.estimate(ways.chosen).map(|e| e.total_s),
-        retract: imported
-            .restart
-            .as_ref()
-            .and_then(|r| retract::Retract::of(r, profile)),
+        retract,
+        waits: waits::Waited::of(imported, profile, language, config, global)?,
     })
 }
 
@@ -348,6 +361,9 @@ async fn steps(
             retract::retract(session, to, remedy, keys).await?;
         } else if job.way == Way::Stream {
             upload::initialise(session, remedy).await?;
+        }
+        if let Some(w) = &job.waits {
+            return waits::run(session, w, job.way, args, remedy, keys).await;
         }
         if job.way == Way::Stream {
             let part = job.parts.first().ok_or(EXIT_USAGE)?;
