@@ -44,6 +44,10 @@ pub struct Setup {
     pub program_memory: Option<usize>,
     /// The profile's `[probe]` table (`docs/probing.md`).
     pub probe: crate::config::probe::ProbeProfile,
+    /// The tool in the spindle and its length offset (mm) as `jogterm probe
+    /// tool`'s table keeps them at start: shown in the DRO's title, since
+    /// every Z of a job imported now carries it (`docs/probing.md`).
+    pub tool: Option<(String, f64)>,
 }
 
 impl Setup {
@@ -70,6 +74,7 @@ impl Setup {
             inputs: crate::device::inputs::channels::shared(profile),
             program_memory: profile.gcode.memory,
             probe: profile.probe.clone(),
+            tool: None,
         }
     }
 

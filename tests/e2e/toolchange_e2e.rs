@@ -226,11 +226,15 @@ fn yes_skips_no_wait_and_a_closed_input_stops_at_the_change() {
     let file = job_file(&sim);
     let state = tempfile::tempdir().expect("state dir");
     let before = sim.received().len();
-    let out = sim
-        .configured(&["run", &file, "--work-zero", WORK_ZERO, "--yes"])
+    // Bounded: a run that waited for the start key instead would never end.
+    let mut command = sim.configured(&["run", &file, "--work-zero", WORK_ZERO, "--yes"]);
+    let child = command
         .env("JOGTERM_STATE_DIR", state.path())
-        .output()
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
         .expect("run");
+    let out = wait_run(child, "run at a closed input");
     let said = text(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{said}");
     assert!(

@@ -112,7 +112,8 @@ pub struct Plan {
     lines: u32,
 }
 
-fn end_of(op: &Op) -> Option<Point> {
+/// Where a move ends; `None` for an op that is no move.
+pub fn end_of(op: &Op) -> Option<Point> {
     match op {
         Op::Rapid(m) => Some(m.to),
         Op::Line(m) => Some(m.to),
@@ -121,7 +122,8 @@ fn end_of(op: &Op) -> Option<Point> {
     }
 }
 
-fn start_of(op: &Op) -> Option<Point> {
+/// Where a move starts; `None` for an op that is no move.
+pub fn start_of(op: &Op) -> Option<Point> {
     match op {
         Op::Rapid(m) => Some(m.from),
         Op::Line(m) => Some(m.from),
