@@ -278,3 +278,63 @@ fn the_import_summary_lists_every_tool_change_and_pause_with_its_line() {
         }
     }
 }
+
+/// Issue 39 (4): the offset `jogterm probe tool` measured for the tool in
+/// the spindle shifts every Z of a job. T1 measured (the reference), then
+/// a tool 1 mm longer in the spindle measured as T2: the import says the
+/// offset and `run` of a job without a tool change cuts 1 mm higher.
+#[test]
+fn the_measured_offset_of_the_tool_in_the_spindle_shifts_every_z_of_a_job() {
+    let mut sim = sim();
+    let state = tempfile::tempdir().expect("state dir");
+    let measure = |sim: &SimProcess, tool: &str| {
+        let out = sim
+            .configured(&["probe", "tool", "--tool", tool, "--json"])
+            .env("JOGTERM_STATE_DIR", state.path())
+            .output()
+            .expect("probe tool");
+        assert!(out.status.success(), "{}", text(&out.stderr));
+    };
+    measure(&sim, "T1");
+    sim.control("value tool 400");
+    measure(&sim, "T2");
+    let path = sim.dir.path().join("one-tool.nc");
+    std::fs::write(
+        &path,
+        "G21 G90\nG0 Z5\nG0 X10 Y10\nG1 Z-1 F300\nG1 X20 F600\nG0 Z5\nM30\n",
+    )
+    .expect("write");
+    let file = path.display().to_string();
+    let out = sim
+        .configured(&["import", &file, "--work-zero", WORK_ZERO, "--json"])
+        .env("JOGTERM_STATE_DIR", state.path())
+        .output()
+        .expect("import");
+    let summary: serde_json::Value =
+        serde_json::from_slice(&out.stdout).expect("the summary as JSON");
+    assert_eq!(summary["tool_offset"]["tool"], "T2", "{summary}");
+    let offset = summary["tool_offset"]["offset_mm"]
+        .as_f64()
+        .expect("offset");
+    assert!((offset - 1.0).abs() <= 0.0025 + 1e-9, "{summary}");
+    let before = sim.received().len();
+    let mut command = sim.configured(&["run", &file, "--work-zero", WORK_ZERO, "--yes"]);
+    let child = command
+        .env("JOGTERM_STATE_DIR", state.path())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run");
+    let out = wait_run(child, "run");
+    let said = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{said}");
+    assert!(said.contains("tool offset T2 +1.0"), "{said}");
+    let received = sim.received();
+    let moves = moves(received.get(before..).unwrap_or_default());
+    // The cut to X20 Y10 Z-1: machine 70, 60 and 59 + 1 mm.
+    let cut = moves
+        .iter()
+        .find(|m| m[0] == 28_000 && m[1] == 24_000 && m[2] < 25_000)
+        .unwrap_or_else(|| panic!("no cut to X20: {moves:?}\n{said}"));
+    assert!((cut[2] - 24_000).abs() <= 1, "1 mm higher: {cut:?}\n{said}");
+}

@@ -84,7 +84,11 @@ impl Waited {
     /// line, how it ends, and the tool offset applied.
     pub(super) fn said_before(&self) -> Vec<String> {
         let import = &self.imported.import;
-        let mut lines = vec![crate::gcode::waits::tool_text(import.tool.as_ref())];
+        let mut lines = Vec::new();
+        // An offset applied was said with the import (`upload::import_gcode`).
+        if import.tool.is_none() {
+            lines.push(crate::gcode::waits::tool_text(None));
+        }
         lines.push(format!(
             "{} tool changes and pauses: the job stops at each and waits for you ({}); --yes skips none",
             import.plan.waits.len(),
