@@ -131,7 +131,9 @@ mod tests {
         // One millimetre longer: it touches one millimetre higher.
         assert_eq!(tools.measured("T2", 31.0), 1.0);
         assert_eq!(tools.offset("T1"), Some(0.0));
+        assert_eq!(tools.active_offset(), Some(("T2".into(), 1.0)));
         tools.touched_off();
+        assert_eq!(tools.active_offset(), None);
         assert_eq!(tools.measured("T2", 31.0), 0.0);
         assert_eq!(tools.offset("T1"), Some(-1.0));
     }
@@ -154,6 +156,10 @@ pub struct ToolTable {
     pub reference: Option<String>,
     /// Per tool, the machine Z (units) where it touched the sensor.
     pub touched: std::collections::BTreeMap<String, f64>,
+    /// The tool in the spindle: the one measured last. Its offset shifts
+    /// every Z of a job (`docs/probing.md`, "Tool length").
+    #[serde(default)]
+    pub active: Option<String>,
 }
 
 impl ToolTable {
@@ -161,6 +167,7 @@ impl ToolTable {
     /// when there is none), and its offset against the reference.
     pub fn measured(&mut self, tool: &str, z: f64) -> f64 {
         self.touched.insert(tool.to_owned(), z);
+        self.active = Some(tool.to_owned());
         if self.reference.is_none() {
             self.reference = Some(tool.to_owned());
         }
@@ -174,8 +181,16 @@ impl ToolTable {
     }
 
     /// A Z touch-off sets the work Z with the tool in the spindle: the next
-    /// tool measured is the reference.
+    /// tool measured is the reference, and until then the tool in the
+    /// spindle has no offset (work Z is its own).
     pub fn touched_off(&mut self) {
         self.reference = None;
+    }
+
+    /// The tool in the spindle and its offset against the reference, when
+    /// both are measured.
+    pub fn active_offset(&self) -> Option<(String, f64)> {
+        let tool = self.active.as_deref()?;
+        Some((tool.to_owned(), self.offset(tool)?))
     }
 }

@@ -23,7 +23,7 @@ use crate::config::profile::Profile;
 use crate::gcode::heightmap::HeightMap;
 use crate::gcode::output::Header;
 use crate::gcode::ways::{Costs, Ways};
-use crate::gcode::{HeightMapFile, Import, MapApplied, Target, import_with_map, render, restart};
+use crate::gcode::{HeightMapFile, Import, MapApplied, Target, import_with_tool, render, restart};
 use crate::offsets::store::{OffsetsFile, profile_key};
 use crate::offsets::{Identity, WorkOffsets};
 use crate::program::Language;
@@ -390,13 +390,15 @@ pub(super) fn read_and_import(
             }
         }
     }
-    match import_with_map(
+    let tool = super::probe::tool::active_offset(global, profile);
+    match import_with_tool(
         &text,
         &crate::gcode::import::header_name(path),
         profile,
         &offsets,
         target,
         height_map.as_ref(),
+        tool.as_ref(),
     ) {
         Ok(i) => Ok((i, text, offsets)),
         Err(errors) => {
@@ -464,6 +466,14 @@ pub fn summary_json(i: &Import) -> serde_json::Value {
         "fits_memory": i.program.fits(),
         "work_offset": i.summary.system.to_string(),
         "height_map": i.height_map.as_ref().map(height_map_json),
+        "tool_offset": i.tool.as_ref().map(|t| json!({ "tool": t.tool, "offset_mm": round3(t.offset_mm) })),
+        "waits": i.plan.waits.iter().map(|w| json!({
+            "line": w.origin.line,
+            "col": w.origin.col,
+            "kind": crate::gcode::waits::kind_name(w),
+            "tool": w.tool_name(),
+            "what": w.what(),
+        })).collect::<Vec<_>>(),
         "warnings": i.warnings.iter().map(|w| json!({
             "line": w.origin.line,
             "col": w.origin.col,
@@ -487,6 +497,29 @@ fn height_map_json(m: &MapApplied) -> serde_json::Value {
         "feed_moves": a.feed_moves,
         "feed_segments": a.feed_segments,
     })
+}
+
+/// The summary's lines of the tool offset and of the waits (tool changes,
+/// pauses), each with its line.
+pub(super) fn waits_text(i: &Import) -> String {
+    let mut out = String::new();
+    if i.tool.is_some() || i.plan.waits.iter().any(|w| w.is_tool_change()) {
+        out.push_str(&format!(
+            "  {}\n",
+            crate::gcode::waits::tool_text(i.tool.as_ref())
+        ));
+    }
+    let lines = crate::gcode::waits::waits_text(&i.plan);
+    if !lines.is_empty() {
+        out.push_str(&format!(
+            "  tool changes and pauses: {} (each waits for the operator)\n",
+            lines.len()
+        ));
+        for line in lines {
+            out.push_str(&format!("    {line}\n"));
+        }
+    }
+    out
 }
 
 /// The summary's line of a height map.
@@ -531,6 +564,7 @@ fn summary_text(name: &str, profile: &Profile, i: &Import, written: Option<&Path
     if let Some(m) = &i.height_map {
         out.push_str(&height_map_text(m));
     }
+    out.push_str(&waits_text(i));
     out.push_str(&format!(
         "  {} program: {} commands, {}\n",
         i.target.name(),

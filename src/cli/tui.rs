@@ -243,7 +243,9 @@ async fn session(
     set_emergency(Some(Arc::new(move || {
         let _ = emergency.fire();
     })));
-    let setup = Setup::from_profile(&profile, simulator.as_ref().map(|s| s.inputs.clone()));
+    let mut setup = Setup::from_profile(&profile, simulator.as_ref().map(|s| s.inputs.clone()));
+    // The tool in the spindle and its offset (`jogterm probe tool`), for the DRO.
+    setup.tool = super::probe::tool::active_offset(global, &profile).map(|t| (t.tool, t.offset_mm));
     let mut model = Model::new(setup, keymap, Palette::from(&theme), Instant::now());
     // Unsaved edits go to the user's state directory (`docs/editor.md`);
     // the tag tells this session's new programs from another's.

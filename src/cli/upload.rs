@@ -357,6 +357,9 @@ pub(super) fn import_gcode(
     if let Some(m) = &import.height_map {
         out::say(super::import::height_map_text(m).trim());
     }
+    if let Some(t) = &import.tool {
+        out::say(crate::gcode::waits::tool_text(Some(t)));
+    }
     Ok(Imported {
         import,
         restart,

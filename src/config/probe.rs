@@ -95,6 +95,31 @@ impl ProbeProfile {
     }
 }
 
+/// The profile's `[tools]` table (`docs/gcode.md`, "Tool changes"): where
+/// a job's tool change waits.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ToolsProfile {
+    /// Machine coordinates of the tool change position, `"X100 Y10 Z70"`;
+    /// an axis left out stays where it is (Z: at the job's safe height);
+    /// absent: the change waits above where the tool stands.
+    pub change_at: Option<String>,
+}
+
+impl ToolsProfile {
+    pub fn problems(&self) -> Vec<(&'static str, String)> {
+        match self.change_at_point() {
+            Some(Err(why)) => vec![("change_at", why)],
+            _ => Vec::new(),
+        }
+    }
+
+    /// The change position, machine units per axis.
+    pub fn change_at_point(&self) -> Option<Result<PerAxis<f64>, String>> {
+        self.change_at.as_deref().map(parse_point)
+    }
+}
+
 /// `"X10 Y250 Z70"`: axis letters with numbers, each axis once.
 pub fn parse_point(text: &str) -> Result<PerAxis<f64>, String> {
     let mut point = PerAxis::new();

@@ -51,6 +51,9 @@ pub struct Profile {
     /// Probing (`docs/probing.md`).
     #[serde(default)]
     pub probe: super::probe::ProbeProfile,
+    /// Tool changes (`docs/gcode.md`, "Tool changes").
+    #[serde(default)]
+    pub tools: super::probe::ToolsProfile,
 }
 
 /// `[gcode]`: how G-code from CAM becomes this machine's program. Settings
@@ -618,6 +621,9 @@ impl Profile {
                     IselProfile::BUSY_WAIT_S.end()
                 ),
             ));
+        }
+        for (key, message) in self.tools.problems() {
+            out.push(Invalid::new(&["tools", key], message));
         }
         for (key, message) in self.probe.problems() {
             out.push(Invalid::new(&["probe", key], message));

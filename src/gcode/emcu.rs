@@ -49,6 +49,17 @@ pub fn convert(
     profile: &Profile,
     header: &Header,
 ) -> Result<Program, Vec<Diagnostic>> {
+    convert_with(path, profile, header, &super::Options::default())
+}
+
+/// [`convert`] as `options` say: a piece of a job after its first has no
+/// reference run.
+pub fn convert_with(
+    path: &Toolpath,
+    profile: &Profile,
+    header: &Header,
+    options: &super::Options,
+) -> Result<Program, Vec<Diagnostic>> {
     let axes: Vec<(Axis, AxisProfile)> = [Axis::X, Axis::Y, Axis::Z]
         .into_iter()
         .filter_map(|a| profile.axis(a).map(|p| (a, p.clone())))
@@ -75,7 +86,7 @@ pub fn convert(
     for line in header.lines() {
         w.program.comment(line);
     }
-    if profile.gcode.reference_first {
+    if profile.gcode.reference_first && !options.continued {
         let order: String = [Axis::Z, Axis::X, Axis::Y]
             .into_iter()
             .filter(|a| w.axes.iter().any(|(b, _)| b == a))

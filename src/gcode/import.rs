@@ -22,6 +22,11 @@ pub struct Import {
     pub warnings: Vec<Diagnostic>,
     /// The height map the toolpath follows (`--height-map`).
     pub height_map: Option<MapApplied>,
+    /// The job cut at its tool changes and pauses (`gcode::waits`); the
+    /// program is its whole job, each wait the program's own.
+    pub plan: super::toolchange::Plan,
+    /// The tool-length offset applied to every Z (`jogterm probe tool`).
+    pub tool: Option<super::waits::ToolOffset>,
 }
 
 /// A height map read from its file (`--height-map FILE`), to import with.
@@ -117,6 +122,21 @@ pub fn import_with_map(
     target: Target,
     height_map: Option<&HeightMapFile>,
 ) -> Result<Import, Vec<Diagnostic>> {
+    import_with_tool(text, file, profile, offsets, target, height_map, None)
+}
+
+/// [`import_with_map`], every Z shifted by the tool-length offset of the
+/// tool in the spindle (after the height map: the offset is the tool's,
+/// the map the surface's).
+pub fn import_with_tool(
+    text: &str,
+    file: &str,
+    profile: &Profile,
+    offsets: &WorkOffsets,
+    target: Target,
+    height_map: Option<&HeightMapFile>,
+    tool: Option<&super::waits::ToolOffset>,
+) -> Result<Import, Vec<Diagnostic>> {
     let setup = setup_of(profile, offsets).map_err(|errors| {
         errors
             .into_iter()
@@ -135,8 +155,17 @@ pub fn import_with_map(
         }
         None => (toolpath, None),
     };
+    let dz = tool.map_or(0.0, |t| t.offset_mm);
+    let toolpath = if dz == 0.0 {
+        toolpath
+    } else {
+        super::toolchange::shift_toolpath(&toolpath, dz)
+    };
+    // The plan of the shifted job: its pieces shift no further (dz 0).
+    let plan = super::waits::plan_of(text, &toolpath, profile)?;
+    let whole = plan.expanded(&toolpath, 0.0);
     let machine = machine_of(profile, target);
-    check_limits(&toolpath, &machine).map_err(|e| vec![e])?;
+    check_limits(&whole, &machine).map_err(|e| vec![e])?;
     let summary = summarise(&toolpath, &machine);
     let header = Header {
         file: file.to_owned(),
@@ -144,9 +173,13 @@ pub fn import_with_map(
         system: summary.system.to_string(),
         zero: summary.zero,
     };
+    let options = super::Options {
+        continued: false,
+        safe_z: Some(plan.safe_z),
+    };
     let program = match target {
-        Target::Isel => super::isel::convert(&toolpath, profile, &header)?,
-        Target::Emcu => super::emcu::convert(&toolpath, profile, &header)?,
+        Target::Isel => super::isel::convert_with(&whole, profile, &header, &options)?,
+        Target::Emcu => super::emcu::convert_with(&whole, profile, &header, &options)?,
     };
     let mut warnings = toolpath.warnings.clone();
     warnings.extend(program.warnings.iter().cloned());
@@ -158,6 +191,8 @@ pub fn import_with_map(
         target,
         warnings,
         height_map,
+        plan,
+        tool: tool.cloned(),
     })
 }
 

@@ -104,6 +104,17 @@ pub fn convert(
     profile: &Profile,
     header: &Header,
 ) -> Result<Program, Vec<Diagnostic>> {
+    convert_with(path, profile, header, &super::Options::default())
+}
+
+/// [`convert`] as `options` say: a piece of a job after its first (no
+/// reference run), the job's own safe height.
+pub fn convert_with(
+    path: &Toolpath,
+    profile: &Profile,
+    header: &Header,
+    options: &super::Options,
+) -> Result<Program, Vec<Diagnostic>> {
     let set = profile.axis_set();
     let config = isel_config(set);
     let axis = |a: Axis| profile.axis(a).cloned();
@@ -132,7 +143,10 @@ pub fn convert(
         first_capped: None,
         spindle_speeds: None,
         start_key: start_key(profile),
-        safe_z: path.safe_height().unwrap_or(f64::INFINITY),
+        safe_z: options
+            .safe_z
+            .or_else(|| path.safe_height())
+            .unwrap_or(f64::INFINITY),
     };
     for line in header.lines() {
         w.program.comment(line);
@@ -144,7 +158,11 @@ pub fn convert(
         _ => None,
     });
     w.at = w.axes.steps(start.unwrap_or_default());
-    if profile.gcode.reference_first {
+    if options.continued {
+        w.program.comment(
+            "a piece of the job after a wait: the axes were referenced by its first piece",
+        );
+    } else if profile.gcode.reference_first {
         w.program.command_noted(
             "77",
             "reference run of X, Y and Z: m counts from the reference point",

@@ -11,9 +11,21 @@ pub mod import;
 pub mod isel;
 pub mod profile;
 pub mod restart;
+pub mod waits;
 pub mod ways;
 
 pub use jogterm_gcode::*;
 
-pub use import::{HeightMapFile, Import, MapApplied, import, import_with_map};
+pub use import::{HeightMapFile, Import, MapApplied, import, import_with_map, import_with_tool};
 pub use restart::{Restart, RestartError, restart};
+
+/// How a toolpath is converted besides the profile's settings.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Options {
+    /// A piece of a job after a wait (`waits`): the job's first piece ran
+    /// the reference run, this one starts where the tool stands.
+    pub continued: bool,
+    /// The job's safe height (machine mm), where parts may be cut: a
+    /// piece's own highest rapid may be a tool change's travel.
+    pub safe_z: Option<f64>,
+}

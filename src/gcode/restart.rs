@@ -23,6 +23,7 @@ use super::output::{Header, Program};
 use super::profile::{machine_of, setup_of};
 use super::setup::Units;
 use super::target::Target;
+use super::toolchange::end_of;
 use super::toolpath::{Diagnostic, Line, Op, Origin, OutputSwitch, Pause, Point, Rapid, Toolpath};
 
 #[cfg(test)]
@@ -124,16 +125,6 @@ impl std::error::Error for RestartError {}
 
 fn origin_of(op: &Op) -> Origin {
     op.origin()
-}
-
-/// A move's end, for a move.
-fn end_of(op: &Op) -> Option<Point> {
-    match op {
-        Op::Rapid(m) => Some(m.to),
-        Op::Line(m) => Some(m.to),
-        Op::Arc(a) => Some(a.to),
-        _ => None,
-    }
 }
 
 fn pause_name(p: &Pause) -> String {

@@ -217,9 +217,12 @@ fn a_pressed_start_key_ends_the_tool_change_wait() {
     freecad_tool_change_ended_by("press start");
 }
 
-/// M6 T2 comes before any move: the program stands at the reference point
-/// until `control` presses the start key, then drills the four holes and
-/// ends above the last one (X10 Y25) at G0 Z10.
+/// M6 T2 comes before any move: the program takes Z alone from the
+/// reference point up to the job's safe height (G0 Z10: machine 70 mm,
+/// 28000 steps; the profile has no `[tools] change_at`, so the change
+/// waits above where the tool stands), stands there until `control` presses
+/// the start key, then drills the four holes and ends above the last one
+/// (X10 Y25) at G0 Z10.
 fn freecad_tool_change_ended_by(control: &str) {
     let said = import_upload_and_run("freecad-path.ngc", [10.0, 25.0, 10.0], |sim| {
         let deadline = Instant::now() + Duration::from_secs(20);
@@ -231,14 +234,20 @@ fn freecad_tool_change_ended_by(control: &str) {
             assert!(Instant::now() < deadline, "the program never ran: {state}");
             std::thread::sleep(Duration::from_millis(100));
         };
-        // Standing at the pause, at the reference point: a second later it
-        // has not moved on.
+        // Standing at the pause, above the reference point at the safe
+        // height: a moment later it has not moved on.
+        let up = sim.wait_device("Z up to the safe height", |s| {
+            s.starts_with("device: X 0 Y 0 Z 28000 ")
+        });
         std::thread::sleep(Duration::from_secs(1));
         let still = sim.device_state();
-        assert!(still.contains("program running"), "{running}\n{still}");
         assert!(
-            still.starts_with("device: X 0 Y 0 Z 0 "),
-            "no move before the start key: {still}"
+            still.contains("program running"),
+            "{running}\n{up}\n{still}"
+        );
+        assert!(
+            still.starts_with("device: X 0 Y 0 Z 28000 "),
+            "no move after the retract before the start key: {still}"
         );
         sim.control(control);
     });

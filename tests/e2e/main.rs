@@ -80,6 +80,7 @@ mod sim_start_e2e;
 mod sim_time_scale;
 mod stops_cli;
 mod stops_console;
+mod toolchange_e2e;
 mod transport_reader;
 mod transport_sim_rate;
 mod transport_writer;

@@ -23,7 +23,9 @@ pub mod output;
 pub mod reader;
 pub mod setup;
 pub mod target;
+pub mod toolchange;
 pub mod toolpath;
+pub mod tools;
 
 pub use interp::interpret;
 pub use modal::{Modal, Spindle};

@@ -12,9 +12,9 @@ use clap::{Args, Subcommand, ValueEnum};
 use serde_json::json;
 
 mod grid;
-pub(super) mod operator;
+pub(in crate::cli) mod operator;
 mod shapes;
-mod tool;
+pub(in crate::cli) mod tool;
 
 use operator::Operator;
 

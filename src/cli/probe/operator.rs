@@ -49,6 +49,30 @@ impl Operator {
         }
     }
 
+    /// An operator on keys read already (`jogterm run`'s, lent for a
+    /// measure between two pieces of a job): the run watches the signals
+    /// itself.
+    pub fn with_keys(keys: Keys, here: Option<PerAxis<i64>>) -> Operator {
+        let (_, signals) = mpsc::unbounded_channel();
+        Operator {
+            keys,
+            signals,
+            stopped: false,
+            next_id: 0,
+            here,
+        }
+    }
+
+    /// The keys back (after [`Operator::with_keys`]).
+    pub fn into_keys(self) -> Keys {
+        self.keys
+    }
+
+    /// Where the axes stand, as last measured.
+    pub fn here(&self) -> Option<PerAxis<i64>> {
+        self.here
+    }
+
     /// Resolves when the operator stops (once).
     async fn stop_asked(&mut self) {
         if self.stopped {

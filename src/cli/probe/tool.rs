@@ -83,17 +83,15 @@ pub fn run(
         Ok(t) => t,
         Err(why) => return Ok(usage(&why)),
     };
-    let probe = match probing::probe_move(&profile, Axis::Z, Dir::Minus) {
-        Ok(p) => p,
-        Err(m) => return Ok(usage(&m)),
-    };
+    if let Err(m) = probing::probe_move(&profile, Axis::Z, Dir::Minus) {
+        return Ok(usage(&m));
+    }
     let remedy = Remedy::of_command(&profile, "probe");
     let for_session = profile.clone();
     session::moving(global, for_session, "probe", async |mut session| {
         let measured = async {
             let (mut operator, at) = set_up(&mut session, &remedy).await?;
-            to_sensor(&mut operator, &mut session, &profile, &sensor, at, &remedy).await?;
-            operator.probe(&mut session, probe).await
+            measure(&mut operator, &mut session, &profile, &sensor, at, &remedy).await
         }
         .await;
         session.close().await;
@@ -130,6 +128,55 @@ pub fn run(
         }
         ExitCode::SUCCESS
     })
+}
+
+/// The tool in the spindle measured: to the sensor ([`to_sensor`]) and
+/// the probe from there, which ends where it started, above the sensor.
+pub(in crate::cli) async fn measure(
+    operator: &mut Operator,
+    session: &mut session::Session,
+    profile: &Profile,
+    sensor: &PerAxis<f64>,
+    at: Option<PerAxis<i64>>,
+    remedy: &Remedy,
+) -> Result<crate::device::api::ProbeEnd, u8> {
+    let probe = match probing::probe_move(profile, Axis::Z, Dir::Minus) {
+        Ok(p) => p,
+        Err(m) => return Err(usage_code(&m)),
+    };
+    to_sensor(operator, session, profile, sensor, at, remedy).await?;
+    operator.probe(session, probe).await
+}
+
+fn usage_code(message: &str) -> u8 {
+    out::say(format_args!("jogterm probe: {message}"));
+    session::EXIT_USAGE
+}
+
+/// The tool table of the session `global` opens for `profile`: where it
+/// is kept (`None`: no state directory) and what it holds.
+pub(in crate::cli) fn table_of(
+    global: &GlobalArgs,
+    profile: &Profile,
+) -> Option<(PathBuf, Result<ToolTable, String>)> {
+    let dirs = crate::config::ConfigDirs::from_env();
+    let (_, sources) = crate::cli::profile::resolve_with_sources(global, &dirs).ok()?;
+    let key = crate::offsets::store::profile_key(&sources);
+    let file = OffsetsFile::from_env(crate::offsets::Identity::of(&key, profile))?;
+    let path = table_path(&file)?;
+    let table = load(&path);
+    Some((path, table))
+}
+
+/// The tool in the spindle and its length offset, as the tool table keeps
+/// them: every Z of a job shifts by it (`docs/probing.md`, "Tool length").
+pub(in crate::cli) fn active_offset(
+    global: &GlobalArgs,
+    profile: &Profile,
+) -> Option<crate::gcode::waits::ToolOffset> {
+    let (_, table) = table_of(global, profile)?;
+    let (tool, offset_mm) = table.ok()?.active_offset()?;
+    Some(crate::gcode::waits::ToolOffset { tool, offset_mm })
 }
 
 /// Up to the safe height, over to the sensor, down to the point above it.

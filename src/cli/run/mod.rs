@@ -11,6 +11,7 @@ pub(super) mod outputs;
 pub mod retract;
 pub mod sim_start;
 pub mod stream;
+mod waits;
 
 use std::io::IsTerminal;
 use std::path::PathBuf;
@@ -139,6 +140,10 @@ pub struct RunArgs {
     /// for) every SECONDS while the job runs, or once per line on stdin (`stdin`)
     #[arg(long, value_name = "SECONDS|stdin", value_parser = sim_start::parse)]
     pub sim_start_key: Option<sim_start::SimStart>,
+    /// Print each wait (tool change, pause), what ends it and each tool measured as a JSON
+    /// line on stdout
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// What runs: the prepared program(s) and the way.
@@ -151,6 +156,8 @@ struct Job {
     retract: Option<retract::Retract>,
     /// G-code: the work offset and its zero, for the job log.
     offset: String,
+    /// Tool changes and pauses, run host-driven between the job's pieces.
+    waits: Option<waits::Waited>,
 }
 
 pub fn run(global: &GlobalArgs, args: &RunArgs) -> anyhow::Result<ExitCode> {
@@ -225,6 +232,7 @@ pub fn run(global: &GlobalArgs, args: &RunArgs) -> anyhow::Result<ExitCode> {
                 estimate_s: None,
                 retract: None,
                 offset: String::new(),
+                waits: None,
             },
             Err(m) => return usage(m),
         }
@@ -233,10 +241,13 @@ pub fn run(global: &GlobalArgs, args: &RunArgs) -> anyhow::Result<ExitCode> {
         out::say(m);
         return Ok(ExitCode::from(1));
     }
-    for part in &job.parts {
-        for pause in part.pauses() {
-            out::say(pause);
-        }
+    match &job.waits {
+        Some(w) => w.said_before().iter().for_each(out::say),
+        None => job
+            .parts
+            .iter()
+            .flat_map(Prepared::pauses)
+            .for_each(out::say),
     }
     if !args.yes {
         match confirmed(job.way) {
@@ -351,15 +362,17 @@ fn gcode_job(
         }
         Way::Chunked => imported.in_parts(language, config, profile, "run")?,
     };
+    let retract = imported
+        .restart
+        .as_ref()
+        .and_then(|r| retract::Retract::of(r, profile));
     Ok(Job {
         parts,
         way: ways.chosen,
         estimate_s: ways.estimate(ways.chosen).map(|e| e.total_s),
-        retract: imported
-            .restart
-            .as_ref()
-            .and_then(|r| retract::Retract::of(r, profile)),
+        retract,
         offset: super::log::offset_of(&imported.import.summary),
+        waits: waits::Waited::of(imported, profile, language, config, global)?,
     })
 }
 
@@ -445,6 +458,9 @@ async fn steps(
             retract::retract(session, to, remedy, keys).await?;
         } else if job.way == Way::Stream {
             upload::initialise(session, remedy).await?;
+        }
+        if let Some(w) = &job.waits {
+            return waits::run(session, w, job.way, args, remedy, keys).await;
         }
         if job.way == Way::Stream {
             let part = job.parts.first().ok_or(EXIT_USAGE)?;

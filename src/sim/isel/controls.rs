@@ -53,11 +53,33 @@ impl IselSim {
         })
     }
 
+    /// `value tool <steps>`: the tool in the spindle is `steps` Z steps
+    /// longer than the reference tool (a tool changed at the machine), so
+    /// the probe surface and the tool sensor on it are met that much higher
+    /// (`docs/simulator.md`, "Probe surface").
+    fn set_tool_length(&mut self, steps: f64) -> Result<(), String> {
+        if self.config.probe_surface.is_none() {
+            return Err(
+                "`tool`: the tool's length shows only on a probe surface (variant probe-surface)"
+                    .to_owned(),
+            );
+        }
+        if steps.fract() != 0.0 || steps.abs() > 1e9 {
+            return Err(format!("`tool {steps}`: a whole number of Z steps"));
+        }
+        self.tool_length = steps as i64;
+        self.surface_touch = self.surface_touched_at_rest();
+        Ok(())
+    }
+
     /// Apply an operator control at `t`.
     pub(super) fn operator(&mut self, control: &InputControl, t: Instant) -> Result<(), String> {
         let (name, level, press) = match control {
             InputControl::Set { name, level } => (name, *level, false),
             InputControl::Press { name } => (name, true, true),
+            InputControl::Value { name, value } if name.eq_ignore_ascii_case("tool") => {
+                return self.set_tool_length(*value);
+            }
             InputControl::Value { name, .. } => {
                 return Err(format!(
                     "`{name}`: the isel controller has no analogue inputs: use set {name} on|off"
@@ -200,6 +222,9 @@ impl IselSim {
                     "clear"
                 }
             );
+            if self.tool_length != 0 {
+                let _ = write!(s, ", tool {:+}", self.tool_length);
+            }
         }
         let [p0, p1, p2, p3] = self.ports();
         let _ = write!(

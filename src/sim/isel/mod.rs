@@ -115,6 +115,10 @@ pub struct IselSim {
     /// crosses the plane, so that a move ending on the probe (`@0Z`) stops
     /// where a real one would.
     surface_touch: bool,
+    /// How much longer than the reference tool the tool in the spindle is,
+    /// Z steps (`value tool <steps>`): the probe touches the work piece and
+    /// the tool sensor that much higher.
+    tool_length: i64,
     outputs: Outputs,
     /// A CNC program transfer is open (`@0i`, manual 2.2.13).
     storing: bool,
@@ -159,6 +163,7 @@ impl IselSim {
             virtual_zero: [0; 4],
             inputs: Inputs::power_up(),
             surface_touch: false,
+            tool_length: 0,
             outputs: Outputs::power_up(),
             storing: false,
             activity: None,
@@ -216,9 +221,20 @@ impl IselSim {
     /// Whether the probe touches the work piece with the carriages where
     /// they stand at rest (false without one).
     fn surface_touched_at_rest(&self) -> bool {
+        self.surface()
+            .is_some_and(|s| mechanics::surface_touched(&s, &self.axes, self.counters()))
+    }
+
+    /// The probe surface as the tool in the spindle meets it: raised by
+    /// the tool's length (`value tool <steps>`; a longer tool touches with
+    /// the carriage higher).
+    fn surface(&self) -> Option<crate::config::ProbeSurface> {
         self.config
             .probe_surface
-            .is_some_and(|s| mechanics::surface_touched(&s, &self.axes, self.counters()))
+            .map(|s| crate::config::ProbeSurface {
+                z0: s.z0 + self.tool_length as f64,
+                ..s
+            })
     }
 
     /// Port 1 bit 5, the probe: the work piece's while one is set (variant

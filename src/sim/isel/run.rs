@@ -170,7 +170,7 @@ impl IselSim {
                 let switch = run
                     .next_switch_change(&self.axes, now)
                     .map(|(f, axis, side)| (f, Event::Switch { axis, side }));
-                let surface = self.config.probe_surface.and_then(|s| {
+                let surface = self.surface().and_then(|s| {
                     run.next_surface_change(&s, &self.axes, self.surface_touch, now)
                         .map(|f| (f, Event::Surface))
                 });

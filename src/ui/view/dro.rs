@@ -125,7 +125,8 @@ enum Col {
 }
 
 /// The panel's title after its name: the active work offset (`G54!` when
-/// its file was refused), `≈ estimated`, `programs ≠ G55`.
+/// its file was refused), `≈ estimated`, `programs ≠ G55`, and the tool in
+/// the spindle with its length offset (`T2 +1.000`).
 pub fn title_extra(model: &Model) -> Vec<Span<'static>> {
     let p = &model.palette;
     let sym = p.symbols;
@@ -154,6 +155,9 @@ pub fn title_extra(model: &Model) -> Vec<Span<'static>> {
     if !differ.is_empty() {
         let ne = if sym.lit.is_ascii() { "!=" } else { "≠" };
         extra.push(Span::styled(format!("programs {ne} {name} "), p.warning));
+    }
+    if let Some((tool, offset)) = &model.setup.tool {
+        extra.push(Span::styled(format!("{tool} {offset:+.3} "), p.title));
     }
     extra
 }
@@ -345,5 +349,38 @@ impl Widget for DroView<'_> {
             }
             line.render(Rect::new(inner.x, y, inner.width, 1), buf);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::{ConfigDirs, load_profile, load_theme};
+    use crate::ui::keymap::Keymap;
+    use crate::ui::palette::Palette;
+    use crate::ui::setup::Setup;
+
+    fn title(tool: Option<(String, f64)>) -> String {
+        let dirs = ConfigDirs::builtin_only();
+        let profile = load_profile("default", &dirs).expect("profile");
+        let theme = load_theme("dark", &dirs).expect("theme");
+        let mut setup = Setup::from_profile(&profile, None);
+        setup.tool = tool;
+        let model = Model::new(
+            setup,
+            Keymap::builtin().expect("keys"),
+            Palette::from(&theme),
+            std::time::Instant::now(),
+        );
+        title_extra(&model)
+            .iter()
+            .map(|s| s.content.to_string())
+            .collect()
+    }
+
+    #[test]
+    fn the_title_shows_the_tool_in_the_spindle_and_its_offset() {
+        assert_eq!(title(Some(("T2".into(), 1.0))), "G54 T2 +1.000 ");
+        assert_eq!(title(None), "G54 ");
     }
 }
