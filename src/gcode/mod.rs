@@ -11,6 +11,7 @@ pub mod import;
 pub mod isel;
 pub mod profile;
 pub mod restart;
+pub mod timing;
 pub mod ways;
 
 pub use jogterm_gcode::*;
