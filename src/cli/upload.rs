@@ -176,6 +176,7 @@ impl Prepared {
                 .as_ref()
                 .map_or(self.lines.len(), |g| g.lines.len()),
             estimate_s: None,
+            ways: None,
         }
     }
 }

@@ -266,17 +266,27 @@ impl Ways {
         }
     }
 
-    /// Seconds a stream takes from program line `line` on to its end, at
-    /// `factor` of the programmed speeds: the live ETA's model time.
-    pub fn stream_left_s(&self, program: &Program, line: usize, factor: f64) -> f64 {
-        Ways::stream_of(
-            program,
-            &self.timing,
-            &self.costs,
-            line..program.lines.len(),
-            factor,
-        )
-        .total_s
+    /// For every program line, the seconds a stream takes from it to the
+    /// end at `factor` of the programmed speeds (one more entry: 0 at the
+    /// end): the live ETA's model time, in one pass.
+    pub fn stream_left(&self, lines: usize, factor: f64) -> Vec<f64> {
+        let mut per_line = vec![0.0; lines + 1];
+        for step in self.timing.stream(0..lines, factor) {
+            let wire = if step.bytes == 0 {
+                0.0
+            } else {
+                self.costs.wire_s(step.bytes) + self.costs.turnaround_s * step.trips as f64
+            };
+            if let Some(cell) = per_line.get_mut(step.line) {
+                *cell += step.motion_s + wire;
+            }
+        }
+        let mut left = 0.0;
+        for cell in per_line.iter_mut().rev() {
+            left += *cell;
+            *cell = left;
+        }
+        per_line
     }
 
     /// The ways of an imported job (or of its restart's program, `restart`)
@@ -511,6 +521,19 @@ mod tests {
         let ways = Ways::of(&program(8, &[3], 6), 10.0, &emcu);
         assert_eq!(ways.chosen, Way::Stream);
         assert!(ways.chunked.is_err());
+    }
+
+    #[test]
+    fn the_time_left_of_a_stream_counts_from_each_line_to_the_end() {
+        let p = program(6, &[2], 4);
+        let ways = Ways::of(&p, 10.0, &ISEL);
+        let left = ways.stream_left(p.lines.len(), 1.0);
+        assert_eq!(left.len(), 7);
+        assert!((left[0] - ways.stream.total_s).abs() < 1e-9);
+        // Each command 35 ms (its bytes and the position read, the moves
+        // going nowhere).
+        assert!((left[4] - 0.070).abs() < 1e-9, "{left:?}");
+        assert_eq!(left[6], 0.0);
     }
 
     #[test]

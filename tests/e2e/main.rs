@@ -52,6 +52,7 @@ mod device_emp;
 mod device_reconnect;
 mod device_task;
 mod editor_e2e;
+mod eta_e2e;
 mod gcode_e2e;
 mod gcode_input_e2e;
 mod gcode_restart_e2e;

@@ -6,6 +6,7 @@
 //! operator confirms it; during the run the keys of [`keys`] pause, resume,
 //! change the speed of a stream and stop.
 
+mod eta;
 pub mod keys;
 pub(super) mod outputs;
 pub mod retract;
@@ -128,6 +129,8 @@ struct Job {
     way: Way,
     /// The way's estimate, for the time left early in a stream.
     estimate_s: Option<f64>,
+    /// The ways of a G-code job: the model of the live ETA.
+    ways: Option<Ways>,
     /// A restart's first step, before the program: Z up alone.
     retract: Option<retract::Retract>,
 }
@@ -186,6 +189,7 @@ pub fn run(global: &GlobalArgs, args: &RunArgs) -> anyhow::Result<ExitCode> {
                     Way::Stored
                 },
                 estimate_s: None,
+                ways: None,
                 retract: None,
             },
             Err(m) => return usage(m),
@@ -276,6 +280,7 @@ fn gcode_job(
         parts,
         way: ways.chosen,
         estimate_s: ways.estimate(ways.chosen).map(|e| e.total_s),
+        ways: Some(ways.clone()),
         retract: imported
             .restart
             .as_ref()
@@ -358,6 +363,7 @@ async fn steps(
             ));
             let place = stream::Place {
                 estimate_s: job.estimate_s,
+                ways: job.ways.as_ref(),
                 ..part.place()
             };
             return stream::run(
