@@ -24,6 +24,14 @@
 //! `--moves N`, `--only stream|chunked`. Results: `docs/gcode.md`, "Jobs
 //! bigger than the memory".
 //!
+//! `cargo bench --bench jobs -- --estimate` (issue 41) instead runs small
+//! jobs (short and long lines, arcs and short arcs; a few seconds each) stored
+//! and streamed on simulators at real time, and prints the estimate of the
+//! controller's model (`gcode::timing`, `gcode::ways`) beside the time
+//! measured from the traffic log, with the error of each (about two
+//! minutes in all). Results: `docs/performance.md`, "Estimates against the
+//! simulator".
+//!
 //! Hand-written, not on divan: a job run at the controller's real time
 //! (hours of wire), not a function timed in a loop.
 
@@ -284,6 +292,10 @@ fn run_way(way: &'static str, file: &Path, config: &Path) -> std::thread::JoinHa
 
 fn main() {
     let args = Args::from_env();
+    if args.flag("--estimate") {
+        estimate::main(&args);
+        return;
+    }
     let moves: usize = args.value("--moves").map_or(50_000, |v| v.parse().unwrap());
     let only = args.value("--only").map(str::to_owned);
     let dir = tempfile::tempdir().expect("temp dir");
@@ -347,4 +359,240 @@ fn head(text: &str, n: usize) -> String {
 fn tail(text: &str, n: usize) -> String {
     let lines: Vec<&str> = text.lines().collect();
     lines[lines.len().saturating_sub(n)..].join("\n")
+}
+
+/// `--estimate`: the model's estimate of small jobs against their runs.
+mod estimate {
+    use super::*;
+    use jogterm::config::{ConfigDirs, load_profile};
+    use jogterm::gcode::ways::Ways;
+    use jogterm::gcode::{Target, import};
+    use jogterm::offsets::WorkOffsets;
+
+    /// The bench's machine: the shipped isel profile without a reference
+    /// run in the program (a reference run's time depends on where the
+    /// axes stood, which no estimate before the start knows). Before each
+    /// job the simulator is referenced and its axes brought to the job's
+    /// first point, where the model takes them to stand (`gcode::timing`).
+    const PROFILE: &str = "base = \"isel\"\nname = \"bench\"\ndescription = \"jobs bench\"\n\n[gcode]\nreference_first = false\n\n[sim]\nstart_position = 1.0\n";
+    const ZERO: &str = "X2 Y10 Z60";
+    const ZERO_MM: [f64; 3] = [2.0, 10.0, 60.0];
+
+    fn lines(segment: f64, count: usize, feed: f64) -> String {
+        let mut t = String::from("G21 G90 G17\nG0 X0 Y0 Z5\nG1 Z-0.5 F600\n");
+        for k in 1..=count {
+            let x = k as f64 * segment;
+            // Off the line of their neighbours: the import merges those.
+            let z = -0.5 + 0.2 * (k as f64 * 1.3).sin();
+            t.push_str(&format!("G1 X{x:.3} Z{z:.3} F{feed}\n"));
+        }
+        t.push_str("G0 Z5\nM30\n");
+        t
+    }
+
+    fn arcs(radius: f64, count: usize, feed: f64) -> String {
+        let mut t = String::from("G21 G90 G17\nG0 X0 Y0 Z5\nG1 Z-0.5 F600\n");
+        let mut x = 0.0;
+        for k in 0..count {
+            // Half circles to and fro along X.
+            let (g, dx) = if k % 2 == 0 {
+                (2, 2.0 * radius)
+            } else {
+                (3, 2.0 * radius)
+            };
+            x += dx;
+            t.push_str(&format!("G{g} X{x:.3} Y0 I{radius:.3} J0 F{feed}\n"));
+        }
+        t.push_str("G0 Z5\nM30\n");
+        t
+    }
+
+    struct Job {
+        name: &'static str,
+        text: String,
+    }
+
+    fn jobs() -> Vec<Job> {
+        vec![
+            Job {
+                name: "short lines (0.25 mm, 3000 mm/min)",
+                text: lines(0.25, 120, 3000.0),
+            },
+            Job {
+                name: "long lines (20 mm, 1200 mm/min)",
+                text: lines(20.0, 5, 1200.0),
+            },
+            Job {
+                name: "arcs (R 5 mm half circles, 1200 mm/min)",
+                text: arcs(5.0, 6, 1200.0),
+            },
+            Job {
+                name: "short arcs (R 0.5 mm half circles, 1500 mm/min)",
+                text: arcs(0.5, 60, 1500.0),
+            },
+        ]
+    }
+
+    /// From the first byte of the job (`@0i` stored, the first command after
+    /// the set-up streamed) to the last answer.
+    fn measure(log: &[Record], way: &str, first: &str) -> Option<f64> {
+        let start = if way == "stored" {
+            log.iter().find(|r| r.sent && r.text.starts_with("@0i"))?.at
+        } else {
+            log.iter().find(|r| r.sent && r.text == first)?.at
+        };
+        let end = log.iter().rev().find(|r| !r.sent)?.at;
+        Some(end - start)
+    }
+
+    /// The host's turnaround in a stream: from an answer to the next
+    /// command's first byte, median and mean in ms.
+    fn turnaround(log: &[Record], first: &str) -> (f64, f64) {
+        let from = log
+            .iter()
+            .position(|r| r.sent && r.text == first)
+            .unwrap_or(0);
+        let mut gaps: Vec<f64> = log[from..]
+            .windows(2)
+            .filter(|w| !w[0].sent && w[1].sent)
+            .map(|w| (w[1].at - w[0].at) * 1000.0)
+            .collect();
+        if gaps.is_empty() {
+            return (0.0, 0.0);
+        }
+        gaps.sort_by(f64::total_cmp);
+        let mean = gaps.iter().sum::<f64>() / gaps.len() as f64;
+        (gaps[gaps.len() / 2], mean)
+    }
+
+    pub fn main(_args: &Args) {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let config = dir.path().join("config");
+        std::fs::create_dir_all(&config).expect("config dir");
+        let profile_path = dir.path().join("bench.toml");
+        std::fs::write(&profile_path, PROFILE).expect("profile");
+        let spec = profile_path.to_string_lossy().into_owned();
+        let profile = load_profile(&spec, &ConfigDirs::builtin_only()).expect("bench profile");
+        println!(
+            "jobs bench --estimate ({} build), isel at {BAUD} baud, started {:?}",
+            support::build_kind(),
+            std::time::SystemTime::now()
+        );
+        println!("\n| job | commands | way | estimated | measured | error |");
+        println!("|---|---:|---|---:|---:|---:|");
+        let mut worst: f64 = 0.0;
+        let only: Option<usize> = std::env::var("JOBS_ONLY").ok().and_then(|v| v.parse().ok());
+        for (k, job) in jobs().into_iter().enumerate() {
+            if only.is_some_and(|o| o != k) {
+                continue;
+            }
+            let file = dir.path().join("job.nc");
+            std::fs::write(&file, &job.text).expect("job");
+            let mut offsets = WorkOffsets::default();
+            for (axis, mm) in [
+                jogterm::axis::Axis::X,
+                jogterm::axis::Axis::Y,
+                jogterm::axis::Axis::Z,
+            ]
+            .into_iter()
+            .zip(ZERO_MM)
+            {
+                let p = profile.axis(axis).expect("axis");
+                offsets.set(jogterm::offsets::System::G54, axis, p.to_steps(mm));
+            }
+            let imported = import(&job.text, "job.nc", &profile, &offsets, Target::Isel)
+                .unwrap_or_else(|e| panic!("{}: {e:?}", job.name));
+            let ways = Ways::of_import(&imported, None, &profile);
+            let first = imported
+                .program
+                .lines
+                .iter()
+                .find(|l| !l.command.is_empty())
+                .map(|l| match l.command.strip_prefix('7') {
+                    // CNC `7` is `@0R` in DNC form.
+                    Some(mask) => format!("@0R{mask}<CR>"),
+                    None => format!("@0{}<CR>", l.command),
+                })
+                .unwrap_or_default();
+            // The job's first point: its first move after the reference
+            // run, in 2.5D (Z last: up from below).
+            let to_start = imported
+                .program
+                .lines
+                .iter()
+                .find(|l| l.command.starts_with('m'))
+                .map(|l| format!("@0M{}", &l.command[1..]))
+                .expect("a move");
+            for way in ["stored", "stream"] {
+                let estimated = match way {
+                    "stored" => ways.stored.map(|e| e.total_s),
+                    _ => Some(ways.stream.total_s),
+                }
+                .expect("the job fits");
+                let sim =
+                    SimProcess::start_with(Protocol::Isel, &["--profile", &spec], Some(&config));
+                let state = tempfile::tempdir().expect("state dir");
+                let referenced = Command::new(env!("CARGO_BIN_EXE_jogterm"))
+                    .args(["--profile", &spec, "send", "--port"])
+                    .arg(&sim.link)
+                    .args(["--protocol", "isel", "@07", "@0R7", &to_start])
+                    .env("JOGTERM_CONFIG_DIR", &config)
+                    .env("JOGTERM_STATE_DIR", state.path())
+                    .output()
+                    .expect("jogterm send");
+                assert!(
+                    referenced.status.success(),
+                    "{}",
+                    String::from_utf8_lossy(&referenced.stderr)
+                );
+                let log = state.path().join("traffic.log");
+                let out = Command::new(env!("CARGO_BIN_EXE_jogterm"))
+                    .args(["--profile", &spec, "--log"])
+                    .arg(&log)
+                    .arg("run")
+                    .arg("--port")
+                    .arg(&sim.link)
+                    .args(["--protocol", "isel"])
+                    .arg(&file)
+                    .args(["--work-zero", ZERO, "--yes"])
+                    .args(if way == "stream" {
+                        &["--stream"][..]
+                    } else {
+                        &[][..]
+                    })
+                    .env("JOGTERM_CONFIG_DIR", &config)
+                    .env("JOGTERM_STATE_DIR", state.path())
+                    .output()
+                    .expect("jogterm run");
+                let said = String::from_utf8_lossy(&out.stderr).into_owned();
+                assert!(
+                    out.status.success(),
+                    "{said}\nthe set-up said:\n{}",
+                    String::from_utf8_lossy(&referenced.stdout)
+                );
+                let text = std::fs::read_to_string(&log).unwrap_or_default();
+                let records = records(&text);
+                let measured = measure(&records, way, &first).expect("the log");
+                if way == "stream" {
+                    let (median, mean) = turnaround(&records, &first);
+                    eprintln!(
+                        "{}: host turnaround median {median:.2} ms, mean {mean:.2} ms",
+                        job.name
+                    );
+                    if std::env::var_os("JOBS_DUMP").is_some() {
+                        for line in text.lines().skip_while(|l| !l.contains(&first)).take(30) {
+                            eprintln!("  {line}");
+                        }
+                    }
+                }
+                let error = (estimated - measured) / measured * 100.0;
+                worst = worst.max(error.abs());
+                println!(
+                    "| {} | {} | {way} | {estimated:.3} s | {measured:.3} s | {error:+.1} % |",
+                    job.name, imported.program.commands
+                );
+            }
+        }
+        println!("\nworst error {worst:.1} % (the goal: within 5 %)");
+    }
 }

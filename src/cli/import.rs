@@ -269,14 +269,14 @@ pub fn run_to(
             let _ = err.write_all(confirmation.as_bytes());
             program_text
         } else if args.json {
-            format!("{}\n", super::restart::json(&imported, r))
+            format!("{}\n", super::restart::json(&imported, r, &profile))
         } else {
             confirmation
         }
     } else if to_stdout {
         program_text
     } else if args.json {
-        format!("{}\n", summary_json(&imported))
+        format!("{}\n", summary_json(&imported, &profile))
     } else {
         summary_text(&name, &profile, &imported, args.output.as_ref())
     };
@@ -446,7 +446,8 @@ pub(super) fn round3(v: f64) -> f64 {
     (v * 1000.0).round() / 1000.0
 }
 
-pub fn summary_json(i: &Import) -> serde_json::Value {
+pub fn summary_json(i: &Import, profile: &Profile) -> serde_json::Value {
+    let ways = Ways::of_import(i, None, profile);
     let e = &i.summary.extents;
     let extents = if e.is_empty() {
         serde_json::Value::Null
@@ -459,7 +460,10 @@ pub fn summary_json(i: &Import) -> serde_json::Value {
         "length_mm": round3(i.summary.length_mm),
         "moves": i.summary.moves,
         "arcs": i.summary.arcs,
-        "estimated_s": round3(i.summary.estimated_s),
+        "estimated_s": round3(ways.chosen_s()),
+        "estimated_by_way": by_way_json(&ways),
+        "estimated_way": ways.chosen.to_string(),
+        "feeds_s": round3(i.summary.estimated_s),
         "output": i.target.name(),
         "output_lines": i.program.commands,
         "memory": i.program.capacity,
@@ -480,6 +484,49 @@ pub fn summary_json(i: &Import) -> serde_json::Value {
             "message": w.message,
         })).collect::<Vec<_>>(),
     })
+}
+
+/// Each way's estimate by the controller's model (`null` where the way
+/// cannot run the job), what the tool stands in a stream, and what waits
+/// for the operator.
+pub(super) fn by_way_json(ways: &Ways) -> serde_json::Value {
+    let s = &ways.stream;
+    json!({
+        "stored": ways.stored.as_ref().map(|e| round3(e.total_s)),
+        "parts": ways.chunked.as_ref().ok().filter(|_| ways.stored.is_none()).map(|e| round3(e.total_s)),
+        "stream": round3(s.total_s),
+        "stream_standing_s": round3(s.at_part_s + s.retracted_s),
+        "not_timed": ways.timing.listed,
+    })
+}
+
+/// The summary's lines of the estimate: by the model, each way, what the
+/// tool stands in a stream, what is not timed.
+pub(super) fn estimate_text(ways: &Ways) -> String {
+    let mut out = String::new();
+    let mut each = Vec::new();
+    if let Some(e) = &ways.stored {
+        each.push(format!("stored {}", duration(e.total_s)));
+    }
+    if let (None, Ok(e)) = (&ways.stored, &ways.chunked) {
+        each.push(format!("in {} parts {}", e.parts, duration(e.total_s)));
+    }
+    let s = &ways.stream;
+    each.push(format!(
+        "stream {} (the tool stands {} between commands)",
+        duration(s.total_s),
+        duration(s.at_part_s + s.retracted_s)
+    ));
+    out.push_str(&format!(
+        "  estimated {} {} by the controller's ramps and the wire: {}\n",
+        duration(ways.chosen_s()),
+        ways.chosen,
+        each.join(", ")
+    ));
+    for why in &ways.timing.listed {
+        out.push_str(&format!("  not timed, waits for the operator: {why}\n"));
+    }
+    out
 }
 
 /// A height map's part of the summary: which file, its correction's range,
@@ -536,12 +583,13 @@ fn summary_text(name: &str, profile: &Profile, i: &Import, written: Option<&Path
         i.toolpath.lines, profile.name
     ));
     out.push_str(&format!(
-        "  moves {}, arcs {}, path {:.1} mm, estimated {} (feeds and rapids, no ramps)\n",
+        "  moves {}, arcs {}, path {:.1} mm, {} at the feeds alone (no ramps)\n",
         s.moves,
         s.arcs,
         s.length_mm,
         duration(s.estimated_s)
     ));
+    out.push_str(&estimate_text(&Ways::of_import(i, None, profile)));
     if !e.is_empty() {
         let axes: Vec<String> = ["X", "Y", "Z"]
             .iter()

@@ -93,7 +93,7 @@ pub fn text(
 
 /// The whole job's summary (as `--json` without `--from-line`) and the
 /// restart under `restart`.
-pub fn json(i: &Import, r: &Restart) -> serde_json::Value {
+pub fn json(i: &Import, r: &Restart, profile: &Profile) -> serde_json::Value {
     let m = &r.modal;
     let mut coolant = Vec::new();
     if m.mist {
@@ -103,7 +103,7 @@ pub fn json(i: &Import, r: &Restart) -> serde_json::Value {
         coolant.push("M8");
     }
     let [x, y, z] = work_mm(r, r.start);
-    let mut summary = summary_json(i);
+    let mut summary = summary_json(i, profile);
     summary["restart"] = json!({
         "requested_line": r.requested,
         "line": r.line,

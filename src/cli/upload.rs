@@ -186,6 +186,7 @@ impl Prepared {
                 .map_or(self.lines.len(), |g| g.lines.len()),
             estimate_s: None,
             log: None,
+            ways: None,
         }
     }
 }

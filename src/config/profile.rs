@@ -401,6 +401,22 @@ pub struct EmcuProfile {
     /// As `isel.start_unreferenced`, for the ROM job (`@J`).
     #[serde(default)]
     pub start_unreferenced: StartUnreferenced,
+    /// What the estimate assumes a move too short for both ramps does: the
+    /// manual (1.5.7) does not say (`docs/profiles.md`).
+    #[serde(default)]
+    pub short_move_ramp: ShortMoveRamp,
+}
+
+/// An EMCU move shorter than its two ramps (`emcu.short_move_ramp`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ShortMoveRamp {
+    /// Up at the ramp's acceleration to half way and down again (what the
+    /// simulator does).
+    #[default]
+    Triangle,
+    /// No ramp at all: the whole move at the start speed.
+    StartSpeed,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]

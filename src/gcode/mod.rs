@@ -12,6 +12,7 @@ pub mod isel;
 pub mod profile;
 pub mod restart;
 pub mod waits;
+pub mod timing;
 pub mod ways;
 
 pub use jogterm_gcode::*;

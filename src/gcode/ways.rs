@@ -15,12 +15,18 @@
 //!   next part's upload above the part, never in it.
 //!
 //! The choice weighs first the time the tool stands still in the material
-//! (marks on the part), then the time in all. The estimates are floors:
-//! motion from the import's planner (feeds and rapids, no ramps), the wire
-//! at the line's baud rate with 10 bits a byte, no host or controller
-//! latency; `cargo bench --bench gcode` measures both ways against them.
+//! (marks on the part), then the time in all. Motion is the controller's
+//! model ([`super::timing`]: ramps from the profile's start-stop frequency
+//! and acceleration, circles by their steps, dwells, reference runs); the
+//! wire runs at the line's baud rate with 10 bits a byte, and a stream adds
+//! the host's turnaround between an answer and the next command
+//! ([`Costs::TURNAROUND_S`]). `cargo bench --bench jobs` measures every way
+//! against it (`docs/performance.md`).
+
+use std::sync::Arc;
 
 use super::output::Program;
+use super::timing::{Controller, Timing};
 use crate::config::profile::Profile;
 use crate::program::Language;
 
@@ -32,15 +38,22 @@ pub struct Costs {
     /// Erasing the stored program before the next part is stored (isel
     /// `@0k`: about 2 s, manual 2.2.17).
     pub erase_s: f64,
-    /// Bytes a stored command gains as a DNC command (isel: `@0` in front).
-    pub dnc_prefix: usize,
     /// Whether the controller's jobs can be run in parts (isel: a part ends
     /// with `9` and the next is stored after an erase; EMCU jobs are not).
     pub parts: bool,
+    /// The controller's model: ramps, reference runs, the DNC form.
+    pub controller: Controller,
+    /// Between a stream's answer and its next command: the host reading
+    /// the answer and writing the next line (seconds).
+    pub turnaround_s: f64,
 }
 
 impl Costs {
     pub const ISEL_ERASE_S: f64 = 2.0;
+    /// The host's turnaround in a stream: the device task hands the answer
+    /// to the run loop, which asks for the next line (measured with
+    /// `cargo bench --bench jobs`, `docs/performance.md`).
+    pub const TURNAROUND_S: f64 = 0.0;
 
     /// What the line and controller of `profile` cost besides motion, for
     /// a program in `language` (`jogterm run` and the editor's run key).
@@ -50,15 +63,17 @@ impl Costs {
             Language::Isel => Costs {
                 baud,
                 erase_s: Costs::ISEL_ERASE_S,
-                dnc_prefix: 2,
                 parts: true,
+                controller: Controller::of(profile, language),
+                turnaround_s: Costs::TURNAROUND_S,
             },
             // `@F` replaces a stored job; jobs are not run in parts.
             Language::Emcu => Costs {
                 baud,
                 erase_s: 0.0,
-                dnc_prefix: 0,
                 parts: false,
+                controller: Controller::of(profile, language),
+                turnaround_s: Costs::TURNAROUND_S,
             },
         }
     }
@@ -93,7 +108,8 @@ pub struct Estimate {
     pub way: Way,
     /// From the first command out to the last move's end.
     pub total_s: f64,
-    /// The planner's motion time: the physical floor of every way.
+    /// The controller's motion time by the model (ramps, circles, dwells,
+    /// reference runs): what every way spends moving.
     pub motion_s: f64,
     /// Still with the tool below the safe height: between two commands of
     /// a stream.
@@ -116,78 +132,66 @@ pub struct Ways {
     /// controller runs no parts.
     pub chunked: Result<Estimate, String>,
     pub chosen: Way,
+    /// The planner's time: feeds and rapids without ramps, no wire.
+    pub floor_s: f64,
+    /// The model the estimates come from, for the time left during a run.
+    pub timing: Arc<Timing>,
+    pub costs: Costs,
 }
 
 impl Ways {
-    /// The estimates of `program` (its planner's motion time `motion_s`)
-    /// on a line and controller that cost `costs`.
-    pub fn of(program: &Program, motion_s: f64, costs: &Costs) -> Ways {
-        let commands: Vec<(usize, usize)> = program
-            .lines
-            .iter()
-            .enumerate()
-            .filter(|(_, l)| !l.command.is_empty())
-            .map(|(i, l)| (i, l.command.len()))
-            .collect();
-        // Stored: each command and its CR, each answered with one byte.
+    /// The estimates of `program` (its planner's motion time `floor_s`,
+    /// no ramps) on a line and controller that cost `costs`.
+    pub fn of(program: &Program, floor_s: f64, costs: &Costs) -> Ways {
+        let timing = Arc::new(Timing::of(program, &costs.controller));
+        let all = 0..program.lines.len();
+        // Storing: `@0i` (isel) or `@F` (EMCU) and its answer, each line
+        // and its answer, the program's end.
         let upload_s =
-            |cmds: &[(usize, usize)]| costs.wire_s(cmds.iter().map(|(_, len)| len + 2).sum());
-        let stored = program.fits().then(|| Estimate {
-            way: Way::Stored,
-            total_s: upload_s(&commands) + motion_s,
-            motion_s,
-            at_part_s: 0.0,
-            stops_at_part: 0,
-            retracted_s: upload_s(&commands),
-            parts: 1,
-        });
-        let mut at_part_s = 0.0;
-        let mut stops_at_part = 0;
-        let mut stream_wire_s = 0.0;
-        let mut retracted = program.retracted.iter().peekable();
-        let mut previous: Option<usize> = None;
-        for &(index, len) in &commands {
-            let gap = costs.wire_s(len + costs.dnc_prefix + 2);
-            stream_wire_s += gap;
-            if let Some(before) = previous {
-                while retracted.next_if(|&&r| r < before).is_some() {}
-                if retracted.peek() != Some(&&before) {
-                    at_part_s += gap;
-                    stops_at_part += 1;
-                }
+            |lines: std::ops::Range<usize>| costs.wire_s(timing.upload_bytes(lines) + 5 + 3);
+        let motion_s = timing.motion_only_s(all.clone(), 1.0);
+        let stored = program.fits().then(|| {
+            let upload = upload_s(all.clone());
+            // `@0S` / `@J` and the program's answer at its end.
+            let start = costs.wire_s(5);
+            let run = timing.stored_run_s(all.clone());
+            Estimate {
+                way: Way::Stored,
+                total_s: upload + start + run,
+                motion_s,
+                at_part_s: 0.0,
+                stops_at_part: 0,
+                retracted_s: upload + start,
+                parts: 1,
             }
-            previous = Some(index);
-        }
-        let stream = Estimate {
-            way: Way::Stream,
-            total_s: motion_s + stream_wire_s,
-            motion_s,
-            at_part_s,
-            stops_at_part,
-            retracted_s: stream_wire_s - at_part_s,
-            parts: 1,
-        };
+        });
+        let stream = Ways::stream_of(program, &timing, costs, 0..program.lines.len(), 1.0);
         let chunked = if !costs.parts {
             Err("the controller's jobs are not run in parts".to_owned())
         } else {
             program.parts(program.capacity).map(|parts| {
                 let mut retracted_s = 0.0;
+                let mut run_s = 0.0;
                 for (k, part) in parts.iter().enumerate() {
-                    let in_part: Vec<(usize, usize)> = commands
-                        .iter()
-                        .copied()
-                        .filter(|(i, _)| part.lines.contains(i))
-                        .collect();
-                    // The part's own `z1` and `9`, two bytes each with CR.
-                    let extra = costs.wire_s(3 * (part.commands - in_part.len()));
-                    retracted_s += upload_s(&in_part) + extra;
+                    let lines = part.lines.clone();
+                    let in_part = timing.within_count(lines.clone());
+                    // The part's own `z1` and `9`, two bytes each with CR
+                    // and answer, `z1` run for 1 ms.
+                    let extra = costs.wire_s(3 * (part.commands.saturating_sub(in_part)));
+                    retracted_s += upload_s(lines.clone()) + extra + costs.wire_s(5);
+                    run_s += timing.stored_run_s(lines)
+                        + if k > 0 {
+                            Controller::ISEL_PROGRAM_STEP_S
+                        } else {
+                            0.0
+                        };
                     if k > 0 {
                         retracted_s += costs.erase_s;
                     }
                 }
                 Estimate {
                     way: Way::Chunked,
-                    total_s: motion_s + retracted_s,
+                    total_s: run_s + retracted_s,
                     motion_s,
                     at_part_s: 0.0,
                     stops_at_part: 0,
@@ -211,7 +215,102 @@ impl Ways {
             stream,
             chunked,
             chosen,
+            floor_s,
+            timing,
+            costs: *costs,
         }
+    }
+
+    /// The stream of `lines` at `factor` of the programmed speeds: every
+    /// command sent when the one before has been answered, the axes
+    /// standing from a move's end until the next command has arrived.
+    fn stream_of(
+        program: &Program,
+        timing: &Timing,
+        costs: &Costs,
+        lines: std::ops::Range<usize>,
+        factor: f64,
+    ) -> Estimate {
+        let mut at_part_s = 0.0;
+        let mut stops_at_part = 0;
+        let mut standing_s = 0.0;
+        let mut moving_s = 0.0;
+        let start = lines.start;
+        let mut retracted = program.retracted.iter().peekable();
+        while retracted.next_if(|&&r| r < start).is_some() {}
+        let mut previous: Option<usize> = None;
+        for step in timing.stream(lines, factor) {
+            moving_s += step.motion_s;
+            if step.bytes == 0 {
+                continue;
+            }
+            let gap = costs.wire_s(step.bytes) + costs.turnaround_s * step.trips as f64;
+            standing_s += gap;
+            if let Some(before) = previous {
+                while retracted.next_if(|&&r| r < before).is_some() {}
+                if retracted.peek() != Some(&&before) {
+                    at_part_s += gap;
+                    stops_at_part += 1;
+                }
+            }
+            previous = Some(step.line);
+        }
+        Estimate {
+            way: Way::Stream,
+            total_s: moving_s + standing_s,
+            motion_s: moving_s,
+            at_part_s,
+            stops_at_part,
+            retracted_s: standing_s - at_part_s,
+            parts: 1,
+        }
+    }
+
+    /// For every program line, the seconds a stream takes from it to the
+    /// end at `factor` of the programmed speeds (one more entry: 0 at the
+    /// end): the live ETA's model time, in one pass.
+    pub fn stream_left(&self, lines: usize, factor: f64) -> Vec<f64> {
+        let mut per_line = vec![0.0; lines + 1];
+        for step in self.timing.stream(0..lines, factor) {
+            let wire = if step.bytes == 0 {
+                0.0
+            } else {
+                self.costs.wire_s(step.bytes) + self.costs.turnaround_s * step.trips as f64
+            };
+            if let Some(cell) = per_line.get_mut(step.line) {
+                *cell += step.motion_s + wire;
+            }
+        }
+        let mut left = 0.0;
+        for cell in per_line.iter_mut().rev() {
+            left += *cell;
+            *cell = left;
+        }
+        per_line
+    }
+
+    /// The ways of an imported job (or of its restart's program, `restart`)
+    /// on `profile`'s line and controller.
+    pub fn of_import(
+        import: &super::Import,
+        restart: Option<&super::Restart>,
+        profile: &Profile,
+    ) -> Ways {
+        let language = match import.target {
+            super::target::Target::Isel => Language::Isel,
+            super::target::Target::Emcu => Language::Emcu,
+        };
+        let (program, floor_s) = match restart {
+            Some(r) => (&r.program, r.estimated_s),
+            None => (&import.program, import.summary.estimated_s),
+        };
+        Ways::of(program, floor_s, &Costs::of(profile, language))
+    }
+
+    /// The time of the way chosen.
+    pub fn chosen_s(&self) -> f64 {
+        self.estimate(self.chosen)
+            .map_or(self.stream.total_s, |e| e.total_s)
     }
 
     /// The estimate of `way`, where it can run the job.
@@ -271,9 +370,19 @@ impl Ways {
             Err(why) => lines.push(format!("chunked: not possible: {why}")),
         }
         lines.push(format!(
-            "motion alone (the floor): {}",
-            duration(self.stream.motion_s)
+            "motion by the controller's ramps: {} (feeds alone, no ramps: {})",
+            duration(self.stream.motion_s),
+            duration(self.floor_s)
         ));
+        let s = &self.stream;
+        lines.push(format!(
+            "stream: the tool stands {} in all between commands ({} of it in the part)",
+            duration(s.at_part_s + s.retracted_s),
+            duration(s.at_part_s)
+        ));
+        for why in &self.timing.listed {
+            lines.push(format!("not timed (waits for the operator): {why}"));
+        }
         let chosen = self.estimate(self.chosen).copied();
         let other = [Way::Stored, Way::Stream, Way::Chunked]
             .into_iter()
@@ -324,11 +433,22 @@ mod tests {
     use super::*;
     use crate::gcode::output::ProgramLine;
 
+    /// isel at 10 000 baud (1000 bytes/s), nothing else costing time: the
+    /// test programs' `m1,2,3,4` go nowhere from their first point.
     const ISEL: Costs = Costs {
         baud: 10_000.0,
         erase_s: 2.0,
-        dnc_prefix: 2,
         parts: true,
+        controller: Controller {
+            language: Language::Isel,
+            ramping: super::super::timing::Ramping::Accel {
+                start_hz: 300.0,
+                accel_hz_per_s: 100_000.0,
+            },
+            reference_hz: 2000.0,
+            device: 0,
+        },
+        turnaround_s: 0.0,
     };
 
     /// Commands of 8 bytes (`m1,2,3,4`); `retracted`: indices into lines.
@@ -354,9 +474,11 @@ mod tests {
         let ways = Ways::of(&program(4, &[1], 10), 30.0, &ISEL);
         assert_eq!(ways.chosen, Way::Stored);
         let stored = ways.stored.unwrap();
-        // 4 commands of 8 bytes + CR + reply at 1000 bytes/s.
-        assert!((stored.retracted_s - 0.040).abs() < 1e-9);
-        assert!((stored.total_s - 30.040).abs() < 1e-9);
+        // 4 commands of 8 bytes + CR + reply, `@0i` and `9` with their
+        // answers (8 bytes), `@0S` and the end's answer (5) at 1000 bytes/s.
+        assert!((stored.retracted_s - 0.053).abs() < 1e-9, "{stored:?}");
+        // The moves go nowhere: the run is 4 ms of stored commands.
+        assert!((stored.total_s - 0.057).abs() < 1e-9, "{stored:?}");
     }
 
     #[test]
@@ -365,9 +487,10 @@ mod tests {
         let s = ways.stream;
         // Boundaries after 0,1,2,3,4: the one after 2 is at the safe height.
         assert_eq!(s.stops_at_part, 4);
-        // Each: 8 bytes + `@0` + CR + reply = 12 bytes = 12 ms.
-        assert!((s.at_part_s - 0.048).abs() < 1e-9);
-        assert!((s.total_s - (10.0 + 6.0 * 0.012)).abs() < 1e-9);
+        // Each: 8 bytes + `@0` + CR + reply = 12 bytes, and without a
+        // reference run the position read after it (23 bytes): 35 ms.
+        assert!((s.at_part_s - 0.140).abs() < 1e-9, "{s:?}");
+        assert!((s.total_s - 6.0 * 0.035).abs() < 1e-9, "{s:?}");
     }
 
     #[test]
@@ -398,6 +521,19 @@ mod tests {
         let ways = Ways::of(&program(8, &[3], 6), 10.0, &emcu);
         assert_eq!(ways.chosen, Way::Stream);
         assert!(ways.chunked.is_err());
+    }
+
+    #[test]
+    fn the_time_left_of_a_stream_counts_from_each_line_to_the_end() {
+        let p = program(6, &[2], 4);
+        let ways = Ways::of(&p, 10.0, &ISEL);
+        let left = ways.stream_left(p.lines.len(), 1.0);
+        assert_eq!(left.len(), 7);
+        assert!((left[0] - ways.stream.total_s).abs() < 1e-9);
+        // Each command 35 ms (its bytes and the position read, the moves
+        // going nowhere).
+        assert!((left[4] - 0.070).abs() < 1e-9, "{left:?}");
+        assert_eq!(left[6], 0.0);
     }
 
     #[test]

@@ -54,6 +54,7 @@ mod device_reconnect;
 mod device_task;
 mod editor_e2e;
 mod frame_e2e;
+mod eta_e2e;
 mod gcode_e2e;
 mod gcode_input_e2e;
 mod gcode_restart_e2e;

@@ -6,6 +6,7 @@
 //! operator confirms it; during the run the keys of [`keys`] pause, resume,
 //! change the speed of a stream and stop.
 
+mod eta;
 pub mod keys;
 pub(super) mod outputs;
 pub mod retract;
@@ -152,6 +153,8 @@ struct Job {
     way: Way,
     /// The way's estimate, for the time left early in a stream.
     estimate_s: Option<f64>,
+    /// The ways of a G-code job: the model of the live ETA.
+    ways: Option<Ways>,
     /// A restart's first step, before the program: Z up alone.
     retract: Option<retract::Retract>,
     /// G-code: the work offset and its zero, for the job log.
@@ -230,6 +233,7 @@ pub fn run(global: &GlobalArgs, args: &RunArgs) -> anyhow::Result<ExitCode> {
                     Way::Stored
                 },
                 estimate_s: None,
+                ways: None,
                 retract: None,
                 offset: String::new(),
                 waits: None,
@@ -370,6 +374,7 @@ fn gcode_job(
         parts,
         way: ways.chosen,
         estimate_s: ways.estimate(ways.chosen).map(|e| e.total_s),
+        ways: Some(ways.clone()),
         retract,
         offset: super::log::offset_of(&imported.import.summary),
         waits: waits::Waited::of(imported, profile, language, config, global)?,
@@ -472,6 +477,7 @@ async fn steps(
             let place = stream::Place {
                 estimate_s: job.estimate_s,
                 log: Some(logged),
+                ways: job.ways.as_ref(),
                 ..part.place()
             };
             return stream::run(

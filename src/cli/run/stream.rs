@@ -129,6 +129,8 @@ pub struct Place<'a> {
     pub estimate_s: Option<f64>,
     /// The job log, told each G-code line that ran to its end.
     pub log: Option<&'a crate::cli::log::Logged>,
+    /// A G-code job's ways: the model's time left (`eta::Eta`).
+    pub ways: Option<&'a crate::gcode::ways::Ways>,
 }
 
 impl Place<'_> {
@@ -211,6 +213,12 @@ pub async fn run(
     };
     let started = Instant::now();
     let mut progress = Progress::new(place.total);
+    let mut eta = place
+        .ways
+        .zip(place.gcode)
+        .map(|(ways, program)| super::eta::Eta::new(ways, program.lines.len()));
+    // Time spent paused: the pace counts the time the job runs.
+    let mut paused = Duration::ZERO;
     let mut ids = 1u64;
     let mut position: Option<[i64; 4]> = None;
     let mut last = None;
@@ -226,7 +234,15 @@ pub async fn run(
         if place.gcode.is_none() || place.origin(index).is_some() {
             last = Some(index);
         }
-        progress.show(place, index, started);
+        if let Some(eta) = eta.as_mut() {
+            eta.start(index, control.percent);
+        }
+        let clock = Clock {
+            started,
+            paused,
+            percent: control.percent,
+        };
+        progress.show(place, index, &clock, eta.as_mut());
         let (line, reads_port) = match next {
             Next::Send { line, reads_port } => (line, reads_port),
             Next::Dwell(d) => {
@@ -264,7 +280,9 @@ pub async fn run(
                         "paused at {} (r resumes, Space stops); the spindle and the job's outputs stay on",
                         place.at(index)
                     ));
+                    let since = Instant::now();
                     wait_resume(session, keys, &mut control, &mut position).await?;
+                    paused += since.elapsed();
                     out::say(format_args!("resumed at {}", place.at(index)));
                     if rest {
                         resume = Some(id);
@@ -297,7 +315,15 @@ pub async fn run(
         feed.advance(byte);
     }
     place.completed(previous);
-    progress.done(place, last, started);
+    progress.done(
+        place,
+        last,
+        &Clock {
+            started,
+            paused,
+            percent: control.percent,
+        },
+    );
     out::say(format_args!(
         "the stream ended after {:.1} s",
         started.elapsed().as_secs_f64()
@@ -455,6 +481,27 @@ fn lost(reason: &str) -> u8 {
     EXIT_LINK
 }
 
+/// The run's clock for the progress line: when it started, how long it
+/// stood paused, the speed factor in force.
+struct Clock {
+    started: Instant,
+    paused: Duration,
+    percent: u32,
+}
+
+impl Clock {
+    fn elapsed_s(&self) -> f64 {
+        self.started.elapsed().as_secs_f64()
+    }
+
+    fn running_s(&self) -> f64 {
+        self.started
+            .elapsed()
+            .saturating_sub(self.paused)
+            .as_secs_f64()
+    }
+}
+
 /// Progress by G-code line: on a terminal one line rewritten in place,
 /// else a line whenever the G-code line changes, at most one a second.
 struct Progress {
@@ -475,7 +522,13 @@ impl Progress {
         }
     }
 
-    fn show(&mut self, place: &Place<'_>, index: usize, started: Instant) {
+    fn show(
+        &mut self,
+        place: &Place<'_>,
+        index: usize,
+        clock: &Clock,
+        eta: Option<&mut super::eta::Eta<'_>>,
+    ) {
         let key = place.origin(index).map_or(index, |o| o.line as usize);
         if self.shown == Some(key) {
             return;
@@ -486,16 +539,20 @@ impl Progress {
         }
         self.shown = Some(key);
         self.last = Some(now);
-        self.say(place, (index, self.total), started);
+        let left = eta.map(|e| e.left_s(index, clock.percent, clock.running_s()));
+        self.say(place, (index, self.total), clock, left);
     }
 
-    fn say(&self, place: &Place<'_>, done: (usize, usize), started: Instant) {
-        let text = progress_text(
-            &place.at(done.0),
-            done,
-            started.elapsed().as_secs_f64(),
-            place.estimate_s,
-        );
+    fn say(&self, place: &Place<'_>, done: (usize, usize), clock: &Clock, left: Option<f64>) {
+        let text = match left {
+            Some(left) => eta_text(&place.at(done.0), done, clock.elapsed_s(), left, clock.percent),
+            None => progress_text(
+                &place.at(done.0),
+                done,
+                clock.elapsed_s(),
+                place.estimate_s,
+            ),
+        };
         if self.terminal {
             out::say_raw(format_args!("\r\x1b[2K{text}"));
         } else {
@@ -505,9 +562,9 @@ impl Progress {
 
     /// The stream ran to its end: its last line at 100 %, whatever the
     /// throttle held back.
-    fn done(&mut self, place: &Place<'_>, last: Option<usize>, started: Instant) {
+    fn done(&mut self, place: &Place<'_>, last: Option<usize>, clock: &Clock) {
         if let Some(index) = last {
-            self.say(place, (index, index), started);
+            self.say(place, (index, index), clock, None);
             self.shown = Some(index);
         }
         self.end();
@@ -520,8 +577,27 @@ impl Progress {
     }
 }
 
+/// `part.nc:120:1: 42 % after 1:10 min, about 1:37 min left at speed 80 %`:
+/// the model's time left, scaled by the speed factor and corrected by the
+/// pace so far (`eta::Eta`).
+pub fn eta_text(
+    at: &str,
+    (done, total): (usize, usize),
+    elapsed_s: f64,
+    left_s: f64,
+    percent: u32,
+) -> String {
+    let share = (done * 100).checked_div(total).unwrap_or(100);
+    format!(
+        "{at}: {share} % after {}, about {} left at speed {percent} %",
+        crate::gcode::ways::duration(elapsed_s),
+        crate::gcode::ways::duration(left_s)
+    )
+}
+
 /// `part.nc:120:1: 42 % after 1:10 min, about 1:37 min left`: the time
-/// left from the estimate for the first 5 %, then from the pace so far.
+/// left from the estimate for the first 5 %, then from the pace so far (a
+/// controller program, which has no model).
 pub fn progress_text(
     at: &str,
     (done, total): (usize, usize),
@@ -567,6 +643,14 @@ mod tests {
         assert_eq!(
             progress_text("p.nc:9:1", (100, 100), 50.0, Some(60.0)),
             "p.nc:9:1: 100 % after 50.0 s"
+        );
+    }
+
+    #[test]
+    fn the_eta_says_the_speed_factor_beside_it() {
+        assert_eq!(
+            eta_text("p.nc:12:1", (25, 100), 30.0, 90.0, 50),
+            "p.nc:12:1: 25 % after 30.0 s, about 1:30 min left at speed 50 %"
         );
     }
 

@@ -1,0 +1,132 @@
+//! The live ETA of a stream (issue 41 item 3): the model's time of what is
+//! left ([`Ways::stream_left`], at the speed factor in force), corrected by
+//! the pace measured so far: the seconds the run has taken, pauses left
+//! out, over the model's seconds of what it has done, each command at the
+//! factor it was sent with. Sans-IO: the caller hands in the time.
+
+use std::collections::HashMap;
+
+use crate::gcode::ways::Ways;
+
+/// How far the measured pace may stretch the model: a reference run or a
+/// hold-up early on must not make a forecast of hours.
+const PACE: std::ops::RangeInclusive<f64> = 0.5..=3.0;
+
+pub struct Eta<'a> {
+    ways: &'a Ways,
+    lines: usize,
+    /// The model's time left from each line, per speed factor (percent).
+    left: HashMap<u32, Vec<f64>>,
+    /// The model's seconds of what has been done, at the factors it ran at.
+    done_s: f64,
+    /// The line being run and the factor it was sent with.
+    at: Option<(usize, u32)>,
+}
+
+impl<'a> Eta<'a> {
+    pub fn new(ways: &'a Ways, lines: usize) -> Eta<'a> {
+        Eta {
+            ways,
+            lines,
+            left: HashMap::new(),
+            done_s: 0.0,
+            at: None,
+        }
+    }
+
+    fn left_at(&mut self, line: usize, percent: u32) -> f64 {
+        let (ways, lines) = (self.ways, self.lines);
+        let table = self
+            .left
+            .entry(percent)
+            .or_insert_with(|| ways.stream_left(lines, f64::from(percent) / 100.0));
+        table
+            .get(line.min(table.len().saturating_sub(1)))
+            .copied()
+            .unwrap_or(0.0)
+    }
+
+    /// Line `line` starts with the speed factor `percent`: the line before
+    /// it is done.
+    pub fn start(&mut self, line: usize, percent: u32) {
+        if let Some((before, p)) = self.at
+            && line > before
+        {
+            self.done_s += self.left_at(before, p) - self.left_at(line, p);
+        }
+        self.at = Some((line, percent));
+    }
+
+    /// Seconds left from line `line` on at `percent`, after `running_s`
+    /// seconds of running (pauses not counted).
+    pub fn left_s(&mut self, line: usize, percent: u32, running_s: f64) -> f64 {
+        let model = self.left_at(line, percent);
+        if self.done_s > 0.5 && running_s > 0.0 {
+            let pace = (running_s / self.done_s).clamp(*PACE.start(), *PACE.end());
+            model * pace
+        } else {
+            model
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gcode::output::{Program, ProgramLine};
+    use crate::gcode::ways::Costs;
+
+    /// Moves of 10 000 steps at 5300 Hz, 1.933962 s each, and a stream
+    /// of them at 19200 baud.
+    fn job(moves: usize) -> (Program, Ways) {
+        let mut p = Program {
+            capacity: 10,
+            ..Program::default()
+        };
+        for k in 0..=moves {
+            let x = if k % 2 == 0 { 0 } else { 10_000 };
+            p.lines.push(ProgramLine {
+                command: format!("m{x},5300,0,5300,0,5300,0,5300"),
+                comment: None,
+                origin: None,
+            });
+            p.commands += 1;
+        }
+        let profile = crate::config::load_profile(
+            "isel",
+            &crate::config::ConfigDirs::builtin_only(),
+        )
+        .expect("shipped profile");
+        let costs = Costs::of(&profile, crate::program::Language::Isel);
+        let ways = Ways::of(&p, 0.0, &costs);
+        (p, ways)
+    }
+
+    #[test]
+    fn the_time_left_follows_the_model_then_the_pace() {
+        let (p, ways) = job(10);
+        let mut eta = Eta::new(&ways, p.lines.len());
+        eta.start(0, 100);
+        let all = eta.left_s(0, 100, 0.0);
+        assert!((all - ways.stream.total_s).abs() < 1e-9);
+        // Half done at the model's pace: half left.
+        eta.start(6, 100);
+        let model_done = all - eta.left_s(6, 100, 0.0);
+        let left = eta.left_s(6, 100, model_done);
+        assert!((left - (all - model_done)).abs() < 1e-6, "{left}");
+        // Run 20 % slower than the model so far: 20 % more left.
+        let slow = eta.left_s(6, 100, model_done * 1.2);
+        assert!((slow - 1.2 * left).abs() < 1e-6, "{slow} {left}");
+    }
+
+    #[test]
+    fn half_the_speed_leaves_about_twice_the_motion() {
+        let (p, ways) = job(10);
+        let mut eta = Eta::new(&ways, p.lines.len());
+        eta.start(0, 100);
+        let full = eta.left_s(0, 100, 0.0);
+        let half = eta.left_s(0, 50, 0.0);
+        // The cruise doubles, the ramps shrink and the wire stays.
+        assert!(half > 1.8 * full && half < 2.0 * full, "{full} {half}");
+    }
+}
