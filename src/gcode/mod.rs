@@ -11,8 +11,8 @@ pub mod import;
 pub mod isel;
 pub mod profile;
 pub mod restart;
-pub mod waits;
 pub mod timing;
+pub mod waits;
 pub mod ways;
 
 pub use jogterm_gcode::*;

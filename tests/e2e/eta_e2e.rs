@@ -11,10 +11,7 @@ use crate::sim_process::SimProcess;
 
 /// The shipped machine, the simulated axes 1 mm from their reference point
 /// (the job's own reference run takes a moment).
-const MACHINE: (&str, &str) = (
-    "profiles/default.toml",
-    "[sim]\nstart_position = 1.0\n",
-);
+const MACHINE: (&str, &str) = ("profiles/default.toml", "[sim]\nstart_position = 1.0\n");
 
 /// 30 cuts of 1.5 mm in X at 900 mm/min, zigzagging in Y so that none is
 /// merged with its neighbour: about 5 s streamed at 100 %.

@@ -60,6 +60,7 @@ impl Operator {
             stopped: false,
             next_id: 0,
             here,
+            command: "run",
         }
     }
 

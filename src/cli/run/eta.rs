@@ -92,11 +92,9 @@ mod tests {
             });
             p.commands += 1;
         }
-        let profile = crate::config::load_profile(
-            "isel",
-            &crate::config::ConfigDirs::builtin_only(),
-        )
-        .expect("shipped profile");
+        let profile =
+            crate::config::load_profile("isel", &crate::config::ConfigDirs::builtin_only())
+                .expect("shipped profile");
         let costs = Costs::of(&profile, crate::program::Language::Isel);
         let ways = Ways::of(&p, 0.0, &costs);
         (p, ways)

@@ -545,13 +545,14 @@ impl Progress {
 
     fn say(&self, place: &Place<'_>, done: (usize, usize), clock: &Clock, left: Option<f64>) {
         let text = match left {
-            Some(left) => eta_text(&place.at(done.0), done, clock.elapsed_s(), left, clock.percent),
-            None => progress_text(
+            Some(left) => eta_text(
                 &place.at(done.0),
                 done,
                 clock.elapsed_s(),
-                place.estimate_s,
+                left,
+                clock.percent,
             ),
+            None => progress_text(&place.at(done.0), done, clock.elapsed_s(), place.estimate_s),
         };
         if self.terminal {
             out::say_raw(format_args!("\r\x1b[2K{text}"));

@@ -147,10 +147,8 @@ pub fn check(mut job: GcodeJob) -> GcodeChecked {
             }
             // The job log's offer (docs/gcode.md, "Resume"), said once, when
             // the file is opened rather than checked again.
-            if !rechecked {
-                if let Some(note) = crate::joblog::resume::console_note(&job.path) {
-                    notes.push((NoteLevel::Warning, note));
-                }
+            if !rechecked && let Some(note) = crate::joblog::resume::console_note(&job.path) {
+                notes.push((NoteLevel::Warning, note));
             }
             GcodeChecked {
                 opened: Some(Opened {

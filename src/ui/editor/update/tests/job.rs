@@ -125,7 +125,7 @@ fn the_question_says_every_way_and_the_one_chosen() {
         "with the tool in the part",
         "chunked: ",
         "in 4 parts",
-        "motion alone (the floor)",
+        "motion by the controller's ramps",
         "chosen: chunked (",
         "Store and run it in 4 parts",
         "F6 pauses before the next part, Space stops",
