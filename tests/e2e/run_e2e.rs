@@ -192,7 +192,7 @@ fn a_job_bigger_than_the_memory_is_run_in_parts_cut_at_retracts_as_the_estimate_
     assert!(said.contains("stream: "), "{said}");
     assert!(said.contains("with the tool in the part"), "{said}");
     assert!(said.contains("chunked: "), "{said}");
-    assert!(said.contains("motion alone (the floor)"), "{said}");
+    assert!(said.contains("motion by the controller's ramps"), "{said}");
     assert!(said.contains("chosen: chunked ("), "{said}");
     assert!(said.contains("part 4/4"), "{said}");
     stands_at(&mut sim, [46.0, 34.0, 5.0]);

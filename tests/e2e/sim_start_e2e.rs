@@ -69,25 +69,32 @@ fn finished(mut child: std::process::Child, limit: Duration) -> (Option<i32>, St
 #[test]
 fn an_m0_job_on_the_in_process_simulator_is_finished_by_the_sim_start_key() {
     let (dir, job) = setup();
-    // Without a press the job stands at its M0: still running after 5 s.
-    let child = run(&dir, &job, &[])
-        .stdin(Stdio::null())
+    // Without a press (and no line on its open standard input) the job
+    // stands at its M0: still running after 5 s.
+    let mut child = run(&dir, &job, &[])
+        .stdin(Stdio::piped())
         .spawn()
         .expect("run");
+    let stdin = child.stdin.take();
     let (code, said) = finished(child, Duration::from_secs(5));
+    drop(stdin);
     assert_eq!(code, None, "the job waits for the start key: {said}");
     assert!(said.contains("M0: program pause"), "{said}");
-    // Pressed every second: the job goes on at its M0 and ends.
-    let child = run(&dir, &job, &["--sim-start-key", "1"])
-        .stdin(Stdio::null())
+    // Pressed every second: the job goes on at its M0 and ends. The run
+    // killed above broke off: this one says from where, the start.
+    let mut child = run(&dir, &job, &["--sim-start-key", "1", "--from-start"])
+        .stdin(Stdio::piped())
         .spawn()
         .expect("run");
+    let stdin = child.stdin.take();
     let (code, said) = finished(child, Duration::from_secs(30));
+    drop(stdin);
     assert_eq!(code, Some(0), "{said}");
     assert!(
         said.contains("the simulator's start key (start key) pressed"),
         "{said}"
     );
+    assert!(said.contains("line 4: going on (the start key)"), "{said}");
 }
 
 #[test]
@@ -109,6 +116,7 @@ fn a_line_on_stdin_presses_the_sim_start_key() {
     let (code, said) = finished(child, Duration::from_secs(5));
     assert_eq!(code, Some(0), "{said}");
     assert!(said.contains("start key (start key) pressed"), "{said}");
+    assert!(said.contains("line 4: going on (the start key)"), "{said}");
     // On a real port: refused before anything is sent.
     let out = Command::new(JOGTERM)
         .args(["run", &job, "--port", "/dev/null", "--protocol", "isel"])

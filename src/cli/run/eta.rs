@@ -21,6 +21,10 @@ pub struct Eta<'a> {
     done_s: f64,
     /// The line being run and the factor it was sent with.
     at: Option<(usize, u32)>,
+    /// The running seconds when the job's first G-code line started: the
+    /// pace counts from there. The set-up before it (a reference run from
+    /// wherever the axes stand) is a guess of the model's, not a pace.
+    baseline_s: Option<f64>,
 }
 
 impl<'a> Eta<'a> {
@@ -31,6 +35,7 @@ impl<'a> Eta<'a> {
             left: HashMap::new(),
             done_s: 0.0,
             at: None,
+            baseline_s: None,
         }
     }
 
@@ -46,9 +51,10 @@ impl<'a> Eta<'a> {
             .unwrap_or(0.0)
     }
 
-    /// Line `line` starts with the speed factor `percent`: the line before
-    /// it is done.
-    pub fn start(&mut self, line: usize, percent: u32) {
+    /// G-code line `line` starts with the speed factor `percent`, after
+    /// `running_s` seconds of running: the line before it is done.
+    pub fn start(&mut self, line: usize, percent: u32, running_s: f64) {
+        self.baseline_s.get_or_insert(running_s);
         if let Some((before, p)) = self.at
             && line > before
         {
@@ -61,6 +67,7 @@ impl<'a> Eta<'a> {
     /// seconds of running (pauses not counted).
     pub fn left_s(&mut self, line: usize, percent: u32, running_s: f64) -> f64 {
         let model = self.left_at(line, percent);
+        let running_s = running_s - self.baseline_s.unwrap_or(running_s);
         if self.done_s > 0.5 && running_s > 0.0 {
             let pace = (running_s / self.done_s).clamp(*PACE.start(), *PACE.end());
             model * pace
@@ -104,11 +111,11 @@ mod tests {
     fn the_time_left_follows_the_model_then_the_pace() {
         let (p, ways) = job(10);
         let mut eta = Eta::new(&ways, p.lines.len());
-        eta.start(0, 100);
+        eta.start(0, 100, 0.0);
         let all = eta.left_s(0, 100, 0.0);
         assert!((all - ways.stream.total_s).abs() < 1e-9);
         // Half done at the model's pace: half left.
-        eta.start(6, 100);
+        eta.start(6, 100, 0.0);
         let model_done = all - eta.left_s(6, 100, 0.0);
         let left = eta.left_s(6, 100, model_done);
         assert!((left - (all - model_done)).abs() < 1e-6, "{left}");
@@ -118,10 +125,23 @@ mod tests {
     }
 
     #[test]
+    fn the_set_up_before_the_first_line_is_no_pace() {
+        let (p, ways) = job(10);
+        let mut eta = Eta::new(&ways, p.lines.len());
+        // A reference run of 20 s before the job's first line.
+        eta.start(0, 100, 20.0);
+        let all = eta.left_s(0, 100, 20.0);
+        eta.start(6, 100, 20.0);
+        let model_done = all - eta.left_s(6, 100, 20.0);
+        let left = eta.left_s(6, 100, 20.0 + model_done);
+        assert!((left - (all - model_done)).abs() < 1e-6, "{left}");
+    }
+
+    #[test]
     fn half_the_speed_leaves_about_twice_the_motion() {
         let (p, ways) = job(10);
         let mut eta = Eta::new(&ways, p.lines.len());
-        eta.start(0, 100);
+        eta.start(0, 100, 0.0);
         let full = eta.left_s(0, 100, 0.0);
         let half = eta.left_s(0, 50, 0.0);
         // The cruise doubles, the ramps shrink and the wire stays.

@@ -221,10 +221,22 @@ async fn step_z(session: &mut Session, to: Retract, from: i64, remedy: &Remedy) 
 /// starts each session believing 2.5D, would take the late answer for a
 /// lost line. The program that follows sets 3D again itself.
 async fn two_and_a_half_d(session: &mut Session, device: u8, remedy: &Remedy) -> Status {
-    let line = format!("@{device}z0");
+    one_line(session, &format!("@{device}z0"), "the retract", remedy).await
+}
+
+/// One controller command of jogterm's own (never text from a file or an
+/// operator), sent and its answer awaited; an error answer is a fault.
+pub(super) async fn one_line(
+    session: &mut Session,
+    line: &str,
+    what: &str,
+    remedy: &Remedy,
+) -> Status {
     if session
         .handle
-        .request(Request::Raw { line: line.clone() })
+        .request(Request::Raw {
+            line: line.to_owned(),
+        })
         .is_err()
     {
         return Err(lost("the device task ended"));
@@ -238,7 +250,7 @@ async fn two_and_a_half_d(session: &mut Session, device: u8, remedy: &Remedy) ->
                 ..
             } => return Ok(()),
             Event::Refused { reason, .. } => {
-                return Err(upload::refused("the retract", &reason, remedy));
+                return Err(upload::refused(what, &reason, remedy));
             }
             Event::Fault(f) => return Err(ended_with(&f.code, &f.meaning)),
             Event::Link(LinkState::Lost { reason }) => return Err(lost(&reason)),

@@ -234,14 +234,16 @@ pub async fn run(
         if place.gcode.is_none() || place.origin(index).is_some() {
             last = Some(index);
         }
-        if let Some(eta) = eta.as_mut() {
-            eta.start(index, control.percent);
-        }
         let clock = Clock {
             started,
             paused,
             percent: control.percent,
         };
+        if let Some(eta) = eta.as_mut()
+            && place.origin(index).is_some()
+        {
+            eta.start(index, control.percent, clock.running_s());
+        }
         progress.show(place, index, &clock, eta.as_mut());
         let (line, reads_port) = match next {
             Next::Send { line, reads_port } => (line, reads_port),

@@ -25,12 +25,13 @@ use crate::cli::probe::tool;
 use crate::cli::session::{EXIT_USAGE, Session};
 use crate::cli::upload::{self, Imported, Prepared, Remedy, Status};
 use crate::config::Profile;
-use crate::device::api::PerAxis;
+use crate::device::api::{Event, IoBit, PerAxis, Request};
 use crate::gcode::toolchange::{Sequence, Step, Wait};
 use crate::gcode::ways::Way;
 use crate::gcode::{Point, Target};
 use crate::probing::{self, ToolTable};
 use crate::program::{Language, LintConfig};
+use crate::wiring::{BitKind, Role};
 
 /// What a job with waits needs at run time.
 pub(super) struct Waited {
@@ -166,6 +167,11 @@ pub(super) async fn run(
                     .plan()
                     .waits_at(index, sequence.shift())
                     .unwrap_or(wait.at);
+                if way != Way::Stream
+                    && w.profile.connection.protocol == crate::proto::Protocol::Isel
+                {
+                    erase_stored(session, w, remedy).await?;
+                }
                 announce(w, index, at, args);
                 confirm(session, wait, args, keys, &mut lines).await?;
                 sequence.confirmed();
@@ -361,29 +367,58 @@ async fn confirm(
     keys: &mut Keys,
     lines: &mut Lines,
 ) -> Status {
-    let went_on = if terminal() {
-        loop {
-            match keys.next().await {
-                Key::Resume => break true,
-                Key::Stop | Key::Gone => break false,
-                _ => {}
+    // Standard input given to the simulator's start key is not the
+    // operator's to answer with.
+    let stdin_answers = !matches!(args.sim_start_key, Some(super::sim_start::SimStart::Stdin));
+    let operator = async {
+        if terminal() {
+            loop {
+                match keys.next().await {
+                    Key::Resume => break Ended::Operator,
+                    Key::Stop | Key::Gone => break Ended::Stop,
+                    _ => {}
+                }
             }
-        }
-    } else {
-        match lines.next().await {
-            Some(line) => !matches!(line.trim(), "stop" | "s" | "q" | "quit"),
-            None => false,
+        } else if stdin_answers {
+            match lines.next().await {
+                Some(line) if !matches!(line.trim(), "stop" | "s" | "q" | "quit") => {
+                    Ended::Operator
+                }
+                _ => Ended::Stop,
+            }
+        } else {
+            std::future::pending().await
         }
     };
+    let ended = tokio::select! {
+        ended = operator => ended,
+        ended = start_key(session) => ended,
+    };
+    let _ = session.handle.request(Request::Poll {
+        rate_hz: Some(0.0),
+        ports_every: 1,
+    });
     if args.json {
         event(&json!({
             "event": "wait_ended",
             "line": wait.origin.line,
-            "by": if went_on { "operator" } else { "stop" },
+            "by": match ended {
+                Ended::Operator => "operator",
+                Ended::StartKey => "start_key",
+                Ended::Stop => "stop",
+            },
         }));
     }
-    if went_on {
-        out::say(format_args!("line {}: going on", wait.origin.line));
+    if ended != Ended::Stop {
+        out::say(format_args!(
+            "line {}: going on{}",
+            wait.origin.line,
+            if ended == Ended::StartKey {
+                " (the start key)"
+            } else {
+                ""
+            }
+        ));
         return Ok(());
     }
     let _ = session.handle.stop().written().await;
@@ -392,6 +427,69 @@ async fn confirm(
         wait.origin.line
     ));
     Err(1)
+}
+
+/// isel: the piece that ran stays stored, and the iMC runs a stored
+/// program when its start key is pressed (manual, "CNC-Modus": "durch einen
+/// externen Start-Befehl (Betätigen der Starttaste) aktiviert"): a press
+/// at a tool change, the operator's hands at the spindle, would run the
+/// piece again. It is erased (`@0k`, manual 2.2.17) before the wait; the
+/// next piece is stored anew in any case.
+async fn erase_stored(session: &mut Session, w: &Waited, remedy: &Remedy) -> Status {
+    out::say("erasing the stored piece (@0k): the start key must not run it again at the wait");
+    let line = format!("@{}k", w.profile.isel.device);
+    super::retract::one_line(session, &line, "the erase before the wait", remedy).await
+}
+
+/// How often the inputs are read while a job waits: a finger's press
+/// (100-200 ms) is seen.
+const WAIT_POLL_HZ: f64 = 20.0;
+
+/// How a wait ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Ended {
+    Operator,
+    StartKey,
+    Stop,
+}
+
+/// The machine's start key pressed: the profile's wired input with role
+/// `start` seen released and then pressed in the device's input polls (a
+/// key held down since before the wait confirms nothing). Never, where the
+/// profile wires no start key or the link ends.
+async fn start_key(session: &mut Session) -> Ended {
+    // A moving session polls nothing (the wire is the job's); a wait is
+    // the time to read the inputs, and `confirm` turns the polls off again.
+    if session
+        .handle
+        .request(Request::Poll {
+            rate_hz: Some(WAIT_POLL_HZ),
+            ports_every: 1,
+        })
+        .is_err()
+    {
+        return std::future::pending().await;
+    }
+    let mut released = false;
+    while let Some(e) = session.next_event().await {
+        let Event::Io(io) = e else { continue };
+        let key = io
+            .groups
+            .iter()
+            .flat_map(|g| &g.bits)
+            .filter(|b| b.output.is_none())
+            .find(|b| {
+                b.wiring
+                    .as_ref()
+                    .is_some_and(|w| w.role == Role::Start && w.kind == BitKind::Input && w.wired)
+            });
+        match key.map(IoBit::active) {
+            Some(false) => released = true,
+            Some(true) if released => return Ended::StartKey,
+            _ => {}
+        }
+    }
+    std::future::pending().await
 }
 
 /// The new tool measured on the sensor from where `op` stands (the change
