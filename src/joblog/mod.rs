@@ -12,6 +12,8 @@
 //! - [`table`]: the runs as an 80-column table and as JSON (sans-IO).
 //! - [`resume`]: whether the last run of a file left a line to restart from,
 //!   and how to say so (sans-IO).
+//! - [`calibrate`]: the estimate refined by the last whole runs of a
+//!   profile and way (sans-IO).
 //! - [`file`]: the thin file layer: where the log lives, reading it, and the
 //!   writer thread that appends and syncs off the run's own path.
 //!
@@ -21,6 +23,7 @@
 //! sync (at most a second, `file::SYNC_EVERY`). A line cut in the middle is
 //! the last one of the file and is left out when read.
 
+pub mod calibrate;
 pub mod file;
 pub mod fold;
 pub mod record;

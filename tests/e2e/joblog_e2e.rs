@@ -191,3 +191,57 @@ fn after_a_kill_the_next_run_offers_the_restart_and_it_ends_at_the_jobs_last_poi
         said(&out)
     );
 }
+
+/// Issue 41 (6): after three whole runs of a job to their end, the next
+/// run's estimate says what the last runs on this profile and way took
+/// beside the model's figure. The in-process simulator, a short job.
+#[test]
+fn three_runs_to_their_end_refine_the_next_runs_estimate() {
+    let dir = tempfile::tempdir().expect("config and state dir");
+    let profiles = dir.path().join("profiles");
+    std::fs::create_dir_all(&profiles).expect("profiles dir");
+    std::fs::write(
+        profiles.join("default.toml"),
+        "[sim]\nstart_position = 1.0\n",
+    )
+    .expect("profile");
+    let job = dir.path().join("short.nc");
+    std::fs::write(
+        &job,
+        "G21 G90\nG0 Z5\nG0 X10 Y5\nG1 Z-1 F600\nG1 X20 F900\nG0 Z5\nM2\n",
+    )
+    .expect("job");
+    let job = job.display().to_string();
+    let run = || {
+        let out = std::process::Command::new(crate::sim_process::JOGTERM)
+            .args([
+                "--sim",
+                "isel",
+                "run",
+                &job,
+                "--work-zero",
+                "X50 Y50 Z20",
+                "--yes",
+            ])
+            .env("JOGTERM_CONFIG_DIR", dir.path())
+            .env("JOGTERM_STATE_DIR", dir.path())
+            .stdin(Stdio::null())
+            .output()
+            .expect("run");
+        assert_eq!(out.status.code(), Some(0), "{}", said(&out));
+        said(&out)
+    };
+    for _ in 0..3 {
+        let said = run();
+        assert!(!said.contains("from the last"), "{said}");
+    }
+    let said = run();
+    let line = said
+        .lines()
+        .find(|l| l.contains("by the model, "))
+        .unwrap_or_else(|| panic!("no refined estimate:\n{said}"));
+    assert!(
+        line.contains("from the last 3 jobs on this machine (profile isel simulator, stored)"),
+        "{line}"
+    );
+}

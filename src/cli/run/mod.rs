@@ -353,6 +353,9 @@ fn gcode_job(
     for line in ways.describe() {
         out::say(format_args!("  {line}"));
     }
+    if let Some(line) = calibrated(profile, &ways) {
+        out::say(format_args!("  {line}"));
+    }
     if let (Some(Way::Chunked), Err(why)) = (asked, &ways.chunked) {
         return Err((
             1,
@@ -379,6 +382,17 @@ fn gcode_job(
         offset: super::log::offset_of(&imported.import.summary),
         waits: waits::Waited::of(imported, profile, language, config, global)?,
     })
+}
+
+/// The chosen way's estimate beside what the last whole runs of this
+/// profile and way took (`joblog::calibrate`); nothing without a log or
+/// with too few runs.
+fn calibrated(profile: &crate::config::Profile, ways: &Ways) -> Option<String> {
+    let estimate = ways.estimate(ways.chosen)?.total_s;
+    let folded = crate::joblog::file::read(&crate::joblog::file::dir()?);
+    let way = ways.chosen.to_string();
+    crate::joblog::calibrate::of(&folded, &profile.name, &way)
+        .map(|c| c.describe(estimate, &profile.name, &way))
 }
 
 /// The lint of a program that is streamed: it is stored nowhere, so the
