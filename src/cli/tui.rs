@@ -254,6 +254,11 @@ async fn session(
             .editor
             .keep_recoveries(store, session_tag(std::process::id(), SystemTime::now()));
     }
+    // The files opened last (Ctrl-O's Up/Down), kept beside the recoveries.
+    if let Some(dir) = crate::program::store::state_dir() {
+        let list = crate::program::recent::read(&dir);
+        model.editor.keep_recent(dir, list);
+    }
     // Work offsets: the state directory's file for this profile and port,
     // applied only if it is this machine's (`docs/jogging.md`).
     let file = OffsetsFile::from_env(Identity::of(&profile_key, &profile));

@@ -48,6 +48,7 @@ pub mod lint;
 mod model;
 pub mod outputs;
 pub mod path;
+pub mod recent;
 mod run;
 pub mod source;
 pub mod store;

@@ -229,7 +229,7 @@ static TEMP_COUNTER: AtomicU64 = AtomicU64::new(0);
 /// Write `bytes` to a temporary file beside `target`, flush it to the disk,
 /// rename it over `target`, flush the directory. `mode` is applied before
 /// the rename (the umask applies to new files as usual).
-fn write_atomically(target: &Path, bytes: &[u8], mode: u32) -> Result<(), StoreError> {
+pub(crate) fn write_atomically(target: &Path, bytes: &[u8], mode: u32) -> Result<(), StoreError> {
     let dir = match target.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),

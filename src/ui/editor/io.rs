@@ -51,6 +51,11 @@ pub enum EditorIo {
     /// Import a G-code file (or check its text again) for the console's
     /// profile and work offsets (`gcode_open`).
     ImportGcode(Box<super::gcode_open::GcodeJob>),
+    /// Keep the list of files opened last (`program::recent`) in `dir`.
+    KeepRecent {
+        dir: PathBuf,
+        list: Vec<PathBuf>,
+    },
 }
 
 /// Why a save did not happen.
@@ -113,6 +118,8 @@ pub enum EditorMsg {
     },
     Recoveries(Vec<Result<Recovery, String>>),
     Linted(Box<LintResult>),
+    /// The list of files opened last was kept, or why not.
+    RecentKept(Result<(), String>),
 }
 
 /// Carry out a file request (blocking) and say how it went.
@@ -185,6 +192,9 @@ pub fn perform(io: EditorIo) -> EditorMsg {
                 .collect(),
         ),
         EditorIo::Lint(job) => EditorMsg::Linted(Box::new(job.run())),
+        EditorIo::KeepRecent { dir, list } => EditorMsg::RecentKept(
+            crate::program::recent::write(&dir, &list).map_err(|e| e.to_string()),
+        ),
         EditorIo::ImportGcode(job) => {
             let mut job = *job;
             // Stamped here: the model reads no clocks.

@@ -171,6 +171,10 @@ pub struct Editor {
     /// The outputs of the job run from here, switched off when it ends
     /// early (`docs/editor.md`, "The job's outputs").
     pub outputs: job::JobOutputs,
+    /// The files opened last, newest first (`program::recent`), and the
+    /// state directory that keeps them (`None`: this session only).
+    pub recent: Vec<PathBuf>,
+    pub recent_dir: Option<PathBuf>,
 }
 
 /// The unit all axes of `setup` share (`mm`), else `units`.
@@ -236,7 +240,16 @@ impl Editor {
             job: None,
             chunked: None,
             outputs: job::JobOutputs::default(),
+            recent: Vec::new(),
+            recent_dir: None,
         }
+    }
+
+    /// Keep the files opened last in `dir`, starting from `list` (read
+    /// from it at start, `program::recent::read`).
+    pub fn keep_recent(&mut self, dir: PathBuf, list: Vec<PathBuf>) {
+        self.recent = list;
+        self.recent_dir = Some(dir);
     }
 
     /// Write unsaved edits to `store`; `session` tells this session's new

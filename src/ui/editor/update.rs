@@ -244,7 +244,14 @@ impl Step<'_, '_> {
                     .and_then(Path::parent)
                     .map(|d| format!("{}/", d.display()))
                     .unwrap_or_default();
-                self.form(Form::new(FormKind::Open, vec![Field::new("file", &value)]));
+                let mut form = Form::new(FormKind::Open, vec![Field::new("file", &value)]);
+                if !self.e.recent.is_empty() {
+                    form.note = Some(format!(
+                        "Up/Down: the {} files opened last",
+                        self.e.recent.len()
+                    ));
+                }
+                self.form(form);
             }
             Action::Find => {
                 let last = self.e.query.clone().unwrap_or_default();
@@ -417,6 +424,10 @@ impl Step<'_, '_> {
                 match action {
                     Action::Submit => return self.submit(f),
                     Action::Cancel => return,
+                    Action::NextField | Action::PrevField if f.kind == FormKind::Open => {
+                        let step = if action == Action::NextField { 1 } else { -1 };
+                        self.recent_in(&mut f, step);
+                    }
                     Action::NextField => f.step(1),
                     Action::PrevField => f.step(-1),
                     other => {
@@ -475,6 +486,28 @@ impl Step<'_, '_> {
         if f.kind == FormKind::Circle {
             self.circle_note(f);
         }
+    }
+
+    /// Up and Down in the open form: the files opened last, in turn.
+    fn recent_in(&self, f: &mut Form, step: isize) {
+        let Some(path) = crate::program::recent::step(&self.e.recent, f.field(0), step) else {
+            f.note = Some("no files opened yet: type a path".into());
+            return;
+        };
+        let at = self.e.recent.iter().position(|p| *p == path).unwrap_or(0);
+        if let Some(edit) = f.focused() {
+            edit.clear();
+            path.display()
+                .to_string()
+                .chars()
+                .for_each(|c| edit.insert(c));
+        }
+        f.error = None;
+        f.note = Some(format!(
+            "opened last {}/{} (Up/Down)",
+            at + 1,
+            self.e.recent.len()
+        ));
     }
 
     fn save_as_form(&self, then: Option<Then>) -> Form {

@@ -4,11 +4,11 @@
 //! Everything on disk is an [`EditorIo`] effect; the results come back as
 //! [`EditorMsg`].
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::{Instant, SystemTime, UNIX_EPOCH};
 
-use crate::program::Language;
 use crate::program::store::{Fingerprint, Loaded, Origin, Recovery};
+use crate::program::{Language, recent};
 use crate::ui::traffic_log::NoteLevel;
 
 use crate::ui::editor::dialog::{Answer, Dialog, Then};
@@ -117,6 +117,12 @@ impl Step<'_, '_> {
                 let lines = self.e.buffer.line_count();
                 self.e.checks.finished(*result, state, lines, now);
             }
+            EditorMsg::RecentKept(Ok(())) => {}
+            // Said, and kept for this session: the list is a convenience.
+            EditorMsg::RecentKept(Err(why)) => self.say(
+                NoteLevel::Warning,
+                format!("the list of files opened last was not kept: {why}"),
+            ),
         }
     }
 
@@ -144,6 +150,7 @@ impl Step<'_, '_> {
                 return;
             }
             Ok(Some(l)) => {
+                self.remember(&l.path);
                 self.e.replace(language, &l.text, now);
                 self.e.file = FileState {
                     path: Some(l.path),
@@ -197,6 +204,21 @@ impl Step<'_, '_> {
             self.io(EditorIo::RemoveRecovery {
                 store,
                 origin: rec.origin,
+            });
+        }
+    }
+
+    /// `path` opened: first in the list of files opened last, which the
+    /// worker keeps in the state directory.
+    pub(super) fn remember(&mut self, path: &Path) {
+        // The working directory alone, no file system: the worker's
+        // `store::absolute` resolved a program's path already.
+        let path = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
+        self.e.recent = recent::with(&self.e.recent, &path);
+        if let Some(dir) = self.e.recent_dir.clone() {
+            self.io(EditorIo::KeepRecent {
+                dir,
+                list: self.e.recent.clone(),
             });
         }
     }

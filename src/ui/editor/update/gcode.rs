@@ -129,6 +129,7 @@ impl Step<'_, '_> {
                 }
             }
         } else {
+            self.remember(&job.path);
             for (level, text) in notes {
                 self.say(level, text);
             }

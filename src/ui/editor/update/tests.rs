@@ -529,6 +529,7 @@ mod checkout;
 mod gcode;
 mod job;
 mod outputs;
+mod recent;
 
 #[test]
 fn a_program_converted_from_gcode_opens_unsaved_and_asks_before_replacing_a_file() {
