@@ -7,6 +7,7 @@
 //! ([`ways`]) (`docs/gcode.md`).
 
 pub mod emcu;
+pub mod eta;
 pub mod import;
 pub mod isel;
 pub mod profile;

@@ -6,7 +6,6 @@
 //! operator confirms it; during the run the keys of [`keys`] pause, resume,
 //! change the speed of a stream and stop.
 
-mod eta;
 pub mod keys;
 pub(super) mod outputs;
 pub mod retract;

@@ -129,7 +129,7 @@ pub struct Place<'a> {
     pub estimate_s: Option<f64>,
     /// The job log, told each G-code line that ran to its end.
     pub log: Option<&'a crate::cli::log::Logged>,
-    /// A G-code job's ways: the model's time left (`eta::Eta`).
+    /// A G-code job's ways: the model's time left (`gcode::eta::Eta`).
     pub ways: Option<&'a crate::gcode::ways::Ways>,
 }
 
@@ -213,10 +213,9 @@ pub async fn run(
     };
     let started = Instant::now();
     let mut progress = Progress::new(place.total);
-    let mut eta = place
-        .ways
-        .zip(place.gcode)
-        .map(|(ways, program)| super::eta::Eta::new(ways, program.lines.len()));
+    let mut eta = place.ways.zip(place.gcode).map(|(ways, program)| {
+        crate::gcode::eta::Eta::new(std::sync::Arc::new(ways.clone()), program.lines.len())
+    });
     // Time spent paused: the pace counts the time the job runs.
     let mut paused = Duration::ZERO;
     let mut ids = 1u64;
@@ -244,7 +243,7 @@ pub async fn run(
         {
             eta.start(index, control.percent, clock.running_s());
         }
-        progress.show(place, index, &clock, eta.as_mut());
+        progress.show(place, index, &clock, eta.as_ref());
         let (line, reads_port) = match next {
             Next::Send { line, reads_port } => (line, reads_port),
             Next::Dwell(d) => {
@@ -529,7 +528,7 @@ impl Progress {
         place: &Place<'_>,
         index: usize,
         clock: &Clock,
-        eta: Option<&mut super::eta::Eta<'_>>,
+        eta: Option<&crate::gcode::eta::Eta>,
     ) {
         let key = place.origin(index).map_or(index, |o| o.line as usize);
         if self.shown == Some(key) {
@@ -541,7 +540,7 @@ impl Progress {
         }
         self.shown = Some(key);
         self.last = Some(now);
-        let left = eta.map(|e| e.left_s(index, clock.percent, clock.running_s()));
+        let left = eta.and_then(|e| e.left_s(index, clock.running_s()));
         self.say(place, (index, self.total), clock, left);
     }
 
@@ -582,7 +581,7 @@ impl Progress {
 
 /// `part.nc:120:1: 42 % after 1:10 min, about 1:37 min left at speed 80 %`:
 /// the model's time left, scaled by the speed factor and corrected by the
-/// pace so far (`eta::Eta`).
+/// pace so far (`gcode::eta::Eta`).
 pub fn eta_text(
     at: &str,
     (done, total): (usize, usize),

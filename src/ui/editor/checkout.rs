@@ -91,6 +91,52 @@ pub struct Stream {
     pub paused: bool,
     /// The last renewal of the running line's lease.
     pub renewed: Instant,
+    /// The model's time left (`gcode::eta`), told each G-code line's
+    /// command as it starts.
+    pub eta: Option<crate::gcode::eta::Eta>,
+    /// Time spent paused before the pause under way, and when that began:
+    /// the ETA's pace counts the time the job runs.
+    pub paused_for: Duration,
+    pub paused_since: Option<Instant>,
+}
+
+impl Stream {
+    pub fn new(
+        origins: Vec<Option<u32>>,
+        eta: Option<crate::gcode::eta::Eta>,
+        now: Instant,
+    ) -> Stream {
+        Stream {
+            origins,
+            paused: false,
+            renewed: now,
+            eta,
+            paused_for: Duration::ZERO,
+            paused_since: None,
+        }
+    }
+
+    /// Paused by the operator, or going on again.
+    pub fn set_paused(&mut self, paused: bool, now: Instant) {
+        match (self.paused_since.take(), paused) {
+            (Some(since), false) => self.paused_for += now.saturating_duration_since(since),
+            (Some(since), true) => self.paused_since = Some(since),
+            (None, true) => self.paused_since = Some(now),
+            (None, false) => {}
+        }
+        self.paused = paused;
+    }
+
+    /// Seconds the stream has run since `started`, pauses left out.
+    pub fn running_s(&self, started: Instant, now: Instant) -> f64 {
+        let paused = self.paused_for
+            + self
+                .paused_since
+                .map_or(Duration::ZERO, |s| now.saturating_duration_since(s));
+        now.saturating_duration_since(started)
+            .saturating_sub(paused)
+            .as_secs_f64()
+    }
 }
 
 /// A check-out under way.
@@ -247,8 +293,16 @@ impl Checkout {
         };
         let share = done as f64 / total as f64;
         let elapsed = now.saturating_duration_since(self.started);
-        let left = (share > 0.0)
-            .then(|| Duration::from_secs_f64(elapsed.as_secs_f64() * (1.0 - share) / share));
+        // The model's time left where the job is the converted G-code,
+        // else the pace so far.
+        let modelled = s.eta.as_ref().and_then(|eta| {
+            eta.left_s(done, s.running_s(self.started, now))
+                .map(|left| Duration::from_secs_f64(left.max(0.0)))
+        });
+        let left = modelled.or_else(|| {
+            (share > 0.0)
+                .then(|| Duration::from_secs_f64(elapsed.as_secs_f64() * (1.0 - share) / share))
+        });
         Some((gcode, share, elapsed, left))
     }
 

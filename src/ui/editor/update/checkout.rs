@@ -571,6 +571,16 @@ impl Step<'_, '_> {
             c.line_text = Some(text.clone());
             c.at_line = Some(line);
             c.line_start = Some(machine_now(ctx));
+            if let Some(s) = c.stream.as_mut() {
+                let command = self.e.buffer.program().index_of(line);
+                let running_s = s.running_s(c.started, ctx.now);
+                // The model's pace counts from the job's first G-code line.
+                if let (Some(eta), Some(command)) = (s.eta.as_mut(), command)
+                    && s.origins.get(command).is_some_and(Option::is_some)
+                {
+                    eta.start(command, c.factor, running_s);
+                }
+            }
             self.checkout_send(text, None);
             if capped.get() {
                 self.say(

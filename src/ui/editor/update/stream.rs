@@ -18,24 +18,23 @@ impl Step<'_, '_> {
     /// Yes to the stream: the check-out's plan, sent at once.
     pub(super) fn stream_begin(&mut self) {
         let ctx = self.ctx;
-        let origins: Vec<Option<u32>> = match self.e.gcode.as_ref() {
-            Some(g) if g.state == self.e.buffer.state() => g
-                .converted
-                .program
-                .lines
-                .iter()
-                .map(|l| l.origin.map(|o| o.line))
-                .collect(),
+        let (origins, eta): (Vec<Option<u32>>, _) = match self.e.gcode.as_ref() {
+            Some(g) if g.state == self.e.buffer.state() => {
+                let lines = &g.converted.program.lines;
+                (
+                    lines.iter().map(|l| l.origin.map(|o| o.line)).collect(),
+                    crate::gcode::eta::Eta::new(
+                        std::sync::Arc::new(g.converted.ways.clone()),
+                        lines.len(),
+                    ),
+                )
+            }
             _ => return,
         };
         match self.checkout_prepare(None, true) {
             Ok(p) => {
                 let mut c = Checkout::new(p.plan, p.preamble, ctx.now);
-                c.stream = Some(Stream {
-                    origins,
-                    paused: false,
-                    renewed: ctx.now,
-                });
+                c.stream = Some(Stream::new(origins, Some(eta), ctx.now));
                 self.e.checkout = Some(c);
                 self.outputs_arm();
                 self.say(
@@ -100,7 +99,7 @@ impl Step<'_, '_> {
         }
         match (&c.state, c.line_id) {
             (RunState::Running, Some(id)) if !s.paused => {
-                s.paused = true;
+                s.set_paused(true, now);
                 self.out
                     .effects
                     .push(Effect::Device(Request::JogRelease { id }));
@@ -110,12 +109,12 @@ impl Step<'_, '_> {
                 );
             }
             (RunState::Paused { .. } | RunState::Ready, _) => {
-                s.paused = false;
+                s.set_paused(false, now);
                 self.say(NoteLevel::Info, "the stream goes on".into());
                 self.checkout_next();
             }
             (RunState::Dwelling { .. }, _) => {
-                s.paused = !s.paused;
+                s.set_paused(!s.paused, now);
                 let text = if s.paused {
                     "the stream pauses in the dwell"
                 } else {

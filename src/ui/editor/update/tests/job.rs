@@ -464,3 +464,48 @@ fn without_a_place_to_cut_the_job_is_streamed_without_a_key_held() {
         Some(crate::ui::editor::checkout::RunState::Stopped { .. })
     ));
 }
+
+/// Issue 41 (3): the stream's status line says the model's time left
+/// (`gcode::eta`) from the line running, at the speed factor, not the pace
+/// of the set-up before the first G-code line.
+#[test]
+fn a_streamed_jobs_status_says_the_models_time_left() {
+    let mut host = Host::isel();
+    let gcode = pockets(12).replace("G0 Z65\nG0 X", "G0 X");
+    let c = converted(&gcode, 30);
+    let first = c
+        .program
+        .lines
+        .iter()
+        .position(|l| l.origin.is_some())
+        .expect("a G-code line");
+    let model = c.ways.stream_left(c.program.lines.len(), 1.0);
+    let mut e = opened(&mut host, c);
+    host.send(&mut e, Input::Main(Action::RunProgram));
+    let mut out = host.key(&mut e, Action::Confirm);
+    // The reference run and `z1` before the first G-code line take long:
+    // no pace is taken from them.
+    for _ in 0..2 {
+        let (id, ..) = line(&out).expect("a line");
+        host.now += Duration::from_secs(20);
+        out = ended(&mut host, &mut e, id, CheckoutEnd::Done { byte: None });
+    }
+    let says = |e: &Editor, host: &Host, command: usize| {
+        let status = e.job_status(host.now, false).expect("a status");
+        let left = crate::ui::editor::progress::clock(Duration::from_secs_f64(model[command]));
+        assert!(
+            status.progress.contains(&format!("left {left} x100%")),
+            "{status:?}, the model from command {command}: {} s",
+            model[command]
+        );
+    };
+    // The set-up's 40 s are no pace: the model from the line running.
+    says(&e, &host, 2);
+    for command in 2..first {
+        let (id, ..) = line(&out).expect("a line");
+        host.now += Duration::from_secs(1);
+        out = ended(&mut host, &mut e, id, CheckoutEnd::Done { byte: None });
+        let _ = command;
+    }
+    says(&e, &host, first);
+}
