@@ -518,10 +518,15 @@ fn the_centre_of_a_bore_is_found_within_a_step_with_its_diameters() {
     // A bore of radius 8 mm around X 40, Y 30 mm in stock up to Z 20 mm.
     let (cx, cy, r) = (40.0, 30.0, 8.0);
     let tip = 0.5;
-    let sim = shape_sim("bore:16000,12000,3200,8000", tip);
+    let mut sim = shape_sim("bore:16000,12000,3200,8000", tip);
     let state = tempfile::tempdir().expect("state dir");
     // Inside, 1 mm off the centre in X and Y, 5 mm below the top.
     referenced_at_xyz(&sim, [16_400, 12_400, 6000]);
+    let shown = sim.device_state();
+    assert!(
+        shown.contains("probe surface bore:16000,12000,3200,8000 (clear)"),
+        "{shown}"
+    );
     let json = probe_shape(&sim, state.path(), &["center", "--json"]);
     let (x, y) = (
         mm(&json, "zero_machine_mm", "x"),
