@@ -145,9 +145,9 @@ impl ProbeSurface {
         }
     }
 
-    /// Whether a straight line enters the material at most once. A plane's
-    /// material and its air are both convex; a block's air and a bore's
-    /// material are not, so a line can pass through and out again.
+    /// Whether it is a plane, which a straight line crosses at most once
+    /// (its material and its air are both convex); a block's air and a
+    /// bore's material are not, so a line can pass in and out again.
     pub fn is_plane(&self) -> bool {
         matches!(self, ProbeSurface::Plane { .. })
     }
@@ -161,23 +161,25 @@ impl ProbeSurface {
                 gx,
                 gy,
             },
-            ProbeSurface::Block { top, .. } | ProbeSurface::Bore { top, .. } => {
-                self.with_top(top + dz)
-            }
-        }
-    }
-
-    fn with_top(self, top: f64) -> ProbeSurface {
-        match self {
-            ProbeSurface::Block { x0, x1, y0, y1, .. } => ProbeSurface::Block {
+            ProbeSurface::Block {
                 x0,
                 x1,
                 y0,
                 y1,
                 top,
+            } => ProbeSurface::Block {
+                x0,
+                x1,
+                y0,
+                y1,
+                top: top + dz,
             },
-            ProbeSurface::Bore { cx, cy, r, .. } => ProbeSurface::Bore { cx, cy, r, top },
-            plane @ ProbeSurface::Plane { .. } => plane,
+            ProbeSurface::Bore { cx, cy, r, top } => ProbeSurface::Bore {
+                cx,
+                cy,
+                r,
+                top: top + dz,
+            },
         }
     }
 
