@@ -32,12 +32,14 @@ limit_margin and start_position), and the controller the one its [sim] variants 
 family is --protocol (or --sim), else the profile's connection.protocol; without
 --profile, --sim/--protocol pick the shipped profile of that family (isel, emcu, emp).
 
---probe-surface Z0[,GX,GY] puts a work piece under the probe: the plane z = Z0 + GX*x + GY*y
-in machine steps, Z+ up. The probe input reads touched while the axis stands at or below it:
-isel in1.5, changing at the step the carriage crosses the plane, so a @0Z ends there and ramps
-down past it from its speed (at or below the start-stop frequency it stops on it); EMP the drive
-input the profile's [io] gives role probe. The EMCU's input E1 cannot be read: refused there.
-`show` prints the surface.
+--probe-surface SURFACE puts a work piece under the probe, in machine steps, Z+ up: Z0[,GX,GY]
+the material below the plane z = Z0 + GX*x + GY*y; block:X0,X1,Y0,Y1,TOP a block X0..X1,
+Y0..Y1 up to TOP (corners and edges to probe from outside); bore:CX,CY,R,TOP stock up to TOP
+with a bore of radius R around CX, CY (a centre to probe from inside). The probe input reads
+touched while the tip stands inside the material: isel in1.5, changing at the step the carriage
+enters or leaves it, so a @0Z ends there and ramps down past it from its speed (at or below the
+start-stop frequency it stops on it); EMP the drive input the profile's [io] gives role probe.
+The EMCU's input E1 cannot be read: refused there. `show` prints the surface.
 
 --time-scale S runs the simulated machine S times faster than the wall clock (0.01 to
 1000; 1, the default, is real time): motion, the modelled wire, erase times, reply delays
@@ -90,14 +92,20 @@ pub struct SimArgs {
     /// Model a controller that differs from the default (repeatable, added to the
     /// profile's [sim] variants): hood-unwired, no-port2, work-positions (isel),
     /// memory=<commands> (isel, EMCU), emp-rejects-0a-before-on (EMP),
-    /// probe-surface=<z0>[,<gx>,<gy>] (isel, EMP)
+    /// probe-surface=<z0>[,<gx>,<gy>], =block:…, =bore:… (isel, EMP)
     #[arg(long = "variant", value_name = "NAME[=N]")]
     pub variants: Vec<SimVariant>,
-    /// A work piece under the probe: the plane z = Z0 + GX*x + GY*y in machine steps
-    /// (Z+ up); the probe input reads touched while the axis stands at or below it.
-    /// The variant probe-surface=Z0[,GX,GY]; it replaces one the profile sets (isel,
-    /// EMP; docs/simulator.md, Probe surface)
-    #[arg(long, value_name = "Z0[,GX,GY]", value_parser = probe_surface)]
+    /// A work piece under the probe, in machine steps (Z+ up): Z0[,GX,GY] the material
+    /// below the plane z = Z0 + GX*x + GY*y, block:X0,X1,Y0,Y1,TOP a block up to TOP,
+    /// bore:CX,CY,R,TOP stock up to TOP with a bore of radius R; the probe input reads
+    /// touched while the tip stands inside the material. The variant probe-surface=…
+    /// of the same text; it replaces one the profile sets (isel, EMP; docs/simulator.md,
+    /// Probe surface)
+    #[arg(
+        long,
+        value_name = "Z0[,GX,GY]|block:X0,X1,Y0,Y1,TOP|bore:CX,CY,R,TOP",
+        value_parser = probe_surface
+    )]
     pub probe_surface: Option<SimVariant>,
     /// Run the simulated machine S times faster than the wall clock (motion, wire,
     /// delays alike; 1 = real time): for tests of logic, not of timing
@@ -105,7 +113,7 @@ pub struct SimArgs {
     pub time_scale: TimeScale,
 }
 
-/// `--probe-surface Z0[,GX,GY]`: the variant `probe-surface=` of the same
+/// `--probe-surface SURFACE`: the variant `probe-surface=` of the same
 /// text, so both are parsed and checked alike.
 fn probe_surface(text: &str) -> Result<SimVariant, String> {
     format!("probe-surface={text}").parse()

@@ -43,81 +43,222 @@ pub enum SimVariant {
     EmpRejects0aBeforeOn,
 }
 
-/// The plane `z = z0 + gx·x + gy·y` of a simulated work piece, in machine
-/// steps (counts): x, y, z are the axes' positions in machine coordinates,
-/// Z+ up, away from the work, as the profiles' Z limits and G-code's safe
-/// height have it. The probe touches while the probing axis stands at or
-/// below the plane (`probe-surface=Z0[,GX,GY]`).
+/// A simulated work piece under the probe, in machine steps (counts): x,
+/// y, z are the axes' positions in machine coordinates, Z+ up, away from
+/// the work, as the profiles' Z limits and G-code's safe height have it.
+/// The probe touches while its tip stands inside material
+/// (`probe-surface=Z0[,GX,GY]`, `block:X0,X1,Y0,Y1,TOP`, `bore:CX,CY,R,TOP`).
+///
+/// Every number is finite and none is -0 (the constructors see to it), so
+/// that equal surfaces print, compare and hash alike.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ProbeSurface {
-    pub z0: f64,
-    pub gx: f64,
-    pub gy: f64,
+pub enum ProbeSurface {
+    /// Material at and below the plane `z = z0 + gx·x + gy·y`: a surface
+    /// to touch off Z on, or, steep, a wall to find an edge on.
+    Plane { z0: f64, gx: f64, gy: f64 },
+    /// A rectangular block of stock, `x0 ≤ x ≤ x1`, `y0 ≤ y ≤ y1`,
+    /// `z ≤ top`: faces and corners to probe from outside.
+    Block {
+        x0: f64,
+        x1: f64,
+        y0: f64,
+        y1: f64,
+        top: f64,
+    },
+    /// Stock up to `top` with a round bore of radius `r` around `cx`,
+    /// `cy` (through, however deep the probe goes): walls to probe from
+    /// inside.
+    Bore { cx: f64, cy: f64, r: f64, top: f64 },
+}
+
+/// The forms a surface is written in, for the errors that list them.
+const SURFACE_FORMS: &str = "Z0 (steps, a flat plane), Z0,GX,GY (steps and the slopes in X and \
+     Y, steps per step), block:X0,X1,Y0,Y1,TOP or bore:CX,CY,R,TOP (steps)";
+
+/// Finite, and +0 for -0, or `None`.
+fn finite(v: f64) -> Option<f64> {
+    v.is_finite().then_some(v + 0.0)
 }
 
 impl ProbeSurface {
-    /// A plane from finite numbers; -0 is kept as 0, so that equal planes
-    /// print, compare and hash alike.
+    /// A plane from finite numbers.
     pub fn new(z0: f64, gx: f64, gy: f64) -> Option<ProbeSurface> {
-        [z0, gx, gy]
-            .iter()
-            .all(|v| v.is_finite())
-            .then_some(ProbeSurface {
-                z0: z0 + 0.0,
-                gx: gx + 0.0,
-                gy: gy + 0.0,
-            })
+        Some(ProbeSurface::Plane {
+            z0: finite(z0)?,
+            gx: finite(gx)?,
+            gy: finite(gy)?,
+        })
     }
 
-    /// The height of the plane over `x`, `y`.
-    pub fn height_at(&self, x: f64, y: f64) -> f64 {
-        self.z0 + self.gx * x + self.gy * y
+    /// A block from finite numbers, each range in order.
+    pub fn block(x0: f64, x1: f64, y0: f64, y1: f64, top: f64) -> Option<ProbeSurface> {
+        let (x0, x1, y0, y1) = (finite(x0)?, finite(x1)?, finite(y0)?, finite(y1)?);
+        (x0 <= x1 && y0 <= y1).then_some(ProbeSurface::Block {
+            x0,
+            x1,
+            y0,
+            y1,
+            top: finite(top)?,
+        })
+    }
+
+    /// A bore from finite numbers and a radius more than 0.
+    pub fn bore(cx: f64, cy: f64, r: f64, top: f64) -> Option<ProbeSurface> {
+        let r = finite(r).filter(|r| *r > 0.0)?;
+        Some(ProbeSurface::Bore {
+            cx: finite(cx)?,
+            cy: finite(cy)?,
+            r,
+            top: finite(top)?,
+        })
+    }
+
+    /// The top of the material over `x`, `y`; `None` where there is none
+    /// (beside a block, inside a bore).
+    pub fn height_at(&self, x: f64, y: f64) -> Option<f64> {
+        match *self {
+            ProbeSurface::Plane { z0, gx, gy } => Some(z0 + gx * x + gy * y),
+            ProbeSurface::Block {
+                x0,
+                x1,
+                y0,
+                y1,
+                top,
+            } => ((x0..=x1).contains(&x) && (y0..=y1).contains(&y)).then_some(top),
+            ProbeSurface::Bore { cx, cy, r, top } => {
+                ((x - cx).powi(2) + (y - cy).powi(2) >= r * r).then_some(top)
+            }
+        }
     }
 
     /// Whether the probe touches with the axes at `x`, `y`, `z`.
     pub fn touches(&self, x: f64, y: f64, z: f64) -> bool {
-        z <= self.height_at(x, y)
+        self.height_at(x, y).is_some_and(|top| z <= top)
     }
 
-    /// Whether the plane is tilted.
+    /// Whether the material's top is level wherever there is material
+    /// (a block's and a bore's always are).
     pub fn is_flat(&self) -> bool {
-        self.gx == 0.0 && self.gy == 0.0
+        match *self {
+            ProbeSurface::Plane { gx, gy, .. } => gx == 0.0 && gy == 0.0,
+            ProbeSurface::Block { .. } | ProbeSurface::Bore { .. } => true,
+        }
+    }
+
+    /// Whether it is a plane, which a straight line crosses at most once
+    /// (its material and its air are both convex); a block's air and a
+    /// bore's material are not, so a line can pass in and out again.
+    pub fn is_plane(&self) -> bool {
+        matches!(self, ProbeSurface::Plane { .. })
+    }
+
+    /// The same work piece `dz` steps higher (a longer tool meets it with
+    /// the carriage that much higher).
+    pub fn raised(self, dz: f64) -> ProbeSurface {
+        match self {
+            ProbeSurface::Plane { z0, gx, gy } => ProbeSurface::Plane {
+                z0: z0 + dz,
+                gx,
+                gy,
+            },
+            ProbeSurface::Block {
+                x0,
+                x1,
+                y0,
+                y1,
+                top,
+            } => ProbeSurface::Block {
+                x0,
+                x1,
+                y0,
+                y1,
+                top: top + dz,
+            },
+            ProbeSurface::Bore { cx, cy, r, top } => ProbeSurface::Bore {
+                cx,
+                cy,
+                r,
+                top: top + dz,
+            },
+        }
+    }
+
+    /// Its numbers, in the order they are written.
+    fn numbers(&self) -> Vec<f64> {
+        match *self {
+            ProbeSurface::Plane { z0, gx, gy } => vec![z0, gx, gy],
+            ProbeSurface::Block {
+                x0,
+                x1,
+                y0,
+                y1,
+                top,
+            } => vec![x0, x1, y0, y1, top],
+            ProbeSurface::Bore { cx, cy, r, top } => vec![cx, cy, r, top],
+        }
     }
 
     fn parse(value: &str) -> Result<ProbeSurface, String> {
-        let numbers: Vec<&str> = value.split(',').map(str::trim).collect();
-        let parsed: Option<Vec<f64>> = numbers.iter().map(|n| n.parse::<f64>().ok()).collect();
-        let surface = match parsed.as_deref() {
-            Some([z0]) => ProbeSurface::new(*z0, 0.0, 0.0),
-            Some([z0, gx, gy]) => ProbeSurface::new(*z0, *gx, *gy),
+        let lower = value.trim().to_ascii_lowercase();
+        if let Some(rest) = lower.strip_prefix("block:") {
+            let block = match numbers(rest).as_deref() {
+                Some(&[x0, x1, y0, y1, top]) => ProbeSurface::block(x0, x1, y0, y1, top),
+                _ => None,
+            };
+            return block.ok_or_else(|| {
+                "a block is block:X0,X1,Y0,Y1,TOP, finite numbers of steps with X0 <= X1 and \
+                 Y0 <= Y1, such as block:12000,24000,8000,20000,8000"
+                    .into()
+            });
+        }
+        if let Some(rest) = lower.strip_prefix("bore:") {
+            let bore = match numbers(rest).as_deref() {
+                Some(&[cx, cy, r, top]) => ProbeSurface::bore(cx, cy, r, top),
+                _ => None,
+            };
+            return bore.ok_or_else(|| {
+                "a bore is bore:CX,CY,R,TOP, finite numbers of steps and a radius R more than \
+                 0, such as bore:16000,12000,3200,8000"
+                    .into()
+            });
+        }
+        let plane = match numbers(&lower).as_deref() {
+            Some(&[z0]) => ProbeSurface::new(z0, 0.0, 0.0),
+            Some(&[z0, gx, gy]) => ProbeSurface::new(z0, gx, gy),
             _ => None,
         };
-        surface.ok_or_else(|| {
-            "the surface is Z0 (steps, a flat plane) or Z0,GX,GY (steps and the slopes in X \
-             and Y, steps per step), finite numbers, such as 8000,0.01,-0.005"
-                .into()
-        })
+        plane.ok_or_else(|| format!("the surface is {SURFACE_FORMS}; such as 8000,0.01,-0.005"))
     }
 }
 
-/// Finite and without -0 ([`ProbeSurface::new`]): equality is a true
-/// equivalence and agrees with the hash of the bits.
+/// The comma-separated numbers of `text`, or `None` if one is not a number.
+fn numbers(text: &str) -> Option<Vec<f64>> {
+    text.split(',').map(|n| n.trim().parse().ok()).collect()
+}
+
+/// Finite and without -0: equality is a true equivalence and agrees with
+/// the hash of the bits.
 impl Eq for ProbeSurface {}
 
 impl std::hash::Hash for ProbeSurface {
     fn hash<H: std::hash::Hasher>(&self, state: &mut H) {
-        for v in [self.z0, self.gx, self.gy] {
+        std::mem::discriminant(self).hash(state);
+        for v in self.numbers() {
             v.to_bits().hash(state);
         }
     }
 }
 
+/// What [`ProbeSurface::parse`] reads back: `f64`'s `Display` is the
+/// shortest text that parses to the same number.
 impl fmt::Display for ProbeSurface {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        if self.is_flat() {
-            write!(f, "{}", self.z0)
-        } else {
-            write!(f, "{},{},{}", self.z0, self.gx, self.gy)
+        let list = |v: Vec<f64>| v.iter().map(f64::to_string).collect::<Vec<_>>().join(",");
+        match *self {
+            ProbeSurface::Plane { z0, .. } if self.is_flat() => write!(f, "{z0}"),
+            ProbeSurface::Plane { .. } => f.write_str(&list(self.numbers())),
+            ProbeSurface::Block { .. } => write!(f, "block:{}", list(self.numbers())),
+            ProbeSurface::Bore { .. } => write!(f, "bore:{}", list(self.numbers())),
         }
     }
 }
@@ -194,9 +335,11 @@ pub const VARIANTS: &[VariantInfo] = &[
     VariantInfo {
         name: "probe-surface",
         families: &[Protocol::Isel, Protocol::Emp],
-        value: Some("<z0>[,<gx>,<gy>]"),
-        help: "a work piece z = z0 + gx*x + gy*y (machine steps) that the probe input follows \
-               (isel in1.5; EMP the drive input the profile's [io] gives role probe)",
+        value: Some("<z0>[,<gx>,<gy>]|block:<x0>,<x1>,<y0>,<y1>,<top>|bore:<cx>,<cy>,<r>,<top>"),
+        help: "a work piece that the probe input follows (machine steps): the plane \
+               z = z0 + gx*x + gy*y, a block x0..x1, y0..y1 up to top, or stock up to top with \
+               a bore of radius r around cx, cy (isel in1.5; EMP the drive input the profile's \
+               [io] gives role probe)",
         example: "probe-surface=8000,0.01,-0.005",
         elsewhere: Some(
             "the EMCU cannot read its input E1 (manual 1.5.19: `&V1` only makes a move wait for \
@@ -362,7 +505,7 @@ mod tests {
         let SimVariant::ProbeSurface(s) = tilted else {
             panic!("{tilted:?}")
         };
-        assert_eq!((s.z0, s.gx, s.gy), (8000.0, 0.01, -0.005));
+        assert_eq!(s, ProbeSurface::new(8000.0, 0.01, -0.005).expect("a plane"));
         // 8000 + 0.01 * 10000 - 0.005 * 4000 = 8080.
         assert!(s.touches(10_000.0, 4000.0, 8080.0));
         assert!(!s.touches(10_000.0, 4000.0, 8081.0));
@@ -387,6 +530,11 @@ mod tests {
                 .unwrap_err()
                 .contains("probe-surface=<z0>[,<gx>,<gy>]")
         );
+        // A plane's top over every point; the tool one millimetre longer
+        // meets it one millimetre (400 steps) higher.
+        assert_eq!(s.height_at(10_000.0, 4000.0), Some(8080.0));
+        assert_eq!(s.raised(400.0).height_at(10_000.0, 4000.0), Some(8480.0));
+        assert!(!s.is_flat() && s.is_plane());
         let why = tilted.refusal(Protocol::Emcu).expect("not for the EMCU");
         assert!(why.contains("cannot read its input E1"), "{why}");
         assert_eq!(tilted.refusal(Protocol::Emp), None);
@@ -394,6 +542,111 @@ mod tests {
             SimVariant::HoodUnwired
                 .refusal(Protocol::Emp)
                 .is_some_and(|w| w.ends_with("no variant `hood-unwired`"))
+        );
+    }
+
+    fn surface(text: &str) -> ProbeSurface {
+        match format!("probe-surface={text}").parse::<SimVariant>() {
+            Ok(SimVariant::ProbeSurface(s)) => s,
+            other => panic!("{text}: {other:?}"),
+        }
+    }
+
+    #[test]
+    fn a_block_is_material_inside_its_footprint_up_to_its_top() {
+        let block = surface("block:12000,24000,8000,20000,8000");
+        assert_eq!(
+            block,
+            ProbeSurface::block(12000.0, 24000.0, 8000.0, 20000.0, 8000.0).expect("a block")
+        );
+        // Its faces and top belong to it, the step beside them does not.
+        assert!(block.touches(12000.0, 8000.0, 8000.0));
+        assert!(block.touches(24000.0, 20000.0, -1e6));
+        assert!(!block.touches(11999.0, 10000.0, 6000.0));
+        assert!(!block.touches(15000.0, 7999.0, 6000.0));
+        assert!(!block.touches(24001.0, 10000.0, 6000.0));
+        assert!(!block.touches(15000.0, 10000.0, 8001.0));
+        assert_eq!(block.height_at(15000.0, 10000.0), Some(8000.0));
+        assert_eq!(block.height_at(0.0, 0.0), None);
+        assert!(block.raised(400.0).touches(15000.0, 10000.0, 8400.0));
+        assert!(block.is_flat() && !block.is_plane());
+    }
+
+    #[test]
+    fn a_bore_is_material_outside_its_circle_up_to_the_top() {
+        let bore = surface("bore:16000,12000,3200,8000");
+        assert_eq!(
+            bore,
+            ProbeSurface::bore(16000.0, 12000.0, 3200.0, 8000.0).expect("a bore")
+        );
+        // Inside the circle there is air however deep; its wall is material.
+        assert!(!bore.touches(16000.0, 12000.0, -1e6));
+        assert!(!bore.touches(19199.0, 12000.0, 6000.0));
+        assert!(bore.touches(19200.0, 12000.0, 6000.0));
+        assert!(bore.touches(16000.0, 8800.0, 6000.0));
+        // 3-4-5: on the circle off both axes.
+        assert!(bore.touches(16000.0 + 1920.0, 12000.0 - 2560.0, 8000.0));
+        assert!(!bore.touches(16000.0 + 1919.0, 12000.0 - 2559.0, 8000.0));
+        assert!(!bore.touches(30000.0, 12000.0, 8001.0));
+        assert_eq!(bore.height_at(0.0, 0.0), Some(8000.0));
+        assert_eq!(bore.raised(-100.0).height_at(0.0, 0.0), Some(7900.0));
+    }
+
+    #[test]
+    fn every_surface_prints_what_parses_back_to_it() {
+        for text in [
+            "8000",
+            "-200.5",
+            "8000,0.01,-0.005",
+            "block:12000,24000,8000,20000,8000",
+            "block:-1.5,0,0,0,0.25",
+            "bore:16000,12000,3200,8000",
+            "bore:0,-0.5,0.1,-300",
+        ] {
+            let s = surface(text);
+            assert_eq!(s.to_string(), text);
+            assert_eq!(surface(&s.to_string()), s);
+        }
+        // -0 is 0, and spaces and case do not matter: the same surface,
+        // the same hash.
+        use std::collections::HashSet;
+        let same = [surface("block:-0,1,2,3,4"), surface(" Block: 0 , 1,2,3,4")];
+        assert_eq!(same[0], same[1]);
+        assert_eq!(same.iter().collect::<HashSet<_>>().len(), 1);
+        assert_eq!(same[0].to_string(), "block:0,1,2,3,4");
+        assert_eq!(surface("bore:-0,0,1,-0").to_string(), "bore:0,0,1,0");
+    }
+
+    #[test]
+    fn bad_blocks_and_bores_say_their_form() {
+        for bad in [
+            "block:1,2,3,4",
+            "block:2,1,0,1,0",
+            "block:0,1,1,0,0",
+            "block:0,1,0,1,inf",
+            "block:",
+        ] {
+            let err = format!("probe-surface={bad}")
+                .parse::<SimVariant>()
+                .unwrap_err();
+            assert!(err.contains("block:X0,X1,Y0,Y1,TOP"), "{bad}: {err}");
+        }
+        for bad in [
+            "bore:0,0,0,0",
+            "bore:0,0,-1,0",
+            "bore:0,0,1",
+            "bore:a,0,1,0",
+        ] {
+            let err = format!("probe-surface={bad}")
+                .parse::<SimVariant>()
+                .unwrap_err();
+            assert!(err.contains("bore:CX,CY,R,TOP"), "{bad}: {err}");
+        }
+        // An unknown shape is read as a plane, whose error lists them all.
+        let err = "probe-surface=cube:1,2".parse::<SimVariant>().unwrap_err();
+        assert!(
+            err.contains("Z0,GX,GY") && err.contains("block:") && err.contains("bore:"),
+            "{err}"
         );
     }
 }

@@ -88,4 +88,17 @@ fn the_emcu_simulator_refuses_a_probe_surface_with_the_reason() {
         .expect("run jogterm");
     assert_eq!(bad.status.code(), Some(2), "{}", text(&bad.stderr));
     assert!(text(&bad.stderr).contains("Z0,GX,GY"));
+    // A block whose X range runs backwards: its own form in the error.
+    let bad = std::process::Command::new(JOGTERM)
+        .args(["sim", "--pty", "--probe-surface", "block:2,1,0,1,0"])
+        .env("JOGTERM_CONFIG_DIR", dir.path())
+        .stdin(Stdio::null())
+        .output()
+        .expect("run jogterm");
+    assert_eq!(bad.status.code(), Some(2), "{}", text(&bad.stderr));
+    assert!(
+        text(&bad.stderr).contains("block:X0,X1,Y0,Y1,TOP"),
+        "{}",
+        text(&bad.stderr)
+    );
 }

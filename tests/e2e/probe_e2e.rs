@@ -388,3 +388,167 @@ fn a_grid_over_a_jobs_own_extents() {
     assert_eq!(ys.iter().cloned().fold(f64::INFINITY, f64::min), 2.0);
     assert_eq!(ys.iter().cloned().fold(f64::NEG_INFINITY, f64::max), 8.0);
 }
+
+/// The isel simulator near its reference point with a work piece
+/// `surface`, and the profile jogterm reads beside it
+/// ([`SimProcess::configured`]) saying the probe's tip and clearance
+/// rather than leaving them to the defaults the expectations rest on.
+fn shape_sim(surface: &str, tip: f64) -> SimProcess {
+    let profile = format!("[sim]\nstart_position = 1.0\n[probe]\ntip = {tip}\nclearance = 5.0\n");
+    let surface = format!("--probe-surface={surface}");
+    SimProcess::options("isel")
+        .files(&[("profiles/default.toml", &profile)])
+        .args(&[&surface])
+        .time_scale(sim_process::LOGIC_SCALE)
+        .start()
+}
+
+/// Referenced, standing at `x`, `y`, `z` (steps).
+fn referenced_at_xyz(sim: &SimProcess, [x, y, z]: [i64; 3]) {
+    let out = sim.run(&[
+        "send",
+        "@07",
+        "@0R7",
+        &format!("@0M{x},4000,{y},4000,{z},4000,0,4000"),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert_eq!(position(sim), [x, y, z]);
+}
+
+/// `jogterm probe …` with the profile of [`shape_sim`]: its JSON line.
+fn probe_shape(sim: &SimProcess, state: &std::path::Path, args: &[&str]) -> serde_json::Value {
+    let mut all = vec!["probe"];
+    all.extend_from_slice(args);
+    let out = sim
+        .configured(&all)
+        .env("JOGTERM_STATE_DIR", state)
+        .output()
+        .expect("run jogterm probe");
+    let stdout = text(&out.stdout);
+    assert!(out.status.success(), "{stdout}\n{}", text(&out.stderr));
+    // What was found, for `--nocapture`.
+    eprintln!("probe {}: {}", args.join(" "), stdout.trim());
+    serde_json::from_str(stdout.trim()).expect("one JSON line")
+}
+
+/// X, Y, Z (steps) as `@0P` reports them (`<< 0 X=… Y=… Z=… (steps)`).
+fn position(sim: &SimProcess) -> [i64; 3] {
+    let out = sim.run(&["send", "@0P"]);
+    let stdout = text(&out.stdout);
+    let axis = |name: &str| -> Option<i64> {
+        stdout.lines().find_map(|l| {
+            l.split_once(name)?
+                .1
+                .split_whitespace()
+                .next()?
+                .parse()
+                .ok()
+        })
+    };
+    match (axis(" X="), axis(" Y="), axis(" Z=")) {
+        (Some(x), Some(y), Some(z)) => [x, y, z],
+        _ => panic!("no position in {stdout}"),
+    }
+}
+
+fn mm(json: &serde_json::Value, key: &str, axis: &str) -> f64 {
+    json[key][axis]
+        .as_f64()
+        .unwrap_or_else(|| panic!("{key}.{axis} in {json}"))
+}
+
+/// One step of the shipped isel profile (1/400 mm), and a little for the
+/// arithmetic in between.
+const STEP_MM: f64 = 0.0025 + 1e-9;
+
+/// A block of stock X 30-60 mm, Y 20-50 mm, up to Z 20 mm (400 steps/mm).
+const BLOCK: &str = "block:12000,24000,8000,20000,8000";
+
+#[test]
+fn a_corner_of_a_block_is_found_within_a_step_and_set_as_the_work_zero() {
+    let sim = shape_sim(BLOCK, 0.0);
+    let state = tempfile::tempdir().expect("state dir");
+    // Outside the corner at the block's smallest X and Y, 3 mm off both
+    // faces (less than the 5 mm clearance), 5 mm below its top.
+    let start = [10_800, 6800, 6000];
+    referenced_at_xyz(&sim, start);
+    let json = probe_shape(
+        &sim,
+        state.path(),
+        &["corner", "x+y+", "--offset", "G55", "--json"],
+    );
+    // A point probe (tip 0) touches with its centre on the faces.
+    let (x, y) = (
+        mm(&json, "zero_machine_mm", "x"),
+        mm(&json, "zero_machine_mm", "y"),
+    );
+    assert!((x - 30.0).abs() <= STEP_MM, "X face at 30 mm: {json}");
+    assert!((y - 20.0).abs() <= STEP_MM, "Y face at 20 mm: {json}");
+    assert_eq!(json["work_offset"], "G55");
+    let saved = json["saved"].as_str().expect("saved path");
+    let file = std::fs::read_to_string(saved).expect("offsets file");
+    assert!(file.contains("G55"), "{file}");
+    // Back where it started.
+    assert_eq!(position(&sim), start);
+}
+
+#[test]
+fn a_corner_probed_toward_smaller_x_and_y_puts_half_the_tip_beyond_the_touch() {
+    // The simulator's probe is a point that touches with its centre on the
+    // face; a profile's 1 mm tip says the face lies 0.5 mm further on, in
+    // the direction the probe moved.
+    let sim = shape_sim(BLOCK, 1.0);
+    let state = tempfile::tempdir().expect("state dir");
+    // Outside the corner at the block's largest X and Y (60, 50 mm).
+    let start = [25_200, 21_200, 6000];
+    referenced_at_xyz(&sim, start);
+    let json = probe_shape(&sim, state.path(), &["corner", "x-y-", "--json"]);
+    let (x, y) = (
+        mm(&json, "zero_machine_mm", "x"),
+        mm(&json, "zero_machine_mm", "y"),
+    );
+    assert!((x - (60.0 - 0.5)).abs() <= STEP_MM, "{json}");
+    assert!((y - (50.0 - 0.5)).abs() <= STEP_MM, "{json}");
+    assert_eq!(json["work_offset"], "G54");
+    assert_eq!(position(&sim), start);
+}
+
+#[test]
+fn the_centre_of_a_bore_is_found_within_a_step_with_its_diameters() {
+    // A bore of radius 8 mm around X 40, Y 30 mm in stock up to Z 20 mm.
+    let (cx, cy, r) = (40.0, 30.0, 8.0);
+    let tip = 0.5;
+    let mut sim = shape_sim("bore:16000,12000,3200,8000", tip);
+    let state = tempfile::tempdir().expect("state dir");
+    // Inside, 1 mm off the centre in X and Y, 5 mm below the top.
+    referenced_at_xyz(&sim, [16_400, 12_400, 6000]);
+    let shown = sim.device_state();
+    assert!(
+        shown.contains("probe surface bore:16000,12000,3200,8000 (clear)"),
+        "{shown}"
+    );
+    let json = probe_shape(&sim, state.path(), &["center", "--json"]);
+    let (x, y) = (
+        mm(&json, "zero_machine_mm", "x"),
+        mm(&json, "zero_machine_mm", "y"),
+    );
+    // The tip cancels out of the centre.
+    assert!((x - cx).abs() <= STEP_MM, "centre X: {json}");
+    assert!((y - cy).abs() <= STEP_MM, "centre Y: {json}");
+    // X is probed 1 mm off the centre in Y: a chord, 2·√(R² − 1²). Y is
+    // probed from the centre in X: the diameter. The simulator's point
+    // probe touches the wall with its centre, and the command adds the tip
+    // (it takes a ball of that diameter to have touched); each touch is
+    // good to a step.
+    let chord = 2.0 * (r * r - 1.0_f64).sqrt();
+    let (dx, dy) = (mm(&json, "diameter_mm", "x"), mm(&json, "diameter_mm", "y"));
+    assert!((dx - (chord + tip)).abs() <= 2.0 * STEP_MM, "{dx} {json}");
+    assert!((dy - (2.0 * r + tip)).abs() <= 2.0 * STEP_MM, "{dy} {json}");
+    // It ends at the centre it found.
+    let [px, py, pz] = position(&sim);
+    assert!(
+        (px - 16_000).abs() <= 1 && (py - 12_000).abs() <= 1,
+        "{px} {py}"
+    );
+    assert_eq!(pz, 6000);
+}

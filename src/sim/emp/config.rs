@@ -254,9 +254,10 @@ impl DriveConfig {
 ///
 /// The probing axis is Z when the link has a Z drive, else the axis of the
 /// drive the probe is wired to (an EMP machine is mostly one axis). The
-/// plane's slopes tilt it along X and Y where the link has drives for them
-/// other than the probing axis; an axis the link lacks counts as 0, so on a
-/// one-axis machine the surface is the position `z0` alone.
+/// X and Y drives' positions, where the link has such drives other than
+/// the probing axis, place the carriage over the work piece (a plane's
+/// slopes, a block's or a bore's outline); an axis the link lacks counts as
+/// 0, so on a one-axis machine a plane is the position `z0` alone.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SurfaceProbe {
     pub surface: ProbeSurface,
@@ -265,7 +266,7 @@ pub struct SurfaceProbe {
     pub input: u8,
     /// The input reads 1 when touched (`active = "high"`), else 0.
     pub active_high: bool,
-    /// The drive of the probing axis: touched at or below the plane.
+    /// The drive of the probing axis: touched inside the material.
     pub axis: DriveAddress,
     pub x: Option<DriveAddress>,
     pub y: Option<DriveAddress>,

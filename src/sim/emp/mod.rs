@@ -138,8 +138,8 @@ impl EmpSim {
 
     /// The probe input as the work piece sets it at `t`: the drive's
     /// index, the input (1-4) and its level. Touched while the probing
-    /// axis stands at or below the plane over the X and Y drives'
-    /// positions (0 for an axis the link lacks).
+    /// axis stands inside the material over the X and Y drives' positions
+    /// (0 for an axis the link lacks).
     fn surface_input(&self, t: Instant) -> Option<(usize, u8, bool)> {
         let p = self.surface?;
         let at = |ds: Option<DriveAddress>| {

@@ -134,7 +134,7 @@ pub fn physical_point(axes: &[AxisState; 4], counters: [i64; 4]) -> [f64; 4] {
 }
 
 /// Whether the probe touches `surface` with the counters at `counters`:
-/// Z at or below the plane over X, Y. Whole steps, as the carriage makes
+/// Z inside the work piece's material. Whole steps, as the carriage makes
 /// them, so a move's trip and the state at rest are the same reading.
 pub fn surface_touched(surface: &ProbeSurface, axes: &[AxisState; 4], counters: [i64; 4]) -> bool {
     let [x, y, z, _] = physical_point(axes, counters);

@@ -112,7 +112,7 @@ pub struct IselSim {
     inputs: Inputs,
     /// The probe touches the work piece of `config.probe_surface` (port 1
     /// bit 5 then reads this): changed by `Event::Surface` as the carriage
-    /// crosses the plane, so that a move ending on the probe (`@0Z`) stops
+    /// enters or leaves the material, so that a move ending on the probe (`@0Z`) stops
     /// where a real one would.
     surface_touch: bool,
     /// How much longer than the reference tool the tool in the spindle is,
@@ -231,10 +231,7 @@ impl IselSim {
     fn surface(&self) -> Option<crate::config::ProbeSurface> {
         self.config
             .probe_surface
-            .map(|s| crate::config::ProbeSurface {
-                z0: s.z0 + self.tool_length as f64,
-                ..s
-            })
+            .map(|s| s.raised(self.tool_length as f64))
     }
 
     /// Port 1 bit 5, the probe: the work piece's while one is set (variant

@@ -334,7 +334,7 @@ impl LegRun {
                 let found = if crossed(fa) {
                     Some(fa)
                 } else if fb > fa {
-                    self.first_crossing(fa, fb, &crossed)
+                    self.first_crossing(fa, fb, true, &crossed)
                 } else {
                     None
                 };
@@ -349,9 +349,10 @@ impl LegRun {
     }
 
     /// The first fraction at or after `from` where the probe's contact with
-    /// `surface` differs from `touching`: where z - surface(x, y) changes
-    /// sign along the leg, on the steps the axes make (linear in the
-    /// fraction on a line; sampled like a switch on an arc).
+    /// `surface` differs from `touching`: where the tip enters or leaves
+    /// the material along the leg, on the steps the axes make (a plane
+    /// crossed once on a line; sampled like a switch on an arc, and on any
+    /// leg past a block or a bore, which a line can enter and leave).
     pub fn next_surface_change(
         &self,
         surface: &ProbeSurface,
@@ -365,18 +366,24 @@ impl LegRun {
         if crossed(fa) {
             Some(fa)
         } else if fb > fa {
-            self.first_crossing(fa, fb, &crossed)
+            self.first_crossing(fa, fb, surface.is_plane(), &crossed)
         } else {
             None
         }
     }
 
     /// The smallest fraction in (`fa`, `fb`] where `crossed` holds, given
-    /// that it does not at `fa`.
-    fn first_crossing(&self, fa: f64, fb: f64, crossed: &dyn Fn(f64) -> bool) -> Option<f64> {
-        // Lines: monotonic, one look at the end. Arcs: about one sample per
-        // step of travel, so no switch is entered and left unseen.
-        let samples = if self.path.is_line() {
+    /// that it does not at `fa`; `once`: on a line it changes at most once.
+    fn first_crossing(
+        &self,
+        fa: f64,
+        fb: f64,
+        once: bool,
+        crossed: &dyn Fn(f64) -> bool,
+    ) -> Option<f64> {
+        // Changing once on a line: one look at the end. Else about one
+        // sample per step of travel, so nothing is entered and left unseen.
+        let samples = if once && self.path.is_line() {
             1
         } else {
             (((fb - fa) * self.distance as f64).ceil() as usize).clamp(8, 20_000)
@@ -457,6 +464,34 @@ mod tests {
         let at = run.position_at(t);
         assert!((at[0] - 4000.0).abs() < 1e-3, "{at:?}");
         assert!((at[1] - 2000.0).abs() < 1e-3);
+    }
+
+    #[test]
+    fn a_line_through_a_block_and_out_again_touches_at_its_near_face() {
+        // X from 0 to 10000 through a block 3000..4000: clear at both ends,
+        // so one look at the end would miss it.
+        let t0 = Instant::now();
+        let run = LegRun::new(
+            Path::Line {
+                from: [0.0; 4],
+                to: [10_000.0, 0.0, 0.0, 0.0],
+            },
+            [10_000, 0, 0, 0],
+            10_000,
+            ramp(2000.0),
+            t0,
+        );
+        let block = ProbeSurface::block(3000.0, 4000.0, -100.0, 100.0, 100.0).expect("a block");
+        let f = run
+            .next_surface_change(&block, &axes(), false, t0)
+            .expect("the block");
+        assert_eq!(run.path.counters_at(f)[0], 3000, "{f}");
+        // Inside it, the way out is its far face's next step.
+        let t = run.time_of_fraction(0.35, t0);
+        let out = run
+            .next_surface_change(&block, &axes(), true, t)
+            .expect("out of the block");
+        assert_eq!(run.path.counters_at(out)[0], 4001, "{out}");
     }
 
     #[test]
