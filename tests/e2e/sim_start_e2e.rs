@@ -208,4 +208,20 @@ fn an_m0_job_in_the_console_is_finished_by_the_sim_panels_start_key() {
         .unwrap_or_default()
         .to_owned();
     assert!(x.contains("20.000") && x.contains("8000"), "{screen}");
+    // The console's run is in the job log (issue 41 item 4): stored, by
+    // the console, done, with the file's content hash `run` would find.
+    let out = Command::new(JOGTERM)
+        .args(["log", "--json"])
+        .env("JOGTERM_STATE_DIR", dir.path())
+        .output()
+        .expect("jogterm log");
+    let log: serde_json::Value = serde_json::from_slice(&out.stdout).expect("the log as JSON");
+    let last = &log["runs"][log["runs"].as_array().map_or(0, Vec::len).saturating_sub(1)];
+    assert_eq!(last["by"], "console", "{log:#}");
+    assert_eq!(last["way"], "stored", "{log:#}");
+    assert_eq!(last["how"], "done", "{log:#}");
+    assert!(
+        last["file"].as_str().is_some_and(|f| f.ends_with("m0.nc")),
+        "{log:#}"
+    );
 }

@@ -56,6 +56,87 @@ pub enum EditorIo {
         dir: PathBuf,
         list: Vec<PathBuf>,
     },
+    /// A G-code job run from the console, for the job log (`joblog`): the
+    /// file worker keeps the run's log open between these.
+    JobLog(JobLogEvent),
+}
+
+/// What the console's run of a G-code job tells the job log.
+#[derive(Debug, Clone, PartialEq)]
+pub enum JobLogEvent {
+    /// The job starts; the worker stamps the time and hashes the text.
+    Start(Box<JobLogStart>),
+    /// G-code line `line` ran to its end.
+    Line(u32),
+    /// The run ended.
+    End(crate::joblog::How),
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct JobLogStart {
+    pub file: PathBuf,
+    /// The G-code text as read: its hash is the log's content hash.
+    pub source: std::sync::Arc<str>,
+    pub profile: String,
+    pub port: String,
+    /// `G54 X50.000 Y50.000 Z60.000 mm`
+    pub offset: String,
+    pub way: crate::gcode::ways::Way,
+    pub estimate_s: Option<f64>,
+}
+
+impl JobLogStart {
+    fn record(&self) -> crate::joblog::Start {
+        let at = crate::joblog::file::now_utc();
+        let file = std::path::absolute(&self.file).unwrap_or_else(|_| self.file.clone());
+        crate::joblog::Start {
+            run: crate::joblog::file::run_id(&at),
+            at,
+            file: file.display().to_string(),
+            hash: Fingerprint::of(self.source.as_bytes()).to_string(),
+            profile: self.profile.clone(),
+            port: self.port.clone(),
+            offset: self.offset.clone(),
+            way: self.way.to_string(),
+            estimate_s: self.estimate_s.map(crate::joblog::record::seconds),
+            from_line: None,
+            by: "console".into(),
+            pid: std::process::id(),
+            boot: crate::joblog::file::boot_id(),
+        }
+    }
+}
+
+/// The job log of the console's run under way, on the file worker: one
+/// event at a time; a note for the console when the log cannot be written.
+pub fn job_log(log: &mut Option<crate::joblog::JobLog>, event: JobLogEvent) -> Option<String> {
+    match event {
+        JobLogEvent::Start(start) => {
+            // A run not ended (the console never leaves one so) is closed
+            // as broken off rather than left open under the new one.
+            if let Some(old) = log.take() {
+                let _ = old.end(crate::joblog::How::Error);
+            }
+            let dir = crate::joblog::file::dir()?;
+            match crate::joblog::JobLog::start(&dir, &start.record()) {
+                Ok(opened) => {
+                    *log = Some(opened);
+                    None
+                }
+                Err(e) => Some(format!(
+                    "the job log in {} could not be written ({e}); the job runs without it",
+                    dir.display()
+                )),
+            }
+        }
+        JobLogEvent::Line(line) => {
+            if let Some(l) = log.as_ref() {
+                l.line(line);
+            }
+            None
+        }
+        JobLogEvent::End(how) => log.take().and_then(|l| l.end(how)),
+    }
 }
 
 /// Why a save did not happen.
@@ -120,6 +201,8 @@ pub enum EditorMsg {
     Linted(Box<LintResult>),
     /// The list of files opened last was kept, or why not.
     RecentKept(Result<(), String>),
+    /// What the job log said, if anything (it could not be written).
+    JobLogged(Option<String>),
 }
 
 /// Carry out a file request (blocking) and say how it went.
@@ -192,6 +275,9 @@ pub fn perform(io: EditorIo) -> EditorMsg {
                 .collect(),
         ),
         EditorIo::Lint(job) => EditorMsg::Linted(Box::new(job.run())),
+        // Stateful: the file worker's loop keeps the log between events
+        // (`job_log`); outside it there is no run to write to.
+        EditorIo::JobLog(event) => EditorMsg::JobLogged(job_log(&mut None, event)),
         EditorIo::KeepRecent { dir, list } => EditorMsg::RecentKept(
             crate::program::recent::write(&dir, &list).map_err(|e| e.to_string()),
         ),

@@ -175,6 +175,9 @@ pub struct Editor {
     /// state directory that keeps them (`None`: this session only).
     pub recent: Vec<PathBuf>,
     pub recent_dir: Option<PathBuf>,
+    /// The G-code job run from here is in the job log (`update::joblog`):
+    /// the G-code line it runs (a stream's), told once it has run.
+    pub job_logged: Option<Option<u32>>,
 }
 
 /// The unit all axes of `setup` share (`mm`), else `units`.
@@ -242,6 +245,7 @@ impl Editor {
             outputs: job::JobOutputs::default(),
             recent: Vec::new(),
             recent_dir: None,
+            job_logged: None,
         }
     }
 

@@ -13,6 +13,7 @@ mod checkout;
 mod files;
 mod gcode;
 mod job;
+mod joblog;
 mod machine;
 mod outputs;
 mod run;

@@ -107,9 +107,17 @@ impl Drop for EditorWorker {
 }
 
 fn file_loop(requests: &Receiver<EditorIo>, tx: &UnboundedSender<Msg>) {
+    let mut log = None;
     while let Ok(io) = requests.recv() {
-        let _ = tx.send(Msg::Editor(perform(io)));
+        let msg = match io {
+            EditorIo::JobLog(event) => EditorMsg::JobLogged(super::io::job_log(&mut log, event)),
+            other => perform(other),
+        };
+        let _ = tx.send(Msg::Editor(msg));
     }
+    // The console closed with a run under way (a quit refused nothing):
+    // its end is what it is, a run without an end is a crash in the log.
+    drop(log);
 }
 
 fn lint_loop(lint: &Arc<(Mutex<LintSlot>, Condvar)>, tx: &UnboundedSender<Msg>) {

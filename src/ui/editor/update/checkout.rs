@@ -575,10 +575,12 @@ impl Step<'_, '_> {
                 let command = self.e.buffer.program().index_of(line);
                 let running_s = s.running_s(c.started, ctx.now);
                 // The model's pace counts from the job's first G-code line.
-                if let (Some(eta), Some(command)) = (s.eta.as_mut(), command)
-                    && s.origins.get(command).is_some_and(Option::is_some)
-                {
+                let origin = command.and_then(|k| s.origins.get(k).copied().flatten());
+                if let (Some(eta), Some(command), Some(_)) = (s.eta.as_mut(), command, origin) {
                     eta.start(command, c.factor, running_s);
+                }
+                if let Some(origin) = origin {
+                    self.job_log_line(origin);
                 }
             }
             self.checkout_send(text, None);
@@ -715,13 +717,17 @@ impl Step<'_, '_> {
                     CheckoutEnd::Stopped => {
                         self.checkout_stopped(format!("stopped in line {line}"))
                     }
-                    CheckoutEnd::Fault(f) => self.checkout_stopped(format!(
-                        "line {line}: the controller answered {} ({}); {}",
-                        f.code,
-                        f.meaning,
-                        f.recovery.instruction()
-                    )),
+                    CheckoutEnd::Fault(f) => {
+                        self.job_log_end(crate::joblog::How::Error);
+                        self.checkout_stopped(format!(
+                            "line {line}: the controller answered {} ({}); {}",
+                            f.code,
+                            f.meaning,
+                            f.recovery.instruction()
+                        ))
+                    }
                     CheckoutEnd::Refused(r) => {
+                        self.job_log_end(crate::joblog::How::Error);
                         self.checkout_stopped(format!("line {line} refused: {r}"))
                     }
                     CheckoutEnd::LinkLost => self.checkout_stopped(format!(

@@ -117,7 +117,8 @@ impl Step<'_, '_> {
                 let lines = self.e.buffer.line_count();
                 self.e.checks.finished(*result, state, lines, now);
             }
-            EditorMsg::RecentKept(Ok(())) => {}
+            EditorMsg::RecentKept(Ok(())) | EditorMsg::JobLogged(None) => {}
+            EditorMsg::JobLogged(Some(note)) => self.say(NoteLevel::Warning, note),
             // Said, and kept for this session: the list is a convenience.
             EditorMsg::RecentKept(Err(why)) => self.say(
                 NoteLevel::Warning,

@@ -143,6 +143,7 @@ impl Step<'_, '_> {
                     paused_read: false,
                 });
                 self.outputs_arm();
+                self.job_log_start(crate::gcode::ways::Way::Chunked);
                 self.chunked_upload();
             }
             Err(why) => self.say(NoteLevel::Danger, format!("run refused: {why}")),
@@ -241,6 +242,7 @@ impl Step<'_, '_> {
                 self.out.effects.push(Effect::Device(Request::RunProgram));
             }
             (Event::Upload(UploadEvent::Failed { .. } | UploadEvent::Aborted { .. }), _) => {
+                self.job_log_end(crate::joblog::How::Error);
                 self.chunked_end(format!("{label} was not stored: the job ends here"));
             }
             (Event::State(s), Phase::Starting) if s.activity == Activity::RunningProgram => {
@@ -256,10 +258,12 @@ impl Step<'_, '_> {
             (Event::Refused { request, reason }, Phase::Starting | Phase::Uploading)
                 if *request == describe(&own_request(c)) =>
             {
+                self.job_log_end(crate::joblog::How::Error);
                 self.chunked_end(format!("{label} did not start: {reason}"));
             }
             (Event::Fault(f), Phase::Starting | Phase::Running) => {
                 let text = format!("{label} ended with `{}`: {}", f.code, f.meaning);
+                self.job_log_end(crate::joblog::How::Error);
                 self.chunked_end(text);
             }
             (Event::Position(p), Phase::Paused)

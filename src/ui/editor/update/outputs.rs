@@ -31,11 +31,14 @@ impl Step<'_, '_> {
     /// The job ran to its end: its outputs are as the program left them.
     pub(super) fn outputs_ended(&mut self) {
         self.e.outputs.armed.clear();
+        self.job_log_end(crate::joblog::How::Done);
     }
 
     /// The job ended before its end (a stop, a controller error, a part
     /// not stored): its outputs are switched off once the axes stand.
     pub(super) fn outputs_early(&mut self) {
+        // A fault or a lost line said so before (the first end counts).
+        self.job_log_end(crate::joblog::How::Stopped);
         let armed = std::mem::take(&mut self.e.outputs.armed);
         if !armed.is_empty() {
             self.e.outputs.pending = Some((armed, self.ctx.now));
@@ -55,6 +58,7 @@ impl Step<'_, '_> {
     pub(super) fn outputs_event(&mut self, event: &Event) {
         match event {
             Event::Link(LinkState::Lost { .. } | LinkState::Closed) => {
+                self.job_log_end(crate::joblog::How::Lost);
                 let mut outputs = std::mem::take(&mut self.e.outputs.armed);
                 if let Some((pending, _)) = self.e.outputs.pending.take() {
                     outputs.extend(pending);
@@ -67,6 +71,7 @@ impl Step<'_, '_> {
             // The parts, check-outs and streams end early by their own
             // events (`job`, `checkout`); a stored program only so.
             Event::Fault(_) if self.e.run_started.is_some() && self.e.chunked.is_none() => {
+                self.job_log_end(crate::joblog::How::Error);
                 self.outputs_early();
             }
             Event::Refused { request, reason } => {

@@ -41,6 +41,7 @@ impl Step<'_, '_> {
                 // are the job's. A part of a job in parts is that job's.
                 if uploaded && self.e.chunked.is_none() {
                     self.outputs_arm();
+                    self.job_log_start(crate::gcode::ways::Way::Stored);
                 }
             }
             (Activity::RunningProgram | Activity::Stopping, Some(_)) => {}

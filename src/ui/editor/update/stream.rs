@@ -37,6 +37,7 @@ impl Step<'_, '_> {
                 c.stream = Some(Stream::new(origins, Some(eta), ctx.now));
                 self.e.checkout = Some(c);
                 self.outputs_arm();
+                self.job_log_start(crate::gcode::ways::Way::Stream);
                 self.say(
                     NoteLevel::Info,
                     "streaming: F10 pauses and goes on, x ends the stream, Space stops".into(),

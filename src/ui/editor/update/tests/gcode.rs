@@ -120,3 +120,92 @@ fn a_check_again_keeps_the_operators_edits_of_the_converted_program() {
     let job = e.job.as_ref().expect("open");
     assert_eq!(job.offsets, host.offsets, "the panel is of the new zero");
 }
+
+/// Issue 41 (4): a G-code job streamed from the console is in the job log
+/// as `jogterm run` writes it: its start (way, estimate, the file and its
+/// text for the hash), each G-code line that ran to its end, how it ended.
+#[test]
+fn a_job_streamed_from_the_console_goes_into_the_job_log() {
+    use crate::device::api::{CheckoutEnd, JogId};
+    use crate::joblog::How;
+    use crate::ui::editor::io::JobLogEvent;
+
+    fn logged(out: &Outcome) -> Vec<JobLogEvent> {
+        out.effects
+            .iter()
+            .filter_map(|e| match e {
+                Effect::Io(EditorIo::JobLog(event)) => Some(event.clone()),
+                _ => None,
+            })
+            .collect()
+    }
+    fn line(out: &Outcome) -> Option<JogId> {
+        requests(out).into_iter().find_map(|r| match r {
+            Request::Checkout { id, .. } => Some(*id),
+            _ => None,
+        })
+    }
+
+    let dir = tempfile::tempdir().expect("dir");
+    let path = dir.path().join("pockets.nc");
+    // Never retracted between the pockets: no place to cut within 30
+    // commands, so it is streamed.
+    let gcode = crate::ui::editor::job::tests::pockets(12).replace("G0 Z65\nG0 X", "G0 X");
+    std::fs::write(&path, &gcode).expect("write");
+    let mut host = Host::isel();
+    let mut profile = (*host.setup.profile).clone();
+    profile.gcode.memory = Some(30);
+    host.setup.profile = std::sync::Arc::new(profile);
+    let mut e = Editor::new(&host.setup, host.now);
+    let out = host.send(&mut e, Input::Msg(EditorMsg::Open(path.clone())));
+    import_all(&mut host, &mut e, out);
+    host.settle(&mut e);
+    assert_eq!(
+        e.gcode.as_ref().map(|g| g.converted.ways.chosen),
+        Some(crate::gcode::ways::Way::Stream)
+    );
+    host.send(&mut e, Input::Main(Action::RunProgram));
+    let mut out = host.key(&mut e, Action::Confirm);
+    let events = logged(&out);
+    let Some(JobLogEvent::Start(start)) = events.first() else {
+        panic!("the start first: {events:?}");
+    };
+    assert_eq!(start.file, path);
+    assert_eq!(&*start.source, gcode.as_str());
+    assert_eq!(start.way, crate::gcode::ways::Way::Stream);
+    assert!(start.estimate_s.is_some_and(|s| s > 0.0), "{start:?}");
+    assert!(
+        start.offset.starts_with("G54 X0.000 Y0.000 Z0.000"),
+        "{start:?}"
+    );
+    // Every line sent runs to its end; the lines logged as done are the
+    // G-code lines before the one running, each once, in order.
+    let mut done = Vec::new();
+    for _ in 0..20 {
+        let id = line(&out).expect("a line");
+        out = host.send(
+            &mut e,
+            Input::Device(&Event::Checkout {
+                id,
+                end: CheckoutEnd::Done { byte: None },
+            }),
+        );
+        for event in logged(&out) {
+            if let JobLogEvent::Line(l) = event {
+                done.push(l);
+            }
+        }
+    }
+    assert!(done.len() >= 3, "{done:?}");
+    assert!(done.windows(2).all(|w| w[0] < w[1]), "{done:?}");
+    // The stop key ends it: stopped.
+    let id = line(&out).expect("a line");
+    let out = host.send(
+        &mut e,
+        Input::Device(&Event::Checkout {
+            id,
+            end: CheckoutEnd::Stopped,
+        }),
+    );
+    assert_eq!(logged(&out), [JobLogEvent::End(How::Stopped)]);
+}
