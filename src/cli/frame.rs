@@ -19,7 +19,7 @@ use super::upload::{self, Remedy};
 use super::{GlobalArgs, out};
 use crate::axis::Axis;
 use crate::config::Profile;
-use crate::device::api::{Event, LinkState, PerAxis, PositionSource};
+use crate::device::api::PerAxis;
 use crate::gcode::frame::{Frame, Leg, LegKind};
 use crate::gcode::toolpath::Point;
 use crate::probing;
@@ -247,35 +247,11 @@ fn leg_text(leg: &Leg) -> String {
 }
 
 /// The controller initialised, and what is referenced and where the axes
-/// stand. The state that says the axes are set can come before the
-/// reference probe and the position read that end the set-up (as for the
-/// restart's retract, `run::retract`): whatever follows within a moment is
-/// newer.
+/// stand (`upload::initialise_settled`).
 async fn set_up(
     session: &mut Session,
     remedy: &Remedy,
 ) -> Result<(crate::axis::AxisSet, Option<PerAxis<i64>>), u8> {
-    let set = upload::initialise_reading(session, remedy).await?;
-    let mut referenced = set.state.referenced;
-    let mut measured = set.measured;
-    let settle = tokio::time::Instant::now() + SETTLE;
-    loop {
-        match tokio::time::timeout_at(settle, session.next_event()).await {
-            Ok(Some(Event::Position(p))) if p.source == PositionSource::Measured => {
-                measured = Some(p.steps);
-                break;
-            }
-            Ok(Some(Event::State(s))) => referenced = s.referenced,
-            Ok(Some(Event::Link(LinkState::Lost { reason }))) => {
-                return Err(lost("frame", &reason));
-            }
-            Ok(Some(_)) => {}
-            Ok(None) => return Err(lost("frame", "the device task ended")),
-            Err(_) => break,
-        }
-    }
-    Ok((referenced, measured))
+    let set = upload::initialise_settled(session, remedy).await?;
+    Ok((set.state.referenced, set.measured))
 }
-
-/// How long the set-up's last state and position may take to arrive.
-const SETTLE: Duration = Duration::from_millis(500);

@@ -1006,6 +1006,48 @@ pub(super) async fn initialise_reading(
     }
 }
 
+/// How long the set-up's last state and position may take to arrive after
+/// the state that says the axes are set ([`initialise_settled`]).
+const SETTLE: Duration = Duration::from_millis(500);
+
+/// [`initialise_reading`], then whatever state and measured position
+/// follow within a moment: the state that says the axes are set can come
+/// before the reference probe and the position read that end the set-up.
+/// The axes stand throughout (the session stopped them at connect), so an
+/// earlier measured position is where they still are.
+pub(super) async fn initialise_settled(
+    session: &mut Session,
+    remedy: &Remedy,
+) -> Result<Initialised, u8> {
+    let mut set = initialise_reading(session, remedy).await?;
+    let settle = tokio::time::Instant::now() + SETTLE;
+    loop {
+        match tokio::time::timeout_at(settle, session.next_event()).await {
+            Ok(Some(Event::Position(p))) if p.source == PositionSource::Measured => {
+                set.measured = Some(p.steps);
+                return Ok(set);
+            }
+            Ok(Some(Event::State(s))) => set.state = s,
+            Ok(Some(Event::Link(LinkState::Lost { reason }))) => {
+                out::say(format_args!(
+                    "jogterm {}: link failure: {reason}",
+                    remedy.command
+                ));
+                return Err(EXIT_LINK);
+            }
+            Ok(Some(_)) => {}
+            Ok(None) => {
+                out::say(format_args!(
+                    "jogterm {}: link failure: the device task ended",
+                    remedy.command
+                ));
+                return Err(EXIT_LINK);
+            }
+            Err(_) => return Ok(set),
+        }
+    }
+}
+
 /// `RunProgram`, followed until the machine is idle again.
 pub(super) async fn start(session: &mut Session, remedy: &Remedy) -> Status {
     let mut initialised = false;

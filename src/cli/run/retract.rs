@@ -124,28 +124,8 @@ async fn where_z_stands(
     session: &mut Session,
     remedy: &Remedy,
 ) -> Result<Result<i64, &'static str>, u8> {
-    let set_up = upload::initialise_reading(session, remedy).await?;
-    let mut state = set_up.state;
-    let mut measured = set_up.measured;
-    // The state that says the axes are set can come before the reference
-    // probe and the position read that end the set-up: whatever follows
-    // within the settle time is newer. The axes stand throughout (the
-    // session stopped them at connect), so an earlier measured position
-    // is where they still are.
-    let settle = tokio::time::Instant::now() + SETTLE;
-    loop {
-        match tokio::time::timeout_at(settle, session.next_event()).await {
-            Ok(Some(Event::Position(p))) if p.source == PositionSource::Measured => {
-                measured = Some(p.steps);
-                break;
-            }
-            Ok(Some(Event::State(s))) => state = s,
-            Ok(Some(Event::Link(LinkState::Lost { reason }))) => return Err(lost(&reason)),
-            Ok(Some(_)) => {}
-            Ok(None) => return Err(lost("the device task ended")),
-            Err(_) => break,
-        }
-    }
+    let set_up = upload::initialise_settled(session, remedy).await?;
+    let (state, measured) = (set_up.state, set_up.measured);
     if !state.referenced.contains(Axis::Z) {
         return Ok(Err("Z is not referenced"));
     }
