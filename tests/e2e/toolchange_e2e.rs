@@ -148,6 +148,19 @@ fn two_tools(extra: &[&str]) -> (Vec<serde_json::Value>, Vec<[i64; 3]>, String) 
     let said = text(&out.stderr);
     assert!(!contains_panic(&out.stderr), "{said}");
     assert_eq!(out.status.code(), Some(0), "{said}");
+    // The job log followed the pieces: done, its last line after T2's.
+    let log = sim
+        .configured(&["log", "--json"])
+        .env("JOGTERM_STATE_DIR", state.path())
+        .output()
+        .expect("jogterm log");
+    let log: serde_json::Value = serde_json::from_slice(&log.stdout).expect("the log as JSON");
+    let run = &log["runs"][0];
+    assert_eq!(run["how"], "done", "{log:#}");
+    assert!(
+        run["last_line"].as_u64().is_some_and(|l| l > 12),
+        "the last line after the second change: {log:#}"
+    );
     let received = sim.received();
     let moves = moves(received.get(before..).unwrap_or_default());
     (events, moves, said)

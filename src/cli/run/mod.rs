@@ -478,7 +478,7 @@ async fn steps(
             upload::initialise(session, remedy).await?;
         }
         if let Some(w) = &job.waits {
-            return waits::run(session, w, job.way, args, remedy, keys).await;
+            return waits::run(session, w, job.way, args, remedy, keys, logged).await;
         }
         if job.way == Way::Stream {
             let part = job.parts.first().ok_or(EXIT_USAGE)?;

@@ -119,6 +119,7 @@ fn confirm_how() -> &'static str {
 }
 
 /// The job's pieces and waits, in turn, to the end.
+#[allow(clippy::too_many_arguments)]
 pub(super) async fn run(
     session: &mut Session,
     w: &Waited,
@@ -126,6 +127,7 @@ pub(super) async fn run(
     args: &RunArgs,
     remedy: &Remedy,
     keys: &mut Keys,
+    log: &crate::cli::log::Logged,
 ) -> Status {
     let import = &w.imported.import;
     let dz0 = import.tool.as_ref().map_or(0.0, |t| t.offset_mm);
@@ -156,7 +158,8 @@ pub(super) async fn run(
                         format!(", every Z {:+.3} mm for the tool measured", dz)
                     }
                 ));
-                piece(session, w, index, (dz_before, dz), way, args, remedy, keys).await?;
+                let how = (way, args, remedy, log);
+                piece(session, w, index, (dz_before, dz), how, keys).await?;
                 sequence.done();
             }
             Step::Confirm { index } => {
@@ -225,15 +228,12 @@ pub(super) async fn run(
 
 /// One piece converted for the tool in the spindle and run as the job's
 /// way says: streamed, or stored (in parts where it does not fit).
-#[allow(clippy::too_many_arguments)]
 async fn piece(
     session: &mut Session,
     w: &Waited,
     index: usize,
     shifts: (f64, f64),
-    way: Way,
-    args: &RunArgs,
-    remedy: &Remedy,
+    (way, args, remedy, log): (Way, &RunArgs, &Remedy, &crate::cli::log::Logged),
     keys: &mut Keys,
 ) -> Status {
     let imported = &w.imported;
@@ -275,7 +275,11 @@ async fn piece(
     };
     if way == Way::Stream {
         let part = checked(program, &streamed(&w.config))?;
-        let place = part.place();
+        // The job log follows the piece's lines, as a whole stream's.
+        let place = super::stream::Place {
+            log: Some(log),
+            ..part.place()
+        };
         return super::stream::run(
             session,
             part.program(),
@@ -310,6 +314,9 @@ async fn piece(
         let erase = args.erase || index > 0 || k > 0;
         upload::upload(session, part, erase, remedy).await?;
         super::stored_run(session, remedy, keys, &mut pause_next).await?;
+        if let Some(line) = part.last_gcode_line() {
+            log.line(line);
+        }
     }
     Ok(())
 }
