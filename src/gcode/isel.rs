@@ -35,7 +35,7 @@ use crate::proto::typed::isel_config;
 use crate::wiring::{BitKind, Level, Role};
 
 use super::interp::{get, plane_axes, radius, sweep};
-use super::output::{Header, MAX_COMMANDS, Program, chords, merge_lines, path_speed, too_many};
+use super::output::{Header, MAX_COMMANDS, Program, chords, merged, path_speed, too_many};
 use super::toolpath::{Arc, Diagnostic, Op, Origin, Pause, Plane, Point, Severity, Toolpath};
 
 const HZ_MIN: f64 = 1.0;
@@ -175,9 +175,8 @@ pub fn convert_with(
     w.program
         .command_noted("z1", "3D interpolation: X, Y and Z on one line", None);
     let mut errors = Vec::new();
-    let ops = merge_lines(&path.ops, profile.gcode.merge_tolerance);
-    for op in &ops {
-        if let Err(e) = w.op(op) {
+    for op in merged(&path.ops, profile.gcode.merge_tolerance) {
+        if let Err(e) = w.op(&op) {
             errors.push(e);
         }
         if w.program.commands > MAX_COMMANDS {
