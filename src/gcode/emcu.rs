@@ -19,7 +19,7 @@ use crate::axis::Axis;
 use crate::config::profile::{AxisProfile, Profile};
 use crate::proto::emcu::job::JOB_CAPACITY;
 
-use super::output::{Header, MAX_COMMANDS, Program, chords, merge_lines, path_speed, too_many};
+use super::output::{Header, MAX_COMMANDS, Program, chords, merged, path_speed, too_many};
 use super::toolpath::{Diagnostic, Op, Origin, Pause, Point, Severity, Toolpath};
 
 /// The end-speed slot of the import's moves (jogterm's own moves use
@@ -99,7 +99,7 @@ pub fn convert_with(
         );
     }
     let mut errors = Vec::new();
-    for op in merge_lines(&path.ops, profile.gcode.merge_tolerance) {
+    for op in merged(&path.ops, profile.gcode.merge_tolerance) {
         if let Err(e) = w.op(&op) {
             errors.push(e);
         }

@@ -27,8 +27,6 @@
 //!   sync character `2` (3.2.4): any byte on the line ends that wait, and a
 //!   console polling the position would end it at once.
 
-use std::fmt::Write as _;
-
 use crate::axis::Axis;
 use crate::config::profile::{AxisProfile, Profile};
 use crate::program::ISEL_CAPACITY;
@@ -37,7 +35,7 @@ use crate::proto::typed::isel_config;
 use crate::wiring::{BitKind, Level, Role};
 
 use super::interp::{get, plane_axes, radius, sweep};
-use super::output::{Header, MAX_COMMANDS, Program, chords, merge_lines, path_speed, too_many};
+use super::output::{Header, MAX_COMMANDS, Program, chords, merged, path_speed, too_many};
 use super::toolpath::{Arc, Diagnostic, Op, Origin, Pause, Plane, Point, Severity, Toolpath};
 
 const HZ_MIN: f64 = 1.0;
@@ -177,9 +175,8 @@ pub fn convert_with(
     w.program
         .command_noted("z1", "3D interpolation: X, Y and Z on one line", None);
     let mut errors = Vec::new();
-    let ops = merge_lines(&path.ops, profile.gcode.merge_tolerance);
-    for op in &ops {
-        if let Err(e) = w.op(op) {
+    for op in merged(&path.ops, profile.gcode.merge_tolerance) {
+        if let Err(e) = w.op(&op) {
             errors.push(e);
         }
         if w.program.commands > MAX_COMMANDS {
@@ -230,8 +227,12 @@ impl Writer<'_> {
                 }
                 None => hz,
             };
-            let comma = if k == 0 { "" } else { "," };
-            let _ = write!(command, "{comma}{steps},{speed}");
+            if k > 0 {
+                command.push(',');
+            }
+            push_int(&mut command, steps);
+            command.push(',');
+            push_int(&mut command, i64::from(speed));
         }
         match note {
             Some(n) => self.program.command_noted(command, n, Some(origin)),
@@ -521,6 +522,29 @@ impl Writer<'_> {
     }
 }
 
+/// `value` in decimal, as `Display` writes it, appended to `out` without
+/// the formatting machinery: `move_to` writes eight numbers for every move
+/// of the file, and `write!`'s machinery showed in its profile.
+fn push_int(out: &mut String, value: i64) {
+    if value < 0 {
+        out.push('-');
+    }
+    let mut digits = [0u8; 20];
+    let mut n = value.unsigned_abs();
+    let mut first = digits.len();
+    for slot in digits.iter_mut().rev() {
+        *slot = b'0' + (n % 10) as u8;
+        first -= 1;
+        n /= 10;
+        if n == 0 {
+            break;
+        }
+    }
+    for &d in digits.get(first..).unwrap_or_default() {
+        out.push(char::from(d));
+    }
+}
+
 /// The wired start key of the profile: `in1.3` → port 1, bit 3, and the
 /// level it reads while released.
 fn start_key(profile: &Profile) -> Option<(u32, u32, u8, String)> {
@@ -548,5 +572,31 @@ fn isel_output(address: &str) -> Option<(u32, u32)> {
     match rest.split_once('.') {
         Some((port, bit)) => Some((port.parse().ok()?, bit.parse().ok()?)),
         None => Some((rest.parse().ok()?, 128)),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::push_int;
+
+    #[test]
+    fn push_int_writes_what_display_writes() {
+        for v in [
+            0,
+            1,
+            -1,
+            9,
+            10,
+            -10,
+            99,
+            40_000,
+            -123_456_789,
+            i64::MAX,
+            i64::MIN,
+        ] {
+            let mut out = String::from("m");
+            push_int(&mut out, v);
+            assert_eq!(out, format!("m{v}"));
+        }
     }
 }

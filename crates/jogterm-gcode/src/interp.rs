@@ -152,6 +152,23 @@ fn code_name(letter: char, code: u32) -> String {
     }
 }
 
+/// The `[gcode]` table's key of a code (`g28`, `m7`, `g38.2`: the name in
+/// lower case) written into `buf`; `None` if it did not fit (codes go up
+/// to 9999.9, which always fits).
+fn code_key(letter: char, code: u32, buf: &mut [u8; 16]) -> Option<&str> {
+    use std::io::Write as _;
+    let letter = letter.to_ascii_lowercase();
+    let mut cursor = std::io::Cursor::new(&mut buf[..]);
+    let written = if code.is_multiple_of(10) {
+        write!(cursor, "{letter}{}", code / 10)
+    } else {
+        write!(cursor, "{letter}{}.{}", code / 10, code % 10)
+    };
+    written.ok()?;
+    let len = usize::try_from(cursor.position()).ok()?;
+    std::str::from_utf8(buf.get(..len)?).ok()
+}
+
 /// RS-274/NGC's modal groups of the G codes jogterm knows (refused ones
 /// included, so that a conflict is named before the refusal).
 fn g_group(code: u32) -> Option<u8> {
@@ -415,21 +432,27 @@ impl<'a> Interpreter<'a> {
                         self.doubt.modes();
                         continue;
                     };
-                    let name = code_name(word.letter, code);
-                    if let Some(rule) = self.setup.codes.get(&name.to_ascii_lowercase()) {
+                    // The code's name is built only where a message or a
+                    // mapping needs it, and the table's key on the stack:
+                    // this runs for every G and M word of the file.
+                    let name = || code_name(word.letter, code);
+                    let mut key = [0u8; 16];
+                    if let Some(rule) = code_key(word.letter, code, &mut key)
+                        .and_then(|key| self.setup.codes.get(key))
+                    {
                         match rule {
                             CodeRule::Ignore => {
                                 if !self.warned_ignored.contains(&code) {
                                     self.warned_ignored.push(code);
                                     self.warn(
                                         word.origin,
-                                        format!("{name} is ignored, as the profile's [gcode] table says (first at this line)"),
+                                        format!("{} is ignored, as the profile's [gcode] table says (first at this line)", name()),
                                     );
                                 }
                                 continue;
                             }
                             CodeRule::Output(target) => {
-                                w.mapped.push((*word, name, target.clone()));
+                                w.mapped.push((*word, name(), target.clone()));
                                 continue;
                             }
                         }
@@ -444,7 +467,8 @@ impl<'a> Interpreter<'a> {
                         self.error(
                             word.origin,
                             format!(
-                                "{name} is not supported by jogterm's G-code import (docs/gcode.md lists what is)"
+                                "{} is not supported by jogterm's G-code import (docs/gcode.md lists what is)",
+                                name()
                             ),
                         );
                         continue;
@@ -472,7 +496,8 @@ impl<'a> Interpreter<'a> {
                         self.error(
                             word.origin,
                             format!(
-                                "{name} and {other_name} (column {}) are of one modal group: a line may hold only one of them",
+                                "{} and {other_name} (column {}) are of one modal group: a line may hold only one of them",
+                                name(),
                                 other.origin.col
                             ),
                         );

@@ -2,6 +2,7 @@
 //! G-code line of every command, the header that says what it was made
 //! for, chords of arcs and the merging of near-collinear cuts.
 
+use std::borrow::Cow;
 use std::f64::consts::PI;
 use std::fmt::Write as _;
 
@@ -395,45 +396,87 @@ const MERGE_RUN: usize = 64;
 /// every isel command ramps down to the start-stop speed, so CAM's short
 /// collinear segments cost time and marks at the part.
 pub fn merge_lines(ops: &[Op], tolerance: f64) -> Vec<Op> {
-    let mut out: Vec<Op> = Vec::with_capacity(ops.len());
-    let mut run: Vec<Line> = Vec::new();
-    let flush = |run: &mut Vec<Line>, out: &mut Vec<Op>| {
-        if let (Some(first), Some(last)) = (run.first(), run.last()) {
-            out.push(Op::Line(Line {
+    merged(ops, tolerance).map(Cow::into_owned).collect()
+}
+
+/// [`merge_lines`] one op at a time, the ops it does not merge borrowed:
+/// the conversions walk it once, so a file of half a million moves is not
+/// copied whole (it was the largest copy at the conversion's memory peak).
+pub fn merged(ops: &[Op], tolerance: f64) -> Merged<'_> {
+    Merged {
+        ops: ops.iter(),
+        tolerance,
+        run: Vec::new(),
+        pending: None,
+    }
+}
+
+/// The iterator of [`merged`].
+pub struct Merged<'a> {
+    ops: std::slice::Iter<'a, Op>,
+    tolerance: f64,
+    /// The feed moves merged so far, not yet given out.
+    run: Vec<Line>,
+    /// The op that ended a run, given out after the run's merged move.
+    pending: Option<&'a Op>,
+}
+
+impl Merged<'_> {
+    /// The run as one move (the first's origin), the run emptied.
+    fn flush(&mut self) -> Option<Op> {
+        let merged = match (self.run.first(), self.run.last()) {
+            (Some(first), Some(last)) => Some(Op::Line(Line {
                 from: first.from,
                 to: last.to,
                 feed: first.feed,
                 origin: first.origin,
-            }));
+            })),
+            _ => None,
+        };
+        self.run.clear();
+        merged
+    }
+}
+
+impl<'a> Iterator for Merged<'a> {
+    type Item = Cow<'a, Op>;
+
+    fn next(&mut self) -> Option<Cow<'a, Op>> {
+        if let Some(op) = self.pending.take() {
+            return Some(Cow::Borrowed(op));
         }
-        run.clear();
-    };
-    for op in ops {
-        match op {
-            Op::Line(line) if tolerance > 0.0 => {
-                let fits = match run.first() {
-                    None => true,
-                    Some(first) => {
-                        first.feed == line.feed
-                            && run.len() < MERGE_RUN
-                            && run.iter().all(|l| {
-                                distance_to_segment(l.to, first.from, line.to) <= tolerance
-                            })
+        loop {
+            match self.ops.next() {
+                Some(Op::Line(line)) if self.tolerance > 0.0 => {
+                    let fits = match self.run.first() {
+                        None => true,
+                        Some(first) => {
+                            first.feed == line.feed
+                                && self.run.len() < MERGE_RUN
+                                && self.run.iter().all(|l| {
+                                    distance_to_segment(l.to, first.from, line.to) <= self.tolerance
+                                })
+                        }
+                    };
+                    let done = if fits { None } else { self.flush() };
+                    self.run.push(*line);
+                    if let Some(op) = done {
+                        return Some(Cow::Owned(op));
                     }
-                };
-                if !fits {
-                    flush(&mut run, &mut out);
                 }
-                run.push(*line);
-            }
-            other => {
-                flush(&mut run, &mut out);
-                out.push(other.clone());
+                Some(other) => {
+                    return Some(match self.flush() {
+                        Some(op) => {
+                            self.pending = Some(other);
+                            Cow::Owned(op)
+                        }
+                        None => Cow::Borrowed(other),
+                    });
+                }
+                None => return self.flush().map(Cow::Owned),
             }
         }
     }
-    flush(&mut run, &mut out);
-    out
 }
 
 #[cfg(test)]

@@ -198,7 +198,19 @@ impl Plan {
                     .reduce(f64::max)
             })
             .unwrap_or(start.z);
-        let mut pieces = vec![Vec::new()];
+        // Each piece sized at once for its ops (counted in a first pass
+        // over the ops), so that half a million ops are not copied again
+        // and again as the vectors grow, nor kept with spare room.
+        let mut sizes = vec![0usize];
+        for op in &path.ops {
+            if matches!(op, Op::Pause(_)) {
+                sizes.push(0);
+            } else if let Some(n) = sizes.last_mut() {
+                *n += 1;
+            }
+        }
+        let mut sizes = sizes.into_iter();
+        let mut pieces = vec![Vec::with_capacity(sizes.next().unwrap_or(0))];
         let mut waits = Vec::new();
         let mut at = start;
         let mut outputs: Vec<OutputSwitch> = Vec::new();
@@ -239,7 +251,7 @@ impl Plan {
                         next,
                         descent_feed: feed,
                     });
-                    pieces.push(Vec::new());
+                    pieces.push(Vec::with_capacity(sizes.next().unwrap_or(0)));
                     continue;
                 }
                 Op::Output(o) => match outputs.iter_mut().find(|x| x.address == o.address) {
@@ -302,7 +314,8 @@ impl Plan {
     /// ops, and the exit of the wait after it with an end. Empty beyond the
     /// last piece.
     pub fn segment(&self, k: usize, dz_before: f64, dz: f64) -> Toolpath {
-        let mut ops = Vec::new();
+        let own = self.pieces.get(k).map_or(0, Vec::len);
+        let mut ops = Vec::with_capacity(own + 16);
         if let Some(before) = k.checked_sub(1) {
             ops.extend(self.entry(before, dz_before, dz));
         }
@@ -327,7 +340,9 @@ impl Plan {
     /// program's own pauses, every Z `dz` higher: what a program stored
     /// whole runs (the start key ends each wait).
     pub fn expanded(&self, path: &Toolpath, dz: f64) -> Toolpath {
-        let mut ops = Vec::new();
+        // Sized for the job's ops and a few moves around each wait, so
+        // that a file of half a million moves is not copied as it grows.
+        let mut ops = Vec::with_capacity(self.ops() + 8 * self.waits.len() + 1);
         for k in 0..self.segments() {
             let mut segment = self.segment(k, dz, dz).ops;
             if let Some(w) = self.waits.get(k) {
@@ -338,10 +353,19 @@ impl Plan {
             }
             ops.extend(segment);
         }
+        // The path's other fields, not `..path.clone()`: that would copy
+        // all its ops only to drop them.
         Toolpath {
             ops,
-            ..path.clone()
+            lines: path.lines,
+            warnings: path.warnings.clone(),
+            named_from: path.named_from,
         }
+    }
+
+    /// The job's own ops in all its pieces.
+    fn ops(&self) -> usize {
+        self.pieces.iter().map(Vec::len).sum()
     }
 
     /// The first G-code line of piece `k`'s own ops (where a restart would

@@ -60,6 +60,13 @@ impl ToolInfo {
 pub fn tool_table(text: &str) -> BTreeMap<u32, ToolInfo> {
     let mut table = BTreeMap::new();
     for (index, line) in text.lines().enumerate() {
+        // Most lines of a CAM file hold no comment: a byte scan for the
+        // two characters that open one skips them without counting
+        // characters (both are ASCII, so no byte of another character is
+        // taken for them).
+        if !line.bytes().any(|b| b == b'(' || b == b';') {
+            continue;
+        }
         let line_no = u32::try_from(index + 1).unwrap_or(u32::MAX);
         for (col, comment) in comments(line) {
             if let Some(tool) = parse_tool(comment) {

@@ -153,8 +153,44 @@ impl ArcWalk {
                 }
             }
         }
-        for _ in 0..left {
-            self.step();
+        self.run(left);
+    }
+
+    /// `steps` iterations of [`ArcWalk::step`], the same walk: the point
+    /// and the error term kept in locals and the quadrant's signs taken
+    /// once per quadrant, the step chosen without a branch. This loop is
+    /// what `circle` spends its time in (every arc of a G-code import
+    /// walks to its end, thousands of steps), and the choice between the
+    /// x and the y step follows no pattern a branch predictor could learn.
+    fn run(&mut self, steps: u64) {
+        let mut left = steps;
+        while left > 0 {
+            let quadrant = self.quadrant;
+            let (sx, sy) = signs_of(quadrant);
+            let (mut x, mut y, mut error) = (self.x, self.y, self.error);
+            let mut turned = false;
+            while left > 0 {
+                left -= 1;
+                let after_x = error - (2 * x * sx + 1);
+                let after_y = error - (2 * y * sy + 1);
+                let x_is_closer = after_x.abs() < after_y.abs()
+                    || (after_x.abs() == after_y.abs() && after_x <= after_y);
+                let take_x = i64::from(x_is_closer);
+                x += sx * take_x;
+                y += sy * (1 - take_x);
+                error = if x_is_closer { after_x } else { after_y };
+                if quadrant_of(x, y) != quadrant {
+                    turned = true;
+                    break;
+                }
+            }
+            self.x = x;
+            self.y = y;
+            self.error = error;
+            if turned {
+                self.quadrant = quadrant_of(x, y);
+                self.quarter_turns += 1;
+            }
         }
     }
 }
