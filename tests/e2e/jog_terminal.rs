@@ -228,12 +228,22 @@ fn jog_then(end: End) {
     let code = run.wait_exit(WAIT);
     assert!(code.is_some(), "jogterm still runs after the hang-up");
 
-    let arrivals: Vec<(Instant, u8)> = lock(&probe)
-        .arrivals
-        .iter()
-        .filter(|(t, _)| *t >= before)
-        .copied()
-        .collect();
+    // The stop's two bytes go out in one write, but the probe's reader
+    // may take them in two reads: under load its second read can come
+    // after the child's exit, so the discard is waited for a moment.
+    let read_by = Instant::now() + Duration::from_secs(1);
+    let arrivals: Vec<(Instant, u8)> = loop {
+        let arrivals: Vec<(Instant, u8)> = lock(&probe)
+            .arrivals
+            .iter()
+            .filter(|(t, _)| *t >= before)
+            .copied()
+            .collect();
+        if arrivals.iter().any(|(_, b)| *b == DISCARD) || Instant::now() > read_by {
+            break arrivals;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    };
     let stop = first_break(&arrivals).expect("the stop reached the controller");
     let latency = stop.saturating_duration_since(hung_up);
     let what = match end {
