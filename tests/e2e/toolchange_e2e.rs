@@ -228,6 +228,8 @@ fn a_two_tool_job_streamed_waits_in_place_and_cuts_the_longer_tool_higher() {
     check_cuts(&events, &moves, &said);
     // Three streams, one per piece, the host waiting between them.
     assert_eq!(said.matches("the stream ended").count(), 3, "{said}");
+    // Each piece's progress says the model's time left (`gcode::eta`).
+    assert!(said.contains("left at speed 100 %"), "{said}");
 }
 
 /// `--yes` starts without asking, but skips no wait: with no line to come

@@ -275,10 +275,20 @@ async fn piece(
     };
     if way == Way::Stream {
         let part = checked(program, &streamed(&w.config))?;
+        // The model of the piece's own commands: its live ETA.
+        let place = part.place();
+        let ways = place.gcode.map(|p| {
+            crate::gcode::ways::Ways::of(
+                p,
+                0.0,
+                &crate::gcode::ways::Costs::of(&w.profile, w.language),
+            )
+        });
         // The job log follows the piece's lines, as a whole stream's.
         let place = super::stream::Place {
             log: Some(log),
-            ..part.place()
+            ways: ways.as_ref(),
+            ..place
         };
         return super::stream::run(
             session,
