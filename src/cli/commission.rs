@@ -142,33 +142,6 @@ fn chosen_profile(global: &GlobalArgs) -> String {
     }
 }
 
-/// Lines typed on stdin, read on a thread of their own; `None` once it has
-/// closed.
-fn stdin_lines() -> tokio::sync::mpsc::UnboundedReceiver<Option<String>> {
-    let (tx, rx) = tokio::sync::mpsc::unbounded_channel();
-    let _ = std::thread::Builder::new()
-        .name("jogterm-commission-stdin".into())
-        .spawn(move || {
-            let stdin = std::io::stdin();
-            let mut line = String::new();
-            loop {
-                line.clear();
-                match stdin.read_line(&mut line) {
-                    Ok(0) | Err(_) => {
-                        let _ = tx.send(None);
-                        return;
-                    }
-                    Ok(_) => {
-                        if tx.send(Some(line.clone())).is_err() {
-                            return;
-                        }
-                    }
-                }
-            }
-        });
-    rx
-}
-
 async fn commission(
     mut session: Session,
     args: &CommissionArgs,
@@ -218,7 +191,7 @@ async fn commission(
         "jogterm commission: {} steps; Enter skips a step, q ends; nothing moves",
         walk.steps()
     ));
-    let mut answers = stdin_lines();
+    let mut answers = super::lines::stdin_lines();
     let mut answers_open = true;
     let interrupted = session::interrupted();
     tokio::pin!(interrupted);

@@ -17,6 +17,7 @@ pub mod commission;
 pub mod emp;
 pub mod frame;
 pub mod import;
+mod lines;
 pub mod log;
 pub mod out;
 pub mod poll;

@@ -608,34 +608,13 @@ fn event(value: &serde_json::Value) {
 /// alone).
 #[derive(Default)]
 struct Lines {
-    rx: Option<mpsc::UnboundedReceiver<String>>,
+    rx: Option<mpsc::UnboundedReceiver<Option<String>>>,
 }
 
 impl Lines {
     /// The next line; `None` at the end of the input.
     async fn next(&mut self) -> Option<String> {
-        let rx = self.rx.get_or_insert_with(|| {
-            let (tx, rx) = mpsc::unbounded_channel();
-            std::thread::Builder::new()
-                .name("run-lines".into())
-                .spawn(move || {
-                    let stdin = std::io::stdin();
-                    let mut line = String::new();
-                    loop {
-                        line.clear();
-                        match stdin.read_line(&mut line) {
-                            Ok(n) if n > 0 => {
-                                if tx.send(line.clone()).is_err() {
-                                    return;
-                                }
-                            }
-                            _ => return,
-                        }
-                    }
-                })
-                .ok();
-            rx
-        });
-        rx.recv().await
+        let rx = self.rx.get_or_insert_with(crate::cli::lines::stdin_lines);
+        rx.recv().await.flatten()
     }
 }
