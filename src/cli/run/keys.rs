@@ -80,6 +80,21 @@ impl Keys {
         }
     }
 
+    /// Drop the keys typed before now: a wait for the operator is
+    /// answered by a key pressed while it is shown, never by an Enter
+    /// typed ahead while the piece before it ran. A stop among them still
+    /// counts: `true`.
+    pub fn forget_typed_ahead(&mut self) -> bool {
+        let mut stop = false;
+        while let Ok(key) = self.rx.try_recv() {
+            if matches!(key, Key::Stop | Key::Gone) {
+                self.stopped = true;
+                stop = true;
+            }
+        }
+        stop
+    }
+
     /// The next key; pending forever when there are no keys, so that a
     /// `select!` on it waits for the other branches.
     pub async fn next(&mut self) -> Key {
@@ -163,6 +178,30 @@ impl Drop for KeyMode {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn keys_typed_ahead_of_a_wait_answer_nothing_but_a_stop_counts() {
+        let (tx, rx) = mpsc::unbounded_channel();
+        let mut keys = Keys {
+            rx,
+            stopped: false,
+            _mode: None,
+        };
+        for key in [Key::Resume, Key::Faster, Key::Resume] {
+            tx.send(key).expect("send");
+        }
+        assert!(!keys.forget_typed_ahead());
+        assert!(
+            keys.rx.try_recv().is_err(),
+            "nothing left to answer the wait"
+        );
+        assert!(!keys.stopped);
+        for key in [Key::Resume, Key::Stop] {
+            tx.send(key).expect("send");
+        }
+        assert!(keys.forget_typed_ahead());
+        assert!(keys.stopped);
+    }
 
     #[test]
     fn keys_map_as_the_help_says() {

@@ -389,6 +389,9 @@ async fn confirm(
     let stdin_answers = !matches!(args.sim_start_key, Some(super::sim_start::SimStart::Stdin));
     let operator = async {
         if terminal() {
+            if keys.forget_typed_ahead() {
+                return Ended::Stop;
+            }
             loop {
                 match keys.next().await {
                     Key::Resume => break Ended::Operator,
