@@ -15,7 +15,7 @@ use crate::device::api::{Activity, Event, LinkState, MachineState, ReplyKind, Re
 use crate::device::describe::describe;
 
 use super::msg::Effect;
-use super::outcome::{Confirmation, Note, Outcome};
+use super::outcome::{Confirmation, Note, Outcome, Then};
 use super::raw::{self, RawContext};
 use super::traffic_log::NoteLevel;
 
@@ -87,7 +87,7 @@ pub fn key(run: &mut Option<MacroRun>, ctx: &Context, name: &str) -> Outcome {
                 m.lines.len()
             ),
             effects: Vec::new(),
-            run_macro: Some(m.name.clone()),
+            then: Some(Then::Macro(m.name.clone())),
         }),
         ..Outcome::default()
     }

@@ -20,6 +20,7 @@
 
 pub mod console;
 pub mod editor;
+pub mod frame;
 pub mod help;
 pub mod input;
 pub mod io;

@@ -139,6 +139,8 @@ pub struct Model {
     pub macro_run: Option<MacroRun>,
     /// The touch-off the console sent (`ui::probe`).
     pub probe: super::probe::ProbeState,
+    /// The job's frame being traced (`ui::frame`).
+    pub frame: Option<super::frame::FrameRun>,
     /// The macro key last pressed, to tell its auto-repeats (presses on
     /// terminals without release events) from a new press.
     pub macro_key: crate::jog::HeldKey<super::key::KeyChord>,
@@ -183,6 +185,7 @@ impl Model {
             quitting: false,
             macro_run: None,
             probe: super::probe::ProbeState::default(),
+            frame: None,
             macro_key: crate::jog::HeldKey::default(),
             history: MessageHistory::default(),
             large_dro: false,

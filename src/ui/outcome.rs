@@ -20,9 +20,18 @@ pub struct Confirmation {
     pub title: String,
     pub question: String,
     pub effects: Vec<Effect>,
-    /// The profile's macro to run once confirmed (`ui::macros`), after
-    /// `effects`.
-    pub run_macro: Option<String>,
+    /// What starts once confirmed, after `effects`, in a component of its
+    /// own.
+    pub then: Option<Then>,
+}
+
+/// What a confirmed question starts besides its effects.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Then {
+    /// The profile's macro of this name (`ui::macros`).
+    Macro(String),
+    /// The frame of the G-code job (`ui::frame`): armed only by the answer.
+    Frame(super::frame::plan::Plan),
 }
 
 /// `P` is the component's popup (`Infallible`: it has none).
@@ -76,7 +85,7 @@ impl<P> Outcome<P> {
                 title: title.to_string(),
                 question,
                 effects,
-                run_macro: None,
+                then: None,
             }),
             ..Outcome::default()
         }

@@ -25,7 +25,7 @@ use super::keymap::{Action, Mode};
 use super::macros::{self, MacroRun};
 use super::model::{Message, Model, PanelId, Popup};
 use super::msg::{Effect, Msg};
-use super::outcome::Outcome;
+use super::outcome::{Outcome, Then};
 use super::popups;
 use super::timeline;
 use super::traffic_log::{LineKind, NoteLevel};
@@ -34,6 +34,11 @@ use super::view::{messages::max_back, timeline::lane_columns, timeline::lane_row
 
 pub fn update(model: &mut Model, msg: Msg) -> Vec<Effect> {
     let effects = dispatch(model, msg);
+    // Any stop ends a frame being traced: nothing resumes (`ui::frame`).
+    if model.frame.is_some() && effects.contains(&Effect::Stop) {
+        model.frame = None;
+        say(model, NoteLevel::Info, "frame: stopped; nothing resumes");
+    }
     // What Space in a text field must know: something may move although
     // no state report says so yet (`typing::may_move`).
     let moving = |e: &Effect| matches!(e, Effect::Request(r) if typing::may_start_motion(r));
@@ -65,8 +70,13 @@ fn dispatch(model: &mut Model, msg: Msg) -> Vec<Effect> {
                 &mut model.keypad.offsets,
                 &event,
             );
+            let framed = super::frame::device_event(&mut model.frame, &model.positions, &event);
             device_event(model, event);
             effects.extend(apply(model, after));
+            if let Some((next, level, text)) = framed {
+                say(model, level, text);
+                effects.extend(next);
+            }
             if let Some((level, text, saves)) = probed {
                 say(model, level, text);
                 effects.extend(saves);
@@ -528,6 +538,31 @@ fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
                 Err(text) => apply(model, Outcome::note(NoteLevel::Danger, text)),
             }
         }
+        Action::FrameJob => {
+            let job = model.editor.job.as_ref();
+            let figures = job.and_then(|j| j.report.figures.as_ref());
+            let ctx = super::frame::Context {
+                job: job
+                    .zip(figures)
+                    .map(|(j, f)| (j.report.file.as_str(), &f.frame)),
+                checking: job.is_some_and(|j| j.checking),
+                gate: keypad::gate(&model.keypad, &model.jog_context()),
+                settings: model.keypad.settings(),
+                offsets: &model.keypad.offsets.table,
+                speed: keypad::selection(&model.keypad, &model.setup).speed,
+                positions: &model.positions,
+            };
+            match super::frame::question(&ctx) {
+                Ok(q) => {
+                    let mut out = Outcome::ask(&q.title, q.question, Vec::new());
+                    if let Some(c) = out.confirm.as_mut() {
+                        c.then = Some(Then::Frame(q.plan));
+                    }
+                    apply(model, out)
+                }
+                Err(text) => apply(model, Outcome::note(NoteLevel::Danger, text)),
+            }
+        }
         Action::ProbeZ => {
             let asked = super::probe::question(
                 &mut model.probe,
@@ -678,10 +713,19 @@ fn popup_action(model: &mut Model, action: Action) -> Vec<Effect> {
         // starts, the work zero of the axes chosen (the keypad's).
         Popup::Confirm(c) if action == Action::Confirm => {
             let mut effects = c.effects;
-            if let Some(name) = c.run_macro {
-                let (run, ctx) = model.macro_parts();
-                let started = macros::start(run, &ctx, &name);
-                effects.extend(apply(model, started));
+            match c.then {
+                Some(Then::Macro(name)) => {
+                    let (run, ctx) = model.macro_parts();
+                    let started = macros::start(run, &ctx, &name);
+                    effects.extend(apply(model, started));
+                }
+                Some(Then::Frame(plan)) => {
+                    let (started, level, text) =
+                        super::frame::start(&mut model.frame, plan, &model.positions);
+                    say(model, level, text);
+                    effects.extend(started);
+                }
+                None => {}
             }
             effects
         }

@@ -259,3 +259,73 @@ fn sigterm_and_a_hang_up_stop_the_frame() {
     );
     stopped_on_the_way_up(PtyRun::close_master);
 }
+
+/// The absolute moves (`@0M`, the go-to's) in `received`, as positions.
+fn go_tos(received: &str) -> Vec<(i64, i64, i64)> {
+    received
+        .split("<CR>")
+        .filter_map(|c| c.strip_prefix("@0M"))
+        .filter_map(|rest| {
+            let n: Vec<i64> = rest
+                .split(',')
+                .filter_map(|n| n.trim().parse().ok())
+                .step_by(2)
+                .collect();
+            match n[..] {
+                [x, y, z, ..] => Some((x, y, z)),
+                _ => None,
+            }
+        })
+        .collect()
+}
+
+/// `F` in the console frames the job open in it (`--program`, placed by
+/// `--work-zero`): asked first, then Z up alone and the four corners at the
+/// safe height on the wire, each a go-to sent when the one before ended,
+/// the trace said done on the status line's message.
+#[test]
+fn f_in_the_console_frames_the_open_job_at_the_safe_height() {
+    let mut sim = SimProcess::options("isel")
+        .files(&[(
+            "profiles/default.toml",
+            "[sim]\nstart_position = 1.0\n[jog]\nspeed = 3\n[isel]\nreference_speed_hz = 12000\n",
+        )])
+        .time_scale(sim_process::LOGIC_SCALE)
+        .start();
+    let file = write_job(&sim);
+    let state = tempfile::tempdir().expect("state dir");
+    let link = sim.link.display().to_string();
+    let mut run = crate::console_pty::spawn_on(
+        &sim,
+        state.path(),
+        &["--port", &link, "--program", &file, "--work-zero", ZERO],
+    );
+    crate::console_pty::wait_for(&run, "Job pocket.nc");
+    run.type_keys(&[b"\x1bOS"]);
+    crate::console_pty::wait_for(&run, "Position");
+    crate::console_pty::reference(&mut run);
+    let before = sim.received().len();
+    run.type_keys(&[b"F"]);
+    // The question's words are the offline tests' (`frame_ui`); here its
+    // title, and that nothing went out before the answer.
+    crate::console_pty::wait_for(&run, "Frame the job");
+    assert!(
+        go_tos(&sim.received()[before..]).is_empty(),
+        "nothing before the answer"
+    );
+    run.type_keys(&[b"y"]);
+    crate::console_pty::wait_for(&run, "frame traced");
+    let received = sim.received();
+    let trace = go_tos(&received[before..]);
+    let corners = &TRACE[1..];
+    assert_eq!(trace.len(), 6, "{}", &received[before..]);
+    assert_eq!(trace.get(1..), Some(corners), "{}", &received[before..]);
+    let up = trace.first().copied().unwrap_or_default();
+    assert_eq!(up.2, 10_000, "Z up alone first: {up:?}");
+    let state = sim.wait_device("standing", |s| !s.contains("moving"));
+    assert!(
+        state.starts_with("device: X 24000 Y 22000 Z 10000 "),
+        "{state}"
+    );
+    crate::editor_e2e::quit_discarding_the_edits(&mut run);
+}

@@ -40,6 +40,9 @@ pub struct Figures {
     pub fits: bool,
     /// `way time`, the chosen one first.
     pub ways: Vec<String>,
+    /// The rectangle `F` traces (`ui::frame`), machine units, or why the
+    /// job has none.
+    pub frame: Result<crate::gcode::frame::Frame, String>,
 }
 
 /// How a line of the panel reads: the view gives each its style.
@@ -108,6 +111,18 @@ fn ways_of(ways: &Ways) -> Vec<String> {
     out
 }
 
+/// Why the job has no frame, in the console's words (it has no `--z`).
+fn frame_error(e: crate::gcode::frame::FrameError) -> String {
+    match e {
+        crate::gcode::frame::FrameError::NoHeight => {
+            "the job names no Z: there is no safe height to trace the frame at (jogterm frame --z \
+             gives one)"
+                .into()
+        }
+        other => other.to_string(),
+    }
+}
+
 impl JobReport {
     /// The report of `source` (the file `file`) that imported as `import`,
     /// with the ways it can run.
@@ -142,6 +157,7 @@ impl JobReport {
                 capacity: program.capacity,
                 fits: program.fits(),
                 ways: ways_of(ways),
+                frame: crate::gcode::frame::of(&import.toolpath, None).map_err(frame_error),
             }),
             errors: Vec::new(),
             warnings: import.warnings.iter().map(|d| at_line(d, source)).collect(),

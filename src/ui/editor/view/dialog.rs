@@ -40,7 +40,7 @@ impl Widget for DialogView<'_> {
                     title: q.title.clone(),
                     question: q.text.clone(),
                     effects: Vec::new(),
-                    run_macro: None,
+                    then: None,
                 },
             }
             .render(area, buf),
