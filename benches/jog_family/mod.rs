@@ -90,7 +90,7 @@ impl<S: XCounter> FamilyRig<S> {
             line: shell.line(),
             name: format!("{name} simulator"),
         };
-        let driver = driver_for(profile).expect("driver");
+        let driver = driver_for(profile, None).expect("driver");
         let (handle, events) =
             spawn_with(driver, Connector::from(spec), TaskOptions::default()).expect("task");
         let x = profile.axes.get(&Axis::X).expect("X");

@@ -10,12 +10,7 @@ use anyhow::Context as _;
 use super::{GlobalArgs, profile};
 use crate::config::{ConfigDirs, Profile};
 use crate::device::api::{Activity, Event, LinkState};
-use crate::device::common::PollRate;
-use crate::device::driver::Driver;
-use crate::device::emcu::{EmcuDriver, EmcuSettings};
-use crate::device::emp::{EmpDriver, EmpSettings};
 use crate::device::inputs::RecorderConfig;
-use crate::device::isel::{IselDriver, IselSettings, PollPlan};
 use crate::device::log::spawn_log;
 use crate::device::{
     Connector, DeviceHandle, EventReceiver, SessionMoves, TaskOptions, spawn_recording,
@@ -138,33 +133,7 @@ fn talks(protocol: Protocol) -> bool {
     matches!(protocol, Protocol::Isel | Protocol::Emcu | Protocol::Emp)
 }
 
-/// What a command polls: positions at `rate`, and with `ports` the family's
-/// ports or status every cycle.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Polling {
-    pub rate: PollRate,
-    pub ports: bool,
-    /// Without: the inputs alone, every one the controller has (isel ports
-    /// 1, 3, 2 and 0), as often as `rate` allows.
-    pub positions: bool,
-}
-
-impl Polling {
-    /// No polling at all (`send`).
-    pub const OFF: Polling = Polling {
-        rate: PollRate::Off,
-        ports: false,
-        positions: true,
-    };
-
-    /// Every input as fast as the line allows, no positions (`watch`,
-    /// `commission`).
-    pub const INPUTS: Polling = Polling {
-        rate: PollRate::LineSpeed,
-        ports: true,
-        positions: false,
-    };
-}
+pub use crate::device::common::Polling;
 
 /// Whether a command was asked to move (`docs/device.md`, "Sessions that
 /// do not move"): one that was not sends no stop of its own, at connect,
@@ -179,61 +148,6 @@ pub enum Moves {
     Yes,
 }
 
-/// The profile's driver, polling as the command wants.
-fn driver(profile: &Profile, polling: Polling) -> Result<Box<dyn Driver>, StartError> {
-    match profile.connection.protocol {
-        Protocol::Isel => Ok(Box::new(IselDriver::new(isel_settings(profile, polling)?))),
-        Protocol::Emcu => Ok(Box::new(EmcuDriver::new(emcu_settings(profile, polling)?))),
-        Protocol::Emp => Ok(Box::new(EmpDriver::new(emp_settings(profile, polling)?))),
-    }
-}
-
-/// isel: positions (`@0P`), with `ports` the input ports 1, 3, 2 every
-/// cycle (and 0 when the profile wires a user input to a role,
-/// `PollPlan::ports_for`); the inputs alone: every input port, 1, 3, 2, 0.
-/// Without polling the profile's plan stays as it is.
-fn isel_settings(profile: &Profile, polling: Polling) -> Result<IselSettings, StartError> {
-    let mut s =
-        IselSettings::from_profile(profile).map_err(|e| StartError::Usage(e.to_string()))?;
-    s.poll.rate = polling.rate;
-    if polling.rate != PollRate::Off {
-        s.poll.ports_every = 1;
-        s.poll.positions = polling.positions;
-        s.poll.ports = match (polling.ports, polling.positions) {
-            (false, _) => Vec::new(),
-            (true, true) => PollPlan::ports_for(&s.wiring),
-            (true, false) => PollPlan::ALL_INPUT_PORTS.to_vec(),
-        };
-    }
-    Ok(s)
-}
-
-/// EMCU: positions (`@LX`, `@LY`, `@LZ`), with `ports` `@X` every cycle.
-fn emcu_settings(profile: &Profile, polling: Polling) -> Result<EmcuSettings, StartError> {
-    let mut s =
-        EmcuSettings::from_profile(profile).map_err(|e| StartError::Usage(e.to_string()))?;
-    s.poll.rate = polling.rate;
-    if polling.rate != PollRate::Off {
-        s.poll.ports_every = 1;
-        s.poll.positions = polling.positions;
-        if !polling.ports {
-            s.poll.ports.clear();
-        }
-    }
-    Ok(s)
-}
-
-/// EMP: positions (`2C` of every drive), with `ports` `40` every cycle.
-fn emp_settings(profile: &Profile, polling: Polling) -> Result<EmpSettings, StartError> {
-    let mut s = EmpSettings::from_profile(profile).map_err(|e| StartError::Usage(e.to_string()))?;
-    s.poll = polling.rate;
-    if polling.rate != PollRate::Off {
-        s.ports_every = if polling.ports { 1 } else { u32::MAX };
-        s.poll_positions = polling.positions;
-    }
-    Ok(s)
-}
-
 /// Start the device task, polling as `polling` says.
 pub fn start(
     global: &GlobalArgs,
@@ -241,7 +155,8 @@ pub fn start(
     polling: Polling,
     moves: Moves,
 ) -> Result<Session, StartError> {
-    let driver = driver(&profile, polling)?;
+    let driver = crate::device::driver_for(&profile, Some(polling))
+        .map_err(|e| StartError::Usage(e.to_string()))?;
     let family = profile.connection.protocol;
     let line: LineSettings = profile.connection.line();
     let (connector, simulator) = if profile.connection.is_simulator() {

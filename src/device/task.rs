@@ -31,14 +31,17 @@ use tokio::sync::{mpsc, watch};
 use tokio::time::{sleep_until, timeout_at};
 
 use super::api::{Activity, Event, LinkState, MachineState, Request};
+use super::common::Polling;
 use super::connector::{Backoff, Connector};
 use super::driver::{Driver, Outgoing};
+use super::emcu::{EmcuDriver, EmcuSettings};
+use super::emp::{EmpDriver, EmpSettings};
 use super::events::{EventBus, EventReceiver};
 use super::handle::{
     DeviceHandle, EmergencyHandle, EmergencySlot, InputLog, StopCall, StopWritten,
 };
 use super::inputs::{InputRecorder, RecorderConfig};
-use super::isel::{IselDriver, SettingsError};
+use super::isel::{IselDriver, IselSettings, SettingsError};
 use super::stream_guard::StreamGuard;
 use super::traffic_buffer::TrafficBuffer;
 use crate::config::Profile;
@@ -104,13 +107,37 @@ pub enum DeviceError {
     NoRuntime,
 }
 
-/// The driver for a profile's controller family.
-pub fn driver_for(profile: &Profile) -> Result<Box<dyn Driver>, DeviceError> {
-    match profile.connection.protocol {
-        Protocol::Isel => Ok(Box::new(IselDriver::from_profile(profile)?)),
-        Protocol::Emcu => Ok(Box::new(super::emcu::EmcuDriver::from_profile(profile)?)),
-        Protocol::Emp => Ok(Box::new(super::emp::EmpDriver::from_profile(profile)?)),
-    }
+/// The driver for a profile's controller family: the one place a family
+/// is chosen (the console and every command). It polls as the profile says,
+/// or as `polling` asks (a command's own), which each family's settings
+/// apply in their own terms.
+pub fn driver_for(
+    profile: &Profile,
+    polling: Option<Polling>,
+) -> Result<Box<dyn Driver>, DeviceError> {
+    Ok(match profile.connection.protocol {
+        Protocol::Isel => {
+            let mut s = IselSettings::from_profile(profile)?;
+            if let Some(p) = polling {
+                s.poll_as(p);
+            }
+            Box::new(IselDriver::new(s))
+        }
+        Protocol::Emcu => {
+            let mut s = EmcuSettings::from_profile(profile)?;
+            if let Some(p) = polling {
+                s.poll_as(p);
+            }
+            Box::new(EmcuDriver::new(s))
+        }
+        Protocol::Emp => {
+            let mut s = EmpSettings::from_profile(profile)?;
+            if let Some(p) = polling {
+                s.poll_as(p);
+            }
+            Box::new(EmpDriver::new(s))
+        }
+    })
 }
 
 /// Start the device task for `profile` on `port`. The receiver sees every
@@ -122,7 +149,7 @@ pub fn spawn(
     options: TaskOptions,
 ) -> Result<(DeviceHandle, EventReceiver), DeviceError> {
     spawn_recording(
-        driver_for(profile)?,
+        driver_for(profile, None)?,
         Connector::from(port),
         options,
         RecorderConfig::from_profile(profile),

@@ -63,7 +63,7 @@ pub mod vector;
 pub use admit::RunningMove;
 pub use limits::AxisLimits;
 pub use motion::{MotionKind, StepQueue};
-pub use poll::{PollPlan, PollRate, Poller};
+pub use poll::{PollPlan, PollRate, Poller, Polling};
 pub use queue::{Queued, RequestQueue, Running};
 pub use settings::{JogSettings, SettingsError};
 pub use sink::Sink;

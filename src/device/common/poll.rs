@@ -22,6 +22,35 @@ pub enum PollRate {
     Off,
 }
 
+/// What a session polls when it is not the profile's plan (the CLI's
+/// commands): positions at `rate`, and with `ports` the family's ports or
+/// status every cycle. Each family's settings apply it (`poll_as`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Polling {
+    pub rate: PollRate,
+    pub ports: bool,
+    /// Without: the inputs alone, every one the controller has (isel ports
+    /// 1, 3, 2 and 0), as often as `rate` allows.
+    pub positions: bool,
+}
+
+impl Polling {
+    /// No polling at all (`send`).
+    pub const OFF: Polling = Polling {
+        rate: PollRate::Off,
+        ports: false,
+        positions: true,
+    };
+
+    /// Every input as fast as the line allows, no positions (`watch`,
+    /// `commission`).
+    pub const INPUTS: Polling = Polling {
+        rate: PollRate::LineSpeed,
+        ports: true,
+        positions: false,
+    };
+}
+
 impl PollRate {
     /// The profile's convention: 0 = as fast as the line allows.
     pub fn from_profile(rate_hz: f64) -> PollRate {

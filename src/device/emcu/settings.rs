@@ -9,7 +9,7 @@ use crate::axis::{Axis, AxisSet};
 use crate::config::Profile;
 use crate::device::api::PerAxis;
 use crate::device::common::settings::{axis_limits, listed_axes};
-use crate::device::common::{AxisLimits, JogSettings, PollPlan, PollRate, SettingsError};
+use crate::device::common::{AxisLimits, JogSettings, PollPlan, PollRate, Polling, SettingsError};
 use crate::motion::Ramp;
 use crate::proto::Protocol;
 use crate::proto::emcu::{RampMillis, Slot, Speed};
@@ -76,6 +76,19 @@ pub struct EmcuSettings {
 }
 
 impl EmcuSettings {
+    /// A command's own polling (`Polling`): positions (`@LX`, `@LY`,
+    /// `@LZ`), with `ports` `@X` every cycle.
+    pub fn poll_as(&mut self, polling: Polling) {
+        self.poll.rate = polling.rate;
+        if polling.rate != PollRate::Off {
+            self.poll.ports_every = 1;
+            self.poll.positions = polling.positions;
+            if !polling.ports {
+                self.poll.ports.clear();
+            }
+        }
+    }
+
     pub fn from_profile(profile: &Profile) -> Result<EmcuSettings, SettingsError> {
         SettingsError::check_protocol(profile, Protocol::Emcu)?;
         let axes = listed_axes(profile)?;

@@ -9,7 +9,7 @@ use crate::config::Profile;
 use crate::config::profile::{EmpJog, EmpStop};
 use crate::device::api::PerAxis;
 use crate::device::common::settings::{axis_limits, listed_axes};
-use crate::device::common::{AxisLimits, JogSettings, PollRate, SettingsError};
+use crate::device::common::{AxisLimits, JogSettings, PollRate, Polling, SettingsError};
 use crate::proto::Protocol;
 use crate::proto::emp::reload::TIMER_HZ;
 use crate::proto::emp::{DriveAddress, FRAME_WIRE_LEN, Speed};
@@ -76,6 +76,16 @@ pub struct EmpSettings {
 }
 
 impl EmpSettings {
+    /// A command's own polling (`Polling`): positions (`2C` of every
+    /// drive), with `ports` `40` every cycle.
+    pub fn poll_as(&mut self, polling: Polling) {
+        self.poll = polling.rate;
+        if polling.rate != PollRate::Off {
+            self.ports_every = if polling.ports { 1 } else { u32::MAX };
+            self.poll_positions = polling.positions;
+        }
+    }
+
     pub fn from_profile(profile: &Profile) -> Result<EmpSettings, SettingsError> {
         SettingsError::check_protocol(profile, Protocol::Emp)?;
         let axes = listed_axes(profile)?;

@@ -7,6 +7,7 @@ use std::time::Duration;
 use crate::axis::{Axis, AxisSet};
 use crate::config::Profile;
 use crate::device::api::PerAxis;
+use crate::device::common::Polling;
 use crate::device::common::settings::{axis_limits, listed_axes, wiring};
 use crate::motion::Ramp;
 use crate::proto::Protocol;
@@ -125,6 +126,24 @@ pub struct IselSettings {
 }
 
 impl IselSettings {
+    /// A command's own polling (`Polling`): positions (`@0P`), with
+    /// `ports` the input ports 1, 3, 2 every cycle (and 0 when the profile
+    /// wires a user input to a role, `PollPlan::ports_for`); the inputs
+    /// alone: every input port, 1, 3, 2, 0. Without polling the profile's
+    /// plan stays as it is.
+    pub fn poll_as(&mut self, polling: Polling) {
+        self.poll.rate = polling.rate;
+        if polling.rate != PollRate::Off {
+            self.poll.ports_every = 1;
+            self.poll.positions = polling.positions;
+            self.poll.ports = match (polling.ports, polling.positions) {
+                (false, _) => Vec::new(),
+                (true, true) => PollPlan::ports_for(&self.wiring),
+                (true, false) => PollPlan::ALL_INPUT_PORTS.to_vec(),
+            };
+        }
+    }
+
     pub fn from_profile(profile: &Profile) -> Result<IselSettings, SettingsError> {
         SettingsError::check_protocol(profile, Protocol::Isel)?;
         let listed = listed_axes(profile)?;
