@@ -399,6 +399,14 @@ fn upload_bar(e: &Editor, ctx: &Context, area: Rect, buf: &mut Buffer) {
                 Span::styled(fit(&tail, width.saturating_sub(bar_w + 7)), p.text),
             ])
         }
+        // A job in parts or pieces says itself what F6 does.
+        Phase::Finished { total, elapsed } if e.chunked.is_some() => Line::from(Span::styled(
+            fit(
+                &format!("stored {total} commands in {:.1} s", elapsed.as_secs_f64()),
+                width,
+            ),
+            p.ok,
+        )),
         Phase::Finished { total, elapsed } => {
             let run = ctx
                 .keymap
