@@ -242,3 +242,16 @@ fn a_refused_erase_before_the_wait_ends_the_job() {
     );
     assert_eq!(e.chunked, None);
 }
+
+#[test]
+fn an_edited_conversion_runs_as_any_program_with_the_controllers_own_waits() {
+    let mut host = Host::isel();
+    let mut e = opened(&mut host, converted(TWO_TOOLS, 2000));
+    e.buffer.bottom();
+    host.type_text(&mut e, "; edited");
+    host.machine.program = ProgramState::Stored;
+    host.send(&mut e, Input::Main(Action::RunProgram));
+    let q = question(&host);
+    assert_eq!(q.yes, Answer::Run, "{q:?}");
+    assert_eq!(e.chunked, None);
+}
