@@ -202,6 +202,19 @@ impl Step<'_, '_> {
         let profile = std::sync::Arc::clone(&self.ctx.setup.profile);
         let language = self.e.language();
         let here = standing(self.ctx);
+        let machine = self.ctx.machine;
+        let axes = self.ctx.setup.axis_set();
+        // The next piece has no reference run: it goes on only from a
+        // machine in the state the piece before left it.
+        let unready = if !machine.link_up {
+            Some("the controller is not connected")
+        } else if machine.activity != crate::device::api::Activity::Idle {
+            Some("the machine must stand still")
+        } else if !axes.iter().all(|a| machine.referenced.contains(a)) {
+            Some("the axes are no longer referenced")
+        } else {
+            None
+        };
         let Some(c) = self.e.chunked.as_mut() else {
             return;
         };
@@ -211,7 +224,12 @@ impl Step<'_, '_> {
         let Some(at) = p.wait.as_ref() else {
             return;
         };
-        let refused = if at.erasing {
+        let refused = if let Some(why) = unready {
+            Some((
+                NoteLevel::Danger,
+                format!("{why}: the job cannot go on from here; Space ends it"),
+            ))
+        } else if at.erasing {
             Some((
                 NoteLevel::Info,
                 "the piece that ran is being erased (@0k, about 2 s): F6 again in a moment".into(),

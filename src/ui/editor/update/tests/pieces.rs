@@ -255,3 +255,32 @@ fn an_edited_conversion_runs_as_any_program_with_the_controllers_own_waits() {
     assert_eq!(q.yes, Answer::Run, "{q:?}");
     assert_eq!(e.chunked, None);
 }
+
+/// The piece after a wait has no reference run: a machine that lost its
+/// reference (or its link, or moves) at the wait does not go on.
+#[test]
+fn f6_at_a_wait_goes_on_only_from_a_ready_machine() {
+    let mut host = Host::isel();
+    let (mut e, out) = started(&mut host);
+    let total = upload(&out).expect("piece 1").0.len();
+    to_the_wait(&mut host, &mut e, total);
+    let referenced = host.machine.referenced;
+    host.machine.referenced = crate::axis::AxisSet::default();
+    let out = host.send(&mut e, Input::Main(Action::RunProgram));
+    assert!(requests(&out).is_empty(), "{out:?}");
+    assert_eq!(
+        said(&out),
+        ["the axes are no longer referenced: the job cannot go on from here; Space ends it"]
+    );
+    host.machine.referenced = referenced;
+    host.machine.activity = Activity::Jogging;
+    let out = host.send(&mut e, Input::Main(Action::RunProgram));
+    assert!(requests(&out).is_empty(), "{out:?}");
+    assert!(
+        said(&out)[0].starts_with("the machine must stand still"),
+        "{out:?}"
+    );
+    host.machine.activity = Activity::Idle;
+    let out = host.send(&mut e, Input::Main(Action::RunProgram));
+    assert!(upload(&out).is_some(), "{out:?}");
+}
