@@ -146,4 +146,18 @@ fn the_console_waits_at_each_tool_change_until_f6_and_runs_the_pieces() {
     run.type_keys(&[b"\x1bOS"]);
     wait_for(&run, "Position");
     editor_e2e::quit_discarding_the_edits(&mut run);
+    // The job log followed the pieces: done, its last line after T2's
+    // change.
+    let log = sim
+        .configured(&["log", "--json"])
+        .env("JOGTERM_STATE_DIR", state.path())
+        .output()
+        .expect("jogterm log");
+    let log: serde_json::Value = serde_json::from_slice(&log.stdout).expect("the log as JSON");
+    let job = &log["runs"][0];
+    assert_eq!(job["how"], "done", "{log:#}");
+    assert!(
+        job["last_line"].as_u64().is_some_and(|l| l > 12),
+        "the last line after the second change: {log:#}"
+    );
 }

@@ -348,6 +348,25 @@ impl Step<'_, '_> {
 
     fn part_ended(&mut self) {
         let now = self.ctx.now;
+        // A job with waits logs each part's last G-code line as run, as
+        // `jogterm run` does: a stop at a wait can be resumed after it.
+        let last = self
+            .e
+            .chunked
+            .as_ref()
+            .filter(|c| c.pieces.is_some())
+            .and_then(|c| {
+                let program = &self.e.gcode.as_ref()?.converted.program;
+                c.parts
+                    .get(c.part)?
+                    .lines_of
+                    .iter()
+                    .filter_map(|&l| program.lines.get(l)?.origin.map(|o| o.line))
+                    .max()
+            });
+        if let Some(line) = last {
+            self.job_log_done(line);
+        }
         let Some(c) = self.e.chunked.as_mut() else {
             return;
         };
