@@ -409,9 +409,22 @@ impl Step<'_, '_> {
     /// no later part is stored or started.
     pub(super) fn stopped(&mut self) {
         if let Some(c) = self.e.chunked.as_ref() {
+            // A stop while the piece before a wait is erased may leave it
+            // stored, and the iMC's start key would run it.
+            let erasing = c
+                .pieces
+                .as_ref()
+                .and_then(|p| p.wait.as_ref())
+                .is_some_and(|w| w.erasing);
             let text = format!(
-                "the job stopped in {}; nothing resumes (F6 asks to run it again from its start)",
-                c.label()
+                "the job stopped in {}; nothing resumes (F6 asks to run it again from its start){}",
+                c.label(),
+                if erasing {
+                    "; the erase of the piece that ran was cut short: it may still be stored, and the \
+                     controller's start key would run it"
+                } else {
+                    ""
+                }
             );
             self.chunked_end(text);
         }

@@ -224,6 +224,23 @@ fn space_at_a_wait_ends_the_job_and_nothing_is_stored_after() {
 }
 
 #[test]
+fn space_while_the_piece_is_erased_says_it_may_still_be_stored() {
+    let mut host = Host::isel();
+    let (mut e, out) = started(&mut host);
+    let total = upload(&out).expect("piece 1").0.len();
+    run_part(&mut host, &mut e, total);
+    let out = host.send(&mut e, Input::Stopped);
+    assert!(
+        said(&out)[0].ends_with(
+            "the erase of the piece that ran was cut short: it may still be stored, and the \
+             controller's start key would run it"
+        ),
+        "{out:?}"
+    );
+    assert_eq!(e.chunked, None);
+}
+
+#[test]
 fn a_refused_erase_before_the_wait_ends_the_job() {
     let mut host = Host::isel();
     let (mut e, out) = started(&mut host);
