@@ -301,3 +301,77 @@ fn f6_at_a_wait_goes_on_only_from_a_ready_machine() {
     let out = host.send(&mut e, Input::Main(Action::RunProgram));
     assert!(upload(&out).is_some(), "{out:?}");
 }
+
+/// An EMCU job with a pause: its pieces stored as EMCU jobs, and the wait
+/// needs no erase (only the iMC runs a stored program on its start key).
+#[test]
+fn an_emcu_job_waits_without_an_erase() {
+    let mut host = Host::with_profile("emcu");
+    let profile = host.setup.profile.as_ref().clone();
+    let gcode = "G21 G90\nG0 X2 Y2 Z2\nG1 X4 F100\nM0\nG1 X6 F100\nM30\n";
+    let import = crate::gcode::import(
+        gcode,
+        "job.nc",
+        &profile,
+        &crate::offsets::WorkOffsets::default(),
+        crate::gcode::Target::Emcu,
+    )
+    .unwrap_or_else(|e| panic!("imports: {e:?}"));
+    let converted = crate::ui::editor::job::Converted::new(
+        "/jobs/job.nc".into(),
+        "job.nc".into(),
+        import.program.clone(),
+        import.summary.estimated_s,
+        &profile,
+        crate::program::Language::Emcu,
+    )
+    .with_waits(
+        &import.plan,
+        crate::gcode::output::Header {
+            file: "job.nc".into(),
+            profile: profile.name.clone(),
+            system: import.summary.system.to_string(),
+            zero: import.summary.zero,
+        },
+    );
+    let mut e = Editor::new(&host.setup, host.now);
+    let text = converted.program.text(&converted.header);
+    host.send(
+        &mut e,
+        Input::Msg(EditorMsg::Imported {
+            path: PathBuf::from("/jobs/job.emcu"),
+            language: crate::program::Language::Emcu,
+            text,
+            notes: Vec::new(),
+            gcode: Some(Box::new(converted)),
+        }),
+    );
+    host.settle(&mut e);
+    host.send(&mut e, Input::Main(Action::RunProgram));
+    assert_eq!(question(&host).yes, Answer::RunPieces);
+    let out = host.key(&mut e, Action::Confirm);
+    let total = upload(&out)
+        .unwrap_or_else(|| panic!("piece 1: {out:?}"))
+        .0
+        .len();
+    let out = run_part(&mut host, &mut e, total);
+    assert!(requests(&out).is_empty(), "no erase on EMCU: {out:?}");
+    assert!(
+        said(&out)[0].starts_with("WAIT piece 1/2 ended: line 4: M0"),
+        "{out:?}"
+    );
+    host.now += Duration::from_secs(1);
+    read_back(&mut host, &mut e, PerAxis::new());
+    let out = host.send(&mut e, Input::Main(Action::RunProgram));
+    let total = upload(&out)
+        .unwrap_or_else(|| panic!("piece 2: {out:?}"))
+        .0
+        .len();
+    let out = run_part(&mut host, &mut e, total);
+    assert!(
+        said(&out)
+            .iter()
+            .any(|s| s.starts_with("the job ended: 2 pieces")),
+        "{out:?}"
+    );
+}
