@@ -48,6 +48,7 @@ mod cli_upload;
 mod cli_watch;
 mod cli_wiring;
 mod console_gcode_e2e;
+mod console_toolchange_e2e;
 mod device_emcu;
 mod device_emp;
 mod device_reconnect;

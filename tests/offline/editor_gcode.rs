@@ -185,3 +185,86 @@ fn the_job_panel_of_an_opened_gcode_file() {
         insta::assert_snapshot!(format!("editor_gcode_job_panel_{w}x{h}"), shown);
     }
 }
+
+/// A two-tool job with its waits (issue 40, 3): F6 asks with every wait,
+/// yes stores piece 1 of 3; at its end the console erases it (isel) and
+/// waits for T1, saying on the status line, in the panel's title and on
+/// the message line what for and that F6 goes on (snapshots at 80x24 and
+/// 160x48 of the wait).
+#[test]
+fn a_job_with_tool_changes_waits_at_each_and_says_what_for() {
+    let t0 = Instant::now();
+    let dir = tempfile::tempdir().expect("dir");
+    let path = dir.path().join("tools.nc");
+    std::fs::write(
+        &path,
+        "(T1 D=6 CR=0 - ZMIN=-1 - flat end mill)\n(T2 D=3.175 CR=0 - ZMIN=-1 - ball end mill)\n\
+         G21 G90 G17\nM6 T1\nG0 X10 Y10 Z5\nG1 Z1 F100\nG1 X20 F300\nG0 Z5\n\
+         M6 T2\nG0 X30 Y10\nG1 Z1 F100\nG1 X40 F300\nG0 Z5\nM30\n",
+    )
+    .expect("write");
+    let mut m = model_in(Protocol::Isel, "dark", State::Idle, t0);
+    let effects = update(
+        &mut m,
+        Msg::Editor(EditorMsg::OpenGcode {
+            path,
+            height_map: None,
+        }),
+    );
+    carry_out(&mut m, effects);
+    settle(&mut m, t0);
+    let effects = update(&mut m, key(KeyCode::F(6)));
+    assert!(carry_out(&mut m, effects).is_empty(), "nothing before yes");
+    let shown = text(render(&m, 80, 24).backend().buffer());
+    assert!(shown.contains("Run tools.nc"), "{shown}");
+    let effects = update(&mut m, key(KeyCode::Char('y')));
+    let effects = carry_out(&mut m, effects);
+    let total = upload(&effects).expect("piece 1 stored");
+    update(
+        &mut m,
+        Msg::Device(Event::Upload(UploadEvent::Finished {
+            total,
+            elapsed: Duration::from_secs(1),
+        })),
+    );
+    let standing = m.machine.clone();
+    let state = |activity| MachineState {
+        activity,
+        ..standing.clone()
+    };
+    let running = state(jogterm::device::api::Activity::RunningProgram);
+    update(&mut m, Msg::Device(Event::State(running)));
+    let idle = state(jogterm::device::api::Activity::Idle);
+    let effects = update(&mut m, Msg::Device(Event::State(idle)));
+    assert!(
+        effects.iter().any(|e| matches!(
+            e,
+            Effect::Request(Request::Raw { line }) if line == "@0k"
+        )),
+        "the piece that ran is erased: {effects:?}"
+    );
+    update(
+        &mut m,
+        Msg::Device(Event::Reply {
+            command: "@0k".into(),
+            text: "0: done".into(),
+            kind: jogterm::device::api::ReplyKind::Answer,
+        }),
+    );
+    // The steady wait: the message line says what ends it.
+    m.message = None;
+    for (w, h) in SIZES {
+        let shown = text(render(&m, w, h).backend().buffer());
+        for needle in [
+            "WAIT T1 flat end mill, D=6: F6 goes on, Space ends",
+            "WAIT T1 flat end mill, D=6",
+        ] {
+            assert!(shown.contains(needle), "{w}x{h}: `{needle}`:\n{shown}");
+        }
+        insta::assert_snapshot!(format!("editor_gcode_tool_change_wait_{w}x{h}"), shown);
+    }
+    // Space ends the job at the wait.
+    let effects = update(&mut m, key(KeyCode::Char(' ')));
+    assert!(effects.contains(&Effect::Stop), "{effects:?}");
+    assert_eq!(m.editor.chunked, None);
+}

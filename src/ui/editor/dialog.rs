@@ -113,6 +113,9 @@ pub enum Answer {
     Run,
     /// Run the converted G-code job in parts (`update::job`).
     RunInParts,
+    /// Run the converted G-code job with waits in pieces, waiting between
+    /// them for the operator (`update::pieces`).
+    RunPieces,
     /// Stream the converted G-code job (`update::stream`).
     Stream,
     /// Start a check-out, from the program's start or from a line.

@@ -133,6 +133,15 @@ pub fn check(mut job: GcodeJob) -> GcodeChecked {
                 import.summary.estimated_s,
                 &job.profile,
                 language,
+            )
+            .with_waits(
+                &import.plan,
+                crate::gcode::output::Header {
+                    file: header.clone(),
+                    profile: job.profile.name.clone(),
+                    system: import.summary.system.to_string(),
+                    zero: import.summary.zero,
+                },
             );
             let report = JobReport::imported(&name, &source, &import, &converted.ways);
             let mut notes = vec![(

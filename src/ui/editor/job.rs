@@ -8,6 +8,7 @@ use std::time::Instant;
 
 use crate::config::profile::Profile;
 use crate::gcode::output::{Header, Program};
+use crate::gcode::toolchange::{Plan, Sequence, Wait, WaitKind};
 use crate::gcode::ways::{Costs, Ways};
 use crate::program::Language;
 use crate::program::outputs::JobOutput;
@@ -21,6 +22,19 @@ pub struct Converted {
     pub header: String,
     pub program: Program,
     pub ways: Ways,
+    /// The job's tool changes and pauses (M6, M0, M1), where it has any:
+    /// F6 then runs it in pieces and waits between them itself
+    /// (`update::job`, `docs/editor.md` "Tool changes and pauses").
+    pub waits: Option<Box<JobWaits>>,
+}
+
+/// What a job with waits needs to run in pieces: the job cut at its waits
+/// (`gcode::toolchange::Plan`) and the header each piece is converted
+/// with.
+#[derive(Debug, Clone, PartialEq)]
+pub struct JobWaits {
+    pub plan: Plan,
+    pub header: Header,
 }
 
 /// The converted program and the buffer state that is its text: an edit
@@ -49,6 +63,84 @@ pub enum Phase {
     Running,
     /// Between two parts, the tool retracted, until F6 again.
     Paused,
+    /// A job with waits at one of them (M6, M0, M1): the tool at the
+    /// change position with the spindle off (M6) or where the program left
+    /// it, until the operator confirms with F6 (`Pieces::wait`).
+    Waiting,
+}
+
+/// A job with waits run in pieces (`docs/editor.md`, "Tool changes and
+/// pauses"): the same [`Sequence`] `jogterm run` drives, each piece
+/// converted when its turn comes and stored (in parts where it does not
+/// fit).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Pieces {
+    pub sequence: Sequence,
+    pub header: Header,
+    /// 0-based, the piece under way.
+    pub piece: usize,
+    /// The wait under way while the job waits (`Phase::Waiting`).
+    pub wait: Option<AtWait>,
+}
+
+/// The wait the job stands at.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AtWait {
+    /// 0-based, into the plan's waits.
+    pub index: usize,
+    pub since: Instant,
+    /// isel: the piece that ran is being erased (`@0k`): the iMC runs a
+    /// stored program when its start key is pressed, and a press with the
+    /// operator's hands at the spindle would run it again. F6 waits for it.
+    pub erasing: bool,
+}
+
+/// F6 confirms a wait only this long after it began: a key pressed before
+/// the wait (to pause a part, say) confirms nothing.
+pub const WAIT_ARMED: std::time::Duration = std::time::Duration::from_millis(500);
+
+impl Pieces {
+    /// The wait under way, as the plan has it.
+    pub fn current_wait(&self) -> Option<&Wait> {
+        let at = self.wait.as_ref()?;
+        self.sequence.plan().waits.get(at.index)
+    }
+
+    /// `piece 2/3`.
+    pub fn label(&self) -> String {
+        format!(
+            "piece {}/{}",
+            self.piece + 1,
+            self.sequence.plan().segments()
+        )
+    }
+}
+
+/// A wait in a few words for the status line: `T2 flat end mill, D=3.175`,
+/// `M6 (no T)`, `M0 line 120`, `M1 line 120`.
+pub fn wait_short(w: &Wait) -> String {
+    match &w.kind {
+        WaitKind::ToolChange {
+            info: Some(info), ..
+        } => info.label(),
+        WaitKind::ToolChange { tool: Some(t), .. } => format!("T{t}"),
+        WaitKind::ToolChange { tool: None, .. } => format!("M6 line {}", w.origin.line),
+        WaitKind::Program => format!("M0 line {}", w.origin.line),
+        WaitKind::Optional => format!("M1 line {}", w.origin.line),
+    }
+}
+
+/// What the message line says while the job waits: what for and what
+/// ends it, `WAIT T2 flat end mill, D=3.175: F6 goes on, Space ends`.
+pub fn wait_text(w: &Wait, erasing: bool) -> String {
+    if erasing {
+        format!(
+            "WAIT {}: erasing the stored piece (@0k), then F6 goes on; Space ends",
+            wait_short(w)
+        )
+    } else {
+        format!("WAIT {}: F6 goes on, Space ends", wait_short(w))
+    }
 }
 
 /// A job run in parts from the editor.
@@ -70,6 +162,8 @@ pub struct Chunked {
     /// estimate of the last move; the read that follows is where the axes
     /// stand, and the pause is measured from that read.
     pub paused_read: bool,
+    /// A job with waits: its pieces and the wait under way.
+    pub pieces: Option<Box<Pieces>>,
 }
 
 /// The outputs of the editor's job (issue 37, `docs/editor.md` "The job's
@@ -90,9 +184,15 @@ pub struct JobOutputs {
 }
 
 impl Chunked {
-    /// `part 2/4`.
+    /// `part 2/4`; a job with waits `piece 2/3` (`piece 2/3 part 1/2`
+    /// where the piece runs in parts).
     pub fn label(&self) -> String {
-        format!("part {}/{}", self.part + 1, self.parts.len())
+        let part = format!("part {}/{}", self.part + 1, self.parts.len());
+        match &self.pieces {
+            Some(p) if self.parts.len() > 1 => format!("{} {part}", p.label()),
+            Some(p) => p.label(),
+            None => part,
+        }
     }
 }
 
@@ -114,49 +214,142 @@ impl Converted {
             header,
             program,
             ways,
+            waits: None,
         }
+    }
+
+    /// With the job's waits, where it has any (`import.plan`), and the
+    /// header its pieces are converted with.
+    pub fn with_waits(mut self, plan: &Plan, header: Header) -> Converted {
+        if !plan.waits.is_empty() {
+            self.waits = Some(Box::new(JobWaits {
+                plan: plan.clone(),
+                header,
+            }));
+        }
+        self
+    }
+
+    /// Piece `k` of a job with waits (every Z `dz` higher, the piece before
+    /// `dz_before`) converted for `profile` (checked against the soft limits
+    /// again) and cut, where it does not fit, at the retracts; each part
+    /// as it is uploaded, its commands marked at the buffer's lines with
+    /// the same G-code line.
+    pub fn piece_uploads(
+        &self,
+        k: usize,
+        shifts: (f64, f64),
+        profile: &Profile,
+        language: Language,
+    ) -> Result<Vec<PartUpload>, String> {
+        let Some(w) = self.waits.as_ref() else {
+            return Err("the job has no waits".into());
+        };
+        let target = match language {
+            Language::Isel => crate::gcode::Target::Isel,
+            Language::Emcu => crate::gcode::Target::Emcu,
+        };
+        let piece =
+            crate::gcode::waits::convert_piece(&w.plan, k, shifts, profile, target, &w.header)
+                .map_err(|errors| {
+                    let first = errors
+                        .first()
+                        .map(|e| format!("line {}: {}", e.origin.line, e.message))
+                        .unwrap_or_default();
+                    format!("piece {} does not convert: {first}", k + 1)
+                })?;
+        let mut uploads = uploads_of(&piece, &self.header, language)
+            .map_err(|why| format!("piece {}: {why}", k + 1))?;
+        // The piece's lines to the buffer's (the whole program's) by the
+        // G-code line they came from.
+        let mut at_line = std::collections::HashMap::new();
+        for (i, l) in self.program.lines.iter().enumerate() {
+            if let Some(o) = l.origin {
+                at_line.entry(o.line).or_insert(i);
+            }
+        }
+        for u in &mut uploads {
+            for l in &mut u.lines_of {
+                *l = piece
+                    .lines
+                    .get(*l)
+                    .and_then(|p| p.origin)
+                    .and_then(|o| at_line.get(&o.line).copied())
+                    .unwrap_or(0);
+            }
+        }
+        Ok(uploads)
     }
 
     /// The job cut where the tool stands retracted, each part as it is
     /// uploaded (header, `z1` again, its commands, `9`:
     /// `gcode::output::Program::part`); why it cannot be.
     pub fn part_uploads(&self, language: Language) -> Result<Vec<PartUpload>, String> {
-        let program = &self.program;
-        let parts = program.parts(program.capacity)?;
-        (0..parts.len())
-            .map(|k| {
-                let part = program.part(&parts, k);
-                let text = part.text(&self.header);
-                let parsed = crate::program::Program::parse(language, &text);
-                let lines = parsed.upload_lines().map_err(|(span, e)| {
-                    format!("part {}: line {}: {}", k + 1, span.line + 1, e.message)
-                })?;
-                // The part's text is its head, its slice of the converted
-                // program's lines (the buffer's, one for one) and maybe a
-                // `9`: its own lines map to the slice's first and last.
-                let range = &parts[k].lines;
-                let header_len = program
-                    .lines
-                    .iter()
-                    .take_while(|l| l.command.is_empty() && l.origin.is_none())
-                    .count();
-                let from = range.start.max(header_len);
-                let copied = range.end.saturating_sub(from);
-                let tail = usize::from(k + 1 < parts.len());
-                let head = part.lines.len().saturating_sub(copied + tail);
-                let last = range.end.saturating_sub(1);
-                let lines_of = parsed
-                    .statements()
-                    .map(|(line, _)| match line.checked_sub(head) {
-                        Some(i) if i < copied => from + i,
-                        Some(_) => last,
-                        None => from,
-                    })
-                    .collect();
-                Ok(PartUpload { lines, lines_of })
-            })
-            .collect()
+        parts_of(&self.program, &self.header, language)
     }
+}
+
+/// `program` as it is uploaded: whole where it fits, else in parts
+/// ([`parts_of`]); `lines_of` index `program.lines`.
+fn uploads_of(
+    program: &Program,
+    header: &str,
+    language: Language,
+) -> Result<Vec<PartUpload>, String> {
+    if !program.fits() {
+        return parts_of(program, header, language);
+    }
+    let text = program.text(header);
+    let parsed = crate::program::Program::parse(language, &text);
+    let lines = parsed
+        .upload_lines()
+        .map_err(|(span, e)| format!("line {}: {}", span.line + 1, e.message))?;
+    let lines_of = parsed.statements().map(|(line, _)| line).collect();
+    Ok(vec![PartUpload { lines, lines_of }])
+}
+
+/// `program` cut where the tool stands retracted, each part as it is
+/// uploaded (header, `z1` again, its commands, `9`:
+/// `gcode::output::Program::part`); `lines_of` index `program.lines`.
+fn parts_of(
+    program: &Program,
+    header: &str,
+    language: Language,
+) -> Result<Vec<PartUpload>, String> {
+    let parts = program.parts(program.capacity)?;
+    (0..parts.len())
+        .map(|k| {
+            let part = program.part(&parts, k);
+            let text = part.text(header);
+            let parsed = crate::program::Program::parse(language, &text);
+            let lines = parsed.upload_lines().map_err(|(span, e)| {
+                format!("part {}: line {}: {}", k + 1, span.line + 1, e.message)
+            })?;
+            // The part's text is its head, its slice of the converted
+            // program's lines (the buffer's, one for one) and maybe a
+            // `9`: its own lines map to the slice's first and last.
+            let range = &parts[k].lines;
+            let header_len = program
+                .lines
+                .iter()
+                .take_while(|l| l.command.is_empty() && l.origin.is_none())
+                .count();
+            let from = range.start.max(header_len);
+            let copied = range.end.saturating_sub(from);
+            let tail = usize::from(k + 1 < parts.len());
+            let head = part.lines.len().saturating_sub(copied + tail);
+            let last = range.end.saturating_sub(1);
+            let lines_of = parsed
+                .statements()
+                .map(|(line, _)| match line.checked_sub(head) {
+                    Some(i) if i < copied => from + i,
+                    Some(_) => last,
+                    None => from,
+                })
+                .collect();
+            Ok(PartUpload { lines, lines_of })
+        })
+        .collect()
 }
 
 /// Whether `text` is a program converted from G-code (its header says so).
@@ -187,10 +380,19 @@ pub(crate) mod tests {
         Converted::new(
             "/jobs/pockets.nc".into(),
             "pockets.nc".into(),
-            import.program,
+            import.program.clone(),
             import.summary.estimated_s,
             &profile,
             Language::Isel,
+        )
+        .with_waits(
+            &import.plan,
+            Header {
+                file: "pockets.nc".into(),
+                profile: profile.name.clone(),
+                system: import.summary.system.to_string(),
+                zero: import.summary.zero,
+            },
         )
     }
 

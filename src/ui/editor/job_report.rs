@@ -148,10 +148,13 @@ impl JobReport {
                 zero: [s.zero.x, s.zero.y, s.zero.z],
                 extents: [0, 1, 2].map(|axis| s.extents.range(axis)),
                 tools,
-                waits: program
-                    .pauses
+                // What the console's F6 waits for (`update::pieces`), not
+                // the stored program's start key.
+                waits: import
+                    .plan
+                    .waits
                     .iter()
-                    .map(|(origin, what)| (origin.line, what.clone()))
+                    .map(|w| (w.origin.line, w.what()))
                     .collect(),
                 commands: program.commands,
                 capacity: program.capacity,

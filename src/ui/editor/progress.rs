@@ -8,7 +8,7 @@ use std::time::{Duration, Instant};
 
 use super::Editor;
 use super::checkout::RunState;
-use super::job::Phase;
+use super::job::{Phase, wait_short, wait_text};
 
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct JobStatus {
@@ -78,9 +78,25 @@ impl Editor {
         }
         if let Some(c) = &self.chunked {
             let elapsed = clock(now.saturating_duration_since(c.started));
+            // A job with waits at one: what for and what ends it.
+            if let Some(p) = c.pieces.as_ref().filter(|_| c.phase == Phase::Waiting)
+                && let (Some(at), Some(w)) = (p.wait.as_ref(), p.current_wait())
+            {
+                let ends = if at.erasing {
+                    "erasing (@0k)"
+                } else {
+                    "F6 goes on, Space ends"
+                };
+                return Some(JobStatus {
+                    word: "WAIT",
+                    progress: format!("{}: {ends}", wait_short(w)),
+                    waiting: Some(wait_text(w, at.erasing)),
+                });
+            }
             let (word, waiting) = match c.phase {
                 Phase::Uploading => ("STORING", None),
                 Phase::Starting | Phase::Running => ("RUNNING", None),
+                Phase::Waiting => ("WAIT", None),
                 Phase::Paused => (
                     "PAUSED",
                     Some(format!(

@@ -16,6 +16,7 @@ mod job;
 mod joblog;
 mod machine;
 mod outputs;
+mod pieces;
 mod run;
 mod stream;
 
@@ -614,6 +615,7 @@ impl Step<'_, '_> {
             Answer::Upload { erase } => self.start_upload(erase),
             Answer::Run => self.out.effects.push(Effect::Device(Request::RunProgram)),
             Answer::RunInParts => self.chunked_begin(),
+            Answer::RunPieces => self.pieces_begin(),
             Answer::Stream => self.stream_begin(),
             Answer::Checkout { from } => self.checkout_begin(from),
             Answer::Overwrite { path, then } => self.save_to(path, then, None, false),

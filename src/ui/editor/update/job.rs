@@ -7,7 +7,9 @@
 //! safe height, so a pause between two parts (F6) leaves it above the
 //! part; Space stops at once, and nothing resumes after a stop.
 
-use crate::device::api::{Activity, Event, LinkState, PositionSource, Request, UploadEvent};
+use crate::device::api::{
+    Activity, Event, LinkState, PositionSource, ReplyKind, Request, UploadEvent,
+};
 use crate::device::describe::describe;
 use crate::gcode::ways::Way;
 use crate::ui::editor::component::Effect;
@@ -18,7 +20,7 @@ use crate::ui::traffic_log::NoteLevel;
 use super::Step;
 
 /// Where the axes of the setup stand, machine steps as last read.
-fn standing(ctx: &crate::ui::editor::component::Context) -> Vec<Option<i64>> {
+pub(super) fn standing(ctx: &crate::ui::editor::component::Context) -> Vec<Option<i64>> {
     ctx.setup
         .axes
         .iter()
@@ -33,8 +35,14 @@ fn own_request(c: &Chunked) -> Request {
             lines: part.lines.clone(),
             erase_first: true,
         },
+        (Phase::Waiting, _) => erase_request(),
         _ => Request::RunProgram,
     }
+}
+
+/// isel: the stored piece erased before a wait (`@0k`, manual 2.2.17).
+pub(super) fn erase_request() -> Request {
+    Request::Raw { line: "@0k".into() }
 }
 
 impl Step<'_, '_> {
@@ -65,6 +73,10 @@ impl Step<'_, '_> {
         };
         let c = &g.converted;
         let program = &c.program;
+        if g.state == self.e.buffer.state() && c.waits.is_some() {
+            self.pieces_ask();
+            return true;
+        }
         if program.fits() {
             return false;
         }
@@ -113,18 +125,7 @@ impl Step<'_, '_> {
     pub(super) fn chunked_begin(&mut self) {
         let ctx = self.ctx;
         let language = self.e.language();
-        let refused = if let Some(why) = language.wrong_machine(ctx.setup.protocol) {
-            Some(why.to_string())
-        } else if self.e.upload.busy() || self.e.chunked.is_some() {
-            Some("an upload or a job is running already".into())
-        } else if !ctx.machine.link_up {
-            Some("the controller is not connected".into())
-        } else if ctx.machine.activity != Activity::Idle {
-            Some("the machine must stand still".into())
-        } else {
-            self.first_error()
-        };
-        if let Some(why) = refused {
+        if let Some(why) = self.job_refused() {
             self.say(NoteLevel::Danger, format!("run refused: {why}"));
             return;
         }
@@ -141,6 +142,7 @@ impl Step<'_, '_> {
                     started: ctx.now,
                     paused_at: Vec::new(),
                     paused_read: false,
+                    pieces: None,
                 });
                 self.outputs_arm();
                 self.job_log_start(crate::gcode::ways::Way::Chunked);
@@ -150,9 +152,26 @@ impl Step<'_, '_> {
         }
     }
 
+    /// Why a job may not start from the editor now, if it may not.
+    pub(super) fn job_refused(&mut self) -> Option<String> {
+        let ctx = self.ctx;
+        let language = self.e.language();
+        if let Some(why) = language.wrong_machine(ctx.setup.protocol) {
+            Some(why.to_string())
+        } else if self.e.upload.busy() || self.e.chunked.is_some() {
+            Some("an upload or a job is running already".into())
+        } else if !ctx.machine.link_up {
+            Some("the controller is not connected".into())
+        } else if ctx.machine.activity != Activity::Idle {
+            Some("the machine must stand still".into())
+        } else {
+            self.first_error()
+        }
+    }
+
     /// The part under way stored, erasing the one before: `@0i` finds it
     /// and the driver erases it first (`@0k`, isel manual 2.2.17).
-    fn chunked_upload(&mut self) {
+    pub(super) fn chunked_upload(&mut self) {
         let Some(c) = self.e.chunked.as_mut() else {
             return;
         };
@@ -184,6 +203,10 @@ impl Step<'_, '_> {
         let Some(c) = self.e.chunked.as_mut() else {
             return;
         };
+        if c.phase == Phase::Waiting {
+            self.wait_key();
+            return;
+        }
         if c.phase == Phase::Paused {
             if !c.paused_read {
                 let text = format!(
@@ -205,6 +228,22 @@ impl Step<'_, '_> {
             let text = format!("the job goes on with {}", c.label());
             self.say(NoteLevel::Info, text);
             self.chunked_upload();
+            return;
+        }
+        if c.part + 1 == c.parts.len()
+            && let Some(p) = c.pieces.as_ref()
+            && p.piece < p.sequence.plan().waits.len()
+        {
+            let text = format!(
+                "the job waits after {} anyway (line {}: F6 there goes on; Space stops)",
+                p.label(),
+                p.sequence
+                    .plan()
+                    .waits
+                    .get(p.piece)
+                    .map_or(0, |w| w.origin.line)
+            );
+            self.say(NoteLevel::Info, text);
             return;
         }
         if c.part + 1 == c.parts.len() {
@@ -261,12 +300,34 @@ impl Step<'_, '_> {
                 self.job_log_end(crate::joblog::How::Error);
                 self.chunked_end(format!("{label} did not start: {reason}"));
             }
-            (Event::Fault(f), Phase::Starting | Phase::Running) => {
+            (Event::Refused { request, reason }, Phase::Waiting)
+                if c.pieces
+                    .as_ref()
+                    .is_some_and(|p| p.wait.as_ref().is_some_and(|w| w.erasing))
+                    && *request == describe(&erase_request()) =>
+            {
+                self.job_log_end(crate::joblog::How::Error);
+                self.chunked_end(format!(
+                    "the piece that ran was not erased before the wait ({reason}): the job ends \
+                     here; the controller's start key would run it again"
+                ));
+            }
+            (
+                Event::Reply {
+                    kind: ReplyKind::Answer,
+                    command,
+                    ..
+                },
+                Phase::Waiting,
+            ) if command.trim() == "@0k" => {
+                self.wait_erased();
+            }
+            (Event::Fault(f), Phase::Starting | Phase::Running | Phase::Waiting) => {
                 let text = format!("{label} ended with `{}`: {}", f.code, f.meaning);
                 self.job_log_end(crate::joblog::How::Error);
                 self.chunked_end(text);
             }
-            (Event::Position(p), Phase::Paused)
+            (Event::Position(p), Phase::Paused | Phase::Waiting)
                 if !c.paused_read && p.source == PositionSource::Measured =>
             {
                 c.paused_at = self
@@ -287,9 +348,32 @@ impl Step<'_, '_> {
 
     fn part_ended(&mut self) {
         let now = self.ctx.now;
+        // A job with waits logs each part's last G-code line as run, as
+        // `jogterm run` does: a stop at a wait can be resumed after it.
+        let last = self
+            .e
+            .chunked
+            .as_ref()
+            .filter(|c| c.pieces.is_some())
+            .and_then(|c| {
+                let program = &self.e.gcode.as_ref()?.converted.program;
+                c.parts
+                    .get(c.part)?
+                    .lines_of
+                    .iter()
+                    .filter_map(|&l| program.lines.get(l)?.origin.map(|o| o.line))
+                    .max()
+            });
+        if let Some(line) = last {
+            self.job_log_done(line);
+        }
         let Some(c) = self.e.chunked.as_mut() else {
             return;
         };
+        if c.part + 1 >= c.parts.len() && c.pieces.is_some() {
+            self.piece_ended();
+            return;
+        }
         if c.part + 1 >= c.parts.len() {
             let secs = now.saturating_duration_since(c.started).as_secs_f64();
             let text = format!("the job ended: {} parts in {secs:.1} s", c.parts.len());
@@ -314,7 +398,7 @@ impl Step<'_, '_> {
         }
     }
 
-    fn chunked_end(&mut self, why: String) {
+    pub(super) fn chunked_end(&mut self, why: String) {
         if self.e.chunked.take().is_some() {
             self.say(NoteLevel::Danger, why);
             self.outputs_early();
@@ -325,9 +409,22 @@ impl Step<'_, '_> {
     /// no later part is stored or started.
     pub(super) fn stopped(&mut self) {
         if let Some(c) = self.e.chunked.as_ref() {
+            // A stop while the piece before a wait is erased may leave it
+            // stored, and the iMC's start key would run it.
+            let erasing = c
+                .pieces
+                .as_ref()
+                .and_then(|p| p.wait.as_ref())
+                .is_some_and(|w| w.erasing);
             let text = format!(
-                "the job stopped in {}; nothing resumes (F6 asks to run it again from its start)",
-                c.label()
+                "the job stopped in {}; nothing resumes (F6 asks to run it again from its start){}",
+                c.label(),
+                if erasing {
+                    "; the erase of the piece that ran was cut short: it may still be stored, and the \
+                     controller's start key would run it"
+                } else {
+                    ""
+                }
             );
             self.chunked_end(text);
         }

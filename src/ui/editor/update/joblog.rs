@@ -57,6 +57,16 @@ impl Step<'_, '_> {
         }
     }
 
+    /// G-code line `line` has run to its end (a stored part of a job with
+    /// waits ended): logged at once, nothing running after it.
+    pub(super) fn job_log_done(&mut self, line: u32) {
+        let Some(running) = self.e.job_logged.as_mut() else {
+            return;
+        };
+        *running = None;
+        self.log(JobLogEvent::Line(line));
+    }
+
     /// The logged job ended `how` (the first end said counts).
     pub(super) fn job_log_end(&mut self, how: How) {
         let Some(running) = self.e.job_logged.take() else {

@@ -529,6 +529,7 @@ mod checkout;
 mod gcode;
 mod job;
 mod outputs;
+mod pieces;
 mod recent;
 
 #[test]

@@ -175,7 +175,25 @@ fn title_extra(e: &Editor, ctx: &Context) -> Vec<Span<'static>> {
             JobPhase::Uploading => ("STORING", p.warning),
             JobPhase::Starting | JobPhase::Running => ("RUNNING", p.ok),
             JobPhase::Paused => ("PAUSED before", p.danger),
+            JobPhase::Waiting => ("WAIT", p.danger),
         };
+        // A job with waits at one: what for, not the piece that ended.
+        if let Some(w) = c
+            .pieces
+            .as_ref()
+            .filter(|_| c.phase == JobPhase::Waiting)
+            .and_then(|p| p.current_wait())
+        {
+            let elapsed = ctx.now.saturating_duration_since(c.started).as_secs();
+            out.push(Span::styled(
+                format!(
+                    "{state} {} {elapsed} s ",
+                    crate::ui::editor::job::wait_short(w)
+                ),
+                style,
+            ));
+            return out;
+        }
         let elapsed = ctx.now.saturating_duration_since(c.started).as_secs();
         let next = if c.pause_next { " pause next" } else { "" };
         out.push(Span::styled(
@@ -381,6 +399,14 @@ fn upload_bar(e: &Editor, ctx: &Context, area: Rect, buf: &mut Buffer) {
                 Span::styled(fit(&tail, width.saturating_sub(bar_w + 7)), p.text),
             ])
         }
+        // A job in parts or pieces says itself what F6 does.
+        Phase::Finished { total, elapsed } if e.chunked.is_some() => Line::from(Span::styled(
+            fit(
+                &format!("stored {total} commands in {:.1} s", elapsed.as_secs_f64()),
+                width,
+            ),
+            p.ok,
+        )),
         Phase::Finished { total, elapsed } => {
             let run = ctx
                 .keymap

@@ -12,7 +12,7 @@ use crate::ui::editor::job::{Converted, Phase as JobPhase};
 
 /// The editor with `converted` opened as `--program pockets.nc` opens it,
 /// the lint run.
-fn opened(host: &mut Host, converted: Converted) -> Editor {
+pub(super) fn opened(host: &mut Host, converted: Converted) -> Editor {
     let mut e = Editor::new(&host.setup, host.now);
     let text = converted.program.text(&converted.header);
     host.send(
@@ -29,7 +29,7 @@ fn opened(host: &mut Host, converted: Converted) -> Editor {
     e
 }
 
-fn question(host: &Host) -> &crate::ui::editor::dialog::Question {
+pub(super) fn question(host: &Host) -> &crate::ui::editor::dialog::Question {
     match &host.dialog {
         Some(Dialog::Ask(q)) => q,
         other => panic!("no question: {other:?}"),
@@ -37,7 +37,7 @@ fn question(host: &Host) -> &crate::ui::editor::dialog::Question {
 }
 
 /// The upload request of `out`: its lines and whether it erases first.
-fn upload(out: &Outcome) -> Option<(&[String], bool)> {
+pub(super) fn upload(out: &Outcome) -> Option<(&[String], bool)> {
     requests(out).into_iter().find_map(|r| match r {
         Request::Upload { lines, erase_first } => Some((lines.as_slice(), *erase_first)),
         _ => None,
@@ -56,7 +56,7 @@ pub(super) fn activity(host: &mut Host, e: &mut Editor, activity: Activity) -> O
 }
 
 /// A position read from the controller, as the device reports it.
-fn read_back(host: &mut Host, e: &mut Editor, steps: PerAxis<i64>) -> Outcome {
+pub(super) fn read_back(host: &mut Host, e: &mut Editor, steps: PerAxis<i64>) -> Outcome {
     position(host, e, steps, PositionSource::Measured)
 }
 
@@ -80,7 +80,7 @@ fn position(
     host.send(e, Input::Device(&Event::Position(sample)))
 }
 
-fn stored(host: &mut Host, e: &mut Editor, total: usize) -> Outcome {
+pub(super) fn stored(host: &mut Host, e: &mut Editor, total: usize) -> Outcome {
     host.send(
         e,
         Input::Device(&Event::Upload(UploadEvent::Finished {
@@ -92,7 +92,7 @@ fn stored(host: &mut Host, e: &mut Editor, total: usize) -> Outcome {
 
 /// Part `k` (1-based) stored, started and run to its end; the outcome of
 /// its end.
-fn run_part(host: &mut Host, e: &mut Editor, total: usize) -> Outcome {
+pub(super) fn run_part(host: &mut Host, e: &mut Editor, total: usize) -> Outcome {
     let out = stored(host, e, total);
     assert_eq!(requests(&out), [&Request::RunProgram], "{out:?}");
     activity(host, e, Activity::RunningProgram);

@@ -1,0 +1,305 @@
+//! A converted G-code job with tool changes and pauses (M6, M0, M1) run
+//! from the editor (issue 40, `docs/editor.md` "Tool changes and pauses"):
+//! cut at its waits and driven by the same sans-IO
+//! `gcode::toolchange::Sequence` as `jogterm run`. Each piece is converted
+//! when its turn comes (`gcode::waits::convert_piece`: the moves to the
+//! change position with the spindle off, and back) and stored, in parts
+//! where it does not fit, by the run in parts of `update::job`; between two
+//! pieces the job waits for the operator: the status line and the message
+//! line say what for and that F6 goes on, Space ends the job. On isel the
+//! piece that ran is erased first (`@0k`): the iMC runs a stored program
+//! when its start key is pressed. The console does not measure the new
+//! tool (`jogterm run` does, with a tool sensor): it must have the old
+//! one's length.
+
+use crate::gcode::toolchange::{Sequence, Step as Next};
+use crate::ui::editor::component::Effect;
+use crate::ui::editor::dialog::Answer;
+use crate::ui::editor::job::{AtWait, Chunked, Phase, Pieces, WAIT_ARMED, wait_text};
+use crate::ui::traffic_log::NoteLevel;
+
+use super::Step;
+use super::job::{erase_request, standing};
+
+/// What the console says of measuring at a tool change.
+const NO_MEASURE: &str = "the console does not measure the new tool: it must have the old \
+    one's length (or Space ends the job: touch off Z and restart, or run it with `jogterm run`, \
+    which measures with a tool sensor)";
+
+impl Step<'_, '_> {
+    /// F6 on a converted job with waits: the waits, how the job runs
+    /// them, and the question.
+    pub(super) fn pieces_ask(&mut self) {
+        let Some(g) = self.e.gcode.as_ref() else {
+            return;
+        };
+        let c = &g.converted;
+        let Some(w) = c.waits.as_ref() else {
+            return;
+        };
+        let plan = &w.plan;
+        let mut text = format!(
+            "{}: {} tool changes and pauses: the console runs it in {} pieces, each stored (in \
+             parts where it does not fit), and waits at each for you:\n",
+            c.header,
+            plan.waits.len(),
+            plan.segments()
+        );
+        for line in crate::gcode::waits::waits_text(plan) {
+            text.push_str(&format!("  {line}\n"));
+        }
+        text.push_str(NO_MEASURE);
+        text.push_str(".\nRun it? The machine moves; at each wait F6 goes on, Space ends the job.");
+        let title = format!("Run {}", c.header);
+        self.ask(&title, text, Answer::RunPieces, Answer::Nothing);
+    }
+
+    /// Yes to the job with waits: every piece converted and checked once
+    /// (a piece that does not convert or cannot be cut refuses the job
+    /// before anything moves), then piece 1.
+    pub(super) fn pieces_begin(&mut self) {
+        let ctx = self.ctx;
+        let language = self.e.language();
+        if let Some(why) = self.job_refused() {
+            self.say(NoteLevel::Danger, format!("run refused: {why}"));
+            return;
+        }
+        let Some(g) = self.e.gcode.as_ref() else {
+            return;
+        };
+        let c = &g.converted;
+        let Some(w) = c.waits.as_ref() else {
+            return;
+        };
+        let profile = &ctx.setup.profile;
+        let mut first = None;
+        for k in 0..w.plan.segments() {
+            match c.piece_uploads(k, (0.0, 0.0), profile, language) {
+                Ok(parts) => {
+                    if first.is_none() {
+                        first = Some(parts);
+                    }
+                }
+                Err(why) => {
+                    self.say(NoteLevel::Danger, format!("run refused: {why}"));
+                    return;
+                }
+            }
+        }
+        let Some(parts) = first else {
+            return;
+        };
+        // No measure in the console: the sequence goes from a confirmed
+        // tool change to the next piece with the shift of the one before.
+        let sequence = Sequence::new(w.plan.clone(), false, 0.0);
+        let pieces = Pieces {
+            sequence,
+            header: w.header.clone(),
+            piece: 0,
+            wait: None,
+        };
+        self.e.chunked = Some(Chunked {
+            parts,
+            part: 0,
+            phase: Phase::Uploading,
+            pause_next: false,
+            started: ctx.now,
+            paused_at: Vec::new(),
+            paused_read: false,
+            pieces: Some(Box::new(pieces)),
+        });
+        self.outputs_arm();
+        self.job_log_start(crate::gcode::ways::Way::Chunked);
+        self.chunked_upload();
+    }
+
+    /// The last part of a piece ended: the wait after it, or the job's end.
+    pub(super) fn piece_ended(&mut self) {
+        let now = self.ctx.now;
+        let isel = self.ctx.setup.protocol == crate::proto::Protocol::Isel;
+        let Some(c) = self.e.chunked.as_mut() else {
+            return;
+        };
+        let Some(p) = c.pieces.as_mut() else {
+            return;
+        };
+        p.sequence.done();
+        match p.sequence.step() {
+            Next::Confirm { index } => {
+                let plan = p.sequence.plan();
+                let Some(wait) = plan.waits.get(index) else {
+                    return;
+                };
+                let at = plan.waits_at(index, p.sequence.shift()).unwrap_or(wait.at);
+                let place = if wait.is_tool_change() {
+                    format!(
+                        "the spindle off, the tool at machine X {:.3} Y {:.3} Z {:.3}; {NO_MEASURE}",
+                        at.x, at.y, at.z
+                    )
+                } else {
+                    "the tool where the program left it".to_owned()
+                };
+                let text = format!(
+                    "{} ended: line {}: {}: {place}: F6 goes on, Space ends the job",
+                    p.label(),
+                    wait.origin.line,
+                    wait.what()
+                );
+                p.wait = Some(AtWait {
+                    index,
+                    since: now,
+                    erasing: isel,
+                });
+                c.phase = Phase::Waiting;
+                c.pause_next = false;
+                c.paused_at = standing(self.ctx);
+                c.paused_read = false;
+                let kept = self.outputs_paused();
+                if isel {
+                    self.out.effects.push(Effect::Device(erase_request()));
+                }
+                self.say(NoteLevel::Warning, format!("WAIT {text}{kept}"));
+            }
+            Next::Done => {
+                let secs = now.saturating_duration_since(c.started).as_secs_f64();
+                let text = format!(
+                    "the job ended: {} pieces in {secs:.1} s",
+                    p.sequence.plan().segments()
+                );
+                self.e.chunked = None;
+                self.outputs_ended();
+                self.say(NoteLevel::Info, text);
+            }
+            other => {
+                let text = format!("the job ends: {other:?} is not the console's to do");
+                self.job_log_end(crate::joblog::How::Error);
+                self.chunked_end(text);
+            }
+        }
+    }
+
+    /// The erase before the wait answered: F6 may go on.
+    pub(super) fn wait_erased(&mut self) {
+        let Some(p) = self.e.chunked.as_mut().and_then(|c| c.pieces.as_mut()) else {
+            return;
+        };
+        let Some(at) = p.wait.as_mut().filter(|w| w.erasing) else {
+            return;
+        };
+        at.erasing = false;
+        let text = p
+            .current_wait()
+            .map(|w| format!("the piece that ran is erased: {}", wait_text(w, false)));
+        if let Some(text) = text {
+            self.say(NoteLevel::Info, text);
+        }
+    }
+
+    /// F6 at a wait: the operator confirms, the next piece is converted
+    /// for the tool in the spindle and stored.
+    pub(super) fn wait_key(&mut self) {
+        let now = self.ctx.now;
+        let profile = std::sync::Arc::clone(&self.ctx.setup.profile);
+        let language = self.e.language();
+        let here = standing(self.ctx);
+        let machine = self.ctx.machine;
+        let axes = self.ctx.setup.axis_set();
+        // The next piece has no reference run: it goes on only from a
+        // machine in the state the piece before left it.
+        let unready = if !machine.link_up {
+            Some("the controller is not connected")
+        } else if machine.activity != crate::device::api::Activity::Idle {
+            Some("the machine must stand still")
+        } else if !axes.iter().all(|a| machine.referenced.contains(a)) {
+            Some("the axes are no longer referenced")
+        } else {
+            None
+        };
+        let Some(c) = self.e.chunked.as_mut() else {
+            return;
+        };
+        let Some(p) = c.pieces.as_mut() else {
+            return;
+        };
+        let Some(at) = p.wait.as_ref() else {
+            return;
+        };
+        let refused = if let Some(why) = unready {
+            Some((
+                NoteLevel::Danger,
+                format!("{why}: the job cannot go on from here; Space ends it"),
+            ))
+        } else if at.erasing {
+            Some((
+                NoteLevel::Info,
+                "the piece that ran is being erased (@0k, about 2 s): F6 again in a moment".into(),
+            ))
+        } else if now.saturating_duration_since(at.since) < WAIT_ARMED {
+            Some((
+                NoteLevel::Info,
+                "the wait has just begun: F6 again to go on".into(),
+            ))
+        } else if !c.paused_read {
+            Some((
+                NoteLevel::Info,
+                "the position at the wait is being read: F6 again in a moment".into(),
+            ))
+        } else if c.paused_at != here {
+            Some((
+                NoteLevel::Danger,
+                "the axes moved since the wait: the next piece begins with a straight move from \
+                 where the tool stands; put them back where the job waits, or Space ends the job"
+                    .into(),
+            ))
+        } else {
+            None
+        };
+        if let Some((level, text)) = refused {
+            self.say(level, text);
+            return;
+        }
+        let line = p.current_wait().map_or(0, |w| w.origin.line);
+        p.sequence.confirmed();
+        p.wait = None;
+        match p.sequence.step() {
+            Next::Run {
+                index,
+                dz_before,
+                dz,
+            } => {
+                let uploads = self.e.gcode.as_ref().map(|g| {
+                    g.converted
+                        .piece_uploads(index, (dz_before, dz), &profile, language)
+                });
+                let Some(c) = self.e.chunked.as_mut() else {
+                    return;
+                };
+                match uploads {
+                    Some(Ok(parts)) => {
+                        c.parts = parts;
+                        c.part = 0;
+                        if let Some(p) = c.pieces.as_mut() {
+                            p.piece = index;
+                        }
+                        let text = format!("line {line}: going on with {}", c.label());
+                        self.say(NoteLevel::Info, text);
+                        self.chunked_upload();
+                    }
+                    Some(Err(why)) => {
+                        self.job_log_end(crate::joblog::How::Error);
+                        self.chunked_end(format!("{why}: the job ends here"));
+                    }
+                    None => {
+                        self.job_log_end(crate::joblog::How::Error);
+                        self.chunked_end("the converted job is gone: the job ends here".into());
+                    }
+                }
+            }
+            other => {
+                let text = format!("the job ends: {other:?} is not the console's to do");
+                self.job_log_end(crate::joblog::How::Error);
+                self.chunked_end(text);
+            }
+        }
+    }
+}

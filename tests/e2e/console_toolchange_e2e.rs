@@ -1,0 +1,163 @@
+//! End to end: the console runs a job with two tools (`M6 T1`, `M6 T2`)
+//! itself (issue 40, 3; `docs/editor.md`, "Tool changes and pauses"): the
+//! real binary in a pseudo-terminal against `jogterm sim --pty`. F6 asks
+//! with every wait; each piece is stored and run; at each change the
+//! stored piece is erased (`@0k`) and the console waits at the change
+//! position, saying what for, until F6; then the next piece, and the end.
+//! The console does not measure the new tool (`jogterm run` does:
+//! `toolchange_e2e`): both tools cut at the program's depth.
+
+use crate::console_pty::{self, spawn_on, wait_for};
+use crate::editor_e2e;
+use crate::sim_process::SimProcess;
+
+use std::time::{Duration, Instant};
+
+/// 400 steps/mm; G54's zero at machine X50 Y50 Z60 mm.
+const WORK_ZERO: &str = "X50 Y50 Z60";
+
+/// A faster machine, the change position X25 Y0 Z40 (machine mm), a tool
+/// sensor the console does not use.
+const MACHINE: (&str, &str) = (
+    "profiles/default.toml",
+    "[axes.X]\nmax_speed = 60.0\n[axes.Y]\nmax_speed = 60.0\n[axes.Z]\nmax_speed = 30.0\n\
+     [isel]\nreference_speed_hz = 12000\n\
+     [probe]\ntool_sensor = \"X25 Y0 Z27.5\"\n[tools]\nchange_at = \"X25 Y0 Z40\"\n",
+);
+
+/// T1 cuts along Y10 from X10 to X20 at Z-1, T2 from X30 to X40.
+const JOB: &str = "(T1 D=6 CR=0 - ZMIN=-1 - flat end mill)\n\
+(T2 D=3.175 CR=0 - ZMIN=-1 - ball end mill)\n\
+G21 G90 G17\n\
+M6 T1\n\
+M3 S10000\n\
+G0 Z5\n\
+G0 X10 Y10\nG1 Z-1 F300\nG1 X20 F600\nG0 Z5\n\
+M5\n\
+M6 T2\n\
+M3 S12000\n\
+G0 X30 Y10\nG1 Z-1 F300\nG1 X40 F600\nG0 Z5\n\
+M30\n";
+
+/// The X, Y and Z steps of every absolute move stored (`m…`), in order.
+fn moves(received: &str) -> Vec<[i64; 3]> {
+    received
+        .split("<CR>")
+        .filter_map(|c| {
+            let rest = c.trim_start_matches("@0i").strip_prefix('m')?;
+            let n: Vec<i64> = rest.split(',').filter_map(|v| v.parse().ok()).collect();
+            Some([*n.first()?, *n.get(2)?, *n.get(4)?])
+        })
+        .collect()
+}
+
+/// F6 at the wait until the job goes on: once the erase has answered
+/// and the position at the wait is read the console takes it, and the
+/// wait's words (`waiting`) leave the status line. One F6 at a time, each
+/// after the last was seen to do nothing: a second one would answer the
+/// next wait.
+fn confirm(run: &mut crate::ui_pty::PtyRun, waiting: &str) {
+    let end = Instant::now() + Duration::from_secs(30);
+    loop {
+        std::thread::sleep(Duration::from_millis(700));
+        run.type_keys(&[b"\x1b[17~"]);
+        let gone = Instant::now() + Duration::from_secs(2);
+        while Instant::now() < gone {
+            if !run.screen().screen().contents().contains(waiting) {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        assert!(
+            Instant::now() < end,
+            "F6 never went on:\n{}",
+            run.screen().screen().contents()
+        );
+    }
+}
+
+#[test]
+fn the_console_waits_at_each_tool_change_until_f6_and_runs_the_pieces() {
+    let mut sim = SimProcess::options("isel")
+        .files(&[MACHINE])
+        .time_scale(20.0)
+        .start();
+    let state = tempfile::tempdir().expect("state dir");
+    let job = sim.dir.path().join("two-tools.nc");
+    std::fs::write(&job, JOB).expect("write the job");
+    let link = sim.link.display().to_string();
+    let job_arg = job.display().to_string();
+    let mut run = spawn_on(
+        &sim,
+        state.path(),
+        &[
+            "--port",
+            &link,
+            "--work-zero",
+            WORK_ZERO,
+            "--program",
+            &job_arg,
+        ],
+    );
+    wait_for(&run, "Job two-tools.nc");
+    run.type_keys(&[b"\x1bOS"]);
+    wait_for(&run, "Position");
+    console_pty::reference(&mut run);
+    run.type_keys(&[b"e"]);
+    wait_for(&run, "two-tools.isel");
+    let before = sim.received().len();
+    run.type_keys(&[b"\x1b[17~"]);
+    let screen = wait_for(&run, "Run two-tools.nc");
+    assert!(screen.contains("2 tool changes and pauses"), "{screen}");
+    run.type_keys(&[b"y"]);
+    // T1: the first change, before any move; the piece before it
+    // references and goes to the change position (X25 Y0 Z40: 10000, 0,
+    // 16000 steps), erased there.
+    let t1 = "WAIT T1 flat end mill, D=6: F6 goes on, Space ends";
+    let screen = wait_for(&run, t1);
+    assert!(!screen.contains("piece 2/3"), "{screen}");
+    std::thread::sleep(Duration::from_secs(1));
+    let at = sim.device_state();
+    assert!(
+        at.starts_with("device: X 10000 Y 0 Z 16000 "),
+        "waits at the change position: {at}"
+    );
+    confirm(&mut run, t1);
+    let t2 = "WAIT T2 ball end mill, D=3.175: F6 goes on, Space ends";
+    wait_for(&run, t2);
+    let at = sim.device_state();
+    assert!(
+        at.starts_with("device: X 10000 Y 0 Z 16000 "),
+        "waits at the change position: {at}"
+    );
+    confirm(&mut run, t2);
+    wait_for(&run, "the job ended: 3 pieces");
+    let received = sim.received();
+    let received = received.get(before..).unwrap_or_default();
+    assert!(
+        received.matches("@0k").count() >= 2,
+        "each wait erases the piece before it: {received}"
+    );
+    let moves = moves(received);
+    // T1's cut ends at X20 Y10 Z-1 (machine 70, 60, 59 mm), T2's at X40:
+    // no measure, both at the program's depth.
+    assert!(moves.contains(&[28_000, 24_000, 23_600]), "{moves:?}");
+    assert!(moves.contains(&[36_000, 24_000, 23_600]), "{moves:?}");
+    run.type_keys(&[b"\x1bOS"]);
+    wait_for(&run, "Position");
+    editor_e2e::quit_discarding_the_edits(&mut run);
+    // The job log followed the pieces: done, its last line after T2's
+    // change.
+    let log = sim
+        .configured(&["log", "--json"])
+        .env("JOGTERM_STATE_DIR", state.path())
+        .output()
+        .expect("jogterm log");
+    let log: serde_json::Value = serde_json::from_slice(&log.stdout).expect("the log as JSON");
+    let job = &log["runs"][0];
+    assert_eq!(job["how"], "done", "{log:#}");
+    assert!(
+        job["last_line"].as_u64().is_some_and(|l| l > 12),
+        "the last line after the second change: {log:#}"
+    );
+}
