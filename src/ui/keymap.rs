@@ -169,7 +169,7 @@ named_enum! {
         TeachSlower = "teach-slower", "slower speed for taught moves";
         TeachFaster = "teach-faster", "faster speed for taught moves";
         Upload = "upload", "upload the program (asks to erase a stored one)";
-        RunProgram = "run-program", "start the stored program (asks); EMCU job: pause / go on; a G-code job's WAIT: go on";
+        RunProgram = "run-program", "start the program (asks); EMCU: pause/go on; WAIT: go on";
         CloseEditor = "close-editor", "back to the machine screen";
         CursorUp = "cursor-up", "cursor up";
         CursorDown = "cursor-down", "cursor down";
