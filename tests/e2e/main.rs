@@ -21,6 +21,7 @@
 // message (Cargo.toml [lints] denies them in the crate itself).
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
+mod console_big_jobs_e2e;
 mod console_pty;
 mod device_support;
 mod faults_support;

@@ -9,7 +9,7 @@ use std::time::Duration;
 use crate::sim_process::{JOGTERM, SimProcess};
 use crate::ui_pty::PtyRun;
 
-const WORK_ZERO: &str = "X50 Y50 Z60";
+pub(crate) const WORK_ZERO: &str = "X50 Y50 Z60";
 
 /// A faster machine than the default (X and Y 60 mm/s, Z 30 mm/s) with a
 /// program memory of 30 commands, as its simulator; the simulated axes
@@ -63,7 +63,7 @@ fn steps(work_mm: [f64; 3]) -> [i64; 3] {
     [0, 1, 2].map(|i| ((work_mm[i] + zero[i]) * 400.0).round() as i64)
 }
 
-fn stands_at(sim: &mut SimProcess, work_mm: [f64; 3]) {
+pub(crate) fn stands_at(sim: &mut SimProcess, work_mm: [f64; 3]) {
     stands_at_steps(sim, steps(work_mm));
 }
 
@@ -549,7 +549,7 @@ fn a_restart_from_a_line_retracts_goes_above_its_start_descends_at_feed_and_ends
 /// A CAM-style finish of `passes` passes of 200 short cuts (0.25 mm in X
 /// over a rough surface, so the import merges none), each entered from and
 /// left to the safe height Z5: 203 moves a pass.
-fn finish(passes: usize) -> String {
+pub(crate) fn finish(passes: usize) -> String {
     let mut text = String::from("%\n(finish)\nG21 G90 G17\nG0 Z5\n");
     for pass in 0..passes {
         let y = 5.0 + pass as f64 * 0.4;
@@ -566,7 +566,7 @@ fn finish(passes: usize) -> String {
 }
 
 /// The finish's last point: the end of its last pass, retracted.
-fn finish_end(passes: usize) -> [f64; 3] {
+pub(crate) fn finish_end(passes: usize) -> [f64; 3] {
     [55.0, 5.0 + (passes - 1) as f64 * 0.4, 5.0]
 }
 
@@ -577,7 +577,7 @@ fn finish_end(passes: usize) -> [f64; 3] {
 /// (`benches/jobs.rs` measures that at the controller's speed). Nothing in
 /// jogterm's deadlines gets shorter with the scale: every reply only comes
 /// sooner than the controller's would.
-const JOB_SCALE: f64 = 500.0;
+pub(crate) const JOB_SCALE: f64 = 500.0;
 const JOB_BAUD: &str = "921600";
 
 /// The faster machine with the controller's own memory (2000 commands).
