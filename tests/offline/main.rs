@@ -15,6 +15,7 @@ mod ui_support;
 mod checkout_ui;
 mod editor_gcode;
 mod editor_update;
+mod gcode_golden;
 mod jog_keypad;
 mod jog_limit_ui;
 mod jog_ui;
