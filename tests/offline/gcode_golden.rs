@@ -33,8 +33,16 @@ fn pieces_hash(
     let mut all = String::new();
     for k in 0..i.plan.segments() {
         let dz = k as f64 * 0.25;
-        let piece = convert_piece(&i.plan, k, (dz - 0.25, dz), profile, target, &header)
-            .unwrap_or_else(|e| panic!("piece {k}: {:?}", &e[..e.len().min(3)]));
+        let piece = convert_piece(
+            &i.plan,
+            &i.toolpath,
+            k,
+            (dz - 0.25, dz),
+            profile,
+            target,
+            &header,
+        )
+        .unwrap_or_else(|e| panic!("piece {k}: {:?}", &e[..e.len().min(3)]));
         all.push_str(&format!("{:016x}\n", fnv(&piece.text("bench.nc"))));
     }
     (i.plan.segments(), fnv(&all))
