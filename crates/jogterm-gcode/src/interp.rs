@@ -245,19 +245,24 @@ pub struct Interpreter<'a> {
 
 /// Interprets a read file (the reader's errors first).
 pub fn interpret(text: &str, setup: &Setup) -> Result<Toolpath, Vec<Diagnostic>> {
-    let read = super::reader::read(text);
+    // The blocks as the reader makes them, one at a time: a file's blocks
+    // are never all in memory.
+    let mut blocks = super::reader::blocks(text);
     let mut it = Interpreter::new(setup);
-    if read.blocks.is_empty() && read.errors.is_empty() {
-        it.error(
-            Origin { line: 1, col: 1 },
-            "the file holds no G-code: nothing to run",
-        );
-    }
+    let mut anything = false;
     // The reader's errors in line order among the interpreter's: a line
     // that could not be read may have held any word.
-    let mut unread = read.errors.into_iter().peekable();
-    for block in &read.blocks {
-        while let Some(e) = unread.next_if(|e| e.origin.line < block.line) {
+    let mut unread = Vec::new();
+    for item in blocks.by_ref() {
+        anything = true;
+        let block = match item {
+            Ok(block) => block,
+            Err(e) => {
+                unread.push(e);
+                continue;
+            }
+        };
+        for e in unread.drain(..) {
             it.error_diag(e);
             it.doubt = Doubt::everything();
         }
@@ -280,12 +285,26 @@ pub fn interpret(text: &str, setup: &Setup) -> Result<Toolpath, Vec<Diagnostic>>
             }
             continue;
         }
-        it.block(block);
+        it.block(&block);
     }
+    // The errors of lines after the last block run, and of the lines not
+    // run (read to the end for them and for the count of lines).
     for e in unread {
         it.error_diag(e);
     }
-    it.finish(read.lines)
+    for item in blocks.by_ref() {
+        anything = true;
+        if let Err(e) = item {
+            it.error_diag(e);
+        }
+    }
+    if !anything {
+        it.error(
+            Origin { line: 1, col: 1 },
+            "the file holds no G-code: nothing to run",
+        );
+    }
+    it.finish(blocks.lines())
 }
 
 /// The modal state the lines before `line` (1-based) leave in force: the

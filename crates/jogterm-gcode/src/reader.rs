@@ -69,35 +69,80 @@ pub struct Read {
     pub errors: Vec<Diagnostic>,
 }
 
-/// Reads a whole file.
+/// Reads a whole file: [`blocks`] collected.
+pub fn read(text: &str) -> Read {
+    let mut blocks = blocks(text);
+    let mut out = Read::default();
+    for item in blocks.by_ref() {
+        match item {
+            Ok(block) => out.blocks.push(block),
+            Err(e) => out.errors.push(e),
+        }
+    }
+    out.lines = blocks.lines();
+    out
+}
+
+/// The blocks of a file one at a time, in line order, as [`read`] reads
+/// them: each line's block, or the error of a line that could not be read
+/// (a line with no words and no comment yields nothing). The interpreter
+/// takes them as they come, so that a file's blocks are never all in
+/// memory at once.
 ///
 /// The scanner works on the line's bytes: every byte that means something
 /// here is ASCII, and in UTF-8 no byte of a multi-byte character is ASCII,
 /// so a `(` or a digit found by byte is one. Columns are counted in
 /// characters (what an editor shows) only where a line holds non-ASCII
 /// text; for the ASCII lines CAM posts write, a byte index is the column.
-pub fn read(text: &str) -> Read {
+pub fn blocks(text: &str) -> Blocks<'_> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let mut out = Read::default();
-    let mut pieces = 0usize;
-    for (index, raw) in text.split('\n').enumerate() {
-        pieces = index + 1;
-        let line_no = u32::try_from(index + 1).unwrap_or(u32::MAX);
-        let raw = raw.strip_suffix('\r').unwrap_or(raw);
-        match read_line(raw, line_no) {
-            Ok(Some(block)) => out.blocks.push(block),
-            Ok(None) => {}
-            Err(e) => out.errors.push(e),
+    Blocks {
+        pieces: text.split('\n'),
+        seen: 0,
+        // The piece after a final newline is no line (and an empty text
+        // has none).
+        last_is_no_line: text.is_empty() || text.ends_with('\n'),
+    }
+}
+
+/// The iterator of [`blocks`].
+#[derive(Debug, Clone)]
+pub struct Blocks<'a> {
+    pieces: std::str::Split<'a, char>,
+    /// Pieces of the text taken so far.
+    seen: usize,
+    last_is_no_line: bool,
+}
+
+impl Blocks<'_> {
+    /// Lines in the file (a final line without newline counts); what
+    /// [`Read::lines`] says once the iterator is through.
+    pub fn lines(&self) -> u32 {
+        let lines = if self.last_is_no_line {
+            self.seen.saturating_sub(1)
+        } else {
+            self.seen
+        };
+        u32::try_from(lines).unwrap_or(u32::MAX)
+    }
+}
+
+impl Iterator for Blocks<'_> {
+    type Item = Result<Block, Diagnostic>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        loop {
+            let raw = self.pieces.next()?;
+            self.seen += 1;
+            let line_no = u32::try_from(self.seen).unwrap_or(u32::MAX);
+            let raw = raw.strip_suffix('\r').unwrap_or(raw);
+            match read_line(raw, line_no) {
+                Ok(Some(block)) => return Some(Ok(block)),
+                Ok(None) => {}
+                Err(e) => return Some(Err(e)),
+            }
         }
     }
-    // The piece after a final newline is no line (and an empty text has none).
-    let lines = if text.is_empty() || text.ends_with('\n') {
-        pieces.saturating_sub(1)
-    } else {
-        pieces
-    };
-    out.lines = u32::try_from(lines).unwrap_or(u32::MAX);
-    out
 }
 
 fn error(line: u32, col: u32, message: impl Into<String>) -> Diagnostic {
