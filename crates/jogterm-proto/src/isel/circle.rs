@@ -262,17 +262,43 @@ fn steps_to_end(
     let last = (expected + margin).ceil() as u64;
     let mut walk = walk;
     walk.advance(first);
-    let mut best = (distance(walk.point()), first);
-    for k in first + 1..=last {
+    // The window walked twice: first for the least squared distance from
+    // the end, then taking `hypot` (what decides) only of the points whose
+    // square is within a relative 1e-9 of that least one. A square is
+    // within a few units in the last place of the exact one and `hypot`
+    // within one, so a point left out is farther than the nearest by
+    // `hypot` too, and the choice among the rest is the one among all; a
+    // step of the walk costs less than a `hypot`.
+    let square = |(x, y): (i64, i64)| {
+        let (dx, dy) = (x as f64 - target.0, y as f64 - target.1);
+        dx * dx + dy * dy
+    };
+    let at_first = walk;
+    let mut least = square(walk.point());
+    for _ in first + 1..=last {
         walk.step();
-        let d = distance(walk.point());
-        let nearer = d < best.0
-            || (d == best.0 && (k as f64 - expected).abs() < (best.1 as f64 - expected).abs());
+        least = least.min(square(walk.point()));
+    }
+    let bound = least * (1.0 + 1e-9);
+    let mut walk = at_first;
+    let mut best: Option<(f64, u64)> = None;
+    for k in first..=last {
+        if k > first {
+            walk.step();
+        }
+        let point = walk.point();
+        if square(point) > bound {
+            continue;
+        }
+        let d = distance(point);
+        let nearer = best.is_none_or(|(bd, bk)| {
+            d < bd || (d == bd && (k as f64 - expected).abs() < (bk as f64 - expected).abs())
+        });
         if nearer {
-            best = (d, k);
+            best = Some((d, k));
         }
     }
-    best.1
+    best.map_or(first, |b| b.1)
 }
 
 /// Half the window [`steps_to_end`] searches: the walk and the arc part by
