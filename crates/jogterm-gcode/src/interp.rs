@@ -253,7 +253,7 @@ pub fn interpret(text: &str, setup: &Setup) -> Result<Toolpath, Vec<Diagnostic>>
     // The reader's errors in line order among the interpreter's: a line
     // that could not be read may have held any word.
     let mut unread = Vec::new();
-    for item in blocks.by_ref() {
+    while let Some(item) = blocks.next() {
         anything = true;
         let block = match item {
             Ok(block) => block,
@@ -283,9 +283,11 @@ pub fn interpret(text: &str, setup: &Setup) -> Result<Toolpath, Vec<Diagnostic>>
                 );
                 break;
             }
+            blocks.recycle(block);
             continue;
         }
         it.block(&block);
+        blocks.recycle(block);
     }
     // The errors of lines after the last block run, and of the lines not
     // run (read to the end for them and for the count of lines).

@@ -99,6 +99,7 @@ pub fn blocks(text: &str) -> Blocks<'_> {
     Blocks {
         pieces: text.split('\n'),
         seen: 0,
+        spare: Vec::new(),
         // The piece after a final newline is no line (and an empty text
         // has none).
         last_is_no_line: text.is_empty() || text.ends_with('\n'),
@@ -112,6 +113,9 @@ pub struct Blocks<'a> {
     /// Pieces of the text taken so far.
     seen: usize,
     last_is_no_line: bool,
+    /// The words of a block given back ([`Blocks::recycle`]), for the next
+    /// block's: no allocation a line.
+    spare: Vec<Word>,
 }
 
 impl Blocks<'_> {
@@ -125,6 +129,13 @@ impl Blocks<'_> {
         };
         u32::try_from(lines).unwrap_or(u32::MAX)
     }
+
+    /// A block done with: its words' memory holds the next block's.
+    pub fn recycle(&mut self, block: Block) {
+        if block.words.capacity() > self.spare.capacity() {
+            self.spare = block.words;
+        }
+    }
 }
 
 impl Iterator for Blocks<'_> {
@@ -136,7 +147,7 @@ impl Iterator for Blocks<'_> {
             self.seen += 1;
             let line_no = u32::try_from(self.seen).unwrap_or(u32::MAX);
             let raw = raw.strip_suffix('\r').unwrap_or(raw);
-            match read_line(raw, line_no) {
+            match read_line(raw, line_no, std::mem::take(&mut self.spare)) {
                 Ok(Some(block)) => return Some(Ok(block)),
                 Ok(None) => {}
                 Err(e) => return Some(Err(e)),
@@ -180,8 +191,8 @@ impl Line<'_> {
 }
 
 /// One line to a block; `None` for a line with no words and no comment
-/// (blank, tape marker).
-fn read_line(raw: &str, line: u32) -> Result<Option<Block>, Diagnostic> {
+/// (blank, tape marker). `words`: memory for the block's words (emptied).
+fn read_line(raw: &str, line: u32, words: Vec<Word>) -> Result<Option<Block>, Diagnostic> {
     let l = Line {
         text: raw,
         bytes: raw.as_bytes(),
@@ -197,9 +208,12 @@ fn read_line(raw: &str, line: u32) -> Result<Option<Block>, Diagnostic> {
         .take_while(|&&b| b != b'(' && b != b';')
         .filter(|b| b.is_ascii_alphabetic())
         .count();
+    let mut words = words;
+    words.clear();
+    words.reserve_exact(letters);
     let mut block = Block {
         line,
-        words: Vec::with_capacity(letters),
+        words,
         ..Block::default()
     };
     let mut i = 0;
