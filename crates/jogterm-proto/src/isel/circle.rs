@@ -273,32 +273,54 @@ fn steps_to_end(
         let (dx, dy) = (x as f64 - target.0, y as f64 - target.1);
         dx * dx + dy * dy
     };
+    // The window's points are kept for the second look (it holds at most
+    // 2 WINDOW + 2 of them); were it ever longer, the walk is walked again.
     let at_first = walk;
-    let mut least = square(walk.point());
-    for _ in first + 1..=last {
-        walk.step();
-        least = least.min(square(walk.point()));
-    }
-    let bound = least * (1.0 + 1e-9);
-    let mut walk = at_first;
-    let mut best: Option<(f64, u64)> = None;
+    let mut kept = [(0i64, 0i64); 64];
+    let mut n = 0;
+    let mut all_kept = true;
+    let mut least = f64::INFINITY;
     for k in first..=last {
         if k > first {
             walk.step();
         }
         let point = walk.point();
-        if square(point) > bound {
-            continue;
-        }
-        let d = distance(point);
-        let nearer = best.is_none_or(|(bd, bk)| {
-            d < bd || (d == bd && (k as f64 - expected).abs() < (bk as f64 - expected).abs())
-        });
-        if nearer {
-            best = Some((d, k));
+        least = least.min(square(point));
+        match kept.get_mut(n) {
+            Some(slot) => {
+                *slot = point;
+                n += 1;
+            }
+            None => all_kept = false,
         }
     }
-    best.map_or(first, |b| b.1)
+    let bound = least * (1.0 + 1e-9);
+    let nearest = |points: &mut dyn Iterator<Item = (u64, (i64, i64))>| {
+        let mut best: Option<(f64, u64)> = None;
+        for (k, point) in points {
+            if square(point) > bound {
+                continue;
+            }
+            let d = distance(point);
+            let nearer = best.is_none_or(|(bd, bk)| {
+                d < bd || (d == bd && (k as f64 - expected).abs() < (bk as f64 - expected).abs())
+            });
+            if nearer {
+                best = Some((d, k));
+            }
+        }
+        best.map_or(first, |b| b.1)
+    };
+    if all_kept {
+        nearest(&mut (first..).zip(kept.iter().take(n).copied()))
+    } else {
+        nearest(&mut (first..=last).scan(at_first, |w, k| {
+            if k > first {
+                w.step();
+            }
+            Some((k, w.point()))
+        }))
+    }
 }
 
 /// Half the window [`steps_to_end`] searches: the walk and the arc part by
