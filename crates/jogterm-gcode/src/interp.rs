@@ -240,8 +240,14 @@ pub struct Interpreter<'a> {
     /// The last block's `Words`, emptied and filled again by the next
     /// block: one set of vectors for the file instead of new ones a block.
     spare: Words,
+    /// The modal groups of a block's G and M codes, reused from block to
+    /// block as `spare` is (no allocation a line).
+    groups: (Groups, Groups),
     doubt: Doubt,
 }
+
+/// A block's G or M codes by modal group, to find two of one group.
+type Groups = Vec<(u8, Word)>;
 
 /// Interprets a read file (the reader's errors first).
 pub fn interpret(text: &str, setup: &Setup) -> Result<Toolpath, Vec<Diagnostic>> {
@@ -359,6 +365,7 @@ impl<'a> Interpreter<'a> {
             warned_ignored: Vec::new(),
             named_from: [None; 3],
             spare: Words::default(),
+            groups: (Vec::new(), Vec::new()),
             doubt: Doubt::default(),
             units_from_file: false,
             warned_profile_unit: false,
@@ -440,8 +447,9 @@ impl<'a> Interpreter<'a> {
     fn sort(&mut self, block: &Block) -> Words {
         let mut w = std::mem::take(&mut self.spare);
         w.clear();
-        let mut g_groups: Vec<(u8, Word)> = Vec::new();
-        let mut m_groups: Vec<(u8, Word)> = Vec::new();
+        let (mut g_groups, mut m_groups) = std::mem::take(&mut self.groups);
+        g_groups.clear();
+        m_groups.clear();
         for word in &block.words {
             match word.letter {
                 'G' | 'M' => {
@@ -582,6 +590,7 @@ impl<'a> Interpreter<'a> {
             }
         }
         w.g.retain(|(code, _)| refused_g(*code).is_none());
+        self.groups = (g_groups, m_groups);
         w
     }
 

@@ -200,17 +200,20 @@ fn read_line(raw: &str, line: u32, words: Vec<Word>) -> Result<Option<Block>, Di
         number: line,
     };
     let bytes = l.bytes;
-    // One allocation of the right size for the words: a word starts with
-    // a letter, and the letters before any comment are at most the words
-    // (CAM lines hold 2-6; a Vec would start at 4 and double).
-    let letters = bytes
-        .iter()
-        .take_while(|&&b| b != b'(' && b != b';')
-        .filter(|b| b.is_ascii_alphabetic())
-        .count();
     let mut words = words;
     words.clear();
-    words.reserve_exact(letters);
+    if words.capacity() == 0 {
+        // One allocation of the right size for the words: a word starts
+        // with a letter, and the letters before any comment are at most
+        // the words (CAM lines hold 2-6; a Vec would start at 4 and
+        // double). A block given back has room already (`recycle`).
+        let letters = bytes
+            .iter()
+            .take_while(|&&b| b != b'(' && b != b';')
+            .filter(|b| b.is_ascii_alphabetic())
+            .count();
+        words.reserve_exact(letters);
+    }
     let mut block = Block {
         line,
         words,
