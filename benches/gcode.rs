@@ -579,7 +579,7 @@ fn main() {
                 );
                 println!();
                 println!(
-                    "ratio jogterm `import` to isel / CNCjs: wall {:.3}, CPU {:.3} (goal: at most 0.2); load average {}",
+                    "ratio jogterm `import` to isel / CNCjs: wall {:.3}, CPU {:.3} (issue 41 item 7: at most 0.10); load average {}",
                     t_import.as_secs_f64() / best.0.as_secs_f64(),
                     c_import.as_secs_f64() / best.1.as_secs_f64(),
                     load_average()
