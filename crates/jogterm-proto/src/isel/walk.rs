@@ -16,8 +16,11 @@
 //! from the start point to the point nearest the arc's end to compute `B`,
 //! and the simulator and every preview step it `B` times to find where a
 //! `y`/`w` leaves the tool. A step costs a few integer operations and no
-//! allocation; [`ArcWalk::advance`] skips whole laps once it has found the
-//! walk's period, so a hand-made `B` of billions stays cheap.
+//! allocation; [`ArcWalk::advance`] computes where the walk stands after
+//! many steps within a quadrant instead of stepping them (`leap`: exact,
+//! checked against [`ArcWalk::step`] by property tests), and skips whole
+//! laps once it has found the walk's period, so a hand-made `B` of billions
+//! stays cheap.
 
 use super::command::CircleDirection;
 
