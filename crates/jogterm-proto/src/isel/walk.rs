@@ -287,7 +287,7 @@ fn from_first(q: u8, (a, b): (i64, i64)) -> (i64, i64) {
 /// steps at `(t(d − j + 1) + d − j, t(d − j + 1))`. x never grows, so the
 /// walk stays in the quadrant as long as that x is at least 1; the largest
 /// such `j` is found by bisection. Everything is exact integer arithmetic;
-/// `walk_tests` checks it against the step-by-step walk.
+/// the tests below check it against the step-by-step walk.
 fn leap(r2: i64, (x, y): (i64, i64), steps: u64) -> Option<(u64, i64, i64)> {
     if x < 1 || y < 0 {
         return None;
