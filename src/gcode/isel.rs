@@ -30,7 +30,9 @@
 use crate::axis::Axis;
 use crate::config::profile::{AxisProfile, Profile};
 use crate::program::ISEL_CAPACITY;
-use crate::proto::isel::{CircleDirection, CircleError, Plane as IselPlane, circle, helix};
+use crate::proto::isel::{
+    CircleDirection, CircleError, CircleParams, CncCommand, Plane as IselPlane, circle, helix,
+};
 use crate::proto::typed::isel_config;
 use crate::wiring::{BitKind, Level, Role};
 
@@ -467,8 +469,8 @@ impl Writer<'_> {
             };
             match lines {
                 Ok([f, y]) => {
-                    self.program.command(f.to_string(), Some(arc.origin));
-                    self.program.command(y.to_string(), Some(arc.origin));
+                    self.program.command(cnc_text(&f), Some(arc.origin));
+                    self.program.command(cnc_text(&y), Some(arc.origin));
                 }
                 Err(CircleError::ArcTooShort) => {
                     self.line_instead(arc, hz);
@@ -545,6 +547,60 @@ fn push_int(out: &mut String, value: i64) {
     }
 }
 
+/// A circle's stored line (`f`, `y`, `w`: two of every arc) as its
+/// `Display` writes it, its numbers by [`push_int`] rather than through
+/// the formatting machinery; any other command through `Display`.
+fn cnc_text(command: &CncCommand) -> String {
+    let circle = |c: &CircleParams| {
+        [
+            i64::from(c.arc_length),
+            i64::from(c.speed),
+            i64::from(c.d),
+            i64::from(c.xs),
+            i64::from(c.ys),
+            i64::from(c.rx.value()),
+            i64::from(c.ry.value()),
+        ]
+    };
+    let mut values = [0i64; 8];
+    let (code, n) = match command {
+        CncCommand::SetCircleDirection(d) => {
+            values[0] = i64::from(d.value());
+            ('f', 1)
+        }
+        CncCommand::Circle(c) => {
+            values[..7].copy_from_slice(&circle(c));
+            ('y', 7)
+        }
+        CncCommand::Helix(h) => {
+            values[..7].copy_from_slice(&circle(&h.circle));
+            values[7] = i64::from(h.s3);
+            ('w', 8)
+        }
+        other => return other.to_string(),
+    };
+    // Sized exactly: a program holds two of these for every arc.
+    let digits = |v: i64| {
+        let mut n = v.unsigned_abs();
+        let mut len = usize::from(v < 0) + 1;
+        while n >= 10 {
+            n /= 10;
+            len += 1;
+        }
+        len
+    };
+    let len = values.iter().take(n).map(|&v| digits(v) + 1).sum::<usize>();
+    let mut out = String::with_capacity(len);
+    out.push(code);
+    for (k, &v) in values.iter().take(n).enumerate() {
+        if k > 0 {
+            out.push(',');
+        }
+        push_int(&mut out, v);
+    }
+    out
+}
+
 /// The wired start key of the profile: `in1.3` → port 1, bit 3, and the
 /// level it reads while released.
 fn start_key(profile: &Profile) -> Option<(u32, u32, u8, String)> {
@@ -577,7 +633,57 @@ fn isel_output(address: &str) -> Option<(u32, u32)> {
 
 #[cfg(test)]
 mod tests {
-    use super::push_int;
+    use super::{cnc_text, push_int};
+    use crate::proto::isel::{
+        CircleDirection, CircleParams, CncCommand, HelixParams, Sign, circle, helix,
+    };
+
+    #[test]
+    fn circle_lines_are_written_as_display_writes_them() {
+        let mut commands = vec![
+            CncCommand::SetCircleDirection(CircleDirection::Cw),
+            CncCommand::SetCircleDirection(CircleDirection::Ccw),
+            CncCommand::SetStartStop(3),
+        ];
+        for (r, a, e, dir) in [
+            (200, 135.0, 225.0, CircleDirection::Ccw),
+            (3, 10.0, 350.0, CircleDirection::Cw),
+            (40_000, 0.0, 0.0, CircleDirection::Ccw),
+            (8_388_607, 30.0, 200.0, CircleDirection::Ccw),
+        ] {
+            if let Ok(c) = circle(r, a, e, dir, 1500) {
+                commands.extend(c.cnc_lines());
+            }
+            if let Ok(h) = helix(r, a, e, dir, 40_000, -8_388_607) {
+                commands.extend(h.cnc_lines());
+            }
+        }
+        let extreme = CircleParams {
+            arc_length: u32::MAX,
+            speed: 0,
+            d: i32::MIN,
+            xs: i32::MAX,
+            ys: -1,
+            rx: Sign::Minus,
+            ry: Sign::Plus,
+        };
+        commands.push(CncCommand::Circle(extreme));
+        commands.push(CncCommand::Helix(HelixParams {
+            circle: extreme,
+            s3: i32::MIN,
+        }));
+        assert!(commands.len() > 12);
+        for c in &commands {
+            let text = cnc_text(c);
+            assert_eq!(text, c.to_string());
+            if matches!(
+                c,
+                CncCommand::Circle(_) | CncCommand::Helix(_) | CncCommand::SetCircleDirection(_)
+            ) {
+                assert_eq!(text.capacity(), text.len(), "{text}");
+            }
+        }
+    }
 
     #[test]
     fn push_int_writes_what_display_writes() {

@@ -53,16 +53,18 @@ pub fn plan_of(text: &str, path: &Toolpath, profile: &Profile) -> Result<Plan, V
 
 /// Piece `k` of `plan` (every Z `dz` higher, the piece before it `dz_before`),
 /// checked against the soft limits and converted for `target`: the
-/// program a host stores or streams between two waits.
+/// program a host stores or streams between two waits. `path`: the
+/// toolpath the plan was made of (`Import::toolpath`).
 pub fn convert_piece(
     plan: &Plan,
+    path: &Toolpath,
     k: usize,
     (dz_before, dz): (f64, f64),
     profile: &Profile,
     target: Target,
     header: &Header,
 ) -> Result<Program, Vec<Diagnostic>> {
-    let piece = plan.segment(k, dz_before, dz);
+    let piece = plan.segment(path, k, dz_before, dz);
     check_limits(&piece, &machine_of(profile, target)).map_err(|e| vec![e])?;
     let options = super::Options {
         continued: k > 0,
@@ -167,12 +169,28 @@ mod tests {
             system: "G54".into(),
             zero: crate::gcode::Point::default(),
         };
-        let first = convert_piece(&i.plan, 0, (0.0, 0.0), &profile, Target::Isel, &header)
-            .expect("piece 1");
+        let first = convert_piece(
+            &i.plan,
+            &i.toolpath,
+            0,
+            (0.0, 0.0),
+            &profile,
+            Target::Isel,
+            &header,
+        )
+        .expect("piece 1");
         let text = first.text("job.nc");
         assert!(text.contains("77 "), "the first piece references: {text}");
-        let second = convert_piece(&i.plan, 2, (0.0, 1.0), &profile, Target::Isel, &header)
-            .expect("piece 3");
+        let second = convert_piece(
+            &i.plan,
+            &i.toolpath,
+            2,
+            (0.0, 1.0),
+            &profile,
+            Target::Isel,
+            &header,
+        )
+        .expect("piece 3");
         let text = second.text("job.nc");
         assert!(!text.contains("\n77 "), "no reference run mid-job: {text}");
         assert!(text.contains("z_shift=1.0000"), "{text}");
@@ -180,7 +198,15 @@ mod tests {
         // 39 mm, 15600 steps at 400 steps/mm.
         assert!(text.contains(",15600,"), "the cut 1 mm higher: {text}");
         // A change position outside the soft limits is the piece's error.
-        let far = convert_piece(&i.plan, 2, (0.0, 500.0), &profile, Target::Isel, &header);
+        let far = convert_piece(
+            &i.plan,
+            &i.toolpath,
+            2,
+            (0.0, 500.0),
+            &profile,
+            Target::Isel,
+            &header,
+        );
         assert!(far.is_err());
     }
 

@@ -16,6 +16,7 @@ mod checkout_ui;
 mod editor_gcode;
 mod editor_update;
 mod frame_ui;
+mod gcode_golden;
 mod jog_keypad;
 mod jog_limit_ui;
 mod jog_ui;

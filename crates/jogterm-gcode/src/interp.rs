@@ -240,24 +240,35 @@ pub struct Interpreter<'a> {
     /// The last block's `Words`, emptied and filled again by the next
     /// block: one set of vectors for the file instead of new ones a block.
     spare: Words,
+    /// The modal groups of a block's G and M codes, reused from block to
+    /// block as `spare` is (no allocation a line).
+    groups: (Groups, Groups),
     doubt: Doubt,
 }
 
+/// A block's G or M codes by modal group, to find two of one group.
+type Groups = Vec<(u8, Word)>;
+
 /// Interprets a read file (the reader's errors first).
 pub fn interpret(text: &str, setup: &Setup) -> Result<Toolpath, Vec<Diagnostic>> {
-    let read = super::reader::read(text);
+    // The blocks as the reader makes them, one at a time: a file's blocks
+    // are never all in memory.
+    let mut blocks = super::reader::blocks(text);
     let mut it = Interpreter::new(setup);
-    if read.blocks.is_empty() && read.errors.is_empty() {
-        it.error(
-            Origin { line: 1, col: 1 },
-            "the file holds no G-code: nothing to run",
-        );
-    }
+    let mut anything = false;
     // The reader's errors in line order among the interpreter's: a line
     // that could not be read may have held any word.
-    let mut unread = read.errors.into_iter().peekable();
-    for block in &read.blocks {
-        while let Some(e) = unread.next_if(|e| e.origin.line < block.line) {
+    let mut unread = Vec::new();
+    while let Some(item) = blocks.next() {
+        anything = true;
+        let block = match item {
+            Ok(block) => block,
+            Err(e) => {
+                unread.push(e);
+                continue;
+            }
+        };
+        for e in unread.drain(..) {
             it.error_diag(e);
             it.doubt = Doubt::everything();
         }
@@ -278,14 +289,30 @@ pub fn interpret(text: &str, setup: &Setup) -> Result<Toolpath, Vec<Diagnostic>>
                 );
                 break;
             }
+            blocks.recycle(block);
             continue;
         }
-        it.block(block);
+        it.block(&block);
+        blocks.recycle(block);
     }
+    // The errors of lines after the last block run, and of the lines not
+    // run (read to the end for them and for the count of lines).
     for e in unread {
         it.error_diag(e);
     }
-    it.finish(read.lines)
+    for item in blocks.by_ref() {
+        anything = true;
+        if let Err(e) = item {
+            it.error_diag(e);
+        }
+    }
+    if !anything {
+        it.error(
+            Origin { line: 1, col: 1 },
+            "the file holds no G-code: nothing to run",
+        );
+    }
+    it.finish(blocks.lines())
 }
 
 /// The modal state the lines before `line` (1-based) leave in force: the
@@ -338,6 +365,7 @@ impl<'a> Interpreter<'a> {
             warned_ignored: Vec::new(),
             named_from: [None; 3],
             spare: Words::default(),
+            groups: (Vec::new(), Vec::new()),
             doubt: Doubt::default(),
             units_from_file: false,
             warned_profile_unit: false,
@@ -419,8 +447,9 @@ impl<'a> Interpreter<'a> {
     fn sort(&mut self, block: &Block) -> Words {
         let mut w = std::mem::take(&mut self.spare);
         w.clear();
-        let mut g_groups: Vec<(u8, Word)> = Vec::new();
-        let mut m_groups: Vec<(u8, Word)> = Vec::new();
+        let (mut g_groups, mut m_groups) = std::mem::take(&mut self.groups);
+        g_groups.clear();
+        m_groups.clear();
         for word in &block.words {
             match word.letter {
                 'G' | 'M' => {
@@ -561,6 +590,7 @@ impl<'a> Interpreter<'a> {
             }
         }
         w.g.retain(|(code, _)| refused_g(*code).is_none());
+        self.groups = (g_groups, m_groups);
         w
     }
 

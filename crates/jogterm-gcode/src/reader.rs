@@ -69,35 +69,91 @@ pub struct Read {
     pub errors: Vec<Diagnostic>,
 }
 
-/// Reads a whole file.
+/// Reads a whole file: [`blocks`] collected.
+pub fn read(text: &str) -> Read {
+    let mut blocks = blocks(text);
+    let mut out = Read::default();
+    for item in blocks.by_ref() {
+        match item {
+            Ok(block) => out.blocks.push(block),
+            Err(e) => out.errors.push(e),
+        }
+    }
+    out.lines = blocks.lines();
+    out
+}
+
+/// The blocks of a file one at a time, in line order, as [`read`] reads
+/// them: each line's block, or the error of a line that could not be read
+/// (a line with no words and no comment yields nothing). The interpreter
+/// takes them as they come, so that a file's blocks are never all in
+/// memory at once.
 ///
 /// The scanner works on the line's bytes: every byte that means something
 /// here is ASCII, and in UTF-8 no byte of a multi-byte character is ASCII,
 /// so a `(` or a digit found by byte is one. Columns are counted in
 /// characters (what an editor shows) only where a line holds non-ASCII
 /// text; for the ASCII lines CAM posts write, a byte index is the column.
-pub fn read(text: &str) -> Read {
+pub fn blocks(text: &str) -> Blocks<'_> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let mut out = Read::default();
-    let mut pieces = 0usize;
-    for (index, raw) in text.split('\n').enumerate() {
-        pieces = index + 1;
-        let line_no = u32::try_from(index + 1).unwrap_or(u32::MAX);
-        let raw = raw.strip_suffix('\r').unwrap_or(raw);
-        match read_line(raw, line_no) {
-            Ok(Some(block)) => out.blocks.push(block),
-            Ok(None) => {}
-            Err(e) => out.errors.push(e),
+    Blocks {
+        pieces: text.split('\n'),
+        seen: 0,
+        spare: Vec::new(),
+        // The piece after a final newline is no line (and an empty text
+        // has none).
+        last_is_no_line: text.is_empty() || text.ends_with('\n'),
+    }
+}
+
+/// The iterator of [`blocks`].
+#[derive(Debug, Clone)]
+pub struct Blocks<'a> {
+    pieces: std::str::Split<'a, char>,
+    /// Pieces of the text taken so far.
+    seen: usize,
+    last_is_no_line: bool,
+    /// The words of a block given back ([`Blocks::recycle`]), for the next
+    /// block's: no allocation a line.
+    spare: Vec<Word>,
+}
+
+impl Blocks<'_> {
+    /// Lines in the file (a final line without newline counts); what
+    /// [`Read::lines`] says once the iterator is through.
+    pub fn lines(&self) -> u32 {
+        let lines = if self.last_is_no_line {
+            self.seen.saturating_sub(1)
+        } else {
+            self.seen
+        };
+        u32::try_from(lines).unwrap_or(u32::MAX)
+    }
+
+    /// A block done with: its words' memory holds the next block's.
+    pub fn recycle(&mut self, block: Block) {
+        if block.words.capacity() > self.spare.capacity() {
+            self.spare = block.words;
         }
     }
-    // The piece after a final newline is no line (and an empty text has none).
-    let lines = if text.is_empty() || text.ends_with('\n') {
-        pieces.saturating_sub(1)
-    } else {
-        pieces
-    };
-    out.lines = u32::try_from(lines).unwrap_or(u32::MAX);
-    out
+}
+
+impl Iterator for Blocks<'_> {
+    type Item = Result<Block, Diagnostic>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        loop {
+            let raw = self.pieces.next()?;
+            self.seen += 1;
+            let line_no = u32::try_from(self.seen).unwrap_or(u32::MAX);
+            let raw = raw.strip_suffix('\r').unwrap_or(raw);
+            match read_line(raw, line_no, std::mem::take(&mut self.spare)) {
+                Ok(Some(block)) => return Some(Ok(block)),
+                Ok(None) => {}
+                Err(e) => return Some(Err(e)),
+            }
+        }
+    }
 }
 
 fn error(line: u32, col: u32, message: impl Into<String>) -> Diagnostic {
@@ -135,8 +191,8 @@ impl Line<'_> {
 }
 
 /// One line to a block; `None` for a line with no words and no comment
-/// (blank, tape marker).
-fn read_line(raw: &str, line: u32) -> Result<Option<Block>, Diagnostic> {
+/// (blank, tape marker). `words`: memory for the block's words (emptied).
+fn read_line(raw: &str, line: u32, words: Vec<Word>) -> Result<Option<Block>, Diagnostic> {
     let l = Line {
         text: raw,
         bytes: raw.as_bytes(),
@@ -144,17 +200,23 @@ fn read_line(raw: &str, line: u32) -> Result<Option<Block>, Diagnostic> {
         number: line,
     };
     let bytes = l.bytes;
-    // One allocation of the right size for the words: a word starts with
-    // a letter, and the letters before any comment are at most the words
-    // (CAM lines hold 2-6; a Vec would start at 4 and double).
-    let letters = bytes
-        .iter()
-        .take_while(|&&b| b != b'(' && b != b';')
-        .filter(|b| b.is_ascii_alphabetic())
-        .count();
+    let mut words = words;
+    words.clear();
+    if words.capacity() == 0 {
+        // One allocation of the right size for the words: a word starts
+        // with a letter, and the letters before any comment are at most
+        // the words (CAM lines hold 2-6; a Vec would start at 4 and
+        // double). A block given back has room already (`recycle`).
+        let letters = bytes
+            .iter()
+            .take_while(|&&b| b != b'(' && b != b';')
+            .filter(|b| b.is_ascii_alphabetic())
+            .count();
+        words.reserve_exact(letters);
+    }
     let mut block = Block {
         line,
-        words: Vec::with_capacity(letters),
+        words,
         ..Block::default()
     };
     let mut i = 0;

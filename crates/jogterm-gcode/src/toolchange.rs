@@ -22,6 +22,7 @@
 //! program's own pause (the machine's start key).
 
 use std::collections::BTreeMap;
+use std::ops::Range;
 
 use super::toolpath::{Line, Op, Origin, OutputSwitch, Pause, Point, Rapid, Toolpath};
 use super::tools::ToolInfo;
@@ -100,10 +101,16 @@ impl Wait {
 }
 
 /// A job cut at its waits.
+///
+/// The plan keeps where its pieces lie in the toolpath it was made of, not
+/// copies of their ops (half a million ops are some 60 MB): the methods
+/// that need the ops ([`Plan::segment`], [`Plan::expanded`],
+/// [`Plan::first_line`]) take that toolpath (`Import::toolpath`) again.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Plan {
-    /// The job's ops between the waits: one more than waits.
-    pieces: Vec<Vec<Op>>,
+    /// The job's ops between the waits, as ranges of the toolpath's ops
+    /// (the pauses between them left out): one more than waits.
+    pieces: Vec<Range<usize>>,
     pub waits: Vec<Wait>,
     /// The job's safe height (machine mm, unshifted): the highest Z its
     /// rapids reach, else its highest point.
@@ -198,19 +205,8 @@ impl Plan {
                     .reduce(f64::max)
             })
             .unwrap_or(start.z);
-        // Each piece sized at once for its ops (counted in a first pass
-        // over the ops), so that half a million ops are not copied again
-        // and again as the vectors grow, nor kept with spare room.
-        let mut sizes = vec![0usize];
-        for op in &path.ops {
-            if matches!(op, Op::Pause(_)) {
-                sizes.push(0);
-            } else if let Some(n) = sizes.last_mut() {
-                *n += 1;
-            }
-        }
-        let mut sizes = sizes.into_iter();
-        let mut pieces = vec![Vec::with_capacity(sizes.next().unwrap_or(0))];
+        let mut pieces = Vec::new();
+        let mut first = 0;
         let mut waits = Vec::new();
         let mut at = start;
         let mut outputs: Vec<OutputSwitch> = Vec::new();
@@ -251,7 +247,8 @@ impl Plan {
                         next,
                         descent_feed: feed,
                     });
-                    pieces.push(Vec::with_capacity(sizes.next().unwrap_or(0)));
+                    pieces.push(first..index);
+                    first = index + 1;
                     continue;
                 }
                 Op::Output(o) => match outputs.iter_mut().find(|x| x.address == o.address) {
@@ -267,10 +264,8 @@ impl Plan {
             if let Some(end) = end_of(op) {
                 at = end;
             }
-            if let Some(piece) = pieces.last_mut() {
-                piece.push(op.clone());
-            }
         }
+        pieces.push(first..path.ops.len());
         Plan {
             pieces,
             waits,
@@ -308,31 +303,51 @@ impl Plan {
         (self.safe_z + dz).max(also)
     }
 
+    /// Piece `k`'s own ops in `path`, the toolpath the plan was made of
+    /// (none where `path` is another, shorter one).
+    fn own<'a>(&self, path: &'a Toolpath, k: usize) -> &'a [Op] {
+        self.pieces
+            .get(k)
+            .and_then(|r| path.ops.get(r.clone()))
+            .unwrap_or_default()
+    }
+
     /// Piece `k` as a toolpath of its own, every Z of the job `dz` higher:
     /// the entry of the wait before it (the tool at the change position
     /// where the piece before, shifted by `dz_before`, left it), the job's
-    /// ops, and the exit of the wait after it with an end. Empty beyond the
-    /// last piece.
-    pub fn segment(&self, k: usize, dz_before: f64, dz: f64) -> Toolpath {
-        let own = self.pieces.get(k).map_or(0, Vec::len);
-        let mut ops = Vec::with_capacity(own + 16);
-        if let Some(before) = k.checked_sub(1) {
-            ops.extend(self.entry(before, dz_before, dz));
-        }
-        if let Some(piece) = self.pieces.get(k) {
-            ops.extend(piece.iter().map(|op| shifted(op, dz)));
-        }
-        if k < self.waits.len() {
-            ops.extend(self.exit(k, dz));
-            if let Some(w) = self.waits.get(k) {
-                ops.push(Op::End { origin: w.origin });
-            }
+    /// ops (of `path`, the toolpath the plan was made of), and the exit of
+    /// the wait after it with an end. Empty beyond the last piece.
+    pub fn segment(&self, path: &Toolpath, k: usize, dz_before: f64, dz: f64) -> Toolpath {
+        let mut ops = Vec::with_capacity(self.own(path, k).len() + 16);
+        self.push_segment(path, k, (dz_before, dz), &mut ops);
+        if k < self.waits.len()
+            && let Some(w) = self.waits.get(k)
+        {
+            ops.push(Op::End { origin: w.origin });
         }
         Toolpath {
             ops,
             lines: self.lines,
             warnings: Vec::new(),
             named_from: [0; 3],
+        }
+    }
+
+    /// Piece `k`'s entry, own ops and exit onto `ops` (see
+    /// [`Plan::segment`]), without the end.
+    fn push_segment(
+        &self,
+        path: &Toolpath,
+        k: usize,
+        (dz_before, dz): (f64, f64),
+        ops: &mut Vec<Op>,
+    ) {
+        if let Some(before) = k.checked_sub(1) {
+            ops.extend(self.entry(before, dz_before, dz));
+        }
+        ops.extend(self.own(path, k).iter().map(|op| shifted(op, dz)));
+        if k < self.waits.len() {
+            ops.extend(self.exit(k, dz));
         }
     }
 
@@ -344,14 +359,11 @@ impl Plan {
         // that a file of half a million moves is not copied as it grows.
         let mut ops = Vec::with_capacity(self.ops() + 8 * self.waits.len() + 1);
         for k in 0..self.segments() {
-            let mut segment = self.segment(k, dz, dz).ops;
+            // Each piece as `segment` has it, its end replaced by the wait.
+            self.push_segment(path, k, (dz, dz), &mut ops);
             if let Some(w) = self.waits.get(k) {
-                if matches!(segment.last(), Some(Op::End { .. })) {
-                    segment.pop();
-                }
-                segment.push(Op::Pause(w.pause.clone()));
+                ops.push(Op::Pause(w.pause.clone()));
             }
-            ops.extend(segment);
         }
         // The path's other fields, not `..path.clone()`: that would copy
         // all its ops only to drop them.
@@ -365,14 +377,14 @@ impl Plan {
 
     /// The job's own ops in all its pieces.
     fn ops(&self) -> usize {
-        self.pieces.iter().map(Vec::len).sum()
+        self.pieces.iter().map(ExactSizeIterator::len).sum()
     }
 
-    /// The first G-code line of piece `k`'s own ops (where a restart would
-    /// pick the job up after wait `k - 1`).
-    pub fn first_line(&self, k: usize) -> Option<u32> {
-        self.pieces
-            .get(k)?
+    /// The first G-code line of piece `k`'s own ops in `path`, the toolpath
+    /// the plan was made of (where a restart would pick the job up after
+    /// wait `k - 1`).
+    pub fn first_line(&self, path: &Toolpath, k: usize) -> Option<u32> {
+        self.own(path, k)
             .iter()
             .find(|op| end_of(op).is_some())
             .map(|op| op.origin().line)

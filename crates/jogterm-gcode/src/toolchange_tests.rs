@@ -61,7 +61,7 @@ const AT: ChangeAt = ChangeAt {
 
 #[test]
 fn the_job_is_cut_at_every_tool_change_and_pause_with_their_lines() {
-    let (_, plan) = plan(AT);
+    let (path, plan) = plan(AT);
     assert_eq!(plan.segments(), 4);
     let lines: Vec<u32> = plan.waits.iter().map(|w| w.origin.line).collect();
     assert_eq!(lines, [3, 10, 16]);
@@ -99,17 +99,17 @@ fn the_job_is_cut_at_every_tool_change_and_pause_with_their_lines() {
     // Before the first move the file has named no axis: nothing to go
     // back to, the file's own first moves lead from the change position.
     assert_eq!(plan.waits[0].next, None);
-    assert_eq!(plan.first_line(2), Some(12));
-    assert_eq!(plan.first_line(3), Some(17));
+    assert_eq!(plan.first_line(&path, 2), Some(12));
+    assert_eq!(plan.first_line(&path, 3), Some(17));
     assert_eq!(plan.safe_z, 5.0);
 }
 
 #[test]
 fn a_tool_change_leaves_retracted_to_the_change_position_and_comes_back_shifted() {
-    let (_, plan) = plan(AT);
+    let (path, plan) = plan(AT);
     // Piece 1: T1's cut, then up (already at 5), spindle off, to X100 Y0 at
     // the safe height, down to Z50... here up to it: 50 is the travel height.
-    let first = plan.segment(1, 0.0, 0.0);
+    let first = plan.segment(&path, 1, 0.0, 0.0);
     let m = moves(&first);
     assert_eq!(m.last(), Some(&('r', [100.0, 0.0, 50.0])), "{m:?}");
     assert_eq!(outputs(&first), [true, false]);
@@ -117,7 +117,7 @@ fn a_tool_change_leaves_retracted_to_the_change_position_and_comes_back_shifted(
     // Piece 2 after a tool 1 mm longer: from the change position up, over
     // the next point, spindle on, down to the safe height 6 and at the
     // plunge feed no further (the next move starts at the safe height).
-    let second = plan.segment(2, 0.0, 1.0);
+    let second = plan.segment(&path, 2, 0.0, 1.0);
     let m = moves(&second);
     assert_eq!(m[0], ('r', [100.0, 0.0, 50.0]));
     assert_eq!(m[1], ('r', [20.0, 10.0, 50.0]));
@@ -139,7 +139,7 @@ fn a_tool_change_leaves_retracted_to_the_change_position_and_comes_back_shifted(
     // An M0 waits in place: the piece before ends where the tool stands.
     let m = moves(&second);
     assert_eq!(m.last(), Some(&('r', [40.0, 10.0, 6.0])));
-    let after_pause = plan.segment(3, 1.0, 1.0);
+    let after_pause = plan.segment(&path, 3, 1.0, 1.0);
     assert_eq!(moves(&after_pause), [('r', [0.0, 0.0, 6.0])]);
 }
 

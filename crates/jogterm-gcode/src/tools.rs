@@ -59,15 +59,33 @@ impl ToolInfo {
 /// The tools described by the comments of `text`, by number.
 pub fn tool_table(text: &str) -> BTreeMap<u32, ToolInfo> {
     let mut table = BTreeMap::new();
-    for (index, line) in text.lines().enumerate() {
-        // Most lines of a CAM file hold no comment: a byte scan for the
-        // two characters that open one skips them without counting
-        // characters (both are ASCII, so no byte of another character is
-        // taken for them).
-        if !line.bytes().any(|b| b == b'(' || b == b';') {
-            continue;
+    let bytes = text.as_bytes();
+    // Most lines of a CAM file hold no comment: the text is searched for
+    // the two bytes that open one (both ASCII, so no byte of another
+    // character is taken for them) and only the lines that hold one are
+    // looked at, numbered by counting the newlines before them; those are
+    // the lines `str::lines` gives, a `\r` before the `\n` dropped.
+    let mut newlines = 0usize; // `\n` before `counted`
+    let mut counted = 0usize;
+    let mut from = 0usize;
+    while let Some(hit) = next_opener(bytes, from) {
+        let start = bytes
+            .get(..hit)
+            .and_then(|b| b.iter().rposition(|&b| b == b'\n'))
+            .map_or(0, |k| k + 1);
+        let end = bytes
+            .get(hit..)
+            .and_then(|b| b.iter().position(|&b| b == b'\n'))
+            .map_or(bytes.len(), |k| hit + k);
+        newlines += bytes
+            .get(counted..start)
+            .map_or(0, |b| b.iter().filter(|&&b| b == b'\n').count());
+        counted = start;
+        let mut line = text.get(start..end).unwrap_or_default();
+        if end < bytes.len() {
+            line = line.strip_suffix('\r').unwrap_or(line);
         }
-        let line_no = u32::try_from(index + 1).unwrap_or(u32::MAX);
+        let line_no = u32::try_from(newlines + 1).unwrap_or(u32::MAX);
         for (col, comment) in comments(line) {
             if let Some(tool) = parse_tool(comment) {
                 table.entry(tool.number).or_insert(ToolInfo {
@@ -76,8 +94,30 @@ pub fn tool_table(text: &str) -> BTreeMap<u32, ToolInfo> {
                 });
             }
         }
+        from = end + 1;
     }
     table
+}
+
+/// The first `(` or `;` of `bytes` from `from` on: blocks of 64 bytes are
+/// tested whole (a loop the compiler turns into vector compares), the one
+/// that holds it byte by byte.
+fn next_opener(bytes: &[u8], from: usize) -> Option<usize> {
+    let rest = bytes.get(from..)?;
+    let mut base = from;
+    for chunk in rest.chunks(64) {
+        let any = chunk
+            .iter()
+            .fold(0u8, |a, &b| a | u8::from(b == b'(') | u8::from(b == b';'));
+        if any != 0 {
+            return chunk
+                .iter()
+                .position(|&b| b == b'(' || b == b';')
+                .map(|k| base + k);
+        }
+        base += chunk.len();
+    }
+    None
 }
 
 /// The comments of one line with their 1-based columns (in characters):
@@ -146,6 +186,7 @@ fn parse_tool(comment: &str) -> Option<ToolInfo> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::prelude::Strategy as _;
 
     #[test]
     fn a_fusion_tool_table_names_each_tool() {
@@ -170,6 +211,56 @@ mod tests {
         assert_eq!(table[&3].origin, Origin { line: 1, col: 5 });
         assert_eq!(table[&4].description, "bull nose - 2 flutes");
         assert_eq!(table[&4].label(), "T4 bull nose - 2 flutes, D=1");
+    }
+
+    /// The table as it was read line by line (`str::lines`), the
+    /// reference of the byte search.
+    fn by_lines(text: &str) -> BTreeMap<u32, ToolInfo> {
+        let mut table = BTreeMap::new();
+        for (index, line) in text.lines().enumerate() {
+            let line_no = u32::try_from(index + 1).unwrap_or(u32::MAX);
+            for (col, comment) in comments(line) {
+                if let Some(tool) = parse_tool(comment) {
+                    table.entry(tool.number).or_insert(ToolInfo {
+                        origin: Origin { line: line_no, col },
+                        ..tool
+                    });
+                }
+            }
+        }
+        table
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(500))]
+
+        /// Lines of G-code, tool comments and others, CR LF or LF, blank
+        /// lines, a last line with or without its newline, long lines
+        /// across the search's 64-byte blocks: the same table, the same
+        /// lines and columns, as reading line by line.
+        #[test]
+        fn the_byte_search_finds_what_the_lines_hold(
+            lines in proptest::collection::vec(
+                proptest::prop_oneof![
+                    proptest::prelude::Just("G1 X1.5 Y-2".to_owned()),
+                    proptest::prelude::Just(String::new()),
+                    (1u32..5, "[a-z ]{0,80}").prop_map(|(n, d)| format!("(T{n} D=3 - {d})")),
+                    (1u32..5, "[ GX0-9.]{0,70}").prop_map(|(n, g)| format!("{g}; T{n} D=2 drill")),
+                    "[ -~]{0,150}",
+                    "[ (;)T1D=é\r]{0,20}",
+                ],
+                0..40,
+            ),
+            crlf in proptest::bool::ANY,
+            last_newline in proptest::bool::ANY,
+        ) {
+            let newline = if crlf { "\r\n" } else { "\n" };
+            let mut text = lines.join(newline);
+            if last_newline {
+                text.push_str(newline);
+            }
+            proptest::prop_assert_eq!(tool_table(&text), by_lines(&text));
+        }
     }
 
     #[test]

@@ -191,7 +191,7 @@ pub(super) async fn run(
                     Operator::with_keys(std::mem::replace(keys, Keys::none()), Some(here))
                 });
                 let offset = measure(session, w, op, &tool, &mut table, remedy).await?;
-                let line = sequence.plan().first_line(index + 1);
+                let line = sequence.plan().first_line(&import.toolpath, index + 1);
                 let said = format!(
                     "{tool}: offset {offset:+.4} mm against the reference tool {}: every Z{} is {:+.4} mm from the program's",
                     table.reference.as_deref().unwrap_or("-"),
@@ -249,6 +249,7 @@ async fn piece(
     };
     let program = crate::gcode::waits::convert_piece(
         &imported.import.plan,
+        &imported.import.toolpath,
         index,
         shifts,
         &w.profile,
@@ -352,7 +353,8 @@ fn announce(w: &Waited, index: usize, at: Point, args: &RunArgs) {
         (true, Some(_)) => "; the new tool is then measured on the sensor".to_owned(),
         (true, None) => format!(
             "; no tool sensor: the new tool must have the old one's length (or stop, touch off Z and restart with --from-line {})",
-            plan.first_line(index + 1).unwrap_or(line)
+            plan.first_line(&w.imported.import.toolpath, index + 1)
+                .unwrap_or(line)
         ),
         (false, _) => String::new(),
     };

@@ -136,6 +136,7 @@ pub fn check(mut job: GcodeJob) -> GcodeChecked {
             )
             .with_waits(
                 &import.plan,
+                &import.toolpath,
                 crate::gcode::output::Header {
                     file: header.clone(),
                     profile: job.profile.name.clone(),

@@ -34,6 +34,8 @@ pub struct Converted {
 #[derive(Debug, Clone, PartialEq)]
 pub struct JobWaits {
     pub plan: Plan,
+    /// The toolpath the plan was made of: its pieces are ranges of it.
+    pub path: std::sync::Arc<crate::gcode::toolpath::Toolpath>,
     pub header: Header,
 }
 
@@ -218,12 +220,19 @@ impl Converted {
         }
     }
 
-    /// With the job's waits, where it has any (`import.plan`), and the
-    /// header its pieces are converted with.
-    pub fn with_waits(mut self, plan: &Plan, header: Header) -> Converted {
+    /// With the job's waits, where it has any (`import.plan`, made of
+    /// `path`, `import.toolpath`), and the header its pieces are converted
+    /// with.
+    pub fn with_waits(
+        mut self,
+        plan: &Plan,
+        path: &crate::gcode::toolpath::Toolpath,
+        header: Header,
+    ) -> Converted {
         if !plan.waits.is_empty() {
             self.waits = Some(Box::new(JobWaits {
                 plan: plan.clone(),
+                path: std::sync::Arc::new(path.clone()),
                 header,
             }));
         }
@@ -249,15 +258,16 @@ impl Converted {
             Language::Isel => crate::gcode::Target::Isel,
             Language::Emcu => crate::gcode::Target::Emcu,
         };
-        let piece =
-            crate::gcode::waits::convert_piece(&w.plan, k, shifts, profile, target, &w.header)
-                .map_err(|errors| {
-                    let first = errors
-                        .first()
-                        .map(|e| format!("line {}: {}", e.origin.line, e.message))
-                        .unwrap_or_default();
-                    format!("piece {} does not convert: {first}", k + 1)
-                })?;
+        let piece = crate::gcode::waits::convert_piece(
+            &w.plan, &w.path, k, shifts, profile, target, &w.header,
+        )
+        .map_err(|errors| {
+            let first = errors
+                .first()
+                .map(|e| format!("line {}: {}", e.origin.line, e.message))
+                .unwrap_or_default();
+            format!("piece {} does not convert: {first}", k + 1)
+        })?;
         let mut uploads = uploads_of(&piece, &self.header, language)
             .map_err(|why| format!("piece {}: {why}", k + 1))?;
         // The piece's lines to the buffer's (the whole program's) by the
@@ -387,6 +397,7 @@ pub(crate) mod tests {
         )
         .with_waits(
             &import.plan,
+            &import.toolpath,
             Header {
                 file: "pockets.nc".into(),
                 profile: profile.name.clone(),

@@ -262,17 +262,65 @@ fn steps_to_end(
     let last = (expected + margin).ceil() as u64;
     let mut walk = walk;
     walk.advance(first);
-    let mut best = (distance(walk.point()), first);
-    for k in first + 1..=last {
-        walk.step();
-        let d = distance(walk.point());
-        let nearer = d < best.0
-            || (d == best.0 && (k as f64 - expected).abs() < (best.1 as f64 - expected).abs());
-        if nearer {
-            best = (d, k);
+    // The window walked twice: first for the least squared distance from
+    // the end, then taking `hypot` (what decides) only of the points whose
+    // square is within a relative 1e-9 of that least one. A square is
+    // within a few units in the last place of the exact one and `hypot`
+    // within one, so a point left out is farther than the nearest by
+    // `hypot` too, and the choice among the rest is the one among all; a
+    // step of the walk costs less than a `hypot`.
+    let square = |(x, y): (i64, i64)| {
+        let (dx, dy) = (x as f64 - target.0, y as f64 - target.1);
+        dx * dx + dy * dy
+    };
+    // The window's points are kept for the second look (it holds at most
+    // 2 WINDOW + 2 of them); were it ever longer, the walk is walked again.
+    let at_first = walk;
+    let mut kept = [(0i64, 0i64); 64];
+    let mut n = 0;
+    let mut all_kept = true;
+    let mut least = f64::INFINITY;
+    for k in first..=last {
+        if k > first {
+            walk.step();
+        }
+        let point = walk.point();
+        least = least.min(square(point));
+        match kept.get_mut(n) {
+            Some(slot) => {
+                *slot = point;
+                n += 1;
+            }
+            None => all_kept = false,
         }
     }
-    best.1
+    let bound = least * (1.0 + 1e-9);
+    let nearest = |points: &mut dyn Iterator<Item = (u64, (i64, i64))>| {
+        let mut best: Option<(f64, u64)> = None;
+        for (k, point) in points {
+            if square(point) > bound {
+                continue;
+            }
+            let d = distance(point);
+            let nearer = best.is_none_or(|(bd, bk)| {
+                d < bd || (d == bd && (k as f64 - expected).abs() < (bk as f64 - expected).abs())
+            });
+            if nearer {
+                best = Some((d, k));
+            }
+        }
+        best.map_or(first, |b| b.1)
+    };
+    if all_kept {
+        nearest(&mut (first..).zip(kept.iter().take(n).copied()))
+    } else {
+        nearest(&mut (first..=last).scan(at_first, |w, k| {
+            if k > first {
+                w.step();
+            }
+            Some((k, w.point()))
+        }))
+    }
 }
 
 /// Half the window [`steps_to_end`] searches: the walk and the arc part by
@@ -458,6 +506,90 @@ mod tests {
         match circle(r, a, e, dir, 1000) {
             Ok(m) => m.params,
             Err(err) => panic!("{r} {a} {e}: {err}"),
+        }
+    }
+
+    /// `B` as the walk gives it step by step, with no leap (the reference
+    /// for [`steps_to_end`], which leaps to its window's first step): the
+    /// same window and the same choice of its nearest step.
+    fn steps_to_end_stepped(r: u32, start_deg: f64, end_deg: f64, dir: CircleDirection) -> u64 {
+        let radius = f64::from(r);
+        let sweep = sweep_deg(start_deg, end_deg, dir);
+        let a = start_deg.to_radians();
+        let start = (
+            (radius * a.cos()).round() as i64,
+            (radius * a.sin()).round() as i64,
+        );
+        let mut walk = ArcWalk::new(i64::from(r), start, dir);
+        let expected = manhattan_length(radius, start_deg, sweep, dir);
+        let end = match dir {
+            CircleDirection::Ccw => start_deg + sweep,
+            CircleDirection::Cw => start_deg - sweep,
+        }
+        .to_radians();
+        let target = (radius * end.cos(), radius * end.sin());
+        let distance = |(x, y): (i64, i64)| (x as f64 - target.0).hypot(y as f64 - target.1);
+        let margin = (2.0 * radius).min(WINDOW);
+        let first = (expected - margin).max(0.0).floor() as u64;
+        let last = (expected + margin).ceil() as u64;
+        let mut best: Option<(f64, u64)> = None;
+        for k in 0..=last {
+            if k > 0 {
+                walk.step();
+            }
+            if k < first {
+                continue;
+            }
+            let d = distance(walk.point());
+            let nearer = best.is_none_or(|(bd, bk)| {
+                d < bd || (d == bd && (k as f64 - expected).abs() < (bk as f64 - expected).abs())
+            });
+            if nearer {
+                best = Some((d, k));
+            }
+        }
+        best.map_or(0, |b| b.1)
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(3000))]
+
+        /// `circle`'s `B`, found by leaping to its window, is the one the
+        /// walk gives step by step, and `end_point` (which leaps `B` steps)
+        /// ends where `B` single steps do: tiny radii and large ones, arcs
+        /// within a quadrant and across several, full circles.
+        #[test]
+        fn leaping_gives_the_stepped_walks_b_and_end(
+            radius in proptest::prop_oneof![1u32..=12, 13u32..=400, 401u32..=200_000],
+            start in -360.0f64..360.0,
+            sweep in proptest::prop_oneof![0.0f64..5.0, 0.0f64..360.0, proptest::prelude::Just(360.0)],
+            ccw in proptest::bool::ANY,
+        ) {
+            let dir = if ccw { CircleDirection::Ccw } else { CircleDirection::Cw };
+            let end = if ccw { start + sweep } else { start - sweep };
+            let b = steps_to_end_stepped(radius, start, end, dir);
+            match circle(radius, start, end, dir, 1000) {
+                Err(CircleError::ArcTooShort) => proptest::prop_assert_eq!(b, 0),
+                // D overflows for radii above about 46 340 at some starts.
+                Err(CircleError::ParameterTooLarge(_)) => proptest::prop_assert!(radius > 46_000),
+                Err(e) => proptest::prop_assert!(false, "{}", e),
+                Ok(arc) => {
+                    proptest::prop_assert_eq!(u64::from(arc.params.arc_length), b);
+                    let mut walk = ArcWalk::new(
+                        i64::from(radius),
+                        (i64::from(arc.params.xs), i64::from(arc.params.ys)),
+                        dir,
+                    );
+                    for _ in 0..b {
+                        walk.step();
+                    }
+                    let (x, y) = walk.point();
+                    proptest::prop_assert_eq!(
+                        arc.params.end_point(dir).from_centre,
+                        (x as i32, y as i32)
+                    );
+                }
+            }
         }
     }
 

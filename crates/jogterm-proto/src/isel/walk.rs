@@ -16,8 +16,11 @@
 //! from the start point to the point nearest the arc's end to compute `B`,
 //! and the simulator and every preview step it `B` times to find where a
 //! `y`/`w` leaves the tool. A step costs a few integer operations and no
-//! allocation; [`ArcWalk::advance`] skips whole laps once it has found the
-//! walk's period, so a hand-made `B` of billions stays cheap.
+//! allocation; [`ArcWalk::advance`] computes where the walk stands after
+//! many steps within a quadrant instead of stepping them (`leap`: exact,
+//! checked against [`ArcWalk::step`] by property tests), and skips whole
+//! laps once it has found the walk's period, so a hand-made `B` of billions
+//! stays cheap.
 
 use super::command::CircleDirection;
 
@@ -156,13 +159,53 @@ impl ArcWalk {
         self.run(left);
     }
 
+    /// `steps` iterations of [`ArcWalk::step`], the same walk, by leaps
+    /// ([`leap`]) within a quadrant wherever the walk is locked on the
+    /// circle, and step by step ([`ArcWalk::walk`]) where it is not (a
+    /// start point off the circle, the few steps at an axis).
+    fn run(&mut self, steps: u64) {
+        let mut left = steps;
+        while left > 0 {
+            if left >= LEAP_MIN
+                && let Some(done) = self.leap(left)
+            {
+                left -= done;
+                continue;
+            }
+            let n = left.min(LEAP_MIN);
+            self.walk(n);
+            left -= n;
+        }
+    }
+
+    /// Up to `steps` iterations at once within the current quadrant (see
+    /// [`leap`]); how many, or `None` where the walk cannot leap from here.
+    fn leap(&mut self, steps: u64) -> Option<u64> {
+        // Far beyond any radius a controller takes (24-bit start points):
+        // keep the squares below overflow.
+        const LIMIT: i64 = 1 << 30;
+        if self.x.abs() >= LIMIT || self.y.abs() >= LIMIT {
+            return None;
+        }
+        let r2 = self.error + self.x * self.x + self.y * self.y;
+        if !(1..1 << 60).contains(&r2) {
+            return None;
+        }
+        let (a, b) = to_first(self.quadrant, (self.x, self.y));
+        let (done, a, b) = leap(r2, (a, b), steps)?;
+        let (x, y) = from_first(self.quadrant, (a, b));
+        self.x = x;
+        self.y = y;
+        self.error = r2 - x * x - y * y;
+        Some(done)
+    }
+
     /// `steps` iterations of [`ArcWalk::step`], the same walk: the point
     /// and the error term kept in locals and the quadrant's signs taken
-    /// once per quadrant, the step chosen without a branch. This loop is
-    /// what `circle` spends its time in (every arc of a G-code import
-    /// walks to its end, thousands of steps), and the choice between the
-    /// x and the y step follows no pattern a branch predictor could learn.
-    fn run(&mut self, steps: u64) {
+    /// once per quadrant, the step chosen without a branch (the choice
+    /// between the x and the y step follows no pattern a branch predictor
+    /// could learn).
+    fn walk(&mut self, steps: u64) {
         let mut left = steps;
         while left > 0 {
             let quadrant = self.quadrant;
@@ -193,6 +236,105 @@ impl ArcWalk {
             }
         }
     }
+}
+
+/// Below this many steps left the walk steps rather than leaps; it also
+/// steps this many at a time where it cannot leap.
+const LEAP_MIN: u64 = 8;
+
+/// A point of quadrant `q` turned into the first quadrant (x > 0, y >= 0),
+/// where the walk's steps are x − 1 and y + 1: the walk is the same in
+/// every quadrant turned by a multiple of 90°, since its choice compares the
+/// error terms of the two candidate points, which a turn keeps.
+fn to_first(q: u8, (x, y): (i64, i64)) -> (i64, i64) {
+    match q {
+        0 => (x, y),
+        1 => (y, -x),
+        2 => (-x, -y),
+        _ => (-y, x),
+    }
+}
+
+/// The inverse of [`to_first`].
+fn from_first(q: u8, (a, b): (i64, i64)) -> (i64, i64) {
+    match q {
+        0 => (a, b),
+        1 => (-b, a),
+        2 => (-a, -b),
+        _ => (b, -a),
+    }
+}
+
+/// Where the walk stands after up to `steps` iterations from `(x, y)` of
+/// the first quadrant on the circle of `r2` = R², without leaving the
+/// quadrant: `(iterations, x, y)`, or `None` where this cannot be computed
+/// (then the caller steps).
+///
+/// In the first quadrant a step goes to (x − 1, y) or (x, y + 1). The two
+/// candidates' error terms `A`, `B` differ by `A − B = 2 (x + y) > 0`, so
+/// `|A| < |B|` (the x step; a tie takes the y step) comes down to `A + B <
+/// 0`, and `A + B >= 0` is, times two, `(x + y)² + (x − y − 1)² <= 2 R² − 1`:
+/// the y step is taken when the midpoint of the two candidates lies within
+/// √(R² − ½) of the centre. On the anti-diagonal `d = x − y` (each step
+/// lowers it by one) that reads `y < t(d)` with `t(d) = ⌊(Q(d − 1) − d) / 2⌋
+/// + 1`, `Q(m) = ⌊√(2 R² − 1 − m²)⌋`: the walk's next y is `y + [y < t(d)]`.
+///
+/// Where `2 m² <= 2 R² − 1` for m = d − 1 and d − 2, `Q` changes by at most
+/// one from d to d − 1 (the circle's slope is below one there), so `t(d − 1)
+/// − t(d)` is 0 or 1. A walk that stands at `t(d) − 1` or `t(d)` on its
+/// diagonal d therefore goes to `t(d)` on d − 1, and from there on stands at
+/// `t(d' + 1)` on every diagonal `d'` the condition holds for: after `j`
+/// steps at `(t(d − j + 1) + d − j, t(d − j + 1))`. x never grows, so the
+/// walk stays in the quadrant as long as that x is at least 1; the largest
+/// such `j` is found by bisection. Everything is exact integer arithmetic;
+/// the tests below check it against the step-by-step walk.
+fn leap(r2: i64, (x, y): (i64, i64), steps: u64) -> Option<(u64, i64, i64)> {
+    if x < 1 || y < 0 {
+        return None;
+    }
+    let k = 2 * r2 - 1;
+    let d = x - y;
+    if 2 * (d - 1) * (d - 1) > k {
+        return None;
+    }
+    let t = |d: i64| {
+        let m = d - 1;
+        let q = (k - m * m).isqrt();
+        (q - m - 1).div_euclid(2) + 1
+    };
+    let target = t(d);
+    if y != target && y != target - 1 {
+        return None;
+    }
+    // The lowest diagonal the condition holds for: |m| <= l.
+    let l = (k / 2).isqrt();
+    let most = steps.min(u64::try_from(d + l).ok()?);
+    let land = |j: u64| {
+        // j <= d + l <= 2^31: fits.
+        let d_end = d - j as i64;
+        let y = t(d_end + 1);
+        (y + d_end, y)
+    };
+    let (x_end, y_end) = land(most);
+    if x_end >= 1 {
+        return Some((most, x_end, y_end));
+    }
+    // The walk reaches the axis (x = 0) before `most`: the last j that
+    // keeps x >= 1 (x does not grow with j).
+    let (mut inside, mut outside) = (0, most);
+    while outside - inside > 1 {
+        let mid = inside + (outside - inside) / 2;
+        if land(mid).0 >= 1 {
+            inside = mid;
+        } else {
+            outside = mid;
+        }
+    }
+    if inside == 0 {
+        return None;
+    }
+    let (x_end, y_end) = land(inside);
+    Some((inside, x_end, y_end))
 }
 
 impl Iterator for ArcWalk {
@@ -258,6 +400,102 @@ mod tests {
         let mut cw = ArcWalk::new(10, (10, 0), Cw);
         cw.advance(3);
         assert!(cw.point().1 < 0, "{:?}", cw.point());
+    }
+
+    /// The walk one [`ArcWalk::step`] at a time: the reference every
+    /// faster way must agree with.
+    fn stepped(mut walk: ArcWalk, steps: u64) -> ArcWalk {
+        for _ in 0..steps {
+            walk.step();
+        }
+        walk
+    }
+
+    #[test]
+    fn leaping_ends_where_stepping_does_on_whole_circles() {
+        // Every step count of a few turns, from points on, inside and
+        // outside the circle, for the small radii whose quadrants are a
+        // handful of steps and some larger ones.
+        for r in (1..=40).chain([99, 100, 101, 577, 1000, 4096]) {
+            let starts = [
+                (r, 0),
+                (0, r),
+                (-r, 0),
+                (0, -r),
+                (r, 1),
+                (r + 1, 0),
+                (r - 1, 0),
+                (r * 7 / 10, r * 7 / 10),
+                (-(r * 7 / 10) - 1, r * 7 / 10),
+            ];
+            for start in starts {
+                for direction in [Ccw, Cw] {
+                    let first = ArcWalk::new(r, start, direction);
+                    let mut slow = first;
+                    let lap = 9 * r as u64 + 16;
+                    let counts = (0..=lap.min(600)).chain((lap.min(600)..=lap).step_by(37));
+                    let mut at = 0;
+                    for n in counts {
+                        slow = stepped(slow, n - at);
+                        at = n;
+                        let mut fast = first;
+                        fast.advance(n);
+                        assert_eq!(fast, slow, "R {r} from {start:?} {direction:?}, {n} steps");
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_quadrant_on_the_circle_is_one_leap() {
+        // From (R, 0) the walk leaps to within a few steps of the Y axis
+        // (what it cannot leap it steps): the property tests above would
+        // pass as well if it never leapt.
+        for r in [10_i64, 1000, 1 << 23] {
+            let leapt = leap(r * r, (r, 0), u64::MAX);
+            assert!(
+                leapt.is_some_and(|(n, x, _)| n + 8 >= 2 * r as u64 && (1..3).contains(&x)),
+                "R {r}: {leapt:?}"
+            );
+        }
+        // Off the circle by more than a step it does not lock: it steps.
+        assert_eq!(leap(1000 * 1000, (1003, 0), 100), None);
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(2000))]
+
+        /// Any radius a controller takes, any start on, near or off the
+        /// circle, either direction, any number of steps up to two laps:
+        /// the walk's leaps end where its steps do, in the same state
+        /// (point, error term, quadrant, quarter turns).
+        #[test]
+        fn leaps_end_where_steps_do(
+            radius_bits in 0u32..=23,
+            radius_frac in 0.0f64..1.0,
+            angle in 0.0f64..360.0,
+            offset in (-3i64..=3, -3i64..=3),
+            ccw in proptest::bool::ANY,
+            laps in 0.0f64..2.0,
+        ) {
+            // Radii spread over every order of magnitude up to 2^23.
+            let r = ((2f64.powi(radius_bits as i32) * (1.0 + radius_frac)) as i64).clamp(1, 1 << 23);
+            let a = angle.to_radians();
+            let start = (
+                (r as f64 * a.cos()).round() as i64 + offset.0,
+                (r as f64 * a.sin()).round() as i64 + offset.1,
+            );
+            let direction = if ccw { Ccw } else { Cw };
+            // Stepping two laps of R = 2^23 is 2^27 steps: keep the count
+            // within what a test stepping one by one can afford.
+            let steps = ((laps * 8.0 * r as f64) as u64).min(400_000);
+            let first = ArcWalk::new(r, start, direction);
+            let mut fast = first;
+            fast.advance(steps);
+            let slow = stepped(first, steps);
+            proptest::prop_assert_eq!(fast, slow, "R {} from {:?} {:?}, {} steps", r, start, direction, steps);
+        }
     }
 
     #[test]

@@ -327,6 +327,7 @@ fn an_emcu_job_waits_without_an_erase() {
     )
     .with_waits(
         &import.plan,
+        &import.toolpath,
         crate::gcode::output::Header {
             file: "job.nc".into(),
             profile: profile.name.clone(),
