@@ -136,9 +136,10 @@ fn a_line_on_stdin_presses_the_sim_start_key() {
     assert!(said.contains("use --sim"), "{said}");
 }
 
-/// The console on the in-process simulator with the job as its program:
-/// stored (F5), started (F6, confirmed), standing at its M0 until `s` in
-/// the simulator panel presses the start key; then it runs to its end.
+/// The console on the in-process simulator with the job as its program,
+/// run with F6 (confirmed): the console runs it in pieces and waits at its
+/// M0 (the piece before erased) until `s` in the simulator panel presses
+/// the machine's start key; then the rest runs to its end.
 #[test]
 fn an_m0_job_in_the_console_is_finished_by_the_sim_panels_start_key() {
     let (dir, job) = setup();
@@ -167,33 +168,30 @@ fn an_m0_job_in_the_console_is_finished_by_the_sim_panels_start_key() {
             .unwrap_or_else(|screen| panic!("`{needle}` never appeared:\n{screen}"))
     };
     wait_for(&run, "connected");
-    // From the editor to the machine screen; initialise; store; start.
+    // From the editor to the machine screen; initialise and reference.
     run.type_keys(&[b"\x1b[Z"]);
     wait_for(&run, "i init");
     run.type_keys(&[b"i"]);
     wait_for(&run, "NOT REF");
-    run.type_keys(&[b"\x1b[15~"]);
-    wait_for(&run, "upload finished");
-    run.type_keys(&[b"\x1b[17~"]);
-    wait_for(&run, "Start the program stored in the controller?");
+    run.type_keys(&[b"h"]);
+    wait_for(&run, "Reference run");
     run.type_keys(&[b"y"]);
-    wait_for(&run, "RUNNING");
-    // At its M0 (the reference run from 1 mm and two rapids take well
-    // under 4 s): it stays there. The console cannot read the position
-    // while the program runs (isel answers nothing then).
-    std::thread::sleep(Duration::from_secs(4));
-    let screen = run.screen().screen().contents();
-    assert!(screen.contains("RUNNING"), "{screen}");
-    assert!(!screen.contains("the program has ended"), "{screen}");
+    wait_for(&run, "READY");
+    // F6: the console runs the job in pieces and waits at its M0 itself,
+    // the piece that ran erased (the start key must not run it again).
+    run.type_keys(&[b"\x1b[17~"]);
+    wait_for(&run, "Run m0.nc");
+    run.type_keys(&[b"y"]);
+    wait_for(&run, "WAIT M0 line 4");
     // Tab past the port bits to the simulator panel; s presses the key
-    // (again, should the job not stand at its pause yet under load).
+    // (again, while the wait is not armed yet: the erase, the position).
     run.type_keys(&[b"\t", b"\t"]);
     wait_for(&run, "s start key");
     let mut ended = false;
-    for _ in 0..5 {
+    for _ in 0..8 {
         run.type_keys(&[b"s"]);
         if run
-            .wait_for("the program has ended", Duration::from_secs(4))
+            .wait_for("the job ended", Duration::from_secs(3))
             .is_ok()
         {
             ended = true;

@@ -95,6 +95,10 @@ pub struct AtWait {
     /// stored program when its start key is pressed, and a press with the
     /// operator's hands at the spindle would run it again. F6 waits for it.
     pub erasing: bool,
+    /// The machine's start key (the profile's wired input of role `start`)
+    /// has been seen released since the wait began: its next press goes on
+    /// as F6 does. A key held down since before the wait confirms nothing.
+    pub start_released: bool,
 }
 
 /// F6 confirms a wait only this long after it began: a key pressed before

@@ -8,7 +8,7 @@
 //! part; Space stops at once, and nothing resumes after a stop.
 
 use crate::device::api::{
-    Activity, Event, LinkState, PositionSource, ReplyKind, Request, UploadEvent,
+    Activity, Event, IoBit, IoSnapshot, LinkState, PositionSource, ReplyKind, Request, UploadEvent,
 };
 use crate::device::describe::describe;
 use crate::gcode::ways::Way;
@@ -16,6 +16,7 @@ use crate::ui::editor::component::Effect;
 use crate::ui::editor::dialog::Answer;
 use crate::ui::editor::job::{Chunked, Phase, is_converted};
 use crate::ui::traffic_log::NoteLevel;
+use crate::wiring::{BitKind, Role};
 
 use super::Step;
 
@@ -339,6 +340,19 @@ impl Step<'_, '_> {
                     .collect();
                 c.paused_read = true;
             }
+            (Event::Io(io), Phase::Waiting) => {
+                if let Some(pressed) = start_key(io)
+                    && let Some(at) = c.pieces.as_mut().and_then(|p| p.wait.as_mut())
+                {
+                    if !pressed {
+                        at.start_released = true;
+                    } else if at.start_released {
+                        at.start_released = false;
+                        self.say(NoteLevel::Info, "the start key was pressed".into());
+                        self.wait_key();
+                    }
+                }
+            }
             (Event::Link(LinkState::Lost { .. } | LinkState::Closed), _) => {
                 self.chunked_end(format!("the link went in {label}: nothing resumes"));
             }
@@ -431,4 +445,19 @@ impl Step<'_, '_> {
         // Any job of the editor (a stored run, a check-out, a stream).
         self.outputs_early();
     }
+}
+
+/// Whether the machine's start key (the profile's wired input of role
+/// `start`) reads pressed in `io`; `None` where the profile wires none.
+fn start_key(io: &IoSnapshot) -> Option<bool> {
+    io.groups
+        .iter()
+        .flat_map(|g| &g.bits)
+        .filter(|b| b.output.is_none())
+        .find(|b| {
+            b.wiring
+                .as_ref()
+                .is_some_and(|w| w.role == Role::Start && w.kind == BitKind::Input && w.wired)
+        })
+        .map(IoBit::active)
 }

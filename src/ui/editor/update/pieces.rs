@@ -109,7 +109,18 @@ impl Step<'_, '_> {
             pieces: Some(Box::new(pieces)),
         });
         self.outputs_arm();
-        self.job_log_start(crate::gcode::ways::Way::Chunked);
+        // Each piece is stored, in parts only where it does not fit: the
+        // log says so as `jogterm run` does of such a job.
+        let fits = self
+            .e
+            .gcode
+            .as_ref()
+            .is_some_and(|g| g.converted.program.fits());
+        self.job_log_start(if fits {
+            crate::gcode::ways::Way::Stored
+        } else {
+            crate::gcode::ways::Way::Chunked
+        });
         self.chunked_upload();
     }
 
@@ -139,8 +150,16 @@ impl Step<'_, '_> {
                 } else {
                     "the tool where the program left it".to_owned()
                 };
+                let wired = self.ctx.setup.profile.wiring().is_ok_and(|w| {
+                    w.bits().iter().any(|b| {
+                        b.role == crate::wiring::Role::Start
+                            && b.kind == crate::wiring::BitKind::Input
+                            && b.wired
+                    })
+                });
+                let start_key = if wired { " (or the start key)" } else { "" };
                 let text = format!(
-                    "{} ended: line {}: {}: {place}: F6 goes on, Space ends the job",
+                    "{} ended: line {}: {}: {place}: F6{start_key} goes on, Space ends the job",
                     p.label(),
                     wait.origin.line,
                     wait.what()
@@ -149,6 +168,7 @@ impl Step<'_, '_> {
                     index,
                     since: now,
                     erasing: isel,
+                    start_released: false,
                 });
                 c.phase = Phase::Waiting;
                 c.pause_next = false;

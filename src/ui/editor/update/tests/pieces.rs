@@ -376,3 +376,65 @@ fn an_emcu_job_waits_without_an_erase() {
         "{out:?}"
     );
 }
+
+/// The shipped isel profile's start key, reading pressed or released.
+fn start_key(host: &Host, pressed: bool) -> Event {
+    let wiring = host.setup.profile.wiring().expect("the profile's wiring");
+    let bit = wiring
+        .bits()
+        .iter()
+        .find(|b| b.role == crate::wiring::Role::Start && b.kind == crate::wiring::BitKind::Input)
+        .expect("the shipped isel profile wires a start key")
+        .clone();
+    let value = [false, true]
+        .into_iter()
+        .find(|v| bit.is_active(*v) == pressed)
+        .expect("a level");
+    Event::Io(crate::device::api::IoSnapshot {
+        at: host.now,
+        groups: vec![crate::device::api::IoGroup {
+            name: "in 1".into(),
+            raw: None,
+            bits: vec![crate::device::api::IoBit {
+                name: "start key".into(),
+                value,
+                output: None,
+                hazardous: false,
+                wiring: Some(bit),
+            }],
+            read: None,
+        }],
+    })
+}
+
+/// The machine's start key goes on at a wait as F6 does, once it has been
+/// seen released since the wait began: a key held down into the wait
+/// confirms nothing, and the same guards hold (not before the erase).
+#[test]
+fn the_start_key_pressed_after_a_release_goes_on_at_a_wait() {
+    let mut host = Host::isel();
+    let (mut e, out) = started(&mut host);
+    let total = upload(&out).expect("piece 1").0.len();
+    let out = run_part(&mut host, &mut e, total);
+    assert!(
+        said(&out)[0].contains("F6 (or the start key) goes on"),
+        "{out:?}"
+    );
+    // Held down since before the wait, then released and pressed before
+    // the erase has answered: nothing goes on.
+    let out = host.send(&mut e, Input::Device(&start_key(&host, true)));
+    assert!(upload(&out).is_none(), "{out:?}");
+    host.send(&mut e, Input::Device(&start_key(&host, false)));
+    let out = host.send(&mut e, Input::Device(&start_key(&host, true)));
+    assert!(upload(&out).is_none(), "{out:?}");
+    erased(&mut host, &mut e);
+    host.now += Duration::from_secs(1);
+    read_back(&mut host, &mut e, at_wait());
+    // Still held from that press: no new press, nothing.
+    let out = host.send(&mut e, Input::Device(&start_key(&host, true)));
+    assert!(upload(&out).is_none(), "{out:?}");
+    host.send(&mut e, Input::Device(&start_key(&host, false)));
+    let out = host.send(&mut e, Input::Device(&start_key(&host, true)));
+    let (lines, erase) = upload(&out).expect("piece 2 on the start key");
+    assert!(erase && !lines.iter().any(|l| l == "77"), "{lines:?}");
+}
