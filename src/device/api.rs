@@ -668,6 +668,22 @@ impl IoSnapshot {
         all.retain(|l| l.axis == axis);
         all
     }
+
+    /// Whether the machine's start key (the profile's wired input of role
+    /// `start`) reads pressed; `None` where the profile wires none. A wait
+    /// for the operator goes on at its press (`jogterm run`, the console).
+    pub fn start_key(&self) -> Option<bool> {
+        self.groups
+            .iter()
+            .flat_map(|g| &g.bits)
+            .filter(|b| b.output.is_none())
+            .find(|b| {
+                b.wiring.as_ref().is_some_and(|w| {
+                    w.role == crate::wiring::Role::Start && w.kind == BitKind::Input && w.wired
+                })
+            })
+            .map(IoBit::active)
+    }
 }
 
 /// How a continuous jog ended.

@@ -25,13 +25,12 @@ use crate::cli::probe::tool;
 use crate::cli::session::{EXIT_USAGE, Session};
 use crate::cli::upload::{self, Imported, Prepared, Remedy, Status};
 use crate::config::Profile;
-use crate::device::api::{Event, IoBit, PerAxis, Request};
+use crate::device::api::{Event, PerAxis, Request};
 use crate::gcode::toolchange::{Sequence, Step, Wait};
 use crate::gcode::ways::Way;
 use crate::gcode::{Point, Target};
 use crate::probing::{self, ToolTable};
 use crate::program::{Language, LintConfig};
-use crate::wiring::{BitKind, Role};
 
 /// What a job with waits needs at run time.
 pub(super) struct Waited {
@@ -495,17 +494,7 @@ async fn start_key(session: &mut Session) -> Ended {
     let mut released = false;
     while let Some(e) = session.next_event().await {
         let Event::Io(io) = e else { continue };
-        let key = io
-            .groups
-            .iter()
-            .flat_map(|g| &g.bits)
-            .filter(|b| b.output.is_none())
-            .find(|b| {
-                b.wiring
-                    .as_ref()
-                    .is_some_and(|w| w.role == Role::Start && w.kind == BitKind::Input && w.wired)
-            });
-        match key.map(IoBit::active) {
+        match io.start_key() {
             Some(false) => released = true,
             Some(true) if released => return Ended::StartKey,
             _ => {}

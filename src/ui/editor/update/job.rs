@@ -8,7 +8,7 @@
 //! part; Space stops at once, and nothing resumes after a stop.
 
 use crate::device::api::{
-    Activity, Event, IoBit, IoSnapshot, LinkState, PositionSource, ReplyKind, Request, UploadEvent,
+    Activity, Event, LinkState, PositionSource, ReplyKind, Request, UploadEvent,
 };
 use crate::device::describe::describe;
 use crate::gcode::ways::Way;
@@ -16,7 +16,6 @@ use crate::ui::editor::component::Effect;
 use crate::ui::editor::dialog::Answer;
 use crate::ui::editor::job::{Chunked, Phase, is_converted};
 use crate::ui::traffic_log::NoteLevel;
-use crate::wiring::{BitKind, Role};
 
 use super::Step;
 
@@ -341,7 +340,7 @@ impl Step<'_, '_> {
                 c.paused_read = true;
             }
             (Event::Io(io), Phase::Waiting) => {
-                if let Some(pressed) = start_key(io)
+                if let Some(pressed) = io.start_key()
                     && let Some(at) = c.pieces.as_mut().and_then(|p| p.wait.as_mut())
                 {
                     if !pressed {
@@ -445,19 +444,4 @@ impl Step<'_, '_> {
         // Any job of the editor (a stored run, a check-out, a stream).
         self.outputs_early();
     }
-}
-
-/// Whether the machine's start key (the profile's wired input of role
-/// `start`) reads pressed in `io`; `None` where the profile wires none.
-fn start_key(io: &IoSnapshot) -> Option<bool> {
-    io.groups
-        .iter()
-        .flat_map(|g| &g.bits)
-        .filter(|b| b.output.is_none())
-        .find(|b| {
-            b.wiring
-                .as_ref()
-                .is_some_and(|w| w.role == Role::Start && w.kind == BitKind::Input && w.wired)
-        })
-        .map(IoBit::active)
 }
