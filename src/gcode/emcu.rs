@@ -13,13 +13,14 @@
 //!   (M0, M1, M6) makes the next move wait for input E1 (`&V1` … `&V0`,
 //!   1.5.19), the start key on the machines we know.
 
+use std::borrow::Cow;
 use std::fmt::Write as _;
 
 use crate::axis::Axis;
 use crate::config::profile::{AxisProfile, Profile};
 use crate::proto::emcu::job::JOB_CAPACITY;
 
-use super::output::{Header, MAX_COMMANDS, Program, chords, merged, path_speed, too_many};
+use super::output::{Header, MAX_COMMANDS, Program, chords, merged_ops, path_speed, too_many};
 use super::toolpath::{Diagnostic, Op, Origin, Pause, Point, Severity, Toolpath};
 
 /// The end-speed slot of the import's moves (jogterm's own moves use
@@ -56,6 +57,17 @@ pub fn convert(
 /// reference run.
 pub fn convert_with(
     path: &Toolpath,
+    profile: &Profile,
+    header: &Header,
+    options: &super::Options,
+) -> Result<Program, Vec<Diagnostic>> {
+    convert_ops(path.ops.iter().map(Cow::Borrowed), profile, header, options)
+}
+
+/// [`convert_with`] of ops given one at a time (the import's whole job,
+/// `Plan::expanded_ops`, is not collected into a toolpath).
+pub fn convert_ops<'a>(
+    ops: impl Iterator<Item = Cow<'a, Op>> + 'a,
     profile: &Profile,
     header: &Header,
     options: &super::Options,
@@ -99,7 +111,7 @@ pub fn convert_with(
         );
     }
     let mut errors = Vec::new();
-    for op in merged(&path.ops, profile.gcode.merge_tolerance) {
+    for op in merged_ops(ops, profile.gcode.merge_tolerance) {
         if let Err(e) = w.op(&op) {
             errors.push(e);
         }

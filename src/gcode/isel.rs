@@ -27,6 +27,8 @@
 //!   sync character `2` (3.2.4): any byte on the line ends that wait, and a
 //!   console polling the position would end it at once.
 
+use std::borrow::Cow;
+
 use crate::axis::Axis;
 use crate::config::profile::{AxisProfile, Profile};
 use crate::program::ISEL_CAPACITY;
@@ -37,7 +39,7 @@ use crate::proto::typed::isel_config;
 use crate::wiring::{BitKind, Level, Role};
 
 use super::interp::{get, plane_axes, radius, sweep};
-use super::output::{Header, MAX_COMMANDS, Program, chords, merged, path_speed, too_many};
+use super::output::{Header, MAX_COMMANDS, Program, chords, merged_ops, path_speed, too_many};
 use super::toolpath::{Arc, Diagnostic, Op, Origin, Pause, Plane, Point, Severity, Toolpath};
 
 const HZ_MIN: f64 = 1.0;
@@ -115,6 +117,27 @@ pub fn convert_with(
     header: &Header,
     options: &super::Options,
 ) -> Result<Program, Vec<Diagnostic>> {
+    convert_ops(
+        || path.ops.iter().map(Cow::Borrowed),
+        profile,
+        header,
+        options,
+    )
+}
+
+/// [`convert_with`] of ops given one at a time (the import's whole job,
+/// `Plan::expanded_ops`, is not collected into a toolpath): `ops` gives
+/// them from the start on every call (the start point and, without
+/// `options.safe_z`, the safe height are looked up first).
+pub fn convert_ops<'a, I>(
+    ops: impl Fn() -> I,
+    profile: &Profile,
+    header: &Header,
+    options: &super::Options,
+) -> Result<Program, Vec<Diagnostic>>
+where
+    I: Iterator<Item = Cow<'a, Op>> + 'a,
+{
     let set = profile.axis_set();
     let config = isel_config(set);
     let axis = |a: Axis| profile.axis(a).cloned();
@@ -145,13 +168,20 @@ pub fn convert_with(
         start_key: start_key(profile),
         safe_z: options
             .safe_z
-            .or_else(|| path.safe_height())
+            .or_else(|| {
+                ops()
+                    .filter_map(|op| match &*op {
+                        Op::Rapid(m) => Some(m.to.z),
+                        _ => None,
+                    })
+                    .reduce(f64::max)
+            })
             .unwrap_or(f64::INFINITY),
     };
     for line in header.lines() {
         w.program.comment(line);
     }
-    let start = path.ops.iter().find_map(|op| match op {
+    let start = ops().find_map(|op| match &*op {
         Op::Rapid(m) => Some(m.from),
         Op::Line(m) => Some(m.from),
         Op::Arc(a) => Some(a.from),
@@ -177,7 +207,7 @@ pub fn convert_with(
     w.program
         .command_noted("z1", "3D interpolation: X, Y and Z on one line", None);
     let mut errors = Vec::new();
-    for op in merged(&path.ops, profile.gcode.merge_tolerance) {
+    for op in merged_ops(ops(), profile.gcode.merge_tolerance) {
         if let Err(e) = w.op(&op) {
             errors.push(e);
         }

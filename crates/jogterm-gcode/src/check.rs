@@ -3,6 +3,7 @@
 //! import prints: extents in the file's own work coordinates, path length,
 //! moves, arcs and the estimated time.
 
+use std::borrow::Borrow;
 use std::f64::consts::PI;
 use std::ops::RangeInclusive;
 
@@ -153,8 +154,18 @@ fn sub(a: Point, b: Point) -> Point {
 /// The soft-limit check: the first point of the first op that leaves a
 /// limit, as an error at that op's line.
 pub fn check_limits(path: &Toolpath, machine: &Machine) -> Result<(), Diagnostic> {
+    check_limits_ops(&path.ops, machine)
+}
+
+/// [`check_limits`] of ops given one at a time (the import's whole job,
+/// `Plan::expanded_ops`, is not collected into a toolpath).
+pub fn check_limits_ops<O: Borrow<Op>>(
+    ops: impl IntoIterator<Item = O>,
+    machine: &Machine,
+) -> Result<(), Diagnostic> {
     let mut system = (System::G54, Point::default());
-    for op in &path.ops {
+    for op in ops {
+        let op: &Op = op.borrow();
         // A straight move's one point is borrowed, not put into a Vec of
         // its own: this runs for every move of the file.
         let arc_points;

@@ -402,9 +402,15 @@ pub fn merge_lines(ops: &[Op], tolerance: f64) -> Vec<Op> {
 /// [`merge_lines`] one op at a time, the ops it does not merge borrowed:
 /// the conversions walk it once, so a file of half a million moves is not
 /// copied whole (it was the largest copy at the conversion's memory peak).
-pub fn merged(ops: &[Op], tolerance: f64) -> Merged<'_> {
+pub fn merged(ops: &[Op], tolerance: f64) -> Merged<'_, impl Iterator<Item = Cow<'_, Op>>> {
+    merged_ops(ops.iter().map(Cow::Borrowed), tolerance)
+}
+
+/// [`merged`] of ops given one at a time, borrowed or made (the import's
+/// whole job, `Plan::expanded_ops`, is not collected into a toolpath).
+pub fn merged_ops<'a, I: Iterator<Item = Cow<'a, Op>>>(ops: I, tolerance: f64) -> Merged<'a, I> {
     Merged {
-        ops: ops.iter(),
+        ops,
         tolerance,
         run: Vec::new(),
         pending: None,
@@ -412,16 +418,16 @@ pub fn merged(ops: &[Op], tolerance: f64) -> Merged<'_> {
 }
 
 /// The iterator of [`merged`].
-pub struct Merged<'a> {
-    ops: std::slice::Iter<'a, Op>,
+pub struct Merged<'a, I> {
+    ops: I,
     tolerance: f64,
     /// The feed moves merged so far, not yet given out.
     run: Vec<Line>,
     /// The op that ended a run, given out after the run's merged move.
-    pending: Option<&'a Op>,
+    pending: Option<Cow<'a, Op>>,
 }
 
-impl Merged<'_> {
+impl<I> Merged<'_, I> {
     /// The run as one move (the first's origin), the run emptied.
     fn flush(&mut self) -> Option<Op> {
         let merged = match (self.run.first(), self.run.last()) {
@@ -438,16 +444,19 @@ impl Merged<'_> {
     }
 }
 
-impl<'a> Iterator for Merged<'a> {
+impl<'a, I: Iterator<Item = Cow<'a, Op>>> Iterator for Merged<'a, I> {
     type Item = Cow<'a, Op>;
 
     fn next(&mut self) -> Option<Cow<'a, Op>> {
         if let Some(op) = self.pending.take() {
-            return Some(Cow::Borrowed(op));
+            return Some(op);
         }
         loop {
-            match self.ops.next() {
-                Some(Op::Line(line)) if self.tolerance > 0.0 => {
+            let Some(op) = self.ops.next() else {
+                return self.flush().map(Cow::Owned);
+            };
+            match &*op {
+                Op::Line(line) if self.tolerance > 0.0 => {
                     let fits = match self.run.first() {
                         None => true,
                         Some(first) => {
@@ -464,16 +473,15 @@ impl<'a> Iterator for Merged<'a> {
                         return Some(Cow::Owned(op));
                     }
                 }
-                Some(other) => {
+                _ => {
                     return Some(match self.flush() {
-                        Some(op) => {
-                            self.pending = Some(other);
-                            Cow::Owned(op)
+                        Some(merged) => {
+                            self.pending = Some(op);
+                            Cow::Owned(merged)
                         }
-                        None => Cow::Borrowed(other),
+                        None => op,
                     });
                 }
-                None => return self.flush().map(Cow::Owned),
             }
         }
     }

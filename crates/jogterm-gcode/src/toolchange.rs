@@ -21,6 +21,7 @@
 //! upload`) runs [`Plan::expanded`]: the same moves with the wait as the
 //! program's own pause (the machine's start key).
 
+use std::borrow::Cow;
 use std::collections::BTreeMap;
 use std::ops::Range;
 
@@ -373,6 +374,35 @@ impl Plan {
             warnings: path.warnings.clone(),
             named_from: path.named_from,
         }
+    }
+
+    /// [`Plan::expanded`] of the unshifted job (`dz` 0) one op at a time,
+    /// the job's own ops borrowed from `path` and only the moves around the
+    /// waits and the pauses made: the import checks and converts the whole
+    /// job through it, so that a file of half a million moves is not copied
+    /// (the copy was the largest share of the import's heap peak).
+    pub fn expanded_ops<'a>(
+        &'a self,
+        path: &'a Toolpath,
+    ) -> impl Iterator<Item = Cow<'a, Op>> + 'a {
+        (0..self.segments()).flat_map(move |k| {
+            let entry = match k.checked_sub(1) {
+                Some(before) => self.entry(before, 0.0, 0.0),
+                None => Vec::new(),
+            };
+            let exit = if k < self.waits.len() {
+                self.exit(k, 0.0)
+            } else {
+                Vec::new()
+            };
+            let pause = self.waits.get(k).map(|w| Op::Pause(w.pause.clone()));
+            entry
+                .into_iter()
+                .map(Cow::Owned)
+                .chain(self.own(path, k).iter().map(Cow::Borrowed))
+                .chain(exit.into_iter().map(Cow::Owned))
+                .chain(pause.map(Cow::Owned))
+        })
     }
 
     /// The job's own ops in all its pieces.
