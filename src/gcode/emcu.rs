@@ -13,7 +13,6 @@
 //!   (M0, M1, M6) makes the next move wait for input E1 (`&V1` … `&V0`,
 //!   1.5.19), the start key on the machines we know.
 
-use std::borrow::Cow;
 use std::fmt::Write as _;
 
 use crate::axis::Axis;
@@ -61,13 +60,13 @@ pub fn convert_with(
     header: &Header,
     options: &super::Options,
 ) -> Result<Program, Vec<Diagnostic>> {
-    convert_ops(path.ops.iter().map(Cow::Borrowed), profile, header, options)
+    convert_ops(path.ops.iter(), profile, header, options)
 }
 
 /// [`convert_with`] of ops given one at a time (the import's whole job,
-/// `Plan::expanded_ops`, is not collected into a toolpath).
+/// the slices of `Plan::expanded_slices`, is not collected into a toolpath).
 pub fn convert_ops<'a>(
-    ops: impl Iterator<Item = Cow<'a, Op>> + 'a,
+    ops: impl Iterator<Item = &'a Op>,
     profile: &Profile,
     header: &Header,
     options: &super::Options,

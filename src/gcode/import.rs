@@ -165,7 +165,8 @@ pub fn import_with_tool(
     let plan = super::waits::plan_of(text, &toolpath, profile)?;
     // The whole job with the moves around its waits, one op at a time:
     // not collected, so that the job's ops are not copied.
-    let whole = || plan.expanded_ops(&toolpath);
+    let slices = plan.expanded_slices(&toolpath);
+    let whole = || slices.iter().flat_map(|s| s.iter());
     let machine = machine_of(profile, target);
     check_limits_ops(whole(), &machine).map_err(|e| vec![e])?;
     let summary = summarise(&toolpath, &machine);

@@ -27,8 +27,6 @@
 //!   sync character `2` (3.2.4): any byte on the line ends that wait, and a
 //!   console polling the position would end it at once.
 
-use std::borrow::Cow;
-
 use crate::axis::Axis;
 use crate::config::profile::{AxisProfile, Profile};
 use crate::program::ISEL_CAPACITY;
@@ -117,16 +115,11 @@ pub fn convert_with(
     header: &Header,
     options: &super::Options,
 ) -> Result<Program, Vec<Diagnostic>> {
-    convert_ops(
-        || path.ops.iter().map(Cow::Borrowed),
-        profile,
-        header,
-        options,
-    )
+    convert_ops(|| path.ops.iter(), profile, header, options)
 }
 
 /// [`convert_with`] of ops given one at a time (the import's whole job,
-/// `Plan::expanded_ops`, is not collected into a toolpath): `ops` gives
+/// the slices of `Plan::expanded_slices`, is not collected into a toolpath): `ops` gives
 /// them from the start on every call (the start point and, without
 /// `options.safe_z`, the safe height are looked up first).
 pub fn convert_ops<'a, I>(
@@ -136,7 +129,7 @@ pub fn convert_ops<'a, I>(
     options: &super::Options,
 ) -> Result<Program, Vec<Diagnostic>>
 where
-    I: Iterator<Item = Cow<'a, Op>> + 'a,
+    I: Iterator<Item = &'a Op>,
 {
     let set = profile.axis_set();
     let config = isel_config(set);
@@ -170,7 +163,7 @@ where
             .safe_z
             .or_else(|| {
                 ops()
-                    .filter_map(|op| match &*op {
+                    .filter_map(|op| match op {
                         Op::Rapid(m) => Some(m.to.z),
                         _ => None,
                     })
@@ -181,7 +174,7 @@ where
     for line in header.lines() {
         w.program.comment(line);
     }
-    let start = ops().find_map(|op| match &*op {
+    let start = ops().find_map(|op| match op {
         Op::Rapid(m) => Some(m.from),
         Op::Line(m) => Some(m.from),
         Op::Arc(a) => Some(a.from),

@@ -158,7 +158,7 @@ pub fn check_limits(path: &Toolpath, machine: &Machine) -> Result<(), Diagnostic
 }
 
 /// [`check_limits`] of ops given one at a time (the import's whole job,
-/// `Plan::expanded_ops`, is not collected into a toolpath).
+/// the slices of `Plan::expanded_slices`, is not collected into a toolpath).
 pub fn check_limits_ops<O: Borrow<Op>>(
     ops: impl IntoIterator<Item = O>,
     machine: &Machine,

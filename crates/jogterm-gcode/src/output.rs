@@ -402,13 +402,13 @@ pub fn merge_lines(ops: &[Op], tolerance: f64) -> Vec<Op> {
 /// [`merge_lines`] one op at a time, the ops it does not merge borrowed:
 /// the conversions walk it once, so a file of half a million moves is not
 /// copied whole (it was the largest copy at the conversion's memory peak).
-pub fn merged(ops: &[Op], tolerance: f64) -> Merged<'_, impl Iterator<Item = Cow<'_, Op>>> {
-    merged_ops(ops.iter().map(Cow::Borrowed), tolerance)
+pub fn merged(ops: &[Op], tolerance: f64) -> Merged<'_, std::slice::Iter<'_, Op>> {
+    merged_ops(ops.iter(), tolerance)
 }
 
-/// [`merged`] of ops given one at a time, borrowed or made (the import's
-/// whole job, `Plan::expanded_ops`, is not collected into a toolpath).
-pub fn merged_ops<'a, I: Iterator<Item = Cow<'a, Op>>>(ops: I, tolerance: f64) -> Merged<'a, I> {
+/// [`merged`] of ops given one at a time (the import's whole job, the
+/// slices of `Plan::expanded_slices`, is not collected into a toolpath).
+pub fn merged_ops<'a, I: Iterator<Item = &'a Op>>(ops: I, tolerance: f64) -> Merged<'a, I> {
     Merged {
         ops,
         tolerance,
@@ -424,7 +424,7 @@ pub struct Merged<'a, I> {
     /// The feed moves merged so far, not yet given out.
     run: Vec<Line>,
     /// The op that ended a run, given out after the run's merged move.
-    pending: Option<Cow<'a, Op>>,
+    pending: Option<&'a Op>,
 }
 
 impl<I> Merged<'_, I> {
@@ -444,19 +444,16 @@ impl<I> Merged<'_, I> {
     }
 }
 
-impl<'a, I: Iterator<Item = Cow<'a, Op>>> Iterator for Merged<'a, I> {
+impl<'a, I: Iterator<Item = &'a Op>> Iterator for Merged<'a, I> {
     type Item = Cow<'a, Op>;
 
     fn next(&mut self) -> Option<Cow<'a, Op>> {
         if let Some(op) = self.pending.take() {
-            return Some(op);
+            return Some(Cow::Borrowed(op));
         }
         loop {
-            let Some(op) = self.ops.next() else {
-                return self.flush().map(Cow::Owned);
-            };
-            match &*op {
-                Op::Line(line) if self.tolerance > 0.0 => {
+            match self.ops.next() {
+                Some(Op::Line(line)) if self.tolerance > 0.0 => {
                     let fits = match self.run.first() {
                         None => true,
                         Some(first) => {
@@ -473,15 +470,16 @@ impl<'a, I: Iterator<Item = Cow<'a, Op>>> Iterator for Merged<'a, I> {
                         return Some(Cow::Owned(op));
                     }
                 }
-                _ => {
+                Some(other) => {
                     return Some(match self.flush() {
-                        Some(merged) => {
-                            self.pending = Some(op);
-                            Cow::Owned(merged)
+                        Some(op) => {
+                            self.pending = Some(other);
+                            Cow::Owned(op)
                         }
-                        None => op,
+                        None => Cow::Borrowed(other),
                     });
                 }
+                None => return self.flush().map(Cow::Owned),
             }
         }
     }

@@ -376,33 +376,27 @@ impl Plan {
         }
     }
 
-    /// [`Plan::expanded`] of the unshifted job (`dz` 0) one op at a time,
-    /// the job's own ops borrowed from `path` and only the moves around the
-    /// waits and the pauses made: the import checks and converts the whole
-    /// job through it, so that a file of half a million moves is not copied
+    /// [`Plan::expanded`] of the unshifted job (`dz` 0) as a list of
+    /// slices, in order: the job's own ops borrowed from `path`, only the
+    /// moves around the waits and the pauses made. The import checks and
+    /// converts the whole job through them (`iter().flat_map(|s|
+    /// s.iter())`), so that a file of half a million moves is not copied
     /// (the copy was the largest share of the import's heap peak).
-    pub fn expanded_ops<'a>(
-        &'a self,
-        path: &'a Toolpath,
-    ) -> impl Iterator<Item = Cow<'a, Op>> + 'a {
-        (0..self.segments()).flat_map(move |k| {
-            let entry = match k.checked_sub(1) {
-                Some(before) => self.entry(before, 0.0, 0.0),
-                None => Vec::new(),
-            };
-            let exit = if k < self.waits.len() {
-                self.exit(k, 0.0)
-            } else {
-                Vec::new()
-            };
-            let pause = self.waits.get(k).map(|w| Op::Pause(w.pause.clone()));
-            entry
-                .into_iter()
-                .map(Cow::Owned)
-                .chain(self.own(path, k).iter().map(Cow::Borrowed))
-                .chain(exit.into_iter().map(Cow::Owned))
-                .chain(pause.map(Cow::Owned))
-        })
+    pub fn expanded_slices<'a>(&self, path: &'a Toolpath) -> Vec<Cow<'a, [Op]>> {
+        let mut slices = Vec::with_capacity(4 * self.segments());
+        for k in 0..self.segments() {
+            if let Some(before) = k.checked_sub(1) {
+                slices.push(Cow::Owned(self.entry(before, 0.0, 0.0)));
+            }
+            slices.push(Cow::Borrowed(self.own(path, k)));
+            if k < self.waits.len() {
+                slices.push(Cow::Owned(self.exit(k, 0.0)));
+            }
+            if let Some(w) = self.waits.get(k) {
+                slices.push(Cow::Owned(vec![Op::Pause(w.pause.clone())]));
+            }
+        }
+        slices
     }
 
     /// The job's own ops in all its pieces.

@@ -205,16 +205,18 @@ fn the_whole_job_keeps_its_pauses_between_the_moves() {
 fn the_whole_job_one_op_at_a_time_is_the_expanded_job() {
     let (path, plan) = plan(AT);
     let ops: Vec<Op> = plan
-        .expanded_ops(&path)
-        .map(std::borrow::Cow::into_owned)
+        .expanded_slices(&path)
+        .iter()
+        .flat_map(|s| s.iter().cloned())
         .collect();
     assert!(ops.len() > path.ops.len(), "the moves around the waits");
     assert_eq!(ops, plan.expanded(&path, 0.0).ops);
     let plain = interpret("G0 Z5\nG1 X1 F100\nM30\n", &setup()).expect("job");
     let one = Plan::of(&plain, &BTreeMap::new(), AT, 50.0);
     let ops: Vec<Op> = one
-        .expanded_ops(&plain)
-        .map(std::borrow::Cow::into_owned)
+        .expanded_slices(&plain)
+        .iter()
+        .flat_map(|s| s.iter().cloned())
         .collect();
     assert_eq!(ops, plain.ops);
 }
