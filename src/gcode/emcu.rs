@@ -19,7 +19,7 @@ use crate::axis::Axis;
 use crate::config::profile::{AxisProfile, Profile};
 use crate::proto::emcu::job::JOB_CAPACITY;
 
-use super::output::{Header, MAX_COMMANDS, Program, chords, merged, path_speed, too_many};
+use super::output::{Header, MAX_COMMANDS, Program, chords, merged_ops, path_speed, too_many};
 use super::toolpath::{Diagnostic, Op, Origin, Pause, Point, Severity, Toolpath};
 
 /// The end-speed slot of the import's moves (jogterm's own moves use
@@ -56,6 +56,17 @@ pub fn convert(
 /// reference run.
 pub fn convert_with(
     path: &Toolpath,
+    profile: &Profile,
+    header: &Header,
+    options: &super::Options,
+) -> Result<Program, Vec<Diagnostic>> {
+    convert_ops(path.ops.iter(), profile, header, options)
+}
+
+/// [`convert_with`] of ops given one at a time (the import's whole job,
+/// the slices of `Plan::expanded_slices`, is not collected into a toolpath).
+pub fn convert_ops<'a>(
+    ops: impl Iterator<Item = &'a Op>,
     profile: &Profile,
     header: &Header,
     options: &super::Options,
@@ -99,7 +110,7 @@ pub fn convert_with(
         );
     }
     let mut errors = Vec::new();
-    for op in merged(&path.ops, profile.gcode.merge_tolerance) {
+    for op in merged_ops(ops, profile.gcode.merge_tolerance) {
         if let Err(e) = w.op(&op) {
             errors.push(e);
         }

@@ -5,7 +5,7 @@
 use crate::config::profile::Profile;
 use crate::offsets::WorkOffsets;
 
-use super::check::{Summary, check_limits, summarise};
+use super::check::{Summary, check_limits_ops, summarise};
 use super::heightmap::{Applied, Surface};
 use super::output::{Header, Program};
 use super::profile::{fit_of, machine_of, setup_of};
@@ -163,9 +163,12 @@ pub fn import_with_tool(
     };
     // The plan of the shifted job: its pieces shift no further (dz 0).
     let plan = super::waits::plan_of(text, &toolpath, profile)?;
-    let whole = plan.expanded(&toolpath, 0.0);
+    // The whole job with the moves around its waits, one op at a time:
+    // not collected, so that the job's ops are not copied.
+    let slices = plan.expanded_slices(&toolpath);
+    let whole = || slices.iter().flat_map(|s| s.iter());
     let machine = machine_of(profile, target);
-    check_limits(&whole, &machine).map_err(|e| vec![e])?;
+    check_limits_ops(whole(), &machine).map_err(|e| vec![e])?;
     let summary = summarise(&toolpath, &machine);
     let header = Header {
         file: file.to_owned(),
@@ -178,8 +181,8 @@ pub fn import_with_tool(
         safe_z: Some(plan.safe_z),
     };
     let program = match target {
-        Target::Isel => super::isel::convert_with(&whole, profile, &header, &options)?,
-        Target::Emcu => super::emcu::convert_with(&whole, profile, &header, &options)?,
+        Target::Isel => super::isel::convert_ops(whole, profile, &header, &options)?,
+        Target::Emcu => super::emcu::convert_ops(whole(), profile, &header, &options)?,
     };
     let mut warnings = toolpath.warnings.clone();
     warnings.extend(program.warnings.iter().cloned());

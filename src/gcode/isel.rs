@@ -37,7 +37,7 @@ use crate::proto::typed::isel_config;
 use crate::wiring::{BitKind, Level, Role};
 
 use super::interp::{get, plane_axes, radius, sweep};
-use super::output::{Header, MAX_COMMANDS, Program, chords, merged, path_speed, too_many};
+use super::output::{Header, MAX_COMMANDS, Program, chords, merged_ops, path_speed, too_many};
 use super::toolpath::{Arc, Diagnostic, Op, Origin, Pause, Plane, Point, Severity, Toolpath};
 
 const HZ_MIN: f64 = 1.0;
@@ -115,6 +115,22 @@ pub fn convert_with(
     header: &Header,
     options: &super::Options,
 ) -> Result<Program, Vec<Diagnostic>> {
+    convert_ops(|| path.ops.iter(), profile, header, options)
+}
+
+/// [`convert_with`] of ops given one at a time (the import's whole job,
+/// the slices of `Plan::expanded_slices`, is not collected into a toolpath): `ops` gives
+/// them from the start on every call (the start point and, without
+/// `options.safe_z`, the safe height are looked up first).
+pub fn convert_ops<'a, I>(
+    ops: impl Fn() -> I,
+    profile: &Profile,
+    header: &Header,
+    options: &super::Options,
+) -> Result<Program, Vec<Diagnostic>>
+where
+    I: Iterator<Item = &'a Op>,
+{
     let set = profile.axis_set();
     let config = isel_config(set);
     let axis = |a: Axis| profile.axis(a).cloned();
@@ -145,13 +161,20 @@ pub fn convert_with(
         start_key: start_key(profile),
         safe_z: options
             .safe_z
-            .or_else(|| path.safe_height())
+            .or_else(|| {
+                ops()
+                    .filter_map(|op| match op {
+                        Op::Rapid(m) => Some(m.to.z),
+                        _ => None,
+                    })
+                    .reduce(f64::max)
+            })
             .unwrap_or(f64::INFINITY),
     };
     for line in header.lines() {
         w.program.comment(line);
     }
-    let start = path.ops.iter().find_map(|op| match op {
+    let start = ops().find_map(|op| match op {
         Op::Rapid(m) => Some(m.from),
         Op::Line(m) => Some(m.from),
         Op::Arc(a) => Some(a.from),
@@ -177,7 +200,7 @@ pub fn convert_with(
     w.program
         .command_noted("z1", "3D interpolation: X, Y and Z on one line", None);
     let mut errors = Vec::new();
-    for op in merged(&path.ops, profile.gcode.merge_tolerance) {
+    for op in merged_ops(ops(), profile.gcode.merge_tolerance) {
         if let Err(e) = w.op(&op) {
             errors.push(e);
         }

@@ -3,6 +3,7 @@
 //! import prints: extents in the file's own work coordinates, path length,
 //! moves, arcs and the estimated time.
 
+use std::borrow::Borrow;
 use std::f64::consts::PI;
 use std::ops::RangeInclusive;
 
@@ -111,8 +112,18 @@ pub struct Summary {
 /// The points of an arc that decide its extents: both ends and every
 /// quadrant point it passes (the bulges).
 pub fn arc_extreme_points(arc: &Arc) -> Vec<Point> {
+    let (points, len) = extreme_points(arc);
+    points.get(..len).unwrap_or_default().to_vec()
+}
+
+/// [`arc_extreme_points`] on the stack: the first `len` of the array (at
+/// most six: both ends and four quadrant points). The check and the
+/// summary take it for every arc of the file, without a Vec each.
+fn extreme_points(arc: &Arc) -> ([Point; 6], usize) {
     let (u, v, n) = plane_axes(arc.plane);
-    let mut points = vec![arc.from, arc.to];
+    let mut points = [arc.from; 6];
+    points[1] = arc.to;
+    let mut len = 2;
     let r = radius(arc);
     let (cu, cv) = (get(arc.centre, u), get(arc.centre, v));
     let a0 = (get(arc.from, v) - cv).atan2(get(arc.from, u) - cu);
@@ -132,10 +143,13 @@ pub fn arc_extreme_points(arc: &Arc) -> Vec<Point> {
                 n,
                 get(arc.from, n) + (get(arc.to, n) - get(arc.from, n)) * t,
             );
-            points.push(p);
+            if let Some(slot) = points.get_mut(len) {
+                *slot = p;
+                len += 1;
+            }
         }
     }
-    points
+    (points, len)
 }
 
 fn distance(a: Point, b: Point) -> f64 {
@@ -153,8 +167,18 @@ fn sub(a: Point, b: Point) -> Point {
 /// The soft-limit check: the first point of the first op that leaves a
 /// limit, as an error at that op's line.
 pub fn check_limits(path: &Toolpath, machine: &Machine) -> Result<(), Diagnostic> {
+    check_limits_ops(&path.ops, machine)
+}
+
+/// [`check_limits`] of ops given one at a time (the import's whole job,
+/// the slices of `Plan::expanded_slices`, is not collected into a toolpath).
+pub fn check_limits_ops<O: Borrow<Op>>(
+    ops: impl IntoIterator<Item = O>,
+    machine: &Machine,
+) -> Result<(), Diagnostic> {
     let mut system = (System::G54, Point::default());
-    for op in &path.ops {
+    for op in ops {
+        let op: &Op = op.borrow();
         // A straight move's one point is borrowed, not put into a Vec of
         // its own: this runs for every move of the file.
         let arc_points;
@@ -162,8 +186,11 @@ pub fn check_limits(path: &Toolpath, machine: &Machine) -> Result<(), Diagnostic
             Op::Rapid(m) => (std::slice::from_ref(&m.to), m.origin),
             Op::Line(m) => (std::slice::from_ref(&m.to), m.origin),
             Op::Arc(a) => {
-                arc_points = arc_extreme_points(a);
-                (&arc_points, a.origin)
+                arc_points = extreme_points(a);
+                (
+                    arc_points.0.get(..arc_points.1).unwrap_or_default(),
+                    a.origin,
+                )
             }
             Op::WorkOffset {
                 system: s, zero, ..
@@ -250,7 +277,8 @@ pub fn summarise(path: &Toolpath, machine: &Machine) -> Summary {
             }
             Op::Arc(a) => {
                 arcs += 1;
-                for p in arc_extreme_points(a) {
+                let (points, len) = extreme_points(a);
+                for &p in points.get(..len).unwrap_or_default() {
                     extents.add(path, index, sub(p, zero));
                 }
                 let (_, _, n) = plane_axes(a.plane);

@@ -402,9 +402,15 @@ pub fn merge_lines(ops: &[Op], tolerance: f64) -> Vec<Op> {
 /// [`merge_lines`] one op at a time, the ops it does not merge borrowed:
 /// the conversions walk it once, so a file of half a million moves is not
 /// copied whole (it was the largest copy at the conversion's memory peak).
-pub fn merged(ops: &[Op], tolerance: f64) -> Merged<'_> {
+pub fn merged(ops: &[Op], tolerance: f64) -> Merged<'_, std::slice::Iter<'_, Op>> {
+    merged_ops(ops.iter(), tolerance)
+}
+
+/// [`merged`] of ops given one at a time (the import's whole job, the
+/// slices of `Plan::expanded_slices`, is not collected into a toolpath).
+pub fn merged_ops<'a, I: Iterator<Item = &'a Op>>(ops: I, tolerance: f64) -> Merged<'a, I> {
     Merged {
-        ops: ops.iter(),
+        ops,
         tolerance,
         run: Vec::new(),
         pending: None,
@@ -412,8 +418,8 @@ pub fn merged(ops: &[Op], tolerance: f64) -> Merged<'_> {
 }
 
 /// The iterator of [`merged`].
-pub struct Merged<'a> {
-    ops: std::slice::Iter<'a, Op>,
+pub struct Merged<'a, I> {
+    ops: I,
     tolerance: f64,
     /// The feed moves merged so far, not yet given out.
     run: Vec<Line>,
@@ -421,7 +427,7 @@ pub struct Merged<'a> {
     pending: Option<&'a Op>,
 }
 
-impl Merged<'_> {
+impl<I> Merged<'_, I> {
     /// The run as one move (the first's origin), the run emptied.
     fn flush(&mut self) -> Option<Op> {
         let merged = match (self.run.first(), self.run.last()) {
@@ -438,7 +444,7 @@ impl Merged<'_> {
     }
 }
 
-impl<'a> Iterator for Merged<'a> {
+impl<'a, I: Iterator<Item = &'a Op>> Iterator for Merged<'a, I> {
     type Item = Cow<'a, Op>;
 
     fn next(&mut self) -> Option<Cow<'a, Op>> {

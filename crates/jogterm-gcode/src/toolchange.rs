@@ -21,6 +21,7 @@
 //! upload`) runs [`Plan::expanded`]: the same moves with the wait as the
 //! program's own pause (the machine's start key).
 
+use std::borrow::Cow;
 use std::collections::BTreeMap;
 use std::ops::Range;
 
@@ -373,6 +374,29 @@ impl Plan {
             warnings: path.warnings.clone(),
             named_from: path.named_from,
         }
+    }
+
+    /// [`Plan::expanded`] of the unshifted job (`dz` 0) as a list of
+    /// slices, in order: the job's own ops borrowed from `path`, only the
+    /// moves around the waits and the pauses made. The import checks and
+    /// converts the whole job through them (`iter().flat_map(|s|
+    /// s.iter())`), so that a file of half a million moves is not copied
+    /// (the copy was the largest share of the import's heap peak).
+    pub fn expanded_slices<'a>(&self, path: &'a Toolpath) -> Vec<Cow<'a, [Op]>> {
+        let mut slices = Vec::with_capacity(4 * self.segments());
+        for k in 0..self.segments() {
+            if let Some(before) = k.checked_sub(1) {
+                slices.push(Cow::Owned(self.entry(before, 0.0, 0.0)));
+            }
+            slices.push(Cow::Borrowed(self.own(path, k)));
+            if k < self.waits.len() {
+                slices.push(Cow::Owned(self.exit(k, 0.0)));
+            }
+            if let Some(w) = self.waits.get(k) {
+                slices.push(Cow::Owned(vec![Op::Pause(w.pause.clone())]));
+            }
+        }
+        slices
     }
 
     /// The job's own ops in all its pieces.

@@ -202,6 +202,26 @@ fn the_whole_job_keeps_its_pauses_between_the_moves() {
 }
 
 #[test]
+fn the_whole_job_one_op_at_a_time_is_the_expanded_job() {
+    let (path, plan) = plan(AT);
+    let ops: Vec<Op> = plan
+        .expanded_slices(&path)
+        .iter()
+        .flat_map(|s| s.iter().cloned())
+        .collect();
+    assert!(ops.len() > path.ops.len(), "the moves around the waits");
+    assert_eq!(ops, plan.expanded(&path, 0.0).ops);
+    let plain = interpret("G0 Z5\nG1 X1 F100\nM30\n", &setup()).expect("job");
+    let one = Plan::of(&plain, &BTreeMap::new(), AT, 50.0);
+    let ops: Vec<Op> = one
+        .expanded_slices(&plain)
+        .iter()
+        .flat_map(|s| s.iter().cloned())
+        .collect();
+    assert_eq!(ops, plain.ops);
+}
+
+#[test]
 fn the_host_runs_measures_and_shifts_in_order() {
     let (_, plan) = plan(AT);
     let mut s = Sequence::new(plan.clone(), true, 0.5);
