@@ -5,9 +5,11 @@
 //! stored piece is erased (`@0k`) and the console waits at the change
 //! position, saying what for, until F6; then the next piece, and the end.
 //! The console does not measure the new tool (`jogterm run` does:
-//! `toolchange_e2e`): both tools cut at the program's depth.
+//! `toolchange_e2e`): both tools cut at the program's depth. Run at 40x200,
+//! 80x24 and 160x48: each wait's words and key are waited for whole on the
+//! screen at every size.
 
-use crate::console_pty::{self, spawn_on, wait_for};
+use crate::console_pty::{self, wait_for};
 use crate::editor_e2e;
 use crate::sim_process::SimProcess;
 
@@ -78,6 +80,25 @@ fn confirm(run: &mut crate::ui_pty::PtyRun, waiting: &str) {
 
 #[test]
 fn the_console_waits_at_each_tool_change_until_f6_and_runs_the_pieces() {
+    two_tools_at((40, 200));
+}
+
+/// The same at 80x24: the wait and its key read whole on the status line.
+#[test]
+fn at_80x24_every_wait_reads_whole_with_its_key() {
+    two_tools_at((24, 80));
+}
+
+/// The same at 160x48.
+#[test]
+fn at_160x48_every_wait_reads_whole_with_its_key() {
+    two_tools_at((48, 160));
+}
+
+/// The two-tool job run from the console in a terminal of `size` (rows,
+/// columns): each wait shown whole with the key that ends it, F6 going on,
+/// the job ending done in the log.
+fn two_tools_at(size: (u16, u16)) {
     let mut sim = SimProcess::options("isel")
         .files(&[MACHINE])
         .time_scale(20.0)
@@ -87,9 +108,7 @@ fn the_console_waits_at_each_tool_change_until_f6_and_runs_the_pieces() {
     std::fs::write(&job, JOB).expect("write the job");
     let link = sim.link.display().to_string();
     let job_arg = job.display().to_string();
-    let mut run = spawn_on(
-        &sim,
-        state.path(),
+    let mut run = editor_e2e::spawn_sized(
         &[
             "--port",
             &link,
@@ -98,6 +117,9 @@ fn the_console_waits_at_each_tool_change_until_f6_and_runs_the_pieces() {
             "--program",
             &job_arg,
         ],
+        sim.dir.path(),
+        state.path(),
+        size,
     );
     wait_for(&run, "Job two-tools.nc");
     run.type_keys(&[b"\x1bOS"]);
