@@ -225,6 +225,20 @@ fn a_declined_frame_arms_nothing_and_a_jog_after_it_is_no_leg() {
 }
 
 #[test]
+fn an_answer_after_the_axes_moved_starts_nothing() {
+    let t0 = Instant::now();
+    let mut m = opened(t0);
+    at(&mut m, 44_938, 20_000, 0);
+    key(&mut m, 'F');
+    // Moved between the question and the answer (the first leg, Z alone
+    // up, would keep X and Y where they stood at the question).
+    at(&mut m, 40_000, 20_000, 0);
+    assert_eq!(goto(&key(&mut m, 'y')), None);
+    assert!(m.frame.is_none());
+    assert!(message(&m).contains("the axes moved"), "{}", message(&m));
+}
+
+#[test]
 fn a_second_frame_skips_the_corner_the_tool_already_stands_above() {
     let t0 = Instant::now();
     let mut m = opened(t0);

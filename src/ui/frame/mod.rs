@@ -13,7 +13,7 @@
 //! and a lost link: nothing resumes.
 
 use crate::axis::Axis;
-use crate::device::api::{Activity, Event, Frame as Coordinates, LinkState, Request};
+use crate::device::api::{Activity, Event, Frame as Coordinates, LinkState, PerAxis, Request};
 use crate::gcode::frame::{Frame, LegKind};
 use crate::gcode::toolpath::Point;
 use crate::jog::{Gate, JogSettings, Motion};
@@ -138,7 +138,10 @@ pub fn question(ctx: &Context) -> Result<Question, String> {
     Ok(Question {
         title: "Frame the job".into(),
         question,
-        plan: Plan { legs },
+        plan: Plan {
+            legs,
+            from: standing(ctx.positions),
+        },
     })
 }
 
@@ -148,6 +151,16 @@ pub fn start(
     plan: Plan,
     positions: &Positions,
 ) -> (Vec<Effect>, NoteLevel, String) {
+    if standing(positions) != plan.from {
+        *run = None;
+        return (
+            Vec::new(),
+            NoteLevel::Danger,
+            "frame not started: the axes moved since the question; F asks again from where they \
+             stand"
+                .into(),
+        );
+    }
     let mut started = FrameRun {
         legs: plan.legs,
         current: 0,
@@ -249,6 +262,17 @@ impl FrameRun {
         }
         None
     }
+}
+
+/// Where X, Y and Z stand, machine steps, as far as reported.
+fn standing(positions: &Positions) -> PerAxis<i64> {
+    let mut at = PerAxis::new();
+    for axis in [Axis::X, Axis::Y, Axis::Z] {
+        if let Some(r) = positions.get(axis) {
+            at.set(axis, r.steps);
+        }
+    }
+    at
 }
 
 /// Where X, Y and Z stand, machine units; `None` unless all three are

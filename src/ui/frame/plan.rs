@@ -20,4 +20,8 @@ pub struct Leg {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Plan {
     pub legs: Vec<Leg>,
+    /// Where X, Y and Z stood (machine steps) when the question was asked:
+    /// the first leg (Z alone up) keeps X and Y there, so the answer starts
+    /// nothing once the axes have moved since.
+    pub from: PerAxis<i64>,
 }
