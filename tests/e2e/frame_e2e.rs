@@ -329,3 +329,50 @@ fn f_in_the_console_frames_the_open_job_at_the_safe_height() {
     );
     crate::editor_e2e::quit_discarding_the_edits(&mut run);
 }
+
+/// Space during the console's frame, on its way up (real time: 25 mm at
+/// 15 mm/s): the machine stops short of the safe height, and no go-to goes
+/// out after the stop byte (the next leg is never sent).
+#[test]
+fn space_stops_the_consoles_frame_and_no_leg_follows() {
+    let mut sim = SimProcess::options("isel")
+        .files(&[(
+            "profiles/default.toml",
+            "[sim]\nstart_position = 1.0\n[jog]\nspeed = 3\n[isel]\nreference_speed_hz = 12000\n",
+        )])
+        .start();
+    let file = write_job(&sim);
+    let state = tempfile::tempdir().expect("state dir");
+    let link = sim.link.display().to_string();
+    let mut run = crate::console_pty::spawn_on(
+        &sim,
+        state.path(),
+        &["--port", &link, "--program", &file, "--work-zero", ZERO],
+    );
+    crate::console_pty::wait_for(&run, "Job pocket.nc");
+    run.type_keys(&[b"\x1bOS"]);
+    crate::console_pty::wait_for(&run, "Position");
+    crate::console_pty::reference(&mut run);
+    run.type_keys(&[b"F"]);
+    crate::console_pty::wait_for(&run, "Frame the job");
+    run.type_keys(&[b"y"]);
+    sim.wait_device("moving", |s| s.contains("moving"));
+    run.type_keys(&[b" "]);
+    crate::console_pty::wait_for(&run, "frame: stopped");
+    let state = sim.wait_device("standing", |s| !s.contains("moving"));
+    std::thread::sleep(Duration::from_millis(500));
+    let received = sim.received();
+    let stop = received.rfind("<FD>").expect("the stop");
+    assert!(
+        go_tos(&received[stop..]).is_empty(),
+        "no leg after the stop: {received}"
+    );
+    let z: i64 = state
+        .split(" Z ")
+        .nth(1)
+        .and_then(|r| r.split(' ').next())
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("no Z in {state}"));
+    assert!(z < 10_000, "stopped short of the safe height: {state}");
+    crate::editor_e2e::quit_discarding_the_edits(&mut run);
+}
