@@ -543,7 +543,21 @@ pub(crate) fn ready_in_the_editor(run: &mut PtyRun, name: &str) {
     run.type_keys(&[b"y"]);
     wait_for(run, "READY");
     run.type_keys(&[b"e"]);
-    wait_for(run, name);
+    // The program's name alone is no sign: the machine screen's job panel
+    // shows it before `e` is read, and a key typed then can share one read
+    // with the `e`, a burst that moves nothing (F6 lost under load in CI).
+    let end = Instant::now() + WAIT;
+    loop {
+        let screen = run.screen().screen().contents();
+        if screen.contains(name) && screen.contains("Ctrl-S save") {
+            return;
+        }
+        assert!(
+            Instant::now() < end,
+            "the editor never showed {name}:\n{screen}"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
 }
 
 /// The machine screen shows the axes at `steps` (X, Y, Z).
