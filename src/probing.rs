@@ -52,6 +52,57 @@ pub fn touch_off_zero(z: &AxisProfile, touched_z: i64, plate: f64) -> i64 {
     z.to_steps(z.to_units(touched_z) - plate)
 }
 
+/// One go-to on the way to the tool sensor or back: the target (machine
+/// steps) and each moving axis' speed (Hz).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Leg {
+    pub target: PerAxis<i64>,
+    pub speed_hz: PerAxis<f64>,
+}
+
+/// From `here` to `to` (machine steps) as a tool travels near the work and
+/// the sensor: Z up alone first, to the higher of the two, then X and Y
+/// over, then Z down; each axis at its `max_speed`. Only the axes `to`
+/// names move; a leg that would move nothing is left out. `jogterm run`
+/// and the console both go to the sensor and back this way.
+pub fn up_over_down(profile: &Profile, here: &PerAxis<i64>, to: &PerAxis<i64>) -> Vec<Leg> {
+    let rapid = |axis: Axis| {
+        profile
+            .axis(axis)
+            .map_or(0.0, |a| a.speed_hz(a.max_speed).abs())
+    };
+    let mut legs = Vec::new();
+    let mut at = *here;
+    let mut go = |target: PerAxis<i64>, legs: &mut Vec<Leg>| {
+        let mut speed_hz = PerAxis::new();
+        let mut moves = false;
+        for (axis, steps) in target.iter() {
+            speed_hz.set(axis, rapid(axis));
+            moves |= at.get(axis) != Some(steps);
+            at.set(axis, steps);
+        }
+        if moves {
+            legs.push(Leg { target, speed_hz });
+        }
+    };
+    let here_z = here.get(Axis::Z);
+    let to_z = to.get(Axis::Z).or(here_z);
+    if let (Some(from), Some(end)) = (here_z, to_z) {
+        go(PerAxis::new().with(Axis::Z, from.max(end)), &mut legs);
+    }
+    let mut over = PerAxis::new();
+    for (axis, steps) in to.iter().filter(|(axis, _)| *axis != Axis::Z) {
+        over.set(axis, steps);
+    }
+    if !over.axes().is_empty() {
+        go(over, &mut legs);
+    }
+    if let Some(end) = to_z {
+        go(PerAxis::new().with(Axis::Z, end), &mut legs);
+    }
+    legs
+}
+
 /// Where the face lies (machine units) that a probe moving `toward` along
 /// its axis touched with its centre at `touched` units: half the tip
 /// further on.
@@ -124,73 +175,50 @@ mod tests {
     }
 
     #[test]
-    fn a_tool_is_measured_against_the_reference_tool() {
-        let mut tools = ToolTable::default();
-        assert_eq!(tools.measured("T1", 30.0), 0.0);
-        assert_eq!(tools.reference.as_deref(), Some("T1"));
-        // One millimetre longer: it touches one millimetre higher.
-        assert_eq!(tools.measured("T2", 31.0), 1.0);
-        assert_eq!(tools.offset("T1"), Some(0.0));
-        assert_eq!(tools.active_offset(), Some(("T2".into(), 1.0)));
-        tools.touched_off();
-        assert_eq!(tools.active_offset(), None);
-        assert_eq!(tools.measured("T2", 31.0), 0.0);
-        assert_eq!(tools.offset("T1"), Some(-1.0));
+    fn the_way_to_the_sensor_goes_up_alone_over_and_down() {
+        let profile = isel();
+        let at = |x: i64, y: i64, z: i64| {
+            PerAxis::new()
+                .with(Axis::X, x)
+                .with(Axis::Y, y)
+                .with(Axis::Z, z)
+        };
+        let targets =
+            |legs: Vec<Leg>| -> Vec<PerAxis<i64>> { legs.into_iter().map(|l| l.target).collect() };
+        // From below the sensor point: up to it, over, nothing down.
+        let legs = up_over_down(&profile, &at(100, 100, 1000), &at(10_000, 0, 11_000));
+        assert_eq!(
+            targets(legs.clone()),
+            vec![
+                PerAxis::new().with(Axis::Z, 11_000),
+                PerAxis::new().with(Axis::X, 10_000).with(Axis::Y, 0),
+            ]
+        );
+        // Each moving axis at its max_speed (isel: 400 steps/mm).
+        let z = profile.axis(Axis::Z).expect("Z");
+        assert_eq!(
+            legs[0].speed_hz.get(Axis::Z),
+            Some(z.speed_hz(z.max_speed).abs())
+        );
+        // From above it: over, then down; no leg up.
+        assert_eq!(
+            targets(up_over_down(
+                &profile,
+                &at(0, 0, 16_000),
+                &at(10_000, 0, 11_000)
+            )),
+            vec![
+                PerAxis::new().with(Axis::X, 10_000).with(Axis::Y, 0),
+                PerAxis::new().with(Axis::Z, 11_000),
+            ]
+        );
+        // Standing there already: nothing.
+        assert!(up_over_down(&profile, &at(1, 2, 3), &at(1, 2, 3)).is_empty());
     }
 
     #[test]
     fn an_edge_lies_half_the_tip_beyond_the_touch() {
         assert_eq!(edge(10.0, Dir::Plus, 3.0), 11.5);
         assert_eq!(edge(10.0, Dir::Minus, 3.0), 8.5);
-    }
-}
-
-/// The tools measured on the fixed sensor (`jogterm probe tool`), kept in
-/// the state directory per profile and port: the machine Z at which each
-/// touched the sensor, and which one is the reference. A longer tool
-/// touches higher; its offset is the difference to the reference tool.
-#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct ToolTable {
-    /// The reference tool: the one measured right after a Z touch-off, or
-    /// the first measured. `None`: the next tool measured becomes it.
-    pub reference: Option<String>,
-    /// Per tool, the machine Z (units) where it touched the sensor.
-    pub touched: std::collections::BTreeMap<String, f64>,
-    /// The tool in the spindle: the one measured last. Its offset shifts
-    /// every Z of a job (`docs/probing.md`, "Tool length").
-    #[serde(default)]
-    pub active: Option<String>,
-}
-
-impl ToolTable {
-    /// `tool` touched the sensor at machine Z `z`: kept (the reference
-    /// when there is none), and its offset against the reference.
-    pub fn measured(&mut self, tool: &str, z: f64) -> f64 {
-        self.touched.insert(tool.to_owned(), z);
-        self.active = Some(tool.to_owned());
-        if self.reference.is_none() {
-            self.reference = Some(tool.to_owned());
-        }
-        self.offset(tool).unwrap_or(0.0)
-    }
-
-    /// How much higher `tool` touches than the reference, units.
-    pub fn offset(&self, tool: &str) -> Option<f64> {
-        let reference = self.reference.as_deref()?;
-        Some(self.touched.get(tool)? - self.touched.get(reference)?)
-    }
-
-    /// A Z touch-off sets the work Z with the tool in the spindle: the next
-    /// tool measured is the reference, and until then the tool in the
-    /// spindle has no offset (work Z is its own).
-    pub fn touched_off(&mut self) {
-        self.reference = None;
-    }
-
-    /// The tool in the spindle and its offset against the reference, when
-    /// both are measured.
-    pub fn active_offset(&self) -> Option<(String, f64)> {
-        let tool = self.active.as_deref()?;
-        Some((tool.to_owned(), self.offset(tool)?))
     }
 }

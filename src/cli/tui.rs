@@ -243,9 +243,7 @@ async fn session(
     set_emergency(Some(Arc::new(move || {
         let _ = emergency.fire();
     })));
-    let mut setup = Setup::from_profile(&profile, simulator.as_ref().map(|s| s.inputs.clone()));
-    // The tool in the spindle and its offset (`jogterm probe tool`), for the DRO.
-    setup.tool = super::probe::tool::active_offset(global, &profile).map(|t| (t.tool, t.offset_mm));
+    let setup = Setup::from_profile(&profile, simulator.as_ref().map(|s| s.inputs.clone()));
     let mut model = Model::new(setup, keymap, Palette::from(&theme), Instant::now());
     // Unsaved edits go to the user's state directory (`docs/editor.md`);
     // the tag tells this session's new programs from another's.
@@ -262,6 +260,11 @@ async fn session(
     // Work offsets: the state directory's file for this profile and port,
     // applied only if it is this machine's (`docs/jogging.md`).
     let file = OffsetsFile::from_env(Identity::of(&profile_key, &profile));
+    // The tool table beside them (`jogterm probe tool`): the tool in the
+    // spindle shifts every Z of a job imported here.
+    let tools_path = file.as_ref().and_then(crate::offsets::tools::table_path);
+    let read = tools_path.as_deref().map(crate::offsets::tools::load);
+    crate::ui::update::start_tools(&mut model, tools_path, read);
     crate::ui::update::start_offsets(&mut model, file.map(|f| (f.load(), f)));
     if let Some(zero) = work_zero {
         let table = &mut model.keypad.offsets.table;

@@ -14,6 +14,9 @@
 //!   directory, per profile and port), reading it, writing it atomically on
 //!   a thread of its own, a refused file put aside before the first write.
 //!
+//! - [`tools`]: the tool-length offsets measured on the tool sensor, kept
+//!   beside the work offsets.
+//!
 //! The controller's own zero (isel `@0n`, manual 2.2.19) is not this: it can
 //! only be set where the axis stands, and stored programs count from it.
 //! How the two relate is in `docs/protocols.md` (isel) and the console keeps
@@ -21,6 +24,7 @@
 
 pub mod file;
 pub mod store;
+pub mod tools;
 
 pub use file::{Identity, Loaded};
 // The table of work zeros is part of the G-code core (jogterm-gcode); the

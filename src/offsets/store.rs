@@ -161,6 +161,7 @@ impl OffsetsFile {
     /// What to write for `offsets`; `put_aside` for a file refused at start.
     pub fn job(&self, offsets: &WorkOffsets, put_aside: bool) -> SaveJob {
         SaveJob {
+            what: "work offsets",
             path: self.path.clone(),
             text: file::encode(offsets, &self.identity),
             put_aside,
@@ -193,6 +194,8 @@ fn read_capped(path: &Path) -> Result<Option<String>, String> {
 /// One write of the offsets file.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct SaveJob {
+    /// What the file keeps, in words for a failed write ("work offsets").
+    pub what: &'static str,
     pub path: PathBuf,
     pub text: String,
     /// Rename the file there now (refused at start) before writing.
@@ -231,14 +234,15 @@ pub struct Writer {
 }
 
 impl Writer {
-    /// Start the thread; `report` hears how each write went.
-    pub fn spawn(report: impl Fn(Saved) + Send + 'static) -> std::io::Result<Writer> {
+    /// Start the thread; `report` hears how each write went, with what
+    /// the file keeps.
+    pub fn spawn(report: impl Fn(&'static str, Saved) + Send + 'static) -> std::io::Result<Writer> {
         let (tx, rx) = mpsc::channel::<SaveJob>();
         let thread = thread::Builder::new()
             .name("jogterm-offsets".into())
             .spawn(move || {
                 while let Ok(job) = rx.recv() {
-                    report(save(&job));
+                    report(job.what, save(&job));
                 }
             })?;
         Ok(Writer {
@@ -371,7 +375,7 @@ mod tests {
         let dir = tempfile::tempdir().expect("tempdir");
         let file = OffsetsFile::in_dir(dir.path(), identity("sim"));
         let (tx, rx) = mpsc::channel();
-        let writer = Writer::spawn(move |saved| {
+        let writer = Writer::spawn(move |_, saved| {
             let _ = tx.send(saved);
         })
         .expect("writer");

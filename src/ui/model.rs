@@ -80,6 +80,7 @@ macro_rules! editor_context {
             machine: &$model.machine,
             positions: &$model.positions,
             offsets: &$model.keypad.offsets.table,
+            tools: &$model.tools,
             now: $model.now,
             palette: &$model.palette,
             keymap: &$model.keymap,
@@ -141,6 +142,8 @@ pub struct Model {
     pub probe: super::probe::ProbeState,
     /// The job's frame being traced (`ui::frame`).
     pub frame: Option<super::frame::FrameRun>,
+    /// The tool table (`ui::tools`).
+    pub tools: super::tools::ToolsState,
     /// The macro key last pressed, to tell its auto-repeats (presses on
     /// terminals without release events) from a new press.
     pub macro_key: crate::jog::HeldKey<super::key::KeyChord>,
@@ -186,6 +189,7 @@ impl Model {
             macro_run: None,
             probe: super::probe::ProbeState::default(),
             frame: None,
+            tools: super::tools::ToolsState::default(),
             macro_key: crate::jog::HeldKey::default(),
             history: MessageHistory::default(),
             large_dro: false,

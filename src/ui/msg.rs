@@ -45,8 +45,9 @@ pub enum Msg {
     Terminate { reason: String },
     /// A file or lint result for the program editor, or a request to it.
     Editor(EditorMsg),
-    /// How a write of the work offsets file went.
-    OffsetsSaved(Saved),
+    /// How a write of the work offsets file or the tool table went, with
+    /// what the file keeps.
+    OffsetsSaved(&'static str, Saved),
     /// The job log as read for `Effect::ReadJobLog`: its table, newest
     /// last, and its notes.
     JobLog(Vec<String>),

@@ -12,6 +12,7 @@ use super::jog::offsets::OffsetsState;
 use super::jog::values::JogValues;
 use super::msg::Effect;
 use super::setup::Setup;
+use super::tools::ToolsState;
 use super::traffic_log::NoteLevel;
 
 /// Probe ids: apart from the keypad's jogs and limit jogs.
@@ -80,11 +81,13 @@ pub fn question(
 }
 
 /// A device event: the console's probe ended. The note to say, and the
-/// save of the offsets when the touch set Z.
+/// save of the offsets when the touch set Z, and of the tool table: the
+/// tool in the spindle set work Z, so the next tool measured on the sensor
+/// is the reference (as `jogterm probe z` does).
 pub fn device_event(
     state: &mut ProbeState,
     setup: &Setup,
-    offsets: &mut OffsetsState,
+    (offsets, tools): (&mut OffsetsState, &mut ToolsState),
     event: &Event,
 ) -> Option<(NoteLevel, String, Vec<Effect>)> {
     let Event::ProbeEnded { id, end } = event else {
@@ -101,7 +104,8 @@ pub fn device_event(
     let touched = at.get(Axis::Z)?;
     let zero = probing::touch_off_zero(z, touched, setup.probe.plate);
     offsets.table.set(pending.system, Axis::Z, zero);
-    let effects = offsets.save().into_iter().collect();
+    let mut effects: Vec<Effect> = offsets.save().into_iter().collect();
+    effects.extend(tools.touched_off().map(Effect::SaveOffsets));
     let text = format!(
         "{said}; {} Z 0 set to machine Z {:.4} {}",
         pending.system,

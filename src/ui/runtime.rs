@@ -111,8 +111,8 @@ pub async fn run<B: Backend, D: DeviceLink>(
     let worker = EditorWorker::spawn(editor_tx.clone()).map_err(RunError::Worker)?;
     // The work offsets file is written on a thread of its own; how it went
     // comes back on the editor's channel, which is only a channel of `Msg`.
-    let offsets = Writer::spawn(move |saved| {
-        let _ = editor_tx.send(Msg::OffsetsSaved(saved));
+    let offsets = Writer::spawn(move |what, saved| {
+        let _ = editor_tx.send(Msg::OffsetsSaved(what, saved));
     })
     .map_err(RunError::Worker)?;
     let mut ticks = tokio::time::interval(options.frame_interval);

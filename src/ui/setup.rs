@@ -50,10 +50,6 @@ pub struct Setup {
     /// The simulator's button wired as the machine's start key, or why
     /// there is none (`sim::start_key`).
     pub sim_start_key: Result<crate::sim::start_key::StartKey, String>,
-    /// The tool in the spindle and its length offset (mm) as `jogterm probe
-    /// tool`'s table keeps them at start: shown in the DRO's title, since
-    /// every Z of a job imported now carries it (`docs/probing.md`).
-    pub tool: Option<(String, f64)>,
 }
 
 impl Setup {
@@ -82,7 +78,6 @@ impl Setup {
             probe: profile.probe.clone(),
             profile: Arc::new(profile.clone()),
             sim_start_key: crate::sim::start_key::StartKey::of(profile),
-            tool: None,
         }
     }
 

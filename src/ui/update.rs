@@ -67,7 +67,7 @@ fn dispatch(model: &mut Model, msg: Msg) -> Vec<Effect> {
             let probed = super::probe::device_event(
                 &mut model.probe,
                 &model.setup,
-                &mut model.keypad.offsets,
+                (&mut model.keypad.offsets, &mut model.tools),
                 &event,
             );
             let framed = super::frame::device_event(&mut model.frame, &model.positions, &event);
@@ -130,8 +130,8 @@ fn dispatch(model: &mut Model, msg: Msg) -> Vec<Effect> {
             model.dirty = true;
             open(model, Popup::Messages { back: 0 })
         }
-        Msg::OffsetsSaved(saved) => {
-            if let Some((level, text)) = keypad::offsets::saved(&saved) {
+        Msg::OffsetsSaved(what, saved) => {
+            if let Some((level, text)) = keypad::offsets::saved(what, &saved) {
                 say(model, level, text);
                 model.dirty = true;
             }
@@ -846,7 +846,17 @@ fn apply_editor(model: &mut Model, outcome: editor::Outcome) -> Vec<Effect> {
         model.popup = Some(Popup::Editor(dialog));
         model.dirty = true;
     }
-    let mut effects: Vec<Effect> = effects.into_iter().map(Effect::from).collect();
+    let mut console = Vec::with_capacity(effects.len());
+    for effect in effects {
+        match effect.console() {
+            Ok(effect) => console.push(effect),
+            Err((tool, z)) => {
+                let (_, save) = model.tools.measured(&tool, z);
+                console.extend(save.map(Effect::SaveOffsets));
+            }
+        }
+    }
+    let mut effects = console;
     if quit {
         model.quitting = true;
         effects.extend([Effect::Stop, Effect::Quit]);
@@ -1029,6 +1039,19 @@ pub fn start_offsets(
 ) {
     if let Some((level, text)) = keypad::offsets::start(&mut model.keypad.offsets, startup) {
         say(model, level, text);
+    }
+}
+
+/// The tool table starts as read from `path` (`read`; `None` without a
+/// state directory); a file that cannot be read is said.
+pub fn start_tools(
+    model: &mut Model,
+    path: Option<std::path::PathBuf>,
+    read: Option<Result<crate::offsets::tools::ToolTable, String>>,
+) {
+    model.tools = super::tools::ToolsState::start(path, read);
+    if let Some(why) = model.tools.refused() {
+        say(model, NoteLevel::Danger, why);
     }
 }
 

@@ -3,11 +3,12 @@
 //! real binary in a pseudo-terminal against `jogterm sim --pty`. F6 asks
 //! with every wait; each piece is stored and run; at each change the
 //! stored piece is erased (`@0k`) and the console waits at the change
-//! position, saying what for, until F6; then the next piece, and the end.
-//! The console does not measure the new tool (`jogterm run` does:
-//! `toolchange_e2e`): both tools cut at the program's depth. Run at 40x200,
-//! 80x24 and 160x48: each wait's words and key are waited for whole on the
-//! screen at every size.
+//! position, saying what for, until F6; then the new tool is measured on
+//! the simulator's tool sensor (`--probe-surface`), as `jogterm run` does
+//! (`toolchange_e2e`): T2, made 1 mm longer on the simulator (`value tool
+//! 400`), cuts 1 mm higher in machine Z, and the tool table in the state
+//! directory keeps both. Run at 40x200, 80x24 and 160x48: each wait's
+//! words and key are waited for whole on the screen at every size.
 
 use crate::console_pty::{self, wait_for};
 use crate::editor_e2e;
@@ -18,8 +19,8 @@ use std::time::{Duration, Instant};
 /// 400 steps/mm; G54's zero at machine X50 Y50 Z60 mm.
 const WORK_ZERO: &str = "X50 Y50 Z60";
 
-/// A faster machine, the change position X25 Y0 Z40 (machine mm), a tool
-/// sensor the console does not use.
+/// A faster machine, the change position X25 Y0 Z40 (machine mm), the
+/// tool sensor under X25 Y0 (the point above it at Z27.5 mm).
 const MACHINE: (&str, &str) = (
     "profiles/default.toml",
     "[axes.X]\nmax_speed = 60.0\n[axes.Y]\nmax_speed = 60.0\n[axes.Z]\nmax_speed = 30.0\n\
@@ -99,8 +100,10 @@ fn at_160x48_every_wait_reads_whole_with_its_key() {
 /// columns): each wait shown whole with the key that ends it, F6 going on,
 /// the job ending done in the log.
 fn two_tools_at(size: (u16, u16)) {
+    // The work piece and the sensor: a flat plane at Z 8000 steps (20 mm).
     let mut sim = SimProcess::options("isel")
         .files(&[MACHINE])
+        .args(&["--probe-surface=8000"])
         .time_scale(20.0)
         .start();
     let state = tempfile::tempdir().expect("state dir");
@@ -152,8 +155,20 @@ fn two_tools_at(size: (u16, u16)) {
         at.starts_with("device: X 10000 Y 0 Z 16000 "),
         "waits at the change position: {at}"
     );
+    // The operator puts in a tool 1 mm (400 steps) longer.
+    sim.control("value tool 400");
     confirm(&mut run, t2);
+    // The job's end from the controller, then from the console's message
+    // history: on the message line the note of the job checked again for
+    // the new tool (T2 now in the spindle) follows it at once.
+    sim.wait_device("the job's end", |s| {
+        s.starts_with("device: X 36000 Y 24000 Z 26400 ") && !s.contains("moving")
+    });
+    run.type_keys(&[b"\x1bOS"]);
+    wait_for(&run, "Position");
+    run.type_keys(&[b"M"]);
     wait_for(&run, "the job ended: 3 pieces");
+    run.type_keys(&[b"\x1b"]);
     let received = sim.received();
     let received = received.get(before..).unwrap_or_default();
     assert!(
@@ -161,12 +176,32 @@ fn two_tools_at(size: (u16, u16)) {
         "each wait erases the piece before it: {received}"
     );
     let moves = moves(received);
-    // T1's cut ends at X20 Y10 Z-1 (machine 70, 60, 59 mm), T2's at X40:
-    // no measure, both at the program's depth.
+    // T1's cut ends at X20 Y10 Z-1 (machine 70, 60, 59 mm); T2's at X40,
+    // measured 1 mm longer (within a step), 1 mm higher: Z 60 mm.
     assert!(moves.contains(&[28_000, 24_000, 23_600]), "{moves:?}");
-    assert!(moves.contains(&[36_000, 24_000, 23_600]), "{moves:?}");
-    run.type_keys(&[b"\x1bOS"]);
-    wait_for(&run, "Position");
+    let t2 = moves
+        .iter()
+        .find(|m| m[0] == 36_000 && m[1] == 24_000)
+        .unwrap_or_else(|| panic!("no cut to X40: {moves:?}"));
+    assert!((t2[2] - 24_000).abs() <= 1, "T2 cuts 1 mm higher: {t2:?}");
+    assert!(!moves.contains(&[36_000, 24_000, 23_600]), "{moves:?}");
+    // Each tool probed on the sensor, and the tool table beside the work
+    // offsets keeps both: T1 the reference, T2 touching 1 mm higher.
+    let tables: Vec<_> = std::fs::read_dir(state.path().join("tools"))
+        .expect("the tool table's folder")
+        .filter_map(|e| e.ok())
+        .collect();
+    assert_eq!(tables.len(), 1, "{tables:?}");
+    let table: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(tables[0].path()).expect("the tool table"))
+            .expect("JSON");
+    assert_eq!(table["reference"], "T1", "{table}");
+    assert_eq!(table["active"], "T2", "{table}");
+    let touched = |t: &str| table["touched"][t].as_f64().expect("touched");
+    assert!(
+        (touched("T2") - touched("T1") - 1.0).abs() <= 0.0025 + 1e-9,
+        "{table}"
+    );
     editor_e2e::quit_discarding_the_edits(&mut run);
     // The job log followed the pieces: done, its last line after T2's
     // change.

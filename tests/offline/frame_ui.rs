@@ -64,6 +64,7 @@ fn opened(t0: Instant) -> Model {
         source: Arc::from(JOB),
         height_map: None,
         offsets,
+        tool: None,
         report,
         checking: false,
     });

@@ -483,6 +483,9 @@ fn a_refused_file_is_marked_and_its_reason_shown_in_the_popup() {
     assert!(!m.keypad.offsets.refused);
     assert!(screen(&m).contains("Position G55"), "{}", screen(&m));
     // Said when a write fails.
-    update(&mut m, Msg::OffsetsSaved(Err("/x: disk full".into())));
+    update(
+        &mut m,
+        Msg::OffsetsSaved("work offsets", Err("/x: disk full".into())),
+    );
     assert!(screen(&m).contains("work offsets not saved: /x: disk full"));
 }

@@ -18,7 +18,8 @@ use crate::cli::upload::Remedy;
 use crate::config::Profile;
 use crate::device::api::{Dir, PerAxis};
 use crate::offsets::store::OffsetsFile;
-use crate::probing::{self, ToolTable};
+use crate::offsets::tools::ToolTable;
+use crate::probing;
 
 #[derive(Debug, Args)]
 pub struct ToolArgs {
@@ -30,33 +31,7 @@ pub struct ToolArgs {
     pub json: bool,
 }
 
-/// Where the tool table of the session whose offsets live in `offsets`
-/// is kept: beside them, `tools/<profile>@<port>.json`.
-pub fn table_path(offsets: &OffsetsFile) -> Option<PathBuf> {
-    let name = offsets.path.file_stem()?.to_owned();
-    let state = offsets.path.parent()?.parent()?;
-    Some(state.join("tools").join(name).with_extension("json"))
-}
-
-/// The table as saved; a missing one is empty, a broken one an error.
-pub fn load(path: &std::path::Path) -> Result<ToolTable, String> {
-    match std::fs::read_to_string(path) {
-        Ok(text) => serde_json::from_str(&text)
-            .map_err(|e| format!("{}: not a tool table: {e}", path.display())),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(ToolTable::default()),
-        Err(e) => Err(format!("{}: {e}", path.display())),
-    }
-}
-
-pub fn save(path: &std::path::Path, table: &ToolTable) -> Result<(), String> {
-    let text = serde_json::to_string_pretty(table).map_err(|e| e.to_string())?;
-    if let Some(dir) = path.parent() {
-        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-    }
-    crate::program::store::save(path, &text, None)
-        .map(drop)
-        .map_err(|e| e.to_string())
-}
+pub use crate::offsets::tools::{load, save, table_path};
 
 pub fn run(
     global: &GlobalArgs,
@@ -179,7 +154,8 @@ pub(in crate::cli) fn active_offset(
     Some(crate::gcode::waits::ToolOffset { tool, offset_mm })
 }
 
-/// Up to the safe height, over to the sensor, down to the point above it.
+/// Up to the safe height, over to the sensor, down to the point above it
+/// (`probing::up_over_down`).
 async fn to_sensor(
     operator: &mut Operator,
     session: &mut session::Session,
@@ -188,34 +164,14 @@ async fn to_sensor(
     at: Option<PerAxis<i64>>,
     remedy: &Remedy,
 ) -> Result<(), u8> {
-    let steps = |axis: Axis, units: f64| probing::steps(profile, axis, units);
-    let rapid = |axis: Axis| {
-        profile
-            .axis(axis)
-            .map_or(0.0, |a| a.speed_hz(a.max_speed).abs())
-    };
-    let sensor_z = steps(Axis::Z, sensor.get(Axis::Z).unwrap_or(0.0));
-    let here_z = at.and_then(|p| p.get(Axis::Z)).unwrap_or(sensor_z);
-    let safe_z = here_z.max(sensor_z);
-    let z_only = |z: i64| PerAxis::new().with(Axis::Z, z);
-    let z_speed = PerAxis::new().with(Axis::Z, rapid(Axis::Z));
-    operator
-        .move_to(session, z_only(safe_z), z_speed, remedy)
-        .await?;
-    let mut xy = PerAxis::new();
-    let mut xy_speed = PerAxis::new();
-    for axis in [Axis::X, Axis::Y] {
-        if let Some(v) = sensor.get(axis) {
-            xy.set(axis, steps(axis, v));
-            xy_speed.set(axis, rapid(axis));
-        }
+    let mut to = PerAxis::new();
+    for (axis, units) in sensor.iter() {
+        to.set(axis, probing::steps(profile, axis, units));
     }
-    if !xy.axes().is_empty() {
-        operator.move_to(session, xy, xy_speed, remedy).await?;
-    }
-    if safe_z != sensor_z {
+    let here = at.unwrap_or_default();
+    for leg in probing::up_over_down(profile, &here, &to) {
         operator
-            .move_to(session, z_only(sensor_z), z_speed, remedy)
+            .move_to(session, leg.target, leg.speed_hz, remedy)
             .await?;
     }
     Ok(())

@@ -29,7 +29,8 @@ use crate::device::api::{Event, PerAxis, Request};
 use crate::gcode::toolchange::{Sequence, Step, Wait};
 use crate::gcode::ways::Way;
 use crate::gcode::{Point, Target};
-use crate::probing::{self, ToolTable};
+use crate::offsets::tools::ToolTable;
+use crate::probing;
 use crate::program::{Language, LintConfig};
 
 /// What a job with waits needs at run time.
@@ -543,7 +544,8 @@ async fn measure(
     Ok(offset)
 }
 
-/// Back from the sensor to the change position: Z up alone, over, down.
+/// Back from the sensor to the change position: Z up alone, over, down
+/// (`probing::up_over_down`).
 async fn back_to(
     session: &mut Session,
     profile: &Profile,
@@ -551,29 +553,12 @@ async fn back_to(
     to: Point,
     remedy: &Remedy,
 ) -> Status {
-    let target = steps_of(profile, to);
-    let here_z = op.here().and_then(|p| p.get(Axis::Z)).unwrap_or(0);
-    let to_z = target.get(Axis::Z).unwrap_or(here_z);
-    let rapid = |axis: Axis| {
-        profile
-            .axis(axis)
-            .map_or(0.0, |a| a.speed_hz(a.max_speed).abs())
-    };
-    let z_speed = PerAxis::new().with(Axis::Z, rapid(Axis::Z));
-    let up = here_z.max(to_z);
-    op.move_to(session, PerAxis::new().with(Axis::Z, up), z_speed, remedy)
-        .await?;
-    let mut xy = PerAxis::new();
-    let mut xy_speed = PerAxis::new();
-    for axis in [Axis::X, Axis::Y] {
-        if let Some(v) = target.get(axis) {
-            xy.set(axis, v);
-            xy_speed.set(axis, rapid(axis));
-        }
+    let here = op.here().unwrap_or_default();
+    for leg in probing::up_over_down(profile, &here, &steps_of(profile, to)) {
+        op.move_to(session, leg.target, leg.speed_hz, remedy)
+            .await?;
     }
-    op.move_to(session, xy, xy_speed, remedy).await?;
-    op.move_to(session, PerAxis::new().with(Axis::Z, to_z), z_speed, remedy)
-        .await
+    Ok(())
 }
 
 /// A machine point (mm) in steps of the profile's axes.

@@ -41,6 +41,9 @@ pub struct Context<'a> {
     /// The session's work offsets (`O`, `s`, a probe): what a G-code job
     /// opened here is placed with, and checked again with when they change.
     pub offsets: &'a crate::offsets::WorkOffsets,
+    /// The tool table: the tool in the spindle shifts every Z of a G-code
+    /// job imported here; a tool change measures into it.
+    pub tools: &'a crate::ui::tools::ToolsState,
     /// The model's time (the last tick or key).
     pub now: Instant,
     pub palette: &'a Palette,
@@ -109,6 +112,9 @@ pub enum Effect {
     Device(Request),
     /// Stop all motion (the stop lane), as the stop key does.
     Stop,
+    /// `tool` touched the tool sensor at machine Z `z` (units): into the
+    /// console's tool table (`ui::tools`), which is written.
+    ToolMeasured { tool: String, z: f64 },
 }
 
 /// A line for the message line and the console.
@@ -144,12 +150,15 @@ pub struct Outcome {
     pub quit: bool,
 }
 
-impl From<Effect> for crate::ui::msg::Effect {
-    fn from(effect: Effect) -> Self {
-        match effect {
-            Effect::Io(io) => crate::ui::msg::Effect::Editor(io),
-            Effect::Device(request) => crate::ui::msg::Effect::Request(request),
-            Effect::Stop => crate::ui::msg::Effect::Stop,
+impl Effect {
+    /// The console's effect, or the tool measured that the console's own
+    /// state takes (`ui::update` applies it).
+    pub fn console(self) -> Result<crate::ui::msg::Effect, (String, f64)> {
+        match self {
+            Effect::Io(io) => Ok(crate::ui::msg::Effect::Editor(io)),
+            Effect::Device(request) => Ok(crate::ui::msg::Effect::Request(request)),
+            Effect::Stop => Ok(crate::ui::msg::Effect::Stop),
+            Effect::ToolMeasured { tool, z } => Err((tool, z)),
         }
     }
 }

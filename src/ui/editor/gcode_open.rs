@@ -10,6 +10,7 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use crate::config::profile::Profile;
+use crate::gcode::waits::ToolOffset;
 use crate::gcode::{HeightMapFile, Target};
 use crate::offsets::WorkOffsets;
 use crate::program::Language;
@@ -29,6 +30,8 @@ pub struct GcodeJob {
     pub source: Option<Arc<str>>,
     pub profile: Arc<Profile>,
     pub offsets: WorkOffsets,
+    /// The tool in the spindle and its offset: every Z shifts by it.
+    pub tool: Option<ToolOffset>,
     pub height_map: Option<Arc<HeightMapFile>>,
     /// Seconds since 1970 (the worker's clock): how old a height map is.
     pub now_unix: i64,
@@ -67,6 +70,8 @@ pub struct OpenJob {
     pub height_map: Option<Arc<HeightMapFile>>,
     /// The work offsets of the last check; another table checks again.
     pub offsets: WorkOffsets,
+    /// The tool offset of the last check; another one checks again.
+    pub tool: Option<ToolOffset>,
     pub report: JobReport,
     /// A check is on the worker now.
     pub checking: bool,
@@ -99,13 +104,14 @@ pub fn check(mut job: GcodeJob) -> GcodeChecked {
         Target::Emcu => (Language::Emcu, "emcu"),
     };
     let header = header_name(&job.path);
-    let imported = crate::gcode::import_with_map(
+    let imported = crate::gcode::import::import_with_tool(
         &source,
         &header,
         &job.profile,
         &job.offsets,
         target,
         job.height_map.as_deref(),
+        job.tool.as_ref(),
     );
     match imported {
         Err(diagnostics) => {
@@ -143,7 +149,8 @@ pub fn check(mut job: GcodeJob) -> GcodeChecked {
                     system: import.summary.system.to_string(),
                     zero: import.summary.zero,
                 },
-            );
+            )
+            .with_tool_shift(import.tool.as_ref().map_or(0.0, |t| t.offset_mm));
             let report = JobReport::imported(&name, &source, &import, &converted.ways);
             let mut notes = vec![(
                 NoteLevel::Info,

@@ -34,6 +34,10 @@ pub struct Converted {
 #[derive(Debug, Clone, PartialEq)]
 pub struct JobWaits {
     pub plan: Plan,
+    /// The tool offset the import shifted every Z by (the tool in the
+    /// spindle, `ui::tools`): a tool measured at a change shifts the
+    /// pieces after it by its offset less this.
+    pub dz0: f64,
     /// The toolpath the plan was made of: its pieces are ranges of it.
     pub path: std::sync::Arc<crate::gcode::toolpath::Toolpath>,
     pub header: Header,
@@ -69,6 +73,9 @@ pub enum Phase {
     /// change position with the spindle off (M6) or where the program left
     /// it, until the operator confirms with F6 (`Pieces::wait`).
     Waiting,
+    /// At a tool change, after F6: the new tool goes to the tool sensor,
+    /// is measured and comes back (`Pieces::measure`).
+    Measuring,
 }
 
 /// A job with waits run in pieces (`docs/editor.md`, "Tool changes and
@@ -83,6 +90,31 @@ pub struct Pieces {
     pub piece: usize,
     /// The wait under way while the job waits (`Phase::Waiting`).
     pub wait: Option<AtWait>,
+    /// The measure of the new tool under way (`Phase::Measuring`).
+    pub measure: Option<Measuring>,
+    /// The probes sent so far: each measure's probe id is the next.
+    pub probes: u64,
+}
+
+/// The new tool measured on the tool sensor (`probe.tool_sensor`), as
+/// `jogterm run` measures it: to the sensor, the probe, back to the change
+/// position.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Measuring {
+    /// The tool's name as the job's `T` word gives it (`T2`).
+    pub tool: String,
+    pub stage: MeasureStage,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub enum MeasureStage {
+    /// Up, over and down to the point above the sensor.
+    ToSensor(crate::ui::legs::Legs),
+    /// The probe of Z down onto the sensor (its id), which ends where it
+    /// began.
+    Probing(crate::device::api::JogId),
+    /// Up, over and down to the change position again.
+    Back(crate::ui::legs::Legs),
 }
 
 /// The wait the job stands at.
@@ -236,9 +268,18 @@ impl Converted {
         if !plan.waits.is_empty() {
             self.waits = Some(Box::new(JobWaits {
                 plan: plan.clone(),
+                dz0: 0.0,
                 path: std::sync::Arc::new(path.clone()),
                 header,
             }));
+        }
+        self
+    }
+
+    /// The import shifted every Z by `dz0` for the tool in the spindle.
+    pub fn with_tool_shift(mut self, dz0: f64) -> Converted {
+        if let Some(w) = self.waits.as_mut() {
+            w.dz0 = dz0;
         }
         self
     }

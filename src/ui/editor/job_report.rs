@@ -33,6 +33,8 @@ pub struct Figures {
     pub extents: [Option<(f64, f64)>; 3],
     /// The tools the job changes to, in order (`M6 Tn`).
     pub tools: Vec<u32>,
+    /// The tool in the spindle and the offset every Z was shifted by.
+    pub tool_offset: Option<(String, f64)>,
     /// Where the job waits for the operator (M0, M1, M6): line and what.
     pub waits: Vec<(u32, String)>,
     pub commands: usize,
@@ -148,6 +150,7 @@ impl JobReport {
                 zero: [s.zero.x, s.zero.y, s.zero.z],
                 extents: [0, 1, 2].map(|axis| s.extents.range(axis)),
                 tools,
+                tool_offset: import.tool.as_ref().map(|t| (t.tool.clone(), t.offset_mm)),
                 // What the console's F6 waits for (`update::pieces`), not
                 // the stored program's start key.
                 waits: import
@@ -220,6 +223,12 @@ impl JobReport {
             if !f.tools.is_empty() {
                 let tools: Vec<String> = f.tools.iter().map(|t| format!("T{t}")).collect();
                 add(Tone::Text, format!("tools: {}", tools.join(" ")));
+            }
+            if let Some((tool, offset)) = &f.tool_offset {
+                add(
+                    Tone::Warning,
+                    format!("every Z {offset:+.3} mm: {tool}'s length (tool table)"),
+                );
             }
             if f.fits {
                 add(

@@ -93,10 +93,18 @@ impl Editor {
                     waiting: Some(wait_text(w, at.erasing)),
                 });
             }
+            if let Some(m) = c.pieces.as_ref().and_then(|p| p.measure.as_ref()) {
+                return Some(JobStatus {
+                    word: "MEASURE",
+                    progress: format!("{} on the tool sensor: Space ends", m.tool),
+                    waiting: None,
+                });
+            }
             let (word, waiting) = match c.phase {
                 Phase::Uploading => ("STORING", None),
                 Phase::Starting | Phase::Running => ("RUNNING", None),
                 Phase::Waiting => ("WAIT", None),
+                Phase::Measuring => ("MEASURE", None),
                 Phase::Paused => (
                     "PAUSED",
                     Some(format!(

@@ -15,6 +15,7 @@ mod gcode;
 mod job;
 mod joblog;
 mod machine;
+mod measure;
 mod outputs;
 mod pieces;
 mod run;

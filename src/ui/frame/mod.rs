@@ -13,7 +13,7 @@
 //! and a lost link: nothing resumes.
 
 use crate::axis::Axis;
-use crate::device::api::{Activity, Event, Frame as Coordinates, LinkState, PerAxis, Request};
+use crate::device::api::{Event, Frame as Coordinates, LinkState, PerAxis, Request};
 use crate::gcode::frame::{Frame, LegKind};
 use crate::gcode::toolpath::Point;
 use crate::jog::{Gate, JogSettings, Motion};
@@ -24,19 +24,17 @@ pub mod plan;
 pub use plan::{Leg, Plan};
 
 use super::jog::goto::{self, Target};
+use super::legs::{self, Legs};
 use super::msg::Effect;
 use super::position::Positions;
 use super::traffic_log::NoteLevel;
 
-/// A frame being traced.
+/// A frame being traced: its legs as planned (for what is said of each)
+/// and their run.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FrameRun {
     legs: Vec<Leg>,
-    /// The leg sent last (its index).
-    current: usize,
-    /// The controller has reported the leg's motion: its next idle state
-    /// is the leg's end.
-    moving: bool,
+    run: Legs,
 }
 
 /// What `F` reads of the console, built per call.
@@ -161,10 +159,18 @@ pub fn start(
                 .into(),
         );
     }
+    let legs = Legs::new(
+        plan.legs
+            .iter()
+            .map(|l| legs::Leg {
+                target: l.target,
+                request: l.request.clone(),
+            })
+            .collect(),
+    );
     let mut started = FrameRun {
         legs: plan.legs,
-        current: 0,
-        moving: false,
+        run: legs,
     };
     let sent = started.send_from(0, positions);
     match sent {
@@ -196,16 +202,12 @@ pub fn device_event(
         Some((Vec::new(), level, text))
     };
     match event {
-        Event::State(s) if s.activity != Activity::Idle => {
-            r.moving = true;
-            None
-        }
-        Event::State(s) if r.moving => {
+        Event::State(s) if r.run.ended_by(s.activity) => {
             if let Some(f) = &s.fault {
                 let text = format!("frame broken off: `{}`: {}", f.code, f.meaning);
                 return ended(run, NoteLevel::Danger, text);
             }
-            let next = r.current + 1;
+            let next = r.run.current() + 1;
             match r.send_from(next, positions) {
                 Some((effects, text)) => Some((effects, NoteLevel::Info, text)),
                 None => ended(
@@ -236,31 +238,23 @@ impl FrameRun {
     /// frame, would report no motion to end it), and its note.
     fn send_from(&mut self, from: usize, positions: &Positions) -> Option<(Vec<Effect>, String)> {
         let count = self.legs.len();
-        for (index, leg) in self.legs.iter().enumerate().skip(from) {
-            let stands = leg
-                .target
-                .iter()
-                .all(|(axis, steps)| positions.get(axis).is_some_and(|r| r.steps == steps));
-            if stands {
-                continue;
-            }
-            self.current = index;
-            self.moving = false;
-            let Point { x, y, z } = leg.to;
-            let what = match leg.kind {
-                LegKind::Up => "Z up to the safe height".to_string(),
-                LegKind::Corner(n) => format!("corner {n}"),
-            };
-            let text = format!(
-                "frame {}/{count}: {what}, X {} Y {} Z {}",
-                index + 1,
-                num(x),
-                num(y),
-                num(z)
-            );
-            return Some((vec![Effect::Request(leg.request.clone())], text));
-        }
-        None
+        let (index, request) = self
+            .run
+            .send_from(from, |axis| positions.get(axis).map(|r| r.steps))?;
+        let leg = self.legs.get(index)?;
+        let Point { x, y, z } = leg.to;
+        let what = match leg.kind {
+            LegKind::Up => "Z up to the safe height".to_string(),
+            LegKind::Corner(n) => format!("corner {n}"),
+        };
+        let text = format!(
+            "frame {}/{count}: {what}, X {} Y {} Z {}",
+            index + 1,
+            num(x),
+            num(y),
+            num(z)
+        );
+        Some((vec![Effect::Request(request)], text))
     }
 }
 

@@ -88,11 +88,11 @@ pub fn start(offsets: &mut OffsetsState, startup: Option<(Startup, OffsetsFile)>
 }
 
 /// How a write of the offsets file went: said only when it failed.
-pub fn saved(saved: &Saved) -> Option<Note> {
+pub fn saved(what: &str, saved: &Saved) -> Option<Note> {
     saved.as_ref().err().map(|why| {
         (
             NoteLevel::Danger,
-            format!("work offsets not saved: {why}; they are lost when jogterm ends"),
+            format!("{what} not saved: {why}; the change is lost when jogterm ends"),
         )
     })
 }

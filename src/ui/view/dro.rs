@@ -156,8 +156,12 @@ pub fn title_extra(model: &Model) -> Vec<Span<'static>> {
         let ne = if sym.lit.is_ascii() { "!=" } else { "≠" };
         extra.push(Span::styled(format!("programs {ne} {name} "), p.warning));
     }
-    if let Some((tool, offset)) = &model.setup.tool {
-        extra.push(Span::styled(format!("{tool} {offset:+.3} "), p.title));
+    // Every Z of a job imported now carries the offset (`ui::tools`).
+    if let Some(t) = model.tools.active() {
+        extra.push(Span::styled(
+            format!("{} {:+.3} ", t.tool, t.offset_mm),
+            p.title,
+        ));
     }
     extra
 }
@@ -364,14 +368,18 @@ mod tests {
         let dirs = ConfigDirs::builtin_only();
         let profile = load_profile("default", &dirs).expect("profile");
         let theme = load_theme("dark", &dirs).expect("theme");
-        let mut setup = Setup::from_profile(&profile, None);
-        setup.tool = tool;
-        let model = Model::new(
+        let setup = Setup::from_profile(&profile, None);
+        let mut model = Model::new(
             setup,
             Keymap::builtin().expect("keys"),
             Palette::from(&theme),
             std::time::Instant::now(),
         );
+        // The reference T1 at 30 mm, the tool in the spindle `tool`.
+        if let Some((name, offset)) = tool {
+            model.tools.table.measured("T1", 30.0);
+            model.tools.table.measured(&name, 30.0 + offset);
+        }
         title_extra(&model)
             .iter()
             .map(|s| s.content.to_string())

@@ -26,6 +26,7 @@ impl Step<'_, '_> {
             source: None,
             profile: Arc::clone(&self.ctx.setup.profile),
             offsets: self.ctx.offsets.clone(),
+            tool: self.ctx.tools.active(),
             height_map,
             now_unix: 0,
         })));
@@ -41,7 +42,8 @@ impl Step<'_, '_> {
         let Some(job) = self.e.job.as_mut() else {
             return;
         };
-        if job.checking || busy || job.offsets == *self.ctx.offsets {
+        let tool = self.ctx.tools.active();
+        if job.checking || busy || (job.offsets == *self.ctx.offsets && job.tool == tool) {
             return;
         }
         job.checking = true;
@@ -50,6 +52,7 @@ impl Step<'_, '_> {
             source: Some(Arc::clone(&job.source)),
             profile: Arc::clone(&self.ctx.setup.profile),
             offsets: self.ctx.offsets.clone(),
+            tool,
             height_map: job.height_map.clone(),
             now_unix: 0,
         };
@@ -86,8 +89,27 @@ impl Step<'_, '_> {
         let errors = report.errors.len();
         if again {
             let system = job.offsets.active().to_string();
+            // What was checked for: the new zero, or the tool in the spindle
+            // (measured or touched off since).
+            let offsets_changed = self
+                .e
+                .job
+                .as_ref()
+                .is_none_or(|open| open.offsets != job.offsets);
+            let changed = if offsets_changed {
+                "the work offset changed".to_owned()
+            } else {
+                match &job.tool {
+                    Some(t) => format!(
+                        "the tool in the spindle changed ({} {:+.3} mm)",
+                        t.tool, t.offset_mm
+                    ),
+                    None => "the tool offset was reset".to_owned(),
+                }
+            };
             if let Some(open) = self.e.job.as_mut() {
                 open.offsets = job.offsets.clone();
+                open.tool = job.tool.clone();
                 open.report = report.clone();
             }
             match (&opened, untouched) {
@@ -95,9 +117,9 @@ impl Step<'_, '_> {
                     self.say(
                         NoteLevel::Warning,
                         format!(
-                            "the work offset changed: {} was checked again for {system} and fits; \
-                             your edits of the converted program are kept as they are: open the \
-                             G-code again (Ctrl-O) to convert it for the new zero",
+                            "{changed}: {} was checked again for {system} and fits; your edits \
+                             of the converted program are kept as they are: open the G-code \
+                             again (Ctrl-O) to convert it again",
                             job.path.display()
                         ),
                     );
@@ -106,7 +128,7 @@ impl Step<'_, '_> {
                 (Some(_), true) => self.say(
                     NoteLevel::Info,
                     format!(
-                        "the work offset changed: {} checked again for {system}: it fits",
+                        "{changed}: {} checked again for {system}: it fits",
                         job.path.display()
                     ),
                 ),
@@ -114,8 +136,8 @@ impl Step<'_, '_> {
                     self.say(
                         NoteLevel::Danger,
                         format!(
-                            "the work offset changed: {} checked again for {system}: {errors} \
-                             error{} (job panel)",
+                            "{changed}: {} checked again for {system}: {errors} error{} (job \
+                             panel)",
                             job.path.display(),
                             if errors == 1 { "" } else { "s" }
                         ),
@@ -175,6 +197,7 @@ impl Step<'_, '_> {
             source,
             height_map: job.height_map.clone(),
             offsets: job.offsets.clone(),
+            tool: job.tool.clone(),
             report,
             checking: false,
         }

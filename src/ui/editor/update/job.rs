@@ -207,6 +207,13 @@ impl Step<'_, '_> {
             self.wait_key();
             return;
         }
+        if c.phase == Phase::Measuring {
+            self.say(
+                NoteLevel::Info,
+                "the new tool is being measured; the job goes on by itself (Space ends it)".into(),
+            );
+            return;
+        }
         if c.phase == Phase::Paused {
             if !c.paused_read {
                 let text = format!(
@@ -274,6 +281,10 @@ impl Step<'_, '_> {
         let Some(c) = self.e.chunked.as_mut() else {
             return;
         };
+        if c.phase == Phase::Measuring && !matches!(event, Event::Link(_)) {
+            self.measure_event(event);
+            return;
+        }
         let label = c.label();
         match (event, c.phase) {
             (Event::Upload(UploadEvent::Finished { .. }), Phase::Uploading) => {

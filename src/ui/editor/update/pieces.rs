@@ -8,9 +8,10 @@
 //! pieces the job waits for the operator: the status line and the message
 //! line say what for and that F6 goes on, Space ends the job. On isel the
 //! piece that ran is erased first (`@0k`): the iMC runs a stored program
-//! when its start key is pressed. The console does not measure the new
-//! tool (`jogterm run` does, with a tool sensor): it must have the old
-//! one's length.
+//! when its start key is pressed. With a tool sensor (`probe.tool_sensor`)
+//! the new tool is measured after F6 at a tool change (`update::measure`)
+//! and every Z after it shifts by its length; without one it must have the
+//! old one's length.
 
 use crate::gcode::toolchange::{Sequence, Step as Next};
 use crate::ui::editor::component::Effect;
@@ -21,10 +22,13 @@ use crate::ui::traffic_log::NoteLevel;
 use super::Step;
 use super::job::{erase_request, standing};
 
-/// What the console says of measuring at a tool change.
-const NO_MEASURE: &str = "the console does not measure the new tool: it must have the old \
-    one's length (or Space ends the job: touch off Z and restart, or run it with `jogterm run`, \
-    which measures with a tool sensor)";
+/// What the console says of measuring at a tool change without a sensor.
+const NO_MEASURE: &str = "no tool sensor (probe.tool_sensor): the new tool must have the old \
+    one's length (or Space ends the job: touch off Z and restart it from its line)";
+
+/// The same with one.
+const MEASURE: &str = "the new tool is then measured on the tool sensor (probe.tool_sensor) and \
+    every Z after the change shifts by its length";
 
 impl Step<'_, '_> {
     /// F6 on a converted job with waits: the waits, how the job runs
@@ -48,7 +52,8 @@ impl Step<'_, '_> {
         for line in crate::gcode::waits::waits_text(plan) {
             text.push_str(&format!("  {line}\n"));
         }
-        text.push_str(NO_MEASURE);
+        let sensor = self.ctx.setup.profile.probe.tool_sensor.is_some();
+        text.push_str(if sensor { MEASURE } else { NO_MEASURE });
         text.push_str(".\nRun it? The machine moves; at each wait F6 goes on, Space ends the job.");
         let title = format!("Run {}", c.header);
         self.ask(&title, text, Answer::RunPieces, Answer::Nothing);
@@ -72,6 +77,25 @@ impl Step<'_, '_> {
             return;
         };
         let profile = &ctx.setup.profile;
+        // A tool sensor measures each new tool into the tool table: both
+        // must be usable before anything moves.
+        let sensor = match profile.probe.tool_sensor_point() {
+            Some(Ok(_)) => match ctx.tools.refused() {
+                Some(why) => {
+                    self.say(NoteLevel::Danger, format!("run refused: {why}"));
+                    return;
+                }
+                None => true,
+            },
+            Some(Err(why)) => {
+                self.say(
+                    NoteLevel::Danger,
+                    format!("run refused: probe.tool_sensor: {why}"),
+                );
+                return;
+            }
+            None => false,
+        };
         let mut first = None;
         for k in 0..w.plan.segments() {
             match c.piece_uploads(k, (0.0, 0.0), profile, language) {
@@ -89,14 +113,17 @@ impl Step<'_, '_> {
         let Some(parts) = first else {
             return;
         };
-        // No measure in the console: the sequence goes from a confirmed
-        // tool change to the next piece with the shift of the one before.
-        let sequence = Sequence::new(w.plan.clone(), false, 0.0);
+        // The import shifted the job by the offset of the tool in the
+        // spindle already: the sequence's shifts are what a measured tool
+        // changes after it (`Sequence::measured` takes the difference).
+        let sequence = Sequence::new(w.plan.clone(), sensor, 0.0);
         let pieces = Pieces {
             sequence,
             header: w.header.clone(),
             piece: 0,
             wait: None,
+            measure: None,
+            probes: 0,
         };
         self.e.chunked = Some(Chunked {
             parts,
@@ -142,10 +169,14 @@ impl Step<'_, '_> {
                     return;
                 };
                 let at = plan.waits_at(index, p.sequence.shift()).unwrap_or(wait.at);
+                let sensor = self.ctx.setup.profile.probe.tool_sensor.is_some();
                 let place = if wait.is_tool_change() {
                     format!(
-                        "the spindle off, the tool at machine X {:.3} Y {:.3} Z {:.3}; {NO_MEASURE}",
-                        at.x, at.y, at.z
+                        "the spindle off, the tool at machine X {:.3} Y {:.3} Z {:.3}; {}",
+                        at.x,
+                        at.y,
+                        at.z,
+                        if sensor { MEASURE } else { NO_MEASURE }
                     )
                 } else {
                     "the tool where the program left it".to_owned()
@@ -215,12 +246,11 @@ impl Step<'_, '_> {
         }
     }
 
-    /// F6 at a wait: the operator confirms, the next piece is converted
-    /// for the tool in the spindle and stored.
+    /// F6 at a wait: the operator confirms; the new tool is measured
+    /// where there is a tool sensor, and the next piece is converted for
+    /// the tool in the spindle and stored.
     pub(super) fn wait_key(&mut self) {
         let now = self.ctx.now;
-        let profile = std::sync::Arc::clone(&self.ctx.setup.profile);
-        let language = self.e.language();
         let here = standing(self.ctx);
         let machine = self.ctx.machine;
         let axes = self.ctx.setup.axis_set();
@@ -281,6 +311,18 @@ impl Step<'_, '_> {
         let line = p.current_wait().map_or(0, |w| w.origin.line);
         p.sequence.confirmed();
         p.wait = None;
+        self.pieces_go_on(line);
+    }
+
+    /// After a confirmed wait (and the measure of a new tool): what the
+    /// sequence does next, the next piece converted for the tool in the
+    /// spindle and stored, or the measure of the new tool.
+    pub(super) fn pieces_go_on(&mut self, line: u32) {
+        let profile = std::sync::Arc::clone(&self.ctx.setup.profile);
+        let language = self.e.language();
+        let Some(p) = self.e.chunked.as_mut().and_then(|c| c.pieces.as_mut()) else {
+            return;
+        };
         match p.sequence.step() {
             Next::Run {
                 index,
@@ -301,7 +343,12 @@ impl Step<'_, '_> {
                         if let Some(p) = c.pieces.as_mut() {
                             p.piece = index;
                         }
-                        let text = format!("line {line}: going on with {}", c.label());
+                        let shift = if dz == 0.0 {
+                            String::new()
+                        } else {
+                            format!(", every Z {dz:+.3} mm for the tool measured")
+                        };
+                        let text = format!("line {line}: going on with {}{shift}", c.label());
                         self.say(NoteLevel::Info, text);
                         self.chunked_upload();
                     }
@@ -315,6 +362,7 @@ impl Step<'_, '_> {
                     }
                 }
             }
+            Next::Measure { tool, .. } => self.measure_begin(tool),
             other => {
                 let text = format!("the job ends: {other:?} is not the console's to do");
                 self.job_log_end(crate::joblog::How::Error);

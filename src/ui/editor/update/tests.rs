@@ -41,6 +41,7 @@ struct Host {
     dialog: Option<Dialog>,
     /// The session's work offsets.
     offsets: crate::offsets::WorkOffsets,
+    tools: crate::ui::tools::ToolsState,
 }
 
 impl Host {
@@ -75,6 +76,7 @@ impl Host {
             focused: false,
             dialog: None,
             offsets: crate::offsets::WorkOffsets::default(),
+            tools: crate::ui::tools::ToolsState::default(),
         }
     }
 
@@ -84,6 +86,7 @@ impl Host {
             machine: &self.machine,
             positions: &self.positions,
             offsets: &self.offsets,
+            tools: &self.tools,
             now: self.now,
             palette: &self.palette,
             keymap: &self.keymap,
@@ -528,6 +531,7 @@ fn the_program_screen_opens_and_closes_and_forms_take_characters() {
 mod checkout;
 mod gcode;
 mod job;
+mod measure;
 mod outputs;
 mod pieces;
 mod recent;

@@ -176,7 +176,16 @@ fn title_extra(e: &Editor, ctx: &Context) -> Vec<Span<'static>> {
             JobPhase::Starting | JobPhase::Running => ("RUNNING", p.ok),
             JobPhase::Paused => ("PAUSED before", p.danger),
             JobPhase::Waiting => ("WAIT", p.danger),
+            JobPhase::Measuring => ("MEASURE", p.warning),
         };
+        if let Some(m) = c.pieces.as_ref().and_then(|p| p.measure.as_ref()) {
+            let elapsed = ctx.now.saturating_duration_since(c.started).as_secs();
+            out.push(Span::styled(
+                format!("{state} {} {elapsed} s ", m.tool),
+                style,
+            ));
+            return out;
+        }
         // A job with waits at one: what for, not the piece that ended.
         if let Some(w) = c
             .pieces

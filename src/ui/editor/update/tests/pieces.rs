@@ -27,14 +27,14 @@ G0 X60 Y60\n\
 M30\n";
 
 /// Where the tool stands at a wait (as read back after the piece).
-fn at_wait() -> PerAxis<i64> {
+pub(super) fn at_wait() -> PerAxis<i64> {
     PerAxis::new()
         .with(Axis::X, 36_000)
         .with(Axis::Y, 24_000)
         .with(Axis::Z, 26_000)
 }
 
-fn erased(host: &mut Host, e: &mut Editor) -> Outcome {
+pub(super) fn erased(host: &mut Host, e: &mut Editor) -> Outcome {
     host.send(
         e,
         Input::Device(&Event::Reply {
@@ -46,7 +46,7 @@ fn erased(host: &mut Host, e: &mut Editor) -> Outcome {
 }
 
 /// F6 answered yes on the two-tool job: piece 1's upload.
-fn started(host: &mut Host) -> (Editor, Outcome) {
+pub(super) fn started(host: &mut Host) -> (Editor, Outcome) {
     let mut e = opened(host, converted(TWO_TOOLS, 2000));
     let out = host.send(&mut e, Input::Main(Action::RunProgram));
     assert!(requests(&out).is_empty(), "nothing before the answer");
@@ -58,7 +58,7 @@ fn started(host: &mut Host) -> (Editor, Outcome) {
 
 /// The piece stored and run to its end, the erase answered, the
 /// position read and the wait armed: the outcome of the piece's end.
-fn to_the_wait(host: &mut Host, e: &mut Editor, total: usize) -> Outcome {
+pub(super) fn to_the_wait(host: &mut Host, e: &mut Editor, total: usize) -> Outcome {
     let out = run_part(host, e, total);
     erased(host, e);
     host.now += Duration::from_secs(1);
@@ -67,7 +67,7 @@ fn to_the_wait(host: &mut Host, e: &mut Editor, total: usize) -> Outcome {
 }
 
 #[test]
-fn the_question_lists_every_wait_and_says_the_console_does_not_measure() {
+fn the_question_lists_every_wait_and_says_without_a_sensor_the_tool_keeps_its_length() {
     let mut host = Host::isel();
     let mut e = opened(&mut host, converted(TWO_TOOLS, 2000));
     host.send(&mut e, Input::Main(Action::RunProgram));
@@ -77,7 +77,7 @@ fn the_question_lists_every_wait_and_says_the_console_does_not_measure() {
         "line 4: M6: change to tool T1 flat end mill, D=6",
         "line 10: M6: change to tool T2 ball end mill, D=3.175",
         "line 15: M0: program pause",
-        "does not measure the new tool",
+        "no tool sensor (probe.tool_sensor): the new tool must have the old one's length",
         "F6 goes on, Space ends the job",
     ] {
         assert!(q.text.contains(expected), "`{expected}` in:\n{}", q.text);
