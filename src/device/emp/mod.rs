@@ -28,6 +28,7 @@
 mod context;
 mod deadline;
 mod drive;
+mod drive_stops;
 mod guard;
 mod home;
 mod init;

@@ -29,9 +29,10 @@ use crate::device::common::probe::{self, Cycle, Pass, ProbeInput, Step, Until};
 use crate::proto::emp::{Command, DriveAddress, Reply, Request};
 
 use super::context::{Context, is_limit};
-use super::deadline::{self, GivenUp, LongKind};
+use super::deadline;
+use super::drive_stops::DriveStops;
 use super::io;
-use super::motion_op::{script_for, timeout_for};
+use super::motion_op::{overdue, script_for, timeout_for};
 use super::op::Operation;
 use super::plan::{self, Plan};
 use super::script::{Next, Outcome, Script};
@@ -98,9 +99,7 @@ pub struct ProbeOp {
     /// The input as read after the last move.
     touched: bool,
     end: Option<ProbeEnd>,
-    stopping: bool,
-    stop_wait: Vec<DriveAddress>,
-    stops: Vec<DriveAddress>,
+    stops: DriveStops,
     reported: bool,
 }
 
@@ -158,9 +157,7 @@ impl ProbeOp {
             reading: None,
             touched: false,
             end: None,
-            stopping: false,
-            stop_wait: Vec::new(),
-            stops: Vec::new(),
+            stops: DriveStops::default(),
             reported: false,
         })
     }
@@ -173,14 +170,10 @@ impl ProbeOp {
     /// Stop the drive (the driver sends the frame) and end with `end`.
     fn halt(&mut self, end: ProbeEnd) {
         self.end.get_or_insert(end);
-        if self.stopping {
-            return;
+        if self.stops.halt(vec![self.ds]) {
+            self.script.cancel();
+            self.deadline = None;
         }
-        self.stopping = true;
-        self.script.cancel();
-        self.deadline = None;
-        self.stop_wait = vec![self.ds];
-        self.stops = vec![self.ds];
     }
 
     fn report(&mut self, cx: &mut Context) {
@@ -319,19 +312,6 @@ impl ProbeOp {
         self.reading = Some(request);
         Next::Send(request)
     }
-
-    /// The TP frame of the move that runs, for a fault.
-    fn move_request(&self) -> Option<Request> {
-        let leg = self.plan.as_ref()?.legs.first()?;
-        let target = leg.target?;
-        Some(Request::new(
-            leg.ds,
-            Command::MoveTo {
-                vmax: leg.speed.speed,
-                target,
-            },
-        ))
-    }
 }
 
 fn rejected(request: &Request) -> ControllerFault {
@@ -349,9 +329,9 @@ impl Operation for ProbeOp {
             if self.reading.is_some() {
                 return Next::Wait;
             }
-            if self.stopping {
+            if self.stops.is_stopping() {
                 // Nothing more is sent; what runs is ended by the stop.
-                if !self.stop_wait.is_empty() || self.script.next() != Next::Done {
+                if !self.stops.answered() || self.script.next() != Next::Done {
                     return Next::Wait;
                 }
                 self.report(cx);
@@ -391,7 +371,7 @@ impl Operation for ProbeOp {
     ) {
         if self.reading == Some(*request) {
             self.reading = None;
-            if self.stopping || self.stage == Stage::Done {
+            if self.stops.is_stopping() || self.stage == Stage::Done {
                 return;
             }
             if outcome != Outcome::Answered {
@@ -428,7 +408,7 @@ impl Operation for ProbeOp {
     fn activity(&self) -> Activity {
         if self.reported {
             Activity::Idle
-        } else if self.stopping {
+        } else if self.stops.is_stopping() {
             Activity::Stopping
         } else {
             Activity::Probing
@@ -440,53 +420,35 @@ impl Operation for ProbeOp {
     }
 
     fn on_timer(&mut self, cx: &mut Context, now: Instant) {
-        if self.stopping || self.deadline.is_none_or(|t| t > now) {
+        if self.stops.is_stopping() || self.deadline.is_none_or(|t| t > now) {
             return;
         }
-        let request = self
-            .script
-            .running()
-            .first()
-            .copied()
-            .or_else(|| self.move_request());
-        if let Some(request) = request {
-            let fault = deadline::give_up(
-                cx,
-                &request,
-                LongKind::Positioning,
-                GivenUp::Deadline(self.timeout),
-            );
+        let running = self.script.running().first().copied();
+        if let Some(fault) = overdue(cx, running, self.plan.as_ref(), self.timeout) {
             self.halt(ProbeEnd::Fault(fault));
         }
     }
 
     fn take_stops(&mut self) -> Vec<DriveAddress> {
-        std::mem::take(&mut self.stops)
+        self.stops.take()
     }
 
     /// Space and every other stop: no return afterwards (never more than
     /// the operator asked), nothing resumes.
     fn stopped(&mut self, _cx: &mut Context, drives: &[DriveAddress]) {
         self.end.get_or_insert(ProbeEnd::Stopped);
-        self.stopping = true;
+        self.stops.stopped(drives);
         self.script.cancel();
         self.deadline = None;
-        self.stops.clear();
-        for ds in drives {
-            if !self.stop_wait.contains(ds) {
-                self.stop_wait.push(*ds);
-            }
-        }
     }
 
     fn stop_answered(&mut self, ds: DriveAddress) {
-        self.stop_wait.retain(|d| *d != ds);
+        self.stops.answer(ds);
     }
 
     fn link_lost(&mut self, cx: &mut Context) {
         self.end.get_or_insert(ProbeEnd::LinkLost);
-        self.stopping = true;
-        self.stop_wait.clear();
+        self.stops.link_lost();
         self.reading = None;
         self.report(cx);
     }
@@ -494,7 +456,7 @@ impl Operation for ProbeOp {
     /// The drive braked at a limit switch on its own (the driver has
     /// reported the fault): the probe ends there.
     fn limit_hit(&mut self, cx: &mut Context, ds: DriveAddress) {
-        if ds != self.ds || self.stopping {
+        if ds != self.ds || self.stops.is_stopping() {
             return;
         }
         let fault = cx.state.fault.clone().unwrap_or_else(|| ControllerFault {
