@@ -285,8 +285,8 @@ impl Operation for LimitJogOp {
         }
     }
 
-    fn take_stops(&mut self) -> Vec<DriveAddress> {
-        self.stops.take()
+    fn drive_stops(&mut self) -> Option<&mut DriveStops> {
+        Some(&mut self.stops)
     }
 
     fn stopped(&mut self, _cx: &mut Context, drives: &[DriveAddress]) {
@@ -294,10 +294,6 @@ impl Operation for LimitJogOp {
         self.stops.stopped(drives);
         self.script.cancel();
         self.deadline = None;
-    }
-
-    fn stop_answered(&mut self, ds: DriveAddress) {
-        self.stops.answer(ds);
     }
 
     fn link_lost(&mut self, cx: &mut Context) {

@@ -457,8 +457,8 @@ impl Operation for MotionOp {
         }
     }
 
-    fn take_stops(&mut self) -> Vec<DriveAddress> {
-        self.stops.take()
+    fn drive_stops(&mut self) -> Option<&mut DriveStops> {
+        Some(&mut self.stops)
     }
 
     fn stopped(&mut self, cx: &mut Context, drives: &[DriveAddress]) {
@@ -466,10 +466,6 @@ impl Operation for MotionOp {
         self.stops.stopped(drives);
         self.script.cancel();
         self.deadline = None;
-    }
-
-    fn stop_answered(&mut self, ds: DriveAddress) {
-        self.stops.answer(ds);
     }
 
     fn link_lost(&mut self, cx: &mut Context) {

@@ -429,8 +429,8 @@ impl Operation for ProbeOp {
         }
     }
 
-    fn take_stops(&mut self) -> Vec<DriveAddress> {
-        self.stops.take()
+    fn drive_stops(&mut self) -> Option<&mut DriveStops> {
+        Some(&mut self.stops)
     }
 
     /// Space and every other stop: no return afterwards (never more than
@@ -440,10 +440,6 @@ impl Operation for ProbeOp {
         self.stops.stopped(drives);
         self.script.cancel();
         self.deadline = None;
-    }
-
-    fn stop_answered(&mut self, ds: DriveAddress) {
-        self.stops.answer(ds);
     }
 
     fn link_lost(&mut self, cx: &mut Context) {
