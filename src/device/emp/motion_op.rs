@@ -21,9 +21,7 @@
 use std::time::{Duration, Instant};
 
 use crate::axis::Axis;
-use crate::device::api::{
-    Activity, ControllerFault, Dir, JogEnd, JogId, PerAxis, Recovery, Refusal,
-};
+use crate::device::api::{Activity, ControllerFault, Dir, JogEnd, JogId, PerAxis, Refusal};
 use crate::device::common::MotionKind;
 use crate::device::common::RunningMove;
 use crate::device::common::jog_speed::{JogSpeed, MoveState, Renewal};
@@ -32,7 +30,7 @@ use crate::device::common::op::Abandon;
 use crate::device::common::sink::refuse_step;
 use crate::proto::emp::{Command, DriveAddress, OperatingMode, Reply, Request};
 
-use super::context::Context;
+use super::context::{Context, limit_hit, rejected};
 use super::deadline::{self, GivenUp, LongKind};
 use super::drive_stops::DriveStops;
 use super::op::Operation;
@@ -252,15 +250,6 @@ impl MotionOp {
         }
     }
 
-    fn fault_of(request: &Request) -> ControllerFault {
-        ControllerFault {
-            command: request.to_string(),
-            code: "EE".into(),
-            meaning: format!("drive {} rejected the move", request.ds),
-            recovery: Recovery::None,
-        }
-    }
-
     /// The steps waiting behind a finished step, as the next move.
     fn next_step(&mut self, cx: &mut Context) -> bool {
         let Some((delta, speeds)) = self.kind.take_pending() else {
@@ -374,7 +363,7 @@ impl Operation for MotionOp {
         if outcome == Outcome::Rejected {
             self.failed = true;
             self.kind
-                .set_jog_end(JogEnd::Fault(MotionOp::fault_of(request)), false);
+                .set_jog_end(JogEnd::Fault(rejected(request, "the move")), false);
             // Legs already sent may be moving: stop them all.
             self.halt();
         }
@@ -478,15 +467,8 @@ impl Operation for MotionOp {
             return;
         }
         self.failed = true;
-        self.kind.set_jog_end(
-            JogEnd::Fault(ControllerFault {
-                command: format!("{ds}: move"),
-                code: "limit".into(),
-                meaning: format!("drive {ds}: limit switch hit"),
-                recovery: Recovery::Reference,
-            }),
-            false,
-        );
+        self.kind
+            .set_jog_end(JogEnd::Fault(limit_hit(ds, "move")), false);
         self.halt();
     }
 }

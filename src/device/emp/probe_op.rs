@@ -19,8 +19,7 @@ use std::time::{Duration, Instant};
 
 use crate::axis::Axis;
 use crate::device::api::{
-    Activity, ControllerFault, Event, InputSource, JogId, PerAxis, ProbeEnd, ProbeMove, Recovery,
-    Refusal,
+    Activity, Event, InputSource, JogId, PerAxis, ProbeEnd, ProbeMove, Refusal,
 };
 use crate::device::common::Sink;
 use crate::device::common::limits::invalid;
@@ -28,7 +27,7 @@ use crate::device::common::link;
 use crate::device::common::probe::{self, Cycle, Pass, ProbeInput, Step, Until};
 use crate::proto::emp::{Command, DriveAddress, Reply, Request};
 
-use super::context::{Context, is_limit};
+use super::context::{self, Context, is_limit};
 use super::deadline;
 use super::drive_stops::DriveStops;
 use super::io;
@@ -314,15 +313,6 @@ impl ProbeOp {
     }
 }
 
-fn rejected(request: &Request) -> ControllerFault {
-    ControllerFault {
-        command: request.to_string(),
-        code: "EE".into(),
-        meaning: format!("drive {} rejected the probe's frame", request.ds),
-        recovery: Recovery::None,
-    }
-}
-
 impl Operation for ProbeOp {
     fn next(&mut self, cx: &mut Context, now: Instant) -> Next {
         loop {
@@ -378,7 +368,10 @@ impl Operation for ProbeOp {
                 // The drive no longer answers its reads (switched off):
                 // nothing of the probe's moves runs.
                 self.finish(ProbeEnd::Fault(
-                    cx.state.fault.clone().unwrap_or_else(|| rejected(request)),
+                    cx.state
+                        .fault
+                        .clone()
+                        .unwrap_or_else(|| context::rejected(request, "the probe's frame")),
                 ));
                 return;
             }
@@ -395,7 +388,10 @@ impl Operation for ProbeOp {
                 // The drive refused or broke off the move (its error is
                 // read and reported by the driver): stop it.
                 self.deadline = None;
-                self.halt(ProbeEnd::Fault(rejected(request)));
+                self.halt(ProbeEnd::Fault(context::rejected(
+                    request,
+                    "the probe's frame",
+                )));
             }
             _ => {}
         }
@@ -455,12 +451,7 @@ impl Operation for ProbeOp {
         if ds != self.ds || self.stops.is_stopping() {
             return;
         }
-        let fault = cx.state.fault.clone().unwrap_or_else(|| ControllerFault {
-            command: format!("{ds}: probe"),
-            code: "limit".into(),
-            meaning: format!("drive {ds}: limit switch hit"),
-            recovery: Recovery::Reference,
-        });
+        let fault = (cx.state.fault.clone()).unwrap_or_else(|| context::limit_hit(ds, "probe"));
         self.halt(ProbeEnd::Fault(fault));
     }
 }
