@@ -662,13 +662,6 @@ impl IoSnapshot {
             .collect()
     }
 
-    /// The active limit switches of one axis.
-    pub fn active_limits_of(&self, axis: Axis) -> Vec<ActiveLimit> {
-        let mut all = self.active_limits();
-        all.retain(|l| l.axis == axis);
-        all
-    }
-
     /// Whether the machine's start key (the profile's wired input of role
     /// `start`) reads pressed; `None` where the profile wires none. A wait
     /// for the operator goes on at its press (`jogterm run`, the console).

@@ -9,6 +9,7 @@ use std::time::{Duration, Instant};
 use crate::device::api::{Activity, Event, JogEnd, JogId, PerAxis, Refusal};
 
 use super::limits::shifted;
+use super::op::Abandon;
 use super::sink::{Sink, refuse_step};
 
 /// Step presses that arrived while a step ran: delta and speeds each.
@@ -190,6 +191,45 @@ impl MotionKind {
             MotionKind::Step(q) => q.take_merged(),
             _ => None,
         }
+    }
+
+    /// The operator stopped everything: the jog ends `Stopped`, the steps
+    /// waiting behind the move will not run.
+    pub fn stopped(&mut self, sink: &mut impl Sink) {
+        self.drop_pending(
+            sink,
+            Refusal::Invalid {
+                reason: "cancelled by stop".into(),
+            },
+        );
+        self.set_jog_end(JogEnd::Stopped, false);
+    }
+
+    /// The move ends without another byte (`cause`; `device` names what a
+    /// reset reset): its end told, the steps waiting behind it refused.
+    pub fn abandoned(&mut self, sink: &mut impl Sink, cause: &Abandon, device: &str) {
+        match cause {
+            Abandon::LinkLost(_) => {
+                self.set_jog_end(JogEnd::LinkLost, true);
+                self.drop_pending(sink, Refusal::NotConnected);
+            }
+            Abandon::Reset => {
+                self.set_jog_end(JogEnd::Stopped, false);
+                let reason = format!("cancelled: {}", cause.reason(device));
+                self.drop_pending(sink, Refusal::Invalid { reason });
+            }
+        }
+        self.report_jog(sink);
+    }
+
+    /// Whether the jog's lease has run out at `now` with no stop under
+    /// way: the dead-man ends it, and the family stops the move.
+    pub fn lease_ran_out(&mut self, now: Instant, stopping: bool) -> bool {
+        let ran_out = !stopping && self.lease_until().is_some_and(|t| t <= now);
+        if ran_out {
+            self.set_jog_end(JogEnd::DeadMan, false);
+        }
+        ran_out
     }
 
     /// A step pressed while this move runs: remembered (up to the bound)

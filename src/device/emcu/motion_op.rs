@@ -413,13 +413,7 @@ impl Operation for MotionOp {
     }
 
     fn stop(&mut self, cx: &mut Context, now: Instant) {
-        self.kind.drop_pending(
-            cx,
-            Refusal::Invalid {
-                reason: "cancelled by stop".into(),
-            },
-        );
-        self.kind.set_jog_end(JogEnd::Stopped, false);
+        self.kind.stopped(cx);
         if self.is_moving() {
             self.run.stop(plan::brake_time(cx), now);
             if self.run.is_done() {
@@ -441,30 +435,11 @@ impl Operation for MotionOp {
             return false;
         }
         self.run.on_timer(now);
-        if !self.is_stopping() && self.kind.lease_until().is_some_and(|t| t <= now) {
-            self.kind.set_jog_end(JogEnd::DeadMan, false);
-            return true;
-        }
-        false
+        self.kind.lease_ran_out(now, self.is_stopping())
     }
 
     fn abandon(&mut self, cx: &mut Context, cause: &Abandon) {
-        match cause {
-            Abandon::LinkLost(_) => {
-                self.kind.set_jog_end(JogEnd::LinkLost, true);
-                self.kind.drop_pending(cx, Refusal::NotConnected);
-            }
-            Abandon::Reset => {
-                self.kind.set_jog_end(JogEnd::Stopped, false);
-                self.kind.drop_pending(
-                    cx,
-                    Refusal::Invalid {
-                        reason: "cancelled: the interface was reset".into(),
-                    },
-                );
-            }
-        }
-        self.kind.report_jog(cx);
+        self.kind.abandoned(cx, cause, "interface");
         self.phase = Phase::Done;
     }
 

@@ -326,6 +326,28 @@ impl Context {
     }
 }
 
+/// The fault of a frame of jogterm's own that drive `request.ds` rejected
+/// (`EE`); `what` names the frame.
+pub fn rejected(request: &Request, what: &str) -> ControllerFault {
+    ControllerFault {
+        command: request.to_string(),
+        code: "EE".into(),
+        meaning: format!("drive {} rejected {what}", request.ds),
+        recovery: Recovery::None,
+    }
+}
+
+/// The fault of drive `ds` braking at a limit switch on its own during
+/// `what` of jogterm's.
+pub fn limit_hit(ds: DriveAddress, what: &str) -> ControllerFault {
+    ControllerFault {
+        command: format!("{ds}: {what}"),
+        code: "limit".into(),
+        meaning: format!("drive {ds}: limit switch hit"),
+        recovery: Recovery::Reference,
+    }
+}
+
 /// The fault a limit switch caused (refused as such by `gate`).
 pub fn is_limit(fault: &ControllerFault) -> bool {
     fault.code == format!("EE {:02X}", ErrorCode::LIMIT_SWITCH.0) || fault.code == "limit"

@@ -24,9 +24,10 @@ use crate::device::common::limits::named_axes;
 use crate::proto::emp::{Command, DriveAddress, Reply, Request};
 
 use super::context::{Context, is_limit};
-use super::deadline::{self, GivenUp, LongKind};
+use super::deadline;
+use super::drive_stops::DriveStops;
 use super::io;
-use super::motion_op::{script_for, timeout_for};
+use super::motion_op::{overdue, script_for, timeout_for};
 use super::op::Operation;
 use super::plan::{self, Plan};
 use super::script::{Next, Outcome, Script};
@@ -54,9 +55,7 @@ pub struct LimitJogOp {
     last_read: bool,
     reading_result: Option<Reading>,
     end: Option<JogEnd>,
-    stopping: bool,
-    stop_wait: Vec<DriveAddress>,
-    stops: Vec<DriveAddress>,
+    stops: DriveStops,
     reported: bool,
     /// The time the op last heard of (for a reading outside `next` and
     /// `outcome`).
@@ -95,9 +94,7 @@ impl LimitJogOp {
             last_read: false,
             reading_result: None,
             end: None,
-            stopping: false,
-            stop_wait: Vec::new(),
-            stops: Vec::new(),
+            stops: DriveStops::default(),
             reported: false,
             last_at: now,
         })
@@ -115,14 +112,10 @@ impl LimitJogOp {
     /// Stop the drive (the driver sends the frame); `end` unless it has one.
     fn halt(&mut self, end: JogEnd) {
         self.end.get_or_insert(end);
-        if self.stopping {
-            return;
+        if self.stops.halt(vec![self.ds]) {
+            self.script.cancel();
+            self.deadline = None;
         }
-        self.stopping = true;
-        self.script.cancel();
-        self.deadline = None;
-        self.stop_wait = vec![self.ds];
-        self.stops = vec![self.ds];
     }
 
     fn report(&mut self, cx: &mut Context, now: Instant) {
@@ -179,8 +172,8 @@ impl LimitJogOp {
             return;
         }
         match reading {
-            Reading::Off if !self.stopping => self.halt(JogEnd::OffLimit),
-            Reading::Other if !self.stopping => self.halt(JogEnd::StillOnLimit),
+            Reading::Off if !self.stops.is_stopping() => self.halt(JogEnd::OffLimit),
+            Reading::Other if !self.stops.is_stopping() => self.halt(JogEnd::StillOnLimit),
             _ => {}
         }
     }
@@ -189,8 +182,8 @@ impl LimitJogOp {
 impl Operation for LimitJogOp {
     fn next(&mut self, cx: &mut Context, now: Instant) -> Next {
         self.last_at = now;
-        if self.stopping {
-            if !self.stop_wait.is_empty() || self.reading {
+        if self.stops.is_stopping() {
+            if !self.stops.answered() || self.reading {
                 return Next::Wait;
             }
             self.report(cx, now);
@@ -264,7 +257,7 @@ impl Operation for LimitJogOp {
     fn activity(&self) -> Activity {
         if self.reported {
             Activity::Idle
-        } else if self.stopping {
+        } else if self.stops.is_stopping() {
             Activity::Stopping
         } else {
             Activity::Jogging
@@ -276,7 +269,7 @@ impl Operation for LimitJogOp {
     }
 
     fn send_due(&self) -> Option<Instant> {
-        if self.moving() && !self.reading && !self.stopping {
+        if self.moving() && !self.reading && !self.stops.is_stopping() {
             self.next_read
         } else {
             None
@@ -284,55 +277,28 @@ impl Operation for LimitJogOp {
     }
 
     fn on_timer(&mut self, cx: &mut Context, now: Instant) {
-        if self.deadline.is_some_and(|t| t <= now) && !self.stopping {
-            let request = self.plan.legs.first().and_then(|l| {
-                l.target.map(|target| {
-                    Request::new(
-                        self.ds,
-                        Command::MoveTo {
-                            vmax: l.speed.speed,
-                            target,
-                        },
-                    )
-                })
-            });
-            if let Some(request) = request {
-                let fault = deadline::give_up(
-                    cx,
-                    &request,
-                    LongKind::Positioning,
-                    GivenUp::Deadline(self.timeout),
-                );
-                self.halt(JogEnd::Fault(fault));
-            }
+        if self.deadline.is_some_and(|t| t <= now)
+            && !self.stops.is_stopping()
+            && let Some(fault) = overdue(cx, None, Some(&self.plan), self.timeout)
+        {
+            self.halt(JogEnd::Fault(fault));
         }
     }
 
-    fn take_stops(&mut self) -> Vec<DriveAddress> {
-        std::mem::take(&mut self.stops)
+    fn drive_stops(&mut self) -> Option<&mut DriveStops> {
+        Some(&mut self.stops)
     }
 
     fn stopped(&mut self, _cx: &mut Context, drives: &[DriveAddress]) {
         self.end.get_or_insert(JogEnd::Stopped);
-        self.stopping = true;
+        self.stops.stopped(drives);
         self.script.cancel();
         self.deadline = None;
-        self.stops.clear();
-        for ds in drives {
-            if !self.stop_wait.contains(ds) {
-                self.stop_wait.push(*ds);
-            }
-        }
-    }
-
-    fn stop_answered(&mut self, ds: DriveAddress) {
-        self.stop_wait.retain(|d| *d != ds);
     }
 
     fn link_lost(&mut self, cx: &mut Context) {
         self.end.get_or_insert(JogEnd::LinkLost);
-        self.stopping = true;
-        self.stop_wait.clear();
+        self.stops.link_lost();
         self.reading = false;
         if !self.reported {
             self.reported = true;
@@ -344,7 +310,7 @@ impl Operation for LimitJogOp {
     }
 
     fn limit_hit(&mut self, cx: &mut Context, ds: DriveAddress) {
-        if ds != self.ds || self.stopping {
+        if ds != self.ds || self.stops.is_stopping() {
             return;
         }
         // A switch became active where none was read active: judge the

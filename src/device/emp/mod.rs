@@ -28,6 +28,7 @@
 mod context;
 mod deadline;
 mod drive;
+mod drive_stops;
 mod guard;
 mod home;
 mod init;
@@ -79,11 +80,11 @@ use init::Init;
 use limit_op::LimitJogOp;
 use motion_op::MotionOp;
 use op::Operation;
-use output::{Switch, output_request};
+use output::output_request;
 use probe_op::ProbeOp;
 use raw::{RawOp, frame_text, is_query};
 use readback::Readback;
-use script::{Next, Outcome};
+use script::{Next, Outcome, Script};
 
 operations! {
     #[derive(Debug)]
@@ -91,7 +92,7 @@ operations! {
         Readback(Readback) => Setup,
         Init(Init) => Setup,
         Home(Home) => Setup,
-        Output(Switch) => Setup,
+        Output(Script) => Setup,
         Motion(Box<MotionOp> as MotionOp) => Motion,
         Limit(Box<LimitJogOp> as LimitJogOp) => Motion,
         Probe(Box<ProbeOp> as ProbeOp) => Motion,
@@ -633,7 +634,7 @@ impl Core<EmpLine> {
                 }),
             Request::SetZero { axes } => self.set_zero(*axes).map(|()| None),
             Request::SetOutput { output, value } => {
-                output_request(cx, *output, *value).map(|f| Some(Op::Output(Switch::new(f))))
+                output_request(cx, *output, *value).map(|f| Some(Op::Output(Script::sends([f]))))
             }
             Request::Raw { line } => parse_raw(line)
                 .and_then(|f| RawOp::new(cx, f))

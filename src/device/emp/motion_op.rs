@@ -21,18 +21,18 @@
 use std::time::{Duration, Instant};
 
 use crate::axis::Axis;
-use crate::device::api::{
-    Activity, ControllerFault, Dir, JogEnd, JogId, PerAxis, Recovery, Refusal,
-};
+use crate::device::api::{Activity, ControllerFault, Dir, JogEnd, JogId, PerAxis, Refusal};
 use crate::device::common::MotionKind;
 use crate::device::common::RunningMove;
 use crate::device::common::jog_speed::{JogSpeed, MoveState, Renewal};
 use crate::device::common::motion::Coalescing;
+use crate::device::common::op::Abandon;
 use crate::device::common::sink::refuse_step;
 use crate::proto::emp::{Command, DriveAddress, OperatingMode, Reply, Request};
 
-use super::context::Context;
+use super::context::{Context, limit_hit, rejected};
 use super::deadline::{self, GivenUp, LongKind};
+use super::drive_stops::DriveStops;
 use super::op::Operation;
 use super::plan::{self, Plan, Style, lookahead};
 use super::script::{Next, Outcome, Script, Step};
@@ -44,10 +44,7 @@ pub struct MotionOp {
     jog_speed: Option<JogSpeed>,
     plan: Plan,
     script: Script,
-    stopping: bool,
-    /// Drives whose stop frame has not been answered yet.
-    stop_wait: Vec<DriveAddress>,
-    stops: Vec<DriveAddress>,
+    stops: DriveStops,
     failed: bool,
     /// The change the running step makes.
     in_flight: Option<PerAxis<i64>>,
@@ -113,17 +110,17 @@ pub(super) fn timeout_for(cx: &Context, plan: &Plan) -> Duration {
     deadline::positioning(cx, secs, plan.legs.len())
 }
 
-/// The TP frame of a positioning leg.
-fn move_of(leg: &super::plan::Leg) -> Option<Request> {
-    leg.target.map(|target| {
-        Request::new(
-            leg.ds,
-            Command::MoveTo {
-                vmax: leg.speed.speed,
-                target,
-            },
-        )
-    })
+/// The fault of a positioning given up at its deadline (`timeout`): for
+/// the frame still `running`, else for the first TP frame of `plan`.
+pub(super) fn overdue(
+    cx: &mut Context,
+    running: Option<Request>,
+    plan: Option<&Plan>,
+    timeout: Duration,
+) -> Option<ControllerFault> {
+    let request = running.or_else(|| plan?.legs.first()?.move_request())?;
+    let why = GivenUp::Deadline(timeout);
+    Some(deadline::give_up(cx, &request, LongKind::Positioning, why))
 }
 
 impl MotionOp {
@@ -134,9 +131,7 @@ impl MotionOp {
             kind,
             jog_speed: None,
             plan,
-            stopping: false,
-            stop_wait: Vec::new(),
-            stops: Vec::new(),
+            stops: DriveStops::default(),
             failed: false,
             in_flight: delta,
             deadline: None,
@@ -172,7 +167,7 @@ impl MotionOp {
     /// within `jog.max_overrun` ([`plan::granted`]); the first shorter lease
     /// than the jog holds raises its speed ([`Self::speed_up`]).
     pub fn renew(&mut self, cx: &Context, id: JogId, lease: Duration, now: Instant) -> bool {
-        if self.stopping {
+        if self.stops.is_stopping() {
             return false;
         }
         let granted = plan::granted(cx, &self.plan, lease);
@@ -249,23 +244,9 @@ impl MotionOp {
 
     /// Stop the drives of this move (the driver sends the frames).
     fn halt(&mut self) {
-        if self.stopping {
-            return;
-        }
-        self.stopping = true;
-        self.script.cancel();
-        self.deadline = None;
-        let drives = self.plan.drives();
-        self.stop_wait = drives.clone();
-        self.stops = drives;
-    }
-
-    fn fault_of(request: &Request) -> ControllerFault {
-        ControllerFault {
-            command: request.to_string(),
-            code: "EE".into(),
-            meaning: format!("drive {} rejected the move", request.ds),
-            recovery: Recovery::None,
+        if self.stops.halt(self.plan.drives()) {
+            self.script.cancel();
+            self.deadline = None;
         }
     }
 
@@ -302,7 +283,7 @@ impl RunningMove for MotionOp {
     }
 
     fn is_stopping(&self) -> bool {
-        self.stopping
+        self.stops.is_stopping()
     }
 
     /// A step pressed while this runs.
@@ -314,7 +295,7 @@ impl RunningMove for MotionOp {
     ) -> Result<(), Refusal> {
         let position = cx.positions().unwrap_or_default();
         let at = Coalescing {
-            open: !self.stopping && !self.failed,
+            open: !self.stops.is_stopping() && !self.failed,
             bound: cx.settings.jog.step_queue,
             position: &position,
             in_flight: self.in_flight.as_ref(),
@@ -344,8 +325,8 @@ impl Operation for MotionOp {
                 Next::Wait => return Next::Wait,
                 Next::Done => {}
             }
-            if self.stopping {
-                if !self.stop_wait.is_empty() {
+            if self.stops.is_stopping() {
+                if !self.stops.answered() {
                     return Next::Wait;
                 }
             } else if self.plan.style == Style::Velocity && !self.failed {
@@ -382,7 +363,7 @@ impl Operation for MotionOp {
         if outcome == Outcome::Rejected {
             self.failed = true;
             self.kind
-                .set_jog_end(JogEnd::Fault(MotionOp::fault_of(request)), false);
+                .set_jog_end(JogEnd::Fault(rejected(request, "the move")), false);
             // Legs already sent may be moving: stop them all.
             self.halt();
         }
@@ -396,16 +377,16 @@ impl Operation for MotionOp {
         // Over, only `next` has not yet said so: requests may queue.
         let over = self.script.idle()
             && self.kind.pending_steps() == 0
-            && if self.stopping {
-                self.stop_wait.is_empty()
+            && if self.stops.is_stopping() {
+                self.stops.answered()
             } else {
                 self.plan.style == Style::Position || self.failed
             };
-        self.kind.activity(!over, self.stopping)
+        self.kind.activity(!over, self.stops.is_stopping())
     }
 
     fn timer(&self) -> Option<Instant> {
-        if self.stopping {
+        if self.stops.is_stopping() {
             return self.deadline;
         }
         [self.kind.lease_until(), self.deadline]
@@ -415,12 +396,11 @@ impl Operation for MotionOp {
     }
 
     fn on_timer(&mut self, cx: &mut Context, now: Instant) {
-        if self.stopping {
+        if self.stops.is_stopping() {
             self.deadline = None;
             return;
         }
-        if self.kind.lease_until().is_some_and(|t| t <= now) {
-            self.kind.set_jog_end(JogEnd::DeadMan, false);
+        if self.kind.lease_ran_out(now, false) {
             self.halt();
         } else if self.deadline.is_some_and(|t| t <= now) {
             // Still busy: stop every drive of the move first (`halt`), then
@@ -428,19 +408,8 @@ impl Operation for MotionOp {
             // until the operator initialises and references.
             self.failed = true;
             self.halt();
-            let request = self
-                .script
-                .running()
-                .first()
-                .copied()
-                .or_else(|| self.plan.legs.first().and_then(move_of));
-            if let Some(request) = request {
-                let fault = deadline::give_up(
-                    cx,
-                    &request,
-                    LongKind::Positioning,
-                    GivenUp::Deadline(self.timeout),
-                );
+            let running = self.script.running().first().copied();
+            if let Some(fault) = overdue(cx, running, Some(&self.plan), self.timeout) {
                 self.kind.set_jog_end(JogEnd::Fault(fault), false);
             }
             for leg in &self.plan.legs {
@@ -451,7 +420,7 @@ impl Operation for MotionOp {
     }
 
     fn position(&mut self, cx: &mut Context, _now: Instant) {
-        if self.stopping || self.plan.style != Style::Velocity {
+        if self.stops.is_stopping() || self.plan.style != Style::Velocity {
             return;
         }
         for leg in &self.plan.legs {
@@ -477,53 +446,29 @@ impl Operation for MotionOp {
         }
     }
 
-    fn take_stops(&mut self) -> Vec<DriveAddress> {
-        std::mem::take(&mut self.stops)
+    fn drive_stops(&mut self) -> Option<&mut DriveStops> {
+        Some(&mut self.stops)
     }
 
     fn stopped(&mut self, cx: &mut Context, drives: &[DriveAddress]) {
-        self.kind.set_jog_end(JogEnd::Stopped, false);
-        self.kind.drop_pending(
-            cx,
-            Refusal::Invalid {
-                reason: "cancelled by stop".into(),
-            },
-        );
-        self.stopping = true;
+        self.kind.stopped(cx);
+        self.stops.stopped(drives);
         self.script.cancel();
         self.deadline = None;
-        self.stops.clear();
-        for ds in drives {
-            if !self.stop_wait.contains(ds) {
-                self.stop_wait.push(*ds);
-            }
-        }
-    }
-
-    fn stop_answered(&mut self, ds: DriveAddress) {
-        self.stop_wait.retain(|d| *d != ds);
     }
 
     fn link_lost(&mut self, cx: &mut Context) {
-        self.kind.set_jog_end(JogEnd::LinkLost, true);
-        self.kind.report_jog(cx);
-        self.kind.drop_pending(cx, Refusal::NotConnected);
+        let cause = Abandon::LinkLost(String::new());
+        self.kind.abandoned(cx, &cause, "drive");
     }
 
     fn limit_hit(&mut self, _cx: &mut Context, ds: DriveAddress) {
-        if !self.plan.drives().contains(&ds) || self.stopping {
+        if !self.plan.drives().contains(&ds) || self.stops.is_stopping() {
             return;
         }
         self.failed = true;
-        self.kind.set_jog_end(
-            JogEnd::Fault(ControllerFault {
-                command: format!("{ds}: move"),
-                code: "limit".into(),
-                meaning: format!("drive {ds}: limit switch hit"),
-                recovery: Recovery::Reference,
-            }),
-            false,
-        );
+        self.kind
+            .set_jog_end(JogEnd::Fault(limit_hit(ds, "move")), false);
         self.halt();
     }
 }

@@ -9,6 +9,7 @@ use crate::device::api::Activity;
 use crate::proto::emp::{DriveAddress, Reply, Request};
 
 use super::context::Context;
+use super::drive_stops::DriveStops;
 use super::script::{Next, Outcome};
 
 pub trait Operation {
@@ -48,10 +49,15 @@ pub trait Operation {
     /// sample for a stall watchdog, so it needs no reads of its own.
     fn polled(&mut self, _cx: &mut Context, _ds: DriveAddress, _now: Instant) {}
 
+    /// The stop frames of an operation that stops its drives itself.
+    fn drive_stops(&mut self) -> Option<&mut DriveStops> {
+        None
+    }
+
     /// The drives this operation wants stopped now (release, lease expiry,
     /// soft limit, a failed leg); the driver sends the stop frames.
     fn take_stops(&mut self) -> Vec<DriveAddress> {
-        Vec::new()
+        self.drive_stops().map(DriveStops::take).unwrap_or_default()
     }
 
     /// The operator stopped everything: send nothing more, end what is
@@ -59,7 +65,11 @@ pub trait Operation {
     fn stopped(&mut self, cx: &mut Context, drives: &[DriveAddress]);
 
     /// A stop frame to `ds` was answered (or rejected).
-    fn stop_answered(&mut self, _ds: DriveAddress) {}
+    fn stop_answered(&mut self, ds: DriveAddress) {
+        if let Some(stops) = self.drive_stops() {
+            stops.answer(ds);
+        }
+    }
 
     /// The link is gone: report the end, forget the rest.
     fn link_lost(&mut self, _cx: &mut Context) {}

@@ -37,22 +37,10 @@ pub fn output_request(cx: &Context, output: OutputId, value: u8) -> Result<Reque
     Ok(Request::new(d.ds, Command::WriteOutputs(outputs)))
 }
 
-#[derive(Debug)]
-pub struct Switch {
-    script: Script,
-}
-
-impl Switch {
-    pub fn new(request: Request) -> Switch {
-        Switch {
-            script: Script::sends([request]),
-        }
-    }
-}
-
-impl Operation for Switch {
+/// An output's frame is a script and nothing more: it runs as one.
+impl Operation for Script {
     fn next(&mut self, _cx: &mut Context, _now: Instant) -> Next {
-        self.script.next()
+        Script::next(self)
     }
 
     fn outcome(
@@ -63,11 +51,11 @@ impl Operation for Switch {
         _reply: Option<&Reply>,
         _now: Instant,
     ) {
-        self.script.outcome(request, outcome);
+        Script::outcome(self, request, outcome);
     }
 
     fn owns(&self, request: &Request) -> bool {
-        self.script.owns(request)
+        Script::owns(self, request)
     }
 
     fn activity(&self) -> Activity {
@@ -75,6 +63,6 @@ impl Operation for Switch {
     }
 
     fn stopped(&mut self, _cx: &mut Context, _drives: &[DriveAddress]) {
-        self.script.cancel();
+        self.cancel();
     }
 }

@@ -16,7 +16,7 @@ use crate::device::common::jog_speed;
 use crate::device::common::limits::{capped_speed, invalid, moving_axes, named_axes, soft_limit};
 use crate::device::common::vector::{Leg as VectorLeg, room, travel};
 use crate::motion::{self, Braking};
-use crate::proto::emp::{DriveAddress, Position};
+use crate::proto::emp::{Command, DriveAddress, Position, Request};
 use std::time::Duration;
 
 use super::context::Context;
@@ -47,6 +47,19 @@ pub struct Leg {
 impl Leg {
     pub fn hz(&self) -> f64 {
         self.speed.hz()
+    }
+
+    /// The TP frame of a positioning leg.
+    pub fn move_request(&self) -> Option<Request> {
+        self.target.map(|target| {
+            Request::new(
+                self.ds,
+                Command::MoveTo {
+                    vmax: self.speed.speed,
+                    target,
+                },
+            )
+        })
     }
 }
 

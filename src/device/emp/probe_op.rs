@@ -19,8 +19,7 @@ use std::time::{Duration, Instant};
 
 use crate::axis::Axis;
 use crate::device::api::{
-    Activity, ControllerFault, Event, InputSource, JogId, PerAxis, ProbeEnd, ProbeMove, Recovery,
-    Refusal,
+    Activity, Event, InputSource, JogId, PerAxis, ProbeEnd, ProbeMove, Refusal,
 };
 use crate::device::common::Sink;
 use crate::device::common::limits::invalid;
@@ -28,10 +27,11 @@ use crate::device::common::link;
 use crate::device::common::probe::{self, Cycle, Pass, ProbeInput, Step, Until};
 use crate::proto::emp::{Command, DriveAddress, Reply, Request};
 
-use super::context::{Context, is_limit};
-use super::deadline::{self, GivenUp, LongKind};
+use super::context::{self, Context, is_limit};
+use super::deadline;
+use super::drive_stops::DriveStops;
 use super::io;
-use super::motion_op::{script_for, timeout_for};
+use super::motion_op::{overdue, script_for, timeout_for};
 use super::op::Operation;
 use super::plan::{self, Plan};
 use super::script::{Next, Outcome, Script};
@@ -98,9 +98,7 @@ pub struct ProbeOp {
     /// The input as read after the last move.
     touched: bool,
     end: Option<ProbeEnd>,
-    stopping: bool,
-    stop_wait: Vec<DriveAddress>,
-    stops: Vec<DriveAddress>,
+    stops: DriveStops,
     reported: bool,
 }
 
@@ -158,9 +156,7 @@ impl ProbeOp {
             reading: None,
             touched: false,
             end: None,
-            stopping: false,
-            stop_wait: Vec::new(),
-            stops: Vec::new(),
+            stops: DriveStops::default(),
             reported: false,
         })
     }
@@ -173,14 +169,10 @@ impl ProbeOp {
     /// Stop the drive (the driver sends the frame) and end with `end`.
     fn halt(&mut self, end: ProbeEnd) {
         self.end.get_or_insert(end);
-        if self.stopping {
-            return;
+        if self.stops.halt(vec![self.ds]) {
+            self.script.cancel();
+            self.deadline = None;
         }
-        self.stopping = true;
-        self.script.cancel();
-        self.deadline = None;
-        self.stop_wait = vec![self.ds];
-        self.stops = vec![self.ds];
     }
 
     fn report(&mut self, cx: &mut Context) {
@@ -319,28 +311,6 @@ impl ProbeOp {
         self.reading = Some(request);
         Next::Send(request)
     }
-
-    /// The TP frame of the move that runs, for a fault.
-    fn move_request(&self) -> Option<Request> {
-        let leg = self.plan.as_ref()?.legs.first()?;
-        let target = leg.target?;
-        Some(Request::new(
-            leg.ds,
-            Command::MoveTo {
-                vmax: leg.speed.speed,
-                target,
-            },
-        ))
-    }
-}
-
-fn rejected(request: &Request) -> ControllerFault {
-    ControllerFault {
-        command: request.to_string(),
-        code: "EE".into(),
-        meaning: format!("drive {} rejected the probe's frame", request.ds),
-        recovery: Recovery::None,
-    }
 }
 
 impl Operation for ProbeOp {
@@ -349,9 +319,9 @@ impl Operation for ProbeOp {
             if self.reading.is_some() {
                 return Next::Wait;
             }
-            if self.stopping {
+            if self.stops.is_stopping() {
                 // Nothing more is sent; what runs is ended by the stop.
-                if !self.stop_wait.is_empty() || self.script.next() != Next::Done {
+                if !self.stops.answered() || self.script.next() != Next::Done {
                     return Next::Wait;
                 }
                 self.report(cx);
@@ -391,14 +361,17 @@ impl Operation for ProbeOp {
     ) {
         if self.reading == Some(*request) {
             self.reading = None;
-            if self.stopping || self.stage == Stage::Done {
+            if self.stops.is_stopping() || self.stage == Stage::Done {
                 return;
             }
             if outcome != Outcome::Answered {
                 // The drive no longer answers its reads (switched off):
                 // nothing of the probe's moves runs.
                 self.finish(ProbeEnd::Fault(
-                    cx.state.fault.clone().unwrap_or_else(|| rejected(request)),
+                    cx.state
+                        .fault
+                        .clone()
+                        .unwrap_or_else(|| context::rejected(request, "the probe's frame")),
                 ));
                 return;
             }
@@ -415,7 +388,10 @@ impl Operation for ProbeOp {
                 // The drive refused or broke off the move (its error is
                 // read and reported by the driver): stop it.
                 self.deadline = None;
-                self.halt(ProbeEnd::Fault(rejected(request)));
+                self.halt(ProbeEnd::Fault(context::rejected(
+                    request,
+                    "the probe's frame",
+                )));
             }
             _ => {}
         }
@@ -428,7 +404,7 @@ impl Operation for ProbeOp {
     fn activity(&self) -> Activity {
         if self.reported {
             Activity::Idle
-        } else if self.stopping {
+        } else if self.stops.is_stopping() {
             Activity::Stopping
         } else {
             Activity::Probing
@@ -440,53 +416,31 @@ impl Operation for ProbeOp {
     }
 
     fn on_timer(&mut self, cx: &mut Context, now: Instant) {
-        if self.stopping || self.deadline.is_none_or(|t| t > now) {
+        if self.stops.is_stopping() || self.deadline.is_none_or(|t| t > now) {
             return;
         }
-        let request = self
-            .script
-            .running()
-            .first()
-            .copied()
-            .or_else(|| self.move_request());
-        if let Some(request) = request {
-            let fault = deadline::give_up(
-                cx,
-                &request,
-                LongKind::Positioning,
-                GivenUp::Deadline(self.timeout),
-            );
+        let running = self.script.running().first().copied();
+        if let Some(fault) = overdue(cx, running, self.plan.as_ref(), self.timeout) {
             self.halt(ProbeEnd::Fault(fault));
         }
     }
 
-    fn take_stops(&mut self) -> Vec<DriveAddress> {
-        std::mem::take(&mut self.stops)
+    fn drive_stops(&mut self) -> Option<&mut DriveStops> {
+        Some(&mut self.stops)
     }
 
     /// Space and every other stop: no return afterwards (never more than
     /// the operator asked), nothing resumes.
     fn stopped(&mut self, _cx: &mut Context, drives: &[DriveAddress]) {
         self.end.get_or_insert(ProbeEnd::Stopped);
-        self.stopping = true;
+        self.stops.stopped(drives);
         self.script.cancel();
         self.deadline = None;
-        self.stops.clear();
-        for ds in drives {
-            if !self.stop_wait.contains(ds) {
-                self.stop_wait.push(*ds);
-            }
-        }
-    }
-
-    fn stop_answered(&mut self, ds: DriveAddress) {
-        self.stop_wait.retain(|d| *d != ds);
     }
 
     fn link_lost(&mut self, cx: &mut Context) {
         self.end.get_or_insert(ProbeEnd::LinkLost);
-        self.stopping = true;
-        self.stop_wait.clear();
+        self.stops.link_lost();
         self.reading = None;
         self.report(cx);
     }
@@ -494,15 +448,10 @@ impl Operation for ProbeOp {
     /// The drive braked at a limit switch on its own (the driver has
     /// reported the fault): the probe ends there.
     fn limit_hit(&mut self, cx: &mut Context, ds: DriveAddress) {
-        if ds != self.ds || self.stopping {
+        if ds != self.ds || self.stops.is_stopping() {
             return;
         }
-        let fault = cx.state.fault.clone().unwrap_or_else(|| ControllerFault {
-            command: format!("{ds}: probe"),
-            code: "limit".into(),
-            meaning: format!("drive {ds}: limit switch hit"),
-            recovery: Recovery::Reference,
-        });
+        let fault = (cx.state.fault.clone()).unwrap_or_else(|| context::limit_hit(ds, "probe"));
         self.halt(ProbeEnd::Fault(fault));
     }
 }

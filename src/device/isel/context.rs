@@ -677,6 +677,12 @@ impl Context {
         self.cnc_store = false;
     }
 
+    /// Why a position read failed: the fault its answer reported, or none
+    /// came that could be read.
+    pub fn position_fault(&self) -> ControllerFault {
+        (self.state.fault.clone()).unwrap_or_else(|| link::unreadable("@0P", "no position"))
+    }
+
     /// The raw bytes of a reply nobody asked for, for a notice.
     pub fn stray_bytes(&mut self, bytes: &[u8]) {
         if !bytes.is_empty() {

@@ -34,7 +34,6 @@ use crate::axis::{Axis, AxisSet};
 use crate::device::api::{ActiveLimit, Activity, Dir, Event, JogEnd, JogId, Refusal};
 use crate::device::common::limit_jog::{self, Reading};
 use crate::device::common::limits::machine_has;
-use crate::device::common::link;
 use crate::proto::isel::{Command, ControlByte, InputPort, Reply, ReplyCode};
 
 use super::context::{Context, control_outgoing, is_limit_fault};
@@ -336,11 +335,7 @@ impl Operation for LimitJogOp {
                     self.decide();
                 } else {
                     // The answer was a fault (reported) or nonsense.
-                    let fault = cx
-                        .state
-                        .fault
-                        .clone()
-                        .unwrap_or_else(|| link::unreadable("@0P", "no position"));
+                    let fault = cx.position_fault();
                     self.finish(JogEnd::Fault(fault));
                 }
             }

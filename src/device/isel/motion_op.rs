@@ -371,13 +371,7 @@ impl Operation for MotionOp {
     }
 
     fn stop(&mut self, cx: &mut Context, now: Instant) -> Option<Duration> {
-        self.drop_pending(
-            cx,
-            Refusal::Invalid {
-                reason: "cancelled by stop".into(),
-            },
-        );
-        self.kind.set_jog_end(JogEnd::Stopped, false);
+        self.kind.stopped(&mut cx.events);
         match self.phase {
             Phase::Send => {
                 self.phase = Phase::Done;
@@ -419,30 +413,11 @@ impl Operation for MotionOp {
             }
             self.next_estimate = Some(next);
         }
-        if !self.stopping && self.kind.lease_until().is_some_and(|t| t <= now) {
-            self.kind.set_jog_end(JogEnd::DeadMan, false);
-            return true;
-        }
-        false
+        self.kind.lease_ran_out(now, self.stopping)
     }
 
     fn abandon(&mut self, cx: &mut Context, cause: &Abandon) {
-        match cause {
-            Abandon::LinkLost(_) => {
-                self.kind.set_jog_end(JogEnd::LinkLost, true);
-                self.drop_pending(cx, Refusal::NotConnected);
-            }
-            Abandon::Reset => {
-                self.kind.set_jog_end(JogEnd::Stopped, false);
-                self.drop_pending(
-                    cx,
-                    Refusal::Invalid {
-                        reason: "cancelled: the controller was reset".into(),
-                    },
-                );
-            }
-        }
-        self.kind.report_jog(&mut cx.events);
+        self.kind.abandoned(&mut cx.events, cause, "controller");
         self.phase = Phase::Done;
     }
 

@@ -5,6 +5,7 @@
 use std::time::Instant;
 
 use crate::device::api::{Activity, OutputId, Refusal};
+use crate::device::common::limits::invalid;
 use crate::proto::isel::{Command, OutputPort, Reply, ReplyCode};
 
 use super::context::{Cmd, Context};
@@ -17,10 +18,6 @@ pub struct OutputOp {
     value: u8,
     sent: bool,
     done: bool,
-}
-
-fn invalid(reason: String) -> Refusal {
-    Refusal::Invalid { reason }
 }
 
 impl OutputOp {

@@ -279,11 +279,7 @@ impl Operation for ProbeOp {
                 if cx.position_reply(reply, now) {
                     self.advance(cx);
                 } else {
-                    let fault = cx
-                        .state
-                        .fault
-                        .clone()
-                        .unwrap_or_else(|| link::unreadable("@0P", "no position"));
+                    let fault = cx.position_fault();
                     self.finish(ProbeEnd::Fault(fault));
                 }
             }

@@ -18,6 +18,7 @@ use std::time::{Duration, Instant};
 
 use crate::axis::AxisSet;
 use crate::device::api::{Activity, Event, ProgramState, Refusal, ReplyKind};
+use crate::device::common::limits::invalid;
 use crate::proto::isel::{
     AxisConfig, CncCommand, Command, ControlByte, InitCommand, Rejection, Reply, ReplyCode,
     SyncChar, check_with, parse_frame, validate_cnc,
@@ -85,10 +86,6 @@ pub struct RawOp {
     read_back: bool,
 }
 
-fn invalid(reason: String) -> Refusal {
-    Refusal::Invalid { reason }
-}
-
 impl RawOp {
     pub fn new(cx: &Context, text: &str) -> Result<RawOp, Refusal> {
         if cx.cnc_store {
@@ -113,8 +110,7 @@ impl RawOp {
         if command == Command::SetTestMode(true) && !cx.settings.test_mode_allowed {
             return Err(invalid(
                 "test mode (moves without reference and over limit switches) is not allowed \
-                 by the profile (isel.test_mode)"
-                    .to_owned(),
+                 by the profile (isel.test_mode)",
             ));
         }
         let mut cmd = cx.cmd(command.clone());
@@ -139,7 +135,7 @@ impl RawOp {
 
     fn stored_line(cx: &Context, text: &str) -> Result<RawOp, Refusal> {
         let config = cx.config.ok_or_else(|| {
-            invalid("the controller is storing a program but its axes are unknown".to_owned())
+            invalid("the controller is storing a program but its axes are unknown")
         })?;
         let parsed = validate_cnc(text, config).map_err(|r| {
             invalid(format!(
@@ -197,7 +193,7 @@ impl RawOp {
     pub fn for_checkout(cx: &Context, text: &str) -> Result<RawOp, Refusal> {
         if cx.cnc_store {
             return Err(invalid(
-                "the controller is storing a program: a check-out sends DNC lines".to_owned(),
+                "the controller is storing a program: a check-out sends DNC lines",
             ));
         }
         let mut op = RawOp::new(cx, text)?;

@@ -21,6 +21,7 @@
 use std::time::{Duration, Instant};
 
 use crate::device::api::{Activity, ProgramState, Refusal};
+use crate::device::common::limits::invalid;
 use crate::device::common::upload::UploadProgress;
 use crate::proto::isel::{CncCommand, Command, ControlByte, Reply, ReplyCode, validate_cnc};
 
@@ -55,10 +56,6 @@ pub struct UploadOp {
     abort_reason: String,
 }
 
-fn invalid(reason: String) -> Refusal {
-    Refusal::Invalid { reason }
-}
-
 impl UploadOp {
     pub fn new(cx: &Context, lines: &[String], erase_first: bool) -> Result<UploadOp, Refusal> {
         if !cx.profile_ready() {
@@ -66,7 +63,7 @@ impl UploadOp {
         }
         let config = cx.settings.config;
         if lines.is_empty() {
-            return Err(invalid("the program has no lines".into()));
+            return Err(invalid("the program has no lines"));
         }
         let mut parsed = Vec::with_capacity(lines.len() + 1);
         for (i, line) in lines.iter().enumerate() {
