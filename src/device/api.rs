@@ -167,6 +167,17 @@ pub enum Request {
     },
     /// Stop all motion, flush, close the port and end the task.
     Shutdown,
+    /// The operator holds a key for the motion the client drives (the
+    /// console's hold-to-run frame): unless another `Hold` arrives within
+    /// `lease`, the task stops all motion as the stop key does and reports
+    /// `Event::HoldLapsed`. The task keeps the hold itself, so a client that
+    /// stalls (a frozen console, a stopped process) cannot keep the machine
+    /// moving; the drivers never see it.
+    Hold {
+        lease: Duration,
+    },
+    /// The client's hold ended without a stop (its motion ended).
+    HoldEnd,
 }
 
 impl Request {
@@ -834,6 +845,9 @@ pub enum Event {
         id: JogId,
         end: ProbeEnd,
     },
+    /// A `Request::Hold` was not renewed within its lease: every motion was
+    /// stopped (the stop went out on the stop lane).
+    HoldLapsed,
     /// A check-out line ended (`Request::Checkout`).
     Checkout {
         id: JogId,

@@ -65,6 +65,8 @@ pub fn describe(request: &Request) -> String {
         Request::Reset => "reset".to_owned(),
         Request::Poll { .. } => "poll settings".to_owned(),
         Request::Shutdown => "shutdown".to_owned(),
+        Request::Hold { lease } => format!("hold for {} ms", lease.as_millis()),
+        Request::HoldEnd => "hold ended".to_owned(),
     }
 }
 

@@ -201,6 +201,7 @@ pub fn spawn_recording(
         pace: Pace::Tight,
         moved,
         moved_flag: moved_flag.clone(),
+        hold: None,
     };
     runtime.spawn(task.run(done_tx));
     Ok((
@@ -241,6 +242,8 @@ struct Task {
     moved: bool,
     /// `moved`, for the handles (`DeviceHandle::moved`).
     moved_flag: Arc<AtomicBool>,
+    /// A client's hold (`Request::Hold`): when it lapses unless renewed.
+    hold: Option<Instant>,
 }
 
 /// How a session or a wait ended.
@@ -506,6 +509,8 @@ impl Task {
 
     /// Every stop waiting, as one write on the stop lane.
     fn stop_now(&mut self, s: &mut Session, first: StopCall) {
+        // A stop ends whatever a hold held.
+        self.hold = None;
         let mut calls = vec![first];
         while let Ok(call) = self.stops.try_recv() {
             calls.push(call);
@@ -566,10 +571,15 @@ impl Task {
             let now = Instant::now();
             let stopping = !s.stop_waiters.is_empty();
             let reports_later = s.reports_after.filter(|t| *t > now && !stopping);
-            let mut wake = [self.driver.next_timeout(), s.traffic.due(), reports_later]
-                .into_iter()
-                .flatten()
-                .min();
+            let mut wake = [
+                self.driver.next_timeout(),
+                s.traffic.due(),
+                reports_later,
+                self.hold,
+            ]
+            .into_iter()
+            .flatten()
+            .min();
             // A deadline that handling did not move must not spin the loop.
             if wake.is_some() && wake == last_fired {
                 wake = wake.map(|t| t.max(Instant::now() + Duration::from_millis(1)));
@@ -606,6 +616,8 @@ impl Task {
                 },
                 request = self.requests.recv() => match request {
                     None | Some(Request::Shutdown) => break Ending::Shutdown,
+                    Some(Request::Hold { lease }) => self.hold = Some(Instant::now() + lease),
+                    Some(Request::HoldEnd) => self.hold = None,
                     Some(r) => {
                         if self.asked_to_move(&r) {
                             self.set_emergency(s.emergency.take());
@@ -616,6 +628,14 @@ impl Task {
                 () = timer => {
                     let now = Instant::now();
                     last_fired = wake;
+                    if self.hold.is_some_and(|t| t <= now) {
+                        // The event first: a client that reads on after its
+                        // stall sees that the hold lapsed before the idle
+                        // state the stop brings, and sends no next move.
+                        self.bus.publish(Event::HoldLapsed);
+                        let (done, _) = tokio::sync::oneshot::channel();
+                        self.stop_now(&mut s, StopCall { requested: now, done });
+                    }
                     let records = s.traffic.on_time(now);
                     self.publish_traffic(records);
                     if self.driver.next_timeout().is_some_and(|t| t <= now) {

@@ -217,6 +217,7 @@ named_enum! {
         JogOffLimit = "jog-off-limit", "jog the axis off its active limit switch (asks first)";
         ProbeZ = "probe-z", "touch off Z with the probe: Z 0 = surface - plate (asks)";
         FrameJob = "frame-job", "trace the G-code job's frame at its safe height (asks)";
+        FrameHold = "frame-hold", "trace the job's frame while the key is held";
         HomeAxis = "home-axis", "reference run of one axis";
         ZeroAxis = "zero-axis", "make the current position the work zero of one axis";
         AxisAll = "axis-all", "all axes";

@@ -147,6 +147,9 @@ pub struct Model {
     /// The macro key last pressed, to tell its auto-repeats (presses on
     /// terminals without release events) from a new press.
     pub macro_key: crate::jog::HeldKey<super::key::KeyChord>,
+    /// The hold-to-run frame's key last pressed (`f`): a repeat renews the
+    /// hold, only a new press starts a frame.
+    pub frame_key: crate::jog::HeldKey<super::key::KeyChord>,
     /// Every message of the session, newest last (`M` shows them whole).
     pub history: MessageHistory,
     /// The machine screen shows the large position display (`D`).
@@ -191,6 +194,7 @@ impl Model {
             frame: None,
             tools: super::tools::ToolsState::default(),
             macro_key: crate::jog::HeldKey::default(),
+            frame_key: crate::jog::HeldKey::default(),
             history: MessageHistory::default(),
             large_dro: false,
         }

@@ -161,6 +161,18 @@ fn key_event(model: &mut Model, event: KeyEvent) -> Vec<Effect> {
         let (grace, timeout) = (settings.grace, settings.repeat_timeout);
         let now = model.now;
         (model.macro_key).arrival(chord, KeyPhase::Release, now, grace, timeout, true);
+        // The hold-to-run frame's key let go: it stops at once.
+        if model.keymap.lookup(Mode::Main, &chord) == Some(Action::FrameHold) {
+            (model.frame_key).arrival(chord, KeyPhase::Release, now, grace, timeout, true);
+            if model
+                .frame
+                .as_ref()
+                .is_some_and(super::frame::FrameRun::held)
+            {
+                say(model, NoteLevel::Info, "frame stopped: the key was let go");
+                return stop(model);
+            }
+        }
         let effects = jog_update(model, JogInput::Release(chord));
         model.dirty |= !effects.is_empty();
         return effects;
@@ -289,6 +301,17 @@ fn burst_route(model: &mut Model, chord: KeyChord, phase: KeyPhase) -> Option<Ve
         say(model, NoteLevel::Info, "jog stopped");
         return Some(effects);
     }
+    // The hold-to-run frame's repeats that arrive bunched (SSH) keep its
+    // hold; a burst never starts one.
+    if model
+        .frame
+        .as_ref()
+        .is_some_and(super::frame::FrameRun::held)
+        && typing::text_field(model).is_none()
+        && model.keymap.lookup(Mode::Main, &chord) == Some(Action::FrameHold)
+    {
+        return Some(frame_hold(model, chord, phase));
+    }
     let field = typing::text_field(model);
     let mode = model.popup.as_ref().map_or(model.panel_mode(), Popup::mode);
     let passes = match model.keymap.lookup(mode, &chord) {
@@ -376,6 +399,9 @@ fn route(model: &mut Model, chord: KeyChord, phase: KeyPhase) -> Vec<Effect> {
             (None, _, _) => Vec::new(),
         };
     }
+    if field.is_none() && model.keymap.lookup(Mode::Main, &chord) == Some(Action::FrameHold) {
+        return frame_hold(model, chord, phase);
+    }
     if let Some(action) = model.keymap.lookup(panel_mode, &chord) {
         if panel_mode == Mode::Checkout {
             return editor_update(model, editor::Input::Checkout(action, phase));
@@ -419,6 +445,70 @@ fn route(model: &mut Model, chord: KeyChord, phase: KeyPhase) -> Vec<Effect> {
     match model.keymap.lookup(Mode::Main, &chord) {
         Some(action) => main_action(model, action),
         None => Vec::new(),
+    }
+}
+
+/// The frame's question (`F`) or plan (`f`), or why there is none.
+fn frame_question(model: &Model) -> Result<super::frame::Question, String> {
+    let job = model.editor.job.as_ref();
+    let figures = job.and_then(|j| j.report.figures.as_ref());
+    let ctx = super::frame::Context {
+        job: job
+            .zip(figures)
+            .map(|(j, f)| (j.report.file.as_str(), &f.frame)),
+        checking: job.is_some_and(|j| j.checking),
+        gate: keypad::gate(&model.keypad, &model.jog_context()),
+        settings: model.keypad.settings(),
+        offsets: &model.keypad.offsets.table,
+        speed: keypad::selection(&model.keypad, &model.setup).speed,
+        positions: &model.positions,
+    };
+    super::frame::question(&ctx)
+}
+
+/// `f`, held: the frame without a question, the device task's hold renewed
+/// by every repeat (`ui::frame`, hold-to-run). A key still held after the
+/// frame ended starts nothing; only a new press starts one.
+fn frame_hold(model: &mut Model, chord: KeyChord, phase: KeyPhase) -> Vec<Effect> {
+    let settings = model.keypad.settings();
+    let (grace, timeout) = (settings.grace, settings.repeat_timeout);
+    let releases = model.keypad.jogger.releases();
+    let arrival = model
+        .frame_key
+        .arrival(chord, phase, model.now, grace, timeout, releases);
+    let held = model.frame.as_ref().map(super::frame::FrameRun::held);
+    match (held, arrival) {
+        // The first repeat may take the terminal's delay again after a
+        // new press; the ones that follow come within the timeout.
+        (Some(true), crate::jog::Arrival::Press) => {
+            vec![Effect::Request(Request::Hold { lease: grace })]
+        }
+        (Some(true), crate::jog::Arrival::Held) => {
+            vec![Effect::Request(Request::Hold { lease: timeout })]
+        }
+        (Some(false), _) => {
+            say(
+                model,
+                NoteLevel::Info,
+                "a frame runs to its end: Space stops it",
+            );
+            Vec::new()
+        }
+        (None, crate::jog::Arrival::Held) => Vec::new(),
+        (None, crate::jog::Arrival::Press) => match frame_question(model) {
+            Ok(q) => {
+                let (effects, level, text) =
+                    super::frame::start(&mut model.frame, q.plan, &model.positions, Some(grace));
+                let text = if effects.is_empty() {
+                    text
+                } else {
+                    format!("{text} (while f is held)")
+                };
+                say(model, level, text);
+                effects
+            }
+            Err(text) => apply(model, Outcome::note(NoteLevel::Danger, text)),
+        },
     }
 }
 
@@ -538,31 +628,16 @@ fn main_action(model: &mut Model, action: Action) -> Vec<Effect> {
                 Err(text) => apply(model, Outcome::note(NoteLevel::Danger, text)),
             }
         }
-        Action::FrameJob => {
-            let job = model.editor.job.as_ref();
-            let figures = job.and_then(|j| j.report.figures.as_ref());
-            let ctx = super::frame::Context {
-                job: job
-                    .zip(figures)
-                    .map(|(j, f)| (j.report.file.as_str(), &f.frame)),
-                checking: job.is_some_and(|j| j.checking),
-                gate: keypad::gate(&model.keypad, &model.jog_context()),
-                settings: model.keypad.settings(),
-                offsets: &model.keypad.offsets.table,
-                speed: keypad::selection(&model.keypad, &model.setup).speed,
-                positions: &model.positions,
-            };
-            match super::frame::question(&ctx) {
-                Ok(q) => {
-                    let mut out = Outcome::ask(&q.title, q.question, Vec::new());
-                    if let Some(c) = out.confirm.as_mut() {
-                        c.then = Some(Then::Frame(q.plan));
-                    }
-                    apply(model, out)
+        Action::FrameJob => match frame_question(model) {
+            Ok(q) => {
+                let mut out = Outcome::ask(&q.title, q.question, Vec::new());
+                if let Some(c) = out.confirm.as_mut() {
+                    c.then = Some(Then::Frame(q.plan));
                 }
-                Err(text) => apply(model, Outcome::note(NoteLevel::Danger, text)),
+                apply(model, out)
             }
-        }
+            Err(text) => apply(model, Outcome::note(NoteLevel::Danger, text)),
+        },
         Action::ProbeZ => {
             let asked = super::probe::question(
                 &mut model.probe,
@@ -721,7 +796,7 @@ fn popup_action(model: &mut Model, action: Action) -> Vec<Effect> {
                 }
                 Some(Then::Frame(plan)) => {
                     let (started, level, text) =
-                        super::frame::start(&mut model.frame, plan, &model.positions);
+                        super::frame::start(&mut model.frame, plan, &model.positions, None);
                     say(model, level, text);
                     effects.extend(started);
                 }
@@ -905,6 +980,8 @@ fn device_event(model: &mut Model, event: Event) {
             }
         }
         Event::Fault(fault) => say(model, NoteLevel::Danger, fault_text(&fault)),
+        // The hold-to-run frame that held the motion says it stopped.
+        Event::HoldLapsed => {}
         Event::Refused { request, reason } => {
             say(
                 model,

@@ -376,3 +376,68 @@ fn space_stops_the_consoles_frame_and_no_leg_follows() {
     assert!(z < 10_000, "stopped short of the safe height: {state}");
     crate::editor_e2e::quit_discarding_the_edits(&mut run);
 }
+
+/// `f` held in the console traces the frame without a question, and only
+/// while its repeats come: on a terminal that reports no key releases (this
+/// pty) the repeats stopping is the only sign the key was let go, and the
+/// device task's hold (`Request::Hold`, renewed by each repeat) stops the
+/// machine itself once they stop (real time: 20 mm up at 15 mm/s take
+/// 1.3 s; the key is held for 0.6 s). No go-to goes out after the stop
+/// byte.
+#[test]
+fn f_held_traces_the_frame_only_while_its_repeats_come() {
+    let mut sim = SimProcess::options("isel")
+        .files(&[(
+            "profiles/default.toml",
+            "[sim]\nstart_position = 1.0\n[jog]\nspeed = 3\n[isel]\nreference_speed_hz = 12000\n",
+        )])
+        .start();
+    let file = write_job(&sim);
+    let state = tempfile::tempdir().expect("state dir");
+    let link = sim.link.display().to_string();
+    let mut run = crate::console_pty::spawn_on(
+        &sim,
+        state.path(),
+        &["--port", &link, "--program", &file, "--work-zero", ZERO],
+    );
+    crate::console_pty::wait_for(&run, "Job pocket.nc");
+    run.type_keys(&[b"\x1bOS"]);
+    crate::console_pty::wait_for(&run, "Position");
+    crate::console_pty::reference(&mut run);
+    let before = sim.received().len();
+    // Held: a press, then a repeat every 33 ms (a 30 Hz terminal).
+    let held = std::time::Instant::now();
+    while held.elapsed() < Duration::from_millis(600) {
+        run.type_keys(&[b"f"]);
+        std::thread::sleep(Duration::from_millis(33));
+    }
+    let let_go = std::time::Instant::now();
+    let state = sim.wait_device("standing", |s| !s.contains("moving"));
+    let stopped_after = let_go.elapsed();
+    eprintln!("standing {stopped_after:?} after the last repeat");
+    crate::console_pty::wait_for(&run, "frame stopped: the key was let go");
+    std::thread::sleep(Duration::from_millis(500));
+    let received = sim.received();
+    let received = &received[before..];
+    let trace = go_tos(received);
+    assert_eq!(trace.len(), 1, "only the way up went out: {received}");
+    let stop = received.rfind("<FD>").expect("the stop byte");
+    assert!(
+        go_tos(&received[stop..]).is_empty(),
+        "no leg after the stop: {received}"
+    );
+    let z: i64 = state
+        .split(" Z ")
+        .nth(1)
+        .and_then(|r| r.split(' ').next())
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("no Z in {state}"));
+    assert!(z < 10_000, "stopped short of the safe height: {state}");
+    // The hold's lease (the repeat timeout, 150 ms) and the ramp down, with
+    // the test's polls of the simulator on a loaded machine.
+    assert!(
+        stopped_after < Duration::from_secs(3),
+        "stopped {stopped_after:?} after the last repeat"
+    );
+    crate::editor_e2e::quit_discarding_the_edits(&mut run);
+}

@@ -295,3 +295,77 @@ fn refused_without_a_job_unreferenced_or_outside_the_soft_limits() {
         message(&m)
     );
 }
+
+/// The holds among `effects`: each `Request::Hold`'s lease in ms.
+fn holds(effects: &[Effect]) -> Vec<u128> {
+    effects
+        .iter()
+        .filter_map(|e| match e {
+            Effect::Request(Request::Hold { lease }) => Some(lease.as_millis()),
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn f_held_runs_the_frame_without_a_question_and_each_repeat_renews_the_hold() {
+    let t0 = Instant::now();
+    let mut m = opened(t0);
+    at(&mut m, 44_938, 20_000, 0);
+    let first = key(&mut m, 'f');
+    assert!(m.popup.is_none(), "no question: {:?}", m.popup);
+    // The hold goes before the leg, for the terminal's delay before its
+    // first repeat (the profile's first_repeat_grace_ms).
+    assert_eq!(holds(&first), [750]);
+    let hold_at = first
+        .iter()
+        .position(|e| matches!(e, Effect::Request(Request::Hold { .. })));
+    let leg_at = first
+        .iter()
+        .position(|e| matches!(e, Effect::Request(Request::MoveTo { .. })));
+    assert!(hold_at < leg_at, "{first:?}");
+    let up = goto(&first).expect("the way up");
+    // A repeat renews the hold for the repeat timeout, and starts nothing.
+    let repeat = key(&mut m, 'f');
+    assert_eq!(holds(&repeat), [150]);
+    assert_eq!(goto(&repeat), None);
+    // The next leg once the first ended, the hold still held.
+    assert!(goto(&leg_ends(&mut m, up)).is_some());
+    // The device task's hold ran out: the frame ends, the idle after the
+    // stop sends no leg.
+    let lapsed = device(&mut m, Event::HoldLapsed);
+    assert!(m.frame.is_none());
+    assert!(goto(&lapsed).is_none());
+    assert!(message(&m).contains("frame stopped"), "{}", message(&m));
+    device(&mut m, state(Activity::Moving));
+    assert_eq!(goto(&device(&mut m, state(Activity::Idle))), None);
+}
+
+#[test]
+fn a_release_of_f_stops_the_frame_and_f_held_past_its_end_starts_nothing() {
+    let t0 = Instant::now();
+    let mut m = opened(t0);
+    at(&mut m, 44_938, 20_000, 0);
+    assert!(goto(&key(&mut m, 'f')).is_some());
+    let mut release = KeyEvent::new(KeyCode::Char('f'), KeyModifiers::NONE);
+    release.kind = crossterm::event::KeyEventKind::Release;
+    let released = update(&mut m, Msg::Key(release));
+    assert!(released.contains(&Effect::Stop), "{released:?}");
+    assert!(m.frame.is_none());
+
+    // Traced to its end with the key held: a repeat after the end starts
+    // no second frame.
+    let mut m = opened(t0);
+    at(&mut m, 44_938, 20_000, 0);
+    let mut here = goto(&key(&mut m, 'f')).expect("the way up");
+    while let Some(next) = {
+        key(&mut m, 'f');
+        goto(&leg_ends(&mut m, here))
+    } {
+        here = next;
+    }
+    assert!(m.frame.is_none());
+    let after = key(&mut m, 'f');
+    assert!(after.is_empty(), "{after:?}");
+    assert!(m.frame.is_none());
+}

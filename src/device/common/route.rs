@@ -33,7 +33,8 @@ pub trait Requests {
 pub fn route(driver: &mut impl Requests, request: Request, now: Instant) {
     match request {
         // The task ends the session; nothing for the driver to do.
-        Request::Shutdown => {}
+        // The task keeps holds itself; nothing for the driver to do.
+        Request::Shutdown | Request::Hold { .. } | Request::HoldEnd => {}
         Request::Poll {
             rate_hz,
             ports_every,

@@ -614,7 +614,9 @@ impl Core<EmcuLine> {
             | Request::JogRelease { .. }
             | Request::Reset
             | Request::Poll { .. }
-            | Request::Shutdown => Ok(None),
+            | Request::Shutdown
+            | Request::Hold { .. }
+            | Request::HoldEnd => Ok(None),
         };
         self.started(&queued.request, started);
     }

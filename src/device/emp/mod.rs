@@ -649,7 +649,9 @@ impl Core<EmpLine> {
             Request::JogRenew { .. }
             | Request::JogRelease { .. }
             | Request::Poll { .. }
-            | Request::Shutdown => Ok(None),
+            | Request::Shutdown
+            | Request::Hold { .. }
+            | Request::HoldEnd => Ok(None),
         };
         self.started(&queued.request, started);
     }

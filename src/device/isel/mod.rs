@@ -802,7 +802,9 @@ impl Core<IselLine> {
             | Request::JogRelease { .. }
             | Request::Reset
             | Request::Poll { .. }
-            | Request::Shutdown => return,
+            | Request::Shutdown
+            | Request::Hold { .. }
+            | Request::HoldEnd => return,
         };
         self.started(&queued.request, started.map(Some));
     }

@@ -11,6 +11,14 @@
 //! declined question cannot be taken for a leg. Any stop ends the frame
 //! (the router drops it when a stop goes out), as do a fault, a refusal
 //! and a lost link: nothing resumes.
+//!
+//! **Hold-to-run** (`f` held): the same frame without the question, moving
+//! only while the key is held, as a jog does. The device task holds the
+//! motion (`Request::Hold`, renewed by every key repeat, first for the
+//! terminal's delay before its first repeat, then for the repeat timeout):
+//! when the repeats stop, because the key was let go or the console
+//! stalled, the task stops the machine itself and says so
+//! (`Event::HoldLapsed`); a key release the terminal reports stops at once.
 
 use crate::axis::Axis;
 use crate::device::api::{Event, Frame as Coordinates, LinkState, PerAxis, Request};
@@ -35,6 +43,15 @@ use super::traffic_log::NoteLevel;
 pub struct FrameRun {
     legs: Vec<Leg>,
     run: Legs,
+    /// Hold-to-run: the device task holds the motion while the key is held.
+    held: bool,
+}
+
+impl FrameRun {
+    /// Run while a key is held (`f`), not to its end.
+    pub fn held(&self) -> bool {
+        self.held
+    }
 }
 
 /// What `F` reads of the console, built per call.
@@ -143,11 +160,14 @@ pub fn question(ctx: &Context) -> Result<Question, String> {
     })
 }
 
-/// The answer was yes: the run, and the first leg that moves.
+/// The answer was yes (or the hold key pressed: `hold` is the device
+/// task's first lease): the run, and the first leg that moves, the hold
+/// before it.
 pub fn start(
     run: &mut Option<FrameRun>,
     plan: Plan,
     positions: &Positions,
+    hold: Option<std::time::Duration>,
 ) -> (Vec<Effect>, NoteLevel, String) {
     if standing(positions) != plan.from {
         *run = None;
@@ -171,11 +191,17 @@ pub fn start(
     let mut started = FrameRun {
         legs: plan.legs,
         run: legs,
+        held: hold.is_some(),
     };
     let sent = started.send_from(0, positions);
     match sent {
-        Some((effects, text)) => {
+        Some((legs, text)) => {
             *run = Some(started);
+            let mut effects: Vec<Effect> = hold
+                .map(|lease| Effect::Request(Request::Hold { lease }))
+                .into_iter()
+                .collect();
+            effects.extend(legs);
             (effects, NoteLevel::Info, text)
         }
         None => {
@@ -197,9 +223,16 @@ pub fn device_event(
     event: &Event,
 ) -> Option<(Vec<Effect>, NoteLevel, String)> {
     let r = run.as_mut()?;
+    // The device task's hold ends with the frame, however it ended.
     let ended = |run: &mut Option<FrameRun>, level, text: String| {
+        let held = run.as_ref().is_some_and(|r| r.held);
         *run = None;
-        Some((Vec::new(), level, text))
+        let effects = if held {
+            vec![Effect::Request(Request::HoldEnd)]
+        } else {
+            Vec::new()
+        };
+        Some((effects, level, text))
     };
     match event {
         Event::State(s) if r.run.ended_by(s.activity) => {
@@ -222,6 +255,16 @@ pub fn device_event(
             NoteLevel::Danger,
             format!("frame broken off: {reason}"),
         ),
+        Event::HoldLapsed => {
+            *run = None;
+            Some((
+                Vec::new(),
+                NoteLevel::Warning,
+                "frame stopped: the key was let go (its repeats stopped); nothing resumes, f \
+                 again traces it from the first corner"
+                    .into(),
+            ))
+        }
         Event::Link(LinkState::Connected) => None,
         Event::Link(_) => ended(
             run,
