@@ -36,7 +36,7 @@ use crate::proto::isel::{
 use crate::proto::typed::isel_config;
 use crate::wiring::{BitKind, Level, Role};
 
-use super::interp::{get, plane_axes, radius, sweep};
+use super::interp::{end_angles, get, plane_axes, radius, sweep_between};
 use super::num::round;
 use super::output::{Header, MAX_COMMANDS, Program, chords, merged_ops, path_speed, too_many};
 use super::toolpath::{Arc, Diagnostic, Op, Origin, Pause, Plane, Point, Severity, Toolpath};
@@ -454,9 +454,15 @@ impl Writer<'_> {
             CircleDirection::Ccw
         };
         let r_steps = (radius(arc) * spu).round();
-        let start = angle(arc.from);
-        let end = angle(arc.to);
-        let total = sweep(arc);
+        // In a plane whose axes isel orders as RS-274/NGC does, its angles
+        // are the ones the sweep is taken from (libm's atan2 once each).
+        let (from_rad, to_rad) = end_angles(arc);
+        let (start, end) = if flip {
+            (angle(arc.from), angle(arc.to))
+        } else {
+            (from_rad.to_degrees(), to_rad.to_degrees())
+        };
+        let total = sweep_between(arc, from_rad, to_rad);
         let pieces = 1 + arc.extra_turns;
         let mm_per_s = arc.feed / 60.0;
         let mut hz = mm_per_s * spu;

@@ -11,7 +11,7 @@ use std::sync::LazyLock;
 use crate::offsets::System;
 use jogterm_proto::axis::Axis;
 
-use super::interp::{get, plane_axes, radius, sweep};
+use super::interp::{end_angles, get, plane_axes, radius, sweep_between};
 use super::toolpath::{Arc, Diagnostic, Op, Origin, Point, Severity, Toolpath};
 
 /// Soft limits of X, Y and Z in machine mm, and their speeds.
@@ -151,8 +151,9 @@ fn extremes(arc: &Arc) -> Extremes {
     let mut len = 2;
     let r = radius(arc);
     let (cu, cv) = (get(arc.centre, u), get(arc.centre, v));
-    let a0 = (get(arc.from, v) - cv).atan2(get(arc.from, u) - cu);
-    let total = sweep(arc);
+    // The start's angle is the one the sweep is taken from.
+    let (a0, a1) = end_angles(arc);
+    let total = sweep_between(arc, a0, a1);
     let dir = if arc.clockwise { -1.0 } else { 1.0 };
     for &(q, cos, sin) in QUADRANTS.iter() {
         // The sweep from the start to this quadrant angle, in the arc's direction.

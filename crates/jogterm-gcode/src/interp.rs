@@ -588,20 +588,23 @@ impl<'a> Interpreter<'a> {
         }
         // A refused code stays out of the block's codes: nothing it would
         // do is done, and what it might have changed is in doubt.
-        let refused: Vec<(u32, Word)> =
-            w.g.iter()
-                .filter(|(code, _)| refused_g(*code).is_some())
-                .copied()
-                .collect();
-        for (code, word) in &refused {
-            if let Some(why) = refused_g(*code) {
-                let name = code_name('G', *code);
-                self.error(word.origin, format!("{name}: {why}"));
-                self.doubt.modes();
-                self.doubt.axes = [true; 3];
+        // (Most lines hold no G code, and hardly any a refused one.)
+        if w.g.iter().any(|(code, _)| refused_g(*code).is_some()) {
+            let refused: Vec<(u32, Word)> =
+                w.g.iter()
+                    .filter(|(code, _)| refused_g(*code).is_some())
+                    .copied()
+                    .collect();
+            for (code, word) in &refused {
+                if let Some(why) = refused_g(*code) {
+                    let name = code_name('G', *code);
+                    self.error(word.origin, format!("{name}: {why}"));
+                    self.doubt.modes();
+                    self.doubt.axes = [true; 3];
+                }
             }
+            w.g.retain(|(code, _)| refused_g(*code).is_none());
         }
-        w.g.retain(|(code, _)| refused_g(*code).is_none());
         self.groups = (g_groups, m_groups);
         w
     }
@@ -1536,9 +1539,23 @@ fn r_centre(
 /// The angle swept by an arc, radians, always positive, in (0, 2π] for a
 /// single turn (a full circle when start and end meet).
 pub fn sweep(arc: &Arc) -> f64 {
+    let (a0, a1) = end_angles(arc);
+    sweep_between(arc, a0, a1)
+}
+
+/// The angles of an arc's start and end about its centre, radians, from
+/// the plane's first axis towards its second: what [`sweep`] is taken
+/// from, for the callers that need them too (each is a call into libm,
+/// for every arc of a file).
+pub fn end_angles(arc: &Arc) -> (f64, f64) {
     let (u, v, _) = plane_axes(arc.plane);
     let a0 = (get(arc.from, v) - get(arc.centre, v)).atan2(get(arc.from, u) - get(arc.centre, u));
     let a1 = (get(arc.to, v) - get(arc.centre, v)).atan2(get(arc.to, u) - get(arc.centre, u));
+    (a0, a1)
+}
+
+/// [`sweep`] of the angles [`end_angles`] gives.
+pub fn sweep_between(arc: &Arc, a0: f64, a1: f64) -> f64 {
     let raw = if arc.clockwise { a0 - a1 } else { a1 - a0 };
     let mut s = raw.rem_euclid(2.0 * PI);
     if s < 1e-9 {
