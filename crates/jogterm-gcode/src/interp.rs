@@ -266,7 +266,7 @@ pub fn interpret(text: &str, setup: &Setup) -> Result<Toolpath, Vec<Diagnostic>>
     let mut it = Interpreter::new(setup);
     // About an op a line in CAM files: the ops' vector sized once, not
     // grown by doubling through copies of half a million ops.
-    let newlines = text.bytes().filter(|&b| b == b'\n').count();
+    let newlines = memchr::memchr_iter(b'\n', text.as_bytes()).count();
     it.ops.reserve((newlines + newlines / 16 + 16).min(MAX_OPS));
     let mut anything = false;
     // The reader's errors in line order among the interpreter's: a line
