@@ -36,7 +36,8 @@ use crate::proto::isel::{
 use crate::proto::typed::isel_config;
 use crate::wiring::{BitKind, Level, Role};
 
-use super::interp::{get, plane_axes, radius, sweep};
+use super::interp::{end_angles, get, plane_axes, radius, sweep_between};
+use super::num::round;
 use super::output::{Header, MAX_COMMANDS, Program, chords, merged_ops, path_speed, too_many};
 use super::toolpath::{Arc, Diagnostic, Op, Origin, Pause, Plane, Point, Severity, Toolpath};
 
@@ -49,9 +50,26 @@ struct Axes {
     z: AxisProfile,
     /// Pairs per `m`: XYZ has x, y, z1, z2 (the z2 of `m` is ignored, 3.2.16).
     pairs: usize,
+    /// X, Y and Z's `max_speed` in steps/s, and as the whole Hz an `m`
+    /// pair may carry: taken once, not for every move of the file.
+    limits_hz: [f64; 3],
+    caps_hz: [u32; 3],
 }
 
 impl Axes {
+    fn new(x: AxisProfile, y: AxisProfile, z: AxisProfile, pairs: usize) -> Axes {
+        let limits_hz = [&x, &y, &z].map(|p| p.speed_hz(p.max_speed));
+        let caps_hz = limits_hz.map(|hz| hz.round().max(HZ_MIN) as u32);
+        Axes {
+            x,
+            y,
+            z,
+            pairs,
+            limits_hz,
+            caps_hz,
+        }
+    }
+
     fn of(&self, axis: Axis) -> &AxisProfile {
         match axis {
             Axis::X => &self.x,
@@ -68,11 +86,13 @@ impl Axes {
         ]
     }
 
+    /// `AxisProfile::to_steps` of each axis, its rounding inlined (every
+    /// move of the file is rounded to steps here).
     fn steps(&self, p: Point) -> [i64; 3] {
         [
-            self.x.to_steps(p.x),
-            self.y.to_steps(p.y),
-            self.z.to_steps(p.z),
+            round(p.x * self.x.steps_per_unit) as i64,
+            round(p.y * self.y.steps_per_unit) as i64,
+            round(p.z * self.z.steps_per_unit) as i64,
         ]
     }
 }
@@ -146,8 +166,12 @@ where
     };
     let pairs = config.axes().len() + usize::from(set.len() == 3);
     let mut w = Writer {
-        axes: Axes { x, y, z, pairs },
+        axes: Axes::new(x, y, z, pairs),
         program: Program {
+            // Sized once, not grown by doubling through copies: a command
+            // an op or less, but for arcs (two and their end), merged
+            // moves and the few header lines.
+            lines: Vec::with_capacity(ops().count() + 16),
             capacity: profile.gcode.memory.unwrap_or(ISEL_CAPACITY),
             end_is_free: true,
             ..Program::default()
@@ -245,11 +269,8 @@ impl Writer<'_> {
         command.push('m');
         for k in 0..self.axes.pairs {
             let steps = target.get(k).copied().unwrap_or(0);
-            let speed = match [Axis::X, Axis::Y, Axis::Z].get(k) {
-                Some(axis) => {
-                    let p = self.axes.of(*axis);
-                    hz.min(p.speed_hz(p.max_speed).round().max(HZ_MIN) as u32)
-                }
+            let speed = match self.axes.caps_hz.get(k) {
+                Some(&cap) => hz.min(cap),
                 None => hz,
             };
             if k > 0 {
@@ -269,10 +290,7 @@ impl Writer<'_> {
     /// The path speed in steps/s for a move of `from` → `to` (mm) at
     /// `mm_per_s`, capped by every moving axis' `max_speed`.
     fn path_hz(&mut self, from: Point, to: Point, mm_per_s: f64, origin: Origin) -> u32 {
-        let limits = [Axis::X, Axis::Y, Axis::Z].map(|a| {
-            let p = self.axes.of(a);
-            p.speed_hz(p.max_speed)
-        });
+        let limits = self.axes.limits_hz;
         // The path speed is given as the x pair's (2.2.29): never above
         // X's own max_speed, whatever the direction.
         let ceiling = limits[0].min(HZ_MAX);
@@ -287,7 +305,7 @@ impl Writer<'_> {
             self.capped += 1;
             self.first_capped.get_or_insert(origin);
         }
-        hz.round().clamp(HZ_MIN, HZ_MAX) as u32
+        round(hz).clamp(HZ_MIN, HZ_MAX) as u32
     }
 
     fn rapid_mm_s(&self, from: Point, to: Point) -> f64 {
@@ -436,9 +454,15 @@ impl Writer<'_> {
             CircleDirection::Ccw
         };
         let r_steps = (radius(arc) * spu).round();
-        let start = angle(arc.from);
-        let end = angle(arc.to);
-        let total = sweep(arc);
+        // In a plane whose axes isel orders as RS-274/NGC does, its angles
+        // are the ones the sweep is taken from (libm's atan2 once each).
+        let (from_rad, to_rad) = end_angles(arc);
+        let (start, end) = if flip {
+            (angle(arc.from), angle(arc.to))
+        } else {
+            (from_rad.to_degrees(), to_rad.to_degrees())
+        };
+        let total = sweep_between(arc, from_rad, to_rad);
         let pieces = 1 + arc.extra_turns;
         let mm_per_s = arc.feed / 60.0;
         let mut hz = mm_per_s * spu;
@@ -549,25 +573,10 @@ impl Writer<'_> {
 
 /// `value` in decimal, as `Display` writes it, appended to `out` without
 /// the formatting machinery: `move_to` writes eight numbers for every move
-/// of the file, and `write!`'s machinery showed in its profile.
+/// of the file, and `write!`'s machinery, then a digit pushed at a time,
+/// showed in its profile.
 fn push_int(out: &mut String, value: i64) {
-    if value < 0 {
-        out.push('-');
-    }
-    let mut digits = [0u8; 20];
-    let mut n = value.unsigned_abs();
-    let mut first = digits.len();
-    for slot in digits.iter_mut().rev() {
-        *slot = b'0' + (n % 10) as u8;
-        first -= 1;
-        n /= 10;
-        if n == 0 {
-            break;
-        }
-    }
-    for &d in digits.get(first..).unwrap_or_default() {
-        out.push(char::from(d));
-    }
+    out.push_str(itoa::Buffer::new().format(value));
 }
 
 /// A circle's stored line (`f`, `y`, `w`: two of every arc) as its

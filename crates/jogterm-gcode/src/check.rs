@@ -6,11 +6,12 @@
 use std::borrow::Borrow;
 use std::f64::consts::PI;
 use std::ops::RangeInclusive;
+use std::sync::LazyLock;
 
 use crate::offsets::System;
 use jogterm_proto::axis::Axis;
 
-use super::interp::{get, plane_axes, radius, sweep};
+use super::interp::{end_angles, get, plane_axes, radius, sweep_between};
 use super::toolpath::{Arc, Diagnostic, Op, Origin, Point, Severity, Toolpath};
 
 /// Soft limits of X, Y and Z in machine mm, and their speeds.
@@ -120,24 +121,48 @@ pub fn arc_extreme_points(arc: &Arc) -> Vec<Point> {
 /// most six: both ends and four quadrant points). The check and the
 /// summary take it for every arc of the file, without a Vec each.
 fn extreme_points(arc: &Arc) -> ([Point; 6], usize) {
+    let e = extremes(arc);
+    (e.points, e.len)
+}
+
+/// An arc's extreme points with the radius and sweep they were found
+/// with, which the summary needs too (each is two or three calls into
+/// libm, and the summary takes them for every arc of the file).
+struct Extremes {
+    points: [Point; 6],
+    len: usize,
+    radius: f64,
+    sweep: f64,
+}
+
+/// The quadrant angles 0, π/2, π, 3π/2 with their cosine and sine, as
+/// `extremes` computed them for every arc: once.
+static QUADRANTS: LazyLock<[(f64, f64, f64); 4]> = LazyLock::new(|| {
+    [0u8, 1, 2, 3].map(|k| {
+        let q = f64::from(k) * PI / 2.0;
+        (q, q.cos(), q.sin())
+    })
+});
+
+fn extremes(arc: &Arc) -> Extremes {
     let (u, v, n) = plane_axes(arc.plane);
     let mut points = [arc.from; 6];
     points[1] = arc.to;
     let mut len = 2;
     let r = radius(arc);
     let (cu, cv) = (get(arc.centre, u), get(arc.centre, v));
-    let a0 = (get(arc.from, v) - cv).atan2(get(arc.from, u) - cu);
-    let total = sweep(arc);
+    // The start's angle is the one the sweep is taken from.
+    let (a0, a1) = end_angles(arc);
+    let total = sweep_between(arc, a0, a1);
     let dir = if arc.clockwise { -1.0 } else { 1.0 };
-    for k in 0..4 {
-        let q = f64::from(k) * PI / 2.0;
+    for &(q, cos, sin) in QUADRANTS.iter() {
         // The sweep from the start to this quadrant angle, in the arc's direction.
         let d = (dir * (q - a0)).rem_euclid(2.0 * PI);
         if d <= total {
             let t = d / total;
             let mut p = arc.from;
-            super::interp::set(&mut p, u, cu + r * q.cos());
-            super::interp::set(&mut p, v, cv + r * q.sin());
+            super::interp::set(&mut p, u, cu + r * cos);
+            super::interp::set(&mut p, v, cv + r * sin);
             super::interp::set(
                 &mut p,
                 n,
@@ -149,7 +174,12 @@ fn extreme_points(arc: &Arc) -> ([Point; 6], usize) {
             }
         }
     }
-    (points, len)
+    Extremes {
+        points,
+        len,
+        radius: r,
+        sweep: total,
+    }
 }
 
 fn distance(a: Point, b: Point) -> f64 {
@@ -223,7 +253,7 @@ pub fn check_limits_ops<O: Borrow<Op>>(
             }
             for (axis, spu) in &machine.steps_per_mm {
                 let v = get(p, *axis);
-                let steps = (v * spu).round();
+                let steps = super::num::round(v * spu);
                 let (lo, hi) = (machine.counter.start(), machine.counter.end());
                 if steps >= *lo as f64 && steps <= *hi as f64 {
                     continue;
@@ -277,12 +307,12 @@ pub fn summarise(path: &Toolpath, machine: &Machine) -> Summary {
             }
             Op::Arc(a) => {
                 arcs += 1;
-                let (points, len) = extreme_points(a);
-                for &p in points.get(..len).unwrap_or_default() {
+                let e = extremes(a);
+                for &p in e.points.get(..e.len).unwrap_or_default() {
                     extents.add(path, index, sub(p, zero));
                 }
                 let (_, _, n) = plane_axes(a.plane);
-                let planar = radius(a) * sweep(a);
+                let planar = e.radius * e.sweep;
                 let rise = get(a.to, n) - get(a.from, n);
                 let d = planar.hypot(rise);
                 length += d;

@@ -137,7 +137,7 @@ impl Doubt {
 
 /// G and M codes as tenths (G90.1 is 901), so that equality is exact.
 fn code_of(word: &Word) -> Option<u32> {
-    let tenths = (word.value * 10.0).round();
+    let tenths = super::num::round(word.value * 10.0);
     if (tenths - word.value * 10.0).abs() > 1e-6 || !(0.0..=99_999.0).contains(&tenths) {
         return None;
     }
@@ -244,7 +244,16 @@ pub struct Interpreter<'a> {
     /// block as `spare` is (no allocation a line).
     groups: (Groups, Groups),
     doubt: Doubt,
+    /// The `[gcode]` table's rule of each G and M code met so far: a file
+    /// names a few dozen codes, on a hundred thousand lines.
+    code_rules: Vec<(char, u32, Option<&'a CodeRule>)>,
+    /// A work offset op has been made (the first move makes one if not).
+    offset_made: bool,
 }
+
+/// The most codes whose rule `Interpreter::code_rule` keeps; any other is
+/// looked up every time.
+const CODE_RULES_KEPT: usize = 64;
 
 /// A block's G or M codes by modal group, to find two of one group.
 type Groups = Vec<(u8, Word)>;
@@ -255,6 +264,10 @@ pub fn interpret(text: &str, setup: &Setup) -> Result<Toolpath, Vec<Diagnostic>>
     // are never all in memory.
     let mut blocks = super::reader::blocks(text);
     let mut it = Interpreter::new(setup);
+    // About an op a line in CAM files: the ops' vector sized once, not
+    // grown by doubling through copies of half a million ops.
+    let newlines = memchr::memchr_iter(b'\n', text.as_bytes()).count();
+    it.ops.reserve((newlines + newlines / 16 + 16).min(MAX_OPS));
     let mut anything = false;
     // The reader's errors in line order among the interpreter's: a line
     // that could not be read may have held any word.
@@ -367,6 +380,8 @@ impl<'a> Interpreter<'a> {
             spare: Words::default(),
             groups: (Vec::new(), Vec::new()),
             doubt: Doubt::default(),
+            code_rules: Vec::new(),
+            offset_made: false,
             units_from_file: false,
             warned_profile_unit: false,
         }
@@ -465,10 +480,7 @@ impl<'a> Interpreter<'a> {
                     // mapping needs it, and the table's key on the stack:
                     // this runs for every G and M word of the file.
                     let name = || code_name(word.letter, code);
-                    let mut key = [0u8; 16];
-                    if let Some(rule) = code_key(word.letter, code, &mut key)
-                        .and_then(|key| self.setup.codes.get(key))
-                    {
+                    if let Some(rule) = self.code_rule(word.letter, code) {
                         match rule {
                             CodeRule::Ignore => {
                                 if !self.warned_ignored.contains(&code) {
@@ -576,20 +588,23 @@ impl<'a> Interpreter<'a> {
         }
         // A refused code stays out of the block's codes: nothing it would
         // do is done, and what it might have changed is in doubt.
-        let refused: Vec<(u32, Word)> =
-            w.g.iter()
-                .filter(|(code, _)| refused_g(*code).is_some())
-                .copied()
-                .collect();
-        for (code, word) in &refused {
-            if let Some(why) = refused_g(*code) {
-                let name = code_name('G', *code);
-                self.error(word.origin, format!("{name}: {why}"));
-                self.doubt.modes();
-                self.doubt.axes = [true; 3];
+        // (Most lines hold no G code, and hardly any a refused one.)
+        if w.g.iter().any(|(code, _)| refused_g(*code).is_some()) {
+            let refused: Vec<(u32, Word)> =
+                w.g.iter()
+                    .filter(|(code, _)| refused_g(*code).is_some())
+                    .copied()
+                    .collect();
+            for (code, word) in &refused {
+                if let Some(why) = refused_g(*code) {
+                    let name = code_name('G', *code);
+                    self.error(word.origin, format!("{name}: {why}"));
+                    self.doubt.modes();
+                    self.doubt.axes = [true; 3];
+                }
             }
+            w.g.retain(|(code, _)| refused_g(*code).is_none());
         }
-        w.g.retain(|(code, _)| refused_g(*code).is_none());
         self.groups = (g_groups, m_groups);
         w
     }
@@ -855,16 +870,33 @@ impl<'a> Interpreter<'a> {
             zero: self.zero(),
             origin,
         });
+        self.offset_made = true;
     }
 
     fn ensure_offset(&mut self, origin: Origin) {
-        let any = self
-            .ops
-            .iter()
-            .any(|op| matches!(op, Op::WorkOffset { .. }));
-        if !any {
+        if !self.offset_made {
             self.push_offset(origin);
         }
+    }
+
+    /// The `[gcode]` table's rule of a G or M code, if it maps it: looked
+    /// up by the code's name once a code (this runs for every G and M word
+    /// of the file).
+    fn code_rule(&mut self, letter: char, code: u32) -> Option<&'a CodeRule> {
+        if let Some(&(.., rule)) = self
+            .code_rules
+            .iter()
+            .find(|(l, c, _)| *l == letter && *c == code)
+        {
+            return rule;
+        }
+        let setup: &'a Setup = self.setup;
+        let mut key = [0u8; 16];
+        let rule = code_key(letter, code, &mut key).and_then(|key| setup.codes.get(key));
+        if self.code_rules.len() < CODE_RULES_KEPT {
+            self.code_rules.push((letter, code, rule));
+        }
+        rule
     }
 
     /// The file names `axis` from the next op on.
@@ -1507,9 +1539,23 @@ fn r_centre(
 /// The angle swept by an arc, radians, always positive, in (0, 2π] for a
 /// single turn (a full circle when start and end meet).
 pub fn sweep(arc: &Arc) -> f64 {
+    let (a0, a1) = end_angles(arc);
+    sweep_between(arc, a0, a1)
+}
+
+/// The angles of an arc's start and end about its centre, radians, from
+/// the plane's first axis towards its second: what [`sweep`] is taken
+/// from, for the callers that need them too (each is a call into libm,
+/// for every arc of a file).
+pub fn end_angles(arc: &Arc) -> (f64, f64) {
     let (u, v, _) = plane_axes(arc.plane);
     let a0 = (get(arc.from, v) - get(arc.centre, v)).atan2(get(arc.from, u) - get(arc.centre, u));
     let a1 = (get(arc.to, v) - get(arc.centre, v)).atan2(get(arc.to, u) - get(arc.centre, u));
+    (a0, a1)
+}
+
+/// [`sweep`] of the angles [`end_angles`] gives.
+pub fn sweep_between(arc: &Arc, a0: f64, a1: f64) -> f64 {
     let raw = if arc.clockwise { a0 - a1 } else { a1 - a0 };
     let mut s = raw.rem_euclid(2.0 * PI);
     if s < 1e-9 {

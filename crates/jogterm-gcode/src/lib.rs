@@ -18,6 +18,7 @@ pub mod frame;
 pub mod heightmap;
 pub mod interp;
 pub mod modal;
+pub mod num;
 pub mod offsets;
 pub mod output;
 pub mod reader;

@@ -196,16 +196,11 @@ impl Plan {
         plunge: f64,
     ) -> Plan {
         let start = path.ops.iter().find_map(start_of).unwrap_or_default();
-        let safe_z = path
-            .safe_height()
-            .or_else(|| {
-                path.ops
-                    .iter()
-                    .filter_map(end_of)
-                    .map(|p| p.z)
-                    .reduce(f64::max)
-            })
-            .unwrap_or(start.z);
+        // The safe height (`Toolpath::safe_height`, else the highest end of
+        // any move) found in the walk below, not in walks of its own over
+        // the half million ops of a CAM file.
+        let mut rapids_top: Option<f64> = None;
+        let mut ends_top: Option<f64> = None;
         let mut pieces = Vec::new();
         let mut first = 0;
         let mut waits = Vec::new();
@@ -214,6 +209,12 @@ impl Plan {
         let mut rpm = None;
         let mut feed = plunge;
         for (index, op) in path.ops.iter().enumerate() {
+            if let Op::Rapid(m) = op {
+                rapids_top = Some(rapids_top.map_or(m.to.z, |z| z.max(m.to.z)));
+            }
+            if let Some(end) = end_of(op) {
+                ends_top = Some(ends_top.map_or(end.z, |z| z.max(end.z)));
+            }
             match op {
                 Op::Pause(pause) => {
                     let kind = match pause {
@@ -270,7 +271,7 @@ impl Plan {
         Plan {
             pieces,
             waits,
-            safe_z,
+            safe_z: rapids_top.or(ends_top).unwrap_or(start.z),
             change_at,
             lines: path.lines,
         }
