@@ -236,3 +236,100 @@ async fn requests_without_a_link_are_refused() {
     .await;
     rig.handle.shutdown().await;
 }
+
+/// A client's hold (`Request::Hold`) that is not renewed, as when the
+/// console that drives a hold-to-run frame stalls: the task itself stops
+/// the move about one lease after the last renewal, says so
+/// (`Event::HoldLapsed`) before the idle state the stop brings, and the
+/// move ends short of its target.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_hold_not_renewed_stops_the_move_in_the_task_itself() {
+    let mut rig = socket_rig(settings(PollRate::LineSpeed));
+    rig.ready().await;
+    let from = rig.seen.len();
+    rig.request(Request::Hold {
+        lease: Duration::from_millis(300),
+    });
+    let asked = std::time::Instant::now();
+    rig.request(Request::MoveTo {
+        target: PerAxis::new().with(Axis::X, 100_000),
+        frame: jogterm::device::api::Frame::Machine,
+        speed_hz: PerAxis::new().with(Axis::X, 10_000.0),
+    });
+    rig.wait_for("the lapse", secs(5), |e| matches!(e, Event::HoldLapsed))
+        .await;
+    let lapsed = asked.elapsed();
+    assert!(
+        lapsed >= Duration::from_millis(290) && lapsed < Duration::from_millis(1_500),
+        "lapsed after {lapsed:?}"
+    );
+    let end = rig.wait_for("the measured end", secs(5), measured).await;
+    let Event::Position(p) = end else {
+        unreachable!()
+    };
+    // The lapse is said before the idle state the stop brings: a client
+    // that reads on after its stall sends no next move on that idle.
+    let state_of = |e: &Event| match e {
+        Event::State(s) => Some(s.activity),
+        _ => None,
+    };
+    let seen = &rig.seen[from..];
+    let moving = seen
+        .iter()
+        .position(|e| state_of(e).is_some_and(|a| a != jogterm::device::api::Activity::Idle))
+        .expect("the move was reported");
+    let idle_again = seen[moving..]
+        .iter()
+        .position(|e| state_of(e) == Some(jogterm::device::api::Activity::Idle))
+        .map(|i| i + moving)
+        .expect("idle after the stop");
+    let lapse = seen
+        .iter()
+        .position(|e| matches!(e, Event::HoldLapsed))
+        .expect("the lapse");
+    assert!(lapse < idle_again, "{lapse} before {idle_again}");
+    let x = p.steps.get(Axis::X).unwrap_or(0);
+    assert!(x > 0 && x < 100_000, "stopped at {x}");
+    assert!(rig.sent_since(from).iter().any(|s| s == "<FD><FF>"));
+    rig.handle.shutdown().await;
+}
+
+/// Renewed, the hold lets the move run to its end; `HoldEnd` then ends it
+/// without a stop.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_renewed_hold_lets_the_move_end_and_hold_end_stops_nothing() {
+    let mut rig = socket_rig(settings(PollRate::LineSpeed));
+    rig.ready().await;
+    let from = rig.seen.len();
+    let lease = Duration::from_millis(300);
+    rig.request(Request::Hold { lease });
+    rig.request(Request::MoveTo {
+        target: PerAxis::new().with(Axis::X, 8_000),
+        frame: jogterm::device::api::Frame::Machine,
+        speed_hz: PerAxis::new().with(Axis::X, 8_000.0),
+    });
+    // A second at 8000 Hz, renewed every 100 ms for 1.5 s.
+    for _ in 0..15 {
+        rig.run_for(Duration::from_millis(100)).await;
+        rig.request(Request::Hold { lease });
+    }
+    rig.request(Request::HoldEnd);
+    rig.run_for(Duration::from_millis(800)).await;
+    assert!(
+        !rig.seen[from..]
+            .iter()
+            .any(|e| matches!(e, Event::HoldLapsed)),
+        "renewed, the hold never lapsed"
+    );
+    assert!(
+        !rig.sent_since(from).iter().any(|s| s.contains("<FD>")),
+        "no stop: {:?}",
+        rig.sent_since(from)
+    );
+    let x = rig.seen[from..].iter().rev().find_map(|e| match e {
+        Event::Position(p) if p.source == PositionSource::Measured => p.steps.get(Axis::X),
+        _ => None,
+    });
+    assert_eq!(x, Some(8_000), "the move ran to its end");
+    rig.handle.shutdown().await;
+}
