@@ -46,6 +46,18 @@ pub fn steps(profile: &Profile, axis: Axis, units: f64) -> i64 {
     profile.axis(axis).map_or(0, |a| a.to_steps(units))
 }
 
+/// Machine steps of a point in machine units, `(axis, units)` each; an axis
+/// the profile does not have is left out.
+pub fn steps_of(profile: &Profile, units: impl IntoIterator<Item = (Axis, f64)>) -> PerAxis<i64> {
+    let mut out = PerAxis::new();
+    for (axis, v) in units {
+        if let Some(a) = profile.axis(axis) {
+            out.set(axis, a.to_steps(v));
+        }
+    }
+    out
+}
+
 /// The work zero of Z (machine steps) from a touched Z: the surface minus
 /// the plate the tool touched on.
 pub fn touch_off_zero(z: &AxisProfile, touched_z: i64, plate: f64) -> i64 {

@@ -164,10 +164,7 @@ async fn to_sensor(
     at: Option<PerAxis<i64>>,
     remedy: &Remedy,
 ) -> Result<(), u8> {
-    let mut to = PerAxis::new();
-    for (axis, units) in sensor.iter() {
-        to.set(axis, probing::steps(profile, axis, units));
-    }
+    let to = probing::steps_of(profile, sensor.iter());
     let here = at.unwrap_or_default();
     for leg in probing::up_over_down(profile, &here, &to) {
         operator

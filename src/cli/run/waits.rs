@@ -563,13 +563,7 @@ async fn back_to(
 
 /// A machine point (mm) in steps of the profile's axes.
 fn steps_of(profile: &Profile, p: Point) -> PerAxis<i64> {
-    let mut out = PerAxis::new();
-    for (axis, v) in [(Axis::X, p.x), (Axis::Y, p.y), (Axis::Z, p.z)] {
-        if let Some(a) = profile.axis(axis) {
-            out.set(axis, a.to_steps(v));
-        }
-    }
-    out
+    probing::steps_of(profile, [(Axis::X, p.x), (Axis::Y, p.y), (Axis::Z, p.z)])
 }
 
 fn round4(v: f64) -> f64 {

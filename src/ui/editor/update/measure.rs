@@ -66,10 +66,7 @@ impl Step<'_, '_> {
             );
             return;
         };
-        let mut to = PerAxis::new();
-        for (axis, units) in sensor.iter() {
-            to.set(axis, probing::steps(&profile, axis, units));
-        }
+        let to = probing::steps_of(&profile, sensor.iter());
         let legs = go_tos(&profile, &self.here(), &to);
         let Some(c) = self.e.chunked.as_mut() else {
             return;
@@ -210,16 +207,14 @@ impl Step<'_, '_> {
         // The probe ends where it began, above the sensor.
         let mut here = self.here();
         if let Some(Ok(sensor)) = profile.probe.tool_sensor_point() {
-            for (axis, units) in sensor.iter() {
-                here.set(axis, probing::steps(&profile, axis, units));
+            for (axis, steps) in probing::steps_of(&profile, sensor.iter()).iter() {
+                here.set(axis, steps);
             }
         }
-        let mut back = PerAxis::new();
-        for (axis, v) in [(Axis::X, to.x), (Axis::Y, to.y), (Axis::Z, to.z)] {
-            if profile.axis(axis).is_some() {
-                back.set(axis, probing::steps(&profile, axis, v));
-            }
-        }
+        let back = probing::steps_of(
+            &profile,
+            [(Axis::X, to.x), (Axis::Y, to.y), (Axis::Z, to.z)],
+        );
         let legs = go_tos(&profile, &here, &back);
         if let Some(m) = self.measuring() {
             m.stage = MeasureStage::Back(legs);
