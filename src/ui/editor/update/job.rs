@@ -123,7 +123,6 @@ impl Step<'_, '_> {
 
     /// Yes to the run in parts: checked as an upload is, then part 1.
     pub(super) fn chunked_begin(&mut self) {
-        let ctx = self.ctx;
         let language = self.e.language();
         if let Some(why) = self.job_refused() {
             self.say(NoteLevel::Danger, format!("run refused: {why}"));
@@ -133,23 +132,32 @@ impl Step<'_, '_> {
             return;
         };
         match g.converted.part_uploads(language) {
-            Ok(parts) => {
-                self.e.chunked = Some(Chunked {
-                    parts,
-                    part: 0,
-                    phase: Phase::Uploading,
-                    pause_next: false,
-                    started: ctx.now,
-                    paused_at: Vec::new(),
-                    paused_read: false,
-                    pieces: None,
-                });
-                self.outputs_arm();
-                self.job_log_start(crate::gcode::ways::Way::Chunked);
-                self.chunked_upload();
-            }
+            Ok(parts) => self.chunked_start(parts, None, Way::Chunked),
             Err(why) => self.say(NoteLevel::Danger, format!("run refused: {why}")),
         }
+    }
+
+    /// A job in parts (or in pieces) begins: the outputs armed, the job
+    /// log's record opened as `way`, the first part stored.
+    pub(super) fn chunked_start(
+        &mut self,
+        parts: Vec<crate::ui::editor::job::PartUpload>,
+        pieces: Option<Box<crate::ui::editor::job::Pieces>>,
+        way: Way,
+    ) {
+        self.e.chunked = Some(Chunked {
+            parts,
+            part: 0,
+            phase: Phase::Uploading,
+            pause_next: false,
+            started: self.ctx.now,
+            paused_at: Vec::new(),
+            paused_read: false,
+            pieces,
+        });
+        self.outputs_arm();
+        self.job_log_start(way);
+        self.chunked_upload();
     }
 
     /// Why a job may not start from the editor now, if it may not.

@@ -16,7 +16,7 @@
 use crate::gcode::toolchange::{Sequence, Step as Next};
 use crate::ui::editor::component::Effect;
 use crate::ui::editor::dialog::Answer;
-use crate::ui::editor::job::{AtWait, Chunked, Phase, Pieces, WAIT_ARMED, wait_text};
+use crate::ui::editor::job::{AtWait, Phase, Pieces, WAIT_ARMED, wait_text};
 use crate::ui::traffic_log::NoteLevel;
 
 use super::Step;
@@ -26,9 +26,10 @@ use super::job::{erase_request, standing};
 const NO_MEASURE: &str = "no tool sensor (probe.tool_sensor): the new tool must have the old \
     one's length (or Space ends the job: touch off Z and restart it from its line)";
 
-/// The same with one.
-const MEASURE: &str = "the new tool is then measured on the tool sensor (probe.tool_sensor) and \
-    every Z after the change shifts by its length";
+/// The same with one: every step the measure moves.
+const MEASURE: &str = "after F6 Z goes up alone, then X and Y over and Z down to the tool sensor \
+    (probe.tool_sensor), Z probes it and the tool comes back the same way; every Z after the \
+    change shifts by the new tool's length";
 
 impl Step<'_, '_> {
     /// F6 on a converted job with waits: the waits, how the job runs
@@ -125,30 +126,14 @@ impl Step<'_, '_> {
             measure: None,
             probes: 0,
         };
-        self.e.chunked = Some(Chunked {
-            parts,
-            part: 0,
-            phase: Phase::Uploading,
-            pause_next: false,
-            started: ctx.now,
-            paused_at: Vec::new(),
-            paused_read: false,
-            pieces: Some(Box::new(pieces)),
-        });
-        self.outputs_arm();
         // Each piece is stored, in parts only where it does not fit: the
         // log says so as `jogterm run` does of such a job.
-        let fits = self
-            .e
-            .gcode
-            .as_ref()
-            .is_some_and(|g| g.converted.program.fits());
-        self.job_log_start(if fits {
+        let way = if c.program.fits() {
             crate::gcode::ways::Way::Stored
         } else {
             crate::gcode::ways::Way::Chunked
-        });
-        self.chunked_upload();
+        };
+        self.chunked_start(parts, Some(Box::new(pieces)), way);
     }
 
     /// The last part of a piece ended: the wait after it, or the job's end.
