@@ -53,8 +53,14 @@ impl ToolTable {
     /// The tool in the spindle and its offset against the reference, when
     /// both are measured.
     pub fn active_offset(&self) -> Option<(String, f64)> {
+        self.active_tool()
+            .map(|(tool, offset)| (tool.to_owned(), offset))
+    }
+
+    /// The same, borrowed: what a screen drawn every frame reads.
+    pub fn active_tool(&self) -> Option<(&str, f64)> {
         let tool = self.active.as_deref()?;
-        Some((tool.to_owned(), self.offset(tool)?))
+        Some((tool, self.offset(tool)?))
     }
 }
 

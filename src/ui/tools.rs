@@ -54,6 +54,12 @@ impl ToolsState {
         Some(ToolOffset { tool, offset_mm })
     }
 
+    /// `tool` is the tool in the spindle with its offset (or both are
+    /// none): what a job imported with it needs no check again for.
+    pub fn is_active(&self, tool: Option<&ToolOffset>) -> bool {
+        self.table.active_tool() == tool.map(|t| (t.tool.as_str(), t.offset_mm))
+    }
+
     /// Why the table cannot take a measure, if it cannot.
     pub fn refused(&self) -> Option<String> {
         self.broken
@@ -61,11 +67,11 @@ impl ToolsState {
             .map(|why| format!("the tool table cannot be read ({why}): fix or remove it first"))
     }
 
-    /// `tool` touched the sensor at machine Z `z` (units): its offset
-    /// against the reference, and the write of the table.
-    pub fn measured(&mut self, tool: &str, z: f64) -> (f64, Option<SaveJob>) {
-        let offset = self.table.measured(tool, z);
-        (offset, self.save())
+    /// `tool` touched the sensor at machine Z `z` (units): the write of
+    /// the table.
+    pub fn measured(&mut self, tool: &str, z: f64) -> Option<SaveJob> {
+        self.table.measured(tool, z);
+        self.save()
     }
 
     /// A Z touch-off set work Z with the tool in the spindle: the next tool
@@ -94,13 +100,16 @@ mod tests {
     fn a_measure_is_saved_beside_the_offsets_and_a_broken_file_is_left_alone() {
         let path = PathBuf::from("/state/tools/default@sim.json");
         let mut tools = ToolsState::start(Some(path.clone()), Some(Ok(ToolTable::default())));
-        let (offset, save) = tools.measured("T1", 30.0);
-        assert_eq!(offset, 0.0);
+        let save = tools.measured("T1", 30.0);
+        assert_eq!(tools.table.offset("T1"), Some(0.0));
         let Some(job) = save else { panic!("no write") };
         assert_eq!(job.path, path);
         assert!(job.text.contains("\"T1\""), "{}", job.text);
-        assert_eq!(tools.measured("T2", 31.0).0, 1.0);
+        tools.measured("T2", 31.0);
+        assert_eq!(tools.table.offset("T2"), Some(1.0));
         assert_eq!(tools.active().map(|t| t.offset_mm), Some(1.0));
+        assert!(tools.is_active(tools.active().as_ref()));
+        assert!(!tools.is_active(None));
         assert!(tools.touched_off().is_some());
         assert_eq!(tools.active(), None);
         // Nothing to reset: nothing written.
@@ -108,6 +117,6 @@ mod tests {
 
         let mut broken = ToolsState::start(Some(path), Some(Err("bad json".into())));
         assert!(broken.refused().is_some_and(|w| w.contains("bad json")));
-        assert!(broken.measured("T1", 30.0).1.is_none());
+        assert!(broken.measured("T1", 30.0).is_none());
     }
 }

@@ -926,7 +926,7 @@ fn apply_editor(model: &mut Model, outcome: editor::Outcome) -> Vec<Effect> {
         match effect.console() {
             Ok(effect) => console.push(effect),
             Err((tool, z)) => {
-                let (_, save) = model.tools.measured(&tool, z);
+                let save = model.tools.measured(&tool, z);
                 console.extend(save.map(Effect::SaveOffsets));
             }
         }

@@ -157,11 +157,8 @@ pub fn title_extra(model: &Model) -> Vec<Span<'static>> {
         extra.push(Span::styled(format!("programs {ne} {name} "), p.warning));
     }
     // Every Z of a job imported now carries the offset (`ui::tools`).
-    if let Some(t) = model.tools.active() {
-        extra.push(Span::styled(
-            format!("{} {:+.3} ", t.tool, t.offset_mm),
-            p.title,
-        ));
+    if let Some((tool, offset)) = model.tools.table.active_tool() {
+        extra.push(Span::styled(format!("{tool} {offset:+.3} "), p.title));
     }
     extra
 }

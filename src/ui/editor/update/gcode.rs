@@ -42,10 +42,12 @@ impl Step<'_, '_> {
         let Some(job) = self.e.job.as_mut() else {
             return;
         };
-        let tool = self.ctx.tools.active();
-        if job.checking || busy || (job.offsets == *self.ctx.offsets && job.tool == tool) {
+        // Compared in place: this runs on every tick.
+        let same_tool = self.ctx.tools.is_active(job.tool.as_ref());
+        if job.checking || busy || (job.offsets == *self.ctx.offsets && same_tool) {
             return;
         }
+        let tool = self.ctx.tools.active();
         job.checking = true;
         let request = GcodeJob {
             path: job.path.clone(),
