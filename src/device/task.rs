@@ -547,6 +547,10 @@ impl Task {
             self.set_emergency(s.emergency.take());
         }
         self.bus.publish(Event::Link(LinkState::Connected));
+        // A hold of the session before is no hold of this one: its client
+        // was told the link went, and a late lapse would stop whatever the
+        // new session moves.
+        self.hold = None;
         let now = Instant::now();
         self.inputs.with(|r| r.connected(now));
         self.driver.connected(now);
