@@ -13,11 +13,11 @@
 use crate::console_pty::{self, wait_for};
 use crate::editor_e2e;
 use crate::sim_process::SimProcess;
+// The two-tool job `jogterm run` runs: T1 cuts along Y10 from X10 to X20 at
+// Z-1, T2 from X30 to X40; G54's zero at machine X50 Y50 Z60 mm.
+use crate::toolchange_e2e::{JOB, WORK_ZERO, moves};
 
 use std::time::{Duration, Instant};
-
-/// 400 steps/mm; G54's zero at machine X50 Y50 Z60 mm.
-const WORK_ZERO: &str = "X50 Y50 Z60";
 
 /// A faster machine, the change position X25 Y0 Z40 (machine mm), the
 /// tool sensor under X25 Y0 (the point above it at Z27.5 mm).
@@ -27,32 +27,6 @@ const MACHINE: (&str, &str) = (
      [isel]\nreference_speed_hz = 12000\n\
      [probe]\ntool_sensor = \"X25 Y0 Z27.5\"\n[tools]\nchange_at = \"X25 Y0 Z40\"\n",
 );
-
-/// T1 cuts along Y10 from X10 to X20 at Z-1, T2 from X30 to X40.
-const JOB: &str = "(T1 D=6 CR=0 - ZMIN=-1 - flat end mill)\n\
-(T2 D=3.175 CR=0 - ZMIN=-1 - ball end mill)\n\
-G21 G90 G17\n\
-M6 T1\n\
-M3 S10000\n\
-G0 Z5\n\
-G0 X10 Y10\nG1 Z-1 F300\nG1 X20 F600\nG0 Z5\n\
-M5\n\
-M6 T2\n\
-M3 S12000\n\
-G0 X30 Y10\nG1 Z-1 F300\nG1 X40 F600\nG0 Z5\n\
-M30\n";
-
-/// The X, Y and Z steps of every absolute move stored (`m…`), in order.
-fn moves(received: &str) -> Vec<[i64; 3]> {
-    received
-        .split("<CR>")
-        .filter_map(|c| {
-            let rest = c.trim_start_matches("@0i").strip_prefix('m')?;
-            let n: Vec<i64> = rest.split(',').filter_map(|v| v.parse().ok()).collect();
-            Some([*n.first()?, *n.get(2)?, *n.get(4)?])
-        })
-        .collect()
-}
 
 /// F6 at the wait until the job goes on: once the erase has answered
 /// and the position at the wait is read the console takes it, and the

@@ -219,12 +219,7 @@ fn stopped_on_the_way_up(stop: impl FnOnce(&mut PtyRun)) -> PtyRun {
         !received[stop..].contains("@0A") && !received[stop..].contains("@0M"),
         "no move after the stop: {received}"
     );
-    let z: i64 = state
-        .split(" Z ")
-        .nth(1)
-        .and_then(|r| r.split(' ').next())
-        .and_then(|v| v.parse().ok())
-        .unwrap_or_else(|| panic!("no Z in {state}"));
+    let z = z_of(&state);
     assert!(state.starts_with("device: X 4000 Y 4000 "), "{state}");
     assert!(z > 2000 && z < 10_000, "{state}");
     assert!(run.wait_exit(Duration::from_secs(10)).is_some());
@@ -279,19 +274,18 @@ fn go_tos(received: &str) -> Vec<(i64, i64, i64)> {
         .collect()
 }
 
-/// `F` in the console frames the job open in it (`--program`, placed by
-/// `--work-zero`): asked first, then Z up alone and the four corners at the
-/// safe height on the wire, each a go-to sent when the one before ended,
-/// the trace said done on the status line's message.
-#[test]
-fn f_in_the_console_frames_the_open_job_at_the_safe_height() {
-    let mut sim = SimProcess::options("isel")
-        .files(&[(
-            "profiles/default.toml",
-            "[sim]\nstart_position = 1.0\n[jog]\nspeed = 3\n[isel]\nreference_speed_hz = 12000\n",
-        )])
-        .time_scale(sim_process::LOGIC_SCALE)
-        .start();
+/// The console with [`JOB`] opened (`--program`, placed by `--work-zero`)
+/// on the machine screen, referenced; the simulator at `scale` (`None`:
+/// real time). The state directory lives as long as the third value.
+fn console_referenced(scale: Option<f64>) -> (SimProcess, PtyRun, tempfile::TempDir) {
+    let mut options = SimProcess::options("isel").files(&[(
+        "profiles/default.toml",
+        "[sim]\nstart_position = 1.0\n[jog]\nspeed = 3\n[isel]\nreference_speed_hz = 12000\n",
+    )]);
+    if let Some(scale) = scale {
+        options = options.time_scale(scale);
+    }
+    let sim = options.start();
     let file = write_job(&sim);
     let state = tempfile::tempdir().expect("state dir");
     let link = sim.link.display().to_string();
@@ -304,6 +298,26 @@ fn f_in_the_console_frames_the_open_job_at_the_safe_height() {
     run.type_keys(&[b"\x1bOS"]);
     crate::console_pty::wait_for(&run, "Position");
     crate::console_pty::reference(&mut run);
+    (sim, run, state)
+}
+
+/// Z in steps of a simulator state line (`device: X … Y … Z … `).
+fn z_of(state: &str) -> i64 {
+    state
+        .split(" Z ")
+        .nth(1)
+        .and_then(|r| r.split(' ').next())
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("no Z in {state}"))
+}
+
+/// `F` in the console frames the job open in it (`--program`, placed by
+/// `--work-zero`): asked first, then Z up alone and the four corners at the
+/// safe height on the wire, each a go-to sent when the one before ended,
+/// the trace said done on the status line's message.
+#[test]
+fn f_in_the_console_frames_the_open_job_at_the_safe_height() {
+    let (mut sim, mut run, _state) = console_referenced(Some(sim_process::LOGIC_SCALE));
     let before = sim.received().len();
     run.type_keys(&[b"F"]);
     // The question's words are the offline tests' (`frame_ui`); here its
@@ -335,24 +349,7 @@ fn f_in_the_console_frames_the_open_job_at_the_safe_height() {
 /// out after the stop byte (the next leg is never sent).
 #[test]
 fn space_stops_the_consoles_frame_and_no_leg_follows() {
-    let mut sim = SimProcess::options("isel")
-        .files(&[(
-            "profiles/default.toml",
-            "[sim]\nstart_position = 1.0\n[jog]\nspeed = 3\n[isel]\nreference_speed_hz = 12000\n",
-        )])
-        .start();
-    let file = write_job(&sim);
-    let state = tempfile::tempdir().expect("state dir");
-    let link = sim.link.display().to_string();
-    let mut run = crate::console_pty::spawn_on(
-        &sim,
-        state.path(),
-        &["--port", &link, "--program", &file, "--work-zero", ZERO],
-    );
-    crate::console_pty::wait_for(&run, "Job pocket.nc");
-    run.type_keys(&[b"\x1bOS"]);
-    crate::console_pty::wait_for(&run, "Position");
-    crate::console_pty::reference(&mut run);
+    let (mut sim, mut run, _state) = console_referenced(None);
     run.type_keys(&[b"F"]);
     crate::console_pty::wait_for(&run, "Frame the job");
     run.type_keys(&[b"y"]);
@@ -367,12 +364,7 @@ fn space_stops_the_consoles_frame_and_no_leg_follows() {
         go_tos(&received[stop..]).is_empty(),
         "no leg after the stop: {received}"
     );
-    let z: i64 = state
-        .split(" Z ")
-        .nth(1)
-        .and_then(|r| r.split(' ').next())
-        .and_then(|v| v.parse().ok())
-        .unwrap_or_else(|| panic!("no Z in {state}"));
+    let z = z_of(&state);
     assert!(z < 10_000, "stopped short of the safe height: {state}");
     crate::editor_e2e::quit_discarding_the_edits(&mut run);
 }
@@ -386,24 +378,7 @@ fn space_stops_the_consoles_frame_and_no_leg_follows() {
 /// byte.
 #[test]
 fn f_held_traces_the_frame_only_while_its_repeats_come() {
-    let mut sim = SimProcess::options("isel")
-        .files(&[(
-            "profiles/default.toml",
-            "[sim]\nstart_position = 1.0\n[jog]\nspeed = 3\n[isel]\nreference_speed_hz = 12000\n",
-        )])
-        .start();
-    let file = write_job(&sim);
-    let state = tempfile::tempdir().expect("state dir");
-    let link = sim.link.display().to_string();
-    let mut run = crate::console_pty::spawn_on(
-        &sim,
-        state.path(),
-        &["--port", &link, "--program", &file, "--work-zero", ZERO],
-    );
-    crate::console_pty::wait_for(&run, "Job pocket.nc");
-    run.type_keys(&[b"\x1bOS"]);
-    crate::console_pty::wait_for(&run, "Position");
-    crate::console_pty::reference(&mut run);
+    let (mut sim, mut run, _state) = console_referenced(None);
     let before = sim.received().len();
     // Held: a press, then a repeat every 33 ms (a 30 Hz terminal).
     let held = std::time::Instant::now();
@@ -426,12 +401,7 @@ fn f_held_traces_the_frame_only_while_its_repeats_come() {
         go_tos(&received[stop..]).is_empty(),
         "no leg after the stop: {received}"
     );
-    let z: i64 = state
-        .split(" Z ")
-        .nth(1)
-        .and_then(|r| r.split(' ').next())
-        .and_then(|v| v.parse().ok())
-        .unwrap_or_else(|| panic!("no Z in {state}"));
+    let z = z_of(&state);
     assert!(z < 10_000, "stopped short of the safe height: {state}");
     // The hold's lease (the repeat timeout, 150 ms) and the ramp down, with
     // the test's polls of the simulator on a loaded machine.

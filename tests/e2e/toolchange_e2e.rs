@@ -16,7 +16,7 @@ use crate::gcode_e2e::wait_run;
 use crate::sim_process::{SimProcess, contains_panic, spawn_with_lines, text};
 
 /// 400 steps/mm; G54's zero at machine X50 Y50 Z60 mm.
-const WORK_ZERO: &str = "X50 Y50 Z60";
+pub(crate) const WORK_ZERO: &str = "X50 Y50 Z60";
 
 /// A faster machine, the tool sensor under X25 Y0 (the point above it at
 /// Z27.5 mm), the change position X25 Y0 Z40 (machine mm).
@@ -31,7 +31,7 @@ const SURFACE: &str = "--probe-surface=8000";
 
 /// T1 cuts along Y10 from X10 to X20 at Z-1 (lines 7-8), T2 from X30 to
 /// X40 (lines 14-15).
-const JOB: &str = "(T1 D=6 CR=0 - ZMIN=-1 - flat end mill)\n\
+pub(crate) const JOB: &str = "(T1 D=6 CR=0 - ZMIN=-1 - flat end mill)\n\
 (T2 D=3.175 CR=0 - ZMIN=-1 - ball end mill)\n\
 G21 G90 G17\n\
 M6 T1\n\
@@ -86,7 +86,7 @@ fn is(kind: &'static str) -> impl Fn(&serde_json::Value) -> bool {
 
 /// The X, Y and Z steps of every absolute move the controller received,
 /// stored (`m…`) or sent (`@0M…`), in order.
-fn moves(received: &str) -> Vec<[i64; 3]> {
+pub(crate) fn moves(received: &str) -> Vec<[i64; 3]> {
     received
         .split("<CR>")
         .filter_map(|c| {

@@ -369,3 +369,24 @@ fn a_release_of_f_stops_the_frame_and_f_held_past_its_end_starts_nothing() {
     assert!(after.is_empty(), "{after:?}");
     assert!(m.frame.is_none());
 }
+
+#[test]
+fn ten_f_keys_read_together_start_no_frame_and_a_paste_moves_nothing() {
+    let t0 = Instant::now();
+    let mut m = opened(t0);
+    at(&mut m, 44_938, 20_000, 0);
+    let burst = update(
+        &mut m,
+        Msg::KeysAt(
+            (0..10)
+                .map(|_| (KeyEvent::new(KeyCode::Char('f'), KeyModifiers::NONE), t0))
+                .collect(),
+        ),
+    );
+    assert_eq!(goto(&burst), None, "{burst:?}");
+    assert!(holds(&burst).is_empty(), "{burst:?}");
+    assert!(m.frame.is_none());
+    let pasted = update(&mut m, Msg::Paste("ffffffffff".into()));
+    assert!(pasted.is_empty(), "{pasted:?}");
+    assert!(m.frame.is_none());
+}
