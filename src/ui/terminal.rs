@@ -25,9 +25,16 @@ use ratatui::crossterm::event::{
 };
 use ratatui::crossterm::execute;
 use ratatui::crossterm::terminal::{
-    Clear, ClearType, EnterAlternateScreen, LeaveAlternateScreen, disable_raw_mode,
-    enable_raw_mode, supports_keyboard_enhancement,
+    Clear, ClearType, EndSynchronizedUpdate, EnterAlternateScreen, LeaveAlternateScreen,
+    disable_raw_mode, enable_raw_mode, supports_keyboard_enhancement,
 };
+
+mod whole_frames;
+
+pub use whole_frames::WholeFrames;
+
+/// The console's backend: crossterm on stdout, each frame one update.
+pub type ConsoleBackend = WholeFrames<CrosstermBackend<Stdout>, Stdout>;
 
 /// The environment variable that skips the keyboard protocol query (it
 /// blocks up to 2 s on a terminal that does not answer, such as a test pty).
@@ -72,10 +79,10 @@ pub struct TerminalGuard {
 /// hang-up") and turned a hang-up's clean exit into status 101. The guard's
 /// [`restore`] shows the cursor, ignoring every error; the terminal's
 /// buffers are left to the process' end (one per process).
-pub struct Tui(ManuallyDrop<Terminal<CrosstermBackend<Stdout>>>);
+pub struct Tui(ManuallyDrop<Terminal<ConsoleBackend>>);
 
 impl Deref for Tui {
-    type Target = Terminal<CrosstermBackend<Stdout>>;
+    type Target = Terminal<ConsoleBackend>;
 
     fn deref(&self) -> &Self::Target {
         &self.0
@@ -120,7 +127,10 @@ impl TerminalGuard {
         // terminal for the cursor position, a round trip over SSH that a
         // terminal which does not answer turns into a 2 s wait and an error.
         execute!(stdout, Clear(ClearType::All))?;
-        let terminal = Terminal::new(CrosstermBackend::new(io::stdout()))?;
+        let terminal = Terminal::new(WholeFrames::new(
+            CrosstermBackend::new(io::stdout()),
+            io::stdout(),
+        ))?;
         Ok((guard, Tui(ManuallyDrop::new(terminal))))
     }
 
@@ -151,7 +161,9 @@ pub fn restore() {
     if PASTE_ENABLED.swap(false, Ordering::SeqCst) {
         let _ = execute!(stdout, DisableBracketedPaste);
     }
-    let _ = execute!(stdout, LeaveAlternateScreen, Show);
+    // A panic in the middle of a frame leaves its update open, and a
+    // terminal that knows the mode would hold the screen until it gives up.
+    let _ = execute!(stdout, EndSynchronizedUpdate, LeaveAlternateScreen, Show);
     let _ = disable_raw_mode();
     let _ = stdout.flush();
 }

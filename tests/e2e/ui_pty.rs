@@ -192,13 +192,18 @@ impl PtyRun {
         output.get(offset..).unwrap_or_default().to_vec()
     }
 
-    /// The screen as the terminal shows it now.
+    /// The screen as the terminal shows it now: its last whole frame. A
+    /// frame is a synchronized update (`ui::terminal::WholeFrames`), and a
+    /// terminal that knows the mode shows none of it before its end; read
+    /// in the middle, the screen was half the last frame and half the new
+    /// one (a popup's title over the old lines, CI).
     pub fn screen(&self) -> Shown {
         let mut parsed = self.parsed.lock().unwrap_or_else(|p| p.into_inner());
         let (parser, seen) = &mut *parsed;
         let new = self.output_since(*seen);
-        *seen += new.len();
-        parser.process(&new);
+        let whole = whole_frames(&new);
+        *seen += whole;
+        parser.process(&new[..whole]);
         Shown(parser.screen().clone())
     }
 
@@ -245,6 +250,25 @@ impl PtyRun {
             }
         }
     }
+}
+
+/// A synchronized update's begin and end (DEC private mode 2026).
+const FRAME_BEGIN: &[u8] = b"\x1b[?2026h";
+const FRAME_END: &[u8] = b"\x1b[?2026l";
+
+/// How much of `new` a terminal that knows synchronized updates shows: all
+/// of it but a frame begun and not ended yet, and a begin marker cut off by
+/// the read.
+fn whole_frames(new: &[u8]) -> usize {
+    if let Some(begin) = rfind(new, FRAME_BEGIN)
+        && !contains(&new[begin..], FRAME_END)
+    {
+        return begin;
+    }
+    (1..FRAME_BEGIN.len())
+        .rev()
+        .find(|&n| new.ends_with(&FRAME_BEGIN[..n]))
+        .map_or(new.len(), |n| new.len() - n)
 }
 
 /// What the terminal shows at one moment ([`PtyRun::screen`]).
