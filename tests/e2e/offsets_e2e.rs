@@ -67,9 +67,18 @@ fn reference(run: &mut PtyRun) {
 }
 
 /// The offsets files in the state directory.
+/// The offsets files in the state directory, without the hidden temporary
+/// file of a write under way (`.<name>.jogterm-save-…`, renamed over the
+/// file once it is on the disk): found with the whole text in it while the
+/// disk was slow, it was taken for the file and was gone a moment later.
 fn offsets_files(state: &Path) -> Vec<PathBuf> {
     let mut files: Vec<PathBuf> = fs::read_dir(state.join("offsets"))
-        .map(|d| d.flatten().map(|e| e.path()).collect())
+        .map(|d| {
+            d.flatten()
+                .filter(|e| !e.file_name().to_string_lossy().starts_with('.'))
+                .map(|e| e.path())
+                .collect()
+        })
         .unwrap_or_default();
     files.sort();
     files
