@@ -173,6 +173,9 @@ pub struct Checkout {
     pub dwell_tick: Option<Instant>,
     /// Streamed, not held (`None`: the check-out proper).
     pub stream: Option<Stream>,
+    /// A piece of a job with waits streamed: the plan's lines are the
+    /// piece's text, not the buffer's (`None`: the buffer's text).
+    pub piece: Option<Box<crate::ui::editor::job::PieceStream>>,
 }
 
 impl Checkout {
@@ -196,7 +199,27 @@ impl Checkout {
             lines_done: 0,
             dwell_tick: None,
             stream: None,
+            piece: None,
         }
+    }
+
+    /// The buffer's line shown as current: a streamed piece's line by the
+    /// G-code line it came from.
+    pub fn buffer_line(&self) -> Option<usize> {
+        let line = self.current_line()?;
+        match &self.piece {
+            Some(p) => p.lines_of.get(line).copied(),
+            None => Some(line),
+        }
+    }
+
+    /// The program the plan's lines are lines of: the piece's, or the
+    /// buffer's `buffer`.
+    pub fn program<'a>(
+        &'a self,
+        buffer: &'a crate::program::Program,
+    ) -> &'a crate::program::Program {
+        self.piece.as_ref().map_or(buffer, |p| &p.program)
     }
 
     pub fn new_id(&mut self) -> JogId {
@@ -295,8 +318,9 @@ impl Checkout {
         let elapsed = now.saturating_duration_since(self.started);
         // The model's time left where the job is the converted G-code,
         // else the pace so far.
+        // The model is by the text's lines (`Eta`), as `line` is.
         let modelled = s.eta.as_ref().and_then(|eta| {
-            eta.left_s(done, s.running_s(self.started, now))
+            eta.left_s(line.unwrap_or(usize::MAX), s.running_s(self.started, now))
                 .map(|left| Duration::from_secs_f64(left.max(0.0)))
         });
         let left = modelled.or_else(|| {

@@ -59,6 +59,27 @@ pub struct PartUpload {
     pub lines_of: Vec<usize>,
 }
 
+/// How a piece of a job with waits runs.
+#[derive(Debug, Clone, PartialEq)]
+pub enum PieceRun {
+    /// Stored whole, or in parts where it does not fit.
+    Stored(Vec<PartUpload>),
+    /// Bigger than the memory with no retract to cut at: streamed.
+    Stream(Box<PieceStream>),
+}
+
+/// A piece streamed: its converted text as the check-out's stream runs it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PieceStream {
+    pub program: crate::program::Program,
+    pub commands: usize,
+    /// The G-code line of each line of the piece's text.
+    pub origins: Vec<Option<u32>>,
+    /// The buffer's line of each line of the piece's text (by its G-code
+    /// line), where the editor shows the stream.
+    pub lines_of: Vec<usize>,
+}
+
 /// Where a run in parts stands.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Phase {
@@ -76,6 +97,9 @@ pub enum Phase {
     /// At a tool change, after F6: the new tool goes to the tool sensor,
     /// is measured and comes back (`Pieces::measure`).
     Measuring,
+    /// A piece of a job with waits streamed by the check-out's stream
+    /// (`Editor::checkout`), until its last line has ended.
+    Streaming,
 }
 
 /// A job with waits run in pieces (`docs/editor.md`, "Tool changes and
@@ -286,16 +310,17 @@ impl Converted {
 
     /// Piece `k` of a job with waits (every Z `dz` higher, the piece before
     /// `dz_before`) converted for `profile` (checked against the soft limits
-    /// again) and cut, where it does not fit, at the retracts; each part
-    /// as it is uploaded, its commands marked at the buffer's lines with
-    /// the same G-code line.
-    pub fn piece_uploads(
+    /// again), and how it runs: stored, in parts cut at the retracts where
+    /// it does not fit (each part as it is uploaded, its commands marked at
+    /// the buffer's lines with the same G-code line), or streamed where it
+    /// has no retract to cut at, as `jogterm run` chooses for a whole job.
+    pub fn piece_run(
         &self,
         k: usize,
         shifts: (f64, f64),
         profile: &Profile,
         language: Language,
-    ) -> Result<Vec<PartUpload>, String> {
+    ) -> Result<PieceRun, String> {
         let Some(w) = self.waits.as_ref() else {
             return Err("the job has no waits".into());
         };
@@ -313,8 +338,6 @@ impl Converted {
                 .unwrap_or_default();
             format!("piece {} does not convert: {first}", k + 1)
         })?;
-        let mut uploads = uploads_of(&piece, &self.header, language)
-            .map_err(|why| format!("piece {}: {why}", k + 1))?;
         // The piece's lines to the buffer's (the whole program's) by the
         // G-code line they came from.
         let mut at_line = std::collections::HashMap::new();
@@ -323,17 +346,47 @@ impl Converted {
                 at_line.entry(o.line).or_insert(i);
             }
         }
-        for u in &mut uploads {
-            for l in &mut u.lines_of {
-                *l = piece
-                    .lines
-                    .get(*l)
-                    .and_then(|p| p.origin)
-                    .and_then(|o| at_line.get(&o.line).copied())
-                    .unwrap_or(0);
+        // A line the conversion added (the way to and from the change) is
+        // shown at the G-code line before it, or, before any, the first
+        // after it: where the piece begins.
+        let mut buffer_lines: Vec<Option<usize>> = piece
+            .lines
+            .iter()
+            .map(|p| p.origin.and_then(|o| at_line.get(&o.line).copied()))
+            .collect();
+        let mut last = buffer_lines.iter().flatten().next().copied();
+        for b in &mut buffer_lines {
+            match b {
+                Some(line) => last = Some(*line),
+                None => *b = last,
             }
         }
-        Ok(uploads)
+        let to_buffer = |l: usize| buffer_lines.get(l).copied().flatten().unwrap_or(0);
+        if !piece.fits() && piece.parts(piece.capacity).is_err() {
+            let text = piece.text(&self.header);
+            let program = crate::program::Program::parse(language, &text);
+            program.upload_lines().map_err(|(span, e)| {
+                format!("piece {}: line {}: {}", k + 1, span.line + 1, e.message)
+            })?;
+            return Ok(PieceRun::Stream(Box::new(PieceStream {
+                commands: program.command_count(),
+                origins: piece
+                    .lines
+                    .iter()
+                    .map(|l| l.origin.map(|o| o.line))
+                    .collect(),
+                lines_of: (0..piece.lines.len()).map(to_buffer).collect(),
+                program,
+            })));
+        }
+        let mut uploads = uploads_of(&piece, &self.header, language)
+            .map_err(|why| format!("piece {}: {why}", k + 1))?;
+        for u in &mut uploads {
+            for l in &mut u.lines_of {
+                *l = to_buffer(*l);
+            }
+        }
+        Ok(PieceRun::Stored(uploads))
     }
 
     /// The job cut where the tool stands retracted, each part as it is

@@ -36,9 +36,16 @@ impl Editor {
         if let Some(c) = &self.checkout {
             let paused = matches!(c.state, RunState::Paused { .. });
             if let Some((gcode, share, elapsed, left)) =
-                c.stream_progress(self.buffer.program(), now)
+                c.stream_progress(c.program(self.buffer.program()), now)
             {
-                let line = gcode.map(|l| format!("L{l} ")).unwrap_or_default();
+                // A streamed piece of a job with waits: which one.
+                let piece = self
+                    .chunked
+                    .as_ref()
+                    .and_then(|j| j.pieces.as_ref())
+                    .map(|p| format!("{} ", p.label()))
+                    .unwrap_or_default();
+                let line = gcode.map(|l| format!("{piece}L{l} ")).unwrap_or(piece);
                 let left = left
                     .map(|l| format!(" left {}", clock(l)))
                     .unwrap_or_default();
@@ -61,7 +68,7 @@ impl Editor {
                 });
             }
             let line = c
-                .current_line()
+                .buffer_line()
                 .map(|l| format!("line {} ", l + 1))
                 .unwrap_or_default();
             return Some(JobStatus {
@@ -103,6 +110,8 @@ impl Editor {
             let (word, waiting) = match c.phase {
                 Phase::Uploading => ("STORING", None),
                 Phase::Starting | Phase::Running => ("RUNNING", None),
+                // The stream's own status comes first (`checkout`).
+                Phase::Streaming => ("STREAM", None),
                 Phase::Waiting => ("WAIT", None),
                 Phase::Measuring => ("MEASURE", None),
                 Phase::Paused => (

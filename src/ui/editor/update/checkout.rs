@@ -327,7 +327,7 @@ impl Step<'_, '_> {
 
     /// Keep the current line in view and the cursor on it.
     fn checkout_follow(&mut self) {
-        if let Some(line) = self.e.checkout.as_ref().and_then(Checkout::current_line) {
+        if let Some(line) = self.e.checkout.as_ref().and_then(Checkout::buffer_line) {
             self.e.buffer.move_to(Cursor::new(line, 0));
             self.scroll_into_view();
         }
@@ -408,6 +408,15 @@ impl Step<'_, '_> {
             }
             Action::CheckoutAbort => self.checkout_end(),
             Action::CheckoutFromLine => {
+                if c.piece.is_some() {
+                    self.say(
+                        NoteLevel::Warning,
+                        "a piece of a job with waits starts from a line only as the whole job: \
+                         `jogterm run --from-line`"
+                            .into(),
+                    );
+                    return;
+                }
                 if c.state == RunState::Running {
                     self.say(
                         NoteLevel::Warning,
@@ -430,6 +439,15 @@ impl Step<'_, '_> {
         let Some(c) = self.e.checkout.take() else {
             return;
         };
+        // A streamed piece left: its job ends with it.
+        if c.piece.is_some()
+            && let Some(job) = self.e.chunked.take()
+        {
+            self.say(
+                NoteLevel::Danger,
+                format!("the job ends in {}: its stream was left (x)", job.label()),
+            );
+        }
         // Left before its end: ended early (after its end, nothing is
         // armed any more).
         self.outputs_early();
@@ -572,12 +590,17 @@ impl Step<'_, '_> {
             c.at_line = Some(line);
             c.line_start = Some(machine_now(ctx));
             if let Some(s) = c.stream.as_mut() {
-                let command = self.e.buffer.program().index_of(line);
+                let program = c
+                    .piece
+                    .as_ref()
+                    .map_or(self.e.buffer.program(), |p| &p.program);
+                let command = program.index_of(line);
                 let running_s = s.running_s(c.started, ctx.now);
                 // The model's pace counts from the job's first G-code line.
-                let origin = command.and_then(|k| s.origins.get(k).copied().flatten());
-                if let (Some(eta), Some(command), Some(_)) = (s.eta.as_mut(), command, origin) {
-                    eta.start(command, c.factor, running_s);
+                // `origins` are by the text's lines, as `line` is.
+                let origin = command.and(s.origins.get(line).copied().flatten());
+                if let (Some(eta), Some(_)) = (s.eta.as_mut(), origin) {
+                    eta.start(line, c.factor, running_s);
                 }
                 if let Some(origin) = origin {
                     self.job_log_line(origin);
@@ -625,6 +648,10 @@ impl Step<'_, '_> {
     }
 
     fn checkout_finished(&mut self) {
+        if self.e.checkout.as_ref().is_some_and(|c| c.piece.is_some()) {
+            self.piece_streamed();
+            return;
+        }
         self.outputs_ended();
         let Some(c) = self.e.checkout.as_mut() else {
             return;
@@ -748,12 +775,24 @@ impl Step<'_, '_> {
     }
 
     fn checkout_stopped(&mut self, why: String) {
+        let mut piece = false;
         if let Some(c) = self.e.checkout.as_mut() {
             c.state = RunState::Stopped { why: why.clone() };
             c.line_id = None;
             c.latched = true;
+            piece = c.piece.is_some();
         }
-        self.say(NoteLevel::Danger, format!("check-out: {why}"));
+        // A streamed piece's stop ends its job: no later piece follows.
+        match self.e.chunked.take().filter(|_| piece) {
+            Some(job) => self.say(
+                NoteLevel::Danger,
+                format!(
+                    "the job stopped in {}: {why}; nothing resumes (x leaves the stream)",
+                    job.label()
+                ),
+            ),
+            None => self.say(NoteLevel::Danger, format!("check-out: {why}")),
+        }
         self.outputs_early();
     }
 

@@ -132,13 +132,17 @@ impl Step<'_, '_> {
             return;
         };
         match g.converted.part_uploads(language) {
-            Ok(parts) => self.chunked_start(parts, None, Way::Chunked),
+            Ok(parts) => {
+                self.chunked_start(parts, None, Way::Chunked);
+                self.chunked_upload();
+            }
             Err(why) => self.say(NoteLevel::Danger, format!("run refused: {why}")),
         }
     }
 
     /// A job in parts (or in pieces) begins: the outputs armed, the job
-    /// log's record opened as `way`, the first part stored.
+    /// log's record opened as `way`; the caller stores its first part (or
+    /// streams its first piece).
     pub(super) fn chunked_start(
         &mut self,
         parts: Vec<crate::ui::editor::job::PartUpload>,
@@ -157,7 +161,6 @@ impl Step<'_, '_> {
         });
         self.outputs_arm();
         self.job_log_start(way);
-        self.chunked_upload();
     }
 
     /// Why a job may not start from the editor now, if it may not.
@@ -168,6 +171,8 @@ impl Step<'_, '_> {
             Some(why.to_string())
         } else if self.e.upload.busy() || self.e.chunked.is_some() {
             Some("an upload or a job is running already".into())
+        } else if self.e.checkout.is_some() {
+            Some("a check-out or a stream is open: x leaves it".into())
         } else if !ctx.machine.link_up {
             Some("the controller is not connected".into())
         } else if ctx.machine.activity != Activity::Idle {
@@ -213,6 +218,14 @@ impl Step<'_, '_> {
         };
         if c.phase == Phase::Waiting {
             self.wait_key();
+            return;
+        }
+        if c.phase == Phase::Streaming {
+            let text = format!(
+                "{} streams: F10 pauses and goes on, x ends the job, Space stops",
+                c.label()
+            );
+            self.say(NoteLevel::Info, text);
             return;
         }
         if c.phase == Phase::Measuring {

@@ -4,7 +4,9 @@
 //! `gcode::toolchange::Sequence` as `jogterm run`. Each piece is converted
 //! when its turn comes (`gcode::waits::convert_piece`: the moves to the
 //! change position with the spindle off, and back) and stored, in parts
-//! where it does not fit, by the run in parts of `update::job`; between two
+//! where it does not fit, by the run in parts of `update::job`, or, where
+//! it has no retract to cut at, streamed by the check-out's stream
+//! (`update::stream`, the piece's own text in `Checkout::piece`); between two
 //! pieces the job waits for the operator: the status line and the message
 //! line say what for and that F6 goes on, Space ends the job. On isel the
 //! piece that ran is erased first (`@0k`): the iMC runs a stored program
@@ -14,9 +16,14 @@
 //! old one's length.
 
 use crate::gcode::toolchange::{Sequence, Step as Next};
+use crate::gcode::ways::Way;
+use crate::program::Language;
+use crate::program::checkout::{Plan, config_of};
+use crate::program::checkout_emcu::EmcuPlan;
+use crate::ui::editor::checkout::{Checkout, RunPlan, Stream};
 use crate::ui::editor::component::Effect;
 use crate::ui::editor::dialog::Answer;
-use crate::ui::editor::job::{AtWait, Phase, Pieces, WAIT_ARMED, wait_text};
+use crate::ui::editor::job::{AtWait, Phase, PieceRun, PieceStream, Pieces, WAIT_ARMED, wait_text};
 use crate::ui::traffic_log::NoteLevel;
 
 use super::Step;
@@ -45,7 +52,8 @@ impl Step<'_, '_> {
         let plan = &w.plan;
         let mut text = format!(
             "{}: {} tool changes and pauses: the console runs it in {} pieces, each stored (in \
-             parts where it does not fit), and waits at each for you:\n",
+             parts where it does not fit, streamed where it cannot be cut), and waits at each \
+             for you:\n",
             c.header,
             plan.waits.len(),
             plan.segments()
@@ -53,6 +61,23 @@ impl Step<'_, '_> {
         for line in crate::gcode::waits::waits_text(plan) {
             text.push_str(&format!("  {line}\n"));
         }
+        let profile = &self.ctx.setup.profile;
+        let language = self.e.language();
+        let ways: Vec<String> = (0..plan.segments())
+            .map(|k| match c.piece_run(k, (0.0, 0.0), profile, language) {
+                Ok(PieceRun::Stored(parts)) if parts.len() > 1 => {
+                    format!("piece {}: in {} parts", k + 1, parts.len())
+                }
+                Ok(PieceRun::Stored(_)) => format!("piece {}: stored", k + 1),
+                Ok(PieceRun::Stream(p)) => format!(
+                    "piece {}: streamed ({} commands, no retract to cut at)",
+                    k + 1,
+                    p.commands
+                ),
+                Err(why) => format!("piece {}: {why}", k + 1),
+            })
+            .collect();
+        text.push_str(&format!("  {}\n", ways.join("; ")));
         let sensor = self.ctx.setup.profile.probe.tool_sensor.is_some();
         text.push_str(if sensor { MEASURE } else { NO_MEASURE });
         text.push_str(".\nRun it? The machine moves; at each wait F6 goes on, Space ends the job.");
@@ -98,11 +123,18 @@ impl Step<'_, '_> {
             None => false,
         };
         let mut first = None;
+        // The job log's way: the most a piece needs.
+        let mut way = Way::Stored;
         for k in 0..w.plan.segments() {
-            match c.piece_uploads(k, (0.0, 0.0), profile, language) {
-                Ok(parts) => {
+            match c.piece_run(k, (0.0, 0.0), profile, language) {
+                Ok(run) => {
+                    way = match (&run, way) {
+                        (PieceRun::Stream(_), _) | (_, Way::Stream) => Way::Stream,
+                        (PieceRun::Stored(parts), _) if parts.len() > 1 => Way::Chunked,
+                        (PieceRun::Stored(_), way) => way,
+                    };
                     if first.is_none() {
-                        first = Some(parts);
+                        first = Some(run);
                     }
                 }
                 Err(why) => {
@@ -111,7 +143,7 @@ impl Step<'_, '_> {
                 }
             }
         }
-        let Some(parts) = first else {
+        let Some(run) = first else {
             return;
         };
         // The import shifted the job by the offset of the tool in the
@@ -126,14 +158,73 @@ impl Step<'_, '_> {
             measure: None,
             probes: 0,
         };
-        // Each piece is stored, in parts only where it does not fit: the
-        // log says so as `jogterm run` does of such a job.
-        let way = if c.program.fits() {
-            crate::gcode::ways::Way::Stored
-        } else {
-            crate::gcode::ways::Way::Chunked
+        self.chunked_start(Vec::new(), Some(Box::new(pieces)), way);
+        self.piece_start(run);
+    }
+
+    /// The piece under way begins as it runs: its first part stored, or
+    /// its stream.
+    fn piece_start(&mut self, run: PieceRun) {
+        let Some(c) = self.e.chunked.as_mut() else {
+            return;
         };
-        self.chunked_start(parts, Some(Box::new(pieces)), way);
+        c.part = 0;
+        match run {
+            PieceRun::Stored(parts) => {
+                c.parts = parts;
+                self.chunked_upload();
+            }
+            PieceRun::Stream(piece) => {
+                c.parts = Vec::new();
+                self.piece_stream(piece);
+            }
+        }
+    }
+
+    /// A piece with no retract to cut at streamed as a whole job that
+    /// cannot be cut is (`update::stream`), its own text as the plan.
+    fn piece_stream(&mut self, piece: Box<PieceStream>) {
+        let ctx = self.ctx;
+        let plan = match self.e.language() {
+            Language::Isel => match config_of(ctx.setup.axis_set()) {
+                Some(config) => RunPlan::Isel(Plan::new(&piece.program, config)),
+                None => {
+                    self.job_log_end(crate::joblog::How::Error);
+                    self.chunked_end(
+                        "the machine's axes are no isel axis setting: the job ends here".into(),
+                    );
+                    return;
+                }
+            },
+            Language::Emcu => RunPlan::Emcu(EmcuPlan::new(&piece.program)),
+        };
+        let Some(c) = self.e.chunked.as_mut() else {
+            return;
+        };
+        c.phase = Phase::Streaming;
+        let label = c.label();
+        let mut stream = Checkout::new(plan, Vec::new(), ctx.now);
+        stream.stream = Some(Stream::new(piece.origins.clone(), None, ctx.now));
+        let text = format!(
+            "{label}: streaming {} commands (no retract to cut at within the memory): F10 \
+             pauses and goes on, Space stops",
+            piece.commands
+        );
+        stream.piece = Some(piece);
+        self.e.checkout = Some(stream);
+        self.say(NoteLevel::Info, text);
+        self.checkout_next();
+    }
+
+    /// A streamed piece's last line ended: its last G-code line has run,
+    /// and the wait after it (or the job's end) follows as after a stored
+    /// piece.
+    pub(super) fn piece_streamed(&mut self) {
+        self.e.checkout = None;
+        if let Some(Some(line)) = self.e.job_logged {
+            self.job_log_done(line);
+        }
+        self.piece_ended();
     }
 
     /// The last part of a piece ended: the wait after it, or the job's end.
@@ -314,17 +405,15 @@ impl Step<'_, '_> {
                 dz_before,
                 dz,
             } => {
-                let uploads = self.e.gcode.as_ref().map(|g| {
+                let run = self.e.gcode.as_ref().map(|g| {
                     g.converted
-                        .piece_uploads(index, (dz_before, dz), &profile, language)
+                        .piece_run(index, (dz_before, dz), &profile, language)
                 });
                 let Some(c) = self.e.chunked.as_mut() else {
                     return;
                 };
-                match uploads {
-                    Some(Ok(parts)) => {
-                        c.parts = parts;
-                        c.part = 0;
+                match run {
+                    Some(Ok(run)) => {
                         if let Some(p) = c.pieces.as_mut() {
                             p.piece = index;
                         }
@@ -333,9 +422,10 @@ impl Step<'_, '_> {
                         } else {
                             format!(", every Z {dz:+.3} mm for the tool measured")
                         };
-                        let text = format!("line {line}: going on with {}{shift}", c.label());
+                        let label = c.pieces.as_ref().map(|p| p.label()).unwrap_or_default();
+                        let text = format!("line {line}: going on with {label}{shift}");
                         self.say(NoteLevel::Info, text);
-                        self.chunked_upload();
+                        self.piece_start(run);
                     }
                     Some(Err(why)) => {
                         self.job_log_end(crate::joblog::How::Error);

@@ -134,10 +134,11 @@ fn title_extra(e: &Editor, ctx: &Context) -> Vec<Span<'static>> {
             RunState::Ready | RunState::Finished => p.warning,
         };
         let line = c
-            .current_line()
+            .buffer_line()
             .map(|l| format!(" line {}", l + 1))
             .unwrap_or_default();
-        if let Some((gcode, share, elapsed, left)) = c.stream_progress(e.buffer.program(), ctx.now)
+        if let Some((gcode, share, elapsed, left)) =
+            c.stream_progress(c.program(e.buffer.program()), ctx.now)
         {
             let gcode = gcode
                 .map(|l| format!(" G-code line {l}"))
@@ -174,6 +175,8 @@ fn title_extra(e: &Editor, ctx: &Context) -> Vec<Span<'static>> {
         let (state, style) = match c.phase {
             JobPhase::Uploading => ("STORING", p.warning),
             JobPhase::Starting | JobPhase::Running => ("RUNNING", p.ok),
+            // The stream's own line comes first (the check-out above).
+            JobPhase::Streaming => ("STREAM", p.ok),
             JobPhase::Paused => ("PAUSED before", p.danger),
             JobPhase::Waiting => ("WAIT", p.danger),
             JobPhase::Measuring => ("MEASURE", p.warning),
@@ -320,7 +323,7 @@ fn text(e: &Editor, p: &Palette, area: Rect, focused: bool, buf: &mut Buffer) {
         let current = e
             .checkout
             .as_ref()
-            .and_then(|c| c.current_line())
+            .and_then(|c| c.buffer_line())
             .is_some_and(|l| l == index);
         match &problem {
             _ if current => spans.push(Span::styled("> ", p.warning)),

@@ -195,6 +195,23 @@ fn a_job_streamed_from_the_console_goes_into_the_job_log() {
                 done.push(l);
             }
         }
+        // The line running is logged as its own G-code line (the text's
+        // line, not the command's index, which the header's comments
+        // shift).
+        let at = e.checkout.as_ref().and_then(|c| c.current_line());
+        let origin = at.and_then(|l| {
+            e.gcode
+                .as_ref()?
+                .converted
+                .program
+                .lines
+                .get(l)?
+                .origin
+                .map(|o| o.line)
+        });
+        if let Some(origin) = origin {
+            assert_eq!(e.job_logged, Some(Some(origin)), "at text line {at:?}");
+        }
     }
     assert!(done.len() >= 3, "{done:?}");
     assert!(done.windows(2).all(|w| w[0] < w[1]), "{done:?}");

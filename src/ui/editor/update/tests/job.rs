@@ -490,22 +490,40 @@ fn a_streamed_jobs_status_says_the_models_time_left() {
         host.now += Duration::from_secs(20);
         out = ended(&mut host, &mut e, id, CheckoutEnd::Done { byte: None });
     }
-    let says = |e: &Editor, host: &Host, command: usize| {
+    // The model is by the text's lines: from the line running on.
+    let says = |e: &Editor, host: &Host| {
+        let line = e
+            .checkout
+            .as_ref()
+            .and_then(|c| c.current_line())
+            .expect("a line running");
         let status = e.job_status(host.now, false).expect("a status");
-        let left = crate::ui::editor::progress::clock(Duration::from_secs_f64(model[command]));
+        let left = crate::ui::editor::progress::clock(Duration::from_secs_f64(model[line]));
         assert!(
             status.progress.contains(&format!("left {left} x100%")),
-            "{status:?}, the model from command {command}: {} s",
-            model[command]
+            "{status:?}, the model from line {line}: {} s",
+            model[line]
         );
+        line
     };
-    // The set-up's 40 s are no pace: the model from the line running.
-    says(&e, &host, 2);
-    for command in 2..first {
+    // The set-up's 40 s are no pace: the model from the first G-code
+    // line, which runs now.
+    assert_eq!(says(&e, &host), first);
+    // Each line taking what the model says: the time left stays the
+    // model's.
+    for _ in 0..3 {
         let (id, ..) = line(&out).expect("a line");
-        host.now += Duration::from_secs(1);
+        let at = e
+            .checkout
+            .as_ref()
+            .and_then(|c| c.current_line())
+            .expect("a line");
+        let next = e
+            .buffer
+            .program()
+            .line_of(e.buffer.program().index_of(at).expect("a command") + 1);
+        host.now += Duration::from_secs_f64(model[at] - model[next.expect("a next line")]);
         out = ended(&mut host, &mut e, id, CheckoutEnd::Done { byte: None });
-        let _ = command;
+        says(&e, &host);
     }
-    says(&e, &host, first);
 }

@@ -7,7 +7,7 @@
 
 use super::job::{activity, opened, question, read_back, run_part, upload};
 use super::*;
-use crate::device::api::ReplyKind;
+use crate::device::api::{CheckoutEnd, ReplyKind};
 use crate::ui::editor::job::Phase as JobPhase;
 use crate::ui::editor::job::tests::converted;
 
@@ -437,4 +437,153 @@ fn the_start_key_pressed_after_a_release_goes_on_at_a_wait() {
     let out = host.send(&mut e, Input::Device(&start_key(&host, true)));
     let (lines, erase) = upload(&out).expect("piece 2 on the start key");
     assert!(erase && !lines.iter().any(|l| l == "77"), "{lines:?}");
+}
+
+/// T2's cut a raster that never leaves the material: 25 commands with no
+/// retract to cut at, more than a controller that stores 12 holds.
+fn raster_after_the_change() -> String {
+    let mut gcode = String::from(
+        "(T1 D=6 CR=0 - ZMIN=-1 - flat end mill)\n\
+         (T2 D=3.175 CR=0 - ZMIN=-1 - ball end mill)\n\
+         G21 G90 G17\n\
+         M6 T1\n\
+         G0 Z65\n\
+         G0 X60 Y60\nG1 Z59 F300\nG1 X70 F600\nG0 Z65\n\
+         M6 T2\n\
+         G0 X80 Y60\nG1 Z59 F300\n",
+    );
+    for k in 0..12 {
+        let x = if k % 2 == 0 { 90 } else { 80 };
+        gcode.push_str(&format!("G1 X{x}\nG1 Y{}\n", 60 + k + 1));
+    }
+    gcode.push_str("G0 Z65\nM30\n");
+    gcode
+}
+
+/// The raster job opened on a controller that stores 12.
+fn raster_opened(host: &mut Host) -> Editor {
+    let mut profile = (*host.setup.profile).clone();
+    profile.gcode.memory = Some(12);
+    host.setup.profile = std::sync::Arc::new(profile);
+    opened(host, converted(&raster_after_the_change(), 12))
+}
+
+/// The stream's line sent, if one was.
+fn streamed(out: &Outcome) -> Option<(crate::device::api::JogId, &str)> {
+    requests(out).into_iter().find_map(|r| match r {
+        Request::Checkout { id, line, .. } => Some((*id, line.as_str())),
+        _ => None,
+    })
+}
+
+/// The job run to T2's wait and F6 there: piece 3's first streamed line.
+fn to_the_stream(host: &mut Host, e: &mut Editor) -> Outcome {
+    host.send(e, Input::Main(Action::RunProgram));
+    let out = host.key(e, Action::Confirm);
+    let total = upload(&out).expect("piece 1 stored").0.len();
+    to_the_wait(host, e, total);
+    let out = host.send(e, Input::Main(Action::RunProgram));
+    let total = upload(&out).expect("piece 2 stored").0.len();
+    to_the_wait(host, e, total);
+    host.send(e, Input::Main(Action::RunProgram))
+}
+
+#[test]
+fn a_piece_with_no_retract_to_cut_at_streams_and_the_job_ends_after_it() {
+    let mut host = Host::isel();
+    let mut e = raster_opened(&mut host);
+    host.send(&mut e, Input::Main(Action::RunProgram));
+    let q = question(&host);
+    assert_eq!(q.yes, Answer::RunPieces);
+    assert!(
+        q.text
+            .contains("piece 1: stored; piece 2: stored; piece 3: streamed ("),
+        "{}",
+        q.text
+    );
+    host.key(&mut e, Action::Cancel);
+    let out = to_the_stream(&mut host, &mut e);
+    assert!(upload(&out).is_none(), "nothing stored: {out:?}");
+    let said_now = said(&out);
+    assert!(
+        said_now
+            .iter()
+            .any(|s| s.starts_with("piece 3/3: streaming ")),
+        "{said_now:?}"
+    );
+    assert_eq!(
+        e.chunked.as_ref().map(|c| c.phase),
+        Some(JobPhase::Streaming)
+    );
+    let status = e.job_status(host.now, false).expect("a status");
+    assert_eq!(status.word, "STREAM");
+    // Its first lines are the way back from the change, of no G-code line.
+    assert!(status.progress.starts_with("piece 3/3 0% "), "{status:?}");
+    // F6 meanwhile says how the stream is paused and ended.
+    let f6 = host.send(&mut e, Input::Main(Action::RunProgram));
+    assert!(streamed(&f6).is_none(), "{f6:?}");
+    // Each line sent when the one before has ended, the raster's cuts
+    // among them, each line's G-code line in the editor's text.
+    let mut out = out;
+    let mut lines = Vec::new();
+    while let Some((id, line)) = streamed(&out) {
+        lines.push(line.to_owned());
+        let shown = e.checkout.as_ref().and_then(|c| c.buffer_line());
+        let text = shown
+            .map(|l| e.buffer.line(l).to_owned())
+            .unwrap_or_default();
+        assert!(text.contains("pockets.nc:"), "line {shown:?}: {text}");
+        assert!(lines.len() < 100, "{lines:?}");
+        out = host.send(
+            &mut e,
+            Input::Device(&Event::Checkout {
+                id,
+                end: CheckoutEnd::Done { byte: None },
+            }),
+        );
+    }
+    assert!(lines.len() > 12, "more than the memory holds: {lines:?}");
+    assert!(
+        !lines.iter().any(|l| l == "77"),
+        "no reference run: {lines:?}"
+    );
+    assert!(
+        said(&out)
+            .iter()
+            .any(|s| s.starts_with("the job ended: 3 pieces in")),
+        "{out:?}"
+    );
+    assert_eq!(e.chunked, None);
+    assert_eq!(e.checkout, None);
+}
+
+#[test]
+fn space_in_a_streamed_piece_ends_the_job_and_no_line_follows() {
+    let mut host = Host::isel();
+    let mut e = raster_opened(&mut host);
+    let out = to_the_stream(&mut host, &mut e);
+    let (id, _) = streamed(&out).expect("a line");
+    let out = host.send(&mut e, Input::Stopped);
+    assert!(
+        said(&out)[0].starts_with("the job stopped in piece 3/3"),
+        "{out:?}"
+    );
+    assert_eq!(e.chunked, None);
+    let out = host.send(
+        &mut e,
+        Input::Device(&Event::Checkout {
+            id,
+            end: CheckoutEnd::Stopped,
+        }),
+    );
+    assert!(streamed(&out).is_none(), "{out:?}");
+    assert!(upload(&out).is_none(), "{out:?}");
+    assert!(
+        matches!(
+            e.checkout.as_ref().map(|c| &c.state),
+            Some(crate::ui::editor::checkout::RunState::Stopped { .. })
+        ),
+        "{:?}",
+        e.checkout.as_ref().map(|c| &c.state)
+    );
 }
