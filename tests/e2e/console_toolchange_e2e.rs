@@ -55,28 +55,47 @@ fn confirm(run: &mut crate::ui_pty::PtyRun, waiting: &str) {
 
 #[test]
 fn the_console_waits_at_each_tool_change_until_f6_and_runs_the_pieces() {
-    two_tools_at((40, 200));
+    two_tools_at((40, 200), Way::Stored);
 }
 
 /// The same at 80x24: the wait and its key read whole on the status line.
 #[test]
 fn at_80x24_every_wait_reads_whole_with_its_key() {
-    two_tools_at((24, 80));
+    two_tools_at((24, 80), Way::Stored);
 }
 
 /// The same at 160x48.
 #[test]
 fn at_160x48_every_wait_reads_whole_with_its_key() {
-    two_tools_at((48, 160));
+    two_tools_at((48, 160), Way::Stored);
+}
+
+/// On a controller that stores 3 commands no piece fits or can be cut:
+/// each streams, and waits, measures and cuts as when stored.
+#[test]
+fn on_a_controller_too_small_for_a_piece_each_piece_streams() {
+    two_tools_at((24, 80), Way::Streamed);
+}
+
+/// How the pieces run.
+#[derive(Clone, Copy, PartialEq)]
+enum Way {
+    Stored,
+    Streamed,
 }
 
 /// The two-tool job run from the console in a terminal of `size` (rows,
 /// columns): each wait shown whole with the key that ends it, F6 going on,
 /// the job ending done in the log.
-fn two_tools_at(size: (u16, u16)) {
+fn two_tools_at(size: (u16, u16), way: Way) {
+    let profile = match way {
+        Way::Stored => MACHINE.1.to_owned(),
+        Way::Streamed => format!("{}[gcode]\nmemory = 3\n", MACHINE.1),
+    };
+    let files = [(MACHINE.0, profile.as_str())];
     // The work piece and the sensor: a flat plane at Z 8000 steps (20 mm).
     let mut sim = SimProcess::options("isel")
-        .files(&[MACHINE])
+        .files(&files)
         .args(&["--probe-surface=8000"])
         .time_scale(20.0)
         .start();
@@ -108,6 +127,15 @@ fn two_tools_at(size: (u16, u16)) {
     run.type_keys(&[b"\x1b[17~"]);
     let screen = wait_for(&run, "Run two-tools.nc");
     assert!(screen.contains("2 tool changes and pauses"), "{screen}");
+    if way == Way::Streamed {
+        for piece in [
+            "piece 1: streamed",
+            "piece 2: streamed",
+            "piece 3: streamed",
+        ] {
+            assert!(screen.contains(piece), "{piece}:\n{screen}");
+        }
+    }
     run.type_keys(&[b"y"]);
     // T1: the first change, before any move; the piece before it
     // references and goes to the change position (X25 Y0 Z40: 10000, 0,
@@ -149,6 +177,10 @@ fn two_tools_at(size: (u16, u16)) {
         received.matches("@0k").count() >= 2,
         "each wait erases the piece before it: {received}"
     );
+    match way {
+        Way::Stored => assert!(received.contains("@0i"), "{received}"),
+        Way::Streamed => assert!(!received.contains("@0i"), "nothing stored: {received}"),
+    }
     let moves = moves(received);
     // T1's cut ends at X20 Y10 Z-1 (machine 70, 60, 59 mm); T2's at X40,
     // measured 1 mm longer (within a step), 1 mm higher: Z 60 mm.
