@@ -236,3 +236,52 @@ fn a_broken_tool_table_refuses_the_job_before_anything_moves() {
         "{out:?}"
     );
 }
+
+#[test]
+fn a_refused_leg_to_the_sensor_ends_the_job_and_nothing_more_goes() {
+    let mut host = with_sensor();
+    let (mut e, out) = started(&mut host);
+    let total = super::job::upload(&out).expect("piece 1").0.len();
+    to_the_wait(&mut host, &mut e, total);
+    let out = host.send(&mut e, Input::Main(Action::RunProgram));
+    let leg = requests(&out)
+        .first()
+        .map(|r| (*r).clone())
+        .expect("the first leg");
+    // A refusal of another request (a key meanwhile) is not the leg's.
+    let other = host.send(
+        &mut e,
+        Input::Device(&Event::Refused {
+            request: "Home".into(),
+            reason: crate::device::api::Refusal::NotInitialised,
+        }),
+    );
+    assert!(requests(&other).is_empty(), "{other:?}");
+    assert_eq!(
+        e.chunked.as_ref().map(|c| c.phase),
+        Some(JobPhase::Measuring)
+    );
+    let out = host.send(
+        &mut e,
+        Input::Device(&Event::Refused {
+            request: crate::device::describe::describe(&leg),
+            reason: crate::device::api::Refusal::SoftLimit {
+                axis: Axis::X,
+                target: 10_000,
+                min: 0,
+                max: 5_000,
+            },
+        }),
+    );
+    assert!(requests(&out).is_empty(), "{out:?}");
+    assert!(
+        said(&out)
+            .iter()
+            .any(|s| s.contains("its move was refused: ")),
+        "{out:?}"
+    );
+    assert_eq!(e.chunked, None);
+    // The idle after it sends no next leg and no piece.
+    let out = activity(&mut host, &mut e, Activity::Idle);
+    assert!(requests(&out).is_empty(), "{out:?}");
+}
