@@ -165,5 +165,19 @@ fn a_held_macro_key_on_a_terminal_that_repeats_with_presses_runs_it_once() {
         let tail = r.get(before..).unwrap_or_default();
         tail.matches("@0A40,900,").count() + tail.matches("@0A 40,900,").count() >= 2
     });
+    // Quit once the console has its end (the isel answers a move when it
+    // has ended): `q` while it moves asks first (CI, under load).
+    let end = Instant::now() + Duration::from_secs(20);
+    while run
+        .screen()
+        .screen()
+        .contents()
+        .matches("macro nudge done (1 lines)")
+        .count()
+        < 2
+    {
+        assert!(Instant::now() < end, "the second nudge never ended");
+        thread::sleep(Duration::from_millis(50));
+    }
     quit(&mut run);
 }

@@ -66,7 +66,6 @@ fn reference(run: &mut PtyRun) {
     wait_x(run, "at 0", |_, steps| steps == "0");
 }
 
-/// The offsets files in the state directory.
 /// The offsets files in the state directory, without the hidden temporary
 /// file of a write under way (`.<name>.jogterm-save-…`, renamed over the
 /// file once it is on the disk): found with the whole text in it while the
