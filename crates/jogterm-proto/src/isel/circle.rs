@@ -277,23 +277,25 @@ fn steps_to_end(
     // 2 WINDOW + 2 of them); were it ever longer, the walk is walked again.
     let at_first = walk;
     let mut kept = [(0i64, 0i64); 64];
-    let mut n = 0;
-    let mut all_kept = true;
+    let count = usize::try_from(last - first + 1).unwrap_or(usize::MAX);
+    let all_kept = count <= kept.len();
     let mut least = f64::INFINITY;
-    for k in first..=last {
-        if k > first {
-            walk.step();
+    let n = if all_kept {
+        kept[0] = walk.point();
+        walk.fill(&mut kept[1..count]);
+        for &point in &kept[..count] {
+            least = least.min(square(point));
         }
-        let point = walk.point();
-        least = least.min(square(point));
-        match kept.get_mut(n) {
-            Some(slot) => {
-                *slot = point;
-                n += 1;
+        count
+    } else {
+        for k in first..=last {
+            if k > first {
+                walk.step();
             }
-            None => all_kept = false,
+            least = least.min(square(walk.point()));
         }
-    }
+        0
+    };
     let bound = least * (1.0 + 1e-9);
     let nearest = |points: &mut dyn Iterator<Item = (u64, (i64, i64))>| {
         let mut best: Option<(f64, u64)> = None;
