@@ -297,36 +297,49 @@ fn steps_to_end(
         0
     };
     let bound = least * (1.0 + 1e-9);
-    let nearest = |points: &mut dyn Iterator<Item = (u64, (i64, i64))>| {
-        let mut best: Option<(f64, u64)> = None;
-        for (k, point) in points {
-            if square(point) > bound {
-                continue;
-            }
-            let d = distance(point);
-            let nearer = best.is_none_or(|(bd, bk)| {
-                d < bd || (d == bd && (k as f64 - expected).abs() < (bk as f64 - expected).abs())
-            });
-            if nearer {
-                best = Some((d, k));
-            }
-        }
-        best.map_or(first, |b| b.1)
-    };
-    if all_kept {
-        nearest(&mut (first..).zip(kept.iter().take(n).copied()))
+    // Each case its own loop: through a `dyn` iterator the kept points
+    // were a call each, some fifty an arc.
+    let best = if all_kept {
+        let kept = (first..).zip(kept[..n].iter().copied());
+        nearest(kept, bound, expected, square, distance)
     } else {
-        nearest(&mut (first..=last).scan(at_first, |w, k| {
+        let walked = (first..=last).scan(at_first, |w, k| {
             if k > first {
                 w.step();
             }
             Some((k, w.point()))
-        }))
-    }
+        });
+        nearest(walked, bound, expected, square, distance)
+    };
+    best.map_or(first, |(_, k)| k)
 }
 
-/// Half the window [`steps_to_end`] searches: the walk and the arc part by
-/// at most a step or two at each axis they cross.
+/// The point of `points` nearest the end by `distance` (`hypot`), of
+/// those whose `square` is within `bound`; of equally near ones, the one
+/// whose step count is nearest `expected`. Its distance and step count.
+fn nearest(
+    points: impl Iterator<Item = (u64, (i64, i64))>,
+    bound: f64,
+    expected: f64,
+    square: impl Fn((i64, i64)) -> f64,
+    distance: impl Fn((i64, i64)) -> f64,
+) -> Option<(f64, u64)> {
+    let mut best: Option<(f64, u64)> = None;
+    for (k, point) in points {
+        if square(point) > bound {
+            continue;
+        }
+        let d = distance(point);
+        let nearer = best.is_none_or(|(bd, bk)| {
+            d < bd || (d == bd && (k as f64 - expected).abs() < (bk as f64 - expected).abs())
+        });
+        if nearer {
+            best = Some((d, k));
+        }
+    }
+    best
+}
+
 const WINDOW: f64 = 24.0;
 
 fn sign(v: i32) -> Sign {
