@@ -566,6 +566,32 @@ mod tests {
         best.map_or(0, |b| b.1)
     }
 
+    #[test]
+    fn small_circles_give_the_stepped_walks_b_at_every_start_and_sweep() {
+        // Every radius up to 60 steps, where ties between window points
+        // are most common: starts every 7.5 degrees, sweeps from a hair to
+        // a full turn, both ways.
+        for radius in 1..=60u32 {
+            for s in 0..48 {
+                let start = f64::from(s) * 7.5;
+                for sweep in [
+                    0.3, 1.0, 10.0, 45.0, 89.9, 90.0, 135.5, 180.0, 271.0, 359.99, 360.0,
+                ] {
+                    for dir in [CircleDirection::Ccw, CircleDirection::Cw] {
+                        let end = match dir {
+                            CircleDirection::Ccw => start + sweep,
+                            CircleDirection::Cw => start - sweep,
+                        };
+                        let b = steps_to_end_stepped(radius, start, end, dir);
+                        let got = circle(radius, start, end, dir, 1000)
+                            .map_or(0, |arc| u64::from(arc.params.arc_length));
+                        assert_eq!(got, b, "R {radius} from {start} to {end} {dir:?}");
+                    }
+                }
+            }
+        }
+    }
+
     proptest::proptest! {
         #![proptest_config(proptest::prelude::ProptestConfig::with_cases(3000))]
 
