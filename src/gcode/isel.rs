@@ -260,26 +260,21 @@ where
 impl Writer<'_> {
     /// `m` to `target` steps at `hz`.
     fn move_to(&mut self, target: [i64; 3], hz: u32, origin: Origin, note: Option<&str>) {
-        // Written in place, one String a move (this runs for every move of
-        // the file): the pairs of X Y Z, then `0,hz` for the z2 pair. In 3D
-        // mode the x pair's speed is the path speed and the others are
-        // ignored (2.2.29); they carry what their axis allows, so that a
-        // reader (and `jogterm check`) sees no speed above an axis' max.
-        let mut command = String::with_capacity(48);
-        command.push('m');
-        for k in 0..self.axes.pairs {
-            let steps = target.get(k).copied().unwrap_or(0);
+        // The pairs of X Y Z, then `0,hz` for the z2 pair. In 3D mode the
+        // x pair's speed is the path speed and the others are ignored
+        // (2.2.29); they carry what their axis allows, so that a reader
+        // (and `jogterm check`) sees no speed above an axis' max.
+        let mut values = [0i64; COMMAND_NUMBERS];
+        let pairs = self.axes.pairs.min(COMMAND_NUMBERS / 2);
+        for k in 0..pairs {
             let speed = match self.axes.caps_hz.get(k) {
                 Some(&cap) => hz.min(cap),
                 None => hz,
             };
-            if k > 0 {
-                command.push(',');
-            }
-            push_int(&mut command, steps);
-            command.push(',');
-            push_int(&mut command, i64::from(speed));
+            values[2 * k] = target.get(k).copied().unwrap_or(0);
+            values[2 * k + 1] = i64::from(speed);
         }
+        let command = command_text(b'm', &values[..2 * pairs]);
         match note {
             Some(n) => self.program.command_noted(command, n, Some(origin)),
             None => self.program.command(command, Some(origin)),
@@ -571,17 +566,63 @@ impl Writer<'_> {
     }
 }
 
-/// `value` in decimal, as `Display` writes it, appended to `out` without
-/// the formatting machinery: `move_to` writes eight numbers for every move
-/// of the file, and `write!`'s machinery, then a digit pushed at a time,
-/// showed in its profile.
-fn push_int(out: &mut String, value: i64) {
-    out.push_str(itoa::Buffer::new().format(value));
+/// The most numbers a command holds: an `m`'s four pairs, a `w`'s eight.
+const COMMAND_NUMBERS: usize = 8;
+
+/// `code` and the first [`COMMAND_NUMBERS`] of `values` in decimal,
+/// comma-separated, as `Display` writes them: the digits are written
+/// backwards into a buffer on the stack and the text copied once into a
+/// `String` of its exact size. This runs for every move of the file; a
+/// `String` appended to number by number (itoa's digits) was a copy call a
+/// number and the formatting machinery before it more.
+fn command_text(code: u8, values: &[i64]) -> String {
+    // A number is at most 20 bytes with its sign, and a comma before it.
+    let mut buf = [0u8; 1 + COMMAND_NUMBERS * 21];
+    let mut at = buf.len();
+    let values = values.get(..COMMAND_NUMBERS).unwrap_or(values);
+    for (k, &v) in values.iter().enumerate().rev() {
+        // Two digits a division, as itoa does.
+        let mut n = v.unsigned_abs();
+        while n >= 100 {
+            let pair = 2 * (n % 100) as usize;
+            n /= 100;
+            at -= 2;
+            buf[at..at + 2].copy_from_slice(&DIGIT_PAIRS[pair..pair + 2]);
+        }
+        if n >= 10 {
+            let pair = 2 * n as usize;
+            at -= 2;
+            buf[at..at + 2].copy_from_slice(&DIGIT_PAIRS[pair..pair + 2]);
+        } else {
+            at -= 1;
+            buf[at] = b'0' + n as u8;
+        }
+        if v < 0 {
+            at -= 1;
+            buf[at] = b'-';
+        }
+        if k > 0 {
+            at -= 1;
+            buf[at] = b',';
+        }
+    }
+    at -= 1;
+    buf[at] = code;
+    // ASCII throughout, so never the empty fallback.
+    std::str::from_utf8(&buf[at..]).map_or_else(|_| String::new(), str::to_owned)
 }
 
+/// "00" to "99", the two digits of each.
+const DIGIT_PAIRS: &[u8; 200] = b"\
+0001020304050607080910111213141516171819\
+2021222324252627282930313233343536373839\
+4041424344454647484950515253545556575859\
+6061626364656667686970717273747576777879\
+8081828384858687888990919293949596979899";
+
 /// A circle's stored line (`f`, `y`, `w`: two of every arc) as its
-/// `Display` writes it, its numbers by [`push_int`] rather than through
-/// the formatting machinery; any other command through `Display`.
+/// `Display` writes it, by [`command_text`] rather than through the
+/// formatting machinery; any other command through `Display`.
 fn cnc_text(command: &CncCommand) -> String {
     let circle = |c: &CircleParams| {
         [
@@ -594,43 +635,24 @@ fn cnc_text(command: &CncCommand) -> String {
             i64::from(c.ry.value()),
         ]
     };
-    let mut values = [0i64; 8];
+    let mut values = [0i64; COMMAND_NUMBERS];
     let (code, n) = match command {
         CncCommand::SetCircleDirection(d) => {
             values[0] = i64::from(d.value());
-            ('f', 1)
+            (b'f', 1)
         }
         CncCommand::Circle(c) => {
             values[..7].copy_from_slice(&circle(c));
-            ('y', 7)
+            (b'y', 7)
         }
         CncCommand::Helix(h) => {
             values[..7].copy_from_slice(&circle(&h.circle));
             values[7] = i64::from(h.s3);
-            ('w', 8)
+            (b'w', 8)
         }
         other => return other.to_string(),
     };
-    // Sized exactly: a program holds two of these for every arc.
-    let digits = |v: i64| {
-        let mut n = v.unsigned_abs();
-        let mut len = usize::from(v < 0) + 1;
-        while n >= 10 {
-            n /= 10;
-            len += 1;
-        }
-        len
-    };
-    let len = values.iter().take(n).map(|&v| digits(v) + 1).sum::<usize>();
-    let mut out = String::with_capacity(len);
-    out.push(code);
-    for (k, &v) in values.iter().take(n).enumerate() {
-        if k > 0 {
-            out.push(',');
-        }
-        push_int(&mut out, v);
-    }
-    out
+    command_text(code, &values[..n])
 }
 
 /// The wired start key of the profile: `in1.3` → port 1, bit 3, and the
@@ -665,7 +687,7 @@ fn isel_output(address: &str) -> Option<(u32, u32)> {
 
 #[cfg(test)]
 mod tests {
-    use super::{cnc_text, push_int};
+    use super::{cnc_text, command_text};
     use crate::proto::isel::{
         CircleDirection, CircleParams, CncCommand, HelixParams, Sign, circle, helix,
     };
@@ -718,23 +740,29 @@ mod tests {
     }
 
     #[test]
-    fn push_int_writes_what_display_writes() {
-        for v in [
-            0,
-            1,
-            -1,
-            9,
-            10,
-            -10,
-            99,
-            40_000,
-            -123_456_789,
-            i64::MAX,
-            i64::MIN,
-        ] {
-            let mut out = String::from("m");
-            push_int(&mut out, v);
-            assert_eq!(out, format!("m{v}"));
+    fn command_text_writes_what_display_writes() {
+        let cases: [&[i64]; 6] = [
+            &[],
+            &[0],
+            &[1, -1, 9, 10, -10, 99, 40_000, -123_456_789],
+            &[
+                i64::MAX,
+                i64::MIN,
+                i64::MIN,
+                i64::MIN,
+                i64::MIN,
+                i64::MIN,
+                i64::MIN,
+                i64::MIN,
+            ],
+            &[i64::MIN; 8],
+            &[100, 1000, 10_000, 100_000, 1_000_000, -999_999, 7],
+        ];
+        for values in cases {
+            let shown: Vec<String> = values.iter().map(i64::to_string).collect();
+            let text = command_text(b'm', values);
+            assert_eq!(text, format!("m{}", shown.join(",")));
+            assert_eq!(text.capacity(), text.len(), "{text}");
         }
     }
 }

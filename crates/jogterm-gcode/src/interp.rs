@@ -1120,7 +1120,7 @@ impl<'a> Interpreter<'a> {
         self.ensure_offset(at);
         self.name_axis(u_axis);
         self.name_axis(v_axis);
-        self.ops.push(Op::Arc(Arc {
+        self.ops.push(Op::Arc(Box::new(Arc {
             from,
             to,
             centre,
@@ -1129,7 +1129,7 @@ impl<'a> Interpreter<'a> {
             extra_turns: turns - 1,
             feed,
             origin: at,
-        }));
+        })));
         self.state.position = to;
     }
 

@@ -89,7 +89,7 @@ fn last_to(ops: &[Op]) -> Point {
 fn arcs(ops: &[Op]) -> Vec<Arc> {
     ops.iter()
         .filter_map(|o| match o {
-            Op::Arc(a) => Some(*a),
+            Op::Arc(a) => Some(**a),
             _ => None,
         })
         .collect()

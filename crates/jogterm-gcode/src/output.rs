@@ -332,16 +332,70 @@ pub fn chords(arc: &Arc, tolerance: f64, limit: usize) -> Result<Vec<Point>, f64
         .collect())
 }
 
+/// A segment from `a` to `b` as the distance of points from it is taken:
+/// its direction and squared length computed once for all the points of a
+/// run checked against it.
+struct Segment {
+    a: Point,
+    d: Point,
+    len2: f64,
+}
+
+impl Segment {
+    fn new(a: Point, b: Point) -> Segment {
+        let (dx, dy, dz) = (b.x - a.x, b.y - a.y, b.z - a.z);
+        Segment {
+            a,
+            d: Point {
+                x: dx,
+                y: dy,
+                z: dz,
+            },
+            len2: dx * dx + dy * dy + dz * dz,
+        }
+    }
+
+    /// The squared distance of `p` from the segment.
+    fn square(&self, p: Point) -> f64 {
+        let (a, d) = (self.a, self.d);
+        let t = if self.len2 < 1e-18 {
+            0.0
+        } else {
+            (((p.x - a.x) * d.x + (p.y - a.y) * d.y + (p.z - a.z) * d.z) / self.len2)
+                .clamp(0.0, 1.0)
+        };
+        let (qx, qy, qz) = (a.x + t * d.x, a.y + t * d.y, a.z + t * d.z);
+        (p.x - qx).powi(2) + (p.y - qy).powi(2) + (p.z - qz).powi(2)
+    }
+}
+
+#[cfg(test)]
 fn distance_to_segment(p: Point, a: Point, b: Point) -> f64 {
-    let (dx, dy, dz) = (b.x - a.x, b.y - a.y, b.z - a.z);
-    let len2 = dx * dx + dy * dy + dz * dz;
-    let t = if len2 < 1e-18 {
-        0.0
-    } else {
-        (((p.x - a.x) * dx + (p.y - a.y) * dy + (p.z - a.z) * dz) / len2).clamp(0.0, 1.0)
-    };
-    let (qx, qy, qz) = (a.x + t * dx, a.y + t * dy, a.z + t * dz);
-    ((p.x - qx).powi(2) + (p.y - qy).powi(2) + (p.z - qz).powi(2)).sqrt()
+    Segment::new(a, b).square(p).sqrt()
+}
+
+/// The largest square whose root is within `tolerance`: `s.sqrt() <=
+/// tolerance` is `s <= square_limit(tolerance)` for every square `s` (no
+/// number below zero; NaN and infinity too), since the root is correctly rounded and so never
+/// falls as its argument grows. The merge compares squares with it and
+/// takes no root: a run of moves checks every inner point against every
+/// new end, and the root was half of that work.
+fn square_limit(tolerance: f64) -> f64 {
+    if tolerance.is_nan() || tolerance == f64::INFINITY {
+        return tolerance;
+    }
+    if tolerance < 0.0 {
+        return f64::NEG_INFINITY;
+    }
+    // Within a few units in the last place of the square: stepped there.
+    let mut limit = tolerance * tolerance;
+    while limit > 0.0 && limit.sqrt() > tolerance {
+        limit = limit.next_down();
+    }
+    while limit < f64::MAX && limit.next_up().sqrt() <= tolerance {
+        limit = limit.next_up();
+    }
+    limit
 }
 
 /// A straight move's path speed in steps/s on the wire, as both outputs
@@ -412,6 +466,7 @@ pub fn merged_ops<'a, I: Iterator<Item = &'a Op>>(ops: I, tolerance: f64) -> Mer
     Merged {
         ops,
         tolerance,
+        square_limit: square_limit(tolerance),
         run: Vec::new(),
         pending: None,
     }
@@ -421,6 +476,8 @@ pub fn merged_ops<'a, I: Iterator<Item = &'a Op>>(ops: I, tolerance: f64) -> Mer
 pub struct Merged<'a, I> {
     ops: I,
     tolerance: f64,
+    /// [`square_limit`] of the tolerance.
+    square_limit: f64,
     /// The feed moves merged so far, not yet given out.
     run: Vec<Line>,
     /// The op that ended a run, given out after the run's merged move.
@@ -457,11 +514,12 @@ impl<'a, I: Iterator<Item = &'a Op>> Iterator for Merged<'a, I> {
                     let fits = match self.run.first() {
                         None => true,
                         Some(first) => {
-                            first.feed == line.feed
-                                && self.run.len() < MERGE_RUN
-                                && self.run.iter().all(|l| {
-                                    distance_to_segment(l.to, first.from, line.to) <= self.tolerance
-                                })
+                            first.feed == line.feed && self.run.len() < MERGE_RUN && {
+                                let segment = Segment::new(first.from, line.to);
+                                self.run
+                                    .iter()
+                                    .all(|l| segment.square(l.to) <= self.square_limit)
+                            }
                         }
                     };
                     let done = if fits { None } else { self.flush() };
@@ -488,6 +546,85 @@ impl<'a, I: Iterator<Item = &'a Op>> Iterator for Merged<'a, I> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The squared distance against [`square_limit`] decides as the
+    /// distance against the tolerance, at the boundary and anywhere.
+    fn same_decision(s: f64, tolerance: f64) {
+        if s < 0.0 {
+            return;
+        }
+        assert_eq!(
+            s.sqrt() <= tolerance,
+            s <= square_limit(tolerance),
+            "{s:e} against {tolerance:e}"
+        );
+    }
+
+    #[test]
+    fn square_limit_decides_as_the_root() {
+        let tolerances = [
+            0.0,
+            -0.0,
+            -1.0,
+            1e-300,
+            1e-9,
+            0.001,
+            0.01,
+            0.1,
+            0.3,
+            1.0,
+            2.0,
+            1e154,
+            1e200,
+            f64::MAX,
+            f64::INFINITY,
+            f64::NAN,
+        ];
+        for t in tolerances {
+            let limit = square_limit(t);
+            for s in [
+                0.0,
+                -0.0,
+                limit,
+                limit.next_up(),
+                limit.next_down(),
+                t * t,
+                (t * t).next_up(),
+                (t * t).next_down(),
+                1e-20,
+                1.0,
+                f64::MAX,
+                f64::INFINITY,
+                f64::NAN,
+            ] {
+                same_decision(s, t);
+            }
+        }
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn square_limit_decides_as_the_root_for_any_bits(s_bits in 0u64..0x7ff0_0000_0000_0000, t in 0.0f64..10.0, near in -4i64..=4) {
+            let limit = square_limit(t);
+            same_decision(f64::from_bits(s_bits), t);
+            let nearby = f64::from_bits(limit.to_bits().saturating_add_signed(near));
+            same_decision(nearby, t);
+        }
+
+        #[test]
+        fn a_merge_decides_as_the_distance_does(
+            p in proptest::array::uniform3(-100.0f64..100.0),
+            a in proptest::array::uniform3(-100.0f64..100.0),
+            b in proptest::array::uniform3(-100.0f64..100.0),
+            t in 0.0001f64..1.0,
+        ) {
+            let point = |v: [f64; 3]| Point { x: v[0], y: v[1], z: v[2] };
+            let (p, a, b) = (point(p), point(a), point(b));
+            let d = distance_to_segment(p, a, b);
+            proptest::prop_assert_eq!(d <= t, Segment::new(a, b).square(p) <= square_limit(t));
+            proptest::prop_assert_eq!(d <= d, Segment::new(a, b).square(p) <= square_limit(d));
+        }
+    }
 
     #[test]
     fn a_header_reads_back_from_the_program_it_heads() {

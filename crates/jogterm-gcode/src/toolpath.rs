@@ -113,7 +113,11 @@ pub enum Pause {
 pub enum Op {
     Rapid(Rapid),
     Line(Line),
-    Arc(Arc),
+    /// Boxed: an arc is half as large again as a line, and every op of a
+    /// file takes the size of the largest; one arc in ten (in CAM files)
+    /// would make a 500 000-line toolpath 12 MB larger, pages the import
+    /// faults in and every walk over the ops reads.
+    Arc(Box<Arc>),
     Dwell(Dwell),
     Output(OutputSwitch),
     /// Spindle speed (S), rpm, for headers and for machines that set it.

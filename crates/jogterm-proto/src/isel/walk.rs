@@ -236,6 +236,45 @@ impl ArcWalk {
             }
         }
     }
+
+    /// The points after each of the next `out.len()` iterations, in order:
+    /// what [`ArcWalk::step`] then [`ArcWalk::point`] give one by one, in
+    /// locals as [`ArcWalk::walk`] steps (`circle` looks at some fifty
+    /// points around every arc's end, and a call of `step` a point was
+    /// most of that).
+    pub fn fill(&mut self, out: &mut [(i64, i64)]) {
+        let mirror = if self.clockwise { -1 } else { 1 };
+        let mut k = 0;
+        while k < out.len() {
+            let quadrant = self.quadrant;
+            let (sx, sy) = signs_of(quadrant);
+            let (mut x, mut y, mut error) = (self.x, self.y, self.error);
+            let mut turned = false;
+            while let Some(slot) = out.get_mut(k) {
+                k += 1;
+                let after_x = error - (2 * x * sx + 1);
+                let after_y = error - (2 * y * sy + 1);
+                let x_is_closer = after_x.abs() < after_y.abs()
+                    || (after_x.abs() == after_y.abs() && after_x <= after_y);
+                let take_x = i64::from(x_is_closer);
+                x += sx * take_x;
+                y += sy * (1 - take_x);
+                error = if x_is_closer { after_x } else { after_y };
+                *slot = (x, y * mirror);
+                if quadrant_of(x, y) != quadrant {
+                    turned = true;
+                    break;
+                }
+            }
+            self.x = x;
+            self.y = y;
+            self.error = error;
+            if turned {
+                self.quadrant = quadrant_of(x, y);
+                self.quarter_turns += 1;
+            }
+        }
+    }
 }
 
 /// Below this many steps left the walk steps rather than leaps; it also
@@ -495,6 +534,34 @@ mod tests {
             fast.advance(steps);
             let slow = stepped(first, steps);
             proptest::prop_assert_eq!(fast, slow, "R {} from {:?} {:?}, {} steps", r, start, direction, steps);
+        }
+    }
+
+    #[test]
+    fn fill_gives_the_points_of_the_steps() {
+        for (r, start) in [
+            (1, (1, 0)),
+            (3, (3, 0)),
+            (200, (-141, 141)),
+            (50, (-35, 36)),
+            (1000, (0, -1000)),
+        ] {
+            for direction in [Ccw, Cw] {
+                for n in [0, 1, 7, 49, 64, 300] {
+                    let mut fast = ArcWalk::new(r, start, direction);
+                    let mut points = vec![(0, 0); n];
+                    fast.fill(&mut points);
+                    let mut slow = ArcWalk::new(r, start, direction);
+                    let stepped: Vec<_> = (0..n)
+                        .map(|_| {
+                            slow.step();
+                            slow.point()
+                        })
+                        .collect();
+                    assert_eq!(points, stepped, "R {r} from {start:?} {direction:?}");
+                    assert_eq!(fast, slow);
+                }
+            }
         }
     }
 
