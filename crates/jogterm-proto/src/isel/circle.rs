@@ -340,6 +340,8 @@ fn nearest(
     best
 }
 
+/// Half the window [`steps_to_end`] searches: the walk and the arc part by
+/// at most a step or two at each axis they cross.
 const WINDOW: f64 = 24.0;
 
 fn sign(v: i32) -> Sign {
