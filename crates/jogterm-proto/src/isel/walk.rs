@@ -200,12 +200,32 @@ impl ArcWalk {
         Some(done)
     }
 
-    /// `steps` iterations of [`ArcWalk::step`], the same walk: the point
-    /// and the error term kept in locals and the quadrant's signs taken
-    /// once per quadrant, the step chosen without a branch (the choice
-    /// between the x and the y step follows no pattern a branch predictor
-    /// could learn).
+    /// `steps` iterations of [`ArcWalk::step`], the same walk.
     fn walk(&mut self, steps: u64) {
+        self.walk_each(steps, |_| {});
+    }
+
+    /// The points after each of the next `out.len()` iterations, in order:
+    /// what [`ArcWalk::step`] then [`ArcWalk::point`] give one by one
+    /// (`circle` looks at some fifty points around every arc's end, and a
+    /// call of `step` a point was most of that).
+    pub fn fill(&mut self, out: &mut [(i64, i64)]) {
+        let steps = out.len() as u64;
+        let mut slots = out.iter_mut();
+        self.walk_each(steps, |point| {
+            if let Some(slot) = slots.next() {
+                *slot = point;
+            }
+        });
+    }
+
+    /// `steps` iterations of [`ArcWalk::step`], `each` told the point
+    /// after each: the point and the error term kept in locals and the
+    /// quadrant's signs taken once per quadrant, the step chosen without a
+    /// branch (the choice between the x and the y step follows no pattern
+    /// a branch predictor could learn).
+    fn walk_each(&mut self, steps: u64, mut each: impl FnMut((i64, i64))) {
+        let mirror = if self.clockwise { -1 } else { 1 };
         let mut left = steps;
         while left > 0 {
             let quadrant = self.quadrant;
@@ -222,45 +242,7 @@ impl ArcWalk {
                 x += sx * take_x;
                 y += sy * (1 - take_x);
                 error = if x_is_closer { after_x } else { after_y };
-                if quadrant_of(x, y) != quadrant {
-                    turned = true;
-                    break;
-                }
-            }
-            self.x = x;
-            self.y = y;
-            self.error = error;
-            if turned {
-                self.quadrant = quadrant_of(x, y);
-                self.quarter_turns += 1;
-            }
-        }
-    }
-
-    /// The points after each of the next `out.len()` iterations, in order:
-    /// what [`ArcWalk::step`] then [`ArcWalk::point`] give one by one, in
-    /// locals as [`ArcWalk::walk`] steps (`circle` looks at some fifty
-    /// points around every arc's end, and a call of `step` a point was
-    /// most of that).
-    pub fn fill(&mut self, out: &mut [(i64, i64)]) {
-        let mirror = if self.clockwise { -1 } else { 1 };
-        let mut k = 0;
-        while k < out.len() {
-            let quadrant = self.quadrant;
-            let (sx, sy) = signs_of(quadrant);
-            let (mut x, mut y, mut error) = (self.x, self.y, self.error);
-            let mut turned = false;
-            while let Some(slot) = out.get_mut(k) {
-                k += 1;
-                let after_x = error - (2 * x * sx + 1);
-                let after_y = error - (2 * y * sy + 1);
-                let x_is_closer = after_x.abs() < after_y.abs()
-                    || (after_x.abs() == after_y.abs() && after_x <= after_y);
-                let take_x = i64::from(x_is_closer);
-                x += sx * take_x;
-                y += sy * (1 - take_x);
-                error = if x_is_closer { after_x } else { after_y };
-                *slot = (x, y * mirror);
+                each((x, y * mirror));
                 if quadrant_of(x, y) != quadrant {
                     turned = true;
                     break;
