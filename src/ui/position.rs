@@ -48,6 +48,18 @@ impl Positions {
     pub fn get(&self, axis: Axis) -> Option<Reading> {
         self.readings.get(axis)
     }
+
+    /// Where X, Y and Z stand, machine steps, as far as reported (the
+    /// start of a go-to's legs: `ui::legs`).
+    pub fn xyz_steps(&self) -> PerAxis<i64> {
+        let mut at = PerAxis::new();
+        for axis in [Axis::X, Axis::Y, Axis::Z] {
+            if let Some(r) = self.get(axis) {
+                at.set(axis, r.steps);
+            }
+        }
+        at
+    }
 }
 
 /// Digits after the point that resolve one step: 400 steps/mm needs 3

@@ -21,7 +21,7 @@
 //! (`Event::HoldLapsed`); a key release the terminal reports stops at once.
 
 use crate::axis::Axis;
-use crate::device::api::{Event, Frame as Coordinates, LinkState, PerAxis, Request};
+use crate::device::api::{Event, Frame as Coordinates, LinkState, Request};
 use crate::gcode::frame::{Frame, LegKind};
 use crate::gcode::toolpath::Point;
 use crate::jog::{Gate, JogSettings, Motion};
@@ -155,7 +155,7 @@ pub fn question(ctx: &Context) -> Result<Question, String> {
         question,
         plan: Plan {
             legs,
-            from: standing(ctx.positions),
+            from: ctx.positions.xyz_steps(),
         },
     })
 }
@@ -169,7 +169,7 @@ pub fn start(
     positions: &Positions,
     hold: Option<std::time::Duration>,
 ) -> (Vec<Effect>, NoteLevel, String) {
-    if standing(positions) != plan.from {
+    if positions.xyz_steps() != plan.from {
         *run = None;
         return (
             Vec::new(),
@@ -299,17 +299,6 @@ impl FrameRun {
         );
         Some((vec![Effect::Request(request)], text))
     }
-}
-
-/// Where X, Y and Z stand, machine steps, as far as reported.
-fn standing(positions: &Positions) -> PerAxis<i64> {
-    let mut at = PerAxis::new();
-    for axis in [Axis::X, Axis::Y, Axis::Z] {
-        if let Some(r) = positions.get(axis) {
-            at.set(axis, r.steps);
-        }
-    }
-    at
 }
 
 /// Where X, Y and Z stand, machine units; `None` unless all three are

@@ -45,17 +45,6 @@ fn go_tos(profile: &crate::config::Profile, here: &PerAxis<i64>, to: &PerAxis<i6
 }
 
 impl Step<'_, '_> {
-    /// Where X, Y and Z stand, machine steps, as far as reported.
-    fn here(&self) -> PerAxis<i64> {
-        let mut at = PerAxis::new();
-        for axis in [Axis::X, Axis::Y, Axis::Z] {
-            if let Some(r) = self.ctx.positions.get(axis) {
-                at.set(axis, r.steps);
-            }
-        }
-        at
-    }
-
     /// F6 at a tool change with a tool sensor: to the sensor.
     pub(super) fn measure_begin(&mut self, tool: String) {
         let profile = std::sync::Arc::clone(&self.ctx.setup.profile);
@@ -67,7 +56,7 @@ impl Step<'_, '_> {
             return;
         };
         let to = probing::steps_of(&profile, sensor.iter());
-        let legs = go_tos(&profile, &self.here(), &to);
+        let legs = go_tos(&profile, &self.ctx.positions.xyz_steps(), &to);
         let Some(c) = self.e.chunked.as_mut() else {
             return;
         };
@@ -205,7 +194,7 @@ impl Step<'_, '_> {
         );
         self.say(NoteLevel::Info, said);
         // The probe ends where it began, above the sensor.
-        let mut here = self.here();
+        let mut here = self.ctx.positions.xyz_steps();
         if let Some(Ok(sensor)) = profile.probe.tool_sensor_point() {
             for (axis, steps) in probing::steps_of(&profile, sensor.iter()).iter() {
                 here.set(axis, steps);

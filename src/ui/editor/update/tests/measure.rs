@@ -43,13 +43,7 @@ fn moved(host: &mut Host, e: &mut Editor, target: &PerAxis<i64>) -> Outcome {
 }
 
 fn host_at(host: &Host) -> PerAxis<i64> {
-    let mut at = PerAxis::new();
-    for axis in [Axis::X, Axis::Y, Axis::Z] {
-        if let Some(r) = host.positions.get(axis) {
-            at.set(axis, r.steps);
-        }
-    }
-    at
+    host.positions.xyz_steps()
 }
 
 /// From F6 at a tool change to the probe: the two legs to the sensor
