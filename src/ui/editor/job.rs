@@ -366,7 +366,13 @@ impl Converted {
             let text = piece.text(&self.header);
             let program = crate::program::Program::parse(language, &text);
             program.upload_lines().map_err(|(span, e)| {
-                format!("piece {}: line {}: {}", k + 1, span.line + 1, e.message)
+                format!(
+                    "piece {}: line {}{}: {}",
+                    k + 1,
+                    span.line + 1,
+                    gcode_at(&piece, &self.header, span.line),
+                    e.message
+                )
             })?;
             return Ok(PieceRun::Stream(Box::new(PieceStream {
                 commands: program.command_count(),
@@ -397,6 +403,17 @@ impl Converted {
     }
 }
 
+/// ` (part.nc:12:5)`: the G-code place line `line` of `program`'s text
+/// came from, where it came from one.
+fn gcode_at(program: &Program, file: &str, line: usize) -> String {
+    program
+        .lines
+        .get(line)
+        .and_then(|l| l.origin)
+        .map(|o| format!(" ({file}:{}:{})", o.line, o.col))
+        .unwrap_or_default()
+}
+
 /// `program` as it is uploaded: whole where it fits, else in parts
 /// ([`parts_of`]); `lines_of` index `program.lines`.
 fn uploads_of(
@@ -409,9 +426,10 @@ fn uploads_of(
     }
     let text = program.text(header);
     let parsed = crate::program::Program::parse(language, &text);
-    let lines = parsed
-        .upload_lines()
-        .map_err(|(span, e)| format!("line {}: {}", span.line + 1, e.message))?;
+    let lines = parsed.upload_lines().map_err(|(span, e)| {
+        let at = gcode_at(program, header, span.line);
+        format!("line {}{at}: {}", span.line + 1, e.message)
+    })?;
     let lines_of = parsed.statements().map(|(line, _)| line).collect();
     Ok(vec![PartUpload { lines, lines_of }])
 }
@@ -431,7 +449,8 @@ fn parts_of(
             let text = part.text(header);
             let parsed = crate::program::Program::parse(language, &text);
             let lines = parsed.upload_lines().map_err(|(span, e)| {
-                format!("part {}: line {}: {}", k + 1, span.line + 1, e.message)
+                let at = gcode_at(&part, header, span.line);
+                format!("part {}: line {}{at}: {}", k + 1, span.line + 1, e.message)
             })?;
             // The part's text is its head, its slice of the converted
             // program's lines (the buffer's, one for one) and maybe a
@@ -519,6 +538,24 @@ pub(crate) mod tests {
         }
         text.push_str("M30\n%\n");
         text
+    }
+
+    #[test]
+    fn a_refused_line_of_the_converted_text_names_its_gcode_place() {
+        let c = converted(&pockets(2), 2000);
+        let line = c
+            .program
+            .lines
+            .iter()
+            .position(|l| l.origin.is_some())
+            .expect("a G-code line");
+        let origin = c.program.lines[line].origin.expect("its origin");
+        assert_eq!(
+            gcode_at(&c.program, "pockets.nc", line),
+            format!(" (pockets.nc:{}:{})", origin.line, origin.col)
+        );
+        // The header's comments came from no G-code line.
+        assert_eq!(gcode_at(&c.program, "pockets.nc", 0), "");
     }
 
     #[test]
