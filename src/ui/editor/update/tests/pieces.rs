@@ -587,3 +587,47 @@ fn space_in_a_streamed_piece_ends_the_job_and_no_line_follows() {
         e.checkout.as_ref().map(|c| &c.state)
     );
 }
+
+#[test]
+fn x_or_a_lost_link_in_a_streamed_piece_ends_the_job_and_nothing_follows() {
+    // x: the stream is left, its line stopped, the job ended.
+    let mut host = Host::isel();
+    let mut e = raster_opened(&mut host);
+    to_the_stream(&mut host, &mut e);
+    let out = host.send(
+        &mut e,
+        Input::Checkout(Action::CheckoutAbort, crate::jog::KeyPhase::Press),
+    );
+    assert!(out.effects.contains(&Effect::Stop), "{out:?}");
+    assert!(
+        streamed(&out).is_none() && upload(&out).is_none(),
+        "{out:?}"
+    );
+    assert!(
+        said(&out)
+            .iter()
+            .any(|s| s.starts_with("the job ends in piece 3/3")),
+        "{out:?}"
+    );
+    assert_eq!((e.chunked.as_ref(), e.checkout.as_ref()), (None, None));
+
+    // A lost link: the job ends, and the link's return resumes nothing.
+    let mut host = Host::isel();
+    let mut e = raster_opened(&mut host);
+    to_the_stream(&mut host, &mut e);
+    host.send(
+        &mut e,
+        Input::Device(&Event::Link(crate::device::api::LinkState::Lost {
+            reason: "unplugged".into(),
+        })),
+    );
+    assert_eq!(e.chunked, None);
+    let out = host.send(
+        &mut e,
+        Input::Device(&Event::Link(crate::device::api::LinkState::Connected)),
+    );
+    assert!(
+        streamed(&out).is_none() && upload(&out).is_none(),
+        "{out:?}"
+    );
+}
