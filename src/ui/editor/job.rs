@@ -78,6 +78,9 @@ pub struct PieceStream {
     /// The buffer's line of each line of the piece's text (by its G-code
     /// line), where the editor shows the stream.
     pub lines_of: Vec<usize>,
+    /// The model of the piece's time left, by its text's lines: the
+    /// status line's ETA, as a whole job's stream has.
+    pub eta: crate::gcode::eta::Eta,
 }
 
 /// Where a run in parts stands.
@@ -382,6 +385,10 @@ impl Converted {
                     .map(|l| l.origin.map(|o| o.line))
                     .collect(),
                 lines_of: (0..piece.lines.len()).map(to_buffer).collect(),
+                eta: crate::gcode::eta::Eta::new(
+                    std::sync::Arc::new(Ways::of(&piece, 0.0, &Costs::of(profile, language))),
+                    piece.lines.len(),
+                ),
                 program,
             })));
         }

@@ -204,7 +204,11 @@ impl Step<'_, '_> {
         c.phase = Phase::Streaming;
         let label = c.label();
         let mut stream = Checkout::new(plan, Vec::new(), ctx.now);
-        stream.stream = Some(Stream::new(piece.origins.clone(), None, ctx.now));
+        stream.stream = Some(Stream::new(
+            piece.origins.clone(),
+            Some(piece.eta.clone()),
+            ctx.now,
+        ));
         let text = format!(
             "{label}: streaming {} commands (no retract to cut at within the memory): F10 \
              pauses and goes on, Space stops",

@@ -476,6 +476,19 @@ fn streamed(out: &Outcome) -> Option<(crate::device::api::JogId, &str)> {
     })
 }
 
+/// The seconds of `left M:SS` in a status line's progress.
+fn seconds_left(progress: &str) -> u64 {
+    let clock = progress
+        .split(" left ")
+        .nth(1)
+        .and_then(|rest| rest.split(' ').next())
+        .unwrap_or_else(|| panic!("no time left in {progress:?}"));
+    clock
+        .split(':')
+        .try_fold(0, |s, part| part.parse::<u64>().map(|v| s * 60 + v))
+        .unwrap_or_else(|_| panic!("{clock:?} in {progress:?}"))
+}
+
 /// The job run to T2's wait and F6 there: piece 3's first streamed line.
 fn to_the_stream(host: &mut Host, e: &mut Editor) -> Outcome {
     host.send(e, Input::Main(Action::RunProgram));
@@ -519,6 +532,9 @@ fn a_piece_with_no_retract_to_cut_at_streams_and_the_job_ends_after_it() {
     assert_eq!(status.word, "STREAM");
     // Its first lines are the way back from the change, of no G-code line.
     assert!(status.progress.starts_with("piece 3/3 0% "), "{status:?}");
+    // The time left is the model's from the first line (not the pace, of
+    // which nothing is known yet).
+    let mut left = vec![seconds_left(&status.progress)];
     // F6 meanwhile says how the stream is paused and ended.
     let f6 = host.send(&mut e, Input::Main(Action::RunProgram));
     assert!(streamed(&f6).is_none(), "{f6:?}");
@@ -534,6 +550,8 @@ fn a_piece_with_no_retract_to_cut_at_streams_and_the_job_ends_after_it() {
             .unwrap_or_default();
         assert!(text.contains("pockets.nc:"), "line {shown:?}: {text}");
         assert!(lines.len() < 100, "{lines:?}");
+        let status = e.job_status(host.now, false).expect("a status");
+        left.push(seconds_left(&status.progress));
         out = host.send(
             &mut e,
             Input::Device(&Event::Checkout {
@@ -543,6 +561,9 @@ fn a_piece_with_no_retract_to_cut_at_streams_and_the_job_ends_after_it() {
         );
     }
     assert!(lines.len() > 12, "more than the memory holds: {lines:?}");
+    assert!(left[0] > 0, "{left:?}");
+    assert!(left.windows(2).all(|w| w[1] <= w[0]), "{left:?}");
+    assert!(left.last() < left.first(), "{left:?}");
     assert!(
         !lines.iter().any(|l| l == "77"),
         "no reference run: {lines:?}"
