@@ -98,6 +98,51 @@ impl Eta {
     }
 }
 
+/// The time left of a job run in parts (issue 41 item 3), for `jogterm
+/// run` and the console alike: a stored part reports nothing while it
+/// runs, so the model's time of the part under way (its erase, upload,
+/// start and run: [`Ways::part_s`]) less the time it has taken so far,
+/// and of every part after it, each stretched by the pace of the parts
+/// done (their time measured from the upload to the end, a pause before
+/// a part left out, over the model's).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PartsEta {
+    model_s: Vec<f64>,
+    done_model_s: f64,
+    done_actual_s: f64,
+}
+
+impl PartsEta {
+    /// `model_s`: each part's seconds by the model.
+    pub fn new(model_s: Vec<f64>) -> PartsEta {
+        PartsEta {
+            model_s,
+            done_model_s: 0.0,
+            done_actual_s: 0.0,
+        }
+    }
+
+    /// Part `k` (0-based) has ended after `actual_s` seconds.
+    pub fn part_done(&mut self, k: usize, actual_s: f64) {
+        if let Some(model) = self.model_s.get(k) {
+            self.done_model_s += model;
+            self.done_actual_s += actual_s;
+        }
+    }
+
+    /// Seconds left while part `k` has run for `in_part_s` seconds.
+    pub fn left_s(&self, k: usize, in_part_s: f64) -> Option<f64> {
+        let here = *self.model_s.get(k)?;
+        let after: f64 = self.model_s.iter().skip(k + 1).sum();
+        let pace = if self.done_model_s > 0.5 {
+            (self.done_actual_s / self.done_model_s).clamp(*PACE.start(), *PACE.end())
+        } else {
+            1.0
+        };
+        Some((here * pace - in_part_s).max(0.0) + after * pace)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -182,5 +227,23 @@ mod tests {
         assert_eq!(eta.percent(), Some(50));
         // The cruise doubles, the ramps shrink and the wire stays.
         assert!(half > 1.8 * full && half < 2.0 * full, "{full} {half}");
+    }
+
+    #[test]
+    fn a_job_in_parts_counts_the_part_under_way_down_and_the_rest_at_the_pace_so_far() {
+        let mut eta = PartsEta::new(vec![10.0, 20.0, 30.0]);
+        assert_eq!(eta.left_s(0, 0.0), Some(60.0));
+        assert_eq!(eta.left_s(0, 4.0), Some(56.0));
+        // A part that overruns its model stays at nothing left, not less.
+        assert_eq!(eta.left_s(0, 15.0), Some(50.0));
+        // The first part took twice the model: what is left is stretched.
+        eta.part_done(0, 20.0);
+        assert_eq!(eta.left_s(1, 0.0), Some(100.0));
+        assert_eq!(eta.left_s(1, 10.0), Some(90.0));
+        assert_eq!(eta.left_s(3, 0.0), None);
+        // A hold-up early on makes no forecast of hours: the pace is capped.
+        let mut slow = PartsEta::new(vec![1.0, 100.0]);
+        slow.part_done(0, 50.0);
+        assert_eq!(slow.left_s(1, 0.0), Some(300.0));
     }
 }

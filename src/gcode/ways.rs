@@ -137,6 +137,10 @@ pub struct Ways {
     /// The model the estimates come from, for the time left during a run.
     pub timing: Arc<Timing>,
     pub costs: Costs,
+    /// Run in parts: each part's seconds (its erase, upload, start and
+    /// run), which add up to `chunked`'s total; the time left of a job in
+    /// parts (`eta::PartsEta`).
+    pub part_s: Vec<f64>,
 }
 
 impl Ways {
@@ -166,6 +170,7 @@ impl Ways {
             }
         });
         let stream = Ways::stream_of(program, &timing, costs, 0..program.lines.len(), 1.0);
+        let mut part_s = Vec::new();
         let chunked = if !costs.parts {
             Err("the controller's jobs are not run in parts".to_owned())
         } else {
@@ -178,16 +183,15 @@ impl Ways {
                     // The part's own `z1` and `9`, two bytes each with CR
                     // and answer, `z1` run for 1 ms.
                     let extra = costs.wire_s(3 * (part.commands.saturating_sub(in_part)));
-                    retracted_s += upload_s(lines.clone()) + extra + costs.wire_s(5);
-                    run_s += timing.stored_run_s(lines)
-                        + if k > 0 {
-                            Controller::ISEL_PROGRAM_STEP_S
-                        } else {
-                            0.0
-                        };
+                    let mut retracted = upload_s(lines.clone()) + extra + costs.wire_s(5);
+                    let mut run = timing.stored_run_s(lines);
                     if k > 0 {
-                        retracted_s += costs.erase_s;
+                        retracted += costs.erase_s;
+                        run += Controller::ISEL_PROGRAM_STEP_S;
                     }
+                    part_s.push(retracted + run);
+                    retracted_s += retracted;
+                    run_s += run;
                 }
                 Estimate {
                     way: Way::Chunked,
@@ -218,6 +222,7 @@ impl Ways {
             floor_s,
             timing,
             costs: *costs,
+            part_s,
         }
     }
 
@@ -499,6 +504,11 @@ mod tests {
         let ways = Ways::of(&program(8, &[3], 6), 10.0, &ISEL);
         let chunked = ways.chunked.clone().unwrap();
         assert_eq!(chunked.parts, 2);
+        // Each part's time, the erase in the second's, adds up to the way's.
+        assert_eq!(ways.part_s.len(), 2);
+        assert!(ways.part_s[1] > 2.0, "{:?}", ways.part_s);
+        let sum: f64 = ways.part_s.iter().sum();
+        assert!((sum - chunked.total_s).abs() < 1e-9, "{sum} {chunked:?}");
         assert_eq!(ways.chosen, Way::Chunked);
         // One erase of 2 s between the parts, nothing at the part.
         assert!(chunked.retracted_s > 2.0 && chunked.at_part_s == 0.0);

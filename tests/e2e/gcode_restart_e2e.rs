@@ -484,6 +484,15 @@ fn an_isel_restart_retracts_z_alone_before_any_x_or_y_and_descends_at_the_plunge
         );
         if way == "chunked" {
             assert!(said.contains("part 2/"), "{way}: in parts: {said}");
+            // Each part says the model's time left of the job.
+            for k in ["part 1/", "part 2/"] {
+                assert!(
+                    said.lines().any(|l| l.starts_with(k)
+                        && l.contains(", about ")
+                        && l.ends_with(" left")),
+                    "{way}: {k} with the time left: {said}"
+                );
+            }
         }
     }
 }

@@ -504,9 +504,15 @@ async fn steps(
             .await;
         }
         let mut pause_next = false;
+        let mut eta = parts_eta(job);
         for (k, part) in job.parts.iter().enumerate() {
             if job.parts.len() > 1 {
-                out::say(format_args!("part {}/{}", k + 1, job.parts.len()));
+                let left = eta
+                    .as_ref()
+                    .and_then(|e| e.left_s(k, 0.0))
+                    .map(|s| format!(", about {} left", crate::gcode::ways::duration(s)))
+                    .unwrap_or_default();
+                out::say(format_args!("part {}/{}{left}", k + 1, job.parts.len()));
             }
             if pause_next {
                 out::say(
@@ -516,6 +522,7 @@ async fn steps(
                 wait_resume(session, keys).await?;
                 pause_next = false;
             }
+            let began = std::time::Instant::now();
             let ran = match upload::upload(session, part, args.erase || k > 0, remedy).await {
                 Ok(()) => stored_run(session, remedy, keys, &mut pause_next).await,
                 Err(code) => Err(code),
@@ -524,6 +531,9 @@ async fn steps(
                 out::say(lost_in_part(job, k, args));
             }
             ran?;
+            if let Some(e) = eta.as_mut() {
+                e.part_done(k, began.elapsed().as_secs_f64());
+            }
             if let Some(line) = part.last_gcode_line() {
                 logged.line(line);
             }
@@ -535,6 +545,15 @@ async fn steps(
         Ok(()) => 0,
         Err(code) => code,
     }
+}
+
+/// The model's time left of a G-code job run in parts, part by part
+/// (`gcode::eta::PartsEta`); none for a program, or where the parts are
+/// not the ones the model cut.
+fn parts_eta(job: &Job) -> Option<crate::gcode::eta::PartsEta> {
+    let ways = job.ways.as_ref().filter(|_| job.way == Way::Chunked)?;
+    (ways.part_s.len() == job.parts.len())
+        .then(|| crate::gcode::eta::PartsEta::new(ways.part_s.clone()))
 }
 
 /// Where a job in parts goes on after the link was lost in part `k`: the

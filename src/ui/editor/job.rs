@@ -229,6 +229,12 @@ pub struct Chunked {
     pub paused_read: bool,
     /// A job with waits: its pieces and the wait under way.
     pub pieces: Option<Box<Pieces>>,
+    /// When the part under way began to be stored (after a pause before
+    /// it): its time so far, for the time left.
+    pub part_began: Instant,
+    /// The model's time left where the job is the converted G-code as
+    /// converted (`gcode::eta::PartsEta`).
+    pub eta: Option<crate::gcode::eta::PartsEta>,
 }
 
 /// The outputs of the editor's job (issue 37, `docs/editor.md` "The job's
@@ -249,6 +255,20 @@ pub struct JobOutputs {
 }
 
 impl Chunked {
+    /// The model's time left (`gcode::eta::PartsEta`): while a part is
+    /// stored or runs, and at a pause before the next.
+    pub fn time_left(&self, now: Instant) -> Option<std::time::Duration> {
+        let in_part = match self.phase {
+            Phase::Uploading | Phase::Starting | Phase::Running => {
+                now.saturating_duration_since(self.part_began).as_secs_f64()
+            }
+            Phase::Paused => 0.0,
+            Phase::Streaming | Phase::Waiting | Phase::Measuring => return None,
+        };
+        let left = self.eta.as_ref()?.left_s(self.part, in_part)?;
+        Some(std::time::Duration::from_secs_f64(left))
+    }
+
     /// `part 2/4`; a job with waits `piece 2/3` (`piece 2/3 part 1/2`
     /// where the piece runs in parts).
     pub fn label(&self) -> String {

@@ -123,9 +123,13 @@ impl Editor {
                 ),
             };
             let next = if c.pause_next { " pause next" } else { "" };
+            let left = c
+                .time_left(now)
+                .map(|l| format!(" left {}", clock(l)))
+                .unwrap_or_default();
             return Some(JobStatus {
                 word,
-                progress: format!("{} {elapsed}{next}", c.label()),
+                progress: format!("{} {elapsed}{left}{next}", c.label()),
                 waiting,
             });
         }

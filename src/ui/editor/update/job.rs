@@ -131,9 +131,17 @@ impl Step<'_, '_> {
         let Some(g) = self.e.gcode.as_ref() else {
             return;
         };
+        // The model knows the parts of the text as converted only.
+        let model_s = &g.converted.ways.part_s;
+        let eta = (g.state == self.e.buffer.state())
+            .then(|| crate::gcode::eta::PartsEta::new(model_s.clone()));
         match g.converted.part_uploads(language) {
             Ok(parts) => {
+                let eta = eta.filter(|_| parts.len() == model_s.len());
                 self.chunked_start(parts, None, Way::Chunked);
+                if let Some(c) = self.e.chunked.as_mut() {
+                    c.eta = eta;
+                }
                 self.chunked_upload();
             }
             Err(why) => self.say(NoteLevel::Danger, format!("run refused: {why}")),
@@ -158,6 +166,8 @@ impl Step<'_, '_> {
             paused_at: Vec::new(),
             paused_read: false,
             pieces,
+            part_began: self.ctx.now,
+            eta: None,
         });
         self.outputs_arm();
         self.job_log_start(way);
@@ -189,6 +199,7 @@ impl Step<'_, '_> {
             return;
         };
         c.phase = Phase::Uploading;
+        c.part_began = self.ctx.now;
         let label = c.label();
         let Some(part) = c.parts.get(c.part).cloned() else {
             return;
@@ -426,6 +437,10 @@ impl Step<'_, '_> {
             self.outputs_ended();
             self.say(NoteLevel::Info, text);
             return;
+        }
+        let took = now.saturating_duration_since(c.part_began).as_secs_f64();
+        if let Some(eta) = c.eta.as_mut() {
+            eta.part_done(c.part, took);
         }
         c.part += 1;
         if std::mem::take(&mut c.pause_next) {

@@ -208,8 +208,12 @@ fn title_extra(e: &Editor, ctx: &Context) -> Vec<Span<'static>> {
         }
         let elapsed = ctx.now.saturating_duration_since(c.started).as_secs();
         let next = if c.pause_next { " pause next" } else { "" };
+        let left = c
+            .time_left(ctx.now)
+            .map(|l| format!(", {} s left", l.as_secs()))
+            .unwrap_or_default();
         out.push(Span::styled(
-            format!("{state} {} {elapsed} s{next} ", c.label()),
+            format!("{state} {} {elapsed} s{left}{next} ", c.label()),
             style,
         ));
         return out;

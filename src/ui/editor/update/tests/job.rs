@@ -176,6 +176,56 @@ fn the_parts_are_stored_run_and_replaced_in_turn() {
     assert!(e.read_only().is_none());
 }
 
+/// The time left in a status line's progress (`left M:SS`), in seconds.
+fn left_in(status: &crate::ui::editor::progress::JobStatus) -> u64 {
+    let clock = status
+        .progress
+        .split(" left ")
+        .nth(1)
+        .and_then(|rest| rest.split(' ').next())
+        .unwrap_or_else(|| panic!("no time left in {status:?}"));
+    clock
+        .split(':')
+        .try_fold(0, |s, part| part.parse::<u64>().map(|v| s * 60 + v))
+        .unwrap_or_else(|_| panic!("{clock:?} in {status:?}"))
+}
+
+#[test]
+fn a_job_in_parts_says_the_models_time_left_counted_down_and_at_the_pace_so_far() {
+    let mut host = Host::isel();
+    let c = converted(&pockets(12), 30);
+    let model: Vec<u64> = c.ways.part_s.iter().map(|s| *s as u64).collect();
+    let model_s = c.ways.part_s.clone();
+    assert_eq!(model.len(), 4, "{model:?}");
+    let mut e = opened(&mut host, c);
+    host.send(&mut e, Input::Main(Action::RunProgram));
+    let out = host.key(&mut e, Action::Confirm);
+    let total = upload(&out).expect("part 1 stored").0.len();
+    // At the start: every part's time by the model.
+    let whole: f64 = model_s.iter().sum();
+    let status = e.job_status(host.now, false).expect("a status");
+    assert_eq!(status.word, "STORING");
+    assert!(
+        status.progress.starts_with("part 1/4 0:00 left "),
+        "{status:?}"
+    );
+    assert_eq!(left_in(&status), whole as u64, "{status:?}");
+    // Within the part it counts down with the time.
+    host.now += Duration::from_secs(1);
+    assert_eq!(
+        left_in(&e.job_status(host.now, false).expect("a status")),
+        (whole - 1.0) as u64
+    );
+    // Part 1 took 1 + 3 s (`run_part`) against the model's: the parts
+    // after it at that pace, within its bounds.
+    run_part(&mut host, &mut e, total);
+    let pace = (4.0 / model_s[0]).clamp(0.5, 3.0);
+    let after: f64 = model_s[1..].iter().sum();
+    let status = e.job_status(host.now, false).expect("a status");
+    assert!(status.progress.starts_with("part 2/4 "), "{status:?}");
+    assert_eq!(left_in(&status), (after * pace) as u64, "{status:?}");
+}
+
 #[test]
 fn f6_pauses_before_the_next_part_and_goes_on_from_there() {
     let mut host = Host::isel();
