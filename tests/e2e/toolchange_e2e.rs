@@ -211,6 +211,19 @@ fn a_two_tool_job_stored_waits_at_each_change_and_cuts_the_longer_tool_higher() 
         said.contains("piece 3/3"),
         "three pieces, one per tool: {said}"
     );
+    // Each piece says the model's time left and the waits to come, which
+    // it does not guess.
+    for (piece, waits) in [
+        ("piece 1/3", " and 2 waits"),
+        ("piece 2/3", " and 1 wait"),
+        ("piece 3/3", " left"),
+    ] {
+        assert!(
+            said.lines()
+                .any(|l| l.starts_with(piece) && l.contains(", about ") && l.ends_with(waits)),
+            "{piece} with the time left: {said}"
+        );
+    }
     // The summary before the start lists the changes with their lines.
     assert!(
         said.contains("two-tools.nc:line 4: M6: change to tool T1 flat end mill, D=6"),

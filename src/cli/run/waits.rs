@@ -81,6 +81,55 @@ impl Waited {
         }))
     }
 
+    /// Piece `index` converted with the tool's `shifts` in Z.
+    fn convert(
+        &self,
+        index: usize,
+        shifts: (f64, f64),
+    ) -> Result<crate::gcode::output::Program, Vec<crate::gcode::toolpath::Diagnostic>> {
+        let imported = &self.imported;
+        let target = match self.language {
+            Language::Isel => Target::Isel,
+            Language::Emcu => Target::Emcu,
+        };
+        let header = crate::gcode::output::Header {
+            file: imported.header.clone(),
+            profile: self.profile.name.clone(),
+            system: imported.import.summary.system.to_string(),
+            zero: imported.import.summary.zero,
+        };
+        crate::gcode::waits::convert_piece(
+            &imported.import.plan,
+            &imported.import.toolpath,
+            index,
+            shifts,
+            &self.profile,
+            target,
+            &header,
+        )
+    }
+
+    /// Each piece's seconds by the model on `way` (stored where it fits,
+    /// else in parts), converted as the tool in the spindle has it (a
+    /// measured tool shifts Z, not the time); none where a piece does not
+    /// convert, which its turn then says.
+    fn model_s(&self, way: Way) -> Vec<f64> {
+        let costs = crate::gcode::ways::Costs::of(&self.profile, self.language);
+        (0..self.imported.import.plan.segments())
+            .map(|k| {
+                let program = self.convert(k, (0.0, 0.0)).ok()?;
+                let ways = crate::gcode::ways::Ways::of(&program, 0.0, &costs);
+                Some(match (way, &ways.stored, &ways.chunked) {
+                    (Way::Stream, ..) => ways.stream.total_s,
+                    (_, Some(whole), _) => whole.total_s,
+                    (_, None, Ok(parts)) => parts.total_s,
+                    (_, None, Err(_)) => ways.stream.total_s,
+                })
+            })
+            .collect::<Option<Vec<f64>>>()
+            .unwrap_or_default()
+    }
+
     /// What the confirmation says before the start: every wait with its
     /// line, how it ends, and the tool offset applied.
     pub(super) fn said_before(&self) -> Vec<String> {
@@ -104,6 +153,23 @@ impl Waited {
         });
         lines
     }
+}
+
+/// `, about 3:10 min left and 2 waits`: the model's time of piece `index`
+/// and the pieces after it; the waits between them are the operator's,
+/// counted, not guessed.
+fn left_text(model_s: &[f64], index: usize, pieces: usize) -> String {
+    if model_s.len() != pieces {
+        return String::new();
+    }
+    let left: f64 = model_s.iter().skip(index).sum();
+    let waits = pieces.saturating_sub(index + 1);
+    let waits = match waits {
+        0 => String::new(),
+        1 => " and 1 wait".to_owned(),
+        n => format!(" and {n} waits"),
+    };
+    format!(", about {} left{waits}", crate::gcode::ways::duration(left))
 }
 
 fn terminal() -> bool {
@@ -138,6 +204,7 @@ pub(super) async fn run(
     let mut table = w.table.1.clone();
     let mut lines = Lines::default();
     let mut operator: Option<Operator> = None;
+    let model_s = w.model_s(way);
     loop {
         match sequence.step() {
             Step::Run {
@@ -150,13 +217,14 @@ pub(super) async fn run(
                 }
                 let n = sequence.plan().segments();
                 out::say(format_args!(
-                    "piece {}/{n}{}",
+                    "piece {}/{n}{}{}",
                     index + 1,
                     if dz == 0.0 {
                         String::new()
                     } else {
                         format!(", every Z {:+.3} mm for the tool measured", dz)
-                    }
+                    },
+                    left_text(&model_s, index, n)
                 ));
                 let how = (way, args, remedy, log);
                 piece(session, w, index, (dz_before, dz), how, keys).await?;
@@ -237,26 +305,7 @@ async fn piece(
     keys: &mut Keys,
 ) -> Status {
     let imported = &w.imported;
-    let target = match w.language {
-        Language::Isel => Target::Isel,
-        Language::Emcu => Target::Emcu,
-    };
-    let header = crate::gcode::output::Header {
-        file: imported.header.clone(),
-        profile: w.profile.name.clone(),
-        system: imported.import.summary.system.to_string(),
-        zero: imported.import.summary.zero,
-    };
-    let program = crate::gcode::waits::convert_piece(
-        &imported.import.plan,
-        &imported.import.toolpath,
-        index,
-        shifts,
-        &w.profile,
-        target,
-        &header,
-    )
-    .map_err(|errors| {
+    let program = w.convert(index, shifts).map_err(|errors| {
         for e in &errors {
             out::say(crate::gcode::render(&imported.name, e));
         }

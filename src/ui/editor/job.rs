@@ -62,10 +62,22 @@ pub struct PartUpload {
 /// How a piece of a job with waits runs.
 #[derive(Debug, Clone, PartialEq)]
 pub enum PieceRun {
-    /// Stored whole, or in parts where it does not fit.
-    Stored(Vec<PartUpload>),
+    /// Stored whole, or in parts where it does not fit; each part's
+    /// seconds by the model (`Ways::part_s`; none where the model cut it
+    /// otherwise).
+    Stored(Vec<PartUpload>, Vec<f64>),
     /// Bigger than the memory with no retract to cut at: streamed.
     Stream(Box<PieceStream>),
+}
+
+impl PieceRun {
+    /// The piece's seconds by the model, waits not counted.
+    pub fn model_s(&self) -> f64 {
+        match self {
+            PieceRun::Stored(_, part_s) => part_s.iter().sum(),
+            PieceRun::Stream(piece) => piece.eta.left_s(0, 0.0).unwrap_or(0.0),
+        }
+    }
 }
 
 /// A piece streamed: its converted text as the check-out's stream runs it.
@@ -121,6 +133,10 @@ pub struct Pieces {
     pub measure: Option<Measuring>,
     /// The probes sent so far: each measure's probe id is the next.
     pub probes: u64,
+    /// Each piece's seconds by the model, as converted before the job
+    /// began (a measured tool shifts Z, not the time): the time left of
+    /// the pieces after the one under way.
+    pub model_s: Vec<f64>,
 }
 
 /// The new tool measured on the tool sensor (`probe.tool_sensor`), as
@@ -169,6 +185,19 @@ impl Pieces {
     pub fn current_wait(&self) -> Option<&Wait> {
         let at = self.wait.as_ref()?;
         self.sequence.plan().waits.get(at.index)
+    }
+
+    /// The model's seconds of the pieces after the one under way, and
+    /// how many waits come before their end (whose time is the
+    /// operator's, not guessed).
+    pub fn after(&self) -> (f64, usize) {
+        let later = self.model_s.iter().skip(self.piece + 1).sum();
+        let waits = self
+            .sequence
+            .plan()
+            .segments()
+            .saturating_sub(self.piece + 1);
+        (later, waits)
     }
 
     /// `piece 2/3`.
@@ -266,7 +295,18 @@ impl Chunked {
             Phase::Streaming | Phase::Waiting | Phase::Measuring => return None,
         };
         let left = self.eta.as_ref()?.left_s(self.part, in_part)?;
-        Some(std::time::Duration::from_secs_f64(left))
+        let later = self.pieces.as_ref().map_or(0.0, |p| p.after().0);
+        Some(std::time::Duration::from_secs_f64(left + later))
+    }
+
+    /// ` +2 waits` where waits come before the job's end: the time left
+    /// does not count them.
+    pub fn waits_ahead(&self) -> String {
+        match self.pieces.as_ref().map(|p| p.after().1) {
+            Some(1) => " +1 wait".into(),
+            Some(n) if n > 1 => format!(" +{n} waits"),
+            _ => String::new(),
+        }
     }
 
     /// `part 2/4`; a job with waits `piece 2/3` (`piece 2/3 part 1/2`
@@ -419,7 +459,13 @@ impl Converted {
                 *l = to_buffer(*l);
             }
         }
-        Ok(PieceRun::Stored(uploads))
+        let ways = Ways::of(&piece, 0.0, &Costs::of(profile, language));
+        let part_s = match &ways.stored {
+            Some(whole) if uploads.len() == 1 => vec![whole.total_s],
+            _ if ways.part_s.len() == uploads.len() => ways.part_s,
+            _ => Vec::new(),
+        };
+        Ok(PieceRun::Stored(uploads, part_s))
     }
 
     /// The job cut where the tool stands retracted, each part as it is

@@ -46,8 +46,19 @@ impl Editor {
                     .map(|p| format!("{} ", p.label()))
                     .unwrap_or_default();
                 let line = gcode.map(|l| format!("{piece}L{l} ")).unwrap_or(piece);
+                // A streamed piece: the pieces after it by the model too.
+                let (later, waits) = self
+                    .chunked
+                    .as_ref()
+                    .map(|j| {
+                        (
+                            j.pieces.as_ref().map_or(0.0, |p| p.after().0),
+                            j.waits_ahead(),
+                        )
+                    })
+                    .unwrap_or_default();
                 let left = left
-                    .map(|l| format!(" left {}", clock(l)))
+                    .map(|l| format!(" left {}{waits}", clock(l + Duration::from_secs_f64(later))))
                     .unwrap_or_default();
                 return Some(JobStatus {
                     word: if paused { "PAUSED" } else { "STREAM" },
@@ -125,7 +136,7 @@ impl Editor {
             let next = if c.pause_next { " pause next" } else { "" };
             let left = c
                 .time_left(now)
-                .map(|l| format!(" left {}", clock(l)))
+                .map(|l| format!(" left {}{}", clock(l), c.waits_ahead()))
                 .unwrap_or_default();
             return Some(JobStatus {
                 word,

@@ -65,10 +65,10 @@ impl Step<'_, '_> {
         let language = self.e.language();
         let ways: Vec<String> = (0..plan.segments())
             .map(|k| match c.piece_run(k, (0.0, 0.0), profile, language) {
-                Ok(PieceRun::Stored(parts)) if parts.len() > 1 => {
+                Ok(PieceRun::Stored(parts, _)) if parts.len() > 1 => {
                     format!("piece {}: in {} parts", k + 1, parts.len())
                 }
-                Ok(PieceRun::Stored(_)) => format!("piece {}: stored", k + 1),
+                Ok(PieceRun::Stored(..)) => format!("piece {}: stored", k + 1),
                 Ok(PieceRun::Stream(p)) => format!(
                     "piece {}: streamed ({} commands, no retract to cut at)",
                     k + 1,
@@ -123,15 +123,17 @@ impl Step<'_, '_> {
             None => false,
         };
         let mut first = None;
+        let mut model_s = Vec::new();
         // The job log's way: the most a piece needs.
         let mut way = Way::Stored;
         for k in 0..w.plan.segments() {
             match c.piece_run(k, (0.0, 0.0), profile, language) {
                 Ok(run) => {
+                    model_s.push(run.model_s());
                     way = match (&run, way) {
                         (PieceRun::Stream(_), _) | (_, Way::Stream) => Way::Stream,
-                        (PieceRun::Stored(parts), _) if parts.len() > 1 => Way::Chunked,
-                        (PieceRun::Stored(_), way) => way,
+                        (PieceRun::Stored(parts, _), _) if parts.len() > 1 => Way::Chunked,
+                        (PieceRun::Stored(..), way) => way,
                     };
                     if first.is_none() {
                         first = Some(run);
@@ -157,6 +159,7 @@ impl Step<'_, '_> {
             wait: None,
             measure: None,
             probes: 0,
+            model_s,
         };
         self.chunked_start(Vec::new(), Some(Box::new(pieces)), way);
         self.piece_start(run);
@@ -170,11 +173,13 @@ impl Step<'_, '_> {
         };
         c.part = 0;
         match run {
-            PieceRun::Stored(parts) => {
+            PieceRun::Stored(parts, part_s) => {
+                c.eta = (!part_s.is_empty()).then(|| crate::gcode::eta::PartsEta::new(part_s));
                 c.parts = parts;
                 self.chunked_upload();
             }
             PieceRun::Stream(piece) => {
+                c.eta = None;
                 c.parts = Vec::new();
                 self.piece_stream(piece);
             }

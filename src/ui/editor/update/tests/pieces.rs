@@ -97,6 +97,23 @@ fn each_piece_is_stored_and_the_job_waits_at_each_change_until_f6() {
         said(&out),
         [format!("piece 1/4: storing {} commands", lines.len())]
     );
+    // The time left is every piece's by the model; the three waits are
+    // the operator's, named and not guessed.
+    let model = e
+        .chunked
+        .as_ref()
+        .and_then(|c| c.pieces.as_ref())
+        .map(|p| p.model_s.clone())
+        .expect("the pieces' model");
+    assert_eq!(model.len(), 4, "{model:?}");
+    assert!(model.iter().all(|s| *s > 0.0), "{model:?}");
+    let status = e.job_status(host.now, false).expect("a status");
+    assert!(status.progress.ends_with(" +3 waits"), "{status:?}");
+    assert_eq!(
+        seconds_left(&status.progress),
+        model.iter().sum::<f64>() as u64,
+        "{status:?}"
+    );
     // Piece 1 ends: the stored piece is erased, the job waits for T1.
     let out = run_part(&mut host, &mut e, lines.len());
     assert_eq!(
@@ -151,6 +168,14 @@ fn each_piece_is_stored_and_the_job_waits_at_each_change_until_f6() {
     assert!(
         e.job_status(host.now, false)
             .is_some_and(|s| s.waiting.is_none())
+    );
+    // Piece 2 and the two after it by the model, two waits to come.
+    let status = e.job_status(host.now, false).expect("a status");
+    assert!(status.progress.ends_with(" +2 waits"), "{status:?}");
+    let after_first = model[1..].iter().sum::<f64>();
+    assert!(
+        seconds_left(&status.progress).abs_diff(after_first as u64) <= 1,
+        "{status:?}, the model {after_first} s"
     );
 
     // Piece 2 runs; F6 meanwhile says the wait comes anyway, and does not
