@@ -944,6 +944,7 @@ fn tick(model: &mut Model, now: Instant) {
         model.io.highlight_count(model.now),
         model.fresh_message().is_some(),
         model.keypad.clock_shown(model.now),
+        job_shown(model),
     );
     model.now = now;
     let flushed = model.console.traffic.flush_idle(now);
@@ -951,6 +952,7 @@ fn tick(model: &mut Model, now: Instant) {
         model.io.highlight_count(now),
         model.fresh_message().is_some(),
         model.keypad.clock_shown(model.now),
+        job_shown(model),
     );
     // A timeline that follows the readings moves with the clock.
     let timeline_moves = model.focus == PanelId::Timeline && model.timeline.end.is_none();
@@ -958,6 +960,17 @@ fn tick(model: &mut Model, now: Instant) {
         model.dirty = true;
     }
     refresh_quit_question(model);
+}
+
+/// The job's progress as the status line shows it now: its clocks
+/// (elapsed, time left) move with the time, while a stored part runs
+/// with no event from the controller.
+fn job_shown(model: &Model) -> Option<String> {
+    let running = model.machine.activity == crate::device::api::Activity::RunningProgram;
+    model
+        .editor
+        .job_status(model.now, running)
+        .map(|status| status.progress)
 }
 
 fn device_event(model: &mut Model, event: Event) {

@@ -117,6 +117,17 @@ fn f6_on_a_job_bigger_than_the_memory_asks_with_its_ways_and_runs_it_in_parts() 
     update(&mut m, Msg::Device(Event::State(running)));
     let shown = text(render(&m, 80, 24).backend().buffer());
     assert!(shown.contains("RUNNING part 1/4"), "{shown}");
+    assert!(shown.contains(" left "), "the time left: {shown}");
+    // The controller says nothing while a stored part runs: the clock
+    // alone redraws the job's elapsed time and time left, each second.
+    let t = m.now;
+    for second in 1..=3u64 {
+        m.dirty = false;
+        update(&mut m, Msg::Tick(t + Duration::from_secs(second)));
+        assert!(m.dirty, "no redraw after {second} s");
+    }
+    let shown = text(render(&m, 80, 24).backend().buffer());
+    assert!(shown.contains("RUNNING part 1/4 0:03 left "), "{shown}");
     // Space stops the machine and the job: no later part.
     let effects = update(&mut m, key(KeyCode::Char(' ')));
     assert!(effects.contains(&Effect::Stop), "{effects:?}");
