@@ -26,7 +26,8 @@
 //!
 //! `cargo bench --bench jobs -- --estimate` (issue 41) instead runs small
 //! jobs (short and long lines, arcs and short arcs; a few seconds each) stored
-//! and streamed on simulators at real time, and prints the estimate of the
+//! and streamed, and one of pockets in parts on a controller that stores
+//! 20 commands, on simulators at real time, and prints the estimate of the
 //! controller's model (`gcode::timing`, `gcode::ways`) beside the time
 //! measured from the traffic log, with the error of each (about two
 //! minutes in all). Results: `docs/performance.md`, "Estimates against the
@@ -407,9 +408,28 @@ mod estimate {
         t
     }
 
+    /// Squares cut one after the other, the tool retracted between them
+    /// (where a job in parts may be cut).
+    fn pockets(count: usize, side: f64, feed: f64) -> String {
+        let mut t = String::from("G21 G90 G17\nG0 Z5\n");
+        for k in 0..count {
+            let (x, y) = ((k % 4) as f64 * 8.0, (k / 4) as f64 * 8.0);
+            t.push_str(&format!(
+                "G0 X{x:.3} Y{y:.3}\nG1 Z-0.5 F600\nG1 X{:.3} F{feed}\nG1 Y{:.3}\nG1 X{x:.3}\nG1 Y{y:.3}\nG0 Z5\n",
+                x + side,
+                y + side
+            ));
+        }
+        t.push_str("M30\n");
+        t
+    }
+
     struct Job {
         name: &'static str,
         text: String,
+        /// A controller that stores this many commands: the job runs in
+        /// parts (`--chunked`); else stored and streamed.
+        memory: Option<usize>,
     }
 
     fn jobs() -> Vec<Job> {
@@ -417,26 +437,35 @@ mod estimate {
             Job {
                 name: "short lines (0.25 mm, 3000 mm/min)",
                 text: lines(0.25, 120, 3000.0),
+                memory: None,
             },
             Job {
                 name: "long lines (20 mm, 1200 mm/min)",
                 text: lines(20.0, 5, 1200.0),
+                memory: None,
             },
             Job {
                 name: "arcs (R 5 mm half circles, 1200 mm/min)",
                 text: arcs(5.0, 6, 1200.0),
+                memory: None,
             },
             Job {
                 name: "short arcs (R 0.5 mm half circles, 1500 mm/min)",
                 text: arcs(0.5, 60, 1500.0),
+                memory: None,
+            },
+            Job {
+                name: "pockets in parts (8 squares of 4 mm, 1200 mm/min, memory 20)",
+                text: pockets(8, 4.0, 1200.0),
+                memory: Some(20),
             },
         ]
     }
 
-    /// From the first byte of the job (`@0i` stored, the first command after
-    /// the set-up streamed) to the last answer.
+    /// From the first byte of the job (`@0i` stored and in parts, the first
+    /// command after the set-up streamed) to the last answer.
     fn measure(log: &[Record], way: &str, first: &str) -> Option<f64> {
-        let start = if way == "stored" {
+        let start = if way != "stream" {
             log.iter().find(|r| r.sent && r.text.starts_with("@0i"))?.at
         } else {
             log.iter().find(|r| r.sent && r.text == first)?.at
@@ -469,10 +498,6 @@ mod estimate {
         let dir = tempfile::tempdir().expect("temp dir");
         let config = dir.path().join("config");
         std::fs::create_dir_all(&config).expect("config dir");
-        let profile_path = dir.path().join("bench.toml");
-        std::fs::write(&profile_path, PROFILE).expect("profile");
-        let spec = profile_path.to_string_lossy().into_owned();
-        let profile = load_profile(&spec, &ConfigDirs::builtin_only()).expect("bench profile");
         println!(
             "jobs bench --estimate ({} build), isel at {BAUD} baud, started {:?}",
             support::build_kind(),
@@ -488,6 +513,17 @@ mod estimate {
             }
             let file = dir.path().join("job.nc");
             std::fs::write(&file, &job.text).expect("job");
+            let profile_path = dir.path().join("bench.toml");
+            let text = match job.memory {
+                Some(m) => PROFILE.replace(
+                    "reference_first = false\n",
+                    &format!("reference_first = false\nmemory = {m}\n"),
+                ),
+                None => PROFILE.to_owned(),
+            };
+            std::fs::write(&profile_path, text).expect("profile");
+            let spec = profile_path.to_string_lossy().into_owned();
+            let profile = load_profile(&spec, &ConfigDirs::builtin_only()).expect("bench profile");
             let mut offsets = WorkOffsets::default();
             for (axis, mm) in [
                 jogterm::axis::Axis::X,
@@ -523,12 +559,17 @@ mod estimate {
                 .find(|l| l.command.starts_with('m'))
                 .map(|l| format!("@0M{}", &l.command[1..]))
                 .expect("a move");
-            for way in ["stored", "stream"] {
+            let run_ways: &[&str] = match job.memory {
+                Some(_) => &["chunked"],
+                None => &["stored", "stream"],
+            };
+            for &way in run_ways {
                 let estimated = match way {
                     "stored" => ways.stored.map(|e| e.total_s),
+                    "chunked" => ways.chunked.as_ref().ok().map(|e| e.total_s),
                     _ => Some(ways.stream.total_s),
                 }
-                .expect("the job fits");
+                .unwrap_or_else(|| panic!("{}: no {way} estimate", job.name));
                 let sim =
                     SimProcess::start_with(Protocol::Isel, &["--profile", &spec], Some(&config));
                 let state = tempfile::tempdir().expect("state dir");
@@ -555,10 +596,10 @@ mod estimate {
                     .args(["--protocol", "isel"])
                     .arg(&file)
                     .args(["--work-zero", ZERO, "--yes"])
-                    .args(if way == "stream" {
-                        &["--stream"][..]
-                    } else {
-                        &[][..]
+                    .args(match way {
+                        "stream" => &["--stream"][..],
+                        "chunked" => &["--chunked"][..],
+                        _ => &[][..],
                     })
                     .env("JOGTERM_CONFIG_DIR", &config)
                     .env("JOGTERM_STATE_DIR", state.path())
