@@ -450,9 +450,18 @@ fn isel_entries(program: &Program, c: &Controller) -> Vec<Entry> {
                 _ => 1,
             };
             e.trips = 1;
-            // Without a known virtual zero the driver reads where the move
-            // ended: `@0P` CR out, `0` and 18 hex digits back (3 axes).
-            if matches!(command, IselCommand::MoveAbsolute(_)) && !s.zero_known {
+            // The driver reads where a move ended (`@0P` CR out, `0` and 18
+            // hex digits back, 3 axes) unless it knows the end exactly: an
+            // absolute move from a known virtual zero (a relative one from
+            // the position known after the first read). A circle's end is
+            // the controller's own walk, which jogterm does not take for
+            // known: it is read after every circle (`device::isel` `RawOp`).
+            let read_back = match command {
+                IselCommand::MoveAbsolute(_) => !s.zero_known,
+                IselCommand::Circle(_) | IselCommand::Helix(_) => true,
+                _ => false,
+            };
+            if read_back {
                 e.back += 4 + 19;
                 e.trips = 2;
             }
@@ -807,6 +816,15 @@ mod tests {
         assert!(
             (arc - (0.024 + (400.0 - 21.6) / 1500.0)).abs() < 1e-9,
             "{arc}"
+        );
+        // Streamed, the driver reads where the circle ended (`@0P` CR, `0`
+        // and 18 digits): its end is the controller's walk. `f` moves
+        // nothing and is not read after.
+        let steps: Vec<StreamStep> = t.stream(2..4, 1.0).collect();
+        assert_eq!((steps[0].bytes, steps[0].trips), ("@0f-1\r".len() + 1, 1));
+        assert_eq!(
+            (steps[1].bytes, steps[1].trips),
+            ("@0y400,1500,119,-141,141,-1,-1\r".len() + 1 + 4 + 19, 2)
         );
     }
 
