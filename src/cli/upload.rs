@@ -1088,11 +1088,19 @@ pub(super) async fn start(session: &mut Session, remedy: &Remedy) -> Status {
             }
         }
     }
-    // The position read at the end comes with or just after the idle state.
+    // The position read at the end comes with or just after the idle state:
+    // it is awaited (300 ms at most), not the whole time, which a job in
+    // parts would spend standing before each next part.
     let settle = tokio::time::Instant::now() + Duration::from_millis(300);
-    while let Ok(Some(event)) = tokio::time::timeout_at(settle, session.next_event()).await {
+    let mut read_at_end = false;
+    while !read_at_end
+        && let Ok(Some(event)) = tokio::time::timeout_at(settle, session.next_event()).await
+    {
         match event {
-            Event::Position(p) => position = Some(p.steps),
+            Event::Position(p) => {
+                position = Some(p.steps);
+                read_at_end = true;
+            }
             Event::Fault(f) => fault = Some(f),
             // Idle because the link went, not because the program ended.
             Event::Link(LinkState::Lost { reason }) => return Err(lost(&reason)),

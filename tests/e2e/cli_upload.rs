@@ -317,3 +317,33 @@ fn an_emcu_job_beyond_the_interfaces_memory_is_refused_at_its_file_line() {
     sim.wait_device("without a job", |state| state.contains("ROM empty"));
     sim.assert_alive();
 }
+
+/// A stored program that the controller ends with an error (the E-stop
+/// circuit opened while it moves: `9`, manual chapter 5) ends the upload
+/// with status 1 and the code said, not "the program ended" with a
+/// position: the end's fault is read before the run is taken for done.
+#[test]
+fn a_program_the_controller_ends_with_an_error_says_its_code() {
+    // Near the reference point: the reference run takes two seconds.
+    let mut sim = SimProcess::options("isel")
+        .files(&[sim_process::near_reference("isel")])
+        .start();
+    let reference = run(&sim, &["send", "@07", "@0R7"]);
+    assert!(reference.status.success(), "{}", stderr(&reference));
+    // X 40 mm at 10 mm/s: four seconds of motion.
+    let file = write_program(&sim, "long.isel", "m16000,4000,0,4000,0,4000,0,4000\n9\n");
+    let child = sim
+        .configured(&["upload", &file, "--start"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("jogterm upload --start");
+    sim.wait_device("the program's move", |s| s.contains("moving"));
+    sim.control("set estop1 open");
+    let out = sim_process::wait_child(child, "upload --start");
+    let said = stderr(&out);
+    assert_eq!(out.status.code(), Some(1), "{said}");
+    assert!(said.contains("the program ended with `9`"), "{said}");
+    assert!(!said.contains("the program ended; position"), "{said}");
+    assert!(!contains_panic(&out.stderr), "{said}");
+}
