@@ -1016,7 +1016,7 @@ impl<'a> Interpreter<'a> {
         let (su, sv) = (get(from, u_axis), get(from, v_axis));
         let (eu, ev) = (get(to, u_axis), get(to, v_axis));
         let radius_word = w.value('R');
-        let ijk: Vec<&Word> = offset_letters.iter().filter_map(|l| w.value(*l)).collect();
+        let no_offsets = offset_letters.iter().all(|l| w.value(*l).is_none());
         let wrong_plane: Option<&Word> = w
             .values
             .iter()
@@ -1037,7 +1037,7 @@ impl<'a> Interpreter<'a> {
         } else {
             ARC_RADIUS_TOLERANCE_MM
         };
-        let (cu, cv) = match (radius_word, ijk.is_empty()) {
+        let (cu, cv) = match (radius_word, no_offsets) {
             (Some(r), true) => {
                 match r_centre(su, sv, eu, ev, r.value * scale, clockwise, tolerance) {
                     Ok(c) => c,
