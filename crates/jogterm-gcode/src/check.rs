@@ -202,7 +202,127 @@ pub fn check_limits(path: &Toolpath, machine: &Machine) -> Result<(), Diagnostic
 
 /// [`check_limits`] of ops given one at a time (the import's whole job,
 /// the slices of `Plan::expanded_slices`, is not collected into a toolpath).
-pub fn check_limits_ops<O: Borrow<Op>>(
+///
+/// A job inside its limits, as nearly every job is, is known to be so
+/// from a box around its points ([`job_box`], [`box_within`]), without each
+/// arc's extreme points (two arc tangents and a root an arc) and the tests
+/// of every point; only a job whose box reaches a limit is walked point by
+/// point ([`first_beyond`]) for the first point beyond.
+pub fn check_limits_ops<O, I>(ops: I, machine: &Machine) -> Result<(), Diagnostic>
+where
+    O: Borrow<Op>,
+    I: IntoIterator<Item = O>,
+    I::IntoIter: Clone,
+{
+    let ops = ops.into_iter();
+    if job_box(ops.clone()).is_some_and(|b| box_within(&b, machine)) {
+        return Ok(());
+    }
+    first_beyond(ops, machine)
+}
+
+/// Per axis (X, Y, Z) the least and the greatest coordinate a point of a
+/// job can have, for [`box_within`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct JobBox {
+    lo: [f64; 3],
+    hi: [f64; 3],
+}
+
+/// A box that holds every point [`first_beyond`] tests: the ends of the
+/// straight moves, and of each arc the box of its whole circle (centre ±
+/// a bound of the radius, in its plane) and its ends; `None` where a
+/// coordinate is not finite (the walk says what of it).
+fn job_box<O: Borrow<Op>>(ops: impl Iterator<Item = O>) -> Option<JobBox> {
+    let mut b = JobBox {
+        lo: [f64::INFINITY; 3],
+        hi: [f64::NEG_INFINITY; 3],
+    };
+    let mut finite = true;
+    let mut add = |p: Point| {
+        for (k, v) in [p.x, p.y, p.z].into_iter().enumerate() {
+            b.lo[k] = b.lo[k].min(v);
+            b.hi[k] = b.hi[k].max(v);
+        }
+        // A sum of finite numbers may overflow: then the walk decides.
+        finite &= (p.x + p.y + p.z).is_finite();
+    };
+    for op in ops {
+        match op.borrow() {
+            Op::Rapid(m) => add(m.to),
+            Op::Line(m) => add(m.to),
+            Op::Arc(a) => {
+                add(a.from);
+                add(a.to);
+                let (lo, hi) = circle_box(a);
+                add(lo);
+                add(hi);
+            }
+            _ => {}
+        }
+    }
+    // The interpolated coordinate of a helix' quadrant points may round a
+    // few units in the last place beyond its ends: the box is widened by
+    // a thousand times more, still well within the check's 1e-9 mm of
+    // slack (a job may stand exactly on a limit, as at machine zero).
+    for k in 0..3 {
+        let margin = 1e-12 * (1.0 + b.lo[k].abs().max(b.hi[k].abs()));
+        b.lo[k] -= margin;
+        b.hi[k] += margin;
+    }
+    finite.then_some(b)
+}
+
+/// Two corners of a box around an arc's circle: in its plane its centre
+/// ± `|du| + |dv|` (no less than the radius `hypot(du, dv)`, raised by a
+/// relative 1e-12 for the roundings; a quadrant point is the centre plus
+/// the radius times a cosine or sine, a rounded product never beyond the
+/// radius), along its normal the start's (its quadrant points lie between
+/// its ends there, which the box holds besides).
+fn circle_box(arc: &Arc) -> (Point, Point) {
+    let (u, v, _) = plane_axes(arc.plane);
+    let (cu, cv) = (get(arc.centre, u), get(arc.centre, v));
+    let bound = ((get(arc.from, u) - cu).abs() + (get(arc.from, v) - cv).abs()) * (1.0 + 1e-12);
+    let (mut lo, mut hi) = (arc.from, arc.from);
+    super::interp::set(&mut lo, u, cu - bound);
+    super::interp::set(&mut lo, v, cv - bound);
+    super::interp::set(&mut hi, u, cu + bound);
+    super::interp::set(&mut hi, v, cv + bound);
+    (lo, hi)
+}
+
+/// Whether every point in the box passes [`first_beyond`]'s tests: the
+/// soft limits (with their 1e-9 mm of slack) and the position counter
+/// (steps rise or fall with the coordinate, so the box's ends bound them).
+fn box_within(b: &JobBox, machine: &Machine) -> bool {
+    // The box is of X, Y and Z; any other axis is left to the walk.
+    let xyz = |axis: Axis| match axis {
+        Axis::X => Some(0),
+        Axis::Y => Some(1),
+        Axis::Z => Some(2),
+        _ => None,
+    };
+    let limits = machine.axes.iter().all(|(axis, min, max, _)| {
+        xyz(*axis).is_some_and(|k| b.lo[k] >= min - 1e-9 && b.hi[k] <= max + 1e-9)
+    });
+    let (lo, hi) = (
+        *machine.counter.start() as f64,
+        *machine.counter.end() as f64,
+    );
+    let counter = machine.steps_per_mm.iter().all(|(axis, spu)| {
+        xyz(*axis).is_some_and(|k| {
+            [b.lo[k], b.hi[k]].into_iter().all(|v| {
+                let steps = super::num::round(v * spu);
+                steps >= lo && steps <= hi
+            })
+        })
+    });
+    limits && counter
+}
+
+/// The soft-limit check point by point: the first point beyond a limit
+/// or the counter, as an error at its op's line.
+fn first_beyond<O: Borrow<Op>>(
     ops: impl IntoIterator<Item = O>,
     machine: &Machine,
 ) -> Result<(), Diagnostic> {
@@ -344,4 +464,190 @@ fn rapid_time(from: Point, to: Point, machine: &Machine) -> f64 {
         .into_iter()
         .map(|a| (get(to, a) - get(from, a)).abs() / machine.max_speed(a))
         .fold(0.0, f64::max)
+}
+
+#[cfg(test)]
+mod tests {
+    //! The box of a job against the walk it stands in for: wherever the
+    //! box says a job is inside, the walk finds no point beyond.
+
+    use proptest::prelude::*;
+
+    use super::*;
+    use crate::toolpath::{Line, Plane, Rapid};
+
+    const ORIGIN: Origin = Origin { line: 1, col: 1 };
+
+    fn in_plane(plane: Plane, (u, v): (f64, f64), n: f64) -> Point {
+        let (ua, va, na) = plane_axes(plane);
+        let mut p = Point::default();
+        super::super::interp::set(&mut p, ua, u);
+        super::super::interp::set(&mut p, va, v);
+        super::super::interp::set(&mut p, na, n);
+        p
+    }
+
+    fn arc_op(
+        plane: Plane,
+        centre: (f64, f64),
+        r: f64,
+        (a0, a1): (f64, f64),
+        (n0, n1): (f64, f64),
+        clockwise: bool,
+        extra_turns: u32,
+    ) -> Op {
+        let at = |a: f64| (centre.0 + r * a.cos(), centre.1 + r * a.sin());
+        Op::Arc(Box::new(Arc {
+            from: in_plane(plane, at(a0), n0),
+            to: in_plane(plane, at(a1), n1),
+            centre: in_plane(plane, centre, n0),
+            plane,
+            clockwise,
+            extra_turns,
+            feed: 100.0,
+            origin: ORIGIN,
+        }))
+    }
+
+    fn op() -> impl Strategy<Value = Op> {
+        let point = (-500.0..500.0f64, -500.0..500.0f64, -500.0..500.0f64)
+            .prop_map(|(x, y, z)| Point { x, y, z });
+        let plane = prop_oneof![Just(Plane::Xy), Just(Plane::Zx), Just(Plane::Yz)];
+        prop_oneof![
+            point.clone().prop_map(|to| Op::Rapid(Rapid {
+                from: Point::default(),
+                to,
+                origin: ORIGIN,
+            })),
+            point.prop_map(|to| Op::Line(Line {
+                from: Point::default(),
+                to,
+                feed: 100.0,
+                origin: ORIGIN,
+            })),
+            (
+                plane,
+                (-300.0..300.0f64, -300.0..300.0f64),
+                prop_oneof![0.001..1.0f64, 1.0..200.0f64],
+                (-7.0..7.0f64, -7.0..7.0f64),
+                (-100.0..100.0f64, -100.0..100.0f64),
+                any::<bool>(),
+                0u32..3,
+            )
+                .prop_map(|(plane, c, r, a, n, cw, turns)| arc_op(plane, c, r, a, n, cw, turns)),
+        ]
+    }
+
+    /// Per axis the least and greatest coordinate of the points the walk
+    /// tests.
+    fn walked_extent(ops: &[Op]) -> ([f64; 3], [f64; 3]) {
+        let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+        for op in ops {
+            let points = match op {
+                Op::Rapid(m) => vec![m.to],
+                Op::Line(m) => vec![m.to],
+                Op::Arc(a) => arc_extreme_points(a),
+                _ => vec![],
+            };
+            for p in points {
+                for (k, v) in [p.x, p.y, p.z].into_iter().enumerate() {
+                    lo[k] = lo[k].min(v);
+                    hi[k] = hi[k].max(v);
+                }
+            }
+        }
+        (lo, hi)
+    }
+
+    /// Limits at the walked extent, moved out by `common` or, on the sides
+    /// `edge` names, by its own amount (some in, some out, some exactly on
+    /// it); a counter at its steps likewise.
+    fn machine_at(
+        ops: &[Op],
+        common: f64,
+        edge: [Option<f64>; 6],
+        spu: f64,
+        counter_slack: i64,
+    ) -> Machine {
+        let (lo, hi) = walked_extent(ops);
+        let axes = [Axis::X, Axis::Y, Axis::Z];
+        let out = |k: usize| edge[k].unwrap_or(common);
+        let steps = |v: f64| super::super::num::round(v * spu) as i64;
+        let lo_steps = (0..3)
+            .map(|k| steps(lo[k]).min(steps(hi[k])))
+            .min()
+            .unwrap_or(0);
+        let hi_steps = (0..3)
+            .map(|k| steps(lo[k]).max(steps(hi[k])))
+            .max()
+            .unwrap_or(0);
+        Machine {
+            axes: (0..3)
+                .map(|k| (axes[k], lo[k] - out(2 * k), hi[k] + out(2 * k + 1), 100.0))
+                .collect(),
+            rapid_speed: None,
+            steps_per_mm: axes.iter().map(|&a| (a, spu)).collect(),
+            counter: (lo_steps - counter_slack)..=(hi_steps + counter_slack),
+            controller: "test",
+        }
+    }
+
+    fn edge() -> impl Strategy<Value = Option<f64>> {
+        prop_oneof![
+            12 => Just(None),
+            1 => Just(Some(0.0)),
+            1 => Just(Some(-1e-9)),
+            1 => Just(Some(1e-9)),
+            1 => (-1e-6..1e-6f64).prop_map(Some),
+            1 => (-1.0..0.0f64).prop_map(Some),
+        ]
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(2000))]
+
+        #[test]
+        fn the_box_says_inside_only_where_the_walk_finds_nothing_beyond(
+            ops in prop::collection::vec(op(), 1..8),
+            common in prop_oneof![1e-7..1e-5f64, 1e-5..10.0f64],
+            edge in prop::array::uniform6(edge()),
+            spu in prop_oneof![Just(1.0), Just(80.0), Just(-80.0), 0.5..400.0f64],
+            counter_slack in prop_oneof![
+                4 => Just(1_000_000_000i64),
+                1 => Just(0),
+                1 => Just(-1),
+                1 => Just(1),
+            ],
+        ) {
+            let machine = machine_at(&ops, common, edge, spu, counter_slack);
+            let walked = first_beyond(ops.iter(), &machine);
+            if job_box(ops.iter()).is_some_and(|b| box_within(&b, &machine)) {
+                prop_assert!(walked.is_ok(), "{walked:?}");
+            }
+            prop_assert_eq!(check_limits_ops(ops.iter(), &machine), walked);
+        }
+    }
+
+    #[test]
+    fn a_point_not_finite_is_left_to_the_walk() {
+        let ops = [Op::Line(Line {
+            from: Point::default(),
+            to: Point {
+                x: f64::NAN,
+                y: 0.0,
+                z: 0.0,
+            },
+            feed: 100.0,
+            origin: ORIGIN,
+        })];
+        assert_eq!(job_box(ops.iter()), None);
+        let machine = Machine {
+            axes: vec![(Axis::X, -10.0, 10.0, 100.0)],
+            rapid_speed: None,
+            steps_per_mm: vec![(Axis::X, 80.0)],
+            counter: -1_000_000..=1_000_000,
+            controller: "test",
+        };
+        assert!(check_limits_ops(ops.iter(), &machine).is_err());
+    }
 }

@@ -511,3 +511,36 @@ proptest! {
         prop_assert!((e1.2 - e2.2).abs() < 1e-4 && (e1.3 - e2.3).abs() < 1e-4);
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(5000))]
+
+    /// Where the roots say an arc is plainly on its circle, the `hypot`s
+    /// the checks take pass it: radii at the bounds of both checks (near
+    /// 1e-9 and 2e-9, ends off the circle by about half the tolerance and
+    /// by the tolerance), centres far from and near the origin.
+    #[test]
+    fn an_arc_plainly_on_its_circle_passes_the_checks(
+        c in (prop_oneof![-1e3..1e3f64, -1e7..1e7f64], prop_oneof![-1e3..1e3f64, -1e7..1e7f64]),
+        r in prop_oneof![1e-9..3e-9f64, 1e-6..1.0f64, 1.0..1e3f64, 9e5..1.1e6f64],
+        a0 in 0.0..(2.0 * PI),
+        a1 in 0.0..(2.0 * PI),
+        off in prop_oneof![-0.51..0.51f64, -1.01..-0.99f64, 0.99..1.01f64, Just(0.5), Just(-0.5)],
+        inch in any::<bool>(),
+    ) {
+        let tolerance = if inch {
+            ARC_RADIUS_TOLERANCE_INCH * 25.4
+        } else {
+            ARC_RADIUS_TOLERANCE_MM
+        };
+        let s = (c.0 + r * a0.cos(), c.1 + r * a0.sin());
+        let r_end = r + off * tolerance;
+        let e = (c.0 + r_end * a1.cos(), c.1 + r_end * a1.sin());
+        if plainly_on_circle(s, e, c, tolerance) {
+            let r0 = (s.0 - c.0).hypot(s.1 - c.1);
+            let r1 = (e.0 - c.0).hypot(e.1 - c.1);
+            prop_assert!(r0 >= 1e-9, "{r0}");
+            prop_assert!((r0 - r1).abs() <= tolerance, "{r0} {r1} {tolerance}");
+        }
+    }
+}

@@ -356,6 +356,7 @@ impl Segment {
     }
 
     /// The squared distance of `p` from the segment.
+    #[inline]
     fn square(&self, p: Point) -> f64 {
         let (a, d) = (self.a, self.d);
         let t = if self.len2 < 1e-18 {

@@ -287,15 +287,16 @@ fn read_line(raw: &str, line: u32, words: Vec<Word>) -> Result<Option<Block>, Di
                     return Err(l.error(i, format!("`{}` is not a G-code word", char::from(b))));
                 }
                 let letter = char::from(letter);
-                // `X#1`, `X[1+2]`: say what the value is, not only that it
-                // is no number.
-                if let Some(at) = (i + 1..bytes.len()).find(|&k| !is_blank(bytes[k]))
-                    && matches!(bytes[at], b'#' | b'[')
-                {
-                    return Err(refused_value(&l, at));
-                }
-                let (value, next) = number(raw, i + 1)
-                    .map_err(|why| l.error(i, format!("`{letter}` must be followed by {why}")))?;
+                let (value, next) = number(raw, i + 1).map_err(|why| {
+                    // `X#1`, `X[1+2]`: say what the value is, not only that
+                    // it is no number. Looked for only when no number was
+                    // read (a number never starts with them): this runs
+                    // for every word of the file.
+                    match (i + 1..bytes.len()).find(|&k| !is_blank(bytes[k])) {
+                        Some(at) if matches!(bytes[at], b'#' | b'[') => refused_value(&l, at),
+                        _ => l.error(i, format!("`{letter}` must be followed by {why}")),
+                    }
+                })?;
                 block.words.push(Word {
                     letter,
                     value,
