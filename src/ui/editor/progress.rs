@@ -31,6 +31,18 @@ pub fn clock(d: Duration) -> String {
 }
 
 impl Editor {
+    /// A stream's time left (`left`), with the model's time of the pieces
+    /// after it where it streams a piece of a job with waits, and the
+    /// waits to come (` +2 waits`), which it does not count.
+    pub fn stream_left(&self, left: Option<Duration>) -> Option<(Duration, String)> {
+        let left = left?;
+        let Some(job) = &self.chunked else {
+            return Some((left, String::new()));
+        };
+        let later = job.pieces.as_ref().map_or(0.0, |p| p.after().0);
+        Some((left + Duration::from_secs_f64(later), job.waits_ahead()))
+    }
+
     /// What the status line says of the job this editor runs, if any.
     pub fn job_status(&self, now: Instant, running_stored: bool) -> Option<JobStatus> {
         if let Some(c) = &self.checkout {
@@ -46,19 +58,9 @@ impl Editor {
                     .map(|p| format!("{} ", p.label()))
                     .unwrap_or_default();
                 let line = gcode.map(|l| format!("{piece}L{l} ")).unwrap_or(piece);
-                // A streamed piece: the pieces after it by the model too.
-                let (later, waits) = self
-                    .chunked
-                    .as_ref()
-                    .map(|j| {
-                        (
-                            j.pieces.as_ref().map_or(0.0, |p| p.after().0),
-                            j.waits_ahead(),
-                        )
-                    })
-                    .unwrap_or_default();
-                let left = left
-                    .map(|l| format!(" left {}{waits}", clock(l + Duration::from_secs_f64(later))))
+                let left = self
+                    .stream_left(left)
+                    .map(|(l, waits)| format!(" left {}{waits}", clock(l)))
                     .unwrap_or_default();
                 return Some(JobStatus {
                     word: if paused { "PAUSED" } else { "STREAM" },

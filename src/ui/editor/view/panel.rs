@@ -143,19 +143,9 @@ fn title_extra(e: &Editor, ctx: &Context) -> Vec<Span<'static>> {
             let gcode = gcode
                 .map(|l| format!(" G-code line {l}"))
                 .unwrap_or_default();
-            // A streamed piece: the pieces after it by the model too.
-            let (later, waits) = e
-                .chunked
-                .as_ref()
-                .map(|j| {
-                    (
-                        j.pieces.as_ref().map_or(0.0, |p| p.after().0),
-                        j.waits_ahead(),
-                    )
-                })
-                .unwrap_or_default();
-            let left = left
-                .map(|l| format!(", {} s left{waits}", (l.as_secs_f64() + later) as u64))
+            let left = e
+                .stream_left(left)
+                .map(|(l, waits)| format!(", {} s left{waits}", l.as_secs()))
                 .unwrap_or_default();
             out.push(Span::styled(
                 format!(

@@ -176,18 +176,17 @@ fn the_parts_are_stored_run_and_replaced_in_turn() {
     assert!(e.read_only().is_none());
 }
 
-/// The time left in a status line's progress (`left M:SS`), in seconds.
-fn left_in(status: &crate::ui::editor::progress::JobStatus) -> u64 {
-    let clock = status
-        .progress
+/// The seconds of `left M:SS` in a status line's progress.
+pub(super) fn seconds_left(progress: &str) -> u64 {
+    let clock = progress
         .split(" left ")
         .nth(1)
         .and_then(|rest| rest.split(' ').next())
-        .unwrap_or_else(|| panic!("no time left in {status:?}"));
+        .unwrap_or_else(|| panic!("no time left in {progress:?}"));
     clock
         .split(':')
         .try_fold(0, |s, part| part.parse::<u64>().map(|v| s * 60 + v))
-        .unwrap_or_else(|_| panic!("{clock:?} in {status:?}"))
+        .unwrap_or_else(|_| panic!("{clock:?} in {progress:?}"))
 }
 
 #[test]
@@ -209,11 +208,11 @@ fn a_job_in_parts_says_the_models_time_left_counted_down_and_at_the_pace_so_far(
         status.progress.starts_with("part 1/4 0:00 left "),
         "{status:?}"
     );
-    assert_eq!(left_in(&status), whole as u64, "{status:?}");
+    assert_eq!(seconds_left(&status.progress), whole as u64, "{status:?}");
     // Within the part it counts down with the time.
     host.now += Duration::from_secs(1);
     assert_eq!(
-        left_in(&e.job_status(host.now, false).expect("a status")),
+        seconds_left(&e.job_status(host.now, false).expect("a status").progress),
         (whole - 1.0) as u64
     );
     // Part 1 took 1 + 3 s (`run_part`) against the model's: the parts
@@ -223,7 +222,11 @@ fn a_job_in_parts_says_the_models_time_left_counted_down_and_at_the_pace_so_far(
     let after: f64 = model_s[1..].iter().sum();
     let status = e.job_status(host.now, false).expect("a status");
     assert!(status.progress.starts_with("part 2/4 "), "{status:?}");
-    assert_eq!(left_in(&status), (after * pace) as u64, "{status:?}");
+    assert_eq!(
+        seconds_left(&status.progress),
+        (after * pace) as u64,
+        "{status:?}"
+    );
 }
 
 #[test]

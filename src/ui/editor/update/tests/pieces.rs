@@ -5,7 +5,7 @@
 //! the wait, not before the erase has answered, not with the axes moved);
 //! Space ends the job at a wait.
 
-use super::job::{activity, opened, question, read_back, run_part, upload};
+use super::job::{activity, opened, question, read_back, run_part, seconds_left, upload};
 use super::*;
 use crate::device::api::{CheckoutEnd, ReplyKind};
 use crate::ui::editor::job::Phase as JobPhase;
@@ -499,19 +499,6 @@ fn streamed(out: &Outcome) -> Option<(crate::device::api::JogId, &str)> {
         Request::Checkout { id, line, .. } => Some((*id, line.as_str())),
         _ => None,
     })
-}
-
-/// The seconds of `left M:SS` in a status line's progress.
-fn seconds_left(progress: &str) -> u64 {
-    let clock = progress
-        .split(" left ")
-        .nth(1)
-        .and_then(|rest| rest.split(' ').next())
-        .unwrap_or_else(|| panic!("no time left in {progress:?}"));
-    clock
-        .split(':')
-        .try_fold(0, |s, part| part.parse::<u64>().map(|v| s * 60 + v))
-        .unwrap_or_else(|_| panic!("{clock:?} in {progress:?}"))
 }
 
 /// The job run to T2's wait and F6 there: piece 3's first streamed line.
