@@ -71,11 +71,13 @@ pub enum PieceRun {
 }
 
 impl PieceRun {
-    /// The piece's seconds by the model, waits not counted.
-    pub fn model_s(&self) -> f64 {
+    /// The piece's seconds by the model, waits not counted; `None` where
+    /// the model has none (stored parts it cut otherwise).
+    pub fn model_s(&self) -> Option<f64> {
         match self {
-            PieceRun::Stored(_, part_s) => part_s.iter().sum(),
-            PieceRun::Stream(piece) => piece.eta.left_s(0, 0.0).unwrap_or(0.0),
+            PieceRun::Stored(_, part_s) if part_s.is_empty() => None,
+            PieceRun::Stored(_, part_s) => Some(part_s.iter().sum()),
+            PieceRun::Stream(piece) => piece.eta.left_s(0, 0.0),
         }
     }
 }
@@ -135,8 +137,9 @@ pub struct Pieces {
     pub probes: u64,
     /// Each piece's seconds by the model, as converted before the job
     /// began (a measured tool shifts Z, not the time): the time left of
-    /// the pieces after the one under way.
-    pub model_s: Vec<f64>,
+    /// the pieces after the one under way. `None` where a piece has no
+    /// model: then the job says no time left rather than too little.
+    pub model_s: Option<Vec<f64>>,
 }
 
 /// The new tool measured on the tool sensor (`probe.tool_sensor`), as
@@ -190,8 +193,11 @@ impl Pieces {
     /// The model's seconds of the pieces after the one under way, and
     /// how many waits come before their end (whose time is the
     /// operator's, not guessed).
-    pub fn after(&self) -> (f64, usize) {
-        let later = self.model_s.iter().skip(self.piece + 1).sum();
+    pub fn after(&self) -> (Option<f64>, usize) {
+        let later = self
+            .model_s
+            .as_ref()
+            .map(|m| m.iter().skip(self.piece + 1).sum());
         let waits = self
             .sequence
             .plan()
@@ -295,7 +301,10 @@ impl Chunked {
             Phase::Streaming | Phase::Waiting | Phase::Measuring => return None,
         };
         let left = self.eta.as_ref()?.left_s(self.part, in_part)?;
-        let later = self.pieces.as_ref().map_or(0.0, |p| p.after().0);
+        let later = match &self.pieces {
+            Some(p) => p.after().0?,
+            None => 0.0,
+        };
         Some(std::time::Duration::from_secs_f64(left + later))
     }
 

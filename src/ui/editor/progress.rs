@@ -39,7 +39,10 @@ impl Editor {
         let Some(job) = &self.chunked else {
             return Some((left, String::new()));
         };
-        let later = job.pieces.as_ref().map_or(0.0, |p| p.after().0);
+        let later = match &job.pieces {
+            Some(p) => p.after().0?,
+            None => 0.0,
+        };
         Some((left + Duration::from_secs_f64(later), job.waits_ahead()))
     }
 

@@ -123,13 +123,16 @@ impl Step<'_, '_> {
             None => false,
         };
         let mut first = None;
-        let mut model_s = Vec::new();
+        let mut model_s = Some(Vec::new());
         // The job log's way: the most a piece needs.
         let mut way = Way::Stored;
         for k in 0..w.plan.segments() {
             match c.piece_run(k, (0.0, 0.0), profile, language) {
                 Ok(run) => {
-                    model_s.push(run.model_s());
+                    model_s = model_s.zip(run.model_s()).map(|(mut m, s)| {
+                        m.push(s);
+                        m
+                    });
                     way = match (&run, way) {
                         (PieceRun::Stream(_), _) | (_, Way::Stream) => Way::Stream,
                         (PieceRun::Stored(parts, _), _) if parts.len() > 1 => Way::Chunked,

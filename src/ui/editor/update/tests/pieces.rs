@@ -103,7 +103,7 @@ fn each_piece_is_stored_and_the_job_waits_at_each_change_until_f6() {
         .chunked
         .as_ref()
         .and_then(|c| c.pieces.as_ref())
-        .map(|p| p.model_s.clone())
+        .and_then(|p| p.model_s.clone())
         .expect("the pieces' model");
     assert_eq!(model.len(), 4, "{model:?}");
     assert!(model.iter().all(|s| *s > 0.0), "{model:?}");
@@ -228,6 +228,19 @@ fn each_piece_is_stored_and_the_job_waits_at_each_change_until_f6() {
         "{out:?}"
     );
     assert_eq!(e.chunked, None);
+}
+
+/// A piece the model has no time for: the job says no time left, not
+/// the time of the others as if it were all.
+#[test]
+fn without_a_model_of_every_piece_no_time_left_is_said() {
+    let mut host = Host::isel();
+    let (mut e, _) = started(&mut host);
+    if let Some(p) = e.chunked.as_mut().and_then(|c| c.pieces.as_mut()) {
+        p.model_s = None;
+    }
+    let status = e.job_status(host.now, false).expect("a status");
+    assert!(!status.progress.contains(" left "), "{status:?}");
 }
 
 #[test]
