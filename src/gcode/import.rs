@@ -5,7 +5,7 @@
 use crate::config::profile::Profile;
 use crate::offsets::WorkOffsets;
 
-use super::check::{Summary, check_limits_ops, summarise};
+use super::check::{Summary, check_limits_ops, first_system, summarise};
 use super::heightmap::{Applied, Surface};
 use super::output::{Header, Program};
 use super::profile::{fit_of, machine_of, setup_of};
@@ -168,22 +168,39 @@ pub fn import_with_tool(
     let slices = plan.expanded_slices(&toolpath);
     let whole = || slices.iter().flat_map(|s| s.iter());
     let machine = machine_of(profile, target);
-    check_limits_ops(whole(), &machine).map_err(|e| vec![e])?;
-    let summary = summarise(&toolpath, &machine);
+    let (system, zero) = first_system(&toolpath);
     let header = Header {
         file: file.to_owned(),
         profile: profile.name.clone(),
-        system: summary.system.to_string(),
-        zero: summary.zero,
+        system: system.to_string(),
+        zero,
     };
     let options = super::Options {
         continued: false,
         safe_z: Some(plan.safe_z),
     };
-    let program = match target {
-        Target::Isel => super::isel::convert_ops(whole, profile, &header, &options)?,
-        Target::Emcu => super::emcu::convert_ops(whole(), profile, &header, &options)?,
+    let convert = || match target {
+        Target::Isel => super::isel::convert_ops(whole, profile, &header, &options),
+        Target::Emcu => super::emcu::convert_ops(whole(), profile, &header, &options),
     };
+    // The machine check and the summary on a second thread while the
+    // program is made: neither needs the other, and on two cores the
+    // import of a long file takes the conversion's time alone (issue 41
+    // item 7). A job the check refuses is refused as before: its error
+    // first, the program made meanwhile dropped (nothing left the process).
+    let (checked, program) = std::thread::scope(|scope| {
+        let checking = scope.spawn(|| {
+            check_limits_ops(whole(), &machine)?;
+            Ok::<_, Diagnostic>(summarise(&toolpath, &machine))
+        });
+        let program = convert();
+        let checked = checking
+            .join()
+            .unwrap_or_else(|payload| std::panic::resume_unwind(payload));
+        (checked, program)
+    });
+    let summary = checked.map_err(|e| vec![e])?;
+    let program = program?;
     let mut warnings = toolpath.warnings.clone();
     warnings.extend(program.warnings.iter().cloned());
     warnings.sort_by_key(|w| w.origin);

@@ -44,6 +44,7 @@ use super::toolpath::{Arc, Diagnostic, Op, Origin, Pause, Plane, Point, Severity
 const HZ_MIN: f64 = 1.0;
 const HZ_MAX: f64 = 40_000.0;
 
+#[derive(Clone)]
 struct Axes {
     x: AxisProfile,
     y: AxisProfile,
@@ -143,10 +144,25 @@ pub fn convert_with(
 /// them from the start on every call (the start point and, without
 /// `options.safe_z`, the safe height are looked up first).
 pub fn convert_ops<'a, I>(
-    ops: impl Fn() -> I,
+    ops: impl Fn() -> I + Sync,
     profile: &Profile,
     header: &Header,
     options: &super::Options,
+) -> Result<Program, Vec<Diagnostic>>
+where
+    I: Iterator<Item = &'a Op>,
+{
+    convert_ops_from(ops, profile, header, options, SPLIT_MIN_OPS)
+}
+
+/// [`convert_ops`], on two threads from `split_min_ops` ops on (the
+/// tests convert short jobs both ways).
+fn convert_ops_from<'a, I>(
+    ops: impl Fn() -> I + Sync,
+    profile: &Profile,
+    header: &Header,
+    options: &super::Options,
+    split_min_ops: usize,
 ) -> Result<Program, Vec<Diagnostic>>
 where
     I: Iterator<Item = &'a Op>,
@@ -165,13 +181,14 @@ where
         )]);
     };
     let pairs = config.axes().len() + usize::from(set.len() == 3);
+    let count = ops().count();
     let mut w = Writer {
         axes: Axes::new(x, y, z, pairs),
         program: Program {
             // Sized once, not grown by doubling through copies: a command
             // an op or less, but for arcs (two and their end), merged
             // moves and the few header lines.
-            lines: Vec::with_capacity(ops().count() + 16),
+            lines: Vec::with_capacity(count + 16),
             capacity: profile.gcode.memory.unwrap_or(ISEL_CAPACITY),
             end_is_free: true,
             ..Program::default()
@@ -223,16 +240,11 @@ where
     }
     w.program
         .command_noted("z1", "3D interpolation: X, Y and Z on one line", None);
-    let mut errors = Vec::new();
-    for op in merged_ops(ops(), profile.gcode.merge_tolerance) {
-        if let Err(e) = w.op(&op) {
-            errors.push(e);
-        }
-        if w.program.commands > MAX_COMMANDS {
-            errors.push(too_many(op.origin(), "by this line the program has"));
-            break;
-        }
-    }
+    let count = ops().count();
+    let errors = match cut_of(&ops) {
+        Some(cut) if count >= split_min_ops => w.convert_in_two(&ops, &cut),
+        _ => w.convert(ops()).errors,
+    };
     if !errors.is_empty() {
         return Err(errors);
     }
@@ -255,6 +267,180 @@ where
         });
     }
     Ok(w.program)
+}
+
+/// Ops converted on two threads from this many on (a long CAM file's): a
+/// thread's start costs tens of microseconds, a short job's conversion not
+/// much more.
+const SPLIT_MIN_OPS: usize = 50_000;
+
+/// Where a conversion can be cut in two, and the writer's state there as
+/// the ops alone say it.
+///
+/// After every move the writer stands at the steps of the move's end (an
+/// arc's circles end with a move to its exact end, its chords at it, a
+/// move too short to make is already there), so where the tool stands
+/// before any op is known from the last move before it. A rapid begins no
+/// merged run of lines and ends any. The circle plane is the last arc's,
+/// unless that arc was made as chords or a line; the conversion checks
+/// the plane (and where the tool stands) when the first part is done.
+#[derive(Debug, Clone, Copy)]
+struct Cut {
+    /// The index of the op (a rapid) the second part starts with.
+    index: usize,
+    /// The end of the last move before it.
+    at: Point,
+    /// The plane of the last arc before it.
+    plane: Option<Plane>,
+}
+
+/// How much longer an arc takes to convert than a line: its circle's
+/// parameters and the controller's step walk (measured on the bench file,
+/// `cargo bench --bench gcode`: about 51 000 arcs take as long as 250 000
+/// lines).
+const ARC_WORK: usize = 5;
+
+fn work(op: &Op) -> usize {
+    match op {
+        Op::Arc(_) => ARC_WORK,
+        _ => 1,
+    }
+}
+
+/// The first rapid that has a move before it and half the conversion's
+/// work (by [`work`]) or more before it.
+fn cut_of<'a, I: Iterator<Item = &'a Op>>(ops: &impl Fn() -> I) -> Option<Cut> {
+    let half = ops().map(work).sum::<usize>() / 2;
+    let mut done = 0;
+    let mut at = None;
+    let mut plane = None;
+    for (index, op) in ops().enumerate() {
+        match op {
+            Op::Rapid(m) => {
+                if let (true, Some(at)) = (done >= half, at) {
+                    return Some(Cut { index, at, plane });
+                }
+                at = Some(m.to);
+            }
+            Op::Line(m) => at = Some(m.to),
+            Op::Arc(a) => {
+                at = Some(a.to);
+                plane = Some(a.plane);
+            }
+            _ => {}
+        }
+        done += work(op);
+    }
+    None
+}
+
+/// What a run of the writer over ops ended with.
+struct Converted {
+    /// Every op's error, in order.
+    errors: Vec<Diagnostic>,
+    /// It stopped early: the program grew beyond [`MAX_COMMANDS`].
+    stopped: bool,
+}
+
+impl<'p> Writer<'p> {
+    /// Converts `ops` one after the other, each op's error kept; stops
+    /// where the program grows beyond [`MAX_COMMANDS`].
+    fn convert<'o>(&mut self, ops: impl Iterator<Item = &'o Op>) -> Converted {
+        let mut errors = Vec::new();
+        for op in merged_ops(ops, self.profile.gcode.merge_tolerance) {
+            if let Err(e) = self.op(&op) {
+                errors.push(e);
+            }
+            if self.program.commands > MAX_COMMANDS {
+                errors.push(too_many(op.origin(), "by this line the program has"));
+                return Converted {
+                    errors,
+                    stopped: true,
+                };
+            }
+        }
+        Converted {
+            errors,
+            stopped: false,
+        }
+    }
+
+    /// [`Writer::convert`] of a long job on two threads, cut at `cut`: the
+    /// ops after the cut converted by a second writer that starts as the
+    /// cut says this one will stand, its program appended. The program is
+    /// the one one thread makes, line for line: when this writer ends the
+    /// first part elsewhere (another plane), or the two parts together
+    /// pass [`MAX_COMMANDS`] (the arcs' chords and the limit count the
+    /// whole program), the second part is converted again, here, from
+    /// where the first ended.
+    fn convert_in_two<'o, I>(&mut self, ops: &(impl Fn() -> I + Sync), cut: &Cut) -> Vec<Diagnostic>
+    where
+        I: Iterator<Item = &'o Op>,
+    {
+        let mut rest = self.fork(cut);
+        let (start_at, start_plane) = (rest.at, rest.plane);
+        let (first, second) = std::thread::scope(|scope| {
+            let second = scope.spawn(|| rest.convert(ops().skip(cut.index)));
+            let first = self.convert(ops().take(cut.index));
+            let second = second
+                .join()
+                .unwrap_or_else(|payload| std::panic::resume_unwind(payload));
+            (first, second)
+        });
+        let mut errors = first.errors;
+        if first.stopped {
+            return errors;
+        }
+        let joins = (self.at, self.plane) == (start_at, start_plane)
+            && self.program.commands + rest.program.commands <= MAX_COMMANDS;
+        if joins {
+            errors.extend(second.errors);
+            self.append(rest);
+        } else {
+            errors.extend(self.convert(ops().skip(cut.index)).errors);
+        }
+        errors
+    }
+
+    /// A writer for the ops after `cut`: this one's settings, an empty
+    /// program, standing where the cut says.
+    fn fork(&self, cut: &Cut) -> Writer<'p> {
+        // No arc before the cut: the plane this writer starts in.
+        let plane = match cut.plane {
+            None => self.plane,
+            Some(Plane::Xy) => IselPlane::XY,
+            Some(Plane::Zx) => IselPlane::XZ,
+            Some(Plane::Yz) => IselPlane::YZ,
+        };
+        Writer {
+            axes: self.axes.clone(),
+            program: Program {
+                lines: Vec::with_capacity(self.program.lines.capacity() / 2),
+                capacity: self.program.capacity,
+                end_is_free: self.program.end_is_free,
+                ..Program::default()
+            },
+            profile: self.profile,
+            at: self.axes.steps(cut.at),
+            plane,
+            capped: 0,
+            first_capped: None,
+            spindle_speeds: None,
+            start_key: self.start_key.clone(),
+            safe_z: self.safe_z,
+        }
+    }
+
+    /// The writer of the ops after this one's, appended: its program and
+    /// what it counted.
+    fn append(&mut self, rest: Writer<'_>) {
+        self.program.append(rest.program);
+        self.at = rest.at;
+        self.plane = rest.plane;
+        self.capped += rest.capped;
+        self.first_capped = self.first_capped.or(rest.first_capped);
+        self.spindle_speeds = self.spindle_speeds.or(rest.spindle_speeds);
+    }
 }
 
 impl Writer<'_> {
@@ -688,6 +874,10 @@ fn isel_output(address: &str) -> Option<(u32, u32)> {
         None => Some((rest.parse().ok()?, 128)),
     }
 }
+
+#[cfg(test)]
+#[path = "isel_split_tests.rs"]
+mod split_tests;
 
 #[cfg(test)]
 mod tests {

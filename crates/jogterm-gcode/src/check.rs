@@ -442,7 +442,7 @@ pub fn summarise(path: &Toolpath, machine: &Machine) -> Summary {
             _ => {}
         }
     }
-    let (system, zero) = first_system.unwrap_or((System::G54, Point::default()));
+    let (system, zero) = first_system.unwrap_or(NO_OFFSET);
     Summary {
         extents,
         length_mm: length,
@@ -452,6 +452,28 @@ pub fn summarise(path: &Toolpath, machine: &Machine) -> Summary {
         system,
         zero,
     }
+}
+
+/// The work offset of a toolpath that makes none.
+const NO_OFFSET: (System, Point) = (
+    System::G54,
+    Point {
+        x: 0.0,
+        y: 0.0,
+        z: 0.0,
+    },
+);
+
+/// The work offset a toolpath starts in, as its summary says it
+/// ([`Summary::system`], [`Summary::zero`]): its first work offset op's.
+pub fn first_system(path: &Toolpath) -> (System, Point) {
+    path.ops
+        .iter()
+        .find_map(|op| match op {
+            Op::WorkOffset { system, zero, .. } => Some((*system, *zero)),
+            _ => None,
+        })
+        .unwrap_or(NO_OFFSET)
 }
 
 fn rapid_time(from: Point, to: Point, machine: &Machine) -> f64 {

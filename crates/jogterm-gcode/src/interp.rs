@@ -260,9 +260,30 @@ type Groups = Vec<(u8, Word)>;
 
 /// Interprets a read file (the reader's errors first).
 pub fn interpret(text: &str, setup: &Setup) -> Result<Toolpath, Vec<Diagnostic>> {
-    // The blocks as the reader makes them, one at a time: a file's blocks
-    // are never all in memory.
-    let mut blocks = super::reader::blocks(text);
+    // The blocks as the reader makes them, one at a time (a long file's
+    // read ahead on another thread).
+    crate::ahead::with_blocks(text, |blocks| interpret_blocks(text, blocks, setup))
+}
+
+/// [`interpret`] with the blocks always read ahead in chunks of
+/// `chunk_blocks`, however short the text: what `interpret` does for long
+/// files, for the tests.
+#[cfg(test)]
+pub(crate) fn interpret_ahead(
+    text: &str,
+    setup: &Setup,
+    chunk_blocks: usize,
+) -> Result<Toolpath, Vec<Diagnostic>> {
+    crate::ahead::with_blocks_ahead(text, chunk_blocks, |blocks| {
+        interpret_blocks(text, blocks, setup)
+    })
+}
+
+fn interpret_blocks(
+    text: &str,
+    blocks: &mut dyn crate::ahead::Source,
+    setup: &Setup,
+) -> Result<Toolpath, Vec<Diagnostic>> {
     let mut it = Interpreter::new(setup);
     // About an op a line in CAM files: the ops' vector sized once, not
     // grown by doubling through copies of half a million ops.
@@ -313,7 +334,7 @@ pub fn interpret(text: &str, setup: &Setup) -> Result<Toolpath, Vec<Diagnostic>>
     for e in unread {
         it.error_diag(e);
     }
-    for item in blocks.by_ref() {
+    for item in &mut *blocks {
         anything = true;
         if let Err(e) = item {
             it.error_diag(e);

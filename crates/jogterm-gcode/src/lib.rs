@@ -13,6 +13,7 @@
 //! diagnostic, a generated controller line and a controller error during a
 //! run all point at `FILE:LINE:COL`.
 
+pub mod ahead;
 pub mod check;
 pub mod frame;
 pub mod heightmap;

@@ -95,6 +95,19 @@ impl Program {
         out
     }
 
+    /// The program of the ops after this one's (a conversion in two
+    /// parts) appended: its lines, commands, warnings and pauses after
+    /// these.
+    pub fn append(&mut self, rest: Program) {
+        let offset = self.lines.len();
+        self.lines.extend(rest.lines);
+        self.warnings.extend(rest.warnings);
+        self.commands += rest.commands;
+        self.pauses.extend(rest.pauses);
+        self.retracted
+            .extend(rest.retracted.into_iter().map(|at| at + offset));
+    }
+
     pub fn comment(&mut self, text: impl Into<String>) {
         self.lines.push(ProgramLine {
             command: String::new(),
