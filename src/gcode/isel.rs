@@ -152,10 +152,34 @@ pub fn convert_ops<'a, I>(
 where
     I: Iterator<Item = &'a Op>,
 {
-    convert_ops_from(ops, profile, header, options, SPLIT_MIN_OPS)
+    convert_ops_from(ops, profile, header, options, SPLIT_MIN_OPS, None)
 }
 
-/// [`convert_ops`], on two threads from `split_min_ops` ops on (the
+/// Work to do beside a conversion (the import's machine check), and its
+/// time as a share of the conversion's: a conversion cut in two does it on
+/// this thread and gives the other thread that much more of the ops.
+pub struct Beside<'b> {
+    pub work: &'b mut (dyn FnMut() + Send),
+    pub share: f64,
+}
+
+/// [`convert_ops`], with `beside` done on this thread (on a long job while
+/// the second thread converts, else after the conversion; not at all when
+/// the profile cannot be converted for).
+pub fn convert_ops_beside<'a, I>(
+    ops: impl Fn() -> I + Sync,
+    profile: &Profile,
+    header: &Header,
+    options: &super::Options,
+    beside: Beside<'_>,
+) -> Result<Program, Vec<Diagnostic>>
+where
+    I: Iterator<Item = &'a Op>,
+{
+    convert_ops_from(ops, profile, header, options, SPLIT_MIN_OPS, Some(beside))
+}
+
+/// [`convert_ops_beside`], on two threads from `split_min_ops` ops on (the
 /// tests convert short jobs both ways).
 fn convert_ops_from<'a, I>(
     ops: impl Fn() -> I + Sync,
@@ -163,6 +187,7 @@ fn convert_ops_from<'a, I>(
     header: &Header,
     options: &super::Options,
     split_min_ops: usize,
+    mut beside: Option<Beside<'_>>,
 ) -> Result<Program, Vec<Diagnostic>>
 where
     I: Iterator<Item = &'a Op>,
@@ -241,10 +266,14 @@ where
     w.program
         .command_noted("z1", "3D interpolation: X, Y and Z on one line", None);
     let count = ops().count();
-    let errors = match cut_of(&ops) {
-        Some(cut) if count >= split_min_ops => w.convert_in_two(&ops, &cut),
+    let beside_share = beside.as_ref().map_or(0.0, |b| b.share);
+    let errors = match cut_of(&ops, beside_share) {
+        Some(cut) if count >= split_min_ops => w.convert_in_two(&ops, &cut, beside.take()),
         _ => w.convert(ops()).errors,
     };
+    if let Some(beside) = beside {
+        (beside.work)();
+    }
     if !errors.is_empty() {
         return Err(errors);
     }
@@ -308,9 +337,12 @@ fn work(op: &Op) -> usize {
 }
 
 /// The first rapid that has a move before it and half the conversion's
-/// work (by [`work`]) or more before it.
-fn cut_of<'a, I: Iterator<Item = &'a Op>>(ops: &impl Fn() -> I) -> Option<Cut> {
-    let half = ops().map(work).sum::<usize>() / 2;
+/// work (by [`work`]) or more before it; `beside`, the share of that work
+/// done beside it on the first part's thread, less.
+fn cut_of<'a, I: Iterator<Item = &'a Op>>(ops: &impl Fn() -> I, beside: f64) -> Option<Cut> {
+    let total = ops().map(work).sum::<usize>() as f64;
+    // Truncation wanted: an op more or less on either side is the same.
+    let half = (total * (1.0 - beside.clamp(0.0, 1.0)) / 2.0) as usize;
     let mut done = 0;
     let mut at = None;
     let mut plane = None;
@@ -373,7 +405,12 @@ impl<'p> Writer<'p> {
     /// pass [`MAX_COMMANDS`] (the arcs' chords and the limit count the
     /// whole program), the second part is converted again, here, from
     /// where the first ended.
-    fn convert_in_two<'o, I>(&mut self, ops: &(impl Fn() -> I + Sync), cut: &Cut) -> Vec<Diagnostic>
+    fn convert_in_two<'o, I>(
+        &mut self,
+        ops: &(impl Fn() -> I + Sync),
+        cut: &Cut,
+        beside: Option<Beside<'_>>,
+    ) -> Vec<Diagnostic>
     where
         I: Iterator<Item = &'o Op>,
     {
@@ -381,6 +418,9 @@ impl<'p> Writer<'p> {
         let (start_at, start_plane) = (rest.at, rest.plane);
         let (first, second) = std::thread::scope(|scope| {
             let second = scope.spawn(|| rest.convert(ops().skip(cut.index)));
+            if let Some(beside) = beside {
+                (beside.work)();
+            }
             let first = self.convert(ops().take(cut.index));
             let second = second
                 .join()

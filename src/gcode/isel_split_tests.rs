@@ -35,7 +35,14 @@ fn both_ways(
     };
     let options = Options::default();
     [usize::MAX, 0].map(|split_min| {
-        convert_ops_from(|| path.ops.iter(), profile, &header, &options, split_min)
+        convert_ops_from(
+            || path.ops.iter(),
+            profile,
+            &header,
+            &options,
+            split_min,
+            None,
+        )
     })
 }
 
@@ -91,7 +98,7 @@ fn a_wrong_guess_of_the_plane_converts_the_second_part_again() {
     }
     text.push_str("G18 G2 X30.0001 Z10 I0.00005 K0\nG0 Z12\nG0 X30 Z10\nG2 X40 Z10 I5 K0\nM30\n");
     let path = toolpath(&text, &profile);
-    let cut = cut_of(&|| path.ops.iter()).expect("a rapid to cut at");
+    let cut = cut_of(&|| path.ops.iter(), 0.0).expect("a rapid to cut at");
     assert_eq!(cut.plane, Some(crate::gcode::Plane::Zx));
     let [one, two] = both_ways(&path, &profile);
     let program = one.clone().expect("the job converts");
@@ -125,7 +132,7 @@ fn a_long_job_is_cut_and_converts_as_on_one_thread() {
     text.push_str("M30\n");
     let path = toolpath(&text, &profile);
     assert!(path.ops.len() >= SPLIT_MIN_OPS);
-    assert!(cut_of(&|| path.ops.iter()).is_some());
+    assert!(cut_of(&|| path.ops.iter(), 0.0).is_some());
     let [one, two] = both_ways(&path, &profile);
     assert!(one.is_ok());
     assert_eq!(one, two);

@@ -8,13 +8,14 @@
 //! The blocks, their order, line numbers and errors are exactly those of
 //! one reader ([`reader::blocks`]): the same reader makes them, on another
 //! thread. At most [`CHUNKS_AHEAD`] chunks wait, so memory does not grow
-//! with the file; the chunks go back to the reader to be filled again. A
+//! with the file; the chunks and the blocks run go back to the reader to
+//! be filled again. A
 //! scoped thread is no I/O and no runtime; it ends before
 //! [`crate::interpret`] returns.
 
 use std::sync::mpsc;
 
-use crate::reader::{self, Block, Blocks, Word};
+use crate::reader::{self, Block, Blocks};
 use crate::toolpath::Diagnostic;
 
 /// Files shorter than this are read on the interpreter's thread: most
@@ -47,50 +48,17 @@ impl Source for Blocks<'_> {
     }
 }
 
-/// Blocks as read, compact: the words of all in one vector, a block as its
-/// line and where its words end (no vectors a block).
+/// Blocks read, handed over, and the blocks run given back for their
+/// memory: a block's words are read into the vector of a block run before
+/// (no copy of the words, no allocation a line).
 #[derive(Debug, Default)]
 struct Chunk {
-    items: Vec<Result<Stored, Box<Diagnostic>>>,
-    words: Vec<Word>,
-    /// The few comments, with the index of their item.
-    comments: Vec<(usize, String)>,
+    /// In reverse: the interpreter's side takes them from the end.
+    items: Vec<Result<Block, Diagnostic>>,
+    /// Blocks run, going back to the reader.
+    spares: Vec<Block>,
     /// The file's lines, in the last chunk.
     lines: Option<u32>,
-}
-
-#[derive(Debug, Clone, Copy, Default)]
-struct Stored {
-    line: u32,
-    deleted: bool,
-    words_end: usize,
-}
-
-impl Chunk {
-    fn push(&mut self, item: Result<Block, Diagnostic>, blocks: &mut Blocks<'_>) {
-        match item {
-            Ok(mut block) => {
-                self.words.extend_from_slice(&block.words);
-                for comment in block.comments.drain(..) {
-                    self.comments.push((self.items.len(), comment));
-                }
-                self.items.push(Ok(Stored {
-                    line: block.line,
-                    deleted: block.deleted,
-                    words_end: self.words.len(),
-                }));
-                blocks.recycle(block);
-            }
-            Err(e) => self.items.push(Err(Box::new(e))),
-        }
-    }
-
-    fn clear(&mut self) {
-        self.items.clear();
-        self.words.clear();
-        self.comments.clear();
-        self.lines = None;
-    }
 }
 
 /// The reader thread: fills chunks until the file is through or the
@@ -101,13 +69,20 @@ fn read_ahead(
     full: &mpsc::SyncSender<Chunk>,
     empty: &mpsc::Receiver<Chunk>,
 ) {
+    let mut spares = Vec::new();
     loop {
         let mut chunk = empty.try_recv().unwrap_or_default();
-        chunk.clear();
+        spares.append(&mut chunk.spares);
+        chunk.items.clear();
+        chunk.lines = None;
         while chunk.items.len() < chunk_blocks.max(1) {
+            if let Some(spare) = spares.pop() {
+                blocks.recycle(spare);
+            }
             match blocks.next() {
-                Some(item) => chunk.push(item, &mut blocks),
+                Some(item) => chunk.items.push(item),
                 None => {
+                    chunk.items.reverse();
                     chunk.lines = Some(blocks.lines());
                     // Nobody to take it: the interpreter has returned.
                     let _ = full.send(chunk);
@@ -115,22 +90,18 @@ fn read_ahead(
                 }
             }
         }
+        chunk.items.reverse();
         if full.send(chunk).is_err() {
             return;
         }
     }
 }
 
-/// The interpreter's side: the chunks' blocks in order, each block built in
-/// the memory of the one given back before it.
+/// The interpreter's side: the chunks' blocks in order.
 struct Ahead {
     full: mpsc::Receiver<Chunk>,
     empty: mpsc::Sender<Chunk>,
     chunk: Chunk,
-    item: usize,
-    words_at: usize,
-    comments_at: usize,
-    spare: Option<Block>,
     lines: Option<u32>,
 }
 
@@ -152,7 +123,6 @@ impl Ahead {
         let done = std::mem::replace(&mut self.chunk, next);
         // The reader has ended once the last chunk is sent: nobody then.
         let _ = self.empty.send(done);
-        (self.item, self.words_at, self.comments_at) = (0, 0, 0);
         true
     }
 }
@@ -161,44 +131,20 @@ impl Iterator for Ahead {
     type Item = Result<Block, Diagnostic>;
 
     fn next(&mut self) -> Option<Self::Item> {
-        while self.item >= self.chunk.items.len() {
+        loop {
+            if let Some(item) = self.chunk.items.pop() {
+                return Some(item);
+            }
             if !self.next_chunk() {
                 return None;
             }
         }
-        let index = self.item;
-        self.item += 1;
-        let slot = self.chunk.items.get_mut(index)?;
-        let stored = match std::mem::replace(slot, Ok(Stored::default())) {
-            Ok(stored) => stored,
-            Err(e) => return Some(Err(*e)),
-        };
-        let mut block = self.spare.take().unwrap_or_default();
-        block.line = stored.line;
-        block.deleted = stored.deleted;
-        block.words.clear();
-        block.words.extend_from_slice(
-            self.chunk
-                .words
-                .get(self.words_at..stored.words_end)
-                .unwrap_or_default(),
-        );
-        self.words_at = stored.words_end;
-        block.comments.clear();
-        while let Some((at, comment)) = self.chunk.comments.get_mut(self.comments_at) {
-            if *at != index {
-                break;
-            }
-            block.comments.push(std::mem::take(comment));
-            self.comments_at += 1;
-        }
-        Some(Ok(block))
     }
 }
 
 impl Source for Ahead {
     fn recycle(&mut self, block: Block) {
-        self.spare = Some(block);
+        self.chunk.spares.push(block);
     }
 
     fn lines(&self) -> u32 {
@@ -233,10 +179,6 @@ pub fn with_blocks_ahead<R>(
             full,
             empty,
             chunk: Chunk::default(),
-            item: 0,
-            words_at: 0,
-            comments_at: 0,
-            spare: None,
             lines: None,
         };
         f(&mut ahead)
