@@ -1,7 +1,9 @@
 //! jogterm's G-code core: G-code from CAM (RS-274/NGC as grbl, LinuxCNC and
 //! Mach accept it) read, interpreted into a [`Toolpath`] of machine moves and
 //! checked against a machine's limits, for controllers that have no G-code.
-//! No I/O and no runtime: text and a [`Setup`] in, values out. Which
+//! No I/O and no runtime: text and a [`Setup`] in, values out (a long
+//! file is read ahead on a scoped thread that ends before [`interpret`]
+//! returns, [`ahead`]). Which
 //! controller program a toolpath becomes, and how a profile sets the machine
 //! up, is the application's (jogterm's `gcode` module).
 //!
