@@ -204,10 +204,10 @@ pub fn check_limits(path: &Toolpath, machine: &Machine) -> Result<(), Diagnostic
 /// the slices of `Plan::expanded_slices`, is not collected into a toolpath).
 ///
 /// A job inside its limits, as nearly every job is, is known to be so
-/// from a box around its points ([`job_box`], [`box_within`]), without each
+/// from a box around its points (`job_box`, `box_within`), without each
 /// arc's extreme points (two arc tangents and a root an arc) and the tests
 /// of every point; only a job whose box reaches a limit is walked point by
-/// point ([`first_beyond`]) for the first point beyond.
+/// point (`first_beyond`) for the first point beyond.
 pub fn check_limits_ops<O, I>(ops: I, machine: &Machine) -> Result<(), Diagnostic>
 where
     O: Borrow<Op>,

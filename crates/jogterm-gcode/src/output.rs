@@ -38,7 +38,7 @@ pub struct Program {
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Part {
     pub lines: std::ops::Range<usize>,
-    /// Commands in it, with what the part adds (see [`Program::part_text`]).
+    /// Commands in it, with what the part adds (see [`Program::part`]).
     pub commands: usize,
 }
 
