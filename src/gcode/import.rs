@@ -208,11 +208,17 @@ pub fn import_with_tool(
             (checked.unwrap_or_else(check), program)
         }
         Target::Emcu => std::thread::scope(|scope| {
-            let checking = scope.spawn(check);
+            let checking = std::thread::Builder::new()
+                .name("gcode-check".into())
+                .spawn_scoped(scope, check);
             let program = super::emcu::convert_ops(whole(), profile, &header, &options);
-            let checked = checking
-                .join()
-                .unwrap_or_else(|payload| std::panic::resume_unwind(payload));
+            // A thread the system would not start: the check runs here.
+            let checked = match checking {
+                Ok(checking) => checking
+                    .join()
+                    .unwrap_or_else(|payload| std::panic::resume_unwind(payload)),
+                Err(_) => check(),
+            };
             (checked, program)
         }),
     };

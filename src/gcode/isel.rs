@@ -417,14 +417,20 @@ impl<'p> Writer<'p> {
         let mut rest = self.fork(cut);
         let (start_at, start_plane) = (rest.at, rest.plane);
         let (first, second) = std::thread::scope(|scope| {
-            let second = scope.spawn(|| rest.convert(ops().skip(cut.index)));
+            let second = std::thread::Builder::new()
+                .name("isel-convert".into())
+                .spawn_scoped(scope, || rest.convert(ops().skip(cut.index)));
             if let Some(beside) = beside {
                 (beside.work)();
             }
             let first = self.convert(ops().take(cut.index));
-            let second = second
-                .join()
-                .unwrap_or_else(|payload| std::panic::resume_unwind(payload));
+            // `None`: a thread the system would not start (its limit
+            // reached); the second part is converted here, below.
+            let second = second.ok().map(|second| {
+                second
+                    .join()
+                    .unwrap_or_else(|payload| std::panic::resume_unwind(payload))
+            });
             (first, second)
         });
         let mut errors = first.errors;
@@ -433,7 +439,7 @@ impl<'p> Writer<'p> {
         }
         let joins = (self.at, self.plane) == (start_at, start_plane)
             && self.program.commands + rest.program.commands <= MAX_COMMANDS;
-        if joins {
+        if let (true, Some(second)) = (joins, second) {
             errors.extend(second.errors);
             self.append(rest);
         } else {

@@ -172,7 +172,16 @@ pub fn with_blocks_ahead<R>(
         let (full_sender, full) = mpsc::sync_channel(CHUNKS_AHEAD);
         let (empty, empty_receiver) = mpsc::channel();
         let blocks = reader::blocks(text);
-        scope.spawn(move || read_ahead(blocks, chunk_blocks, &full_sender, &empty_receiver));
+        let reading = std::thread::Builder::new()
+            .name("gcode-read-ahead".into())
+            .spawn_scoped(scope, move || {
+                read_ahead(blocks, chunk_blocks, &full_sender, &empty_receiver);
+            });
+        if reading.is_err() {
+            // A thread the system would not start (its limit reached):
+            // read on this one, as a short file is.
+            return f(&mut reader::blocks(text));
+        }
         // Dropped before the scope waits for the reader, so that a reader
         // blocked on a full channel sees the interpreter gone and ends.
         let mut ahead = Ahead {
