@@ -265,11 +265,13 @@ where
     }
     w.program
         .command_noted("z1", "3D interpolation: X, Y and Z on one line", None);
-    let count = ops().count();
-    let beside_share = beside.as_ref().map_or(0.0, |b| b.share);
-    let errors = match cut_of(&ops, beside_share) {
-        Some(cut) if count >= split_min_ops => w.convert_in_two(&ops, &cut, beside.take()),
-        _ => w.convert(ops()).errors,
+    // A short job is never cut: no walk for a cut either.
+    let cut = (count >= split_min_ops)
+        .then(|| cut_of(&ops, beside.as_ref().map_or(0.0, |b| b.share)))
+        .flatten();
+    let errors = match cut {
+        Some(cut) => w.convert_in_two(&ops, &cut, beside.take()),
+        None => w.convert(ops()).errors,
     };
     if let Some(beside) = beside {
         (beside.work)();
