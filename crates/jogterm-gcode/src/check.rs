@@ -398,19 +398,13 @@ fn first_beyond<O: Borrow<Op>>(
 pub fn summarise(path: &Toolpath, machine: &Machine) -> Summary {
     let mut extents = Extents::empty();
     let mut zero = Point::default();
-    let mut first_system = None;
     let mut length = 0.0;
     let mut moves = 0;
     let mut arcs = 0;
     let mut time = 0.0;
     for (index, op) in path.ops.iter().enumerate() {
         match op {
-            Op::WorkOffset {
-                system, zero: z, ..
-            } => {
-                zero = *z;
-                first_system.get_or_insert((*system, *z));
-            }
+            Op::WorkOffset { zero: z, .. } => zero = *z,
             Op::Rapid(m) => {
                 moves += 1;
                 extents.add(path, index, sub(m.to, zero));
@@ -442,7 +436,7 @@ pub fn summarise(path: &Toolpath, machine: &Machine) -> Summary {
             _ => {}
         }
     }
-    let (system, zero) = first_system.unwrap_or(NO_OFFSET);
+    let (system, zero) = first_system(path);
     Summary {
         extents,
         length_mm: length,
@@ -454,18 +448,9 @@ pub fn summarise(path: &Toolpath, machine: &Machine) -> Summary {
     }
 }
 
-/// The work offset of a toolpath that makes none.
-const NO_OFFSET: (System, Point) = (
-    System::G54,
-    Point {
-        x: 0.0,
-        y: 0.0,
-        z: 0.0,
-    },
-);
-
 /// The work offset a toolpath starts in, as its summary says it
-/// ([`Summary::system`], [`Summary::zero`]): its first work offset op's.
+/// ([`Summary::system`], [`Summary::zero`]): its first work offset op's,
+/// G54 at the origin for a toolpath that makes none.
 pub fn first_system(path: &Toolpath) -> (System, Point) {
     path.ops
         .iter()
@@ -473,7 +458,7 @@ pub fn first_system(path: &Toolpath) -> (System, Point) {
             Op::WorkOffset { system, zero, .. } => Some((*system, *zero)),
             _ => None,
         })
-        .unwrap_or(NO_OFFSET)
+        .unwrap_or((System::G54, Point::default()))
 }
 
 fn rapid_time(from: Point, to: Point, machine: &Machine) -> f64 {
