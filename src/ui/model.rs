@@ -250,6 +250,15 @@ impl Model {
             .filter(|m| self.now.saturating_duration_since(m.at) < MESSAGE_FRESH)
     }
 
+    /// What the status line says now of the job the editor runs (a
+    /// stored program running is the controller's activity).
+    pub fn job_status(&self) -> Option<super::editor::progress::JobStatus> {
+        self.editor.job_status(
+            self.now,
+            self.machine.activity == crate::device::api::Activity::RunningProgram,
+        )
+    }
+
     /// The macros' state and context (`ui::macros`), borrowed side by side.
     pub fn macro_parts(&mut self) -> (&mut Option<MacroRun>, super::macros::Context<'_>) {
         let raw = self.raw_context();

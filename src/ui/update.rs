@@ -966,11 +966,7 @@ fn tick(model: &mut Model, now: Instant) {
 /// (elapsed, time left) move with the time, while a stored part runs
 /// with no event from the controller.
 fn job_shown(model: &Model) -> Option<String> {
-    let running = model.machine.activity == crate::device::api::Activity::RunningProgram;
-    model
-        .editor
-        .job_status(model.now, running)
-        .map(|status| status.progress)
+    model.job_status().map(|status| status.progress)
 }
 
 fn device_event(model: &mut Model, event: Event) {

@@ -84,10 +84,7 @@ impl Widget for StatusBar<'_> {
         }
         // A job run from the editor: its progress in place of the bare
         // word, and the rest of the line made to give way to it.
-        let job = model.editor.job_status(
-            model.now,
-            model.machine.activity == crate::device::api::Activity::RunningProgram,
-        );
+        let job = model.job_status();
         if job.is_some() && width < 100 {
             poll = match &model.stats {
                 Some(s) => format!("{:.0} Hz ", s.position_rate_hz),
@@ -161,14 +158,7 @@ impl Widget for MessageLine<'_> {
                 Span::styled(fit(&m.text, room), note_style(p, m.level)),
                 Span::styled(whole, p.key),
             ])
-        } else if let Some(waiting) = model
-            .editor
-            .job_status(
-                model.now,
-                model.machine.activity == crate::device::api::Activity::RunningProgram,
-            )
-            .and_then(|j| j.waiting)
-        {
+        } else if let Some(waiting) = model.job_status().and_then(|j| j.waiting) {
             // A job waiting for the operator says so until it goes on.
             Line::from(Span::styled(fit(&waiting, width), p.warning))
         } else {
