@@ -9,9 +9,8 @@
 //! one reader ([`reader::blocks`]): the same reader makes them, on another
 //! thread. At most [`CHUNKS_AHEAD`] chunks wait, so memory does not grow
 //! with the file; the chunks and the blocks run go back to the reader to
-//! be filled again. A
-//! scoped thread is no I/O and no runtime; it ends before
-//! [`crate::interpret`] returns.
+//! be filled again. A scoped thread is no I/O and no runtime; it ends
+//! before [`crate::interpret`] returns.
 
 use std::sync::mpsc;
 
